@@ -1,0 +1,49 @@
+# The painting station: set-up, demo, tests.  `make demo` and `make test` each
+# set up everything they need on a fresh Debian/Ubuntu machine.
+
+VENV    ?= .venv
+PYTHON  ?= python3
+PY      := $(VENV)/bin/python
+STATION := $(VENV)/bin/station
+# Mesa headless GL (EGL + llvmpipe), Xvfb for the interactive-calibration tests,
+# kernel headers for python-evdev's build.
+SYS_PKGS := libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libgles2 xvfb xauth linux-libc-dev \
+            python3-venv
+SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+
+.PHONY: setup sysdeps venv demo test lint bench clean
+
+setup: sysdeps venv
+
+sysdeps:
+	@missing=""; for p in $(SYS_PKGS); do \
+	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "ok installed" || missing="$$missing $$p"; \
+	done; \
+	if [ -n "$$missing" ]; then \
+	  echo "installing system packages:$$missing"; \
+	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq $$missing; \
+	fi
+
+venv: $(VENV)/.installed
+
+$(VENV)/.installed: pyproject.toml
+	@[ -x $(PY) ] || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip setuptools wheel
+	$(PY) -m pip install -q -e '.[test]'
+	@touch $@
+
+demo: setup
+	$(STATION) demo -o painting.png
+
+test: setup
+	$(PY) -m pytest -q
+
+lint: venv
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/mypy station drivers calibration
+
+bench: setup
+	$(STATION) bench bus --json
+
+clean:
+	rm -rf $(VENV) build *.egg-info .pytest_cache .mypy_cache .ruff_cache
