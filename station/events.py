@@ -113,6 +113,11 @@ class PenSample:
     where: str | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
+        if self.where is None and _plainly_valid(self):
+            return  # the common case, checked in one expression (the bus decodes ~1e5/s)
+        self._validate()
+
+    def _validate(self) -> None:
         w = self.where
         set_ = object.__setattr__
         set_(self, "t", _check_finite("t", self.t, 0.0, 1e12, w))
@@ -136,7 +141,7 @@ class PenSample:
             or not isinstance(self.buttons, int)
             or not 0 <= self.buttons <= BUTTON_MASK
         ):
-            raise EventError(f"buttons must be an integer bit set 0..65535, got {self.buttons!r}", w)
+            raise EventError(f"buttons must be a bit set 0..65535, got {self.buttons!r}", w)
         if self.serial is not None and (
             isinstance(self.serial, bool)
             or not isinstance(self.serial, int)
@@ -148,7 +153,7 @@ class PenSample:
             or not isinstance(self.tool_id, int)
             or not 0 <= self.tool_id < 2**32
         ):
-            raise EventError(f"tool_id must be null or an unsigned integer, got {self.tool_id!r}", w)
+            raise EventError(f"tool_id must be null or an unsigned int, got {self.tool_id!r}", w)
         if self.rotation is not None:
             set_(self, "rotation", _check_finite("rotation", self.rotation, -360.0, 360.0, w))
         if self.distance is not None:
@@ -226,6 +231,30 @@ class PenSample:
             tool_id=rec.get("tool_id"),
             where=where,
         )
+
+
+def _plainly_valid(s: PenSample) -> bool:
+    """True when every field already has its exact type and range (NaN fails every test)."""
+    f = float
+    return (
+        type(s.t) is f and 0.0 <= s.t <= 1e12
+        and type(s.x) is f and 0.0 <= s.x <= 1.0
+        and type(s.y) is f and 0.0 <= s.y <= 1.0
+        and type(s.pressure) is f and 0.0 <= s.pressure <= 1.0
+        and type(s.tilt_x) is f and -90.0 <= s.tilt_x <= 90.0
+        and type(s.tilt_y) is f and -90.0 <= s.tilt_y <= 90.0
+        and type(s.t_mono) is f and 0.0 <= s.t_mono <= 1e12
+        and type(s.tool) is Tool
+        and type(s.proximity) is bool and type(s.touching) is bool
+        and (s.proximity or not s.touching)
+        and type(s.buttons) is int and 0 <= s.buttons <= BUTTON_MASK
+        and type(s.seq) is int and 0 <= s.seq < 2**64
+        and type(s.device) is str and 0 < len(s.device) <= 64
+        and "." not in s.device and " " not in s.device and "\t" not in s.device
+        and "\n" not in s.device and "\0" not in s.device
+        and s.serial is None and s.tool_id is None
+        and s.rotation is None and s.distance is None and s.wheel is None
+    )  # fmt: skip
 
 
 _PEN_RECORD_KEYS = frozenset(

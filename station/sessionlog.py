@@ -141,7 +141,7 @@ class SessionLogReader:
                 raise SessionLogError(f"cannot open ({exc.strerror})", self.name) from None
             self._owns = True
         else:
-            self.name = name or getattr(source, "name", "<stream>")
+            self.name = str(name or getattr(source, "name", "<stream>"))
             self._fh = source
             self._owns = False
         self.line_no = 0

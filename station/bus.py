@@ -1,0 +1,496 @@
+"""The station bus: ZeroMQ publish/subscribe of pen samples, commands, status.
+
+Topics: ``pen.<device>`` (pen samples), ``cmd`` (commands to the simulation),
+``status`` (JSON status of any process), ``haptic.<device>`` (force
+back-channel).  Payloads use :mod:`station.wire`.
+
+Endpoints (``EndpointSpec``): ``ipc`` (the default, ``ipc://<runtime>/bus``),
+``ipc:NAME`` (``ipc://<runtime>/NAME``), ``ipc:///abs/path``, ``tcp://HOST:PORT``
+(always CURVE-authenticated; ``tcp://:PORT`` binds loopback only).  A leading
+``@`` forces bind, ``>`` forces connect (the CZMQ convention); by default
+publishers bind and subscribers connect.  ``station bus`` runs a proxy for
+many-to-many set-ups: publishers connect to its ``pub`` endpoint, subscribers
+to its ``sub`` endpoint.
+
+Late joiners: publishers use XPUB and see each new subscription; they then
+re-send the samples of the current proximity period (flagged *replayed*) so a
+subscriber that starts mid-stroke still sees the stroke from its first sample.
+Subscribers drop replayed messages they already have (by sequence number) and
+count gaps in the per-publisher, per-topic sequence as lost samples.
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+import os
+import random
+import stat
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import zmq
+
+from station import wire
+from station.errors import BusConfigError, BusError, WireError
+from station.events import Command, PenSample
+
+log = logging.getLogger(__name__)
+
+HWM = 100_000  # ~100 s of one 1 kHz device: never drops in normal use, bounds memory (~12 MB)
+REPLAY_LIMIT = 4096  # samples kept per pen topic for late joiners (20 s at 200 Hz)
+DEFAULT_NAME = "bus"
+
+
+# -- where things live -------------------------------------------------------
+def runtime_dir() -> Path:
+    """The per-user runtime directory for ipc sockets, created 0700 and checked.
+
+    ``$STATION_RUNTIME_DIR``, else ``$XDG_RUNTIME_DIR/station``, else
+    ``/tmp/station-<uid>``.  Refuses a directory another user owns or others
+    can enter.
+    """
+    base = os.environ.get("STATION_RUNTIME_DIR")
+    if base:
+        path = Path(base)
+    elif os.environ.get("XDG_RUNTIME_DIR") and Path(os.environ["XDG_RUNTIME_DIR"]).is_dir():
+        path = Path(os.environ["XDG_RUNTIME_DIR"]) / "station"
+    else:
+        path = Path(f"/tmp/station-{os.getuid()}")
+    return secure_dir(path)
+
+
+def secure_dir(path: Path) -> Path:
+    """Create ``path`` with mode 0700 (or check an existing one)."""
+    try:
+        path.mkdir(mode=0o700, parents=True, exist_ok=True)
+        st = path.lstat()
+    except OSError as exc:
+        raise BusError(f"cannot create runtime directory {path}: {exc.strerror}") from None
+    if not stat.S_ISDIR(st.st_mode):
+        raise BusError(f"{path} is not a directory")
+    if st.st_uid != os.getuid():
+        raise BusError(f"{path} belongs to uid {st.st_uid}, not to you: refusing to use it")
+    if st.st_mode & 0o077:
+        os.chmod(path, 0o700)
+    return path
+
+
+def config_dir() -> Path:
+    base = os.environ.get("STATION_CONFIG_DIR")
+    if base:
+        return Path(base)
+    xdg = os.environ.get("XDG_CONFIG_HOME") or str(Path.home() / ".config")
+    return Path(xdg) / "station"
+
+
+def keys_dir() -> Path:
+    return config_dir() / "keys"
+
+
+@dataclass(frozen=True)
+class Endpoint:
+    """A resolved endpoint: the ZeroMQ URL and whether this side binds."""
+
+    url: str
+    bind: bool
+
+    @property
+    def is_tcp(self) -> bool:
+        return self.url.startswith("tcp://")
+
+
+def resolve_endpoint(spec: str | None, bind: bool) -> Endpoint:
+    """Turn an endpoint spec (see module docstring) into an :class:`Endpoint`."""
+    spec = (spec or "ipc").strip()
+    if spec.startswith("@"):
+        bind, spec = True, spec[1:]
+    elif spec.startswith(">"):
+        bind, spec = False, spec[1:]
+    if spec == "ipc" or (spec.startswith("ipc:") and not spec.startswith("ipc://")):
+        name = spec[4:] or DEFAULT_NAME
+        if not name.replace("-", "").replace("_", "").replace(".", "").isalnum():
+            raise BusConfigError(f"ipc bus name {name!r} must be letters, digits, - _ .")
+        return Endpoint(f"ipc://{runtime_dir() / name}", bind)
+    if spec.startswith("ipc://"):
+        path = Path(spec[6:])
+        if not path.is_absolute():
+            raise BusConfigError(f"ipc endpoint {spec!r} needs an absolute path")
+        if bind:
+            secure_dir(path.parent) if not path.parent.exists() else None
+        return Endpoint(spec, bind)
+    if spec.startswith("tcp://"):
+        hostport = spec[6:]
+        host, sep, port = hostport.rpartition(":")
+        if not sep or not port.isdigit() or not 0 < int(port) < 65536:
+            raise BusConfigError(f"tcp endpoint {spec!r} needs a port: tcp://HOST:PORT")
+        if host in ("", "*"):
+            host = "127.0.0.1"  # loopback unless an address is given explicitly
+        return Endpoint(f"tcp://{host}:{port}", bind)
+    raise BusConfigError(f"unknown endpoint {spec!r} (use ipc, ipc:NAME, ipc:///path, tcp://HOST:PORT)")
+
+
+# -- CURVE keys ----------------------------------------------------------------
+def generate_keys(directory: Path | None = None, force: bool = False) -> dict[str, Path]:
+    """Create the server and client key pairs and authorise the client.
+
+    Layout: ``server.key``/``server.key_secret``, ``client.key``/``client.key_secret``,
+    ``authorized/client.key`` (public keys allowed to connect).
+    """
+    import zmq.auth
+
+    directory = directory or keys_dir()
+    secure_dir(directory)
+    authorized = secure_dir(directory / "authorized")
+    paths: dict[str, Path] = {}
+    for name in ("server", "client"):
+        public = directory / f"{name}.key"
+        if public.exists() and not force:
+            raise BusConfigError(f"{public} exists; pass --force to replace the keys")
+        pub, sec = zmq.auth.create_certificates(str(directory), name)
+        os.chmod(sec, 0o600)
+        paths[name] = Path(pub)
+    (authorized / "client.key").write_bytes(paths["client"].read_bytes())
+    paths["authorized"] = authorized
+    return paths
+
+
+@dataclass
+class CurveKeys:
+    public: bytes
+    secret: bytes
+    server_public: bytes
+    authorized_dir: Path
+
+
+def load_keys(directory: Path | None = None, role: str = "server") -> CurveKeys:
+    import zmq.auth
+
+    directory = directory or keys_dir()
+    try:
+        server_pub, server_sec = zmq.auth.load_certificate(str(directory / "server.key_secret"))
+        if role == "server":
+            pub, sec = server_pub, server_sec
+        else:
+            pub, sec = zmq.auth.load_certificate(str(directory / "client.key_secret"))
+    except (OSError, ValueError) as exc:
+        raise BusConfigError(
+            f"no usable CURVE keys in {directory} ({exc}); run 'station keys' first"
+        ) from None
+    if sec is None or server_pub is None:
+        raise BusConfigError(f"secret key missing in {directory}; run 'station keys --force'")
+    return CurveKeys(pub, sec, server_pub, directory / "authorized")
+
+
+_auth_lock = threading.Lock()
+_authenticators: dict[int, Any] = {}
+
+
+def _secure(sock: zmq.Socket, endpoint: Endpoint, keys_directory: Path | None) -> None:
+    """CURVE on tcp: the binding side is the server and checks client keys."""
+    if not endpoint.is_tcp:
+        return
+    if endpoint.bind:
+        keys = load_keys(keys_directory, "server")
+        ctx = sock.context
+        with _auth_lock:
+            if id(ctx) not in _authenticators:
+                from zmq.auth.thread import ThreadAuthenticator
+
+                auth = ThreadAuthenticator(ctx)
+                auth.start()
+                auth.configure_curve(domain="*", location=str(keys.authorized_dir))
+                _authenticators[id(ctx)] = auth
+        sock.curve_secretkey = keys.secret
+        sock.curve_publickey = keys.public
+        sock.curve_server = True
+    else:
+        keys = load_keys(keys_directory, "client")
+        sock.curve_secretkey = keys.secret
+        sock.curve_publickey = keys.public
+        sock.curve_serverkey = keys.server_public
+
+
+def _attach(sock: zmq.Socket, endpoint: Endpoint, keys_directory: Path | None) -> None:
+    _secure(sock, endpoint, keys_directory)
+    try:
+        if endpoint.bind:
+            if endpoint.url.startswith("ipc://"):
+                path = Path(endpoint.url[6:])
+                secure_dir(path.parent)
+            sock.bind(endpoint.url)
+            if endpoint.url.startswith("ipc://"):
+                os.chmod(endpoint.url[6:], 0o600)
+        else:
+            sock.connect(endpoint.url)
+    except zmq.ZMQError as exc:
+        verb = "bind" if endpoint.bind else "connect"
+        raise BusError(f"cannot {verb} {endpoint.url}: {exc}") from None
+
+
+# -- publisher ------------------------------------------------------------------
+class Publisher:
+    """Publishes on the bus.  Thread-compatible, not thread-safe (one per thread)."""
+
+    def __init__(
+        self,
+        endpoint: str | None = None,
+        bind: bool = True,
+        keys: Path | None = None,
+        context: zmq.Context | None = None,
+        replay: bool = True,
+    ) -> None:
+        self.endpoint = resolve_endpoint(endpoint, bind)
+        self.ctx = context or zmq.Context.instance()
+        self.sock = self.ctx.socket(zmq.XPUB)
+        self.sock.setsockopt(zmq.SNDHWM, HWM)
+        self.sock.setsockopt(zmq.XPUB_VERBOSE, 1)  # see every subscription: late-joiner replay
+        self.sock.setsockopt(zmq.LINGER, 1000)
+        _attach(self.sock, self.endpoint, keys)
+        self.publisher_id = random.SystemRandom().getrandbits(32)
+        self._seq: dict[str, int] = collections.defaultdict(int)
+        self._recent: dict[str, collections.deque[list[bytes]]] = {}
+        self.replay_enabled = replay
+        self.subscriptions = 0
+        self.replayed = 0
+        self._last_served = 0.0
+
+    @property
+    def url(self) -> str:
+        return self.endpoint.url
+
+    def _send(self, topic: str, value: Any) -> int:
+        now = time.monotonic()
+        if now - self._last_served > 0.001:  # at most once a millisecond: keeps 1e5 msg/s cheap
+            self._last_served = now
+            self._serve_subscriptions()
+        seq = self._seq[topic] + 1
+        self._seq[topic] = seq
+        frames = wire.encode(topic, value, self.publisher_id, seq)
+        self.sock.send_multipart(frames)
+        if self.replay_enabled and isinstance(value, PenSample):
+            recent = self._recent.get(topic)
+            if recent is None:
+                recent = self._recent[topic] = collections.deque(maxlen=REPLAY_LIMIT)
+            if not value.proximity:
+                recent.clear()  # a new proximity period starts after this sample
+            else:
+                recent.append(frames)
+        elif self.replay_enabled and isinstance(value, dict):
+            self._recent[topic] = collections.deque([frames], maxlen=1)
+        return seq
+
+    def publish_pen(self, sample: PenSample) -> int:
+        """Publish on ``pen.<device>``; returns the bus sequence number."""
+        return self._send(f"pen.{sample.device}", sample)
+
+    def publish_cmd(self, command: Command) -> int:
+        return self._send("cmd", command)
+
+    def publish_status(self, status: dict[str, Any], topic: str = "status") -> int:
+        return self._send(topic, status)
+
+    def publish_haptic(self, device: str, haptic: wire.Haptic) -> int:
+        return self._send(f"haptic.{device}", haptic)
+
+    def _serve_subscriptions(self) -> None:
+        while True:
+            try:
+                msg = self.sock.recv(zmq.NOBLOCK)
+            except zmq.Again:
+                return
+            if not msg or msg[0] != 1:
+                continue
+            self.subscriptions += 1
+            prefix = msg[1:]
+            for topic, frames in self._recent.items():
+                if topic.encode().startswith(prefix):
+                    for fr in frames:
+                        header = bytearray(fr[1][: wire.HEADER_SIZE])
+                        header[4] |= wire.FLAG_REPLAY
+                        self.sock.send_multipart([fr[0], bytes(header) + fr[1][wire.HEADER_SIZE:]])
+                        self.replayed += 1
+
+    def poll_subscriptions(self) -> None:
+        """Serve pending subscriptions (late-joiner replay) without publishing."""
+        self._serve_subscriptions()
+
+    def wait_for_subscribers(self, count: int = 1, timeout: float = 5.0) -> bool:
+        """Block until ``count`` subscriptions arrived (a connection handshake)."""
+        deadline = time.monotonic() + timeout
+        while self.subscriptions < count:
+            if time.monotonic() > deadline:
+                return False
+            if self.sock.poll(20, zmq.POLLIN):
+                self._serve_subscriptions()
+        return True
+
+    def close(self) -> None:
+        self.sock.close()
+
+    def __enter__(self) -> Publisher:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+# -- subscriber -----------------------------------------------------------------
+@dataclass
+class SubscriberStats:
+    """Counters of one subscriber; all integers count messages."""
+
+    received: int = 0
+    lost: int = 0
+    duplicates: int = 0
+    malformed: int = 0
+    foreign: int = 0
+    version_mismatch: int = 0
+    started_at: dict[str, int] = field(default_factory=dict)  # "topic@publisher" -> first seq
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "received": self.received, "lost": self.lost, "duplicates": self.duplicates,
+            "malformed": self.malformed, "foreign": self.foreign,
+            "version_mismatch": self.version_mismatch, "started_at": dict(self.started_at),
+        }  # fmt: skip
+
+
+@dataclass(frozen=True, slots=True)
+class Message:
+    """What :meth:`Subscriber.recv` returns."""
+
+    topic: str
+    kind: str  # 'pen' | 'cmd' | 'status' | 'haptic'
+    value: Any
+    publisher: int
+    seq: int
+    replay: bool
+
+
+class Subscriber:
+    """Receives from the bus, decoding, de-duplicating and counting losses."""
+
+    def __init__(
+        self,
+        endpoint: str | list[str] | None = None,
+        topics: tuple[str, ...] = ("pen.", "cmd"),
+        bind: bool = False,
+        keys: Path | None = None,
+        context: zmq.Context | None = None,
+    ) -> None:
+        specs = endpoint if isinstance(endpoint, list) else [endpoint]
+        self.endpoints = [resolve_endpoint(s, bind) for s in specs]
+        self.ctx = context or zmq.Context.instance()
+        self.sock = self.ctx.socket(zmq.SUB)
+        self.sock.setsockopt(zmq.RCVHWM, HWM)
+        self.sock.setsockopt(zmq.LINGER, 0)
+        for t in topics:
+            self.sock.setsockopt(zmq.SUBSCRIBE, t.encode())
+        for ep in self.endpoints:
+            _attach(self.sock, ep, keys)
+        self.stats = SubscriberStats()
+        self._last: dict[tuple[int, str], int] = {}
+        self._last_warning = 0.0
+
+    def _drop(self, exc: WireError) -> None:
+        text = str(exc)
+        if text.startswith("foreign"):
+            self.stats.foreign += 1
+        elif text.startswith("wire version"):
+            self.stats.version_mismatch += 1
+        else:
+            self.stats.malformed += 1
+        now = time.monotonic()
+        if now - self._last_warning > 1.0:  # rate-limited: a flood must not flood the log
+            self._last_warning = now
+            log.warning("dropped a bad bus message: %s", text)
+
+    def recv(self, timeout_ms: int | None = 100) -> Message | None:
+        """The next valid, new message, or ``None`` after ``timeout_ms``."""
+        deadline = None if timeout_ms is None else time.monotonic() + timeout_ms / 1000
+        while True:
+            try:
+                frames = self.sock.recv_multipart(zmq.NOBLOCK)
+            except zmq.Again:
+                wait = (None if deadline is None
+                        else max(0, int((deadline - time.monotonic()) * 1000)))
+                if not self.sock.poll(wait, zmq.POLLIN):
+                    return None
+                continue
+            try:
+                env = wire.decode(frames)
+            except WireError as exc:
+                self._drop(exc)
+                continue
+            key = (env.publisher, env.topic)
+            last = self._last.get(key)
+            if last is None:
+                self.stats.started_at[f"{env.topic}@{env.publisher:08x}"] = env.seq
+            elif env.seq <= last:
+                self.stats.duplicates += 1
+                continue
+            elif env.seq > last + 1:
+                self.stats.lost += env.seq - last - 1
+            self._last[key] = env.seq
+            self.stats.received += 1
+            return Message(env.topic, env.kind, env.value, env.publisher, env.seq, env.replay)
+
+    def close(self) -> None:
+        self.sock.close()
+
+    def __enter__(self) -> Subscriber:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+# -- proxy ------------------------------------------------------------------------
+def run_proxy(
+    pub_side: str,
+    sub_side: str,
+    keys: Path | None = None,
+    context: zmq.Context | None = None,
+    stop: threading.Event | None = None,
+) -> None:
+    """Forward every publisher (connecting to ``pub_side``) to every subscriber
+    (connecting to ``sub_side``) until ``stop`` is set or the context ends.
+
+    Subscriptions travel upstream verbosely, so publishers still see each late
+    joiner and replay for it.
+    """
+    ctx = context or zmq.Context.instance()
+    frontend = ctx.socket(zmq.XSUB)
+    backend = ctx.socket(zmq.XPUB)
+    for s in (frontend, backend):
+        s.setsockopt(zmq.SNDHWM, HWM)
+        s.setsockopt(zmq.RCVHWM, HWM)
+        s.setsockopt(zmq.LINGER, 0)
+    backend.setsockopt(zmq.XPUB_VERBOSE, 1)
+    _attach(frontend, resolve_endpoint(pub_side, True), keys)
+    _attach(backend, resolve_endpoint(sub_side, True), keys)
+    poller = zmq.Poller()
+    poller.register(frontend, zmq.POLLIN)
+    poller.register(backend, zmq.POLLIN)
+    try:
+        while stop is None or not stop.is_set():
+            events = dict(poller.poll(100))
+            if frontend in events:
+                for _ in range(1000):
+                    try:
+                        backend.send_multipart(frontend.recv_multipart(zmq.NOBLOCK))
+                    except zmq.Again:
+                        break
+            if backend in events:
+                for _ in range(1000):
+                    try:
+                        frontend.send_multipart(backend.recv_multipart(zmq.NOBLOCK))
+                    except zmq.Again:
+                        break
+    finally:
+        frontend.close()
+        backend.close()

@@ -1,0 +1,224 @@
+"""The bus wire format, version 1 (documented in docs/wire-format.md).
+
+A bus message is two ZeroMQ frames: the topic (UTF-8, e.g. ``pen.mock-0``)
+and a payload that starts with a 20-byte header::
+
+    offset size  field
+    0      2     magic  b"ST"
+    2      1     version (1)
+    3      1     kind: 1 pen, 2 cmd, 3 status, 4 haptic
+    4      1     flags: bit 0 = replayed (sent again for a late joiner)
+    5      3     reserved, zero
+    8      4     publisher id (u32, random per publisher instance)
+    12     8     sequence number (u64, per publisher and topic, contiguous)
+
+All integers little-endian.  The pen body is a fixed 104-byte struct (see
+``_PEN``); cmd and status bodies are UTF-8 JSON objects; the haptic body is a
+fixed struct.  Decoding validates everything: a message that is not exactly
+this raises :class:`WireError` and the subscriber counts and drops it.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import struct
+from dataclasses import dataclass
+from typing import Any
+
+from station.errors import EventError, WireError
+from station.events import TOOL_CODES, Command, PenSample
+
+MAGIC = b"ST"
+VERSION = 1
+KIND_PEN, KIND_CMD, KIND_STATUS, KIND_HAPTIC = 1, 2, 3, 4
+KIND_NAMES = {KIND_PEN: "pen", KIND_CMD: "cmd", KIND_STATUS: "status", KIND_HAPTIC: "haptic"}
+FLAG_REPLAY = 0x01
+MAX_JSON_BODY = 64 * 1024
+
+_HEADER = struct.Struct("<2sBBB3xIQ")
+HEADER_SIZE = _HEADER.size  # 20
+
+# t, t_mono, tool, flags, buttons, tool_id, serial, seq,
+# x, y, pressure, tilt_x, tilt_y, rotation, distance, wheel
+_PEN = struct.Struct("<ddBBHIQQdddddddd")
+PEN_SIZE = _PEN.size  # 104
+
+_PF_PROXIMITY, _PF_TOUCHING, _PF_SERIAL, _PF_TOOL_ID = 1, 2, 4, 8
+_PF_ROTATION, _PF_DISTANCE, _PF_WHEEL = 16, 32, 64
+_TOOL_INDEX = {tool: i for i, tool in enumerate(TOOL_CODES)}
+
+_HAPTIC = struct.Struct("<dddd")
+
+
+@dataclass(frozen=True, slots=True)
+class Haptic:
+    """A force/vibration request for a haptic device (the back-channel).
+
+    Attributes:
+        t: seconds since the session start.
+        amplitude: vibration or force amplitude in ``[0, 1]`` of the device maximum.
+        frequency_hz: vibration frequency in Hz (0 = constant force), ``[0, 10000]``.
+        duration_s: seconds the request lasts, ``[0, 60]``.
+    """
+
+    t: float
+    amplitude: float
+    frequency_hz: float = 0.0
+    duration_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name, lo, hi in (
+            ("t", 0.0, 1e12),
+            ("amplitude", 0.0, 1.0),
+            ("frequency_hz", 0.0, 1e4),
+            ("duration_s", 0.0, 60.0),
+        ):
+            v = getattr(self, name)
+            if not isinstance(v, (int, float)) or math.isnan(v) or not lo <= v <= hi:
+                raise EventError(f"haptic {name}={v!r} outside [{lo}, {hi}]")
+
+
+@dataclass(frozen=True, slots=True)
+class Envelope:
+    """A decoded message: what it is, who sent it, in which order."""
+
+    topic: str
+    kind: str
+    publisher: int
+    seq: int
+    replay: bool
+    value: Any  # PenSample | Command | dict | Haptic
+
+
+def encode_header(kind: int, publisher: int, seq: int, flags: int = 0) -> bytes:
+    return _HEADER.pack(MAGIC, VERSION, kind, flags, publisher, seq)
+
+
+def encode_pen(sample: PenSample) -> bytes:
+    """The pen body (without header)."""
+    flags = (_PF_PROXIMITY if sample.proximity else 0) | (_PF_TOUCHING if sample.touching else 0)
+    if sample.serial is not None:
+        flags |= _PF_SERIAL
+    if sample.tool_id is not None:
+        flags |= _PF_TOOL_ID
+    if sample.rotation is not None:
+        flags |= _PF_ROTATION
+    if sample.distance is not None:
+        flags |= _PF_DISTANCE
+    if sample.wheel is not None:
+        flags |= _PF_WHEEL
+    return _PEN.pack(
+        sample.t, sample.t_mono, _TOOL_INDEX[sample.tool], flags, sample.buttons,
+        sample.tool_id or 0, sample.serial or 0, sample.seq,
+        sample.x, sample.y, sample.pressure, sample.tilt_x, sample.tilt_y,
+        sample.rotation or 0.0, sample.distance or 0.0, sample.wheel or 0.0,
+    )  # fmt: skip
+
+
+def decode_pen(device: str, body: bytes) -> PenSample:
+    if len(body) != PEN_SIZE:
+        raise WireError(f"pen body is {len(body)} bytes, expected {PEN_SIZE}")
+    (t, t_mono, tool, flags, buttons, tool_id, serial, seq,
+     x, y, pressure, tilt_x, tilt_y, rotation, distance, wheel) = _PEN.unpack(body)  # fmt: skip
+    if tool >= len(TOOL_CODES):
+        raise WireError(f"unknown tool code {tool}")
+    if flags & 0x80:
+        raise WireError(f"unknown pen flags {flags:#x}")
+    try:
+        return PenSample(
+            t=t, t_mono=t_mono, device=device, tool=TOOL_CODES[tool],
+            proximity=bool(flags & _PF_PROXIMITY), touching=bool(flags & _PF_TOUCHING),
+            buttons=buttons,
+            tool_id=tool_id if flags & _PF_TOOL_ID else None,
+            serial=serial if flags & _PF_SERIAL else None,
+            seq=seq, x=x, y=y, pressure=pressure, tilt_x=tilt_x, tilt_y=tilt_y,
+            rotation=rotation if flags & _PF_ROTATION else None,
+            distance=distance if flags & _PF_DISTANCE else None,
+            wheel=wheel if flags & _PF_WHEEL else None,
+        )  # fmt: skip
+    except EventError as exc:
+        raise WireError(f"invalid pen sample: {exc}") from None
+
+
+def _encode_json(obj: dict[str, Any]) -> bytes:
+    data = json.dumps(obj, separators=(",", ":"), allow_nan=False).encode()
+    if len(data) > MAX_JSON_BODY:
+        raise WireError(f"message body {len(data)} bytes exceeds {MAX_JSON_BODY}")
+    return data
+
+
+def _decode_json(body: bytes) -> dict[str, Any]:
+    if len(body) > MAX_JSON_BODY:
+        raise WireError(f"message body {len(body)} bytes exceeds {MAX_JSON_BODY}")
+    try:
+        obj = json.loads(body.decode("utf-8"), parse_constant=_no_constant)
+    except (UnicodeDecodeError, ValueError) as exc:
+        raise WireError(f"body is not UTF-8 JSON: {exc}") from None
+    if not isinstance(obj, dict):
+        raise WireError("body must be a JSON object")
+    return obj
+
+
+def _no_constant(name: str) -> Any:
+    raise ValueError(f"{name} is not allowed")
+
+
+def encode(topic: str, value: Any, publisher: int, seq: int, flags: int = 0) -> list[bytes]:
+    """Both frames of a message carrying ``value`` on ``topic``."""
+    if isinstance(value, PenSample):
+        kind, body = KIND_PEN, encode_pen(value)
+    elif isinstance(value, Command):
+        kind, body = KIND_CMD, _encode_json(value.to_record())
+    elif isinstance(value, Haptic):
+        kind = KIND_HAPTIC
+        body = _HAPTIC.pack(value.t, value.amplitude, value.frequency_hz, value.duration_s)
+    elif isinstance(value, dict):
+        kind, body = KIND_STATUS, _encode_json(value)
+    else:
+        raise TypeError(f"cannot encode {type(value).__name__} for the bus")
+    return [topic.encode(), encode_header(kind, publisher, seq, flags) + body]
+
+
+def decode(frames: list[bytes]) -> Envelope:
+    """Decode a message; :class:`WireError` for anything that is not wire format v1."""
+    if len(frames) != 2:
+        raise WireError(f"expected 2 frames, got {len(frames)}")
+    raw_topic, payload = frames
+    try:
+        topic = raw_topic.decode("ascii")
+    except UnicodeDecodeError:
+        raise WireError("topic is not ASCII") from None
+    if len(payload) < HEADER_SIZE:
+        raise WireError(f"payload of {len(payload)} bytes is shorter than the header")
+    magic, version, kind, flags, publisher, seq = _HEADER.unpack_from(payload)
+    if magic != MAGIC:
+        raise WireError(f"foreign message (magic {magic!r})")
+    if version != VERSION:
+        raise WireError(f"wire version {version} (this station speaks {VERSION})")
+    if flags & ~FLAG_REPLAY:
+        raise WireError(f"unknown header flags {flags:#x}")
+    body = payload[HEADER_SIZE:]
+    replay = bool(flags & FLAG_REPLAY)
+    prefix, _, suffix = topic.partition(".")
+    if kind == KIND_PEN:
+        if prefix != "pen" or not suffix:
+            raise WireError(f"pen message on topic {topic!r}")
+        value: Any = decode_pen(suffix, body)
+    elif kind == KIND_CMD:
+        try:
+            value = Command.from_record(_decode_json(body))
+        except EventError as exc:
+            raise WireError(f"invalid command: {exc}") from None
+    elif kind == KIND_STATUS:
+        value = _decode_json(body)
+    elif kind == KIND_HAPTIC:
+        if len(body) != _HAPTIC.size:
+            raise WireError(f"haptic body is {len(body)} bytes, expected {_HAPTIC.size}")
+        try:
+            value = Haptic(*_HAPTIC.unpack(body))
+        except EventError as exc:
+            raise WireError(str(exc)) from None
+    else:
+        raise WireError(f"unknown message kind {kind}")
+    return Envelope(topic, KIND_NAMES[kind], publisher, seq, replay, value)
