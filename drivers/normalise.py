@@ -1,0 +1,438 @@
+"""Raw samples (device units) → normalised :class:`PenSample` (libinput-grade).
+
+What it does, in order, for each raw sample:
+
+* **forced proximity-out**: a tool that sends nothing for ``proximity_timeout``
+  seconds (50 ms) is taken out of proximity — on the next report or on
+  :meth:`Normaliser.tick`, both driven by transport time, so it is testable
+  without sleeping;
+* **tool identity** ``(type, serial, tool id)``: Wacom sends serial and tool id
+  only at proximity-in; they are kept for the whole proximity and after it
+  (devices that never repeat them keep the last ones); per-tool state (the
+  worn-nib offset) is kept across proximity;
+* **coordinates** to ``[0, 1]`` of the active area (default: the whole axis), clamped;
+* **pressure**: worn-nib offset (on proximity-in a resting pressure ≤ 50 % of
+  the range becomes the tool's new zero; lower resting values seen while
+  hovering lower it), tip contact by hysteresis (down at 5 %, up at 1 % of the
+  range above the offset), renormalised so the down threshold maps to 0, then
+  the cubic-Bézier pressure curve; 0 and ``touching=False`` out of contact;
+* **tilt** in degrees (resolution in units per degree; without one the range
+  maps to ±64°), rotation in degrees (without resolution the range maps to
+  ±180°), distance and wheel to ``[0, 1]``;
+* optional **smoothing** as an exponential filter with a time constant given
+  in milliseconds of latency (off by default);
+* sequence numbers and timestamps from the transport (``t`` counts from the
+  first report, or from ``origin``);
+* the optional ``transform`` hook last (device → canvas calibration).
+
+A sample that fails :class:`PenSample` validation is counted and dropped,
+never published.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from station.drivers.raw import Axis, AxisRanges, RawSample
+
+from station.errors import BadInput, EventError
+from station.events import PenSample, Tool
+
+
+class NormaliserConfigError(BadInput):
+    """A normaliser setting is out of range."""
+
+
+@dataclass(frozen=True)
+class NormaliserConfig:
+    """Normaliser settings.
+
+    Attributes:
+        area: active area ``(x0, y0, x1, y1)`` in device units; ``None`` = whole tablet.
+        tip_down: pressure fraction (of the range above the offset) that starts contact.
+        tip_up: pressure fraction that ends contact (< ``tip_down``).
+        worn_nib: detect the worn-nib offset on proximity-in.
+        worn_nib_max: largest resting pressure (fraction of range) taken as an offset.
+        proximity_timeout: seconds without reports before a forced proximity-out;
+            ``None`` disables it.
+        smoothing_ms: time constant of the position filter in ms (0 = off).
+        pressure_curve: Bézier control points ``(x1, y1, x2, y2)`` in ``[0, 1]``;
+            ``None`` = linear.
+        tilt_range_degrees: degrees the tilt range maps to when there is no resolution.
+    """
+
+    area: tuple[float, float, float, float] | None = None
+    tip_down: float = 0.05
+    tip_up: float = 0.01
+    worn_nib: bool = True
+    worn_nib_max: float = 0.5
+    proximity_timeout: float | None = 0.05
+    smoothing_ms: float = 0.0
+    pressure_curve: tuple[float, float, float, float] | None = None
+    tilt_range_degrees: float = 64.0
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.tip_up < self.tip_down < 1.0:
+            raise NormaliserConfigError(
+                f"need 0 < tip_up ({self.tip_up}) < tip_down ({self.tip_down}) < 1")
+        if not 0.0 <= self.worn_nib_max < 1.0:
+            raise NormaliserConfigError(f"worn_nib_max {self.worn_nib_max} must be in [0, 1)")
+        if self.proximity_timeout is not None and not self.proximity_timeout > 0:
+            raise NormaliserConfigError("proximity_timeout must be > 0 seconds or None")
+        if not (math.isfinite(self.smoothing_ms) and 0.0 <= self.smoothing_ms <= 1000.0):
+            raise NormaliserConfigError(f"smoothing {self.smoothing_ms} ms must be 0..1000")
+        if self.pressure_curve is not None and (
+                len(self.pressure_curve) != 4 or not all(
+                    isinstance(v, (int, float)) and 0.0 <= v <= 1.0 for v in self.pressure_curve)):
+                raise NormaliserConfigError(
+                    f"pressure curve {self.pressure_curve} needs x1,y1,x2,y2 in [0, 1]")
+        if self.area is not None:
+            x0, y0, x1, y1 = self.area
+            if not (x1 > x0 and y1 > y0):
+                raise NormaliserConfigError(f"active area {self.area} is empty")
+
+
+class BezierCurve:
+    """Pressure curve: cubic Bézier (0,0), (x1,y1), (x2,y2), (1,1) as y = f(x).
+
+    With x1, x2 in [0, 1] x(s) is monotonic, so the curve is tabulated once
+    (1025 points) and evaluated by binary search and linear interpolation.
+    """
+
+    def __init__(self, x1: float, y1: float, x2: float, y2: float, points: int = 1025) -> None:
+        self.control = (x1, y1, x2, y2)
+        xs, ys = [], []
+        for i in range(points):
+            s = i / (points - 1)
+            a, b, c = 3 * (1 - s) ** 2 * s, 3 * (1 - s) * s * s, s**3
+            xs.append(a * x1 + b * x2 + c)
+            ys.append(a * y1 + b * y2 + c)
+        for i in range(1, points):  # guard against rounding making x non-monotonic
+            xs[i] = max(xs[i], xs[i - 1])
+        self._xs, self._ys = xs, ys
+
+    def __call__(self, p: float) -> float:
+        if p <= 0.0:
+            return 0.0
+        if p >= 1.0:
+            return 1.0
+        xs, ys = self._xs, self._ys
+        i = bisect.bisect_left(xs, p)
+        x0, x1 = xs[i - 1], xs[i]
+        f = 0.0 if x1 == x0 else (p - x0) / (x1 - x0)
+        return min(1.0, max(0.0, ys[i - 1] + f * (ys[i] - ys[i - 1])))
+
+
+ToolKey = tuple[Tool, int | None, int | None]
+
+
+@dataclass
+class ToolState:
+    """Per-tool state kept across proximity: the worn-nib pressure offset (device units)."""
+
+    pressure_offset: int = 0
+
+
+@dataclass
+class NormaliserStats:
+    """Counters of what the normaliser did (all plain integers)."""
+
+    raw: int = 0
+    samples: int = 0
+    rejected: int = 0
+    forced_out: int = 0
+    nib_offsets: int = 0
+    time_backwards: int = 0
+    reasons: dict[str, int] = field(default_factory=dict)
+
+
+def _unit(value: int, axis: Axis) -> float:
+    span = axis.span or 1
+    return min(1.0, max(0.0, (value - axis.minimum) / span))
+
+
+class Normaliser:
+    """Turns one device's raw samples into pen samples (see module docstring).
+
+    Args:
+        ranges: the device's axes.
+        device: device name published in the samples (no dots or spaces).
+        config: settings.
+        origin: transport time that maps to ``t = 0`` (default: the first report).
+        transform: applied last to each sample (calibration); raising
+            :class:`EventError` drops and counts the sample.
+        on_device_sample: receives each device-normalised sample before ``transform``.
+    """
+
+    def __init__(
+        self,
+        ranges: AxisRanges,
+        device: str = "pen-0",
+        config: NormaliserConfig | None = None,
+        origin: float | None = None,
+        transform: Callable[[PenSample], PenSample] | None = None,
+        on_device_sample: Callable[[PenSample], None] | None = None,
+    ) -> None:
+        self.ranges = ranges
+        self.device = device
+        self.config = config or NormaliserConfig()
+        self.origin = origin
+        self.transform = transform
+        self.on_device_sample = on_device_sample
+        self.stats = NormaliserStats()
+        self.tools: dict[ToolKey, ToolState] = {}
+        cfg = self.config
+        self._curve = BezierCurve(*cfg.pressure_curve) if cfg.pressure_curve else None
+        if cfg.area is not None:
+            x0, y0, x1, y1 = cfg.area
+            self._area = (float(x0), float(y0), float(x1), float(y1))
+        else:
+            self._area = (float(ranges.x.minimum), float(ranges.y.minimum),
+                          float(ranges.x.maximum), float(ranges.y.maximum))
+        self._seq = 0
+        self._in_prox = False
+        self._touching = False
+        self._last_time: float | None = None
+        self._last_t = 0.0
+        self._last: PenSample | None = None
+        self._tool = Tool.PEN
+        self._serial: int | None = None
+        self._tool_id: int | None = None
+        self._pressure: int | None = None
+        self._smooth: tuple[float, float, float] | None = None  # (x, y, time)
+
+    # -- public API -------------------------------------------------------
+    @property
+    def can_map_mm(self) -> bool:
+        """False when the device has no x/y resolution (normalised units only)."""
+        return self.ranges.has_resolution
+
+    @property
+    def in_proximity(self) -> bool:
+        return self._in_prox
+
+    def tool_key(self) -> ToolKey:
+        return (self._tool, self._serial, self._tool_id)
+
+    def feed(self, raw: RawSample, t_mono: float = 0.0) -> list[PenSample]:
+        """Normalise one raw sample; returns 0, 1 or 2 samples (a forced out first)."""
+        self.stats.raw += 1
+        out: list[PenSample] = []
+        if self.origin is None:
+            self.origin = raw.time
+        timeout = self.config.proximity_timeout
+        if (self._in_prox and timeout is not None and self._last_time is not None
+                and raw.time - self._last_time > timeout):
+            self._force_out(self._last_time + timeout, out)
+        if self._last_time is not None and raw.time < self._last_time:
+            self.stats.time_backwards += 1
+        self._last_time = raw.time if self._last_time is None else max(raw.time, self._last_time)
+        self._update_identity(raw)
+        if not raw.proximity:
+            if self._in_prox:
+                self._leave(raw.time, out, t_mono)
+            return out
+        if not raw.valid:
+            return out  # in range without data / proximity-in packet: identity only
+        entering = not self._in_prox
+        self._in_prox = True
+        sample = self._make(raw, entering, t_mono)
+        if sample is not None:
+            self._emit(sample, out)
+        return out
+
+    def tick(self, now: float) -> list[PenSample]:
+        """Call when no report came: forces proximity-out once ``now`` is past the timeout."""
+        out: list[PenSample] = []
+        timeout = self.config.proximity_timeout
+        if (self._in_prox and timeout is not None and self._last_time is not None
+                and now - self._last_time > timeout):
+            self._force_out(self._last_time + timeout, out)
+        return out
+
+    def flush(self) -> list[PenSample]:
+        """End of stream: a tool in proximity leaves it (timeout after its last report)."""
+        out: list[PenSample] = []
+        if self._in_prox and self._last_time is not None:
+            self._force_out(self._last_time + (self.config.proximity_timeout or 0.0), out)
+        return out
+
+    # -- internals --------------------------------------------------------
+    def _update_identity(self, raw: RawSample) -> None:
+        if raw.tool is not None:
+            self._tool = raw.tool
+        if raw.eraser and self._tool in (Tool.PEN, Tool.PENCIL, Tool.BRUSH):
+            self._tool = Tool.ERASER
+        elif not raw.eraser and raw.tool is None and self._tool is Tool.ERASER and \
+                raw.proximity and raw.valid and not self._in_prox:
+            # Generic HID: the invert bit cleared on a new proximity means the tip end.
+            self._tool = Tool.PEN
+        if raw.serial is not None:
+            self._serial = raw.serial
+        if raw.tool_id is not None:
+            self._tool_id = raw.tool_id
+
+    def _tool_state(self) -> ToolState:
+        key = self.tool_key()
+        state = self.tools.get(key)
+        if state is None:
+            state = self.tools[key] = ToolState()
+        return state
+
+    def _time(self, time: float) -> float:
+        origin = self.origin if self.origin is not None else time
+        t = max(0.0, time - origin)
+        return max(t, self._last_t)
+
+    def _force_out(self, time: float, out: list[PenSample]) -> None:
+        self.stats.forced_out += 1
+        self._leave(time, out, 0.0)
+
+    def _leave(self, time: float, out: list[PenSample], t_mono: float) -> None:
+        self._in_prox = False
+        self._touching = False
+        self._smooth = None
+        last = self._last
+        if last is None:
+            return
+        try:
+            sample = PenSample(
+                t=self._time(time), device=self.device, tool=self._tool, x=last.x, y=last.y,
+                pressure=0.0, tilt_x=last.tilt_x, tilt_y=last.tilt_y, proximity=False,
+                touching=False, buttons=0, serial=self._serial, seq=self._next_seq(),
+                t_mono=t_mono, tool_id=self._tool_id,
+            )
+        except EventError as exc:
+            self._reject(str(exc))
+            return
+        self._emit(sample, out)
+
+    def _next_seq(self) -> int:
+        self._seq += 1
+        return self._seq
+
+    def _reject(self, reason: str) -> None:
+        self.stats.rejected += 1
+        key = reason.split(" ", 1)[0]
+        self.stats.reasons[key] = self.stats.reasons.get(key, 0) + 1
+
+    def _emit(self, sample: PenSample, out: list[PenSample]) -> None:
+        self._last = sample
+        self._last_t = sample.t
+        if self.on_device_sample is not None:
+            self.on_device_sample(sample)
+        if self.transform is not None:
+            try:
+                sample = self.transform(sample)
+            except EventError as exc:
+                self._reject(f"transform {exc}")
+                return
+        self.stats.samples += 1
+        out.append(sample)
+
+    def _pressure_and_contact(self, raw: RawSample, entering: bool) -> tuple[float, bool]:
+        axis = self.ranges.pressure
+        if axis is None:
+            touching = bool(raw.tip)
+            return (1.0 if touching else 0.0), touching
+        if raw.pressure is not None:
+            self._pressure = raw.pressure
+        if self._pressure is None:
+            return 0.0, False
+        cfg = self.config
+        full = axis.span or 1
+        p = min(max(self._pressure - axis.minimum, 0), full)
+        state = self._tool_state()
+        if cfg.worn_nib:
+            resting = raw.tip is not True and not (
+                raw.distance is not None and self.ranges.distance is not None
+                and raw.distance <= self.ranges.distance.minimum)
+            if entering and resting and p <= cfg.worn_nib_max * full:
+                if p != state.pressure_offset and p > 0:
+                    self.stats.nib_offsets += 1
+                state.pressure_offset = p
+            elif not self._touching and p < state.pressure_offset:
+                state.pressure_offset = p
+        offset = state.pressure_offset
+        span = max(full - offset, 1)
+        down = offset + cfg.tip_down * span
+        up = offset + cfg.tip_up * span
+        touching = p >= up if self._touching else p >= down
+        self._touching = touching
+        if not touching:
+            return 0.0, False
+        value = min(1.0, max(0.0, (p - down) / max(full - down, 1e-9)))
+        if self._curve is not None:
+            value = self._curve(value)
+        return value, True
+
+    def _tilt(self, value: int | None, axis: Axis | None) -> float:
+        if value is None or axis is None:
+            return 0.0
+        if axis.resolution:
+            deg = value / axis.resolution
+        else:
+            span = axis.span or 1
+            deg = ((value - axis.minimum) / span * 2.0 - 1.0) * self.config.tilt_range_degrees
+        return min(90.0, max(-90.0, deg))
+
+    def _rotation(self, value: int | None) -> float | None:
+        axis = self.ranges.rotation
+        if value is None or axis is None:
+            return None
+        if axis.resolution:
+            deg = value / axis.resolution
+        else:
+            deg = (value - axis.minimum) / (axis.span or 1) * 360.0 - 180.0
+        return min(360.0, max(-360.0, deg))
+
+    def _position(self, raw: RawSample, entering: bool) -> tuple[float, float]:
+        x0, y0, x1, y1 = self._area
+        x = min(1.0, max(0.0, (raw.x - x0) / (x1 - x0 or 1.0)))
+        y = min(1.0, max(0.0, (raw.y - y0) / (y1 - y0 or 1.0)))
+        tau = self.config.smoothing_ms / 1000.0
+        if tau <= 0.0:
+            return x, y
+        if entering or self._smooth is None:
+            self._smooth = (x, y, raw.time)
+            return x, y
+        sx, sy, st = self._smooth
+        dt = max(0.0, raw.time - st)
+        alpha = 1.0 - math.exp(-dt / tau)
+        sx += alpha * (x - sx)
+        sy += alpha * (y - sy)
+        self._smooth = (sx, sy, raw.time)
+        return sx, sy
+
+    def _make(self, raw: RawSample, entering: bool, t_mono: float) -> PenSample | None:
+        r = self.ranges
+        try:
+            x, y = self._position(raw, entering)
+            pressure, touching = self._pressure_and_contact(raw, entering)
+            return PenSample(
+                t=self._time(raw.time),
+                device=self.device,
+                tool=self._tool,
+                x=x,
+                y=y,
+                pressure=pressure,
+                tilt_x=self._tilt(raw.tilt_x, r.tilt_x),
+                tilt_y=self._tilt(raw.tilt_y, r.tilt_y),
+                proximity=True,
+                touching=touching,
+                buttons=raw.buttons & 0xFFFF,
+                serial=self._serial,
+                rotation=self._rotation(raw.rotation),
+                distance=(_unit(raw.distance, r.distance)
+                          if raw.distance is not None and r.distance else None),
+                wheel=_unit(raw.wheel, r.wheel) if raw.wheel is not None and r.wheel else None,
+                seq=self._next_seq(),
+                t_mono=t_mono,
+                tool_id=self._tool_id if self._tool_id is None or self._tool_id < 2**32 else None,
+            )
+        except (EventError, ValueError, OverflowError) as exc:
+            self._reject(str(exc))
+            return None

@@ -1,0 +1,93 @@
+"""Device traces: read hid-recorder, evemu-record and libinput-record files.
+
+:func:`read_trace` picks the reader by extension (``.hid``/``.hidrec``,
+``.evemu``/``.evm``, ``.yaml``/``.yml``) or, failing that, by content, and
+returns a :class:`Trace`.  :func:`iter_trace_samples` plays a trace through
+the same parser and normaliser as a live device and yields the
+device-normalised pen samples (``station paint`` and ``station replay`` use it).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from station.drivers.traces.evemu import parse_evemu, read_evemu
+from station.drivers.traces.hidrecorder import (
+    HidRecorderWriter,
+    parse_hid_recorder,
+    read_hid_recorder,
+)
+from station.drivers.traces.libinput_record import parse_libinput_record, read_libinput_record
+from station.drivers.traces.model import Trace, TraceDevice, TraceError
+
+if TYPE_CHECKING:
+    from station.events import PenSample
+
+__all__ = [
+    "HidRecorderWriter",
+    "Trace",
+    "TraceDevice",
+    "TraceError",
+    "is_trace_path",
+    "iter_trace_samples",
+    "parse_evemu",
+    "parse_hid_recorder",
+    "parse_libinput_record",
+    "read_trace",
+    "trace_format",
+]
+
+_BY_SUFFIX = {
+    ".hid": "hid-recorder", ".hidrec": "hid-recorder", ".rec": "hid-recorder",
+    ".evemu": "evemu", ".evm": "evemu",
+    ".yaml": "libinput-record", ".yml": "libinput-record",
+}  # fmt: skip
+
+
+def is_trace_path(path: str | os.PathLike[str]) -> bool:
+    """True for the file names ``station paint`` should treat as device traces."""
+    return Path(path).suffix.lower() in _BY_SUFFIX
+
+
+def trace_format(path: str | os.PathLike[str]) -> str:
+    """The reader for ``path``: by suffix, else by the first meaningful lines."""
+    fmt = _BY_SUFFIX.get(Path(path).suffix.lower())
+    if fmt:
+        return fmt
+    name = str(path)
+    try:
+        with open(path, encoding="utf-8", errors="replace") as fh:
+            head = [fh.readline() for _ in range(200)]
+    except OSError as exc:
+        raise TraceError(f"cannot open ({exc.strerror})", name) from None
+    text = "".join(head)
+    if "EVEMU" in text or any(line.startswith(("A:", "B:")) for line in head):
+        return "evemu"
+    if any(line.startswith(("devices:", "version:", "ndevices:")) for line in head):
+        return "libinput-record"
+    if any(line.startswith(("R:", "D:", "E:")) for line in head):
+        return "hid-recorder"
+    raise TraceError("not a trace this station reads (hid-recorder, evemu, libinput record)",
+                     f"{name}:1")
+
+
+def read_trace(path: str | os.PathLike[str]) -> Trace:
+    """Read a whole trace into memory (traces are minutes, not hours)."""
+    fmt = trace_format(path)
+    if fmt == "evemu":
+        return read_evemu(path)
+    if fmt == "libinput-record":
+        return read_libinput_record(path)
+    return read_hid_recorder(path)
+
+
+def iter_trace_samples(path: str | os.PathLike[str], device: str | None = None
+                       ) -> Iterator[PenSample]:
+    """Pen samples of every pen device in the trace, device-normalised, in time order."""
+    from station.drivers.pipeline import TraceReplay
+
+    replay = TraceReplay(read_trace(path), device_name=device)
+    yield from replay.samples()

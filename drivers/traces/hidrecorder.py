@@ -1,0 +1,172 @@
+"""hid-recorder (hid-tools) traces: reader and streaming writer.
+
+Format (every recorder version seen): ``#`` comments; ``D: n`` selects the
+device the following lines belong to (no ``D:`` = device 0); ``R: len hex…``
+report descriptor; ``N: name``; ``P: phys``; ``I: bus vid pid`` (hex);
+``E: sec.usec len hex…`` one input report.  Times may start anywhere, hex may
+be upper or lower case and zero-padded or not; unknown lines are skipped.  A
+length that does not match the bytes, a non-hex byte or a byte above 0xff is
+a :class:`TraceError` naming ``file:line``.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import string
+from collections.abc import Iterable
+from typing import IO
+
+from station.drivers.traces.model import Trace, TraceDevice, TraceError
+from station.drivers.transport.base import TimedReport
+
+log = logging.getLogger(__name__)
+MAX_REPORT = 4096
+MAX_DESCRIPTOR = 4096
+
+
+def _hex_bytes(tokens: list[str], where: str, what: str) -> bytes:
+    out = bytearray()
+    for tok in tokens:
+        if not tok or any(ch not in string.hexdigits for ch in tok):
+            raise TraceError(f"{what}: {tok!r} is not a hex byte", where)
+        value = int(tok, 16)
+        if value > 0xFF:
+            raise TraceError(f"{what}: {tok!r} is not a byte (00..ff)", where)
+        out.append(value)
+    return bytes(out)
+
+
+def _length(tok: str, where: str, what: str, limit: int) -> int:
+    try:
+        n = int(tok, 10)
+    except ValueError:
+        raise TraceError(f"{what}: length {tok!r} is not a decimal number", where) from None
+    if not 0 < n <= limit:
+        raise TraceError(f"{what}: length {n} outside 1..{limit}", where)
+    return n
+
+
+def parse_hid_recorder(lines: Iterable[str], name: str) -> Trace:
+    """Parse hid-recorder text; ``name`` is used in ``file:line`` messages."""
+    devices: dict[int, TraceDevice] = {}
+    current = -1
+
+    def device(index: int, where: str) -> TraceDevice:
+        if index not in devices:
+            devices[index] = TraceDevice(index=index, where=where)
+        return devices[index]
+
+    last_time: dict[int, float] = {}
+    for line_no, raw_line in enumerate(lines, 1):
+        where = f"{name}:{line_no}"
+        line = raw_line.strip()
+        if not line or line.startswith("#"):
+            continue
+        tag, sep, rest = line.partition(":")
+        if not sep or len(tag) != 1:
+            log.debug("%s: skipping unknown line", where)
+            continue
+        tokens = rest.split()
+        if tag == "D":
+            if len(tokens) != 1 or not tokens[0].isdigit():
+                raise TraceError(f"'D:' needs one device number, got {rest.strip()!r}", where)
+            current = int(tokens[0])
+            device(current, where)
+            continue
+        dev = device(max(current, 0), where)
+        if tag == "R":
+            if not tokens:
+                raise TraceError("'R:' without a length", where)
+            n = _length(tokens[0], where, "report descriptor", MAX_DESCRIPTOR)
+            data = _hex_bytes(tokens[1:], where, "report descriptor")
+            if len(data) != n:
+                raise TraceError(f"report descriptor says {n} bytes but has {len(data)}", where)
+            dev.descriptor = data
+        elif tag == "N":
+            dev.name = rest.strip()
+        elif tag == "P":
+            dev.phys = rest.strip()
+        elif tag == "I":
+            if len(tokens) < 3:
+                raise TraceError(f"'I:' needs bus vid pid, got {rest.strip()!r}", where)
+            try:
+                dev.bus, dev.vid, dev.pid = (int(t, 16) for t in tokens[:3])
+            except ValueError:
+                raise TraceError(f"'I:' ids {rest.strip()!r} are not hex", where) from None
+            if not (0 <= dev.vid <= 0xFFFF and 0 <= dev.pid <= 0xFFFF):
+                raise TraceError(f"'I:' ids {rest.strip()!r} out of range", where)
+        elif tag == "E":
+            if len(tokens) < 2:
+                raise TraceError("'E:' needs a time, a length and the bytes", where)
+            try:
+                t = float(tokens[0])
+            except ValueError:
+                raise TraceError(f"'E:' time {tokens[0]!r} is not sec.usec", where) from None
+            if not (t == t and 0 <= t < 1e12):
+                raise TraceError(f"'E:' time {tokens[0]!r} out of range", where)
+            n = _length(tokens[1], where, "report", MAX_REPORT)
+            data = _hex_bytes(tokens[2:], where, "report")
+            if len(data) != n:
+                raise TraceError(f"report says {n} bytes but has {len(data)} (truncated?)", where)
+            index = dev.index
+            if t + 1e-6 < last_time.get(index, t):
+                raise TraceError(f"time {t} goes back (previous {last_time[index]})", where)
+            last_time[index] = t
+            dev.reports.append(TimedReport(t, data))
+        else:
+            log.debug("%s: skipping unknown line %r", where, tag)
+    if not devices:
+        raise TraceError("no device in this hid-recorder trace", f"{name}:1")
+    return Trace(path=name, format="hid-recorder", devices=[devices[k] for k in sorted(devices)])
+
+
+def read_hid_recorder(path: str | os.PathLike[str]) -> Trace:
+    name = str(path)
+    try:
+        with open(path, encoding="utf-8", errors="strict") as fh:
+            return parse_hid_recorder(fh, name)
+    except UnicodeDecodeError:
+        raise TraceError("not a text file", f"{name}:1") from None
+    except OSError as exc:
+        raise TraceError(f"cannot open ({exc.strerror})", name) from None
+
+
+class HidRecorderWriter:
+    """Writes a hid-recorder trace as reports arrive (``station record``).
+
+    Times are written relative to the first report (``0.000000``), as
+    hid-recorder does; the file is flushed after each report so Ctrl-C loses nothing.
+    """
+
+    def __init__(self, out: IO[str]) -> None:
+        self._out = out
+        self._devices = 0
+        self._t0: float | None = None
+        self.reports = 0
+
+    def add_device(self, name: str, vid: int, pid: int, bus: int, descriptor: bytes | None,
+                   phys: str = "") -> int:
+        index = self._devices
+        self._devices += 1
+        w = self._out.write
+        w(f"D: {index}\n")
+        if descriptor:
+            w(f"R: {len(descriptor)} {descriptor.hex(' ')}\n")
+        w(f"N: {name}\n")
+        w(f"P: {phys}\n")
+        w(f"I: {bus:x} {vid:04x} {pid:04x}\n")
+        self._out.flush()
+        self._current = index
+        return index
+
+    def write_report(self, time: float, data: bytes, device: int = 0) -> None:
+        if self._t0 is None:
+            self._t0 = time
+        if self._devices > 1 and device != self._current:
+            self._out.write(f"D: {device}\n")
+            self._current = device
+        t = max(0.0, time - self._t0)
+        self._out.write(f"E: {t:.6f} {len(data)} {data.hex(' ')}\n")
+        self._out.flush()
+        self.reports += 1

@@ -1,0 +1,109 @@
+"""libinput record YAML traces.
+
+``devices: [{evdev: {name, id: [bus, vid, pid, version], codes: {type: [code…]},
+absinfo: {code: [min, max, fuzz, flat, resolution]}}, hid: [bytes…],
+events: [{evdev: [[sec, usec, type, code, value], …]}, …]}]``; unknown keys
+(``libinput``, ``udev``, ``quirks`` …) are ignored.  YAML errors carry the
+line; structural errors name the device and event index.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+import yaml
+from station.drivers.evdev import codes as c
+from station.drivers.evdev.frames import AbsInfo, EvdevCaps, InputEvent
+from station.drivers.traces.model import Trace, TraceDevice, TraceError
+
+
+def _int(value: Any, where: str, what: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise TraceError(f"{what} {value!r} is not an integer", where)
+    return value
+
+
+def parse_libinput_record(text: str, name: str) -> Trace:
+    try:
+        doc = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line = (mark.line + 1) if mark is not None else 1
+        raise TraceError(f"not valid YAML ({getattr(exc, 'problem', exc)})",
+                         f"{name}:{line}") from None
+    if not isinstance(doc, dict) or not isinstance(doc.get("devices"), list):
+        raise TraceError("not a libinput recording (no 'devices' list)", f"{name}:1")
+    devices: list[TraceDevice] = []
+    for index, entry in enumerate(doc["devices"]):
+        where = f"{name}: devices[{index}]"
+        if not isinstance(entry, dict) or not isinstance(entry.get("evdev"), dict):
+            raise TraceError("device without an 'evdev' section", where)
+        ev = entry["evdev"]
+        ids = ev.get("id", [0, 0, 0, 0])
+        if not isinstance(ids, list) or len(ids) < 3:
+            raise TraceError(f"evdev id {ids!r} needs [bus, vid, pid, version]", where)
+        ids = [_int(v, where, "id") for v in ids] + [0]
+        codes = ev.get("codes", {}) or {}
+        if not isinstance(codes, dict):
+            raise TraceError("evdev codes must be a mapping type: [codes]", where)
+        keys = {_int(k, where, "key code") for k in codes.get(c.EV_KEY, []) or []}
+        msc = {_int(k, where, "msc code") for k in codes.get(c.EV_MSC, []) or []}
+        absinfo: dict[int, AbsInfo] = {}
+        for code, values in (ev.get("absinfo", {}) or {}).items():
+            if not isinstance(values, list) or len(values) < 4:
+                raise TraceError(f"absinfo {code}: {values!r} needs min max fuzz flat [res]",
+                                 where)
+            vals = [_int(v, where, f"absinfo {code}") for v in values]
+            res = vals[4] if len(vals) > 4 else 0
+            absinfo[_int(code, where, "abs code")] = AbsInfo(vals[0], vals[1], vals[2], vals[3],
+                                                             res, vals[0])
+        descriptor = None
+        hid = entry.get("hid")
+        if isinstance(hid, list) and hid:
+            try:
+                descriptor = bytes(_int(b, where, "hid byte") for b in hid)
+            except ValueError:
+                raise TraceError("hid descriptor bytes must be 0..255", where) from None
+        events: list[InputEvent] = []
+        last_t = None
+        for n, frame in enumerate(entry.get("events", []) or []):
+            if not isinstance(frame, dict):
+                raise TraceError(f"events[{n}] is not a mapping", where)
+            for m, item in enumerate(frame.get("evdev", []) or []):
+                ew = f"{where} events[{n}].evdev[{m}]"
+                if not isinstance(item, list) or len(item) != 5:
+                    raise TraceError(f"{item!r} is not [sec, usec, type, code, value]", ew)
+                sec, usec, etype, code, value = (_int(v, ew, "event field") for v in item)
+                t = sec + usec / 1e6
+                if not (0 <= usec < 1_000_000 and 0 <= etype <= 0x1F and 0 <= code <= 0x2FF
+                        and t >= 0):
+                    raise TraceError(f"{item!r} out of range", ew)
+                if last_t is not None and t + 1e-6 < last_t:
+                    raise TraceError(f"time {t} goes back (previous {last_t})", ew)
+                last_t = t
+                if etype == c.EV_KEY:
+                    keys.add(code)
+                events.append(InputEvent(t, etype, code, value))
+        dev_name = str(ev.get("name", ""))
+        caps = EvdevCaps(name=dev_name, absinfo=absinfo, keys=frozenset(keys), bus=ids[0],
+                         vid=ids[1], pid=ids[2], version=ids[3], msc=frozenset(msc),
+                         path=str(entry.get("node", "")))
+        devices.append(TraceDevice(index=index, name=dev_name, vid=ids[1], pid=ids[2],
+                                   bus=ids[0], descriptor=descriptor, caps=caps, events=events,
+                                   where=where))
+    if not devices:
+        raise TraceError("libinput recording with no devices", f"{name}:1")
+    return Trace(path=name, format="libinput-record", devices=devices)
+
+
+def read_libinput_record(path: str | os.PathLike[str]) -> Trace:
+    name = str(path)
+    try:
+        with open(path, encoding="utf-8") as fh:
+            text = fh.read()
+    except UnicodeDecodeError:
+        raise TraceError("not a text file", f"{name}:1") from None
+    except OSError as exc:
+        raise TraceError(f"cannot open ({exc.strerror})", name) from None
+    return parse_libinput_record(text, name)
