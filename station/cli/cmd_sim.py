@@ -1,0 +1,56 @@
+"""``station sim --bus ENDPOINT``: the live simulation process."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from station.cli.cmd_paint import BACKENDS
+from station.sim.paint import parse_size
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("sim", help="run the live canvas simulation on the bus",
+                       description="Subscribe to pen samples and commands on the bus, paint "
+                                   "them with the round brush, step the canvas at a fixed "
+                                   "rate, log the session and publish status. SIGTERM or "
+                                   "SIGINT saves state and log and exits 0.")
+    p.add_argument("--bus", default=None, metavar="ENDPOINT",
+                   help="bus endpoint to subscribe to (default ipc; ipc:sub for a proxy)")
+    p.add_argument("--size", metavar="WxH", default="800x600", help="canvas size (800x600)")
+    p.add_argument("--profile", default="watercolor", help="paint profile (watercolor)")
+    p.add_argument("--backend", choices=BACKENDS, default="auto", help="canvas backend")
+    p.add_argument("--seed", type=int, default=0, help="paper seed")
+    p.add_argument("--rate", type=float, metavar="HZ",
+                   help="simulation steps per second (default 1/dt of the profile)")
+    p.add_argument("--log", metavar="session.jsonl", help="write the session log here")
+    p.add_argument("--state", metavar="S.npz", help="save the canvas state here on exit")
+    p.add_argument("--png", metavar="OUT.png", help="write the final image here on exit")
+    p.add_argument("--status", metavar="ENDPOINT",
+                   help="where to publish status (default: the proxy's ipc:pub when --bus is "
+                        "ipc:sub, else @ipc:sim-status; 'none' to disable)")
+    p.add_argument("--duration", type=float, metavar="SECONDS",
+                   help="stop by itself after this many seconds")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from station.canvas.params import get_profile
+    from station.sim.live import LiveConfig, LiveSim
+
+    width, height = parse_size(args.size)
+    get_profile(args.profile)
+    cfg = LiveConfig(bus=args.bus, width=width, height=height, profile=args.profile,
+                     backend=args.backend, seed=args.seed, rate=args.rate,
+                     log_path=args.log, state_path=args.state, png_path=args.png,
+                     status=args.status, duration=args.duration)
+    sim = LiveSim(cfg)
+    sim.install_signal_handlers()
+    sys.stderr.write(f"station sim: {width}x{height} {args.profile} on {sim.backend_name}, "
+                     f"{sim.player.rate:g} steps/s, subscribed to {sim.sub.endpoints[0].url}\n")
+    final = sim.run()
+    sys.stderr.write("station sim: stopped " + json.dumps(
+        {k: final[k] for k in ("steps", "sim_time", "samples", "commands", "bad_commands",
+                               "lost_samples")}) + "\n")
+    return 0

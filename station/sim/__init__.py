@@ -1,0 +1,1 @@
+"""The simulation process side of the station: session player, live sim, scripted input, demo."""

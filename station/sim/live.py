@@ -1,0 +1,232 @@
+"""The live simulation process (``station sim``).
+
+It subscribes to pen samples (``pen.*``) and commands (``cmd``) on the bus,
+feeds them to the :class:`~station.sim.player.SessionPlayer` (round brush →
+canvas backend), steps the canvas at a fixed rate of ``rate`` steps per
+second of wall-clock time whatever the input rate, writes a session log of
+everything it applied, and publishes its status on the ``status`` topic twice
+a second.  SIGTERM, SIGINT or a ``stop`` command end it cleanly: pending
+stamps go into the canvas, the state and the log are saved, exit code 0.
+
+Time stamps.  Publishers have their own clocks, so every record is logged in
+the simulation's session clock (seconds since ``station sim`` started): a pen
+sample keeps its device's spacing — its time is ``sample.t + offset``, the
+offset fixed by the device's first sample and re-synchronised when the mapped
+time strays more than :data:`RESYNC_S` from the receipt time — and is clamped
+so the log never goes back in time.  Replaying the log with ``station paint``
+then gives the same steps and the same brush velocities the live run used.
+
+Bad messages: the bus drops undecodable ones (counted in ``bus.malformed``);
+a command the player rejects (unknown pigment, bad numbers) is counted in
+``bad_commands``, warned about and not logged.  The process never crashes on
+input.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import signal
+import time
+from dataclasses import dataclass
+from types import FrameType
+from typing import Any
+
+from station.errors import BadInput
+from station.events import Command, PenSample
+from station.sessionlog import SessionHeader, SessionLogWriter
+from station.sim.player import SessionPlayer
+
+log = logging.getLogger(__name__)
+
+RESYNC_S = 1.0
+STATUS_EVERY_S = 0.5
+DRAIN_MAX = 2000  # messages handled between two steps at most (steps must go on)
+
+
+@dataclass
+class LiveConfig:
+    """Settings of one ``station sim`` run."""
+
+    bus: str | None
+    width: int = 800
+    height: int = 600
+    profile: str = "watercolor"
+    backend: str = "auto"
+    seed: int = 0
+    rate: float | None = None
+    log_path: str | None = None
+    state_path: str | None = None
+    png_path: str | None = None
+    status: str | None = None  # endpoint for status; "none" disables
+    duration: float | None = None  # stop after this many seconds (tests, benchmarks)
+
+
+def default_status_endpoint(bus: str | None) -> str:
+    """Where status goes: the proxy's publisher side when subscribed to the
+    proxy (``ipc:sub``), else a socket of our own, ``ipc:sim-status``."""
+    if bus and bus.lstrip(">@") == "ipc:sub":
+        return ">ipc:pub"
+    return "@ipc:sim-status"
+
+
+class LiveSim:
+    """The running simulation process (see the module docstring)."""
+
+    def __init__(self, cfg: LiveConfig) -> None:
+        from station.bus import Publisher, Subscriber
+        from station.canvas.palette import default_palette
+        from station.sim.paint import make_backend
+
+        self.cfg = cfg
+        self.canvas, self.backend_name = make_backend(cfg.backend, cfg.width, cfg.height,
+                                                      cfg.profile, cfg.seed)
+        self.player = SessionPlayer(self.canvas, cfg.width, cfg.height, cfg.profile,
+                                    rate=cfg.rate, pigments=default_palette())
+        self.sub = Subscriber(cfg.bus, topics=("pen.", "cmd"))
+        status_ep = cfg.status or default_status_endpoint(cfg.bus)
+        self.pub = None if status_ep == "none" else Publisher(status_ep)
+        header = SessionHeader(
+            width=cfg.width, height=cfg.height, profile=cfg.profile, seed=cfg.seed,
+            extra={"sim": {"rate": self.player.rate}, "recorded_by": "station sim"})
+        self.writer = SessionLogWriter(cfg.log_path, header) if cfg.log_path else None
+        self.stop_requested = False
+        self.start = time.monotonic()
+        self._offsets: dict[str, float] = {}
+        self._last_t = 0.0
+        self.samples = 0
+        self.commands = 0
+        self.bad_commands = 0
+        self._fps_mark = (self.start, 0)
+        self.fps = 0.0
+
+    # -- clock ---------------------------------------------------------------
+    def now(self) -> float:
+        """Session time: seconds since start."""
+        return time.monotonic() - self.start
+
+    def _stamp_sample(self, s: PenSample, now: float) -> PenSample:
+        off = self._offsets.get(s.device)
+        if off is None or abs(s.t + off - now) > RESYNC_S:
+            off = self._offsets[s.device] = now - s.t
+        t = min(now, max(self._last_t, s.t + off))
+        self._last_t = t
+        return s.with_(t=round(t, 6), t_mono=0.0)
+
+    # -- messages ------------------------------------------------------------
+    def handle(self, kind: str, value: Any) -> None:
+        now = self.now()
+        if kind == "pen" and isinstance(value, PenSample):
+            rec = self._stamp_sample(value, now)
+            self.player.apply(rec)
+            self.samples += 1
+            if self.writer is not None:
+                self.writer.write(rec)
+        elif kind == "cmd" and isinstance(value, Command):
+            t = max(self._last_t, now)
+            self._last_t = t
+            cmd = Command(t=round(t, 6), cmd=value.cmd, args=value.args)
+            if cmd.cmd == "stop":
+                self.stop_requested = True
+                return
+            try:
+                self.player.command(cmd)
+            except BadInput as exc:
+                self.bad_commands += 1
+                log.warning("rejected command %r: %s", cmd.cmd, exc)
+                return
+            self.commands += 1
+            if self.writer is not None:
+                self.writer.write(cmd)
+
+    def drain(self, timeout_ms: int) -> None:
+        msg = self.sub.recv(timeout_ms)
+        n = 0
+        while msg is not None:
+            self.handle(msg.kind, msg.value)
+            n += 1
+            if n >= DRAIN_MAX or self.stop_requested:
+                return
+            msg = self.sub.recv(0)
+
+    # -- status --------------------------------------------------------------
+    def status(self) -> dict[str, Any]:
+        p = self.player
+        now = time.monotonic()
+        mark_t, mark_steps = self._fps_mark
+        if now - mark_t >= 0.25:
+            self.fps = (p.counters.steps - mark_steps) / (now - mark_t)
+            self._fps_mark = (now, p.counters.steps)
+        session = now - self.start
+        return {
+            "process": "sim", "pid": os.getpid(),
+            "width": self.cfg.width, "height": self.cfg.height, "profile": p.profile,
+            "backend": self.backend_name, "renderer": str(getattr(self.canvas, "renderer", "")),
+            "steps": p.counters.steps, "sim_time": p.counters.steps * p.dt,
+            "painting_time": p.painting_time, "session_time": session,
+            "lag_s": max(0.0, session + p.waited - p.painting_time),
+            "fps": self.fps, "rate": p.rate,
+            "samples": self.samples, "commands": self.commands,
+            "bad_commands": self.bad_commands,
+            "lost_samples": self.sub.stats.lost, "bus": self.sub.stats.as_dict(),
+            "stamps": p.brush.stamps, "eraser_samples": p.brush.eraser_samples,
+        }
+
+    def publish_status(self, final: bool = False) -> None:
+        if self.pub is None:
+            return
+        st = self.status()
+        st["state"] = "stopped" if final else "running"
+        try:
+            self.pub.publish_status(st)
+        except Exception as exc:  # status is best effort; painting goes on
+            log.warning("cannot publish status: %s", exc)
+
+    # -- main loop -----------------------------------------------------------
+    def run(self) -> dict[str, Any]:
+        """Run until stopped; returns the final status."""
+        p = self.player
+        next_status = 0.0
+        try:
+            while not self.stop_requested:
+                now = self.now()
+                if self.cfg.duration is not None and now >= self.cfg.duration:
+                    break
+                if p.counters.steps < p.steps_due(now):
+                    p.step()
+                    self.drain(0)
+                else:
+                    next_step = (p.counters.steps + 1) / p.rate - p.waited
+                    self.drain(max(0, min(100, int((next_step - now) * 1000) + 1)))
+                if now >= next_status:
+                    self.publish_status()
+                    next_status = now + STATUS_EVERY_S
+        finally:
+            final = self.shutdown()
+        return final
+
+    def shutdown(self) -> dict[str, Any]:
+        """Hand pending stamps to the canvas, save state, PNG and log."""
+        p = self.player
+        p.flush_sources()
+        if self.cfg.state_path:
+            self.canvas.state().save(self.cfg.state_path)
+        if self.cfg.png_path:
+            from station.canvas.png import write_png
+
+            write_png(self.cfg.png_path, self.canvas.render())
+        if self.writer is not None:
+            self.writer.close()
+        final = self.status()
+        self.publish_status(final=True)
+        self.sub.close()
+        if self.pub is not None:
+            self.pub.close()
+        return final
+
+    def install_signal_handlers(self) -> None:
+        def on_signal(signum: int, frame: FrameType | None) -> None:
+            self.stop_requested = True
+
+        signal.signal(signal.SIGTERM, on_signal)
+        signal.signal(signal.SIGINT, on_signal)

@@ -1,0 +1,320 @@
+"""Headless painting: a session log (or device trace) in, a PNG (and state, stats) out.
+
+What happens on bad input (interfaces.md: exit 2, one line, nothing painted lost):
+
+* a problem found before painting starts — unreadable or malformed header,
+  unknown profile, impossible ``--size``, unsupported input format — raises
+  :class:`~station.errors.BadInput` and writes nothing;
+* a bad record in the middle (malformed line, unknown pigment, wrong command
+  arguments, time going back) stops the replay *at that record*: every earlier
+  record has been applied and simulated up to its time, pending brush stamps
+  are handed to the canvas, and then the PNG, ``--state`` and ``--stats`` are
+  written as usual before the error is raised (the message says the painting
+  up to that point was written).
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import logging
+import math
+import os
+import re
+import sys
+import time
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import IO, Any
+
+from station.errors import BadInput, StationError
+from station.events import Command, PenSample
+from station.sessionlog import SessionHeader, SessionLogReader
+from station.sim.player import SessionPlayer
+
+log = logging.getLogger(__name__)
+
+TRACE_SUFFIXES = (".hid", ".evemu", ".yaml", ".yml")
+MAX_CELLS = 4096 * 4096
+"""Largest canvas accepted (cells): ~16.8 M cells, a few GiB of state."""
+
+
+class PaintInputError(BadInput):
+    """The input of ``station paint`` cannot be painted."""
+
+
+def parse_size(text: str, where: str = "--size") -> tuple[int, int]:
+    """``"WxH"`` → ``(W, H)``; anything impossible raises :class:`PaintInputError`."""
+    m = re.fullmatch(r"\s*(\d{1,6})\s*[xX×]\s*(\d{1,6})\s*", text or "")
+    if not m:
+        raise PaintInputError(f"canvas size {text!r} is not WIDTHxHEIGHT (e.g. 800x600)", where)
+    w, h = int(m.group(1)), int(m.group(2))
+    check_size(w, h, where)
+    return w, h
+
+
+def check_size(w: int, h: int, where: str) -> None:
+    if w < 8 or h < 8:
+        raise PaintInputError(f"canvas size {w}x{h} is too small (at least 8x8 cells)", where)
+    if w > 16384 or h > 16384 or w * h > MAX_CELLS:
+        raise PaintInputError(
+            f"canvas size {w}x{h} is too large (at most 16384 a side and {MAX_CELLS} cells)",
+            where)
+
+
+@dataclass
+class PaintResult:
+    """What a paint run produced."""
+
+    width: int
+    height: int
+    profile: str
+    backend: str
+    renderer: str
+    steps: int
+    painting_seconds: float
+    wall_seconds: float
+    counters: dict[str, Any] = field(default_factory=dict)
+    written: list[str] = field(default_factory=list)
+    error: BadInput | None = None
+
+
+# -- inputs -------------------------------------------------------------------------
+class _Source:
+    """A header and a stream of records with a ``where`` for messages."""
+
+    def __init__(self, header: SessionHeader, records: Iterable[PenSample | Command],
+                 where: Any, close: Any = None) -> None:
+        self.header = header
+        self.records = records
+        self.where = where
+        self._close = close
+
+    def close(self) -> None:
+        if self._close is not None:
+            self._close()
+
+
+def open_input(path: str) -> _Source:
+    """Open a session log, or a device trace when the drivers can read it."""
+    if path.lower().endswith(TRACE_SUFFIXES):
+        return _open_trace(path)
+    reader = SessionLogReader(path)
+    return _Source(reader.header, reader, lambda: f"{reader.name}:{reader.line_no}",
+                   reader.close)
+
+
+def _open_trace(path: str) -> _Source:
+    """A device trace through ``station.drivers.traces`` (issue 4), if it is there."""
+    suffix = Path(path).suffix.lower()
+    try:
+        traces = importlib.import_module("station.drivers.traces")
+    except ImportError:
+        raise PaintInputError(
+            f"device traces ({suffix}) are not supported yet by this station; "
+            "give a session log (.jsonl)", path) from None
+    reader = None
+    for name in ("read_trace", "iter_samples", "read_samples", "samples"):
+        reader = getattr(traces, name, None)
+        if callable(reader):
+            break
+    if reader is None:
+        raise PaintInputError(
+            f"device traces ({suffix}) are not supported yet by this station "
+            "(station.drivers.traces has no reader); give a session log (.jsonl)", path)
+    if not os.path.exists(path):
+        raise PaintInputError("no such file", path)
+    samples = reader(path)
+    count = [0]
+
+    def counted() -> Iterator[PenSample | Command]:
+        for s in samples:
+            count[0] += 1
+            if isinstance(s, (PenSample, Command)):
+                yield s
+
+    header = SessionHeader()  # a trace has no header: the session defaults
+    return _Source(header, counted(), lambda: f"{path}: sample {count[0]}")
+
+
+def _session_length(path: str) -> float:
+    """Session time plus waits of a log, from a quick scan (for progress only)."""
+    last = waited = 0.0
+    try:
+        with open(path, encoding="utf-8") as fh:
+            next(fh, None)
+            for line in fh:
+                m = re.search(r'"t":\s*([0-9.eE+-]+)', line)
+                if m:
+                    last = max(last, float(m.group(1)))
+                if '"wait"' in line:
+                    s = re.search(r'"seconds":\s*([0-9.eE+-]+)', line)
+                    if s:
+                        waited += float(s.group(1))
+    except (OSError, ValueError, UnicodeDecodeError):
+        return 0.0
+    return last + waited
+
+
+class Progress:
+    """A one-line progress display on a terminal (stderr), at most 4 updates/s."""
+
+    def __init__(self, total_s: float, stream: IO[str] | None = None) -> None:
+        self.total = total_s
+        self.stream = stream or sys.stderr
+        self.t0 = time.monotonic()
+        self.last = 0.0
+        self.shown = False
+
+    def __call__(self, player: SessionPlayer) -> None:
+        now = time.monotonic()
+        if now - self.last < 0.25:
+            return
+        self.last = now
+        t = player.painting_time
+        pct = f"{min(100.0, 100.0 * t / self.total):5.1f}% " if self.total > 0 else ""
+        rate = player.counters.steps / max(now - self.t0, 1e-9)
+        self.stream.write(f"\rpainting {pct}{t:7.1f}/{self.total:.1f} s painting time, "
+                          f"{player.counters.steps} steps, {rate:5.1f} steps/s ")
+        self.stream.flush()
+        self.shown = True
+
+    def done(self) -> None:
+        if self.shown:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+# -- painting ------------------------------------------------------------------------
+def make_backend(name: str, width: int, height: int, profile: str, seed: int,
+                 **opts: Any) -> tuple[Any, str]:
+    """Create a canvas backend; ``auto`` tries GL and falls back to NumPy.
+
+    Returns the backend and the name of the one made.  An explicit ``gl`` that
+    cannot start is an environment failure (exit 1), not bad input.
+    """
+    from station.canvas.backend import create_backend
+
+    if name == "auto":
+        try:
+            return create_backend("gl", width, height, profile, seed, **opts), "gl"
+        except BadInput:
+            raise
+        except (ImportError, StationError) as exc:
+            log.info("GL backend unavailable (%s): using numpy", exc)
+            name = "numpy"
+    try:
+        return create_backend(name, width, height, profile, seed, **opts), name
+    except ImportError as exc:
+        raise StationError(f"backend {name!r} cannot be loaded: {exc}") from None
+
+
+def paint(
+    input_path: str,
+    out_png: str | None,
+    size: tuple[int, int] | None = None,
+    profile: str | None = None,
+    backend: str = "auto",
+    stats_path: str | None = None,
+    state_path: str | None = None,
+    bits: int = 8,
+    rate: float | None = None,
+    settle: float = 0.0,
+    progress: bool | None = None,
+    backend_opts: dict[str, Any] | None = None,
+) -> PaintResult:
+    """Paint ``input_path`` headless; see the module docstring for errors.
+
+    Returns the :class:`PaintResult`; a bad record mid-file raises after the
+    outputs are written (``result.error`` is set on the exception as
+    ``exc.result``).
+    """
+    from station.canvas.palette import default_palette
+    from station.canvas.params import get_profile
+
+    if bits not in (8, 16):
+        raise PaintInputError(f"--bits {bits} must be 8 or 16", "--bits")
+    if settle < 0 or not math.isfinite(settle):
+        raise PaintInputError(f"--settle {settle} must be >= 0 seconds", "--settle")
+    for target, flag in ((out_png, "-o"), (state_path, "--state"), (stats_path, "--stats")):
+        if target:
+            parent = Path(target).resolve().parent
+            if not parent.is_dir():
+                raise PaintInputError(f"directory {str(parent)!r} does not exist", flag)
+    source = open_input(input_path)
+    try:
+        header = source.header
+        prof_name = profile or header.profile
+        prof = get_profile(prof_name)  # unknown → BadInput
+        if size is not None:
+            width, height = size
+        else:
+            width, height = header.width, header.height
+            check_size(width, height, f"{input_path}:1")
+        # Brush sizes are in cells of the canvas the session was made for.
+        scale = math.sqrt((width / header.width) * (height / header.height))
+        sim = header.extra.get("sim") if isinstance(header.extra.get("sim"), dict) else {}
+        if rate is None and isinstance(sim, dict) and isinstance(sim.get("rate"), (int, float)):
+            rate = float(sim["rate"])
+        canvas, backend = make_backend(backend, width, height, prof.name, header.seed,
+                                       **(backend_opts or {}))
+        palette = default_palette()
+        player = SessionPlayer(canvas, width, height, prof.name, rate=rate, pigments=palette,
+                               brush_scale=scale)
+        show = sys.stderr.isatty() if progress is None else progress
+        prog = Progress(_session_length(input_path) + settle) if show else None
+        t0 = time.monotonic()
+        error: BadInput | None = None
+        try:
+            player.play(source.records, source.where, on_step=prog)
+            if settle > 0:
+                player.settle(settle, on_step=prog)
+        except BadInput as exc:
+            error = exc
+        finally:
+            if prog is not None:
+                prog.done()
+        wall = time.monotonic() - t0
+        result = PaintResult(
+            width=width, height=height, profile=player.profile, backend=backend,
+            renderer=str(getattr(canvas, "renderer", backend)), steps=player.counters.steps,
+            painting_seconds=player.painting_time, wall_seconds=wall,
+            counters={**player.counters.as_dict(), "stamps": player.brush.stamps,
+                      "strokes": player.brush.strokes,
+                      "eraser_samples": player.brush.eraser_samples},
+            error=error,
+        )
+        write_outputs(canvas, result, out_png, state_path, stats_path, bits)
+    finally:
+        source.close()
+    if error is not None:
+        written = ", ".join(result.written)
+        msg = str(error) + (f" (painting up to here written: {written})" if written else "")
+        exc = PaintInputError(msg)
+        exc.result = result  # type: ignore[attr-defined]
+        raise exc from None
+    return result
+
+
+def write_outputs(canvas: Any, result: PaintResult, out_png: str | None,
+                  state_path: str | None, stats_path: str | None, bits: int) -> None:
+    """Render and write the PNG, the state and the stats (each when asked)."""
+    from station.canvas.png import write_png
+
+    try:
+        if out_png:
+            write_png(out_png, canvas.render(), bits=bits)
+            result.written.append(out_png)
+        if state_path:
+            canvas.state().save(state_path)
+            result.written.append(state_path)
+        if stats_path:
+            stats = canvas.stats()
+            stats["player"] = result.counters
+            with open(stats_path, "w", encoding="utf-8") as fh:
+                json.dump(stats, fh, indent=2)
+                fh.write("\n")
+            result.written.append(stats_path)
+    except OSError as exc:
+        raise StationError(f"cannot write output: {exc}") from None

@@ -1,0 +1,278 @@
+"""The session player: pen samples and commands → round brush → canvas backend.
+
+The simulation runs at a fixed rate decoupled from the input rate: ``rate``
+steps per second of *painting time*, each step ``dt`` of simulation time (the
+profile's ``params.dt``).  Painting time is the session clock plus every
+``wait`` so far: a ``wait {"seconds": s}`` inserts ``s`` seconds of painting
+time at that point (``round(s·rate)`` extra steps) without the script having
+to leave a gap in its timestamps.
+
+Before a record with session time ``t`` is applied, the player runs every step
+whose end lies at or before ``t + waited`` (step ``k`` ends at ``(k+1)/rate``),
+so what a record does lands in the step that follows it.  The brush stamps
+collected between two steps go into the backend as one ``add_sources`` call
+just before the step.  Everything is a pure function of the records and the
+backend: the same log on the same backend gives the same pixels.
+
+Commands: ``brush`` (validated against the palette), ``profile``, ``wait``,
+``dry``, ``new_layer``, ``clear``.  Known tools that are not implemented yet
+(``tissue``, ``eraser``, ``mask``, ``diffusion``, ``palette``, ``stop``) and
+unknown commands are warned about once per name and skipped (counted in
+:attr:`PlayerCounters.skipped_commands`).  Bad arguments to a command this
+player executes raise :class:`~station.errors.BadInput`; :meth:`SessionPlayer.play`
+stops there, so the caller can still save what was painted.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable, Container, Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from station.canvas.brush import BrushModel, BrushSettings, RoundBrush
+from station.canvas.params import PROFILES, Profile, get_profile
+from station.errors import BadInput
+from station.events import Command, PenSample
+
+log = logging.getLogger(__name__)
+
+MAX_WAIT_SECONDS = 3600.0
+
+
+class PlayerError(BadInput):
+    """A command the player executes has wrong arguments."""
+
+
+@dataclass
+class PlayerCounters:
+    """What the player did; every number counts records, stamps or steps."""
+
+    steps: int = 0
+    samples: int = 0
+    commands: dict[str, int] = field(default_factory=dict)
+    skipped_commands: dict[str, int] = field(default_factory=dict)
+    waited_s: float = 0.0
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"steps": self.steps, "samples": self.samples, "commands": dict(self.commands),
+                "skipped_commands": dict(self.skipped_commands), "waited_s": self.waited_s}
+
+
+class SessionPlayer:
+    """Plays pen samples and commands into a canvas backend.
+
+    Args:
+        backend: a canvas backend (``station.canvas.backend`` protocol), already
+            set to ``profile``.
+        width, height: canvas size in cells.
+        profile: the starting paint profile (brush model, defaults and ``dt``).
+        rate: simulation steps per second of painting time; default ``1/dt``
+            (painting time then equals simulated time).
+        pigments: names a ``brush`` command may use (the palette; any
+            container with ``in``); ``None`` leaves the check to the backend.
+        brush_scale: factor applied to every brush size (the canvas was
+            resized from the size the session was made for).
+    """
+
+    def __init__(
+        self,
+        backend: Any,
+        width: int,
+        height: int,
+        profile: str = "watercolor",
+        rate: float | None = None,
+        pigments: Container[str] | None = None,
+        brush_scale: float = 1.0,
+    ) -> None:
+        prof = get_profile(profile)
+        self.dt = prof.params.dt
+        rate = 1.0 / self.dt if rate is None else rate
+        if not (isinstance(rate, (int, float)) and math.isfinite(rate) and rate > 0):
+            raise BadInput(f"simulation rate {rate!r} must be a positive number of steps/s")
+        self.backend = backend
+        self.rate = float(rate)
+        self.pigments = pigments
+        self.brush_scale = brush_scale
+        self.profile = prof.name
+        self.brush = RoundBrush(width, height, brush_defaults(prof).scaled(brush_scale),
+                                brush_model(prof), time_scale=self.rate * self.dt)
+        self.counters = PlayerCounters()
+        self.waited = 0.0  # painting seconds inserted by wait commands
+        self.last_t = 0.0  # session time of the last record applied
+        self._warned: set[str] = set()
+
+    # -- time ------------------------------------------------------------------
+    @property
+    def painting_time(self) -> float:
+        """Painting seconds simulated so far (steps / rate)."""
+        return self.counters.steps / self.rate
+
+    def steps_due(self, t: float) -> int:
+        """Steps that must have run before a record at session time ``t``."""
+        return int(math.floor((t + self.waited) * self.rate + 1e-9))
+
+    def step(self) -> None:
+        """One simulation step with the brush sources collected since the last."""
+        self.flush_sources()
+        self.backend.step()
+        self.counters.steps += 1
+
+    def advance_to(self, t: float, on_step: Callable[[SessionPlayer], None] | None = None) -> None:
+        """Run the steps due at session time ``t``."""
+        due = self.steps_due(t)
+        while self.counters.steps < due:
+            self.step()
+            if on_step is not None:
+                on_step(self)
+
+    def flush_sources(self) -> None:
+        """Hand the pending brush stamps to the backend (no step)."""
+        src = self.brush.take()
+        if src is not None:
+            add_sources(self.backend, src)
+
+    # -- records -----------------------------------------------------------------
+    def apply(self, record: PenSample | Command, where: str | None = None) -> None:
+        """Apply one record now (no time advance: see :meth:`play`)."""
+        self.last_t = max(self.last_t, record.t)
+        if isinstance(record, PenSample):
+            self.counters.samples += 1
+            self.brush.feed(record)
+        else:
+            self.command(record, where)
+
+    def command(self, cmd: Command, where: str | None = None) -> None:
+        name = cmd.cmd
+        handler = _HANDLERS.get(name)
+        if handler is None:
+            self.counters.skipped_commands[name] = self.counters.skipped_commands.get(name, 0) + 1
+            if name not in self._warned:
+                self._warned.add(name)
+                what = "not implemented yet" if cmd.known else "unknown"
+                log.warning("%scommand %r is %s: skipped", f"{where}: " if where else "", name,
+                            what)
+            return
+        handler(self, cmd.args, where)
+        self.counters.commands[name] = self.counters.commands.get(name, 0) + 1
+
+    def _brush(self, args: Mapping[str, Any], where: str | None) -> None:
+        base = self.brush.settings
+        unscaled = BrushSettings(base.kind, base.size / self.brush_scale, base.water,
+                                 base.pigment)
+        settings = BrushSettings.from_args(args, where, self.pigments, unscaled)
+        canonical = getattr(self.pigments, "get", None)
+        if canonical is not None:  # the palette: use its spelling of each name
+            settings = BrushSettings(settings.kind, settings.size, settings.water,
+                                     {canonical(k).name: v for k, v in settings.pigment.items()})
+        self.brush.set(settings.scaled(self.brush_scale))
+
+    def _profile(self, args: Mapping[str, Any], where: str | None) -> None:
+        name = args.get("name")
+        if not isinstance(name, str) or name not in PROFILES:
+            raise PlayerError(f"unknown profile {name!r} (one of {', '.join(sorted(PROFILES))})",
+                              where)
+        self.flush_sources()
+        try:
+            self.backend.set_profile(name)
+        except BadInput as exc:
+            raise PlayerError(str(exc).removeprefix("--profile: "), where) from None
+        prof = get_profile(name)
+        self.profile = name
+        # The rate (steps per painting second) stays; a profile with another dt
+        # changes how much simulated time a painting second holds.
+        self.dt = prof.params.dt
+        self.brush.time_scale = self.rate * self.dt
+        self.brush.model = brush_model(prof)
+        self.brush.set(brush_defaults(prof).scaled(self.brush_scale))
+
+    def _wait(self, args: Mapping[str, Any], where: str | None) -> None:
+        seconds = args.get("seconds", 0.0)
+        if (isinstance(seconds, bool) or not isinstance(seconds, (int, float))
+                or not math.isfinite(seconds) or not 0.0 <= seconds <= MAX_WAIT_SECONDS):
+            raise PlayerError(f"wait seconds {seconds!r} must be a number in [0, "
+                              f"{MAX_WAIT_SECONDS:g}]", where)
+        self.waited += float(seconds)
+        self.counters.waited_s += float(seconds)
+
+    # -- whole streams -------------------------------------------------------------
+    def play(
+        self,
+        records: Iterable[PenSample | Command],
+        where: Callable[[], str] | None = None,
+        on_step: Callable[[SessionPlayer], None] | None = None,
+    ) -> None:
+        """Play a stream of records in time order.
+
+        ``where`` names the current record (``file:line``) for error messages.
+        A :class:`BadInput` from the stream or from a record stops the play
+        with everything before it applied (and simulated up to that record's
+        time); pending brush stamps are flushed into the backend first, so
+        nothing already painted is lost.
+        """
+        try:
+            for rec in records:
+                self.advance_to(rec.t, on_step)
+                # a canvas operation must see the stamps made before it
+                if isinstance(rec, Command) and rec.cmd in _FLUSH_BEFORE:
+                    self.flush_sources()
+                self.apply(rec, where() if where else None)
+                if isinstance(rec, Command) and rec.cmd == "wait":
+                    self.advance_to(rec.t, on_step)
+        finally:
+            self.flush_sources()
+
+    def settle(self, seconds: float, on_step: Callable[[SessionPlayer], None] | None = None
+               ) -> None:
+        """Run ``seconds`` more painting time after the last record."""
+        self.waited += seconds
+        self.advance_to(self.last_t, on_step)
+        self.flush_sources()
+
+
+def _dry(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+    p.flush_sources()
+    p.backend.dry()
+
+
+def _new_layer(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+    p.flush_sources()
+    try:
+        p.backend.new_layer()
+    except BadInput as exc:
+        raise PlayerError(str(exc), where) from None
+
+
+def _clear(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+    p.brush.take()  # stamps not yet simulated are cleared with the rest
+    p.backend.clear()
+
+
+_HANDLERS: dict[str, Callable[[SessionPlayer, Mapping[str, Any], str | None], None]] = {
+    "brush": SessionPlayer._brush,
+    "profile": SessionPlayer._profile,
+    "wait": SessionPlayer._wait,
+    "dry": _dry,
+    "new_layer": _new_layer,
+    "clear": _clear,
+}
+_FLUSH_BEFORE = frozenset({"dry", "new_layer", "profile"})
+
+
+def brush_model(profile: Profile) -> BrushModel:
+    """The round-brush model of a profile: its per-stamp water and pigment, its v_max."""
+    b = profile.brush
+    return BrushModel(water_scale=b.water, pigment_scale=b.pigment_load,
+                      v_max=profile.params.v_max)
+
+
+def brush_defaults(profile: Profile) -> BrushSettings:
+    """The brush a profile starts with: its radius, full water, its default pigment."""
+    b = profile.brush
+    return BrushSettings(size=2.0 * b.radius, water=1.0, pigment={b.pigment: 1.0})
+
+
+def add_sources(backend: Any, src: Any) -> None:
+    """Give brush sources to a backend (region arrays; see ``brush.Sources``)."""
+    backend.add_sources(src.dw, src.dp, src.dvx, src.dvy, y0=src.y0, x0=src.x0)
