@@ -1,0 +1,93 @@
+"""The canvas backend protocol and the factory that picks an implementation.
+
+Every backend simulates the same three-layer model (``reference.py`` is the
+contract) and offers the same operations. Sources are given as float32 arrays of
+any shape ``(h, w)`` placed with their top-left cell at row ``y0``, column ``x0``
+of the canvas (clipped to the canvas): ``dw`` water height, ``dp`` pigment area
+fraction per pigment name, ``dvx``/``dvy`` velocity [cell/s]. Masked cells
+receive nothing. Unknown pigments, or a ninth pigment in one layer, raise
+``BadInput`` without changing the canvas.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from station.canvas.params import CanvasInputError
+from station.canvas.state import CanvasState
+
+BACKENDS = ("numpy", "gl")
+
+
+@runtime_checkable
+class CanvasBackend(Protocol):
+    """What the session player, the live simulation and the benchmark drive."""
+
+    renderer: str
+    width: int
+    height: int
+
+    def add_sources(self, dw: np.ndarray | None = None,
+                    dp: Mapping[str, np.ndarray] | None = None,
+                    dvx: np.ndarray | None = None, dvy: np.ndarray | None = None,
+                    *, y0: int = 0, x0: int = 0) -> None:
+        """Add brush/tool sources (spec step 1) at ``(y0, x0)``."""
+        ...
+
+    def step(self, dt: float | None = None) -> None:
+        """One simulation step (``params.dt`` when ``dt`` is None)."""
+        ...
+
+    def dry(self) -> None:
+        """Dry the active layer: suspended pigment settles, all water goes."""
+        ...
+
+    def new_layer(self) -> None:
+        """Dry, fold the active layer into the composed reflectance, start a new one."""
+        ...
+
+    def clear(self) -> None:
+        """Back to blank paper (same paper, same profile), bookkeeping reset."""
+        ...
+
+    def set_profile(self, name: str) -> None:
+        """Switch paint profile (parameters, renderer, palette defaults) mid-painting."""
+        ...
+
+    def render(self) -> np.ndarray:
+        """Linear reflectance, float32 (H, W, 3) in [0, 1]."""
+        ...
+
+    def state(self) -> CanvasState:
+        """A copy of the complete state (GPU backends read their textures back)."""
+        ...
+
+    def load_state(self, state: CanvasState) -> None:
+        """Continue from ``state`` exactly."""
+        ...
+
+    def stats(self) -> dict[str, Any]:
+        """The ``--stats`` JSON of interfaces.md."""
+        ...
+
+
+def create_backend(name: str, width: int, height: int, profile: str = "watercolor",
+                   seed: int = 0, **opts: Any) -> CanvasBackend:
+    """Make a backend: ``"numpy"`` (reference) or ``"gl"`` (moderngl, imported lazily).
+
+    ``opts`` go to the backend (e.g. ``tiling=False``, ``n_slots=8``,
+    ``params=SimParams(...)`` overriding the profile's parameters).
+    """
+    if name == "numpy":
+        from station.canvas.numpy_backend import NumpyCanvas
+
+        return NumpyCanvas(width, height, profile=profile, seed=seed, **opts)
+    if name == "gl":
+        from station.canvas.gl import GLCanvas
+
+        return GLCanvas(width, height, profile=profile, seed=seed, **opts)  # type: ignore[no-any-return]
+    raise CanvasInputError(
+        f"unknown canvas backend {name!r} (known: {', '.join(BACKENDS)})", "--backend")

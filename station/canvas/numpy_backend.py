@@ -1,0 +1,119 @@
+"""``NumpyCanvas``: the reference backend (``reference.py`` passes on a CanvasState)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from station.canvas import operations, reference, tiles
+from station.canvas.palette import Palette
+from station.canvas.params import CanvasInputError, SimParams, get_profile
+from station.canvas.render import render_state
+from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
+from station.canvas.stats import canvas_stats
+
+
+class NumpyCanvas:
+    """The whole three-layer model in NumPy, float32, vectorised, no global state.
+
+    Args:
+        width, height: canvas size in cells.
+        profile: paint profile name (``watercolor``, ``gouache``, ``ink``).
+        seed: paper seed.
+        tiling: simulate only dirty tiles (default True).
+        n_slots: pigment slots per layer (default 8).
+        params: parameters replacing the profile's (tests, calibration).
+        paper: paper preset replacing the profile's.
+        palette: palette replacing the packaged one.
+    """
+
+    renderer = "numpy"
+
+    def __init__(self, width: int, height: int, profile: str = "watercolor", seed: int = 0,
+                 *, tiling: bool = True, n_slots: int = DEFAULT_SLOTS,
+                 params: SimParams | None = None, paper: str | None = None,
+                 palette: Palette | None = None) -> None:
+        check_size(width, height)
+        prof = get_profile(profile)
+        prm = params if params is not None else prof.params
+        preset = paper if paper is not None else prof.paper
+        from station.canvas.paper import make_paper
+
+        h = make_paper(preset, height, width, seed)
+        self._state = CanvasState.blank(width, height, prm, h, profile=prof.name,
+                                        paper_preset=preset, seed=seed, palette=palette,
+                                        n_slots=n_slots, tiling=tiling)
+        self._renderer_kind = prof.renderer
+
+    # ------------------------------------------------------------------ protocol
+    @property
+    def width(self) -> int:
+        return self._state.width
+
+    @property
+    def height(self) -> int:
+        return self._state.height
+
+    @property
+    def params(self) -> SimParams:
+        return self._state.params
+
+    @property
+    def live_state(self) -> CanvasState:
+        """The state itself (no copy): for tests and tools that mutate fields."""
+        return self._state
+
+    def add_sources(self, dw: np.ndarray | None = None,
+                    dp: Mapping[str, np.ndarray] | None = None,
+                    dvx: np.ndarray | None = None, dvy: np.ndarray | None = None,
+                    *, y0: int = 0, x0: int = 0) -> None:
+        operations.add_sources(self._state, dw, dp, dvx, dvy, y0=y0, x0=x0)
+
+    def step(self, dt: float | None = None) -> None:
+        if dt is not None and dt * self._state.params.v_max > 1.0 + 1e-9:
+            raise CanvasInputError("dt too large for v_max (more than one cell per step)",
+                                   "step")
+        reference.step(self._state, dt)
+
+    def dry(self) -> None:
+        operations.dry(self._state)
+
+    def new_layer(self) -> None:
+        operations.dry(self._state)
+        composed = render_state(self._state, self._renderer_kind)
+        operations.new_layer(self._state, composed)
+
+    def clear(self) -> None:
+        operations.clear(self._state)
+
+    def set_profile(self, name: str) -> None:
+        operations.set_profile(self._state, name)
+        self._renderer_kind = get_profile(name).renderer
+
+    def render(self) -> np.ndarray:
+        return render_state(self._state, self._renderer_kind)
+
+    def state(self) -> CanvasState:
+        return self._state.copy()
+
+    def load_state(self, state: CanvasState) -> None:
+        self._state = state.copy()
+        self._renderer_kind = get_profile(state.profile).renderer
+
+    def stats(self) -> dict[str, Any]:
+        return canvas_stats(self._state, self.renderer)
+
+    # ------------------------------------------------------------------ extras
+    def set_tiling(self, on: bool) -> None:
+        """Switch dirty tiles on or off (the result does not change)."""
+        self._state.tiling = bool(on)
+        if on:
+            tiles.activate_all_live(self._state)
+
+    def save(self, path: str) -> None:
+        self._state.save(path)
+
+    def load(self, path: str) -> None:
+        self.load_state(CanvasState.load(path))

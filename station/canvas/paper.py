@@ -1,0 +1,80 @@
+"""Paper height from seedable Worley (cellular) noise (Worley 1996, seed 4.7.1).
+
+The height ``h`` in ``[0, 1]`` drives granulation, the capillary capacity
+``c = c_min + h (c_max - c_min)`` and the diffusion controller.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from station.canvas.params import CanvasInputError
+
+
+@dataclass(frozen=True)
+class PaperPreset:
+    """Worley octaves (feature spacing in cells, weight) and the height range used."""
+
+    name: str
+    octaves: tuple[tuple[float, float], ...]
+    low: float  # h range after rescaling: [low, high]
+    high: float
+
+
+PAPER_PRESETS: dict[str, PaperPreset] = {
+    # smooth hot-pressed paper: large soft cells, narrow height range
+    "hot-press": PaperPreset("hot-press", ((12.0, 1.0), (5.0, 0.3)), 0.3, 0.7),
+    # the watercolourist's cold-pressed paper: medium tooth, full range
+    "cold-press": PaperPreset("cold-press", ((7.0, 1.0), (3.0, 0.5)), 0.0, 1.0),
+    # rough / absorbent paper for ink: small cells plus fine fibre noise
+    "rough": PaperPreset("rough", ((4.0, 1.0), (2.0, 0.7), (1.3, 0.4)), 0.0, 1.0),
+}
+
+
+def worley_f1(height: int, width: int, spacing: float, rng: np.random.Generator) -> np.ndarray:
+    """Distance to the nearest feature point, one random point per ``spacing`` grid cell.
+
+    Vectorised: every pixel looks at the 3x3 feature cells around its own.
+    Returns float32 (height, width), not normalised.
+    """
+    gh = int(np.ceil(height / spacing)) + 2
+    gw = int(np.ceil(width / spacing)) + 2
+    # feature point of grid cell (gy, gx), in pixel units; grid cell 0 starts at -spacing
+    pts = (rng.random((gh, gw, 2)) + np.stack(np.meshgrid(
+        np.arange(gh), np.arange(gw), indexing="ij"), axis=-1) - 1.0) * spacing
+    ys = np.arange(height, dtype=np.float64) + 0.5
+    xs = np.arange(width, dtype=np.float64) + 0.5
+    cy = (ys // spacing).astype(np.int64) + 1
+    cx = (xs // spacing).astype(np.int64) + 1
+    best = np.full((height, width), np.inf)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            gy = np.clip(cy + dy, 0, gh - 1)
+            gx = np.clip(cx + dx, 0, gw - 1)
+            py = pts[gy[:, None], gx[None, :], 0]
+            px = pts[gy[:, None], gx[None, :], 1]
+            d = (py - ys[:, None]) ** 2 + (px - xs[None, :]) ** 2
+            np.minimum(best, d, out=best)
+    return np.sqrt(best).astype(np.float32)
+
+
+def make_paper(preset: str, height: int, width: int, seed: int) -> np.ndarray:
+    """Paper height field in ``[low, high]`` of ``preset``, deterministic in ``seed``."""
+    try:
+        p = PAPER_PRESETS[preset]
+    except KeyError:
+        raise CanvasInputError(
+            f"unknown paper preset {preset!r} (known: {', '.join(PAPER_PRESETS)})", "paper"
+        ) from None
+    rng = np.random.default_rng(seed)
+    total = np.zeros((height, width), np.float32)
+    for spacing, weight in p.octaves:
+        f1 = worley_f1(height, width, spacing, rng)
+        # F1 is 0 at feature points: invert so features are peaks (fibre crossings)
+        total += np.float32(weight) * (1.0 - f1 / np.float32(spacing))
+    lo, hi = float(total.min()), float(total.max())
+    norm = (total - lo) / (hi - lo) if hi > lo else np.zeros_like(total)
+    h = np.float32(p.low) + norm * np.float32(p.high - p.low)
+    return np.clip(h, 0.0, 1.0).astype(np.float32)

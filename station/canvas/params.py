@@ -1,0 +1,240 @@
+"""Simulation parameters and paint profiles of the three-layer canvas.
+
+Units used throughout the canvas package:
+
+- length: one cell (cell width = cell height = 1);
+- time: seconds of simulated paint time (``dt`` defaults to 1/30 s);
+- water: height of a water column in cell units (``w`` and ``wc``);
+- pigment: fraction of the cell area covered (``p`` and ``q``).
+
+Every rate below is "per second"; a pass multiplies it by ``dt``. The numbers
+are the station's decisions (see ``docs/canvas-model.md``): the seed gives only
+``omega_h = 0.06`` and the 32x32 tiles.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from station.errors import BadInput
+
+
+class CanvasInputError(BadInput):
+    """Bad input to the canvas (pigment, profile, size, state file, parameter)."""
+
+
+@dataclass(frozen=True)
+class SimParams:
+    """Numerical and physical parameters of one simulation step.
+
+    Attributes (units in brackets):
+        dt: time step [s].
+        w_min, w_max: bounds of the fluid water height inside a stroke [height].
+            Advection never moves a cell out of ``[min(w, w_min), max(w, w_max)]``.
+        viscosity: kinematic viscosity nu of the velocity diffusion [cell^2/s].
+        jacobi_iters: Jacobi iterations of every implicit diffusion [count].
+        omega_h: weight of the water-height velocity ``v_h`` in the blend (seed: 0.06).
+        height_gain: ``v_h = -height_gain * grad(w)`` [cell/s per height/cell].
+        nu_w: water diffusion rate [cell^2/s].
+        nu_p: pigment diffusion rate [cell^2/s].
+        eps_shallow: fluid-layer evaporation rate [height/s].
+        edge_evap: factor on the extra side evaporation ``w * eps_shallow * dt`` per face
+            towards a neighbour without fluid water (spec: 1).
+        alpha: capillary absorption rate [height/s].
+        cap_diffusion: capillary diffusion rate kappa on the saturation difference [1/s];
+            ``cap_diffusion * dt <= 1/8`` keeps ``wc`` inside ``[0, c]`` exactly.
+        eps_cap: capillary evaporation rate [height/s].
+        c_min, c_max: capillary capacity at paper height 0 and 1 [height].
+        moist_threshold: ``wc`` above which a cell is moist, hence wet [height].
+        v_max: bound of each velocity component [cell/s]; ``v_max * dt <= 1``.
+        surface_rate: factor on the surface exchange of eqs. 4.11/4.12 [1] (spec: 1).
+        block_paper: share of the paper height in the diffusion-controller blocking
+            value, ``beta_paper = 1 - block_paper * (1 - h)`` [1].
+        block_fade: time for a brush-written blocking pattern to fade to "free" [s].
+        w_dry_eps: fluid water below which a cell dries (the rest evaporates) [height].
+        tile_size: dirty-tile edge [cells].
+        tile_check: steps between re-checks of a tile's time-to-live [steps] (0: from
+            the drying-time estimate).
+        paper_shade: darkening of paper valleys in the blank paper reflectance [1].
+        gouache_opaque: pigment thickness at which a gouache layer hides what is below [1].
+    """
+
+    dt: float = 1.0 / 30.0
+    w_min: float = 0.02
+    w_max: float = 1.0
+    viscosity: float = 0.5
+    jacobi_iters: int = 4
+    omega_h: float = 0.06
+    height_gain: float = 60.0
+    nu_w: float = 0.3
+    nu_p: float = 0.3
+    eps_shallow: float = 0.06
+    edge_evap: float = 1.0
+    alpha: float = 0.03
+    cap_diffusion: float = 1.5
+    eps_cap: float = 0.02
+    c_min: float = 0.1
+    c_max: float = 0.4
+    moist_threshold: float = 0.25
+    v_max: float = 30.0
+    surface_rate: float = 1.0
+    block_paper: float = 0.0
+    block_fade: float = 2.0
+    w_dry_eps: float = 1e-5
+    tile_size: int = 32
+    tile_check: int = 0
+    paper_shade: float = 0.05
+    gouache_opaque: float = 0.6
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self) -> None:
+        """Raise :class:`CanvasInputError` unless every parameter is usable."""
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if not isinstance(value, (int, float)) or isinstance(value, bool):
+                raise CanvasInputError(f"parameter {f.name} must be a number", "params")
+            if not math.isfinite(value) or value < 0:
+                raise CanvasInputError(f"parameter {f.name} must be finite and >= 0", "params")
+        if self.dt <= 0:
+            raise CanvasInputError("dt must be > 0", "params")
+        if not 0 <= self.w_min < self.w_max:
+            raise CanvasInputError("need 0 <= w_min < w_max", "params")
+        if not 0 < self.c_min <= self.c_max:
+            raise CanvasInputError("need 0 < c_min <= c_max", "params")
+        if not 0 <= self.omega_h <= 1:
+            raise CanvasInputError("omega_h must lie in [0, 1]", "params")
+        if self.v_max * self.dt > 1.0 + 1e-9:
+            raise CanvasInputError("v_max * dt must be <= 1 cell per step", "params")
+        if self.cap_diffusion * self.dt > 0.125 + 1e-9:
+            raise CanvasInputError("cap_diffusion * dt must be <= 1/8", "params")
+        if self.tile_size < 4 or int(self.tile_size) != self.tile_size:
+            raise CanvasInputError("tile_size must be an integer >= 4", "params")
+        if int(self.jacobi_iters) != self.jacobi_iters or self.jacobi_iters < 1:
+            raise CanvasInputError("jacobi_iters must be an integer >= 1", "params")
+        if not 0 <= self.block_paper <= 1:
+            raise CanvasInputError("block_paper must lie in [0, 1]", "params")
+
+    def replace(self, **changes: Any) -> SimParams:
+        """A copy with ``changes`` applied (validated)."""
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> SimParams:
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = set(data) - names
+        if unknown:
+            raise CanvasInputError(f"unknown parameters {sorted(unknown)}", "params")
+        kinds = {f.name: f.type for f in dataclasses.fields(cls)}
+        clean: dict[str, Any] = {}
+        for k, v in data.items():
+            clean[k] = int(v) if kinds[k] in ("int", int) else float(v)
+        return cls(**clean)
+
+    def tile_ttl_steps(self) -> int:
+        """Time-to-live of a touched tile: an estimate of the drying time in steps.
+
+        Fluid water of height ``w_max`` evaporates at ``eps_shallow`` and is absorbed
+        at ``alpha``; a full capillary tank then evaporates at ``eps_cap``.
+        """
+        if self.tile_check > 0:
+            return int(self.tile_check)
+        fluid = self.w_max / max(self.eps_shallow + self.alpha, 1e-6)
+        cap = self.c_max / max(self.eps_cap, 1e-6)
+        return max(1, min(int(math.ceil((fluid + cap) / self.dt / 4.0)), 4096))
+
+
+@dataclass(frozen=True)
+class BrushDefaults:
+    """Defaults the round brush of a profile starts from.
+
+    radius [cells] at full pressure, water [height] and pigment [area fraction]
+    deposited per stamp at full pressure, pigment: the default pigment name.
+    """
+
+    radius: float = 6.0
+    water: float = 0.5
+    pigment_load: float = 0.08
+    pigment: str = "French Ultramarine"
+
+
+@dataclass(frozen=True)
+class Profile:
+    """A paint medium: simulation parameters, paper, palette, renderer, brush."""
+
+    name: str
+    params: SimParams
+    paper: str
+    renderer: str  # "km" or "gouache"
+    pigments: tuple[str, ...]
+    brush: BrushDefaults = field(default_factory=BrushDefaults)
+    description: str = ""
+
+
+_WATERCOLOR = SimParams()
+
+PROFILES: dict[str, Profile] = {
+    "watercolor": Profile(
+        name="watercolor",
+        params=_WATERCOLOR,
+        paper="cold-press",
+        renderer="km",
+        pigments=(
+            "French Ultramarine", "Cerulean Blue", "Hansa Yellow", "Cadmium Yellow",
+            "Quinacridone Rose", "Cadmium Red", "Indian Red", "Burnt Umber",
+            "Phthalo Green", "Hookers Green", "Brilliant Orange", "Interference Lilac",
+            "Black",
+        ),
+        brush=BrushDefaults(),
+        description="transparent glazes (Kubelka-Munk), cold-press paper",
+    ),
+    # Gouache (seed 6.3.2): thicker (higher viscosity, slower diffusion), stays on the
+    # surface (little absorption), more pigment per stamp, opaque blend with white.
+    "gouache": Profile(
+        name="gouache",
+        params=_WATERCOLOR.replace(
+            viscosity=2.0, nu_w=0.1, nu_p=0.05, alpha=0.005, height_gain=20.0,
+            eps_shallow=0.05,
+        ),
+        paper="hot-press",
+        renderer="gouache",
+        pigments=(
+            "Titanium White", "French Ultramarine", "Cadmium Yellow", "Cadmium Red",
+            "Quinacridone Rose", "Phthalo Green", "Burnt Umber", "Black",
+        ),
+        brush=BrushDefaults(radius=6.0, water=0.4, pigment_load=0.3, pigment="Titanium White"),
+        description="opaque concentration blend with a white pigment, hot-press paper",
+    ),
+    # Oriental ink (seed 6.3.3): rough absorbent paper (higher absorption, faster
+    # capillary spread) and a dense black pigment; the diffusion controller blocks
+    # pigment on paper fibres (low h) to give feathery edges.
+    "ink": Profile(
+        name="ink",
+        params=_WATERCOLOR.replace(
+            alpha=0.12, cap_diffusion=3.0, moist_threshold=0.15, nu_p=0.8,
+            block_paper=0.7, eps_cap=0.03,
+        ),
+        paper="rough",
+        renderer="km",
+        pigments=("Sumi Ink", "Black"),
+        brush=BrushDefaults(radius=4.0, water=0.6, pigment_load=0.15, pigment="Sumi Ink"),
+        description="rough absorbent paper, dense black ink, diffusion controller",
+    ),
+}
+
+
+def get_profile(name: str) -> Profile:
+    """The profile called ``name``; unknown names raise :class:`CanvasInputError`."""
+    try:
+        return PROFILES[name]
+    except KeyError:
+        raise CanvasInputError(
+            f"unknown profile {name!r} (known: {', '.join(sorted(PROFILES))})", "--profile"
+        ) from None

@@ -1,0 +1,499 @@
+"""NumPy reference of one canvas time step: the pass list is the contract.
+
+The GL backend implements the same passes with the same maths; tests compare
+them pass by pass. Everything is float32, arrays are indexed ``[y, x]`` (row,
+column), "E/W" neighbours are ``x +/- 1`` and "S/N" neighbours ``y +/- 1``.
+Cells outside the array (canvas border, or the edge of the simulated tile
+region) are *non-wet with zero water, zero capillary water, zero velocity and
+zero pigment*: every stencil treats them exactly like that, which is what makes
+tiling on/off give the same result.
+
+CHANGED: (nothing yet; changes to the maths of a pass are listed here)
+
+Notation: ``dt`` step [s]; ``wet = ((w > 0) | (wc > moist_threshold)) & (mask == 0)``
+is computed ONCE per step, after the sources were added, and used by passes 1-6
+and 8. A *face* is the side shared by two 4-neighbours; a face is *open* when
+both of its cells are wet (``fx[y, x]`` joins (y, x) and (y, x+1), shape (H, W-1);
+``fy[y, x]`` joins (y, x) and (y+1, x), shape (H-1, W)). A face flux F > 0 flows
+from the lower-index cell to the higher-index cell; applying fluxes means
+``u[cell] -= F`` for the donor and ``u[other] += F`` for the receiver (exactly
+the same float32 value on both sides).
+
+0. sources (``add_sources``, before the step): for every unmasked cell
+   ``w <- min(w + dw, w_max)``, ``p[k] <- min(p[k] + dp[k], 1)``,
+   ``v <- clamp(v + dv, -v_max, v_max)``; the amounts actually added are booked.
+
+1. ``advect_velocity`` (semi-Lagrangian, Stam 1999). Source field
+   ``vs = v * wet``. For each wet cell: back-trace ``X = x - vx*dt``,
+   ``Y = y - vy*dt``, clamp X to [0, W-1] and Y to [0, H-1]; ``x0 = min(floor(X),
+   W-2)`` (0 when W == 1), ``fx = X - x0`` (same for y); bilinear
+   ``(1-fy)((1-fx) vs[y0,x0] + fx vs[y0,x0+1]) + fy((1-fx) vs[y0+1,x0] + fx vs[y0+1,x0+1])``.
+   Non-wet cells get 0.
+
+2. ``diffuse_velocity`` (implicit, Jacobi): ``k = viscosity*dt``; per component u,
+   ``x0 = u``; ``jacobi_iters`` times ``x <- (u + k * sum_{open faces} x_n) /
+   (1 + k * n_open)`` (n_open = number of open faces of the cell; all old x, i.e.
+   Jacobi not Gauss-Seidel); non-wet cells 0.
+
+3. ``water_height_and_boundary``: for each wet cell, neighbour heights
+   ``wE = w[y,x+1]`` if face E is open else ``w[y,x]`` (same for W, N, S);
+   ``vh = -height_gain * ((wE - wW)/2, (wS - wN)/2)``;
+   ``v <- (1 - omega_h) v + omega_h vh``; boundary (no flow into non-wet cells or
+   the border): face E closed -> ``vx = min(vx, 0)``, face W closed -> ``vx = max(vx, 0)``,
+   face S closed -> ``vy = min(vy, 0)``, face N closed -> ``vy = max(vy, 0)``;
+   then clamp each component to [-v_max, v_max]; non-wet cells 0.
+
+4. ``diffuse_water`` (conservative implicit diffusion, ``k = nu_w*dt``, conductance
+   ``b = 1`` on open faces, 0 on closed): see ``implicit_diffusion`` below.
+
+5. ``diffuse_pigment``: the same with ``k = nu_p*dt`` and the diffusion controller:
+   cell value ``beta_c = min(1 - block_paper*(1 - h), block_eff)``,
+   ``block_eff = block + (1 - block) * clamp((sim_time - block_time)/block_fade, 0, 1)``
+   (``block_fade == 0`` -> 1), face conductance ``b = min(beta_c[i], beta_c[j])`` on
+   open faces. All slots at once.
+
+   ``implicit_diffusion(u, b, k)``: ``B = sum_faces b``; ``x0 = u``; ``jacobi_iters``
+   times ``x <- (u + k * sum_faces b * x_n) / (1 + k*B)`` (the seed's
+   ``(a u + sum b x_n) / (a + sum b)`` with ``a = 1/k``); then face fluxes
+   ``F = k * b * (x_i - x_j)`` (i the lower-index cell); donor limiter: per cell
+   ``out = sum of F leaving it``, ``s = u/out if out > u else 1``; each face flux is
+   multiplied by ``s`` of its donor; ``u_new = u - sum F_out + sum F_in``. Exactly
+   mass-conserving for any iteration count, equal to the implicit solution when
+   converged, never negative.
+
+6. ``advect_water_and_pigment`` (conservative face fluxes, seed 4.5.2/4.5.4):
+   face velocity ``uf = (vx_i + vx_j)/2`` (x faces) / ``(vy_i + vy_j)/2`` (y faces) on
+   open faces, 0 on closed; rate ``r = |uf| * dt / 4`` (the four faces' contributions
+   are summed and divided by four); donor = upwind cell (i if uf > 0, else j).
+   Per cell: ``Rout = sum of r over faces where it donates``; ``lo = min(w, w_min)``;
+   ``s_out = (w - lo)/(w*Rout) if w*Rout > w - lo else 1`` (0 when w == 0).
+   ``Iw = sum over faces where it receives of w_donor*r`` and per pigment
+   ``Ip[k] = sum p_donor[k]*r``; ``hi = max(w, w_max)``;
+   ``s_in = min(1, (hi - w)/Iw, min_k (1 - p[k])/Ip[k])`` (terms with a zero
+   denominator are skipped; negative numerators count as 0).
+   Limited rate ``r' = r * s_out[donor] * s_in[receiver]``; water flux ``w_donor*r'``,
+   pigment flux ``p_donor[k]*r'`` (pigment moves with the water that carries it:
+   ``p * flux / w_upwind``). Then apply. Guarantees: no cell leaves
+   ``[min(w, w_min), max(w, w_max)]`` or p leaves [0, 1]; closed faces carry nothing.
+
+7. ``evaporate`` (fluid layer, seed 4.5.3): for each cell with ``w > 0``:
+   ``n = number of 4-neighbours with w == 0`` (border counts as w == 0),
+   ``loss = min(w, eps_shallow*dt + edge_evap*n*w*eps_shallow*dt)``;
+   ``w -= loss``; ``evaporated += loss``.
+
+8. ``surface_exchange`` (seed 4.6), per slot k, wet cells only, ``f = clamp(w/w_max, 0, 1)``:
+   ``down = surface_rate*dt * p (1 - f)(1 - h*gamma) delta``,
+   ``up = surface_rate*dt * q f (1 - (1 - h)*gamma) delta / beta``;
+   ``down = min(down, p, 1 - q)``; ``up = min(up, q, 1 - p)``;
+   ``p += up - down``; ``q += down - up``. Free slots have delta = 0.
+
+9. ``capillary`` (seed 4.7.2), ALL cells (not only wet), ``c = c_min + h (c_max - c_min)``,
+   ``open = (mask == 0)``:
+   a. absorb: where ``w > 0`` and open: ``d = min(alpha*dt, w, max(c - wc, 0))``;
+      ``w -= d``; ``wc += d``;
+   b. diffuse (explicit, one step): saturation ``s = wc / c``; face flux
+      ``F = cap_diffusion*dt * min(c_i, c_j) * (s_i - s_j)`` on faces with both cells
+      open (0 otherwise); apply (``cap_diffusion*dt <= 1/8`` keeps wc in [0, c]);
+   c. evaporate: where ``w == 0``: ``e = min(eps_cap*dt, wc)``; ``wc -= e``;
+      ``evaporated += e``.
+
+10. ``dry_cells`` (seed 4.7, spec step 8): cells with ``0 < w < w_dry_eps`` lose the
+    rest to evaporation (booked); then every cell with ``w == 0`` deposits
+    ``t = min(p[k], 1 - q[k])``: ``q += t``, ``p -= t``, and gets ``v = 0``.
+
+Then ``sim_time += dt``, ``step_count += 1`` and the dirty tiles are updated
+(``tiles.py``). With tiling on, passes run on the bounding box of the active tiles
+plus a one-cell halo; all other cells are inactive (w == 0, wc == 0, v == 0) and
+no pass changes them, so the result is the same as with tiling off.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from station.canvas.params import SimParams
+from station.canvas.state import CanvasState
+
+F32 = np.float32
+_ZERO = F32(0.0)
+_ONE = F32(1.0)
+
+
+# ---------------------------------------------------------------- helpers
+def wet_mask(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams) -> np.ndarray:
+    """Cells taking part in the fluid and surface layers this step (bool (H, W))."""
+    return ((w > 0) | (wc > F32(prm.moist_threshold))) & (mask == 0)
+
+
+def open_faces(wet: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Open faces (both cells wet): x faces (H, W-1) and y faces (H-1, W), bool."""
+    return wet[:, :-1] & wet[:, 1:], wet[:-1, :] & wet[1:, :]
+
+
+def neighbour_sum(x: np.ndarray, bx: np.ndarray, by: np.ndarray) -> np.ndarray:
+    """sum over the 4 faces of ``b_face * x_neighbour`` (x may have leading axes)."""
+    s = np.zeros_like(x)
+    s[..., :, :-1] += bx * x[..., :, 1:]
+    s[..., :, 1:] += bx * x[..., :, :-1]
+    s[..., :-1, :] += by * x[..., 1:, :]
+    s[..., 1:, :] += by * x[..., :-1, :]
+    return s
+
+
+def apply_fluxes(u: np.ndarray, fx: np.ndarray, fy: np.ndarray) -> np.ndarray:
+    """``u`` after face fluxes (positive: lower-index cell -> higher-index cell)."""
+    out = u.copy()
+    out[..., :, :-1] -= fx
+    out[..., :, 1:] += fx
+    out[..., :-1, :] -= fy
+    out[..., 1:, :] += fy
+    return out
+
+
+def _outflow(fx: np.ndarray, fy: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """Per cell, the sum of the face fluxes leaving it."""
+    out = np.zeros(shape, F32)
+    out[..., :, :-1] += np.maximum(fx, _ZERO)
+    out[..., :, 1:] += np.maximum(-fx, _ZERO)
+    out[..., :-1, :] += np.maximum(fy, _ZERO)
+    out[..., 1:, :] += np.maximum(-fy, _ZERO)
+    return out
+
+
+def _donor_scaled(fx: np.ndarray, fy: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Multiply each face flux by the factor ``s`` of its donor cell."""
+    fx = np.where(fx > 0, fx * s[..., :, :-1], fx * s[..., :, 1:])
+    fy = np.where(fy > 0, fy * s[..., :-1, :], fy * s[..., 1:, :])
+    return fx, fy
+
+
+def implicit_diffusion(u: np.ndarray, bx: np.ndarray, by: np.ndarray, k: float,
+                       iters: int) -> np.ndarray:
+    """Conservative implicit diffusion (pass 4/5 maths, see module docstring).
+
+    ``u`` (..., H, W) >= 0; ``bx`` (H, W-1) and ``by`` (H-1, W) face conductances in [0, 1];
+    ``k = nu * dt`` [cell^2]. Returns the new field, float32.
+    """
+    if k <= 0:
+        return u.copy()
+    kk = F32(k)
+    big_b = neighbour_sum(np.ones(u.shape[-2:], F32), bx, by)
+    denom = _ONE + kk * big_b
+    x = u
+    for _ in range(int(iters)):
+        x = (u + kk * neighbour_sum(x, bx, by)) / denom
+    fx = kk * bx * (x[..., :, :-1] - x[..., :, 1:])
+    fy = kk * by * (x[..., :-1, :] - x[..., 1:, :])
+    out = _outflow(fx, fy, u.shape)
+    s = np.where(out > u, u / np.where(out > 0, out, _ONE), _ONE).astype(F32)
+    fx, fy = _donor_scaled(fx, fy, s)
+    return apply_fluxes(u, fx, fy)
+
+
+# ---------------------------------------------------------------- passes
+def advect_velocity(vx: np.ndarray, vy: np.ndarray, wet: np.ndarray,
+                    dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Pass 1: semi-Lagrangian self-advection of v (bilinear back-trace)."""
+    hh, ww = wet.shape
+    svx = np.where(wet, vx, _ZERO)
+    svy = np.where(wet, vy, _ZERO)
+    ys, xs = np.nonzero(wet)
+    if ys.size == 0:
+        return np.zeros_like(vx), np.zeros_like(vy)
+    fdt = F32(dt)
+    bx = np.clip(xs.astype(F32) - svx[ys, xs] * fdt, _ZERO, F32(ww - 1))
+    by = np.clip(ys.astype(F32) - svy[ys, xs] * fdt, _ZERO, F32(hh - 1))
+    x0 = np.minimum(np.floor(bx).astype(np.intp), max(ww - 2, 0))
+    y0 = np.minimum(np.floor(by).astype(np.intp), max(hh - 2, 0))
+    x1 = np.minimum(x0 + 1, ww - 1)
+    y1 = np.minimum(y0 + 1, hh - 1)
+    fx = bx - x0.astype(F32)
+    fy = by - y0.astype(F32)
+    out = []
+    for src in (svx, svy):
+        top = (_ONE - fx) * src[y0, x0] + fx * src[y0, x1]
+        bot = (_ONE - fx) * src[y1, x0] + fx * src[y1, x1]
+        res = np.zeros_like(src)
+        res[ys, xs] = (_ONE - fy) * top + fy * bot
+        out.append(res)
+    return out[0], out[1]
+
+
+def diffuse_velocity(vx: np.ndarray, vy: np.ndarray, wet: np.ndarray, prm: SimParams,
+                     dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Pass 2: implicit viscosity by Jacobi iterations over open faces."""
+    k = F32(prm.viscosity * dt)
+    ox, oy = open_faces(wet)
+    bx, by = ox.astype(F32), oy.astype(F32)
+    denom = _ONE + k * neighbour_sum(np.ones(wet.shape, F32), bx, by)
+    res = []
+    for u in (vx, vy):
+        x = u
+        if k > 0:
+            for _ in range(int(prm.jacobi_iters)):
+                x = (u + k * neighbour_sum(x, bx, by)) / denom
+        res.append(np.where(wet, x, _ZERO).astype(F32))
+    return res[0], res[1]
+
+
+def water_height_and_boundary(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, wet: np.ndarray,
+                              prm: SimParams) -> tuple[np.ndarray, np.ndarray]:
+    """Pass 3: blend in the water-height velocity, then the no-penetration boundary."""
+    ox, oy = open_faces(wet)
+    w_e = w.copy()
+    w_e[:, :-1] = np.where(ox, w[:, 1:], w[:, :-1])
+    w_w = w.copy()
+    w_w[:, 1:] = np.where(ox, w[:, :-1], w[:, 1:])
+    w_s = w.copy()
+    w_s[:-1, :] = np.where(oy, w[1:, :], w[:-1, :])
+    w_n = w.copy()
+    w_n[1:, :] = np.where(oy, w[:-1, :], w[1:, :])
+    g = F32(-0.5 * prm.height_gain)
+    oh = F32(prm.omega_h)
+    oi = F32(1.0 - prm.omega_h)
+    nvx = oi * vx + oh * (g * (w_e - w_w))
+    nvy = oi * vy + oh * (g * (w_s - w_n))
+    e_open = np.zeros(wet.shape, bool)
+    e_open[:, :-1] = ox
+    w_open = np.zeros(wet.shape, bool)
+    w_open[:, 1:] = ox
+    s_open = np.zeros(wet.shape, bool)
+    s_open[:-1, :] = oy
+    n_open = np.zeros(wet.shape, bool)
+    n_open[1:, :] = oy
+    nvx = np.where(e_open, nvx, np.minimum(nvx, _ZERO))
+    nvx = np.where(w_open, nvx, np.maximum(nvx, _ZERO))
+    nvy = np.where(s_open, nvy, np.minimum(nvy, _ZERO))
+    nvy = np.where(n_open, nvy, np.maximum(nvy, _ZERO))
+    vm = F32(prm.v_max)
+    nvx = np.where(wet, np.clip(nvx, -vm, vm), _ZERO).astype(F32)
+    nvy = np.where(wet, np.clip(nvy, -vm, vm), _ZERO).astype(F32)
+    return nvx, nvy
+
+
+def diffuse_water(w: np.ndarray, wet: np.ndarray, prm: SimParams, dt: float) -> np.ndarray:
+    """Pass 4: conservative implicit water diffusion over open faces."""
+    ox, oy = open_faces(wet)
+    return implicit_diffusion(w, ox.astype(F32), oy.astype(F32), prm.nu_w * dt,
+                              prm.jacobi_iters)
+
+
+def blocking(h: np.ndarray, block: np.ndarray, block_time: np.ndarray, sim_time: float,
+             prm: SimParams) -> np.ndarray:
+    """Diffusion-controller cell value beta_c in [0, 1] (1 free, 0 blocked)."""
+    if prm.block_fade > 0:
+        age = np.clip((F32(sim_time) - block_time) / F32(prm.block_fade), _ZERO, _ONE)
+    else:
+        age = np.ones_like(block)
+    eff = block + (_ONE - block) * age
+    paper = _ONE - F32(prm.block_paper) * (_ONE - h)
+    return np.minimum(paper, eff).astype(F32)
+
+
+def diffuse_pigment(p: np.ndarray, wet: np.ndarray, beta_c: np.ndarray, prm: SimParams,
+                    dt: float) -> np.ndarray:
+    """Pass 5: conservative implicit pigment diffusion with the diffusion controller."""
+    ox, oy = open_faces(wet)
+    bx = np.where(ox, np.minimum(beta_c[:, :-1], beta_c[:, 1:]), _ZERO)
+    by = np.where(oy, np.minimum(beta_c[:-1, :], beta_c[1:, :]), _ZERO)
+    return implicit_diffusion(p, bx, by, prm.nu_p * dt, prm.jacobi_iters)
+
+
+def advect_water_and_pigment(w: np.ndarray, p: np.ndarray, vx: np.ndarray, vy: np.ndarray,
+                             wet: np.ndarray, prm: SimParams,
+                             dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Pass 6: conservative, clamped face-flux advection of water and pigment."""
+    ox, oy = open_faces(wet)
+    q4 = F32(0.25 * dt)
+    ufx = np.where(ox, F32(0.5) * (vx[:, :-1] + vx[:, 1:]), _ZERO)
+    ufy = np.where(oy, F32(0.5) * (vy[:-1, :] + vy[1:, :]), _ZERO)
+    rx = np.abs(ufx) * q4
+    ry = np.abs(ufy) * q4
+    pos_x = ufx > 0
+    pos_y = ufy > 0
+    # donor-side total rate
+    r_out = np.zeros(w.shape, F32)
+    r_out[:, :-1] += np.where(pos_x, rx, _ZERO)
+    r_out[:, 1:] += np.where(pos_x, _ZERO, rx)
+    r_out[:-1, :] += np.where(pos_y, ry, _ZERO)
+    r_out[1:, :] += np.where(pos_y, _ZERO, ry)
+    lo = np.minimum(w, F32(prm.w_min))
+    want = w * r_out
+    room = w - lo
+    s_out = np.where(want > room, room / np.where(want > 0, want, _ONE), _ONE).astype(F32)
+    # upwind values per face
+    wdx = np.where(pos_x, w[:, :-1], w[:, 1:])
+    wdy = np.where(pos_y, w[:-1, :], w[1:, :])
+    pdx = np.where(pos_x, p[:, :, :-1], p[:, :, 1:])
+    pdy = np.where(pos_y, p[:, :-1, :], p[:, 1:, :])
+    # receiver-side unscaled inflows
+    i_w = np.zeros(w.shape, F32)
+    i_w[:, 1:] += np.where(pos_x, wdx * rx, _ZERO)
+    i_w[:, :-1] += np.where(pos_x, _ZERO, wdx * rx)
+    i_w[1:, :] += np.where(pos_y, wdy * ry, _ZERO)
+    i_w[:-1, :] += np.where(pos_y, _ZERO, wdy * ry)
+    i_p = np.zeros(p.shape, F32)
+    i_p[:, :, 1:] += np.where(pos_x, pdx * rx, _ZERO)
+    i_p[:, :, :-1] += np.where(pos_x, _ZERO, pdx * rx)
+    i_p[:, 1:, :] += np.where(pos_y, pdy * ry, _ZERO)
+    i_p[:, :-1, :] += np.where(pos_y, _ZERO, pdy * ry)
+    hi = np.maximum(w, F32(prm.w_max))
+    s_in = np.where(i_w > 0, np.maximum(hi - w, _ZERO) / np.where(i_w > 0, i_w, _ONE), _ONE)
+    room_p = np.maximum(_ONE - p, _ZERO)
+    s_in_p = np.where(i_p > 0, room_p / np.where(i_p > 0, i_p, _ONE), _ONE).min(axis=0)
+    s_in = np.minimum(np.minimum(s_in, s_in_p), _ONE).astype(F32)
+    # limited rates
+    rlx = rx * np.where(pos_x, s_out[:, :-1] * s_in[:, 1:], s_out[:, 1:] * s_in[:, :-1])
+    rly = ry * np.where(pos_y, s_out[:-1, :] * s_in[1:, :], s_out[1:, :] * s_in[:-1, :])
+    sgn_x = np.where(pos_x, _ONE, -_ONE)
+    sgn_y = np.where(pos_y, _ONE, -_ONE)
+    w_new = apply_fluxes(w, sgn_x * wdx * rlx, sgn_y * wdy * rly)
+    p_new = apply_fluxes(p, sgn_x * pdx * rlx, sgn_y * pdy * rly)
+    return w_new, p_new
+
+
+def evaporate(w: np.ndarray, evaporated: np.ndarray, prm: SimParams,
+              dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Pass 7: fluid evaporation, faster at faces towards cells without fluid water."""
+    has = w > 0
+    n_dry = np.zeros(w.shape, F32)
+    n_dry[:, :-1] += ~has[:, 1:]
+    n_dry[:, 1:] += ~has[:, :-1]
+    n_dry[:-1, :] += ~has[1:, :]
+    n_dry[1:, :] += ~has[:-1, :]
+    n_dry[:, -1] += 1
+    n_dry[:, 0] += 1
+    n_dry[-1, :] += 1
+    n_dry[0, :] += 1
+    e = F32(prm.eps_shallow * dt)
+    loss = e + F32(prm.edge_evap) * n_dry * w * e
+    loss = np.where(has, np.minimum(loss, w), _ZERO).astype(F32)
+    return w - loss, evaporated + loss
+
+
+def surface_exchange(p: np.ndarray, q: np.ndarray, w: np.ndarray, h: np.ndarray,
+                     wet: np.ndarray, beta: np.ndarray, gamma: np.ndarray, delta: np.ndarray,
+                     prm: SimParams, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Pass 8: deposition and lifting between fluid and surface layer (eqs. 4.11/4.12).
+
+    ``beta``, ``gamma``, ``delta``: float32 (S,) per slot (free slots: delta = 0).
+    """
+    f = np.clip(w / F32(prm.w_max), _ZERO, _ONE)
+    rate = F32(prm.surface_rate * dt)
+    g = gamma[:, None, None]
+    d = delta[:, None, None]
+    b = beta[:, None, None]
+    down = rate * p * (_ONE - f) * (_ONE - h * g) * d
+    up = rate * q * f * (_ONE - (_ONE - h) * g) * (d / b)
+    down = np.minimum(np.minimum(down, p), _ONE - q)
+    up = np.minimum(np.minimum(up, q), _ONE - p)
+    net = np.where(wet, down - up, _ZERO).astype(F32)
+    return p - net, q + net
+
+
+def capillary(w: np.ndarray, wc: np.ndarray, h: np.ndarray, mask: np.ndarray,
+              evaporated: np.ndarray, prm: SimParams,
+              dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pass 9: absorption, capillary diffusion, capillary evaporation (all cells)."""
+    c = F32(prm.c_min) + h * F32(prm.c_max - prm.c_min)
+    opn = mask == 0
+    d = np.minimum(np.minimum(F32(prm.alpha * dt), w), np.maximum(c - wc, _ZERO))
+    d = np.where((w > 0) & opn, d, _ZERO)
+    w = w - d
+    wc = wc + d
+    k = F32(prm.cap_diffusion * dt)
+    if k > 0:
+        s = wc / c
+        fx = np.where(opn[:, :-1] & opn[:, 1:],
+                      k * np.minimum(c[:, :-1], c[:, 1:]) * (s[:, :-1] - s[:, 1:]), _ZERO)
+        fy = np.where(opn[:-1, :] & opn[1:, :],
+                      k * np.minimum(c[:-1, :], c[1:, :]) * (s[:-1, :] - s[1:, :]), _ZERO)
+        wc = apply_fluxes(wc, fx, fy)
+        wc = np.maximum(wc, _ZERO)  # guards -0.0/rounding only; the flux bound keeps wc >= 0
+    e = np.where(w == 0, np.minimum(F32(prm.eps_cap * dt), wc), _ZERO).astype(F32)
+    return w, wc - e, evaporated + e
+
+
+def dry_cells(w: np.ndarray, p: np.ndarray, q: np.ndarray, vx: np.ndarray, vy: np.ndarray,
+              evaporated: np.ndarray, prm: SimParams) -> tuple[np.ndarray, ...]:
+    """Pass 10: tiny water evaporates; cells without fluid water deposit their pigment."""
+    tiny = (w > 0) & (w < F32(prm.w_dry_eps))
+    evaporated = evaporated + np.where(tiny, w, _ZERO)
+    w = np.where(tiny, _ZERO, w)
+    dry = w == 0
+    t = np.where(dry, np.minimum(p, _ONE - q), _ZERO)
+    return (w, p - t, q + t, np.where(dry, _ZERO, vx), np.where(dry, _ZERO, vy), evaporated)
+
+
+# ---------------------------------------------------------------- the step
+def slot_properties(state: CanvasState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """beta, gamma, delta per slot (float32 (S,)); free slots: beta 1, gamma 0, delta 0."""
+    n = state.n_slots
+    beta = np.ones(n, F32)
+    gamma = np.zeros(n, F32)
+    delta = np.zeros(n, F32)
+    for k, pig in enumerate(state.slot_pigments()):
+        beta[k], gamma[k], delta[k] = pig.beta, pig.gamma, pig.delta
+    return beta, gamma, delta
+
+
+def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float) -> None:
+    """Run passes 1-10 on the cells ``sl`` of ``state`` (in place)."""
+    prm = state.params
+    ys, xs = sl
+    w = state.w[ys, xs]
+    wc = state.wc[ys, xs]
+    h = state.h[ys, xs]
+    mask = state.mask[ys, xs]
+    p = state.p[:, ys, xs]
+    q = state.q[:, ys, xs]
+    vx = state.vx[ys, xs]
+    vy = state.vy[ys, xs]
+    evap = state.evaporated[ys, xs]
+    beta, gamma, delta = slot_properties(state)
+    # slots never used in this layer stay zero: skip them for speed
+    n_used = max(len(state.slots), 1)
+    p_used = p[:n_used]
+    q_used = q[:n_used]
+
+    wet = wet_mask(w, wc, mask, prm)
+    vx, vy = advect_velocity(vx, vy, wet, dt)
+    vx, vy = diffuse_velocity(vx, vy, wet, prm, dt)
+    vx, vy = water_height_and_boundary(vx, vy, w, wet, prm)
+    w = diffuse_water(w, wet, prm, dt)
+    beta_c = blocking(h, state.block[ys, xs], state.block_time[ys, xs], state.sim_time, prm)
+    pp = diffuse_pigment(p_used, wet, beta_c, prm, dt)
+    w, pp = advect_water_and_pigment(w, pp, vx, vy, wet, prm, dt)
+    w, evap = evaporate(w, evap, prm, dt)
+    pp, qq = surface_exchange(pp, q_used, w, h, wet, beta[:n_used], gamma[:n_used],
+                              delta[:n_used], prm, dt)
+    w, wc, evap = capillary(w, wc, h, mask, evap, prm, dt)
+    w, pp, qq, vx, vy, evap = dry_cells(w, pp, qq, vx, vy, evap, prm)
+
+    state.w[ys, xs] = w
+    state.wc[ys, xs] = wc
+    state.vx[ys, xs] = vx
+    state.vy[ys, xs] = vy
+    state.p[:n_used, ys, xs] = pp
+    state.q[:n_used, ys, xs] = qq
+    state.evaporated[ys, xs] = evap
+
+
+def step(state: CanvasState, dt: float | None = None) -> None:
+    """One simulation step of ``state`` in place (tiles decide the region)."""
+    from station.canvas import tiles  # local: tiles imports this module's helpers
+
+    dt = state.params.dt if dt is None else float(dt)
+    if not dt > 0:
+        from station.canvas.params import CanvasInputError
+
+        raise CanvasInputError("dt must be > 0", "step")
+    if state.tiling:
+        region = tiles.active_region(state)
+        if region is not None:
+            step_region(state, region, dt)
+        tiles.update_tiles(state, region)
+    else:
+        step_region(state, (slice(0, state.height), slice(0, state.width)), dt)
+    state.sim_time += dt
+    state.step_count += 1

@@ -1,0 +1,112 @@
+"""Rendering the canvas: Kubelka-Munk per RGB channel (seed 6.2.3) and a gouache blend.
+
+Kubelka-Munk (spec formulas): per cell, thickness ``d = sum_k (p[k] + q[k])``; if
+``d == 0`` the cell shows ``R_composed``; otherwise concentration-weighted
+``K = sum s_k K_k``, ``S = sum s_k S_k`` with ``s_k = (p[k]+q[k])/d``, then
+
+    a = (S + K)/S,  b = sqrt(max(a^2 - 1, 0)),  t = b S d
+    R = sinh t / (a sinh t + b cosh t),  T = b / (a sinh t + b cosh t)
+    R_total = R + T^2 R_prev / (1 - R R_prev)
+
+with ``R_prev = R_composed``. Two numerical decisions: ``t`` is capped at 30
+(sinh/cosh stay finite in float32; R and T have converged to 1e-13 there), and
+where ``b < 1e-4`` (no absorption) the ``b -> 0`` limit ``R = S d/(1 + S d)``,
+``T = 1/(1 + S d)`` is used.
+
+Gouache (seed 6.3.2): an opaque blend by concentration. Each pigment's body
+colour is its infinite-thickness KM reflectance ``R_inf = a - b``; the layer
+colour is ``C = sum s_k R_inf_k`` and its opacity ``o = min(1, d / gouache_opaque)``:
+``R_total = o C + (1 - o) R_prev``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from station.canvas.palette import Pigment
+from station.canvas.state import CanvasState
+
+F32 = np.float32
+RENDERERS = ("km", "gouache")
+
+
+def _coefficients(pigments: list[Pigment]) -> tuple[np.ndarray, np.ndarray]:
+    k = np.array([p.K for p in pigments], F32).reshape(len(pigments), 3)
+    s = np.array([p.S for p in pigments], F32).reshape(len(pigments), 3)
+    return k, s
+
+
+def km_layer(amount: np.ndarray, pigments: list[Pigment], r_prev: np.ndarray) -> np.ndarray:
+    """Compose one KM layer over ``r_prev``.
+
+    ``amount`` float32 (N, H, W) pigment thickness per pigment (p + q), ``r_prev``
+    float32 (H, W, 3). Returns float32 (H, W, 3) in [0, 1].
+    """
+    if not pigments:
+        return r_prev.astype(F32, copy=True)
+    amount = amount[: len(pigments)]
+    kk, ss = _coefficients(pigments)
+    d = amount.sum(axis=0)
+    has = d > 0
+    safe_d = np.where(has, d, F32(1.0))
+    conc = amount / safe_d  # s_k, (N, H, W)
+    k_mix = np.einsum("nhw,nc->hwc", conc, kk).astype(F32)
+    s_mix = np.einsum("nhw,nc->hwc", conc, ss).astype(F32)
+    s_mix = np.maximum(s_mix, F32(1e-12))
+    a = (s_mix + k_mix) / s_mix
+    b = np.sqrt(np.maximum(a * a - F32(1.0), F32(0.0)))
+    dd = safe_d[..., None]
+    t = np.minimum(b * s_mix * dd, F32(30.0))
+    sh = np.sinh(t)
+    ch = np.cosh(t)
+    den = a * sh + b * ch
+    small = b < F32(1e-4)
+    den = np.where(small, F32(1.0), den)
+    r = np.where(small, s_mix * dd / (F32(1.0) + s_mix * dd), sh / den)
+    tr = np.where(small, F32(1.0) / (F32(1.0) + s_mix * dd), b / den)
+    total = r + tr * tr * r_prev / (F32(1.0) - r * r_prev)
+    out = np.where(has[..., None], total, r_prev)
+    return np.clip(out, 0.0, 1.0).astype(F32)
+
+
+def gouache_layer(amount: np.ndarray, pigments: list[Pigment], r_prev: np.ndarray,
+                  opaque: float) -> np.ndarray:
+    """Compose one gouache layer (opaque concentration blend) over ``r_prev``."""
+    if not pigments:
+        return r_prev.astype(F32, copy=True)
+    amount = amount[: len(pigments)]
+    kk, ss = _coefficients(pigments)
+    a = (ss + kk) / ss
+    body = (a - np.sqrt(np.maximum(a * a - 1.0, 0.0))).astype(F32)  # (N, 3) R_inf
+    d = amount.sum(axis=0)
+    safe_d = np.where(d > 0, d, F32(1.0))
+    colour = np.einsum("nhw,nc->hwc", amount / safe_d, body).astype(F32)
+    o = np.clip(d / F32(max(opaque, 1e-6)), 0.0, 1.0)[..., None]
+    out = o * colour + (F32(1.0) - o) * r_prev
+    return np.clip(out, 0.0, 1.0).astype(F32)
+
+
+def render_state(state: CanvasState, renderer: str) -> np.ndarray:
+    """Linear reflectance of the canvas, float32 (H, W, 3) in [0, 1]."""
+    pigments = state.slot_pigments()
+    n = len(pigments)
+    amount = state.p[:n] + state.q[:n]
+    if renderer == "gouache":
+        return gouache_layer(amount, pigments, state.r_composed, state.params.gouache_opaque)
+    return km_layer(amount, pigments, state.r_composed)
+
+
+def to_srgb8(rgb: np.ndarray) -> np.ndarray:
+    """Linear reflectance in [0, 1] -> uint8 sRGB (for PNG output)."""
+    return np.round(linear_to_srgb(rgb) * 255.0).astype(np.uint8)
+
+
+def to_srgb16(rgb: np.ndarray) -> np.ndarray:
+    """Linear reflectance in [0, 1] -> uint16 sRGB (for 16-bit PNG output)."""
+    return np.round(linear_to_srgb(rgb) * 65535.0).astype(np.uint16)
+
+
+def linear_to_srgb(rgb: np.ndarray) -> np.ndarray:
+    """The sRGB transfer function (float64 result in [0, 1])."""
+    x = np.clip(np.asarray(rgb, np.float64), 0.0, 1.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)

@@ -1,0 +1,258 @@
+"""The complete canvas state: plain float32 arrays plus JSON-able metadata.
+
+Array fields (float32, shape (H, W) unless noted):
+
+- fluid layer: ``vx``, ``vy`` [cell/s], ``w`` [height], ``p`` (S, H, W) [area fraction];
+- surface layer: ``q`` (S, H, W) [area fraction];
+- capillary layer: ``wc`` [height];
+- paper: ``h`` in [0, 1] (capacity is derived: ``c = c_min + h (c_max - c_min)``);
+- tools: ``mask`` in {0, 1}; ``block`` in [0, 1] (1 = free) with ``block_time``, the
+  simulated time [s] at which the pattern was written (its age is ``sim_time -
+  block_time``; storing the write time instead of an age keeps the field static
+  outside active tiles, so tiling cannot change the result);
+- passive: ``r_composed`` (H, W, 3), the reflectance of all dried layers below;
+- bookkeeping accumulators, updated inside the passes: ``evaporated`` (water that
+  left by evaporation, fluid and capillary), ``removed_w`` (water removed by tools),
+  ``removed_p`` (S, H, W) (pigment removed by tools);
+- ``tile_ttl`` (int32, tiles_y x tiles_x): steps each dirty tile stays active.
+
+Pigment slots: ``slots[k]`` names the pigment held in ``p[k]``/``q[k]`` of the active
+layer; slots are assigned on first use; ``new_layer`` frees them.
+"""
+
+from __future__ import annotations
+
+import json
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from station.canvas.palette import Palette, Pigment, default_palette
+from station.canvas.params import CanvasInputError, SimParams, get_profile
+
+STATE_VERSION = 1
+DEFAULT_SLOTS = 8
+MAX_CELLS = 1 << 24  # 16 Mcells (4096^2): larger canvases are refused as impossible
+
+_PLANE_FIELDS = ("vx", "vy", "w", "wc", "h", "mask", "block", "block_time",
+                 "evaporated", "removed_w")
+_STACK_FIELDS = ("p", "q", "removed_p")
+
+
+def check_size(width: int, height: int) -> None:
+    """Raise :class:`CanvasInputError` for an impossible canvas size."""
+    if (not isinstance(width, (int, np.integer)) or not isinstance(height, (int, np.integer))
+            or isinstance(width, bool) or isinstance(height, bool)):
+        raise CanvasInputError("canvas size must be integers", "--size")
+    if width < 4 or height < 4:
+        raise CanvasInputError(f"canvas size {width}x{height} is too small (min 4x4)", "--size")
+    if width * height > MAX_CELLS:
+        raise CanvasInputError(
+            f"canvas size {width}x{height} exceeds {MAX_CELLS} cells", "--size")
+
+
+@dataclass
+class CanvasState:
+    """Everything needed to continue a painting exactly (see module docstring)."""
+
+    width: int
+    height: int
+    params: SimParams
+    palette: Palette
+    profile: str
+    paper_preset: str
+    seed: int
+    vx: np.ndarray
+    vy: np.ndarray
+    w: np.ndarray
+    wc: np.ndarray
+    h: np.ndarray
+    mask: np.ndarray
+    block: np.ndarray
+    block_time: np.ndarray
+    p: np.ndarray
+    q: np.ndarray
+    r_composed: np.ndarray
+    evaporated: np.ndarray
+    removed_w: np.ndarray
+    removed_p: np.ndarray
+    tile_ttl: np.ndarray
+    slots: list[str] = field(default_factory=list)
+    step_count: int = 0
+    sim_time: float = 0.0
+    tiling: bool = True
+    water_added: float = 0.0
+    pigment_added: dict[str, float] = field(default_factory=dict)
+    pigment_removed_past: dict[str, float] = field(default_factory=dict)
+    pigment_dried: dict[str, float] = field(default_factory=dict)
+    layers: list[dict[str, float]] = field(default_factory=list)
+
+    # ----------------------------------------------------------------- creation
+    @classmethod
+    def blank(cls, width: int, height: int, params: SimParams, h: np.ndarray,
+              profile: str = "watercolor", paper_preset: str = "cold-press", seed: int = 0,
+              palette: Palette | None = None, n_slots: int = DEFAULT_SLOTS,
+              tiling: bool = True) -> CanvasState:
+        """A clean sheet of paper ``h`` (float32 (H, W) in [0, 1])."""
+        check_size(width, height)
+        if h.shape != (height, width):
+            raise CanvasInputError("paper height has the wrong shape")
+        if n_slots < 1:
+            raise CanvasInputError("need at least one pigment slot")
+        z = np.zeros((height, width), np.float32)
+        ts = int(params.tile_size)
+        ty, tx = -(-height // ts), -(-width // ts)
+        st = cls(
+            width=width, height=height, params=params,
+            palette=palette if palette is not None else default_palette(),
+            profile=profile, paper_preset=paper_preset, seed=int(seed),
+            vx=z.copy(), vy=z.copy(), w=z.copy(), wc=z.copy(),
+            h=np.ascontiguousarray(h, np.float32), mask=z.copy(),
+            block=np.ones_like(z), block_time=z.copy(),
+            p=np.zeros((n_slots, height, width), np.float32),
+            q=np.zeros((n_slots, height, width), np.float32),
+            r_composed=np.zeros((height, width, 3), np.float32),
+            evaporated=z.copy(), removed_w=z.copy(),
+            removed_p=np.zeros((n_slots, height, width), np.float32),
+            tile_ttl=np.zeros((ty, tx), np.int32), tiling=tiling,
+        )
+        st.r_composed[...] = st.paper_reflectance()[..., None]
+        return st
+
+    @property
+    def n_slots(self) -> int:
+        return int(self.p.shape[0])
+
+    def capacity(self) -> np.ndarray:
+        """Capillary capacity ``c = c_min + h (c_max - c_min)`` [height], float32 (H, W)."""
+        prm = self.params
+        return np.float32(prm.c_min) + self.h * np.float32(prm.c_max - prm.c_min)
+
+    def paper_reflectance(self) -> np.ndarray:
+        """Blank paper reflectance (valleys slightly darker), float32 (H, W)."""
+        return (np.float32(1.0) - np.float32(self.params.paper_shade) * (1.0 - self.h)).astype(
+            np.float32)
+
+    def slot_of(self, name: str, create: bool = True) -> int:
+        """Slot index of pigment ``name`` in the active layer (assigned on first use).
+
+        Raises :class:`CanvasInputError` for an unknown pigment, or when the layer
+        already holds ``n_slots`` other pigments ("start a new layer").
+        """
+        pig = self.palette.get(name)
+        if pig.name in self.slots:
+            return self.slots.index(pig.name)
+        if not create:
+            raise CanvasInputError(f"pigment {name!r} is not in the active layer")
+        if len(self.slots) >= self.n_slots:
+            raise CanvasInputError(
+                f"the active layer already holds {self.n_slots} pigments "
+                f"({', '.join(self.slots)}); start a new layer to use {pig.name!r}", "pigment")
+        self.slots.append(pig.name)
+        return len(self.slots) - 1
+
+    def slot_pigments(self) -> list[Pigment]:
+        return [self.palette.get(n) for n in self.slots]
+
+    def copy(self) -> CanvasState:
+        """A deep copy (arrays copied)."""
+        kw: dict[str, Any] = {}
+        for name in self.__dataclass_fields__:
+            v = getattr(self, name)
+            if isinstance(v, np.ndarray):
+                v = v.copy()
+            elif isinstance(v, (list, dict)):
+                v = json.loads(json.dumps(v))
+            kw[name] = v
+        return CanvasState(**kw)
+
+    # ------------------------------------------------------------------ save/load
+    def metadata(self) -> dict[str, Any]:
+        return {
+            "format": "station-canvas", "version": STATE_VERSION,
+            "width": self.width, "height": self.height, "n_slots": self.n_slots,
+            "params": self.params.to_dict(), "palette": [p.to_dict() for p in self.palette],
+            "profile": self.profile, "paper_preset": self.paper_preset, "seed": self.seed,
+            "slots": list(self.slots), "step_count": self.step_count,
+            "sim_time": self.sim_time, "tiling": self.tiling,
+            "water_added": self.water_added, "pigment_added": self.pigment_added,
+            "pigment_removed_past": self.pigment_removed_past,
+            "pigment_dried": self.pigment_dried, "layers": self.layers,
+        }
+
+    def save(self, path: str | Path) -> None:
+        """Write the state losslessly to ``path`` (.npz with a JSON ``meta`` entry)."""
+        arrays = {n: getattr(self, n) for n in (*_PLANE_FIELDS, *_STACK_FIELDS)}
+        arrays["r_composed"] = self.r_composed
+        arrays["tile_ttl"] = self.tile_ttl
+        meta = np.array(json.dumps(self.metadata()))
+        with open(path, "wb") as fh:
+            np.savez(fh, meta=meta, **arrays)
+
+    @classmethod
+    def load(cls, path: str | Path) -> CanvasState:
+        """Read a state written by :meth:`save`; anything malformed raises CanvasInputError."""
+        where = str(path)
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                files = {k: z[k] for k in z.files}
+        except FileNotFoundError:
+            raise CanvasInputError("state file not found", where) from None
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError) as exc:
+            raise CanvasInputError(f"corrupt state file ({exc.__class__.__name__})",
+                                   where) from None
+        try:
+            meta = json.loads(str(files.pop("meta")))
+        except (KeyError, ValueError) as exc:
+            raise CanvasInputError(f"state file has no valid metadata ({exc})", where) from None
+        if not isinstance(meta, dict) or meta.get("format") != "station-canvas":
+            raise CanvasInputError("not a station canvas state", where)
+        if meta.get("version") != STATE_VERSION:
+            raise CanvasInputError(f"unsupported state version {meta.get('version')!r}", where)
+        try:
+            width, height, ns = int(meta["width"]), int(meta["height"]), int(meta["n_slots"])
+            check_size(width, height)
+            params = SimParams.from_dict(meta["params"])
+            palette = Palette(Pigment.from_dict(d) for d in meta["palette"])
+            profile = str(meta["profile"])
+            get_profile(profile)
+            ts = int(params.tile_size)
+            shapes: dict[str, tuple[int, ...]] = {n: (height, width) for n in _PLANE_FIELDS}
+            shapes.update({n: (ns, height, width) for n in _STACK_FIELDS})
+            shapes["r_composed"] = (height, width, 3)
+            shapes["tile_ttl"] = (-(-height // ts), -(-width // ts))
+            arrays: dict[str, np.ndarray] = {}
+            for name, shape in shapes.items():
+                a = files.get(name)
+                want = np.int32 if name == "tile_ttl" else np.float32
+                if a is None or a.shape != shape or a.dtype != want:
+                    raise CanvasInputError(f"field {name!r} missing or mismatched", where)
+                if a.dtype == np.float32 and not np.isfinite(a).all():
+                    raise CanvasInputError(f"field {name!r} holds non-finite values", where)
+                arrays[name] = np.ascontiguousarray(a)
+            slots = [str(s) for s in meta["slots"]]
+            if len(slots) > ns:
+                raise CanvasInputError("more slots than pigment planes", where)
+            for s in slots:
+                palette.get(s)
+            st = cls(
+                width=width, height=height, params=params, palette=palette, profile=profile,
+                paper_preset=str(meta["paper_preset"]), seed=int(meta["seed"]),
+                slots=slots, step_count=int(meta["step_count"]),
+                sim_time=float(meta["sim_time"]), tiling=bool(meta["tiling"]),
+                water_added=float(meta["water_added"]),
+                pigment_added={str(k): float(v) for k, v in meta["pigment_added"].items()},
+                pigment_removed_past={str(k): float(v)
+                                      for k, v in meta["pigment_removed_past"].items()},
+                pigment_dried={str(k): float(v) for k, v in meta["pigment_dried"].items()},
+                layers=[{str(k): float(v) for k, v in d.items()} for d in meta["layers"]],
+                **arrays,
+            )
+        except CanvasInputError:
+            raise
+        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+            raise CanvasInputError(f"state metadata is malformed ({exc})", where) from None
+        return st

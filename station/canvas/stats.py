@@ -1,0 +1,67 @@
+"""The ``--stats`` JSON (interfaces.md): water and pigment bookkeeping of a canvas.
+
+Every amount is a float64 sum of per-cell float32 amounts [cell units]. The
+evaporated and removed amounts come from per-cell accumulators that the passes
+and tools update where the water or pigment leaves (never "added minus present").
+Pigment ``surface`` counts the active layer's deposits plus the dried layers;
+``layers`` lists each dried layer's deposits by pigment.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from station.canvas.state import CanvasState
+
+
+def _sum(a: np.ndarray) -> float:
+    return float(a.sum(dtype=np.float64))
+
+
+def canvas_stats(state: CanvasState, renderer: str) -> dict[str, Any]:
+    """Bookkeeping of ``state`` as the interfaces.md JSON object."""
+    water = {
+        "added": state.water_added,
+        "fluid": _sum(state.w),
+        "capillary": _sum(state.wc),
+        "evaporated": _sum(state.evaporated),
+        "removed": _sum(state.removed_w),
+    }
+    names: list[str] = []
+    for n in (*state.pigment_added, *state.slots, *state.pigment_dried):
+        if n not in names:
+            names.append(n)
+    pigments: dict[str, dict[str, float]] = {}
+    for n in names:
+        k = state.slots.index(n) if n in state.slots else None
+        fluid = _sum(state.p[k]) if k is not None else 0.0
+        surf_active = _sum(state.q[k]) if k is not None else 0.0
+        removed = state.pigment_removed_past.get(n, 0.0) + (
+            _sum(state.removed_p[k]) if k is not None else 0.0)
+        pigments[n] = {
+            "added": state.pigment_added.get(n, 0.0),
+            "fluid": fluid,
+            "surface": surf_active + state.pigment_dried.get(n, 0.0),
+            "removed": removed,
+            "surface_active_layer": surf_active,
+        }
+    return {
+        "width": state.width, "height": state.height, "steps": state.step_count,
+        "sim_seconds": state.sim_time, "renderer": renderer, "profile": state.profile,
+        "layers": len(state.layers), "water": water, "pigments": pigments,
+        "balance": balance(water, pigments),
+    }
+
+
+def balance(water: dict[str, float], pigments: dict[str, dict[str, float]]) -> dict[str, float]:
+    """Relative bookkeeping errors: water and the worst pigment (0 when nothing added)."""
+    def rel(lhs: float, rhs: float, scale: float) -> float:
+        return abs(lhs - rhs) / scale if scale > 0 else 0.0
+
+    w_err = rel(water["added"] - water["evaporated"] - water["removed"],
+                water["fluid"] + water["capillary"], water["added"])
+    p_err = max((rel(v["added"] - v["removed"], v["fluid"] + v["surface"], v["added"])
+                 for v in pigments.values()), default=0.0)
+    return {"water_rel_error": w_err, "pigment_rel_error": p_err}

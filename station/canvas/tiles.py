@@ -1,0 +1,82 @@
+"""Dirty tiles with time-to-live (seed 6.2.2).
+
+The canvas is covered by square tiles (``params.tile_size``, 32 by default).
+A tile is *active* while its time-to-live ``state.tile_ttl`` is > 0. Touching
+cells (sources, tools) sets the TTL of their tiles to an estimate of the drying
+time (``SimParams.tile_ttl_steps``). After each step active TTLs count down; a
+tile whose TTL reached 0 (or a halo tile) that still holds fluid or capillary
+water is renewed, so a tile leaves the active set only when all its cells are
+inactive (``w == 0`` and ``wc == 0``), and a quiet tile that receives capillary
+water through the one-cell halo joins the active set.
+
+The simulated region is the bounding box of the active tiles plus a one-cell
+halo. Every cell outside the active tiles is inactive and no pass changes an
+inactive cell whose neighbours are inactive, so tiling on/off gives the same
+result (see ``reference.py``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from station.canvas.state import CanvasState
+
+
+def mark_cells(state: CanvasState, y0: int, y1: int, x0: int, x1: int) -> None:
+    """Activate the tiles covering cells ``[y0, y1) x [x0, x1)`` (clipped)."""
+    ts = int(state.params.tile_size)
+    y0, x0 = max(y0, 0), max(x0, 0)
+    y1, x1 = min(y1, state.height), min(x1, state.width)
+    if y1 <= y0 or x1 <= x0:
+        return
+    ttl = state.params.tile_ttl_steps()
+    view = state.tile_ttl[y0 // ts:(y1 - 1) // ts + 1, x0 // ts:(x1 - 1) // ts + 1]
+    np.maximum(view, ttl, out=view)
+
+
+def active_region(state: CanvasState) -> tuple[slice, slice] | None:
+    """Bounding box (cells) of the active tiles plus a one-cell halo, or None."""
+    ty, tx = np.nonzero(state.tile_ttl > 0)
+    if ty.size == 0:
+        return None
+    ts = int(state.params.tile_size)
+    y0 = max(int(ty.min()) * ts - 1, 0)
+    y1 = min((int(ty.max()) + 1) * ts + 1, state.height)
+    x0 = max(int(tx.min()) * ts - 1, 0)
+    x1 = min((int(tx.max()) + 1) * ts + 1, state.width)
+    return slice(y0, y1), slice(x0, x1)
+
+
+def tile_alive(state: CanvasState, ys: slice, xs: slice) -> np.ndarray:
+    """Per tile covering the tile-aligned region around ``ys, xs``: any w or wc > 0."""
+    ts = int(state.params.tile_size)
+    ty0, ty1 = ys.start // ts, -(-ys.stop // ts)
+    tx0, tx1 = xs.start // ts, -(-xs.stop // ts)
+    cy0, cy1 = ty0 * ts, min(ty1 * ts, state.height)
+    cx0, cx1 = tx0 * ts, min(tx1 * ts, state.width)
+    live = (state.w[cy0:cy1, cx0:cx1] > 0) | (state.wc[cy0:cy1, cx0:cx1] > 0)
+    pad = np.zeros(((ty1 - ty0) * ts, (tx1 - tx0) * ts), bool)
+    pad[:cy1 - cy0, :cx1 - cx0] = live
+    return pad.reshape(ty1 - ty0, ts, tx1 - tx0, ts).any(axis=(1, 3))
+
+
+def update_tiles(state: CanvasState, region: tuple[slice, slice] | None) -> None:
+    """Count active TTLs down; renew expired or halo tiles that still hold water."""
+    ttl = state.tile_ttl
+    np.subtract(ttl, 1, out=ttl, where=ttl > 0)
+    if region is None:
+        return
+    ys, xs = region
+    ts = int(state.params.tile_size)
+    alive = tile_alive(state, ys, xs)
+    ty0, tx0 = ys.start // ts, xs.start // ts
+    view = ttl[ty0:ty0 + alive.shape[0], tx0:tx0 + alive.shape[1]]
+    renew = alive & (view <= 0)
+    view[renew] = state.params.tile_ttl_steps()
+
+
+def activate_all_live(state: CanvasState) -> None:
+    """Activate every tile that holds water (after loading or switching tiling on)."""
+    alive = tile_alive(state, slice(0, state.height), slice(0, state.width))
+    ttl = state.params.tile_ttl_steps()
+    state.tile_ttl[alive & (state.tile_ttl <= 0)] = ttl
