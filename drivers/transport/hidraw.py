@@ -22,6 +22,7 @@ from typing import Protocol
 
 from station.drivers.transport.base import (
     DeviceGone,
+    EndOfStream,
     HidDeviceInfo,
     PermissionProblem,
     TimedReport,
@@ -176,9 +177,16 @@ class HidrawTransport:
             raise TransportError(f"{self.node.path}: read failed ({exc.strerror})") from None
         now = time.monotonic()
         if not data:
+            if getattr(self.node, "finite", False):
+                raise EndOfStream(f"{self.node.path}: end of recording")
             raise DeviceGone(f"{self.node.path}: device removed")
         stamp = getattr(self.node, "stamp", None)
         return TimedReport(stamp(data, now) if stamp else now, data)
+
+    def now(self) -> float:
+        """The clock the report timestamps use (a mock's recording clock, else monotonic)."""
+        clock = getattr(self.node, "now", None)
+        return float(clock()) if clock is not None else time.monotonic()
 
     def send_feature(self, data: bytes) -> None:
         try:

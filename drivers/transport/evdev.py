@@ -1,0 +1,136 @@
+"""evdev transport (python-evdev): a live ``/dev/input/event*`` node.
+
+Events keep the kernel's timestamps.  The node's current state (EVIOCGABS
+values and EVIOCGKEY keys) is offered for SYN_DROPPED resyncs; an exclusive
+grab (EVIOCGRAB) is optional.  Unplugging gives ENODEV → :class:`DeviceGone`.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import select
+from collections.abc import Collection, Mapping
+from typing import Any
+
+from station.drivers.evdev import codes as c
+from station.drivers.evdev.frames import AbsInfo, EvdevCaps, EvdevState, InputEvent
+from station.drivers.transport.base import DeviceGone, PermissionProblem, TransportError
+
+
+def _evdev() -> Any:
+    try:
+        import evdev
+    except ImportError as exc:  # pragma: no cover - declared extra on Linux
+        raise TransportError(f"python-evdev is not installed ({exc}); pip install evdev") \
+            from None
+    return evdev
+
+
+def caps_from_device(dev: Any) -> EvdevCaps:
+    """EvdevCaps from a python-evdev ``InputDevice``."""
+    caps = dev.capabilities(absinfo=True)
+    absinfo: dict[int, AbsInfo] = {}
+    for code, info in caps.get(c.EV_ABS, []):
+        absinfo[int(code)] = AbsInfo(info.min, info.max, info.fuzz, info.flat, info.resolution,
+                                     info.value)
+    keys = frozenset(int(k) for k in caps.get(c.EV_KEY, []))
+    msc = frozenset(int(k) for k in caps.get(c.EV_MSC, []))
+    return EvdevCaps(name=str(dev.name), absinfo=absinfo, keys=keys, vid=dev.info.vendor,
+                     pid=dev.info.product, bus=dev.info.bustype, version=dev.info.version,
+                     msc=msc, path=str(dev.path))
+
+
+class _LiveState:
+    """EvdevState read from the node (EVIOCGABS / EVIOCGKEY)."""
+
+    def __init__(self, dev: Any, codes: Collection[int]) -> None:
+        self._dev = dev
+        self._codes = list(codes)
+
+    def abs_values(self) -> Mapping[int, int]:
+        return {code: int(self._dev.absinfo(code).value) for code in self._codes}
+
+    def active_keys(self) -> Collection[int]:
+        return [int(k) for k in self._dev.active_keys()]
+
+
+def open_error(path: str, exc: OSError) -> TransportError:
+    if isinstance(exc, PermissionError):
+        return PermissionProblem(
+            f"no permission to open {path}: install the station's udev rules (uaccess for the "
+            "seat user) or join the 'input'/'station' group; see docs/drivers.md")
+    if exc.errno in (errno.ENOENT, errno.ENODEV):
+        return DeviceGone(f"{path}: no such device")
+    return TransportError(f"{path}: cannot open ({exc.strerror})")
+
+
+class EvdevNodeTransport:
+    """Reads one evdev node; ``grab=True`` takes it exclusively (no cursor movement)."""
+
+    def __init__(self, path: str, grab: bool = False) -> None:
+        evdev = _evdev()
+        try:
+            self._dev = evdev.InputDevice(path)
+        except OSError as exc:
+            raise open_error(path, exc) from None
+        self.caps = caps_from_device(self._dev)
+        self.grabbed = False
+        if grab:
+            try:
+                self._dev.grab()
+                self.grabbed = True
+            except OSError as exc:
+                raise TransportError(f"{path}: cannot grab ({exc.strerror}); another program "
+                                     "holds it exclusively") from None
+
+    def read(self, timeout: float | None = None) -> list[InputEvent]:
+        try:
+            ready, _, _ = select.select([self._dev.fd], [], [], timeout)
+            if not ready:
+                return []
+            return [InputEvent(ev.timestamp(), ev.type, ev.code, ev.value)
+                    for ev in self._dev.read()]
+        except BlockingIOError:
+            return []
+        except OSError as exc:
+            if exc.errno in (errno.ENODEV, errno.EBADF, errno.EIO):
+                raise DeviceGone(f"{self.caps.path}: device removed") from None
+            raise TransportError(f"{self.caps.path}: read failed ({exc.strerror})") from None
+
+    def state(self) -> EvdevState:
+        return _LiveState(self._dev, self.caps.absinfo.keys())
+
+    def now(self) -> float:
+        import time
+
+        return time.time()  # python-evdev timestamps are CLOCK_REALTIME by default
+
+    def close(self) -> None:
+        try:
+            if self.grabbed:
+                self._dev.ungrab()
+        except OSError:
+            pass
+        self._dev.close()
+
+
+def list_evdev(root: str = "/dev/input") -> list[dict[str, Any]]:
+    """Every event node: its capabilities when readable, the permission problem otherwise."""
+    out: list[dict[str, Any]] = []
+    if not os.path.isdir(root):
+        return out
+    evdev = _evdev()
+    paths = sorted((os.path.join(root, n) for n in os.listdir(root) if n.startswith("event")),
+                   key=lambda p: int(p.rsplit("event", 1)[1] or 0))
+    for path in paths:
+        try:
+            dev = evdev.InputDevice(path)
+        except OSError as exc:
+            out.append({"path": path, "error": str(open_error(path, exc))})
+            continue
+        try:
+            out.append({"path": path, "caps": caps_from_device(dev)})
+        finally:
+            dev.close()
+    return out
