@@ -42,7 +42,8 @@ class SimParams:
         nu_p: pigment diffusion rate [cell^2/s].
         eps_shallow: fluid-layer evaporation rate [height/s].
         edge_evap: factor on the extra side evaporation ``w * eps_shallow * dt`` per face
-            towards a neighbour without fluid water (spec: 1).
+            towards a neighbour without fluid water (spec: 1; default 4 because the
+            evaporative flux diverges at a pinned contact line, Deegan 2000).
         alpha: capillary absorption rate [height/s].
         cap_diffusion: capillary diffusion rate kappa on the saturation difference [1/s];
             ``cap_diffusion * dt <= 1/8`` keeps ``wc`` inside ``[0, c]`` exactly.
@@ -50,7 +51,8 @@ class SimParams:
         c_min, c_max: capillary capacity at paper height 0 and 1 [height].
         moist_threshold: ``wc`` above which a cell is moist, hence wet [height].
         v_max: bound of each velocity component [cell/s]; ``v_max * dt <= 1``.
-        surface_rate: factor on the surface exchange of eqs. 4.11/4.12 [1] (spec: 1).
+        surface_rate: factor on the surface exchange of eqs. 4.11/4.12 [1/s] (spec: 1;
+            default 0.5 keeps pigment suspended long enough to travel to the rim).
         block_paper: share of the paper height in the diffusion-controller blocking
             value, ``beta_paper = 1 - block_paper * (1 - h)`` [1].
         block_fade: time for a brush-written blocking pattern to fade to "free" [s].
@@ -68,11 +70,11 @@ class SimParams:
     viscosity: float = 0.5
     jacobi_iters: int = 4
     omega_h: float = 0.06
-    height_gain: float = 60.0
-    nu_w: float = 0.3
+    height_gain: float = 100.0
+    nu_w: float = 0.1
     nu_p: float = 0.3
     eps_shallow: float = 0.06
-    edge_evap: float = 1.0
+    edge_evap: float = 4.0
     alpha: float = 0.03
     cap_diffusion: float = 1.5
     eps_cap: float = 0.02
@@ -80,7 +82,7 @@ class SimParams:
     c_max: float = 0.4
     moist_threshold: float = 0.25
     v_max: float = 30.0
-    surface_rate: float = 1.0
+    surface_rate: float = 0.5
     block_paper: float = 0.0
     block_fade: float = 2.0
     w_dry_eps: float = 1e-5

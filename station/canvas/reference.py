@@ -66,7 +66,7 @@ the same float32 value on both sides).
    open faces, 0 on closed; rate ``r = |uf| * dt / 4`` (the four faces' contributions
    are summed and divided by four); donor = upwind cell (i if uf > 0, else j).
    Per cell: ``Rout = sum of r over faces where it donates``; ``lo = min(w, w_min)``;
-   ``s_out = (w - lo)/(w*Rout) if w*Rout > w - lo else 1`` (0 when w == 0).
+   ``s_out = (w - lo)/(w*Rout) if w*Rout > w - lo else 1``.
    ``Iw = sum over faces where it receives of w_donor*r`` and per pigment
    ``Ip[k] = sum p_donor[k]*r``; ``hi = max(w, w_max)``;
    ``s_in = min(1, (hi - w)/Iw, min_k (1 - p[k])/Ip[k])`` (terms with a zero
@@ -185,7 +185,7 @@ def implicit_diffusion(u: np.ndarray, bx: np.ndarray, by: np.ndarray, k: float,
     fx = kk * bx * (x[..., :, :-1] - x[..., :, 1:])
     fy = kk * by * (x[..., :-1, :] - x[..., 1:, :])
     out = _outflow(fx, fy, u.shape)
-    s = np.where(out > u, u / np.where(out > 0, out, _ONE), _ONE).astype(F32)
+    s = np.where(out > u, u / np.where(out > u, out, _ONE), _ONE).astype(F32)
     fx, fy = _donor_scaled(fx, fy, s)
     return apply_fluxes(u, fx, fy)
 
@@ -320,7 +320,7 @@ def advect_water_and_pigment(w: np.ndarray, p: np.ndarray, vx: np.ndarray, vy: n
     lo = np.minimum(w, F32(prm.w_min))
     want = w * r_out
     room = w - lo
-    s_out = np.where(want > room, room / np.where(want > 0, want, _ONE), _ONE).astype(F32)
+    s_out = np.where(want > room, room / np.where(want > room, want, _ONE), _ONE).astype(F32)
     # upwind values per face
     wdx = np.where(pos_x, w[:, :-1], w[:, 1:])
     wdy = np.where(pos_y, w[:-1, :], w[1:, :])
@@ -338,9 +338,10 @@ def advect_water_and_pigment(w: np.ndarray, p: np.ndarray, vx: np.ndarray, vy: n
     i_p[:, 1:, :] += np.where(pos_y, pdy * ry, _ZERO)
     i_p[:, :-1, :] += np.where(pos_y, _ZERO, pdy * ry)
     hi = np.maximum(w, F32(prm.w_max))
-    s_in = np.where(i_w > 0, np.maximum(hi - w, _ZERO) / np.where(i_w > 0, i_w, _ONE), _ONE)
+    room_w = np.maximum(hi - w, _ZERO)
+    s_in = np.where(i_w > room_w, room_w / np.where(i_w > room_w, i_w, _ONE), _ONE)
     room_p = np.maximum(_ONE - p, _ZERO)
-    s_in_p = np.where(i_p > 0, room_p / np.where(i_p > 0, i_p, _ONE), _ONE).min(axis=0)
+    s_in_p = np.where(i_p > room_p, room_p / np.where(i_p > room_p, i_p, _ONE), _ONE).min(axis=0)
     s_in = np.minimum(np.minimum(s_in, s_in_p), _ONE).astype(F32)
     # limited rates
     rlx = rx * np.where(pos_x, s_out[:, :-1] * s_in[:, 1:], s_out[:, 1:] * s_in[:, :-1])

@@ -1,0 +1,223 @@
+"""Watercolour effects that must EMERGE from the NumPy reference physics (issue 3).
+
+Every test only adds water/pigment sources and steps the simulation; the effect
+is then measured on the resulting fields. Grids are small (48..64 cells).
+"""
+
+from __future__ import annotations
+
+import colorsys
+
+import numpy as np
+import pytest
+
+from station.canvas.numpy_backend import NumpyCanvas
+from station.canvas.palette import Palette, Pigment, default_palette
+from station.canvas.params import SimParams
+from station.canvas.scenarios import disc, distance_inside, paint, rect, run_until_dry
+
+
+def twin_palette(a: str, b: str, **diff: tuple[float, float]) -> Palette:
+    """Two pigments identical (Hookers Green optics) except for the ``diff`` properties."""
+    base = {"beta": 2.0, "gamma": 0.0, "delta": 0.5}
+    pa = {**base, **{k: v[0] for k, v in diff.items()}}
+    pb = {**base, **{k: v[1] for k, v in diff.items()}}
+    hg = default_palette().get("Hookers Green")
+    return Palette([Pigment(a, hg.K, hg.S, **pa), Pigment(b, hg.K, hg.S, **pb)])
+
+
+def test_edge_darkening_wet_on_dry_stroke() -> None:
+    c = NumpyCanvas(64, 48, seed=1)
+    fp = rect(48, 64, 16, 32, 10, 54)
+    paint(c, fp, 0.6, {"Hookers Green": 0.1})
+    steps = run_until_dry(c)
+    assert 50 < steps < 5000
+    c.dry()
+    q = c.live_state.q[0]
+    d = distance_inside(fp)
+    rim = q[d == 1].mean()
+    interior = q[d >= 4].mean()
+    # more deposited pigment in the rim than in the interior, by a visible margin
+    assert rim > 1.25 * interior, (rim, interior)
+    # and nothing outside the footprint (wet-on-dry: the contact line is pinned)
+    assert q[fp == 0].sum() < 1e-3 * q.sum()
+
+
+def test_no_edge_darkening_without_edge_mechanisms() -> None:
+    # switching off the two mechanisms the spec names (extra edge evaporation and the
+    # water-height term) removes the rim: the effect is not painted in
+    prm = SimParams().replace(edge_evap=0.0, omega_h=0.0)
+    c = NumpyCanvas(64, 48, seed=1, params=prm)
+    fp = rect(48, 64, 16, 32, 10, 54)
+    paint(c, fp, 0.6, {"Hookers Green": 0.1})
+    run_until_dry(c)
+    c.dry()
+    q = c.live_state.q[0]
+    d = distance_inside(fp)
+    assert q[d == 1].mean() < 1.05 * q[d >= 4].mean()
+
+
+def _spread(wash: bool) -> tuple[float, float]:
+    c = NumpyCanvas(64, 64, seed=2)
+    if wash:
+        paint(c, rect(64, 64, 4, 60, 4, 60), 0.5)
+        for _ in range(30):
+            c.step()
+    fp = disc(64, 64, 32, 32, 8)
+    paint(c, fp, 0.4, {"French Ultramarine": 0.1})
+    run_until_dry(c)
+    c.dry()
+    q = c.live_state.q[0]
+    yy, xx = np.mgrid[0:64, 0:64]
+    r = np.hypot(yy - 32, xx - 32)
+    outside = float(q[r > 9.5].sum() / q.sum())
+    reach = float(r[q > 1e-3].max())
+    return outside, reach
+
+
+def test_wet_in_wet_spreads_dry_paper_does_not() -> None:
+    out_wet, reach_wet = _spread(wash=True)
+    out_dry, reach_dry = _spread(wash=False)
+    assert out_wet > 0.10, out_wet  # feathery: >10 % of the pigment beyond the footprint
+    assert reach_wet > 12.0
+    assert out_dry < 0.005, out_dry
+    assert reach_dry <= 9.5
+
+
+def _height_correlation(gamma: float) -> float:
+    pal = twin_palette("G", "N", gamma=(gamma, 0.0))
+    c = NumpyCanvas(64, 64, seed=5, palette=pal)
+    fp = rect(64, 64, 8, 56, 8, 56)
+    paint(c, fp, 0.6, {"G": 0.1})
+    run_until_dry(c)
+    c.dry()
+    st = c.live_state
+    inner = distance_inside(fp) >= 4
+    return float(np.corrcoef(st.q[0][inner], st.h[inner])[0, 1])
+
+
+def test_granulation_anticorrelates_with_paper_height() -> None:
+    r_gran = _height_correlation(0.9)
+    r_none = _height_correlation(0.0)
+    assert r_gran < -0.3, r_gran
+    assert r_none > -0.1, r_none
+    assert r_gran < r_none - 0.3
+
+
+def test_staining_low_beta_lifts_much_more() -> None:
+    pal = twin_palette("Lifting", "Staining", beta=(0.3, 6.0))
+    c = NumpyCanvas(64, 48, seed=3, palette=pal)
+    left = rect(48, 64, 12, 36, 6, 28)
+    right = rect(48, 64, 12, 36, 36, 58)
+    paint(c, left, 0.5, {"Lifting": 0.1})
+    paint(c, right, 0.5, {"Staining": 0.1})
+    run_until_dry(c)
+    c.dry()
+    st = c.live_state
+    before = [float(st.q[k].sum()) for k in range(2)]
+    # rewet both with clean water and let it act
+    paint(c, left + right, 0.8)
+    for _ in range(45):
+        c.step()
+    lifted = [float(st.p[k].sum()) / before[k] for k in range(2)]
+    assert lifted[0] > 0.05
+    assert lifted[0] > 4.0 * lifted[1], lifted
+
+
+def test_density_heavy_pigment_deposits_faster() -> None:
+    pal = twin_palette("Heavy", "Light", delta=(0.9, 0.2))
+    c = NumpyCanvas(48, 48, seed=4, palette=pal)
+    fp = rect(48, 48, 8, 40, 8, 40)
+    paint(c, fp, 0.6, {"Heavy": 0.05, "Light": 0.05})
+    for _ in range(30):
+        c.step()
+    st = c.live_state
+    settled = [float(st.q[k].sum() / (st.q[k].sum() + st.p[k].sum())) for k in range(2)]
+    assert settled[0] > 2.0 * settled[1], settled
+
+
+def _paint_layer(c: NumpyCanvas, fp: np.ndarray, pigs: dict[str, float]) -> None:
+    paint(c, fp, 0.5, pigs)
+    run_until_dry(c)
+    c.dry()
+
+
+def test_glazing_differs_from_mixing_and_yellow_over_blue_is_green() -> None:
+    fp = rect(40, 40, 8, 32, 8, 32)
+    glaze = NumpyCanvas(40, 40, seed=6, paper="hot-press")
+    _paint_layer(glaze, fp, {"Cerulean Blue": 0.25})
+    glaze.new_layer()
+    _paint_layer(glaze, fp, {"Hansa Yellow": 0.25})
+    mixed = NumpyCanvas(40, 40, seed=6, paper="hot-press")
+    _paint_layer(mixed, fp, {"Cerulean Blue": 0.25, "Hansa Yellow": 0.25})
+    inner = distance_inside(fp) >= 4
+    g = glaze.render()[inner].mean(axis=0)
+    m = mixed.render()[inner].mean(axis=0)
+    assert float(np.abs(g - m).max()) > 0.008, (g, m)  # about 2 levels of 8-bit sRGB
+    # and the order of the glazes matters
+    rev = NumpyCanvas(40, 40, seed=6, paper="hot-press")
+    _paint_layer(rev, fp, {"Hansa Yellow": 0.25})
+    rev.new_layer()
+    _paint_layer(rev, fp, {"Cerulean Blue": 0.25})
+    r = rev.render()[inner].mean(axis=0)
+    assert float(np.abs(g - r).max()) > 0.008, (g, r)
+    hue = colorsys.rgb_to_hsv(*(float(x) for x in g))[0] * 360.0
+    assert 75.0 < hue < 165.0, hue  # green
+    assert g[1] > g[0] and g[1] > g[2]
+    # the blue layer alone is blue, so the green comes from the glaze
+    blue = NumpyCanvas(40, 40, seed=6, paper="hot-press")
+    _paint_layer(blue, fp, {"Cerulean Blue": 0.25})
+    b = blue.render()[inner].mean(axis=0)
+    assert b[2] > b[0]
+    assert 180.0 < colorsys.rgb_to_hsv(*(float(x) for x in b))[0] * 360.0 < 260.0
+
+
+@pytest.mark.parametrize("cap", [False, True])
+def test_pigment_enters_dry_paper_only_through_capillary_expansion(cap: bool) -> None:
+    # with strong capillary flow and a low moist threshold the stroke expands; without
+    # it, it cannot. Either way pigment is only ever found in cells that were wet.
+    prm = SimParams()
+    if cap:
+        prm = prm.replace(cap_diffusion=3.5, moist_threshold=0.08, alpha=0.2)
+    c = NumpyCanvas(48, 48, seed=7, params=prm)
+    fp = disc(48, 48, 24, 24, 7)
+    paint(c, fp, 0.7, {"Burnt Umber": 0.1}, vx=20.0)
+    st = c.live_state
+    ever_wet = fp > 0
+    for _ in range(400):
+        c.step()
+        ever_wet |= (st.w > 0) | (st.wc > prm.moist_threshold)
+        has_pigment = (st.p.sum(axis=0) + st.q.sum(axis=0)) > 0
+        assert not (has_pigment & ~ever_wet).any()
+    expanded = ever_wet & (fp == 0)
+    pig_out = (st.p.sum(axis=0) + st.q.sum(axis=0))[fp == 0].sum()
+    if cap:
+        assert expanded.sum() > 20 and pig_out > 0
+    else:
+        assert expanded.sum() == 0 and pig_out == 0
+
+
+def test_ranges_kept_through_a_busy_painting() -> None:
+    prm = SimParams()
+    c = NumpyCanvas(48, 48, seed=8)
+    st = c.live_state
+    rng = np.random.default_rng(0)
+    names = ["French Ultramarine", "Cadmium Red", "Hansa Yellow"]
+    for i in range(300):
+        if i % 20 == 0:
+            cy, cx = rng.uniform(8, 40, 2)
+            fp = disc(48, 48, cy, cx, rng.uniform(3, 9))
+            paint(c, fp, float(rng.uniform(0.3, 1.5)), {names[i // 20 % 3]: 0.4},
+                  vx=float(rng.uniform(-30, 30)), vy=float(rng.uniform(-30, 30)))
+        c.step()
+        cap = st.capacity()
+        assert st.w.min() >= 0 and st.w.max() <= prm.w_max + 1e-6
+        assert st.wc.min() >= 0 and (st.wc <= cap + 1e-6).all()
+        assert st.p.min() >= 0 and st.p.max() <= 1 + 1e-6
+        assert st.q.min() >= 0 and st.q.max() <= 1 + 1e-6
+        assert np.abs(st.vx).max() <= prm.v_max and np.abs(st.vy).max() <= prm.v_max
+        assert np.isfinite(st.w).all() and np.isfinite(st.p).all()
+    img = c.render()
+    assert img.min() >= 0 and img.max() <= 1
+    bal = c.stats()["balance"]
+    assert bal["water_rel_error"] < 1e-3 and bal["pigment_rel_error"] < 1e-3
