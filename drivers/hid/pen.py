@@ -1,0 +1,330 @@
+"""Generic HID pen parser: pen reports decoded from the report descriptor alone.
+
+The descriptor's input reports are classified (:func:`classify_reports`):
+
+- ``pen``: X and Y under a Digitizer-page application (Digitizer, Pen, Light
+  Pen, Whiteboard) or a Stylus collection, with a tip switch, in-range bit or
+  tip pressure;
+- ``touch``: anything under a Finger collection or a Touch Screen / Touch Pad
+  application;
+- ``pad``: Digitizer-page reports without X/Y that carry buttons or tablet
+  function keys (express keys, rings, strips);
+- ``other``: mice, keyboards, consumer keys, vendor-defined reports.
+
+Only pen reports produce samples; the others are skipped and counted.  For
+each pen report a :class:`PenPlan` precomputes the bit shift and mask of every
+field the pen needs (Tip Switch, In Range, Barrel, Secondary Barrel, Invert,
+Eraser, X, Y, Tip Pressure, X/Y Tilt, Twist, Transducer Serial Number, Z or
+Wacom distance, Wacom tool type), so parsing a report is one
+``int.from_bytes`` and a few shifts.  Wacom's vendor digitizer page 0xFF0D is
+read through :func:`station.drivers.hid.usages.equivalent_usage`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from station.drivers.hid import usages as U
+from station.drivers.hid.base import ReportParser
+from station.drivers.hid.descriptor import Descriptor, Field, Report, ReportType, resolution
+from station.drivers.hid.errors import ReportError
+from station.drivers.raw import Axis, AxisRanges, RawSample
+from station.drivers.wacom.tools import tool_from_id
+
+from station.events import Button, Tool
+
+PEN_APPLICATIONS = frozenset({U.DG_DIGITIZER, U.DG_PEN, U.DG_LIGHT_PEN, U.DG_WHITEBOARD})
+TOUCH_APPLICATIONS = frozenset({U.DG_TOUCH_SCREEN, U.DG_TOUCH_PAD})
+
+# role name -> usages that fill it (first match in a report wins)
+ROLE_USAGES: dict[str, tuple[int, ...]] = {
+    "x": (U.GD_X,),
+    "y": (U.GD_Y,),
+    "pressure": (U.DG_TIP_PRESSURE,),
+    "tip": (U.DG_TIP_SWITCH,),
+    "in_range": (U.DG_IN_RANGE,),
+    "sense": (U.WD_SENSE,),
+    "barrel": (U.DG_BARREL_SWITCH,),
+    "barrel2": (U.DG_SECONDARY_BARREL_SWITCH,),
+    "barrel3": (U.WD_BARREL_SWITCH3,),
+    "invert": (U.DG_INVERT,),
+    "eraser": (U.DG_ERASER,),
+    "tilt_x": (U.DG_X_TILT,),
+    "tilt_y": (U.DG_Y_TILT,),
+    "azimuth": (U.DG_AZIMUTH,),
+    "altitude": (U.DG_ALTITUDE,),
+    "twist": (U.DG_TWIST,),
+    "serial": (U.DG_TRANSDUCER_SERIAL,),
+    "serial_hi": (U.WD_SERIAL_HI,),
+    "tool_type": (U.WD_TOOL_TYPE,),
+    "distance": (U.WD_DISTANCE, U.GD_Z),
+}
+_USAGE_ROLE = {usage: role for role, us in ROLE_USAGES.items() for usage in us}
+_BOOL_ROLES = ("tip", "in_range", "sense", "barrel", "barrel2", "barrel3", "invert", "eraser")
+_UNSIGNED_ROLES = ("serial", "serial_hi", "tool_type")
+
+
+def _eq(usage: int) -> int:
+    return U.equivalent_usage(usage)
+
+
+def classify_report(desc: Descriptor, report: Report) -> str:
+    """``pen``, ``touch``, ``pad`` or ``other`` for one input report layout."""
+    data_fields = [f for f in report.fields if not f.is_constant]
+    if not data_fields:
+        return "other"
+    usages: set[int] = set()
+    chains: set[int] = set()
+    apps: set[int] = set()
+    for f in data_fields:
+        usages.update(_eq(u) for u in f.usages)
+        chains.update(_eq(u) for u in desc.collection_usages(f))
+        apps.add(_eq(f.application))
+    if U.DG_FINGER in chains or apps & TOUCH_APPLICATIONS:
+        return "touch"
+    digitizer = bool(apps & PEN_APPLICATIONS) or U.DG_STYLUS in chains
+    has_xy = U.GD_X in usages and U.GD_Y in usages
+    pen_bits = usages & {U.DG_TIP_SWITCH, U.DG_IN_RANGE, U.DG_TIP_PRESSURE, U.WD_SENSE}
+    if digitizer and has_xy and pen_bits:
+        return "pen"
+    on_digitizer = digitizer or any(_eq(a) >> 16 in (U.PAGE_DIGITIZER, U.PAGE_WACOM_DIGITIZER)
+                                    for a in apps)  # fmt: skip
+    keys = (U.DG_TABLET_FUNCTION_KEYS in chains
+            or any(u >> 16 == U.PAGE_BUTTON or u >> 8 == 0xFF0D10 for u in usages))
+    if on_digitizer and keys:
+        return "pad"  # express keys, rings, strips
+    return "other"  # mice, keyboards, vendor-defined data (e.g. Wacom protocol reports)
+
+
+def classify_reports(desc: Descriptor) -> dict[int, str]:
+    """Kind of every input report ID of a descriptor."""
+    return {r.report_id: classify_report(desc, r) for r in desc.input_reports()}
+
+
+@dataclass(frozen=True, slots=True)
+class _Slot:
+    role: str
+    shift: int  # bit offset in the whole report (ID byte included)
+    mask: int
+    sign_bit: int  # 0 = unsigned
+
+
+@dataclass(frozen=True, slots=True)
+class _ArraySlots:
+    shifts: tuple[int, ...]
+    mask: int
+    logical_min: int
+    roles: tuple[str | None, ...]  # role of usage k (value - logical_min)
+
+
+@dataclass(slots=True)
+class PenPlan:
+    """Precomputed extraction of one pen report."""
+
+    report_id: int
+    length: int
+    slots: tuple[_Slot, ...]
+    arrays: tuple[_ArraySlots, ...]
+    fields: dict[str, Field]  # role -> field (for ranges)
+
+
+def make_plan(desc: Descriptor, report: Report) -> PenPlan:
+    base = 8 if desc.numbered else 0
+    slots: list[_Slot] = []
+    arrays: list[_ArraySlots] = []
+    fields: dict[str, Field] = {}
+    for f in report.fields:
+        if f.is_constant:
+            continue
+        if f.is_variable:
+            for i in range(f.count):
+                role = _USAGE_ROLE.get(_eq(f.slot_usage(i)))
+                if role is None or role in fields:
+                    continue
+                fields[role] = f
+                signed = f.signed and role not in _UNSIGNED_ROLES
+                sign_bit = (1 << (f.size - 1)) if signed else 0
+                slots.append(_Slot(role, base + f.slot_offset(i), (1 << f.size) - 1, sign_bit))
+        else:
+            roles = tuple(_USAGE_ROLE.get(_eq(u)) for u in f.usages)
+            if not any(r in _BOOL_ROLES for r in roles):
+                continue
+            for r in roles:
+                if r in _BOOL_ROLES and r not in fields:
+                    fields[r] = f
+            arrays.append(_ArraySlots(
+                tuple(base + f.slot_offset(i) for i in range(f.count)),
+                (1 << f.size) - 1, f.logical_min,
+                tuple(r if r in _BOOL_ROLES else None for r in roles),
+            ))  # fmt: skip
+    return PenPlan(report.report_id, report.length(desc.numbered), tuple(slots), tuple(arrays),
+                   fields)  # fmt: skip
+
+
+def _axis(f: Field | None, signed_role: bool = True) -> Axis | None:
+    if f is None:
+        return None
+    return Axis(f.logical_min, f.logical_max, resolution(f))
+
+
+def ranges_from_plan(plan: PenPlan) -> AxisRanges:
+    fx, fy = plan.fields["x"], plan.fields["y"]
+    return AxisRanges(
+        x=_axis(fx) or Axis(0, 1),
+        y=_axis(fy) or Axis(0, 1),
+        pressure=_axis(plan.fields.get("pressure")),
+        tilt_x=_axis(plan.fields.get("tilt_x")),
+        tilt_y=_axis(plan.fields.get("tilt_y")),
+        distance=_axis(plan.fields.get("distance")),
+        rotation=_axis(plan.fields.get("twist")),
+    )
+
+
+class GenericPenParser(ReportParser):
+    """Parses the pen reports of any HID digitizer from its descriptor.
+
+    Attributes:
+        descriptor: the parsed descriptor.
+        kinds: report ID -> ``pen``/``touch``/``pad``/``other``.
+        plans: report ID -> :class:`PenPlan` for pen reports.
+        primary: the pen report whose axes define :attr:`ranges`.
+    """
+
+    name = "hid-generic"
+
+    def __init__(self, desc: Descriptor, model: dict[str, Any] | None = None,
+                 init_features: list[bytes] | None = None, generic: bool = True) -> None:
+        self.descriptor = desc
+        self.kinds = classify_reports(desc)
+        self.lengths = {r.report_id: r.length(desc.numbered) for r in desc.input_reports()}
+        self.numbered = desc.numbered
+        self.plans: dict[int, PenPlan] = {}
+        for r in desc.input_reports():
+            if self.kinds[r.report_id] == "pen":
+                self.plans[r.report_id] = make_plan(desc, r)
+        if self.plans:
+            self.primary: PenPlan | None = max(self.plans.values(), key=lambda p: len(p.slots))
+            ranges = ranges_from_plan(self.primary)
+            kind, is_pen = "pen", True
+        else:
+            self.primary = None
+            ranges = AxisRanges(Axis(0, 1), Axis(0, 1))
+            kinds = set(self.kinds.values())
+            kind = "touch" if "touch" in kinds else "pad" if "pad" in kinds else "other"
+            is_pen = False
+        super().__init__(ranges, model, init_features, generic=generic, is_pen=is_pen, kind=kind)
+
+    @property
+    def pen_report_ids(self) -> list[int]:
+        return sorted(self.plans)
+
+    def parse(self, report: bytes, time: float) -> list[RawSample]:
+        if not report:
+            raise ReportError("empty report")
+        rid = report[0] if self.numbered else 0
+        want = self.lengths.get(rid)
+        if want is None:
+            raise ReportError(f"unknown input report ID {rid}")
+        if len(report) != want:
+            raise ReportError(f"input report {rid} is {len(report)} bytes, the descriptor says "
+                              f"{want}")  # fmt: skip
+        plan = self.plans.get(rid)
+        if plan is None:
+            return self._skip(self.kinds[rid])
+        return [self._decode(plan, report, time)]
+
+    def _decode(self, plan: PenPlan, report: bytes, time: float) -> RawSample:
+        bits = int.from_bytes(report, "little")
+        v: dict[str, int] = {}
+        for s in plan.slots:
+            value = (bits >> s.shift) & s.mask
+            if s.sign_bit and value & s.sign_bit:
+                value -= s.sign_bit << 1
+            v[s.role] = value
+        for a in plan.arrays:
+            for shift in a.shifts:
+                k = ((bits >> shift) & a.mask) - a.logical_min
+                if 0 <= k < len(a.roles):
+                    role = a.roles[k]
+                    if role is not None:
+                        v[role] = 1
+        get = v.get
+        tip_bit = get("tip")
+        eraser_bit = get("eraser", 0)
+        invert = get("invert", 0)
+        # The eraser end touching reports Eraser (not Tip Switch) on Microsoft-style pens.
+        tip = None if tip_bit is None and "eraser" not in plan.fields else bool(
+            tip_bit or eraser_bit)
+        in_range = get("in_range")
+        if in_range is None:
+            in_range = get("sense")
+        # Without an in-range usage a report only arrives while the pen is sensed.
+        proximity = bool(in_range) if in_range is not None else True
+        buttons = 0
+        if get("barrel"):
+            buttons |= Button.STYLUS
+        if get("barrel2"):
+            buttons |= Button.STYLUS2
+        if get("barrel3"):
+            buttons |= Button.STYLUS3
+        tool_id = get("tool_type") or None
+        eraser = bool(invert or eraser_bit)
+        if eraser:
+            tool = Tool.ERASER
+        elif tool_id is not None:
+            tool = tool_from_id(tool_id)
+        else:
+            tool = Tool.PEN
+        serial = get("serial", 0) | (get("serial_hi", 0) << 32)
+        return RawSample(
+            time=time,
+            proximity=proximity,
+            x=get("x", 0),
+            y=get("y", 0),
+            tip=tip,
+            pressure=get("pressure"),
+            tilt_x=get("tilt_x"),
+            tilt_y=get("tilt_y"),
+            distance=get("distance"),
+            rotation=get("twist"),
+            buttons=int(buttons),
+            tool=tool,
+            serial=serial or None,
+            tool_id=tool_id,
+            eraser=eraser,
+            valid=proximity,
+        )
+
+    def describe(self) -> dict[str, Any]:
+        d = super().describe()
+        d["report_kinds"] = {str(k): v for k, v in sorted(self.kinds.items())}
+        d["pen_reports"] = self.pen_report_ids
+        return d
+
+
+def tilt_from_azimuth(azimuth_deg: float, altitude_deg: float) -> tuple[float, float]:
+    """X/Y tilt in degrees from azimuth (clockwise from +x, degrees) and altitude above the surface.
+
+    The pen leans toward the azimuth direction by ``90 - altitude`` degrees;
+    each tilt is the angle of the pen's projection on the x-z and y-z planes.
+    """
+    alt = math.radians(max(0.0, min(90.0, altitude_deg)))
+    az = math.radians(azimuth_deg)
+    if alt >= math.pi / 2:
+        return 0.0, 0.0
+    t = math.tan(alt)
+    return (math.degrees(math.atan2(math.cos(az), t)), math.degrees(math.atan2(math.sin(az), t)))
+
+
+def input_report_kinds(desc: Descriptor) -> dict[str, list[int]]:
+    """Report IDs grouped by kind, for ``station devices``."""
+    out: dict[str, list[int]] = {}
+    for rid, kind in sorted(classify_reports(desc).items()):
+        out.setdefault(kind, []).append(rid)
+    return out
+
+
+__all__ = ["GenericPenParser", "ReportType", "classify_report", "classify_reports",
+           "input_report_kinds", "make_plan", "tilt_from_azimuth"]  # fmt: skip

@@ -1,0 +1,119 @@
+"""Wacom Bamboo / Intuos-HT pen protocol: report 2, 9 or 10 bytes (kernel: wacom_bpt_pen).
+
+``d[1]`` bits: 0x80 in range, 0x40 proximity (coordinates valid), 0x20 data
+ready (pressure and buttons valid), 0x08 eraser, 0x01 tip, 0x02/0x04 side
+buttons.  x, y and pressure are little-endian 16-bit at d[2], d[4], d[6];
+``distance = max_distance - d[8]`` while in range (never negative).  Pressure
+can be non-zero while the tip bit is 0 — the normaliser decides contact.
+
+Reports of 20 or 64 bytes with ID 2 are touch frames of the touch interface:
+skipped and counted.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from station.drivers.hid.base import ReportParser
+from station.drivers.raw import Axis, AxisRanges, RawSample
+from station.drivers.wacom.common import WacomParams, check_length, unknown_id
+from station.drivers.wacom.modes import PEN_MODE_FEATURE
+from station.drivers.wacom.tools import ERASER_DEVICE_ID, STYLUS_DEVICE_ID
+
+from station.events import Button, Tool
+
+PEN_REPORT_ID = 2
+PEN_LENGTHS = (9, 10)  # Bamboo "fun" pen packets are 9 bytes, Intuos-HT pen packets 10
+TOUCH_LENGTHS = (20, 64)
+
+
+@dataclass(slots=True)
+class BambooState:
+    """The tool seen in proximity, whether a sample was reported, and the last position."""
+
+    tool: Tool = Tool.PEN
+    tool_id: int = 0
+    reporting: bool = False
+    x: int = 0
+    y: int = 0
+
+
+class BambooParser(ReportParser):
+    """Bamboo (CTL-460 …) and Intuos-HT (CTL-480 …) pen interface."""
+
+    name = "wacom-bamboo"
+
+    def __init__(self, params: WacomParams, model: dict[str, Any] | None = None,
+                 init_features: list[bytes] | None = None) -> None:
+        self.params = params
+        ranges = AxisRanges(
+            x=params.x_axis(),
+            y=params.y_axis(),
+            pressure=Axis(0, params.max_pressure),
+            distance=Axis(0, params.max_distance),
+        )
+        feats = [PEN_MODE_FEATURE] if init_features is None else init_features
+        super().__init__(ranges, model, feats)
+        self.state = BambooState()
+
+    def reset(self) -> None:
+        self.state = BambooState()
+
+    def parse(self, report: bytes, time: float) -> list[RawSample]:
+        if not report:
+            raise unknown_id(b"\0", "Bamboo")
+        if report[0] != PEN_REPORT_ID:
+            if report[0] in self.params.skip_report_ids:
+                return self._skip("mouse" if report[0] == 1 else "pad")
+            raise unknown_id(report, "Bamboo")
+        if len(report) in TOUCH_LENGTHS:
+            return self._skip("touch")
+        check_length(report, PEN_LENGTHS, "Bamboo pen")
+        d = report
+        st = self.state
+        in_range = bool(d[1] & 0x80)
+        prox = bool(d[1] & 0x40)
+        ready = bool(d[1] & 0x20)
+        pressure, tip, buttons = 0, False, 0
+        if ready:
+            pressure = d[6] | (d[7] << 8)
+            tip = bool(d[1] & 0x01)
+            buttons = (Button.STYLUS if d[1] & 0x02 else 0) | (Button.STYLUS2 if d[1] & 0x04 else 0)
+        if prox:
+            st.x = d[2] | (d[3] << 8)
+            st.y = d[4] | (d[5] << 8)
+            if d[1] & 0x08:
+                st.tool, st.tool_id = Tool.ERASER, ERASER_DEVICE_ID
+            else:
+                st.tool, st.tool_id = Tool.PEN, STYLUS_DEVICE_ID
+            st.reporting = True
+        distance = 0
+        if in_range:
+            # distance counts up from "out of proximity"; past max it means pressing.
+            if d[8] <= self.params.max_distance:
+                distance = self.params.max_distance - d[8]
+        else:
+            st.tool_id = 0
+        if not st.reporting:  # in range, too far for coordinates, no tool yet
+            self.dropped += 1
+            return []
+        if not in_range:
+            st.x = st.y = 0  # the kernel reports 0, 0 on the way out
+            st.reporting = False
+        sample = RawSample(
+            time=time,
+            proximity=in_range,
+            x=st.x,
+            y=st.y,
+            tip=tip,
+            pressure=pressure,
+            distance=distance,
+            buttons=int(buttons),
+            tool=st.tool,
+            serial=None,
+            tool_id=st.tool_id or None,
+            eraser=st.tool == Tool.ERASER,
+            valid=prox,
+        )
+        return [sample]

@@ -1,0 +1,217 @@
+"""Wacom Intuos family protocol (Intuos3 and later, Cintiq): 10-byte report 2.
+
+Byte layout (d[0] is the report ID; as in the kernel's wacom_wac.c):
+
+- ``d[1] & 0xfc == 0xc0``: tool enters proximity; serial and tool id in d[2..8];
+- ``d[1] & 0xfe == 0x20``: in range, no valid data;
+- ``d[1] & 0xfe == 0x80``: tool leaves proximity;
+- otherwise a data packet of type ``(d[1] >> 1) & 0xf``: 0-3 pen (x, y with
+  an extra low bit in d[9], 11-bit pressure, tilt, distance, side buttons),
+  5 Art Pen rotation, 0xa airbrush wheel, 4/6 mouse, 8/0xc lens.
+
+The protocol is stateful: the proximity-in packet names the tool (id and
+serial) for the packets that follow, and a packet only carries the values of
+its type.  :class:`IntuosState` holds that state explicitly; each emitted
+:class:`RawSample` is the full pen state after the packet (like an evdev
+frame).  Data packets before any proximity-in are dropped (counted), as the
+kernel does.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from station.drivers.hid.base import ReportParser
+from station.drivers.raw import Axis, AxisRanges, RawSample
+from station.drivers.wacom.common import WacomParams, check_length, unknown_id
+from station.drivers.wacom.modes import PEN_MODE_FEATURE
+from station.drivers.wacom.tools import tool_from_id
+
+from station.events import Button, Tool
+
+REPORT_LENGTH = 10
+PEN_REPORT_IDS = frozenset({2, 16})  # 2: WACOM_REPORT_PENABLED, 16: Intuos/Cintiq pen
+ROTATION_AXIS = Axis(-900, 899, 5.0)  # Art Pen: 1800 units per turn, 5 per degree
+WHEEL_AXIS = Axis(0, 1023, None)  # airbrush finger wheel
+TILT_AXIS = Axis(-64, 63, 1.0)  # about one unit per degree
+
+# packet types (d[1] >> 1) & 0xf
+PEN_TYPES = frozenset({0, 1, 2, 3})
+TYPE_MOUSE_4D, TYPE_ROTATION, TYPE_MOUSE_I4, TYPE_AIRBRUSH = 0x4, 0x5, 0x6, 0xA
+LENS_TYPES = frozenset({0x8, 0xC})
+
+
+def decode_serial(d: bytes) -> int:
+    """Tool serial number of a proximity-in packet."""
+    return ((d[3] & 0x0F) << 28) | (d[4] << 20) | (d[5] << 12) | (d[6] << 4) | (d[7] >> 4)
+
+
+def decode_tool_id(d: bytes) -> int:
+    """Tool id of a proximity-in packet."""
+    return (d[2] << 4) | (d[3] >> 4) | ((d[7] & 0x0F) << 16) | ((d[8] & 0xF0) << 8)
+
+
+def decode_rotation(d: bytes) -> int:
+    """Art Pen barrel rotation (-900..899) of a type-5 packet (Intuos3 and later)."""
+    t = (d[6] << 3) | ((d[7] >> 5) & 7)
+    if d[7] & 0x20:
+        # t >= 1 here (bit 0 of t is d[7] bit 5), so C division == floor division
+        return (t - 1) // 2 - 1350 if t > 900 else (t - 1) // 2 + 450
+    return 450 - t // 2
+
+
+def decode_tilt(d: bytes) -> tuple[int, int]:
+    return (((d[7] << 1) & 0x7E) | (d[8] >> 7)) - 64, (d[8] & 0x7F) - 64
+
+
+@dataclass(slots=True)
+class IntuosState:
+    """Protocol state between packets: the tool in proximity and its last values."""
+
+    tool_id: int = 0  # 0: no tool identified (kernel: wacom->id[idx] == 0)
+    serial: int = 0
+    tool: Tool | None = None
+    reporting: bool = False  # a data packet was reported since proximity-in
+    x: int = 0
+    y: int = 0
+    distance: int = 0
+    pressure: int = 0
+    tilt_x: int = 0
+    tilt_y: int = 0
+    rotation: int | None = None
+    wheel: int | None = None
+    buttons: int = 0
+
+    def clear_values(self) -> None:
+        self.x = self.y = self.distance = self.pressure = self.tilt_x = self.tilt_y = 0
+        self.rotation = self.wheel = None
+        self.buttons = 0
+
+
+class IntuosParser(ReportParser):
+    """Intuos3/4/5/Pro and Cintiq pen interface (report IDs 2 and 16)."""
+
+    name = "wacom-intuos"
+
+    def __init__(self, params: WacomParams, model: dict[str, Any] | None = None,
+                 init_features: list[bytes] | None = None) -> None:
+        self.params = params
+        # Devices with less than 11 bits of pressure get the 11-bit value halved.
+        self.halve_pressure = params.max_pressure < 2047
+        ranges = AxisRanges(
+            x=params.x_axis(),
+            y=params.y_axis(),
+            pressure=Axis(0, params.max_pressure),
+            tilt_x=TILT_AXIS,
+            tilt_y=TILT_AXIS,
+            distance=Axis(0, params.max_distance),
+            rotation=ROTATION_AXIS,
+            wheel=WHEEL_AXIS,
+        )
+        feats = [PEN_MODE_FEATURE] if init_features is None else init_features
+        super().__init__(ranges, model, feats)
+        self.state = IntuosState()
+
+    def reset(self) -> None:
+        self.state = IntuosState()
+
+    def parse(self, report: bytes, time: float) -> list[RawSample]:
+        if not report:
+            raise unknown_id(b"\0", "Intuos")
+        rid = report[0]
+        if rid not in PEN_REPORT_IDS:
+            if rid in self.params.skip_report_ids:
+                return self._skip("mouse" if rid == 1 else "pad")
+            raise unknown_id(report, "Intuos")
+        check_length(report, (REPORT_LENGTH,), "Intuos")
+        d = report
+        st = self.state
+        d1 = d[1]
+        if d1 & 0xFC == 0xC0:  # enter proximity: identify the tool
+            st.serial = decode_serial(d)
+            st.tool_id = decode_tool_id(d)
+            st.tool = tool_from_id(st.tool_id)
+            st.reporting = False
+            st.clear_values()
+            st.distance = self.params.max_distance
+            return [self._sample(time, True, valid=False)]
+        if d1 & 0xFE == 0x20:  # in range, no valid data: not touching
+            st.pressure = 0
+            st.distance = self.params.max_distance
+            return [self._sample(time, True, valid=False)]
+        if d1 & 0xFE == 0x80:  # leave proximity
+            st.reporting = False
+            if not st.tool_id:  # the kernel does not report an exit for an unknown tool
+                self.dropped += 1
+                return []
+            st.clear_values()
+            out = self._sample(time, False, valid=False)
+            st.tool_id, st.serial, st.tool = 0, 0, None
+            return [out]
+        if not st.tool_id:  # data before the tool was identified
+            self.dropped += 1
+            return []
+        # Intuos3 and later: one extra bit of x and y in d[9].
+        st.x = (((d[2] << 8) | d[3]) << 1) | ((d[9] >> 1) & 1)
+        st.y = (((d[4] << 8) | d[5]) << 1) | (d[9] & 1)
+        st.distance = d[9] >> 2
+        ptype = (d1 >> 1) & 0xF
+        if ptype in PEN_TYPES:
+            t = (d[6] << 3) | ((d[7] & 0xC0) >> 5) | (d1 & 1)
+            if self.halve_pressure:
+                t >>= 1
+            st.pressure = t
+            st.tilt_x, st.tilt_y = decode_tilt(d)
+            st.buttons = (Button.STYLUS if d1 & 2 else 0) | (Button.STYLUS2 if d1 & 4 else 0)
+        elif ptype == TYPE_AIRBRUSH:
+            st.wheel = (d[6] << 2) | ((d[7] >> 6) & 3)
+            st.tilt_x, st.tilt_y = decode_tilt(d)
+        elif ptype == TYPE_ROTATION:
+            st.rotation = decode_rotation(d)
+        elif ptype == TYPE_MOUSE_I4:
+            st.buttons = _mouse_buttons(d[6], side=0x08, extra=0x10)
+            st.tilt_x, st.tilt_y = decode_tilt(d)
+        elif ptype == TYPE_MOUSE_4D or ptype in LENS_TYPES:
+            st.buttons = _mouse_buttons(d[8], side=0x10 if ptype in LENS_TYPES else 0x20,
+                                        extra=0x08 if ptype in LENS_TYPES else 0x10)
+        # types 7, 9, 0xb, 0xd-0xf carry only position and distance
+        st.reporting = True
+        return [self._sample(time, True, valid=True)]
+
+    def _sample(self, time: float, proximity: bool, valid: bool) -> RawSample:
+        st = self.state
+        cursor = st.tool in (Tool.MOUSE, Tool.LENS)
+        return RawSample(
+            time=time,
+            proximity=proximity,
+            x=st.x,
+            y=st.y,
+            tip=st.pressure > 10 if not cursor else False,  # the kernel's BTN_TOUCH rule
+            pressure=None if cursor else st.pressure,
+            tilt_x=None if cursor and st.tool == Tool.LENS else st.tilt_x,
+            tilt_y=None if cursor and st.tool == Tool.LENS else st.tilt_y,
+            distance=st.distance,
+            rotation=st.rotation,
+            wheel=st.wheel,
+            buttons=int(st.buttons),
+            tool=st.tool,
+            serial=st.serial if st.tool_id else None,
+            tool_id=st.tool_id or None,
+            eraser=st.tool == Tool.ERASER,
+            valid=valid,
+        )
+
+
+def _mouse_buttons(bits: int, side: int, extra: int) -> int:
+    """Mouse/lens buttons onto the pen button bits: left, right, middle; side/extra as PAD."""
+    b = 0
+    if bits & 0x01:
+        b |= Button.STYLUS  # left
+    if bits & 0x04:
+        b |= Button.STYLUS2  # right
+    if bits & 0x02:
+        b |= Button.STYLUS3  # middle
+    if bits & (side | extra):
+        b |= Button.PAD
+    return int(b)
