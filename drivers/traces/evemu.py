@@ -110,3 +110,30 @@ def read_evemu(path: str | os.PathLike[str]) -> Trace:
         raise TraceError("not a text file", f"{name}:1") from None
     except OSError as exc:
         raise TraceError(f"cannot open ({exc.strerror})", name) from None
+
+
+def format_evemu(caps: EvdevCaps, events: Iterable[InputEvent]) -> str:
+    """An evemu-record text for ``caps`` and ``events`` (what evemu-record 1.3 writes)."""
+    lines = ["# EVEMU 1.3", f"N: {caps.name}",
+             f"I: {caps.bus:04x} {caps.vid:04x} {caps.pid:04x} {caps.version:04x}",
+             "P: 00 00 00 00 00 00 00 00"]
+
+    def mask_lines(ev_type: int, codes: Iterable[int]) -> None:
+        codes = sorted(codes)
+        if not codes:
+            return
+        mask = bytearray((codes[-1] // 8 + 8) // 8 * 8)
+        for code in codes:
+            mask[code // 8] |= 1 << (code % 8)
+        for i in range(0, len(mask), 8):
+            lines.append(f"B: {ev_type:02x} " + " ".join(f"{b:02x}" for b in mask[i:i + 8]))
+
+    mask_lines(c.EV_SYN, [c.EV_SYN, c.EV_KEY, c.EV_ABS] + ([c.EV_MSC] if caps.msc else []))
+    mask_lines(c.EV_KEY, caps.keys)
+    mask_lines(c.EV_ABS, caps.absinfo)
+    mask_lines(c.EV_MSC, caps.msc)
+    for code, a in sorted(caps.absinfo.items()):
+        lines.append(f"A: {code:02x} {a.minimum} {a.maximum} {a.fuzz} {a.flat} {a.resolution}")
+    for ev in events:
+        lines.append(f"E: {ev.time:.6f} {ev.type:04x} {ev.code:04x} {ev.value:04d}")
+    return "\n".join(lines) + "\n"
