@@ -1,0 +1,807 @@
+"""Fitting a device → canvas mapping from calibration points.
+
+Models (all 3×3 matrices acting on ``(x, y, 1)``):
+
+* ``affine``: 6 parameters, linear least squares, needs ≥ 3 non-collinear points.
+* ``homography``: 8 parameters, normalised DLT then Levenberg–Marquardt on the
+  geometric error, needs ≥ 4 points in general position.
+* either with ``parallax``: 2 more parameters ``(hx, hy)`` in device units per
+  unit ``tan(tilt)``; the sensed point is moved by ``(hx·tan(tilt_x), hy·tan(tilt_y))``
+  before mapping (screen tablets: the nib sits above the sensor).
+
+The error minimised and reported is the *canvas-space* distance between where
+the mapped tap lands and the target: the error the user sees.  All fitting
+happens in Hartley-normalised coordinates, so device units (0..95840) and
+normalised units (0..1) are equally well conditioned.  Point sets that cannot
+determine the model are refused with :class:`DegeneratePoints` naming why and
+which rows.
+
+Robust fitting (misclicks): least trimmed squares over minimal subsets
+(exhaustive when few, else seeded random), then iterative re-classification of
+every point against a chi-square threshold (99.9 % of a 2-D Gaussian) scaled
+by the noise estimated from the inliers; see :func:`fit_points`.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from station.calibration.errors import DegeneratePoints
+from station.calibration.geometry import (
+    Array,
+    hartley,
+    homogeneous,
+    jacobian,
+    normalise_matrix,
+    planarity,
+    project,
+    spread,
+)
+
+MODELS = ("affine", "homography")
+MIN_POINTS = {"affine": 3, "homography": 4}
+N_PARAMS = {"affine": 6, "homography": 8}
+
+COLLINEAR_TOL = 1e-3  # smaller/larger principal spread below this: a line, not a plane
+DUPLICATE_TOL = 1e-9  # relative to the spread of the set
+COND_MAX = 1e10  # condition number of the normalised design matrix
+MIN_TILT_SPREAD = math.tan(math.radians(3.0))  # tan(tilt) must vary this much per axis
+MAX_SUBSETS = 400  # minimal subsets tried by the robust search
+
+
+@dataclass(frozen=True)
+class PointSet:
+    """Calibration points.
+
+    Attributes:
+        device: ``(n, 2)`` sensed positions, device units or device-normalised.
+        canvas: ``(n, 2)`` target positions, canvas-normalised ``[0, 1]``.
+        tilt: ``(n, 2)`` pen tilt in degrees at each tap, or ``None``.
+        labels: one place name per row for messages (``"points.csv:4"``).
+    """
+
+    device: Array
+    canvas: Array
+    tilt: Array | None = None
+    labels: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        dev = np.asarray(self.device, dtype=np.float64).reshape(-1, 2)
+        can = np.asarray(self.canvas, dtype=np.float64).reshape(-1, 2)
+        object.__setattr__(self, "device", dev)
+        object.__setattr__(self, "canvas", can)
+        if len(dev) != len(can):
+            raise DegeneratePoints(f"{len(dev)} device points but {len(can)} targets")
+        if self.tilt is not None:
+            tilt = np.asarray(self.tilt, dtype=np.float64).reshape(-1, 2)
+            if len(tilt) != len(dev):
+                raise DegeneratePoints(f"{len(tilt)} tilts for {len(dev)} points")
+            object.__setattr__(self, "tilt", tilt)
+        if not self.labels:
+            object.__setattr__(self, "labels", tuple(f"row {i}" for i in range(len(dev))))
+
+    def __len__(self) -> int:
+        return len(self.device)
+
+    def subset(self, rows: Sequence[int] | Array) -> PointSet:
+        idx = np.asarray(rows, dtype=int)
+        return PointSet(
+            self.device[idx],
+            self.canvas[idx],
+            None if self.tilt is None else self.tilt[idx],
+            tuple(self.labels[i] for i in idx),
+        )
+
+    @property
+    def tan_tilt(self) -> Array:
+        """``tan`` of the tilt per axis (zeros without tilt data)."""
+        if self.tilt is None:
+            return np.zeros_like(self.device)
+        return np.tan(np.radians(self.tilt))
+
+
+@dataclass(frozen=True)
+class Mapping:
+    """A fitted device → canvas mapping.
+
+    Attributes:
+        model: ``"affine"`` or ``"homography"``.
+        matrix: 3×3, maps device coordinates (the units of the points) to canvas.
+        parallax: ``(hx, hy)`` device units per unit ``tan(tilt)``; (0, 0) = none.
+    """
+
+    model: str
+    matrix: Array
+    parallax: tuple[float, float] = (0.0, 0.0)
+
+    def corrected_device(self, device: Array, tilt_deg: Array | None = None) -> Array:
+        """Device points moved by the parallax offset for their tilt."""
+        if tilt_deg is None or self.parallax == (0.0, 0.0):
+            return device
+        return device + np.asarray(self.parallax) * np.tan(np.radians(tilt_deg))
+
+    def map(self, device: Array, tilt_deg: Array | None = None) -> Array:
+        """Canvas positions of ``(n, 2)`` device points (with parallax when tilt given)."""
+        pts = np.asarray(device, dtype=np.float64).reshape(-1, 2)
+        return project(self.matrix, self.corrected_device(pts, tilt_deg))
+
+
+@dataclass
+class FitReport:
+    """Everything ``station calibrate --fit`` prints (canvas units unless ``_mm``)."""
+
+    mapping: Mapping
+    rms: float
+    max: float
+    residuals: Array  # (n, 2) target - mapped, every row (outliers too)
+    inliers: list[int]
+    outliers: list[int]
+    sigma: float  # per-axis noise estimated from the inliers
+    threshold: float  # residual norm above which a point is an outlier
+    loo_rms: float | None
+    loo_max: float | None
+    loo_errors: list[float | None]
+    condition: float
+    residuals_mm: Array | None = None
+    parallax_mm: tuple[float, float] | None = None
+    candidates: dict[str, dict[str, Any]] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def model(self) -> str:
+        return self.mapping.model
+
+    def to_json(self, labels: Sequence[str] = ()) -> dict[str, Any]:
+        norms = np.linalg.norm(self.residuals, axis=1)
+        out: dict[str, Any] = {
+            "model": self.model,
+            "matrix": _clean(self.mapping.matrix.tolist()),
+            "rms": self.rms,
+            "max": self.max,
+            "outliers": self.outliers,
+            "inliers": self.inliers,
+            "n_points": int(len(norms)),
+            "sigma": self.sigma,
+            "outlier_threshold": self.threshold,
+            "loo_rms": self.loo_rms,
+            "loo_max": self.loo_max,
+            "residuals": [
+                {"row": i, "dx": float(r[0]), "dy": float(r[1]), "norm": float(n),
+                 "loo": self.loo_errors[i], "outlier": i in self.outliers}
+                for i, (r, n) in enumerate(zip(self.residuals, norms, strict=True))
+            ],
+            "condition": self.condition,
+        }
+        if labels:
+            out["outlier_where"] = [labels[i] for i in self.outliers]
+        if self.residuals_mm is not None:
+            mm = np.linalg.norm(self.residuals_mm, axis=1)
+            inl = mm[self.inliers] if self.inliers else mm
+            out["rms_mm"] = float(np.sqrt(np.mean(inl**2)))
+            out["max_mm"] = float(inl.max())
+            for rec, v in zip(out["residuals"], mm, strict=True):
+                rec["norm_mm"] = float(v)
+        if self.mapping.parallax != (0.0, 0.0) or self.parallax_mm is not None:
+            par: dict[str, Any] = {
+                "x": self.mapping.parallax[0],
+                "y": self.mapping.parallax[1],
+                "units": "device units per tan(tilt)",
+            }
+            if self.parallax_mm is not None:
+                par["x_mm"], par["y_mm"] = self.parallax_mm
+            out["parallax"] = par
+        if self.candidates:
+            out["candidates"] = self.candidates
+        if self.notes:
+            out["notes"] = self.notes
+        return out
+
+
+def _clean(matrix: list[list[float]]) -> list[list[float]]:
+    return [[0.0 if v == 0 else float(v) for v in row] for row in matrix]
+
+
+# ---------------------------------------------------------------------------
+# Validation
+
+
+def check_points(points: PointSet, model: str, parallax: bool = False) -> None:
+    """Refuse a point set that cannot determine ``model``; explain why and where."""
+    if model not in MODELS:
+        raise DegeneratePoints(f"unknown model {model!r} (one of {', '.join(MODELS)})")
+    n = len(points)
+    arrays = [("device", points.device), ("canvas", points.canvas)]
+    if points.tilt is not None:
+        arrays.append(("tilt", points.tilt))
+    for name, arr in arrays:
+        bad = np.flatnonzero(~np.isfinite(arr).all(axis=1))
+        if len(bad):
+            where = ", ".join(points.labels[i] for i in bad[:5])
+            raise DegeneratePoints(f"{name} coordinates are NaN or infinite at {where}")
+    need = MIN_POINTS[model] + (1 if parallax else 0)
+    if n < need:
+        extra = " plus one for the parallax" if parallax else ""
+        raise DegeneratePoints(
+            f"{n} point(s) cannot determine a {model} mapping: it needs at least "
+            f"{MIN_POINTS[model]}{extra} ({need})"
+        )
+    _check_duplicates(points)
+    for name, arr in (("device", points.device), ("canvas", points.canvas)):
+        if spread(arr) == 0.0:
+            raise DegeneratePoints(f"all {name} points coincide")
+        flat = planarity(arr)
+        if flat < COLLINEAR_TOL:
+            raise DegeneratePoints(
+                f"the {name} points are (nearly) collinear (spread ratio {flat:.2e} < "
+                f"{COLLINEAR_TOL:g}): a line cannot determine a plane mapping; add targets "
+                "off the line"
+            )
+    if model == "homography":
+        _check_general_position(points)
+    if parallax:
+        _check_tilt_spread(points)
+
+
+def _check_duplicates(points: PointSet) -> None:
+    key = points.device if points.tilt is None else np.column_stack([points.device, points.tilt])
+    scale = max(spread(points.device), 1e-300)
+    order = np.lexsort(key.T[::-1])
+    srt = key[order]
+    gaps = np.abs(np.diff(srt, axis=0))
+    gaps[:, :2] /= scale
+    same = np.flatnonzero((gaps <= DUPLICATE_TOL).all(axis=1))
+    if len(same):
+        a, b = order[same[0]], order[same[0] + 1]
+        a, b = min(a, b), max(a, b)
+        raise DegeneratePoints(
+            f"duplicate point: {points.labels[a]} and {points.labels[b]} have the same device "
+            "position; a repeated tap adds no information (remove one)"
+        )
+
+
+def _dlt_matrix(dn: Array, cn: Array) -> Array:
+    n = len(dn)
+    a = np.zeros((2 * n, 9))
+    x, y = dn[:, 0], dn[:, 1]
+    u, v = cn[:, 0], cn[:, 1]
+    a[0::2, 0], a[0::2, 1], a[0::2, 2] = x, y, 1.0
+    a[0::2, 6], a[0::2, 7], a[0::2, 8] = -u * x, -u * y, -u
+    a[1::2, 3], a[1::2, 4], a[1::2, 5] = x, y, 1.0
+    a[1::2, 6], a[1::2, 7], a[1::2, 8] = -v * x, -v * y, -v
+    return a
+
+
+def _check_general_position(points: PointSet) -> None:
+    """A homography needs 4 points with no 3 collinear (on both sides)."""
+    for name, arr in (("device", points.device), ("canvas", points.canvas)):
+        t = hartley(arr)
+        pts = (homogeneous(arr) @ t.T)[:, :2]
+        # Points off the best line through all but one: if every 4-subset has three
+        # on a line the DLT null space is 2-D; test the DLT directly below.
+        if len(pts) == 4:
+            for trio in itertools.combinations(range(4), 3):
+                if planarity(pts[list(trio)]) < COLLINEAR_TOL:
+                    rows = ", ".join(points.labels[i] for i in trio)
+                    raise DegeneratePoints(
+                        f"three of the four {name} points are collinear ({rows}): a "
+                        "homography needs four points with no three on a line"
+                    )
+    dn = (homogeneous(points.device) @ hartley(points.device).T)[:, :2]
+    cn = (homogeneous(points.canvas) @ hartley(points.canvas).T)[:, :2]
+    s = np.linalg.svd(_dlt_matrix(dn, cn), compute_uv=False)
+    if len(s) >= 9 and s[-2] < 1e-8 * s[0]:
+        raise DegeneratePoints(
+            "the points do not determine a homography (too many on one line); use "
+            "--model affine or add targets in general position"
+        )
+
+
+def _check_tilt_spread(points: PointSet) -> None:
+    if points.tilt is None:
+        raise DegeneratePoints(
+            "parallax needs tilt_x,tilt_y columns (a tilt pass: tap targets with the pen "
+            "leaning in different directions)"
+        )
+    tt = points.tan_tilt
+    for axis, name in ((0, "tilt_x"), (1, "tilt_y")):
+        span = float(tt[:, axis].max() - tt[:, axis].min())
+        if span < MIN_TILT_SPREAD:
+            raise DegeneratePoints(
+                f"{name} hardly varies (tan spread {span:.3f} < {MIN_TILT_SPREAD:.3f}, "
+                "about 3°): parallax cannot be told from an offset; tap some targets with "
+                "the pen leaning left/right and toward/away"
+            )
+
+
+# ---------------------------------------------------------------------------
+# Core fits in normalised coordinates
+
+
+@dataclass(frozen=True)
+class _Normalised:
+    td: Array
+    tc: Array
+    dn: Array
+    cn: Array
+    tn: Array
+
+    @classmethod
+    def of(cls, points: PointSet) -> _Normalised:
+        td, tc = hartley(points.device), hartley(points.canvas)
+        dn = (homogeneous(points.device) @ td.T)[:, :2]
+        cn = (homogeneous(points.canvas) @ tc.T)[:, :2]
+        return cls(td, tc, dn, cn, points.tan_tilt)
+
+
+def _affine_ls(dn: Array, cn: Array) -> tuple[Array, float]:
+    """Least-squares affine in normalised coordinates; (3×3, condition number)."""
+    design = homogeneous(dn)
+    sol, _res, _rank, sv = np.linalg.lstsq(design, cn, rcond=None)
+    cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
+    m = np.eye(3)
+    m[:2, :] = sol.T
+    return m, cond
+
+
+def _dlt(dn: Array, cn: Array) -> tuple[Array, float]:
+    a = _dlt_matrix(dn, cn)
+    _u, s, vt = np.linalg.svd(a)
+    h = vt[-1].reshape(3, 3)
+    cond = float(s[0] / s[-2]) if s[-2] > 0 else math.inf
+    if abs(h[2, 2]) < 1e-8 * float(np.abs(h).max()):
+        raise DegeneratePoints("the homography sends the centre of the points to infinity")
+    return h / h[2, 2], cond
+
+
+def _unpack(model: str, theta: Array) -> tuple[Array, Array]:
+    m = np.eye(3)
+    if model == "affine":
+        m[:2, :] = theta[:6].reshape(2, 3)
+        rest = theta[6:]
+    else:
+        m.flat[:8] = theta[:8]
+        rest = theta[8:]
+    par = rest[:2] if len(rest) else np.zeros(2)
+    return m, par
+
+
+def _pack(model: str, m: Array, par: Array | None) -> Array:
+    core = m[:2, :].ravel() if model == "affine" else (m / m[2, 2]).flat[:8]
+    return np.concatenate([core, par]) if par is not None else np.array(core)
+
+
+def _residuals_jac(
+    model: str, theta: Array, dn: Array, cn: Array, tn: Array, parallax: bool
+) -> tuple[Array, Array]:
+    """Residuals ``(2n,)`` = mapped - target and their Jacobian ``(2n, p)``."""
+    m, par = _unpack(model, theta)
+    pts = dn + par * tn if parallax else dn
+    x, y = pts[:, 0], pts[:, 1]
+    h = homogeneous(pts) @ m.T
+    w = h[:, 2]
+    u, v = h[:, 0] / w, h[:, 1] / w
+    n = len(dn)
+    iw = 1.0 / w
+    # d/d(m11, m12, m13, m21, m22, m23)
+    du = [x * iw, y * iw, iw, 0 * x, 0 * x, 0 * x]
+    dv = [0 * x, 0 * x, 0 * x, x * iw, y * iw, iw]
+    if model == "homography":
+        du += [-u * x * iw, -u * y * iw]
+        dv += [-v * x * iw, -v * y * iw]
+    if parallax:
+        # chain rule through the corrected point: d(u,v)/d(x,y) · d(x,y)/d(hx,hy)
+        dux = (m[0, 0] - u * m[2, 0]) * iw
+        duy = (m[0, 1] - u * m[2, 1]) * iw
+        dvx = (m[1, 0] - v * m[2, 0]) * iw
+        dvy = (m[1, 1] - v * m[2, 1]) * iw
+        du += [dux * tn[:, 0], duy * tn[:, 1]]
+        dv += [dvx * tn[:, 0], dvy * tn[:, 1]]
+    jac = np.empty((2 * n, len(du)))
+    for k, (a, b) in enumerate(zip(du, dv, strict=True)):
+        jac[0::2, k] = a
+        jac[1::2, k] = b
+    res = np.empty(2 * n)
+    res[0::2] = u - cn[:, 0]
+    res[1::2] = v - cn[:, 1]
+    return res, jac
+
+
+def levenberg_marquardt(
+    fun: Any, theta0: Array, max_iter: int = 200, tol: float = 1e-14
+) -> tuple[Array, float]:
+    """Minimise ``|r(θ)|²`` with Levenberg–Marquardt (Marquardt's diagonal scaling).
+
+    ``fun(θ) -> (r, J)``.  Returns ``(θ, |r|²)``.  Stops when the relative
+    decrease of the cost or the step is below ``tol``.
+    """
+    theta = np.array(theta0, dtype=np.float64)
+    r, j = fun(theta)
+    cost = float(r @ r)
+    lam = 1e-3
+    for _ in range(max_iter):
+        jtj = j.T @ j
+        g = j.T @ r
+        diag = np.maximum(np.diag(jtj), 1e-12)
+        improved = False
+        for _inner in range(30):
+            a = jtj + lam * np.diag(diag)
+            try:
+                step = -np.linalg.solve(a, g)
+            except np.linalg.LinAlgError:
+                lam *= 10
+                continue
+            cand = theta + step
+            with np.errstate(all="ignore"):  # a trial step may hit w = 0; it is rejected
+                r2, j2 = fun(cand)
+            c2 = float(r2 @ r2)
+            if np.isfinite(c2) and c2 <= cost:
+                small = cost - c2 <= tol * max(cost, 1e-300) or float(
+                    np.linalg.norm(step)
+                ) <= tol * (1.0 + float(np.linalg.norm(theta)))
+                theta, r, j, cost = cand, r2, j2, c2
+                lam = max(lam / 10, 1e-12)
+                improved = True
+                if small:
+                    return theta, cost
+                break
+            lam *= 10
+        if not improved:
+            break
+    return theta, cost
+
+
+def _parallax_init(model: str, m: Array, nz: _Normalised) -> Array:
+    """Linear estimate of (hx, hy) with the plain mapping held fixed."""
+    jac = jacobian(m, nz.dn)  # (n, 2, 2)
+    resid = nz.cn - project(m, nz.dn)
+    design = np.zeros((2 * len(nz.dn), 2))
+    design[0::2, 0] = jac[:, 0, 0] * nz.tn[:, 0]
+    design[0::2, 1] = jac[:, 0, 1] * nz.tn[:, 1]
+    design[1::2, 0] = jac[:, 1, 0] * nz.tn[:, 0]
+    design[1::2, 1] = jac[:, 1, 1] * nz.tn[:, 1]
+    sol, *_ = np.linalg.lstsq(design, resid.ravel(), rcond=None)
+    return np.asarray(sol, dtype=np.float64)
+
+
+def _fit_normalised(
+    model: str, nz: _Normalised, parallax: bool, refine: bool = True
+) -> tuple[Array, Array, float]:
+    """(matrix_n, parallax_n, condition) fitted in normalised coordinates."""
+    if model == "affine":
+        m, cond = _affine_ls(nz.dn, nz.cn)
+    else:
+        m, cond = _dlt(nz.dn, nz.cn)
+    if cond > COND_MAX:
+        raise DegeneratePoints(
+            f"the point set is ill-conditioned for a {model} fit (condition {cond:.2e})"
+        )
+    par = np.zeros(2)
+    if parallax:
+        par = _parallax_init(model, m, nz)
+    if (model == "homography" and refine) or parallax:
+        theta, _cost = levenberg_marquardt(
+            lambda th: _residuals_jac(model, th, nz.dn, nz.cn, nz.tn, parallax),
+            _pack(model, m, par if parallax else None),
+        )
+        m, p2 = _unpack(model, theta)
+        if parallax:
+            par = p2
+            _check_parallax_conditioning(model, theta, nz)
+    return m, par, cond
+
+
+def _check_parallax_conditioning(model: str, theta: Array, nz: _Normalised) -> None:
+    _r, j = _residuals_jac(model, theta, nz.dn, nz.cn, nz.tn, True)
+    s = np.linalg.svd(j / np.maximum(np.linalg.norm(j, axis=0), 1e-300), compute_uv=False)
+    if s[-1] < 1e-6 * s[0]:
+        raise DegeneratePoints(
+            "parallax and mapping cannot be told apart with these taps (tilt is tied to "
+            "position); tap the same targets with the pen leaning different ways"
+        )
+
+
+def _denormalise(model: str, nz: _Normalised, m: Array, par: Array) -> Mapping:
+    matrix = normalise_matrix(np.linalg.inv(nz.tc) @ m @ nz.td)
+    if model == "affine":
+        matrix[2, :] = (0.0, 0.0, 1.0)  # exactly affine, not 1e-17 off
+    scale = nz.td[0, 0]
+    return Mapping(model, matrix, (float(par[0] / scale), float(par[1] / scale)))
+
+
+def fit_mapping(
+    points: PointSet, model: str = "affine", parallax: bool = False, refine: bool = True
+) -> tuple[Mapping, float]:
+    """Least-squares fit of ``model`` to all points; ``(mapping, condition)``."""
+    check_points(points, model, parallax)
+    nz = _Normalised.of(points)
+    m, par, cond = _fit_normalised(model, nz, parallax, refine)
+    return _denormalise(model, nz, m, par), cond
+
+
+def fit_affine(points: PointSet) -> Mapping:
+    """Affine least squares (≥ 3 non-collinear points)."""
+    return fit_mapping(points, "affine")[0]
+
+
+def fit_homography(points: PointSet, refine: bool = True) -> Mapping:
+    """Normalised DLT (≥ 4 points, no three collinear), refined by LM when ``refine``."""
+    return fit_mapping(points, "homography", refine=refine)[0]
+
+
+def _quiet_fit(points: PointSet, model: str, parallax: bool) -> Mapping | None:
+    """Fit without raising on degeneracy (subsets of a valid set may be degenerate)."""
+    try:
+        with np.errstate(all="ignore"):
+            nz = _Normalised.of(points)
+            if min(planarity(points.device), planarity(points.canvas)) < COLLINEAR_TOL:
+                return None
+            m, par, _cond = _fit_normalised(model, nz, parallax)
+            mapping = _denormalise(model, nz, m, par)
+    except (DegeneratePoints, np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError):
+        return None
+    if not np.isfinite(mapping.matrix).all():
+        return None
+    return mapping
+
+
+# ---------------------------------------------------------------------------
+# Residuals, leave-one-out, robust fitting, model choice
+
+
+def residuals(mapping: Mapping, points: PointSet) -> Array:
+    """``(n, 2)`` canvas residuals: target minus mapped tap."""
+    tilt = points.tilt if mapping.parallax != (0.0, 0.0) else None
+    return points.canvas - mapping.map(points.device, tilt)
+
+
+def residuals_mm(
+    mapping: Mapping, points: PointSet, res: Array, units_per_mm: tuple[float, float]
+) -> Array:
+    """Canvas residuals carried back to the tablet surface, in millimetres.
+
+    The residual vector at each point is mapped through the inverse Jacobian of
+    the mapping (canvas → device units) and divided by the resolution.
+    """
+    dev = mapping.corrected_device(points.device, points.tilt)
+    jac = jacobian(mapping.matrix, dev)
+    dev_res = np.linalg.solve(jac, res[:, :, None])[:, :, 0]
+    return dev_res / np.asarray(units_per_mm, dtype=np.float64)
+
+
+def leave_one_out(
+    points: PointSet, model: str, parallax: bool = False, rows: Sequence[int] | None = None
+) -> list[float | None]:
+    """Prediction error of each point by a fit of all the others (None: not determinable).
+
+    This is the error a user will see at a place where no target was tapped,
+    a fairer figure than the in-sample RMS (which a flexible model shrinks).
+    """
+    rows = list(range(len(points))) if rows is None else list(rows)
+    out: list[float | None] = [None] * len(points)
+    need = MIN_POINTS[model] + (1 if parallax else 0)
+    if len(rows) - 1 < need:
+        return out
+    for i in rows:
+        others = [k for k in rows if k != i]
+        mapping = _quiet_fit(points.subset(others), model, parallax)
+        if mapping is None:
+            continue
+        err = residuals(mapping, points.subset([i]))[0]
+        out[i] = float(np.hypot(err[0], err[1]))
+    return out
+
+
+def _lts_start(
+    points: PointSet, model: str, parallax: bool, seed: int
+) -> tuple[list[int], str | None]:
+    """Least-trimmed-squares over minimal subsets; returns the h best rows."""
+    n = len(points)
+    k = MIN_POINTS[model] + (1 if parallax else 0)
+    h = (n + k + 1) // 2
+    if h >= n:
+        return list(range(n)), (
+            f"{n} points leave no redundancy to detect misclicks with a {model} model "
+            f"(needs ≥ {k + 2})"
+        )
+    total = math.comb(n, k)
+    if total <= MAX_SUBSETS:
+        subsets: Any = itertools.combinations(range(n), k)
+    else:
+        rng = np.random.default_rng(seed)
+        subsets = (
+            sorted(rng.choice(n, size=k, replace=False).tolist()) for _ in range(MAX_SUBSETS)
+        )
+    best: tuple[float, list[int]] | None = None
+    for sub in subsets:
+        mapping = _quiet_fit(points.subset(list(sub)), model, parallax)
+        if mapping is None:
+            continue
+        e2 = (residuals(mapping, points) ** 2).sum(axis=1)
+        order = np.argsort(e2, kind="stable")
+        score = float(e2[order[:h]].sum())
+        if best is None or score < best[0]:
+            best = (score, sorted(order[:h].tolist()))
+    if best is None:
+        return list(range(n)), "no non-degenerate subset for the robust search"
+    return best[1], None
+
+
+def _studentised(
+    points: PointSet, mapping: Mapping, parallax: bool, inliers: list[int], floor: float
+) -> tuple[float, Array, float]:
+    """Noise estimate and squared studentised residual of every point.
+
+    Works in Hartley-normalised coordinates of the whole set.  With ``J`` the
+    Jacobian of the inliers' residuals and ``P_i = J_i (JᵀJ)⁻¹ J_iᵀ`` the
+    (2×2) leverage of point ``i``, an inlier's residual has covariance
+    ``σ²(I − P_i)`` and an excluded point's prediction error ``σ²(I + P_i)``;
+    the returned distances are ``r_iᵀ C_i⁻¹ r_i / σ²`` (chi-square, 2 dof, for
+    points that fit).  ``σ² = |r_in|² / (2m − p)``, floored at ``floor``
+    (canvas units).  Returns (sigma in canvas units, distances, their outlier limit).
+    """
+    model = mapping.model
+    nz = _Normalised.of(points)
+    m_n = normalise_matrix(nz.tc @ mapping.matrix @ np.linalg.inv(nz.td))
+    par_n = np.asarray(mapping.parallax) * nz.td[0, 0]
+    theta = _pack(model, m_n, par_n if parallax else None)
+    r, j = _residuals_jac(model, theta, nz.dn, nz.cn, nz.tn, parallax)
+    r2, j3 = r.reshape(-1, 2), j.reshape(len(points), 2, -1)
+    scale = nz.tc[0, 0]
+    j_in = j3[inliers].reshape(-1, j.shape[1])
+    dof = j_in.shape[0] - j.shape[1]
+    ssr = float((r2[inliers] ** 2).sum())
+    estimated = math.sqrt(ssr / dof) if dof > 0 else 0.0
+    sigma_n = max(estimated, floor * scale)
+    # sigma estimated from dof residuals is itself uncertain: the studentised distance
+    # / 2 follows F(2, dof), not chi2_2 / 2; the floor counts as known noise.
+    limit = outlier_limit(dof if estimated > floor * scale else None)
+    cov = np.linalg.pinv(j_in.T @ j_in)
+    lev = np.einsum("nap,pq,nbq->nab", j3, cov, j3)  # (n, 2, 2)
+    sign = np.full(len(points), 1.0)
+    sign[inliers] = -1.0
+    c = np.eye(2)[None] + sign[:, None, None] * lev + 1e-9 * np.eye(2)[None]
+    dist2 = np.einsum("na,nab,nb->n", r2, np.linalg.inv(c), r2) / sigma_n**2
+    return sigma_n / scale, dist2, limit
+
+
+def outlier_limit(dof: int | None, p: float = 0.999) -> float:
+    """Bound on a squared studentised 2-D residual that a good point stays under
+    with probability ``p``: ``2·F(2, dof)`` quantile, ``chi2_2`` when sigma is known.
+
+    F(2, ν) has CDF ``1 - (1 + 2x/ν)^(-ν/2)``, so its quantile is closed-form.
+    """
+    if dof is None:
+        return -2.0 * math.log(1.0 - p)
+    return 2.0 * (dof / 2.0) * ((1.0 - p) ** (-2.0 / dof) - 1.0)
+
+
+def fit_points(
+    points: PointSet,
+    model: str = "affine",
+    parallax: bool = False,
+    robust: bool = True,
+    min_sigma: float | None = None,
+    units_per_mm: tuple[float, float] | None = None,
+    seed: int = 0,
+) -> FitReport:
+    """Fit, find misclicks, and report residuals and the leave-one-out error.
+
+    ``model`` is ``affine``, ``homography`` or ``auto`` (the model with the
+    smaller leave-one-out RMS; homography only when it beats affine by 10 %,
+    since a flexible model that does not predict better is just fitting noise).
+
+    Misclicks (``robust``): a least-trimmed-squares start over minimal subsets,
+    then every point is re-classified against ``sqrt(chi2_2(0.999)) · sigma``
+    (3.72 sigma), sigma being the per-axis noise estimated from the inliers'
+    residual sum of squares over their degrees of freedom, floored at
+    ``min_sigma`` (default 1e-4 of the target spread, so that exact synthetic
+    data does not make every rounding error an outlier).  The loop stops when
+    the inlier set no longer changes.
+    """
+    if model == "auto":
+        return _fit_auto(points, parallax, robust, min_sigma, units_per_mm, seed)
+    check_points(points, model, parallax)
+    n = len(points)
+    floor = min_sigma if min_sigma is not None else 1e-4 * spread(points.canvas)
+    notes: list[str] = []
+    inliers = list(range(n))
+    if robust:
+        inliers, note = _lts_start(points, model, parallax, seed)
+        if note:
+            notes.append(note)
+    mapping, cond = fit_mapping(points.subset(inliers), model, parallax)
+    sigma, dist2, limit = _studentised(points, mapping, parallax, inliers, floor)
+    if robust and len(inliers) < n:
+        # The LTS set is the h best of n points: its residuals are a truncated sample
+        # and underestimate the noise.  For chi2_2 (exponential, mean 2) truncated at
+        # its alpha quantile q, E[X | X <= q] = 2 - q (1 - alpha) / alpha.
+        alpha = len(inliers) / n
+        q = -2.0 * math.log(1.0 - alpha)
+        kappa = (2.0 - q * (1.0 - alpha) / alpha) / 2.0
+        dist2 = dist2 * kappa
+    need = MIN_POINTS[model] + (1 if parallax else 0)
+    for _ in range(20):
+        if not robust or notes:
+            break
+        new = sorted(np.flatnonzero(dist2 <= limit).tolist())
+        if new == inliers or len(new) < need:
+            break
+        try:
+            mapping, cond = fit_mapping(points.subset(new), model, parallax)
+        except DegeneratePoints:
+            break
+        inliers = new
+        sigma, dist2, limit = _studentised(points, mapping, parallax, inliers, floor)
+    threshold = math.sqrt(limit) * sigma
+    res = residuals(mapping, points)
+    e = np.hypot(res[:, 0], res[:, 1])
+    outliers = [i for i in range(n) if i not in set(inliers)]
+    loo = leave_one_out(points, model, parallax, inliers)
+    loo_vals = [v for v in loo if v is not None]
+    report = FitReport(
+        mapping=mapping,
+        rms=float(np.sqrt(np.mean(e[inliers] ** 2))),
+        max=float(e[inliers].max()),
+        residuals=res,
+        inliers=inliers,
+        outliers=outliers,
+        sigma=sigma,
+        threshold=threshold,
+        loo_rms=float(np.sqrt(np.mean(np.square(loo_vals)))) if loo_vals else None,
+        loo_max=float(max(loo_vals)) if loo_vals else None,
+        loo_errors=loo,
+        condition=cond,
+        notes=notes,
+    )
+    if units_per_mm is not None:
+        report.residuals_mm = residuals_mm(mapping, points, res, units_per_mm)
+        report.parallax_mm = (
+            mapping.parallax[0] / units_per_mm[0],
+            mapping.parallax[1] / units_per_mm[1],
+        )
+    return report
+
+
+def _fit_auto(
+    points: PointSet,
+    parallax: bool,
+    robust: bool,
+    min_sigma: float | None,
+    units_per_mm: tuple[float, float] | None,
+    seed: int,
+) -> FitReport:
+    affine = fit_points(points, "affine", parallax, robust, min_sigma, units_per_mm, seed)
+    candidates: dict[str, dict[str, Any]] = {
+        "affine": {"rms": affine.rms, "loo_rms": affine.loo_rms, "outliers": affine.outliers}
+    }
+    chosen = affine
+    reason = "affine: too few points to judge a homography by leave-one-out"
+    try:
+        homog = fit_points(points, "homography", parallax, robust, min_sigma, units_per_mm, seed)
+    except DegeneratePoints as exc:
+        candidates["homography"] = {"refused": str(exc)}
+        homog = None
+    if homog is not None:
+        candidates["homography"] = {
+            "rms": homog.rms, "loo_rms": homog.loo_rms, "outliers": homog.outliers,
+        }
+        if homog.loo_rms is not None and affine.loo_rms is not None:
+            if homog.loo_rms < 0.9 * affine.loo_rms:
+                chosen = homog
+                reason = (
+                    f"homography: leave-one-out RMS {homog.loo_rms:.3g} < 0.9 × affine's "
+                    f"{affine.loo_rms:.3g}"
+                )
+            else:
+                reason = (
+                    f"affine: homography's leave-one-out RMS {homog.loo_rms:.3g} is not 10 % "
+                    f"below affine's {affine.loo_rms:.3g}"
+                )
+    chosen.candidates = candidates
+    chosen.notes = [*chosen.notes, f"auto chose {reason}"]
+    return chosen

@@ -1,0 +1,293 @@
+"""``station calibrate``: interactive, scripted and file calibration of a pen device.
+
+Modes (exactly one):
+
+* ``--device SPEC``: the fullscreen calibration window (targets, live cursor,
+  residuals, misclick rejection); writes the calibration file.
+* ``--fit POINTS.csv``: fit calibration points (interfaces.md); ``--json``
+  prints ``{"model", "matrix", "rms", "max", "outliers", …}``.
+* ``--from-trace TRACE --targets TARGETS.csv``: find the taps in a recorded
+  calibration session, match them to the targets in order, fit.
+* ``--export libinput|tslib --calibration FILE``: print a foreign line.
+* ``--import libinput|tslib LINEFILE``: turn a foreign line into a calibration file.
+* ``--check FILE``: validate a calibration file (exit 2 with the reason if bad).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from station.errors import BadInput
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "calibrate",
+        help="calibrate a pen device (interactive window, points CSV, trace, file formats)",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    mode = p.add_mutually_exclusive_group(required=True)
+    mode.add_argument("--device", metavar="SPEC",
+                      help="interactive: mock-user:OPTS, mock-taps:FILE.csv or a drivers device")
+    mode.add_argument("--fit", metavar="POINTS.csv", help="fit calibration points")
+    mode.add_argument("--from-trace", metavar="TRACE", help="fit from a recorded session")
+    mode.add_argument("--export", choices=("libinput", "tslib"), help="print a foreign format")
+    mode.add_argument("--import", dest="import_", choices=("libinput", "tslib"),
+                      metavar="{libinput,tslib}", help="import a foreign line (from --input)")
+    mode.add_argument("--check", metavar="FILE", help="validate a calibration file")
+    p.add_argument("--model", choices=("affine", "homography", "auto"), default=None,
+                   help="mapping model (default: affine for --fit, auto interactively)")
+    p.add_argument("--parallax", choices=("auto", "on", "off"), default="auto",
+                   help="fit screen-tablet parallax (auto: when the tilt varies enough)")
+    p.add_argument("--no-robust", action="store_true", help="do not look for misclicks")
+    p.add_argument("--noise", type=float, default=None, metavar="SIGMA",
+                   help="known tap noise, canvas units (floor of the misclick test)")
+    p.add_argument("--resolution", metavar="RX[,RY]",
+                   help="device units per mm (for residuals in mm)")
+    p.add_argument("--device-max", metavar="XMAX,YMAX",
+                   help="device coordinates are device units 0..max (else normalised)")
+    p.add_argument("--json", action="store_true", help="machine output")
+    p.add_argument("--targets", metavar="TARGETS.csv", help="targets for --from-trace")
+    p.add_argument("--calibration", metavar="FILE", help="calibration file for --export")
+    p.add_argument("--input", metavar="FILE", help="file holding the line for --import")
+    p.add_argument("--screen", metavar="WxH", help="screen pixels for tslib")
+    p.add_argument("--id", dest="device_id", metavar="VID:PID[:SERIAL]",
+                   help="device id for the written calibration file")
+    p.add_argument("-o", "--output", metavar="FILE", help="write the calibration file here")
+    p.add_argument("--points", type=int, choices=(4, 5, 9), default=9,
+                   help="interactive: number of targets")
+    p.add_argument("--tilt-pass", action="store_true",
+                   help="interactive: a second pass at several tilts (screen tablets)")
+    p.add_argument("--misclick-px", type=float, default=15.0,
+                   help="interactive: misclick threshold in screen pixels (xinput_calibrator: 15)")
+    p.add_argument("--screenshot", metavar="PNG", help="interactive: save the last frame")
+    p.add_argument("--timeout", type=float, default=120.0,
+                   help="interactive: give up after this many seconds")
+    p.add_argument("--windowed", action="store_true", help="interactive: not fullscreen")
+    p.set_defaults(func=run)
+
+
+# ---------------------------------------------------------------------------
+
+
+def _pair(text: str | None, flag: str) -> tuple[float, float] | None:
+    if text is None:
+        return None
+    parts = text.replace("x", ",").split(",")
+    try:
+        vals = [float(v) for v in parts]
+    except ValueError:
+        raise BadInput(f"{text!r} is not a number or a pair of numbers", flag) from None
+    if len(vals) == 1:
+        vals = vals * 2
+    if len(vals) != 2 or not all(np.isfinite(vals)) or min(vals) <= 0:
+        raise BadInput(f"{text!r} must be one or two positive numbers", flag)
+    return (vals[0], vals[1])
+
+
+def parse_device_id(text: str | None) -> Any:
+    from station.calibration.model import DeviceId
+
+    if text is None:
+        return None
+    parts = text.split(":", 2)
+    if len(parts) < 2:
+        raise BadInput(f"{text!r} is not VID:PID[:SERIAL] (hex)", "--id")
+    try:
+        vid, pid = int(parts[0], 16), int(parts[1], 16)
+    except ValueError:
+        raise BadInput(f"{text!r}: vid and pid are hexadecimal", "--id") from None
+    return DeviceId(vid, pid, parts[2] if len(parts) == 3 and parts[2] else None)
+
+
+def _parallax_choice(args: argparse.Namespace, points: Any) -> bool:
+    from station.calibration.fit import MIN_TILT_SPREAD
+
+    if args.parallax == "on":
+        return True
+    if args.parallax == "off" or points.tilt is None:
+        return False
+    tt = points.tan_tilt
+    return bool((np.ptp(tt, axis=0) >= MIN_TILT_SPREAD).all())
+
+
+def _report_text(rep: Any, labels: tuple[str, ...]) -> str:
+    lines = [f"model: {rep.model}"]
+    m = rep.mapping.matrix
+    lines += ["matrix:"] + [f"  {r[0]: .9g} {r[1]: .9g} {r[2]: .9g}" for r in m]
+    lines.append(f"rms {rep.rms:.6g}  max {rep.max:.6g}  (canvas units, {len(rep.inliers)} points)")
+    if rep.loo_rms is not None:
+        lines.append(f"leave-one-out rms {rep.loo_rms:.6g}  max {rep.loo_max:.6g}")
+    if rep.residuals_mm is not None:
+        mm = np.linalg.norm(rep.residuals_mm[rep.inliers], axis=1)
+        lines.append(f"rms {np.sqrt(np.mean(mm**2)):.3f} mm  max {mm.max():.3f} mm on the tablet")
+    if rep.mapping.parallax != (0.0, 0.0):
+        px, py = rep.mapping.parallax
+        extra = ""
+        if rep.parallax_mm is not None:
+            extra = f" ({rep.parallax_mm[0]:.3f}, {rep.parallax_mm[1]:.3f}) mm"
+        lines.append(f"parallax per tan(tilt): ({px:.6g}, {py:.6g}) device units{extra}")
+    if rep.outliers:
+        lines.append("misclicks (excluded): " + ", ".join(
+            f"row {i} ({labels[i]})" if labels else f"row {i}" for i in rep.outliers))
+    lines += [f"note: {n}" for n in rep.notes]
+    return "\n".join(lines)
+
+
+def _fit_and_print(args: argparse.Namespace, points: Any, extra: dict[str, Any]) -> int:
+    from station.calibration.fit import fit_points
+
+    model = args.model or "affine"
+    parallax = _parallax_choice(args, points)
+    upm = _pair(args.resolution, "--resolution")
+    rep = fit_points(points, model, parallax, robust=not args.no_robust,
+                     min_sigma=args.noise, units_per_mm=upm)
+    if args.output:
+        _write_fit_file(args, rep, points)
+    if args.json:
+        out = rep.to_json(points.labels)
+        out.update(extra)
+        json.dump(out, sys.stdout, indent=2, allow_nan=False)
+        sys.stdout.write("\n")
+    else:
+        sys.stdout.write(_report_text(rep, points.labels) + "\n")
+        for k, v in extra.items():
+            sys.stdout.write(f"{k}: {v}\n")
+    return 0
+
+
+def _write_fit_file(args: argparse.Namespace, rep: Any, points: Any) -> None:
+    from station.calibration.area import DeviceGeometry
+    from station.calibration.files import write_file
+    from station.calibration.geometry import scaling
+    from station.calibration.model import Calibration, FitInfo
+
+    dev = parse_device_id(args.device_id)
+    if dev is None:
+        raise BadInput("writing a calibration file needs the device id", "--id")
+    upm = _pair(args.resolution, "--resolution")
+    dmax = _pair(args.device_max, "--device-max")
+    matrix = rep.mapping.matrix
+    parallax = rep.mapping.parallax
+    if dmax is not None:
+        geometry = DeviceGeometry(0.0, dmax[0], 0.0, dmax[1],
+                                  upm[0] if upm else None, upm[1] if upm else None)
+        matrix = matrix @ scaling(dmax[0], dmax[1])  # normalised → units, then the fit
+        parallax = (parallax[0] / dmax[0], parallax[1] / dmax[1])
+    else:
+        geometry = DeviceGeometry()
+    fit = FitInfo(rep.model, tuple(map(tuple, matrix)), parallax, rep.rms, rep.max,
+                  rep.loo_rms, len(rep.inliers))
+    write_file(Calibration(dev, geometry, fit), args.output)
+
+
+def run_fit(args: argparse.Namespace) -> int:
+    from station.calibration.points import read_points
+
+    return _fit_and_print(args, read_points(args.fit), {})
+
+
+def run_from_trace(args: argparse.Namespace) -> int:
+    from station.calibration.taps import detect_taps, iter_samples, match_taps, read_targets
+
+    if not args.targets:
+        raise BadInput("--from-trace needs --targets TARGETS.csv", "--targets")
+    targets = read_targets(args.targets)
+    taps, strokes = detect_taps(iter_samples(args.from_trace))
+    points, used = match_taps(taps, targets, args.model or "affine")
+    skipped = [i for i in range(len(taps)) if i not in used]
+    labels = tuple(f"tap {i} (t={taps[i].t0:.3f}s)" for i in used)
+    from station.calibration.fit import PointSet
+
+    points = PointSet(points.device, points.canvas, points.tilt, labels)
+    extra = {"taps": len(taps), "strokes_skipped": strokes, "taps_unmatched": skipped}
+    return _fit_and_print(args, points, extra)
+
+
+def run_export(args: argparse.Namespace) -> int:
+    from station.calibration.export import libinput_line, tslib_line
+    from station.calibration.files import read_file
+
+    if not args.calibration:
+        raise BadInput("--export needs --calibration FILE", "--calibration")
+    cal = read_file(args.calibration)
+    if args.export == "libinput":
+        sys.stdout.write(libinput_line(cal) + "\n")
+        return 0
+    screen = _pair(args.screen, "--screen") if args.screen else None
+    if screen is None:
+        if cal.area.output_pixels is None:
+            raise BadInput("tslib needs the screen size in pixels", "--screen")
+        screen = (float(cal.area.output_pixels[0]), float(cal.area.output_pixels[1]))
+    sys.stdout.write(tslib_line(cal, int(screen[0]), int(screen[1])) + "\n")
+    return 0
+
+
+def run_import(args: argparse.Namespace) -> int:
+    from station.calibration.area import DeviceGeometry
+    from station.calibration.export import parse_libinput, parse_tslib
+    from station.calibration.files import dumps, write_file
+
+    if not args.input:
+        raise BadInput("--import needs --input FILE (the line to import)", "--input")
+    dev = parse_device_id(args.device_id)
+    if dev is None:
+        raise BadInput("--import needs the device id", "--id")
+    try:
+        text = Path(args.input).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise BadInput(f"cannot read ({exc})", args.input) from None
+    if args.import_ == "libinput":
+        cal = parse_libinput(text, dev, args.input)
+    else:
+        dmax = _pair(args.device_max, "--device-max")
+        if dmax is None:
+            raise BadInput("tslib coefficients are in device units: give --device-max",
+                           "--device-max")
+        screen = _pair(args.screen, "--screen")
+        upm = _pair(args.resolution, "--resolution")
+        geometry = DeviceGeometry(0.0, dmax[0], 0.0, dmax[1],
+                                  upm[0] if upm else None, upm[1] if upm else None)
+        cal = parse_tslib(text, dev, geometry, args.input,
+                          int(screen[0]) if screen else None,
+                          int(screen[1]) if screen else None)
+    if args.output:
+        write_file(cal, args.output)
+    else:
+        sys.stdout.write(dumps(cal))
+    return 0
+
+
+def run_check(args: argparse.Namespace) -> int:
+    from station.calibration.files import read_file
+
+    cal = read_file(args.check, parse_device_id(args.device_id))
+    f = cal.fit
+    sys.stdout.write(
+        f"{args.check}: ok: device {cal.device.describe()}, model {f.model}, "
+        f"rms {f.rms if f.rms is not None else '-'}, parallax {f.parallax}\n"
+    )
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.fit:
+        return run_fit(args)
+    if args.from_trace:
+        return run_from_trace(args)
+    if args.export:
+        return run_export(args)
+    if args.import_:
+        return run_import(args)
+    if args.check:
+        return run_check(args)
+    from station.calibration.interactive import run_interactive
+
+    return run_interactive(args)
