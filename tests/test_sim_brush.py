@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import itertools
 import math
+from typing import Any
 
 import numpy as np
 import pytest
@@ -115,7 +117,7 @@ def test_pressure_sets_radius_and_load() -> None:
     assert m.radius(20, 0.0) == pytest.approx(10.0 * m.r_min)
     assert m.radius(20, 0.5) == pytest.approx(10.0 * (m.r_min + (1 - m.r_min) * 0.5))
     radii = [m.radius(20, p / 10) for p in range(11)]
-    assert all(a < b for a, b in zip(radii, radii[1:], strict=False))
+    assert all(a < b for a, b in itertools.pairwise(radii))
     assert m.radius(0.2, 0.0) == 0.5  # never below half a cell
     areas = {}
     for p in (0.2, 1.0):
@@ -217,7 +219,7 @@ def test_brush_settings_validation() -> None:
     assert s.size == 24 and s.water == 0.8 and dict(s.pigment) == {"French Ultramarine": 0.6}
     partial = BrushSettings.from_args({"size": 5}, None, names, base=s)
     assert partial.size == 5 and partial.water == 0.8 and dict(partial.pigment) == dict(s.pigment)
-    bad = [
+    bad: list[tuple[dict[str, Any], str]] = [
         ({"pigment": {"Unobtainium": 0.5}}, "unknown pigment 'Unobtainium'"),
         ({"size": 0}, "must be > 0"),
         ({"size": "big"}, "must be a number"),

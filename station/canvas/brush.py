@@ -261,7 +261,7 @@ class Sources:
 
     @property
     def shape(self) -> tuple[int, int]:
-        return self.dw.shape  # type: ignore[return-value]
+        return self.dw.shape
 
     @property
     def region(self) -> tuple[slice, slice]:

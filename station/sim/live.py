@@ -212,9 +212,9 @@ class LiveSim:
         if self.cfg.state_path:
             self.canvas.state().save(self.cfg.state_path)
         if self.cfg.png_path:
-            from station.canvas.png import write_png
+            from station.sim.paint import write_image
 
-            write_png(self.cfg.png_path, self.canvas.render())
+            write_image(self.cfg.png_path, self.canvas.render())
         if self.writer is not None:
             self.writer.close()
         final = self.status()

@@ -16,6 +16,7 @@ What happens on bad input (interfaces.md: exit 2, one line, nothing painted lost
 from __future__ import annotations
 
 import importlib
+import itertools
 import json
 import logging
 import math
@@ -35,13 +36,18 @@ from station.sim.player import SessionPlayer
 
 log = logging.getLogger(__name__)
 
-TRACE_SUFFIXES = (".hid", ".evemu", ".yaml", ".yml")
+TRACE_SUFFIXES = (".hid", ".hidrec", ".evemu", ".evm", ".yaml", ".yml")
 MAX_CELLS = 4096 * 4096
 """Largest canvas accepted (cells): ~16.8 M cells, a few GiB of state."""
 
 
 class PaintInputError(BadInput):
-    """The input of ``station paint`` cannot be painted."""
+    """The input of ``station paint`` cannot be painted.
+
+    ``result`` is set when the painting up to a bad record was written.
+    """
+
+    result: PaintResult | None = None
 
 
 def parse_size(text: str, where: str = "--size") -> tuple[int, int]:
@@ -114,22 +120,21 @@ def _open_trace(path: str) -> _Source:
         raise PaintInputError(
             f"device traces ({suffix}) are not supported yet by this station; "
             "give a session log (.jsonl)", path) from None
-    reader = None
-    for name in ("read_trace", "iter_samples", "read_samples", "samples"):
-        reader = getattr(traces, name, None)
-        if callable(reader):
-            break
-    if reader is None:
+    reader = getattr(traces, "iter_trace_samples", None)
+    if not callable(reader):
         raise PaintInputError(
             f"device traces ({suffix}) are not supported yet by this station "
             "(station.drivers.traces has no reader); give a session log (.jsonl)", path)
     if not os.path.exists(path):
         raise PaintInputError("no such file", path)
-    samples = reader(path)
+    samples = iter(reader(path))
+    # The drivers read the whole trace on the first sample: a trace that does not
+    # parse is refused before anything is painted.
+    first = next(samples, None)
     count = [0]
 
     def counted() -> Iterator[PenSample | Command]:
-        for s in samples:
+        for s in itertools.chain([first] if first is not None else [], samples):
             count[0] += 1
             if isinstance(s, (PenSample, Command)):
                 yield s
@@ -291,20 +296,18 @@ def paint(
     if error is not None:
         written = ", ".join(result.written)
         msg = str(error) + (f" (painting up to here written: {written})" if written else "")
-        exc = PaintInputError(msg)
-        exc.result = result  # type: ignore[attr-defined]
-        raise exc from None
+        failure = PaintInputError(msg)
+        failure.result = result
+        raise failure from None
     return result
 
 
 def write_outputs(canvas: Any, result: PaintResult, out_png: str | None,
                   state_path: str | None, stats_path: str | None, bits: int) -> None:
     """Render and write the PNG, the state and the stats (each when asked)."""
-    from station.canvas.png import write_png
-
     try:
         if out_png:
-            write_png(out_png, canvas.render(), bits=bits)
+            write_image(out_png, canvas.render(), bits)
             result.written.append(out_png)
         if state_path:
             canvas.state().save(state_path)
@@ -318,3 +321,11 @@ def write_outputs(canvas: Any, result: PaintResult, out_png: str | None,
             result.written.append(stats_path)
     except OSError as exc:
         raise StationError(f"cannot write output: {exc}") from None
+
+
+def write_image(path: str, rgb: Any, bits: int = 8) -> None:
+    """Write linear reflectance ``rgb`` (H, W, 3) as an sRGB PNG of ``bits`` per channel."""
+    from station.canvas.png import write_png
+    from station.canvas.render import to_srgb8, to_srgb16
+
+    write_png(path, to_srgb16(rgb) if bits == 16 else to_srgb8(rgb))

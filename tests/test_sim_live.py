@@ -1,0 +1,92 @@
+"""``station sim`` end to end: a real process on an ipc bus, SIGTERM, log and state."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from station.bus import Publisher, Subscriber
+from station.canvas.state import CanvasState
+from station.events import Command, PenSample
+from station.sessionlog import read_session
+
+
+def _wait_status(sub: Subscriber, pred: Any, timeout: float) -> dict[str, Any] | None:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        msg = sub.recv(200)
+        if msg is not None and msg.kind == "status" and pred(msg.value):
+            return dict(msg.value)
+    return None
+
+
+def test_sim_paints_bus_input_logs_it_and_saves_on_sigterm(tmp_path: Path) -> None:
+    bus = f"ipc://{tmp_path}/bus"
+    status = f"ipc://{tmp_path}/status"
+    log, state, png = tmp_path / "session.jsonl", tmp_path / "state.npz", tmp_path / "end.png"
+    pub = Publisher(bus, bind=True)
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "station", "sim", "--bus", bus, "--size", "48x32",
+         "--backend", "numpy", "--log", str(log), "--state", str(state), "--png", str(png),
+         "--status", "@" + status, "--rate", "30"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, text=True)
+    st_sub = None
+    try:
+        assert pub.wait_for_subscribers(1, timeout=30.0), "station sim never subscribed"
+        st_sub = Subscriber(status, topics=("status",))
+        first = _wait_status(st_sub, lambda s: True, 15.0)
+        assert first is not None and first["process"] == "sim" and first["width"] == 48
+        pub.publish_cmd(Command(t=0.0, cmd="brush", args={
+            "kind": "round", "size": 8, "water": 0.9, "pigment": {"French Ultramarine": 0.8}}))
+        pub.publish_cmd(Command(t=0.0, cmd="brush", args={"pigment": {"Mauve Dream": 1}}))
+        pub.publish_cmd(Command(t=0.0, cmd="sparkle", args={}))
+        t0 = 100.0  # the publisher's own clock: the sim re-times into its session clock
+        n = 30
+        for i in range(n):
+            pub.publish_pen(PenSample(t=t0 + i * 0.01, device="test-0", tool="pen",  # type: ignore[arg-type]
+                                      x=0.2 + 0.6 * i / (n - 1), y=0.5, pressure=0.8,
+                                      touching=True, proximity=True, seq=i + 1))
+            time.sleep(0.01)
+        pub.publish_pen(PenSample(t=t0 + n * 0.01, device="test-0", tool="pen",  # type: ignore[arg-type]
+                                  x=0.8, y=0.5, pressure=0.0, touching=False, proximity=True))
+        seen = _wait_status(st_sub, lambda s: s["samples"] >= n + 1 and s["steps"] > 5, 15.0)
+        assert seen is not None, "status never showed the samples"
+        assert seen["bad_commands"] == 1 and seen["lost_samples"] == 0
+        assert seen["commands"] == 2  # the good brush and the (skipped) unknown command
+        assert seen["fps"] > 0 and seen["sim_time"] > 0
+        proc.send_signal(signal.SIGTERM)
+        out, err = proc.communicate(timeout=30)
+        assert proc.returncode == 0, err
+        final = _wait_status(st_sub, lambda s: s.get("state") == "stopped", 5.0)
+        assert final is not None and final["samples"] == n + 1
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+        pub.close()
+        if st_sub is not None:
+            st_sub.close()
+
+    header, records = read_session(log)
+    assert (header.width, header.height) == (48, 32)
+    assert header.extra["sim"]["rate"] == 30.0
+    pens = [r for r in records if isinstance(r, PenSample)]
+    cmds = [r for r in records if isinstance(r, Command)]
+    assert len(pens) == n + 1 and sum(p.touching for p in pens) == n
+    assert [c.cmd for c in cmds] == ["brush", "sparkle"]  # the rejected brush is not logged
+    # re-timed into the session clock, keeping the device's 10 ms spacing
+    ts = [p.t for p in pens]
+    assert all(b >= a for a, b in zip(ts, ts[1:], strict=False))
+    assert ts[0] < 60.0
+    assert abs((ts[n - 1] - ts[0]) - 0.29) < 0.05
+    s = CanvasState.load(state)
+    assert (s.width, s.height) == (48, 32) and s.step_count > 5
+    painted = float(s.p.sum() + s.q.sum())
+    assert painted > 1.0  # the stroke's pigment is on the canvas
+    assert png.exists() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
