@@ -57,15 +57,15 @@ def parse_evemu(lines: Iterable[str], name: str) -> Trace:
                 raise TraceError("'B:' needs a type and mask bytes 00..ff", where)
             bitmasks.setdefault(values[0], bytearray()).extend(values[1:])
         elif tag == "A":
-            values = _ints(tokens, 10, where, "'A:' axis") if tokens else []
-            if len(values) < 5:
+            if len(tokens) < 5:
                 raise TraceError("'A:' needs code min max fuzz flat [resolution]", where)
-            code = int(tokens[0], 16)
-            lo, hi, fuzz, flat = values[1:5]
-            res = values[5] if len(values) > 5 else 0
+            (code,) = _ints(tokens[:1], 16, where, "'A:' code")
+            values = _ints(tokens[1:], 10, where, "'A:' axis")
+            lo, hi, fuzz, flat = values[:4]
+            res = values[4] if len(values) > 4 else 0
             if hi < lo:
                 raise TraceError(f"axis {code:#x}: max {hi} < min {lo}", where)
-            absinfo[code] = AbsInfo(lo, hi, fuzz, flat, res, lo)
+            absinfo[code] = AbsInfo(lo, hi, fuzz, flat, res, min(max(0, lo), hi))
         elif tag == "E":
             if len(tokens) != 4:
                 raise TraceError("'E:' needs sec.usec type code value", where)

@@ -56,8 +56,9 @@ def parse_libinput_record(text: str, name: str) -> Trace:
                                  where)
             vals = [_int(v, where, f"absinfo {code}") for v in values]
             res = vals[4] if len(vals) > 4 else 0
+            rest = min(max(0, vals[0]), vals[1])  # value at rest: not recorded
             absinfo[_int(code, where, "abs code")] = AbsInfo(vals[0], vals[1], vals[2], vals[3],
-                                                             res, vals[0])
+                                                             res, rest)
         descriptor = None
         hid = entry.get("hid")
         if isinstance(hid, list) and hid:
@@ -107,3 +108,34 @@ def read_libinput_record(path: str | os.PathLike[str]) -> Trace:
     except OSError as exc:
         raise TraceError(f"cannot open ({exc.strerror})", name) from None
     return parse_libinput_record(text, name)
+
+
+def format_libinput_record(devices: list[tuple[EvdevCaps, list[InputEvent]]]) -> str:
+    """A libinput-record YAML document for (caps, events) pairs (one frame per SYN_REPORT)."""
+    doc: dict[str, Any] = {"version": 1, "ndevices": len(devices),
+                           "libinput": {"version": "station"}, "devices": []}
+    for caps, events in devices:
+        frames: list[dict[str, Any]] = []
+        frame: list[list[int]] = []
+        for ev in events:
+            sec = int(ev.time)
+            frame.append([sec, round((ev.time - sec) * 1e6), ev.type, ev.code, ev.value])
+            if ev.type == c.EV_SYN and ev.code == c.SYN_REPORT:
+                frames.append({"evdev": frame})
+                frame = []
+        codes = {c.EV_SYN: [0], c.EV_KEY: sorted(caps.keys), c.EV_ABS: sorted(caps.absinfo)}
+        if caps.msc:
+            codes[c.EV_MSC] = sorted(caps.msc)
+        doc["devices"].append({
+            "node": caps.path or "/dev/input/event0",
+            "evdev": {
+                "name": caps.name, "id": [caps.bus, caps.vid, caps.pid, caps.version],
+                "codes": codes,
+                "absinfo": {k: [a.minimum, a.maximum, a.fuzz, a.flat, a.resolution]
+                            for k, a in sorted(caps.absinfo.items())},
+                "properties": [1],
+            },
+            "udev": {"properties": ["ID_INPUT=1"]},
+            "events": frames,
+        })
+    return yaml.safe_dump(doc, sort_keys=False, default_flow_style=None)
