@@ -777,4 +777,5 @@ def resolution(f: Field) -> float | None:
         extent = physical * scale * 57.29577951308232  # degrees
     else:
         return None
-    return logical / extent if extent > 0 else None
+    # rounded to 9 significant digits so 44800 / 224.0 mm reads 200.0, not 199.99999999999997
+    return float(f"{logical / extent:.9g}") if extent > 0 else None
