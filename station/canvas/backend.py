@@ -26,9 +26,18 @@ BACKENDS = ("numpy", "gl")
 class CanvasBackend(Protocol):
     """What the session player, the live simulation and the benchmark drive."""
 
-    renderer: str
-    width: int
-    height: int
+    @property
+    def renderer(self) -> str:
+        """"numpy", or the GL_RENDERER string of the GL backend."""
+        ...
+
+    @property
+    def width(self) -> int:
+        ...
+
+    @property
+    def height(self) -> int:
+        ...
 
     def add_sources(self, dw: np.ndarray | None = None,
                     dp: Mapping[str, np.ndarray] | None = None,
@@ -86,8 +95,10 @@ def create_backend(name: str, width: int, height: int, profile: str = "watercolo
 
         return NumpyCanvas(width, height, profile=profile, seed=seed, **opts)
     if name == "gl":
-        from station.canvas.gl import GLCanvas
+        import importlib
 
-        return GLCanvas(width, height, profile=profile, seed=seed, **opts)  # type: ignore[no-any-return]
+        gl = importlib.import_module("station.canvas.gl")  # lazy: moderngl only when asked
+        backend: CanvasBackend = gl.GLCanvas(width, height, profile=profile, seed=seed, **opts)
+        return backend
     raise CanvasInputError(
         f"unknown canvas backend {name!r} (known: {', '.join(BACKENDS)})", "--backend")

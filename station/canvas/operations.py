@@ -66,7 +66,7 @@ def add_sources(state: CanvasState, dw: np.ndarray | None = None,
             f"the active layer holds {len(state.slots)} of {state.n_slots} pigments; "
             "start a new layer for more", "pigment")
 
-    touched: list[tuple[slice, slice]] = []
+    touched: list[tuple[tuple[slice, slice], np.ndarray]] = []
     if placed_w is not None:
         sl, a = placed_w
         before = state.w[sl]
@@ -74,7 +74,7 @@ def add_sources(state: CanvasState, dw: np.ndarray | None = None,
         after = np.maximum(after, before)  # a full cell stays as it is
         state.water_added += float((after - before).sum(dtype=np.float64))
         state.w[sl] = after
-        touched.append(sl)
+        touched.append((sl, a))
     for name, (sl, a) in placed_p.items():
         k = state.slot_of(name)
         pname = state.slots[k]
@@ -84,16 +84,16 @@ def add_sources(state: CanvasState, dw: np.ndarray | None = None,
         state.pigment_added[pname] = state.pigment_added.get(pname, 0.0) + float(
             (after - before).sum(dtype=np.float64))
         state.p[k][sl] = after
-        touched.append(sl)
+        touched.append((sl, a))
     vm = F32(prm.v_max)
     for field, pl in zip((state.vx, state.vy), placed_v, strict=True):
         if pl is None:
             continue
         sl, a = pl
         field[sl] = np.where(state.mask[sl] == 0, np.clip(field[sl] + a, -vm, vm), field[sl])
-        touched.append(sl)
-    for sl in touched:
-        tiles.mark_cells(state, sl[0].start, sl[0].stop, sl[1].start, sl[1].stop)
+        touched.append((sl, a))
+    for sl, a in touched:
+        tiles.mark_nonzero(state, sl[0], sl[1], a)
 
 
 def dry(state: CanvasState) -> None:

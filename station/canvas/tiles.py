@@ -34,6 +34,27 @@ def mark_cells(state: CanvasState, y0: int, y1: int, x0: int, x1: int) -> None:
     np.maximum(view, ttl, out=view)
 
 
+def mark_nonzero(state: CanvasState, ys: slice, xs: slice, values: np.ndarray) -> None:
+    """Activate the tiles in which ``values`` (placed at canvas cells ys, xs) is nonzero."""
+    nz = values != 0
+    if not nz.any():
+        return
+    rows = np.nonzero(nz.any(axis=1))[0]
+    cols = np.nonzero(nz.any(axis=0))[0]
+    ts = int(state.params.tile_size)
+    ty = np.unique((rows + ys.start) // ts)
+    tx = np.unique((cols + xs.start) // ts)
+    # exact per-tile test within the bounding tiles
+    ttl = state.params.tile_ttl_steps()
+    for t_y in ty:
+        r0, r1 = max(t_y * ts - ys.start, 0), min((t_y + 1) * ts - ys.start, nz.shape[0])
+        band = nz[r0:r1]
+        for t_x in tx:
+            c0, c1 = max(t_x * ts - xs.start, 0), min((t_x + 1) * ts - xs.start, nz.shape[1])
+            if band[:, c0:c1].any():
+                state.tile_ttl[t_y, t_x] = max(int(state.tile_ttl[t_y, t_x]), ttl)
+
+
 def active_region(state: CanvasState) -> tuple[slice, slice] | None:
     """Bounding box (cells) of the active tiles plus a one-cell halo, or None."""
     ty, tx = np.nonzero(state.tile_ttl > 0)
@@ -57,7 +78,8 @@ def tile_alive(state: CanvasState, ys: slice, xs: slice) -> np.ndarray:
     live = (state.w[cy0:cy1, cx0:cx1] > 0) | (state.wc[cy0:cy1, cx0:cx1] > 0)
     pad = np.zeros(((ty1 - ty0) * ts, (tx1 - tx0) * ts), bool)
     pad[:cy1 - cy0, :cx1 - cx0] = live
-    return pad.reshape(ty1 - ty0, ts, tx1 - tx0, ts).any(axis=(1, 3))
+    out = np.asarray(pad.reshape(ty1 - ty0, ts, tx1 - tx0, ts).any(axis=(1, 3)))
+    return out
 
 
 def update_tiles(state: CanvasState, region: tuple[slice, slice] | None) -> None:
