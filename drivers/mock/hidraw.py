@@ -19,7 +19,7 @@ import logging
 import socket
 import threading
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 
 from station.drivers.transport.base import HidDeviceInfo, TimedReport
 
@@ -34,13 +34,16 @@ class MockHidrawNode:
         reports: the reports to serve, in time order.
         speed: playback speed (1.0 real time); ``None`` = no pacing.
         refuse_features: feature reports to fail with EPIPE (to test error paths).
+        on_feature: called with each feature report accepted (the device reacting).
+        finite: the end of ``reports`` is the end of a recording (else an unplug).
     """
 
-    finite = True
-
     def __init__(self, info: HidDeviceInfo, reports: Iterable[TimedReport],
-                 speed: float | None = None, refuse_features: Iterable[bytes] = ()) -> None:
+                 speed: float | None = None, refuse_features: Iterable[bytes] = (),
+                 on_feature: Callable[[bytes], None] | None = None, finite: bool = True) -> None:
         self.info = info
+        self.finite = finite  # False: the end of the reports looks like an unplug
+        self.on_feature = on_feature
         self.path = info.path or f"mock-hidraw:{info.vid:04x}:{info.pid:04x}"
         self.speed = speed
         self.features: list[bytes] = []
@@ -119,6 +122,8 @@ class MockHidrawNode:
         if data in self.refuse:
             raise BrokenPipeError(32, "Broken pipe")
         self.features.append(data)
+        if self.on_feature is not None:
+            self.on_feature(data)
         log.info("%s: feature report %s", self.path, data.hex(" "))
 
     def close(self) -> None:
