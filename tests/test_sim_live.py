@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import os
 import signal
 import subprocess
@@ -61,7 +62,7 @@ def test_sim_paints_bus_input_logs_it_and_saves_on_sigterm(tmp_path: Path) -> No
         assert seen["commands"] == 2  # the good brush and the (skipped) unknown command
         assert seen["fps"] > 0 and seen["sim_time"] > 0
         proc.send_signal(signal.SIGTERM)
-        out, err = proc.communicate(timeout=30)
+        _out, err = proc.communicate(timeout=30)
         assert proc.returncode == 0, err
         final = _wait_status(st_sub, lambda s: s.get("state") == "stopped", 5.0)
         assert final is not None and final["samples"] == n + 1
@@ -82,7 +83,7 @@ def test_sim_paints_bus_input_logs_it_and_saves_on_sigterm(tmp_path: Path) -> No
     assert [c.cmd for c in cmds] == ["brush", "sparkle"]  # the rejected brush is not logged
     # re-timed into the session clock, keeping the device's 10 ms spacing
     ts = [p.t for p in pens]
-    assert all(b >= a for a, b in zip(ts, ts[1:], strict=False))
+    assert all(b >= a for a, b in itertools.pairwise(ts))
     assert ts[0] < 60.0
     assert abs((ts[n - 1] - ts[0]) - 0.29) < 0.05
     s = CanvasState.load(state)

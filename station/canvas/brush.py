@@ -150,7 +150,7 @@ class BrushModel:
     load_min: float = 0.5
     water_scale: float = 0.5
     pigment_scale: float = 0.1
-    velocity_gain: float = 0.5
+    velocity_gain: float = 0.1
     v_max: float = 2.0
     spacing: float = 0.25
     tilt_stretch: float = 0.5

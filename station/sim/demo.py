@@ -27,7 +27,7 @@ from pathlib import Path
 
 from station.sim.script import Script, swell, taper, tilt_const, tilt_sweep
 
-DEMO_WIDTH, DEMO_HEIGHT = 320, 240
+DEMO_WIDTH, DEMO_HEIGHT = 400, 300
 DEMO_SEED = 11
 DEMO_FILE = Path(__file__).resolve().parent.parent / "data" / "demo" / "landscape.jsonl"
 
@@ -65,16 +65,17 @@ def landscape(width: int = DEMO_WIDTH, height: int = DEMO_HEIGHT) -> Script:
         y = 0.05 + i * 0.085
         a, b = (0.0, y), (1.0, y + 0.01)
         s.line(a, b, 0.55, pressure=taper(0.95, 0.8, 0.8), tilt=tilt_const(20.0, 15.0))
-    s.brush(size=11 * cells, water=0.6, pigment={"Cerulean Blue": 0.55})
+    s.brush(size=11 * cells, water=0.6, pigment={"Cerulean Blue": 0.6})
     for i in range(4):
-        y = 0.06 + i * 0.075
-        s.curve([(0.02, y), (0.3, y + 0.02), (0.6, y - 0.015), (0.98, y + 0.01)], 0.6,
-                pressure=swell(0.55, 0.95, 1.5), tilt=tilt_sweep((25.0, 10.0), (-10.0, 20.0)))
-    s.brush(size=9 * cells, water=0.5, pigment={"French Ultramarine": 0.7})
-    for i in range(2):
-        y = 0.03 + i * 0.05
-        s.line((0.0, y), (1.0, y + 0.02), 0.5, pressure=taper(0.9))
-    s.brush(size=7 * cells, water=0.6, pigment={"Quinacridone Rose": 0.35})
+        y = 0.07 + i * 0.07
+        s.curve([(0.02, y + 0.03), (0.25, y), (0.55, y + 0.035), (0.8, y - 0.01), (0.98, y + 0.02)],
+                0.7, pressure=swell(0.45, 0.95, 1.5 + 0.5 * i),
+                tilt=tilt_sweep((25.0, 10.0), (-10.0, 20.0)))
+    s.brush(size=9 * cells, water=0.5, pigment={"French Ultramarine": 0.8})
+    s.line((0.0, 0.02), (1.0, 0.04), 0.5, pressure=taper(0.95))
+    s.curve([(0.0, 0.1), (0.12, 0.05), (0.3, 0.02)], 0.35, pressure=taper(0.9))
+    s.curve([(1.0, 0.12), (0.85, 0.06), (0.65, 0.03)], 0.35, pressure=taper(0.9))
+    s.brush(size=7 * cells, water=0.6, pigment={"Quinacridone Rose": 0.4})
     for x in (0.15, 0.42, 0.7, 0.9):
         s.curve([(x - 0.08, 0.36), (x, 0.34), (x + 0.08, 0.37)], 0.3, pressure=taper(0.7))
     s.wait(4.0)
@@ -109,8 +110,8 @@ def landscape(width: int = DEMO_WIDTH, height: int = DEMO_HEIGHT) -> Script:
     # 4. Foreground: granulating earth, wet-on-dry.
     s.brush(size=7 * cells, water=0.8,
             pigment={"Burnt Umber": 0.6, "French Ultramarine": 0.3})
-    for i in range(3):
-        y = 0.86 + i * 0.05
+    for i in range(4):
+        y = 0.85 + i * 0.045
         pts = [(x / 6, y + 0.015 * math.sin(3.0 * x + i)) for x in range(7)]
         if i % 2:
             pts.reverse()
@@ -127,10 +128,15 @@ def landscape(width: int = DEMO_WIDTH, height: int = DEMO_HEIGHT) -> Script:
     for (x0, y0), (x1, y1) in [((0.78, 0.62), (0.7, 0.52)), ((0.779, 0.58), (0.86, 0.5)),
                                ((0.776, 0.52), (0.72, 0.44)), ((0.775, 0.5), (0.83, 0.43))]:
         s.line((x0, y0), (x1, y1), 0.35, pressure=taper(0.9, 0.8, 0.1, release=0.5))
-    for i in range(9):
-        x = 0.08 + i * 0.055
-        s.line((x, 0.97), (x + 0.015 * ((i % 3) - 1), 0.9 - 0.02 * (i % 2)), 0.2,
-               pressure=taper(0.8, 0.9, 0.05, attack=0.05, release=0.7))
+    s.brush(size=0.8 * cells, water=0.5, pigment={"Sumi Ink": 0.55})
+    for i, x in enumerate((0.05, 0.2, 0.36, 0.52, 0.63, 0.9)):
+        base = 0.99 - 0.01 * (i % 2)
+        for j in range(5):
+            lean = (j - 2) * 0.012 + 0.004 * math.sin(5.0 * i + j)
+            hgt = 0.06 + 0.025 * ((i + 2 * j) % 3)
+            s.curve([(x + 0.003 * j, base), (x + 0.003 * j + lean * 0.3, base - hgt * 0.5),
+                     (x + 0.003 * j + lean, base - hgt)], 0.15,
+                    pressure=taper(0.8, 0.8, 0.02, attack=0.05, release=0.8))
     s.brush(size=0.9 * cells, water=0.4, pigment={"Sumi Ink": 0.7})
     for bx, by, w in ((0.3, 0.15, 0.035), (0.38, 0.2, 0.025), (0.24, 0.22, 0.02)):
         s.arc((bx - w / 2, by), (w / 2, w / 3), 200.0, 340.0, 0.2, pressure=0.6)
