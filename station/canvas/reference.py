@@ -197,25 +197,24 @@ def advect_velocity(vx: np.ndarray, vy: np.ndarray, wet: np.ndarray,
     hh, ww = wet.shape
     svx = np.where(wet, vx, _ZERO)
     svy = np.where(wet, vy, _ZERO)
-    ys, xs = np.nonzero(wet)
-    if ys.size == 0:
-        return np.zeros_like(vx), np.zeros_like(vy)
     fdt = F32(dt)
-    bx = np.clip(xs.astype(F32) - svx[ys, xs] * fdt, _ZERO, F32(ww - 1))
-    by = np.clip(ys.astype(F32) - svy[ys, xs] * fdt, _ZERO, F32(hh - 1))
-    x0 = np.minimum(np.floor(bx).astype(np.intp), max(ww - 2, 0))
-    y0 = np.minimum(np.floor(by).astype(np.intp), max(hh - 2, 0))
-    x1 = np.minimum(x0 + 1, ww - 1)
-    y1 = np.minimum(y0 + 1, hh - 1)
-    fx = bx - x0.astype(F32)
-    fy = by - y0.astype(F32)
+    bx = np.clip(np.arange(ww, dtype=F32)[None, :] - svx * fdt, _ZERO, F32(ww - 1))
+    by = np.clip(np.arange(hh, dtype=F32)[:, None] - svy * fdt, _ZERO, F32(hh - 1))
+    x0 = np.minimum(np.floor(bx), F32(max(ww - 2, 0)))
+    y0 = np.minimum(np.floor(by), F32(max(hh - 2, 0)))
+    fx = bx - x0
+    fy = by - y0
+    i00 = y0.astype(np.intp) * ww + x0.astype(np.intp)
+    dx = 1 if ww > 1 else 0  # x1 = min(x0 + 1, W - 1)
+    dy = ww if hh > 1 else 0
+    gx = _ONE - fx
+    gy = _ONE - fy
     out = []
     for src in (svx, svy):
-        top = (_ONE - fx) * src[y0, x0] + fx * src[y0, x1]
-        bot = (_ONE - fx) * src[y1, x0] + fx * src[y1, x1]
-        res = np.zeros_like(src)
-        res[ys, xs] = (_ONE - fy) * top + fy * bot
-        out.append(res)
+        flat = src.ravel()
+        top = gx * flat.take(i00) + fx * flat.take(i00 + dx)
+        bot = gx * flat.take(i00 + dy) + fx * flat.take(i00 + dy + dx)
+        out.append(np.where(wet, gy * top + fy * bot, _ZERO).astype(F32))
     return out[0], out[1]
 
 
