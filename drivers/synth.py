@@ -35,6 +35,7 @@ from station.drivers.hid.descriptor import (
     Descriptor,
     ReportType,
 )
+
 from station.events import Button
 
 # -- Wacom Intuos (10-byte report 2) ------------------------------------------------
