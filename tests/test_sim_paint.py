@@ -330,3 +330,16 @@ def test_demo_session_shows_every_effect_in_its_commands() -> None:
     pens = [r for r in records if isinstance(r, PenSample)]
     assert len({round(p.pressure, 2) for p in pens if p.touching}) > 20  # pressure profiles
     assert len({p.tilt_x for p in pens}) > 10  # tilt profiles
+
+
+def test_progress_only_when_asked_or_on_a_terminal(tmp_path: Path,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    from station.sim.paint import paint as paint_api
+
+    log = tmp_path / "s.jsonl"
+    small_session().save(log)
+    paint_api(str(log), str(tmp_path / "a.png"), backend="numpy", progress=True)
+    err = capsys.readouterr().err
+    assert err.startswith("\rpainting ") and "%" in err and err.endswith("\n")
+    paint_api(str(log), str(tmp_path / "b.png"), backend="numpy")  # stderr is not a tty here
+    assert capsys.readouterr().err == ""
