@@ -250,3 +250,32 @@ def test_profiles_and_papers() -> None:
     assert c.params.alpha == get_profile("ink").params.alpha
     assert c.live_state.q.sum() + c.live_state.p.sum() > 0
     c.step()
+
+
+def test_masking_fluid_protects_cells_and_bookkeeping_closes() -> None:
+    from station.canvas import operations
+
+    c = NumpyCanvas(48, 32, seed=2)
+    st = c.live_state
+    paint(c, rect(32, 48, 8, 24, 8, 20), 0.5, {"Cadmium Red": 0.1})  # under the mask
+    run = 0
+    while (st.w > 0).any() and run < 2000:
+        c.step()
+        run += 1
+    under = st.q[0].copy()
+    wc_under = st.wc.copy()
+    mask = rect(32, 48, 0, 32, 0, 24)
+    operations.apply_mask(st, mask)
+    paint(c, rect(32, 48, 4, 28, 4, 44), 0.6, {"Phthalo Green": 0.1}, vx=25.0)
+    for _ in range(120):
+        c.step()
+    k = st.slots.index("Phthalo Green")
+    assert st.p[k][:, :24].sum() == 0 and st.q[k][:, :24].sum() == 0
+    assert st.w[:, :24].sum() == 0
+    assert (st.wc[:, :24] <= wc_under[:, :24]).all()  # the paper under the mask only dries
+    assert np.array_equal(st.q[0], under)  # the protected paint is untouched
+    assert st.q[k][:, 24:].sum() > 0
+    operations.remove_mask(st)
+    assert st.mask.max() == 0
+    bal = c.stats()["balance"]
+    assert bal["water_rel_error"] < 1e-3 and bal["pigment_rel_error"] < 1e-3

@@ -22,7 +22,7 @@ class NumpyCanvas:
         width, height: canvas size in cells.
         profile: paint profile name (``watercolor``, ``gouache``, ``ink``).
         seed: paper seed.
-        tiling: simulate only dirty tiles (default True).
+        tiling: simulate only dirty tiles (default True); ``tiles`` is an alias.
         n_slots: pigment slots per layer (default 8).
         params: parameters replacing the profile's (tests, calibration).
         paper: paper preset replacing the profile's.
@@ -32,10 +32,13 @@ class NumpyCanvas:
     renderer = "numpy"
 
     def __init__(self, width: int, height: int, profile: str = "watercolor", seed: int = 0,
-                 *, tiling: bool = True, n_slots: int = DEFAULT_SLOTS,
+                 *, tiling: bool = True, tiles: bool | None = None,
+                 n_slots: int = DEFAULT_SLOTS,
                  params: SimParams | None = None, paper: str | None = None,
                  palette: Palette | None = None) -> None:
         check_size(width, height)
+        if tiles is not None:
+            tiling = tiles
         prof = get_profile(profile)
         prm = params if params is not None else prof.params
         preset = paper if paper is not None else prof.paper

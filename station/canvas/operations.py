@@ -123,14 +123,11 @@ def fold_pigment_totals(state: CanvasState) -> dict[str, float]:
 def new_layer(state: CanvasState, composed: np.ndarray) -> None:
     """Dry, set ``r_composed = composed`` (the render of the dried canvas), free the slots.
 
-    ``composed`` is float32 (H, W, 3), computed by the caller's renderer. Water and
-    pigment above masked cells are cleared (booked as removed).
+    ``composed`` is float32 (H, W, 3), computed by the caller's renderer. Masked cells
+    never receive anything, so nothing lies above them; what was under the mask when it
+    was applied stays (protected), and the mask itself stays until ``remove_mask``.
     """
     dry(state)
-    masked = state.mask > 0
-    if masked.any():
-        state.removed_p += np.where(masked, state.q, F32(0.0))
-        state.q[:, masked] = 0
     state.r_composed[...] = composed
     layer = fold_pigment_totals(state)
     state.layers.append(layer)
@@ -142,6 +139,33 @@ def new_layer(state: CanvasState, composed: np.ndarray) -> None:
     state.q[...] = 0
     state.removed_p[...] = 0
     state.slots = []
+
+
+def apply_mask(state: CanvasState, region: np.ndarray, *, y0: int = 0, x0: int = 0) -> None:
+    """Masking fluid: cells where ``region > 0`` (placed at y0, x0) get ``mask = 1``."""
+    pl = _placed(state, region, y0, x0, "mask")
+    if pl is None:
+        return
+    sl, a = pl
+    state.mask[sl] = np.where(a > 0, F32(1.0), state.mask[sl])
+
+
+def remove_mask(state: CanvasState) -> None:
+    """Lift the masking fluid: fluid water and suspended pigment on masked cells go with it.
+
+    What is removed is booked (``removed_w``, ``removed_p``); deposits under the mask stay.
+    """
+    masked = state.mask > 0
+    if not masked.any():
+        return
+    state.removed_w += np.where(masked, state.w, F32(0.0))
+    state.w[masked] = 0
+    state.removed_p += np.where(masked, state.p, F32(0.0))
+    state.p[:, masked] = 0
+    state.vx[masked] = 0
+    state.vy[masked] = 0
+    state.mask[...] = 0
+    tiles.activate_all_live(state)
 
 
 def clear(state: CanvasState) -> None:

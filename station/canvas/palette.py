@@ -127,3 +127,8 @@ def default_palette() -> Palette:
             float(pr["beta"]), float(pr["gamma"]), float(pr["delta"]),
         ))
     return Palette(pigments)
+
+
+def load_palette() -> Palette:
+    """The packaged palette (alias of :func:`default_palette`)."""
+    return default_palette()

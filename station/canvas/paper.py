@@ -42,13 +42,15 @@ def worley_f1(height: int, width: int, spacing: float, rng: np.random.Generator)
     gh = int(np.ceil(height / spacing)) + 2
     gw = int(np.ceil(width / spacing)) + 2
     # feature point of grid cell (gy, gx), in pixel units; grid cell 0 starts at -spacing
-    pts = (rng.random((gh, gw, 2)) + np.stack(np.meshgrid(
-        np.arange(gh), np.arange(gw), indexing="ij"), axis=-1) - 1.0) * spacing
-    ys = np.arange(height, dtype=np.float64) + 0.5
-    xs = np.arange(width, dtype=np.float64) + 0.5
-    cy = (ys // spacing).astype(np.int64) + 1
-    cx = (xs // spacing).astype(np.int64) + 1
-    best = np.full((height, width), np.inf)
+    pts = ((rng.random((gh, gw, 2)) + np.stack(np.meshgrid(
+        np.arange(gh), np.arange(gw), indexing="ij"), axis=-1) - 1.0) * spacing).astype(np.float32)
+    ys = np.arange(height, dtype=np.float32) + np.float32(0.5)
+    xs = np.arange(width, dtype=np.float32) + np.float32(0.5)
+    cy = (np.arange(height) + 0.5) // spacing
+    cx = (np.arange(width) + 0.5) // spacing
+    cy = cy.astype(np.int64) + 1
+    cx = cx.astype(np.int64) + 1
+    best = np.full((height, width), np.inf, np.float32)
     for dy in (-1, 0, 1):
         for dx in (-1, 0, 1):
             gy = np.clip(cy + dy, 0, gh - 1)
