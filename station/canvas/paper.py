@@ -46,10 +46,8 @@ def worley_f1(height: int, width: int, spacing: float, rng: np.random.Generator)
         np.arange(gh), np.arange(gw), indexing="ij"), axis=-1) - 1.0) * spacing).astype(np.float32)
     ys = np.arange(height, dtype=np.float32) + np.float32(0.5)
     xs = np.arange(width, dtype=np.float32) + np.float32(0.5)
-    cy = (np.arange(height) + 0.5) // spacing
-    cx = (np.arange(width) + 0.5) // spacing
-    cy = cy.astype(np.int64) + 1
-    cx = cx.astype(np.int64) + 1
+    cy = ((np.arange(height) + 0.5) // spacing).astype(np.int64) + 1
+    cx = ((np.arange(width) + 0.5) // spacing).astype(np.int64) + 1
     best = np.full((height, width), np.inf, np.float32)
     for dy in (-1, 0, 1):
         for dx in (-1, 0, 1):
