@@ -343,3 +343,35 @@ def test_progress_only_when_asked_or_on_a_terminal(tmp_path: Path,
     assert err.startswith("\rpainting ") and "%" in err and err.endswith("\n")
     paint_api(str(log), str(tmp_path / "b.png"), backend="numpy")  # stderr is not a tty here
     assert capsys.readouterr().err == ""
+
+
+def test_demo_paints_a_landscape_and_books_close(tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    """The whole demo session at 120x90: the picture has its parts where the script
+    put them, and the bookkeeping closes over all layers and the profile switch."""
+    png, stats = tmp_path / "demo.png", tmp_path / "demo.json"
+    code = main(["demo", "-o", str(png), "--backend", "numpy", "--size", "120x90",
+                 "--stats", str(stats)])
+    assert code == 0, capsys.readouterr().err
+    img = read_png(png)
+    assert img.shape == (90, 120, 3)
+
+    def at(x: float, y: float) -> np.ndarray:
+        return img[int(y * 90), int(x * 120)]
+
+    sky, hills, glazed, ink, earth = (at(0.5, 0.05), at(0.5, 0.5), at(0.3, 0.7),
+                                      at(0.77, 0.7), at(0.5, 0.93))
+    assert sky[2] > sky[0] + 40  # blue sky
+    assert hills[2] > hills[1] + 30 and hills[0] > hills[1]  # violet distant hills
+    assert glazed[1] > glazed[0] + 30 and glazed[1] > glazed[2] + 60  # blue + yellow = green
+    assert ink.max() < 60  # the ink tree trunk
+    assert earth[0] > earth[2] + 30 and earth.sum() < 400  # brown foreground
+    assert at(0.3, 0.42).min() > 230  # the misty white band above the hills
+    st = json.loads(stats.read_text())
+    assert st["profile"] == "ink" and st["player"]["commands"]["profile"] == 1
+    wtr = st["water"]
+    assert abs(wtr["added"] - wtr["evaporated"] - wtr["removed"] - wtr["fluid"]
+               - wtr["capillary"]) <= 1e-3 * wtr["added"]
+    for name, pig in st["pigments"].items():
+        assert abs(pig["added"] - pig["removed"] - pig["fluid"] - pig["surface"]) \
+            <= 1e-3 * pig["added"], name

@@ -214,9 +214,6 @@ class SessionPlayer:
         try:
             for rec in records:
                 self.advance_to(rec.t, on_step)
-                # a canvas operation must see the stamps made before it
-                if isinstance(rec, Command) and rec.cmd in _FLUSH_BEFORE:
-                    self.flush_sources()
                 self.apply(rec, where() if where else None)
                 if isinstance(rec, Command) and rec.cmd == "wait":
                     self.advance_to(rec.t, on_step)
@@ -257,7 +254,6 @@ _HANDLERS: dict[str, Callable[[SessionPlayer, Mapping[str, Any], str | None], No
     "new_layer": _new_layer,
     "clear": _clear,
 }
-_FLUSH_BEFORE = frozenset({"dry", "new_layer", "profile"})
 
 
 PIGMENT_GAIN = 4.0
