@@ -277,19 +277,43 @@ def _trace_pen_device(trace: Trace, spec: DeviceSpec) -> TraceDevice:
     return replay.pen_devices[0]
 
 
-def open_device(spec_text: str, name: str | None = None) -> PenSource:
-    """Open the pen device a SPEC string names (live, mock or recorded)."""
+@dataclass
+class OpenedTransport:
+    """A transport opened from a SPEC, before any parser is chosen.
+
+    Attributes:
+        kind: ``"hid"`` (reports) or ``"evdev"`` (events).
+        transport: the transport.
+        finite: a recording or script that ends by itself.
+        spec: the parsed SPEC.
+        mock: the mock device object where there is one (tablet, usb device, node).
+    """
+
+    kind: str
+    transport: Any
+    finite: bool
+    spec: DeviceSpec
+    mock: Any = None
+
+
+def open_transport(spec_text: str) -> OpenedTransport:
+    """Open the transport a SPEC string names (live, mock or recorded)."""
     spec = DeviceSpec.parse(spec_text)
     s = spec.scheme
     if s == "mock":
-        from station.drivers.mock.tablet import open_mock_tablet
+        from station.drivers.mock.hidraw import MockHidrawNode
+        from station.drivers.mock.tablet import mock_tablet_from_spec
+        from station.drivers.transport.hidraw import HidrawTransport
 
-        return open_mock_tablet(spec, name)
+        tablet, speed = mock_tablet_from_spec(spec)
+        finite = not spec.flag("unplug")
+        node = MockHidrawNode(tablet.info, tablet.timed_reports(), speed=speed,
+                              on_feature=tablet.feature, finite=finite)
+        return OpenedTransport("hid", HidrawTransport(node), finite, spec, tablet)
     if s in ("mock-hidraw", "mock-usb", "trace"):
         trace = read_trace(spec.target)
         dev = _trace_pen_device(trace, spec)
-        default_speed = None if s == "trace" else 1.0
-        speed = spec.speed(default_speed)
+        speed = spec.speed(None if s == "trace" else 1.0)
         if s == "trace":
             from station.drivers.transport.recording import (
                 RecordedEvdevTransport,
@@ -297,9 +321,9 @@ def open_device(spec_text: str, name: str | None = None) -> PenSource:
             )
 
             if dev.kind == "evdev":
-                return EvdevPenSource(RecordedEvdevTransport(dev, speed), finite=True, name=name)
-            return HidPenSource(RecordedHidTransport(dev, spec.target, speed), finite=True,
-                                name=name)
+                return OpenedTransport("evdev", RecordedEvdevTransport(dev, speed), True, spec)
+            return OpenedTransport("hid", RecordedHidTransport(dev, spec.target, speed), True,
+                                   spec)
         if dev.kind != "hid" or dev.descriptor is None:
             raise DeviceSpecError(f"{spec.target}: {s} needs a hid-recorder trace with a "
                                   "report descriptor", "--device")
@@ -309,7 +333,7 @@ def open_device(spec_text: str, name: str | None = None) -> PenSource:
             from station.drivers.transport.hidraw import HidrawTransport
 
             node = MockHidrawNode(info, dev.reports, speed=speed)
-            return HidPenSource(HidrawTransport(node), finite=True, name=name)
+            return OpenedTransport("hid", HidrawTransport(node), True, spec, node)
         from station.drivers.mock.usb import RecordedUsbBackend, RecordedUsbDevice
         from station.drivers.transport.pyusb import UsbTransport
 
@@ -318,28 +342,50 @@ def open_device(spec_text: str, name: str | None = None) -> PenSource:
         backend = RecordedUsbBackend([usb_dev])
         transport = UsbTransport(dev.vid, dev.pid, backend=backend,
                                  detach_kernel_driver=spec.flag("detach"))
-        return HidPenSource(transport, finite=True, name=name)
+        return OpenedTransport("hid", transport, True, spec, usb_dev)
     if s == "evdev":
         from station.drivers.transport.evdev import EvdevNodeTransport
 
-        return EvdevPenSource(EvdevNodeTransport(spec.target, grab=spec.flag("grab")), name=name)
+        return OpenedTransport("evdev", EvdevNodeTransport(spec.target, grab=spec.flag("grab")),
+                               False, spec)
     if s == "hidraw":
         from station.drivers.transport.hidraw import HidrawTransport, OsHidrawNode
 
-        return HidPenSource(HidrawTransport(OsHidrawNode(spec.target)), name=name)
+        return OpenedTransport("hid", HidrawTransport(OsHidrawNode(spec.target)), False, spec)
     if s == "hidapi":
         from station.drivers.transport.hidapi import HidapiTransport
 
         if spec.target.startswith("/"):
-            return HidPenSource(HidapiTransport(path=spec.target.encode()), name=name)
+            return OpenedTransport("hid", HidapiTransport(path=spec.target.encode()), False, spec)
         vid, pid = _vid_pid(spec.target)
-        return HidPenSource(HidapiTransport(vid, pid), name=name)
+        return OpenedTransport("hid", HidapiTransport(vid, pid), False, spec)
     from station.drivers.transport.pyusb import UsbTransport
 
     vid, pid = _vid_pid(spec.target)
     interface = spec.options.get("interface")
-    return HidPenSource(UsbTransport(vid, pid, interface=int(interface) if interface else None,
-                                     detach_kernel_driver=spec.flag("detach")), name=name)
+    if interface is not None and not interface.isdigit():
+        raise DeviceSpecError(f"interface={interface!r} must be a number", "--device")
+    return OpenedTransport("hid", UsbTransport(vid, pid,
+                                               interface=int(interface) if interface else None,
+                                               detach_kernel_driver=spec.flag("detach")),
+                           False, spec)
+
+
+def open_device(spec_text: str, name: str | None = None, send_init: bool = True) -> PenSource:
+    """Open the pen device a SPEC string names, with its parser (HID) or assembler (evdev)."""
+    opened = open_transport(spec_text)
+    source: PenSource
+    try:
+        if opened.kind == "evdev":
+            source = EvdevPenSource(opened.transport, finite=opened.finite, name=name)
+        else:
+            source = HidPenSource(opened.transport, finite=opened.finite, name=name,
+                                  send_init=send_init)
+    except BaseException:
+        opened.transport.close()
+        raise
+    source.mock = opened.mock  # type: ignore[attr-defined]
+    return source
 
 
 # -- the driver -------------------------------------------------------------------

@@ -30,7 +30,6 @@ from typing import TYPE_CHECKING, Any
 from station.drivers import synth
 from station.drivers.hid import usages as U
 from station.drivers.hid.descriptor import parse_descriptor
-from station.drivers.mock.hidraw import MockHidrawNode
 from station.drivers.mock.script import SCRIPTS, PenState, timed_states
 from station.drivers.raw import Axis, AxisRanges
 from station.drivers.transport.base import DeviceSpecError, HidDeviceInfo, TimedReport
@@ -39,7 +38,7 @@ from station.drivers.wacom.modes import PEN_MODE_FEATURE
 from station.events import Tool
 
 if TYPE_CHECKING:
-    from station.drivers.pipeline import DeviceSpec, HidPenSource
+    from station.drivers.pipeline import DeviceSpec
 
 GENERIC_MODELS: dict[str, dict[str, Any]] = {
     "huion-like": {"id": "huion-like", "name": "Mock Huion-like pen", "vendor_id": "256c",
@@ -264,16 +263,3 @@ def mock_tablet_from_spec(spec: DeviceSpec) -> tuple[MockTablet, float | None]:
         paced=speed is not None,
     )
     return tablet, speed
-
-
-def open_mock_tablet(spec: DeviceSpec, name: str | None = None) -> HidPenSource:
-    """The ``mock:`` device: a mock tablet behind a mock hidraw node, read by HidrawTransport."""
-    from station.drivers.pipeline import HidPenSource
-    from station.drivers.transport.hidraw import HidrawTransport
-
-    tablet, speed = mock_tablet_from_spec(spec)
-    node = MockHidrawNode(tablet.info, tablet.timed_reports(), speed=speed,
-                          on_feature=tablet.feature, finite=not spec.flag("unplug"))
-    source = HidPenSource(HidrawTransport(node), finite=not spec.flag("unplug"), name=name)
-    source.mock = tablet  # type: ignore[attr-defined]
-    return source

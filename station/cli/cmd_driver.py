@@ -1,0 +1,167 @@
+"""``station driver --device SPEC --bus ENDPOINT``: the long-running driver process.
+
+Reads one pen device, publishes its pen samples on ``pen.<name>`` and a status
+record (counts of reports, bad reports dropped, samples, forced proximity-out)
+on ``status`` every ``--status-interval`` seconds.  SIGINT/SIGTERM end it
+cleanly (exit 0).  When the device is unplugged it publishes ``state: gone``
+and keeps watching for it to come back (``--no-reconnect`` ends instead).
+A recording or a finite mock script ends the driver when it ends.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import sys
+import threading
+import time
+from typing import Any
+
+from station.errors import BadInput
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("driver", help="run a pen driver publishing on the bus")
+    p.add_argument("--device", required=True, metavar="SPEC", help="device SPEC (docs/drivers.md)")
+    p.add_argument("--bus", metavar="ENDPOINT", help="bus endpoint (default: the local ipc bus)")
+    p.add_argument("--name", help="device name in the samples (default: from the model)")
+    p.add_argument("--jsonl", metavar="FILE", help="also write the samples as session-log JSONL")
+    p.add_argument("--status-interval", type=float, default=1.0, metavar="S")
+    p.add_argument("--no-reconnect", action="store_true",
+                   help="end when the device is unplugged instead of waiting for it")
+    p.add_argument("--max-reconnects", type=int, default=None, metavar="N",
+                   help="give up after N reconnections (default: never)")
+    p.add_argument("--smoothing", type=float, default=0.0, metavar="MS",
+                   help="position smoothing time constant in ms (0 = off)")
+    p.add_argument("--tip-down", type=float, default=0.05, help="contact threshold (fraction)")
+    p.add_argument("--tip-up", type=float, default=0.01, help="release threshold (fraction)")
+    p.add_argument("--pressure-curve", metavar="X1,Y1,X2,Y2",
+                   help="cubic Bézier pressure curve control points in [0, 1]")
+    p.add_argument("--proximity-timeout", type=float, default=0.05, metavar="S",
+                   help="forced proximity-out after S seconds without reports")
+    p.add_argument("--no-init", action="store_true", help="do not send init feature reports")
+    p.set_defaults(func=run)
+
+
+def normaliser_config(args: argparse.Namespace) -> Any:
+    from station.drivers.normalise import NormaliserConfig
+
+    curve = None
+    if args.pressure_curve:
+        try:
+            parts = tuple(float(v) for v in args.pressure_curve.split(","))
+        except ValueError:
+            raise BadInput("needs four numbers x1,y1,x2,y2", "--pressure-curve") from None
+        if len(parts) != 4:
+            raise BadInput("needs four numbers x1,y1,x2,y2", "--pressure-curve")
+        curve = parts
+    return NormaliserConfig(tip_down=args.tip_down, tip_up=args.tip_up,
+                            smoothing_ms=args.smoothing, pressure_curve=curve,  # type: ignore[arg-type]
+                            proximity_timeout=args.proximity_timeout or None)
+
+
+def run(args: argparse.Namespace) -> int:
+    from station.bus import Publisher
+    from station.drivers.pipeline import PenDriver, open_device
+    from station.drivers.transport.base import DeviceGone, EndOfStream, TransportError
+    from station.sessionlog import SessionHeader, SessionLogWriter
+
+    config = normaliser_config(args)
+    if args.status_interval <= 0:
+        raise BadInput("must be > 0 seconds", "--status-interval")
+    stop = threading.Event()
+    old = {sig: signal.signal(sig, lambda *_: stop.set())
+           for sig in (signal.SIGINT, signal.SIGTERM)}
+    publisher = Publisher(args.bus)
+    writer = SessionLogWriter(args.jsonl, SessionHeader(extra={"source": args.device})) \
+        if args.jsonl else None
+    reconnects = 0
+    totals = {"samples": 0, "reconnects": 0}
+    last: dict[str, Any] = {}
+
+    def status(state: str, driver: PenDriver | None = None, **extra: Any) -> None:
+        nonlocal last
+        rec: dict[str, Any] = {"kind": "driver", "state": state, "device_spec": args.device,
+                               **totals, **extra}
+        if driver is not None:
+            rec.update(driver.status())
+        last = rec
+        publisher.publish_status(rec)
+
+    source = open_device(args.device, name=args.name, send_init=not args.no_init)
+    try:
+        while not stop.is_set():
+            driver = PenDriver(source, config, live=True)
+            status("running", driver)
+            next_status = time.monotonic() + args.status_interval
+            gone = False
+            try:
+                while not stop.is_set():
+                    for sample in driver.poll(0.02):
+                        publisher.publish_pen(sample)
+                        if writer is not None:
+                            writer.write(sample)
+                        totals["samples"] += 1
+                    if time.monotonic() >= next_status:
+                        status("running", driver)
+                        next_status = time.monotonic() + args.status_interval
+            except EndOfStream:
+                _flush(driver, publisher, writer, totals)
+                status("done", driver)
+                break
+            except DeviceGone as exc:
+                _flush(driver, publisher, writer, totals)
+                status("gone", driver, error=str(exc))
+                sys.stderr.write(f"station driver: {exc}\n")
+                gone = True
+            finally:
+                source.close()
+            if stop.is_set():
+                status("stopped", driver)
+                break
+            if not gone or args.no_reconnect or (
+                    args.max_reconnects is not None and reconnects >= args.max_reconnects):
+                break
+            source = _wait_for_device(args, stop, status)  # type: ignore[assignment]
+            if source is None:
+                break
+            reconnects += 1
+            totals["reconnects"] = reconnects
+    except TransportError as exc:
+        status("failed", error=str(exc))
+        raise
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
+        if writer is not None:
+            writer.close()
+        publisher.close()
+    sys.stderr.write("station driver: " + json.dumps({k: last.get(k) for k in (
+        "state", "samples", "reports", "bad_reports", "skipped_reports", "reconnects")}) + "\n")
+    return 0
+
+
+def _flush(driver: Any, publisher: Any, writer: Any, totals: dict[str, int]) -> None:
+    for sample in driver.normaliser.flush():
+        publisher.publish_pen(sample)
+        if writer is not None:
+            writer.write(sample)
+        totals["samples"] += 1
+
+
+def _wait_for_device(args: argparse.Namespace, stop: threading.Event, status: Any) -> Any:
+    """Try to reopen the device every 0.5 s until it is back (or we are stopped)."""
+    from station.drivers.pipeline import open_device
+    from station.drivers.transport.base import TransportError
+
+    next_note = 0.0
+    while not stop.is_set():
+        try:
+            return open_device(args.device, name=args.name, send_init=not args.no_init)
+        except TransportError as exc:
+            if time.monotonic() >= next_note:
+                status("waiting", error=str(exc))
+                next_note = time.monotonic() + 5.0
+        stop.wait(0.5)
+    return None

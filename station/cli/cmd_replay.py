@@ -1,0 +1,114 @@
+"""``station replay TRACE``: play a device trace through the real driver path.
+
+The trace's pen devices go through the same parser and normaliser as a live
+device; the device-normalised pen samples are published on the bus
+(``--bus``) and/or written as session-log JSONL (``--jsonl FILE`` or ``-``).
+Interfaces that are not pens are skipped and listed on stderr.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import sys
+import threading
+from typing import Any
+
+from station.errors import BadInput
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("replay", help="play a device trace (.hid, .evemu, .yaml) as pen samples")
+    p.add_argument("trace", help="hid-recorder, evemu-record or libinput-record file")
+    p.add_argument("--speed", default="max",
+                   help="1.0 = as recorded, 2 = twice as fast, max = no waiting (default)")
+    p.add_argument("--bus", metavar="ENDPOINT", help="publish pen samples on this bus endpoint")
+    p.add_argument("--jsonl", metavar="FILE",
+                   help="write pen samples as session-log JSONL ('-' = stdout)")
+    p.add_argument("--name", help="device name in the samples (default: from the model)")
+    p.add_argument("--wait-subscribers", type=int, default=0, metavar="N",
+                   help="with --bus: wait (up to 5 s) for N subscribers before playing")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.set_defaults(func=run)
+
+
+def parse_speed(text: str) -> float | None:
+    if text == "max":
+        return None
+    try:
+        speed = float(text)
+    except ValueError:
+        raise BadInput(f"speed {text!r} must be a number or max", "--speed") from None
+    if not 0.01 <= speed <= 1000:
+        raise BadInput(f"speed {speed} must be 0.01..1000 or max", "--speed")
+    return speed
+
+
+def run(args: argparse.Namespace) -> int:
+    from station.drivers.pipeline import TraceReplay, run_paced
+    from station.drivers.traces import read_trace
+    from station.events import PenSample
+    from station.sessionlog import SessionHeader, SessionLogWriter
+
+    speed = parse_speed(args.speed)
+    trace = read_trace(args.trace)
+    replay = TraceReplay(trace, device_name=args.name)
+    for s in replay.skipped:
+        sys.stderr.write(f"station replay: skipped device {s['device']} {s['name']!r}: "
+                         f"{s['reason']} ({s['reports']} reports)\n")
+    if not replay.pen_devices:
+        raise BadInput(f"no pen device in this trace ({replay.skipped_text()})", args.trace)
+    writer = None
+    publisher: Any = None
+    if args.jsonl:
+        header = SessionHeader(extra={"source": str(args.trace), "coordinates": "device"})
+        target: Any = sys.stdout if args.jsonl == "-" else args.jsonl
+        writer = SessionLogWriter(target, header)
+    if args.bus:
+        from station.bus import Publisher
+
+        publisher = Publisher(args.bus)
+        if args.wait_subscribers:
+            publisher.wait_for_subscribers(args.wait_subscribers, timeout=5.0)
+    stop = threading.Event()
+    count = {"samples": 0}
+
+    def emit(sample: PenSample) -> None:
+        count["samples"] += 1
+        if writer is not None:
+            writer.write(sample)
+        if publisher is not None:
+            publisher.publish_pen(sample)
+
+    old = {sig: signal.signal(sig, lambda *_: stop.set())
+           for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        if speed is None:
+            for sample in replay.samples():
+                emit(sample)
+                if stop.is_set():
+                    break
+        else:
+            run_paced(replay.open_drivers(speed), emit, stop)
+        summary = replay.status()
+        summary["samples"] = count["samples"]
+        if publisher is not None:
+            publisher.publish_status({"kind": "replay", "state": "done", **summary})
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
+        if writer is not None:
+            writer.close()
+        if publisher is not None:
+            publisher.close()
+    out = sys.stderr if args.jsonl == "-" else sys.stdout
+    if args.json:
+        out.write(json.dumps(summary) + "\n")
+    else:
+        for d in summary["devices"]:
+            out.write(f"{d['name']}: {d['reports']} reports -> {d['samples']} samples "
+                      f"({d['parser']}; {d['bad_reports']} bad reports dropped, "
+                      f"{d['skipped_reports']} non-pen skipped, "
+                      f"{d['forced_proximity_out']} forced proximity-out)\n")
+    return 0
