@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import pytest
-
 from station.drivers.hid import usages as U
 from station.drivers.hid.descriptor import (
     FLAG_CONSTANT,
@@ -29,6 +28,7 @@ from station.drivers.synth import (
     ntrig_like_descriptor,
     pth660_like_descriptor,
 )
+
 from station.errors import BadInput
 
 # HID 1.11 Appendix E.10: the boot mouse report descriptor, written out by hand.

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import pytest
-
 from station.drivers import synth as S
 from station.drivers.hid.errors import ReportError
 from station.drivers.registry import find_device, parser_for
 from station.drivers.wacom.intuos import decode_rotation
 from station.drivers.wacom.tools import tool_from_id
+
 from station.events import Button, Tool
 
 INTUOS_PRO = (0x056A, 0x0315)

@@ -117,17 +117,38 @@ class _ArraySlots:
     mask: int
     logical_min: int
     roles: tuple[str | None, ...]  # role of usage k (value - logical_min)
+    present: tuple[str, ...]  # roles this array can report (0 unless selected)
 
 
 @dataclass(slots=True)
 class PenPlan:
-    """Precomputed extraction of one pen report."""
+    """Precomputed extraction of one pen report.
+
+    ``angles`` is set when the pen reports azimuth and altitude but no X/Y
+    tilt: (scale, offset) pairs turning each into degrees, so tilt can be
+    derived (in centidegrees, see :data:`DERIVED_TILT_AXIS`).
+    """
 
     report_id: int
     length: int
     slots: tuple[_Slot, ...]
     arrays: tuple[_ArraySlots, ...]
     fields: dict[str, Field]  # role -> field (for ranges)
+    angles: tuple[tuple[float, float], tuple[float, float]] | None = None
+
+
+DERIVED_TILT_AXIS = Axis(-9000, 9000, 100.0)  # tilt derived from azimuth/altitude: centidegrees
+
+
+def degrees_map(f: Field) -> tuple[float, float] | None:
+    """(scale, offset) with ``degrees = value * scale + offset`` for an angle field, or None."""
+    logical = f.logical_max - f.logical_min
+    physical = f.physical_max - f.physical_min
+    if logical <= 0 or physical <= 0 or f.unit not in (0x12, 0x14):
+        return None
+    unit = 10.0 ** f.unit_exponent * (57.29577951308232 if f.unit == 0x12 else 1.0)
+    scale = physical / logical * unit
+    return scale, f.physical_min * unit - f.logical_min * scale
 
 
 def make_plan(desc: Descriptor, report: Report) -> PenPlan:
@@ -158,12 +179,18 @@ def make_plan(desc: Descriptor, report: Report) -> PenPlan:
                 tuple(base + f.slot_offset(i) for i in range(f.count)),
                 (1 << f.size) - 1, f.logical_min,
                 tuple(r if r in _BOOL_ROLES else None for r in roles),
+                tuple(sorted({r for r in roles if r is not None and r in _BOOL_ROLES})),
             ))  # fmt: skip
+    angles = None
+    if "tilt_x" not in fields and "azimuth" in fields and "altitude" in fields:
+        az, alt = degrees_map(fields["azimuth"]), degrees_map(fields["altitude"])
+        if az is not None and alt is not None:
+            angles = (az, alt)
     return PenPlan(report.report_id, report.length(desc.numbered), tuple(slots), tuple(arrays),
-                   fields)  # fmt: skip
+                   fields, angles)  # fmt: skip
 
 
-def _axis(f: Field | None, signed_role: bool = True) -> Axis | None:
+def _axis(f: Field | None) -> Axis | None:
     if f is None:
         return None
     return Axis(f.logical_min, f.logical_max, resolution(f))
@@ -171,12 +198,13 @@ def _axis(f: Field | None, signed_role: bool = True) -> Axis | None:
 
 def ranges_from_plan(plan: PenPlan) -> AxisRanges:
     fx, fy = plan.fields["x"], plan.fields["y"]
+    derived = DERIVED_TILT_AXIS if plan.angles is not None else None
     return AxisRanges(
         x=_axis(fx) or Axis(0, 1),
         y=_axis(fy) or Axis(0, 1),
         pressure=_axis(plan.fields.get("pressure")),
-        tilt_x=_axis(plan.fields.get("tilt_x")),
-        tilt_y=_axis(plan.fields.get("tilt_y")),
+        tilt_x=_axis(plan.fields.get("tilt_x")) or derived,
+        tilt_y=_axis(plan.fields.get("tilt_y")) or derived,
         distance=_axis(plan.fields.get("distance")),
         rotation=_axis(plan.fields.get("twist")),
     )
@@ -244,6 +272,8 @@ class GenericPenParser(ReportParser):
                 value -= s.sign_bit << 1
             v[s.role] = value
         for a in plan.arrays:
+            for name in a.present:
+                v.setdefault(name, 0)
             for shift in a.shifts:
                 k = ((bits >> shift) & a.mask) - a.logical_min
                 if 0 <= k < len(a.roles):
@@ -278,6 +308,12 @@ class GenericPenParser(ReportParser):
         else:
             tool = Tool.PEN
         serial = get("serial", 0) | (get("serial_hi", 0) << 32)
+        tilt_x, tilt_y = get("tilt_x"), get("tilt_y")
+        if plan.angles is not None:
+            (az_s, az_o), (alt_s, alt_o) = plan.angles
+            tx, ty = tilt_from_azimuth(get("azimuth", 0) * az_s + az_o,
+                                       get("altitude", 0) * alt_s + alt_o)  # fmt: skip
+            tilt_x, tilt_y = round(tx * 100), round(ty * 100)
         return RawSample(
             time=time,
             proximity=proximity,
@@ -285,8 +321,8 @@ class GenericPenParser(ReportParser):
             y=get("y", 0),
             tip=tip,
             pressure=get("pressure"),
-            tilt_x=get("tilt_x"),
-            tilt_y=get("tilt_y"),
+            tilt_x=tilt_x,
+            tilt_y=tilt_y,
             distance=get("distance"),
             rotation=get("twist"),
             buttons=int(buttons),
@@ -305,10 +341,12 @@ class GenericPenParser(ReportParser):
 
 
 def tilt_from_azimuth(azimuth_deg: float, altitude_deg: float) -> tuple[float, float]:
-    """X/Y tilt in degrees from azimuth (clockwise from +x, degrees) and altitude above the surface.
+    """X/Y tilt in degrees from azimuth and altitude (degrees).
 
-    The pen leans toward the azimuth direction by ``90 - altitude`` degrees;
-    each tilt is the angle of the pen's projection on the x-z and y-z planes.
+    Azimuth is the direction the pen top leans, measured from +x toward +y
+    (device axes: y down, so clockwise on the tablet); altitude is the angle
+    between pen and surface.  Each tilt is the angle of the pen's projection
+    on the x-z and y-z planes from the vertical.
     """
     alt = math.radians(max(0.0, min(90.0, altitude_deg)))
     az = math.radians(azimuth_deg)
