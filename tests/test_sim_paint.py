@@ -375,3 +375,25 @@ def test_demo_paints_a_landscape_and_books_close(tmp_path: Path,
     for name, pig in st["pigments"].items():
         assert abs(pig["added"] - pig["removed"] - pig["fluid"] - pig["surface"]) \
             <= 1e-3 * pig["added"], name
+
+
+def test_paint_a_device_trace(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """An evemu trace made by the drivers' mock pen paints through the driver path."""
+    from station.drivers.mock.evdev import states_to_events, wacom_like_caps
+    from station.drivers.mock.script import timed_states
+    from station.drivers.traces.evemu import format_evemu
+
+    caps = wacom_like_caps()
+    trace = tmp_path / "line.evemu"
+    trace.write_text(format_evemu(caps, states_to_events(caps, timed_states("line",
+                                                                            reports=60))))
+    code = main(["paint", str(trace), "-o", str(tmp_path / "t.png"), "--size", "80x60",
+                 "--backend", "numpy", "--settle", "1", "--json"])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    summary = json.loads(captured.out)
+    assert summary["samples"] > 50 and summary["strokes"] == 1 and summary["stamps"] > 20
+    img = read_png(tmp_path / "t.png")
+    painted = img.sum(axis=2) < 735
+    # the profile's brush (12 cells across), not one scaled down from 800x600
+    assert painted.sum() > 12 * 20 and painted.any(axis=1).sum() >= 8

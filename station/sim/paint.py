@@ -90,9 +90,10 @@ class PaintResult:
 class _Source:
     """A header and a stream of records with a ``where`` for messages."""
 
-    def __init__(self, header: SessionHeader, records: Iterable[PenSample | Command],
+    def __init__(self, header: SessionHeader | None, records: Iterable[PenSample | Command],
                  where: Any, close: Any = None) -> None:
-        self.header = header
+        self.header = header or SessionHeader()
+        self.has_header = header is not None
         self.records = records
         self.where = where
         self._close = close
@@ -139,8 +140,8 @@ def _open_trace(path: str) -> _Source:
             if isinstance(s, (PenSample, Command)):
                 yield s
 
-    header = SessionHeader()  # a trace has no header: the session defaults
-    return _Source(header, counted(), lambda: f"{path}: sample {count[0]}")
+    # a trace has no header: the session defaults (800x600 watercolor) unless overridden
+    return _Source(None, counted(), lambda: f"{path}: sample {count[0]}")
 
 
 def _session_length(path: str) -> float:
@@ -257,8 +258,10 @@ def paint(
         else:
             width, height = header.width, header.height
             check_size(width, height, f"{input_path}:1")
-        # Brush sizes are in cells of the canvas the session was made for.
-        scale = math.sqrt((width / header.width) * (height / header.height))
+        # Brush sizes are in cells of the canvas the session was made for (a
+        # trace has no such canvas: its brush is the profile's, in cells).
+        scale = (math.sqrt((width / header.width) * (height / header.height))
+                 if source.has_header else 1.0)
         sim = header.extra.get("sim") if isinstance(header.extra.get("sim"), dict) else {}
         if rate is None and isinstance(sim, dict) and isinstance(sim.get("rate"), (int, float)):
             rate = float(sim["rate"])
