@@ -165,6 +165,8 @@ class Normaliser:
         transform: applied last to each sample (calibration); raising
             :class:`EventError` drops and counts the sample.
         on_device_sample: receives each device-normalised sample before ``transform``.
+        t_offset: seconds added to every ``t`` (a driver that reopens a device
+            continues its session time instead of starting again at 0).
     """
 
     def __init__(
@@ -175,8 +177,10 @@ class Normaliser:
         origin: float | None = None,
         transform: Callable[[PenSample], PenSample] | None = None,
         on_device_sample: Callable[[PenSample], None] | None = None,
+        t_offset: float = 0.0,
     ) -> None:
         self.ranges = ranges
+        self.t_offset = t_offset
         self.device = device
         self.config = config or NormaliserConfig()
         self.origin = origin
@@ -196,7 +200,7 @@ class Normaliser:
         self._in_prox = False
         self._touching = False
         self._last_time: float | None = None
-        self._last_t = 0.0
+        self._last_t = t_offset
         self._last: PenSample | None = None
         self._tool = Tool.PEN
         self._serial: int | None = None
@@ -209,6 +213,11 @@ class Normaliser:
     def can_map_mm(self) -> bool:
         """False when the device has no x/y resolution (normalised units only)."""
         return self.ranges.has_resolution
+
+    @property
+    def last_t(self) -> float:
+        """``t`` of the last sample emitted (session seconds)."""
+        return self._last_t
 
     @property
     def in_proximity(self) -> bool:
@@ -284,7 +293,7 @@ class Normaliser:
 
     def _time(self, time: float) -> float:
         origin = self.origin if self.origin is not None else time
-        t = max(0.0, time - origin)
+        t = max(0.0, time - origin) + self.t_offset
         return max(t, self._last_t)
 
     def _force_out(self, time: float, out: list[PenSample]) -> None:

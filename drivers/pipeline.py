@@ -54,6 +54,7 @@ class PenSource(Protocol):
     name: str
     ranges: AxisRanges
     finite: bool
+    mock: Any
 
     def read_raw(self, timeout: float | None) -> list[RawSample]:
         """Samples from the next report/frame ([] on timeout); DeviceGone/EndOfStream at the end."""
@@ -106,6 +107,7 @@ class HidPenSource:
         self.finite = finite
         self.name = name or _device_name(_model_name(self.parser) or info.name)
         self.stats = SourceStats()
+        self.mock: Any = None  # the mock device behind a mock: SPEC (tests inspect it)
         self.features_sent: list[bytes] = []
         if send_init:
             for feature in self.parser.init_features:
@@ -170,6 +172,7 @@ class EvdevPenSource:
         self.finite = finite
         self.name = name or _device_name(caps.name)
         self.stats = SourceStats()
+        self.mock: Any = None
         if not self.ranges.has_resolution:
             log.warning("%s: no resolution: works in normalised units, cannot map millimetres",
                         caps.name)
@@ -384,7 +387,7 @@ def open_device(spec_text: str, name: str | None = None, send_init: bool = True)
     except BaseException:
         opened.transport.close()
         raise
-    source.mock = opened.mock  # type: ignore[attr-defined]
+    source.mock = opened.mock
     return source
 
 
@@ -399,12 +402,13 @@ class PenDriver:
     def __init__(self, source: PenSource, config: NormaliserConfig | None = None,
                  transform: Callable[[PenSample], PenSample] | None = None,
                  on_device_sample: Callable[[PenSample], None] | None = None,
-                 origin: float | None = None, live: bool = False) -> None:
+                 origin: float | None = None, live: bool = False,
+                 t_offset: float = 0.0) -> None:
         self.source = source
         self.live = live
         self.normaliser = Normaliser(source.ranges, device=source.name, config=config,
                                      origin=origin, transform=transform,
-                                     on_device_sample=on_device_sample)
+                                     on_device_sample=on_device_sample, t_offset=t_offset)
 
     def poll(self, timeout: float | None = 0.01) -> list[PenSample]:
         raws = self.source.read_raw(timeout)

@@ -80,7 +80,7 @@ def scan_hidraw() -> tuple[list[dict[str, Any]], list[str]]:
     if not entries:
         return out, ["no hidraw nodes (/sys/class/hidraw is empty or missing)"]
     for e in entries:
-        vid, pid, bus = int(e["vid"]), int(e["pid"]), int(e["bus"])  # type: ignore[call-overload]
+        vid, pid, bus = int(e["vid"]), int(e["pid"]), int(e["bus"])
         item: dict[str, Any] = {"spec": f"hidraw:{e['path']}", "path": e["path"],
                                 "name": e["name"], "vid": f"{vid:04x}", "pid": f"{pid:04x}",
                                 "bus": bus}

@@ -57,7 +57,7 @@ def normaliser_config(args: argparse.Namespace) -> Any:
             raise BadInput("needs four numbers x1,y1,x2,y2", "--pressure-curve")
         curve = parts
     return NormaliserConfig(tip_down=args.tip_down, tip_up=args.tip_up,
-                            smoothing_ms=args.smoothing, pressure_curve=curve,  # type: ignore[arg-type]
+                            smoothing_ms=args.smoothing, pressure_curve=curve,
                             proximity_timeout=args.proximity_timeout or None)
 
 
@@ -77,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
     writer = SessionLogWriter(args.jsonl, SessionHeader(extra={"source": args.device})) \
         if args.jsonl else None
     reconnects = 0
-    totals = {"samples": 0, "reconnects": 0}
+    totals = {"total_samples": 0, "reconnects": 0}
     last: dict[str, Any] = {}
 
     def status(state: str, driver: PenDriver | None = None, **extra: Any) -> None:
@@ -90,9 +90,11 @@ def run(args: argparse.Namespace) -> int:
         publisher.publish_status(rec)
 
     source = open_device(args.device, name=args.name, send_init=not args.no_init)
+    t_offset = 0.0
     try:
         while not stop.is_set():
-            driver = PenDriver(source, config, live=True)
+            # After a reconnection the session time goes on from where it was.
+            driver = PenDriver(source, config, live=True, t_offset=t_offset)
             status("running", driver)
             next_status = time.monotonic() + args.status_interval
             gone = False
@@ -102,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
                         publisher.publish_pen(sample)
                         if writer is not None:
                             writer.write(sample)
-                        totals["samples"] += 1
+                        totals["total_samples"] += 1
                     if time.monotonic() >= next_status:
                         status("running", driver)
                         next_status = time.monotonic() + args.status_interval
@@ -117,13 +119,14 @@ def run(args: argparse.Namespace) -> int:
                 gone = True
             finally:
                 source.close()
+                t_offset = driver.normaliser.last_t + 0.001
             if stop.is_set():
                 status("stopped", driver)
                 break
             if not gone or args.no_reconnect or (
                     args.max_reconnects is not None and reconnects >= args.max_reconnects):
                 break
-            source = _wait_for_device(args, stop, status)  # type: ignore[assignment]
+            source = _wait_for_device(args, stop, status)
             if source is None:
                 break
             reconnects += 1
@@ -138,7 +141,7 @@ def run(args: argparse.Namespace) -> int:
             writer.close()
         publisher.close()
     sys.stderr.write("station driver: " + json.dumps({k: last.get(k) for k in (
-        "state", "samples", "reports", "bad_reports", "skipped_reports", "reconnects")}) + "\n")
+        "state", "total_samples", "reports", "bad_reports", "skipped_reports", "reconnects")}) + "\n")
     return 0
 
 
@@ -147,7 +150,7 @@ def _flush(driver: Any, publisher: Any, writer: Any, totals: dict[str, int]) -> 
         publisher.publish_pen(sample)
         if writer is not None:
             writer.write(sample)
-        totals["samples"] += 1
+        totals["total_samples"] += 1
 
 
 def _wait_for_device(args: argparse.Namespace, stop: threading.Event, status: Any) -> Any:
