@@ -76,16 +76,19 @@ def classify_report(desc: Descriptor, report: Report) -> str:
     if not data_fields:
         return "other"
     usages: set[int] = set()
+    variables: set[int] = set()  # usages of variable slots (X and Y must be variables)
     chains: set[int] = set()
     apps: set[int] = set()
     for f in data_fields:
         usages.update(_eq(u) for u in f.usages)
+        if f.is_variable:
+            variables.update(_eq(u) for u in f.usages)
         chains.update(_eq(u) for u in desc.collection_usages(f))
         apps.add(_eq(f.application))
     if U.DG_FINGER in chains or apps & TOUCH_APPLICATIONS:
         return "touch"
     digitizer = bool(apps & PEN_APPLICATIONS) or U.DG_STYLUS in chains
-    has_xy = U.GD_X in usages and U.GD_Y in usages
+    has_xy = U.GD_X in variables and U.GD_Y in variables
     pen_bits = usages & {U.DG_TIP_SWITCH, U.DG_IN_RANGE, U.DG_TIP_PRESSURE, U.WD_SENSE}
     if digitizer and has_xy and pen_bits:
         return "pen"
