@@ -62,6 +62,7 @@ class SimParams:
             the drying-time estimate).
         paper_shade: darkening of paper valleys in the blank paper reflectance [1].
         gouache_opaque: pigment thickness at which a gouache layer hides what is below [1].
+        gouache_white: share of the implicit white filler in a gouache body colour [1].
     """
 
     dt: float = 1.0 / 30.0
@@ -90,6 +91,7 @@ class SimParams:
     tile_check: int = 0
     paper_shade: float = 0.05
     gouache_opaque: float = 0.6
+    gouache_white: float = 0.25
 
     def __post_init__(self) -> None:
         self.validate()
@@ -118,6 +120,8 @@ class SimParams:
             raise CanvasInputError("tile_size must be an integer >= 4", "params")
         if int(self.jacobi_iters) != self.jacobi_iters or self.jacobi_iters < 1:
             raise CanvasInputError("jacobi_iters must be an integer >= 1", "params")
+        if not 0 <= self.gouache_white <= 1:
+            raise CanvasInputError("gouache_white must lie in [0, 1]", "params")
         if not 0 <= self.block_paper <= 1:
             raise CanvasInputError("block_paper must lie in [0, 1]", "params")
 

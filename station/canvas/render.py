@@ -13,10 +13,13 @@ with ``R_prev = R_composed``. Two numerical decisions: ``t`` is capped at 30
 where ``b < 1e-4`` (no absorption) the ``b -> 0`` limit ``R = S d/(1 + S d)``,
 ``T = 1/(1 + S d)`` is used.
 
-Gouache (seed 6.3.2): an opaque blend by concentration. Each pigment's body
-colour is its infinite-thickness KM reflectance ``R_inf = a - b``; the layer
-colour is ``C = sum s_k R_inf_k`` and its opacity ``o = min(1, d / gouache_opaque)``:
-``R_total = o C + (1 - o) R_prev``.
+Gouache (seed 6.3.2: "watercolor to which an opaque white pigment has been
+added"): an opaque blend by concentration. The body colour of the paint is the
+infinite-thickness KM reflectance ``R_inf = a - b`` of the concentration-weighted
+mix of the cell's pigments with an implicit white filler of share
+``gouache_white`` (K and S of Titanium White): ``K = (1 - g) sum s_k K_k + g K_w``,
+same for S. The layer's opacity is ``o = min(1, d / gouache_opaque)`` and
+``R_total = o R_inf + (1 - o) R_prev``.
 """
 
 from __future__ import annotations
@@ -69,18 +72,31 @@ def km_layer(amount: np.ndarray, pigments: list[Pigment], r_prev: np.ndarray) ->
     return np.clip(out, 0.0, 1.0).astype(F32)
 
 
+WHITE_K = (0.02, 0.02, 0.03)  # Titanium White of station/data/pigment-properties.csv
+WHITE_S = (3.0, 3.0, 3.0)
+
+
 def gouache_layer(amount: np.ndarray, pigments: list[Pigment], r_prev: np.ndarray,
-                  opaque: float) -> np.ndarray:
-    """Compose one gouache layer (opaque concentration blend) over ``r_prev``."""
+                  opaque: float, white: float = 0.25,
+                  white_ks: tuple[tuple[float, ...], tuple[float, ...]] = (WHITE_K, WHITE_S),
+                  ) -> np.ndarray:
+    """Compose one gouache layer (opaque concentration blend) over ``r_prev``.
+
+    ``opaque``: thickness that hides what is below; ``white``: share of the implicit
+    white filler in the body colour; ``white_ks``: its K and S.
+    """
     if not pigments:
         return r_prev.astype(F32, copy=True)
     amount = amount[: len(pigments)]
     kk, ss = _coefficients(pigments)
-    a = (ss + kk) / ss
-    body = (a - np.sqrt(np.maximum(a * a - 1.0, 0.0))).astype(F32)  # (N, 3) R_inf
     d = amount.sum(axis=0)
     safe_d = np.where(d > 0, d, F32(1.0))
-    colour = np.einsum("nhw,nc->hwc", amount / safe_d, body).astype(F32)
+    conc = amount / safe_d
+    g = F32(white)
+    k_mix = (F32(1.0) - g) * np.einsum("nhw,nc->hwc", conc, kk) + g * np.array(white_ks[0], F32)
+    s_mix = (F32(1.0) - g) * np.einsum("nhw,nc->hwc", conc, ss) + g * np.array(white_ks[1], F32)
+    a = (s_mix + k_mix) / np.maximum(s_mix, F32(1e-12))
+    colour = (a - np.sqrt(np.maximum(a * a - F32(1.0), F32(0.0)))).astype(F32)  # R_inf
     o = np.clip(d / F32(max(opaque, 1e-6)), 0.0, 1.0)[..., None]
     out = o * colour + (F32(1.0) - o) * r_prev
     return np.clip(out, 0.0, 1.0).astype(F32)
@@ -92,7 +108,10 @@ def render_state(state: CanvasState, renderer: str) -> np.ndarray:
     n = len(pigments)
     amount = state.p[:n] + state.q[:n]
     if renderer == "gouache":
-        return gouache_layer(amount, pigments, state.r_composed, state.params.gouache_opaque)
+        white = state.palette.get("Titanium White") if "Titanium White" in state.palette else None
+        ks = (white.K, white.S) if white is not None else (WHITE_K, WHITE_S)
+        return gouache_layer(amount, pigments, state.r_composed, state.params.gouache_opaque,
+                             state.params.gouache_white, ks)
     return km_layer(amount, pigments, state.r_composed)
 
 
