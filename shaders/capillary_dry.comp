@@ -1,0 +1,85 @@
+#version 430
+// capillary_dry.comp:
+//   pass 9b capillary diffusion (all cells): F = kappa dt min(c_i, c_j) (s_i - s_j),
+//          s = wc / c, on faces whose two cells are unmasked; wc = max(wc, 0);
+//   pass 9c capillary evaporation where w == 0: e = min(eps_cap dt, wc);
+//   pass 10 dry_cells: 0 < w < w_dry_eps evaporates; cells with w == 0 deposit
+//          t = min(p, 1 - q) and lose their velocity.
+// Also flags the tile alive (any w > 0 or wc > 0) for the dirty-tile update.
+#include "common.glsl"
+#include "tiles.glsl"
+
+layout(rgba32f, binding = 1) uniform readonly image2D water_in;
+layout(rgba32f, binding = 2) uniform writeonly image2D water_out;
+layout(rgba32f, binding = 3) uniform readonly image2D paper_in;
+layout(rgba32f, binding = 4) uniform image2DArray pig_io;
+layout(rgba32f, binding = 5) uniform image2DArray dep_io;
+layout(rg32f, binding = 6) uniform image2D vel_io;
+
+layout(std430, binding = 1) buffer TileAlive { uint tile_alive[]; };
+
+uniform float u_kcap;    // float32(cap_diffusion * dt)
+uniform float u_ecap;    // float32(eps_cap * dt)
+uniform float u_dry_eps;
+uniform float u_cmin;
+uniform float u_crange;
+
+shared uint g_alive;
+
+void main() {
+    bool valid;
+    ivec2 c = tile_cell(valid);
+    if (gl_LocalInvocationIndex == 0u) g_alive = 0u;
+    barrier();
+    if (valid) {
+        vec4 wa = imageLoad(water_in, c);
+        vec4 pa = imageLoad(paper_in, c);
+        float w = wa.x, wc = wa.y, evap = wa.z;
+        if (u_kcap > 0.0) {
+            float cap = u_cmin + pa.x * u_crange;
+            float s = wc / cap;
+            float acc = wc;
+            for (int f = 0; f < 4; ++f) {
+                ivec2 n = c + OFFS[f];
+                if (!inside(n) || pa.y != 0.0) continue;
+                vec4 pn = imageLoad(paper_in, n);
+                if (pn.y != 0.0) continue;
+                float capn = u_cmin + pn.x * u_crange;
+                float sn = imageLoad(water_in, n).y / capn;
+                bool lower = (f == 0 || f == 2);
+                float F = lower ? u_kcap * min(cap, capn) * (s - sn)
+                                : u_kcap * min(capn, cap) * (sn - s);
+                acc = lower ? acc - F : acc + F;
+            }
+            wc = max(acc, 0.0);
+        }
+        if (w == 0.0) {
+            float e = min(u_ecap, wc);
+            wc = wc - e;
+            evap = evap + e;
+        }
+        if (w > 0.0 && w < u_dry_eps) {
+            evap = evap + w;
+            w = 0.0;
+        }
+        if (w == 0.0) {
+            for (int l = 0; l < NPL; ++l) {
+                vec4 p = imageLoad(pig_io, ivec3(c, l));
+                vec4 q = imageLoad(dep_io, ivec3(c, l));
+                if (any(greaterThan(p, vec4(0.0)))) {
+                    vec4 t = min(p, 1.0 - q);
+                    imageStore(dep_io, ivec3(c, l), q + t);
+                    imageStore(pig_io, ivec3(c, l), p - t);
+                }
+            }
+            imageStore(vel_io, c, vec4(0.0));
+        }
+        imageStore(water_out, c, vec4(w, wc, evap, wa.w));
+        if (w > 0.0 || wc > 0.0) g_alive = 1u;  // benign race: every writer stores 1
+    }
+    barrier();
+    if (gl_LocalInvocationIndex == 0u && g_alive != 0u) {
+        uint t = tile_list[gl_WorkGroupID.z];
+        tile_alive[t] = 1u;
+    }
+}

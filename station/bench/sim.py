@@ -1,0 +1,241 @@
+"""``station bench sim``: simulation speed of the canvas backends (issue 3 §9).
+
+For each backend (``gl``, ``numpy``), canvas size and scenario it measures
+steps per second and cell-steps per second:
+
+* ``wash``: the whole canvas wet (water and two pigments everywhere, a gentle
+  velocity field), every tile active;
+* ``stroke``: one live stroke on a dry canvas with dirty tiles on: a round
+  footprint moving across the canvas, adding water and pigment every step.
+
+Beside the speed it reports the machine's copy bandwidth measured in the same
+run (``numpy.copyto`` of a 256 MiB array, read + write counted) and, from the
+backend's own honest count of bytes per cell-step (every field each pass must
+read and write, neighbours of a stencil counted once), the fraction of that
+bandwidth the simulation achieves: ``bytes_per_cell_step · cell_steps_per_s /
+copy bandwidth``.  For the stroke scenario cell-steps count the cells actually
+simulated (active tiles and their halo), reported as ``active_cells``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from station.errors import BadInput, StationError
+
+DEFAULT_SIZES = ("512x512", "800x600", "1024x1024", "2048x2048")
+SCENARIOS = ("wash", "stroke")
+BACKENDS = ("gl", "numpy")
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    """``"800x600"`` → ``(800, 600)`` (width, height); bad text raises BadInput."""
+    try:
+        w_s, h_s = text.lower().split("x")
+        w, h = int(w_s), int(h_s)
+    except ValueError as exc:
+        raise BadInput(f"size {text!r} is not WIDTHxHEIGHT", "--sizes") from exc
+    if not (8 <= w <= 16384 and 8 <= h <= 16384):
+        raise BadInput(f"size {text!r} outside 8..16384", "--sizes")
+    return w, h
+
+
+def memory_bandwidth_gb_s(nbytes: int = 256 << 20, repeats: int = 5) -> float:
+    """Copy bandwidth of this machine in GB/s (read + write), best of ``repeats``."""
+    src = np.ones(nbytes // 4, dtype=np.float32)
+    dst = np.empty_like(src)
+    np.copyto(dst, src)  # fault the pages in before timing
+    best = math.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        np.copyto(dst, src)
+        best = min(best, time.perf_counter() - t0)
+    return 2.0 * src.nbytes / best / 1e9
+
+
+@dataclass
+class Result:
+    """One measured configuration."""
+
+    backend: str
+    size: str
+    scenario: str
+    steps: int
+    seconds: float
+    cells_per_step: float
+    bytes_per_cell_step: float
+    renderer: str
+
+    def as_dict(self, bandwidth_gb_s: float) -> dict[str, Any]:
+        steps_per_s = self.steps / self.seconds
+        cell_steps = steps_per_s * self.cells_per_step
+        traffic = cell_steps * self.bytes_per_cell_step / 1e9
+        return {
+            "backend": self.backend,
+            "size": self.size,
+            "scenario": self.scenario,
+            "steps": self.steps,
+            "seconds": round(self.seconds, 4),
+            "steps_per_s": round(steps_per_s, 3),
+            "cell_steps_per_s": round(cell_steps, 1),
+            "active_cells": round(self.cells_per_step, 1),
+            "bytes_per_cell_step": self.bytes_per_cell_step,
+            "memory_traffic_gb_s": round(traffic, 4),
+            "bandwidth_fraction": round(traffic / bandwidth_gb_s, 4),
+            "renderer": self.renderer,
+        }
+
+
+def _stamp(width: int, height: int, cx: float, cy: float, radius: float,
+           pigments: dict[str, float]) -> dict[str, Any]:
+    """Source arrays of a round stamp (full-canvas arrays, zero outside the disc)."""
+    yy, xx = np.mgrid[0:height, 0:width]
+    disc = ((xx + 0.5 - cx) ** 2 + (yy + 0.5 - cy) ** 2 <= radius * radius).astype(np.float32)
+    return {"disc": disc, "pigments": pigments}
+
+
+def _make_canvas(backend: str, width: int, height: int, tiles: bool) -> Any:
+    from station.canvas.backend import create_backend
+
+    return create_backend(backend, width, height, "watercolor", 1, tiles=tiles)
+
+
+def _wash(canvas: Any, width: int, height: int) -> None:
+    """Wet the whole canvas: water, two pigments and a slow swirl of velocity."""
+    rng = np.random.default_rng(7)
+    dw = (0.6 + 0.2 * rng.random((height, width))).astype(np.float32)
+    names = _two_pigments(canvas)
+    dp = {names[0]: (0.05 * rng.random((height, width))).astype(np.float32),
+          names[1]: (0.05 * rng.random((height, width))).astype(np.float32)}
+    yy, xx = np.mgrid[0:height, 0:width].astype(np.float32)
+    dvx = (0.3 * np.sin(yy * 2 * np.pi / height)).astype(np.float32)
+    dvy = (0.3 * np.cos(xx * 2 * np.pi / width)).astype(np.float32)
+    canvas.add_sources(dw=dw, dp=dp, dvx=dvx, dvy=dvy)
+
+
+def _two_pigments(canvas: Any) -> list[str]:
+    from station.canvas.palette import load_palette
+
+    names = [p.name for p in load_palette()]
+    return names[:2] if len(names) >= 2 else names
+
+
+def measure(backend: str, width: int, height: int, scenario: str, seconds: float,
+            min_steps: int = 3) -> Result:
+    """Run one configuration for about ``seconds`` and return its figures."""
+    canvas = _make_canvas(backend, width, height, tiles=(scenario == "stroke"))
+    stroke = None
+    if scenario == "wash":
+        _wash(canvas, width, height)
+    else:
+        stroke = _StrokePath(canvas, width, height)
+    # warm-up: compile shaders, fault in memory
+    for _ in range(2):
+        if stroke:
+            stroke.advance()
+        canvas.step()
+    canvas.sync()
+    steps, cells = 0, 0.0
+    t0 = time.perf_counter()
+    while True:
+        if stroke:
+            stroke.advance()
+        canvas.step()
+        cells += canvas.cells_last_step()
+        steps += 1
+        if steps >= min_steps and steps % 4 == 0:
+            canvas.sync()
+            if time.perf_counter() - t0 >= seconds:
+                break
+    canvas.sync()
+    elapsed = time.perf_counter() - t0
+    result = Result(backend, f"{width}x{height}", scenario, steps, elapsed, cells / steps,
+                    float(canvas.bytes_per_cell_step()), str(canvas.renderer))
+    canvas.close()
+    return result
+
+
+class _StrokePath:
+    """One live stroke: a round footprint moving left to right in a gentle wave."""
+
+    def __init__(self, canvas: Any, width: int, height: int, radius: float = 12.0,
+                 speed: float = 3.0) -> None:
+        self.canvas, self.width, self.height = canvas, width, height
+        self.radius, self.speed = radius, speed
+        self.x = 2.0 * radius
+        self.pigment = _two_pigments(canvas)[0]
+
+    def advance(self) -> None:
+        r = self.radius
+        x0 = self.x
+        self.x += self.speed
+        if self.x > self.width - 2 * r:
+            self.x = 2 * r
+        cy = self.height / 2 + self.height / 6 * math.sin(self.x / 60.0)
+        x_lo, x_hi = int(max(0, self.x - r - 1)), int(min(self.width, self.x + r + 2))
+        y_lo, y_hi = int(max(0, cy - r - 1)), int(min(self.height, cy + r + 2))
+        yy, xx = np.mgrid[y_lo:y_hi, x_lo:x_hi]
+        disc = ((xx + 0.5 - self.x) ** 2 + (yy + 0.5 - cy) ** 2 <= r * r).astype(np.float32)
+        vx = np.float32((self.x - x0) * 0.2)
+        self.canvas.add_sources(
+            dw=0.3 * disc, dp={self.pigment: 0.02 * disc}, dvx=vx * disc, dvy=0.0 * disc,
+            origin=(y_lo, x_lo))
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("sim", help="canvas simulation speed, both backends (JSON)")
+    p.add_argument("--json", action="store_true", help="print JSON (the default output too)")
+    p.add_argument("--sizes", default=",".join(DEFAULT_SIZES),
+                   help="comma-separated WIDTHxHEIGHT list (default: %(default)s)")
+    p.add_argument("--backends", default=",".join(BACKENDS), help="gl,numpy or one of them")
+    p.add_argument("--scenarios", default=",".join(SCENARIOS), help="wash,stroke or one")
+    p.add_argument("--seconds", type=float, default=3.0,
+                   help="measuring time per configuration (default %(default)s s)")
+    p.add_argument("--quick", action="store_true",
+                   help="800x600 only, 1 s per configuration")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    sizes = ["800x600"] if args.quick else [s for s in args.sizes.split(",") if s]
+    seconds = 1.0 if args.quick else args.seconds
+    if not seconds > 0:
+        raise BadInput("must be > 0", "--seconds")
+    dims = [parse_size(s) for s in sizes]
+    backends = [b for b in args.backends.split(",") if b]
+    scenarios = [s for s in args.scenarios.split(",") if s]
+    for b in backends:
+        if b not in BACKENDS:
+            raise BadInput(f"unknown backend {b!r} (gl, numpy)", "--backends")
+    for s in scenarios:
+        if s not in SCENARIOS:
+            raise BadInput(f"unknown scenario {s!r} (wash, stroke)", "--scenarios")
+    bandwidth = memory_bandwidth_gb_s()
+    results: list[dict[str, Any]] = []
+    renderer = "numpy"
+    for backend in backends:
+        for w, h in dims:
+            for scenario in scenarios:
+                try:
+                    r = measure(backend, w, h, scenario, seconds)
+                except StationError as exc:
+                    results.append({"backend": backend, "size": f"{w}x{h}",
+                                    "scenario": scenario, "error": str(exc)})
+                    continue
+                if backend == "gl":
+                    renderer = r.renderer
+                results.append(r.as_dict(bandwidth))
+                print(f"bench sim: {backend} {w}x{h} {scenario}: "
+                      f"{results[-1]['steps_per_s']} steps/s", file=sys.stderr)
+    out = {"renderer": renderer, "memory_bandwidth_gb_s": round(bandwidth, 3),
+           "results": results}
+    print(json.dumps(out, indent=2))
+    return 0
