@@ -621,7 +621,9 @@ def _lts_start(
         mapping = _quiet_fit(points.subset(list(sub)), model, parallax)
         if mapping is None:
             continue
-        e2 = (residuals(mapping, points) ** 2).sum(axis=1)
+        with np.errstate(all="ignore"):  # a subset's map may send a far point to infinity
+            e2 = (residuals(mapping, points) ** 2).sum(axis=1)
+        e2 = np.where(np.isfinite(e2), e2, np.inf)
         order = np.argsort(e2, kind="stable")
         score = float(e2[order[:h]].sum())
         if best is None or score < best[0]:
