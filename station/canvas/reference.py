@@ -150,23 +150,6 @@ def apply_fluxes(u: np.ndarray, fx: np.ndarray, fy: np.ndarray) -> np.ndarray:
     return out
 
 
-def _outflow(fx: np.ndarray, fy: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
-    """Per cell, the sum of the face fluxes leaving it."""
-    out = np.zeros(shape, F32)
-    out[..., :, :-1] += np.maximum(fx, _ZERO)
-    out[..., :, 1:] += np.maximum(-fx, _ZERO)
-    out[..., :-1, :] += np.maximum(fy, _ZERO)
-    out[..., 1:, :] += np.maximum(-fy, _ZERO)
-    return out
-
-
-def _donor_scaled(fx: np.ndarray, fy: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Multiply each face flux by the factor ``s`` of its donor cell."""
-    fx = np.where(fx > 0, fx * s[..., :, :-1], fx * s[..., :, 1:])
-    fy = np.where(fy > 0, fy * s[..., :-1, :], fy * s[..., 1:, :])
-    return fx, fy
-
-
 def implicit_diffusion(u: np.ndarray, bx: np.ndarray, by: np.ndarray, k: float,
                        iters: int) -> np.ndarray:
     """Conservative implicit diffusion (pass 4/5 maths, see module docstring).
@@ -177,16 +160,28 @@ def implicit_diffusion(u: np.ndarray, bx: np.ndarray, by: np.ndarray, k: float,
     if k <= 0:
         return u.copy()
     kk = F32(k)
-    big_b = neighbour_sum(np.ones(u.shape[-2:], F32), bx, by)
-    denom = _ONE + kk * big_b
+    denom = _ONE + kk * neighbour_sum(np.ones(u.shape[-2:], F32), bx, by)
     x = u
     for _ in range(int(iters)):
-        x = (u + kk * neighbour_sum(x, bx, by)) / denom
+        acc = neighbour_sum(x, bx, by)
+        acc *= kk
+        acc += u
+        acc /= denom
+        x = acc
     fx = kk * bx * (x[..., :, :-1] - x[..., :, 1:])
     fy = kk * by * (x[..., :-1, :] - x[..., 1:, :])
-    out = _outflow(fx, fy, u.shape)
-    s = np.where(out > u, u / np.where(out > u, out, _ONE), _ONE).astype(F32)
-    fx, fy = _donor_scaled(fx, fy, s)
+    fxp, fxn = np.maximum(fx, _ZERO), np.minimum(fx, _ZERO)
+    fyp, fyn = np.maximum(fy, _ZERO), np.minimum(fy, _ZERO)
+    out = np.zeros(u.shape, F32)
+    out[..., :, :-1] += fxp
+    out[..., :, 1:] -= fxn
+    out[..., :-1, :] += fyp
+    out[..., 1:, :] -= fyn
+    short = out > u
+    if short.any():  # donor limiter: never move more than a cell holds
+        s = np.where(short, u / np.where(short, out, _ONE), _ONE).astype(F32)
+        fx = fxp * s[..., :, :-1] + fxn * s[..., :, 1:]
+        fy = fyp * s[..., :-1, :] + fyn * s[..., 1:, :]
     return apply_fluxes(u, fx, fy)
 
 
@@ -301,54 +296,55 @@ def diffuse_pigment(p: np.ndarray, wet: np.ndarray, beta_c: np.ndarray, prm: Sim
 def advect_water_and_pigment(w: np.ndarray, p: np.ndarray, vx: np.ndarray, vy: np.ndarray,
                              wet: np.ndarray, prm: SimParams,
                              dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Pass 6: conservative, clamped face-flux advection of water and pigment."""
+    """Pass 6: conservative, clamped face-flux advection of water and pigment.
+
+    Directional rates: ``rxp`` carries from (y, x) to (y, x+1), ``rxn`` from (y, x+1) to
+    (y, x); ``ryp`` from (y, x) to (y+1, x), ``ryn`` back. One of each pair is 0.
+    """
     ox, oy = open_faces(wet)
     q4 = F32(0.25 * dt)
     ufx = np.where(ox, F32(0.5) * (vx[:, :-1] + vx[:, 1:]), _ZERO)
     ufy = np.where(oy, F32(0.5) * (vy[:-1, :] + vy[1:, :]), _ZERO)
     rx = np.abs(ufx) * q4
     ry = np.abs(ufy) * q4
-    pos_x = ufx > 0
-    pos_y = ufy > 0
-    # donor-side total rate
+    rxp = np.where(ufx > 0, rx, _ZERO)
+    rxn = rx - rxp
+    ryp = np.where(ufy > 0, ry, _ZERO)
+    ryn = ry - ryp
+    # donor-side total rate and lower limiter
     r_out = np.zeros(w.shape, F32)
-    r_out[:, :-1] += np.where(pos_x, rx, _ZERO)
-    r_out[:, 1:] += np.where(pos_x, _ZERO, rx)
-    r_out[:-1, :] += np.where(pos_y, ry, _ZERO)
-    r_out[1:, :] += np.where(pos_y, _ZERO, ry)
+    r_out[:, :-1] += rxp
+    r_out[:, 1:] += rxn
+    r_out[:-1, :] += ryp
+    r_out[1:, :] += ryn
     lo = np.minimum(w, F32(prm.w_min))
     want = w * r_out
     room = w - lo
     s_out = np.where(want > room, room / np.where(want > room, want, _ONE), _ONE).astype(F32)
-    # upwind values per face
-    wdx = np.where(pos_x, w[:, :-1], w[:, 1:])
-    wdy = np.where(pos_y, w[:-1, :], w[1:, :])
-    pdx = np.where(pos_x, p[:, :, :-1], p[:, :, 1:])
-    pdy = np.where(pos_y, p[:, :-1, :], p[:, 1:, :])
-    # receiver-side unscaled inflows
+    # receiver-side unscaled inflows and upper limiter (water and every pigment)
     i_w = np.zeros(w.shape, F32)
-    i_w[:, 1:] += np.where(pos_x, wdx * rx, _ZERO)
-    i_w[:, :-1] += np.where(pos_x, _ZERO, wdx * rx)
-    i_w[1:, :] += np.where(pos_y, wdy * ry, _ZERO)
-    i_w[:-1, :] += np.where(pos_y, _ZERO, wdy * ry)
+    i_w[:, 1:] += w[:, :-1] * rxp
+    i_w[:, :-1] += w[:, 1:] * rxn
+    i_w[1:, :] += w[:-1, :] * ryp
+    i_w[:-1, :] += w[1:, :] * ryn
     i_p = np.zeros(p.shape, F32)
-    i_p[:, :, 1:] += np.where(pos_x, pdx * rx, _ZERO)
-    i_p[:, :, :-1] += np.where(pos_x, _ZERO, pdx * rx)
-    i_p[:, 1:, :] += np.where(pos_y, pdy * ry, _ZERO)
-    i_p[:, :-1, :] += np.where(pos_y, _ZERO, pdy * ry)
-    hi = np.maximum(w, F32(prm.w_max))
-    room_w = np.maximum(hi - w, _ZERO)
+    i_p[:, :, 1:] += p[:, :, :-1] * rxp
+    i_p[:, :, :-1] += p[:, :, 1:] * rxn
+    i_p[:, 1:, :] += p[:, :-1, :] * ryp
+    i_p[:, :-1, :] += p[:, 1:, :] * ryn
+    room_w = np.maximum(np.maximum(w, F32(prm.w_max)) - w, _ZERO)
     s_in = np.where(i_w > room_w, room_w / np.where(i_w > room_w, i_w, _ONE), _ONE)
     room_p = np.maximum(_ONE - p, _ZERO)
     s_in_p = np.where(i_p > room_p, room_p / np.where(i_p > room_p, i_p, _ONE), _ONE).min(axis=0)
     s_in = np.minimum(np.minimum(s_in, s_in_p), _ONE).astype(F32)
-    # limited rates
-    rlx = rx * np.where(pos_x, s_out[:, :-1] * s_in[:, 1:], s_out[:, 1:] * s_in[:, :-1])
-    rly = ry * np.where(pos_y, s_out[:-1, :] * s_in[1:, :], s_out[1:, :] * s_in[:-1, :])
-    sgn_x = np.where(pos_x, _ONE, -_ONE)
-    sgn_y = np.where(pos_y, _ONE, -_ONE)
-    w_new = apply_fluxes(w, sgn_x * wdx * rlx, sgn_y * wdy * rly)
-    p_new = apply_fluxes(p, sgn_x * pdx * rlx, sgn_y * pdy * rly)
+    # limited rates r' = r * s_out[donor] * s_in[receiver]
+    axp = rxp * s_out[:, :-1] * s_in[:, 1:]
+    axn = rxn * s_out[:, 1:] * s_in[:, :-1]
+    ayp = ryp * s_out[:-1, :] * s_in[1:, :]
+    ayn = ryn * s_out[1:, :] * s_in[:-1, :]
+    w_new = apply_fluxes(w, w[:, :-1] * axp - w[:, 1:] * axn, w[:-1, :] * ayp - w[1:, :] * ayn)
+    p_new = apply_fluxes(p, p[:, :, :-1] * axp - p[:, :, 1:] * axn,
+                         p[:, :-1, :] * ayp - p[:, 1:, :] * ayn)
     return w_new, p_new
 
 
