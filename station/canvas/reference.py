@@ -8,7 +8,14 @@ region) are *non-wet with zero water, zero capillary water, zero velocity and
 zero pigment*: every stencil treats them exactly like that, which is what makes
 tiling on/off give the same result.
 
-CHANGED: (nothing yet; changes to the maths of a pass are listed here)
+CHANGED: render.py gouache (not a step pass): the body colour is now R_inf = a - b of the
+  KM mix of the cell's pigments WITH an implicit white filler of share
+  ``gouache_white`` (new SimParams field, 0.25) using Titanium White's K and S:
+  ``K = (1-g) sum s_k K_k + g K_w``, ``S = (1-g) sum s_k S_k + g S_w``; opacity unchanged.
+CHANGED: add_sources activates only the tiles in which a source array is nonzero
+  (``tiles.mark_nonzero``), not the whole source rectangle (results do not depend on it).
+NOTE (no maths change): pass 6 evaluates ``r' = (r * s_out[donor]) * s_in[receiver]`` in
+  that order; pass 4/5 skip the donor limiter when no cell is short (bitwise the same).
 
 Notation: ``dt`` step [s]; ``wet = ((w > 0) | (wc > moist_threshold)) & (mask == 0)``
 is computed ONCE per step, after the sources were added, and used by passes 1-6
