@@ -139,7 +139,7 @@ class HidPenSource:
         info = self.transport.info
         p = self.parser
         return {
-            "name": self.name, "kind": "hid", "path": info.path, "product": info.name,
+            "name": self.name, "source": "hid", "path": info.path, "product": info.name,
             "vid": f"{info.vid:04x}", "pid": f"{info.pid:04x}", "bus": info.bus,
             "parser": getattr(p, "name", type(p).__name__), "generic": bool(p.generic),
             "model": _model_name(p), "can_map_mm": self.ranges.has_resolution,
@@ -194,7 +194,7 @@ class EvdevPenSource:
         caps = self.transport.caps
         s = self.assembler.stats
         return {
-            "name": self.name, "kind": "evdev", "path": caps.path, "product": caps.name,
+            "name": self.name, "source": "evdev", "path": caps.path, "product": caps.name,
             "vid": f"{caps.vid:04x}", "pid": f"{caps.pid:04x}", "bus": caps.bus,
             "parser": "evdev", "generic": False, "model": "",
             "can_map_mm": self.ranges.has_resolution,
@@ -421,12 +421,14 @@ class PenDriver:
         return out
 
     def samples(self) -> Iterator[PenSample]:
-        """Every sample until the source ends (a finite source) or is removed."""
+        """Every sample until the source ends (or is removed); then closes the source."""
         try:
             while True:
                 yield from self.poll(0.05)
         except DeviceGone:
             yield from self.normaliser.flush()
+        finally:
+            self.source.close()
 
     def status(self) -> dict[str, Any]:
         n = self.normaliser.stats

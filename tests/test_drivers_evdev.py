@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
+from itertools import pairwise
 from pathlib import Path
 
 import pytest
-
 from station.drivers.evdev import codes as c
 from station.drivers.evdev.frames import (
     AbsInfo,
@@ -22,6 +22,7 @@ from station.drivers.pipeline import TraceReplay, open_device
 from station.drivers.traces import TraceError, iter_trace_samples, read_trace
 from station.drivers.traces.evemu import format_evemu
 from station.drivers.traces.libinput_record import format_libinput_record
+
 from station.events import Button, Tool
 
 CAPS = wacom_like_caps()
@@ -112,10 +113,10 @@ def test_syn_dropped_discards_until_syn_report_then_resyncs_from_device_state() 
     assert asm.stats.discarded_events == 3  # the partial X and the two after the drop
     # without a state source the assembler keeps what it had
     asm2 = FrameAssembler(CAPS)
-    out = run(asm2, frame(0.0, {c.ABS_X: 5}, {c.BTN_TOOL_PEN: 1})
-              + [InputEvent(0.1, c.EV_SYN, c.SYN_DROPPED, 0),
-                 InputEvent(0.1, c.EV_ABS, c.ABS_X, 6),
-                 InputEvent(0.1, c.EV_SYN, c.SYN_REPORT, 0)])
+    out = run(asm2, [*frame(0.0, {c.ABS_X: 5}, {c.BTN_TOOL_PEN: 1}),
+                     InputEvent(0.1, c.EV_SYN, c.SYN_DROPPED, 0),
+                     InputEvent(0.1, c.EV_ABS, c.ABS_X, 6),
+                     InputEvent(0.1, c.EV_SYN, c.SYN_REPORT, 0)])
     assert [s.x for s in out] == [5, 5]
 
 
@@ -141,7 +142,7 @@ def test_evemu_trace_round_trip_and_replay(tmp_path: Path) -> None:
     assert trace.format == "evemu" and dev.kind == "evdev" and len(dev.events) == len(events)
     assert [(e.type, e.code, e.value) for e in dev.events] == \
         [(e.type, e.code, e.value) for e in events]
-    assert max(abs(a.time - b.time) for a, b in zip(dev.events, events)) < 1e-6
+    assert max(abs(a.time - b.time) for a, b in zip(dev.events, events, strict=True)) < 1e-6
     assert dev.caps is not None and dev.caps.keys == CAPS.keys
     assert dev.caps.absinfo[c.ABS_TILT_X] == CAPS.absinfo[c.ABS_TILT_X]
     samples = list(iter_trace_samples(path))
@@ -151,7 +152,7 @@ def test_evemu_trace_round_trip_and_replay(tmp_path: Path) -> None:
     assert {s.serial for s in samples} == {0x0A1B2C3D}
     assert any(s.buttons == int(Button.STYLUS) for s in samples)
     assert any(s.buttons == int(Button.STYLUS2) for s in samples)
-    strokes = sum(1 for a, b in zip(samples, samples[1:]) if b.touching and not a.touching)
+    strokes = sum(1 for a, b in pairwise(samples) if b.touching and not a.touching)
     assert strokes == 5  # line, arc, spiral, eraser, buttons (hover never touches)
 
 
@@ -162,7 +163,7 @@ def check_samples(samples) -> None:
         if not s.touching:
             assert s.pressure == 0.0
     assert [s.seq for s in samples] == list(range(1, len(samples) + 1))
-    assert all(b.t >= a.t for a, b in zip(samples, samples[1:]))
+    assert all(b.t >= a.t for a, b in pairwise(samples))
 
 
 def test_libinput_record_with_pen_and_touch_keeps_only_the_pen(tmp_path: Path) -> None:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 
 import pytest
-
 from station.drivers.normalise import (
     BezierCurve,
     Normaliser,
@@ -13,6 +12,7 @@ from station.drivers.normalise import (
     NormaliserConfigError,
 )
 from station.drivers.raw import Axis, AxisRanges, RawSample
+
 from station.errors import EventError
 from station.events import Tool
 
@@ -26,7 +26,7 @@ RANGES = AxisRanges(
 def raw(t: float, p: int | None = 0, **kw: object) -> RawSample:
     args: dict[str, object] = dict(time=t, proximity=True, x=500, y=250, pressure=p)
     args.update(kw)
-    return RawSample(**args)  # type: ignore[arg-type]
+    return RawSample(**args)
 
 
 def feed_pressures(n: Normaliser, pressures: list[int], t0: float = 0.0):

@@ -10,16 +10,18 @@ several devices).  No third-party capture is used.
 from __future__ import annotations
 
 import json
+from itertools import pairwise
 from pathlib import Path
+from typing import Any
 
 import pytest
-
-from station.cli import main
 from station.drivers import synth
 from station.drivers.mock.tablet import MockTablet, find_model
 from station.drivers.pipeline import TraceReplay
 from station.drivers.traces import TraceError, iter_trace_samples, read_trace
 from station.drivers.traces.hidrecorder import HidRecorderWriter, parse_hid_recorder
+
+from station.cli import main
 from station.events import Button, PenSample, Tool
 
 MODELS = ["intuos-pro-m", "intuos4-4x6", "cintiq-22hd", "intuos-s-ctl480", "bamboo-pen-ctl460",
@@ -44,7 +46,7 @@ def recording(model: str, script: str = "demo", reports: int = 30, **kw: object
     events = [(r.time, r.data) for r in tablet.timed_reports()]
     info = tablet.info
     return synth.RecordedDevice(info.name, info.vid, info.pid, info.descriptor or b"", events,
-                                bus=info.bus, **kw)  # type: ignore[arg-type]
+                                bus=info.bus, **kw)
 
 
 def replay_jsonl(path: Path, tmp_path: Path, *extra: str) -> list[PenSample]:
@@ -63,7 +65,7 @@ def check_stream(samples: list[PenSample]) -> None:
             assert s.pressure == 0.0
         if not s.proximity:
             assert not s.touching
-    assert all(b.t >= a.t for a, b in zip(samples, samples[1:], strict=False))
+    assert all(b.t >= a.t for a, b in pairwise(samples))
 
 
 @pytest.mark.parametrize("model", MODELS)
@@ -80,7 +82,7 @@ def test_replay_of_every_supported_device(model: str, tmp_path: Path) -> None:
     assert serials == ({SERIAL} if has_serial else {None})
     touching = [s for s in samples if s.touching]
     # five strokes touch (line, arc, spiral, eraser, buttons); hover never does
-    strokes = sum(1 for a, b in zip(samples, samples[1:], strict=False)
+    strokes = sum(1 for a, b in pairwise(samples)
                   if b.touching and not a.touching)
     assert strokes == 5
     assert 0.7 < max(s.pressure for s in touching) <= 0.8 + 1e-6
@@ -107,7 +109,8 @@ def test_golden_intuos_samples_field_by_field(tmp_path: Path) -> None:
     path = tmp_path / "golden.hid"
     synth.write_hid_recorder([dev], path)
     got = list(iter_trace_samples(path))
-    common = dict(device="wacom-intuos-pro-m", serial=0x12345678, tool_id=0x802, tool=Tool.PEN)
+    common: dict[str, Any] = dict(device="wacom-intuos-pro-m", serial=0x12345678,
+                                  tool_id=0x802, tool=Tool.PEN)
     expected = [
         PenSample(t=0.005, x=0.5, y=0.5, pressure=0.0, tilt_x=10.0, tilt_y=-20.0,
                   proximity=True, touching=False, distance=40 / 63, seq=1, **common),

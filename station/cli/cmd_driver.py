@@ -41,6 +41,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--proximity-timeout", type=float, default=0.05, metavar="S",
                    help="forced proximity-out after S seconds without reports")
     p.add_argument("--no-init", action="store_true", help="do not send init feature reports")
+    p.add_argument("--wait-subscribers", type=int, default=0, metavar="N",
+                   help="wait (up to 5 s) for N subscribers before reading the device")
     p.set_defaults(func=run)
 
 
@@ -74,6 +76,8 @@ def run(args: argparse.Namespace) -> int:
     old = {sig: signal.signal(sig, lambda *_: stop.set())
            for sig in (signal.SIGINT, signal.SIGTERM)}
     publisher = Publisher(args.bus)
+    if args.wait_subscribers:
+        publisher.wait_for_subscribers(args.wait_subscribers, timeout=5.0)
     writer = SessionLogWriter(args.jsonl, SessionHeader(extra={"source": args.device})) \
         if args.jsonl else None
     reconnects = 0
@@ -140,8 +144,8 @@ def run(args: argparse.Namespace) -> int:
         if writer is not None:
             writer.close()
         publisher.close()
-    sys.stderr.write("station driver: " + json.dumps({k: last.get(k) for k in (
-        "state", "total_samples", "reports", "bad_reports", "skipped_reports", "reconnects")}) + "\n")
+    keys = ("state", "total_samples", "reports", "bad_reports", "skipped_reports", "reconnects")
+    sys.stderr.write("station driver: " + json.dumps({k: last.get(k) for k in keys}) + "\n")
     return 0
 
 
