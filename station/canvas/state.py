@@ -184,13 +184,19 @@ class CanvasState:
         }
 
     def save(self, path: str | Path) -> None:
-        """Write the state losslessly to ``path`` (.npz with a JSON ``meta`` entry)."""
-        arrays = {n: getattr(self, n) for n in (*_PLANE_FIELDS, *_STACK_FIELDS)}
+        """Write the state losslessly to ``path`` (.npz with a JSON ``meta`` entry).
+
+        Pigment planes are stored for the used slots only (the others are zero by
+        construction) and the archive is zlib-compressed: a mostly blank canvas is small.
+        """
+        used = len(self.slots)
+        arrays = {n: getattr(self, n) for n in _PLANE_FIELDS}
+        arrays.update({n: getattr(self, n)[:used] for n in _STACK_FIELDS})
         arrays["r_composed"] = self.r_composed
         arrays["tile_ttl"] = self.tile_ttl
         meta = np.array(json.dumps(self.metadata()))
         with open(path, "wb") as fh:
-            np.savez(fh, meta=meta, **arrays)
+            np.savez_compressed(fh, meta=meta, **arrays)
 
     @classmethod
     def load(cls, path: str | Path) -> CanvasState:
@@ -221,7 +227,10 @@ class CanvasState:
             get_profile(profile)
             ts = int(params.tile_size)
             shapes: dict[str, tuple[int, ...]] = {n: (height, width) for n in _PLANE_FIELDS}
-            shapes.update({n: (ns, height, width) for n in _STACK_FIELDS})
+            slots = [str(s) for s in meta["slots"]]
+            if len(slots) > ns:
+                raise CanvasInputError("more slots than pigment planes", where)
+            shapes.update({n: (len(slots), height, width) for n in _STACK_FIELDS})
             shapes["r_composed"] = (height, width, 3)
             shapes["tile_ttl"] = (-(-height // ts), -(-width // ts))
             arrays: dict[str, np.ndarray] = {}
@@ -233,9 +242,10 @@ class CanvasState:
                 if a.dtype == np.float32 and not np.isfinite(a).all():
                     raise CanvasInputError(f"field {name!r} holds non-finite values", where)
                 arrays[name] = np.ascontiguousarray(a)
-            slots = [str(s) for s in meta["slots"]]
-            if len(slots) > ns:
-                raise CanvasInputError("more slots than pigment planes", where)
+            for name in _STACK_FIELDS:  # free slots are zero
+                full = np.zeros((ns, height, width), np.float32)
+                full[: len(slots)] = arrays[name]
+                arrays[name] = full
             for s in slots:
                 palette.get(s)
             st = cls(
