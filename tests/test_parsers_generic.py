@@ -204,3 +204,21 @@ def test_tilt_derived_from_azimuth_and_altitude():
     (u,) = p.parse(S.encode_report(d, 7, {U.DG_IN_RANGE: 1, U.DG_AZIMUTH: 1000,
                                           U.DG_ALTITUDE: 1571}), 0.0)  # fmt: skip
     assert abs(u.tilt_x) <= 2 and abs(u.tilt_y) <= 2
+
+
+def test_compiled_decoder_agrees_with_the_plan_walker():
+    import random
+
+    from station.drivers.hid.pen import compile_plan
+
+    rng = random.Random(5)
+    for raw in (S.pth660_like_descriptor(), S.huion_like_descriptor(),
+                S.ntrig_like_descriptor()):  # fmt: skip
+        p = generic(raw)
+        for rid, plan in p.plans.items():
+            compiled = compile_plan(plan)
+            assert compiled is not None
+            for _ in range(300):
+                body = bytes(rng.getrandbits(8) for _ in range(plan.length - 1))
+                report = bytes([rid]) + body
+                assert compiled(report, 1.0) == p.decode(plan, report, 1.0)

@@ -23,7 +23,9 @@ read through :func:`station.drivers.hid.usages.equivalent_usage`.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 from station.drivers.hid import usages as U
@@ -232,9 +234,11 @@ class GenericPenParser(ReportParser):
         self.lengths = {r.report_id: r.length(desc.numbered) for r in desc.input_reports()}
         self.numbered = desc.numbered
         self.plans: dict[int, PenPlan] = {}
+        self.decoders: dict[int, Callable[[bytes, float], RawSample]] = {}
         for r in desc.input_reports():
             if self.kinds[r.report_id] == "pen":
-                self.plans[r.report_id] = make_plan(desc, r)
+                plan = self.plans[r.report_id] = make_plan(desc, r)
+                self.decoders[r.report_id] = compile_plan(plan) or partial(self.decode, plan)
         if self.plans:
             self.primary: PenPlan | None = max(self.plans.values(), key=lambda p: len(p.slots))
             ranges = ranges_from_plan(self.primary)
@@ -261,12 +265,13 @@ class GenericPenParser(ReportParser):
         if len(report) != want:
             raise ReportError(f"input report {rid} is {len(report)} bytes, the descriptor says "
                               f"{want}")  # fmt: skip
-        plan = self.plans.get(rid)
-        if plan is None:
+        decode = self.decoders.get(rid)
+        if decode is None:
             return self._skip(self.kinds[rid])
-        return [self._decode(plan, report, time)]
+        return [decode(report, time)]
 
-    def _decode(self, plan: PenPlan, report: bytes, time: float) -> RawSample:
+    def decode(self, plan: PenPlan, report: bytes, time: float) -> RawSample:
+        """Decode one pen report by walking the plan (the reference for :func:`compile_plan`)."""
         bits = int.from_bytes(report, "little")
         v: dict[str, int] = {}
         for s in plan.slots:
@@ -343,6 +348,61 @@ class GenericPenParser(ReportParser):
         return d
 
 
+_ROLE_DEFAULT = {"x": "0", "y": "0"}
+
+
+def compile_plan(plan: PenPlan) -> Callable[[bytes, float], RawSample] | None:
+    """A decoder specialised to one pen report: straight-line shifts and masks.
+
+    The generated source holds only integers from the plan and fixed names,
+    never text from the device.  Plans with array fields or derived tilt
+    return None (they use :meth:`GenericPenParser.decode`).  About twice as
+    fast as walking the plan; tests check both agree on random reports.
+    """
+    if plan.arrays or plan.angles is not None:
+        return None
+    lines = ["def decode(report, time):", "    b = from_bytes(report, 'little')"]
+    have = set()
+    for slot in plan.slots:
+        var = f"v_{slot.role}"
+        have.add(slot.role)
+        lines.append(f"    {var} = (b >> {int(slot.shift)}) & {int(slot.mask)}")
+        if slot.sign_bit:
+            lines.append(f"    if {var} & {int(slot.sign_bit)}: {var} -= {int(slot.sign_bit) << 1}")
+
+    def val(role: str, default: str = "None") -> str:
+        return f"v_{role}" if role in have else _ROLE_DEFAULT.get(role, default)
+
+    if "tip" in have or "eraser" in have:
+        lines.append(f"    tip = bool({val('tip', '0')} or {val('eraser', '0')})")
+    else:
+        lines.append("    tip = None")
+    if "in_range" in have:
+        lines.append("    prox = bool(v_in_range)")
+    elif "sense" in have:
+        lines.append("    prox = bool(v_sense)")
+    else:
+        lines.append("    prox = True")
+    lines.append(f"    buttons = (1 if {val('barrel', '0')} else 0) | "
+                 f"(2 if {val('barrel2', '0')} else 0) | (4 if {val('barrel3', '0')} else 0)")
+    lines.append(f"    eraser = bool({val('invert', '0')} or {val('eraser', '0')})")
+    lines.append(f"    tool_id = {val('tool_type', '0')} or None")
+    lines.append("    tool = ERASER if eraser else PEN if tool_id is None else tool_of(tool_id)")
+    lines.append(f"    serial = ({val('serial', '0')} | ({val('serial_hi', '0')} << 32)) or None")
+    lines.append(
+        f"    return RawSample(time, prox, {val('x')}, {val('y')}, tip, {val('pressure')}, "
+        f"{val('tilt_x')}, {val('tilt_y')}, {val('distance')}, {val('twist')}, None, buttons, "
+        "tool, serial, tool_id, eraser, prox)"
+    )
+    namespace: dict[str, Any] = {
+        "from_bytes": int.from_bytes, "RawSample": RawSample, "ERASER": Tool.ERASER,
+        "PEN": Tool.PEN, "tool_of": tool_from_id,
+    }  # fmt: skip
+    exec(compile("\n".join(lines), f"<pen report {plan.report_id}>", "exec"), namespace)
+    decoder: Callable[[bytes, float], RawSample] = namespace["decode"]
+    return decoder
+
+
 def tilt_from_azimuth(azimuth_deg: float, altitude_deg: float) -> tuple[float, float]:
     """X/Y tilt in degrees from azimuth and altitude (degrees).
 
@@ -368,4 +428,4 @@ def input_report_kinds(desc: Descriptor) -> dict[str, list[int]]:
 
 
 __all__ = ["GenericPenParser", "ReportType", "classify_report", "classify_reports",
-           "input_report_kinds", "make_plan", "tilt_from_azimuth"]  # fmt: skip
+           "compile_plan", "input_report_kinds", "make_plan", "tilt_from_azimuth"]  # fmt: skip
