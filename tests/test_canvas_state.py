@@ -279,3 +279,15 @@ def test_masking_fluid_protects_cells_and_bookkeeping_closes() -> None:
     assert st.mask.max() == 0
     bal = c.stats()["balance"]
     assert bal["water_rel_error"] < 1e-3 and bal["pigment_rel_error"] < 1e-3
+
+
+def test_numpy_backend_satisfies_the_protocol() -> None:
+    from station.canvas.backend import CanvasBackend
+
+    c = create_backend("numpy", 20, 16, "ink", 4, tiles=False)
+    assert isinstance(c, CanvasBackend)
+    assert (c.width, c.height, c.renderer) == (20, 16, "numpy")
+    with pytest.raises(BadInput):
+        c.step(dt=1.0)  # more than one cell per step at v_max
+    st = c.state()
+    assert st.profile == "ink" and st.paper_preset == "rough" and not st.tiling

@@ -9,7 +9,7 @@ import numpy as np
 
 from station.canvas import operations, reference, tiles
 from station.canvas.palette import Palette
-from station.canvas.params import CanvasInputError, SimParams, get_profile
+from station.canvas.params import SimParams, get_profile
 from station.canvas.render import render_state
 from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
 from station.canvas.stats import canvas_stats
@@ -75,9 +75,6 @@ class NumpyCanvas:
         operations.add_sources(self._state, dw, dp, dvx, dvy, y0=y0, x0=x0)
 
     def step(self, dt: float | None = None) -> None:
-        if dt is not None and dt * self._state.params.v_max > 1.0 + 1e-9:
-            raise CanvasInputError("dt too large for v_max (more than one cell per step)",
-                                   "step")
         reference.step(self._state, dt)
 
     def dry(self) -> None:

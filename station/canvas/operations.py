@@ -100,7 +100,6 @@ def dry(state: CanvasState) -> None:
     """UI "dry": all suspended pigment settles (``q += p``), all water evaporates (booked)."""
     evap = state.w.astype(np.float64) + state.wc
     state.evaporated += evap.astype(F32)
-    # float32 accumulation could round away tiny amounts: book the rounding residue
     state.w[...] = 0
     state.wc[...] = 0
     state.vx[...] = 0

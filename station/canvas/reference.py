@@ -118,7 +118,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from station.canvas.params import SimParams
+from station.canvas import tiles
+from station.canvas.params import CanvasInputError, SimParams
 from station.canvas.state import CanvasState
 
 F32 = np.float32
@@ -484,13 +485,9 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float) -> None:
 
 def step(state: CanvasState, dt: float | None = None) -> None:
     """One simulation step of ``state`` in place (tiles decide the region)."""
-    from station.canvas import tiles  # local: tiles imports this module's helpers
-
     dt = state.params.dt if dt is None else float(dt)
-    if not dt > 0:
-        from station.canvas.params import CanvasInputError
-
-        raise CanvasInputError("dt must be > 0", "step")
+    if not dt > 0 or dt * state.params.v_max > 1.0 + 1e-9:
+        raise CanvasInputError("dt must be > 0 and move at most one cell per step", "step")
     if state.tiling:
         region = tiles.active_region(state)
         if region is not None:
