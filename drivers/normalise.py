@@ -32,9 +32,11 @@ never published.
 from __future__ import annotations
 
 import bisect
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 from station.drivers.raw import Axis, AxisRanges, RawSample
 
@@ -62,6 +64,8 @@ class NormaliserConfig:
         pressure_curve: Bézier control points ``(x1, y1, x2, y2)`` in ``[0, 1]``;
             ``None`` = linear.
         tilt_range_degrees: degrees the tilt range maps to when there is no resolution.
+        validate: build samples through the full PenSample constructor (slower);
+            by default the normaliser checks the same ranges with plain comparisons.
     """
 
     area: tuple[float, float, float, float] | None = None
@@ -73,6 +77,7 @@ class NormaliserConfig:
     smoothing_ms: float = 0.0
     pressure_curve: tuple[float, float, float, float] | None = None
     tilt_range_degrees: float = 64.0
+    validate: bool = False
 
     def __post_init__(self) -> None:
         if not 0.0 < self.tip_up < self.tip_down < 1.0:
@@ -421,27 +426,69 @@ class Normaliser:
         try:
             x, y = self._position(raw, entering)
             pressure, touching = self._pressure_and_contact(raw, entering)
-            return PenSample(
-                t=self._time(raw.time),
-                device=self.device,
-                tool=self._tool,
-                x=x,
-                y=y,
-                pressure=pressure,
-                tilt_x=self._tilt(raw.tilt_x, r.tilt_x),
-                tilt_y=self._tilt(raw.tilt_y, r.tilt_y),
-                proximity=True,
-                touching=touching,
-                buttons=raw.buttons & 0xFFFF,
-                serial=self._serial,
-                rotation=self._rotation(raw.rotation),
-                distance=(_unit(raw.distance, r.distance)
-                          if raw.distance is not None and r.distance else None),
-                wheel=_unit(raw.wheel, r.wheel) if raw.wheel is not None and r.wheel else None,
-                seq=self._next_seq(),
-                t_mono=t_mono,
-                tool_id=self._tool_id if self._tool_id is None or self._tool_id < 2**32 else None,
-            )
-        except (EventError, ValueError, OverflowError) as exc:
+            values = {
+                "t": self._time(raw.time),
+                "device": self.device,
+                "tool": self._tool,
+                "x": x,
+                "y": y,
+                "pressure": pressure,
+                "tilt_x": self._tilt(raw.tilt_x, r.tilt_x),
+                "tilt_y": self._tilt(raw.tilt_y, r.tilt_y),
+                "proximity": True,
+                "touching": touching,
+                "buttons": raw.buttons & 0xFFFF,
+                "serial": self._serial,
+                "rotation": self._rotation(raw.rotation),
+                "distance": (_unit(raw.distance, r.distance)
+                             if raw.distance is not None and r.distance else None),
+                "wheel": _unit(raw.wheel, r.wheel)
+                if raw.wheel is not None and r.wheel else None,
+                "seq": self._next_seq(),
+                "t_mono": t_mono,
+                "tool_id": self._tool_id,
+            }
+            if self.config.validate:
+                return PenSample(**values)
+            return _checked_sample(values)
+        except (EventError, ValueError, OverflowError, TypeError) as exc:
             self._reject(str(exc))
             return None
+
+
+_PEN_FIELDS = tuple(f.name for f in dataclasses.fields(PenSample))
+_PEN_DEFAULTS = {f.name: f.default for f in dataclasses.fields(PenSample)
+                 if f.default is not dataclasses.MISSING}
+# The slot descriptors' __set__ writes a frozen dataclass's slot directly (what
+# object.__setattr__ does, without the attribute lookup per field).
+_PEN_SLOTS = tuple((name, getattr(PenSample, name).__set__) for name in _PEN_FIELDS)
+_UNIT_FIELDS = ("x", "y", "pressure")
+_OPTIONAL_UNIT_FIELDS = ("distance", "wheel")
+
+
+def _checked_sample(values: dict[str, Any]) -> PenSample:
+    """A PenSample from values the normaliser made, with a cheap range check.
+
+    Every number here was clamped on the way, so the full constructor
+    validation (the largest cost per sample) is replaced by the same range
+    checks done with plain comparisons (NaN fails every one of them).  Values
+    that fail go through the constructor, which raises :class:`EventError`.
+    """
+    ok = 0.0 <= values["t"] < 1e12 and -90.0 <= values["tilt_x"] <= 90.0 \
+        and -90.0 <= values["tilt_y"] <= 90.0
+    for name in _UNIT_FIELDS:
+        ok = ok and 0.0 <= values[name] <= 1.0
+    for name in _OPTIONAL_UNIT_FIELDS:
+        v = values[name]
+        ok = ok and (v is None or 0.0 <= v <= 1.0)
+    rot, serial, tool_id = values["rotation"], values["serial"], values["tool_id"]
+    ok = ok and (rot is None or -360.0 <= rot <= 360.0)
+    ok = ok and (serial is None or 0 <= serial < 1 << 64)
+    ok = ok and (tool_id is None or 0 <= tool_id < 1 << 32)
+    ok = ok and (values["touching"] is False or values["proximity"] is True)
+    if not ok:
+        return PenSample(**values)  # raises EventError naming the bad field
+    sample = object.__new__(PenSample)
+    for name, set_slot in _PEN_SLOTS:
+        set_slot(sample, values[name] if name in values else _PEN_DEFAULTS[name])
+    return sample

@@ -140,7 +140,8 @@ class HidPenSource:
         p = self.parser
         return {
             "name": self.name, "source": "hid", "path": info.path, "product": info.name,
-            "vid": f"{info.vid:04x}", "pid": f"{info.pid:04x}", "bus": info.bus,
+            "vid": info.vid, "pid": info.pid, "usb_id": f"{info.vid:04x}:{info.pid:04x}",
+            "bus": info.bus,
             "parser": getattr(p, "name", type(p).__name__), "generic": bool(p.generic),
             "model": _model_name(p), "can_map_mm": self.ranges.has_resolution,
             "features_sent": [f.hex(" ") for f in self.features_sent],
@@ -195,7 +196,8 @@ class EvdevPenSource:
         s = self.assembler.stats
         return {
             "name": self.name, "source": "evdev", "path": caps.path, "product": caps.name,
-            "vid": f"{caps.vid:04x}", "pid": f"{caps.pid:04x}", "bus": caps.bus,
+            "vid": caps.vid, "pid": caps.pid, "usb_id": f"{caps.vid:04x}:{caps.pid:04x}",
+            "bus": caps.bus,
             "parser": "evdev", "generic": False, "model": "",
             "can_map_mm": self.ranges.has_resolution,
             "syn_dropped": s.dropped, "resyncs": s.resyncs,

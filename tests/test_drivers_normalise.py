@@ -205,3 +205,32 @@ def test_time_counts_from_first_report_and_never_goes_back() -> None:
     assert a.t == 0.0 and b.t == 0.0 and n.stats.time_backwards == 1
     with pytest.raises(EventError):
         a.with_(x=float("nan"))
+
+
+def test_fast_sample_path_equals_the_validating_constructor() -> None:
+    fast = Normaliser(RANGES)
+    slow = Normaliser(RANGES, config=NormaliserConfig(validate=True))
+    raws = [raw(i * 0.005, (i * 37) % 1200, x=(i * 71) % 1300 - 100, y=(i * 13) % 600,
+                tilt_x=(i % 128) - 64, tilt_y=(i % 100) - 50, rotation=(i * 9) % 1800 - 900,
+                distance=i % 64, wheel=(i * 5) % 1024, buttons=i % 4, serial=i // 50,
+                tool_id=0x802)
+            for i in range(600)]
+    a = [s for r in raws for s in fast.feed(r)]
+    b = [s for r in raws for s in slow.feed(r)]
+    assert a == b and len(a) == 600
+    assert [s.to_record() for s in a] == [s.to_record() for s in b]
+
+
+def test_fast_path_still_refuses_bad_values() -> None:
+    from station.drivers.normalise import _checked_sample
+
+    good = Normaliser(RANGES).feed(raw(0.0))[0].to_record()
+    values = {k: v for k, v in good.items() if k != "type"}
+    values.update(rotation=None, distance=None, wheel=None, tool_id=None, seq=1, t_mono=0.0)
+    assert _checked_sample(dict(values)).x == 0.5
+    for name, bad in (("x", float("nan")), ("y", 1.5), ("pressure", -0.1), ("t", float("inf")),
+                      ("tilt_x", 91.0), ("serial", -1)):
+        with pytest.raises(EventError):
+            _checked_sample({**values, name: bad})
+    with pytest.raises(EventError):
+        _checked_sample({**values, "proximity": False, "touching": True})
