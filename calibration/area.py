@@ -9,8 +9,11 @@ device's full axis ranges), is::
   known, else device units, which then must be square for rotations and the
   aspect lock to be right),
 * ``T(−c)``, ``R(−θ)``, ``S(1/w, 1/h)``, ``T(½, ½)``: the active area (centre
-  ``c``, size ``w × h``, rotation ``θ`` degrees clockwise on the tablet as seen
-  by the user with y down; left-handed adds 180°) → area-normalised ``[0, 1]²``,
+  ``c``, size ``w × h``, rotation ``θ``: the area rectangle turned θ degrees
+  clockwise on the tablet surface, in tablet coordinates with y down, as
+  OpenTabletDriver draws it; a tablet the *user* turns 90° clockwise
+  (xsetwacom ``Rotate cw``) needs θ = 270; left-handed adds 180°) →
+  area-normalised ``[0, 1]²``,
 * ``F``: the fitted calibration (identity for an opaque tablet),
 * ``O``: the output sub-rectangle of the canvas or screen.
 

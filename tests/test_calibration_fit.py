@@ -249,7 +249,7 @@ def test_parallax_recovered_and_removes_the_error_a_plain_fit_cannot() -> None:
     assert plain.rms > 5 * joint.rms  # the plain fit cannot absorb a tilt-dependent shift
     # applying the fitted parallax per sample puts tilted taps on their targets
     tilted = pts.tilt is not None and np.abs(pts.tilt).max(axis=1) > 10
-    mapped = joint.mapping.map(pts.device[tilted], pts.tilt[tilted])  # type: ignore[index]
+    mapped = joint.mapping.map(pts.device[tilted], pts.tilt[tilted])
     err = np.hypot(*(mapped - pts.canvas[tilted]).T)
     assert err.max() < 4 * sigma
     plain_err = np.hypot(*(plain.mapping.map(pts.device[tilted]) - pts.canvas[tilted]).T)

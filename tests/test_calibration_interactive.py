@@ -1,0 +1,145 @@
+"""The interactive ``station calibrate --device`` window under Xvfb, driven by mock devices.
+
+Starts ``Xvfb :N -screen 0 1024x768x24`` (installed by ``make test``), runs the
+command in a subprocess against a simulated installer with a known distortion,
+a misclick and screen-tablet parallax, then checks the written calibration
+file against the distortion and the screenshot for the drawn targets.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+from station.calibration.files import read_file
+from station.calibration.geometry import project
+from station.calibration.session import CalibrationSession, target_grid
+from station.calibration.sources import MockUserSource
+
+from station.events import PenSample, Tool
+
+SCREEN = (1024, 768)
+DISTORTION = "rot=2,scale=1.04:0.97,offset=0.01:-0.015,persp=0.01:0.005"
+GREEN = np.array([26, 217, 51])
+RED = np.array([242, 38, 26])
+BACKGROUND = np.array([20, 20, 26])
+
+
+@pytest.fixture(scope="module")
+def display() -> Iterator[str]:
+    xvfb = shutil.which("Xvfb")
+    if xvfb is None:
+        pytest.skip("Xvfb is not installed (make test installs it: apt-get install xvfb)")
+    for number in range(91, 120):
+        if not Path(f"/tmp/.X11-unix/X{number}").exists() and not Path(
+                f"/tmp/.X{number}-lock").exists():
+            break
+    proc = subprocess.Popen([xvfb, f":{number}", "-screen", "0", "1024x768x24", "-nolisten",
+                             "tcp"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    sock = Path(f"/tmp/.X11-unix/X{number}")
+    deadline = time.monotonic() + 10
+    while not sock.exists() and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+    if not sock.exists():
+        proc.kill()
+        pytest.fail(f"Xvfb :{number} did not start")
+    try:
+        yield f":{number}"
+    finally:
+        proc.terminate()
+        proc.wait(timeout=10)
+
+
+def calibrate(display: str, *argv: str) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, "DISPLAY": display}
+    return subprocess.run([sys.executable, "-m", "station", "calibrate", *argv], env=env,
+                          capture_output=True, text=True, timeout=60)
+
+
+def test_interactive_with_mock_user_recovers_the_distortion(display: str, tmp_path: Path) -> None:
+    out, shot = tmp_path / "cal.json", tmp_path / "shot.png"
+    spec = f"mock-user:{DISTORTION},misclick=6,noise=0.0005,parallax=0.004:-0.003,seed=1"
+    proc = calibrate(display, "--device", spec, "--points", "9", "--tilt-pass", "-o", str(out),
+                     "--screenshot", str(shot), "--timeout", "45")
+    assert proc.returncode == 0, proc.stderr + proc.stdout
+    assert "REJECTED (misclick" in proc.stdout  # rejected on the spot …
+    assert proc.stdout.count("target 6/19: ok") == 1  # … and the target asked again
+    cal = read_file(out)
+    truth = MockUserSource(DISTORTION).truth()
+    probe = np.random.default_rng(0).uniform(0.1, 0.9, (300, 2))
+    err = np.abs(project(cal.matrix, probe) - project(truth, probe)).max()
+    assert err < 0.0015  # ≈ 1.5 px on 1024 px: within the tap noise (0.5 px sigma)
+    assert cal.fit.parallax == pytest.approx((0.004, -0.003), abs=0.0008)
+    assert cal.area.output_pixels == SCREEN
+
+    from PIL import Image
+
+    img = np.asarray(Image.open(shot).convert("RGB")).astype(int)
+    assert img.shape == (SCREEN[1], SCREEN[0], 3)
+    for x, y in target_grid(9):  # a green dot on every target
+        px = img[int(round(y * SCREEN[1])) - 4:int(round(y * SCREEN[1])) + 5,
+                 int(round(x * SCREEN[0])) - 4:int(round(x * SCREEN[0])) + 5]
+        assert (np.abs(px - GREEN).sum(axis=2) < 30).mean() > 0.5, (x, y)
+    assert (np.abs(img - RED).sum(axis=2) < 30).sum() > 20  # the rejected misclick's cross
+    assert (np.abs(img - BACKGROUND).sum(axis=2) < 6).mean() > 0.95  # the rest is background
+
+
+def test_interactive_with_recorded_taps(display: str, tmp_path: Path) -> None:
+    # taps of a 5-point calibration under a known affine map, as a mock-taps file
+    truth = np.array([[0.95, 0.03, 0.02], [-0.02, 1.03, -0.01], [0, 0, 1.0]])
+    dev = project(np.linalg.inv(truth), np.array(target_grid(5)))
+    taps = tmp_path / "taps.csv"
+    taps.write_text("device_x,device_y\n" + "".join(f"{float(x)!r},{float(y)!r}\n" for x, y in dev))
+    out = tmp_path / "cal.json"
+    proc = calibrate(display, "--device", f"mock-taps:{taps}", "--points", "5",
+                     "--model", "affine", "-o", str(out), "--timeout", "30")
+    assert proc.returncode == 0, proc.stderr + proc.stdout
+    cal = read_file(out)
+    assert np.allclose(cal.matrix, truth, atol=1e-9)
+    # too few taps for the targets: a clear failure, not a hang
+    short = tmp_path / "short.csv"
+    short.write_text("device_x,device_y\n0.1,0.1\n0.9,0.1\n")
+    proc = calibrate(display, "--device", f"mock-taps:{short}", "--points", "5", "-o",
+                     str(tmp_path / "x.json"), "--timeout", "30")
+    assert proc.returncode == 2 and "ran out of taps at target 3/5" in proc.stderr
+
+
+# -- the session logic without a window -------------------------------------------------------
+
+
+def feed_tap(session: CalibrationSession, x: float, y: float, t0: float) -> object:
+    result = None
+    for k in range(12):
+        s = PenSample(t=t0 + 0.005 * k, device="m", tool=Tool.PEN, x=x, y=y, pressure=0.5,
+                      touching=True)
+        session.feed(s)
+    result = session.feed(PenSample(t=t0 + 0.07, device="m", tool=Tool.PEN, x=x, y=y))
+    return result
+
+
+def test_session_detects_swapped_axes_and_rejects_misaligned_taps() -> None:
+    session = CalibrationSession(screen=SCREEN, points=4, model="affine")
+    # device axes swapped: screen x follows device y
+    swap = [(y, x) for x, y in target_grid(4)]
+    r1 = feed_tap(session, *swap[0], 0.0)
+    r2 = feed_tap(session, *swap[1], 1.0)
+    assert r1.accepted and r2.accepted  # type: ignore[attr-defined]
+    assert session.swapped_axes is True
+    # target 3 shares its screen column with target 2, so the tap must share target 2's
+    # device *y* (axes swapped): 0.1 off in device y is ~77 px off the column
+    bad = feed_tap(session, swap[2][0], swap[2][1] - 0.1, 2.0)
+    assert not bad.accepted and "misclick" in bad.reason  # type: ignore[attr-defined]
+    assert session.current == 2
+    good = feed_tap(session, *swap[2], 3.0)
+    assert good.accepted  # type: ignore[attr-defined]
+    feed_tap(session, *swap[3], 4.0)
+    assert session.done
+    rep = session.fit()
+    assert np.allclose(rep.mapping.matrix, [[0, 1, 0], [1, 0, 0], [0, 0, 1]], atol=1e-9)
