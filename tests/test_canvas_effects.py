@@ -99,9 +99,11 @@ def _height_correlation(gamma: float) -> float:
 def test_granulation_anticorrelates_with_paper_height() -> None:
     r_gran = _height_correlation(0.9)
     r_none = _height_correlation(0.0)
-    assert r_gran < -0.3, r_gran
-    assert r_none > -0.1, r_none
-    assert r_gran < r_none - 0.3
+    assert r_gran < -0.5, r_gran
+    # gamma = 0: the paper height does not enter the surface exchange; what is left is
+    # the chance alignment of a smooth deposit with the noise (|r| < 0.15 over seeds 0-5)
+    assert abs(r_none) < 0.2, r_none
+    assert r_gran < r_none - 0.4
 
 
 def test_staining_low_beta_lifts_much_more() -> None:
