@@ -8,6 +8,7 @@ file against the distortion and the screenshot for the drawn targets.
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import subprocess
@@ -143,3 +144,63 @@ def test_session_detects_swapped_axes_and_rejects_misaligned_taps() -> None:
     assert session.done
     rep = session.fit()
     assert np.allclose(rep.mapping.matrix, [[0, 1, 0], [1, 0, 0], [0, 0, 1]], atol=1e-9)
+
+
+# -- a real device path: a recorded Cintiq trace through the drivers' pipeline --------------
+
+
+def cintiq_tap_trace(path: Path, truth: np.ndarray, targets: list[tuple[float, float]]) -> None:
+    """A hid-recorder trace of a Cintiq 22HD (Intuos protocol) tapping each target once."""
+    synth = pytest.importorskip("station.drivers.synth")
+    dev = project(np.linalg.inv(truth), np.array(targets))
+    events: list[tuple[float, bytes]] = []
+    t = 0.0
+    for x, y in dev:
+        ux, uy = int(round(x * 95840)), int(round(y * 54260))
+        events.append((t, synth.intuos_prox_in(0x802, 0x1234)))
+        t += 0.008
+        for k in range(16):  # 3 hover, 10 contact, 3 hover reports at 128 Hz
+            pressure = 900 if 3 <= k < 13 else 0
+            events.append((t, synth.intuos_pen(ux, uy, pressure, 10, -5, distance=0)))
+            t += 0.008
+        events.append((t, synth.intuos_prox_out()))
+        t += 0.3
+    dev_info = synth.synth_devices()["cintiq-22hd"]
+    rec = synth.RecordedDevice(dev_info.name, dev_info.vid, dev_info.pid, dev_info.descriptor,
+                               events)
+    synth.write_hid_recorder([rec], path)
+
+
+def test_interactive_through_the_drivers_pipeline(display: str, tmp_path: Path) -> None:
+    pytest.importorskip("station.drivers.pipeline")
+    truth = np.array([[1.02, -0.01, -0.012], [0.015, 0.97, 0.02], [0, 0, 1.0]])
+    trace = tmp_path / "taps.hid"
+    cintiq_tap_trace(trace, truth, target_grid(9))
+    out = tmp_path / "cal.json"
+    proc = calibrate(display, "--device", f"trace:{trace}", "--points", "9", "--model",
+                     "affine", "-o", str(out), "--timeout", "30")
+    assert proc.returncode == 0, proc.stderr + proc.stdout
+    cal = read_file(out)
+    assert (cal.device.vid, cal.device.pid) == (0x056A, 0x00FA)  # the id from the trace
+    assert cal.geometry.x_max == 95840 and cal.geometry.y_max == 54260
+    probe = np.random.default_rng(0).uniform(0.1, 0.9, (100, 2))
+    # device units are integers: 1/95840 of rounding is all that is lost
+    assert np.abs(project(cal.matrix, probe) - project(truth, probe)).max() < 1e-4
+
+
+def test_from_trace_reads_device_traces(tmp_path: Path) -> None:
+    pytest.importorskip("station.drivers.traces")
+    truth = np.array([[0.98, 0.02, 0.01], [-0.01, 1.01, -0.005], [0, 0, 1.0]])
+    trace = tmp_path / "taps.hid"
+    cintiq_tap_trace(trace, truth, target_grid(5))
+    targets = tmp_path / "targets.csv"
+    targets.write_text("canvas_x,canvas_y\n" + "".join(f"{x},{y}\n" for x, y in target_grid(5)))
+    proc = subprocess.run([sys.executable, "-m", "station", "calibrate", "--from-trace",
+                           str(trace), "--targets", str(targets), "--json"],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    rep = json.loads(proc.stdout)
+    assert rep["taps"] == 5
+    m = np.array(rep["matrix"])
+    probe = np.random.default_rng(0).uniform(0.1, 0.9, (100, 2))
+    assert np.abs(project(m, probe) - project(truth, probe)).max() < 1e-4
