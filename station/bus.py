@@ -256,16 +256,15 @@ class Publisher:
         self.replay_enabled = replay
         self.subscriptions = 0
         self.replayed = 0
-        self._last_served = 0.0
 
     @property
     def url(self) -> str:
         return self.endpoint.url
 
     def _send(self, topic: str, value: Any) -> int:
-        now = time.monotonic()
-        if now - self._last_served > 0.001:  # at most once a millisecond: keeps 1e5 msg/s cheap
-            self._last_served = now
+        # Reading ZMQ_EVENTS makes libzmq apply pending subscriptions now, so a new
+        # subscriber gets its replay before this sample, never after it.
+        if self.sock.get(zmq.EVENTS) & zmq.POLLIN:
             self._serve_subscriptions()
         seq = self._seq[topic] + 1
         self._seq[topic] = seq
