@@ -100,7 +100,8 @@ the same float32 value on both sides).
       ``w -= d``; ``wc += d``;
    b. diffuse (explicit, one step): saturation ``s = wc / c``; face flux
       ``F = cap_diffusion*dt * min(c_i, c_j) * (s_i - s_j)`` on faces with both cells
-      open (0 otherwise); apply (``cap_diffusion*dt <= 1/8`` keeps wc in [0, c]);
+      open (0 otherwise); apply (``cap_diffusion*dt <= 1/8`` keeps wc in [0, c]), then
+      ``wc = max(wc, 0)`` (guards float rounding only);
    c. evaporate: where ``w == 0``: ``e = min(eps_cap*dt, wc)``; ``wc -= e``;
       ``evaporated += e``.
 
