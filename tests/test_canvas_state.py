@@ -291,3 +291,36 @@ def test_numpy_backend_satisfies_the_protocol() -> None:
         c.step(dt=1.0)  # more than one cell per step at v_max
     st = c.state()
     assert st.profile == "ink" and st.paper_preset == "rough" and not st.tiling
+
+
+@pytest.mark.parametrize("profile", ["watercolor", "gouache", "ink"])
+def test_random_sessions_keep_invariants_in_every_profile(profile: str) -> None:
+    """Random strokes, layers and dries: ranges, bookkeeping and tiling equivalence hold."""
+    prof = get_profile(profile)
+    runs = {}
+    for tiling in (True, False):
+        c = NumpyCanvas(56, 44, profile=profile, seed=21, tiling=tiling)
+        rng = np.random.default_rng(5)
+        st = c.live_state
+        for i in range(160):
+            if i % 16 == 0:
+                cy, cx = rng.uniform(0, 44), rng.uniform(0, 56)
+                pig = prof.pigments[int(rng.integers(len(prof.pigments)))]
+                paint(c, disc(44, 56, cy, cx, float(rng.uniform(2, 10))),
+                      float(rng.uniform(0.2, 1.2)), {pig: float(rng.uniform(0.05, 0.6))},
+                      vx=float(rng.uniform(-30, 30)), vy=float(rng.uniform(-30, 30)))
+            if i == 90:
+                c.new_layer()
+            c.step()
+        assert st.w.min() >= 0 and st.w.max() <= st.params.w_max + 1e-6
+        assert st.wc.min() >= 0 and (st.wc <= st.capacity() + 1e-6).all()
+        assert st.p.min() >= 0 and st.p.max() <= 1 + 1e-6
+        assert st.q.min() >= 0 and st.q.max() <= 1 + 1e-6
+        img = c.render()
+        assert np.isfinite(img).all() and img.min() >= 0 and img.max() <= 1
+        bal = c.stats()["balance"]
+        assert bal["water_rel_error"] < 1e-3 and bal["pigment_rel_error"] < 1e-3
+        runs[tiling] = (c.live_state, img)
+    for f in ("w", "wc", "p", "q", "vx", "vy"):
+        assert np.allclose(getattr(runs[True][0], f), getattr(runs[False][0], f), atol=1e-6), f
+    assert np.allclose(runs[True][1], runs[False][1], atol=1e-6)
