@@ -354,3 +354,13 @@ def test_fields_before_first_report_id_warned():
     d = parse_descriptor(raw)
     assert d.numbered and {f.report_id for f in d.fields} == {0, 2}
     assert any("unreachable" in w for w in d.warnings)
+
+
+def test_extreme_unit_exponents_do_not_overflow_or_hang():
+    for exp_item in (b"\x57\xff\xff\xff\x7f", b"\x57\x00\x00\x00\x80", b"\x55\x7f"):
+        raw = (b"\x05\x01\x09\x30\x15\x00\x26\xff\x0f\x35\x00\x46\xff\x0f\x65\x11" + exp_item
+               + b"\x75\x10\x95\x01\x81\x02")  # fmt: skip
+        (f,) = parse_descriptor(raw).fields
+        assert abs(f.unit_exponent) >= 100
+        assert resolution(f) is None
+        assert kernel_resolution(f, angular=False) == 0

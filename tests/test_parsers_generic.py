@@ -222,3 +222,21 @@ def test_compiled_decoder_agrees_with_the_plan_walker():
                 body = bytes(rng.getrandbits(8) for _ in range(plan.length - 1))
                 report = bytes([rid]) + body
                 assert compiled(report, 1.0) == p.decode(plan, report, 1.0)
+
+
+def test_64_bit_serial_plus_high_word_stays_64_bit():
+    b = S.DescriptorBuilder()
+    b.usage_page(U.PAGE_DIGITIZER).usage(0x02).collection(CollectionKind.APPLICATION)
+    b.report_id(3).bits(U.PAGE_DIGITIZER, [0x42, 0x32]).padding(6)
+    b.value(U.PAGE_GENERIC_DESKTOP, 0x30, 16, 0, 1000)
+    b.value(U.PAGE_GENERIC_DESKTOP, 0x31, 16, 0, 1000)
+    b.usage_page(U.PAGE_DIGITIZER).usage(0x5B).logical(0, 1).report_size(64).report_count(1)
+    b.input(FLAG_VARIABLE)
+    b.value(U.PAGE_WACOM_DIGITIZER, 0x5C, 32, 0, 0x7FFFFFFF)
+    b.end_collection()
+    d = parse_descriptor(b.to_bytes())
+    p = GenericPenParser(d)
+    report = bytes([3, 3, 0, 0, 0, 0]) + b"\xff" * 12
+    (s,) = p.parse(report, 0.0)
+    assert s.serial == (1 << 64) - 1
+    assert p.decode(p.plans[3], report, 0.0) == s

@@ -728,8 +728,8 @@ def kernel_resolution(f: Field, angular: bool) -> int:
     logical = f.logical_max - f.logical_min
     physical = f.physical_max - f.physical_min
     exponent = f.unit_exponent
-    if logical <= 0 or physical <= 0:
-        return 0
+    if logical <= 0 or physical <= 0 or not -20 <= exponent <= 20:
+        return 0  # the kernel's s32 arithmetic overflows (-> 0) long before |exponent| = 20
     if not angular:
         if f.unit == UNIT_CENTIMETER:
             exponent += 1
@@ -764,7 +764,7 @@ def resolution(f: Field) -> float | None:
     """
     logical = f.logical_max - f.logical_min
     physical = f.physical_max - f.physical_min
-    if logical <= 0 or physical <= 0:
+    if logical <= 0 or physical <= 0 or not -30 <= f.unit_exponent <= 30:
         return None
     scale = 10.0 ** f.unit_exponent
     if f.unit == UNIT_CENTIMETER:

@@ -64,6 +64,7 @@ ROLE_USAGES: dict[str, tuple[int, ...]] = {
     "distance": (U.WD_DISTANCE, U.GD_Z),
 }
 _USAGE_ROLE = {usage: role for role, us in ROLE_USAGES.items() for usage in us}
+SERIAL_MASK = (1 << 64) - 1  # serials are at most 64 bits (a 64-bit field plus a high word)
 _BOOL_ROLES = ("tip", "in_range", "sense", "barrel", "barrel2", "barrel3", "invert", "eraser")
 _UNSIGNED_ROLES = ("serial", "serial_hi", "tool_type")
 
@@ -150,6 +151,8 @@ def degrees_map(f: Field) -> tuple[float, float] | None:
     logical = f.logical_max - f.logical_min
     physical = f.physical_max - f.physical_min
     if logical <= 0 or physical <= 0 or f.unit not in (0x12, 0x14):
+        return None
+    if not -30 <= f.unit_exponent <= 30:
         return None
     unit = 10.0 ** f.unit_exponent * (57.29577951308232 if f.unit == 0x12 else 1.0)
     scale = physical / logical * unit
@@ -315,7 +318,7 @@ class GenericPenParser(ReportParser):
             tool = tool_from_id(tool_id)
         else:
             tool = Tool.PEN
-        serial = get("serial", 0) | (get("serial_hi", 0) << 32)
+        serial = (get("serial", 0) | (get("serial_hi", 0) << 32)) & SERIAL_MASK
         tilt_x, tilt_y = get("tilt_x"), get("tilt_y")
         if plan.angles is not None:
             (az_s, az_o), (alt_s, alt_o) = plan.angles
@@ -388,7 +391,8 @@ def compile_plan(plan: PenPlan) -> Callable[[bytes, float], RawSample] | None:
     lines.append(f"    eraser = bool({val('invert', '0')} or {val('eraser', '0')})")
     lines.append(f"    tool_id = {val('tool_type', '0')} or None")
     lines.append("    tool = ERASER if eraser else PEN if tool_id is None else tool_of(tool_id)")
-    lines.append(f"    serial = ({val('serial', '0')} | ({val('serial_hi', '0')} << 32)) or None")
+    serial = f"({val('serial', '0')} | ({val('serial_hi', '0')} << 32))"
+    lines.append(f"    serial = ({serial} & {SERIAL_MASK}) or None")
     lines.append(
         f"    return RawSample(time, prox, {val('x')}, {val('y')}, tip, {val('pressure')}, "
         f"{val('tilt_x')}, {val('tilt_y')}, {val('distance')}, {val('twist')}, None, buttons, "
