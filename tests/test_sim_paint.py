@@ -397,3 +397,24 @@ def test_paint_a_device_trace(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     painted = img.sum(axis=2) < 735
     # the profile's brush (12 cells across), not one scaled down from 800x600
     assert painted.sum() > 12 * 20 and painted.any(axis=1).sum() >= 8
+
+
+def test_auto_backend_falls_back_to_numpy(monkeypatch: pytest.MonkeyPatch,
+                                          caplog: pytest.LogCaptureFixture) -> None:
+    import station.canvas.backend as backend_mod
+    from station.errors import StationError
+    from station.sim.paint import make_backend
+
+    real = backend_mod.create_backend
+
+    def no_gl(name: str, *a: Any, **kw: Any) -> Any:
+        if name == "gl":
+            raise StationError("no EGL display\nsecond line")
+        return real(name, *a, **kw)
+
+    monkeypatch.setattr(backend_mod, "create_backend", no_gl)
+    canvas, name = make_backend("auto", 32, 32, "watercolor", 0)
+    assert name == "numpy" and canvas.renderer == "numpy"
+    assert any("no EGL display | second line" in r.getMessage() for r in caplog.records)
+    with pytest.raises(StationError):  # an explicit gl that cannot start: exit 1
+        make_backend("gl", 32, 32, "watercolor", 0)

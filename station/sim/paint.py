@@ -208,7 +208,8 @@ def make_backend(name: str, width: int, height: int, profile: str, seed: int,
         except BadInput:
             raise
         except (ImportError, StationError) as exc:
-            log.info("GL backend unavailable (%s): using numpy", exc)
+            why = " | ".join(ln.strip() for ln in str(exc).splitlines() if ln.strip())
+            log.warning("GL backend unavailable (%s): painting with numpy", why[:300])
             name = "numpy"
     try:
         return create_backend(name, width, height, profile, seed, **opts), name
