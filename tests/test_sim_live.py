@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import json
 import os
 import signal
 import subprocess
@@ -91,3 +92,30 @@ def test_sim_paints_bus_input_logs_it_and_saves_on_sigterm(tmp_path: Path) -> No
     painted = float(s.p.sum() + s.q.sum())
     assert painted > 1.0  # the stroke's pigment is on the canvas
     assert png.exists() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_sim_wait_runs_painting_time_and_stop_ends_it(tmp_path: Path) -> None:
+    bus = f"ipc://{tmp_path}/bus"
+    log = tmp_path / "session.jsonl"
+    pub = Publisher(bus, bind=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "station", "sim", "--bus", bus, "--size", "32x32",
+         "--backend", "numpy", "--log", str(log), "--status", "none", "--rate", "30"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert pub.wait_for_subscribers(1, timeout=30.0)
+        pub.publish_cmd(Command(t=0.0, cmd="wait", args={"seconds": 4.0}))
+        time.sleep(0.3)
+        pub.publish_cmd(Command(t=0.0, cmd="stop", args={}))
+        _out, err = proc.communicate(timeout=30)
+        assert proc.returncode == 0, err
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+        pub.close()
+    # the 4 s wait ran 120 steps on top of the wall-clock ones
+    summary = json.loads(err.strip().splitlines()[-1].split("stopped ", 1)[1])
+    assert summary["steps"] >= 120
+    _header, records = read_session(log)
+    assert [r.cmd for r in records if isinstance(r, Command)] == ["wait"]
