@@ -208,7 +208,8 @@ class EvdevPenSource:
 
 
 # -- device SPEC strings ---------------------------------------------------------
-SCHEMES = ("mock", "mock-hidraw", "mock-usb", "trace", "evdev", "hidraw", "hidapi", "usb")
+SCHEMES = ("mock", "mock-hidraw", "mock-usb", "mock-evdev", "trace", "evdev", "hidraw",
+           "hidapi", "usb")
 
 
 @dataclass(frozen=True)
@@ -315,10 +316,12 @@ def open_transport(spec_text: str) -> OpenedTransport:
         node = MockHidrawNode(tablet.info, tablet.timed_reports(), speed=speed,
                               on_feature=tablet.feature, finite=finite)
         return OpenedTransport("hid", HidrawTransport(node), finite, spec, tablet)
-    if s in ("mock-hidraw", "mock-usb", "trace"):
+    if s in ("mock-hidraw", "mock-usb", "mock-evdev", "trace"):
         trace = read_trace(spec.target)
         dev = _trace_pen_device(trace, spec)
         speed = spec.speed(None if s == "trace" else 1.0)
+        if s == "mock-evdev":
+            return _open_mock_evdev(spec, dev, speed)
         if s == "trace":
             from station.drivers.transport.recording import (
                 RecordedEvdevTransport,
@@ -374,6 +377,26 @@ def open_transport(spec_text: str) -> OpenedTransport:
                                                interface=int(interface) if interface else None,
                                                detach_kernel_driver=spec.flag("detach")),
                            False, spec)
+
+
+def _open_mock_evdev(spec: DeviceSpec, dev: TraceDevice, speed: float | None) -> OpenedTransport:
+    """An evemu/libinput trace served by a mock evdev node, read by the live evdev transport."""
+    from station.drivers.mock.evdev import MockEvdevNode
+    from station.drivers.transport.evdev import EvdevNodeTransport
+
+    if dev.caps is None:
+        raise DeviceSpecError(f"{spec.target}: mock-evdev needs an evemu or libinput trace",
+                              "--device")
+    caps = dev.caps
+    try:
+        drop = [int(v) for v in spec.options.get("drop", "").split(",") if v]
+    except ValueError:
+        raise DeviceSpecError("drop=N,M… needs frame numbers", "--device") from None
+    finite = not spec.flag("unplug")
+    node = MockEvdevNode(caps, dev.events, path=f"mock-evdev:{spec.target}", speed=speed,
+                         drop_frames=drop, finite=finite)
+    transport = EvdevNodeTransport(node.path, grab=spec.flag("grab"), opener=lambda _: node)
+    return OpenedTransport("evdev", transport, finite, spec, node)
 
 
 def open_device(spec_text: str, name: str | None = None, send_init: bool = True) -> PenSource:

@@ -23,7 +23,7 @@ from station.drivers.traces import TraceError, iter_trace_samples, read_trace
 from station.drivers.traces.evemu import format_evemu
 from station.drivers.traces.libinput_record import format_libinput_record
 
-from station.events import Button, Tool
+from station.events import Button, PenSample, Tool
 
 CAPS = wacom_like_caps()
 
@@ -227,3 +227,61 @@ def test_malformed_libinput_record(tmp_path: Path) -> None:
     with pytest.raises(TraceError) as err:
         read_trace(path)
     assert err.value.where is not None and err.value.where.startswith(f"{path}:")
+
+
+# -- the live evdev transport over a mock node (python-evdev's InputDevice interface) ---------
+def _fields(samples):
+    return [(s.tool, s.x, s.y, s.pressure, s.tilt_x, s.tilt_y, s.touching, s.proximity,
+             s.buttons, s.serial, s.tool_id) for s in samples]
+
+
+def test_live_evdev_path_with_syn_dropped_resyncs_to_the_same_samples(tmp_path: Path) -> None:
+    path = tmp_path / "pen.evemu"
+    path.write_text(format_evemu(CAPS, _script_events("demo", 20)))
+    reference = list(iter_trace_samples(path))
+    from station.drivers.pipeline import PenDriver
+
+    src = open_device(f"mock-evdev:{path}?speed=max&drop=4,5,30,77&grab=1")
+    node = src.mock
+    assert node.grabbed and node.grabs == 1  # exclusive grab taken on open
+    driver = PenDriver(src)
+    samples = list(driver.samples())
+    status = driver.status()
+    assert status["syn_dropped"] == 4 and status["resyncs"] == 4
+    # each lost frame comes back as the state read after it: nothing missing, nothing wrong
+    assert _fields(samples) == _fields(reference)
+    assert not node.grabbed  # released on close
+
+
+def test_evdev_unplug_and_reconnect_through_the_driver(tmp_path: Path) -> None:
+    from station.cli import main
+    from station.sessionlog import read_session
+
+    path = tmp_path / "pen.evemu"
+    path.write_text(format_evemu(CAPS, _script_events("line", 10)))
+    out = tmp_path / "d.jsonl"
+    assert main(["driver", "--device", f"mock-evdev:{path}?speed=max&unplug=1",
+                 "--bus", f"ipc://{tmp_path}/bus", "--max-reconnects", "1",
+                 "--jsonl", str(out)]) == 0
+    _, records = read_session(out)
+    pens = [r for r in records if isinstance(r, PenSample)]
+    strokes = sum(1 for a, b in pairwise(pens) if b.touching and not a.touching)
+    assert strokes == 2
+
+
+def test_missing_evdev_node_is_a_clear_failure(capsys) -> None:
+    from station.cli import main
+
+    assert main(["driver", "--device", "evdev:/nonexistent/event99", "--bus", "ipc:x"]) == 1
+    err = capsys.readouterr().err
+    assert "/nonexistent/event99" in err and err.count("\n") == 1
+
+
+def test_record_an_evdev_device_as_evemu(tmp_path: Path) -> None:
+    from station.cli import main
+
+    path = tmp_path / "pen.evemu"
+    path.write_text(format_evemu(CAPS, _script_events("arc", 15)))
+    out = tmp_path / "again.evemu"
+    assert main(["record", "--device", f"mock-evdev:{path}?speed=max", "-o", str(out)]) == 0
+    assert _fields(list(iter_trace_samples(out))) == _fields(list(iter_trace_samples(path)))

@@ -8,8 +8,15 @@ evemu / libinput-record traces for tests and demos.
 
 from __future__ import annotations
 
+import collections
+import errno
 import math
-from collections.abc import Iterable
+import os
+import threading
+import time
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+from typing import Any
 
 from station.drivers.evdev import codes as c
 from station.drivers.evdev.frames import AbsInfo, EvdevCaps, InputEvent
@@ -109,3 +116,201 @@ def states_to_events(caps: EvdevCaps, timed_states: Iterable[tuple[float, PenSta
         events.extend(InputEvent(t, *e) for e in frame)
         events.append(InputEvent(t, c.EV_SYN, c.SYN_REPORT, 0))
     return events
+
+
+# -- a mock evdev node: python-evdev's InputDevice interface over a recording ----------------
+@dataclass(frozen=True)
+class _PyAbsInfo:
+    value: int
+    min: int
+    max: int
+    fuzz: int
+    flat: int
+    resolution: int
+
+
+@dataclass(frozen=True)
+class _PyEvent:
+    sec: int
+    usec: int
+    type: int
+    code: int
+    value: int
+
+    def timestamp(self) -> float:
+        return self.sec + self.usec / 1e6
+
+
+@dataclass(frozen=True)
+class _PyInfo:
+    bustype: int
+    vendor: int
+    product: int
+    version: int
+
+
+class MockEvdevNode:
+    """An evdev node serving recorded events with python-evdev's ``InputDevice`` interface.
+
+    A feeder thread releases one frame (up to SYN_REPORT) at a time when it is
+    due (``speed``; ``None`` = at once) and signals it through a pipe, so
+    ``select`` on :attr:`fd` works as on a real node.  ``drop_frames`` lists
+    frame indices the "kernel buffer" loses: the reader gets SYN_DROPPED and a
+    SYN_REPORT instead, while :meth:`absinfo` and :meth:`active_keys` reflect
+    them (what EVIOCGABS/EVIOCGKEY return).  At the end of the events
+    :meth:`read` raises ENODEV: the end of the recording (``finite``) or an unplug.
+    """
+
+    def __init__(self, caps: EvdevCaps, events: Iterable[InputEvent], path: str = "",
+                 speed: float | None = None, drop_frames: Iterable[int] = (),
+                 finite: bool = True) -> None:
+        self.caps = caps
+        self.path = path or caps.path or "mock-evdev"
+        self.name = caps.name
+        self.info = _PyInfo(caps.bus, caps.vid, caps.pid, caps.version)
+        self.finite = finite
+        self.speed = speed
+        self.grabbed = False
+        self.grabs = 0
+        self._drop = set(drop_frames)
+        self._abs = {code: a.value for code, a in caps.absinfo.items()}
+        self._keys: set[int] = set()
+        # (the frame as it happened, the events the reader gets for it)
+        self._ready: collections.deque[tuple[list[InputEvent], list[InputEvent]]] = \
+            collections.deque()
+        self._lock = threading.Lock()
+        self._rfd, self._wfd = os.pipe()
+        self._closed_w = False
+        os.set_blocking(self._rfd, False)
+        self._stop = threading.Event()
+        self._origin: tuple[float, float] | None = None
+        self._now = 0.0
+        self._feeder = threading.Thread(target=self._feed, args=(list(events),), daemon=True,
+                                        name="mock-evdev")
+        self._feeder.start()
+
+    @property
+    def fd(self) -> int:
+        return self._rfd
+
+    def _frames(self, events: list[InputEvent]) -> Iterator[list[InputEvent]]:
+        frame: list[InputEvent] = []
+        for ev in events:
+            frame.append(ev)
+            if ev.type == c.EV_SYN and ev.code == c.SYN_REPORT:
+                yield frame
+                frame = []
+        if frame:
+            yield frame
+
+    def _feed(self, events: list[InputEvent]) -> None:
+        try:
+            for index, frame in enumerate(self._frames(events)):
+                if self._stop.is_set():
+                    return
+                self._pace(frame[0].time)
+                if index in self._drop:
+                    t = frame[-1].time
+                    delivered = [InputEvent(t, c.EV_SYN, c.SYN_DROPPED, 0),
+                                 InputEvent(t, c.EV_SYN, c.SYN_REPORT, 0)]
+                else:
+                    delivered = frame
+                with self._lock:
+                    self._ready.append((frame, delivered))
+                os.write(self._wfd, b"x")
+        except OSError:
+            return
+        finally:
+            with self._lock:
+                self._closed_w = True
+                try:
+                    os.close(self._wfd)  # the reader sees EOF: no more frames
+                except OSError:
+                    pass
+
+    def _pace(self, t: float) -> None:
+        if self.speed is None:
+            return
+        now = time.monotonic()
+        if self._origin is None:
+            self._origin = (now, t)
+        due = self._origin[0] + (t - self._origin[1]) / self.speed
+        while not self._stop.is_set() and (delay := due - time.monotonic()) > 0:
+            self._stop.wait(min(delay, 0.05))
+
+    def _apply(self, frame: list[InputEvent]) -> None:
+        for ev in frame:
+            if ev.type == c.EV_ABS:
+                self._abs[ev.code] = ev.value
+            elif ev.type == c.EV_KEY and ev.value in (0, 1):
+                (self._keys.add if ev.value else self._keys.discard)(ev.code)
+
+    # -- python-evdev's InputDevice interface -------------------------------------------------
+    def capabilities(self, absinfo: bool = True) -> dict[int, list[Any]]:
+        caps: dict[int, list[Any]] = {c.EV_KEY: sorted(self.caps.keys)}
+        caps[c.EV_ABS] = [(code, _PyAbsInfo(a.value, a.minimum, a.maximum, a.fuzz, a.flat,
+                                            a.resolution))
+                          for code, a in sorted(self.caps.absinfo.items())]
+        if self.caps.msc:
+            caps[c.EV_MSC] = sorted(self.caps.msc)
+        return caps
+
+    def read(self) -> Iterator[_PyEvent]:
+        try:
+            signalled = os.read(self._rfd, 4096)
+        except BlockingIOError:
+            raise
+        except OSError as exc:
+            raise OSError(errno.ENODEV, "No such device") from exc
+        out: list[_PyEvent] = []
+        with self._lock:
+            if not signalled and not self._ready:
+                raise OSError(errno.ENODEV, "No such device")
+            # The device state moves on as frames reach the reader, dropped ones included;
+            # a read stops after a drop so the reader's resync sees the state right after it.
+            while self._ready:
+                frame, delivered = self._ready.popleft()
+                self._apply(frame)
+                for ev in delivered:
+                    sec = int(ev.time)
+                    out.append(_PyEvent(sec, round((ev.time - sec) * 1e6), ev.type, ev.code,
+                                        ev.value))
+                self._now = frame[-1].time
+                if delivered is not frame:
+                    break
+            if self._ready and not self._closed_w:
+                os.write(self._wfd, b"x")  # frames left: the node stays readable
+        return iter(out)
+
+    def now(self) -> float:
+        if self.speed is not None and self._origin is not None:
+            return self._origin[1] + (time.monotonic() - self._origin[0]) * self.speed
+        return self._now
+
+    def absinfo(self, code: int) -> _PyAbsInfo:
+        a = self.caps.absinfo[code]
+        with self._lock:
+            value = self._abs.get(code, a.value)
+        return _PyAbsInfo(value, a.minimum, a.maximum, a.fuzz, a.flat, a.resolution)
+
+    def active_keys(self) -> list[int]:
+        with self._lock:
+            return sorted(self._keys)
+
+    def grab(self) -> None:
+        if self.grabbed:
+            raise OSError(errno.EBUSY, "Device or resource busy")
+        self.grabbed = True
+        self.grabs += 1
+
+    def ungrab(self) -> None:
+        self.grabbed = False
+
+    def close(self) -> None:
+        self._stop.set()
+        try:
+            os.close(self._rfd)
+        except OSError:
+            pass
+        if threading.current_thread() is not self._feeder:
+            self._feeder.join(timeout=1.0)

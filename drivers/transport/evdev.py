@@ -10,12 +10,18 @@ from __future__ import annotations
 import errno
 import os
 import select
-from collections.abc import Collection, Mapping
+import time
+from collections.abc import Callable, Collection, Mapping
 from typing import Any
 
 from station.drivers.evdev import codes as c
 from station.drivers.evdev.frames import AbsInfo, EvdevCaps, EvdevState, InputEvent
-from station.drivers.transport.base import DeviceGone, PermissionProblem, TransportError
+from station.drivers.transport.base import (
+    DeviceGone,
+    EndOfStream,
+    PermissionProblem,
+    TransportError,
+)
 
 
 def _evdev() -> Any:
@@ -66,12 +72,17 @@ def open_error(path: str, exc: OSError) -> TransportError:
 
 
 class EvdevNodeTransport:
-    """Reads one evdev node; ``grab=True`` takes it exclusively (no cursor movement)."""
+    """Reads one evdev node; ``grab=True`` takes it exclusively (no cursor movement).
 
-    def __init__(self, path: str, grab: bool = False) -> None:
-        evdev = _evdev()
+    ``opener`` makes the device object from the path: python-evdev's
+    ``InputDevice`` by default, :class:`station.drivers.mock.evdev.MockEvdevNode`
+    (same interface, serving a recording) for ``mock-evdev:`` devices.
+    """
+
+    def __init__(self, path: str, grab: bool = False,
+                 opener: Callable[[str], Any] | None = None) -> None:
         try:
-            self._dev = evdev.InputDevice(path)
+            self._dev = (opener or _evdev().InputDevice)(path)
         except OSError as exc:
             raise open_error(path, exc) from None
         self.caps = caps_from_device(self._dev)
@@ -94,6 +105,8 @@ class EvdevNodeTransport:
         except BlockingIOError:
             return []
         except OSError as exc:
+            if getattr(self._dev, "finite", False) and exc.errno == errno.ENODEV:
+                raise EndOfStream(f"{self.caps.path}: end of recording") from None
             if exc.errno in (errno.ENODEV, errno.EBADF, errno.EIO):
                 raise DeviceGone(f"{self.caps.path}: device removed") from None
             raise TransportError(f"{self.caps.path}: read failed ({exc.strerror})") from None
@@ -102,8 +115,9 @@ class EvdevNodeTransport:
         return _LiveState(self._dev, self.caps.absinfo.keys())
 
     def now(self) -> float:
-        import time
-
+        clock = getattr(self._dev, "now", None)
+        if clock is not None:
+            return float(clock())
         return time.time()  # python-evdev timestamps are CLOCK_REALTIME by default
 
     def close(self) -> None:
