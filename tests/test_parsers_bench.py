@@ -1,0 +1,30 @@
+"""``station bench parse`` runs and counts right (no timing asserted: figures live in the bench)."""
+
+from __future__ import annotations
+
+import json
+
+from station.bench.parse import measure
+from station.cli import main
+
+
+def test_measure_parses_every_report_of_every_workload():
+    results = measure(60, 1)
+    names = {"wacom-intuos", "wacom-bamboo", "wacom-graphire", "hid-generic/pth660-like",
+             "hid-generic/huion-like", "hid-generic/ntrig-like"}  # fmt: skip
+    assert names <= set(results)
+    for name in names:
+        r = results[name]
+        assert r["reports"] == 60 and r["samples"] == 60, name  # one sample per report
+        assert r["reports_per_s"] > 0 and r["us_per_report"] > 0
+    norm = results["normaliser"]
+    assert "skipped" in norm or norm["raw_samples"] == 60
+
+
+def test_cli_prints_json(capsys):
+    assert main(["bench", "parse", "--json", "--reports", "40", "--repeat", "1", "--no-pin"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["benchmark"] == "parse" and out["target_reports_per_s"] == 100_000
+    assert out["pinned_cpu"] is None
+    assert out["slowest_reports_per_s"] == min(
+        r["reports_per_s"] for r in out["results"].values() if "reports_per_s" in r)
