@@ -1,12 +1,11 @@
 // advect.glsl: face quantities of pass 6 (advect_water_and_pigment), shared by
-// advect_limit.comp and advect_apply.comp.  Needs images vel_in and aux_in.
+// advect_limit.comp and advect_apply.comp.  Needs images vel_in and wet_in (.w = wb).
 
-// Face velocity between c and its neighbour n over face f (E, W, S, N), in the
-// reference's sign convention (positive: from the lower-index cell to the higher);
-// 0 on closed faces and at the canvas border.
+// Face velocity between c and its neighbour over face f (E, W, S, N): the mean of the
+// two cell velocities on open faces, 0 on closed faces and at the canvas border.
 float face_velocity(ivec2 c, int f, bool wet_c, vec2 vc) {
     ivec2 n = c + OFFS[f];
-    if (!wet_c || !inside(n) || !aux_wet(imageLoad(aux_in, n))) return 0.0;
+    if (!wet_c || !inside(n) || !is_wet(imageLoad(wet_in, n).w)) return 0.0;
     vec2 vn = imageLoad(vel_in, n).xy;
     // reference: 0.5 * (v_lower + v_higher)
     if (f == 0) return 0.5 * (vc.x + vn.x);
@@ -15,8 +14,8 @@ float face_velocity(ivec2 c, int f, bool wet_c, vec2 vc) {
     return 0.5 * (vn.y + vc.y);
 }
 
-// true when cell c is the donor of face f with face velocity uf
+// true when cell c is the donor of face f with face velocity uf (positive: from the
+// lower-index cell to the higher)
 bool donates(int f, float uf) {
-    bool lower = (f == 0 || f == 2);
-    return lower ? (uf > 0.0) : !(uf > 0.0);
+    return lower_side(f) ? (uf > 0.0) : !(uf > 0.0);
 }

@@ -64,6 +64,7 @@ void main() {
         }
         if (w == 0.0) {
             for (int l = 0; l < NPL; ++l) {
+                if (l >= u_layers) continue;
                 vec4 p = imageLoad(pig_io, ivec3(c, l));
                 vec4 q = imageLoad(dep_io, ivec3(c, l));
                 if (any(greaterThan(p, vec4(0.0)))) {
@@ -79,7 +80,6 @@ void main() {
     }
     barrier();
     if (gl_LocalInvocationIndex == 0u && g_alive != 0u) {
-        uint t = tile_list[gl_WorkGroupID.z];
-        tile_alive[t] = 1u;
+        tile_alive[tile_of_group()] = 1u;
     }
 }

@@ -3,8 +3,11 @@
 // "S/N" neighbours y +/- 1 (the reference's order E, W, S, N is kept in every sum).
 // Cells outside the canvas are non-wet with zero water, velocity and pigment.
 // Injected by Python: NPL (RGBA layers of pigment = slots / 4), TILE, LX, LY.
+// Pigment: layer l of a pigment texture array holds slots 4l .. 4l+3; loops run over
+// l < NPL (unrolled) and skip layers >= u_layers, which hold no pigment yet.
 
-uniform ivec2 u_size;  // canvas width, height [cells]
+uniform ivec2 u_size;   // canvas width, height [cells]
+uniform int u_layers;   // pigment layers in use (ceil(used slots / 4))
 
 const ivec2 OFF_E = ivec2(1, 0);
 const ivec2 OFF_W = ivec2(-1, 0);
@@ -16,9 +19,9 @@ bool inside(ivec2 c) {
     return all(greaterThanEqual(c, ivec2(0))) && all(lessThan(c, u_size));
 }
 
-// One cell's pigment: NPL RGBA vectors, 4 slots each.
-#define PIG vec4[NPL]
+// c is the lower-index cell of its E and S faces (the reference's flux sign convention)
+bool lower_side(int f) { return f == 0 || f == 2; }
 
-// The aux texture written by prep.comp once per step: x = wet (1/0), y = beta_c of the
-// diffusion controller, zw = self-advected velocity v1.
-bool aux_wet(vec4 a) { return a.x > 0.5; }
+// The .w channel of the jv scratch texture: beta_c of the diffusion controller for a
+// wet cell, -1 for a cell that is not wet this step (wet is fixed once per step).
+bool is_wet(float wb) { return wb >= 0.0; }

@@ -5,29 +5,26 @@
 #include "common.glsl"
 #include "tiles.glsl"
 
-layout(rgba32f, binding = 1) uniform readonly image2DArray jx_in;  // converged iterate
-layout(rgba32f, binding = 2) uniform readonly image2DArray js_in;  // limiters s
-layout(rgba32f, binding = 3) uniform readonly image2D water_in;
-layout(rgba32f, binding = 4) uniform readonly image2DArray pig_in;
-layout(rgba32f, binding = 5) uniform readonly image2D aux_in;
+layout(rgba32f, binding = 1) uniform readonly image2D js_in;       // (xw, 0, s_w, wb)
+layout(rgba32f, binding = 2) uniform readonly image2DArray jx_in;  // pigment iterate
+layout(rgba32f, binding = 3) uniform readonly image2DArray jps_in; // pigment limiters
+layout(rgba32f, binding = 4) uniform readonly image2D water_in;
+layout(rgba32f, binding = 5) uniform readonly image2DArray pig_in;
 layout(rgba32f, binding = 6) uniform writeonly image2D water_out;
 layout(rgba32f, binding = 7) uniform writeonly image2DArray pig_out;
 
 uniform float u_kw;
 uniform float u_kp;
 
-// Face flux of the face between cell c and neighbour n (f: E, W, S, N) in the reference's
-// sign convention (positive from the lower-index cell to the higher), donor-scaled.
-float face(int f, float xc, float xn, float sc, float sn, float kb) {
-    bool lower = (f == 0 || f == 2);  // c is the lower-index cell of E and S faces
+// Donor-scaled face flux between c and its neighbour over face f, in the reference's
+// sign convention (positive from the lower-index cell to the higher).
+float face(bool lower, float xc, float xn, float sc, float sn, float kb) {
     float F = lower ? kb * (xc - xn) : kb * (xn - xc);
-    bool from_lower = F > 0.0;
-    float s_donor = (from_lower == lower) ? sc : sn;
-    return F * s_donor;
+    return F * (((F > 0.0) == lower) ? sc : sn);
 }
-vec4 face4(int f, vec4 xc, vec4 xn, vec4 sc, vec4 sn, float kb) {
+vec4 face4(bool lower, vec4 xc, vec4 xn, vec4 sc, vec4 sn, float kb) {
     vec4 r;
-    for (int k = 0; k < 4; ++k) r[k] = face(f, xc[k], xn[k], sc[k], sn[k], kb);
+    for (int k = 0; k < 4; ++k) r[k] = face(lower, xc[k], xn[k], sc[k], sn[k], kb);
     return r;
 }
 
@@ -35,34 +32,36 @@ void main() {
     bool valid;
     ivec2 c = tile_cell(valid);
     if (!valid) return;
-    vec4 a = imageLoad(aux_in, c);
-    bool wet = aux_wet(a);
+    vec4 js = imageLoad(js_in, c);
+    bool wet = is_wet(js.w);
     vec4 wa = imageLoad(water_in, c);
-    float xw = imageLoad(jx_in, ivec3(c, NPL)).x;
-    float sw = imageLoad(js_in, ivec3(c, NPL)).x;
     vec4 p[NPL], xp[NPL], sp[NPL];
     for (int l = 0; l < NPL; ++l) {
+        if (l >= u_layers) continue;
         p[l] = imageLoad(pig_in, ivec3(c, l));
         xp[l] = imageLoad(jx_in, ivec3(c, l));
-        sp[l] = imageLoad(js_in, ivec3(c, l));
+        sp[l] = imageLoad(jps_in, ivec3(c, l));
     }
     float w = wa.x;
-    for (int f = 0; f < 4; ++f) {
-        ivec2 n = c + OFFS[f];
-        if (!wet || !inside(n)) continue;
-        vec4 an = imageLoad(aux_in, n);
-        if (!aux_wet(an)) continue;
-        float sign_ = (f == 0 || f == 2) ? -1.0 : 1.0;  // - F_E + F_W - F_S + F_N
-        float Fw = face(f, xw, imageLoad(jx_in, ivec3(n, NPL)).x, sw,
-                        imageLoad(js_in, ivec3(n, NPL)).x, u_kw);
-        w = w + sign_ * Fw;
-        float kb = u_kp * min(a.y, an.y);
-        for (int l = 0; l < NPL; ++l) {
-            vec4 Fp = face4(f, xp[l], imageLoad(jx_in, ivec3(n, l)), sp[l],
-                            imageLoad(js_in, ivec3(n, l)), kb);
-            p[l] = p[l] + sign_ * Fp;
+    if (wet) {
+        for (int f = 0; f < 4; ++f) {
+            ivec2 n = c + OFFS[f];
+            if (!inside(n)) continue;
+            vec4 jn = imageLoad(js_in, n);
+            if (!is_wet(jn.w)) continue;
+            bool lower = lower_side(f);
+            float sign_ = lower ? -1.0 : 1.0;  // - F_E + F_W - F_S + F_N
+            w = w + sign_ * face(lower, js.x, jn.x, js.z, jn.z, u_kw);
+            float kb = u_kp * min(js.w, jn.w);
+            for (int l = 0; l < NPL; ++l) {
+                if (l >= u_layers) continue;
+                vec4 Fp = face4(lower, xp[l], imageLoad(jx_in, ivec3(n, l)), sp[l],
+                                imageLoad(jps_in, ivec3(n, l)), kb);
+                p[l] = p[l] + sign_ * Fp;
+            }
         }
     }
     imageStore(water_out, c, vec4(w, wa.yzw));
-    for (int l = 0; l < NPL; ++l) imageStore(pig_out, ivec3(c, l), p[l]);
+    for (int l = 0; l < NPL; ++l)
+        if (l < u_layers) imageStore(pig_out, ivec3(c, l), p[l]);
 }

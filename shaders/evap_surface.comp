@@ -15,7 +15,7 @@ layout(rgba32f, binding = 2) uniform writeonly image2D water_out;
 layout(rgba32f, binding = 3) uniform image2DArray pig_io;
 layout(rgba32f, binding = 4) uniform image2DArray dep_io;
 layout(rgba32f, binding = 5) uniform readonly image2D paper_in;
-layout(rgba32f, binding = 6) uniform readonly image2D aux_in;
+layout(rgba32f, binding = 6) uniform readonly image2D wet_in;  // .w = wb
 
 uniform float u_e;          // float32(eps_shallow * dt)
 uniform float u_edge_evap;  // float32(edge_evap)
@@ -34,7 +34,7 @@ void main() {
     if (!valid) return;
     vec4 wa = imageLoad(water_in, c);
     vec4 pa = imageLoad(paper_in, c);
-    bool wet = aux_wet(imageLoad(aux_in, c));
+    bool wet = is_wet(imageLoad(wet_in, c).w);
     float w = wa.x, wc = wa.y, evap = wa.z;
     float h = pa.x;
     // pass 7
@@ -52,6 +52,7 @@ void main() {
     if (wet) {
         float f = clamp(w / u_wmax, 0.0, 1.0);
         for (int l = 0; l < NPL; ++l) {
+            if (l >= u_layers) continue;
             vec4 p = imageLoad(pig_io, ivec3(c, l));
             vec4 q = imageLoad(dep_io, ivec3(c, l));
             vec4 down = u_rate * p * (1.0 - f) * (1.0 - h * u_gamma[l]) * u_delta[l];

@@ -1,82 +1,61 @@
 #version 430
-// jacobi.comp: one Jacobi iteration of the three implicit diffusions at once, which share
-// their open faces (both cells wet):
+// jacobi.comp: one Jacobi iteration of the three implicit diffusions at once; they share
+// the open faces (both cells wet):
 //   pass 2 diffuse_velocity: x <- (v1 + k_v sum_open x_n) / (1 + k_v n_open)
 //   pass 4 diffuse_water:    x <- (w + k_w sum_open x_n) / (1 + k_w n_open)
 //   pass 5 diffuse_pigment:  x <- (p + k_p sum b_n x_n) / (1 + k_p sum b_n),
 //                            b_n = min(beta_c, beta_c_n) on open faces.
-// FIRST_ITER (define): the iterate starts at the right-hand side (x0 = u).
-// jd layers 0..NPL-1: pigment iterate; layer NPL: water iterate in .x.
+// jv = (xvx, xvy, xw, wb); jd = pigment iterate.  FIRST_ITER: the pigment iterate
+// starts at p itself (jd_in is then the pigment texture).
 #include "common.glsl"
 #include "tiles.glsl"
 
-layout(rgba32f, binding = 1) uniform readonly image2D aux_in;
-layout(rgba32f, binding = 2) uniform readonly image2D water_in;
-layout(rgba32f, binding = 3) uniform readonly image2DArray pig_in;
-layout(rg32f, binding = 4) uniform readonly image2D jv_in;
+layout(rgba32f, binding = 1) uniform readonly image2D jv_in;
+layout(rg32f, binding = 2) uniform readonly image2D aux_in;
+layout(rgba32f, binding = 3) uniform readonly image2D water_in;
+layout(rgba32f, binding = 4) uniform readonly image2DArray pig_in;
 layout(rgba32f, binding = 5) uniform readonly image2DArray jd_in;
-layout(rg32f, binding = 6) uniform writeonly image2D jv_out;
+layout(rgba32f, binding = 6) uniform writeonly image2D jv_out;
 layout(rgba32f, binding = 7) uniform writeonly image2DArray jd_out;
 
 uniform float u_kv;  // viscosity * dt
 uniform float u_kw;  // nu_w * dt
 uniform float u_kp;  // nu_p * dt
 
-vec2 xv_at(ivec2 n) {
-#ifdef FIRST_ITER
-    return imageLoad(aux_in, n).zw;
-#else
-    return imageLoad(jv_in, n).xy;
-#endif
-}
-float xw_at(ivec2 n) {
-#ifdef FIRST_ITER
-    return imageLoad(water_in, n).x;
-#else
-    return imageLoad(jd_in, ivec3(n, NPL)).x;
-#endif
-}
-vec4 xp_at(ivec2 n, int l) {
-#ifdef FIRST_ITER
-    return imageLoad(pig_in, ivec3(n, l));
-#else
-    return imageLoad(jd_in, ivec3(n, l));
-#endif
-}
-
 void main() {
     bool valid;
     ivec2 c = tile_cell(valid);
     if (!valid) return;
-    vec4 a = imageLoad(aux_in, c);
-    bool wet = aux_wet(a);
-    vec2 sv = vec2(0.0);
-    float sw = 0.0;
+    vec4 j = imageLoad(jv_in, c);
+    bool wet = is_wet(j.w);
+    vec3 s = vec3(0.0);  // sums of velocity (xy) and water (z) iterates over open faces
     float nopen = 0.0;
     float bsum = 0.0;
     vec4 sp[NPL];
     for (int l = 0; l < NPL; ++l) sp[l] = vec4(0.0);
-    for (int f = 0; f < 4; ++f) {
-        ivec2 n = c + OFFS[f];
-        if (!wet || !inside(n)) continue;
-        vec4 an = imageLoad(aux_in, n);
-        if (!aux_wet(an)) continue;
-        nopen += 1.0;
-        sv += xv_at(n);
-        sw += xw_at(n);
-        float b = min(a.y, an.y);
-        bsum += b;
-        for (int l = 0; l < NPL; ++l) sp[l] += b * xp_at(n, l);
+    if (wet) {
+        for (int f = 0; f < 4; ++f) {
+            ivec2 n = c + OFFS[f];
+            if (!inside(n)) continue;
+            vec4 jn = imageLoad(jv_in, n);
+            if (!is_wet(jn.w)) continue;
+            nopen += 1.0;
+            s += jn.xyz;
+            float b = min(j.w, jn.w);
+            bsum += b;
+            for (int l = 0; l < NPL; ++l)
+                if (l < u_layers) sp[l] += b * imageLoad(jd_in, ivec3(n, l));
+        }
     }
-    vec2 v1 = a.zw;
-    vec2 xv = (v1 + u_kv * sv) / (1.0 + u_kv * nopen);
+    vec2 v1 = imageLoad(aux_in, c).xy;
+    vec2 xv = (v1 + u_kv * s.xy) / (1.0 + u_kv * nopen);
     float w = imageLoad(water_in, c).x;
-    float xw = (w + u_kw * sw) / (1.0 + u_kw * nopen);
+    float xw = (w + u_kw * s.z) / (1.0 + u_kw * nopen);
+    imageStore(jv_out, c, vec4(xv, xw, j.w));
     float dp = 1.0 + u_kp * bsum;
     for (int l = 0; l < NPL; ++l) {
+        if (l >= u_layers) continue;
         vec4 p = imageLoad(pig_in, ivec3(c, l));
         imageStore(jd_out, ivec3(c, l), (p + u_kp * sp[l]) / dp);
     }
-    imageStore(jd_out, ivec3(c, NPL), vec4(xw, 0.0, 0.0, 0.0));
-    imageStore(jv_out, c, vec4(xv, 0.0, 0.0));
 }

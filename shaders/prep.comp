@@ -1,14 +1,16 @@
 #version 430
 // prep.comp: once per step, after the sources.  Reference: wet_mask, blocking (diffusion
 // controller beta_c) and pass 1 advect_velocity (semi-Lagrangian back-trace, bilinear).
-// Writes aux = (wet, beta_c, v1x, v1y).
+// Writes aux = v1 (the right-hand side of the velocity diffusion) and the first Jacobi
+// iterate jv = (v1x, v1y, w, wb), wb = beta_c on wet cells, -1 elsewhere.
 #include "common.glsl"
 #include "tiles.glsl"
 
 layout(rg32f, binding = 1) uniform readonly image2D vel_in;
 layout(rgba32f, binding = 2) uniform readonly image2D water_in;
 layout(rgba32f, binding = 3) uniform readonly image2D paper_in;
-layout(rgba32f, binding = 4) uniform writeonly image2D aux_out;
+layout(rg32f, binding = 4) uniform writeonly image2D aux_out;
+layout(rgba32f, binding = 5) uniform writeonly image2D jv_out;
 
 uniform float u_dt;
 uniform float u_moist;        // moist_threshold [height]
@@ -32,7 +34,8 @@ void main() {
     ivec2 c = tile_cell(valid);
     if (!valid) return;
     vec4 pa = imageLoad(paper_in, c);
-    bool wet = wet_at(c);
+    vec4 wa = imageLoad(water_in, c);
+    bool wet = (wa.x > 0.0 || wa.y > u_moist) && pa.y == 0.0;
     // diffusion controller: beta_c = min(1 - block_paper (1 - h), block_eff)
     float age = u_block_fade > 0.0 ? clamp((u_sim_time - pa.w) / u_block_fade, 0.0, 1.0) : 1.0;
     float eff = pa.z + (1.0 - pa.z) * age;
@@ -52,5 +55,6 @@ void main() {
         vec2 bot = (1.0 - fx) * vs_at(ivec2(x0, y1)) + fx * vs_at(ivec2(x1, y1));
         v1 = (1.0 - fy) * top + fy * bot;
     }
-    imageStore(aux_out, c, vec4(wet ? 1.0 : 0.0, beta_c, v1));
+    imageStore(aux_out, c, vec4(v1, 0.0, 0.0));
+    imageStore(jv_out, c, vec4(v1, wa.x, wet ? max(beta_c, 0.0) : -1.0));
 }

@@ -2,8 +2,8 @@
 // render.comp: the canvas as linear reflectance (reference render.py).
 //   RENDER_KM: Kubelka-Munk per RGB channel over R_composed (t capped at 30; the
 //              b -> 0 limit where b < 1e-4);
-//   else gouache: opaque blend of the pigments' R_inf by concentration, opacity
-//              min(1, d / gouache_opaque).
+//   else gouache: opaque blend: body colour R_inf = a - b of the KM mix with an implicit
+//              white filler, opacity min(1, d / gouache_opaque).
 // NSLOTS_USED (uniform) pigments of the active layer take part.
 #include "common.glsl"
 #include "sinh.glsl"
@@ -18,7 +18,9 @@ layout(rgba32f, binding = 4) uniform writeonly image2D rgb_out;
 uniform int u_used;               // pigments in the active layer
 uniform vec3 u_K[4 * NPL];        // absorption per slot
 uniform vec3 u_S[4 * NPL];        // scattering per slot
-uniform vec3 u_body[4 * NPL];     // gouache body colour R_inf per slot
+uniform float u_white;            // gouache: share of the white filler
+uniform vec3 u_white_K;
+uniform vec3 u_white_S;
 uniform float u_opaque;
 
 void main() {
@@ -68,8 +70,17 @@ void main() {
     }
     out_rgb = d > 0.0 ? total : r_prev;
 #else
-    vec3 colour = vec3(0.0);
-    for (int k = 0; k < u_used; ++k) colour += (amount[k] / safe_d) * u_body[k];
+    // body colour: R_inf of the KM mix with an implicit white filler of share u_white
+    vec3 K = vec3(0.0), S = vec3(0.0);
+    for (int k = 0; k < u_used; ++k) {
+        float s = amount[k] / safe_d;
+        K += s * u_K[k];
+        S += s * u_S[k];
+    }
+    K = (1.0 - u_white) * K + u_white * u_white_K;
+    S = (1.0 - u_white) * S + u_white * u_white_S;
+    vec3 a = (S + K) / max(S, vec3(1e-12));
+    vec3 colour = a - sqrt(max(a * a - 1.0, vec3(0.0)));
     float o = clamp(d / u_opaque, 0.0, 1.0);
     out_rgb = o * colour + (1.0 - o) * r_prev;
 #endif

@@ -1,25 +1,46 @@
 #version 430
 // tile_list.comp: builds this step's dispatch list on the GPU (no read-back).
-// A tile is dispatched when a tile in its 3x3 neighbourhood is active (TTL > 0: the
-// active tiles plus every tile holding their one-cell halo), or when it was dispatched
-// for that reason in the previous step: that one extra step rewrites both textures of
-// every ping-pong pair in a tile that just left the set (an inactive cell with inactive
-// neighbours is a fixed point of every pass), so tiles outside the list always hold the
-// same values in both.
+//   FULL entry: the tile is active (TTL > 0), or was active in the previous step: that one
+//     extra step rewrites both textures of every ping-pong pair in a tile that just left
+//     the active set (an inactive cell with inactive neighbours is a fixed point of every
+//     pass), so tiles outside the list hold the same values in both textures;
+//   HALO entry (bit 31): the tile borders an active tile; only its cells within one cell
+//     of an active tile are simulated (tiles.glsl).  A halo cell that receives capillary
+//     water makes its tile alive, and tile_update.comp activates it.
 layout(local_size_x = 64) in;
 
 layout(std430, binding = 0) writeonly buffer TileList { uint tile_list[]; };
 layout(std430, binding = 2) buffer TileTTL { int tile_ttl[]; };
-layout(std430, binding = 3) buffer TileNear { uint tile_near[]; };  // near-active last step
+layout(std430, binding = 3) buffer TilePrev { uint tile_prev[]; };  // active last step
 layout(std430, binding = 4) buffer Args { uint groups[3]; uint cells; };
 
 uniform ivec2 u_tiles;  // tiles per row, rows
 uniform ivec2 u_size;
 
+const uint HALO_BIT = 0x80000000u;
+
+bool act(ivec2 n) {
+    return all(greaterThanEqual(n, ivec2(0))) && all(lessThan(n, u_tiles))
+        && tile_ttl[n.y * u_tiles.x + n.x] > 0;
+}
+
+// Number of cells of tile tc (size sz) within one cell of an active neighbour tile:
+// edge strips towards active E/W/S/N tiles, corner cells towards active diagonal ones.
+uint halo_cells(ivec2 tc, ivec2 sz) {
+    bool e = act(tc + ivec2(1, 0)), w = act(tc + ivec2(-1, 0));
+    bool s = act(tc + ivec2(0, 1)), n = act(tc + ivec2(0, -1));
+    int count = (e ? sz.y : 0) + (w ? sz.y : 0) + (s ? sz.x : 0) + (n ? sz.x : 0);
+    count -= int(e && n) + int(e && s) + int(w && n) + int(w && s);
+    count += int(act(tc + ivec2(1, -1)) && !e && !n) + int(act(tc + ivec2(1, 1)) && !e && !s)
+           + int(act(tc + ivec2(-1, -1)) && !w && !n) + int(act(tc + ivec2(-1, 1)) && !w && !s);
+    return uint(count);
+}
+
 void main() {
     int t = int(gl_GlobalInvocationID.x);
     if (t >= u_tiles.x * u_tiles.y) return;
     ivec2 tc = ivec2(t % u_tiles.x, t / u_tiles.x);
+    bool is_active = tile_ttl[t] > 0;
     bool near = false;
     for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) {
@@ -28,13 +49,13 @@ void main() {
                 && tile_ttl[n.y * u_tiles.x + n.x] > 0)
                 near = true;
         }
-    bool dispatch = near || tile_near[t] != 0u;
-    tile_near[t] = near ? 1u : 0u;
-    if (dispatch) {
+    bool full = is_active || tile_prev[t] != 0u;
+    tile_prev[t] = is_active ? 1u : 0u;
+    if (full || near) {
         uint i = atomicAdd(groups[2], 1u);
-        tile_list[i] = uint(t);
+        tile_list[i] = uint(t) | (full ? 0u : HALO_BIT);
         ivec2 lo = tc * TILE;
-        ivec2 hi = min(lo + TILE, u_size);
-        atomicAdd(cells, uint((hi.x - lo.x) * (hi.y - lo.y)));
+        ivec2 sz = min(lo + TILE, u_size) - lo;
+        atomicAdd(cells, full ? uint(sz.x * sz.y) : halo_cells(tc, sz));
     }
 }

@@ -1,18 +1,17 @@
 #version 430
-// tile_mark.comp: sources touched tiles [lo, hi) (reference tiles.mark_cells):
-// TTL = max(TTL, drying-time estimate).
-layout(local_size_x = 8, local_size_y = 8) in;
+// tile_mark.comp: tiles in which a source was nonzero (reference tiles.mark_nonzero):
+// TTL = max(TTL, drying-time estimate).  The list is uploaded by add_sources.
+layout(local_size_x = 64) in;
 
 layout(std430, binding = 2) buffer TileTTL { int tile_ttl[]; };
+layout(std430, binding = 6) readonly buffer Marks { uint marks[]; };
 
-uniform ivec2 u_lo;
-uniform ivec2 u_hi;
-uniform int u_tiles_x;
+uniform int u_count;
 uniform int u_ttl;
 
 void main() {
-    ivec2 t = u_lo + ivec2(gl_GlobalInvocationID.xy);
-    if (any(greaterThanEqual(t, u_hi))) return;
-    int i = t.y * u_tiles_x + t.x;
-    tile_ttl[i] = max(tile_ttl[i], u_ttl);
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= uint(u_count)) return;
+    uint t = marks[i];
+    tile_ttl[t] = max(tile_ttl[t], u_ttl);
 }

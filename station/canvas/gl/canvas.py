@@ -37,7 +37,7 @@ import numpy as np
 from station.canvas import operations
 from station.canvas.palette import Palette
 from station.canvas.params import CanvasInputError, SimParams, get_profile
-from station.canvas.render import _coefficients
+from station.canvas.render import WHITE_K, WHITE_S, _coefficients
 from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
 from station.canvas.stats import canvas_stats
 
@@ -51,7 +51,6 @@ F32 = np.float32
 #: Programs compiled per canvas: name -> (file, extra defines).
 _PROGRAMS: dict[str, tuple[str, dict[str, object]]] = {
     "prep": ("prep.comp", {}),
-    "jacobi_first": ("jacobi.comp", {"FIRST_ITER": 1}),
     "jacobi": ("jacobi.comp", {}),
     "limit": ("limit.comp", {}),
     "diffuse_apply": ("diffuse_apply.comp", {}),
@@ -68,7 +67,7 @@ _PROGRAMS: dict[str, tuple[str, dict[str, object]]] = {
 }
 
 # SSBO binding points (tiles.glsl, tile_*.comp, capillary_dry.comp, sources.comp)
-_B_LIST, _B_ALIVE, _B_TTL, _B_NEAR, _B_ARGS, _B_ADDED = 0, 1, 2, 3, 4, 5
+_B_LIST, _B_ALIVE, _B_TTL, _B_PREV, _B_ARGS, _B_ADDED, _B_MARK = 0, 1, 2, 3, 4, 5, 6
 
 
 class GLCanvas:
@@ -127,9 +126,10 @@ class GLCanvas:
         if self.ntiles > self.limits.max_work_group_count[2]:
             raise CanvasInputError(f"too many tiles ({self.ntiles}) for this GPU", "--size")
         self.f = tx.allocate(ctx, width, height, self.npl)
-        self.aux = ctx.texture((width, height), 4, dtype="f4")
-        self.jv = [ctx.texture((width, height), 2, dtype="f4") for _ in range(2)]
-        self.jd = [ctx.texture_array((width, height, self.npl + 1), 4, dtype="f4")
+        # scratch: aux = v1; jv = (xv, xw, wb) iterate, then limiters; jd = pigment iterate
+        self.aux = ctx.texture((width, height), 2, dtype="f4")
+        self.jv = [ctx.texture((width, height), 4, dtype="f4") for _ in range(2)]
+        self.jd = [ctx.texture_array((width, height, self.npl), 4, dtype="f4")
                    for _ in range(2)]
         self.srcw = ctx.texture((width, height), 4, dtype="f4")
         self.srcp = ctx.texture_array((width, height, self.npl), 4, dtype="f4")
@@ -138,7 +138,8 @@ class GLCanvas:
         self.b_list = ctx.buffer(reserve=4 * n)
         self.b_alive = ctx.buffer(reserve=4 * n)
         self.b_ttl = ctx.buffer(reserve=4 * n)
-        self.b_near = ctx.buffer(reserve=4 * n)
+        self.b_prev = ctx.buffer(reserve=4 * n)
+        self.b_mark = ctx.buffer(reserve=4 * n)
         self.b_args = ctx.buffer(reserve=16)
         self.b_all = ctx.buffer(np.arange(n, dtype=np.uint32).tobytes())
         self.src_groups = (-(-width // 16), -(-height // 16))
@@ -151,12 +152,13 @@ class GLCanvas:
         for prog in self._programs.values():
             _set(prog, "u_size", (width, height))
             _set(prog, "u_tiles_x", self.tiles_x)
+            _set(prog, "u_tiles_y", self.tiles_y)
             _set(prog, "u_tiles", (self.tiles_x, self.tiles_y))
             _set(prog, "u_ntiles", n)
         self._shape = (width, height, n_slots, tile)
 
     def _release_resources(self) -> None:
-        for name in ("aux", "srcw", "srcp", "rgb", "b_list", "b_alive", "b_ttl", "b_near",
+        for name in ("aux", "srcw", "srcp", "rgb", "b_list", "b_alive", "b_ttl", "b_prev", "b_mark",
                      "b_args", "b_all", "b_added"):
             obj = getattr(self, name, None)
             if obj is not None:
@@ -203,7 +205,7 @@ class GLCanvas:
         self.b_ttl.write(np.ascontiguousarray(st.tile_ttl, np.int32).tobytes())
         zeros = np.zeros(self.ntiles, np.uint32).tobytes()
         self.b_alive.write(zeros)
-        self.b_near.write(zeros)
+        self.b_prev.write(zeros)
         self.b_added.write(bytes(self.b_added.size))
         self.b_args.write(bytes(16))
         # metadata (everything that is not an array)
@@ -351,18 +353,36 @@ class GLCanvas:
         self.b_added.bind_to_storage_buffer(_B_ADDED)
         prog.run(-(-ew // 16), -(-eh // 16), 1)
         self._barrier()
-        # dirty tiles: each touched rectangle (reference tiles.mark_cells)
-        mark = self._programs["tile_mark"]
+        # dirty tiles: those in which a source array is nonzero (reference tiles.mark_nonzero)
+        touched = np.zeros((self.tiles_y, self.tiles_x), bool)
+        for pl in (placed_w, *placed_p.values(), placed_vx, placed_vy):
+            if pl is not None:
+                self._touch_nonzero(touched, *pl)
+        marks = np.flatnonzero(touched).astype(np.uint32)
+        if marks.size:
+            mark = self._programs["tile_mark"]
+            _set(mark, "u_ttl", prm.tile_ttl_steps())
+            _set(mark, "u_count", int(marks.size))
+            self.b_mark.write(marks.tobytes())
+            self.b_mark.bind_to_storage_buffer(_B_MARK)
+            self.b_ttl.bind_to_storage_buffer(_B_TTL)
+            mark.run(-(-int(marks.size) // 64), 1, 1)
+            self._barrier()
+
+    def _touch_nonzero(self, touched: np.ndarray, rect: tuple[int, int, int, int],
+                       values: np.ndarray) -> None:
+        """Flag the tiles in which ``values`` (placed at ``rect``) is nonzero."""
+        nz = values != 0
+        if not nz.any():
+            return
         ts = self.tile
-        _set(mark, "u_ttl", prm.tile_ttl_steps())
-        self.b_ttl.bind_to_storage_buffer(_B_TTL)
-        for (a0, a1, b0, b1) in sorted(set(rects)):
-            lo = (b0 // ts, a0 // ts)
-            hi = ((b1 - 1) // ts + 1, (a1 - 1) // ts + 1)
-            _set(mark, "u_lo", lo)
-            _set(mark, "u_hi", hi)
-            mark.run(-(-(hi[0] - lo[0]) // 8), -(-(hi[1] - lo[1]) // 8), 1)
-        self._barrier()
+        cy0, cy1, cx0, cx1 = rect
+        ty0, tx0 = cy0 // ts, cx0 // ts
+        ty1, tx1 = (cy1 - 1) // ts + 1, (cx1 - 1) // ts + 1
+        pad = np.zeros(((ty1 - ty0) * ts, (tx1 - tx0) * ts), bool)
+        pad[cy0 - ty0 * ts:cy1 - ty0 * ts, cx0 - tx0 * ts:cx1 - tx0 * ts] = nz
+        hit = pad.reshape(ty1 - ty0, ts, tx1 - tx0, ts).any(axis=(1, 3))
+        touched[ty0:ty1, tx0:tx1] |= hit
 
     # ------------------------------------------------------------ the step
     def _bind(self, unit: int, tex: Any, read: bool, write: bool) -> None:
@@ -396,7 +416,10 @@ class GLCanvas:
         _set(p["prep"], "u_block_paper", prm.block_paper)
         kv, kw, kp = (float(F32(prm.viscosity * dt)), float(F32(prm.nu_w * dt)),
                       float(F32(prm.nu_p * dt)))
-        for name in ("jacobi_first", "jacobi", "limit", "diffuse_apply"):
+        layers = -(-len(self.slots) // 4)
+        for prog in p.values():
+            _set(prog, "u_layers", layers)
+        for name in ("jacobi", "limit", "diffuse_apply"):
             _set(p[name], "u_kv", kv)
             _set(p[name], "u_kw", kw)
             _set(p[name], "u_kp", kp)
@@ -429,11 +452,11 @@ class GLCanvas:
     def _begin_step(self) -> None:
         """Bind the tile list and build it (tiling) for the passes of one step."""
         gx, gy = self.groups
+        self.b_ttl.bind_to_storage_buffer(_B_TTL)
         if self.tiling:
-            self.b_args.write(np.array([gx, gy, 0], np.uint32).tobytes())  # keeps the cell count
+            self.b_args.write(np.array([gx, gy, 0], np.uint32).tobytes())  # keeps the count
             self.b_list.bind_to_storage_buffer(_B_LIST)
-            self.b_ttl.bind_to_storage_buffer(_B_TTL)
-            self.b_near.bind_to_storage_buffer(_B_NEAR)
+            self.b_prev.bind_to_storage_buffer(_B_PREV)
             self.b_args.bind_to_storage_buffer(_B_ARGS)
             self._programs["tile_list"].run(-(-self.ntiles // 64), 1, 1)
             self._barrier()
@@ -456,6 +479,7 @@ class GLCanvas:
         self._bind(2, f["water"].src, True, False)
         self._bind(3, f["paper"].src, True, False)
         self._bind(4, self.aux, False, True)
+        self._bind(5, self.jv[0], False, True)
         self._dispatch("prep")
 
     def _pass_diffusion(self) -> None:
@@ -464,47 +488,49 @@ class GLCanvas:
         n = int(self.params.jacobi_iters)
         cur = 0
         for i in range(n):
-            self._bind(1, self.aux, True, False)
-            self._bind(2, f["water"].src, True, False)
-            self._bind(3, f["pig"].src, True, False)
-            self._bind(4, self.jv[cur], True, False)
-            self._bind(5, self.jd[cur], True, False)
+            self._bind(1, self.jv[cur], True, False)
+            self._bind(2, self.aux, True, False)
+            self._bind(3, f["water"].src, True, False)
+            self._bind(4, f["pig"].src, True, False)
+            self._bind(5, f["pig"].src if i == 0 else self.jd[cur], True, False)
             self._bind(6, self.jv[1 - cur], False, True)
             self._bind(7, self.jd[1 - cur], False, True)
-            self._dispatch("jacobi_first" if i == 0 else "jacobi")
+            self._dispatch("jacobi")
             cur = 1 - cur
         # the converged iterate is in jv[cur], jd[cur]
         self._bind(1, self.jv[cur], True, False)
         self._bind(2, self.jd[cur], True, False)
         self._bind(3, f["water"].src, True, False)
         self._bind(4, f["pig"].src, True, False)
-        self._bind(5, self.aux, True, False)
-        self._bind(6, f["vel"].dst, False, True)
+        self._bind(5, f["vel"].dst, False, True)
+        self._bind(6, self.jv[1 - cur], False, True)
         self._bind(7, self.jd[1 - cur], False, True)
         self._dispatch("limit")
         f["vel"].swap()
-        self._bind(1, self.jd[cur], True, False)
-        self._bind(2, self.jd[1 - cur], True, False)
-        self._bind(3, f["water"].src, True, False)
-        self._bind(4, f["pig"].src, True, False)
-        self._bind(5, self.aux, True, False)
+        self._bind(1, self.jv[1 - cur], True, False)
+        self._bind(2, self.jd[cur], True, False)
+        self._bind(3, self.jd[1 - cur], True, False)
+        self._bind(4, f["water"].src, True, False)
+        self._bind(5, f["pig"].src, True, False)
         self._bind(6, f["water"].dst, False, True)
         self._bind(7, f["pig"].dst, False, True)
         self._dispatch("diffuse_apply")
         f["water"].swap()
         f["pig"].swap()
+        self._js = self.jv[1 - cur]  # holds wb (.w) for the rest of the step
+        self._jfree = self.jv[cur]
 
     def _pass_advect(self) -> None:
         f = self.f
         self._bind(1, f["vel"].src, True, False)
-        self._bind(2, f["water"].src, True, False)
-        self._bind(3, f["pig"].src, True, False)
-        self._bind(4, self.aux, True, False)
-        self._bind(5, self.jv[0], False, True)
+        self._bind(2, self._js, True, False)
+        self._bind(3, f["water"].src, True, False)
+        self._bind(4, f["pig"].src, True, False)
+        self._bind(5, self._jfree, False, True)
         self._dispatch("advect_limit")
-        self._bind(5, self.jv[0], True, False)
-        self._bind(6, f["water"].dst, False, True)
-        self._bind(7, f["pig"].dst, False, True)
+        self._bind(2, self._jfree, True, False)
+        self._bind(5, f["water"].dst, False, True)
+        self._bind(6, f["pig"].dst, False, True)
         self._dispatch("advect_apply")
         f["water"].swap()
         f["pig"].swap()
@@ -516,7 +542,7 @@ class GLCanvas:
         self._bind(3, f["pig"].src, True, True)
         self._bind(4, f["dep"].src, True, True)
         self._bind(5, f["paper"].src, True, False)
-        self._bind(6, self.aux, True, False)
+        self._bind(6, self._js, True, False)
         self._dispatch("evap_surface")
         f["water"].swap()
 
@@ -610,16 +636,18 @@ class GLCanvas:
         pigs = [self.palette.get(s) for s in self.slots]
         kk = np.zeros((n, 3), F32)
         ss = np.ones((n, 3), F32)
-        body = np.zeros((n, 3), F32)
         if pigs:
             k_used, s_used = _coefficients(pigs)
             kk[:len(pigs)], ss[:len(pigs)] = k_used, s_used
-            a = (s_used + k_used) / s_used
-            body[:len(pigs)] = (a - np.sqrt(np.maximum(a * a - 1.0, 0.0))).astype(F32)
+        white = (self.palette.get("Titanium White") if "Titanium White" in self.palette
+                 else None)
+        white_k, white_s = (white.K, white.S) if white is not None else (WHITE_K, WHITE_S)
+        _set(prog, "u_white", self.params.gouache_white)
+        _set(prog, "u_white_K", tuple(map(float, white_k)))
+        _set(prog, "u_white_S", tuple(map(float, white_s)))
         _set(prog, "u_used", len(pigs))
         _set(prog, "u_K", [tuple(map(float, r)) for r in kk])
         _set(prog, "u_S", [tuple(map(float, r)) for r in ss])
-        _set(prog, "u_body", [tuple(map(float, r)) for r in body])
         _set(prog, "u_opaque", max(self.params.gouache_opaque, 1e-6))
         f = self.f
         self._bind(1, f["pig"].src, True, False)
