@@ -324,3 +324,37 @@ def test_random_sessions_keep_invariants_in_every_profile(profile: str) -> None:
     for f in ("w", "wc", "p", "q", "vx", "vy"):
         assert np.allclose(getattr(runs[True][0], f), getattr(runs[False][0], f), atol=1e-6), f
     assert np.allclose(runs[True][1], runs[False][1], atol=1e-6)
+
+
+def test_separate_tile_groups_are_simulated_as_separate_boxes() -> None:
+    from station.canvas import tiles
+
+    prm = SimParams().replace(tile_size=16)
+    on = NumpyCanvas(128, 96, seed=3, params=prm, tiling=True)
+    off = NumpyCanvas(128, 96, seed=3, params=prm, tiling=False)
+    for c in (on, off):
+        paint(c, disc(96, 128, 8, 8, 5), 0.7, {"Cerulean Blue": 0.2}, vx=30.0)
+        paint(c, disc(96, 128, 86, 118, 6), 0.7, {"Indian Red": 0.2}, vy=-30.0)
+        paint(c, disc(96, 128, 40, 20, 4), 0.7, {"Indian Red": 0.2})
+    boxes = tiles.active_regions(on.live_state)
+    assert len(boxes) == 3
+    cells = sum((b[0].stop - b[0].start) * (b[1].stop - b[1].start) for b in boxes)
+    assert cells < 0.15 * 128 * 96
+    for a in boxes:  # disjoint
+        for b in boxes:
+            if a is not b:
+                assert not (a[0].start < b[0].stop and b[0].start < a[0].stop
+                            and a[1].start < b[1].stop and b[1].start < a[1].stop)
+    for c in (on, off):
+        for _ in range(120):
+            c.step()
+    for f in ("w", "wc", "p", "q", "vx", "vy", "evaporated"):
+        assert np.allclose(getattr(on.live_state, f), getattr(off.live_state, f), atol=1e-6), f
+    # an L-shaped group and a tile in its corner: overlapping boxes are merged
+    st = on.live_state
+    st.tile_ttl[...] = 0
+    st.tile_ttl[0, 0:4] = 5
+    st.tile_ttl[0:4, 0] = 5
+    st.tile_ttl[2, 2] = 5
+    boxes = tiles.active_regions(st)
+    assert boxes == [(slice(0, 65), slice(0, 65))]

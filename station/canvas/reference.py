@@ -14,6 +14,10 @@ CHANGED: render.py gouache (not a step pass): the body colour is now R_inf = a -
   ``K = (1-g) sum s_k K_k + g K_w``, ``S = (1-g) sum s_k S_k + g S_w``; opacity unchanged.
 CHANGED: add_sources activates only the tiles in which a source array is nonzero
   (``tiles.mark_nonzero``), not the whole source rectangle (results do not depend on it).
+NOTE (no maths change): pass 1 computes the bilinear weight from the displacement,
+  ``f = (-v dt) - floor(-v dt)``, with ``i0 = i + floor(-v dt)`` and the clamps of the
+  formula below (i0 < 0 -> i0 = 0, f = 0; i0 >= n-1 -> i0 = n-2, f = 1); it equals
+  ``X - floor(X)`` in exact arithmetic and does not depend on the region origin.
 NOTE (no maths change): pass 6 evaluates ``r' = (r * s_out[donor]) * s_in[receiver]`` in
   that order; pass 4/5 skip the donor limiter when no cell is short (bitwise the same).
 
@@ -110,9 +114,10 @@ the same float32 value on both sides).
     ``t = min(p[k], 1 - q[k])``: ``q += t``, ``p -= t``, and gets ``v = 0``.
 
 Then ``sim_time += dt``, ``step_count += 1`` and the dirty tiles are updated
-(``tiles.py``). With tiling on, passes run on the bounding box of the active tiles
-plus a one-cell halo; all other cells are inactive (w == 0, wc == 0, v == 0) and
-no pass changes them, so the result is the same as with tiling off.
+(``tiles.py``). With tiling on, passes run on the bounding box of each 8-connected
+group of active tiles plus a one-cell halo (overlapping boxes merged, so boxes are
+disjoint); all other cells are inactive (w == 0, wc == 0, v == 0) and no pass changes
+them, so the result is the same as with tiling off.
 """
 
 from __future__ import annotations
@@ -195,6 +200,29 @@ def implicit_diffusion(u: np.ndarray, bx: np.ndarray, by: np.ndarray, k: float,
 
 
 # ---------------------------------------------------------------- passes
+def _backtrace_axis(disp: np.ndarray, n: int, axis: int) -> tuple[np.ndarray, np.ndarray]:
+    """Left sample index (intp) and weight of the back-trace ``X = i - disp`` on one axis.
+
+    Same maths as ``X = clamp(i - disp, 0, n-1)``, ``i0 = min(floor(X), n-2)``,
+    ``f = X - i0``, but the fraction is computed from the displacement alone
+    (``|disp| <= 1``), so the result does not depend on where the simulated region
+    starts: tiling cannot change the rounding.
+    """
+    off = -disp
+    fl = np.floor(off)
+    frac = (off - fl).astype(F32)
+    shape = [1, 1]
+    shape[axis] = n
+    idx = np.arange(n, dtype=np.intp).reshape(shape) + fl.astype(np.intp)
+    if n < 2:
+        return np.zeros(disp.shape, np.intp), np.zeros(disp.shape, F32)
+    low = idx < 0
+    high = idx >= n - 1
+    idx = np.where(low, 0, np.where(high, n - 2, idx))
+    frac = np.where(low, _ZERO, np.where(high, _ONE, frac))
+    return idx, frac
+
+
 def advect_velocity(vx: np.ndarray, vy: np.ndarray, wet: np.ndarray,
                     dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Pass 1: semi-Lagrangian self-advection of v (bilinear back-trace)."""
@@ -202,13 +230,9 @@ def advect_velocity(vx: np.ndarray, vy: np.ndarray, wet: np.ndarray,
     svx = np.where(wet, vx, _ZERO)
     svy = np.where(wet, vy, _ZERO)
     fdt = F32(dt)
-    bx = np.clip(np.arange(ww, dtype=F32)[None, :] - svx * fdt, _ZERO, F32(ww - 1))
-    by = np.clip(np.arange(hh, dtype=F32)[:, None] - svy * fdt, _ZERO, F32(hh - 1))
-    x0 = np.minimum(np.floor(bx), F32(max(ww - 2, 0)))
-    y0 = np.minimum(np.floor(by), F32(max(hh - 2, 0)))
-    fx = bx - x0
-    fy = by - y0
-    i00 = y0.astype(np.intp) * ww + x0.astype(np.intp)
+    x0, fx = _backtrace_axis(svx * fdt, ww, 1)
+    y0, fy = _backtrace_axis(svy * fdt, hh, 0)
+    i00 = y0 * ww + x0
     dx = 1 if ww > 1 else 0  # x1 = min(x0 + 1, W - 1)
     dy = ww if hh > 1 else 0
     gx = _ONE - fx
@@ -490,10 +514,10 @@ def step(state: CanvasState, dt: float | None = None) -> None:
     if not dt > 0 or dt * state.params.v_max > 1.0 + 1e-9:
         raise CanvasInputError("dt must be > 0 and move at most one cell per step", "step")
     if state.tiling:
-        region = tiles.active_region(state)
-        if region is not None:
+        regions = tiles.active_regions(state)
+        for region in regions:
             step_region(state, region, dt)
-        tiles.update_tiles(state, region)
+        tiles.update_tiles(state, regions)
     else:
         step_region(state, (slice(0, state.height), slice(0, state.width)), dt)
     state.sim_time += dt

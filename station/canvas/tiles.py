@@ -9,8 +9,8 @@ water is renewed, so a tile leaves the active set only when all its cells are
 inactive (``w == 0`` and ``wc == 0``), and a quiet tile that receives capillary
 water through the one-cell halo joins the active set.
 
-The simulated region is the bounding box of the active tiles plus a one-cell
-halo. Every cell outside the active tiles is inactive and no pass changes an
+The simulated regions are the bounding boxes of the 8-connected groups of
+active tiles, each grown by a one-cell halo (overlapping boxes merged). Every cell outside the active tiles is inactive and no pass changes an
 inactive cell whose neighbours are inactive, so tiling on/off gives the same
 result (see ``reference.py``).
 """
@@ -68,6 +68,63 @@ def active_region(state: CanvasState) -> tuple[slice, slice] | None:
     return slice(y0, y1), slice(x0, x1)
 
 
+def _components(active: np.ndarray) -> np.ndarray:
+    """Labels (1..n, 0 = inactive) of the 8-connected groups of active tiles."""
+    ny, nx = active.shape
+    labels = np.where(active, np.arange(1, ny * nx + 1).reshape(ny, nx), 0)
+    while True:  # propagate the largest label through each group (vectorised per sweep)
+        pad = np.pad(labels, 1)
+        best = labels.copy()
+        for dy in (0, 1, 2):
+            for dx in (0, 1, 2):
+                np.maximum(best, pad[dy:dy + ny, dx:dx + nx], out=best)
+        best = np.where(active, best, 0)
+        if np.array_equal(best, labels):
+            return labels
+        labels = best
+
+
+def _overlap(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> bool:
+    return a[0] < b[1] and b[0] < a[1] and a[2] < b[3] and b[2] < a[3]
+
+
+def active_regions(state: CanvasState) -> list[tuple[slice, slice]]:
+    """Disjoint cell boxes to simulate: one per group of active tiles, plus the halo.
+
+    Each 8-connected group of active tiles gives its bounding box grown by one cell;
+    overlapping boxes are merged. Cells outside every box are inactive with inactive
+    neighbours, and two boxes never share a cell, so simulating the boxes one after
+    the other equals simulating the whole canvas.
+    """
+    active = state.tile_ttl > 0
+    if not active.any():
+        return []
+    ts = int(state.params.tile_size)
+    labels = _components(active)
+    boxes: list[tuple[int, int, int, int]] = []
+    for lab in np.unique(labels[labels > 0]):
+        ty, tx = np.nonzero(labels == lab)
+        boxes.append((max(int(ty.min()) * ts - 1, 0),
+                      min((int(ty.max()) + 1) * ts + 1, state.height),
+                      max(int(tx.min()) * ts - 1, 0),
+                      min((int(tx.max()) + 1) * ts + 1, state.width)))
+    merged = True
+    while merged:  # few boxes: a plain pairwise merge
+        merged = False
+        for i in range(len(boxes)):
+            for j in range(i + 1, len(boxes)):
+                if _overlap(boxes[i], boxes[j]):
+                    a, b = boxes[i], boxes[j]
+                    boxes[i] = (min(a[0], b[0]), max(a[1], b[1]),
+                                min(a[2], b[2]), max(a[3], b[3]))
+                    del boxes[j]
+                    merged = True
+                    break
+            if merged:
+                break
+    return [(slice(b[0], b[1]), slice(b[2], b[3])) for b in sorted(boxes)]
+
+
 def tile_alive(state: CanvasState, ys: slice, xs: slice) -> np.ndarray:
     """Per tile covering the tile-aligned region around ``ys, xs``: any w or wc > 0."""
     ts = int(state.params.tile_size)
@@ -82,19 +139,25 @@ def tile_alive(state: CanvasState, ys: slice, xs: slice) -> np.ndarray:
     return out
 
 
-def update_tiles(state: CanvasState, region: tuple[slice, slice] | None) -> None:
-    """Count active TTLs down; renew expired or halo tiles that still hold water."""
+def update_tiles(state: CanvasState,
+                 regions: tuple[slice, slice] | list[tuple[slice, slice]] | None) -> None:
+    """Count active TTLs down; renew expired or halo tiles that still hold water.
+
+    ``regions``: the cell boxes simulated this step (one box, a list, or None).
+    """
     ttl = state.tile_ttl
     np.subtract(ttl, 1, out=ttl, where=ttl > 0)
-    if region is None:
+    if regions is None:
         return
-    ys, xs = region
+    if isinstance(regions, tuple):
+        regions = [regions]
     ts = int(state.params.tile_size)
-    alive = tile_alive(state, ys, xs)
-    ty0, tx0 = ys.start // ts, xs.start // ts
-    view = ttl[ty0:ty0 + alive.shape[0], tx0:tx0 + alive.shape[1]]
-    renew = alive & (view <= 0)
-    view[renew] = state.params.tile_ttl_steps()
+    for ys, xs in regions:
+        alive = tile_alive(state, ys, xs)
+        ty0, tx0 = ys.start // ts, xs.start // ts
+        view = ttl[ty0:ty0 + alive.shape[0], tx0:tx0 + alive.shape[1]]
+        renew = alive & (view <= 0)
+        view[renew] = state.params.tile_ttl_steps()
 
 
 def activate_all_live(state: CanvasState) -> None:
