@@ -10,9 +10,10 @@ inactive (``w == 0`` and ``wc == 0``), and a quiet tile that receives capillary
 water through the one-cell halo joins the active set.
 
 The simulated regions are the bounding boxes of the 8-connected groups of
-active tiles, each grown by a one-cell halo (overlapping boxes merged). Every cell outside the active tiles is inactive and no pass changes an
-inactive cell whose neighbours are inactive, so tiling on/off gives the same
-result (see ``reference.py``).
+active tiles, each grown by a one-cell halo (overlapping boxes merged). Every
+cell outside the active tiles is inactive and no pass changes an inactive cell
+whose neighbours are inactive, so tiling on/off gives the same result (see
+``reference.py``).
 """
 
 from __future__ import annotations
