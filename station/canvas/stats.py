@@ -4,7 +4,8 @@ Every amount is a float64 sum of per-cell float32 amounts [cell units]. The
 evaporated and removed amounts come from per-cell accumulators that the passes
 and tools update where the water or pigment leaves (never "added minus present").
 Pigment ``surface`` counts the active layer's deposits plus the dried layers;
-``layers`` lists each dried layer's deposits by pigment.
+``layers`` counts the dried layers and ``dried_layers`` lists each one's deposits
+by pigment.
 """
 
 from __future__ import annotations
@@ -50,7 +51,8 @@ def canvas_stats(state: CanvasState, renderer: str) -> dict[str, Any]:
     return {
         "width": state.width, "height": state.height, "steps": state.step_count,
         "sim_seconds": state.sim_time, "renderer": renderer, "profile": state.profile,
-        "layers": len(state.layers), "water": water, "pigments": pigments,
+        "layers": len(state.layers), "dried_layers": [dict(d) for d in state.layers],
+        "water": water, "pigments": pigments,
         "balance": balance(water, pigments),
     }
 
