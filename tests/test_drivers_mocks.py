@@ -260,10 +260,10 @@ def _env(tmp_path: Path) -> dict[str, str]:
 
 def test_driver_process_publishes_and_exits_0_on_sigterm(tmp_path: Path) -> None:
     endpoint = f"ipc://{tmp_path}/bus"
-    sub = Subscriber("@" + endpoint, topics=("pen.", "status"))
+    sub = Subscriber(endpoint, topics=("pen.", "status"))  # connects; the driver binds
     proc = subprocess.Popen(
         [PY, "-m", "station", "driver", "--device",
-         "mock:intuos-pro-m?script=spiral&rate=200&repeat=0&reports=60", "--bus", ">" + endpoint,
+         "mock:intuos-pro-m?script=spiral&rate=200&repeat=0&reports=60", "--bus", endpoint,
          "--name", "mock-0", "--wait-subscribers", "1", "--status-interval", "0.2"],
         env=_env(tmp_path), stderr=subprocess.PIPE, text=True)
     pens: list[PenSample] = []

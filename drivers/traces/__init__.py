@@ -10,9 +10,9 @@ device-normalised pen samples (``station paint`` and ``station replay`` use it).
 from __future__ import annotations
 
 import os
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import IO, TYPE_CHECKING
 
 from station.drivers.traces.evemu import parse_evemu, read_evemu
 from station.drivers.traces.hidrecorder import (
@@ -38,6 +38,7 @@ __all__ = [
     "parse_libinput_record",
     "read_trace",
     "trace_format",
+    "write_session_log",
 ]
 
 _BY_SUFFIX = {
@@ -91,3 +92,16 @@ def iter_trace_samples(path: str | os.PathLike[str], device: str | None = None
 
     replay = TraceReplay(read_trace(path), device_name=device)
     yield from replay.samples()
+
+
+def write_session_log(samples: Iterable[PenSample], path: str | os.PathLike[str] | IO[str],
+                      source: str = "", width: int = 800, height: int = 600) -> int:
+    """Write pen samples as a session log (header first); returns the records written."""
+    from station.sessionlog import SessionHeader, SessionLogWriter
+
+    header = SessionHeader(width=width, height=height,
+                           extra={"source": source, "coordinates": "device"} if source else {})
+    with SessionLogWriter(path, header) as writer:
+        for sample in samples:
+            writer.write(sample)
+        return writer.count

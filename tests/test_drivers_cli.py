@@ -1,0 +1,73 @@
+"""The drivers' commands against this machine: replay onto the bus, missing hardware."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from station.bus import Subscriber
+from station.cli import main
+from station.drivers.mock.tablet import MockTablet, find_model
+from station.drivers.traces import iter_trace_samples, write_session_log
+from station.sessionlog import read_session
+
+
+def _recording(tmp_path: Path, model: str = "cintiq-22hd") -> Path:
+    from station.drivers import synth
+
+    tablet = MockTablet(find_model(model), script="proximity", reports=16)
+    for f in tablet.init_features:
+        tablet.feature(f)
+    info = tablet.info
+    path = tmp_path / f"{model}.hid"
+    synth.write_hid_recorder([synth.RecordedDevice(
+        info.name, info.vid, info.pid, info.descriptor or b"",
+        [(r.time, r.data) for r in tablet.timed_reports()], bus=info.bus)], path)
+    return path
+
+
+def test_replay_onto_the_bus(tmp_path: Path, capsys) -> None:
+    path = _recording(tmp_path)
+    endpoint = f"ipc://{tmp_path}/bus"
+    sub = Subscriber(endpoint, topics=("pen.", "status"))  # connects; the replay binds
+    assert main(["replay", str(path), "--bus", endpoint, "--name", "cintiq",
+                 "--wait-subscribers", "1"]) == 0
+    pens, statuses = [], []
+    while (msg := sub.recv(1000)) is not None:
+        (pens if msg.kind == "pen" else statuses).append(msg.value)
+    sub.close()
+    expected = [s.with_(device="cintiq") for s in iter_trace_samples(path)]
+    assert [p.to_record() for p in pens] == [s.to_record() for s in expected]
+    assert sum(1 for p in pens if not p.proximity) == 4  # the script leaves four times
+    (status,) = statuses
+    assert status["kind"] == "replay" and status["samples"] == len(pens)
+    assert "cintiq: " in capsys.readouterr().out
+
+
+def test_write_session_log_of_a_trace(tmp_path: Path) -> None:
+    path = _recording(tmp_path, "graphire-bt")
+    out = tmp_path / "s.jsonl"
+    n = write_session_log(iter_trace_samples(path), out, source=str(path))
+    header, records = read_session(out)
+    assert n == len(records) > 10 and header.extra["source"] == str(path)
+
+
+def test_missing_hardware_fails_cleanly(tmp_path: Path, capsys) -> None:
+    for spec, code, needle in (
+        ("hidraw:/nonexistent/hidraw9", 1, "no such hidraw node"),
+        ("hidapi:056a:0315", 2, "no HID device 056a:0315"),
+        ("usb:056a:0315", None, "USB"),
+    ):
+        rc = main(["record", "--device", spec, "-o", str(tmp_path / "x.hid")])
+        err = capsys.readouterr().err
+        assert rc in ((1, 2) if code is None else (code,)), (spec, rc, err)
+        assert needle in err and err.count("\n") == 1 and "Traceback" not in err
+
+
+def test_devices_text_lists_every_mock(capsys) -> None:
+    assert main(["devices"]) == 0
+    out = capsys.readouterr().out
+    for name in ("mock:intuos-pro-m", "mock:graphire-bt", "mock:huion-like"):
+        assert name in out
+    assert main(["devices", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["found"] >= 0
