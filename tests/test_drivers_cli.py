@@ -5,10 +5,12 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from station.bus import Subscriber
-from station.cli import main
 from station.drivers.mock.tablet import MockTablet, find_model
 from station.drivers.traces import iter_trace_samples, write_session_log
+
+from station.bus import Subscriber
+from station.cli import main
+from station.events import PenSample
 from station.sessionlog import read_session
 
 
@@ -32,7 +34,8 @@ def test_replay_onto_the_bus(tmp_path: Path, capsys) -> None:
     sub = Subscriber(endpoint, topics=("pen.", "status"))  # connects; the replay binds
     assert main(["replay", str(path), "--bus", endpoint, "--name", "cintiq",
                  "--wait-subscribers", "1"]) == 0
-    pens, statuses = [], []
+    pens: list[PenSample] = []
+    statuses: list[dict] = []
     while (msg := sub.recv(1000)) is not None:
         (pens if msg.kind == "pen" else statuses).append(msg.value)
     sub.close()
