@@ -151,6 +151,7 @@ class FitReport:
     parallax_mm: tuple[float, float] | None = None
     candidates: dict[str, dict[str, Any]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    ambiguous: dict[int, list[int]] = field(default_factory=dict)  # outlier -> equal suspects
 
     @property
     def model(self) -> str:
@@ -195,6 +196,8 @@ class FitReport:
             if self.parallax_mm is not None:
                 par["x_mm"], par["y_mm"] = self.parallax_mm
             out["parallax"] = par
+        if self.ambiguous:
+            out["ambiguous_outliers"] = {str(k): v for k, v in self.ambiguous.items()}
         if self.candidates:
             out["candidates"] = self.candidates
         if self.notes:
@@ -634,7 +637,8 @@ def _lts_start(
 
 
 def _studentised(
-    points: PointSet, mapping: Mapping, parallax: bool, inliers: list[int], floor: float
+    points: PointSet, mapping: Mapping, parallax: bool, inliers: list[int], floor: float,
+    known: float | None = None,
 ) -> tuple[float, Array, float]:
     """Noise estimate and squared studentised residual of every point.
 
@@ -644,7 +648,8 @@ def _studentised(
     ``σ²(I − P_i)`` and an excluded point's prediction error ``σ²(I + P_i)``;
     the returned distances are ``r_iᵀ C_i⁻¹ r_i / σ²`` (chi-square, 2 dof, for
     points that fit).  ``σ² = |r_in|² / (2m − p)``, floored at ``floor``
-    (canvas units).  Returns (sigma in canvas units, distances, their outlier limit).
+    (canvas units), or exactly ``known`` when the noise is known.  Returns (sigma in
+    canvas units, distances, their outlier limit).
     """
     model = mapping.model
     nz = _Normalised.of(points)
@@ -658,10 +663,13 @@ def _studentised(
     dof = j_in.shape[0] - j.shape[1]
     ssr = float((r2[inliers] ** 2).sum())
     estimated = math.sqrt(ssr / dof) if dof > 0 else 0.0
-    sigma_n = max(estimated, floor * scale)
-    # sigma estimated from dof residuals is itself uncertain: the studentised distance
-    # / 2 follows F(2, dof), not chi2_2 / 2; the floor counts as known noise.
-    limit = outlier_limit(dof if estimated > floor * scale else None)
+    if known is not None:
+        sigma_n, limit = known * scale, outlier_limit(None)
+    else:
+        sigma_n = max(estimated, floor * scale)
+        # sigma estimated from dof residuals is itself uncertain: the studentised distance
+        # / 2 follows F(2, dof), not chi2_2 / 2; the floor counts as known noise.
+        limit = outlier_limit(dof if estimated > floor * scale else None)
     cov = np.linalg.pinv(j_in.T @ j_in)
     lev = np.einsum("nap,pq,nbq->nab", j3, cov, j3)  # (n, 2, 2)
     sign = np.full(len(points), 1.0)
@@ -690,6 +698,7 @@ def fit_points(
     min_sigma: float | None = None,
     units_per_mm: tuple[float, float] | None = None,
     seed: int = 0,
+    noise: float | None = None,
 ) -> FitReport:
     """Fit, find misclicks, and report residuals and the leave-one-out error.
 
@@ -698,15 +707,20 @@ def fit_points(
     since a flexible model that does not predict better is just fitting noise).
 
     Misclicks (``robust``): a least-trimmed-squares start over minimal subsets,
-    then every point is re-classified against ``sqrt(chi2_2(0.999)) · sigma``
-    (3.72 sigma), sigma being the per-axis noise estimated from the inliers'
+    then every point is re-classified by its leverage-corrected studentised
+    residual (:func:`_studentised`) against the 99.9 % quantile of
+    ``2·F(2, dof)``, sigma being the per-axis noise estimated from the inliers'
     residual sum of squares over their degrees of freedom, floored at
     ``min_sigma`` (default 1e-4 of the target spread, so that exact synthetic
-    data does not make every rounding error an outlier).  The loop stops when
-    the inlier set no longer changes.
+    data does not make every rounding error an outlier).  With ``noise`` (a
+    known per-axis tap noise, canvas units) sigma is that and the limit the
+    chi-square one (3.72 sigma): the only way to find misclicks in a 5-point
+    affine calibration, whose 4 spare equations leave too few degrees of
+    freedom to estimate the noise.  The loop stops when the inlier set no
+    longer changes.
     """
     if model == "auto":
-        return _fit_auto(points, parallax, robust, min_sigma, units_per_mm, seed)
+        return _fit_auto(points, parallax, robust, min_sigma, units_per_mm, seed, noise)
     check_points(points, model, parallax)
     n = len(points)
     floor = min_sigma if min_sigma is not None else 1e-4 * spread(points.canvas)
@@ -717,8 +731,8 @@ def fit_points(
         if note:
             notes.append(note)
     mapping, cond = fit_mapping(points.subset(inliers), model, parallax)
-    sigma, dist2, limit = _studentised(points, mapping, parallax, inliers, floor)
-    if robust and len(inliers) < n:
+    sigma, dist2, limit = _studentised(points, mapping, parallax, inliers, floor, noise)
+    if robust and len(inliers) < n and noise is None:
         # The LTS set is the h best of n points: its residuals are a truncated sample
         # and underestimate the noise.  For chi2_2 (exponential, mean 2) truncated at
         # its alpha quantile q, E[X | X <= q] = 2 - q (1 - alpha) / alpha.
@@ -738,11 +752,19 @@ def fit_points(
         except DegeneratePoints:
             break
         inliers = new
-        sigma, dist2, limit = _studentised(points, mapping, parallax, inliers, floor)
+        sigma, dist2, limit = _studentised(points, mapping, parallax, inliers, floor, noise)
     threshold = math.sqrt(limit) * sigma
     res = residuals(mapping, points)
     e = np.hypot(res[:, 0], res[:, 1])
     outliers = [i for i in range(n) if i not in set(inliers)]
+    ambiguous = _ambiguous_outliers(points, model, parallax, inliers, outliers, floor, noise,
+                                    limit)
+    for i, others in ambiguous.items():
+        notes.append(
+            f"the misclick at {points.labels[i]} cannot be told from one at "
+            + " or ".join(points.labels[j] for j in others)
+            + " with this target layout: tap those targets again (or use 9 points)"
+        )
     loo = leave_one_out(points, model, parallax, inliers)
     loo_vals = [v for v in loo if v is not None]
     report = FitReport(
@@ -759,6 +781,7 @@ def fit_points(
         loo_errors=loo,
         condition=cond,
         notes=notes,
+        ambiguous={i: list(v) for i, v in ambiguous.items()},
     )
     if units_per_mm is not None:
         report.residuals_mm = residuals_mm(mapping, points, res, units_per_mm)
@@ -769,6 +792,33 @@ def fit_points(
     return report
 
 
+def _ambiguous_outliers(
+    points: PointSet, model: str, parallax: bool, inliers: list[int], outliers: list[int],
+    floor: float, noise: float | None, limit: float,
+) -> dict[int, list[int]]:
+    """Outliers that another point could equally well be blamed for.
+
+    Some layouts cannot locate a misclick: with the 5-point layout (corners and
+    centre) and an affine map, a slip at one corner breaks the same two
+    constraints as the opposite slip at the diagonally opposite corner.  For
+    each outlier ``i`` and inlier ``j``: if the fit with ``i`` restored and
+    ``j`` removed keeps every kept point within the limit, ``j`` is an equally
+    good culprit.
+    """
+    out: dict[int, list[int]] = {}
+    for i in outliers:
+        for j in inliers:
+            swap = sorted([k for k in inliers if k != j] + [i])
+            alt = _quiet_fit(points.subset(swap), model, parallax)
+            if alt is None:
+                continue
+            with np.errstate(all="ignore"):
+                _s, d2, lim = _studentised(points, alt, parallax, swap, floor, noise)
+            if np.isfinite(d2[swap]).all() and (d2[swap] <= lim).all() and d2[j] > lim:
+                out.setdefault(i, []).append(j)
+    return out
+
+
 def _fit_auto(
     points: PointSet,
     parallax: bool,
@@ -776,15 +826,18 @@ def _fit_auto(
     min_sigma: float | None,
     units_per_mm: tuple[float, float] | None,
     seed: int,
+    noise: float | None,
 ) -> FitReport:
-    affine = fit_points(points, "affine", parallax, robust, min_sigma, units_per_mm, seed)
+    affine = fit_points(points, "affine", parallax, robust, min_sigma, units_per_mm, seed, noise)
     candidates: dict[str, dict[str, Any]] = {
         "affine": {"rms": affine.rms, "loo_rms": affine.loo_rms, "outliers": affine.outliers}
     }
     chosen = affine
     reason = "affine: too few points to judge a homography by leave-one-out"
     try:
-        homog = fit_points(points, "homography", parallax, robust, min_sigma, units_per_mm, seed)
+        homog = fit_points(
+            points, "homography", parallax, robust, min_sigma, units_per_mm, seed, noise
+        )
     except DegeneratePoints as exc:
         candidates["homography"] = {"refused": str(exc)}
         homog = None

@@ -233,8 +233,69 @@ def _describe(result: TapResult, session: CalibrationSession, prov: Mapping | No
     return f"target {result.target + 1}/{n}: ok"
 
 
+class _Loop:
+    """The frame loop state shared by the passes of one calibration."""
+
+    def __init__(self, session: CalibrationSession, source: Any, window: CalibrationWindow,
+                 timeout: float, out: Any) -> None:
+        self.session = session
+        self.source = source
+        self.window = window
+        self.timeout = timeout
+        self.out = out
+        self.start = time.monotonic()
+        self.shown = -1
+        self.cursor: tuple[float, float, bool] | None = None
+        self.prov: Mapping | None = None
+
+    def run_targets(self) -> bool:
+        """Frames until every target has an accepted tap; False if the user cancelled."""
+        session, source, window = self.session, self.source, self.window
+        self.shown = -1
+        while not session.done:
+            now = time.monotonic() - self.start
+            if now > self.timeout:
+                raise StationError(f"calibration timed out after {self.timeout:.0f} s "
+                                   f"({session.current}/{len(session.targets)} targets)")
+            if not window.poll():
+                return False
+            if self.shown != len(session.results):
+                self.shown = len(session.results)
+                source.show_target(session.current, session.targets[session.current],
+                                   session.hints[session.current])
+            sample: PenSample
+            for sample in source.poll(now):
+                self._cursor(sample)
+                result = session.feed(sample)
+                if result is not None:
+                    self.prov = _provisional(session) or self.prov
+                    line = _describe(result, session, self.prov)
+                    self.out.write(line + "\n")
+                    window.title(line)
+                if session.done:
+                    break
+            if source.exhausted and not session.done:
+                raise CalibrationError(
+                    f"the device ran out of taps at target {session.current + 1}/"
+                    f"{len(session.targets)}")
+            window.draw(session, self.cursor, self.prov)
+            window.swap()
+        return True
+
+    def _cursor(self, sample: PenSample) -> None:
+        if not sample.proximity:
+            self.cursor = None
+            return
+        pos = (sample.x, sample.y)
+        if self.prov is not None:
+            m = self.prov.map(np.array([pos]))[0]
+            pos = (float(m[0]), float(m[1]))
+        self.cursor = (pos[0], pos[1], sample.touching)
+
+
 def run_interactive(args: argparse.Namespace) -> int:
     """The ``--device`` mode of ``station calibrate``."""
+    from station.calibration.area import AreaSettings
     from station.calibration.files import default_path, write_file
     from station.calibration.model import Calibration, FitInfo
     from station.calibration.sources import open_source
@@ -249,47 +310,20 @@ def run_interactive(args: argparse.Namespace) -> int:
         )
         out.write(f"calibrating {source.device.describe()} on a {window.size[0]}×{window.size[1]} "
                   f"screen: {len(session.targets)} targets\n")
-        start = time.monotonic()
-        shown = -1
-        cursor: tuple[float, float, bool] | None = None
-        prov: Mapping | None = None
-        while not session.done:
-            now = time.monotonic() - start
-            if now > args.timeout:
-                raise StationError(f"calibration timed out after {args.timeout:.0f} s "
-                                   f"({session.current}/{len(session.targets)} targets)")
-            if not window.poll():
+        loop = _Loop(session, source, window, args.timeout, out)
+        while True:
+            if not loop.run_targets():
                 out.write("calibration cancelled\n")
                 return 1
-            if shown != len(session.results) and not session.done:
-                shown = len(session.results)
-                source.show_target(session.current, session.targets[session.current],
-                                   session.hints[session.current])
-            sample: PenSample
-            for sample in source.poll(now):
-                if sample.proximity:
-                    pos = (sample.x, sample.y)
-                    if prov is not None:
-                        m = prov.map(np.array([pos]))[0]
-                        pos = (float(m[0]), float(m[1]))
-                    cursor = (pos[0], pos[1], sample.touching)
-                else:
-                    cursor = None
-                result = session.feed(sample)
-                if result is not None:
-                    prov = _provisional(session) or prov
-                    line = _describe(result, session, prov)
-                    out.write(line + "\n")
-                    window.title(line)
-            if source.exhausted and not session.done:
-                raise CalibrationError(
-                    f"the device ran out of taps at target {session.current + 1}/"
-                    f"{len(session.targets)}")
-            window.draw(session, cursor, prov)
-            window.swap()
-        report = session.fit()
-        prov = report.mapping
-        window.draw(session, None, prov)
+            if session.finish():
+                break
+            again = len(session.targets) - session.current
+            out.write(f"the fit excluded {again} tap(s) as misclicks: asking those targets "
+                      "again\n")
+        report = session.report
+        if report is None:  # finish() always fits; keeps mypy and readers sure
+            raise StationError("no fit")
+        window.draw(session, None, report.mapping)
         pixels = window.read_pixels()
         window.swap()
         if args.screenshot:
@@ -304,6 +338,8 @@ def run_interactive(args: argparse.Namespace) -> int:
             f"{len(session.rejected)}, excluded by the fit: {len(report.outliers)}"
             + ("; swapped axes" if session.swapped_axes else "") + "\n"
         )
+        for note in report.notes:
+            out.write(f"note: {note}\n")
         if report.mapping.parallax != (0.0, 0.0):
             g = source.geometry
             px, py = report.mapping.parallax
@@ -315,10 +351,8 @@ def run_interactive(args: argparse.Namespace) -> int:
         fit = FitInfo(report.model, tuple(map(tuple, report.mapping.matrix)),
                       report.mapping.parallax, report.rms, report.max, report.loo_rms,
                       len(report.inliers))
-        cal = Calibration(source.device, source.geometry, fit)
-        from station.calibration.area import AreaSettings
-
-        cal.area = AreaSettings(output_pixels=(w, h))
+        cal = Calibration(source.device, source.geometry, fit,
+                          area=AreaSettings(output_pixels=(w, h)))
         path = Path(args.output) if args.output else default_path(source.device)
         write_file(cal, path)
         out.write(f"wrote {path}\n")

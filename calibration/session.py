@@ -86,6 +86,7 @@ class CalibrationSession:
     results: list[TapResult] = field(default_factory=list)
     swapped_axes: bool | None = None
     report: FitReport | None = None
+    reasked: bool = False
     detector: TapDetector = field(default_factory=lambda: TapDetector(
         min_duration=0.02, settle=0.01, max_spread=0.02))
 
@@ -206,5 +207,27 @@ class CalibrationSession:
     def fit(self, noise: float | None = None) -> FitReport:
         pts = self.point_set()
         parallax = self.tilt_pass and any(h is not None for h in self.hints)
-        self.report = fit_points(pts, self.model, parallax=parallax, min_sigma=noise)
+        self.report = fit_points(pts, self.model, parallax=parallax, noise=noise)
         return self.report
+
+    def finish(self, noise: float | None = None) -> bool:
+        """Fit; True when done.  Taps the fit excludes as misclicks (and those it cannot
+        tell them from) are asked again once: their targets go back on the list and
+        the session continues (False)."""
+        report = self.fit(noise)
+        suspects = set(report.outliers)
+        for i, others in report.ambiguous.items():
+            suspects.update([i, *others])
+        if not suspects or self.reasked:
+            return True
+        self.reasked = True
+        acc = self.accepted
+        first_new = len(self.targets)
+        for k in sorted(suspects):
+            res = acc[k]
+            res.accepted = False
+            res.reason = "excluded by the final fit; asked again"
+            self.targets.append(res.xy)
+            self.hints.append(self.hints[res.target])
+        self.current = first_new
+        return False

@@ -204,3 +204,29 @@ def test_from_trace_reads_device_traces(tmp_path: Path) -> None:
     m = np.array(rep["matrix"])
     probe = np.random.default_rng(0).uniform(0.1, 0.9, (100, 2))
     assert np.abs(project(m, probe) - project(truth, probe)).max() < 1e-4
+
+
+def test_session_asks_again_for_taps_the_final_fit_excludes() -> None:
+    truth = np.array([[0.97, 0.02, 0.01], [-0.02, 1.01, 0.0], [0, 0, 1.0]])
+    inverse = np.linalg.inv(truth)
+    # on-the-spot rejection off (a huge threshold): only the final fit can catch the slip
+    session = CalibrationSession(screen=SCREEN, points=9, model="affine", misclick_px=1e6)
+    rng = np.random.default_rng(0)
+    t = 0.0
+    while not session.done:
+        xy = np.array([session.targets[session.current]])
+        dev = project(inverse, xy)[0] + rng.normal(0, 0.0005, 2)
+        if session.current == 4 and not session.rejected:
+            dev = dev + (0.06, 0.05)  # the misclick
+        feed_tap(session, float(dev[0]), float(dev[1]), t)
+        t += 1.0
+    assert session.finish() is False  # the centre target is asked again
+    assert session.targets[session.current] == (0.5, 0.5) and len(session.targets) == 10
+    assert [r.target for r in session.rejected] == [4]
+    dev = project(inverse, np.array([[0.5, 0.5]]))[0]
+    feed_tap(session, float(dev[0]), float(dev[1]), t)
+    assert session.done and session.finish() is True
+    assert session.report is not None and session.report.outliers == []
+    probe = np.random.default_rng(1).uniform(0.1, 0.9, (50, 2))
+    assert np.abs(project(session.report.mapping.matrix, project(inverse, probe)) - probe).max() \
+        < 0.0015

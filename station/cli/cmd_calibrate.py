@@ -48,7 +48,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="fit screen-tablet parallax (auto: when the tilt varies enough)")
     p.add_argument("--no-robust", action="store_true", help="do not look for misclicks")
     p.add_argument("--noise", type=float, default=None, metavar="SIGMA",
-                   help="known tap noise, canvas units (floor of the misclick test)")
+                   help="known tap noise per axis, canvas units: misclicks are taps beyond "
+                        "3.7 sigma (otherwise the noise is estimated from the points)")
     p.add_argument("--resolution", metavar="RX[,RY]",
                    help="device units per mm (for residuals in mm)")
     p.add_argument("--device-max", metavar="XMAX,YMAX",
@@ -147,8 +148,10 @@ def _fit_and_print(args: argparse.Namespace, points: Any, extra: dict[str, Any])
     model = args.model or "affine"
     parallax = _parallax_choice(args, points)
     upm = _pair(args.resolution, "--resolution")
+    if args.noise is not None and not args.noise > 0:
+        raise BadInput(f"{args.noise} must be a positive number (canvas units)", "--noise")
     rep = fit_points(points, model, parallax, robust=not args.no_robust,
-                     min_sigma=args.noise, units_per_mm=upm)
+                     units_per_mm=upm, noise=args.noise)
     if args.output:
         _write_fit_file(args, rep, points)
     if args.json:
