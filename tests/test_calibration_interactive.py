@@ -217,7 +217,7 @@ def test_session_asks_again_for_taps_the_final_fit_excludes() -> None:
         xy = np.array([session.targets[session.current]])
         dev = project(inverse, xy)[0] + rng.normal(0, 0.0005, 2)
         if session.current == 4 and not session.rejected:
-            dev = dev + (0.06, 0.05)  # the misclick
+            dev = dev + np.array([0.06, 0.05])  # the misclick
         feed_tap(session, float(dev[0]), float(dev[1]), t)
         t += 1.0
     assert session.finish() is False  # the centre target is asked again
