@@ -240,3 +240,13 @@ def test_64_bit_serial_plus_high_word_stays_64_bit():
     (s,) = p.parse(report, 0.0)
     assert s.serial == (1 << 64) - 1
     assert p.decode(p.plans[3], report, 0.0) == s
+
+
+def test_report_zero_of_a_numbered_descriptor_is_unknown():
+    raw = (b"\x05\x0d\x09\x02\xa1\x01\x09\x42\x09\x32\x15\x00\x25\x01\x75\x01\x95\x02\x81\x02"
+           b"\x75\x06\x95\x01\x81\x01\x05\x01\x09\x30\x09\x31\x26\xff\x00\x75\x08\x95\x02\x81\x02"
+           b"\x85\x04\x09\x30\x81\x02\xc0")  # fmt: skip
+    p = generic(raw)
+    assert p.descriptor.numbered and 0 not in p.lengths and 0 not in p.plans
+    with pytest.raises(ReportError, match="unknown input report ID 0"):
+        p.parse(bytes([0, 3, 1, 2]), 0.0)

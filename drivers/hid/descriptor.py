@@ -24,7 +24,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Final
 
-from station.drivers.hid.errors import DescriptorError
+from station.drivers.hid.errors import DescriptorError, ReportError
 
 MAX_DESCRIPTOR_BYTES: Final = 4096  # the kernel's HID_MAX_DESCRIPTOR_SIZE
 MAX_REPORT_BYTES: Final = 4096  # a report (after its ID byte) longer than this is absurd
@@ -697,13 +697,11 @@ def report_values(desc: Descriptor, report: bytes) -> dict[int, int | bool]:
 
 def input_layout_for(desc: Descriptor, report: bytes) -> Report:
     """The input report layout ``report`` belongs to, checking its ID and length."""
-    from station.drivers.hid.errors import ReportError
-
     if not report:
         raise ReportError("empty report")
     rid = report[0] if desc.numbered else 0
     layout = desc.reports.get((ReportType.INPUT, rid))
-    if layout is None:
+    if layout is None or (desc.numbered and rid == 0):
         raise ReportError(f"unknown input report ID {rid}")
     want = layout.length(desc.numbered)
     if len(report) != want:

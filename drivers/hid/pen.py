@@ -234,12 +234,14 @@ class GenericPenParser(ReportParser):
                  init_features: list[bytes] | None = None, generic: bool = True) -> None:
         self.descriptor = desc
         self.kinds = classify_reports(desc)
-        self.lengths = {r.report_id: r.length(desc.numbered) for r in desc.input_reports()}
+        # In a numbered descriptor, fields before the first Report ID (report 0) are unreachable.
+        self.lengths = {r.report_id: r.length(desc.numbered) for r in desc.input_reports()
+                        if not (desc.numbered and r.report_id == 0)}  # fmt: skip
         self.numbered = desc.numbered
         self.plans: dict[int, PenPlan] = {}
         self.decoders: dict[int, Callable[[bytes, float], RawSample]] = {}
         for r in desc.input_reports():
-            if self.kinds[r.report_id] == "pen":
+            if self.kinds[r.report_id] == "pen" and r.report_id in self.lengths:
                 plan = self.plans[r.report_id] = make_plan(desc, r)
                 self.decoders[r.report_id] = compile_plan(plan) or partial(self.decode, plan)
         if self.plans:
