@@ -481,6 +481,8 @@ class GLCanvas:
         self._bind(4, self.aux, False, True)
         self._bind(5, self.jv[0], False, True)
         self._dispatch("prep")
+        # until the diffusion passes run, jv[0] holds wb (.w) and jv[1] is free
+        self._js, self._jfree = self.jv[0], self.jv[1]
 
     def _pass_diffusion(self) -> None:
         """Jacobi iterations, limit (velocity final + limiters), diffuse_apply."""

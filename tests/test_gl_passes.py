@@ -1,0 +1,247 @@
+"""GL passes against the NumPy reference, pass by pass, on random but plausible input.
+
+Each test loads the same random canvas state into a ``GLCanvas`` (real shaders on
+the machine's OpenGL, llvmpipe here), runs one program group and compares the
+fields it writes with the reference functions of ``station/canvas/reference.py``.
+
+Tolerance: max abs error <= 1e-5 x max(1, field scale) (float32 rounding; the
+GPU may contract a*b+c into FMA).  On llvmpipe the results are in fact bitwise
+equal, which the tests also report in their failure messages.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from station.canvas import reference as ref
+from station.canvas.palette import default_palette
+from station.canvas.params import SimParams
+from station.canvas.render import render_state
+from station.canvas.state import CanvasState
+
+gl = pytest.importorskip("station.canvas.gl")
+
+W, H = 48, 40
+SLOTS6 = ["French Ultramarine", "Cerulean Blue", "Hansa Yellow", "Burnt Umber",
+          "Quinacridone Rose", "Phthalo Green"]  # 6 slots: both RGBA layers in use
+REL_TOL = 1e-5
+
+
+@pytest.fixture(scope="module")
+def ctx():
+    try:
+        c = gl.create_context()
+    except gl.GLUnavailable as exc:
+        pytest.skip(f"no OpenGL 4.3 context: {exc}")
+    yield c
+    c.release()
+
+
+def random_state(seed: int = 5, params: SimParams | None = None, tiling: bool = False,
+                 slots: list[str] | None = None) -> CanvasState:
+    """A plausible mid-painting state: a wet blob with a dry island, moist margins,
+    deposits everywhere, a masked square, a fading blocking pattern."""
+    rng = np.random.default_rng(seed)
+    prm = params or SimParams()
+    h = rng.uniform(0, 1, (H, W)).astype(np.float32)
+    st = CanvasState.blank(W, H, prm, h, tiling=tiling, palette=default_palette())
+    yy, xx = np.mgrid[0:H, 0:W]
+    blob = ((yy - 20) ** 2 / 15.0 ** 2 + (xx - 22) ** 2 / 18.0 ** 2) < 1.0
+    blob &= ~((abs(yy - 20) < 3) & (abs(xx - 22) < 3))  # dry island
+    w = np.where(blob, rng.uniform(0.0, 1.0, (H, W)), 0).astype(np.float32)
+    w[blob & (rng.uniform(0, 1, (H, W)) < 0.05)] = 3e-6  # a few cells about to dry
+    cap = st.capacity()
+    margin = ((yy - 20) ** 2 / 18.0 ** 2 + (xx - 22) ** 2 / 21.0 ** 2) < 1.0
+    wc = np.where(margin, rng.uniform(0, 1, (H, W)) * cap, 0).astype(np.float32)
+    st.w[...] = w
+    st.wc[...] = wc
+    vm = prm.v_max
+    st.vx[...] = np.where(blob, rng.uniform(-vm, vm, (H, W)), 0).astype(np.float32)
+    st.vy[...] = np.where(blob, rng.uniform(-vm, vm, (H, W)), 0).astype(np.float32)
+    names = slots if slots is not None else SLOTS6
+    for name in names:
+        st.slot_of(name)
+    n = len(names)
+    st.p[:n] = np.where(blob, rng.uniform(0, 0.4, (n, H, W)), 0).astype(np.float32)
+    st.p[:n, 5, 5] = 0.97  # near the top of the range (inflow limiter)
+    st.q[:n] = rng.uniform(0, 0.5, (n, H, W)).astype(np.float32)
+    st.mask[30:34, 8:12] = 1
+    st.block[...] = rng.uniform(0.2, 1, (H, W)).astype(np.float32)
+    st.block_time[...] = rng.uniform(0, 1.5, (H, W)).astype(np.float32)
+    st.sim_time = 1.0
+    st.evaporated[...] = rng.uniform(0, 0.1, (H, W)).astype(np.float32)
+    st.r_composed[...] = rng.uniform(0.3, 1, (H, W, 3)).astype(np.float32)
+    return st
+
+
+def close(name: str, got: np.ndarray, want: np.ndarray) -> None:
+    scale = max(1.0, float(np.abs(want).max()))
+    err = float(np.abs(got.astype(np.float64) - want).max())
+    assert err <= REL_TOL * scale, f"{name}: max abs err {err:.3g} (scale {scale:.3g})"
+
+
+def gl_canvas(ctx, st: CanvasState):
+    c = gl.GLCanvas(st.width, st.height, ctx=ctx, tiling=st.tiling, n_slots=st.n_slots)
+    c.load_state(st)
+    c._set_step_uniforms(st.params.dt)
+    c._begin_step()
+    return c
+
+
+def read_rgba(c, tex, comps: int = 4) -> np.ndarray:
+    return np.frombuffer(tex.read(), np.float32).reshape(H, W, comps)
+
+
+def test_state_round_trip_is_lossless(ctx) -> None:
+    st = random_state(1)
+    c = gl.GLCanvas(W, H, ctx=ctx)
+    c.load_state(st)
+    back = c.state()
+    for name in ("vx", "vy", "w", "wc", "h", "mask", "block", "block_time", "p", "q",
+                 "r_composed", "evaporated", "removed_w", "removed_p", "tile_ttl"):
+        assert np.array_equal(getattr(back, name), getattr(st, name)), name
+    assert back.slots == st.slots and back.sim_time == st.sim_time
+    assert back.water_added == st.water_added
+
+
+def test_prep_wet_controller_and_velocity_advection(ctx) -> None:
+    st = random_state(2)
+    prm = st.params
+    c = gl_canvas(ctx, st)
+    c._pass_prep()
+    wet = ref.wet_mask(st.w, st.wc, st.mask, prm)
+    vx1, vy1 = ref.advect_velocity(st.vx, st.vy, wet, prm.dt)
+    aux = read_rgba(c, c.aux, 2)
+    close("advected vx", aux[..., 0], vx1)
+    close("advected vy", aux[..., 1], vy1)
+    jv = read_rgba(c, c.jv[0])
+    beta_c = ref.blocking(st.h, st.block, st.block_time, st.sim_time, prm)
+    assert np.array_equal(jv[..., 3] >= 0, wet)
+    close("beta_c", jv[..., 3][wet], beta_c[wet])
+    assert wet.sum() > 500 and (~wet).sum() > 300  # both kinds of cell present
+
+
+@pytest.mark.parametrize("iters", [1, 4])
+def test_velocity_water_pigment_diffusion(ctx, iters: int) -> None:
+    prm = SimParams(jacobi_iters=iters, block_paper=0.5, nu_p=2.0, nu_w=1.0)
+    st = random_state(3, prm)
+    c = gl_canvas(ctx, st)
+    c._pass_prep()
+    c._pass_diffusion()
+    out = c.state()
+    wet = ref.wet_mask(st.w, st.wc, st.mask, prm)
+    vx, vy = ref.advect_velocity(st.vx, st.vy, wet, prm.dt)
+    vx, vy = ref.diffuse_velocity(vx, vy, wet, prm, prm.dt)
+    vx, vy = ref.water_height_and_boundary(vx, vy, st.w, wet, prm)
+    close("velocity x (passes 1-3)", out.vx, vx)
+    close("velocity y (passes 1-3)", out.vy, vy)
+    w = ref.diffuse_water(st.w, wet, prm, prm.dt)
+    close("water (pass 4)", out.w, w)
+    beta_c = ref.blocking(st.h, st.block, st.block_time, st.sim_time, prm)
+    n = len(st.slots)
+    p = ref.diffuse_pigment(st.p[:n], wet, beta_c, prm, prm.dt)
+    close("pigment (pass 5)", out.p[:n], p)
+    assert np.abs(out.w - st.w).max() > 1e-4  # the pass did something
+    # untouched fields stay bitwise
+    assert np.array_equal(out.wc, st.wc) and np.array_equal(out.q, st.q)
+
+
+def test_water_and_pigment_advection(ctx) -> None:
+    st = random_state(4)
+    prm = st.params
+    c = gl_canvas(ctx, st)
+    c._pass_prep()
+    c._pass_advect()
+    out = c.state()
+    wet = ref.wet_mask(st.w, st.wc, st.mask, prm)
+    n = len(st.slots)
+    w, p = ref.advect_water_and_pigment(st.w, st.p[:n], st.vx, st.vy, wet, prm, prm.dt)
+    close("water (pass 6)", out.w, w)
+    close("pigment (pass 6)", out.p[:n], p)
+    assert np.abs(out.w - st.w).max() > 1e-3
+    # conservation on the GPU too
+    assert abs(float(out.w.sum(dtype=np.float64) - st.w.sum(dtype=np.float64))) < 1e-3
+
+
+def test_evaporation_surface_exchange_absorption(ctx) -> None:
+    st = random_state(6)
+    prm = st.params
+    c = gl_canvas(ctx, st)
+    c._pass_prep()
+    c._pass_evap_surface()
+    out = c.state()
+    wet = ref.wet_mask(st.w, st.wc, st.mask, prm)
+    n = len(st.slots)
+    w, evap = ref.evaporate(st.w, st.evaporated, prm, prm.dt)
+    beta, gamma, delta = ref.slot_properties(st)
+    p, q = ref.surface_exchange(st.p[:n], st.q[:n], w, st.h, wet, beta[:n], gamma[:n],
+                                delta[:n], prm, prm.dt)
+    # pass 9a alone: the reference capillary pass without diffusion and evaporation
+    absorb_only = prm.replace(cap_diffusion=0.0, eps_cap=0.0)
+    w, wc, evap = ref.capillary(w, st.wc, st.h, st.mask, evap, absorb_only, prm.dt)
+    close("water (7, 9a)", out.w, w)
+    close("capillary water (9a)", out.wc, wc)
+    close("evaporated (7)", out.evaporated, evap)
+    close("suspended pigment (8)", out.p[:n], p)
+    close("deposited pigment (8)", out.q[:n], q)
+    assert np.abs(out.q - st.q).max() > 1e-4
+
+
+def test_capillary_diffusion_evaporation_and_drying(ctx) -> None:
+    st = random_state(7)
+    prm = st.params
+    c = gl_canvas(ctx, st)
+    c._pass_capillary_dry()
+    out = c.state()
+    n = len(st.slots)
+    no_absorb = prm.replace(alpha=0.0)
+    w, wc, evap = ref.capillary(st.w, st.wc, st.h, st.mask, st.evaporated, no_absorb, prm.dt)
+    w, p, q, vx, vy, evap = ref.dry_cells(w, st.p[:n], st.q[:n], st.vx, st.vy, evap, prm)
+    close("capillary water (9b, 9c)", out.wc, wc)
+    close("water (10)", out.w, w)
+    close("evaporated (9c, 10)", out.evaporated, evap)
+    close("suspended pigment (10)", out.p[:n], p)
+    close("deposited pigment (10)", out.q[:n], q)
+    close("velocity (10)", out.vx, vx)
+    assert np.abs(out.wc - st.wc).max() > 1e-4
+    assert (st.w == 3e-6).any() and not (out.w == 3e-6).any()  # the drying cells dried
+
+
+def test_one_full_step_matches_reference_step(ctx) -> None:
+    st = random_state(8)
+    c = gl.GLCanvas(W, H, ctx=ctx, tiling=False)
+    c.load_state(st)
+    c.step()
+    mine = st.copy()
+    ref.step(mine)
+    out = c.state()
+    for name in ("vx", "vy", "w", "wc", "p", "q", "evaporated"):
+        close(name, getattr(out, name), getattr(mine, name))
+    assert out.step_count == mine.step_count and out.sim_time == mine.sim_time
+
+
+@pytest.mark.parametrize("renderer", ["km", "gouache"])
+def test_render_matches_render_py(ctx, renderer: str) -> None:
+    st = random_state(9)
+    st.profile = "gouache" if renderer == "gouache" else "watercolor"
+    c = gl.GLCanvas(W, H, ctx=ctx)
+    c.load_state(st)
+    got = c.render()
+    want = render_state(st, renderer)
+    assert got.shape == (H, W, 3) and got.dtype == np.float32
+    err = float(np.abs(got - want).max())
+    assert err < 2e-5, f"{renderer}: max abs err {err:.3g}"
+    assert float(np.abs(want - st.r_composed).max()) > 0.05  # paint is visible
+
+
+def test_render_thin_paint_keeps_precision(ctx) -> None:
+    """sinh of a small t: the shader's series keeps R accurate for very thin glazes."""
+    st = random_state(10, slots=["Phthalo Green"])
+    st.p[...] = 0
+    st.q[0] = np.float32(1e-4)
+    c = gl.GLCanvas(W, H, ctx=ctx)
+    c.load_state(st)
+    got = c.render()
+    want = render_state(st, "km")
+    assert float(np.abs(got - want).max()) < 2e-6
