@@ -364,3 +364,19 @@ def test_extreme_unit_exponents_do_not_overflow_or_hang():
         assert abs(f.unit_exponent) >= 100
         assert resolution(f) is None
         assert kernel_resolution(f, angular=False) == 0
+
+
+def test_format_items_listing():
+    from station.drivers.hid.descriptor import format_items
+
+    lines = format_items(BOOT_MOUSE)
+    assert len(lines) == 26
+    assert lines[0] == "   0: 05 01           Usage Page (0x1)"
+    assert lines[2] == "   4: a1 01           Collection (Application)"
+    assert lines[3] == "   6: 09 01             Usage (0x1)"
+    assert lines[12].endswith("    Input (Data, Var, Abs)")
+    assert lines[18].endswith("      Usage (0x31)")
+    assert lines[19].endswith("      Logical Minimum (-127)")
+    assert lines[-1] == "  49: c0              End Collection"
+    broken = format_items(b"\x05\x01\x26\xff")
+    assert broken[0].startswith("   0: 05 01") and broken[-1].startswith("2: error:")

@@ -777,3 +777,53 @@ def resolution(f: Field) -> float | None:
         return None
     # rounded to 9 significant digits so 44800 / 224.0 mm reads 200.0, not 199.99999999999997
     return float(f"{logical / extent:.9g}") if extent > 0 else None
+
+
+# -- human-readable listing ---------------------------------------------------------
+
+
+_COLLECTION_NAMES = {k.value: k.name.replace("_", " ").title() for k in CollectionKind}
+
+
+def format_items(data: bytes) -> list[str]:
+    """One line per item, indented by collection depth, like hid-decode's listing:
+    ``offset: bytes  Name (value)``.  Stops at a truncated item with an ``error`` line
+    instead of raising, so a broken descriptor can still be shown."""
+    lines: list[str] = []
+    try:
+        items = iter_items(data)
+    except DescriptorError as exc:
+        items = iter_items(data[: exc.offset]) if exc.offset else []
+        tail = f"{exc.offset}: error: {exc}"
+    else:
+        tail = ""
+    depth = 0
+    for it in items:
+        if it.type == ItemType.MAIN and it.tag == TAG_END_COLLECTION:
+            depth = max(0, depth - 1)
+        raw = data[it.offset : it.offset + 1 + it.size + (2 if it.type == ItemType.LONG else 0)]
+        value = ""
+        if it.type == ItemType.MAIN and it.tag == TAG_COLLECTION:
+            value = f" ({_COLLECTION_NAMES.get(it.unsigned, it.unsigned)})"
+        elif it.type == ItemType.MAIN and it.tag in _MAIN_REPORT_TYPES:
+            f = it.unsigned
+            value = (" (" + ", ".join([
+                "Const" if f & FLAG_CONSTANT else "Data",
+                "Var" if f & FLAG_VARIABLE else "Arr",
+                "Rel" if f & FLAG_RELATIVE else "Abs",
+            ] + (["Null"] if f & FLAG_NULL_STATE else [])) + ")")  # fmt: skip
+        elif it.type == ItemType.GLOBAL and it.tag in (G_LOGICAL_MIN, G_PHYSICAL_MIN):
+            value = f" ({it.signed})"
+        elif it.type == ItemType.GLOBAL and it.tag == G_UNIT_EXPONENT:
+            value = f" ({decode_unit_exponent(it.signed)})"
+        elif (it.type == ItemType.GLOBAL and it.tag in (G_USAGE_PAGE, G_UNIT)) or (
+                it.type == ItemType.LOCAL and it.tag in (L_USAGE, L_USAGE_MIN, L_USAGE_MAX)):
+            value = f" (0x{it.unsigned:x})"
+        elif it.size:
+            value = f" ({it.unsigned})" if it.type != ItemType.LONG else f" ({it.size} bytes)"
+        lines.append(f"{it.offset:4d}: {raw.hex(' '):<15} {'  ' * depth}{it.name}{value}")
+        if it.type == ItemType.MAIN and it.tag == TAG_COLLECTION:
+            depth += 1
+    if tail:
+        lines.append(tail)
+    return lines
