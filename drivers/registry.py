@@ -15,6 +15,7 @@ Unknown device without a pen collection in its descriptor -> :class:`BadInput`.
 
 from __future__ import annotations
 
+import copy
 import json
 import logging
 from collections.abc import Callable
@@ -95,7 +96,7 @@ def _load() -> tuple[dict[str, Any], ...]:
 
 def load_devices() -> list[dict[str, Any]]:
     """Every device model (dicts as in the JSON files, plus ``_path``)."""
-    return [dict(m) for m in _load()]
+    return [copy.deepcopy(m) for m in _load()]
 
 
 def device_ids(model: dict[str, Any]) -> tuple[int, int, int]:
@@ -111,9 +112,9 @@ def find_device(vid: int, pid: int, bus: int | None = None) -> dict[str, Any] | 
     if bus is not None:
         exact = [m for m in matches if device_ids(m)[2] == bus]
         if exact:
-            return dict(exact[0])
+            return copy.deepcopy(exact[0])
     usb = [m for m in matches if m["bus"] == "usb"]
-    return dict((usb or matches)[0])
+    return copy.deepcopy((usb or matches)[0])
 
 
 def _model_ranges(model: dict[str, Any]) -> AxisRanges:

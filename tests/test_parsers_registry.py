@@ -156,3 +156,11 @@ def test_api_surface():
         assert hasattr(p, attr)
     assert registry.ReportError.__mro__[1] is BadInput
     assert p.describe()["parser"] == "wacom-intuos"
+
+
+def test_device_data_copies_do_not_leak_mutations():
+    m = registry.find_device(0x056A, 0x0315)
+    m["resolution"]["x"] = 1
+    m["init_feature_reports"].append("ff")
+    again = registry.find_device(0x056A, 0x0315)
+    assert again["resolution"]["x"] == 200 and again["init_feature_reports"] == ["0202"]
