@@ -15,6 +15,33 @@ from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
 from station.canvas.stats import canvas_stats
 
 
+def floats_per_cell_step(slots: int, jacobi_iters: int) -> dict[str, int]:
+    """Honest memory traffic of the reference per cell-step, in float32 values per pass.
+
+    Each field a pass must read or write counts once (a stencil's neighbours come from
+    cache), for a wet cell; ``slots`` = pigment slots in use (the reference skips the
+    others), ``jacobi_iters`` = n.
+    """
+    s, n = int(slots), int(jacobi_iters)
+    return {
+        "wet mask (read w, wc, mask; write wet)": 4,
+        "advect_velocity (read v, wet; write v)": 5,
+        "diffuse_velocity (n x: read x, u, wet; write x)": 7 * n,
+        "water_height_and_boundary (read v, w, wet; write v)": 6,
+        "diffuse_water (n x: read x, u, wet; write x; fluxes: read x, u, wet; write w)":
+            4 * n + 4,
+        "blocking (read h, block, block_time; write beta_c)": 4,
+        "diffuse_pigment (n x: read x, u, beta_c, wet; write x; fluxes likewise)":
+            (3 * s + 2) * n + 3 * s + 2,
+        "advect limiters (read v, w, p, wet; write s_out, s_in)": s + 6,
+        "advect apply (read v, w, p, wet, s_out, s_in; write w, p)": 2 * s + 8,
+        "evaporate (read w, evaporated; write both)": 4,
+        "surface_exchange (read p, q, w, h, wet; write p, q)": 4 * s + 3,
+        "capillary (read w, wc, h, mask, evaporated; write w, wc, evaporated)": 8,
+        "dry_cells (read w, p, q, v, evaporated; write them)": 4 * s + 8,
+    }
+
+
 class NumpyCanvas:
     """The whole three-layer model in NumPy, float32, vectorised, no global state.
 
@@ -49,6 +76,7 @@ class NumpyCanvas:
                                         paper_preset=preset, seed=seed, palette=palette,
                                         n_slots=n_slots, tiling=tiling)
         self._renderer_kind = prof.renderer
+        self._cells_last = 0
 
     # ------------------------------------------------------------------ protocol
     @property
@@ -75,7 +103,7 @@ class NumpyCanvas:
         operations.add_sources(self._state, dw, dp, dvx, dvy, y0=y0, x0=x0)
 
     def step(self, dt: float | None = None) -> None:
-        reference.step(self._state, dt)
+        self._cells_last = reference.step(self._state, dt)
 
     def dry(self) -> None:
         operations.dry(self._state)
@@ -111,6 +139,21 @@ class NumpyCanvas:
         self._state.tiling = bool(on)
         if on:
             tiles.activate_all_live(self._state)
+
+    def sync(self) -> None:
+        """Wait for pending work (none: NumPy is synchronous); for benchmarks."""
+
+    def close(self) -> None:
+        """Release resources (none held)."""
+
+    def cells_last_step(self) -> int:
+        """Cells simulated by the last step (area of the tile boxes, or the canvas)."""
+        return self._cells_last
+
+    def bytes_per_cell_step(self) -> int:
+        """Honest bytes of memory traffic per simulated cell and step (see above)."""
+        slots = max(len(self._state.slots), 1)
+        return 4 * sum(floats_per_cell_step(slots, self._state.params.jacobi_iters).values())
 
     def save(self, path: str) -> None:
         self._state.save(path)

@@ -508,8 +508,11 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float) -> None:
     state.evaporated[ys, xs] = evap
 
 
-def step(state: CanvasState, dt: float | None = None) -> None:
-    """One simulation step of ``state`` in place (tiles decide the region)."""
+def step(state: CanvasState, dt: float | None = None) -> int:
+    """One simulation step of ``state`` in place (tiles decide the region).
+
+    Returns the number of cells simulated (the area of the boxes run).
+    """
     dt = state.params.dt if dt is None else float(dt)
     if not dt > 0 or dt * state.params.v_max > 1.0 + 1e-9:
         raise CanvasInputError("dt must be > 0 and move at most one cell per step", "step")
@@ -518,7 +521,10 @@ def step(state: CanvasState, dt: float | None = None) -> None:
         for region in regions:
             step_region(state, region, dt)
         tiles.update_tiles(state, regions)
+        cells = sum((r[0].stop - r[0].start) * (r[1].stop - r[1].start) for r in regions)
     else:
         step_region(state, (slice(0, state.height), slice(0, state.width)), dt)
+        cells = state.height * state.width
     state.sim_time += dt
     state.step_count += 1
+    return cells
