@@ -89,11 +89,10 @@ class NormaliserConfig:
             raise NormaliserConfigError("proximity_timeout must be > 0 seconds or None")
         if not (math.isfinite(self.smoothing_ms) and 0.0 <= self.smoothing_ms <= 1000.0):
             raise NormaliserConfigError(f"smoothing {self.smoothing_ms} ms must be 0..1000")
-        if self.pressure_curve is not None and (
-                len(self.pressure_curve) != 4 or not all(
-                    isinstance(v, (int, float)) and 0.0 <= v <= 1.0 for v in self.pressure_curve)):
-                raise NormaliserConfigError(
-                    f"pressure curve {self.pressure_curve} needs x1,y1,x2,y2 in [0, 1]")
+        curve = self.pressure_curve
+        if curve is not None and (len(curve) != 4 or not all(
+                isinstance(v, (int, float)) and 0.0 <= v <= 1.0 for v in curve)):
+            raise NormaliserConfigError(f"pressure curve {curve} needs x1,y1,x2,y2 in [0, 1]")
         if self.area is not None:
             x0, y0, x1, y1 = self.area
             if not (x1 > x0 and y1 > y0):

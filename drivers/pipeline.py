@@ -24,7 +24,6 @@ import time
 from collections import Counter
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, Protocol
 
 from station.drivers.evdev.frames import FrameAssembler, is_pen_device, ranges_from_caps
@@ -466,6 +465,7 @@ class PenDriver:
             "bad_reports": getattr(stats, "bad_reports", 0),
             "bad_reasons": dict(getattr(stats, "bad_reasons", {})),
             "skipped_reports": getattr(parser, "skipped", 0) if parser is not None else 0,
+            "parser_dropped": getattr(parser, "dropped", 0) if parser is not None else 0,
             "samples": n.samples,
             "rejected_samples": n.rejected,
             "forced_proximity_out": n.forced_out,
@@ -578,10 +578,6 @@ def run_paced(drivers: list[PenDriver], emit: Callable[[PenSample], None],
                 for sample in drv.normaliser.flush():
                     emit(sample)
                 active.remove(drv)
-
-
-def trace_path_of(spec_or_path: str) -> Path:
-    return Path(spec_or_path.removeprefix("trace:"))
 
 
 __all__ = [

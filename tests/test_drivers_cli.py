@@ -74,3 +74,30 @@ def test_devices_text_lists_every_mock(capsys) -> None:
         assert name in out
     assert main(["devices", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["found"] >= 0
+
+
+def test_driver_waits_for_a_missing_device_and_stops_on_sigint(tmp_path: Path) -> None:
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    endpoint = f"ipc://{tmp_path}/bus"
+    sub = Subscriber(endpoint, topics=("status",))
+    env = {**os.environ, "STATION_RUNTIME_DIR": str(tmp_path / "run")}
+    proc = subprocess.Popen([sys.executable, "-m", "station", "driver", "--device",
+                             "evdev:/nonexistent/event42", "--bus", endpoint, "--wait",
+                             "--wait-subscribers", "1"], env=env, stderr=subprocess.PIPE)
+    try:
+        deadline = time.monotonic() + 15
+        status = None
+        while status is None and time.monotonic() < deadline:
+            msg = sub.recv(500)
+            status = msg.value if msg is not None else None
+        assert status is not None and status["state"] == "waiting"
+        assert "/nonexistent/event42" in status["error"]
+    finally:
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=10) == 0
+        sub.close()

@@ -28,6 +28,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--name", help="device name in the samples (default: from the model)")
     p.add_argument("--jsonl", metavar="FILE", help="also write the samples as session-log JSONL")
     p.add_argument("--status-interval", type=float, default=1.0, metavar="S")
+    p.add_argument("--wait", action="store_true",
+                   help="if the device is not there yet, wait for it instead of failing")
     p.add_argument("--no-reconnect", action="store_true",
                    help="end when the device is unplugged instead of waiting for it")
     p.add_argument("--max-reconnects", type=int, default=None, metavar="N",
@@ -64,22 +66,27 @@ def normaliser_config(args: argparse.Namespace) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.bus import Publisher
-    from station.drivers.pipeline import PenDriver, open_device
-    from station.drivers.transport.base import DeviceGone, EndOfStream, TransportError
-    from station.sessionlog import SessionHeader, SessionLogWriter
-
     config = normaliser_config(args)
     if args.status_interval <= 0:
         raise BadInput("must be > 0 seconds", "--status-interval")
     stop = threading.Event()
     old = {sig: signal.signal(sig, lambda *_: stop.set())
            for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        return _serve(args, config, stop)
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
+
+
+def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
+    from station.bus import Publisher
+    from station.drivers.pipeline import PenDriver, open_device
+    from station.drivers.transport.base import DeviceGone, EndOfStream, TransportError
+    from station.sessionlog import SessionHeader, SessionLogWriter
+
     publisher = Publisher(args.bus)
-    if args.wait_subscribers:
-        publisher.wait_for_subscribers(args.wait_subscribers, timeout=5.0)
-    writer = SessionLogWriter(args.jsonl, SessionHeader(extra={"source": args.device})) \
-        if args.jsonl else None
+    writer = None
     reconnects = 0
     totals = {"total_samples": 0, "reconnects": 0}
     last: dict[str, Any] = {}
@@ -93,9 +100,21 @@ def run(args: argparse.Namespace) -> int:
         last = rec
         publisher.publish_status(rec)
 
-    source = open_device(args.device, name=args.name, send_init=not args.no_init)
-    t_offset = 0.0
     try:
+        if args.wait_subscribers:
+            publisher.wait_for_subscribers(args.wait_subscribers, timeout=5.0)
+        try:
+            source = open_device(args.device, name=args.name, send_init=not args.no_init)
+        except TransportError as exc:
+            if not args.wait:
+                status("failed", error=str(exc))
+                raise
+            source = _wait_for_device(args, stop, status)
+            if source is None:  # stopped while waiting
+                return 0
+        if args.jsonl:
+            writer = SessionLogWriter(args.jsonl, SessionHeader(extra={"source": args.device}))
+        t_offset = 0.0
         while not stop.is_set():
             # After a reconnection the session time goes on from where it was.
             driver = PenDriver(source, config, live=True, t_offset=t_offset)
@@ -135,12 +154,7 @@ def run(args: argparse.Namespace) -> int:
                 break
             reconnects += 1
             totals["reconnects"] = reconnects
-    except TransportError as exc:
-        status("failed", error=str(exc))
-        raise
     finally:
-        for sig, handler in old.items():
-            signal.signal(sig, handler)
         if writer is not None:
             writer.close()
         publisher.close()
