@@ -358,3 +358,22 @@ def test_separate_tile_groups_are_simulated_as_separate_boxes() -> None:
     st.tile_ttl[2, 2] = 5
     boxes = tiles.active_regions(st)
     assert boxes == [(slice(0, 65), slice(0, 65))]
+
+
+def test_benchmark_hooks_count_cells_and_traffic() -> None:
+    from station.canvas.numpy_backend import floats_per_cell_step
+
+    on = NumpyCanvas(128, 96, seed=1, tiles=True)
+    off = NumpyCanvas(128, 96, seed=1, tiles=False)
+    for c in (on, off):
+        paint(c, disc(96, 128, 10, 10, 4), 0.5, {"Black": 0.1})
+        c.step()
+        c.sync()
+    assert off.cells_last_step() == 128 * 96
+    assert 0 < on.cells_last_step() <= 33 * 33  # one 32x32 tile plus its halo, clipped
+    one = on.bytes_per_cell_step()
+    paint(on, disc(96, 128, 10, 10, 4), 0.5, {"Hansa Yellow": 0.1})
+    assert on.bytes_per_cell_step() > one  # more slots in use, more traffic
+    # n Jacobi iterations cost 13 + 3 S floats each
+    f4, f5 = (sum(floats_per_cell_step(2, n).values()) for n in (4, 5))
+    assert f5 - f4 == 13 + 3 * 2
