@@ -1,0 +1,218 @@
+"""GLCanvas as a backend: strokes, tiles, save/load across backends, bookkeeping, errors.
+
+Multi-step comparisons use the tolerance of test_gl_passes (1e-5 x field scale);
+on llvmpipe the two backends agree bitwise.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from station.canvas.numpy_backend import NumpyCanvas
+from station.canvas.params import CanvasInputError
+from station.canvas.state import CanvasState
+from station.errors import BadInput
+
+gl = pytest.importorskip("station.canvas.gl")
+
+FIELDS = ("vx", "vy", "w", "wc", "p", "q", "evaporated", "removed_p", "r_composed")
+REL_TOL = 1e-5
+
+
+@pytest.fixture(scope="module")
+def ctx():
+    try:
+        c = gl.create_context()
+    except gl.GLUnavailable as exc:
+        pytest.skip(f"no OpenGL 4.3 context: {exc}")
+    yield c
+    c.release()
+
+
+def stamp(canvas, cx: float, cy: float, r: float, pigments: dict[str, float],
+          water: float = 0.4, vel: tuple[float, float] = (6.0, 2.0)) -> None:
+    y0, x0 = int(math.floor(cy - r)), int(math.floor(cx - r))
+    n = int(2 * r) + 2
+    yy, xx = np.mgrid[y0:y0 + n, x0:x0 + n]
+    disc = (((xx + 0.5 - cx) ** 2 + (yy + 0.5 - cy) ** 2) <= r * r).astype(np.float32)
+    canvas.add_sources(dw=water * disc, dp={k: a * disc for k, a in pigments.items()},
+                       dvx=vel[0] * disc, dvy=vel[1] * disc, y0=y0, x0=x0)
+
+
+def paint(canvas, steps: int = 40, second: bool = True) -> None:
+    """A wet-on-dry stroke, then a second stroke laid into it while wet."""
+    for i in range(steps):
+        if i < 16:
+            stamp(canvas, 8 + 2.5 * i, 20 + 4 * math.sin(i / 3), 5,
+                  {"French Ultramarine": 0.05, "Burnt Umber": 0.02})
+        if second and 10 <= i < 20:
+            stamp(canvas, 30, 8 + 2.0 * i - 14, 3, {"Hansa Yellow": 0.08}, vel=(0.0, 8.0))
+        canvas.step()
+
+
+def assert_states_close(a: CanvasState, b: CanvasState, fields=FIELDS) -> None:
+    for name in fields:
+        x, y = getattr(a, name), getattr(b, name)
+        scale = max(1.0, float(np.abs(y).max()))
+        err = float(np.abs(x.astype(np.float64) - y).max())
+        assert err <= REL_TOL * scale, f"{name}: max abs err {err:.3g}"
+    assert np.array_equal(a.tile_ttl, b.tile_ttl)
+    assert a.slots == b.slots and a.step_count == b.step_count
+
+
+@pytest.mark.parametrize("size", [(64, 40), (70, 45)])  # 45 and 70: clipped edge tiles
+def test_multi_step_stroke_matches_numpy(ctx, size) -> None:
+    w, h = size
+    g = gl.GLCanvas(w, h, seed=2, ctx=ctx)
+    n = NumpyCanvas(w, h, seed=2)
+    for c in (g, n):
+        paint(c, 60)
+    gs, ns = g.state(), n.state()
+    assert_states_close(gs, ns)
+    assert gs.w.max() > 0.01 and gs.q.max() > 1e-3  # a real painting, still wet
+    # booked on the GPU in double precision (per work group) vs float64 sums on the CPU
+    assert abs(gs.water_added - ns.water_added) <= 1e-7 * max(1.0, ns.water_added)
+    for k, v in ns.pigment_added.items():
+        assert abs(gs.pigment_added[k] - v) <= 1e-7 * max(1.0, v)
+
+
+def test_tiles_on_and_off_give_the_same_painting(ctx) -> None:
+    w, h = 96, 64
+    on = gl.GLCanvas(w, h, seed=3, ctx=ctx, tiling=True)
+    off = gl.GLCanvas(w, h, seed=3, ctx=ctx, tiling=False)
+    cells = {}
+    for name, c in (("on", on), ("off", off)):
+        c.take_cells()
+        paint(c, 50)
+        for _ in range(30):
+            c.step()
+        cells[name] = c.take_cells()
+    a, b = on.state(), off.state()
+    for name in ("vx", "vy", "w", "wc", "p", "q", "evaporated"):
+        x, y = getattr(a, name), getattr(b, name)
+        assert float(np.abs(x - y).max()) <= 1e-6 * max(1.0, float(np.abs(y).max())), name
+    assert cells["off"] == 80 * w * h
+    assert 0 < cells["on"] < 0.8 * cells["off"]  # tiling really skipped work
+    # the tile state itself follows the reference
+    n = NumpyCanvas(w, h, seed=3)
+    paint(n, 50)
+    for _ in range(30):
+        n.step()
+    assert np.array_equal(a.tile_ttl, n.state().tile_ttl)
+
+
+def test_tile_leaving_the_active_set_keeps_both_buffers_in_step(ctx) -> None:
+    """Short TTL: tiles drop out and come back while the painting goes on."""
+    from station.canvas.params import SimParams
+
+    prm = SimParams(tile_check=3, eps_shallow=0.5, eps_cap=0.3)
+    g = gl.GLCanvas(64, 64, ctx=ctx, params=prm)
+    n = NumpyCanvas(64, 64, params=prm)
+    for c in (g, n):
+        for i in range(120):
+            if i % 30 < 6:
+                stamp(c, 10 + (i % 7) * 6, 10 + (i // 30) * 12, 4, {"Cadmium Red": 0.05})
+            c.step()
+    assert_states_close(g.state(), n.state())
+
+
+def test_save_on_gl_load_on_numpy_and_back(ctx, tmp_path) -> None:
+    w, h = 64, 48
+    g = gl.GLCanvas(w, h, seed=4, ctx=ctx)
+    paint(g, 30)
+    path = tmp_path / "mid.npz"
+    g.save(str(path))
+    # numpy continues from the GL save ...
+    n = NumpyCanvas(w, h, seed=99)
+    n.load(str(path))
+    for c in (g, n):
+        paint(c, 25, second=False)
+    assert_states_close(g.state(), n.state())
+    # ... and a GL canvas continues from a numpy save
+    path2 = tmp_path / "np.npz"
+    n.save(str(path2))
+    g2 = gl.GLCanvas(16, 16, ctx=ctx)  # other size: load_state reallocates
+    g2.load(str(path2))
+    for c in (g2, n):
+        for _ in range(20):
+            c.step()
+    assert_states_close(g2.state(), n.state())
+    assert (g2.width, g2.height) == (w, h)
+
+
+def test_bookkeeping_closes_on_gl(ctx) -> None:
+    g = gl.GLCanvas(64, 48, seed=5, ctx=ctx)
+    paint(g, 50)
+    for _ in range(100):
+        g.step()
+    s = g.stats()
+    assert s["water"]["evaporated"] > 0.5  # evaporation really happened on the GPU
+    assert s["balance"]["water_rel_error"] < 1e-3
+    assert s["balance"]["pigment_rel_error"] < 1e-3
+    g.new_layer()
+    paint(g, 20, second=False)
+    g.dry()
+    s = g.stats()
+    assert s["layers"] == 1
+    assert s["balance"]["water_rel_error"] < 1e-3
+    assert s["balance"]["pigment_rel_error"] < 1e-3
+    st = g.state()
+    assert st.w.max() == 0 and st.wc.max() == 0 and st.p.max() == 0
+
+
+def test_operations_match_numpy(ctx) -> None:
+    g = gl.GLCanvas(64, 40, seed=6, ctx=ctx)
+    n = NumpyCanvas(64, 40, seed=6)
+    for c in (g, n):
+        paint(c, 25)
+        c.new_layer()
+        stamp(c, 30, 20, 6, {"Hansa Yellow": 0.1})
+        for _ in range(10):
+            c.step()
+        c.set_profile("ink")
+        stamp(c, 20, 20, 4, {"Sumi Ink": 0.1})
+        for _ in range(10):
+            c.step()
+    assert_states_close(g.state(), n.state())
+    assert float(np.abs(g.render() - n.render()).max()) < 2e-5
+    for c in (g, n):
+        c.clear()
+    st = g.state()
+    assert st.slots == [] and st.q.max() == 0 and st.water_added == 0.0
+    assert np.array_equal(st.r_composed, n.state().r_composed)
+
+
+def test_bad_input_changes_nothing(ctx) -> None:
+    g = gl.GLCanvas(32, 32, ctx=ctx, n_slots=4)
+    stamp(g, 16, 16, 4, {"Black": 0.1})
+    before = g.state()
+    disc = np.ones((4, 4), np.float32)
+    with pytest.raises(BadInput):
+        g.add_sources(dw=disc, dp={"No Such Pigment": disc})
+    with pytest.raises(BadInput):
+        g.add_sources(dw=disc * np.nan)
+    with pytest.raises(BadInput):
+        g.add_sources(dp={n: disc for n in ("Cadmium Red", "Hansa Yellow", "Burnt Umber",
+                                              "Cerulean Blue")})  # a 5th pigment in 4 slots
+    with pytest.raises(CanvasInputError):
+        g.step(dt=1.0)
+    after = g.state()
+    assert_states_close(after, before)
+    assert after.slots == ["Black"]
+
+
+def test_impossible_size_is_bad_input(ctx) -> None:
+    with pytest.raises(BadInput):
+        gl.GLCanvas(2, 2, ctx=ctx)
+
+
+def test_renderer_string_and_traffic_count(ctx) -> None:
+    g = gl.GLCanvas(32, 32, ctx=ctx)
+    assert isinstance(g.renderer, str) and g.renderer
+    assert g.renderer == ctx.info["GL_RENDERER"]
+    # 8 slots in 2 RGBA layers, 4 Jacobi iterations: a fixed, documented count
+    assert g.bytes_per_cell_step() == 4 * sum(
+        gl.traffic.floats_per_cell_step(8, 4).values())
