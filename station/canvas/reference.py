@@ -146,11 +146,12 @@ def open_faces(wet: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def neighbour_sum(x: np.ndarray, bx: np.ndarray, by: np.ndarray) -> np.ndarray:
     """sum over the 4 faces of ``b_face * x_neighbour`` (x may have leading axes)."""
-    s = np.zeros_like(x)
-    s[..., :, :-1] += bx * x[..., :, 1:]
-    s[..., :, 1:] += bx * x[..., :, :-1]
-    s[..., :-1, :] += by * x[..., 1:, :]
-    s[..., 1:, :] += by * x[..., :-1, :]
+    s = np.empty_like(x)
+    np.multiply(bx, x[..., :, 1:], out=s[..., :, :-1])  # east neighbours
+    s[..., :, -1] = 0
+    s[..., :, 1:] += bx * x[..., :, :-1]  # west
+    s[..., :-1, :] += by * x[..., 1:, :]  # south
+    s[..., 1:, :] += by * x[..., :-1, :]  # north
     return s
 
 
