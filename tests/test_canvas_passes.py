@@ -209,3 +209,33 @@ def test_dry_cells_deposit_and_book_tiny_water() -> None:
     assert list(w2[0]) == [0.0, 0.0, np.float32(0.3)]
     assert np.allclose(q2[0, 0], [0.2, 0.1, 0.0]) and np.allclose(p2[0, 0], [0, 0, 0.1])
     assert np.isclose(e2[0, 1], 5e-6) and list(vx[0]) == [0, 0, 1]
+
+
+def test_step_region_can_stop_after_any_pass() -> None:
+    import pytest
+
+    from station.canvas.numpy_backend import NumpyCanvas
+    from station.canvas.scenarios import disc, paint
+    from station.errors import BadInput
+
+    base = NumpyCanvas(40, 32, seed=2)
+    paint(base, disc(32, 40, 16, 20, 7), 0.6, {"Burnt Umber": 0.2}, vx=20.0)
+    for _ in range(5):
+        base.step()
+    full = base.state()
+    ref.step_region(full, (slice(0, 32), slice(0, 40)), DT)
+    before = base.state()
+    moved = []
+    for name in ref.PASS_ORDER:
+        st = before.copy()
+        ref.step_region(st, (slice(0, 32), slice(0, 40)), DT, stop_after=name)
+        moved.append(name)
+        if name == "advect_velocity":
+            assert np.array_equal(st.w, before.w) and not np.array_equal(st.vx, before.vx)
+        if name == "diffuse_water":
+            assert np.array_equal(st.p, before.p) and not np.array_equal(st.w, before.w)
+    assert moved == list(ref.PASS_ORDER)
+    for f in ("w", "wc", "p", "q", "vx", "vy", "evaporated"):
+        assert np.array_equal(getattr(st, f), getattr(full, f)), f
+    with pytest.raises(BadInput):
+        ref.step_region(before.copy(), (slice(0, 32), slice(0, 40)), DT, stop_after="nope")

@@ -467,8 +467,23 @@ def slot_properties(state: CanvasState) -> tuple[np.ndarray, np.ndarray, np.ndar
     return beta, gamma, delta
 
 
-def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float) -> None:
-    """Run passes 1-10 on the cells ``sl`` of ``state`` (in place)."""
+PASS_ORDER = (
+    "advect_velocity", "diffuse_velocity", "water_height_and_boundary", "diffuse_water",
+    "diffuse_pigment", "advect_water_and_pigment", "evaporate", "surface_exchange",
+    "capillary", "dry_cells",
+)
+"""The passes of one step, in order (the contract the GL backend follows)."""
+
+
+def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
+                stop_after: str | None = None) -> None:
+    """Run passes 1-10 on the cells ``sl`` of ``state`` (in place).
+
+    ``stop_after``: the name of a pass in :data:`PASS_ORDER`; the fields are written
+    back right after it (for pass-by-pass comparisons with another backend).
+    """
+    if stop_after is not None and stop_after not in PASS_ORDER:
+        raise CanvasInputError(f"unknown pass {stop_after!r}", "step_region")
     prm = state.params
     ys, xs = sl
     w = state.w[ys, xs]
@@ -483,22 +498,36 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float) -> None:
     beta, gamma, delta = slot_properties(state)
     # slots never used in this layer stay zero: skip them for speed
     n_used = max(len(state.slots), 1)
-    p_used = p[:n_used]
-    q_used = q[:n_used]
+    pp = p[:n_used]
+    qq = q[:n_used]
 
     wet = wet_mask(w, wc, mask, prm)
-    vx, vy = advect_velocity(vx, vy, wet, dt)
-    vx, vy = diffuse_velocity(vx, vy, wet, prm, dt)
-    vx, vy = water_height_and_boundary(vx, vy, w, wet, prm)
-    w = diffuse_water(w, wet, prm, dt)
-    beta_c = blocking(h, state.block[ys, xs], state.block_time[ys, xs], state.sim_time, prm)
-    pp = diffuse_pigment(p_used, wet, beta_c, prm, dt)
-    w, pp = advect_water_and_pigment(w, pp, vx, vy, wet, prm, dt)
-    w, evap = evaporate(w, evap, prm, dt)
-    pp, qq = surface_exchange(pp, q_used, w, h, wet, beta[:n_used], gamma[:n_used],
-                              delta[:n_used], prm, dt)
-    w, wc, evap = capillary(w, wc, h, mask, evap, prm, dt)
-    w, pp, qq, vx, vy, evap = dry_cells(w, pp, qq, vx, vy, evap, prm)
+    for name in PASS_ORDER:
+        if name == "advect_velocity":
+            vx, vy = advect_velocity(vx, vy, wet, dt)
+        elif name == "diffuse_velocity":
+            vx, vy = diffuse_velocity(vx, vy, wet, prm, dt)
+        elif name == "water_height_and_boundary":
+            vx, vy = water_height_and_boundary(vx, vy, w, wet, prm)
+        elif name == "diffuse_water":
+            w = diffuse_water(w, wet, prm, dt)
+        elif name == "diffuse_pigment":
+            beta_c = blocking(h, state.block[ys, xs], state.block_time[ys, xs],
+                              state.sim_time, prm)
+            pp = diffuse_pigment(pp, wet, beta_c, prm, dt)
+        elif name == "advect_water_and_pigment":
+            w, pp = advect_water_and_pigment(w, pp, vx, vy, wet, prm, dt)
+        elif name == "evaporate":
+            w, evap = evaporate(w, evap, prm, dt)
+        elif name == "surface_exchange":
+            pp, qq = surface_exchange(pp, qq, w, h, wet, beta[:n_used], gamma[:n_used],
+                                      delta[:n_used], prm, dt)
+        elif name == "capillary":
+            w, wc, evap = capillary(w, wc, h, mask, evap, prm, dt)
+        else:  # dry_cells
+            w, pp, qq, vx, vy, evap = dry_cells(w, pp, qq, vx, vy, evap, prm)
+        if name == stop_after:
+            break
 
     state.w[ys, xs] = w
     state.wc[ys, xs] = wc
