@@ -14,6 +14,8 @@ CHANGED: render.py gouache (not a step pass): the body colour is now R_inf = a -
   ``K = (1-g) sum s_k K_k + g K_w``, ``S = (1-g) sum s_k S_k + g S_w``; opacity unchanged.
 CHANGED: add_sources activates only the tiles in which a source array is nonzero
   (``tiles.mark_nonzero``), not the whole source rectangle (results do not depend on it).
+NOTE (API): ``PASS_ORDER`` names the passes; ``step_region(state, box, dt, stop_after=name)``
+  writes the fields back right after pass ``name`` (pass-by-pass comparisons).
 NOTE (no maths change): pass 1 computes the bilinear weight from the displacement,
   ``f = (-v dt) - floor(-v dt)``, with ``i0 = i + floor(-v dt)`` and the clamps of the
   formula below (i0 < 0 -> i0 = 0, f = 0; i0 >= n-1 -> i0 = n-2, f = 1); it equals
