@@ -377,3 +377,10 @@ def test_benchmark_hooks_count_cells_and_traffic() -> None:
     # n Jacobi iterations cost 13 + 3 S floats each
     f4, f5 = (sum(floats_per_cell_step(2, n).values()) for n in (4, 5))
     assert f5 - f4 == 13 + 3 * 2
+
+
+def test_zero_pigment_sources_take_no_slot() -> None:
+    c = NumpyCanvas(16, 16)
+    fp = disc(16, 16, 8, 8, 3)
+    c.add_sources(dw=fp, dp={"Black": fp * 0.1, "Hansa Yellow": fp * 0})
+    assert c.live_state.slots == ["Black"]

@@ -53,7 +53,8 @@ def add_sources(state: CanvasState, dw: np.ndarray | None = None,
         if pl is not None:
             if (pl[1] < 0).any():
                 raise CanvasInputError("pigment sources must be >= 0", "add_sources")
-            placed_p[name] = pl
+            if pl[1].any():  # an all-zero source takes no slot
+                placed_p[name] = pl
     placed_w = _placed(state, dw, y0, x0, "dw") if dw is not None else None
     if placed_w is not None and (placed_w[1] < 0).any():
         raise CanvasInputError("water sources must be >= 0", "add_sources")
