@@ -14,6 +14,7 @@ CHANGED: render.py gouache (not a step pass): the body colour is now R_inf = a -
   ``K = (1-g) sum s_k K_k + g K_w``, ``S = (1-g) sum s_k S_k + g S_w``; opacity unchanged.
 CHANGED: add_sources activates only the tiles in which a source array is nonzero
   (``tiles.mark_nonzero``), not the whole source rectangle (results do not depend on it).
+CHANGED: add_sources ignores a pigment whose source array is all zero (it takes no slot).
 NOTE (API): ``PASS_ORDER`` names the passes; ``step_region(state, box, dt, stop_after=name)``
   writes the fields back right after pass ``name`` (pass-by-pass comparisons).
 NOTE (no maths change): pass 1 computes the bilinear weight from the displacement,
