@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 from station.calibration.errors import CalibrationError
 from station.calibration.fit import Mapping, fit_mapping
-from station.calibration.session import CalibrationSession, TapResult
+from station.calibration.session import STEP_TEXT, CalibrationSession, TapResult
 
 from station.errors import StationError
 from station.events import PenSample
@@ -169,7 +169,7 @@ class CalibrationWindow:
         for res in session.accepted:
             tx, ty = res.xy[0] * sx, res.xy[1] * sy
             r.disc(tx, ty, 9, GREEN)
-            if provisional is not None:
+            if provisional is not None and session.steps[res.target] == "tap":
                 mapped = provisional.map(np.array([[res.tap.x, res.tap.y]]),
                                          np.array([[res.tap.tilt_x, res.tap.tilt_y]]))[0]
                 ex, ey = (mapped[0] - res.xy[0]) * sx * 10, (mapped[1] - res.xy[1]) * sy * 10
@@ -182,8 +182,13 @@ class CalibrationWindow:
             tx, ty = x * sx, y * sy
             r.ring(tx, ty, 22, WHITE, 3)
             r.cross(tx, ty, 34, WHITE, 2)
+            step = session.step
+            if step == "light":
+                r.ring(tx, ty, 10, WHITE, 2)
+            elif step in ("hard", "upright"):
+                r.disc(tx, ty, 12, WHITE if step == "hard" else YELLOW)
             hint = session.hints[session.current]
-            if hint is not None:
+            if hint is not None and step == "tap":
                 # arrow from the target in the direction the pen top should lean
                 ax, ay = math.copysign(1, hint[0]), -math.copysign(1, hint[1])
                 n = math.hypot(ax, ay)
@@ -209,7 +214,7 @@ class CalibrationWindow:
 
 
 def _provisional(session: CalibrationSession) -> Mapping | None:
-    acc = [r for r in session.accepted if session.hints[r.target] is None]
+    acc = [r for r in session.position_taps if session.hints[r.target] is None]
     if len(acc) < 3:
         return None
     from station.calibration.fit import PointSet
@@ -262,7 +267,9 @@ class _Loop:
             if self.shown != len(session.results):
                 self.shown = len(session.results)
                 source.show_target(session.current, session.targets[session.current],
-                                   session.hints[session.current])
+                                   session.hints[session.current], session.step)
+                window.title(f"target {session.current + 1}/{len(session.targets)}: "
+                             f"{STEP_TEXT[session.step]}")
             sample: PenSample
             for sample in source.poll(now):
                 self._cursor(sample)
@@ -306,7 +313,8 @@ def run_interactive(args: argparse.Namespace) -> int:
     try:
         session = CalibrationSession(
             screen=(int(window.size[0]), int(window.size[1])), points=args.points,
-            tilt_pass=args.tilt_pass, misclick_px=args.misclick_px, model=args.model or "auto",
+            tilt_pass=args.tilt_pass, pressure_pass=args.pressure_pass,
+            misclick_px=args.misclick_px, model=args.model or "auto",
         )
         out.write(f"calibrating {source.device.describe()} on a {window.size[0]}×{window.size[1]} "
                   f"screen: {len(session.targets)} targets\n")
@@ -353,6 +361,14 @@ def run_interactive(args: argparse.Namespace) -> int:
                       len(report.inliers))
         cal = Calibration(source.device, source.geometry, fit,
                           area=AreaSettings(output_pixels=(w, h)))
+        if session.pressure is not None:
+            cal.pressure = session.pressure
+            out.write(f"pressure: threshold {session.pressure.threshold:.3f}, maximum "
+                      f"{session.pressure.maximum:.3f}\n")
+        if session.tilt is not None:
+            cal.tilt = session.tilt
+            out.write(f"tilt offset: ({session.tilt.offset_x:.2f}, "
+                      f"{session.tilt.offset_y:.2f}) degrees\n")
         path = Path(args.output) if args.output else default_path(source.device)
         write_file(cal, path)
         out.write(f"wrote {path}\n")

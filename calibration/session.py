@@ -1,10 +1,12 @@
 """The logic of an interactive calibration, free of any window.
 
 :class:`CalibrationSession` shows targets one at a time (5 or 9 in the
-position pass, then optionally a tilt pass: the 5-point targets again with
-the pen leaning two ways), turns the samples it is fed into taps, rejects
-misclicks on the spot and finally fits the mapping (parallax included when a
-tilt pass was done).
+position pass; then optionally a tilt pass: one press with the pen held
+upright — its tilt is the tilt offset — and the 5-point targets twice with
+the pen leaning four ways; then optionally a pressure pass: a light and a
+hard press at the centre, giving the tip threshold and maximum), turns the
+samples it is fed into taps, rejects misclicks on the spot and finally fits
+the mapping (parallax included when a tilt pass was done).
 
 On-the-spot misclick rejection (xinput_calibrator style, in screen pixels,
 default threshold 15 px):
@@ -34,6 +36,12 @@ import numpy as np
 from station.calibration.errors import DegeneratePoints
 from station.calibration.fit import COLLINEAR_TOL, FitReport, PointSet, fit_mapping, fit_points
 from station.calibration.geometry import planarity
+from station.calibration.pressure import (
+    PressureSettings,
+    TiltSettings,
+    threshold_and_maximum,
+    tilt_offset,
+)
 from station.calibration.taps import Tap, TapDetector
 
 from station.events import PenSample
@@ -61,6 +69,15 @@ independently (with only two opposite leans they would be tied and the two
 parallax axes harder to tell apart)."""
 
 
+STEP_TAP, STEP_UPRIGHT, STEP_LIGHT, STEP_HARD = "tap", "upright", "light", "hard"
+STEP_TEXT = {
+    STEP_TAP: "tap the target",
+    STEP_UPRIGHT: "hold the pen upright on the target for a moment",
+    STEP_LIGHT: "press as lightly as you still want to paint, for a moment",
+    STEP_HARD: "press as hard as you comfortably will, for a moment",
+}
+
+
 @dataclass
 class TapResult:
     target: int
@@ -78,10 +95,14 @@ class CalibrationSession:
     screen: tuple[int, int]
     points: int = 9
     tilt_pass: bool = False
+    pressure_pass: bool = False
     misclick_px: float = 15.0
     model: str = "auto"
     targets: list[tuple[float, float]] = field(init=False)
     hints: list[tuple[float, float] | None] = field(init=False)
+    steps: list[str] = field(init=False)
+    pressure: PressureSettings | None = None
+    tilt: TiltSettings | None = None
     current: int = 0
     results: list[TapResult] = field(default_factory=list)
     swapped_axes: bool | None = None
@@ -94,11 +115,26 @@ class CalibrationSession:
         grid = target_grid(self.points)
         self.targets = list(grid)
         self.hints = [None] * len(grid)
+        self.steps = [STEP_TAP] * len(grid)
         if self.tilt_pass:
+            self._add((0.5, 0.5), (0.0, 0.0), STEP_UPRIGHT)
             five = target_grid(5)
             for k in range(2 * len(five)):
-                self.targets.append(five[k % len(five)])
-                self.hints.append(TILT_HINTS[k % len(TILT_HINTS)])
+                self._add(five[k % len(five)], TILT_HINTS[k % len(TILT_HINTS)], STEP_TAP)
+        if self.pressure_pass:
+            self._add((0.5, 0.5), None, STEP_LIGHT)
+            self._add((0.5, 0.5), None, STEP_HARD)
+
+    def _add(self, xy: tuple[float, float], hint: tuple[float, float] | None,
+             step: str) -> None:
+        self.targets.append(xy)
+        self.hints.append(hint)
+        self.steps.append(step)
+
+    @property
+    def step(self) -> str:
+        """What the current target asks for (:data:`STEP_TEXT`)."""
+        return self.steps[self.current] if not self.done else ""
 
     # -- progress -----------------------------------------------------------
     @property
@@ -113,12 +149,20 @@ class CalibrationSession:
     def rejected(self) -> list[TapResult]:
         return [r for r in self.results if not r.accepted]
 
+    @property
+    def position_taps(self) -> list[TapResult]:
+        """Accepted taps that calibrate position (not the upright/pressure presses)."""
+        return [r for r in self.accepted if self.steps[r.target] == STEP_TAP]
+
     def point_set(self) -> PointSet:
-        acc = self.accepted
+        acc = self.position_taps
+        tilt = np.array([(r.tap.tilt_x, r.tap.tilt_y) for r in acc])
+        if self.tilt is not None:  # parallax is fitted on offset-corrected tilt, as applied
+            tilt = tilt - np.array([self.tilt.offset_x, self.tilt.offset_y])
         return PointSet(
             np.array([(r.tap.x, r.tap.y) for r in acc]),
             np.array([r.xy for r in acc]),
-            np.array([(r.tap.tilt_x, r.tap.tilt_y) for r in acc]),
+            tilt,
             tuple(f"target {r.target}" for r in acc),
         )
 
@@ -131,12 +175,25 @@ class CalibrationSession:
         if tap is None:
             return None
         xy = self.targets[self.current]
-        ok, reason, pred = self._check(tap, xy)
+        if self.steps[self.current] == STEP_TAP:
+            ok, reason, pred = self._check(tap, xy)
+        else:
+            ok, reason, pred = self._check_press(tap)
         result = TapResult(self.current, xy, tap, ok, reason, pred)
         self.results.append(result)
         if ok:
             self.current += 1
         return result
+
+    def _check_press(self, tap: Tap) -> tuple[bool, str, tuple[float, float] | None]:
+        step = self.steps[self.current]
+        if tap.t1 - tap.t0 < 0.2 or len(tap.pressures) < 5:
+            return False, f"{step} press too short: hold it for half a second", None
+        if step == STEP_HARD:
+            light = [r for r in self.accepted if self.steps[r.target] == STEP_LIGHT]
+            if light and np.median(tap.pressures) <= np.median(light[-1].tap.pressures):
+                return False, "the hard press was not harder than the light one", None
+        return True, "", None
 
     def _px(self, xy: np.ndarray) -> np.ndarray:
         return np.asarray(xy, dtype=np.float64) * np.asarray(self.screen, dtype=np.float64)
@@ -147,7 +204,7 @@ class CalibrationSession:
         # Taps of the tilt pass land off by the parallax on purpose: only the position
         # pass is checked against a provisional fit; tilt-pass taps need the alignment
         # of a generous window around their target.
-        acc = [r for r in self.accepted if self.hints[r.target] is None]
+        acc = [r for r in self.position_taps if self.hints[r.target] is None]
         thr = self.misclick_px
         d_new = self._px(np.array([tap.x, tap.y]))
         c_new = self._px(np.array(xy))
@@ -204,9 +261,20 @@ class CalibrationSession:
         return True, "", None
 
     # -- result ------------------------------------------------------------
+    def _press_settings(self) -> None:
+        by_step = {self.steps[r.target]: r for r in self.accepted}
+        if STEP_UPRIGHT in by_step:
+            self.tilt = tilt_offset(by_step[STEP_UPRIGHT].tap.tilts)
+        if STEP_LIGHT in by_step and STEP_HARD in by_step:
+            thr, top = threshold_and_maximum(by_step[STEP_LIGHT].tap.pressures,
+                                             by_step[STEP_HARD].tap.pressures)
+            self.pressure = PressureSettings(thr, top)
+
     def fit(self, noise: float | None = None) -> FitReport:
+        self._press_settings()
         pts = self.point_set()
-        parallax = self.tilt_pass and any(h is not None for h in self.hints)
+        parallax = self.tilt_pass and any(
+            h is not None and s == STEP_TAP for h, s in zip(self.hints, self.steps, strict=True))
         self.report = fit_points(pts, self.model, parallax=parallax, noise=noise)
         return self.report
 
@@ -221,13 +289,12 @@ class CalibrationSession:
         if not suspects or self.reasked:
             return True
         self.reasked = True
-        acc = self.accepted
+        acc = self.position_taps
         first_new = len(self.targets)
         for k in sorted(suspects):
             res = acc[k]
             res.accepted = False
             res.reason = "excluded by the final fit; asked again"
-            self.targets.append(res.xy)
-            self.hints.append(self.hints[res.target])
+            self._add(res.xy, self.hints[res.target], STEP_TAP)
         self.current = first_new
         return False

@@ -9,7 +9,9 @@
   miss by ``miss`` (0.08), e.g. ``misclick=3`` or ``misclick=3:7``;
   ``parallax`` HX:HY device-normalised per tan(tilt) (0:0), ``tilt`` TX:TY of
   the natural pen hold in degrees (0:0), ``contact`` seconds (0.06),
-  ``delay`` seconds before a tap (0.05), ``seed`` (0), ``vid``/``pid`` hex
+  ``delay`` seconds before a tap (0.05), ``tiltbias`` TX:TY degrees added to
+  every reported tilt (0:0; a tilt offset), ``light``/``hard`` pressure levels
+  of the pressure pass (0.08/0.7), ``seed`` (0), ``vid``/``pid`` hex
   (056a/00fa).  :meth:`MockUserSource.truth` is the distortion's matrix.
 * ``mock-taps:FILE.csv`` — replays taps from a CSV (``device_x,device_y``
   device-normalised, optional ``tilt_x,tilt_y``), one per target shown.
@@ -46,7 +48,7 @@ class CalibrationSource(Protocol):
     name: str
 
     def show_target(self, index: int, xy: tuple[float, float],
-                    tilt_hint: tuple[float, float] | None) -> None: ...
+                    tilt_hint: tuple[float, float] | None, step: str = "tap") -> None: ...
 
     def poll(self, now: float) -> list[PenSample]: ...
 
@@ -91,7 +93,8 @@ class _ScheduledTaps:
     seq: int = 0
 
     def tap(self, name: str, start: float, xy: tuple[float, float], tilt: tuple[float, float],
-            contact: float, jitter: float, rng: np.random.Generator) -> None:
+            contact: float, jitter: float, rng: np.random.Generator,
+            pressure: float | None = None) -> None:
         x, y = (min(1.0, max(0.0, v)) for v in xy)
         tx, ty = (min(90.0, max(-90.0, v)) for v in tilt)
         t = start
@@ -102,8 +105,12 @@ class _ScheduledTaps:
         steps = max(2, int(round(contact / SAMPLE_PERIOD)))
         for k in range(steps):
             jx, jy = rng.normal(0.0, jitter, 2) if jitter > 0 else (0.0, 0.0)
+            if pressure is None:  # a tap: pressure rises and falls
+                p = 0.3 + 0.4 * math.sin(math.pi * (k + 1) / (steps + 1))
+            else:  # a held press at a level, with the hand's wobble
+                p = min(1.0, max(0.001, pressure * (1.0 + 0.08 * float(rng.normal()))))
             self._add(name, t, min(1.0, max(0.0, x + jx)), min(1.0, max(0.0, y + jy)), tx, ty,
-                      True, 0.3 + 0.4 * math.sin(math.pi * (k + 1) / (steps + 1)))
+                      True, p)
             t += SAMPLE_PERIOD
         for _ in range(2):
             self._add(name, t, x, y, tx, ty, False, 0.0)
@@ -134,7 +141,8 @@ class MockUserSource:
         where = "--device mock-user"
         opts = _options(options, where)
         known = {"rot", "scale", "offset", "persp", "swap", "noise", "misclick", "miss",
-                 "parallax", "tilt", "contact", "delay", "seed", "vid", "pid"}
+                 "parallax", "tilt", "contact", "delay", "seed", "vid", "pid", "tiltbias",
+                 "light", "hard"}
         unknown = sorted(set(opts) - known)
         if unknown:
             raise CalibrationError(f"unknown option(s) {', '.join(unknown)}", where)
@@ -148,6 +156,9 @@ class MockUserSource:
         self.tilt = _nums(opts, "tilt", (0.0, 0.0), where)
         self.contact = _nums(opts, "contact", (0.06,), where)[0]
         self.delay = _nums(opts, "delay", (0.05,), where)[0]
+        self.tiltbias = _nums(opts, "tiltbias", (0.0, 0.0), where)
+        self.levels = {"light": _nums(opts, "light", (0.08,), where)[0],
+                       "hard": _nums(opts, "hard", (0.7,), where)[0]}
         self.misclicks = {int(v) for v in opts.get("misclick", "").split(":") if v.strip()}
         self.rng = np.random.default_rng(int(opts.get("seed", "0")))
         try:
@@ -180,7 +191,7 @@ class MockUserSource:
         return self._truth.copy()
 
     def show_target(self, index: int, xy: tuple[float, float],
-                    tilt_hint: tuple[float, float] | None) -> None:
+                    tilt_hint: tuple[float, float] | None, step: str = "tap") -> None:
         self.taps += 1
         tilt = tilt_hint if tilt_hint is not None else self.tilt
         target = np.array([xy], dtype=np.float64)
@@ -192,8 +203,11 @@ class MockUserSource:
         dev = project(self._inverse, target)[0]
         # the sensor sees the nib displaced against the parallax the calibration corrects
         dev = dev - np.asarray(self.parallax) * np.tan(np.radians(tilt))
+        reported = (float(tilt[0] + self.tiltbias[0]), float(tilt[1] + self.tiltbias[1]))
+        level = self.levels.get(step)
+        contact = self.contact if step == "tap" else 0.4  # presses are held
         self._queue.tap(self.name, self._last_now + self.delay, (float(dev[0]), float(dev[1])),
-                        (float(tilt[0]), float(tilt[1])), self.contact, 0.0002, self.rng)
+                        reported, contact, 0.0002, self.rng, level)
 
     def poll(self, now: float) -> list[PenSample]:
         self._last_now = max(self._last_now, now)
@@ -245,7 +259,7 @@ class MockTapsSource:
         self.rng = np.random.default_rng(0)
 
     def show_target(self, index: int, xy: tuple[float, float],
-                    tilt_hint: tuple[float, float] | None) -> None:
+                    tilt_hint: tuple[float, float] | None, step: str = "tap") -> None:
         if self._next >= len(self.taps):
             return
         x, y, tx, ty = self.taps[self._next]
@@ -286,7 +300,7 @@ class DriverSource:
         self._ended = False
 
     def show_target(self, index: int, xy: tuple[float, float],
-                    tilt_hint: tuple[float, float] | None) -> None:
+                    tilt_hint: tuple[float, float] | None, step: str = "tap") -> None:
         pass
 
     def poll(self, now: float) -> list[PenSample]:

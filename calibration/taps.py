@@ -41,6 +41,8 @@ class Tap:
     t1: float
     samples: int
     spread: float
+    pressures: tuple[float, ...] = ()  # of the stable contact samples
+    tilts: tuple[tuple[float, float], ...] = ()  # of the stable contact samples
 
 
 @dataclass
@@ -77,7 +79,9 @@ class TapDetector:
         tilts = np.array([(s.tilt_x, s.tilt_y) for s in stable])
         tmed = np.median(tilts, axis=0)
         tap = Tap(float(centre[0]), float(centre[1]), float(tmed[0]), float(tmed[1]),
-                  t_start, run[-1].t, len(run), spread)
+                  t_start, run[-1].t, len(run), spread,
+                  tuple(s.pressure for s in stable),
+                  tuple((s.tilt_x, s.tilt_y) for s in stable))
         self.taps.append(tap)
         return tap
 

@@ -66,18 +66,24 @@ def calibrate(display: str, *argv: str) -> subprocess.CompletedProcess[str]:
 
 def test_interactive_with_mock_user_recovers_the_distortion(display: str, tmp_path: Path) -> None:
     out, shot = tmp_path / "cal.json", tmp_path / "shot.png"
-    spec = f"mock-user:{DISTORTION},misclick=6,noise=0.0005,parallax=0.004:-0.003,seed=1"
-    proc = calibrate(display, "--device", spec, "--points", "9", "--tilt-pass", "-o", str(out),
-                     "--screenshot", str(shot), "--timeout", "45")
+    spec = (f"mock-user:{DISTORTION},misclick=6,noise=0.0005,parallax=0.004:-0.003,seed=1,"
+            "tiltbias=3:-2,light=0.08,hard=0.7")
+    proc = calibrate(display, "--device", spec, "--points", "9", "--tilt-pass",
+                     "--pressure-pass", "-o", str(out), "--screenshot", str(shot),
+                     "--timeout", "45")
     assert proc.returncode == 0, proc.stderr + proc.stdout
     assert "REJECTED (misclick" in proc.stdout  # rejected on the spot …
-    assert proc.stdout.count("target 6/19: ok") == 1  # … and the target asked again
+    assert proc.stdout.count("target 6/22: ok") == 1  # … and the target asked again
     cal = read_file(out)
     truth = MockUserSource(DISTORTION).truth()
     probe = np.random.default_rng(0).uniform(0.1, 0.9, (300, 2))
     err = np.abs(project(cal.matrix, probe) - project(truth, probe)).max()
     assert err < 0.0015  # ≈ 1.5 px on 1024 px: within the tap noise (0.5 px sigma)
     assert cal.fit.parallax == pytest.approx((0.004, -0.003), abs=0.0008)
+    # the upright press measured the tilt bias; light and hard presses the pressure range
+    assert (cal.tilt.offset_x, cal.tilt.offset_y) == pytest.approx((3.0, -2.0), abs=1e-9)
+    assert cal.pressure.threshold == pytest.approx(0.04, abs=0.005)  # half the light press
+    assert cal.pressure.maximum == pytest.approx(0.7 * (1 + 0.08 * 1.28), abs=0.04)  # p90
     assert cal.area.output_pixels == SCREEN
 
     from PIL import Image

@@ -66,6 +66,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="interactive: number of targets")
     p.add_argument("--tilt-pass", action="store_true",
                    help="interactive: a second pass at several tilts (screen tablets)")
+    p.add_argument("--pressure-pass", action="store_true",
+                   help="interactive: a light and a hard press set the tip threshold and maximum")
     p.add_argument("--misclick-px", type=float, default=15.0,
                    help="interactive: misclick threshold in screen pixels (xinput_calibrator: 15)")
     p.add_argument("--screenshot", metavar="PNG", help="interactive: save the last frame")
