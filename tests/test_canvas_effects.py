@@ -223,3 +223,26 @@ def test_ranges_kept_through_a_busy_painting() -> None:
     assert img.min() >= 0 and img.max() <= 1
     bal = c.stats()["balance"]
     assert bal["water_rel_error"] < 1e-3 and bal["pigment_rel_error"] < 1e-3
+
+
+def _ink_spread(block_paper: float) -> tuple[float, float]:
+    prm = SimParams().replace(block_paper=block_paper, nu_p=2.0)
+    c = NumpyCanvas(64, 64, seed=4, params=prm, paper="rough")
+    paint(c, rect(64, 64, 4, 60, 4, 60), 0.6)
+    for _ in range(20):
+        c.step()
+    paint(c, disc(64, 64, 32, 32, 8), 0.3, {"Sumi Ink": 0.3})
+    run_until_dry(c)
+    c.dry()
+    q = c.live_state.q[0]
+    yy, xx = np.mgrid[0:64, 0:64]
+    r = np.hypot(yy - 32, xx - 32)
+    ring = (r > 9) & (r < 13)
+    return float(q[r > 9].sum() / q.sum()), float(q[ring].std() / q[ring].mean())
+
+
+def test_diffusion_controller_blocks_and_roughens_the_spread() -> None:
+    free_out, free_cv = _ink_spread(0.0)
+    blocked_out, blocked_cv = _ink_spread(0.9)
+    assert blocked_out < 0.85 * free_out  # paper fibres hold the ink back
+    assert blocked_cv > 1.2 * free_cv  # and make its edge irregular (feathery)
