@@ -101,3 +101,12 @@ def test_driver_waits_for_a_missing_device_and_stops_on_sigint(tmp_path: Path) -
         proc.send_signal(signal.SIGINT)
         assert proc.wait(timeout=10) == 0
         sub.close()
+
+
+def test_driver_normaliser_flags_are_checked(capsys) -> None:
+    for flags, needle in ((["--pressure-curve", "0,1,2"], "--pressure-curve"),
+                          (["--pressure-curve", "0,1.5,0.5,1"], "pressure curve"),
+                          (["--tip-down", "0.01", "--tip-up", "0.05"], "tip_up"),
+                          (["--status-interval", "0"], "--status-interval")):
+        assert main(["driver", "--device", "mock:intuos-pro-m", *flags]) == 2
+        assert needle in capsys.readouterr().err

@@ -291,3 +291,17 @@ def test_replay_speed_flag_validation(tmp_path: Path, capsys) -> None:
     assert main(["replay", str(path), "--speed", "50", "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["samples"] > 10
+
+
+@pytest.mark.parametrize("descriptor,why", [
+    (bytes.fromhex("05 0d 09 02 a1 01 09 20 a1 00"), "unbalanced collections"),
+    (bytes.fromhex("05 0d 09 02 a1 01 75 ff 95 ff 81 02 c0"), "absurd report size"),
+])
+def test_unknown_device_with_a_broken_descriptor_is_exit_2(tmp_path: Path, capsys,
+                                                           descriptor: bytes, why: str) -> None:
+    dev = synth.RecordedDevice("odd pen", 0x1234, 0x5678, descriptor, [(0.0, b"\x01\x02")])
+    path = tmp_path / "odd.hid"
+    synth.write_hid_recorder([dev], path)
+    assert main(["replay", str(path)]) == 2, why
+    err = capsys.readouterr().err
+    assert "no pen device" in err and "no parser" in err and "Traceback" not in err
