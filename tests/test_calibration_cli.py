@@ -233,3 +233,41 @@ def test_export_import_check_via_cli(tmp_path: Path, capsys: pytest.CaptureFixtu
     assert code == 0 and "ok" in out
     code, _, err = run_cli(capsys, "--check", str(cal_file), "--id", "056a:00fa")
     assert code == 2 and "not 056a:00fa" in err
+
+
+def test_edit_sets_area_pressure_and_tilt(tmp_path: Path,
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    from station.calibration.area import DeviceGeometry
+    from station.calibration.files import write_file
+    from station.calibration.model import Calibration, DeviceId
+    from station.calibration.pressure import bezier_eval
+
+    f = tmp_path / "intuos.json"
+    write_file(Calibration(DeviceId(0x56A, 0x315), DeviceGeometry(0, 44704, 0, 27940, 200, 200),
+                           created="x"), f)
+    code, _, _ = run_cli(capsys, "--edit", str(f), "--area", "80,50,100,60", "--area-units",
+                         "mm", "--left-handed", "--outside", "drop", "--pressure-range",
+                         "0.05,0.9", "--pressure-targets", "0.25:0.1,0.5:0.35,0.75:0.7",
+                         "--tilt-offset", "1.5,-1")
+    assert code == 0
+    cal = read_file(f)
+    a = cal.area.area
+    assert a is not None and (a.cx, a.cy, a.width, a.height, a.units) == (80, 50, 100, 60, "mm")
+    assert cal.area.left_handed and cal.area.outside == "drop"
+    assert (cal.pressure.threshold, cal.pressure.maximum) == (0.05, 0.9)
+    got = bezier_eval(cal.pressure.curve, np.array([0.25, 0.5, 0.75]))
+    assert np.abs(got - [0.1, 0.35, 0.7]).max() < 0.01
+    assert (cal.tilt.offset_x, cal.tilt.offset_y) == (1.5, -1.0)
+    # left-handed: the area's top-left corner (30, 20) mm is now the output's bottom-right
+    pt = np.array([[30 * 200 / 44704, 20 * 200 / 27940]])
+    assert np.allclose(cal.map_points(pt)[0], [[1.0, 1.0]], atol=1e-9)
+
+    # a setting that cannot be applied is refused and the file stays as it was
+    g = tmp_path / "nores.json"
+    write_file(Calibration(DeviceId(0x56A, 0x315), DeviceGeometry(0, 100, 0, 100), created="x"),
+               g)
+    before = g.read_text()
+    code, _, err = run_cli(capsys, "--edit", str(g), "--area", "1,1,2,2", "--area-units", "mm")
+    assert code == 2 and "no resolution" in err and g.read_text() == before
+    code, _, err = run_cli(capsys, "--edit", str(g), "--pressure-range", "0.9,0.5")
+    assert code == 2 and "threshold" in err and g.read_text() == before

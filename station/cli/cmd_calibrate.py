@@ -42,6 +42,22 @@ def register(sub: argparse._SubParsersAction) -> None:
     mode.add_argument("--import", dest="import_", choices=("libinput", "tslib"),
                       metavar="{libinput,tslib}", help="import a foreign line (from --input)")
     mode.add_argument("--check", metavar="FILE", help="validate a calibration file")
+    mode.add_argument("--edit", metavar="FILE",
+                      help="change area, pressure or tilt settings of a calibration file")
+    e = p.add_argument_group("settings for --edit")
+    e.add_argument("--area", metavar="CX,CY,W,H[,ROT]",
+                   help="active area: centre, size, rotation in degrees ('full': whole tablet)")
+    e.add_argument("--area-units", choices=("normalised", "device", "mm"), default="normalised")
+    e.add_argument("--left-handed", action=argparse.BooleanOptionalAction, default=None)
+    e.add_argument("--lock-aspect", action=argparse.BooleanOptionalAction, default=None)
+    e.add_argument("--outside", choices=("clip", "drop"))
+    e.add_argument("--output-rect", metavar="X,Y,W,H", help="canvas sub-rectangle, normalised")
+    e.add_argument("--pressure-range", metavar="THRESHOLD,MAXIMUM",
+                   help="raw pressure fractions for no touch and full pressure")
+    e.add_argument("--pressure-curve", metavar="X1,Y1,X2,Y2", help="Bézier control points")
+    e.add_argument("--pressure-targets", metavar="IN:OUT,…",
+                   help="fit the curve to wanted responses, e.g. 0.25:0.1,0.5:0.35,0.75:0.7")
+    e.add_argument("--tilt-offset", metavar="TX,TY", help="degrees subtracted from the tilt")
     p.add_argument("--model", choices=("affine", "homography", "auto"), default=None,
                    help="mapping model (default: affine for --fit, auto interactively)")
     p.add_argument("--parallax", choices=("auto", "on", "off"), default="auto",
@@ -282,6 +298,75 @@ def run_check(args: argparse.Namespace) -> int:
     return 0
 
 
+def _numbers(text: str, n: int | tuple[int, ...], flag: str) -> list[float]:
+    try:
+        vals = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise BadInput(f"{text!r} must be comma-separated numbers", flag) from None
+    counts = (n,) if isinstance(n, int) else n
+    if len(vals) not in counts or not all(np.isfinite(vals)):
+        raise BadInput(f"{text!r} needs {' or '.join(map(str, counts))} finite numbers", flag)
+    return vals
+
+
+def run_edit(args: argparse.Namespace) -> int:
+    from station.calibration.area import Area, Rect
+    from station.calibration.errors import CalibrationError
+    from station.calibration.files import read_file, write_file
+    from station.calibration.pressure import PressureSettings, TiltSettings, fit_curve
+
+    cal = read_file(args.edit, parse_device_id(args.device_id))
+    area = cal.area
+    try:
+        if args.area == "full":
+            area = area.with_(area=None)
+        elif args.area:
+            v = _numbers(args.area, (4, 5), "--area")
+            area = area.with_(area=Area(v[0], v[1], v[2], v[3], v[4] if len(v) == 5 else 0.0,
+                                        args.area_units))
+        if args.left_handed is not None:
+            area = area.with_(left_handed=args.left_handed)
+        if args.outside:
+            area = area.with_(outside=args.outside)
+        if args.output_rect:
+            area = area.with_(output=Rect(*_numbers(args.output_rect, 4, "--output-rect")))
+        if args.screen:
+            px = _pair(args.screen, "--screen")
+            if px is not None:
+                area = area.with_(output_pixels=(int(px[0]), int(px[1])))
+        if args.lock_aspect is not None:
+            area = area.with_(lock_aspect=args.lock_aspect)
+        pressure = cal.pressure
+        if args.pressure_range:
+            thr, top = _numbers(args.pressure_range, 2, "--pressure-range")
+            pressure = PressureSettings(thr, top, pressure.curve)
+        if args.pressure_curve:
+            curve = _numbers(args.pressure_curve, 4, "--pressure-curve")
+            pressure = PressureSettings(pressure.threshold, pressure.maximum,
+                                        (curve[0], curve[1], curve[2], curve[3]))
+        if args.pressure_targets:
+            pairs = [pt.split(":") for pt in args.pressure_targets.split(",")]
+            if any(len(pt) != 2 for pt in pairs):
+                raise BadInput("targets are IN:OUT pairs", "--pressure-targets")
+            ins = [float(a) for a, _ in pairs]
+            outs = [float(b) for _, b in pairs]
+            pressure = PressureSettings(pressure.threshold, pressure.maximum,
+                                        fit_curve(ins, outs))
+        tilt = cal.tilt
+        if args.tilt_offset:
+            tx, ty = _numbers(args.tilt_offset, 2, "--tilt-offset")
+            tilt = TiltSettings(tx, ty)
+        new = cal.with_(area=area, pressure=pressure, tilt=tilt)
+        _ = new.matrix  # compose now: a setting that cannot be composed is refused here
+    except ValueError as exc:
+        raise BadInput(str(exc), args.edit) from None
+    except CalibrationError as exc:
+        raise BadInput(str(exc), args.edit) from None
+    write_file(new, args.output or args.edit)
+    sys.stdout.write(f"wrote {args.output or args.edit}\n")
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     if args.fit:
         return run_fit(args)
@@ -293,6 +378,8 @@ def run(args: argparse.Namespace) -> int:
         return run_import(args)
     if args.check:
         return run_check(args)
+    if args.edit:
+        return run_edit(args)
     from station.calibration.interactive import run_interactive
 
     return run_interactive(args)
