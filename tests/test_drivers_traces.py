@@ -305,3 +305,43 @@ def test_unknown_device_with_a_broken_descriptor_is_exit_2(tmp_path: Path, capsy
     assert main(["replay", str(path)]) == 2, why
     err = capsys.readouterr().err
     assert "no pen device" in err and "no parser" in err and "Traceback" not in err
+
+
+def test_worn_nib_through_a_bamboo_trace(tmp_path: Path) -> None:
+    # A Bamboo pen whose worn nib rests at 60/1023 while hovering (tip bit 0, pressure > 0).
+    reports = [(0.000, synth.bamboo_pen(7000, 4000, 60, tip=False, raw_distance=20))]
+    pressures = [60, 100, 108, 109, 400, 1023, 70, 69, 60]
+    for i, p in enumerate(pressures[1:], 1):
+        reports.append((i * 0.0075, synth.bamboo_pen(7000 + i, 4000, p, tip=p > 100)))
+    reports.append((0.08, synth.bamboo_pen(0, 0, in_range=False, prox=False, ready=False)))
+    dev = synth.RecordedDevice("Bamboo", 0x056A, 0x00D4, synth.wacom_protocol_descriptor(8),
+                               reports)
+    path = tmp_path / "nib.hid"
+    synth.write_hid_recorder([dev], path)
+    samples = list(iter_trace_samples(path))
+    assert len(samples) == len(pressures) + 1
+    # offset 60: down = 60 + 5 % of 963 = 108.15, up = 60 + 1 % of 963 = 69.63
+    assert [s.touching for s in samples[:-1]] == [False, False, False, True, True, True, True,
+                                                   False, False]
+    down = 60 + 0.05 * 963
+    assert samples[4].pressure == pytest.approx((400 - down) / (1023 - down))
+    assert samples[5].pressure == 1.0
+    assert all(s.pressure == 0.0 for s in samples if not s.touching)
+
+
+def test_lost_proximity_out_is_forced_after_50_ms(tmp_path: Path) -> None:
+    # A Graphire stroke whose proximity-out report never came; the next stroke starts 300 ms later.
+    reports = [(0.01 * i, synth.graphire_report(1000 + 100 * i, 2000, 200 if 2 <= i < 8 else 0,
+                                                tip=2 <= i < 8)) for i in range(10)]
+    reports += [(0.39 + 0.01 * i, synth.graphire_report(5000, 5000, 0)) for i in range(3)]
+    dev = synth.RecordedDevice("Graphire", 0x056A, 0x0081, synth.wacom_protocol_descriptor(7),
+                               reports)
+    path = tmp_path / "lost.hid"
+    synth.write_hid_recorder([dev], path)
+    samples = list(iter_trace_samples(path))
+    outs = [s for s in samples if not s.proximity]
+    assert len(outs) == 2  # forced after the first stroke, and at the end of the trace
+    assert outs[0].t == pytest.approx(0.09 + 0.05)
+    assert outs[0].x == pytest.approx(1900 / 16704) and not outs[0].touching
+    i = samples.index(outs[0])
+    assert samples[i + 1].proximity and samples[i + 1].t == pytest.approx(0.39)
