@@ -285,3 +285,30 @@ def test_record_an_evdev_device_as_evemu(tmp_path: Path) -> None:
     out = tmp_path / "again.evemu"
     assert main(["record", "--device", f"mock-evdev:{path}?speed=max", "-o", str(out)]) == 0
     assert _fields(list(iter_trace_samples(out))) == _fields(list(iter_trace_samples(path)))
+
+
+def test_a_replugged_pen_is_found_on_its_new_event_node(tmp_path: Path) -> None:
+    import errno
+
+    from station.drivers.mock.evdev import MockEvdevNode
+    from station.drivers.transport.evdev import find_evdev_node, list_evdev
+
+    root = tmp_path / "input"
+    root.mkdir()
+    nodes = {"event2": touchpad_caps(), "event11": CAPS, "event3": None}  # event3: no access
+    for name in nodes:
+        (root / name).write_text("")
+    (root / "mouse0").write_text("")
+
+    def opener(path: str) -> MockEvdevNode:
+        caps = nodes[Path(path).name]
+        if caps is None:
+            raise PermissionError(errno.EACCES, "Permission denied")
+        return MockEvdevNode(caps, [], path=path)
+
+    listed = list_evdev(str(root), opener)
+    assert [Path(e["path"]).name for e in listed] == ["event2", "event3", "event11"]
+    assert "udev rules" in listed[1]["error"]
+    found = find_evdev_node(CAPS.name, CAPS.vid, CAPS.pid, str(root), opener)
+    assert found == str(root / "event11")
+    assert find_evdev_node("other pen", CAPS.vid, CAPS.pid, str(root), opener) is None

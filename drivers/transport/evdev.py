@@ -129,17 +129,22 @@ class EvdevNodeTransport:
         self._dev.close()
 
 
-def list_evdev(root: str = "/dev/input") -> list[dict[str, Any]]:
+def list_evdev(root: str = "/dev/input",
+               opener: Callable[[str], Any] | None = None) -> list[dict[str, Any]]:
     """Every event node: its capabilities when readable, the permission problem otherwise."""
     out: list[dict[str, Any]] = []
     if not os.path.isdir(root):
         return out
-    evdev = _evdev()
-    paths = sorted((os.path.join(root, n) for n in os.listdir(root) if n.startswith("event")),
-                   key=lambda p: int(p.rsplit("event", 1)[1] or 0))
-    for path in paths:
+    open_node = opener or _evdev().InputDevice
+
+    def number(name: str) -> int:
+        digits = name.removeprefix("event")
+        return int(digits) if digits.isdigit() else 1 << 30
+
+    names = sorted((n for n in os.listdir(root) if n.startswith("event")), key=number)
+    for path in (os.path.join(root, n) for n in names):
         try:
-            dev = evdev.InputDevice(path)
+            dev = open_node(path)
         except OSError as exc:
             out.append({"path": path, "error": str(open_error(path, exc))})
             continue
@@ -148,3 +153,14 @@ def list_evdev(root: str = "/dev/input") -> list[dict[str, Any]]:
         finally:
             dev.close()
     return out
+
+
+def find_evdev_node(name: str, vid: int, pid: int, root: str = "/dev/input",
+                    opener: Callable[[str], Any] | None = None) -> str | None:
+    """The event node of the device with this name and ids (after a replug it may have
+    another ``eventN``), or None."""
+    for entry in list_evdev(root, opener):
+        caps = entry.get("caps")
+        if caps is not None and (caps.name, caps.vid, caps.pid) == (name, vid, pid):
+            return str(entry["path"])
+    return None

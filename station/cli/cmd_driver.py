@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import signal
 import sys
 import threading
@@ -149,7 +150,7 @@ def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
             if not gone or args.no_reconnect or (
                     args.max_reconnects is not None and reconnects >= args.max_reconnects):
                 break
-            source = _wait_for_device(args, stop, status)
+            source = _wait_for_device(args, stop, status, identity=driver.source.describe())
             if source is None:
                 break
             reconnects += 1
@@ -171,15 +172,36 @@ def _flush(driver: Any, publisher: Any, writer: Any, totals: dict[str, int]) -> 
         totals["total_samples"] += 1
 
 
-def _wait_for_device(args: argparse.Namespace, stop: threading.Event, status: Any) -> Any:
-    """Try to reopen the device every 0.5 s until it is back (or we are stopped)."""
+def _replugged_spec(spec: str, identity: dict[str, Any] | None) -> str:
+    """An evdev device that came back on another ``eventN``: the SPEC of its new node."""
+    from station.drivers.transport.evdev import find_evdev_node
+
+    if identity is None or not spec.startswith("evdev:"):
+        return spec
+    target, sep, query = spec[len("evdev:"):].partition("?")
+    if os.path.exists(target):
+        return spec
+    try:
+        found = find_evdev_node(identity["product"], identity["vid"], identity["pid"])
+    except Exception:  # python-evdev missing or /dev/input unreadable: keep trying the path
+        return spec
+    return f"evdev:{found}{sep}{query}" if found else spec
+
+
+def _wait_for_device(args: argparse.Namespace, stop: threading.Event, status: Any,
+                     identity: dict[str, Any] | None = None) -> Any:
+    """Try to reopen the device every 0.5 s until it is back (or we are stopped).
+
+    An evdev device is also looked for by name and ids, as a replug may give it
+    another event node."""
     from station.drivers.pipeline import open_device
     from station.drivers.transport.base import TransportError
 
     next_note = 0.0
     while not stop.is_set():
         try:
-            return open_device(args.device, name=args.name, send_init=not args.no_init)
+            return open_device(_replugged_spec(args.device, identity),
+                               name=args.name, send_init=not args.no_init)
         except TransportError as exc:
             if time.monotonic() >= next_note:
                 status("waiting", error=str(exc))
