@@ -819,6 +819,17 @@ def _ambiguous_outliers(
     return out
 
 
+def _aicc(report: FitReport, parallax: bool) -> float | None:
+    """Corrected Akaike criterion of a fit over its inliers (reported beside the
+    leave-one-out error; ``None`` when the points leave too few degrees of freedom)."""
+    n2 = 2 * len(report.inliers)
+    p = N_PARAMS[report.model] + (2 if parallax else 0)
+    ssr = float((report.residuals[report.inliers] ** 2).sum())
+    if n2 - p - 1 <= 0 or ssr <= 0:
+        return None
+    return n2 * math.log(ssr / n2) + 2 * p + 2 * p * (p + 1) / (n2 - p - 1)
+
+
 def _fit_auto(
     points: PointSet,
     parallax: bool,
@@ -830,7 +841,8 @@ def _fit_auto(
 ) -> FitReport:
     affine = fit_points(points, "affine", parallax, robust, min_sigma, units_per_mm, seed, noise)
     candidates: dict[str, dict[str, Any]] = {
-        "affine": {"rms": affine.rms, "loo_rms": affine.loo_rms, "outliers": affine.outliers}
+        "affine": {"rms": affine.rms, "loo_rms": affine.loo_rms, "outliers": affine.outliers,
+                   "aicc": _aicc(affine, parallax)}
     }
     chosen = affine
     reason = "affine: too few points to judge a homography by leave-one-out"
@@ -844,6 +856,7 @@ def _fit_auto(
     if homog is not None:
         candidates["homography"] = {
             "rms": homog.rms, "loo_rms": homog.loo_rms, "outliers": homog.outliers,
+            "aicc": _aicc(homog, parallax),
         }
         if homog.loo_rms is not None and affine.loo_rms is not None:
             if homog.loo_rms < 0.9 * affine.loo_rms:

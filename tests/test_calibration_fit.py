@@ -142,6 +142,7 @@ def test_auto_picks_homography_for_projective_and_affine_for_affine() -> None:
     assert aff.model == "affine"
     assert set(proj.candidates) == {"affine", "homography"}
     assert proj.candidates["homography"]["loo_rms"] < proj.candidates["affine"]["loo_rms"]
+    assert proj.candidates["homography"]["aicc"] < proj.candidates["affine"]["aicc"]
 
 
 def test_leave_one_out_exact_data_is_zero_and_needs_redundancy() -> None:
