@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
 from station.drivers.mock.tablet import MockTablet, find_model
 from station.drivers.traces import iter_trace_samples, write_session_log
 
@@ -110,3 +111,27 @@ def test_driver_normaliser_flags_are_checked(capsys) -> None:
                           (["--status-interval", "0"], "--status-interval")):
         assert main(["driver", "--device", "mock:intuos-pro-m", *flags]) == 2
         assert needle in capsys.readouterr().err
+
+
+def test_record_evdev_as_libinput_yaml_and_driver_area(tmp_path: Path) -> None:
+    from station.drivers.mock.evdev import states_to_events, wacom_like_caps
+    from station.drivers.mock.script import timed_states
+    from station.drivers.traces.evemu import format_evemu
+
+    caps = wacom_like_caps()
+    src = tmp_path / "pen.evemu"
+    src.write_text(format_evemu(caps, states_to_events(caps, timed_states("line", reports=12))))
+    out = tmp_path / "pen.yaml"
+    assert main(["record", "--device", f"mock-evdev:{src}?speed=max", "-o", str(out)]) == 0
+    a, b = list(iter_trace_samples(src)), list(iter_trace_samples(out))
+    assert [(s.x, s.y, s.pressure, s.touching) for s in a] == \
+        [(s.x, s.y, s.pressure, s.touching) for s in b]
+    # the active area: the left half of the tablet becomes the whole [0, 1]
+    log = tmp_path / "area.jsonl"
+    assert main(["driver", "--device", f"mock-evdev:{src}?speed=max", "--bus",
+                 f"ipc://{tmp_path}/bus", "--area", "0,0,22352,27940", "--jsonl", str(log)]) == 0
+    _, records = read_session(log)
+    xs = [r.x for r in records if isinstance(r, PenSample)]
+    full = [s.x for s in a]
+    assert xs == pytest.approx([min(1.0, 2 * x) for x in full])  # 0.1 → 0.2, past half → 1
+    assert max(xs) == 1.0

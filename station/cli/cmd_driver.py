@@ -35,6 +35,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="end when the device is unplugged instead of waiting for it")
     p.add_argument("--max-reconnects", type=int, default=None, metavar="N",
                    help="give up after N reconnections (default: never)")
+    p.add_argument("--area", metavar="X0,Y0,X1,Y1",
+                   help="active area in device units (default: the whole tablet)")
     p.add_argument("--smoothing", type=float, default=0.0, metavar="MS",
                    help="position smoothing time constant in ms (0 = off)")
     p.add_argument("--tip-down", type=float, default=0.05, help="contact threshold (fraction)")
@@ -61,7 +63,15 @@ def normaliser_config(args: argparse.Namespace) -> Any:
         if len(parts) != 4:
             raise BadInput("needs four numbers x1,y1,x2,y2", "--pressure-curve")
         curve = parts
-    return NormaliserConfig(tip_down=args.tip_down, tip_up=args.tip_up,
+    area = None
+    if args.area:
+        try:
+            area = tuple(float(v) for v in args.area.split(","))
+        except ValueError:
+            raise BadInput("needs four numbers x0,y0,x1,y1", "--area") from None
+        if len(area) != 4:
+            raise BadInput("needs four numbers x0,y0,x1,y1", "--area")
+    return NormaliserConfig(area=area, tip_down=args.tip_down, tip_up=args.tip_up,
                             smoothing_ms=args.smoothing, pressure_curve=curve,
                             proximity_timeout=args.proximity_timeout or None)
 

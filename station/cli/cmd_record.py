@@ -2,7 +2,8 @@
 
 HID devices (hidraw, hidapi, usb, mock …) are written as hid-recorder text as
 reports arrive (flushed per report, so Ctrl-C loses nothing); evdev devices as
-an evemu-record file.  The parser's init feature reports (the Wacom ``02 02``
+an evemu-record file, or libinput-record YAML when FILE ends in .yaml/.yml
+(written when recording stops).  The parser's init feature reports (the Wacom ``02 02``
 mode switch) are sent first unless ``--no-init``.
 """
 
@@ -97,10 +98,12 @@ def _record_hid(transport: Any, path: str, stop: threading.Event, deadline: floa
 
 def _record_evdev(transport: Any, path: str, stop: threading.Event, deadline: float | None,
                   duration: float | None) -> int:
+    from station.drivers.evdev.frames import InputEvent
     from station.drivers.traces.evemu import format_evemu
+    from station.drivers.traces.libinput_record import format_libinput_record
     from station.drivers.transport.base import EndOfStream
 
-    events = []
+    events: list[InputEvent] = []
     try:
         while not stop.is_set():
             if deadline is not None and time.monotonic() >= deadline:
@@ -112,9 +115,11 @@ def _record_evdev(transport: Any, path: str, stop: threading.Event, deadline: fl
         pass
     finally:
         t0 = events[0].time if events else 0.0
-        from station.drivers.evdev.frames import InputEvent
-
         rel = [InputEvent(e.time - t0, e.type, e.code, e.value) for e in events]
+        if path.endswith((".yaml", ".yml")):
+            text = format_libinput_record([(transport.caps, rel)])
+        else:
+            text = format_evemu(transport.caps, rel)
         with open(path, "w", encoding="utf-8") as fh:
-            fh.write(format_evemu(transport.caps, rel))
+            fh.write(text)
     return len(events)
