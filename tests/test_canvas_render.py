@@ -167,3 +167,21 @@ def test_evaporation_is_booked_where_it_happens() -> None:
         assert abs(d_total - d_evap) < 1e-5
     # and the accumulator is per cell: nothing evaporated where no water ever was
     assert st.evaporated[0, 0] == 0 and st.evaporated[16, 16] > 0
+
+
+def test_folding_keeps_long_sessions_precise(tmp_path: Path) -> None:
+    from station.canvas import operations
+
+    c = NumpyCanvas(24, 24, seed=1)
+    st = c.live_state
+    for _ in range(3):
+        paint(c, rect(24, 24, 2, 22, 2, 22), 1.0, {"Black": 0.01})
+        for _ in range(operations.FOLD_EVERY // 2 + 7):
+            c.step()
+    assert st.evaporated_folded > 0  # at least one fold happened
+    s = c.stats()
+    assert s["balance"]["water_rel_error"] < 1e-5
+    c.save(str(tmp_path / "f.npz"))
+    d = NumpyCanvas(24, 24)
+    d.load(str(tmp_path / "f.npz"))
+    assert d.stats() == s

@@ -104,6 +104,8 @@ class NumpyCanvas:
 
     def step(self, dt: float | None = None) -> None:
         self._cells_last = reference.step(self._state, dt)
+        if self._state.step_count % operations.FOLD_EVERY == 0:
+            operations.fold_accumulators(self._state)
 
     def dry(self) -> None:
         operations.dry(self._state)

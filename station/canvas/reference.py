@@ -15,6 +15,12 @@ CHANGED: render.py gouache (not a step pass): the body colour is now R_inf = a -
 CHANGED: add_sources activates only the tiles in which a source array is nonzero
   (``tiles.mark_nonzero``), not the whole source rectangle (results do not depend on it).
 CHANGED: add_sources ignores a pigment whose source array is all zero (it takes no slot).
+CHANGED: bookkeeping: ``CanvasState.evaporated_folded`` (float64 metadata, default 0) holds
+  evaporated water folded out of the per-cell ``evaporated`` accumulator; NumpyCanvas.step
+  calls ``operations.fold_accumulators`` every ``operations.FOLD_EVERY`` (512) steps and
+  stats report ``evaporated_folded + sum(evaporated)``. Backends must carry the field
+  through state()/load_state() (a float32 accumulator that grows large rounds small
+  increments: 6e-5 relative error after 18k steps without folding, 2e-6 with).
 NOTE (API): ``PASS_ORDER`` names the passes; ``step_region(state, box, dt, stop_after=name)``
   writes the fields back right after pass ``name`` (pass-by-pass comparisons).
 NOTE (no maths change): pass 1 computes the bilinear weight from the displacement,

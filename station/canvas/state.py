@@ -12,7 +12,9 @@ Array fields (float32, shape (H, W) unless noted):
   outside active tiles, so tiling cannot change the result);
 - passive: ``r_composed`` (H, W, 3), the reflectance of all dried layers below;
 - bookkeeping accumulators, updated inside the passes: ``evaporated`` (water that
-  left by evaporation, fluid and capillary), ``removed_w`` (water removed by tools),
+  left by evaporation, fluid and capillary; backends fold it into the float64 total
+  ``evaporated_folded`` every ``FOLD_EVERY`` steps so float32 per-cell sums stay small
+  and precise), ``removed_w`` (water removed by tools),
   ``removed_p`` (S, H, W) (pigment removed by tools);
 - ``tile_ttl`` (int32, tiles_y x tiles_x): steps each dirty tile stays active.
 
@@ -85,6 +87,7 @@ class CanvasState:
     sim_time: float = 0.0
     tiling: bool = True
     water_added: float = 0.0
+    evaporated_folded: float = 0.0
     pigment_added: dict[str, float] = field(default_factory=dict)
     pigment_removed_past: dict[str, float] = field(default_factory=dict)
     pigment_dried: dict[str, float] = field(default_factory=dict)
@@ -178,7 +181,8 @@ class CanvasState:
             "profile": self.profile, "paper_preset": self.paper_preset, "seed": self.seed,
             "slots": list(self.slots), "step_count": self.step_count,
             "sim_time": self.sim_time, "tiling": self.tiling,
-            "water_added": self.water_added, "pigment_added": self.pigment_added,
+            "water_added": self.water_added, "evaporated_folded": self.evaporated_folded,
+            "pigment_added": self.pigment_added,
             "pigment_removed_past": self.pigment_removed_past,
             "pigment_dried": self.pigment_dried, "layers": self.layers,
         }
@@ -254,6 +258,7 @@ class CanvasState:
                 slots=slots, step_count=int(meta["step_count"]),
                 sim_time=float(meta["sim_time"]), tiling=bool(meta["tiling"]),
                 water_added=float(meta["water_added"]),
+                evaporated_folded=float(meta.get("evaporated_folded", 0.0)),
                 pigment_added={str(k): float(v) for k, v in meta["pigment_added"].items()},
                 pigment_removed_past={str(k): float(v)
                                       for k, v in meta["pigment_removed_past"].items()},

@@ -27,7 +27,7 @@ def canvas_stats(state: CanvasState, renderer: str) -> dict[str, Any]:
         "added": state.water_added,
         "fluid": _sum(state.w),
         "capillary": _sum(state.wc),
-        "evaporated": _sum(state.evaporated),
+        "evaporated": state.evaporated_folded + _sum(state.evaporated),
         "removed": _sum(state.removed_w),
     }
     names: list[str] = []
