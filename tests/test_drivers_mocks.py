@@ -321,3 +321,17 @@ def test_record_then_replay_matches_the_mock(tmp_path: Path, capsys) -> None:
                  "--duration", "0.2", "-o", str(short)]) == 0
     (d,) = read_trace(short).devices
     assert d.reports[-1].time - d.reports[0].time <= 0.2 + 1e-6
+
+
+def test_hidraw_ioctl_numbers_match_the_kernel_headers() -> None:
+    from station.drivers.transport import hidraw as h
+
+    # values of the macros in linux/hidraw.h on x86-64 / arm64
+    assert h.HIDIOCGRDESCSIZE == 0x80044801
+    assert h.HIDIOCGRDESC == 0x90044802
+    assert h.HIDIOCGRAWINFO == 0x80084803
+    assert h.HIDIOCGRAWNAME(256) == 0x81004804
+    assert h.HIDIOCGRAWPHYS(256) == 0x81004805
+    assert h.HIDIOCSFEATURE(2) == 0xC0024806
+    with pytest.raises(TransportError, match="no such hidraw node"):
+        h.OsHidrawNode("/nonexistent/hidraw0")
