@@ -18,8 +18,10 @@ which rows.
 
 Robust fitting (misclicks): least trimmed squares over minimal subsets
 (exhaustive when few, else seeded random), then iterative re-classification of
-every point against a chi-square threshold (99.9 % of a 2-D Gaussian) scaled
-by the noise estimated from the inliers; see :func:`fit_points`.
+every point by its leverage-corrected studentised residual against the 99.9 %
+quantile of ``2·F(2, dof)`` (chi-square when the noise is known); see
+:func:`fit_points`.  Point sets and their validation live in
+:mod:`station.calibration.pointset`, the solver in :mod:`station.calibration.lm`.
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ from typing import Any
 import numpy as np
 from station.calibration.errors import DegeneratePoints
 from station.calibration.geometry import (
+    CHI2_2_0999,
     Array,
     hartley,
     homogeneous,
@@ -42,93 +45,29 @@ from station.calibration.geometry import (
     project,
     spread,
 )
+from station.calibration.lm import levenberg_marquardt
+from station.calibration.pointset import (
+    COLLINEAR_TOL,
+    COND_MAX,
+    DUPLICATE_TOL,
+    MIN_POINTS,
+    MIN_TILT_SPREAD,
+    MODELS,
+    N_PARAMS,
+    Mapping,
+    PointSet,
+    check_points,
+    dlt_matrix,
+)
 
-MODELS = ("affine", "homography")
-MIN_POINTS = {"affine": 3, "homography": 4}
-N_PARAMS = {"affine": 6, "homography": 8}
+__all__ = [
+    "CHI2_2_0999", "COLLINEAR_TOL", "COND_MAX", "DUPLICATE_TOL", "MIN_POINTS",
+    "MIN_TILT_SPREAD", "MODELS", "N_PARAMS", "FitReport", "Mapping", "PointSet",
+    "check_points", "fit_affine", "fit_homography", "fit_mapping", "fit_points",
+    "leave_one_out", "levenberg_marquardt", "outlier_limit", "residuals", "residuals_mm",
+]  # fmt: skip
 
-COLLINEAR_TOL = 1e-3  # smaller/larger principal spread below this: a line, not a plane
-DUPLICATE_TOL = 1e-9  # relative to the spread of the set
-COND_MAX = 1e10  # condition number of the normalised design matrix
-MIN_TILT_SPREAD = math.tan(math.radians(3.0))  # tan(tilt) must vary this much per axis
 MAX_SUBSETS = 400  # minimal subsets tried by the robust search
-
-
-@dataclass(frozen=True)
-class PointSet:
-    """Calibration points.
-
-    Attributes:
-        device: ``(n, 2)`` sensed positions, device units or device-normalised.
-        canvas: ``(n, 2)`` target positions, canvas-normalised ``[0, 1]``.
-        tilt: ``(n, 2)`` pen tilt in degrees at each tap, or ``None``.
-        labels: one place name per row for messages (``"points.csv:4"``).
-    """
-
-    device: Array
-    canvas: Array
-    tilt: Array | None = None
-    labels: tuple[str, ...] = ()
-
-    def __post_init__(self) -> None:
-        dev = np.asarray(self.device, dtype=np.float64).reshape(-1, 2)
-        can = np.asarray(self.canvas, dtype=np.float64).reshape(-1, 2)
-        object.__setattr__(self, "device", dev)
-        object.__setattr__(self, "canvas", can)
-        if len(dev) != len(can):
-            raise DegeneratePoints(f"{len(dev)} device points but {len(can)} targets")
-        if self.tilt is not None:
-            tilt = np.asarray(self.tilt, dtype=np.float64).reshape(-1, 2)
-            if len(tilt) != len(dev):
-                raise DegeneratePoints(f"{len(tilt)} tilts for {len(dev)} points")
-            object.__setattr__(self, "tilt", tilt)
-        if not self.labels:
-            object.__setattr__(self, "labels", tuple(f"row {i}" for i in range(len(dev))))
-
-    def __len__(self) -> int:
-        return len(self.device)
-
-    def subset(self, rows: Sequence[int] | Array) -> PointSet:
-        idx = np.asarray(rows, dtype=int)
-        return PointSet(
-            self.device[idx],
-            self.canvas[idx],
-            None if self.tilt is None else self.tilt[idx],
-            tuple(self.labels[i] for i in idx),
-        )
-
-    @property
-    def tan_tilt(self) -> Array:
-        """``tan`` of the tilt per axis (zeros without tilt data)."""
-        if self.tilt is None:
-            return np.zeros_like(self.device)
-        return np.tan(np.radians(self.tilt))
-
-
-@dataclass(frozen=True)
-class Mapping:
-    """A fitted device → canvas mapping.
-
-    Attributes:
-        model: ``"affine"`` or ``"homography"``.
-        matrix: 3×3, maps device coordinates (the units of the points) to canvas.
-        parallax: ``(hx, hy)`` device units per unit ``tan(tilt)``; (0, 0) = none.
-    """
-
-    model: str
-    matrix: Array
-    parallax: tuple[float, float] = (0.0, 0.0)
-
-    def corrected_device(self, device: Array, tilt_deg: Array | None = None) -> Array:
-        """Device points moved by the parallax offset for their tilt."""
-        if tilt_deg is None or self.parallax == (0.0, 0.0):
-            return device
-        return device + np.asarray(self.parallax) * np.tan(np.radians(tilt_deg))
-
-    def map(self, device: Array, tilt_deg: Array | None = None) -> Array:
-        """Canvas positions of ``(n, 2)`` device points (with parallax when tilt given)."""
-        pts = np.asarray(device, dtype=np.float64).reshape(-1, 2)
-        return project(self.matrix, self.corrected_device(pts, tilt_deg))
 
 
 @dataclass
@@ -210,118 +149,6 @@ def _clean(matrix: list[list[float]]) -> list[list[float]]:
 
 
 # ---------------------------------------------------------------------------
-# Validation
-
-
-def check_points(points: PointSet, model: str, parallax: bool = False) -> None:
-    """Refuse a point set that cannot determine ``model``; explain why and where."""
-    if model not in MODELS:
-        raise DegeneratePoints(f"unknown model {model!r} (one of {', '.join(MODELS)})")
-    n = len(points)
-    arrays = [("device", points.device), ("canvas", points.canvas)]
-    if points.tilt is not None:
-        arrays.append(("tilt", points.tilt))
-    for name, arr in arrays:
-        bad = np.flatnonzero(~np.isfinite(arr).all(axis=1))
-        if len(bad):
-            where = ", ".join(points.labels[i] for i in bad[:5])
-            raise DegeneratePoints(f"{name} coordinates are NaN or infinite at {where}")
-    need = MIN_POINTS[model] + (1 if parallax else 0)
-    if n < need:
-        extra = " plus one for the parallax" if parallax else ""
-        raise DegeneratePoints(
-            f"{n} point(s) cannot determine a {model} mapping: it needs at least "
-            f"{MIN_POINTS[model]}{extra} ({need})"
-        )
-    _check_duplicates(points)
-    for name, arr in (("device", points.device), ("canvas", points.canvas)):
-        if spread(arr) == 0.0:
-            raise DegeneratePoints(f"all {name} points coincide")
-        flat = planarity(arr)
-        if flat < COLLINEAR_TOL:
-            raise DegeneratePoints(
-                f"the {name} points are (nearly) collinear (spread ratio {flat:.2e} < "
-                f"{COLLINEAR_TOL:g}): a line cannot determine a plane mapping; add targets "
-                "off the line"
-            )
-    if model == "homography":
-        _check_general_position(points)
-    if parallax:
-        _check_tilt_spread(points)
-
-
-def _check_duplicates(points: PointSet) -> None:
-    key = points.device if points.tilt is None else np.column_stack([points.device, points.tilt])
-    scale = max(spread(points.device), 1e-300)
-    order = np.lexsort(key.T[::-1])
-    srt = key[order]
-    gaps = np.abs(np.diff(srt, axis=0))
-    gaps[:, :2] /= scale
-    same = np.flatnonzero((gaps <= DUPLICATE_TOL).all(axis=1))
-    if len(same):
-        a, b = order[same[0]], order[same[0] + 1]
-        a, b = min(a, b), max(a, b)
-        raise DegeneratePoints(
-            f"duplicate point: {points.labels[a]} and {points.labels[b]} have the same device "
-            "position; a repeated tap adds no information (remove one)"
-        )
-
-
-def _dlt_matrix(dn: Array, cn: Array) -> Array:
-    n = len(dn)
-    a = np.zeros((2 * n, 9))
-    x, y = dn[:, 0], dn[:, 1]
-    u, v = cn[:, 0], cn[:, 1]
-    a[0::2, 0], a[0::2, 1], a[0::2, 2] = x, y, 1.0
-    a[0::2, 6], a[0::2, 7], a[0::2, 8] = -u * x, -u * y, -u
-    a[1::2, 3], a[1::2, 4], a[1::2, 5] = x, y, 1.0
-    a[1::2, 6], a[1::2, 7], a[1::2, 8] = -v * x, -v * y, -v
-    return a
-
-
-def _check_general_position(points: PointSet) -> None:
-    """A homography needs 4 points with no 3 collinear (on both sides)."""
-    for name, arr in (("device", points.device), ("canvas", points.canvas)):
-        t = hartley(arr)
-        pts = (homogeneous(arr) @ t.T)[:, :2]
-        # Points off the best line through all but one: if every 4-subset has three
-        # on a line the DLT null space is 2-D; test the DLT directly below.
-        if len(pts) == 4:
-            for trio in itertools.combinations(range(4), 3):
-                if planarity(pts[list(trio)]) < COLLINEAR_TOL:
-                    rows = ", ".join(points.labels[i] for i in trio)
-                    raise DegeneratePoints(
-                        f"three of the four {name} points are collinear ({rows}): a "
-                        "homography needs four points with no three on a line"
-                    )
-    dn = (homogeneous(points.device) @ hartley(points.device).T)[:, :2]
-    cn = (homogeneous(points.canvas) @ hartley(points.canvas).T)[:, :2]
-    s = np.linalg.svd(_dlt_matrix(dn, cn), compute_uv=False)
-    if len(s) >= 9 and s[-2] < 1e-8 * s[0]:
-        raise DegeneratePoints(
-            "the points do not determine a homography (too many on one line); use "
-            "--model affine or add targets in general position"
-        )
-
-
-def _check_tilt_spread(points: PointSet) -> None:
-    if points.tilt is None:
-        raise DegeneratePoints(
-            "parallax needs tilt_x,tilt_y columns (a tilt pass: tap targets with the pen "
-            "leaning in different directions)"
-        )
-    tt = points.tan_tilt
-    for axis, name in ((0, "tilt_x"), (1, "tilt_y")):
-        span = float(tt[:, axis].max() - tt[:, axis].min())
-        if span < MIN_TILT_SPREAD:
-            raise DegeneratePoints(
-                f"{name} hardly varies (tan spread {span:.3f} < {MIN_TILT_SPREAD:.3f}, "
-                "about 3°): parallax cannot be told from an offset; tap some targets with "
-                "the pen leaning left/right and toward/away"
-            )
-
-
-# ---------------------------------------------------------------------------
 # Core fits in normalised coordinates
 
 
@@ -352,7 +179,7 @@ def _affine_ls(dn: Array, cn: Array) -> tuple[Array, float]:
 
 
 def _dlt(dn: Array, cn: Array) -> tuple[Array, float]:
-    a = _dlt_matrix(dn, cn)
+    a = dlt_matrix(dn, cn)
     _u, s, vt = np.linalg.svd(a)
     h = vt[-1].reshape(3, 3)
     cond = float(s[0] / s[-2]) if s[-2] > 0 else math.inf
@@ -412,50 +239,6 @@ def _residuals_jac(
     res[0::2] = u - cn[:, 0]
     res[1::2] = v - cn[:, 1]
     return res, jac
-
-
-def levenberg_marquardt(
-    fun: Any, theta0: Array, max_iter: int = 200, tol: float = 1e-14
-) -> tuple[Array, float]:
-    """Minimise ``|r(θ)|²`` with Levenberg–Marquardt (Marquardt's diagonal scaling).
-
-    ``fun(θ) -> (r, J)``.  Returns ``(θ, |r|²)``.  Stops when the relative
-    decrease of the cost or the step is below ``tol``.
-    """
-    theta = np.array(theta0, dtype=np.float64)
-    r, j = fun(theta)
-    cost = float(r @ r)
-    lam = 1e-3
-    for _ in range(max_iter):
-        jtj = j.T @ j
-        g = j.T @ r
-        diag = np.maximum(np.diag(jtj), 1e-12)
-        improved = False
-        for _inner in range(30):
-            a = jtj + lam * np.diag(diag)
-            try:
-                step = -np.linalg.solve(a, g)
-            except np.linalg.LinAlgError:
-                lam *= 10
-                continue
-            cand = theta + step
-            with np.errstate(all="ignore"):  # a trial step may hit w = 0; it is rejected
-                r2, j2 = fun(cand)
-            c2 = float(r2 @ r2)
-            if np.isfinite(c2) and c2 <= cost:
-                small = cost - c2 <= tol * max(cost, 1e-300) or float(
-                    np.linalg.norm(step)
-                ) <= tol * (1.0 + float(np.linalg.norm(theta)))
-                theta, r, j, cost = cand, r2, j2, c2
-                lam = max(lam / 10, 1e-12)
-                improved = True
-                if small:
-                    return theta, cost
-                break
-            lam *= 10
-        if not improved:
-            break
-    return theta, cost
 
 
 def _parallax_init(model: str, m: Array, nz: _Normalised) -> Array:

@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from station.calibration.errors import CalibrationError
-from station.calibration.fit import levenberg_marquardt
 from station.calibration.geometry import Array
+from station.calibration.lm import levenberg_marquardt
 
 LINEAR = (0.0, 0.0, 1.0, 1.0)
 
