@@ -2,8 +2,10 @@
 
 Installs as ``station.calibration``.  Modules:
 
+* :mod:`~station.calibration.pointset` — point sets, mappings, refusal of degenerate sets;
 * :mod:`~station.calibration.fit` — affine / homography fits, parallax,
-  misclick detection, leave-one-out error;
+  misclick detection, leave-one-out error (:mod:`~station.calibration.lm`: the solver);
+* :mod:`~station.calibration.points` — the points CSV;
 * :mod:`~station.calibration.area` — active area, rotation, left-handed,
   aspect lock, output rectangle, composed into one matrix;
 * :mod:`~station.calibration.pressure` — tip threshold/maximum, Bézier curve, tilt offset;
@@ -11,8 +13,10 @@ Installs as ``station.calibration``.  Modules:
 * :mod:`~station.calibration.files` — the per-device JSON file, schema, store;
 * :mod:`~station.calibration.export` — libinput matrix and tslib pointercal;
 * :mod:`~station.calibration.taps` — taps found in recorded sessions;
-* :mod:`~station.calibration.sources` and :mod:`~station.calibration.interactive` —
-  the ``station calibrate`` window and its pen sources (mock devices included).
+* :mod:`~station.calibration.session`, :mod:`~station.calibration.sources` and
+  :mod:`~station.calibration.interactive` — the ``station calibrate`` window: its logic
+  (targets, on-the-spot misclick rejection), its pen sources (mock devices included)
+  and its drawing.
 """
 
 from station.calibration.errors import (

@@ -57,7 +57,7 @@ def config_dir() -> Path:
     return Path(xdg) / "station" / "calibration"
 
 
-def path_for(device: DeviceId, directory: str | os.PathLike[str] | None = None) -> Path:
+def _folder(directory: str | os.PathLike[str] | None) -> Path:
     return Path(directory) if directory is not None else config_dir()
 
 
@@ -191,7 +191,7 @@ def write_file(cal: Calibration, path: str | os.PathLike[str]) -> Path:
 
 
 def default_path(device: DeviceId, directory: str | os.PathLike[str] | None = None) -> Path:
-    return path_for(device, directory) / f"{device.key}.json"
+    return _folder(directory) / f"{device.key}.json"
 
 
 def find_for_device(
@@ -200,7 +200,7 @@ def find_for_device(
 ) -> Path | None:
     """The device's calibration file: serial-specific first, then the generic one."""
     dev = DeviceId(vid, pid, serial)
-    folder = path_for(dev, directory)
+    folder = _folder(directory)
     candidates = []
     if serial:
         candidates.append(folder / f"{dev.key}.json")
