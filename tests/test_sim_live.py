@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import math
 import os
 import signal
 import subprocess
@@ -12,10 +13,16 @@ import time
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from station.bus import Publisher, Subscriber
 from station.canvas.state import CanvasState
 from station.events import Command, PenSample
 from station.sessionlog import read_session
+
+
+def s_steps(path: Path) -> int:
+    return CanvasState.load(path).step_count
 
 
 def _wait_status(sub: Subscriber, pred: Any, timeout: float) -> dict[str, Any] | None:
@@ -81,7 +88,10 @@ def test_sim_paints_bus_input_logs_it_and_saves_on_sigterm(tmp_path: Path) -> No
     pens = [r for r in records if isinstance(r, PenSample)]
     cmds = [r for r in records if isinstance(r, Command)]
     assert len(pens) == n + 1 and sum(p.touching for p in pens) == n
-    assert [c.cmd for c in cmds] == ["brush", "sparkle"]  # the rejected brush is not logged
+    # the rejected brush is not logged; a no-op wait marks the end
+    assert [c.cmd for c in cmds] == ["brush", "sparkle", "wait"]
+    assert cmds[-1].args == {"seconds": 0.0}
+    assert math.floor(cmds[-1].t * 30 + 1e-6) == s_steps(state)
     # re-timed into the session clock, keeping the device's 10 ms spacing
     ts = [p.t for p in pens]
     assert all(b >= a for a, b in itertools.pairwise(ts))
@@ -118,4 +128,47 @@ def test_sim_wait_runs_painting_time_and_stop_ends_it(tmp_path: Path) -> None:
     summary = json.loads(err.strip().splitlines()[-1].split("stopped ", 1)[1])
     assert summary["steps"] >= 120
     _header, records = read_session(log)
-    assert [r.cmd for r in records if isinstance(r, Command)] == ["wait"]
+    assert [r.cmd for r in records if isinstance(r, Command)] == ["wait", "wait"]
+
+
+def test_replaying_a_live_log_repaints_the_live_canvas(tmp_path: Path) -> None:
+    """The log of a live run, painted by ``station paint``, runs the same steps and
+    gives (nearly: arrival vs. re-timed sample times) the same painting."""
+    from station.cli import main
+
+    bus = f"ipc://{tmp_path}/bus"
+    log, state, png = tmp_path / "live.jsonl", tmp_path / "live.npz", tmp_path / "live.png"
+    pub = Publisher(bus, bind=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "station", "sim", "--bus", bus, "--size", "40x40",
+         "--backend", "numpy", "--log", str(log), "--state", str(state), "--png", str(png),
+         "--status", "none"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert pub.wait_for_subscribers(1, timeout=30.0)
+        pub.publish_cmd(Command(t=0.0, cmd="brush", args={
+            "size": 10, "water": 1.0, "pigment": {"Burnt Umber": 1.0}}))
+        for i in range(25):
+            pub.publish_pen(PenSample(t=i * 0.02, device="p", tool="pen",  # type: ignore[arg-type]
+                                      x=0.2 + 0.025 * i, y=0.3 + 0.015 * i, pressure=0.9,
+                                      touching=True))
+            time.sleep(0.02)
+        time.sleep(0.5)
+        proc.send_signal(signal.SIGTERM)
+        _out, err = proc.communicate(timeout=30)
+        assert proc.returncode == 0, err
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+        pub.close()
+    stats = tmp_path / "replay.json"
+    assert main(["paint", str(log), "-o", str(tmp_path / "replay.png"), "--backend", "numpy",
+                 "--stats", str(stats)]) == 0
+    assert json.loads(stats.read_text())["steps"] == CanvasState.load(state).step_count
+
+    from PIL import Image
+
+    live = np.asarray(Image.open(png), dtype=np.int32)
+    replay = np.asarray(Image.open(tmp_path / "replay.png"), dtype=np.int32)
+    assert (live.sum(axis=2) < 700).mean() > 0.05
+    assert np.abs(live - replay).mean() < 2.0

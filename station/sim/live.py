@@ -13,8 +13,11 @@ the simulation's session clock (seconds since ``station sim`` started): a pen
 sample keeps its device's spacing — its time is ``sample.t + offset``, the
 offset fixed by the device's first sample and re-synchronised when the mapped
 time strays more than :data:`RESYNC_S` from the receipt time — and is clamped
-so the log never goes back in time.  Replaying the log with ``station paint``
-then gives the same steps and the same brush velocities the live run used.
+so the log never goes back in time.  On exit a ``wait {"seconds": 0}`` marks
+the session time of the last step.  Replaying the log with ``station paint``
+then runs the same steps with the same brush velocities the live run used
+(samples land in the step their re-timed time belongs to, which can differ by
+one step from when they arrived).
 
 Bad messages: the bus drops undecodable ones (counted in ``bus.malformed``);
 a command the player rejects (unknown pigment, bad numbers) is counted in
@@ -25,6 +28,7 @@ input.
 from __future__ import annotations
 
 import logging
+import math
 import os
 import signal
 import time
@@ -209,6 +213,13 @@ class LiveSim:
         """Hand pending stamps to the canvas, save state, PNG and log."""
         p = self.player
         p.flush_sources()
+        if self.writer is not None:
+            # End marker: a no-op wait at the session time the last step belongs to, so
+            # a replay of the log runs as many steps as this process did.
+            # (rounded up to the µs, so it does not fall just short of the step's end)
+            t_end = max(self._last_t, p.counters.steps / p.rate - p.waited)
+            t_end = math.ceil(t_end * 1e6) / 1e6
+            self.writer.write(Command(t=t_end, cmd="wait", args={"seconds": 0.0}))
         if self.cfg.state_path:
             self.canvas.state().save(self.cfg.state_path)
         if self.cfg.png_path:
