@@ -271,3 +271,23 @@ def test_edit_sets_area_pressure_and_tilt(tmp_path: Path,
     assert code == 2 and "no resolution" in err and g.read_text() == before
     code, _, err = run_cli(capsys, "--edit", str(g), "--pressure-range", "0.9,0.5")
     assert code == 2 and "threshold" in err and g.read_text() == before
+
+
+def test_residuals_in_mm_from_the_device_size(tmp_path: Path,
+                                              capsys: pytest.CaptureFixture[str]) -> None:
+    # normalised device coordinates of a 223.52 × 139.7 mm tablet: a tap 2 mm off in x
+    can = grid9()
+    dev = project(np.linalg.inv(TRUTH), can)
+    dev[4, 0] += 2.0 / 223.52
+    f = tmp_path / "p.csv"
+    f.write_text(format_points(PointSet(dev, can)))
+    code, out, _ = run_cli(capsys, "--fit", str(f), "--json", "--no-robust",
+                           "--device-size", "223.52,139.7")
+    rep = json.loads(out)
+    via_size = [r["norm_mm"] for r in rep["residuals"]]
+    code2, out2, _ = run_cli(capsys, "--fit", str(f), "--json", "--no-robust",
+                             "--resolution", f"{1 / 223.52},{1 / 139.7}")
+    via_res = [r["norm_mm"] for r in json.loads(out2)["residuals"]]
+    assert code == code2 == 0 and via_size == pytest.approx(via_res, rel=1e-12)
+    # least squares keeps 8/9 of the slip at the centre tap (its leverage is 1/9)
+    assert via_size[4] == pytest.approx(2.0 * 8 / 9, rel=0.02)

@@ -68,6 +68,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "3.7 sigma (otherwise the noise is estimated from the points)")
     p.add_argument("--resolution", metavar="RX[,RY]",
                    help="device units per mm (for residuals in mm)")
+    p.add_argument("--device-size", metavar="W,H",
+                   help="the device's active size in mm (residuals in mm without --resolution)")
     p.add_argument("--device-max", metavar="XMAX,YMAX",
                    help="device coordinates are device units 0..max (else normalised)")
     p.add_argument("--json", action="store_true", help="machine output")
@@ -160,12 +162,24 @@ def _report_text(rep: Any, labels: tuple[str, ...]) -> str:
     return "\n".join(lines)
 
 
+def _units_per_mm(args: argparse.Namespace) -> tuple[float, float] | None:
+    """Device units per mm of the points' device coordinates, where it can be known."""
+    upm = _pair(args.resolution, "--resolution")
+    if upm is not None:
+        return upm
+    size = _pair(args.device_size, "--device-size")
+    if size is None:
+        return None
+    span = _pair(args.device_max, "--device-max") or (1.0, 1.0)  # normalised: 0..1
+    return (span[0] / size[0], span[1] / size[1])
+
+
 def _fit_and_print(args: argparse.Namespace, points: Any, extra: dict[str, Any]) -> int:
     from station.calibration.fit import fit_points
 
     model = args.model or "affine"
     parallax = _parallax_choice(args, points)
-    upm = _pair(args.resolution, "--resolution")
+    upm = _units_per_mm(args)
     if args.noise is not None and not args.noise > 0:
         raise BadInput(f"{args.noise} must be a positive number (canvas units)", "--noise")
     rep = fit_points(points, model, parallax, robust=not args.no_robust,
@@ -193,7 +207,7 @@ def _write_fit_file(args: argparse.Namespace, rep: Any, points: Any) -> None:
     dev = parse_device_id(args.device_id)
     if dev is None:
         raise BadInput("writing a calibration file needs the device id", "--id")
-    upm = _pair(args.resolution, "--resolution")
+    upm = _units_per_mm(args) if args.device_max else _pair(args.resolution, "--resolution")
     dmax = _pair(args.device_max, "--device-max")
     matrix = rep.mapping.matrix
     parallax = rep.mapping.parallax
