@@ -284,6 +284,7 @@ class DriverSource:
     def __init__(self, spec: str) -> None:
         try:
             from station.drivers.pipeline import PenDriver, open_device
+            from station.drivers.transport.base import DeviceGone
         except ImportError as exc:
             raise CalibrationError(f"the drivers' pipeline is not available ({exc})",
                                    "--device") from None
@@ -298,6 +299,7 @@ class DriverSource:
         self.geometry = DeviceGeometry(r.x.minimum, r.x.maximum, r.y.minimum, r.y.maximum,
                                        r.x.resolution, r.y.resolution)
         self._ended = False
+        self._gone: type[Exception] = DeviceGone  # EndOfStream (a recording ended) too
 
     def show_target(self, index: int, xy: tuple[float, float],
                     tilt_hint: tuple[float, float] | None, step: str = "tap") -> None:
@@ -308,11 +310,9 @@ class DriverSource:
             return []
         try:
             return self._driver.poll(0.0)
-        except Exception as exc:  # DeviceGone / EndOfStream from the drivers
-            if type(exc).__name__ in ("DeviceGone", "EndOfStream"):
-                self._ended = True
-                return []
-            raise
+        except self._gone:
+            self._ended = True
+            return []
 
     @property
     def exhausted(self) -> bool:
