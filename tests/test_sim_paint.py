@@ -418,3 +418,34 @@ def test_auto_backend_falls_back_to_numpy(monkeypatch: pytest.MonkeyPatch,
     assert any("no EGL display | second line" in r.getMessage() for r in caplog.records)
     with pytest.raises(StationError):  # an explicit gl that cannot start: exit 1
         make_backend("gl", 32, 32, "watercolor", 0)
+
+
+def test_ninth_pigment_in_a_layer_is_refused_at_its_sample(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    names = ["French Ultramarine", "Cerulean Blue", "Hansa Yellow", "Cadmium Yellow",
+             "Quinacridone Rose", "Cadmium Red", "Indian Red", "Burnt Umber", "Phthalo Green"]
+
+    def session(new_layer_before_last: bool) -> Script:
+        s = Script(W, H, seed=1)
+        for i, name in enumerate(names):
+            if new_layer_before_last and i == 8:
+                s.new_layer()
+            s.brush(size=4, water=0.5, pigment={name: 0.5})
+            s.dab((0.1 + 0.09 * i, 0.5))
+        return s
+
+    ok, bad = tmp_path / "ok.jsonl", tmp_path / "bad.jsonl"
+    session(True).save(ok)
+    session(False).save(bad)
+    code, err = paint([str(ok), "-o", str(tmp_path / "ok.png")], capsys)
+    assert code == 0, err
+    code, err = paint([str(bad), "-o", str(tmp_path / "bad.png")], capsys)
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert "start a new layer to paint with Phthalo Green" in err
+    lines = bad.read_text().splitlines()
+    line_no = int(err.split("bad.jsonl:")[1].split(":")[0])
+    rec = json.loads(lines[line_no - 1])
+    assert rec["type"] == "pen" and rec["touching"]  # the first touching sample of the 9th dab
+    assert json.loads(lines[line_no - 3])["cmd"] == "brush"
+    img = read_png(tmp_path / "bad.png")  # the eight dabs before it were painted
+    assert (img.sum(axis=2) < 735).any(axis=0).sum() >= 8

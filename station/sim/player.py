@@ -34,7 +34,8 @@ from typing import Any
 from station.canvas.brush import BrushModel, BrushSettings, RoundBrush
 from station.canvas.params import PROFILES, Profile, get_profile
 from station.errors import BadInput
-from station.events import Command, PenSample
+from station.canvas.state import DEFAULT_SLOTS
+from station.events import Command, PenSample, Tool
 
 log = logging.getLogger(__name__)
 
@@ -99,6 +100,10 @@ class SessionPlayer:
         self.brush = RoundBrush(width, height, brush_defaults(prof).scaled(brush_scale),
                                 brush_model(prof), time_scale=self.rate * self.dt)
         self.counters = PlayerCounters()
+        # Pigments painted into the active layer, to refuse a ninth one at the pen
+        # sample that would bring it (the canvas would only notice at the next step).
+        self.layer_pigments: set[str] = set()
+        self.n_slots = int(getattr(backend, "n_slots", None) or DEFAULT_SLOTS)
         self.waited = 0.0  # painting seconds inserted by wait commands
         self.last_t = 0.0  # session time of the last record applied
         self._warned: set[str] = set()
@@ -139,9 +144,23 @@ class SessionPlayer:
         self.last_t = max(self.last_t, record.t)
         if isinstance(record, PenSample):
             self.counters.samples += 1
+            if record.touching and record.tool is not Tool.ERASER:
+                self._check_layer(where)
             self.brush.feed(record)
         else:
             self.command(record, where)
+
+    def _check_layer(self, where: str | None) -> None:
+        names = [k for k, a in self.brush.settings.pigment.items() if a > 0.0]
+        new = [k for k in names if k not in self.layer_pigments]
+        if not new:
+            return
+        if len(self.layer_pigments) + len(new) > self.n_slots:
+            held = ", ".join(sorted(self.layer_pigments))
+            raise PlayerError(
+                f"the active layer already holds {len(self.layer_pigments)} of {self.n_slots} "
+                f"pigments ({held}); start a new layer to paint with {', '.join(new)}", where)
+        self.layer_pigments.update(new)
 
     def command(self, cmd: Command, where: str | None = None) -> None:
         name = cmd.cmd
@@ -239,11 +258,13 @@ def _new_layer(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> 
         p.backend.new_layer()
     except BadInput as exc:
         raise PlayerError(str(exc), where) from None
+    p.layer_pigments.clear()
 
 
 def _clear(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
     p.brush.take()  # stamps not yet simulated are cleared with the rest
     p.backend.clear()
+    p.layer_pigments.clear()
 
 
 _HANDLERS: dict[str, Callable[[SessionPlayer, Mapping[str, Any], str | None], None]] = {
