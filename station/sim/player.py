@@ -33,8 +33,8 @@ from typing import Any
 
 from station.canvas.brush import BrushModel, BrushSettings, RoundBrush
 from station.canvas.params import PROFILES, Profile, get_profile
-from station.errors import BadInput
 from station.canvas.state import DEFAULT_SLOTS
+from station.errors import BadInput
 from station.events import Command, PenSample, Tool
 
 log = logging.getLogger(__name__)
