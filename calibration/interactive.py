@@ -323,7 +323,7 @@ def run_interactive(args: argparse.Namespace) -> int:
             if not loop.run_targets():
                 out.write("calibration cancelled\n")
                 return 1
-            if session.finish():
+            if session.finish(args.noise):
                 break
             again = len(session.targets) - session.current
             out.write(f"the fit excluded {again} tap(s) as misclicks: asking those targets "

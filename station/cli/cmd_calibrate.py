@@ -11,6 +11,9 @@ Modes (exactly one):
 * ``--export libinput|tslib --calibration FILE``: print a foreign line.
 * ``--import libinput|tslib LINEFILE``: turn a foreign line into a calibration file.
 * ``--check FILE``: validate a calibration file (exit 2 with the reason if bad).
+* ``--edit FILE``: change area, pressure and tilt settings (validated, atomic).
+
+See docs/calibration.md.
 """
 
 from __future__ import annotations
