@@ -132,10 +132,11 @@ def check_points(points: PointSet, model: str, parallax: bool = False) -> None:
             raise DegeneratePoints(f"{name} coordinates are NaN or infinite at {where}")
     need = MIN_POINTS[model] + (1 if parallax else 0)
     if n < need:
-        extra = " plus one for the parallax" if parallax else ""
+        extra = f" ({MIN_POINTS[model]} plus one for the parallax)" if parallax else ""
+        article = "an" if model[0] in "aeiou" else "a"
         raise DegeneratePoints(
-            f"{n} point(s) cannot determine a {model} mapping: it needs at least "
-            f"{MIN_POINTS[model]}{extra} ({need})"
+            f"{n} point{'s' if n != 1 else ''} cannot determine {article} {model} mapping: "
+            f"it needs at least {need}{extra}"
         )
     _check_duplicates(points)
     for name, arr in (("device", points.device), ("canvas", points.canvas)):
