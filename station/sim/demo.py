@@ -11,7 +11,8 @@
 3. **glazed hills** — nearer hills in Cerulean Blue, dried, a new layer, then
    a Hansa Yellow **glaze** over them: blue under yellow reads green;
 4. **foreground** — Burnt Umber with French Ultramarine, granulating in the
-   paper's valleys;
+   paper's valleys, and a pond laid wet-on-dry with much water whose rim
+   darkens as it dries;
 5. **ink** — a profile switch to ``ink`` for a tree, grass and birds in Sumi Ink.
 
 The committed ``station/data/demo/landscape.jsonl`` is exactly
@@ -117,6 +118,17 @@ def landscape(width: int = DEMO_WIDTH, height: int = DEMO_HEIGHT) -> Script:
             pts.reverse()
         s.curve(pts, 0.8, pressure=swell(0.5, 1.0, 2.0), tilt=tilt_const(30.0, 5.0))
     s.wait(4.0)
+    s.dry()
+
+    # A pond laid wet-on-dry with plenty of water: left to dry, its rim darkens.
+    s.brush(size=3.5 * cells, water=1.0,
+            pigment={"Phthalo Green": 0.35, "French Ultramarine": 0.5})
+    for i in range(5):
+        y = 0.845 + i * 0.013
+        half = 0.16 * math.sqrt(max(0.0, 1.0 - ((y - 0.87) / 0.04) ** 2))
+        a, b = (0.3 - half, y), (0.3 + half, y)
+        s.line(a if i % 2 == 0 else b, b if i % 2 == 0 else a, 0.5, pressure=0.85)
+    s.wait(5.0)
     s.dry()
 
     # 5. Ink: a tree, grass and birds.
