@@ -257,3 +257,30 @@ def test_replay_is_flagged_on_the_wire() -> None:
     frames = wire.encode("pen.a", PenSample(t=0, device="a", tool=Tool.PEN, x=0, y=0), 1, 1,
                          flags=wire.FLAG_REPLAY)
     assert wire.decode(frames).replay
+
+
+def test_reversed_topology_subscriber_binds_publishers_connect() -> None:
+    """Many drivers, one consumer: the consumer binds (``@``), drivers connect (``>``).
+
+    libzmq only sends a bound SUB's subscriptions while that socket is being
+    polled, which a receiving subscriber always is.
+    """
+    with Subscriber("@ipc:rev", topics=("pen.",)) as sub:
+        got: list[int] = []
+
+        def receive() -> None:
+            deadline = time.monotonic() + 5
+            while time.monotonic() < deadline and len(got) < 10:
+                m = sub.recv(20)
+                if m is not None:
+                    got.append(m.value.seq)
+
+        t = threading.Thread(target=receive)
+        t.start()
+        with Publisher(">ipc:rev") as pub:
+            assert pub.wait_for_subscribers(1, 5)
+            for i in range(1, 11):
+                pub.publish_pen(PenSample(t=i / 100, device="r", tool=Tool.PEN, x=0.5, y=0.5,
+                                          seq=i))
+            t.join()
+        assert got == list(range(1, 11))
