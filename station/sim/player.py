@@ -236,8 +236,13 @@ class SessionPlayer:
                 self.apply(rec, where() if where else None)
                 if isinstance(rec, Command) and rec.cmd == "wait":
                     self.advance_to(rec.t, on_step)
-        finally:
-            self.flush_sources()
+        except BadInput:
+            try:  # keep what was painted before the bad record ...
+                self.flush_sources()
+            except BadInput as exc:  # ... unless the stamps themselves are refused
+                log.warning("stamps before the bad record dropped: %s", exc)
+            raise
+        self.flush_sources()
 
     def settle(self, seconds: float, on_step: Callable[[SessionPlayer], None] | None = None
                ) -> None:
