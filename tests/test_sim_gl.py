@@ -12,12 +12,19 @@ from station.cli import main
 from station.sim.script import Script, taper
 
 
-def small_session() -> Script:
-    s = Script(64, 48, seed=5, rate_hz=60.0)
-    s.brush(size=10, water=0.9, pigment={"French Ultramarine": 0.8})
-    s.line((0.15, 0.3), (0.85, 0.35), 0.4, pressure=taper(0.9))
-    s.brush(size=6, water=0.7, pigment={"Hansa Yellow": 0.6, "Burnt Umber": 0.2})
-    s.curve([(0.2, 0.7), (0.5, 0.6), (0.8, 0.75)], 0.3, pressure=0.7, tilt=(20.0, 5.0))
+def session() -> Script:
+    """Strokes over several 32x32 tiles, a dried layer, a glaze, a profile switch."""
+    s = Script(96, 72, seed=5, rate_hz=60.0)
+    s.brush(size=12, water=0.9, pigment={"French Ultramarine": 0.8})
+    s.line((0.1, 0.3), (0.9, 0.35), 0.4, pressure=taper(0.9))
+    s.wait(1.0)
+    s.dry()
+    s.new_layer()
+    s.brush(size=8, water=0.7, pigment={"Hansa Yellow": 0.6, "Burnt Umber": 0.2})
+    s.curve([(0.2, 0.2), (0.5, 0.6), (0.8, 0.75)], 0.3, pressure=0.7, tilt=(20.0, 5.0))
+    s.wait(0.5)
+    s.profile("ink")
+    s.line((0.7, 0.1), (0.75, 0.9), 0.3, pressure=taper(1.0))
     s.wait(0.5)
     return s
 
@@ -42,7 +49,7 @@ def _gl_available() -> bool:
 def test_gl_paints_the_same_picture_as_numpy(tmp_path: Path,
                                              capsys: pytest.CaptureFixture[str]) -> None:
     log = tmp_path / "s.jsonl"
-    small_session().save(log)
+    session().save(log)
     for backend in ("numpy", "gl"):
         code = main(["paint", str(log), "-o", str(tmp_path / f"{backend}.png"), "--backend",
                      backend, "--stats", str(tmp_path / f"{backend}.json")])
