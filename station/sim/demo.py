@@ -54,6 +54,30 @@ def _fill_hill(s: Script, base: float, amp: float, phase: float, waves: float, b
         s.curve(pts, duration, pressure=taper(0.9, 0.6, 0.6), tilt=tilt_const(-lean, 8.0))
 
 
+def _tree(s: Script, cells: float, foot: tuple[float, float], height: float, lean: float,
+          scale: float) -> None:
+    """An ink tree: a tapering trunk, curved branches, twigs at their ends."""
+    fx, fy = foot
+    top = (fx + lean, fy - height)
+    s.brush(size=2.2 * cells * scale, water=0.5, pigment={"Sumi Ink": 0.8})
+    s.curve([foot, (fx - 0.005, fy - 0.35 * height), (fx + 0.008 + lean * 0.5, fy - 0.7 * height),
+             top], 0.9 * scale + 0.2, pressure=taper(1.0, 0.9, 0.15, release=0.4),
+            tilt=tilt_const(-10.0, 30.0))
+    s.brush(size=1.1 * cells * scale, water=0.5, pigment={"Sumi Ink": 0.75})
+    for k, (at, side, length, rise) in enumerate(((0.45, -1, 0.11, 0.06), (0.55, 1, 0.12, 0.07),
+                                                 (0.7, -1, 0.08, 0.07), (0.78, 1, 0.09, 0.06),
+                                                 (0.88, -1, 0.05, 0.05))):
+        bx = fx + lean * at + 0.004 * math.sin(9.0 * at)
+        by = fy - at * height
+        dx, dy = side * length * scale, -rise * scale
+        end = (bx + dx, by + dy)
+        s.curve([(bx, by), (bx + 0.5 * dx, by + 0.2 * dy), end], 0.3,
+                pressure=taper(0.9, 0.8, 0.1, release=0.5))
+        for t in (-1, 1):  # two twigs fanning from the branch end
+            tw = (end[0] + 0.025 * scale * (side + 0.6 * t), end[1] - 0.03 * scale * (1 + k % 2))
+            s.line(end, tw, 0.12, pressure=taper(0.6, 0.6, 0.05, attack=0.05, release=0.7))
+
+
 def landscape(width: int = DEMO_WIDTH, height: int = DEMO_HEIGHT) -> Script:
     """The demo session (see the module docstring)."""
     s = Script(width, height, profile="watercolor", seed=DEMO_SEED, device="demo-0",
@@ -133,13 +157,8 @@ def landscape(width: int = DEMO_WIDTH, height: int = DEMO_HEIGHT) -> Script:
 
     # 5. Ink: a tree, grass and birds.
     s.profile("ink")
-    s.brush(size=2.2 * cells, water=0.5, pigment={"Sumi Ink": 0.8})
-    s.curve([(0.78, 0.9), (0.775, 0.75), (0.785, 0.6), (0.77, 0.48)], 0.9,
-            pressure=taper(1.0, 0.9, 0.2, release=0.4), tilt=tilt_const(-10.0, 30.0))
-    s.brush(size=1.2 * cells, water=0.5, pigment={"Sumi Ink": 0.8})
-    for (x0, y0), (x1, y1) in [((0.78, 0.62), (0.7, 0.52)), ((0.779, 0.58), (0.86, 0.5)),
-                               ((0.776, 0.52), (0.72, 0.44)), ((0.775, 0.5), (0.83, 0.43))]:
-        s.line((x0, y0), (x1, y1), 0.35, pressure=taper(0.9, 0.8, 0.1, release=0.5))
+    _tree(s, cells, foot=(0.78, 0.9), height=0.44, lean=-0.01, scale=1.0)
+    _tree(s, cells, foot=(0.915, 0.72), height=0.2, lean=0.01, scale=0.55)
     s.brush(size=0.8 * cells, water=0.5, pigment={"Sumi Ink": 0.55})
     for i, x in enumerate((0.05, 0.2, 0.36, 0.52, 0.63, 0.9)):
         base = 0.99 - 0.01 * (i % 2)
