@@ -172,3 +172,44 @@ def test_replaying_a_live_log_repaints_the_live_canvas(tmp_path: Path) -> None:
     replay = np.asarray(Image.open(tmp_path / "replay.png"), dtype=np.int32)
     assert (live.sum(axis=2) < 700).mean() > 0.05
     assert np.abs(live - replay).mean() < 2.0
+
+
+def test_sim_survives_refused_paint(tmp_path: Path) -> None:
+    """A brush with nine pigments cannot paint into one layer: its samples are
+    counted and dropped, the process goes on and still exits 0."""
+    bus = f"ipc://{tmp_path}/bus"
+    status = f"ipc://{tmp_path}/status"
+    pub = Publisher(bus, bind=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "station", "sim", "--bus", bus, "--size", "32x32",
+         "--backend", "numpy", "--status", "@" + status],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    st_sub = None
+    try:
+        assert pub.wait_for_subscribers(1, timeout=30.0)
+        st_sub = Subscriber(status, topics=("status",))
+        assert _wait_status(st_sub, lambda s: True, 15.0) is not None
+        nine = ["French Ultramarine", "Cerulean Blue", "Hansa Yellow", "Cadmium Yellow",
+                "Quinacridone Rose", "Cadmium Red", "Indian Red", "Burnt Umber", "Black"]
+        pub.publish_cmd(Command(t=0.0, cmd="brush", args={"pigment": dict.fromkeys(nine, 0.5)}))
+        for i in range(4):
+            pub.publish_pen(PenSample(t=i * 0.01, device="p", tool="pen",  # type: ignore[arg-type]
+                                      x=0.3 + 0.1 * i, y=0.5, pressure=0.5, touching=True))
+        pub.publish_cmd(Command(t=0.0, cmd="brush", args={"pigment": {"Black": 0.5}}))
+        pub.publish_pen(PenSample(t=0.1, device="p", tool="pen",  # type: ignore[arg-type]
+                                  x=0.5, y=0.5, pressure=0.5, touching=True))
+        seen = _wait_status(st_sub, lambda s: s["bad_samples"] + s["samples"] >= 5, 15.0)
+        assert seen is not None
+        assert seen["bad_samples"] == 4 and seen["samples"] == 1
+        assert seen["stamps"] == 1  # the Black dab painted
+        proc.send_signal(signal.SIGTERM)
+        _out, err = proc.communicate(timeout=30)
+        assert proc.returncode == 0, err
+        assert err.count("sample not painted") == 1  # warned once, not per sample
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+        pub.close()
+        if st_sub is not None:
+            st_sub.close()

@@ -21,8 +21,9 @@ one step from when they arrived).
 
 Bad messages: the bus drops undecodable ones (counted in ``bus.malformed``);
 a command the player rejects (unknown pigment, bad numbers) is counted in
-``bad_commands``, warned about and not logged.  The process never crashes on
-input.
+``bad_commands``, a pen sample it refuses (a ninth pigment in the layer) in
+``bad_samples``, stamps the canvas refuses in ``dropped_sources``; each is
+warned about once and not logged.  The process never crashes on input.
 """
 
 from __future__ import annotations
@@ -101,6 +102,9 @@ class LiveSim:
         self.samples = 0
         self.commands = 0
         self.bad_commands = 0
+        self.bad_samples = 0
+        self.dropped_sources = 0
+        self._warned: set[str] = set()
         self._fps_mark = (self.start, 0)
         self.fps = 0.0
 
@@ -122,7 +126,12 @@ class LiveSim:
         now = self.now()
         if kind == "pen" and isinstance(value, PenSample):
             rec = self._stamp_sample(value, now)
-            self.player.apply(rec)
+            try:
+                self.player.apply(rec)
+            except BadInput as exc:  # e.g. a ninth pigment in the layer: not painted
+                self.bad_samples += 1
+                self._warn(f"sample not painted: {exc}")
+                return
             self.samples += 1
             if self.writer is not None:
                 self.writer.write(rec)
@@ -137,11 +146,26 @@ class LiveSim:
                 self.player.command(cmd)
             except BadInput as exc:
                 self.bad_commands += 1
-                log.warning("rejected command %r: %s", cmd.cmd, exc)
+                self._warn(f"rejected command {cmd.cmd!r}: {exc}")
                 return
             self.commands += 1
             if self.writer is not None:
                 self.writer.write(cmd)
+
+    def _warn(self, text: str) -> None:
+        """Warn once per distinct message (a bad stroke must not flood the log)."""
+        if text not in self._warned:
+            self._warned.add(text)
+            log.warning("%s", text)
+
+    def step(self) -> None:
+        """One step; stamps the canvas refuses are dropped (counted), the step runs."""
+        try:
+            self.player.flush_sources()
+        except BadInput as exc:
+            self.dropped_sources += 1
+            self._warn(f"brush sources dropped: {exc}")
+        self.player.step()
 
     def drain(self, timeout_ms: int) -> None:
         msg = self.sub.recv(timeout_ms)
@@ -171,7 +195,8 @@ class LiveSim:
             "lag_s": max(0.0, session + p.waited - p.painting_time),
             "fps": self.fps, "rate": p.rate,
             "samples": self.samples, "commands": self.commands,
-            "bad_commands": self.bad_commands,
+            "bad_commands": self.bad_commands, "bad_samples": self.bad_samples,
+            "dropped_sources": self.dropped_sources,
             "lost_samples": self.sub.stats.lost, "bus": self.sub.stats.as_dict(),
             "stamps": p.brush.stamps, "eraser_samples": p.brush.eraser_samples,
         }
@@ -197,7 +222,7 @@ class LiveSim:
                 if self.cfg.duration is not None and now >= self.cfg.duration:
                     break
                 if p.counters.steps < p.steps_due(now):
-                    p.step()
+                    self.step()
                     self.drain(0)
                 else:
                     next_step = (p.counters.steps + 1) / p.rate - p.waited
@@ -212,7 +237,11 @@ class LiveSim:
     def shutdown(self) -> dict[str, Any]:
         """Hand pending stamps to the canvas, save state, PNG and log."""
         p = self.player
-        p.flush_sources()
+        try:
+            p.flush_sources()
+        except BadInput as exc:
+            self.dropped_sources += 1
+            self._warn(f"brush sources dropped: {exc}")
         if self.writer is not None:
             # End marker: a no-op wait at the session time the last step belongs to, so
             # a replay of the log runs as many steps as this process did.
