@@ -4,14 +4,12 @@
 // Face velocity between c and its neighbour over face f (E, W, S, N): the mean of the
 // two cell velocities on open faces, 0 on closed faces and at the canvas border.
 float face_velocity(ivec2 c, int f, bool wet_c, vec2 vc) {
-    ivec2 n = c + OFFS[f];
-    if (!wet_c || !inside(n) || !is_wet(imageLoad(wet_in, n).w)) return 0.0;
+    ivec2 n = clamp(c + OFFS[f], ivec2(0), u_size - 1);
+    bool open_ = wet_c && inside(c + OFFS[f]) && is_wet(imageLoad(wet_in, n).w);
     vec2 vn = imageLoad(vel_in, n).xy;
-    // reference: 0.5 * (v_lower + v_higher)
-    if (f == 0) return 0.5 * (vc.x + vn.x);
-    if (f == 1) return 0.5 * (vn.x + vc.x);
-    if (f == 2) return 0.5 * (vc.y + vn.y);
-    return 0.5 * (vn.y + vc.y);
+    // reference: 0.5 * (v_lower + v_higher) (the sum is commutative, so one form serves)
+    float uf = (f < 2) ? 0.5 * (vc.x + vn.x) : 0.5 * (vc.y + vn.y);
+    return open_ ? uf : 0.0;
 }
 
 // true when cell c is the donor of face f with face velocity uf (positive: from the

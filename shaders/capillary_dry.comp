@@ -39,16 +39,14 @@ void main() {
             float cap = u_cmin + pa.x * u_crange;
             float s = wc / cap;
             float acc = wc;
-            for (int f = 0; f < 4; ++f) {
-                ivec2 n = c + OFFS[f];
-                if (!inside(n) || pa.y != 0.0) continue;
+            for (int f = 0; f < 4; ++f) {  // branch-free: a closed face adds 0
+                ivec2 n = clamp(c + OFFS[f], ivec2(0), u_size - 1);
                 vec4 pn = imageLoad(paper_in, n);
-                if (pn.y != 0.0) continue;
+                float k = (inside(c + OFFS[f]) && pa.y == 0.0 && pn.y == 0.0) ? u_kcap : 0.0;
                 float capn = u_cmin + pn.x * u_crange;
                 float sn = imageLoad(water_in, n).y / capn;
-                bool lower = (f == 0 || f == 2);
-                float F = lower ? u_kcap * min(cap, capn) * (s - sn)
-                                : u_kcap * min(capn, cap) * (sn - s);
+                bool lower = lower_side(f);
+                float F = lower ? k * min(cap, capn) * (s - sn) : k * min(capn, cap) * (sn - s);
                 acc = lower ? acc - F : acc + F;
             }
             wc = max(acc, 0.0);

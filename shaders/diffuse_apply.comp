@@ -43,22 +43,20 @@ void main() {
         sp[l] = imageLoad(jps_in, ivec3(c, l));
     }
     float w = wa.x;
-    if (wet) {
-        for (int f = 0; f < 4; ++f) {
-            ivec2 n = c + OFFS[f];
-            if (!inside(n)) continue;
-            vec4 jn = imageLoad(js_in, n);
-            if (!is_wet(jn.w)) continue;
-            bool lower = lower_side(f);
-            float sign_ = lower ? -1.0 : 1.0;  // - F_E + F_W - F_S + F_N
-            w = w + sign_ * face(lower, js.x, jn.x, js.z, jn.z, u_kw);
-            float kb = u_kp * min(js.w, jn.w);
-            for (int l = 0; l < NPL; ++l) {
-                if (l >= u_layers) continue;
-                vec4 Fp = face4(lower, xp[l], imageLoad(jx_in, ivec3(n, l)), sp[l],
-                                imageLoad(jps_in, ivec3(n, l)), kb);
-                p[l] = p[l] + sign_ * Fp;
-            }
+    // branch-free over the faces: a closed face has conductance 0 and adds 0
+    for (int f = 0; f < 4; ++f) {
+        ivec2 n = clamp(c + OFFS[f], ivec2(0), u_size - 1);
+        vec4 jn = imageLoad(js_in, n);
+        float o = (wet && inside(c + OFFS[f]) && is_wet(jn.w)) ? 1.0 : 0.0;
+        bool lower = lower_side(f);
+        float sign_ = lower ? -1.0 : 1.0;  // - F_E + F_W - F_S + F_N
+        w = w + sign_ * face(lower, js.x, jn.x, js.z, jn.z, o * u_kw);
+        float kb = o * u_kp * min(js.w, jn.w);
+        for (int l = 0; l < NPL; ++l) {
+            if (l >= u_layers) continue;
+            vec4 Fp = face4(lower, xp[l], imageLoad(jx_in, ivec3(n, l)), sp[l],
+                            imageLoad(jps_in, ivec3(n, l)), kb);
+            p[l] = p[l] + sign_ * Fp;
         }
     }
     imageStore(water_out, c, vec4(w, wa.yzw));

@@ -42,7 +42,8 @@ void main() {
         float n_dry = 0.0;
         for (int f = 0; f < 4; ++f) {
             ivec2 n = c + OFFS[f];
-            if (!inside(n) || !(imageLoad(water_in, n).x > 0.0)) n_dry += 1.0;
+            float wn = imageLoad(water_in, clamp(n, ivec2(0), u_size - 1)).x;
+            n_dry += (!inside(n) || !(wn > 0.0)) ? 1.0 : 0.0;
         }
         float loss = min(u_e + u_edge_evap * n_dry * w * u_e, w);
         w = w - loss;

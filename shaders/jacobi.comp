@@ -33,19 +33,17 @@ void main() {
     float bsum = 0.0;
     vec4 sp[NPL];
     for (int l = 0; l < NPL; ++l) sp[l] = vec4(0.0);
-    if (wet) {
-        for (int f = 0; f < 4; ++f) {
-            ivec2 n = c + OFFS[f];
-            if (!inside(n)) continue;
-            vec4 jn = imageLoad(jv_in, n);
-            if (!is_wet(jn.w)) continue;
-            nopen += 1.0;
-            s += jn.xyz;
-            float b = min(j.w, jn.w);
-            bsum += b;
-            for (int l = 0; l < NPL; ++l)
-                if (l < u_layers) sp[l] += b * imageLoad(jd_in, ivec3(n, l));
-        }
+    for (int f = 0; f < 4; ++f) {
+        ivec2 n = clamp(c + OFFS[f], ivec2(0), u_size - 1);
+        vec4 jn = imageLoad(jv_in, n);
+        // open face: both cells wet and the neighbour inside the canvas (branch-free)
+        float open_ = (wet && inside(c + OFFS[f]) && is_wet(jn.w)) ? 1.0 : 0.0;
+        nopen += open_;
+        s += open_ * jn.xyz;
+        float b = open_ * min(j.w, jn.w);
+        bsum += b;
+        for (int l = 0; l < NPL; ++l)
+            if (l < u_layers) sp[l] += b * imageLoad(jd_in, ivec3(n, l));
     }
     vec2 v1 = imageLoad(aux_in, c).xy;
     vec2 xv = (v1 + u_kv * s.xy) / (1.0 + u_kv * nopen);

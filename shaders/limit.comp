@@ -40,21 +40,20 @@ void main() {
     float outw = 0.0;
     bool open_f[4] = bool[4](false, false, false, false);
     float wn[4] = float[4](w, w, w, w);
-    if (wet) {
-        for (int f = 0; f < 4; ++f) {
-            ivec2 n = c + OFFS[f];
-            if (!inside(n)) continue;
-            vec4 jn = imageLoad(jv_in, n);
-            if (!is_wet(jn.w)) continue;
-            open_f[f] = true;
-            wn[f] = imageLoad(water_in, n).x;
-            // flux leaving this cell over face f (the reference's face flux, signed to us)
-            outw += max(u_kw * (j.z - jn.z), 0.0);
-            float kb = u_kp * min(j.w, jn.w);
-            for (int l = 0; l < NPL; ++l)
-                if (l < u_layers)
-                    outp[l] += max(kb * (xp[l] - imageLoad(jd_in, ivec3(n, l))), vec4(0.0));
-        }
+    // branch-free over the faces (llvmpipe runs this markedly faster); closed faces add 0
+    for (int f = 0; f < 4; ++f) {
+        ivec2 n = clamp(c + OFFS[f], ivec2(0), u_size - 1);
+        vec4 jn = imageLoad(jv_in, n);
+        bool open_ = wet && inside(c + OFFS[f]) && is_wet(jn.w);
+        float o = open_ ? 1.0 : 0.0;
+        open_f[f] = open_;
+        wn[f] = open_ ? imageLoad(water_in, n).x : w;
+        // flux leaving this cell over face f (the reference's face flux, signed to us)
+        outw += o * max(u_kw * (j.z - jn.z), 0.0);
+        float kb = o * u_kp * min(j.w, jn.w);
+        for (int l = 0; l < NPL; ++l)
+            if (l < u_layers)
+                outp[l] += max(kb * (xp[l] - imageLoad(jd_in, ivec3(n, l))), vec4(0.0));
     }
     // velocity: passes 2 (non-wet -> 0) and 3
     vec2 v = wet ? j.xy : vec2(0.0);

@@ -213,6 +213,13 @@ def test_renderer_string_and_traffic_count(ctx) -> None:
     g = gl.GLCanvas(32, 32, ctx=ctx)
     assert isinstance(g.renderer, str) and g.renderer
     assert g.renderer == ctx.info["GL_RENDERER"]
-    # 8 slots in 2 RGBA layers, 4 Jacobi iterations: a fixed, documented count
-    assert g.bytes_per_cell_step() == 4 * sum(
-        gl.traffic.floats_per_cell_step(8, 4).values())
+    # the pigment layers in use are counted: none, then 1 (4 slots), then 2 (8 slots)
+    count = gl.traffic.floats_per_cell_step
+    assert g.bytes_per_cell_step() == 4 * sum(count(0, 4).values())
+    stamp(g, 10, 10, 3, {"Black": 0.1})
+    assert g.bytes_per_cell_step() == 4 * sum(count(4, 4).values())
+    for name in ("Cadmium Red", "Hansa Yellow", "Burnt Umber", "Cerulean Blue"):
+        stamp(g, 10, 10, 3, {name: 0.1})
+    assert g.bytes_per_cell_step() == 4 * sum(count(8, 4).values())
+    assert count(8, 4)["jacobi (velocity, water, pigment)"] > count(4, 4)[
+        "jacobi (velocity, water, pigment)"]

@@ -677,8 +677,10 @@ class GLCanvas:
         return n
 
     def bytes_per_cell_step(self) -> int:
-        """Honest bytes per cell-step of this backend (all 4·NPL slots are processed)."""
-        return bytes_per_cell_step(4 * self.npl, int(self.params.jacobi_iters))
+        """Honest bytes per cell-step: the passes process the RGBA pigment layers in use
+        (4 slots each), so those slots are counted, not the 8 the textures hold."""
+        layers = -(-len(self.slots) // 4)
+        return bytes_per_cell_step(4 * layers, int(self.params.jacobi_iters))
 
 
 def _set(prog: Any, name: str, value: Any) -> None:

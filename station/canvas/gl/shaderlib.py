@@ -152,3 +152,23 @@ def compile_compute(ctx: object, name: str, defines: Mapping[str, object] | None
         return ctx.compute_shader(source.text)  # type: ignore[attr-defined]
     except moderngl.Error as exc:
         raise ShaderError(f"{name} does not compile:\n{source.map_log(str(exc))}") from exc
+
+
+def compile_program(ctx: object, vertex: str, fragment: str,
+                    defines: Mapping[str, object] | None = None,
+                    reader: Callable[[str], str] = read_package_shader) -> object:
+    """Compile and link a vertex + fragment program (both expanded) on ``ctx``.
+
+    Errors are reported like :func:`compile_compute`; the log names the stage's
+    files (the vertex and fragment sources each number their own files).
+    """
+    import moderngl
+
+    vs = preprocess(vertex, defines, reader)
+    fs = preprocess(fragment, defines, reader)
+    try:
+        return ctx.program(vertex_shader=vs.text, fragment_shader=fs.text)  # type: ignore[attr-defined]
+    except moderngl.Error as exc:
+        log = str(exc)
+        mapped = fs.map_log(log) if "fragment_shader" in log else vs.map_log(log)
+        raise ShaderError(f"{vertex} + {fragment} does not compile:\n{mapped}") from exc
