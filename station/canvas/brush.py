@@ -143,6 +143,8 @@ class BrushModel:
         spacing: stamp spacing as a fraction of the radius.
         tilt_stretch: footprint elongation per sin(tilt).
         default_pressure: pressure used for tools that report none.
+        soft_edge: anti-aliased footprint rim (fractional coverage) instead of
+            the seed's all-or-nothing cell map.
     """
 
     r_min: float = 0.3
@@ -155,6 +157,7 @@ class BrushModel:
     spacing: float = 0.25
     tilt_stretch: float = 0.5
     default_pressure: float = 0.6
+    soft_edge: bool = True
 
     def radius(self, size: float, pressure: float) -> float:
         """Footprint radius in cells for a brush of diameter ``size`` at ``pressure``."""
@@ -167,66 +170,93 @@ class BrushModel:
 
 @dataclass(frozen=True, slots=True)
 class Footprint:
-    """A boolean cell mask placed at row ``y0``, column ``x0`` of the canvas."""
+    """Cell coverage in ``[0, 1]`` placed at row ``y0``, column ``x0`` of the canvas.
+
+    1 is a cell wholly under the brush, 0 a cell outside; a soft-edged
+    footprint has fractions on its rim (an anti-aliased disc).
+    """
 
     y0: int
     x0: int
-    mask: np.ndarray  # bool (h, w)
+    cover: np.ndarray  # float64 (h, w)
 
     @property
     def y1(self) -> int:
-        return self.y0 + self.mask.shape[0]
+        return self.y0 + self.cover.shape[0]
 
     @property
     def x1(self) -> int:
-        return self.x0 + self.mask.shape[1]
+        return self.x0 + self.cover.shape[1]
+
+    @property
+    def mask(self) -> np.ndarray:
+        """Cells touched at all (bool)."""
+        return self.cover > 0.0
 
     @property
     def cells(self) -> int:
         return int(self.mask.sum())
 
+    @property
+    def area(self) -> float:
+        """Covered area in cells (sum of the coverage)."""
+        return float(self.cover.sum())
+
     def without(self, other: Footprint | None) -> Footprint:
-        """This footprint minus the cells ``other`` covers (seed figure 5.5)."""
+        """This footprint minus what ``other`` already covered (seed figure 5.5).
+
+        Per cell ``max(0, cover - other.cover)``: a cell the previous stamp
+        covered fully gets nothing, a rim cell gets only the coverage it gains.
+        Along a stroke a cell's coverage rises then falls, so the increments
+        add up to its largest coverage: each cell is filled once.
+        """
         if other is None:
             return self
         ya, yb = max(self.y0, other.y0), min(self.y1, other.y1)
         xa, xb = max(self.x0, other.x0), min(self.x1, other.x1)
         if ya >= yb or xa >= xb:
             return self
-        mask = self.mask.copy()
-        mask[ya - self.y0:yb - self.y0, xa - self.x0:xb - self.x0] &= ~other.mask[
-            ya - other.y0:yb - other.y0, xa - other.x0:xb - other.x0
-        ]
-        return Footprint(self.y0, self.x0, mask)
+        cover = self.cover.copy()
+        mine = cover[ya - self.y0:yb - self.y0, xa - self.x0:xb - self.x0]
+        theirs = other.cover[ya - other.y0:yb - other.y0, xa - other.x0:xb - other.x0]
+        np.maximum(mine - theirs, 0.0, out=mine)
+        return Footprint(self.y0, self.x0, cover)
 
 
 def footprint(
     cx: float, cy: float, radius: float, width: int, height: int,
-    stretch: float = 1.0, angle: float = 0.0,
+    stretch: float = 1.0, angle: float = 0.0, soft: bool = False,
 ) -> Footprint:
-    """Cells whose centres lie in the ellipse at ``(cx, cy)`` (cell units).
+    """The ellipse at ``(cx, cy)`` (cell units) as cell coverage.
 
     ``radius`` is the semi-axis across, ``radius·stretch`` the semi-axis along
-    direction ``angle`` (radians, x right, y down).  Clipped to the canvas;
-    an empty mask when the ellipse lies outside.
+    direction ``angle`` (radians, x right, y down).  Hard: cells whose centres
+    lie inside get 1 (the seed's cell map).  Soft: coverage falls linearly
+    from 1 to 0 over the cell straddling the rim (``clip(r - d + 1/2, 0, 1)``
+    for a disc, ``d`` the centre distance), so the area is ``πr²`` without
+    a staircase edge.  Clipped to the canvas; empty when outside.
     """
-    reach = radius * max(1.0, stretch)
+    reach = radius * max(1.0, stretch) + (1.0 if soft else 0.0)
     x0 = max(0, int(math.floor(cx - reach)))
     x1 = min(width, int(math.ceil(cx + reach)) + 1)
     y0 = max(0, int(math.floor(cy - reach)))
     y1 = min(height, int(math.ceil(cy + reach)) + 1)
     if x0 >= x1 or y0 >= y1:
-        return Footprint(0, 0, np.zeros((0, 0), dtype=bool))
+        return Footprint(0, 0, np.zeros((0, 0), dtype=np.float64))
     dx = (np.arange(x0, x1, dtype=np.float64) + 0.5 - cx)[None, :]
     dy = (np.arange(y0, y1, dtype=np.float64) + 0.5 - cy)[:, None]
     if stretch == 1.0:
-        inside = dx * dx + dy * dy <= radius * radius
+        rho = np.sqrt(dx * dx + dy * dy) / radius  # centre distance in radii
     else:
         c, s = math.cos(angle), math.sin(angle)
         along = (dx * c + dy * s) / (radius * stretch)
         across = (-dx * s + dy * c) / radius
-        inside = along * along + across * across <= 1.0
-    return Footprint(y0, x0, inside)
+        rho = np.sqrt(along * along + across * across)
+    if soft:
+        cover = np.clip((1.0 - rho) * radius + 0.5, 0.0, 1.0)
+    else:
+        cover = (rho <= 1.0).astype(np.float64)
+    return Footprint(y0, x0, cover)
 
 
 @dataclass(frozen=True, slots=True)
@@ -282,9 +312,8 @@ class Sources:
 def accumulate(stamps: Iterable[Stamp]) -> Sources | None:
     """Sum stamps into one bounding-box :class:`Sources` (``None`` if nothing).
 
-    Stamps of one straight stroke never share cells (each is masked by its
-    predecessor); a stroke that comes back over itself re-wets, so overlapping
-    stamps add.
+    Along a stroke each stamp holds only what its predecessor did not cover;
+    a stroke that comes back over itself re-wets, so overlapping stamps add.
     """
     stamps = [s for s in stamps if s.cells.mask.size and s.cells.mask.any()]
     if not stamps:
@@ -301,7 +330,7 @@ def accumulate(stamps: Iterable[Stamp]) -> Sources | None:
     for s in stamps:
         fp = s.cells
         sl = (slice(fp.y0 - y0, fp.y1 - y0), slice(fp.x0 - x0, fp.x1 - x0))
-        m = fp.mask
+        m = fp.cover
         dw[sl] += m * s.water
         dvx[sl] += m * s.vx
         dvy[sl] += m * s.vy
@@ -434,7 +463,7 @@ class RoundBrush:
         tilt = min(90.0, math.hypot(tx, ty))
         stretch = 1.0 + m.tilt_stretch * math.sin(math.radians(tilt))
         angle = math.atan2(ty, tx) if tilt > 0.0 else 0.0
-        fp = footprint(x, y, r, self.width, self.height, stretch, angle)
+        fp = footprint(x, y, r, self.width, self.height, stretch, angle, soft=m.soft_edge)
         fresh = fp.without(s.previous)
         s.previous = fp
         if advance:
