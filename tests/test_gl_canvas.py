@@ -80,7 +80,7 @@ def test_multi_step_stroke_matches_numpy(ctx, size) -> None:
 
 
 def test_tiles_on_and_off_give_the_same_painting(ctx) -> None:
-    w, h = 96, 64
+    w, h = 192, 128  # 6 x 4 tiles; the strokes touch the top-left ones
     on = gl.GLCanvas(w, h, seed=3, ctx=ctx, tiling=True)
     off = gl.GLCanvas(w, h, seed=3, ctx=ctx, tiling=False)
     cells = {}
@@ -95,7 +95,7 @@ def test_tiles_on_and_off_give_the_same_painting(ctx) -> None:
         x, y = getattr(a, name), getattr(b, name)
         assert float(np.abs(x - y).max()) <= 1e-6 * max(1.0, float(np.abs(y).max())), name
     assert cells["off"] == 80 * w * h
-    assert 0 < cells["on"] < 0.8 * cells["off"]  # tiling really skipped work
+    assert 0 < cells["on"] < 0.5 * cells["off"]  # tiling really skipped work
     # the tile state itself follows the reference
     n = NumpyCanvas(w, h, seed=3)
     paint(n, 50)
