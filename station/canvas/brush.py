@@ -3,17 +3,20 @@
 A pen stroke becomes a sequence of *stamps*: a circular (elliptical when the
 pen is tilted) footprint placed at positions interpolated between pen samples,
 spaced a fraction of the radius apart along the path.  Every stamp deposits
-water, pigment and a velocity into the cells of its footprint **except** the
-cells the previous stamp already covered (seed figure 5.5), so a stroke fills
-each cell it passes over once, however fast the pen moves and however many
-samples the device reports: the water put down is proportional to the covered
-area, not to the number of samples.
+water, pigment and a velocity into the cells of its footprint **except** what
+the previous stamp already covered (seed figure 5.5), so a stroke fills each
+cell it passes over once, however fast the pen moves and however many samples
+the device reports: the water put down is proportional to the covered area,
+not to the number of samples.
 
 Units and mapping (all decisions written down here):
 
 * Positions: pen ``x, y`` in ``[0, 1]`` map to cell coordinates ``x·W, y·H``;
-  cell ``(i, j)`` (row, column) has its centre at ``(j + 0.5, i + 0.5)`` and
-  belongs to a footprint when its centre lies inside it.
+  cell ``(i, j)`` (row, column) has its centre at ``(j + 0.5, i + 0.5)``.
+  The footprint is cell coverage: 1 inside, a one-cell linear ramp on the rim
+  (anti-aliased; ``soft_edge=False`` gives the seed's all-or-nothing map of
+  the cells whose centres lie inside).  Masking subtracts the previous
+  stamp's coverage, so a cell's deposits add up to its largest coverage.
 * Radius: ``size`` is the footprint *diameter* in cells at full pressure.
   ``r(p) = size/2 · (r_min + (1 - r_min) · p^radius_gamma)`` for pressure ``p``,
   never below half a cell.
@@ -23,7 +26,7 @@ Units and mapping (all decisions written down here):
 * Velocity: the pen velocity (cells per session second), converted to cells
   per unit of simulation time with ``time_scale`` (simulation time units per
   session second = steps per second × dt), times ``velocity_gain``, clamped to
-  ``v_max``; written into every cell of the stamp.
+  ``v_max``; written into every cell of the stamp, times its coverage.
 * Tilt: a tilted pen flattens the tuft, so the footprint stretches along the
   tilt direction by ``1 + tilt_stretch · sin(tilt)`` (tilt = magnitude of the
   tilt vector in degrees, the two tilt angles combined as a vector).
