@@ -295,7 +295,7 @@ def test_replay_speed_flag_validation(tmp_path: Path, capsys) -> None:
 
 @pytest.mark.parametrize("descriptor,why", [
     (bytes.fromhex("05 0d 09 02 a1 01 09 20 a1 00"), "unbalanced collections"),
-    (bytes.fromhex("05 0d 09 02 a1 01 75 ff 95 ff 81 02 c0"), "absurd report size"),
+    (bytes.fromhex("05 0d 09 02 a1 01 75 ff 96 58 02 81 02 c0"), "report past 16 KiB"),
 ])
 def test_unknown_device_with_a_broken_descriptor_is_exit_2(tmp_path: Path, capsys,
                                                            descriptor: bytes, why: str) -> None:

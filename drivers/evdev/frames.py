@@ -154,6 +154,7 @@ class AssemblerStats:
     dropped: int = 0
     discarded_events: int = 0
     resyncs: int = 0
+    pad_frames: int = 0
 
 
 class FrameAssembler:
@@ -205,8 +206,25 @@ class FrameAssembler:
                 self._dropping = True
         return None
 
+    def _is_pad_frame(self) -> bool:
+        """A frame of the pad sharing the pen's node (kernels before 2.6.38 and some
+        out-of-tree wacom drivers): BTN_TOOL_FINGER, or tool id 15 with serial -1.
+        Its ABS_MISC/MSC_SERIAL/wheel values belong to the pad, not to the pen."""
+        if not self._has_tool_keys:
+            return False
+        if c.BTN_TOOL_FINGER in self._pending_keys:
+            return True
+        return (self._pending_abs.get(c.ABS_MISC) == c.PAD_DEVICE_ID
+                and self._pending_serial == 0xFFFFFFFF)
+
     def _commit(self, time: float) -> RawSample | None:
         self.stats.frames += 1
+        if self._is_pad_frame():
+            self.stats.pad_frames += 1
+            self._pending_abs.clear()
+            self._pending_keys.clear()
+            self._pending_serial = None
+            return None
         self._abs.update(self._pending_abs)
         for code, down in self._pending_keys.items():
             if down:

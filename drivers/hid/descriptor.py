@@ -9,7 +9,7 @@ physical ranges, unit, unit exponent, report size/count/ID) and the local state
 
 :func:`parse_descriptor` validates the whole descriptor — truncated items,
 unbalanced collections or delimiters, pop without push, report IDs out of
-range, value fields wider than 32 bits, reports longer than 4 KiB — raising
+range, Report Size above 256 bits, reports longer than 16 KiB — raising
 :class:`DescriptorError` that names the byte offset, and builds one
 :class:`Report` layout per (report type, report ID).  Signedness and unit
 exponent decoding follow the Linux HID core, so layouts and resolutions match
@@ -27,8 +27,11 @@ from typing import Final
 from station.drivers.hid.errors import DescriptorError, ReportError
 
 MAX_DESCRIPTOR_BYTES: Final = 4096  # the kernel's HID_MAX_DESCRIPTOR_SIZE
-MAX_REPORT_BYTES: Final = 4096  # a report (after its ID byte) longer than this is absurd
-MAX_VALUE_BITS: Final = 32  # data fields wider than this are absurd (constants may be wider)
+# The kernel's HID_MAX_BUFFER_SIZE is 16384 bytes with the ID byte: real I2C screens declare
+# vendor input reports of 7487 bytes (ELAN 04f3:2fc4), so 4096 would refuse their pen.
+MAX_REPORT_BYTES: Final = 16383
+MAX_VALUE_BITS: Final = 32  # wider data fields are opaque blobs (never read as values)
+MAX_REPORT_SIZE: Final = 256  # Report Size above this is refused (as the kernel does)
 MAX_SERIAL_BITS: Final = 64  # transducer serial numbers may be 64-bit
 MAX_USAGES: Final = 12288  # the kernel's HID_MAX_USAGES (per main item)
 MAX_COLLECTION_DEPTH: Final = 32
@@ -301,6 +304,15 @@ class Field:
     def bits(self) -> int:
         return self.size * self.count
 
+    @property
+    def is_opaque(self) -> bool:
+        """A data field too wide to be a value (vendor blobs such as Huion's 104-bit
+        report 8): kept in the layout for lengths and offsets, never read as a value."""
+        if self.is_constant or self.size <= MAX_VALUE_BITS:
+            return False
+        serial = bool(self.usages) and all(u in _SERIAL_USAGES for u in self.usages)
+        return not (serial and self.size <= MAX_SERIAL_BITS)
+
     def slot_usage(self, index: int) -> int:
         """Usage of variable slot ``index`` (0 when the field declared no usage)."""
         return self.usages[index] if index < len(self.usages) else 0
@@ -461,6 +473,9 @@ def parse_descriptor(data: bytes) -> Descriptor:
             f = _make_field(it, g, local, collections, open_collections, reports, numbered)
             if f is not None:
                 fields.append(f)
+                if f.is_opaque:
+                    warnings.append(f"byte {it.offset}: {f.size}-bit {f.report_type.value} "
+                                    f"field of report {f.report_id} is opaque (not a value)")
         else:
             warnings.append(f"byte {it.offset}: unknown main item tag {it.tag} ignored")
         if local.delimiter_depth:
@@ -500,8 +515,9 @@ def _apply_global(g: GlobalState, it: Item, stack: list[GlobalState]) -> GlobalS
         return _replace(g, unit=it.unsigned)
     if tag == G_REPORT_SIZE:
         size = it.unsigned
-        if size > 256:
-            raise DescriptorError(f"Report Size {size} bits is absurd (at most 256)", it.offset)
+        if size > MAX_REPORT_SIZE:
+            raise DescriptorError(f"Report Size {size} bits is absurd (at most {MAX_REPORT_SIZE})",
+                                  it.offset)
         return _replace(g, report_size=size)
     if tag == G_REPORT_COUNT:
         count = it.unsigned
@@ -595,15 +611,6 @@ def _make_field(
             f"{rtype.value} report {g.report_id} grows past {MAX_REPORT_BYTES} bytes", it.offset
         )
     usages = tuple(local.usages)
-    constant = bool(flags & FLAG_CONSTANT)
-    if not constant and g.report_size > MAX_VALUE_BITS:
-        serial = usages and all(u in _SERIAL_USAGES for u in usages)
-        if not (serial and g.report_size <= MAX_SERIAL_BITS):
-            raise DescriptorError(
-                f"{rtype.value} field of {g.report_size}-bit values is absurd "
-                f"(at most {MAX_VALUE_BITS})",
-                it.offset,
-            )
     if bits == 0:
         return None
     if flags & FLAG_VARIABLE and len(usages) > g.report_count:
@@ -681,7 +688,7 @@ def report_values(desc: Descriptor, report: bytes) -> dict[int, int | bool]:
     layout = input_layout_for(desc, report)
     out: dict[int, int | bool] = {}
     for f in layout.fields:
-        if f.is_constant:
+        if f.is_constant or f.is_opaque:
             continue
         values = field_values(desc, f, report)
         if f.is_variable:

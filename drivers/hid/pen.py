@@ -84,7 +84,7 @@ def classify_report(desc: Descriptor, report: Report) -> str:
     apps: set[int] = set()
     for f in data_fields:
         usages.update(_eq(u) for u in f.usages)
-        if f.is_variable:
+        if f.is_variable and not f.is_opaque:  # X/Y must be readable values
             variables.update(_eq(u) for u in f.usages)
         chains.update(_eq(u) for u in desc.collection_usages(f))
         apps.add(_eq(f.application))
@@ -165,7 +165,7 @@ def make_plan(desc: Descriptor, report: Report) -> PenPlan:
     arrays: list[_ArraySlots] = []
     fields: dict[str, Field] = {}
     for f in report.fields:
-        if f.is_constant:
+        if f.is_constant or f.is_opaque:
             continue
         if f.is_variable:
             for i in range(f.count):
@@ -301,10 +301,15 @@ class GenericPenParser(ReportParser):
         tip = None if tip_bit is None and "eraser" not in plan.fields else bool(
             tip_bit or eraser_bit)
         in_range = get("in_range")
-        if in_range is None:
-            in_range = get("sense")
-        # Without an in-range usage a report only arrives while the pen is sensed.
-        proximity = bool(in_range) if in_range is not None else True
+        sense = get("sense")
+        # Wacom (kernel wacom_wac_pen_report): Sense = the tool is near (in proximity),
+        # In Range = close enough for valid data.  Without either usage a report only
+        # arrives while the pen is sensed.
+        if in_range is None and sense is None:
+            proximity = valid = True
+        else:
+            proximity = bool(in_range or sense)
+            valid = bool(in_range) if in_range is not None else proximity
         buttons = 0
         if get("barrel"):
             buttons |= Button.STYLUS
@@ -343,7 +348,7 @@ class GenericPenParser(ReportParser):
             serial=serial or None,
             tool_id=tool_id,
             eraser=eraser,
-            valid=proximity,
+            valid=valid,
         )
 
     def describe(self) -> dict[str, Any]:
@@ -382,12 +387,13 @@ def compile_plan(plan: PenPlan) -> Callable[[bytes, float], RawSample] | None:
         lines.append(f"    tip = bool({val('tip', '0')} or {val('eraser', '0')})")
     else:
         lines.append("    tip = None")
-    if "in_range" in have:
-        lines.append("    prox = bool(v_in_range)")
-    elif "sense" in have:
-        lines.append("    prox = bool(v_sense)")
+    if "in_range" in have and "sense" in have:
+        lines.append("    valid = bool(v_in_range)")
+        lines.append("    prox = valid or bool(v_sense)")
+    elif "in_range" in have or "sense" in have:
+        lines.append(f"    prox = valid = bool({val('in_range', 'v_sense')})")
     else:
-        lines.append("    prox = True")
+        lines.append("    prox = valid = True")
     lines.append(f"    buttons = (1 if {val('barrel', '0')} else 0) | "
                  f"(2 if {val('barrel2', '0')} else 0) | (4 if {val('barrel3', '0')} else 0)")
     lines.append(f"    eraser = bool({val('invert', '0')} or {val('eraser', '0')})")
@@ -398,7 +404,7 @@ def compile_plan(plan: PenPlan) -> Callable[[bytes, float], RawSample] | None:
     lines.append(
         f"    return RawSample(time, prox, {val('x')}, {val('y')}, tip, {val('pressure')}, "
         f"{val('tilt_x')}, {val('tilt_y')}, {val('distance')}, {val('twist')}, None, buttons, "
-        "tool, serial, tool_id, eraser, prox)"
+        "tool, serial, tool_id, eraser, valid)"
     )
     namespace: dict[str, Any] = {
         "from_bytes": int.from_bytes, "RawSample": RawSample, "ERASER": Tool.ERASER,

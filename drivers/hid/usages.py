@@ -64,15 +64,26 @@ DG_SECONDARY_BARREL_SWITCH = u(0x0D, 0x5A)
 DG_TRANSDUCER_SERIAL = u(0x0D, 0x5B)
 
 # Wacom vendor usages that have no standard equivalent
+# (values from the kernel's wacom_wac.h: WACOM_HID_WD_*)
 WD_SENSE = u(0xFF0D, 0x36)
 WD_SERIAL_HI = u(0xFF0D, 0x5C)
-WD_BARREL_SWITCH3 = u(0xFF0D, 0x71)
+WD_BARREL_SWITCH3 = u(0xFF0D, 0x5D)
 WD_TOOL_TYPE = u(0xFF0D, 0x77)
 WD_DISTANCE = u(0xFF0D, 0x132)
+WD_TOUCHSTRIP = u(0xFF0D, 0x136)
+WD_TOUCHSTRIP2 = u(0xFF0D, 0x137)
+WD_TOUCHRING = u(0xFF0D, 0x138)
+WD_TOUCHRING_STATUS = u(0xFF0D, 0x139)
+WD_REPORT_VALID = u(0xFF0D, 0x1D0)
+WD_SEQUENCE_NUMBER = u(0xFF0D, 0x220)
 
-_WACOM_KEEP = frozenset({WD_SENSE, WD_SERIAL_HI, WD_BARREL_SWITCH3, WD_TOOL_TYPE, WD_DISTANCE})
-# Sub-pages of 0xFF0D that are Wacom-specific (pad, buttons, digitizer info): kept as is.
-_WACOM_KEEP_SUBPAGES = frozenset({0x10, 0x09, 0x0D, 0x11})
+# Usages the kernel's wacom_equivalent_usage() keeps on the vendor page.
+_WACOM_KEEP = frozenset({WD_SENSE, WD_SERIAL_HI, WD_BARREL_SWITCH3, WD_TOOL_TYPE, WD_DISTANCE,
+                         WD_TOUCHSTRIP, WD_TOUCHSTRIP2, WD_TOUCHRING, WD_TOUCHRING_STATUS,
+                         WD_REPORT_VALID, WD_SEQUENCE_NUMBER})
+# Sub-pages of 0xFF0D that are Wacom-specific and kept as is (WACOM_HID_SP_*):
+# pad 0x04, button 0x09, digitizer 0x0D, digitizer info 0x10.
+_WACOM_KEEP_SUBPAGES = frozenset({0x04, 0x09, 0x0D, 0x10})
 
 
 def equivalent_usage(usage: int) -> int:

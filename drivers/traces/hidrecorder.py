@@ -4,7 +4,8 @@ Format (every recorder version seen): ``#`` comments; ``D: n`` selects the
 device the following lines belong to (no ``D:`` = device 0); ``R: len hex…``
 report descriptor; ``N: name``; ``P: phys``; ``I: bus vid pid`` (hex);
 ``E: sec.usec len hex…`` one input report.  Times may start anywhere, hex may
-be upper or lower case and zero-padded or not; unknown lines are skipped.  A
+be upper or lower case and zero-padded or not; unknown lines are skipped; an
+``R:`` line wrapped onto lines of bare hex bytes is joined.  A
 length that does not match the bytes, a non-hex byte or a byte above 0xff is
 a :class:`TraceError` naming ``file:line``.
 """
@@ -21,7 +22,7 @@ from station.drivers.traces.model import Trace, TraceDevice, TraceError
 from station.drivers.transport.base import TimedReport
 
 log = logging.getLogger(__name__)
-MAX_REPORT = 4096
+MAX_REPORT = 16384  # the kernel's HID_MAX_BUFFER_SIZE (report ID included)
 MAX_DESCRIPTOR = 4096
 
 
@@ -58,11 +59,26 @@ def parse_hid_recorder(lines: Iterable[str], name: str) -> Trace:
         return devices[index]
 
     last_time: dict[int, float] = {}
+    # An 'R:' line wrapped onto following lines of bare hex bytes (mail clients and
+    # bug trackers wrap long lines): (device, declared length, bytes so far, where).
+    wrapped: tuple[TraceDevice, int, bytearray, str] | None = None
     for line_no, raw_line in enumerate(lines, 1):
         where = f"{name}:{line_no}"
         line = raw_line.strip()
         if not line or line.startswith("#"):
             continue
+        if wrapped is not None:
+            wdev, n, sofar, rwhere = wrapped
+            if ":" not in line:
+                sofar += _hex_bytes(line.split(), where, "report descriptor")
+                if len(sofar) >= n:
+                    if len(sofar) != n:
+                        raise TraceError(f"report descriptor says {n} bytes but has "
+                                         f"{len(sofar)}", rwhere)
+                    wdev.descriptor = bytes(sofar)
+                    wrapped = None
+                continue
+            raise TraceError(f"report descriptor says {n} bytes but has {len(sofar)}", rwhere)
         tag, sep, rest = line.partition(":")
         if not sep or len(tag) != 1:
             log.debug("%s: skipping unknown line", where)
@@ -80,6 +96,9 @@ def parse_hid_recorder(lines: Iterable[str], name: str) -> Trace:
                 raise TraceError("'R:' without a length", where)
             n = _length(tokens[0], where, "report descriptor", MAX_DESCRIPTOR)
             data = _hex_bytes(tokens[1:], where, "report descriptor")
+            if len(data) < n:
+                wrapped = (dev, n, bytearray(data), where)
+                continue
             if len(data) != n:
                 raise TraceError(f"report descriptor says {n} bytes but has {len(data)}", where)
             dev.descriptor = data
@@ -116,6 +135,9 @@ def parse_hid_recorder(lines: Iterable[str], name: str) -> Trace:
             dev.reports.append(TimedReport(t, data))
         else:
             log.debug("%s: skipping unknown line %r", where, tag)
+    if wrapped is not None:
+        raise TraceError(f"report descriptor says {wrapped[1]} bytes but has "
+                         f"{len(wrapped[2])}", wrapped[3])
     if not devices:
         raise TraceError("no device in this hid-recorder trace", f"{name}:1")
     return Trace(path=name, format="hid-recorder", devices=[devices[k] for k in sorted(devices)])

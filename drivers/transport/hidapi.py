@@ -18,7 +18,7 @@ from station.drivers.transport.base import (
     TransportError,
 )
 
-MAX_REPORT = 4096
+MAX_REPORT = 16384  # the kernel's HID_MAX_BUFFER_SIZE (report ID included)
 
 
 def _hid() -> Any:

@@ -31,7 +31,7 @@ from station.drivers.transport.base import (
 
 _IOC_WRITE, _IOC_READ = 1, 2
 HID_MAX_DESCRIPTOR_SIZE = 4096
-MAX_REPORT = 4096
+MAX_REPORT = 16384  # the kernel's HID_MAX_BUFFER_SIZE (report ID included)
 
 
 def _ioc(direction: int, nr: int, size: int) -> int:

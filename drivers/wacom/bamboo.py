@@ -6,8 +6,8 @@ buttons.  x, y and pressure are little-endian 16-bit at d[2], d[4], d[6];
 ``distance = max_distance - d[8]`` while in range (never negative).  Pressure
 can be non-zero while the tip bit is 0 — the normaliser decides contact.
 
-Reports of 20 or 64 bytes with ID 2 are touch frames of the touch interface:
-skipped and counted.
+Reports of 20 or 64 bytes with ID 2 are touch frames of the touch interface,
+and report 192 carries the touch-switch state: both skipped and counted.
 """
 
 from __future__ import annotations
@@ -24,6 +24,9 @@ from station.drivers.wacom.tools import ERASER_DEVICE_ID, STYLUS_DEVICE_ID
 from station.events import Button, Tool
 
 PEN_REPORT_ID = 2
+# WACOM_REPORT_USB: Intuos-HT pen interfaces send report 192 with the state of the
+# touch on/off switch (kernel: wacom_bpt_pen -> SW_MUTE_DEVICE); not a pen report.
+STATUS_REPORT_ID = 192
 PEN_LENGTHS = (9, 10)  # Bamboo "fun" pen packets are 9 bytes, Intuos-HT pen packets 10
 TOUCH_LENGTHS = (20, 64)
 
@@ -64,6 +67,8 @@ class BambooParser(ReportParser):
         if not report:
             raise unknown_id(b"\0", "Bamboo")
         if report[0] != PEN_REPORT_ID:
+            if report[0] == STATUS_REPORT_ID:
+                return self._skip("status")
             if report[0] in self.params.skip_report_ids:
                 return self._skip("mouse" if report[0] == 1 else "pad")
             raise unknown_id(report, "Bamboo")
