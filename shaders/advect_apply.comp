@@ -14,7 +14,6 @@ layout(rgba32f, binding = 6) uniform writeonly image2DArray pig_out;
 
 uniform float u_q4;
 
-#include "advect.glsl"
 
 void main() {
     bool valid;
@@ -29,27 +28,29 @@ void main() {
         p[l] = pc[l];
     }
     float w = wa.x;
-    if (wet) {
-        vec2 vc = imageLoad(vel_in, c).xy;
-        for (int f = 0; f < 4; ++f) {
-            float uf = face_velocity(c, f, wet, vc);
-            if (uf == 0.0) continue;
-            ivec2 n = c + OFFS[f];
-            bool lower = lower_side(f);
-            bool pos = uf > 0.0;
-            bool c_donor = (pos == lower);
-            vec4 ln = imageLoad(wet_in, n);
-            float r = abs(uf) * u_q4;
-            float rl = c_donor ? (r * lc.x) * ln.y : (r * ln.x) * lc.y;
-            float sgn = pos ? 1.0 : -1.0;
-            float wd = c_donor ? wa.x : imageLoad(water_in, n).x;
-            float sign_ = lower ? -1.0 : 1.0;
-            w = w + sign_ * ((sgn * wd) * rl);
-            for (int l = 0; l < NPL; ++l) {
-                if (l >= u_layers) continue;
-                vec4 pd = c_donor ? pc[l] : imageLoad(pig_in, ivec3(n, l));
-                p[l] = p[l] + sign_ * ((sgn * pd) * rl);
-            }
+    vec2 vc = imageLoad(vel_in, c).xy;
+    // branch-free over the faces: a closed face has rate 0 and moves +-0
+    for (int f = 0; f < 4; ++f) {
+        ivec2 n = clamp(c + OFFS[f], ivec2(0), u_size - 1);
+        vec4 ln = imageLoad(wet_in, n);
+        bool open_ = wet && inside(c + OFFS[f]) && is_wet(ln.w);
+        vec2 vn = imageLoad(vel_in, n).xy;
+        float uf = open_ ? ((f < 2) ? 0.5 * (vc.x + vn.x) : 0.5 * (vc.y + vn.y)) : 0.0;
+        bool lower = lower_side(f);
+        bool pos = uf > 0.0;
+        bool c_donor = (pos == lower);
+        float r = abs(uf) * u_q4;
+        float rl = c_donor ? (r * lc.x) * ln.y : (r * ln.x) * lc.y;
+        float sgn = pos ? 1.0 : -1.0;
+        float wn = imageLoad(water_in, n).x;  // unconditional loads vectorise better
+        float wd = c_donor ? wa.x : wn;
+        float sign_ = lower ? -1.0 : 1.0;
+        w = w + sign_ * ((sgn * wd) * rl);
+        for (int l = 0; l < NPL; ++l) {
+            if (l >= u_layers) continue;
+            vec4 pn = imageLoad(pig_in, ivec3(n, l));
+            vec4 pd = c_donor ? pc[l] : pn;
+            p[l] = p[l] + sign_ * ((sgn * pd) * rl);
         }
     }
     imageStore(water_out, c, vec4(w, wa.yzw));
