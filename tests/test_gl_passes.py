@@ -198,6 +198,7 @@ def test_capillary_diffusion_evaporation_and_drying(ctx) -> None:
     no_absorb = prm.replace(alpha=0.0)
     w, wc, evap = ref.capillary(st.w, st.wc, st.h, st.mask, st.evaporated, no_absorb, prm.dt)
     w, p, q, vx, vy, evap = ref.dry_cells(w, st.p[:n], st.q[:n], st.vx, st.vy, evap, prm)
+    close("velocity y (10)", out.vy, vy)
     close("capillary water (9b, 9c)", out.wc, wc)
     close("water (10)", out.w, w)
     close("evaporated (9c, 10)", out.evaporated, evap)

@@ -198,7 +198,7 @@ class GLCanvas:
             t.write(tx.pack_stack(st.p, self.npl).tobytes())
         f["dep"].src.write(tx.pack_stack(st.q, self.npl).tobytes())
         f["rem"].src.write(tx.pack_stack(st.removed_p, self.npl).tobytes())
-        rc = np.concatenate([st.r_composed, np.ones(st.r_composed.shape[:2] + (1,), F32)], -1)
+        rc = np.concatenate([st.r_composed, np.ones((*st.r_composed.shape[:2], 1), F32)], -1)
         f["rcomp"].src.write(np.ascontiguousarray(rc, F32).tobytes())
         for fld in f.values():
             fld.cur = 0
