@@ -399,25 +399,49 @@ def test_paint_a_device_trace(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     assert painted.sum() > 12 * 20 and painted.any(axis=1).sum() >= 8
 
 
-def test_auto_backend_falls_back_to_numpy(monkeypatch: pytest.MonkeyPatch,
+def test_auto_backend_choice_and_fallback(monkeypatch: pytest.MonkeyPatch,
                                           caplog: pytest.LogCaptureFixture) -> None:
     import station.canvas.backend as backend_mod
+    import station.canvas.gl.context as context_mod
+    import station.sim.paint as paint_mod
+    from station.canvas.gl.context import GLUnavailable
     from station.errors import StationError
-    from station.sim.paint import make_backend
 
+    class FakeCtx:
+        def __init__(self, renderer: str) -> None:
+            self.info = {"GL_RENDERER": renderer}
+
+        def release(self) -> None:
+            pass
+
+    # a CPU rasterizer: numpy; a GPU: gl; no context at all: numpy
+    monkeypatch.setattr(context_mod, "create_context", lambda: FakeCtx("llvmpipe (LLVM 15)"))
+    assert paint_mod.auto_backend()[0] == "numpy"
+    monkeypatch.setattr(context_mod, "create_context", lambda: FakeCtx("NVIDIA GeForce RTX"))
+    assert paint_mod.auto_backend() == ("gl", "OpenGL renderer 'NVIDIA GeForce RTX'")
+
+    def no_egl() -> Any:
+        raise GLUnavailable("cannot create a context\nEGL: no display")
+
+    monkeypatch.setattr(context_mod, "create_context", no_egl)
+    name, why = paint_mod.auto_backend()
+    assert name == "numpy" and "EGL: no display" in why and "\n" not in why
+
+    # GL chosen but it cannot start: numpy, with a one-line warning
+    monkeypatch.setattr(context_mod, "create_context", lambda: FakeCtx("Some GPU"))
     real = backend_mod.create_backend
 
     def no_gl(name: str, *a: Any, **kw: Any) -> Any:
         if name == "gl":
-            raise StationError("no EGL display\nsecond line")
+            raise StationError("shader failed\nsecond line")
         return real(name, *a, **kw)
 
     monkeypatch.setattr(backend_mod, "create_backend", no_gl)
-    canvas, name = make_backend("auto", 32, 32, "watercolor", 0)
+    canvas, name = paint_mod.make_backend("auto", 32, 32, "watercolor", 0)
     assert name == "numpy" and canvas.renderer == "numpy"
-    assert any("no EGL display | second line" in r.getMessage() for r in caplog.records)
+    assert any("shader failed | second line" in r.getMessage() for r in caplog.records)
     with pytest.raises(StationError):  # an explicit gl that cannot start: exit 1
-        make_backend("gl", 32, 32, "watercolor", 0)
+        paint_mod.make_backend("gl", 32, 32, "watercolor", 0)
 
 
 def test_ninth_pigment_in_a_layer_is_refused_at_its_sample(

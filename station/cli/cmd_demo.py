@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from station.cli.cmd_paint import BACKENDS
+from station.cli.cmd_paint import BACKEND_HELP, BACKENDS
 from station.sim.paint import parse_size
 
 
@@ -18,8 +18,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", default="painting.png", metavar="OUT.png",
                    help="PNG to write (default painting.png)")
     p.add_argument("--size", metavar="WxH", help="canvas size (default: the demo's, 320x240)")
-    p.add_argument("--backend", choices=BACKENDS, default="auto",
-                   help="canvas backend (default auto: gl when available, else numpy)")
+    p.add_argument("--backend", choices=BACKENDS, default="auto", help=BACKEND_HELP)
     p.add_argument("--bits", type=int, choices=(8, 16), default=8, help="PNG bit depth")
     p.add_argument("--stats", metavar="S.json", help="write mass bookkeeping as JSON")
     p.add_argument("--state", metavar="S.npz", help="write the full canvas state")

@@ -9,14 +9,15 @@ import sys
 from station.sim.paint import parse_size
 
 BACKENDS = ("auto", "numpy", "gl")
+BACKEND_HELP = ("canvas backend: numpy (reference), gl (moderngl/EGL), or auto (the default): "
+                "gl on a GPU, numpy without one or on a CPU rasterizer such as llvmpipe")
 
 
 def add_canvas_options(p: argparse.ArgumentParser, backend_default: str = "auto") -> None:
     """Options shared by ``paint``, ``demo`` and ``sim``."""
     p.add_argument("--size", metavar="WxH", help="canvas size in cells (default: the session's)")
     p.add_argument("--backend", choices=BACKENDS, default=backend_default,
-                   help="canvas backend: numpy (reference), gl (moderngl/EGL) or auto "
-                        "(gl when an OpenGL 4.3 context can be made, else numpy)")
+                   help=BACKEND_HELP)
     p.add_argument("--rate", type=float, metavar="HZ",
                    help="simulation steps per second of painting time (default: 1/dt of "
                         "the profile, or the session header's sim.rate)")

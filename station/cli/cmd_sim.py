@@ -6,7 +6,7 @@ import argparse
 import json
 import sys
 
-from station.cli.cmd_paint import BACKENDS
+from station.cli.cmd_paint import BACKEND_HELP, BACKENDS
 from station.sim.paint import parse_size
 
 
@@ -20,7 +20,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="bus endpoint to subscribe to (default ipc; ipc:sub for a proxy)")
     p.add_argument("--size", metavar="WxH", default="800x600", help="canvas size (800x600)")
     p.add_argument("--profile", default="watercolor", help="paint profile (watercolor)")
-    p.add_argument("--backend", choices=BACKENDS, default="auto", help="canvas backend")
+    p.add_argument("--backend", choices=BACKENDS, default="auto", help=BACKEND_HELP)
     p.add_argument("--seed", type=int, default=0, help="paper seed")
     p.add_argument("--rate", type=float, metavar="HZ",
                    help="simulation steps per second (default 1/dt of the profile)")
