@@ -305,11 +305,15 @@ class GenericPenParser(ReportParser):
         # Wacom (kernel wacom_wac_pen_report): Sense = the tool is near (in proximity),
         # In Range = close enough for valid data.  Without either usage a report only
         # arrives while the pen is sensed.
+        # A touching tip (or eraser) is in proximity whatever In Range says: some
+        # controllers (Goodix GXTP 27c6:0113) drop In Range while the tip moves, and the
+        # kernel's hid-input counts Tip Switch, Eraser and Invert as "tool active" too.
         if in_range is None and sense is None:
             proximity = valid = True
         else:
-            proximity = bool(in_range or sense)
-            valid = bool(in_range) if in_range is not None else proximity
+            touching = bool(tip_bit or eraser_bit)
+            proximity = bool(in_range or sense or touching or invert)
+            valid = bool(in_range or touching) if in_range is not None else proximity
         buttons = 0
         if get("barrel"):
             buttons |= Button.STYLUS
@@ -387,11 +391,14 @@ def compile_plan(plan: PenPlan) -> Callable[[bytes, float], RawSample] | None:
         lines.append(f"    tip = bool({val('tip', '0')} or {val('eraser', '0')})")
     else:
         lines.append("    tip = None")
-    if "in_range" in have and "sense" in have:
-        lines.append("    valid = bool(v_in_range)")
-        lines.append("    prox = valid or bool(v_sense)")
-    elif "in_range" in have or "sense" in have:
-        lines.append(f"    prox = valid = bool({val('in_range', 'v_sense')})")
+    # see GenericPenParser.decode: a touching tip/eraser (or invert) keeps the tool in
+    active = f"({val('tip', '0')} or {val('eraser', '0')})"
+    if "in_range" in have:
+        lines.append(f"    valid = bool(v_in_range or {active})")
+        sense = "v_sense or " if "sense" in have else ""
+        lines.append(f"    prox = bool(valid or {sense}{val('invert', '0')})")
+    elif "sense" in have:
+        lines.append(f"    prox = valid = bool(v_sense or {active} or {val('invert', '0')})")
     else:
         lines.append("    prox = valid = True")
     lines.append(f"    buttons = (1 if {val('barrel', '0')} else 0) | "
