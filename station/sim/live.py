@@ -13,11 +13,12 @@ the simulation's session clock (seconds since ``station sim`` started): a pen
 sample keeps its device's spacing — its time is ``sample.t + offset``, the
 offset fixed by the device's first sample and re-synchronised when the mapped
 time strays more than :data:`RESYNC_S` from the receipt time — and is clamped
-so the log never goes back in time.  On exit a ``wait {"seconds": 0}`` marks
-the session time of the last step.  Replaying the log with ``station paint``
-then runs the same steps with the same brush velocities the live run used
-(samples land in the step their re-timed time belongs to, which can differ by
-one step from when they arrived).
+so the log never goes back in time, and moved into the time slot of the step
+it is applied before (a process that falls behind compresses the records into
+the steps it actually ran).  On exit a ``wait {"seconds": 0}`` marks the
+session time of the last step.  Replaying the log with ``station paint`` then
+applies every record between the same two steps with the same times, so on
+the same backend it repaints the live canvas exactly.
 
 Bad messages: the bus drops undecodable ones (counted in ``bus.malformed``);
 a command the player rejects (unknown pigment, bad numbers) is counted in
@@ -113,13 +114,27 @@ class LiveSim:
         """Session time: seconds since start."""
         return time.monotonic() - self.start
 
+    def _in_this_step(self, t: float) -> float:
+        """``t`` moved into the painting-time slot of the step about to run.
+
+        A record applied now lands in step ``steps`` (0-based), which a replay
+        gives to session times in ``[steps/rate, (steps+1)/rate) - waited``.
+        Clamping the logged time into that slot (and never before the previous
+        record) makes ``station paint`` of the log apply every record between
+        the same two steps as this process did, so the replay is exact.
+        """
+        p = self.player
+        lo = math.ceil((p.counters.steps / p.rate - p.waited) * 1e6) / 1e6
+        hi = math.floor(((p.counters.steps + 1) / p.rate - p.waited - 2e-6) * 1e6) / 1e6
+        t = round(min(max(t, lo, self._last_t), max(hi, lo)), 6)
+        self._last_t = t
+        return t
+
     def _stamp_sample(self, s: PenSample, now: float) -> PenSample:
         off = self._offsets.get(s.device)
         if off is None or abs(s.t + off - now) > RESYNC_S:
             off = self._offsets[s.device] = now - s.t
-        t = min(now, max(self._last_t, s.t + off))
-        self._last_t = t
-        return s.with_(t=round(t, 6), t_mono=0.0)
+        return s.with_(t=self._in_this_step(min(now, s.t + off)), t_mono=0.0)
 
     # -- messages ------------------------------------------------------------
     def handle(self, kind: str, value: Any) -> None:
@@ -136,9 +151,7 @@ class LiveSim:
             if self.writer is not None:
                 self.writer.write(rec)
         elif kind == "cmd" and isinstance(value, Command):
-            t = max(self._last_t, now)
-            self._last_t = t
-            cmd = Command(t=round(t, 6), cmd=value.cmd, args=value.args)
+            cmd = Command(t=self._in_this_step(now), cmd=value.cmd, args=value.args)
             if cmd.cmd == "stop":
                 self.stop_requested = True
                 return
@@ -151,6 +164,9 @@ class LiveSim:
             self.commands += 1
             if self.writer is not None:
                 self.writer.write(cmd)
+            if cmd.cmd == "wait":  # its painting time runs now, as in a replay
+                while self.player.counters.steps < self.player.steps_due(cmd.t):
+                    self.step()
 
     def _warn(self, text: str) -> None:
         """Warn once per distinct message (a bad stroke must not flood the log)."""
