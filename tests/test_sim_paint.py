@@ -249,6 +249,8 @@ def test_bad_header_and_profile_exit_2(tmp_path: Path, capsys: pytest.CaptureFix
     assert code == 2 and "missing.jsonl" in err
     code, err = paint([str(log), "-o", str(tmp_path / "no" / "dir" / "o.png")], capsys)
     assert code == 2 and "does not exist" in err
+    code, err = paint([str(log), "-o", str(tmp_path)], capsys)
+    assert code == 2 and "is a directory" in err and len(err.strip().splitlines()) == 1
 
 
 @pytest.mark.parametrize("bad_line", [

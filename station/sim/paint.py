@@ -280,6 +280,8 @@ def paint(
             parent = Path(target).resolve().parent
             if not parent.is_dir():
                 raise PaintInputError(f"directory {str(parent)!r} does not exist", flag)
+            if Path(target).is_dir():
+                raise PaintInputError(f"{target!r} is a directory, not a file name", flag)
     source = open_input(input_path)
     try:
         header = source.header
