@@ -215,3 +215,15 @@ def test_sim_survives_refused_paint(tmp_path: Path) -> None:
         pub.close()
         if st_sub is not None:
             st_sub.close()
+
+
+def test_sim_bad_flags_exit_2_in_one_line(tmp_path: Path, capsys: Any) -> None:
+    from station.cli import main
+
+    for args, text in ((["--log", str(tmp_path / "no" / "s.jsonl")], "does not exist"),
+                       (["--profile", "oil"], "unknown profile 'oil'"),
+                       (["--size", "3x3"], "too small"),
+                       (["--bus", "carrier-pigeon://x"], "unknown endpoint")):
+        assert main(["sim", "--backend", "numpy", *args]) == 2
+        err = capsys.readouterr().err
+        assert text in err and len(err.strip().splitlines()) == 1, err

@@ -7,7 +7,7 @@ import json
 import sys
 
 from station.cli.cmd_paint import BACKEND_HELP, BACKENDS
-from station.sim.paint import parse_size
+from station.sim.paint import check_outputs, parse_size
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -41,6 +41,7 @@ def run(args: argparse.Namespace) -> int:
 
     width, height = parse_size(args.size)
     get_profile(args.profile)
+    check_outputs(((args.log, "--log"), (args.state, "--state"), (args.png, "--png")))
     cfg = LiveConfig(bus=args.bus, width=width, height=height, profile=args.profile,
                      backend=args.backend, seed=args.seed, rate=args.rate,
                      log_path=args.log, state_path=args.state, png_path=args.png,

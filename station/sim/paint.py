@@ -69,6 +69,17 @@ def check_size(w: int, h: int, where: str) -> None:
             where)
 
 
+def check_outputs(targets: Iterable[tuple[str | None, str]]) -> None:
+    """Refuse output paths that cannot be written: ``(path, flag)`` pairs, ``None`` skipped."""
+    for target, flag in targets:
+        if target:
+            parent = Path(target).resolve().parent
+            if not parent.is_dir():
+                raise PaintInputError(f"directory {str(parent)!r} does not exist", flag)
+            if Path(target).is_dir():
+                raise PaintInputError(f"{target!r} is a directory, not a file name", flag)
+
+
 @dataclass
 class PaintResult:
     """What a paint run produced."""
@@ -275,13 +286,7 @@ def paint(
         raise PaintInputError(f"--bits {bits} must be 8 or 16", "--bits")
     if settle < 0 or not math.isfinite(settle):
         raise PaintInputError(f"--settle {settle} must be >= 0 seconds", "--settle")
-    for target, flag in ((out_png, "-o"), (state_path, "--state"), (stats_path, "--stats")):
-        if target:
-            parent = Path(target).resolve().parent
-            if not parent.is_dir():
-                raise PaintInputError(f"directory {str(parent)!r} does not exist", flag)
-            if Path(target).is_dir():
-                raise PaintInputError(f"{target!r} is a directory, not a file name", flag)
+    check_outputs(((out_png, "-o"), (state_path, "--state"), (stats_path, "--stats")))
     source = open_input(input_path)
     try:
         header = source.header
