@@ -54,6 +54,9 @@ def test_gl_paints_the_same_picture_as_numpy(tmp_path: Path,
         code = main(["paint", str(log), "-o", str(tmp_path / f"{backend}.png"), "--backend",
                      backend, "--stats", str(tmp_path / f"{backend}.json")])
         assert code == 0, capsys.readouterr().err
+    # deterministic on GL too: the same log twice gives the same bytes
+    assert main(["paint", str(log), "-o", str(tmp_path / "gl2.png"), "--backend", "gl"]) == 0
+    assert (tmp_path / "gl2.png").read_bytes() == (tmp_path / "gl.png").read_bytes()
     a, b = read_png(tmp_path / "numpy.png"), read_png(tmp_path / "gl.png")
     assert (a.sum(axis=2) < 735).mean() > 0.05  # something was painted
     assert np.abs(a - b).max() <= 2  # float rounding only
