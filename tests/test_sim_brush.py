@@ -251,3 +251,35 @@ def test_brush_settings_validation() -> None:
         with pytest.raises(BrushError) as err:
             BrushSettings.from_args(args, "log.jsonl:7", names)
         assert text in str(err.value) and str(err.value).startswith("log.jsonl:7: ")
+
+
+def test_brush_velocity_pushes_the_paint_along_the_stroke() -> None:
+    """On the canvas (numpy backend): with the velocity source the pigment of a
+    fast stroke ends up further along the stroke's direction than without."""
+    from station.canvas.backend import create_backend
+    from station.sim.player import add_sources
+
+    def centroid(gain: float, direction: int) -> float:
+        w, h = 96, 48
+        canvas = create_backend("numpy", w, h, "watercolor", 1)
+        brush = RoundBrush(w, h, BrushSettings(size=12, water=1.0, pigment={"Black": 0.5}),
+                           BrushModel(velocity_gain=gain, v_max=30.0, pigment_scale=0.3))
+        n = 20
+        for i in range(n + 1):
+            u = i / n if direction > 0 else 1 - i / n
+            brush.feed(pen(i * 0.01, 0.2 + 0.6 * u, 0.5, 0.9))
+            if i % 3 == 0:
+                src = brush.take()
+                if src is not None:
+                    add_sources(canvas, src)
+                canvas.step()
+        for _ in range(30):
+            canvas.step()
+        st = canvas.state()
+        amount = (st.p.sum(axis=0) + st.q.sum(axis=0)).sum(axis=0)
+        return float((amount * np.arange(w)).sum() / amount.sum())
+
+    still_right, still_left = centroid(0.0, +1), centroid(0.0, -1)
+    moved_right, moved_left = centroid(0.1, +1), centroid(0.1, -1)
+    assert moved_right > still_right + 1.0
+    assert moved_left < still_left - 1.0
