@@ -1,0 +1,46 @@
+"""``station bench sim``: the JSON shape and honest figures on tiny canvases (not timed)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from station.bench import sim
+from station.cli import main
+from station.errors import BadInput
+
+
+def test_bench_sim_json_shape(capsys) -> None:
+    gl = pytest.importorskip("station.canvas.gl")
+    try:
+        gl.create_context().release()
+    except gl.GLUnavailable as exc:
+        pytest.skip(f"no OpenGL 4.3 context: {exc}")
+    rc = main(["bench", "sim", "--json", "--sizes", "64x48", "--seconds", "0.05"])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["renderer"] and out["memory_bandwidth_gb_s"] > 0
+    got = {(r["backend"], r["scenario"]) for r in out["results"]}
+    assert got == {("gl", "wash"), ("gl", "stroke"), ("numpy", "wash"), ("numpy", "stroke")}
+    for r in out["results"]:
+        assert r["size"] == "64x48"
+        assert r["steps_per_s"] > 0 and r["bytes_per_cell_step"] > 0
+        assert r["cell_steps_per_s"] == pytest.approx(r["steps_per_s"] * r["active_cells"],
+                                                      rel=1e-3)
+        if r["scenario"] == "wash":
+            assert r["active_cells"] == 64 * 48  # the whole canvas every step
+        else:
+            assert 0 < r["active_cells"] <= 64 * 48
+        traffic = r["cell_steps_per_s"] * r["bytes_per_cell_step"] / 1e9
+        assert r["bandwidth_fraction"] == pytest.approx(
+            traffic / out["memory_bandwidth_gb_s"], rel=1e-2)
+
+
+def test_bad_bench_arguments_are_bad_input() -> None:
+    with pytest.raises(BadInput):
+        sim.parse_size("800by600")
+    with pytest.raises(BadInput):
+        sim.parse_size("2x2")
+    assert sim.parse_size("800x600") == (800, 600)
+    assert main(["bench", "sim", "--backends", "cuda", "--seconds", "0.01"]) == 2
