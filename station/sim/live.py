@@ -165,7 +165,8 @@ class LiveSim:
             if self.writer is not None:
                 self.writer.write(cmd)
             if cmd.cmd == "wait":  # its painting time runs now, as in a replay
-                while self.player.counters.steps < self.player.steps_due(cmd.t):
+                while (self.player.counters.steps < self.player.steps_due(cmd.t)
+                       and not self.stop_requested):  # SIGTERM cuts a long wait short
                     self.step()
 
     def _warn(self, text: str) -> None:
