@@ -93,11 +93,12 @@ class HidPenSource:
 
     def __init__(self, transport: HidTransport, parser: Any = None, send_init: bool = True,
                  finite: bool = False, name: str | None = None) -> None:
-        from station.drivers.registry import parser_for
+        from station.drivers.registry import interface_from_phys, parser_for
 
         self.transport = transport
         info = transport.info
-        self.parser = parser or parser_for(info.vid, info.pid, info.descriptor, info.bus)
+        self.parser = parser or parser_for(info.vid, info.pid, info.descriptor, info.bus,
+                                           interface=interface_from_phys(info.phys))
         if not self.parser.is_pen:
             raise DeviceSpecError(
                 f"{info.path}: {info.name} ({info.vid:04x}:{info.pid:04x}) is a "
@@ -466,6 +467,7 @@ class PenDriver:
             "bad_reasons": dict(getattr(stats, "bad_reasons", {})),
             "skipped_reports": getattr(parser, "skipped", 0) if parser is not None else 0,
             "parser_dropped": getattr(parser, "dropped", 0) if parser is not None else 0,
+            "long_reports": getattr(parser, "long_reports", 0) if parser is not None else 0,
             "samples": n.samples,
             "rejected_samples": n.rejected,
             "forced_proximity_out": n.forced_out,
@@ -505,10 +507,11 @@ class TraceReplay:
         if dev.kind == "evdev":
             assert dev.caps is not None
             return "" if is_pen_device(dev.caps) else "evdev device without a pen (touch/pad)"
-        from station.drivers.registry import parser_for
+        from station.drivers.registry import interface_from_phys, parser_for
 
         try:
-            parser = parser_for(dev.vid, dev.pid, dev.descriptor, dev.bus)
+            parser = parser_for(dev.vid, dev.pid, dev.descriptor, dev.bus,
+                                interface=interface_from_phys(dev.phys))
         except BadInput as exc:
             return f"no parser: {exc}"
         if not parser.is_pen:

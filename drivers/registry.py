@@ -18,6 +18,7 @@ from __future__ import annotations
 import copy
 import json
 import logging
+import re
 from collections.abc import Callable
 from functools import lru_cache
 from pathlib import Path
@@ -159,11 +160,12 @@ def parser_for(vid: int, pid: int, descriptor: bytes | None, bus: int = BUS_USB,
             except DescriptorError as exc:
                 # Protocol devices do not need the descriptor (and kernel fix-ups vary).
                 log.warning("%04x:%04x: descriptor ignored: %s", vid, pid, exc)
+        parser = factory(model, desc)
         if desc is not None:
-            ignored = _non_pen_interface(desc, model)
+            ignored = _non_pen_interface(desc, model, parser)
             if ignored is not None:
                 return ignored
-        return factory(model, desc)
+        return parser
     if not descriptor:
         what = model["name"] if model else f"unknown device {vid:04x}:{pid:04x}"
         raise BadInput(f"{what} needs its report descriptor (generic HID parser)")
@@ -180,17 +182,44 @@ def parser_for(vid: int, pid: int, descriptor: bytes | None, bus: int = BUS_USB,
     return parser
 
 
-def _non_pen_interface(desc: Descriptor, model: dict[str, Any]) -> ReportParser | None:
-    """A protocol device's descriptor that is plainly a touch interface -> ignored interface.
+# Report lengths of Wacom touch frames that share report ID 2 with the pen protocol
+# (kernel WACOM_PKGLEN_BBTOUCH 20, WACOM_PKGLEN_BBTOUCH3 64: Bamboo/Intuos5/Pro touch).
+TOUCH_REPORT_LENGTHS = frozenset({20, 64})
 
-    Only touch is inferred (Finger collections or a Touch Screen/Pad
-    application, and no pen report): Wacom protocol pen interfaces declare
-    vendor-defined reports that look like nothing in particular, so pad
-    interfaces are only ignored by number (``ignore_interfaces``).
+
+def _non_pen_interface(desc: Descriptor, model: dict[str, Any],
+                       parser: ReportParser) -> ReportParser | None:
+    """A protocol device's interface that plainly carries no pen -> ignored interface.
+
+    The kernel only delivers reports a descriptor declares, so a protocol pen
+    interface declares the parser's pen report IDs.  An interface is touch when
+    it has Finger collections or a Touch Screen/Pad application and no pen
+    report, or when its pen-ID reports all have a touch-frame length (Wacom
+    touch interfaces reuse report ID 2 with 64-byte frames).  Interfaces known
+    by number (``ignore_interfaces``, matched through the ``P:`` path) are
+    handled before this.
     """
     from station.drivers.hid.pen import classify_reports
 
     kinds = set(classify_reports(desc).values())
+    ranges = _model_ranges(model)
     if "touch" in kinds and "pen" not in kinds:
-        return IgnoredInterface(f"{model['parser']}/touch", "touch", _model_ranges(model), model)
+        return IgnoredInterface(f"{model['parser']}/touch", "touch", ranges, model)
+    pen_ids: frozenset[int] = getattr(parser, "pen_report_ids", frozenset())
+    if not desc.numbered or not pen_ids:
+        return None
+    lengths = {r.report_id: r.length(True) for r in desc.input_reports() if r.report_id}
+    if not lengths:
+        return None
+    declared = {rid: n for rid, n in lengths.items() if rid in pen_ids}
+    # A descriptor that declares no pen ID at all is left alone (kernel fix-ups and
+    # Bluetooth descriptors vary); only the touch-frame length is conclusive.
+    if declared and all(n in TOUCH_REPORT_LENGTHS for n in declared.values()):
+        return IgnoredInterface(f"{model['parser']}/touch", "touch", ranges, model)
     return None
+
+
+def interface_from_phys(phys: str) -> int | None:
+    """The USB interface number in a physical path such as ``usb-0000:00:14.0-2/input1``."""
+    m = re.search(r"/input(\d+)$", phys.strip())
+    return int(m.group(1)) if m else None

@@ -255,6 +255,7 @@ class GenericPenParser(ReportParser):
             kind = "touch" if "touch" in kinds else "pad" if "pad" in kinds else "other"
             is_pen = False
         super().__init__(ranges, model, init_features, generic=generic, is_pen=is_pen, kind=kind)
+        self.long_reports = 0  # reports longer than the descriptor says (tail ignored)
 
     @property
     def pen_report_ids(self) -> list[int]:
@@ -268,8 +269,13 @@ class GenericPenParser(ReportParser):
         if want is None:
             raise ReportError(f"unknown input report ID {rid}")
         if len(report) != want:
-            raise ReportError(f"input report {rid} is {len(report)} bytes, the descriptor says "
-                              f"{want}")  # fmt: skip
+            if len(report) < want:
+                raise ReportError(f"input report {rid} is {len(report)} bytes, the descriptor "
+                                  f"says {want}")  # fmt: skip
+            # Longer than declared: the kernel (hid_report_raw_event) reads the declared
+            # fields and ignores the tail; some pens pad their reports (counted, not an error).
+            self.long_reports += 1
+            report = report[:want]
         decode = self.decoders.get(rid)
         if decode is None:
             return self._skip(self.kinds[rid])

@@ -59,13 +59,24 @@ def trace_format(path: str | os.PathLike[str]) -> str:
     if fmt:
         return fmt
     name = str(path)
+    # hid-recorder writes the whole descriptor as comments before 'R:' (hundreds of
+    # lines for a big one), so look at the first meaningful lines, not the first lines.
+    head: list[str] = []
+    comments: list[str] = []
     try:
         with open(path, encoding="utf-8", errors="replace") as fh:
-            head = [fh.readline() for _ in range(200)]
+            for n, line in enumerate(fh):
+                if n >= 20000 or len(head) >= 50:
+                    break
+                stripped = line.strip()
+                if stripped.startswith("#"):
+                    if len(comments) < 50:
+                        comments.append(stripped)
+                elif stripped:
+                    head.append(line)
     except OSError as exc:
         raise TraceError(f"cannot open ({exc.strerror})", name) from None
-    text = "".join(head)
-    if "EVEMU" in text or any(line.startswith(("A:", "B:")) for line in head):
+    if any("EVEMU" in c for c in comments) or any(line.startswith(("A:", "B:")) for line in head):
         return "evemu"
     if any(line.startswith(("devices:", "version:", "ndevices:")) for line in head):
         return "libinput-record"

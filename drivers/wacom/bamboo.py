@@ -46,6 +46,7 @@ class BambooParser(ReportParser):
     """Bamboo (CTL-460 …) and Intuos-HT (CTL-480 …) pen interface."""
 
     name = "wacom-bamboo"
+    pen_report_ids = frozenset({PEN_REPORT_ID})
 
     def __init__(self, params: WacomParams, model: dict[str, Any] | None = None,
                  init_features: list[bytes] | None = None) -> None:

@@ -44,6 +44,7 @@ class GraphireParser(ReportParser):
         self.params = params
         self.bluetooth = bluetooth
         self.report_id = BT_REPORT_ID if bluetooth else USB_REPORT_ID
+        self.pen_report_ids = frozenset({self.report_id})
         if bluetooth:
             self.name = "wacom-graphire-bt"
         ranges = AxisRanges(

@@ -93,6 +93,7 @@ class IntuosParser(ReportParser):
     """Intuos3/4/5/Pro and Cintiq pen interface (report IDs 2 and 16)."""
 
     name = "wacom-intuos"
+    pen_report_ids = PEN_REPORT_IDS
 
     def __init__(self, params: WacomParams, model: dict[str, Any] | None = None,
                  init_features: list[bytes] | None = None) -> None:
