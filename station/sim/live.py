@@ -106,6 +106,7 @@ class LiveSim:
         self.bad_samples = 0
         self.dropped_sources = 0
         self._warned: set[str] = set()
+        self._next_status = 0.0
         self._fps_mark = (self.start, 0)
         self.fps = 0.0
 
@@ -168,6 +169,7 @@ class LiveSim:
                 while (self.player.counters.steps < self.player.steps_due(cmd.t)
                        and not self.stop_requested):  # SIGTERM cuts a long wait short
                     self.step()
+                    self.maybe_publish_status()
 
     def _warn(self, text: str) -> None:
         """Warn once per distinct message (a bad stroke must not flood the log)."""
@@ -218,6 +220,13 @@ class LiveSim:
             "stamps": p.brush.stamps, "eraser_samples": p.brush.eraser_samples,
         }
 
+    def maybe_publish_status(self) -> None:
+        """Publish the status when the last one is :data:`STATUS_EVERY_S` old."""
+        now = time.monotonic()
+        if now >= self._next_status:
+            self._next_status = now + STATUS_EVERY_S
+            self.publish_status()
+
     def publish_status(self, final: bool = False) -> None:
         if self.pub is None:
             return
@@ -232,7 +241,6 @@ class LiveSim:
     def run(self) -> dict[str, Any]:
         """Run until stopped; returns the final status."""
         p = self.player
-        next_status = 0.0
         try:
             while not self.stop_requested:
                 now = self.now()
@@ -244,9 +252,7 @@ class LiveSim:
                 else:
                     next_step = (p.counters.steps + 1) / p.rate - p.waited
                     self.drain(max(0, min(100, int((next_step - now) * 1000) + 1)))
-                if now >= next_status:
-                    self.publish_status()
-                    next_status = now + STATUS_EVERY_S
+                self.maybe_publish_status()
         finally:
             final = self.shutdown()
         return final
