@@ -42,18 +42,30 @@ void main() {
     float beta_c = min(1.0 - u_block_paper * (1.0 - pa.x), eff);
     vec2 v1 = vec2(0.0);
     if (wet) {
-        vec2 v = imageLoad(vel_in, c).xy;
-        float bx = clamp(float(c.x) - v.x * u_dt, 0.0, float(u_size.x - 1));
-        float by = clamp(float(c.y) - v.y * u_dt, 0.0, float(u_size.y - 1));
-        int x0 = min(int(floor(bx)), max(u_size.x - 2, 0));
-        int y0 = min(int(floor(by)), max(u_size.y - 2, 0));
-        int x1 = min(x0 + 1, u_size.x - 1);
-        int y1 = min(y0 + 1, u_size.y - 1);
-        float fx = bx - float(x0);
-        float fy = by - float(y0);
-        vec2 top = (1.0 - fx) * vs_at(ivec2(x0, y0)) + fx * vs_at(ivec2(x1, y0));
-        vec2 bot = (1.0 - fx) * vs_at(ivec2(x0, y1)) + fx * vs_at(ivec2(x1, y1));
-        v1 = (1.0 - fy) * top + fy * bot;
+        // back-trace X = i - v dt, bilinear; the weight comes from the displacement
+        // alone, f = (-v dt) - floor(-v dt), i0 = i + floor(-v dt), clamped as in the
+        // reference (i0 < 0: i0 = 0, f = 0; i0 >= n - 1: i0 = n - 2, f = 1)
+        vec2 off = -(imageLoad(vel_in, c).xy * u_dt);
+        vec2 fl = floor(off);
+        vec2 fr = off - fl;
+        ivec2 i0 = c + ivec2(fl);
+        ivec2 d = ivec2(u_size.x > 1 ? 1 : 0, u_size.y > 1 ? 1 : 0);
+        for (int a = 0; a < 2; ++a) {
+            if (u_size[a] < 2) {
+                i0[a] = 0;
+                fr[a] = 0.0;
+            } else if (i0[a] < 0) {
+                i0[a] = 0;
+                fr[a] = 0.0;
+            } else if (i0[a] >= u_size[a] - 1) {
+                i0[a] = u_size[a] - 2;
+                fr[a] = 1.0;
+            }
+        }
+        vec2 g = 1.0 - fr;
+        vec2 top = g.x * vs_at(i0) + fr.x * vs_at(i0 + ivec2(d.x, 0));
+        vec2 bot = g.x * vs_at(i0 + ivec2(0, d.y)) + fr.x * vs_at(i0 + d);
+        v1 = g.y * top + fr.y * bot;
     }
     imageStore(aux_out, c, vec4(v1, 0.0, 0.0));
     imageStore(jv_out, c, vec4(v1, wa.x, wet ? max(beta_c, 0.0) : -1.0));

@@ -223,3 +223,26 @@ def test_renderer_string_and_traffic_count(ctx) -> None:
     assert g.bytes_per_cell_step() == 4 * sum(count(8, 4).values())
     assert count(8, 4)["jacobi (velocity, water, pigment)"] > count(4, 4)[
         "jacobi (velocity, water, pigment)"]
+
+
+def test_evaporation_fold_matches_numpy(ctx, monkeypatch) -> None:
+    """Every FOLD_EVERY steps the per-cell evaporated water moves into a float64 total."""
+    from station.canvas import operations
+
+    monkeypatch.setattr(operations, "FOLD_EVERY", 7)
+    g = gl.GLCanvas(64, 40, seed=8, ctx=ctx)
+    n = NumpyCanvas(64, 40, seed=8)
+    for c in (g, n):
+        paint(c, 45)  # 6 folds, the last at step 42
+    gs, ns = g.state(), n.state()
+    assert_states_close(gs, ns, fields=("w", "wc", "evaporated", "p", "q"))
+    assert ns.evaporated_folded > 0.1
+    assert abs(gs.evaporated_folded - ns.evaporated_folded) <= 1e-6 * ns.evaporated_folded
+    assert g.stats()["balance"]["water_rel_error"] < 1e-5
+
+
+def test_all_zero_pigment_source_takes_no_slot(ctx) -> None:
+    g = gl.GLCanvas(32, 32, ctx=ctx)
+    disc = np.ones((4, 4), np.float32)
+    g.add_sources(dw=disc, dp={"Black": disc * 0, "Cadmium Red": disc * 0.1})
+    assert g.state().slots == ["Cadmium Red"]

@@ -95,44 +95,39 @@ class Result:
 
 
 class _Probe:
-    """Backend-neutral access to what the benchmark needs beyond the protocol."""
+    """Backend-neutral access to what the benchmark needs beyond the protocol.
+
+    GL: ``take_cells()`` (the GPU tile list's running count of simulated cells, read
+    once per measurement) and ``sync()``; NumPy: ``cells_last_step()`` after every
+    step.  Both report their own honest ``bytes_per_cell_step()`` (see
+    ``station/canvas/gl/traffic.py`` and ``numpy_backend.floats_per_cell_step``).
+    """
 
     def __init__(self, canvas: Any) -> None:
         self.canvas = canvas
         self.is_gl = hasattr(canvas, "take_cells")
 
     def sync(self) -> None:
-        if self.is_gl:
+        if hasattr(self.canvas, "sync"):
             self.canvas.sync()
 
-    def cells_this_step(self) -> int:
-        """NumPy: the cells the next step simulates (active tiles' box + halo, or all)."""
+    def cells_after_step(self) -> int:
+        """NumPy: cells the step just simulated (the GPU counts on its own)."""
         if self.is_gl:
             return 0
-        from station.canvas import tiles
-
+        if hasattr(self.canvas, "cells_last_step"):
+            return int(self.canvas.cells_last_step())
         st = self.canvas.live_state
-        if not st.tiling:
-            return st.width * st.height
-        region = tiles.active_region(st)
-        if region is None:
-            return 0
-        ys, xs = region
-        return (ys.stop - ys.start) * (xs.stop - xs.start)
+        return int(st.width * st.height)
 
     def take_cells(self) -> int:
         return int(self.canvas.take_cells()) if self.is_gl else 0
 
     def bytes_per_cell_step(self) -> int:
-        if self.is_gl:
-            return int(self.canvas.bytes_per_cell_step())
-        from station.canvas.gl.traffic import bytes_per_cell_step
-
-        st = self.canvas.live_state  # the reference processes the slots in use only
-        return bytes_per_cell_step(max(len(st.slots), 1), int(st.params.jacobi_iters))
+        return int(self.canvas.bytes_per_cell_step())
 
     def close(self) -> None:
-        if self.is_gl:
+        if hasattr(self.canvas, "close"):
             self.canvas.close()
 
 
@@ -204,8 +199,8 @@ def measure(backend: str, width: int, height: int, scenario: str, seconds: float
     while True:
         if stroke:
             stroke.advance()
-        cells += probe.cells_this_step()
         canvas.step()
+        cells += probe.cells_after_step()
         steps += 1
         if steps >= min_steps and (steps % 4 == 0 or backend == "numpy"):
             probe.sync()

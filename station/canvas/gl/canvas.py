@@ -62,12 +62,13 @@ _PROGRAMS: dict[str, tuple[str, dict[str, object]]] = {
     "tile_update": ("tile_update.comp", {}),
     "tile_mark": ("tile_mark.comp", {}),
     "sources": ("sources.comp", {}),
+    "fold": ("fold.comp", {}),
     "render_km": ("render.comp", {"RENDER_KM": 1}),
     "render_gouache": ("render.comp", {}),
 }
 
 # SSBO binding points (tiles.glsl, tile_*.comp, capillary_dry.comp, sources.comp)
-_B_LIST, _B_ALIVE, _B_TTL, _B_PREV, _B_ARGS, _B_ADDED, _B_MARK = 0, 1, 2, 3, 4, 5, 6
+_B_LIST, _B_ALIVE, _B_TTL, _B_PREV, _B_ARGS, _B_ADDED, _B_MARK, _B_FOLDED = 0, 1, 2, 3, 4, 5, 6, 7
 
 
 class GLCanvas:
@@ -146,6 +147,7 @@ class GLCanvas:
         self.nacc = 1 + 4 * self.npl
         self.b_added = ctx.buffer(reserve=8 * self.nacc * self.src_groups[0]
                                   * self.src_groups[1])
+        self.b_folded = ctx.buffer(reserve=8 * self.src_groups[0] * self.src_groups[1])
         defines = {"NPL": self.npl, "TILE": tile, "LX": lx, "LY": ly}
         self._programs = {name: compile_compute(ctx, fname, {**defines, **extra})
                           for name, (fname, extra) in _PROGRAMS.items()}
@@ -159,7 +161,7 @@ class GLCanvas:
 
     def _release_resources(self) -> None:
         for name in ("aux", "srcw", "srcp", "rgb", "b_list", "b_alive", "b_ttl", "b_prev", "b_mark",
-                     "b_args", "b_all", "b_added"):
+                     "b_args", "b_all", "b_added", "b_folded"):
             obj = getattr(self, name, None)
             if obj is not None:
                 obj.release()
@@ -207,6 +209,7 @@ class GLCanvas:
         self.b_alive.write(zeros)
         self.b_prev.write(zeros)
         self.b_added.write(bytes(self.b_added.size))
+        self.b_folded.write(bytes(self.b_folded.size))
         self.b_args.write(bytes(16))
         # metadata (everything that is not an array)
         self.params = st.params
@@ -219,6 +222,7 @@ class GLCanvas:
         self.sim_time = st.sim_time
         self.tiling = st.tiling
         self.water_added_base = float(st.water_added)
+        self.evaporated_folded_base = float(st.evaporated_folded)
         self.pigment_added_base = dict(st.pigment_added)
         self.pigment_removed_past = dict(st.pigment_removed_past)
         self.pigment_dried = dict(st.pigment_dried)
@@ -254,6 +258,8 @@ class GLCanvas:
             removed_p=rp, tile_ttl=ttl.copy(), slots=list(self.slots),
             step_count=self.step_count, sim_time=self.sim_time, tiling=self.tiling,
             water_added=self.water_added_base + float(added[0]),
+            evaporated_folded=self.evaporated_folded_base + float(
+                np.frombuffer(self.b_folded.read(), np.float64).sum()),
             pigment_added=pig_added,
             pigment_removed_past=dict(self.pigment_removed_past),
             pigment_dried=dict(self.pigment_dried),
@@ -300,7 +306,8 @@ class GLCanvas:
             if pl is not None:
                 if (pl[1] < 0).any():
                     raise CanvasInputError("pigment sources must be >= 0", "add_sources")
-                placed_p[name] = pl
+                if pl[1].any():  # an all-zero source takes no slot (as the reference)
+                    placed_p[name] = pl
         placed_w = self._placed(dw, y0, x0, "dw") if dw is not None else None
         if placed_w is not None and (placed_w[1] < 0).any():
             raise CanvasInputError("water sources must be >= 0", "add_sources")
@@ -567,6 +574,17 @@ class GLCanvas:
             self._barrier()
         self.sim_time += dt
         self.step_count += 1
+        if self.step_count % operations.FOLD_EVERY == 0:
+            self._fold()
+
+    def _fold(self) -> None:
+        """reference operations.fold_accumulators on the GPU (no read-back)."""
+        water = self.f["water"]
+        self._bind(1, water.textures[0], True, True)
+        self._bind(2, water.textures[1], True, True)
+        self.b_folded.bind_to_storage_buffer(_B_FOLDED)
+        self._programs["fold"].run(self.src_groups[0], self.src_groups[1], 1)
+        self._barrier()
 
     def _check_dt(self, dt: float | None) -> float:
         d = self.params.dt if dt is None else float(dt)
