@@ -434,7 +434,7 @@ def test_evemu_record_of_an_old_kernel_with_the_pad_on_the_pen_node() -> None:
     assert [s.touching for s in samples] == [False, True, False, False]
     assert not samples[-1].proximity and samples[-1].x == samples[-2].x > 0.7  # not 0,0
     (drv,) = replay.drivers
-    assembler = drv.source.assembler  # type: ignore[attr-defined]
+    assembler = drv.source.assembler
     assert assembler.stats.pad_frames == 1
 
 

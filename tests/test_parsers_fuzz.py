@@ -106,19 +106,20 @@ def test_random_and_mutated_descriptors():
              S.touch_descriptor(), S.wacom_protocol_descriptor()]  # fmt: skip
     ok = bad = 0
     for i in range(1500):
+        raw: bytes
         if i % 3 == 0:
             raw = bytes(rng.getrandbits(8) for _ in range(rng.randrange(0, 120)))
         else:
-            raw = bytearray(rng.choice(seeds))
+            mutated = bytearray(rng.choice(seeds))
             for _ in range(rng.randrange(1, 4)):
                 op = rng.random()
-                if op < 0.4 and raw:
-                    raw[rng.randrange(len(raw))] = rng.getrandbits(8)
-                elif op < 0.7 and raw:
-                    del raw[rng.randrange(len(raw)):]
+                if op < 0.4 and mutated:
+                    mutated[rng.randrange(len(mutated))] = rng.getrandbits(8)
+                elif op < 0.7 and mutated:
+                    del mutated[rng.randrange(len(mutated)):]
                 else:
-                    raw.insert(rng.randrange(len(raw) + 1), rng.getrandbits(8))
-            raw = bytes(raw)
+                    mutated.insert(rng.randrange(len(mutated) + 1), rng.getrandbits(8))
+            raw = bytes(mutated)
         try:
             d = parse_descriptor(raw)
         except DescriptorError as exc:
