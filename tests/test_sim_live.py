@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pytest
 
 from station.bus import Publisher, Subscriber
 from station.canvas.state import CanvasState
@@ -227,3 +228,37 @@ def test_sim_bad_flags_exit_2_in_one_line(tmp_path: Path, capsys: Any) -> None:
         assert main(["sim", "--backend", "numpy", *args]) == 2
         err = capsys.readouterr().err
         assert text in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_sim_resumes_a_saved_canvas(tmp_path: Path) -> None:
+    """``--resume`` continues a state: size and profile from it, paint kept, steps go on."""
+    from station.canvas.backend import create_backend
+    from station.canvas.brush import BrushSettings, RoundBrush
+    from station.sim.player import add_sources
+
+    canvas = create_backend("numpy", 40, 30, "ink", 3)
+    brush = RoundBrush(40, 30, BrushSettings(size=8, water=1.0, pigment={"Sumi Ink": 0.5}))
+    for i in range(6):
+        brush.feed(PenSample(t=i * 0.05, device="d", tool="pen",  # type: ignore[arg-type]
+                             x=0.2 + 0.1 * i, y=0.5, pressure=0.8, touching=True))
+    src = brush.take()
+    assert src is not None
+    add_sources(canvas, src)
+    for _ in range(5):
+        canvas.step()
+    before = canvas.state()
+    saved, after_path = tmp_path / "before.npz", tmp_path / "after.npz"
+    before.save(saved)
+    proc = subprocess.run(
+        [sys.executable, "-m", "station", "sim", "--bus", f"ipc://{tmp_path}/bus",
+         "--resume", str(saved), "--backend", "numpy", "--state", str(after_path),
+         "--status", "none", "--duration", "0.5"],
+        capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert "40x30 ink" in proc.stderr
+    after = CanvasState.load(after_path)
+    assert (after.width, after.height, after.profile, after.seed) == (40, 30, "ink", 3)
+    assert after.step_count >= before.step_count + 10
+    total = float(before.p.sum() + before.q.sum())
+    assert total > 1.0
+    assert float(after.p.sum() + after.q.sum()) == pytest.approx(total, rel=1e-4)

@@ -475,3 +475,46 @@ def test_ninth_pigment_in_a_layer_is_refused_at_its_sample(
     assert json.loads(lines[line_no - 3])["cmd"] == "brush"
     img = read_png(tmp_path / "bad.png")  # the eight dabs before it were painted
     assert (img.sum(axis=2) < 735).any(axis=0).sum() >= 8
+
+
+def test_resume_continues_a_saved_canvas(tmp_path: Path,
+                                         capsys: pytest.CaptureFixture[str]) -> None:
+    log = tmp_path / "a.jsonl"
+    small_session().save(log)
+    state, png, stats = tmp_path / "a.npz", tmp_path / "a.png", tmp_path / "a.json"
+    code, err = paint([str(log), "-o", str(png), "--state", str(state), "--stats", str(stats)],
+                      capsys)
+    assert code == 0, err
+    # an empty session on the saved canvas: the same picture and books
+    empty = tmp_path / "empty.jsonl"
+    empty.write_text(small_session().text().splitlines(keepends=True)[0])
+    code, err = paint([str(empty), "-o", str(tmp_path / "b.png"), "--resume", str(state),
+                       "--stats", str(tmp_path / "b.json")], capsys)
+    assert code == 0, err
+    assert (tmp_path / "b.png").read_bytes() == png.read_bytes()
+    a, b = json.loads(stats.read_text()), json.loads((tmp_path / "b.json").read_text())
+    assert b["water"] == a["water"] and b["pigments"] == a["pigments"]
+    # more strokes on top: the earlier paint is still there, the new paint is added
+    more = Script(W, H, seed=5)
+    more.brush(size=8, water=0.9, pigment={"Burnt Umber": 0.9})
+    more.line((0.2, 0.9), (0.8, 0.9), 0.3)
+    more.wait(1.0)
+    more.save(tmp_path / "more.jsonl")
+    code, err = paint([str(tmp_path / "more.jsonl"), "-o", str(tmp_path / "c.png"), "--resume",
+                       str(state), "--stats", str(tmp_path / "c.json")], capsys)
+    assert code == 0, err
+    c = json.loads((tmp_path / "c.json").read_text())
+    assert c["pigments"]["French Ultramarine"]["added"] == \
+        pytest.approx(a["pigments"]["French Ultramarine"]["added"])
+    assert c["pigments"]["Burnt Umber"]["added"] > a["pigments"]["Burnt Umber"]["added"] + 1.0
+    # the canvas's step count continues: the saved steps plus this session's
+    assert c["steps"] == a["steps"] + math.floor((more.records[-1].t + 1.0) * 30 + 1e-9)
+    # the resumed canvas decides size and profile; a disagreeing flag or a bad file is exit 2
+    code, err = paint([str(empty), "-o", str(tmp_path / "d.png"), "--resume", str(state),
+                       "--size", "100x100"], capsys)
+    assert code == 2 and "differs from the resumed canvas" in err
+    (tmp_path / "junk.npz").write_bytes(b"not a state")
+    code, err = paint([str(empty), "-o", str(tmp_path / "d.png"), "--resume",
+                       str(tmp_path / "junk.npz")], capsys)
+    assert code == 2 and "junk.npz" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "d.png").exists()

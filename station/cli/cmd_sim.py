@@ -7,7 +7,7 @@ import json
 import sys
 
 from station.cli.cmd_paint import BACKEND_HELP, BACKENDS
-from station.sim.paint import check_outputs, parse_size
+from station.sim.paint import check_outputs, load_resume_state, parse_size
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -18,8 +18,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    "SIGINT saves state and log and exits 0.")
     p.add_argument("--bus", default=None, metavar="ENDPOINT",
                    help="bus endpoint to subscribe to (default ipc; ipc:sub for a proxy)")
-    p.add_argument("--size", metavar="WxH", default="800x600", help="canvas size (800x600)")
-    p.add_argument("--profile", default="watercolor", help="paint profile (watercolor)")
+    p.add_argument("--size", metavar="WxH", help="canvas size (800x600)")
+    p.add_argument("--profile", help="paint profile (watercolor)")
     p.add_argument("--backend", choices=BACKENDS, default="auto", help=BACKEND_HELP)
     p.add_argument("--seed", type=int, default=0, help="paper seed")
     p.add_argument("--rate", type=float, metavar="HZ",
@@ -32,6 +32,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "ipc:sub, else @ipc:sim-status; 'none' to disable)")
     p.add_argument("--duration", type=float, metavar="SECONDS",
                    help="stop by itself after this many seconds")
+    p.add_argument("--resume", metavar="S.npz",
+                   help="continue a saved canvas state (its size, profile and seed)")
     p.set_defaults(func=run)
 
 
@@ -39,16 +41,21 @@ def run(args: argparse.Namespace) -> int:
     from station.canvas.params import get_profile
     from station.sim.live import LiveConfig, LiveSim
 
-    width, height = parse_size(args.size)
-    get_profile(args.profile)
+    size = parse_size(args.size) if args.size else None
+    if args.profile:
+        get_profile(args.profile)
     check_outputs(((args.log, "--log"), (args.state, "--state"), (args.png, "--png")))
-    cfg = LiveConfig(bus=args.bus, width=width, height=height, profile=args.profile,
+    if args.resume:  # the state's size and profile; flags must agree
+        load_resume_state(args.resume, size, args.profile)
+    width, height = size or (800, 600)
+    profile = args.profile or "watercolor"
+    cfg = LiveConfig(bus=args.bus, width=width, height=height, profile=profile,
                      backend=args.backend, seed=args.seed, rate=args.rate,
                      log_path=args.log, state_path=args.state, png_path=args.png,
-                     status=args.status, duration=args.duration)
+                     status=args.status, duration=args.duration, resume=args.resume)
     sim = LiveSim(cfg)
     sim.install_signal_handlers()
-    sys.stderr.write(f"station sim: {width}x{height} {args.profile} on {sim.backend_name}, "
+    sys.stderr.write(f"station sim: {cfg.width}x{cfg.height} {cfg.profile} on {sim.backend_name}, "
                      f"{sim.player.rate:g} steps/s, subscribed to {sim.sub.endpoints[0].url}\n")
     final = sim.run()
     sys.stderr.write("station sim: stopped " + json.dumps(

@@ -66,6 +66,7 @@ class LiveConfig:
     png_path: str | None = None
     status: str | None = None  # endpoint for status; "none" disables
     duration: float | None = None  # stop after this many seconds (tests, benchmarks)
+    resume: str | None = None  # continue this saved canvas state (size, profile, seed)
 
 
 def default_status_endpoint(bus: str | None) -> str:
@@ -85,16 +86,28 @@ class LiveSim:
         from station.sim.paint import make_backend
 
         self.cfg = cfg
+        start = None
+        if cfg.resume:
+            from station.canvas.state import CanvasState
+
+            start = CanvasState.load(cfg.resume)
+            cfg.width, cfg.height = start.width, start.height
+            cfg.profile, cfg.seed = start.profile, start.seed
         self.canvas, self.backend_name = make_backend(cfg.backend, cfg.width, cfg.height,
                                                       cfg.profile, cfg.seed)
+        if start is not None:
+            self.canvas.load_state(start)
         self.player = SessionPlayer(self.canvas, cfg.width, cfg.height, cfg.profile,
                                     rate=cfg.rate, pigments=default_palette())
+        if start is not None:
+            self.player.layer_pigments.update(start.slots)
         self.sub = Subscriber(cfg.bus, topics=("pen.", "cmd"))
         status_ep = cfg.status or default_status_endpoint(cfg.bus)
         self.pub = None if status_ep == "none" else Publisher(status_ep)
         header = SessionHeader(
             width=cfg.width, height=cfg.height, profile=cfg.profile, seed=cfg.seed,
-            extra={"sim": {"rate": self.player.rate}, "recorded_by": "station sim"})
+            extra={"sim": {"rate": self.player.rate}, "recorded_by": "station sim",
+                   **({"resumed_from": cfg.resume} if cfg.resume else {})})
         self.writer = SessionLogWriter(cfg.log_path, header) if cfg.log_path else None
         self.stop_requested = False
         self.start = time.monotonic()

@@ -204,6 +204,21 @@ class Progress:
 
 
 # -- painting ------------------------------------------------------------------------
+def load_resume_state(path: str, size: tuple[int, int] | None, profile: str | None,
+                      flag: str = "--resume") -> Any:
+    """The canvas state to continue from; ``--size``/``--profile`` must agree with it."""
+    from station.canvas.state import CanvasState
+
+    state = CanvasState.load(path)  # missing or corrupt file → BadInput
+    if size is not None and size != (state.width, state.height):
+        raise PaintInputError(f"--size {size[0]}x{size[1]} differs from the resumed canvas "
+                              f"({state.width}x{state.height})", flag)
+    if profile is not None and profile != state.profile:
+        raise PaintInputError(f"--profile {profile} differs from the resumed canvas's "
+                              f"({state.profile}); switch with a profile command instead", flag)
+    return state
+
+
 SOFTWARE_GL = ("llvmpipe", "softpipe", "swrast", "lavapipe", "software rasterizer")
 SOFTWARE_GL_PREFERS_NUMPY = True
 """``auto`` on a CPU-only OpenGL (Mesa llvmpipe): use the NumPy reference, which
@@ -272,8 +287,13 @@ def paint(
     settle: float = 0.0,
     progress: bool | None = None,
     backend_opts: dict[str, Any] | None = None,
+    resume: str | None = None,
 ) -> PaintResult:
     """Paint ``input_path`` headless; see the module docstring for errors.
+
+    ``resume`` continues a saved canvas state (``--state`` of an earlier run)
+    instead of blank paper: its size, profile and seed win over the session
+    header's; brush sizes are not rescaled.
 
     Returns the :class:`PaintResult`; a bad record mid-file raises after the
     outputs are written (``result.error`` is set on the exception as
@@ -287,12 +307,15 @@ def paint(
     if settle < 0 or not math.isfinite(settle):
         raise PaintInputError(f"--settle {settle} must be >= 0 seconds", "--settle")
     check_outputs(((out_png, "-o"), (state_path, "--state"), (stats_path, "--stats")))
+    start = load_resume_state(resume, size, profile) if resume else None
     source = open_input(input_path)
     try:
         header = source.header
-        prof_name = profile or header.profile
+        prof_name = start.profile if start is not None else (profile or header.profile)
         prof = get_profile(prof_name)  # unknown → BadInput
-        if size is not None:
+        if start is not None:
+            width, height = start.width, start.height
+        elif size is not None:
             width, height = size
         else:
             width, height = header.width, header.height
@@ -300,15 +323,20 @@ def paint(
         # Brush sizes are in cells of the canvas the session was made for (a
         # trace has no such canvas: its brush is the profile's, in cells).
         scale = (math.sqrt((width / header.width) * (height / header.height))
-                 if source.has_header else 1.0)
+                 if source.has_header and start is None else 1.0)
         sim = header.extra.get("sim") if isinstance(header.extra.get("sim"), dict) else {}
         if rate is None and isinstance(sim, dict) and isinstance(sim.get("rate"), (int, float)):
             rate = float(sim["rate"])
-        canvas, backend = make_backend(backend, width, height, prof.name, header.seed,
+        seed = start.seed if start is not None else header.seed
+        canvas, backend = make_backend(backend, width, height, prof.name, seed,
                                        **(backend_opts or {}))
+        if start is not None:
+            canvas.load_state(start)
         palette = default_palette()
         player = SessionPlayer(canvas, width, height, prof.name, rate=rate, pigments=palette,
                                brush_scale=scale)
+        if start is not None:
+            player.layer_pigments.update(start.slots)
         show = sys.stderr.isatty() if progress is None else progress
         prog = Progress(_session_length(input_path) + settle) if show else None
         t0 = time.monotonic()
