@@ -64,7 +64,7 @@ def trace_format(path: str | os.PathLike[str]) -> str:
     head: list[str] = []
     comments: list[str] = []
     try:
-        with open(path, encoding="utf-8", errors="replace") as fh:
+        with open(path, encoding="utf-8-sig", errors="replace") as fh:
             for n, line in enumerate(fh):
                 if n >= 20000 or len(head) >= 50:
                     break

@@ -104,7 +104,7 @@ def parse_evemu(lines: Iterable[str], name: str) -> Trace:
 def read_evemu(path: str | os.PathLike[str]) -> Trace:
     name = str(path)
     try:
-        with open(path, encoding="utf-8") as fh:
+        with open(path, encoding="utf-8-sig") as fh:  # a BOM from Windows editors is dropped
             return parse_evemu(fh, name)
     except UnicodeDecodeError:
         raise TraceError("not a text file", f"{name}:1") from None

@@ -146,7 +146,7 @@ def parse_hid_recorder(lines: Iterable[str], name: str) -> Trace:
 def read_hid_recorder(path: str | os.PathLike[str]) -> Trace:
     name = str(path)
     try:
-        with open(path, encoding="utf-8", errors="strict") as fh:
+        with open(path, encoding="utf-8-sig", errors="strict") as fh:  # BOM: Windows editors
             return parse_hid_recorder(fh, name)
     except UnicodeDecodeError:
         raise TraceError("not a text file", f"{name}:1") from None

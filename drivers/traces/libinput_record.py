@@ -101,7 +101,7 @@ def parse_libinput_record(text: str, name: str) -> Trace:
 def read_libinput_record(path: str | os.PathLike[str]) -> Trace:
     name = str(path)
     try:
-        with open(path, encoding="utf-8") as fh:
+        with open(path, encoding="utf-8-sig") as fh:  # a BOM from Windows editors is dropped
             text = fh.read()
     except UnicodeDecodeError:
         raise TraceError("not a text file", f"{name}:1") from None
