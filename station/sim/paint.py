@@ -184,9 +184,9 @@ class Progress:
         self.last = 0.0
         self.shown = False
 
-    def __call__(self, player: SessionPlayer) -> None:
+    def __call__(self, player: SessionPlayer, force: bool = False) -> None:
         now = time.monotonic()
-        if now - self.last < 0.25:
+        if now - self.last < 0.25 and not force:
             return
         self.last = now
         t = player.painting_time
@@ -197,7 +197,9 @@ class Progress:
         self.stream.flush()
         self.shown = True
 
-    def done(self) -> None:
+    def done(self, player: SessionPlayer | None = None) -> None:
+        if player is not None and self.shown:
+            self(player, force=True)  # the final count, not the last throttled one
         if self.shown:
             self.stream.write("\n")
             self.stream.flush()
@@ -349,7 +351,7 @@ def paint(
             error = exc
         finally:
             if prog is not None:
-                prog.done()
+                prog.done(player)
         wall = time.monotonic() - t0
         result = PaintResult(
             width=width, height=height, profile=player.profile, backend=backend,
