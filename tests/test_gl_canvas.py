@@ -246,3 +246,20 @@ def test_all_zero_pigment_source_takes_no_slot(ctx) -> None:
     disc = np.ones((4, 4), np.float32)
     g.add_sources(dw=disc, dp={"Black": disc * 0, "Cadmium Red": disc * 0.1})
     assert g.state().slots == ["Cadmium Red"]
+
+
+@pytest.mark.parametrize("n_slots", [3, 12])  # one RGBA layer; three layers
+def test_other_slot_counts_match_numpy(ctx, n_slots: int) -> None:
+    names = ["French Ultramarine", "Cerulean Blue", "Hansa Yellow", "Cadmium Yellow",
+             "Quinacridone Rose", "Cadmium Red", "Indian Red", "Burnt Umber",
+             "Phthalo Green", "Hookers Green"][:min(n_slots, 10)]
+    g = gl.GLCanvas(48, 40, ctx=ctx, n_slots=n_slots)
+    n = NumpyCanvas(48, 40, n_slots=n_slots)
+    for c in (g, n):
+        for i, name in enumerate(names):
+            stamp(c, 8 + 3 * i, 20, 4, {name: 0.05})
+            c.step()
+        for _ in range(10):
+            c.step()
+    assert_states_close(g.state(), n.state())
+    assert float(np.abs(g.render() - n.render()).max()) < 2e-5

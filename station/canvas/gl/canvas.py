@@ -235,7 +235,7 @@ class GLCanvas:
 
     def state(self) -> CanvasState:
         """A complete copy of the canvas state, read back from the GPU."""
-        self.ctx.memory_barrier()
+        self.ctx.memory_barrier()  # all bits: texture and buffer reads follow
         f = self.f
         hh, ww, npl = self.height, self.width, self.npl
         vx, vy = tx.unpack_planes(self._read(f["vel"].src), 2, hh, ww)
@@ -396,7 +396,11 @@ class GLCanvas:
         tex.bind_to_image(unit, read=read, write=write)
 
     def _barrier(self) -> None:
-        self.ctx.memory_barrier()
+        """Make image and SSBO writes (and the indirect dispatch size) visible to the next
+        dispatch; uploads and read-backs are ordered by GL itself."""
+        ctx = self.ctx
+        ctx.memory_barrier(ctx.SHADER_IMAGE_ACCESS_BARRIER_BIT | ctx.SHADER_STORAGE_BARRIER_BIT
+                           | ctx.COMMAND_BARRIER_BIT)
 
     def _slot_uniforms(self) -> dict[str, list[tuple[float, ...]]]:
         n = 4 * self.npl
@@ -676,6 +680,7 @@ class GLCanvas:
         self._bind(4, self.rgb, False, True)
         prog.run(-(-self.width // 16), -(-self.height // 16), 1)
         self._barrier()
+        self.ctx.memory_barrier()  # all bits: the read-back follows image stores
         out = np.frombuffer(self._read(self.rgb), F32).reshape(self.height, self.width, 4)
         return np.ascontiguousarray(out[..., :3])
 
@@ -689,6 +694,7 @@ class GLCanvas:
         if not self.tiling:
             n, self._cells_cpu = self._cells_cpu, 0
             return n
+        self.ctx.memory_barrier()  # all bits: the read-back follows SSBO atomics
         data = np.frombuffer(self.b_args.read(), np.uint32)
         n = int(data[3])
         self.b_args.write(np.array([0], np.uint32).tobytes(), offset=12)
@@ -707,6 +713,8 @@ def _set(prog: Any, name: str, value: Any) -> None:
         u = prog[name]
     except KeyError:
         return
+    if isinstance(value, list) and len(value) == 1 and getattr(u, "array_length", 1) == 1:
+        value = value[0]  # a one-element uniform array is set like a plain uniform
     u.value = value
 
 
