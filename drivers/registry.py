@@ -71,6 +71,7 @@ PARSERS: dict[str, Callable[[dict[str, Any], Descriptor | None], ReportParser]] 
     "wacom-bamboo": _wacom(BambooParser),
     "wacom-graphire": _wacom(GraphireParser),
     "wacom-graphire-bt": _wacom(GraphireParser, bluetooth=True),
+    "wacom-graphire4": _wacom(GraphireParser, graphire4=True),
 }
 GENERIC = "hid-generic"
 

@@ -548,3 +548,17 @@ def test_libinput_record_with_every_section_of_a_real_recording() -> None:
     assert first.tilt_x == pytest.approx(10 * 180 / (57 * 3.141592653589793), rel=1e-6)
     assert first.serial == (-1960047337) & 0xFFFFFFFF and first.tool_id == 526402
     assert samples[1].pressure > 0 and samples[2].pressure == 0.0
+
+
+def test_graphire4_mouse_distance_is_in_byte_6() -> None:
+    # Kernel wacom_graphire_irq: WACOM_G4/WACOM_MO read the mouse distance from d[6] & 0x3f
+    # (older Graphires from d[7] & 0x3f, where the G4 keeps its wheel and pad bits).
+    g4 = parser_for(0x056A, 0x0015, None)
+    older = parser_for(0x056A, 0x0081, None)
+    assert g4.name == "wacom-graphire4" and older.name == "wacom-graphire"
+    mouse = bytes([2, 0x80 | 0x40 | 0x01, 0x10, 0x00, 0x20, 0x00, 0x17, 0x2A])  # wheel mouse
+    (a,) = g4.parse(mouse, 0.0)
+    (b,) = older.parse(mouse, 0.0)
+    assert a.tool == Tool.MOUSE and (a.distance, b.distance) == (0x17, 0x2A)
+    pen = bytes([2, 0x80 | 0x01, 0x10, 0x00, 0x20, 0x00, 0x2C, 0x01])  # pressure 0x12c
+    assert g4.parse(pen, 0.1)[0].pressure == older.parse(pen, 0.1)[0].pressure == 0x12C

@@ -173,7 +173,7 @@ class MockTablet:
             return self._intuos(s, entering)
         if p == "wacom-bamboo":
             return [self._bamboo(s)]
-        if p in ("wacom-graphire", "wacom-graphire-bt"):
+        if p in ("wacom-graphire", "wacom-graphire-bt", "wacom-graphire4"):
             return [self._graphire(s, p.endswith("-bt"))]
         return [self._generic(s)]
 

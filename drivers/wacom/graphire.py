@@ -5,7 +5,7 @@
 little-endian 16-bit at d[2], d[4]; pen pressure ``d[6] | (d[7] & 3) << 8``
 (Bluetooth: the high bit is ``d[1] & 0x08``); tip ``d[1] & 1``; side buttons
 ``d[1] & 2``, ``d[1] & 4``.  Mouse: left/right ``d[1] & 1``/``& 2``, distance
-``d[7] & 0x3f`` (Bluetooth: ``clamp(44 - (d[6] >> 2), 0, 31)``).
+``d[7] & 0x3f`` (Graphire4: ``d[6] & 0x3f``; Bluetooth: ``clamp(44 - (d[6] >> 2), 0, 31)``).
 """
 
 from __future__ import annotations
@@ -40,9 +40,14 @@ class GraphireParser(ReportParser):
     name = "wacom-graphire"
 
     def __init__(self, params: WacomParams, model: dict[str, Any] | None = None,
-                 init_features: list[bytes] | None = None, bluetooth: bool = False) -> None:
+                 init_features: list[bytes] | None = None, bluetooth: bool = False,
+                 graphire4: bool = False) -> None:
         self.params = params
         self.bluetooth = bluetooth
+        # Graphire4 (kernel WACOM_G4): the mouse distance is in d[6], its wheel in d[7].
+        self.graphire4 = graphire4 and not bluetooth
+        if self.graphire4:
+            self.name = "wacom-graphire4"
         self.report_id = BT_REPORT_ID if bluetooth else USB_REPORT_ID
         self.pen_report_ids = frozenset({self.report_id})
         if bluetooth:
@@ -91,7 +96,10 @@ class GraphireParser(ReportParser):
             buttons = (Button.STYLUS if d[1] & 0x01 else 0) | (Button.STYLUS2 if d[1] & 0x02 else 0)
             if (d[1] >> 5) & 3 == 2 and d[1] & 0x04:
                 buttons |= Button.STYLUS3  # middle button of the wheel mouse
-            distance = min(31, max(0, 44 - (d[6] >> 2))) if self.bluetooth else d[7] & 0x3F
+            if self.bluetooth:
+                distance = min(31, max(0, 44 - (d[6] >> 2)))
+            else:
+                distance = (d[6] if self.graphire4 else d[7]) & 0x3F
         sample = RawSample(
             time=time,
             proximity=prox,
