@@ -326,9 +326,11 @@ def paint(
         # trace has no such canvas: its brush is the profile's, in cells).
         scale = (math.sqrt((width / header.width) * (height / header.height))
                  if source.has_header and start is None else 1.0)
-        sim = header.extra.get("sim") if isinstance(header.extra.get("sim"), dict) else {}
-        if rate is None and isinstance(sim, dict) and isinstance(sim.get("rate"), (int, float)):
-            rate = float(sim["rate"])
+        sim = header.extra.get("sim")
+        logged_rate = sim.get("rate") if isinstance(sim, dict) else None
+        if rate is None and isinstance(logged_rate, (int, float)) \
+                and not isinstance(logged_rate, bool):
+            rate = float(logged_rate)  # the rate the session was recorded at
         seed = start.seed if start is not None else header.seed
         canvas, backend = make_backend(backend, width, height, prof.name, seed,
                                        **(backend_opts or {}))
