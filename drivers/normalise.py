@@ -150,7 +150,17 @@ class NormaliserStats:
     forced_out: int = 0
     nib_offsets: int = 0
     time_backwards: int = 0
+    tool_changes: int = 0  # tools replaced while in proximity (old one left first)
     reasons: dict[str, int] = field(default_factory=dict)
+
+
+def _other_tool(before: ToolKey, after: ToolKey) -> bool:
+    """A different physical tool: another type, or another serial / tool id where both
+    are known (a serial that only appears later is the same tool, not a new one)."""
+    if before[0] != after[0]:
+        return True
+    return any(b is not None and a is not None and a != b
+               for b, a in zip(before[1:], after[1:], strict=True))
 
 
 def _unit(value: int, axis: Axis) -> float:
@@ -243,7 +253,18 @@ class Normaliser:
         if self._last_time is not None and raw.time < self._last_time:
             self.stats.time_backwards += 1
         self._last_time = raw.time if self._last_time is None else max(raw.time, self._last_time)
-        self._update_identity(raw)
+        before = self.tool_key()
+        if raw.proximity:  # an out report names no tool: the one in proximity leaves
+            self._update_identity(raw)
+        if self._in_prox and raw.proximity and _other_tool(before, self.tool_key()):
+            # A new tool while the old one is in proximity (a pen flipped to its eraser
+            # end without an out report): the old tool leaves first, as the kernel's
+            # hid-input releases it in a frame of its own and libinput reports it.
+            after = self.tool_key()
+            self._tool, self._serial, self._tool_id = before
+            self._leave(raw.time, out, t_mono)
+            self._tool, self._serial, self._tool_id = after
+            self.stats.tool_changes += 1
         if not raw.proximity:
             if self._in_prox:
                 self._leave(raw.time, out, t_mono)

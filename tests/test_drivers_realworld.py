@@ -562,3 +562,17 @@ def test_graphire4_mouse_distance_is_in_byte_6() -> None:
     assert a.tool == Tool.MOUSE and (a.distance, b.distance) == (0x17, 0x2A)
     pen = bytes([2, 0x80 | 0x01, 0x10, 0x00, 0x20, 0x00, 0x2C, 0x01])  # pressure 0x12c
     assert g4.parse(pen, 0.1)[0].pressure == older.parse(pen, 0.1)[0].pressure == 0x12C
+
+
+def test_flipping_to_the_eraser_in_proximity_makes_the_pen_leave_first(tmp_path: Path) -> None:
+    # Microsoft-style pens (N-trig, USI): Invert comes up while the pen is still in range.
+    lines = [f"R: {len(hexd(PEN_APP))} {hexd(PEN_APP).hex(' ')}", "N: pen", "I: 18 1b96 0c01"]
+    reps = [pen_report(100, 100, 0), pen_report(110, 100, 0), pen_report(120, 100, 0, invert=True),
+            pen_report(130, 100, 500, eraser=True), pen_report(0, 0, 0, in_range=False)]
+    lines += [f"E: {i * 0.005:.6f} 8 {r.hex(' ')}" for i, r in enumerate(reps)]
+    path = tmp_path / "flip.hid"
+    path.write_text("\n".join(lines) + "\n")
+    samples = list(TraceReplay(read_trace(path)).samples())
+    assert [(s.tool, s.proximity, s.touching) for s in samples] == [
+        (Tool.PEN, True, False), (Tool.PEN, True, False), (Tool.PEN, False, False),
+        (Tool.ERASER, True, False), (Tool.ERASER, True, True), (Tool.ERASER, False, False)]
