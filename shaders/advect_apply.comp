@@ -29,7 +29,11 @@ void main() {
     }
     float w = wa.x;
     vec2 vc = imageLoad(vel_in, c).xy;
-    // branch-free over the faces: a closed face has rate 0 and moves +-0
+    // branch-free over the faces: a closed face has rate 0 and moves +-0.  Water first,
+    // remembering each face's signed limited rate and donor; then the pigment layers.
+    float srl[4];   // (sign of the update) * (sign of the flux): +-1
+    float rls[4];   // limited rate of each face
+    bool donor_c[4];
     for (int f = 0; f < 4; ++f) {
         ivec2 n = clamp(c + OFFS[f], ivec2(0), u_size - 1);
         vec4 ln = imageLoad(wet_in, n);
@@ -42,15 +46,21 @@ void main() {
         float r = abs(uf) * u_q4;
         float rl = c_donor ? (r * lc.x) * ln.y : (r * ln.x) * lc.y;
         float sgn = pos ? 1.0 : -1.0;
-        float wn = imageLoad(water_in, n).x;  // unconditional loads vectorise better
+        float wn = imageLoad(water_in, n).x;
         float wd = c_donor ? wa.x : wn;
         float sign_ = lower ? -1.0 : 1.0;
         w = w + sign_ * ((sgn * wd) * rl);
-        for (int l = 0; l < NPL; ++l) {
-            if (l >= u_layers) continue;
-            vec4 pn = imageLoad(pig_in, ivec3(n, l));
-            vec4 pd = c_donor ? pc[l] : pn;
-            p[l] = p[l] + sign_ * ((sgn * pd) * rl);
+        // (sign_ * sgn) is +-1, so sign_ * ((sgn * pd) * rl) == (sign_ * sgn) * (pd * rl)
+        srl[f] = sign_ * sgn;
+        rls[f] = rl;
+        donor_c[f] = c_donor;
+    }
+    for (int l = 0; l < NPL; ++l) {
+        if (l >= u_layers) continue;
+        for (int f = 0; f < 4; ++f) {
+            ivec2 n = clamp(c + OFFS[f], ivec2(0), u_size - 1);
+            vec4 pd = donor_c[f] ? pc[l] : imageLoad(pig_in, ivec3(n, l));
+            p[l] = p[l] + srl[f] * (pd * rls[f]);
         }
     }
     imageStore(water_out, c, vec4(w, wa.yzw));

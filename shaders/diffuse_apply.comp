@@ -35,15 +35,9 @@ void main() {
     vec4 js = imageLoad(js_in, c);
     bool wet = is_wet(js.w);
     vec4 wa = imageLoad(water_in, c);
-    vec4 p[NPL], xp[NPL], sp[NPL];
-    for (int l = 0; l < NPL; ++l) {
-        if (l >= u_layers) continue;
-        p[l] = imageLoad(pig_in, ivec3(c, l));
-        xp[l] = imageLoad(jx_in, ivec3(c, l));
-        sp[l] = imageLoad(jps_in, ivec3(c, l));
-    }
     float w = wa.x;
     // branch-free over the faces: a closed face has conductance 0 and adds 0
+    float kb[4];
     for (int f = 0; f < 4; ++f) {
         ivec2 n = clamp(c + OFFS[f], ivec2(0), u_size - 1);
         vec4 jn = imageLoad(js_in, n);
@@ -51,15 +45,22 @@ void main() {
         bool lower = lower_side(f);
         float sign_ = lower ? -1.0 : 1.0;  // - F_E + F_W - F_S + F_N
         w = w + sign_ * face(lower, js.x, jn.x, js.z, jn.z, o * u_kw);
-        float kb = o * u_kp * min(js.w, jn.w);
-        for (int l = 0; l < NPL; ++l) {
-            if (l >= u_layers) continue;
-            vec4 Fp = face4(lower, xp[l], imageLoad(jx_in, ivec3(n, l)), sp[l],
-                            imageLoad(jps_in, ivec3(n, l)), kb);
-            p[l] = p[l] + sign_ * Fp;
-        }
+        kb[f] = o * u_kp * min(js.w, jn.w);
     }
     imageStore(water_out, c, vec4(w, wa.yzw));
-    for (int l = 0; l < NPL; ++l)
-        if (l < u_layers) imageStore(pig_out, ivec3(c, l), p[l]);
+    // pigment: a loop of its own (nested in the face loop it runs far slower)
+    for (int l = 0; l < NPL; ++l) {
+        if (l >= u_layers) continue;
+        vec4 p = imageLoad(pig_in, ivec3(c, l));
+        vec4 xp = imageLoad(jx_in, ivec3(c, l));
+        vec4 sp = imageLoad(jps_in, ivec3(c, l));
+        for (int f = 0; f < 4; ++f) {
+            ivec2 n = clamp(c + OFFS[f], ivec2(0), u_size - 1);
+            bool lower = lower_side(f);
+            vec4 Fp = face4(lower, xp, imageLoad(jx_in, ivec3(n, l)), sp,
+                            imageLoad(jps_in, ivec3(n, l)), kb[f]);
+            p = p + (lower ? -1.0 : 1.0) * Fp;
+        }
+        imageStore(pig_out, ivec3(c, l), p);
+    }
 }

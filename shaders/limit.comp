@@ -31,15 +31,10 @@ void main() {
     vec4 j = imageLoad(jv_in, c);
     bool wet = is_wet(j.w);
     float w = imageLoad(water_in, c).x;
-    vec4 xp[NPL];
-    vec4 outp[NPL];
-    for (int l = 0; l < NPL; ++l) {
-        xp[l] = l < u_layers ? imageLoad(jd_in, ivec3(c, l)) : vec4(0.0);
-        outp[l] = vec4(0.0);
-    }
     float outw = 0.0;
     bool open_f[4] = bool[4](false, false, false, false);
     float wn[4] = float[4](w, w, w, w);
+    float kb[4];  // pigment conductance k_p b of each face (0 when closed)
     // branch-free over the faces (llvmpipe runs this markedly faster); closed faces add 0
     for (int f = 0; f < 4; ++f) {
         ivec2 n = clamp(c + OFFS[f], ivec2(0), u_size - 1);
@@ -50,10 +45,18 @@ void main() {
         wn[f] = open_ ? imageLoad(water_in, n).x : w;
         // flux leaving this cell over face f (the reference's face flux, signed to us)
         outw += o * max(u_kw * (j.z - jn.z), 0.0);
-        float kb = o * u_kp * min(j.w, jn.w);
-        for (int l = 0; l < NPL; ++l)
-            if (l < u_layers)
-                outp[l] += max(kb * (xp[l] - imageLoad(jd_in, ivec3(n, l))), vec4(0.0));
+        kb[f] = o * u_kp * min(j.w, jn.w);
+    }
+    // pigment outflows: a loop of its own (nested in the face loop it runs far slower)
+    vec4 outp[NPL];
+    for (int l = 0; l < NPL; ++l) {
+        outp[l] = vec4(0.0);
+        if (l >= u_layers) continue;
+        vec4 xp = imageLoad(jd_in, ivec3(c, l));
+        for (int f = 0; f < 4; ++f) {
+            ivec2 n = clamp(c + OFFS[f], ivec2(0), u_size - 1);
+            outp[l] += max(kb[f] * (xp - imageLoad(jd_in, ivec3(n, l))), vec4(0.0));
+        }
     }
     // velocity: passes 2 (non-wet -> 0) and 3
     vec2 v = wet ? j.xy : vec2(0.0);
