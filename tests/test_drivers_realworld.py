@@ -576,3 +576,21 @@ def test_flipping_to_the_eraser_in_proximity_makes_the_pen_leave_first(tmp_path:
     assert [(s.tool, s.proximity, s.touching) for s in samples] == [
         (Tool.PEN, True, False), (Tool.PEN, True, False), (Tool.PEN, False, False),
         (Tool.ERASER, True, False), (Tool.ERASER, True, True), (Tool.ERASER, False, False)]
+
+
+def test_a_wacom_pad_node_is_not_a_pen() -> None:
+    # `libinput record --all` / evemu of a Wacom: the pad node declares ABS_X/ABS_Y (0..1)
+    # and BTN_STYLUS next to BTN_0…BTN_8 (kernel wacom_setup_pad_capabilities).
+    from station.drivers.evdev.frames import is_pen_device
+
+    xy = {c.ABS_X: AbsInfo(0, 1), c.ABS_Y: AbsInfo(0, 1), c.ABS_WHEEL: AbsInfo(0, 71),
+          c.ABS_MISC: AbsInfo(0, 0)}
+    pad = EvdevCaps("Wacom Intuos Pro M Pad", xy,
+                    frozenset({c.BTN_STYLUS, *range(c.BTN_0, c.BTN_0 + 9)}))
+    assert not is_pen_device(pad)
+    pen_keys = frozenset({c.BTN_TOOL_PEN, c.BTN_TOUCH, c.BTN_STYLUS})
+    assert is_pen_device(EvdevCaps("Wacom Intuos Pro M Pen", xy, pen_keys))
+    # a pen that only says BTN_STYLUS (no BTN_TOOL_PEN) but has pressure stays a pen
+    stylus_only = EvdevCaps("cheap pen", {**xy, c.ABS_PRESSURE: AbsInfo(0, 1023)},
+                            frozenset({c.BTN_STYLUS, c.BTN_TOUCH, c.BTN_0}))
+    assert is_pen_device(stylus_only)

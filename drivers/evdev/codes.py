@@ -26,6 +26,7 @@ ABS_MT_POSITION_X = 0x35
 MSC_SERIAL = 0x00
 PAD_DEVICE_ID = 0x0F  # ABS_MISC value of Wacom pad frames (kernel wacom_wac.h)
 
+BTN_0 = 0x100  # first pad button
 BTN_LEFT, BTN_RIGHT, BTN_MIDDLE = 0x110, 0x111, 0x112
 BTN_TOOL_PEN = 0x140
 BTN_TOOL_RUBBER = 0x141

@@ -69,9 +69,22 @@ class EvdevCaps:
 
 
 def is_pen_device(caps: EvdevCaps) -> bool:
-    """ABS_X and ABS_Y plus BTN_TOOL_PEN or BTN_STYLUS: a pen (not a touchpad or pad)."""
+    """ABS_X and ABS_Y plus BTN_TOOL_PEN or BTN_STYLUS: a pen (not a touchpad or pad).
+
+    Wacom *pad* nodes also declare ABS_X/ABS_Y and BTN_STYLUS (kernel
+    wacom_setup_pad_capabilities, for old X drivers) next to BTN_0…: a node
+    with pad buttons, no BTN_TOOL_PEN and no pressure is a pad, as udev's
+    input_id tags it (ID_INPUT_TABLET_PAD), not a pen.
+    """
     has_xy = c.ABS_X in caps.absinfo and c.ABS_Y in caps.absinfo
-    return has_xy and (c.BTN_TOOL_PEN in caps.keys or c.BTN_STYLUS in caps.keys)
+    if not has_xy:
+        return False
+    if c.BTN_TOOL_PEN in caps.keys:
+        return True
+    if c.BTN_STYLUS not in caps.keys:
+        return False
+    pad = c.BTN_0 in caps.keys and c.ABS_PRESSURE not in caps.absinfo
+    return not pad
 
 
 def _axis(info: AbsInfo | None, resolution: float | None = None) -> Axis | None:
