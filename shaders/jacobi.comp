@@ -11,8 +11,7 @@
 #include "tiles.glsl"
 
 layout(rgba32f, binding = 1) uniform readonly image2D jv_in;
-layout(rg32f, binding = 2) uniform readonly image2D aux_in;
-layout(rgba32f, binding = 3) uniform readonly image2D water_in;
+layout(rgba32f, binding = 2) uniform readonly image2D aux_in;  // (v1, w): right-hand sides
 layout(rgba32f, binding = 4) uniform readonly image2DArray pig_in;
 layout(rgba32f, binding = 5) uniform readonly image2DArray jd_in;
 layout(rgba32f, binding = 6) uniform writeonly image2D jv_out;
@@ -54,10 +53,9 @@ void main() {
             sp[l] += bf[f] * imageLoad(jd_in, ivec3(n, l));
         }
     }
-    vec2 v1 = imageLoad(aux_in, c).xy;
-    vec2 xv = (v1 + u_kv * s.xy) / (1.0 + u_kv * nopen);
-    float w = imageLoad(water_in, c).x;
-    float xw = (w + u_kw * s.z) / (1.0 + u_kw * nopen);
+    vec4 rhs = imageLoad(aux_in, c);
+    vec2 xv = (rhs.xy + u_kv * s.xy) / (1.0 + u_kv * nopen);
+    float xw = (rhs.z + u_kw * s.z) / (1.0 + u_kw * nopen);
     imageStore(jv_out, c, vec4(xv, xw, j.w));
     float dp = 1.0 + u_kp * bsum;
     for (int l = 0; l < NPL; ++l) {

@@ -1,7 +1,8 @@
 #version 430
 // prep.comp: once per step, after the sources.  Reference: wet_mask, blocking (diffusion
 // controller beta_c) and pass 1 advect_velocity (semi-Lagrangian back-trace, bilinear).
-// Writes aux = v1 (the right-hand side of the velocity diffusion) and the first Jacobi
+// Writes aux = (v1, w) (the right-hand sides of the velocity and water diffusions, read
+// by every Jacobi iteration in one load) and the first Jacobi
 // iterate jv = (v1x, v1y, w, wb), wb = beta_c on wet cells, -1 elsewhere.
 #include "common.glsl"
 #include "tiles.glsl"
@@ -9,7 +10,7 @@
 layout(rg32f, binding = 1) uniform readonly image2D vel_in;
 layout(rgba32f, binding = 2) uniform readonly image2D water_in;
 layout(rgba32f, binding = 3) uniform readonly image2D paper_in;
-layout(rg32f, binding = 4) uniform writeonly image2D aux_out;
+layout(rgba32f, binding = 4) uniform writeonly image2D aux_out;
 layout(rgba32f, binding = 5) uniform writeonly image2D jv_out;
 
 uniform float u_dt;
@@ -67,6 +68,6 @@ void main() {
         vec2 bot = g.x * vs_at(i0 + ivec2(0, d.y)) + fr.x * vs_at(i0 + d);
         v1 = g.y * top + fr.y * bot;
     }
-    imageStore(aux_out, c, vec4(v1, 0.0, 0.0));
+    imageStore(aux_out, c, vec4(v1, wa.x, 0.0));  // the right-hand sides v1 and w
     imageStore(jv_out, c, vec4(v1, wa.x, wet ? max(beta_c, 0.0) : -1.0));
 }

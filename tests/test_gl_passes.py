@@ -112,9 +112,10 @@ def test_prep_wet_controller_and_velocity_advection(ctx) -> None:
     c._pass_prep()
     wet = ref.wet_mask(st.w, st.wc, st.mask, prm)
     vx1, vy1 = ref.advect_velocity(st.vx, st.vy, wet, prm.dt)
-    aux = read_rgba(c, c.aux, 2)
+    aux = read_rgba(c, c.aux)
     close("advected vx", aux[..., 0], vx1)
     close("advected vy", aux[..., 1], vy1)
+    assert np.array_equal(aux[..., 2], st.w)  # the water right-hand side
     jv = read_rgba(c, c.jv[0])
     beta_c = ref.blocking(st.h, st.block, st.block_time, st.sim_time, prm)
     assert np.array_equal(jv[..., 3] >= 0, wet)

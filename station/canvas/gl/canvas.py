@@ -127,8 +127,9 @@ class GLCanvas:
         if self.ntiles > self.limits.max_work_group_count[2]:
             raise CanvasInputError(f"too many tiles ({self.ntiles}) for this GPU", "--size")
         self.f = tx.allocate(ctx, width, height, self.npl)
-        # scratch: aux = v1; jv = (xv, xw, wb) iterate, then limiters; jd = pigment iterate
-        self.aux = ctx.texture((width, height), 2, dtype="f4")
+        # scratch: aux = (v1, w) right-hand sides; jv = (xv, xw, wb) iterate, then limiters;
+        # jd = pigment iterate, then pigment limiters
+        self.aux = ctx.texture((width, height), 4, dtype="f4")
         self.jv = [ctx.texture((width, height), 4, dtype="f4") for _ in range(2)]
         self.jd = [ctx.texture_array((width, height, self.npl), 4, dtype="f4")
                    for _ in range(2)]
@@ -503,7 +504,6 @@ class GLCanvas:
         for i in range(n):
             self._bind(1, self.jv[cur], True, False)
             self._bind(2, self.aux, True, False)
-            self._bind(3, f["water"].src, True, False)
             self._bind(4, f["pig"].src, True, False)
             self._bind(5, f["pig"].src if i == 0 else self.jd[cur], True, False)
             self._bind(6, self.jv[1 - cur], False, True)

@@ -16,20 +16,22 @@ def floats_per_cell_step(slots: int, jacobi_iters: int) -> dict[str, int]:
     s = int(slots)
     n = int(jacobi_iters)
     passes = {
-        # read v(2), w, wc, h, mask, block, block_time; write wet, beta_c, v1(2)
-        "prep (wet, controller, advect_velocity)": 8 + 4,
-        # first iteration: read wet, beta_c, v1(2), w, p(S); write xv(2), xw, xp(S)
-        # later ones also read the previous iterate xv(2), xw, xp(S)
-        "jacobi (velocity, water, pigment)": (6 + s + 3 + s) + (n - 1) * (9 + 2 * s + 3 + s),
-        # read xv(2), xw, xp(S), w, p(S), wet, beta_c; write v(2), s_w, s_p(S)
-        "limit (height term, boundary, limiters)": (6 + 2 * s) + (3 + s),
-        # read xw, xp(S), s_w, s_p(S), w, p(S), wet, beta_c; write w, p(S)
-        "diffuse_apply": (5 + 3 * s) + (1 + s),
-        # read v(2), w, p(S), wet; write s_out, s_in
-        "advect_limit": (4 + s) + 2,
-        # read v(2), w, p(S), wet, s_out, s_in; write w, p(S)
+        # read v(2), w, wc, h, mask, block, block_time; write aux = (v1(2), w) and the
+        # first iterate jv = (v1(2), w, wb)
+        "prep (wet, controller, advect_velocity)": 8 + 7,
+        # each iteration reads the iterate jv = (xv(2), xw, wb), the right-hand sides
+        # (v1(2), w), p(S) and the pigment iterate xp(S) (= p in the first iteration);
+        # writes jv(4) and xp(S)
+        "jacobi (velocity, water, pigment)": (7 + s + 4 + s) + (n - 1) * (7 + 2 * s + 4 + s),
+        # read jv(4), xp(S), w, p(S); write v(2), (xw, s_w, wb), s_p(S)
+        "limit (height term, boundary, limiters)": (5 + 2 * s) + (5 + s),
+        # read (xw, s_w, wb), xp(S), s_p(S), w, p(S); write w, p(S)
+        "diffuse_apply": (4 + 3 * s) + (1 + s),
+        # read v(2), wb, w, p(S); write (s_out, s_in, wb)
+        "advect_limit": (4 + s) + 3,
+        # read v(2), (s_out, s_in, wb), w, p(S); write w, p(S)
         "advect_apply": (6 + s) + (1 + s),
-        # read w, wc, evaporated, h, mask, wet, p(S), q(S); write w, wc, evaporated, p, q
+        # read w, wc, evaporated, h, mask, wb, p(S), q(S); write w, wc, evaporated, p, q
         "evap_surface (evaporate, surface_exchange, absorb)": (6 + 2 * s) + (3 + 2 * s),
         # read w, wc, evaporated, h, mask; write w, wc, evaporated (wet cell: no deposit)
         "capillary_dry (capillary diffusion/evaporation, dry_cells)": 5 + 3,
