@@ -594,3 +594,21 @@ def test_a_wacom_pad_node_is_not_a_pen() -> None:
     stylus_only = EvdevCaps("cheap pen", {**xy, c.ABS_PRESSURE: AbsInfo(0, 1023)},
                             frozenset({c.BTN_STYLUS, c.BTN_TOUCH, c.BTN_0}))
     assert is_pen_device(stylus_only)
+
+
+def test_intuos_pro_pen_reports_of_16_bytes_are_read() -> None:
+    # Intuos5 / Intuos Pro (056a:0314-0317) declare pen report 2 as 16 bytes; the kernel's
+    # wacom_intuos_irq reads d[0..9] whatever the length. 64-byte frames are touch, report 192
+    # is the USB/wireless status.
+    from station.drivers import synth as S
+
+    parser = parser_for(0x056A, 0x0315, None)
+    pad = bytes(6)
+    assert parser.parse(S.intuos_prox_in(0x802, 0x1234567) + pad, 0.0)[0].serial == 0x1234567
+    (raw,) = parser.parse(S.intuos_pen(20000, 10000, 1500) + pad, 0.005)
+    assert (raw.x, raw.y, raw.pressure, raw.tool) == (20000, 10000, 1500, Tool.PEN)
+    assert parser.parse(bytes([2, 0x81]) + bytes(62), 0.01) == []  # touch frame
+    assert parser.parse(bytes([192]) + bytes(9), 0.02) == []
+    assert parser.skipped_by_kind == {"touch": 1, "status": 1}
+    with pytest.raises(ReportError, match=r"is 17 bytes, expected 10\.\.16"):
+        parser.parse(S.intuos_pen(1, 1, 1) + bytes(7), 0.03)

@@ -180,8 +180,8 @@ def test_intuos_skips_mouse_mode_and_pad_reports():
 @pytest.mark.parametrize(
     ("report", "text"),
     [(bytes([7] + [0] * 9), "unknown Intuos report ID 7"),
-     (bytes([2] + [0] * 8), "is 9 bytes, expected 10"),
-     (bytes([2] + [0] * 10), "is 11 bytes, expected 10"),
+     (bytes([2] + [0] * 8), "is 9 bytes, expected 10..16"),
+     (bytes([2] + [0] * 16), "is 17 bytes, expected 10..16"),
      (b"", "unknown Intuos report ID 0")],
 )  # fmt: skip
 def test_intuos_malformed(report, text):

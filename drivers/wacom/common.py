@@ -54,7 +54,8 @@ class WacomParams:
 
 def check_length(report: bytes, allowed: tuple[int, ...], what: str) -> None:
     if len(report) not in allowed:
-        want = " or ".join(str(n) for n in allowed)
+        contiguous = len(allowed) > 2 and list(allowed) == list(range(allowed[0], allowed[-1] + 1))
+        want = f"{allowed[0]}..{allowed[-1]}" if contiguous else " or ".join(map(str, allowed))
         raise ReportError(f"{what} report {report[0]} is {len(report)} bytes, expected {want}")
 
 

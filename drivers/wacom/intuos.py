@@ -1,4 +1,4 @@
-"""Wacom Intuos family protocol (Intuos3 and later, Cintiq): 10-byte report 2.
+"""Wacom Intuos family protocol (Intuos3 and later, Cintiq): report 2 (or 16), 10 bytes used.
 
 Byte layout (d[0] is the report ID; as in the kernel's wacom_wac.c):
 
@@ -30,7 +30,13 @@ from station.drivers.wacom.tools import tool_from_id
 
 from station.events import Button, Tool
 
-REPORT_LENGTH = 10
+REPORT_LENGTH = 10  # the bytes the protocol uses (d[0]..d[9])
+# Lengths a pen report arrives with: 10 (Intuos3/4, Cintiq) or 16 (Intuos5 and Intuos
+# Pro 0x314-0x317 declare report 2 as 16 bytes; the kernel's wacom_intuos_irq reads
+# d[0..9] whatever the length).
+PEN_LENGTHS = tuple(range(REPORT_LENGTH, 17))
+TOUCH_LENGTH = 64  # WACOM_PKGLEN_BBTOUCH3: Intuos5/Pro touch frames (kernel wacom_wac_irq)
+STATUS_REPORT_ID = 192  # WACOM_REPORT_USB: wireless/USB status, not a pen report
 PEN_REPORT_IDS = frozenset({2, 16})  # 2: WACOM_REPORT_PENABLED, 16: Intuos/Cintiq pen
 ROTATION_AXIS = Axis(-900, 899, 5.0)  # Art Pen: 1800 units per turn, 5 per degree
 WHEEL_AXIS = Axis(0, 1023, None)  # airbrush finger wheel
@@ -124,8 +130,12 @@ class IntuosParser(ReportParser):
         if rid not in PEN_REPORT_IDS:
             if rid in self.params.skip_report_ids:
                 return self._skip("mouse" if rid == 1 else "pad")
+            if rid == STATUS_REPORT_ID:
+                return self._skip("status")
             raise unknown_id(report, "Intuos")
-        check_length(report, (REPORT_LENGTH,), "Intuos")
+        if len(report) == TOUCH_LENGTH:
+            return self._skip("touch")
+        check_length(report, PEN_LENGTHS, "Intuos")
         d = report
         st = self.state
         d1 = d[1]
