@@ -28,6 +28,7 @@ from station.drivers.hid.base import IgnoredInterface, ReportParser
 from station.drivers.hid.descriptor import Descriptor, parse_descriptor
 from station.drivers.hid.errors import DescriptorError, ReportError
 from station.drivers.hid.pen import GenericPenParser
+from station.drivers.hid.quirks import pen_usage_quirks
 from station.drivers.raw import Axis, AxisRanges
 from station.drivers.wacom.bamboo import BambooParser
 from station.drivers.wacom.common import WacomParams
@@ -172,7 +173,7 @@ def parser_for(vid: int, pid: int, descriptor: bytes | None, bus: int = BUS_USB,
         raise BadInput(f"{what} needs its report descriptor (generic HID parser)")
     desc = parse_descriptor(descriptor)
     parser = GenericPenParser(desc, model, _init_features(model) if model else [],
-                              generic=model is None)  # fmt: skip
+                              generic=model is None, quirks=pen_usage_quirks(vid, pid))
     if model is not None:
         parser.name = GENERIC
         return parser  # known model: its touch/pad interfaces come back with is_pen False

@@ -612,3 +612,52 @@ def test_intuos_pro_pen_reports_of_16_bytes_are_read() -> None:
     assert parser.skipped_by_kind == {"touch": 1, "status": 1}
     with pytest.raises(ReportError, match=r"is 17 bytes, expected 10\.\.16"):
         parser.parse(S.intuos_pen(1, 1, 1) + bytes(7), 0.03)
+
+
+XPPEN_PEN = """
+05 0d 09 02 a1 01 85 07 09 20 a1 00
+09 42 09 44 09 45 09 3c 15 00 25 01 75 01 95 04 81 02  ; Tip, Barrel, Eraser, Invert
+95 01 81 03 09 32 95 01 81 02 95 02 81 03            ; pad, In Range, pad
+05 01 09 30 09 31 26 ff 7f 75 10 95 02 81 02         ; X, Y
+05 0d 09 30 26 ff 3f 95 01 81 02 c0 c0                ; Tip Pressure
+"""
+
+
+def xppen_report(tip: int = 0, barrel: int = 0, eraser: int = 0, invert: int = 0,
+                 pressure: int = 0) -> bytes:
+    bits = tip | barrel << 1 | eraser << 2 | invert << 3 | 1 << 5
+    return bytes([7, bits, 0x10, 0x27, 0x10, 0x27]) + pressure.to_bytes(2, "little")
+
+
+def test_xppen_second_button_reported_as_eraser_is_a_button() -> None:
+    # XP-Pen Artist Pro 16 Gen2 (28bd:095b) firmware, as the kernel's HID selftests emulate
+    # it: the second barrel button sets Eraser; the eraser end sets Invert (+ Tip touching).
+    parser = parser_for(0x28BD, 0x095B, hexd(XPPEN_PEN))
+    (button,) = parser.parse(xppen_report(eraser=1), 0.0)
+    assert button.buttons == int(Button.STYLUS2) and button.tool == Tool.PEN and not button.tip
+    (erasing,) = parser.parse(xppen_report(tip=1, invert=1, pressure=900), 0.01)
+    assert erasing.tool == Tool.ERASER and erasing.tip and erasing.pressure == 900
+    # any other pen with the same descriptor: Eraser means the eraser touching
+    (other,) = parser_for(0x1234, 0x5678, hexd(XPPEN_PEN)).parse(xppen_report(eraser=1), 0.0)
+    assert other.tool == Tool.ERASER and other.tip
+    # a descriptor the kernel already fixed (Secondary Barrel Switch declared) is read as is
+    fixed = hexd(XPPEN_PEN.replace("09 42 09 44 09 45 09 3c", "09 42 09 44 09 5a 09 3c"))
+    (fixed_button,) = parser_for(0x28BD, 0x095B, fixed).parse(xppen_report(eraser=1), 0.0)
+    assert fixed_button.buttons == int(Button.STYLUS2)
+    (fixed_eraser,) = parser_for(0x28BD, 0x095B, hexd(XPPEN_PEN.replace(
+        "95 01 81 03 09 32", "09 5a 95 01 81 02 09 32"))).parse(
+            bytes([7, 0x24 | 0x10, 0x10, 0x27, 0x10, 0x27, 0, 0]), 0.0)
+    assert fixed_eraser.buttons == int(Button.STYLUS2) and fixed_eraser.tool == Tool.ERASER
+
+
+def test_huion_secondary_tip_switch_is_the_second_button() -> None:
+    # Huion firmware-mode pens (Kamvas Pro 19 256c:006b) say Secondary Tip Switch (0x43)
+    # for the second barrel button.
+    desc = hexd("""
+    05 0d 09 02 a1 01 85 0a 09 20 a1 01 09 42 09 44 09 43 09 32 15 00 25 01 75 01 95 04 81 02
+    95 04 81 03 05 01 09 30 09 31 26 ff 7f 75 10 95 02 81 02 c0 c0
+    """)
+    (raw,) = parser_for(0x256C, 0x006B, desc).parse(bytes([10, 0x04 | 0x08, 1, 0, 2, 0]), 0.0)
+    assert raw.buttons == int(Button.STYLUS2) and not raw.tip
+    (plain,) = parser_for(0x1234, 0x0001, desc).parse(bytes([10, 0x04 | 0x08, 1, 0, 2, 0]), 0.0)
+    assert plain.buttons == 0

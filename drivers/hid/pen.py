@@ -23,7 +23,7 @@ read through :func:`station.drivers.hid.usages.equivalent_usage`.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from functools import partial
 from typing import Any
@@ -159,17 +159,33 @@ def degrees_map(f: Field) -> tuple[float, float] | None:
     return scale, f.physical_min * unit - f.logical_min * scale
 
 
-def make_plan(desc: Descriptor, report: Report) -> PenPlan:
+def _usage_roles(report: Report, overrides: Mapping[int, str] | None) -> dict[int, str]:
+    """Usage -> role for one report: the standard table plus the device's quirks, each
+    quirk only where the report does not already declare a usage for that role."""
+    if not overrides:
+        return _USAGE_ROLE
+    declared = {_USAGE_ROLE.get(_eq(u)) for f in report.fields for u in f.usages}
+    roles = dict(_USAGE_ROLE)
+    for usage, role in overrides.items():
+        if role not in declared:
+            roles[usage] = role
+    return roles
+
+
+def make_plan(desc: Descriptor, report: Report,
+              overrides: Mapping[int, str] | None = None) -> PenPlan:
+    """The extraction plan of one pen report (``overrides``: quirk usage -> role)."""
     base = 8 if desc.numbered else 0
     slots: list[_Slot] = []
     arrays: list[_ArraySlots] = []
     fields: dict[str, Field] = {}
+    usage_role = _usage_roles(report, overrides)
     for f in report.fields:
         if f.is_constant or f.is_opaque:
             continue
         if f.is_variable:
             for i in range(f.count):
-                role = _USAGE_ROLE.get(_eq(f.slot_usage(i)))
+                role = usage_role.get(_eq(f.slot_usage(i)))
                 if role is None or role in fields:
                     continue
                 fields[role] = f
@@ -177,7 +193,7 @@ def make_plan(desc: Descriptor, report: Report) -> PenPlan:
                 sign_bit = (1 << (f.size - 1)) if signed else 0
                 slots.append(_Slot(role, base + f.slot_offset(i), (1 << f.size) - 1, sign_bit))
         else:
-            roles = tuple(_USAGE_ROLE.get(_eq(u)) for u in f.usages)
+            roles = tuple(usage_role.get(_eq(u)) for u in f.usages)
             if not any(r in _BOOL_ROLES for r in roles):
                 continue
             for r in roles:
@@ -231,8 +247,10 @@ class GenericPenParser(ReportParser):
     name = "hid-generic"
 
     def __init__(self, desc: Descriptor, model: dict[str, Any] | None = None,
-                 init_features: list[bytes] | None = None, generic: bool = True) -> None:
+                 init_features: list[bytes] | None = None, generic: bool = True,
+                 quirks: Mapping[int, str] | None = None) -> None:
         self.descriptor = desc
+        self.quirks = dict(quirks or {})  # usage -> role (station.drivers.hid.quirks)
         self.kinds = classify_reports(desc)
         # In a numbered descriptor, fields before the first Report ID (report 0) are unreachable.
         self.lengths = {r.report_id: r.length(desc.numbered) for r in desc.input_reports()
@@ -242,7 +260,7 @@ class GenericPenParser(ReportParser):
         self.decoders: dict[int, Callable[[bytes, float], RawSample]] = {}
         for r in desc.input_reports():
             if self.kinds[r.report_id] == "pen" and r.report_id in self.lengths:
-                plan = self.plans[r.report_id] = make_plan(desc, r)
+                plan = self.plans[r.report_id] = make_plan(desc, r, self.quirks)
                 self.decoders[r.report_id] = compile_plan(plan) or partial(self.decode, plan)
         if self.plans:
             self.primary: PenPlan | None = max(self.plans.values(), key=lambda p: len(p.slots))
