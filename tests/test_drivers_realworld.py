@@ -511,6 +511,8 @@ devices:
     - [  0,   5000,   0,   0,       0]
   - libinput:
     - {type: TABLET_TOOL_TIP, time: 0.005, tip: down}
+  - hid:
+      hidraw2: [ 0x10, 0x20, 0x00 ]  # `libinput record --with-hidraw` report, ignored
   - evdev:
     - [  0,  10000,   3,  24,       0]
     - [  0,  10000,   1, 330,       0]
