@@ -663,3 +663,19 @@ def test_huion_secondary_tip_switch_is_the_second_button() -> None:
     assert raw.buttons == int(Button.STYLUS2) and not raw.tip
     (plain,) = parser_for(0x1234, 0x0001, desc).parse(bytes([10, 0x04 | 0x08, 1, 0, 2, 0]), 0.0)
     assert plain.buttons == 0
+
+
+def test_art_pen_rotation_resolution_is_per_radian_on_evdev() -> None:
+    # hid-wacom: ABS_Z -900..899 with resolution 287 (units per radian: 1800 a turn), the
+    # same convention as tilt's 57 (xf86-input-wacom's PTH-660 test device lists both).
+    from station.drivers.evdev.frames import ranges_from_caps
+
+    caps = EvdevCaps("Wacom Intuos Pro M Pen",
+                     {c.ABS_X: AbsInfo(0, 44800, 4, 0, 200), c.ABS_Y: AbsInfo(0, 29600, 4, 0, 200),
+                      c.ABS_Z: AbsInfo(-900, 899, 0, 0, 287),
+                      c.ABS_TILT_X: AbsInfo(-64, 63, 0, 0, 57)},
+                     frozenset({c.BTN_TOOL_PEN, c.BTN_TOUCH}))
+    r = ranges_from_caps(caps)
+    assert r.rotation is not None and r.tilt_x is not None
+    assert 450 / r.rotation.resolution == pytest.approx(89.84, abs=0.01)  # a quarter turn
+    assert 63 / r.tilt_x.resolution == pytest.approx(63.33, abs=0.01)

@@ -97,17 +97,17 @@ def _axis(info: AbsInfo | None, resolution: float | None = None) -> Axis | None:
 def ranges_from_caps(caps: EvdevCaps) -> AxisRanges:
     """Axis ranges in device units.
 
-    The kernel gives x/y resolution in units per mm and tilt resolution in units
-    per radian (hid-wacom sets 57, i.e. about one unit per degree); Axis wants
-    units per degree, so tilt resolution is converted.  ABS_Z is the Art Pen
-    barrel rotation, ABS_WHEEL the airbrush wheel.
+    The kernel gives x/y resolution in units per mm and angle resolution in units
+    per radian (hid-wacom sets 57 on tilt, about one unit per degree, and 287 on
+    ABS_Z, the Art Pen barrel rotation: 1800 units a turn); Axis wants units per
+    degree, so both are converted.  ABS_WHEEL is the airbrush wheel.
     """
     a = caps.absinfo
     x, y = _axis(a.get(c.ABS_X)), _axis(a.get(c.ABS_Y))
     if x is None or y is None:
         raise ValueError(f"{caps.name!r} has no ABS_X/ABS_Y")
 
-    def tilt(code: int) -> Axis | None:
+    def angle(code: int) -> Axis | None:
         info = a.get(code)
         if info is None:
             return None
@@ -118,10 +118,10 @@ def ranges_from_caps(caps: EvdevCaps) -> AxisRanges:
         x=x,
         y=y,
         pressure=_axis(a.get(c.ABS_PRESSURE)),
-        tilt_x=tilt(c.ABS_TILT_X),
-        tilt_y=tilt(c.ABS_TILT_Y),
+        tilt_x=angle(c.ABS_TILT_X),
+        tilt_y=angle(c.ABS_TILT_Y),
         distance=_axis(a.get(c.ABS_DISTANCE)),
-        rotation=_axis(a.get(c.ABS_Z)),
+        rotation=angle(c.ABS_Z),
         wheel=_axis(a.get(c.ABS_WHEEL)),
     )
 
