@@ -226,7 +226,7 @@ SOFTWARE_GL_PREFERS_NUMPY = True
 """``auto`` on a CPU-only OpenGL (Mesa llvmpipe): use the NumPy reference, which
 was the faster backend there when measured (2-core machine, ``station bench sim
 --quick``, 800x600: stroke 129 vs 74 steps/s, wash 13.4 vs 8.7 steps/s; the
-400x300 demo in 17 s vs 45 s, identical pictures).  Set to False if the GL
+400x300 demo in 17 s vs 31 s, identical pictures to 1 level).  Set to False if the GL
 backend overtakes it on llvmpipe; with a real GPU ``auto`` always picks GL."""
 
 
