@@ -679,3 +679,23 @@ def test_art_pen_rotation_resolution_is_per_radian_on_evdev() -> None:
     assert r.rotation is not None and r.tilt_x is not None
     assert 450 / r.rotation.resolution == pytest.approx(89.84, abs=0.01)  # a quarter turn
     assert 63 / r.tilt_x.resolution == pytest.approx(63.33, abs=0.01)
+
+
+def test_rust_hid_recorder_output_with_colours_and_bpf_lines(tmp_path: Path) -> None:
+    # hidutils/hid-recorder: `I:` ids unpadded, `B:` lines for HID-BPF events (the device's
+    # bytes before a BPF program), ANSI colours when --output-file is used from a terminal,
+    # a trailing space after the last byte, `# Current time:` comments.
+    desc = hexd(PEN_APP)
+    red, off = "\x1b[31m", "\x1b[39m"
+    rep = pen_report(100, 200, 300, tip=True)
+    lines = ["# \x1b[35m##########\x1b[39m", f"{red}R: {len(desc)} {desc.hex(' ')}{off}",
+             f"{red}N: UGTABLET 24 inch PenDisplay{off}", f"{red}I: 3 28bd 93a{off}",
+             "# Current time: 10:24:38",
+             f"{red}B: 000000.000100 8 {bytes([7, 1, 0, 0, 0, 0, 0, 0]).hex(' ')} {off}",
+             f"{red}E: 000000.000100 8 {rep.hex(' ')} {off}"]
+    path = tmp_path / "capture"  # no suffix: sniffed, and 'B:' must not mean evemu
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    assert trace_format(path) == "hid-recorder"
+    (dev,) = read_trace(path).devices
+    assert (dev.vid, dev.pid, dev.descriptor) == (0x28BD, 0x093A, desc)
+    assert [r.data for r in dev.reports] == [rep]

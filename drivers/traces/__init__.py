@@ -16,6 +16,7 @@ from typing import IO, TYPE_CHECKING
 
 from station.drivers.traces.evemu import parse_evemu, read_evemu
 from station.drivers.traces.hidrecorder import (
+    ANSI_ESCAPE,
     HidRecorderWriter,
     parse_hid_recorder,
     read_hid_recorder,
@@ -68,19 +69,23 @@ def trace_format(path: str | os.PathLike[str]) -> str:
             for n, line in enumerate(fh):
                 if n >= 20000 or len(head) >= 50:
                     break
-                stripped = line.strip()
+                stripped = ANSI_ESCAPE.sub("", line).strip() if "\x1b" in line else line.strip()
                 if stripped.startswith("#"):
                     if len(comments) < 50:
                         comments.append(stripped)
                 elif stripped:
-                    head.append(line)
+                    head.append(stripped)
     except OSError as exc:
         raise TraceError(f"cannot open ({exc.strerror})", name) from None
+    # 'R:' only exists in hid-recorder files, whose 'B:' lines are HID-BPF events, so it
+    # is tested before evemu's 'A:'/'B:' lines.
+    if any(line.startswith("R:") for line in head):
+        return "hid-recorder"
     if any("EVEMU" in c for c in comments) or any(line.startswith(("A:", "B:")) for line in head):
         return "evemu"
     if any(line.startswith(("devices:", "version:", "ndevices:")) for line in head):
         return "libinput-record"
-    if any(line.startswith(("R:", "D:", "E:")) for line in head):
+    if any(line.startswith(("D:", "E:")) for line in head):
         return "hid-recorder"
     raise TraceError("not a trace this station reads (hid-recorder, evemu, libinput record)",
                      f"{name}:1")

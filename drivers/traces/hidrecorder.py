@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import logging
 import os
+import re
 import string
 from collections.abc import Iterable
 from typing import IO
@@ -22,6 +23,9 @@ from station.drivers.traces.model import Trace, TraceDevice, TraceError
 from station.drivers.transport.base import TimedReport
 
 log = logging.getLogger(__name__)
+# ANSI colour sequences: the Rust hid-recorder colours its output by whether *stdout*
+# is a terminal, also when it writes to --output-file.
+ANSI_ESCAPE = re.compile(r"\x1b\[[0-9;:]*[A-Za-z]")
 MAX_REPORT = 16384  # the kernel's HID_MAX_BUFFER_SIZE (report ID included)
 MAX_DESCRIPTOR = 4096
 
@@ -64,6 +68,8 @@ def parse_hid_recorder(lines: Iterable[str], name: str) -> Trace:
     wrapped: tuple[TraceDevice, int, bytearray, str] | None = None
     for line_no, raw_line in enumerate(lines, 1):
         where = f"{name}:{line_no}"
+        if "\x1b" in raw_line:  # colours of `hid-recorder --output-file` run on a terminal
+            raw_line = ANSI_ESCAPE.sub("", raw_line)
         line = raw_line.strip()
         if not line or line.startswith("#"):
             continue
