@@ -46,6 +46,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--proximity-timeout", type=float, default=0.05, metavar="S",
                    help="forced proximity-out after S seconds without reports")
     p.add_argument("--no-init", action="store_true", help="do not send init feature reports")
+    p.add_argument("--calibration", default="auto", metavar="auto|none|FILE",
+                   help="device -> canvas calibration: the device's file from the config dir "
+                   "(auto, the default), none (device-normalised), or a calibration file")
+    p.add_argument("--raw-jsonl", metavar="FILE",
+                   help="also write the device-normalised (uncalibrated) samples as JSONL")
     p.add_argument("--wait-subscribers", type=int, default=0, metavar="N",
                    help="wait (up to 5 s) for N subscribers before reading the device")
     p.set_defaults(func=run)
@@ -92,12 +97,14 @@ def run(args: argparse.Namespace) -> int:
 
 def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
     from station.bus import Publisher
+    from station.drivers.calibrated import choose_calibration
     from station.drivers.pipeline import PenDriver, open_device
     from station.drivers.transport.base import DeviceGone, EndOfStream, TransportError
     from station.sessionlog import SessionHeader, SessionLogWriter
 
     publisher = Publisher(args.bus)
     writer = None
+    raw_writer = None
     reconnects = 0
     totals = {"total_samples": 0, "reconnects": 0}
     last: dict[str, Any] = {}
@@ -125,11 +132,20 @@ def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
                 return 0
         if args.jsonl:
             writer = SessionLogWriter(args.jsonl, SessionHeader(extra={"source": args.device}))
+        if args.raw_jsonl:
+            raw_writer = SessionLogWriter(args.raw_jsonl,
+                                          SessionHeader(extra={"source": args.device,
+                                                               "calibrated": False}))
         t_offset = 0.0
         while not stop.is_set():
+            ident = source.describe()
+            calibration = choose_calibration(args.calibration, int(ident.get("vid") or 0),
+                                             int(ident.get("pid") or 0))
             # After a reconnection the session time goes on from where it was.
-            driver = PenDriver(source, config, live=True, t_offset=t_offset)
-            status("running", driver)
+            driver = PenDriver(source, config, live=True, t_offset=t_offset,
+                               transform=calibration.transform,
+                               on_device_sample=raw_writer.write if raw_writer else None)
+            status("running", driver, calibration=calibration.description)
             next_status = time.monotonic() + args.status_interval
             gone = False
             try:
@@ -166,8 +182,9 @@ def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
             reconnects += 1
             totals["reconnects"] = reconnects
     finally:
-        if writer is not None:
-            writer.close()
+        for w in (writer, raw_writer):
+            if w is not None:
+                w.close()
         publisher.close()
     keys = ("state", "total_samples", "reports", "bad_reports", "skipped_reports", "reconnects")
     sys.stderr.write("station driver: " + json.dumps({k: last.get(k) for k in keys}) + "\n")

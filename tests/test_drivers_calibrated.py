@@ -1,0 +1,76 @@
+"""Drivers apply the device's calibration when publishing; raw samples stay available."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from station.calibration.area import AreaSettings
+from station.calibration.files import default_path, write_file
+from station.calibration.model import Calibration, DeviceId
+from station.drivers.calibrated import choose_calibration
+
+from station.events import PenSample
+from station.sessionlog import read_session
+
+INTUOS_PRO_M = (0x056A, 0x0315)
+
+
+def run_driver(tmp_path: Path, *extra: str) -> subprocess.CompletedProcess[str]:
+    args = [sys.executable, "-m", "station", "driver", "--device",
+            "mock:intuos-pro-m?script=line&rate=400", "--bus", f"ipc://{tmp_path}/bus",
+            "--no-reconnect", "--jsonl", str(tmp_path / "out.jsonl"),
+            "--raw-jsonl", str(tmp_path / "raw.jsonl"), *extra]
+    return subprocess.run(args, capture_output=True, text=True, timeout=120,
+                          env=dict(os.environ))
+
+
+def pens(path: Path) -> list[PenSample]:
+    return [r for r in read_session(path)[1] if isinstance(r, PenSample)]
+
+
+def test_auto_applies_the_devices_file_and_keeps_raw_samples(tmp_path: Path) -> None:
+    cal = Calibration(DeviceId(*INTUOS_PRO_M), area=AreaSettings(left_handed=True))
+    write_file(cal, default_path(cal.device))  # the config dir of this test (conftest)
+    r = run_driver(tmp_path)
+    assert r.returncode == 0, r.stderr
+    out, raw = pens(tmp_path / "out.jsonl"), pens(tmp_path / "raw.jsonl")
+    assert len(out) == len(raw) > 20
+    for o, w in zip(out, raw, strict=True):
+        # left-handed = the tablet turned by 180 degrees: both axes flip
+        assert o.x == pytest.approx(1 - w.x, abs=1e-9)
+        assert o.y == pytest.approx(1 - w.y, abs=1e-9)
+        assert o.pressure == w.pressure and o.touching == w.touching
+
+
+def test_none_publishes_device_normalised(tmp_path: Path) -> None:
+    cal = Calibration(DeviceId(*INTUOS_PRO_M), area=AreaSettings(left_handed=True))
+    write_file(cal, default_path(cal.device))
+    r = run_driver(tmp_path, "--calibration", "none")
+    assert r.returncode == 0, r.stderr
+    out, raw = pens(tmp_path / "out.jsonl"), pens(tmp_path / "raw.jsonl")
+    assert [(s.x, s.y) for s in out] == [(s.x, s.y) for s in raw]
+
+
+def test_explicit_file_of_another_device_is_refused_exit_2(tmp_path: Path) -> None:
+    other = Calibration(DeviceId(0x056A, 0x00B8))
+    path = write_file(other, tmp_path / "other.json")
+    r = run_driver(tmp_path, "--calibration", str(path))
+    assert r.returncode == 2
+    assert len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
+
+
+def test_auto_with_a_corrupt_file_runs_uncalibrated_and_says_why(tmp_path: Path) -> None:
+    path = default_path(DeviceId(*INTUOS_PRO_M))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("{ this is not a calibration")
+    choice = choose_calibration("auto", *INTUOS_PRO_M)
+    assert choice.store is None and choice.description.startswith("refused:")
+    r = run_driver(tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "calibration refused" in r.stderr
+    out, raw = pens(tmp_path / "out.jsonl"), pens(tmp_path / "raw.jsonl")
+    assert [(s.x, s.y) for s in out] == [(s.x, s.y) for s in raw]
