@@ -1,0 +1,694 @@
+"""The fused, parallel sweeps of the ``cpu`` backend (numba; maths of ``reference.py``).
+
+Every sweep runs over the cells of one simulated box (a tile region, or the whole
+canvas), rows in parallel (``prange``), columns in plain loops that LLVM vectorises.
+Intermediate fields live in *padded* scratch arrays of shape ``(H + 2, W + 2)``: box
+cell ``(y0 + j - 1, x0 + i - 1)`` is scratch ``[j, i]`` for ``j in 1..bh``, ``i in
+1..bw``, and the ring around the box window is kept at zero (``zero_ring``), which is
+exactly the reference's rule "cells outside the region are non-wet with zero water,
+capillary water, velocity and pigment". State arrays are read and written only at the
+cell itself, so updating them in place is race-free.
+
+The maths is the reference's to the float32 operation: same operands, same order of
+every sum (E, W, S, N faces; ``u - F_E + F_W - F_S + F_N``), same clamps and limiters,
+the same float32 constants (built in :mod:`station.canvas.cpu.step`). A face flux is
+computed by both of its cells from the same operands in the same order, so both see the
+same float32 value: mass is conserved exactly as in the reference.
+
+Sweeps (``n`` Jacobi iterations, ``s`` pigment slots in use):
+
+* ``prep``: wet mask, the copies the stencils need (w, p), the diffusion controller
+  beta_c, the masked velocity, paper capacity and the open (unmasked) flag;
+* ``advect_jacobi1``: pass 1 (semi-Lagrangian velocity) + Jacobi iteration 1 of the
+  water and pigment solves (passes 4/5);
+* ``jacobi`` (n - 1 times): velocity iteration it - 1, water/pigment iteration it
+  (pass 2 lags one sweep behind: it needs pass 1's result at the neighbours);
+* ``height_limit``: the last velocity iteration, pass 3, and the donor limiters of
+  passes 4/5;
+* ``diffuse_apply``: the limited face fluxes of passes 4/5;
+* ``advect_limit``: pass 6's per-cell limiters s_out, s_in;
+* ``advect_apply``: pass 6's limited fluxes;
+* ``evap_surface_absorb``: pass 7, pass 8, pass 9a;
+* ``capillary_dry``: pass 9b/9c and pass 10.
+
+The constant vector ``cst`` (float32) is laid out as the ``C_*`` indices below.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+F32 = np.float32
+ZERO = np.float32(0.0)
+ONE = np.float32(1.0)
+HALF = np.float32(0.5)
+
+# indices into the float32 constant vector ``cst`` (see step.constants)
+C_DT = 0
+C_KV = 1          # viscosity * dt
+C_KW = 2          # nu_w * dt
+C_KP = 3          # nu_p * dt
+C_G = 4           # -0.5 * height_gain
+C_OH = 5          # omega_h
+C_OI = 6          # 1 - omega_h
+C_VMAX = 7
+C_Q4 = 8          # 0.25 * dt
+C_WMIN = 9
+C_WMAX = 10
+C_EVAP = 11       # eps_shallow * dt
+C_EDGE = 12       # edge_evap
+C_RATE = 13       # surface_rate * dt
+C_CMIN = 14
+C_CSPAN = 15      # c_max - c_min
+C_ALPHA = 16      # alpha * dt
+C_KC = 17         # cap_diffusion * dt
+C_ECAP = 18       # eps_cap * dt
+C_WDRY = 19       # w_dry_eps
+C_MOIST = 20      # moist_threshold
+C_TIME = 21       # sim_time
+C_FADE = 22       # block_fade
+C_BPAPER = 23     # block_paper
+N_CONST = 24
+
+_OPTS = {"parallel": True, "fastmath": False, "cache": True, "error_model": "numpy"}
+_SERIAL = {"fastmath": False, "cache": True, "error_model": "numpy"}
+
+
+@njit(**_SERIAL)  # type: ignore[misc]
+def zero_ring(a: np.ndarray, bh: int, bw: int) -> None:
+    """Zero the one-cell ring around the box window ``[1..bh] x [1..bw]`` of ``a``."""
+    for i in range(bw + 2):
+        a[0, i] = ZERO
+        a[bh + 1, i] = ZERO
+    for j in range(bh + 2):
+        a[j, 0] = ZERO
+        a[j, bw + 1] = ZERO
+
+
+@njit(**_SERIAL)  # type: ignore[misc]
+def zero_ring3(a: np.ndarray, ns: int, bh: int, bw: int) -> None:
+    """:func:`zero_ring` for each of the first ``ns`` slots of a (S, H+2, W+2) array."""
+    for k in range(ns):
+        for i in range(bw + 2):
+            a[k, 0, i] = ZERO
+            a[k, bh + 1, i] = ZERO
+        for j in range(bh + 2):
+            a[k, j, 0] = ZERO
+            a[k, j, bw + 1] = ZERO
+
+
+# ------------------------------------------------------------------ prep
+@njit(**_OPTS)  # type: ignore[misc]
+def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np.ndarray,
+         p: np.ndarray, h: np.ndarray, block: np.ndarray, block_time: np.ndarray,
+         y0: int, x0: int, bh: int, bw: int, ns: int, cst: np.ndarray,
+         wet_o: np.ndarray, w0_o: np.ndarray, p0_o: np.ndarray, bc_o: np.ndarray,
+         vsx_o: np.ndarray, vsy_o: np.ndarray, c_o: np.ndarray, opn_o: np.ndarray) -> None:
+    """Wet mask (once per step), copies, beta_c (diffusion controller), capacity, open."""
+    moist = cst[C_MOIST]
+    t_now = cst[C_TIME]
+    fade = cst[C_FADE]
+    bpaper = cst[C_BPAPER]
+    cmin = cst[C_CMIN]
+    cspan = cst[C_CSPAN]
+    for j in prange(1, bh + 1):
+        y = y0 + j - 1
+        for i in range(1, bw + 1):
+            x = x0 + i - 1
+            wv = w[y, x]
+            un = mask[y, x] == ZERO
+            wet = ((wv > ZERO) or (wc[y, x] > moist)) and un
+            wf = ONE if wet else ZERO
+            wet_o[j, i] = wf
+            w0_o[j, i] = wv
+            vsx_o[j, i] = vx[y, x] if wet else ZERO
+            vsy_o[j, i] = vy[y, x] if wet else ZERO
+            hv = h[y, x]
+            b = block[y, x]
+            if fade > ZERO:
+                age = (t_now - block_time[y, x]) / fade
+                age = ZERO if age < ZERO else age
+                age = ONE if age > ONE else age
+            else:
+                age = ONE
+            eff = b + (ONE - b) * age
+            paper = ONE - bpaper * (ONE - hv)
+            bc_o[j, i] = paper if paper < eff else eff
+            c_o[j, i] = cmin + hv * cspan
+            opn_o[j, i] = ONE if un else ZERO
+        for k in range(ns):
+            for i in range(1, bw + 1):
+                p0_o[k, j, i] = p[k, y, x0 + i - 1]
+
+
+# ------------------------------------------------------------------ pass 1 + Jacobi 1
+@njit(**_OPTS)  # type: ignore[misc]
+def advect_jacobi1(wet: np.ndarray, vsx: np.ndarray, vsy: np.ndarray, bc: np.ndarray,
+                   w0: np.ndarray, p0: np.ndarray, bh: int, bw: int, ns: int,
+                   cst: np.ndarray, do_w: bool, do_p: bool,
+                   v1x_o: np.ndarray, v1y_o: np.ndarray, xw_o: np.ndarray,
+                   xp_o: np.ndarray) -> None:
+    """Pass 1 (bilinear back-trace of the masked velocity, box-relative clamps) and
+    the first Jacobi iteration of the water and pigment solves (from x0 = u)."""
+    fdt = cst[C_DT]
+    kw = cst[C_KW]
+    kp = cst[C_KP]
+    dx = 1 if bw > 1 else 0
+    dy = 1 if bh > 1 else 0
+    for j in prange(1, bh + 1):
+        for i in range(1, bw + 1):
+            if wet[j, i] != ZERO:
+                # x axis (box-relative index i - 1, n = bw)
+                if bw < 2:
+                    ix, fx = 0, ZERO
+                else:
+                    off = -(vsx[j, i] * fdt)
+                    fl = np.floor(off)
+                    fx = off - fl
+                    ix = (i - 1) + int(fl)
+                    if ix < 0:
+                        ix, fx = 0, ZERO
+                    elif ix >= bw - 1:
+                        ix, fx = bw - 2, ONE
+                if bh < 2:
+                    iy, fy = 0, ZERO
+                else:
+                    off = -(vsy[j, i] * fdt)
+                    fl = np.floor(off)
+                    fy = off - fl
+                    iy = (j - 1) + int(fl)
+                    if iy < 0:
+                        iy, fy = 0, ZERO
+                    elif iy >= bh - 1:
+                        iy, fy = bh - 2, ONE
+                gx = ONE - fx
+                gy = ONE - fy
+                a0, a1 = iy + 1, iy + 1 + dy
+                b0, b1 = ix + 1, ix + 1 + dx
+                top = gx * vsx[a0, b0] + fx * vsx[a0, b1]
+                bot = gx * vsx[a1, b0] + fx * vsx[a1, b1]
+                v1x_o[j, i] = gy * top + fy * bot
+                top = gx * vsy[a0, b0] + fx * vsy[a0, b1]
+                bot = gx * vsy[a1, b0] + fx * vsy[a1, b1]
+                v1y_o[j, i] = gy * top + fy * bot
+            else:
+                v1x_o[j, i] = ZERO
+                v1y_o[j, i] = ZERO
+        if do_w:
+            _jacobi_w_row(wet, w0, w0, xw_o, j, bw, kw)
+        if do_p:
+            _jacobi_p_row(wet, bc, p0, p0, xp_o, j, bw, ns, kp)
+
+
+@njit(inline="always", **_SERIAL)  # type: ignore[misc]
+def _jacobi_v_row(wet: np.ndarray, ux: np.ndarray, uy: np.ndarray, xx: np.ndarray,
+                  xy: np.ndarray, ox: np.ndarray, oy: np.ndarray, j: int, bw: int,
+                  k: np.float32) -> None:
+    """One Jacobi iteration of pass 2 on row j (open faces: both cells wet)."""
+    wr, wn, ws = wet[j], wet[j - 1], wet[j + 1]
+    for i in range(1, bw + 1):
+        c = wr[i]
+        be = c * wr[i + 1]
+        bwf = c * wr[i - 1]
+        bs = c * ws[i]
+        bn = c * wn[i]
+        den = ONE + k * (((be * ONE + bwf * ONE) + bs * ONE) + bn * ONE)
+        sx = ((be * xx[j, i + 1] + bwf * xx[j, i - 1]) + bs * xx[j + 1, i]) + bn * xx[j - 1, i]
+        sy = ((be * xy[j, i + 1] + bwf * xy[j, i - 1]) + bs * xy[j + 1, i]) + bn * xy[j - 1, i]
+        ox[j, i] = (ux[j, i] + k * sx) / den
+        oy[j, i] = (uy[j, i] + k * sy) / den
+
+
+@njit(inline="always", **_SERIAL)  # type: ignore[misc]
+def _jacobi_w_row(wet: np.ndarray, u: np.ndarray, xin: np.ndarray, xout: np.ndarray,
+                  j: int, bw: int, k: np.float32) -> None:
+    """One Jacobi iteration of the water solve (pass 4) on row j."""
+    wr, wn, ws = wet[j], wet[j - 1], wet[j + 1]
+    for i in range(1, bw + 1):
+        c = wr[i]
+        be = c * wr[i + 1]
+        bwf = c * wr[i - 1]
+        bs = c * ws[i]
+        bn = c * wn[i]
+        den = ONE + k * (((be * ONE + bwf * ONE) + bs * ONE) + bn * ONE)
+        acc = ((be * xin[j, i + 1] + bwf * xin[j, i - 1]) + bs * xin[j + 1, i]) \
+            + bn * xin[j - 1, i]
+        xout[j, i] = (acc * k + u[j, i]) / den
+
+
+@njit(inline="always", **_SERIAL)  # type: ignore[misc]
+def _jacobi_p_row(wet: np.ndarray, bc: np.ndarray, u: np.ndarray, xin: np.ndarray,
+                  xout: np.ndarray, j: int, bw: int, ns: int, k: np.float32) -> None:
+    """One Jacobi iteration of the pigment solve (pass 5, controller conductances)."""
+    wr, wn, ws = wet[j], wet[j - 1], wet[j + 1]
+    br, bnr, bsr = bc[j], bc[j - 1], bc[j + 1]
+    for kk in range(ns):
+        for i in range(1, bw + 1):
+            c = wr[i]
+            b0 = br[i]
+            t = br[i + 1]
+            be = (b0 if b0 < t else t) if c * wr[i + 1] != ZERO else ZERO
+            t = br[i - 1]
+            bwf = (b0 if b0 < t else t) if c * wr[i - 1] != ZERO else ZERO
+            t = bsr[i]
+            bs = (b0 if b0 < t else t) if c * ws[i] != ZERO else ZERO
+            t = bnr[i]
+            bn = (b0 if b0 < t else t) if c * wn[i] != ZERO else ZERO
+            den = ONE + k * (((be * ONE + bwf * ONE) + bs * ONE) + bn * ONE)
+            acc = ((be * xin[kk, j, i + 1] + bwf * xin[kk, j, i - 1]) + bs * xin[kk, j + 1, i]) \
+                + bn * xin[kk, j - 1, i]
+            xout[kk, j, i] = (acc * k + u[kk, j, i]) / den
+
+
+# ------------------------------------------------------------------ Jacobi sweeps
+@njit(**_OPTS)  # type: ignore[misc]
+def jacobi(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: np.ndarray,
+           xvx: np.ndarray, xvy: np.ndarray, ovx: np.ndarray, ovy: np.ndarray,
+           w0: np.ndarray, xw: np.ndarray, ow: np.ndarray,
+           p0: np.ndarray, xp: np.ndarray, op: np.ndarray,
+           bh: int, bw: int, ns: int, cst: np.ndarray,
+           do_v: bool, do_w: bool, do_p: bool) -> None:
+    """One Jacobi iteration of each solve that is switched on (velocity, water, pigment)."""
+    kv = cst[C_KV]
+    kw = cst[C_KW]
+    kp = cst[C_KP]
+    for j in prange(1, bh + 1):
+        if do_v:
+            _jacobi_v_row(wet, v1x, v1y, xvx, xvy, ovx, ovy, j, bw, kv)
+        if do_w:
+            _jacobi_w_row(wet, w0, xw, ow, j, bw, kw)
+        if do_p:
+            _jacobi_p_row(wet, bc, p0, xp, op, j, bw, ns, kp)
+
+
+# ------------------------------------------------------------------ pass 3 + limiters
+@njit(inline="always", **_SERIAL)  # type: ignore[misc]
+def _limiter_row(wet: np.ndarray, b_e: np.ndarray, b_s: np.ndarray, u: np.ndarray,
+                 x: np.ndarray, s_o: np.ndarray, j: int, bw: int, k: np.float32) -> None:
+    """Donor limiter of the conservative implicit diffusion (water: b = open flags)."""
+    for i in range(1, bw + 1):
+        fe = (k * b_e[i]) * (x[j, i] - x[j, i + 1])
+        fw = (k * b_e[i - 1]) * (x[j, i - 1] - x[j, i])
+        fs = (k * b_s[j, i]) * (x[j, i] - x[j + 1, i])
+        fn = (k * b_s[j - 1, i]) * (x[j - 1, i] - x[j, i])
+        out = (((fe if fe > ZERO else ZERO) - (fw if fw < ZERO else ZERO))
+               + (fs if fs > ZERO else ZERO)) - (fn if fn < ZERO else ZERO)
+        uv = u[j, i]
+        s_o[j, i] = uv / out if out > uv else ONE
+
+
+@njit(**_OPTS)  # type: ignore[misc]
+def height_limit(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: np.ndarray,
+                 xvx: np.ndarray, xvy: np.ndarray, w0: np.ndarray, xw: np.ndarray,
+                 p0: np.ndarray, xp: np.ndarray, bh: int, bw: int, ns: int,
+                 cst: np.ndarray, do_vjac: bool, do_height: bool, do_w: bool, do_p: bool,
+                 v3x_o: np.ndarray, v3y_o: np.ndarray, sw_o: np.ndarray,
+                 sp_o: np.ndarray) -> None:
+    """Last velocity Jacobi iteration, pass 3 (height term, boundary, clamp), and the
+    donor limiters of the water and pigment diffusion from their final iterates."""
+    kv = cst[C_KV]
+    kw = cst[C_KW]
+    kp = cst[C_KP]
+    g = cst[C_G]
+    oh = cst[C_OH]
+    oi = cst[C_OI]
+    vm = cst[C_VMAX]
+    for j in prange(1, bh + 1):
+        wr, wn, ws = wet[j], wet[j - 1], wet[j + 1]
+        for i in range(1, bw + 1):
+            c = wr[i]
+            be = c * wr[i + 1]
+            bwf = c * wr[i - 1]
+            bs = c * ws[i]
+            bn = c * wn[i]
+            if do_vjac:
+                den = ONE + kv * (((be * ONE + bwf * ONE) + bs * ONE) + bn * ONE)
+                sx = ((be * xvx[j, i + 1] + bwf * xvx[j, i - 1]) + bs * xvx[j + 1, i]) \
+                    + bn * xvx[j - 1, i]
+                sy = ((be * xvy[j, i + 1] + bwf * xvy[j, i - 1]) + bs * xvy[j + 1, i]) \
+                    + bn * xvy[j - 1, i]
+                nvx = (v1x[j, i] + kv * sx) / den
+                nvy = (v1y[j, i] + kv * sy) / den
+            else:
+                nvx = xvx[j, i]
+                nvy = xvy[j, i]
+            if c == ZERO:
+                nvx = ZERO
+                nvy = ZERO
+            elif do_height:
+                wc_ = w0[j, i]
+                w_e = w0[j, i + 1] if be != ZERO else wc_
+                w_w = w0[j, i - 1] if bwf != ZERO else wc_
+                w_s = w0[j + 1, i] if bs != ZERO else wc_
+                w_n = w0[j - 1, i] if bn != ZERO else wc_
+                nvx = oi * nvx + oh * (g * (w_e - w_w))
+                nvy = oi * nvy + oh * (g * (w_s - w_n))
+                if be == ZERO:
+                    nvx = nvx if nvx < ZERO else ZERO
+                if bwf == ZERO:
+                    nvx = nvx if nvx > ZERO else ZERO
+                if bs == ZERO:
+                    nvy = nvy if nvy < ZERO else ZERO
+                if bn == ZERO:
+                    nvy = nvy if nvy > ZERO else ZERO
+                nvx = nvx if nvx > -vm else -vm
+                nvx = nvx if nvx < vm else vm
+                nvy = nvy if nvy > -vm else -vm
+                nvy = nvy if nvy < vm else vm
+            v3x_o[j, i] = nvx
+            v3y_o[j, i] = nvy
+        if do_w:
+            # water conductances: 1 on open faces; b_e[i] = face (i, i+1), b_s = face (j, j+1)
+            for i in range(1, bw + 1):
+                fe = (kw * (wr[i] * wr[i + 1])) * (xw[j, i] - xw[j, i + 1])
+                fw = (kw * (wr[i - 1] * wr[i])) * (xw[j, i - 1] - xw[j, i])
+                fs = (kw * (wr[i] * ws[i])) * (xw[j, i] - xw[j + 1, i])
+                fn = (kw * (wn[i] * wr[i])) * (xw[j - 1, i] - xw[j, i])
+                out = (((fe if fe > ZERO else ZERO) - (fw if fw < ZERO else ZERO))
+                       + (fs if fs > ZERO else ZERO)) - (fn if fn < ZERO else ZERO)
+                uv = w0[j, i]
+                sw_o[j, i] = uv / out if out > uv else ONE
+        if do_p:
+            br, bnr, bsr = bc[j], bc[j - 1], bc[j + 1]
+            for kk in range(ns):
+                for i in range(1, bw + 1):
+                    b0 = br[i]
+                    t = br[i + 1]
+                    be_ = (b0 if b0 < t else t) if wr[i] * wr[i + 1] != ZERO else ZERO
+                    t = br[i - 1]
+                    bw_ = (b0 if b0 < t else t) if wr[i] * wr[i - 1] != ZERO else ZERO
+                    t = bsr[i]
+                    bs_ = (b0 if b0 < t else t) if wr[i] * ws[i] != ZERO else ZERO
+                    t = bnr[i]
+                    bn_ = (b0 if b0 < t else t) if wr[i] * wn[i] != ZERO else ZERO
+                    fe = (kp * be_) * (xp[kk, j, i] - xp[kk, j, i + 1])
+                    fw = (kp * bw_) * (xp[kk, j, i - 1] - xp[kk, j, i])
+                    fs = (kp * bs_) * (xp[kk, j, i] - xp[kk, j + 1, i])
+                    fn = (kp * bn_) * (xp[kk, j - 1, i] - xp[kk, j, i])
+                    out = (((fe if fe > ZERO else ZERO) - (fw if fw < ZERO else ZERO))
+                           + (fs if fs > ZERO else ZERO)) - (fn if fn < ZERO else ZERO)
+                    uv = p0[kk, j, i]
+                    sp_o[kk, j, i] = uv / out if out > uv else ONE
+
+
+# ------------------------------------------------------------------ passes 4/5 apply
+@njit(**_OPTS)  # type: ignore[misc]
+def diffuse_apply(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xw: np.ndarray,
+                  sw: np.ndarray, p0: np.ndarray, xp: np.ndarray, sp: np.ndarray,
+                  bh: int, bw: int, ns: int, cst: np.ndarray, do_w: bool, do_p: bool,
+                  w2_o: np.ndarray, p2_o: np.ndarray) -> None:
+    """Limited face fluxes ``F = k b (x_i - x_j)`` (times the donor's limiter), applied
+    as ``u - F_E + F_W - F_S + F_N``; a solve that is off copies ``u``."""
+    kw = cst[C_KW]
+    kp = cst[C_KP]
+    for j in prange(1, bh + 1):
+        wr, wn, ws = wet[j], wet[j - 1], wet[j + 1]
+        if do_w:
+            for i in range(1, bw + 1):
+                fe = (kw * (wr[i] * wr[i + 1])) * (xw[j, i] - xw[j, i + 1])
+                fw = (kw * (wr[i - 1] * wr[i])) * (xw[j, i - 1] - xw[j, i])
+                fs = (kw * (wr[i] * ws[i])) * (xw[j, i] - xw[j + 1, i])
+                fn = (kw * (wn[i] * wr[i])) * (xw[j - 1, i] - xw[j, i])
+                s0 = sw[j, i]
+                fe = (fe if fe > ZERO else ZERO) * s0 + (fe if fe < ZERO else ZERO) * sw[j, i + 1]
+                fw = (fw if fw > ZERO else ZERO) * sw[j, i - 1] + (fw if fw < ZERO else ZERO) * s0
+                fs = (fs if fs > ZERO else ZERO) * s0 + (fs if fs < ZERO else ZERO) * sw[j + 1, i]
+                fn = (fn if fn > ZERO else ZERO) * sw[j - 1, i] + (fn if fn < ZERO else ZERO) * s0
+                w2_o[j, i] = (((w0[j, i] - fe) + fw) - fs) + fn
+        else:
+            for i in range(1, bw + 1):
+                w2_o[j, i] = w0[j, i]
+        if do_p:
+            br, bnr, bsr = bc[j], bc[j - 1], bc[j + 1]
+            for kk in range(ns):
+                for i in range(1, bw + 1):
+                    b0 = br[i]
+                    t = br[i + 1]
+                    be_ = (b0 if b0 < t else t) if wr[i] * wr[i + 1] != ZERO else ZERO
+                    t = br[i - 1]
+                    bw_ = (b0 if b0 < t else t) if wr[i] * wr[i - 1] != ZERO else ZERO
+                    t = bsr[i]
+                    bs_ = (b0 if b0 < t else t) if wr[i] * ws[i] != ZERO else ZERO
+                    t = bnr[i]
+                    bn_ = (b0 if b0 < t else t) if wr[i] * wn[i] != ZERO else ZERO
+                    fe = (kp * be_) * (xp[kk, j, i] - xp[kk, j, i + 1])
+                    fw = (kp * bw_) * (xp[kk, j, i - 1] - xp[kk, j, i])
+                    fs = (kp * bs_) * (xp[kk, j, i] - xp[kk, j + 1, i])
+                    fn = (kp * bn_) * (xp[kk, j - 1, i] - xp[kk, j, i])
+                    s0 = sp[kk, j, i]
+                    fe = (fe if fe > ZERO else ZERO) * s0 \
+                        + (fe if fe < ZERO else ZERO) * sp[kk, j, i + 1]
+                    fw = (fw if fw > ZERO else ZERO) * sp[kk, j, i - 1] \
+                        + (fw if fw < ZERO else ZERO) * s0
+                    fs = (fs if fs > ZERO else ZERO) * s0 \
+                        + (fs if fs < ZERO else ZERO) * sp[kk, j + 1, i]
+                    fn = (fn if fn > ZERO else ZERO) * sp[kk, j - 1, i] \
+                        + (fn if fn < ZERO else ZERO) * s0
+                    p2_o[kk, j, i] = (((p0[kk, j, i] - fe) + fw) - fs) + fn
+        else:
+            for kk in range(ns):
+                for i in range(1, bw + 1):
+                    p2_o[kk, j, i] = p0[kk, j, i]
+
+
+# ------------------------------------------------------------------ pass 6
+@njit(inline="always", **_SERIAL)  # type: ignore[misc]
+def _face_x(vx: np.ndarray, wet: np.ndarray, j: int, i: int,
+            q4: np.float32) -> tuple[np.float32, np.float32]:
+    """(rxp, rxn) of the x face between (j, i) and (j, i + 1)."""
+    uf = HALF * (vx[j, i] + vx[j, i + 1]) if wet[j, i] * wet[j, i + 1] != ZERO else ZERO
+    r = abs(uf) * q4
+    rp = r if uf > ZERO else ZERO
+    return rp, r - rp
+
+
+@njit(inline="always", **_SERIAL)  # type: ignore[misc]
+def _face_y(vy: np.ndarray, wet: np.ndarray, j: int, i: int,
+            q4: np.float32) -> tuple[np.float32, np.float32]:
+    """(ryp, ryn) of the y face between (j, i) and (j + 1, i)."""
+    uf = HALF * (vy[j, i] + vy[j + 1, i]) if wet[j, i] * wet[j + 1, i] != ZERO else ZERO
+    r = abs(uf) * q4
+    rp = r if uf > ZERO else ZERO
+    return rp, r - rp
+
+
+@njit(**_OPTS)  # type: ignore[misc]
+def advect_limit(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
+                 p: np.ndarray, bh: int, bw: int, ns: int, cst: np.ndarray,
+                 sout_o: np.ndarray, sin_o: np.ndarray) -> None:
+    """Pass 6 limiters: donor ``s_out`` (never below min(w, w_min)) and receiver ``s_in``
+    (never above max(w, w_max), no pigment above 1)."""
+    q4 = cst[C_Q4]
+    wmin = cst[C_WMIN]
+    wmax = cst[C_WMAX]
+    for j in prange(1, bh + 1):
+        for i in range(1, bw + 1):
+            exp_, exn = _face_x(vx, wet, j, i, q4)
+            wxp, wxn = _face_x(vx, wet, j, i - 1, q4)
+            syp, syn = _face_y(vy, wet, j, i, q4)
+            nyp, nyn = _face_y(vy, wet, j - 1, i, q4)
+            r_out = ((exp_ + wxn) + syp) + nyn
+            wv = w[j, i]
+            lo = wv if wv < wmin else wmin
+            want = wv * r_out
+            room = wv - lo
+            sout_o[j, i] = room / want if want > room else ONE
+            i_w = ((w[j, i - 1] * wxp + w[j, i + 1] * exn) + w[j - 1, i] * nyp) \
+                + w[j + 1, i] * syn
+            hi = wv if wv > wmax else wmax
+            room_w = hi - wv
+            room_w = room_w if room_w > ZERO else ZERO
+            s_in = room_w / i_w if i_w > room_w else ONE
+            for kk in range(ns):
+                i_p = ((p[kk, j, i - 1] * wxp + p[kk, j, i + 1] * exn) + p[kk, j - 1, i] * nyp) \
+                    + p[kk, j + 1, i] * syn
+                room_p = ONE - p[kk, j, i]
+                room_p = room_p if room_p > ZERO else ZERO
+                sk = room_p / i_p if i_p > room_p else ONE
+                s_in = s_in if s_in < sk else sk
+            sin_o[j, i] = s_in if s_in < ONE else ONE
+
+
+@njit(**_OPTS)  # type: ignore[misc]
+def advect_apply(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, sout: np.ndarray,
+                 sin: np.ndarray, w: np.ndarray, p: np.ndarray, y0: int, x0: int,
+                 bh: int, bw: int, ns: int, cst: np.ndarray, do_adv: bool,
+                 w3_o: np.ndarray, p_state: np.ndarray) -> None:
+    """Pass 6 fluxes ``w_donor r'`` and ``p_donor r'``, ``r' = (r s_out[donor]) s_in[recv]``;
+    water into the padded ``w3_o``, pigment straight into the state (own cell only)."""
+    q4 = cst[C_Q4]
+    for j in prange(1, bh + 1):
+        y = y0 + j - 1
+        if not do_adv:
+            for i in range(1, bw + 1):
+                w3_o[j, i] = w[j, i]
+            for kk in range(ns):
+                for i in range(1, bw + 1):
+                    p_state[kk, y, x0 + i - 1] = p[kk, j, i]
+            continue
+        for i in range(1, bw + 1):
+            exp_, exn = _face_x(vx, wet, j, i, q4)
+            wxp, wxn = _face_x(vx, wet, j, i - 1, q4)
+            syp, syn = _face_y(vy, wet, j, i, q4)
+            nyp, nyn = _face_y(vy, wet, j - 1, i, q4)
+            so, si = sout[j, i], sin[j, i]
+            ae_p = (exp_ * so) * sin[j, i + 1]
+            ae_n = (exn * sout[j, i + 1]) * si
+            aw_p = (wxp * sout[j, i - 1]) * si
+            aw_n = (wxn * so) * sin[j, i - 1]
+            as_p = (syp * so) * sin[j + 1, i]
+            as_n = (syn * sout[j + 1, i]) * si
+            an_p = (nyp * sout[j - 1, i]) * si
+            an_n = (nyn * so) * sin[j - 1, i]
+            wv = w[j, i]
+            fe = wv * ae_p - w[j, i + 1] * ae_n
+            fw = w[j, i - 1] * aw_p - wv * aw_n
+            fs = wv * as_p - w[j + 1, i] * as_n
+            fn = w[j - 1, i] * an_p - wv * an_n
+            w3_o[j, i] = (((wv - fe) + fw) - fs) + fn
+            for kk in range(ns):
+                pv = p[kk, j, i]
+                fe = pv * ae_p - p[kk, j, i + 1] * ae_n
+                fw = p[kk, j, i - 1] * aw_p - pv * aw_n
+                fs = pv * as_p - p[kk, j + 1, i] * as_n
+                fn = p[kk, j - 1, i] * an_p - pv * an_n
+                p_state[kk, y, x0 + i - 1] = (((pv - fe) + fw) - fs) + fn
+
+
+# ------------------------------------------------------------------ passes 7, 8, 9a
+@njit(**_OPTS)  # type: ignore[misc]
+def evap_surface_absorb(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.ndarray,
+                        h: np.ndarray, wc: np.ndarray, evap: np.ndarray, w_state: np.ndarray,
+                        p: np.ndarray, q: np.ndarray, beta: np.ndarray, gamma: np.ndarray,
+                        delta: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int,
+                        cst: np.ndarray, do_evap: bool, do_surface: bool, do_absorb: bool,
+                        sat_o: np.ndarray) -> None:
+    """Pass 7 (edge-enhanced fluid evaporation), pass 8 (deposition/lifting) and
+    pass 9a (absorption); writes w, wc, evaporated, p, q in place and ``wc / c``."""
+    e = cst[C_EVAP]
+    edge = cst[C_EDGE]
+    wmax = cst[C_WMAX]
+    rate = cst[C_RATE]
+    alpha = cst[C_ALPHA]
+    for j in prange(1, bh + 1):
+        y = y0 + j - 1
+        for i in range(1, bw + 1):
+            x = x0 + i - 1
+            wv = w3[j, i]
+            if do_evap and wv > ZERO:
+                nd = ZERO
+                if not w3[j, i + 1] > ZERO:
+                    nd += ONE
+                if not w3[j, i - 1] > ZERO:
+                    nd += ONE
+                if not w3[j + 1, i] > ZERO:
+                    nd += ONE
+                if not w3[j - 1, i] > ZERO:
+                    nd += ONE
+                loss = e + ((edge * nd) * wv) * e
+                loss = loss if loss < wv else wv
+                wv = wv - loss
+                evap[y, x] = evap[y, x] + loss
+            if do_surface and wet[j, i] != ZERO:
+                hv = h[y, x]
+                f = wv / wmax
+                f = f if f > ZERO else ZERO
+                f = f if f < ONE else ONE
+                for kk in range(ns):
+                    pv = p[kk, y, x]
+                    qv = q[kk, y, x]
+                    g = gamma[kk]
+                    d = delta[kk]
+                    down = (((rate * pv) * (ONE - f)) * (ONE - hv * g)) * d
+                    up = (((rate * qv) * f) * (ONE - (ONE - hv) * g)) * (d / beta[kk])
+                    down = down if down < pv else pv
+                    t = ONE - qv
+                    down = down if down < t else t
+                    up = up if up < qv else qv
+                    t = ONE - pv
+                    up = up if up < t else t
+                    net = down - up
+                    p[kk, y, x] = pv - net
+                    q[kk, y, x] = qv + net
+            wcv = wc[y, x]
+            cv = c[j, i]
+            if do_absorb and wv > ZERO and opn[j, i] != ZERO:
+                d = alpha if alpha < wv else wv
+                room = cv - wcv
+                room = room if room > ZERO else ZERO
+                d = d if d < room else room
+                wv = wv - d
+                wcv = wcv + d
+            w_state[y, x] = wv
+            wc[y, x] = wcv
+            sat_o[j, i] = wcv / cv
+
+
+# ------------------------------------------------------------------ passes 9b, 9c, 10
+@njit(**_OPTS)  # type: ignore[misc]
+def capillary_dry(sat: np.ndarray, c: np.ndarray, opn: np.ndarray, v3x: np.ndarray,
+                  v3y: np.ndarray, w: np.ndarray, wc: np.ndarray, evap: np.ndarray,
+                  p: np.ndarray, q: np.ndarray, vx: np.ndarray, vy: np.ndarray,
+                  y0: int, x0: int, bh: int, bw: int, ns: int, cst: np.ndarray,
+                  do_capdiff: bool, do_dry: bool) -> None:
+    """Pass 9b (explicit capillary diffusion of the saturation), 9c (capillary
+    evaporation) and pass 10 (tiny water evaporates, dry cells deposit, v = 0)."""
+    k = cst[C_KC]
+    ecap = cst[C_ECAP]
+    wdry = cst[C_WDRY]
+    for j in prange(1, bh + 1):
+        y = y0 + j - 1
+        n_dry = 0
+        for i in range(1, bw + 1):
+            x = x0 + i - 1
+            wcv = wc[y, x]
+            if do_capdiff:
+                o0 = opn[j, i]
+                c0 = c[j, i]
+                s0 = sat[j, i]
+                t = c[j, i + 1]
+                fe = ((k * (c0 if c0 < t else t)) * (s0 - sat[j, i + 1])) \
+                    if o0 * opn[j, i + 1] != ZERO else ZERO
+                t = c[j, i - 1]
+                fw = ((k * (t if t < c0 else c0)) * (sat[j, i - 1] - s0)) \
+                    if opn[j, i - 1] * o0 != ZERO else ZERO
+                t = c[j + 1, i]
+                fs = ((k * (c0 if c0 < t else t)) * (s0 - sat[j + 1, i])) \
+                    if o0 * opn[j + 1, i] != ZERO else ZERO
+                t = c[j - 1, i]
+                fn = ((k * (t if t < c0 else c0)) * (sat[j - 1, i] - s0)) \
+                    if opn[j - 1, i] * o0 != ZERO else ZERO
+                wcv = (((wcv - fe) + fw) - fs) + fn
+                wcv = wcv if wcv > ZERO else ZERO
+            wv = w[y, x]
+            ev = evap[y, x]
+            if wv == ZERO:
+                e = ecap if ecap < wcv else wcv
+                wcv = wcv - e
+                ev = ev + e
+            wc[y, x] = wcv
+            if do_dry:
+                if wv > ZERO and wv < wdry:
+                    ev = ev + wv
+                    wv = ZERO
+                    w[y, x] = wv
+                if wv == ZERO:
+                    n_dry += 1
+                    vx[y, x] = ZERO
+                    vy[y, x] = ZERO
+                else:
+                    vx[y, x] = v3x[j, i]
+                    vy[y, x] = v3y[j, i]
+            evap[y, x] = ev
+        if do_dry and n_dry > 0:
+            for kk in range(ns):
+                for i in range(1, bw + 1):
+                    x = x0 + i - 1
+                    if w[y, x] == ZERO:
+                        pv = p[kk, y, x]
+                        qv = q[kk, y, x]
+                        t = ONE - qv
+                        t = pv if pv < t else t
+                        p[kk, y, x] = pv - t
+                        q[kk, y, x] = qv + t

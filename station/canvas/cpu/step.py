@@ -1,0 +1,195 @@
+"""One canvas step with the fused numba sweeps (same passes and maths as ``reference``).
+
+:func:`step` mirrors ``reference.step``: the dirty tiles decide the boxes (the same
+``tiles.active_regions``), each box is simulated on its own (cells outside it are
+non-wet zeros), then ``tiles.update_tiles``, ``sim_time`` and ``step_count`` advance.
+:func:`step_region` takes ``stop_after`` (a name of ``reference.PASS_ORDER``) and
+writes the fields back right after that pass, for pass-by-pass comparisons.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from station.canvas import reference, tiles
+from station.canvas.cpu import kernels as K
+from station.canvas.params import CanvasInputError, SimParams
+from station.canvas.state import CanvasState
+
+F32 = np.float32
+
+_FIELDS_2D = ("wet", "w0", "bc", "vsx", "vsy", "c", "opn", "v1x", "v1y", "xvax", "xvay",
+              "xvbx", "xvby", "xwa", "xwb", "v3x", "v3y", "sw", "w2", "sout", "sin", "w3",
+              "sat")
+_FIELDS_3D = ("p0", "xpa", "xpb", "sp", "p2")
+
+
+def constants(prm: SimParams, dt: float, sim_time: float) -> np.ndarray:
+    """The float32 constant vector of the kernels, rounded exactly like the reference's."""
+    c = np.zeros(K.N_CONST, F32)
+    c[K.C_DT] = F32(dt)
+    c[K.C_KV] = F32(prm.viscosity * dt)
+    c[K.C_KW] = F32(prm.nu_w * dt)
+    c[K.C_KP] = F32(prm.nu_p * dt)
+    c[K.C_G] = F32(-0.5 * prm.height_gain)
+    c[K.C_OH] = F32(prm.omega_h)
+    c[K.C_OI] = F32(1.0 - prm.omega_h)
+    c[K.C_VMAX] = F32(prm.v_max)
+    c[K.C_Q4] = F32(0.25 * dt)
+    c[K.C_WMIN] = F32(prm.w_min)
+    c[K.C_WMAX] = F32(prm.w_max)
+    c[K.C_EVAP] = F32(prm.eps_shallow * dt)
+    c[K.C_EDGE] = F32(prm.edge_evap)
+    c[K.C_RATE] = F32(prm.surface_rate * dt)
+    c[K.C_CMIN] = F32(prm.c_min)
+    c[K.C_CSPAN] = F32(prm.c_max - prm.c_min)
+    c[K.C_ALPHA] = F32(prm.alpha * dt)
+    c[K.C_KC] = F32(prm.cap_diffusion * dt)
+    c[K.C_ECAP] = F32(prm.eps_cap * dt)
+    c[K.C_WDRY] = F32(prm.w_dry_eps)
+    c[K.C_MOIST] = F32(prm.moist_threshold)
+    c[K.C_TIME] = F32(sim_time)
+    c[K.C_FADE] = F32(prm.block_fade)
+    c[K.C_BPAPER] = F32(prm.block_paper)
+    return c
+
+
+class Scratch:
+    """Padded float32 scratch fields ``(H + 2, W + 2)`` (pigment: ``(S, H + 2, W + 2)``),
+    allocated once per canvas size and slot count and reused every step."""
+
+    def __init__(self, height: int, width: int, slots: int) -> None:
+        self.height, self.width, self.slots = height, width, slots
+        shape = (height + 2, width + 2)
+        self.a2 = {name: np.zeros(shape, F32) for name in _FIELDS_2D}
+        self.a3 = {name: np.zeros((slots,) + shape, F32) for name in _FIELDS_3D}
+        self._ring: tuple[int, int] | None = None
+
+    def fits(self, height: int, width: int, slots: int) -> bool:
+        return self.height == height and self.width == width and self.slots >= slots
+
+    def ring(self, bh: int, bw: int) -> None:
+        """Zero the ring around the ``bh x bw`` window (only when the window changes)."""
+        if self._ring == (bh, bw):
+            return
+        for a in self.a2.values():
+            K.zero_ring(a, bh, bw)
+        for a in self.a3.values():
+            K.zero_ring3(a, self.slots, bh, bw)
+        self._ring = (bh, bw)
+
+
+def _win(a: np.ndarray, bh: int, bw: int) -> np.ndarray:
+    """Interior of the box window of a padded scratch field (a view)."""
+    return a[..., 1:bh + 1, 1:bw + 1]
+
+
+def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
+                scratch: Scratch, stop_after: str | None = None) -> None:
+    """Passes 1-10 on the cells ``sl`` of ``state`` in place (see ``reference.step_region``)."""
+    if stop_after is not None and stop_after not in reference.PASS_ORDER:
+        raise CanvasInputError(f"unknown pass {stop_after!r}", "step_region")
+    last = reference.PASS_ORDER.index(stop_after) if stop_after else len(reference.PASS_ORDER)
+
+    def runs(name: str) -> bool:
+        return reference.PASS_ORDER.index(name) <= last
+
+    prm = state.params
+    ys, xs = sl
+    y0, x0 = int(ys.start), int(xs.start)
+    bh, bw = int(ys.stop) - y0, int(xs.stop) - x0
+    ns = max(len(state.slots), 1)
+    cst = constants(prm, dt, state.sim_time)
+    beta, gamma, delta = (a[:ns].copy() for a in reference.slot_properties(state))
+    s2, s3 = scratch.a2, scratch.a3
+    scratch.ring(bh, bw)
+    n_it = int(prm.jacobi_iters)
+    do_v = prm.viscosity * dt > 0 and n_it >= 1 and runs("diffuse_velocity")
+    do_w = prm.nu_w * dt > 0 and runs("diffuse_water")
+    do_p = prm.nu_p * dt > 0 and runs("diffuse_pigment")
+
+    K.prep(state.w, state.wc, state.mask, state.vx, state.vy, state.p, state.h,
+           state.block, state.block_time, y0, x0, bh, bw, ns, cst,
+           s2["wet"], s2["w0"], s3["p0"], s2["bc"], s2["vsx"], s2["vsy"], s2["c"], s2["opn"])
+    wet, bc, w0, p0 = s2["wet"], s2["bc"], s2["w0"], s3["p0"]
+    # pass 1 + iteration 1 of the water/pigment solves (x0 = u)
+    jw = do_w and n_it >= 1
+    jp = do_p and n_it >= 1
+    xw, xw_next = (s2["xwa"], s2["xwb"])
+    xp, xp_next = (s3["xpa"], s3["xpb"])
+    K.advect_jacobi1(wet, s2["vsx"], s2["vsy"], bc, w0, p0, bh, bw, ns, cst, jw, jp,
+                     s2["v1x"], s2["v1y"], xw, xp)
+    if not jw:
+        xw = w0
+    if not jp:
+        xp = p0
+    if stop_after == "advect_velocity":
+        state.vx[ys, xs] = _win(s2["v1x"], bh, bw)
+        state.vy[ys, xs] = _win(s2["v1y"], bh, bw)
+        return
+    # iterations 2..n of water/pigment, 1..n-1 of velocity (one sweep behind)
+    xvx, xvy = s2["v1x"], s2["v1y"]
+    pong = ((s2["xvax"], s2["xvay"]), (s2["xvbx"], s2["xvby"]))
+    for it in range(2, n_it + 1):
+        ovx, ovy = pong[it % 2]
+        K.jacobi(wet, bc, s2["v1x"], s2["v1y"], xvx, xvy, ovx, ovy, w0, xw, xw_next,
+                 p0, xp, xp_next, bh, bw, ns, cst, do_v, jw, jp)
+        if do_v:
+            xvx, xvy = ovx, ovy
+        if jw:
+            xw, xw_next = xw_next, xw
+        if jp:
+            xp, xp_next = xp_next, xp
+    # last velocity iteration, pass 3, donor limiters of passes 4/5
+    K.height_limit(wet, bc, s2["v1x"], s2["v1y"], xvx, xvy, w0, xw, p0, xp, bh, bw, ns,
+                   cst, do_v, runs("water_height_and_boundary"), do_w, do_p,
+                   s2["v3x"], s2["v3y"], s2["sw"], s3["sp"])
+    v3x, v3y = s2["v3x"], s2["v3y"]
+    if last <= reference.PASS_ORDER.index("water_height_and_boundary"):
+        state.vx[ys, xs] = _win(v3x, bh, bw)
+        state.vy[ys, xs] = _win(v3y, bh, bw)
+        return
+    K.diffuse_apply(wet, bc, w0, xw, s2["sw"], p0, xp, s3["sp"], bh, bw, ns, cst, do_w,
+                    do_p, s2["w2"], s3["p2"])
+    if last <= reference.PASS_ORDER.index("diffuse_pigment"):
+        state.vx[ys, xs] = _win(v3x, bh, bw)
+        state.vy[ys, xs] = _win(v3y, bh, bw)
+        state.w[ys, xs] = _win(s2["w2"], bh, bw)
+        state.p[:ns, ys, xs] = _win(s3["p2"][:ns], bh, bw)
+        return
+    do_adv = runs("advect_water_and_pigment")
+    if do_adv:
+        K.advect_limit(wet, v3x, v3y, s2["w2"], s3["p2"], bh, bw, ns, cst, s2["sout"],
+                       s2["sin"])
+    K.advect_apply(wet, v3x, v3y, s2["sout"], s2["sin"], s2["w2"], s3["p2"], y0, x0, bh, bw,
+                   ns, cst, do_adv, s2["w3"], state.p)
+    K.evap_surface_absorb(wet, s2["w3"], s2["c"], s2["opn"], state.h, state.wc,
+                          state.evaporated, state.w, state.p, state.q, beta, gamma, delta,
+                          y0, x0, bh, bw, ns, cst, runs("evaporate"), runs("surface_exchange"),
+                          runs("capillary"), s2["sat"])
+    if runs("capillary"):
+        K.capillary_dry(s2["sat"], s2["c"], s2["opn"], v3x, v3y, state.w, state.wc,
+                        state.evaporated, state.p, state.q, state.vx, state.vy, y0, x0, bh, bw,
+                        ns, cst, prm.cap_diffusion * dt > 0, runs("dry_cells"))
+    if not runs("dry_cells"):
+        state.vx[ys, xs] = _win(v3x, bh, bw)
+        state.vy[ys, xs] = _win(v3y, bh, bw)
+
+
+def step(state: CanvasState, scratch: Scratch, dt: float | None = None) -> int:
+    """One simulation step of ``state`` in place; returns the number of cells simulated."""
+    dt = state.params.dt if dt is None else float(dt)
+    if not dt > 0 or dt * state.params.v_max > 1.0 + 1e-9:
+        raise CanvasInputError("dt must be > 0 and move at most one cell per step", "step")
+    if state.tiling:
+        regions = tiles.active_regions(state)
+        for region in regions:
+            step_region(state, region, dt, scratch)
+        tiles.update_tiles(state, regions)
+        cells = sum((r[0].stop - r[0].start) * (r[1].stop - r[1].start) for r in regions)
+    else:
+        step_region(state, (slice(0, state.height), slice(0, state.width)), dt, scratch)
+        cells = state.height * state.width
+    state.sim_time += dt
+    state.step_count += 1
+    return cells

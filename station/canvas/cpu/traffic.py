@@ -1,0 +1,46 @@
+"""Honest memory traffic of one cell-step of the ``cpu`` backend, per fused sweep.
+
+Counted like ``station/canvas/gl/traffic.py``: float32 values each sweep must read and
+write per cell (x 4 bytes), each field once per sweep (a stencil's neighbours come from
+cache), for a wet cell (the cell of a wash); ``slots`` = pigment slots in use (the
+sweeps process only those), ``jacobi_iters`` = n >= 1. The scratch copies the sweeps
+make (wet mask, w, p, beta_c, capacity, open flag, iterates, limiters) are counted: they
+are real traffic.
+"""
+
+from __future__ import annotations
+
+
+def floats_per_cell_step(slots: int, jacobi_iters: int) -> dict[str, int]:
+    """Per sweep: float32 values read + written per cell for one step."""
+    s = int(slots)
+    n = max(int(jacobi_iters), 1)
+    return {
+        # read w, wc, mask, vx, vy, h, block, block_time, p(S);
+        # write wet, w0, bc, vsx, vsy, c, opn, p0(S)
+        "prep (wet mask, copies, diffusion controller, capacity)": (8 + s) + (7 + s),
+        # read vsx, vsy, wet, w0, bc, p0(S); write v1(2), xw, xp(S)
+        "advect_jacobi1 (pass 1, water/pigment Jacobi iteration 1)": (5 + s) + (3 + s),
+        # each: read wet, bc, v1(2), xv(2), w0, xw, p0(S), xp(S); write xv(2), xw, xp(S)
+        "jacobi (velocity it-1, water/pigment it) x (n-1)": (n - 1) * ((8 + 2 * s) + (3 + s)),
+        # read wet, bc, v1(2), xv(2), w0, xw, p0(S), xp(S); write v3(2), sw, sp(S)
+        "height_limit (last velocity iteration, pass 3, donor limiters)":
+            (8 + 2 * s) + (3 + s),
+        # read wet, bc, w0, xw, sw, p0(S), xp(S), sp(S); write w2, p2(S)
+        "diffuse_apply (passes 4/5 fluxes)": (5 + 3 * s) + (1 + s),
+        # read wet, v3(2), w2, p2(S); write sout, sin
+        "advect_limit (pass 6 limiters)": (4 + s) + 2,
+        # read wet, v3(2), sout, sin, w2, p2(S); write w3, p(S)
+        "advect_apply (pass 6 fluxes)": (6 + s) + (1 + s),
+        # read wet, w3, c, opn, h, wc, evaporated, p(S), q(S);
+        # write w, wc, evaporated, sat, p(S), q(S)
+        "evap_surface_absorb (passes 7, 8, 9a)": (7 + 2 * s) + (4 + 2 * s),
+        # read sat, c, opn, v3(2), w, wc, evaporated; write w, wc, evaporated, vx, vy
+        # (a wet cell deposits nothing: the pigment loop runs only on rows with dry cells)
+        "capillary_dry (passes 9b, 9c, 10)": 8 + 5,
+    }
+
+
+def bytes_per_cell_step(slots: int, jacobi_iters: int) -> int:
+    """Bytes of honest memory traffic per simulated cell and step."""
+    return 4 * sum(floats_per_cell_step(slots, jacobi_iters).values())
