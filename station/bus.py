@@ -286,6 +286,41 @@ class Publisher:
         """Publish on ``pen.<device>``; returns the bus sequence number."""
         return self._send(f"pen.{sample.device}", sample)
 
+    def publish_pens(self, samples: list[PenSample]) -> int:
+        """Publish samples that are ready together (a replay at full speed, a burst
+        read from a device) in batch messages of up to ``wire.MAX_BATCH`` per
+        device; each sample still takes its own sequence number, so loss counting
+        and late-joiner replay work as for single samples.  Returns the last
+        sequence number."""
+        if self.sock.get(zmq.EVENTS) & zmq.POLLIN:
+            self._serve_subscriptions()
+        last = 0
+        by_topic: dict[str, list[PenSample]] = {}
+        for s in samples:
+            by_topic.setdefault(f"pen.{s.device}", []).append(s)
+        for topic, group in by_topic.items():
+            for start in range(0, len(group), wire.MAX_BATCH):
+                chunk = group[start : start + wire.MAX_BATCH]
+                seq = self._seq[topic] + 1
+                self._seq[topic] = seq + len(chunk) - 1
+                self.sock.send_multipart(
+                    wire.encode_pen_batch(topic, chunk, self.publisher_id, seq)
+                )
+                last = seq + len(chunk) - 1
+                if self.replay_enabled:
+                    self._remember_batch(topic, chunk, seq)
+        return last
+
+    def _remember_batch(self, topic: str, chunk: list[PenSample], seq: int) -> None:
+        recent = self._recent.get(topic)
+        if recent is None:
+            recent = self._recent[topic] = collections.deque(maxlen=REPLAY_LIMIT)
+        for i, s in enumerate(chunk):
+            if not s.proximity:
+                recent.clear()
+            else:  # kept one per sample, as single messages, like publish_pen's
+                recent.append(wire.encode(topic, s, self.publisher_id, seq + i))
+
     def publish_cmd(self, command: Command) -> int:
         return self._send("cmd", command)
 
@@ -393,6 +428,7 @@ class Subscriber:
             _attach(self.sock, ep, keys)
         self.stats = SubscriberStats()
         self._last: dict[tuple[int, str], int] = {}
+        self._pending: collections.deque[Message] = collections.deque()
         self._last_warning = 0.0
 
     def _drop(self, exc: WireError) -> None:
@@ -410,6 +446,8 @@ class Subscriber:
 
     def recv(self, timeout_ms: int | None = 100) -> Message | None:
         """The next valid, new message, or ``None`` after ``timeout_ms``."""
+        if self._pending:
+            return self._pending.popleft()
         deadline = None if timeout_ms is None else time.monotonic() + timeout_ms / 1000
         while True:
             try:
@@ -427,14 +465,23 @@ class Subscriber:
                 continue
             key = (env.publisher, env.topic)
             last = self._last.get(key)
+            end = env.seq + env.count - 1
             if last is None:
                 self.stats.started_at[f"{env.topic}@{env.publisher:08x}"] = env.seq
-            elif env.seq <= last:
-                self.stats.duplicates += 1
+            elif end <= last:
+                self.stats.duplicates += env.count
                 continue
             elif env.seq > last + 1:
                 self.stats.lost += env.seq - last - 1
-            self._last[key] = env.seq
+            self._last[key] = end
+            if isinstance(env.value, list):  # a pen batch: one Message per new sample
+                skip = 0 if last is None else max(0, last + 1 - env.seq)
+                self.stats.duplicates += skip
+                msgs = [Message(env.topic, "pen", v, env.publisher, env.seq + i, env.replay)
+                        for i, v in enumerate(env.value) if i >= skip]
+                self.stats.received += len(msgs)
+                self._pending.extend(msgs[1:])
+                return msgs[0]
             self.stats.received += 1
             return Message(env.topic, env.kind, env.value, env.publisher, env.seq, env.replay)
 

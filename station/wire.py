@@ -6,15 +6,17 @@ and a payload that starts with a 20-byte header::
     offset size  field
     0      2     magic  b"ST"
     2      1     version (1)
-    3      1     kind: 1 pen, 2 cmd, 3 status, 4 haptic
+    3      1     kind: 1 pen, 2 cmd, 3 status, 4 haptic, 5 pen batch
     4      1     flags: bit 0 = replayed (sent again for a late joiner)
     5      3     reserved, zero
     8      4     publisher id (u32, random per publisher instance)
     12     8     sequence number (u64, per publisher and topic, contiguous)
 
 All integers little-endian.  The pen body is a fixed 104-byte struct (see
-``_PEN``); cmd and status bodies are UTF-8 JSON objects; the haptic body is a
-fixed struct.  Decoding validates everything: a message that is not exactly
+``_PEN``); a pen batch is a u16 count followed by that many pen bodies, the
+header's sequence number being the first one's (the batch takes ``count``
+consecutive numbers); cmd and status bodies are UTF-8 JSON objects; the haptic
+body is a fixed struct.  Decoding validates everything: a message that is not exactly
 this raises :class:`WireError` and the subscriber counts and drops it.
 """
 
@@ -31,8 +33,10 @@ from station.events import TOOL_CODES, Command, PenSample
 
 MAGIC = b"ST"
 VERSION = 1
-KIND_PEN, KIND_CMD, KIND_STATUS, KIND_HAPTIC = 1, 2, 3, 4
-KIND_NAMES = {KIND_PEN: "pen", KIND_CMD: "cmd", KIND_STATUS: "status", KIND_HAPTIC: "haptic"}
+KIND_PEN, KIND_CMD, KIND_STATUS, KIND_HAPTIC, KIND_PEN_BATCH = 1, 2, 3, 4, 5
+KIND_NAMES = {KIND_PEN: "pen", KIND_CMD: "cmd", KIND_STATUS: "status", KIND_HAPTIC: "haptic",
+              KIND_PEN_BATCH: "pen"}
+MAX_BATCH = 512  # samples per batch message (53 KiB)
 FLAG_REPLAY = 0x01
 MAX_JSON_BODY = 64 * 1024
 
@@ -88,7 +92,12 @@ class Envelope:
     publisher: int
     seq: int
     replay: bool
-    value: Any  # PenSample | Command | dict | Haptic
+    value: Any  # PenSample | Command | dict | Haptic | list[PenSample] (a pen batch)
+
+    @property
+    def count(self) -> int:
+        """How many sequence numbers the message takes (a batch takes one per sample)."""
+        return len(self.value) if isinstance(self.value, list) else 1
 
 
 def encode_header(kind: int, publisher: int, seq: int, flags: int = 0) -> bytes:
@@ -139,6 +148,31 @@ def decode_pen(device: str, body: bytes) -> PenSample:
         )  # fmt: skip
     except EventError as exc:
         raise WireError(f"invalid pen sample: {exc}") from None
+
+
+_COUNT = struct.Struct("<H")
+
+
+def encode_pen_batch(
+    topic: str, samples: list[PenSample], publisher: int, seq: int, flags: int = 0
+) -> list[bytes]:
+    """One message carrying ``samples`` (1..MAX_BATCH) with sequence numbers seq, seq+1, …"""
+    if not 0 < len(samples) <= MAX_BATCH:
+        raise WireError(f"a pen batch holds 1..{MAX_BATCH} samples, not {len(samples)}")
+    body = b"".join([_COUNT.pack(len(samples)), *map(encode_pen, samples)])
+    return [topic.encode(), encode_header(KIND_PEN_BATCH, publisher, seq, flags) + body]
+
+
+def _decode_pen_batch(device: str, body: bytes) -> list[PenSample]:
+    if len(body) < _COUNT.size:
+        raise WireError("pen batch without a count")
+    (count,) = _COUNT.unpack_from(body)
+    if not 0 < count <= MAX_BATCH or len(body) != _COUNT.size + count * PEN_SIZE:
+        raise WireError(f"pen batch of {len(body)} bytes does not hold {count} samples")
+    return [
+        decode_pen(device, body[off : off + PEN_SIZE])
+        for off in range(_COUNT.size, len(body), PEN_SIZE)
+    ]
 
 
 def _encode_json(obj: dict[str, Any]) -> bytes:
@@ -201,10 +235,11 @@ def decode(frames: list[bytes]) -> Envelope:
     body = payload[HEADER_SIZE:]
     replay = bool(flags & FLAG_REPLAY)
     prefix, _, suffix = topic.partition(".")
-    if kind == KIND_PEN:
+    if kind in (KIND_PEN, KIND_PEN_BATCH):
         if prefix != "pen" or not suffix:
             raise WireError(f"pen message on topic {topic!r}")
-        value: Any = decode_pen(suffix, body)
+        value: Any = (decode_pen(suffix, body) if kind == KIND_PEN
+                      else _decode_pen_batch(suffix, body))
     elif kind == KIND_CMD:
         try:
             value = Command.from_record(_decode_json(body))

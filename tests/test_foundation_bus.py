@@ -284,3 +284,33 @@ def test_reversed_topology_subscriber_binds_publishers_connect() -> None:
                                           seq=i))
             t.join()
         assert got == list(range(1, 11))
+
+
+def test_batches_count_losses_and_dedupe_like_single_samples() -> None:
+    ctx = zmq.Context()
+    with Publisher("ipc:batch", context=ctx) as pub, \
+            Subscriber("ipc:batch", topics=("pen.",), context=ctx) as sub:
+        assert pub.wait_for_subscribers(1, 5)
+
+        def s(i: int) -> PenSample:
+            return PenSample(t=i / 100, device="b", tool=Tool.PEN, x=0.5, y=0.5, pressure=0.5,
+                             touching=True, seq=i)
+
+        pub.publish_pens([s(i) for i in range(1, 601)])  # 512 + 88: two messages
+        pub.publish_pen(s(601))
+        msgs = drain(sub, 601)
+        assert [m.value.seq for m in msgs] == list(range(1, 602))
+        assert [m.seq for m in msgs] == list(range(1, 602))
+        assert sub.stats.lost == 0 and sub.stats.received == 601
+        # a batch overlapping what the subscriber has (a replay) only yields the new part
+        raw = pub.sock
+        raw.send_multipart(wire.encode_pen_batch("pen.b", [s(600), s(601), s(602)],
+                                                 pub.publisher_id, 600))
+        m = sub.recv(1000)
+        assert m is not None and m.seq == 602 and sub.stats.duplicates == 2
+        # a gap before a batch is counted as lost
+        raw.send_multipart(wire.encode_pen_batch("pen.b", [s(610), s(611)], pub.publisher_id,
+                                                 610))
+        got = drain(sub, 2)
+        assert [g.seq for g in got] == [610, 611] and sub.stats.lost == 7
+    ctx.destroy(linger=0)

@@ -111,3 +111,29 @@ def test_random_bytes_never_crash_the_decoder() -> None:
         assert isinstance(env.value, PenSample)
         assert 0.0 <= env.value.x <= 1.0 and 0.0 <= env.value.pressure <= 1.0
     assert decoded > 0  # some mutations leave a valid sample: those must be valid
+
+
+def test_pen_batch_round_trip_and_sequence_span() -> None:
+    samples = [pen(seq=i, x=i / 10) for i in range(1, 8)]
+    frames = wire.encode_pen_batch("pen.intuos-0", samples, publisher=5, seq=100)
+    env = wire.decode(frames)
+    assert env.kind == "pen" and env.value == samples
+    assert env.seq == 100 and env.count == 7
+
+
+@pytest.mark.parametrize("cut", [1, wire.PEN_SIZE // 2, wire.PEN_SIZE])
+def test_pen_batch_with_wrong_count_or_length_is_rejected(cut: int) -> None:
+    topic, payload = wire.encode_pen_batch("pen.a", [pen(), pen()], 1, 1)
+    with pytest.raises(WireError, match="pen batch"):
+        wire.decode([topic, payload[:-cut]])
+    bad_count = bytearray(payload)
+    bad_count[wire.HEADER_SIZE] = 0
+    with pytest.raises(WireError, match="does not hold 0 samples"):
+        wire.decode([topic, bytes(bad_count)])
+
+
+def test_pen_batch_size_limits() -> None:
+    with pytest.raises(WireError):
+        wire.encode_pen_batch("pen.a", [], 1, 1)
+    with pytest.raises(WireError):
+        wire.encode_pen_batch("pen.a", [pen()] * (wire.MAX_BATCH + 1), 1, 1)
