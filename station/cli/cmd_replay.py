@@ -85,10 +85,21 @@ def run(args: argparse.Namespace) -> int:
            for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         if speed is None:
+            # Full speed: hand samples to the bus in batches (wire kind 5).
+            batch: list[PenSample] = []
             for sample in replay.samples():
-                emit(sample)
+                count["samples"] += 1
+                if writer is not None:
+                    writer.write(sample)
+                if publisher is not None:
+                    batch.append(sample)
+                    if len(batch) >= 64:
+                        publisher.publish_pens(batch)
+                        batch = []
                 if stop.is_set():
                     break
+            if batch:
+                publisher.publish_pens(batch)
         else:
             run_paced(replay.open_drivers(speed), emit, stop)
         summary = replay.status()
