@@ -6,8 +6,8 @@ PYTHON  ?= python3
 PY      := $(VENV)/bin/python
 STATION := $(VENV)/bin/station
 # Mesa headless GL (EGL + llvmpipe), Xvfb for the interactive-calibration tests,
-# kernel headers for python-evdev's build.
-SYS_PKGS := libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libgles2 xvfb xauth linux-libc-dev \
+# kernel headers for python-evdev's build, libusb for pyusb.
+SYS_PKGS := libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libgles2 xvfb xauth linux-libc-dev libusb-1.0-0 \
             python3-venv
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
