@@ -1,6 +1,6 @@
 """``station bench sim``: simulation speed of the canvas backends (issue 3 §9).
 
-For each backend (``gl``, ``numpy``), canvas size and scenario it measures
+For each backend (``gl``, ``numpy``, ``cpu``), canvas size and scenario it measures
 steps per second and cell-steps per second:
 
 * ``wash``: the whole canvas wet (water and two pigments everywhere, a gentle
@@ -33,7 +33,9 @@ from station.errors import BadInput, StationError
 
 DEFAULT_SIZES = ("512x512", "800x600", "1024x1024", "2048x2048")
 SCENARIOS = ("wash", "stroke")
-BACKENDS = ("gl", "numpy")
+BACKENDS = ("gl", "numpy", "cpu")
+DEFAULT_BACKENDS = ("gl", "numpy")
+"""Measured without ``--backends`` (``cpu``, numba, is asked for by name)."""
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -100,7 +102,8 @@ class _Probe:
     GL: ``take_cells()`` (the GPU tile list's running count of simulated cells, read
     once per measurement) and ``sync()``; NumPy: ``cells_last_step()`` after every
     step.  Both report their own honest ``bytes_per_cell_step()`` (see
-    ``station/canvas/gl/traffic.py`` and ``numpy_backend.floats_per_cell_step``).
+    ``station/canvas/gl/traffic.py``, ``numpy_backend.floats_per_cell_step`` and
+    ``station/canvas/cpu/traffic.py``).  The ``cpu`` backend is stepped like NumPy.
     """
 
     def __init__(self, canvas: Any) -> None:
@@ -202,7 +205,7 @@ def measure(backend: str, width: int, height: int, scenario: str, seconds: float
         canvas.step()
         cells += probe.cells_after_step()
         steps += 1
-        if steps >= min_steps and (steps % 4 == 0 or backend == "numpy"):
+        if steps >= min_steps and (steps % 4 == 0 or not probe.is_gl):
             probe.sync()
             if time.perf_counter() - t0 >= seconds:
                 break
@@ -216,11 +219,12 @@ def measure(backend: str, width: int, height: int, scenario: str, seconds: float
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("sim", help="canvas simulation speed, both backends (JSON)")
+    p = sub.add_parser("sim", help="canvas simulation speed of the backends (JSON)")
     p.add_argument("--json", action="store_true", help="print JSON (the default output too)")
     p.add_argument("--sizes", default=",".join(DEFAULT_SIZES),
                    help="comma-separated WIDTHxHEIGHT list (default: %(default)s)")
-    p.add_argument("--backends", default=",".join(BACKENDS), help="gl,numpy or one of them")
+    p.add_argument("--backends", default=",".join(DEFAULT_BACKENDS),
+                   help="gl,numpy,cpu or some of them (default: %(default)s)")
     p.add_argument("--scenarios", default=",".join(SCENARIOS), help="wash,stroke or one")
     p.add_argument("--seconds", type=float, default=3.0,
                    help="measuring time per configuration (default %(default)s s)")
@@ -239,7 +243,7 @@ def run(args: argparse.Namespace) -> int:
     scenarios = [s for s in args.scenarios.split(",") if s]
     for b in backends:
         if b not in BACKENDS:
-            raise BadInput(f"unknown backend {b!r} (gl, numpy)", "--backends")
+            raise BadInput(f"unknown backend {b!r} (gl, numpy, cpu)", "--backends")
     for s in scenarios:
         if s not in SCENARIOS:
             raise BadInput(f"unknown scenario {s!r} (wash, stroke)", "--scenarios")
@@ -251,7 +255,7 @@ def run(args: argparse.Namespace) -> int:
             for scenario in scenarios:
                 try:
                     r = measure(backend, w, h, scenario, seconds)
-                except StationError as exc:
+                except (StationError, ImportError) as exc:
                     results.append({"backend": backend, "size": f"{w}x{h}",
                                     "scenario": scenario, "error": str(exc)})
                     continue

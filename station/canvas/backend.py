@@ -19,7 +19,20 @@ import numpy as np
 from station.canvas.params import CanvasInputError
 from station.canvas.state import CanvasState
 
-BACKENDS = ("numpy", "gl")
+BACKENDS = ("numpy", "gl", "cpu")
+
+
+def numba_available() -> bool:
+    """Whether the ``cpu`` backend can run (numba importable)."""
+    import importlib.util
+
+    return importlib.util.find_spec("numba") is not None
+
+
+def fastest_cpu_backend() -> str:
+    """The backend to use without a GPU: ``"cpu"`` (numba) when numba is installed,
+    else the ``"numpy"`` reference. ``create_backend("auto", ...)`` makes this one."""
+    return "cpu" if numba_available() else "numpy"
 
 
 @runtime_checkable
@@ -85,11 +98,22 @@ class CanvasBackend(Protocol):
 
 def create_backend(name: str, width: int, height: int, profile: str = "watercolor",
                    seed: int = 0, **opts: Any) -> CanvasBackend:
-    """Make a backend: ``"numpy"`` (reference) or ``"gl"`` (moderngl, imported lazily).
+    """Make a backend: ``"numpy"`` (reference), ``"gl"`` (moderngl, imported lazily),
+    ``"cpu"`` (the reference fused and compiled with numba, imported lazily) or
+    ``"auto"`` (:func:`fastest_cpu_backend`: ``cpu`` when numba is installed, else
+    ``numpy``; GL is only made when asked for by name).
 
     ``opts`` go to the backend (e.g. ``tiling=False``, ``n_slots=8``,
     ``params=SimParams(...)`` overriding the profile's parameters).
     """
+    if name == "auto":
+        name = fastest_cpu_backend()
+    if name == "cpu":
+        import importlib
+
+        cpu = importlib.import_module("station.canvas.cpu")  # lazy: numba only when asked
+        made: CanvasBackend = cpu.CpuCanvas(width, height, profile=profile, seed=seed, **opts)
+        return made
     if name == "numpy":
         from station.canvas.numpy_backend import NumpyCanvas
 

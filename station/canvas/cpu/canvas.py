@@ -14,6 +14,8 @@ from station.canvas.cpu import step as cpu_step
 from station.canvas.cpu import traffic
 from station.canvas.numpy_backend import NumpyCanvas
 
+_THREADS = int(getattr(numba.config, "NUMBA_NUM_THREADS", 1))
+
 
 class CpuCanvas(NumpyCanvas):
     """The three-layer model on the CPU: same passes and maths as the reference, fused
@@ -22,7 +24,7 @@ class CpuCanvas(NumpyCanvas):
     Same arguments as :class:`NumpyCanvas`.
     """
 
-    renderer = f"cpu (numba {numba.__version__}, {numba.config.NUMBA_NUM_THREADS} threads)"
+    renderer = f"cpu (numba {numba.__version__}, {_THREADS} threads)"
 
     def _scratch(self) -> cpu_step.Scratch:
         st = self._state

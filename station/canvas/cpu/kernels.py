@@ -71,11 +71,15 @@ C_FADE = 22       # block_fade
 C_BPAPER = 23     # block_paper
 N_CONST = 24
 
-_OPTS = {"parallel": True, "fastmath": False, "cache": True, "error_model": "numpy"}
-_SERIAL = {"fastmath": False, "cache": True, "error_model": "numpy"}
+# the sweeps: rows in parallel; IEEE float32 maths exactly as written (no fastmath, no FMA
+# contraction), numpy's error model (division without ZeroDivision checks: every division
+# is guarded like the reference's), compiled once and cached on disk
+_parallel = njit(parallel=True, fastmath=False, cache=True, error_model="numpy")
+_serial = njit(fastmath=False, cache=True, error_model="numpy")
+_inline = njit(inline="always", fastmath=False, cache=True, error_model="numpy")
 
 
-@njit(**_SERIAL)  # type: ignore[misc]
+@_serial
 def zero_ring(a: np.ndarray, bh: int, bw: int) -> None:
     """Zero the one-cell ring around the box window ``[1..bh] x [1..bw]`` of ``a``."""
     for i in range(bw + 2):
@@ -86,7 +90,7 @@ def zero_ring(a: np.ndarray, bh: int, bw: int) -> None:
         a[j, bw + 1] = ZERO
 
 
-@njit(**_SERIAL)  # type: ignore[misc]
+@_serial
 def zero_ring3(a: np.ndarray, ns: int, bh: int, bw: int) -> None:
     """:func:`zero_ring` for each of the first ``ns`` slots of a (S, H+2, W+2) array."""
     for k in range(ns):
@@ -99,7 +103,7 @@ def zero_ring3(a: np.ndarray, ns: int, bh: int, bw: int) -> None:
 
 
 # ------------------------------------------------------------------ prep
-@njit(**_OPTS)  # type: ignore[misc]
+@_parallel
 def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np.ndarray,
          p: np.ndarray, h: np.ndarray, block: np.ndarray, block_time: np.ndarray,
          y0: int, x0: int, bh: int, bw: int, ns: int, cst: np.ndarray,
@@ -143,7 +147,7 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
 
 
 # ------------------------------------------------------------------ pass 1 + Jacobi 1
-@njit(**_OPTS)  # type: ignore[misc]
+@_parallel
 def advect_jacobi1(wet: np.ndarray, vsx: np.ndarray, vsy: np.ndarray, bc: np.ndarray,
                    w0: np.ndarray, p0: np.ndarray, bh: int, bw: int, ns: int,
                    cst: np.ndarray, do_w: bool, do_p: bool,
@@ -201,7 +205,7 @@ def advect_jacobi1(wet: np.ndarray, vsx: np.ndarray, vsy: np.ndarray, bc: np.nda
             _jacobi_p_row(wet, bc, p0, p0, xp_o, j, bw, ns, kp)
 
 
-@njit(inline="always", **_SERIAL)  # type: ignore[misc]
+@_inline
 def _jacobi_v_row(wet: np.ndarray, ux: np.ndarray, uy: np.ndarray, xx: np.ndarray,
                   xy: np.ndarray, ox: np.ndarray, oy: np.ndarray, j: int, bw: int,
                   k: np.float32) -> None:
@@ -220,7 +224,7 @@ def _jacobi_v_row(wet: np.ndarray, ux: np.ndarray, uy: np.ndarray, xx: np.ndarra
         oy[j, i] = (uy[j, i] + k * sy) / den
 
 
-@njit(inline="always", **_SERIAL)  # type: ignore[misc]
+@_inline
 def _jacobi_w_row(wet: np.ndarray, u: np.ndarray, xin: np.ndarray, xout: np.ndarray,
                   j: int, bw: int, k: np.float32) -> None:
     """One Jacobi iteration of the water solve (pass 4) on row j."""
@@ -237,7 +241,7 @@ def _jacobi_w_row(wet: np.ndarray, u: np.ndarray, xin: np.ndarray, xout: np.ndar
         xout[j, i] = (acc * k + u[j, i]) / den
 
 
-@njit(inline="always", **_SERIAL)  # type: ignore[misc]
+@_inline
 def _jacobi_p_row(wet: np.ndarray, bc: np.ndarray, u: np.ndarray, xin: np.ndarray,
                   xout: np.ndarray, j: int, bw: int, ns: int, k: np.float32) -> None:
     """One Jacobi iteration of the pigment solve (pass 5, controller conductances)."""
@@ -262,7 +266,7 @@ def _jacobi_p_row(wet: np.ndarray, bc: np.ndarray, u: np.ndarray, xin: np.ndarra
 
 
 # ------------------------------------------------------------------ Jacobi sweeps
-@njit(**_OPTS)  # type: ignore[misc]
+@_parallel
 def jacobi(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: np.ndarray,
            xvx: np.ndarray, xvy: np.ndarray, ovx: np.ndarray, ovy: np.ndarray,
            w0: np.ndarray, xw: np.ndarray, ow: np.ndarray,
@@ -283,7 +287,7 @@ def jacobi(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: np.ndarray,
 
 
 # ------------------------------------------------------------------ pass 3 + limiters
-@njit(inline="always", **_SERIAL)  # type: ignore[misc]
+@_inline
 def _limiter_row(wet: np.ndarray, b_e: np.ndarray, b_s: np.ndarray, u: np.ndarray,
                  x: np.ndarray, s_o: np.ndarray, j: int, bw: int, k: np.float32) -> None:
     """Donor limiter of the conservative implicit diffusion (water: b = open flags)."""
@@ -298,7 +302,7 @@ def _limiter_row(wet: np.ndarray, b_e: np.ndarray, b_s: np.ndarray, u: np.ndarra
         s_o[j, i] = uv / out if out > uv else ONE
 
 
-@njit(**_OPTS)  # type: ignore[misc]
+@_parallel
 def height_limit(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: np.ndarray,
                  xvx: np.ndarray, xvy: np.ndarray, w0: np.ndarray, xw: np.ndarray,
                  p0: np.ndarray, xp: np.ndarray, bh: int, bw: int, ns: int,
@@ -393,7 +397,7 @@ def height_limit(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: np.ndarr
 
 
 # ------------------------------------------------------------------ passes 4/5 apply
-@njit(**_OPTS)  # type: ignore[misc]
+@_parallel
 def diffuse_apply(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xw: np.ndarray,
                   sw: np.ndarray, p0: np.ndarray, xp: np.ndarray, sp: np.ndarray,
                   bh: int, bw: int, ns: int, cst: np.ndarray, do_w: bool, do_p: bool,
@@ -453,7 +457,7 @@ def diffuse_apply(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xw: np.ndarra
 
 
 # ------------------------------------------------------------------ pass 6
-@njit(inline="always", **_SERIAL)  # type: ignore[misc]
+@_inline
 def _face_x(vx: np.ndarray, wet: np.ndarray, j: int, i: int,
             q4: np.float32) -> tuple[np.float32, np.float32]:
     """(rxp, rxn) of the x face between (j, i) and (j, i + 1)."""
@@ -463,7 +467,7 @@ def _face_x(vx: np.ndarray, wet: np.ndarray, j: int, i: int,
     return rp, r - rp
 
 
-@njit(inline="always", **_SERIAL)  # type: ignore[misc]
+@_inline
 def _face_y(vy: np.ndarray, wet: np.ndarray, j: int, i: int,
             q4: np.float32) -> tuple[np.float32, np.float32]:
     """(ryp, ryn) of the y face between (j, i) and (j + 1, i)."""
@@ -473,7 +477,7 @@ def _face_y(vy: np.ndarray, wet: np.ndarray, j: int, i: int,
     return rp, r - rp
 
 
-@njit(**_OPTS)  # type: ignore[misc]
+@_parallel
 def advect_limit(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
                  p: np.ndarray, bh: int, bw: int, ns: int, cst: np.ndarray,
                  sout_o: np.ndarray, sin_o: np.ndarray) -> None:
@@ -510,7 +514,7 @@ def advect_limit(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
             sin_o[j, i] = s_in if s_in < ONE else ONE
 
 
-@njit(**_OPTS)  # type: ignore[misc]
+@_parallel
 def advect_apply(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, sout: np.ndarray,
                  sin: np.ndarray, w: np.ndarray, p: np.ndarray, y0: int, x0: int,
                  bh: int, bw: int, ns: int, cst: np.ndarray, do_adv: bool,
@@ -557,7 +561,7 @@ def advect_apply(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, sout: np.ndarr
 
 
 # ------------------------------------------------------------------ passes 7, 8, 9a
-@njit(**_OPTS)  # type: ignore[misc]
+@_parallel
 def evap_surface_absorb(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.ndarray,
                         h: np.ndarray, wc: np.ndarray, evap: np.ndarray, w_state: np.ndarray,
                         p: np.ndarray, q: np.ndarray, beta: np.ndarray, gamma: np.ndarray,
@@ -626,7 +630,7 @@ def evap_surface_absorb(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.
 
 
 # ------------------------------------------------------------------ passes 9b, 9c, 10
-@njit(**_OPTS)  # type: ignore[misc]
+@_parallel
 def capillary_dry(sat: np.ndarray, c: np.ndarray, opn: np.ndarray, v3x: np.ndarray,
                   v3y: np.ndarray, w: np.ndarray, wc: np.ndarray, evap: np.ndarray,
                   p: np.ndarray, q: np.ndarray, vx: np.ndarray, vy: np.ndarray,

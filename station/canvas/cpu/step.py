@@ -62,7 +62,7 @@ class Scratch:
         self.height, self.width, self.slots = height, width, slots
         shape = (height + 2, width + 2)
         self.a2 = {name: np.zeros(shape, F32) for name in _FIELDS_2D}
-        self.a3 = {name: np.zeros((slots,) + shape, F32) for name in _FIELDS_3D}
+        self.a3 = {name: np.zeros((slots, *shape), F32) for name in _FIELDS_3D}
         self._ring: tuple[int, int] | None = None
 
     def fits(self, height: int, width: int, slots: int) -> bool:
@@ -72,10 +72,10 @@ class Scratch:
         """Zero the ring around the ``bh x bw`` window (only when the window changes)."""
         if self._ring == (bh, bw):
             return
-        for a in self.a2.values():
-            K.zero_ring(a, bh, bw)
-        for a in self.a3.values():
-            K.zero_ring3(a, self.slots, bh, bw)
+        for a2 in self.a2.values():
+            K.zero_ring(a2, bh, bw)
+        for a3 in self.a3.values():
+            K.zero_ring3(a3, self.slots, bh, bw)
         self._ring = (bh, bw)
 
 

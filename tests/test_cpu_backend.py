@@ -1,0 +1,217 @@
+"""The ``cpu`` backend (numba) against the NumPy reference: pass by pass, over strokes,
+tiles on/off, save/load, bookkeeping, factory and benchmark hooks.
+
+Tolerance: every field within ``TOL = 1e-5`` x its scale (``max(1, max |field|)``) of the
+reference. The kernels do the reference's float32 operations in the reference's order,
+so in practice the results are bitwise equal; ``test_multi_step_stroke_is_bitwise_equal``
+pins that down for a long stroke.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from typing import Any
+
+import numpy as np
+import pytest
+
+pytest.importorskip("numba", reason="numba is not installed: the cpu backend needs it")
+
+from station.canvas import reference as ref
+from station.canvas.backend import create_backend, fastest_cpu_backend
+from station.canvas.cpu import CpuCanvas, traffic
+from station.canvas.cpu import step as cpu_step
+from station.canvas.numpy_backend import NumpyCanvas
+from station.canvas.params import SimParams, get_profile
+from station.canvas.state import CanvasState
+
+TOL = 1e-5
+FIELDS = ("w", "wc", "vx", "vy", "p", "q", "evaporated")
+PIGMENTS = ("French Ultramarine", "Burnt Umber", "Quinacridone Rose")
+
+
+def _max_rel_err(a: CanvasState, b: CanvasState) -> dict[str, float]:
+    """Per field: max |a - b| / max(1, max |a|)."""
+    out = {}
+    for f in FIELDS:
+        x, y = getattr(a, f), getattr(b, f)
+        scale = max(1.0, float(np.abs(x).max()))
+        out[f] = float(np.abs(x.astype(np.float64) - y).max()) / scale
+    return out
+
+
+def _random_canvas(cls: type[NumpyCanvas], seed: int, h: int = 40, w: int = 52,
+                   profile: str = "watercolor", tiling: bool = False,
+                   params: SimParams | None = None) -> NumpyCanvas:
+    """A plausible mid-painting state: a wet stroke with a dry island, moist capillary
+    cells, masked cells, a brush-written blocking pattern, three pigments, deposits."""
+    rng = np.random.default_rng(seed)
+    c = cls(w, h, profile=profile, seed=seed, tiling=tiling, params=params)
+    fp = np.zeros((h, w), np.float32)
+    fp[5:31, 6:41] = 1
+    fp[12:17, 15:21] = 0
+    dp = {name: fp * rng.uniform(0, 0.5, (h, w)).astype(np.float32) for name in PIGMENTS}
+    c.add_sources(dw=fp * rng.uniform(0.05, 1.2, (h, w)).astype(np.float32), dp=dp,
+                  dvx=fp * rng.uniform(-25, 25, (h, w)).astype(np.float32),
+                  dvy=fp * rng.uniform(-25, 25, (h, w)).astype(np.float32))
+    st = c.live_state
+    st.wc[...] = (rng.uniform(0, 1, (h, w)) * st.capacity()).astype(np.float32) * (fp > 0)
+    st.wc[20:24, 42:48] = 0.9 * st.capacity()[20:24, 42:48]  # moist cells outside the stroke
+    st.q[:3] = (0.3 * fp * rng.uniform(0, 1, (3, h, w))).astype(np.float32)
+    st.block[8:20, 8:30] = rng.uniform(0, 1, (12, 22)).astype(np.float32)
+    st.block_time[8:20, 8:30] = np.float32(0.0)
+    st.sim_time = 0.7
+    st.mask[25:29, 30:36] = 1
+    st.w[25:29, 30:36] = 0
+    st.w[3, 3] = np.float32(4e-6)  # a tiny height that dries at once
+    return c
+
+
+@pytest.mark.parametrize("stop_after", ref.PASS_ORDER)
+def test_each_pass_matches_the_reference(stop_after: str) -> None:
+    a = _random_canvas(NumpyCanvas, 11)
+    b = _random_canvas(CpuCanvas, 11)
+    sa, sb = a.live_state, b.live_state
+    box = (slice(0, sa.height), slice(0, sa.width))
+    ref.step_region(sa, box, sa.params.dt, stop_after=stop_after)
+    assert isinstance(b, CpuCanvas)
+    cpu_step.step_region(sb, box, sb.params.dt, b._scratch(), stop_after=stop_after)
+    err = _max_rel_err(sa, sb)
+    assert max(err.values()) <= TOL, (stop_after, err)
+    # the pass did something to the fields it owns (the comparison is not vacuous)
+    fresh = _random_canvas(NumpyCanvas, 11).live_state
+    changed = {f for f in FIELDS if not np.array_equal(getattr(fresh, f), getattr(sa, f))}
+    assert changed, stop_after
+
+
+@pytest.mark.parametrize("profile", ["watercolor", "ink", "gouache"])
+def test_multi_step_stroke_matches_on_every_profile(profile: str) -> None:
+    a = _random_canvas(NumpyCanvas, 5, profile=profile, tiling=True)
+    b = _random_canvas(CpuCanvas, 5, profile=profile, tiling=True)
+    fp = np.zeros((6, 6), np.float32) + 1
+    for k in range(40):
+        for c in (a, b):  # the brush keeps painting while the stroke flows
+            c.add_sources(dw=0.2 * fp, dp={PIGMENTS[k % 2]: 0.05 * fp}, dvx=10 * fp,
+                          y0=8 + k // 4, x0=4 + k)
+            c.step()
+        assert a.cells_last_step() == b.cells_last_step()
+    err = _max_rel_err(a.live_state, b.live_state)
+    assert max(err.values()) <= TOL, err
+    assert np.array_equal(a.live_state.tile_ttl, b.live_state.tile_ttl)
+
+
+def test_multi_step_stroke_is_bitwise_equal() -> None:
+    a = _random_canvas(NumpyCanvas, 8)
+    b = _random_canvas(CpuCanvas, 8)
+    for _ in range(60):
+        a.step()
+        b.step()
+    for f in FIELDS:
+        assert np.array_equal(getattr(a.live_state, f), getattr(b.live_state, f)), f
+    assert a.live_state.w.sum() > 0  # still wet: the flow was exercised to the end
+
+
+@pytest.mark.parametrize("change", [{"jacobi_iters": 1}, {"jacobi_iters": 3},
+                                    {"nu_w": 0.0, "viscosity": 0.0},
+                                    {"nu_p": 0.0, "cap_diffusion": 0.0, "block_fade": 0.0}])
+def test_parameter_variants_match(change: dict[str, Any]) -> None:
+    prm = dataclasses.replace(get_profile("watercolor").params, **change)
+    a = _random_canvas(NumpyCanvas, 3, params=prm)
+    b = _random_canvas(CpuCanvas, 3, params=prm)
+    for _ in range(12):
+        a.step()
+        b.step()
+    err = _max_rel_err(a.live_state, b.live_state)
+    assert max(err.values()) <= TOL, (change, err)
+
+
+def test_tiles_on_and_off_give_the_same_painting() -> None:
+    on = CpuCanvas(96, 80, seed=2, tiling=True)
+    off = CpuCanvas(96, 80, seed=2, tiling=False)
+    fp = np.ones((7, 7), np.float32)
+    for k in range(50):
+        for c in (on, off):
+            if k < 25:
+                c.add_sources(dw=0.4 * fp, dp={PIGMENTS[0]: 0.04 * fp}, dvx=15 * fp,
+                              y0=20 + k // 3, x0=5 + 2 * k)
+            c.step()
+    assert on.cells_last_step() < 96 * 80  # tiles really skipped cells
+    err = _max_rel_err(off.live_state, on.live_state)
+    assert max(err.values()) <= TOL, err
+    assert on.live_state.q.sum() > 0
+
+
+def test_save_load_continues_exactly(tmp_path) -> None:
+    a = _random_canvas(CpuCanvas, 4, tiling=True)
+    for _ in range(10):
+        a.step()
+    path = tmp_path / "canvas.npz"
+    a.save(str(path))
+    b = CpuCanvas(8, 8)
+    b.load(str(path))
+    for _ in range(15):
+        a.step()
+        b.step()
+    for f in (*FIELDS, "tile_ttl"):
+        assert np.array_equal(getattr(a.live_state, f), getattr(b.live_state, f)), f
+    # and a cpu save continues identically on the reference
+    n = NumpyCanvas(8, 8)
+    n.load(str(path))
+    c = CpuCanvas(8, 8)
+    c.load(str(path))
+    for _ in range(5):
+        n.step()
+        c.step()
+    assert max(_max_rel_err(n.live_state, c.live_state).values()) <= TOL
+
+
+def test_bookkeeping_closes() -> None:
+    c = CpuCanvas(64, 48, seed=6)
+    fp = np.ones((9, 9), np.float32)
+    for k in range(120):
+        if k < 40:
+            c.add_sources(dw=0.5 * fp, dp={PIGMENTS[k % 3]: 0.05 * fp}, dvx=20 * fp,
+                          y0=10 + k // 4, x0=2 + k)
+        c.step()
+        if k == 70:
+            c.new_layer()
+    bal = c.stats()["balance"]
+    assert bal["water_rel_error"] < 1e-3 and bal["pigment_rel_error"] < 1e-3, bal
+    assert c.live_state.evaporated.sum() + c.live_state.evaporated_folded > 0
+
+
+def test_operations_render_and_factory() -> None:
+    c = create_backend("cpu", 40, 30, "watercolor", 1)
+    assert isinstance(c, CpuCanvas) and c.renderer.startswith("cpu")
+    assert fastest_cpu_backend() == "cpu"
+    assert isinstance(create_backend("auto", 40, 30), CpuCanvas)
+    n = create_backend("numpy", 40, 30, "watercolor", 1)
+    fp = np.ones((10, 10), np.float32)
+    for x in (c, n):
+        x.add_sources(dw=0.5 * fp, dp={PIGMENTS[1]: 0.1 * fp}, y0=5, x0=5)
+        for _ in range(5):
+            x.step()
+        x.dry()
+    assert np.array_equal(c.render(), n.render())
+    assert c.live_state.w.sum() == 0 and c.live_state.q.sum() > 0
+    c.clear()
+    assert c.live_state.q.sum() == 0
+    # honest traffic: the per-sweep count, one float = 4 bytes
+    slots = max(len(c.live_state.slots), 1)
+    assert c.bytes_per_cell_step() == 4 * sum(traffic.floats_per_cell_step(slots, 4).values())
+    assert traffic.bytes_per_cell_step(2, 4) == 656
+
+
+def test_bench_sim_measures_the_cpu_backend(capsys) -> None:
+    from station.cli import main
+
+    rc = main(["bench", "sim", "--json", "--backends", "cpu", "--sizes", "64x48",
+               "--seconds", "0.05"])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    got = {(r["backend"], r["scenario"]) for r in out["results"]}
+    assert got == {("cpu", "wash"), ("cpu", "stroke")}
+    for r in out["results"]:
+        assert r["steps_per_s"] > 0 and r["bytes_per_cell_step"] > 0
+        assert r["renderer"].startswith("cpu")
