@@ -477,6 +477,35 @@ def _face_y(vy: np.ndarray, wet: np.ndarray, j: int, i: int,
     return rp, r - rp
 
 
+@_inline
+def _chunk(ch: int, nch: int, bh: int) -> tuple[int, int]:
+    """Rows ``[j0, j1)`` of chunk ``ch`` of ``nch`` (rows 1..bh)."""
+    return 1 + (ch * bh) // nch, 1 + ((ch + 1) * bh) // nch
+
+
+@_inline
+def _row_rates(vx: np.ndarray, vy: np.ndarray, wet: np.ndarray, j: int, bw: int,
+               q4: np.float32, buf: np.ndarray) -> None:
+    """Face rates of row j into ``buf``: rows 0/1 x faces (i, i+1) for i = 0..bw
+    (positive, negative direction), rows 2/3 the y faces (j, j+1), rows 4/5 the y faces
+    (j-1, j), each for columns 1..bw."""
+    for i in range(0, bw + 1):
+        rp, rn = _face_x(vx, wet, j, i, q4)
+        buf[0, i] = rp
+        buf[1, i] = rn
+    for i in range(1, bw + 1):
+        rp, rn = _face_y(vy, wet, j, i, q4)
+        buf[2, i] = rp
+        buf[3, i] = rn
+        rp, rn = _face_y(vy, wet, j - 1, i, q4)
+        buf[4, i] = rp
+        buf[5, i] = rn
+
+
+N_CHUNKS = 64
+"""Row chunks per parallel sweep that needs row buffers (one allocation per chunk)."""
+
+
 @_parallel
 def advect_limit(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
                  p: np.ndarray, bh: int, bw: int, ns: int, cst: np.ndarray,
@@ -486,32 +515,40 @@ def advect_limit(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
     q4 = cst[C_Q4]
     wmin = cst[C_WMIN]
     wmax = cst[C_WMAX]
-    for j in prange(1, bh + 1):
-        for i in range(1, bw + 1):
-            exp_, exn = _face_x(vx, wet, j, i, q4)
-            wxp, wxn = _face_x(vx, wet, j, i - 1, q4)
-            syp, syn = _face_y(vy, wet, j, i, q4)
-            nyp, nyn = _face_y(vy, wet, j - 1, i, q4)
-            r_out = ((exp_ + wxn) + syp) + nyn
-            wv = w[j, i]
-            lo = wv if wv < wmin else wmin
-            want = wv * r_out
-            room = wv - lo
-            sout_o[j, i] = room / want if want > room else ONE
-            i_w = ((w[j, i - 1] * wxp + w[j, i + 1] * exn) + w[j - 1, i] * nyp) \
-                + w[j + 1, i] * syn
-            hi = wv if wv > wmax else wmax
-            room_w = hi - wv
-            room_w = room_w if room_w > ZERO else ZERO
-            s_in = room_w / i_w if i_w > room_w else ONE
+    nch = min(bh, N_CHUNKS)
+    for ch in prange(nch):
+        j0, j1 = _chunk(ch, nch, bh)
+        buf = np.empty((6, bw + 2), F32)
+        for j in range(j0, j1):
+            _row_rates(vx, vy, wet, j, bw, q4, buf)
+            rxp, rxn, syp, syn, nyp, nyn = buf[0], buf[1], buf[2], buf[3], buf[4], buf[5]
+            for i in range(1, bw + 1):
+                # r_out: E face (own), W face, S face (own), N face
+                r_out = ((rxp[i] + rxn[i - 1]) + syp[i]) + nyn[i]
+                wv = w[j, i]
+                lo = wv if wv < wmin else wmin
+                want = wv * r_out
+                room = wv - lo
+                sout_o[j, i] = room / want if want > room else ONE
+                # inflows: from W, E, N, S donors (the reference's order)
+                i_w = ((w[j, i - 1] * rxp[i - 1] + w[j, i + 1] * rxn[i]) + w[j - 1, i] * nyp[i]) \
+                    + w[j + 1, i] * syn[i]
+                hi = wv if wv > wmax else wmax
+                room_w = hi - wv
+                room_w = room_w if room_w > ZERO else ZERO
+                sin_o[j, i] = room_w / i_w if i_w > room_w else ONE
             for kk in range(ns):
-                i_p = ((p[kk, j, i - 1] * wxp + p[kk, j, i + 1] * exn) + p[kk, j - 1, i] * nyp) \
-                    + p[kk, j + 1, i] * syn
-                room_p = ONE - p[kk, j, i]
-                room_p = room_p if room_p > ZERO else ZERO
-                sk = room_p / i_p if i_p > room_p else ONE
-                s_in = s_in if s_in < sk else sk
-            sin_o[j, i] = s_in if s_in < ONE else ONE
+                for i in range(1, bw + 1):
+                    i_p = ((p[kk, j, i - 1] * rxp[i - 1] + p[kk, j, i + 1] * rxn[i])
+                           + p[kk, j - 1, i] * nyp[i]) + p[kk, j + 1, i] * syn[i]
+                    room_p = ONE - p[kk, j, i]
+                    room_p = room_p if room_p > ZERO else ZERO
+                    sk = room_p / i_p if i_p > room_p else ONE
+                    s = sin_o[j, i]
+                    sin_o[j, i] = s if s < sk else sk
+            for i in range(1, bw + 1):
+                s = sin_o[j, i]
+                sin_o[j, i] = s if s < ONE else ONE
 
 
 @_parallel
@@ -522,42 +559,47 @@ def advect_apply(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, sout: np.ndarr
     """Pass 6 fluxes ``w_donor r'`` and ``p_donor r'``, ``r' = (r s_out[donor]) s_in[recv]``;
     water into the padded ``w3_o``, pigment straight into the state (own cell only)."""
     q4 = cst[C_Q4]
-    for j in prange(1, bh + 1):
-        y = y0 + j - 1
-        if not do_adv:
+    nch = min(bh, N_CHUNKS)
+    for ch in prange(nch):
+        j0, j1 = _chunk(ch, nch, bh)
+        buf = np.empty((6, bw + 2), F32)
+        a = np.empty((6, bw + 2), F32)
+        for j in range(j0, j1):
+            y = y0 + j - 1
+            if not do_adv:
+                for i in range(1, bw + 1):
+                    w3_o[j, i] = w[j, i]
+                for kk in range(ns):
+                    for i in range(1, bw + 1):
+                        p_state[kk, y, x0 + i - 1] = p[kk, j, i]
+                continue
+            _row_rates(vx, vy, wet, j, bw, q4, buf)
+            # limited rates r' of the x faces (i, i+1), i = 0..bw, and of the y faces
+            # (j, j+1) and (j-1, j): (r * s_out[donor]) * s_in[receiver]
+            for i in range(0, bw + 1):
+                a[0, i] = (buf[0, i] * sout[j, i]) * sin[j, i + 1]
+                a[1, i] = (buf[1, i] * sout[j, i + 1]) * sin[j, i]
             for i in range(1, bw + 1):
-                w3_o[j, i] = w[j, i]
+                a[2, i] = (buf[2, i] * sout[j, i]) * sin[j + 1, i]
+                a[3, i] = (buf[3, i] * sout[j + 1, i]) * sin[j, i]
+                a[4, i] = (buf[4, i] * sout[j - 1, i]) * sin[j, i]
+                a[5, i] = (buf[5, i] * sout[j, i]) * sin[j - 1, i]
+            axp, axn, asp, asn, anp, ann = a[0], a[1], a[2], a[3], a[4], a[5]
+            for i in range(1, bw + 1):
+                wv = w[j, i]
+                fe = wv * axp[i] - w[j, i + 1] * axn[i]
+                fw = w[j, i - 1] * axp[i - 1] - wv * axn[i - 1]
+                fs = wv * asp[i] - w[j + 1, i] * asn[i]
+                fn = w[j - 1, i] * anp[i] - wv * ann[i]
+                w3_o[j, i] = (((wv - fe) + fw) - fs) + fn
             for kk in range(ns):
                 for i in range(1, bw + 1):
-                    p_state[kk, y, x0 + i - 1] = p[kk, j, i]
-            continue
-        for i in range(1, bw + 1):
-            exp_, exn = _face_x(vx, wet, j, i, q4)
-            wxp, wxn = _face_x(vx, wet, j, i - 1, q4)
-            syp, syn = _face_y(vy, wet, j, i, q4)
-            nyp, nyn = _face_y(vy, wet, j - 1, i, q4)
-            so, si = sout[j, i], sin[j, i]
-            ae_p = (exp_ * so) * sin[j, i + 1]
-            ae_n = (exn * sout[j, i + 1]) * si
-            aw_p = (wxp * sout[j, i - 1]) * si
-            aw_n = (wxn * so) * sin[j, i - 1]
-            as_p = (syp * so) * sin[j + 1, i]
-            as_n = (syn * sout[j + 1, i]) * si
-            an_p = (nyp * sout[j - 1, i]) * si
-            an_n = (nyn * so) * sin[j - 1, i]
-            wv = w[j, i]
-            fe = wv * ae_p - w[j, i + 1] * ae_n
-            fw = w[j, i - 1] * aw_p - wv * aw_n
-            fs = wv * as_p - w[j + 1, i] * as_n
-            fn = w[j - 1, i] * an_p - wv * an_n
-            w3_o[j, i] = (((wv - fe) + fw) - fs) + fn
-            for kk in range(ns):
-                pv = p[kk, j, i]
-                fe = pv * ae_p - p[kk, j, i + 1] * ae_n
-                fw = p[kk, j, i - 1] * aw_p - pv * aw_n
-                fs = pv * as_p - p[kk, j + 1, i] * as_n
-                fn = p[kk, j - 1, i] * an_p - pv * an_n
-                p_state[kk, y, x0 + i - 1] = (((pv - fe) + fw) - fs) + fn
+                    pv = p[kk, j, i]
+                    fe = pv * axp[i] - p[kk, j, i + 1] * axn[i]
+                    fw = p[kk, j, i - 1] * axp[i - 1] - pv * axn[i - 1]
+                    fs = pv * asp[i] - p[kk, j + 1, i] * asn[i]
+                    fn = p[kk, j - 1, i] * anp[i] - pv * ann[i]
+                    p_state[kk, y, x0 + i - 1] = (((pv - fe) + fw) - fs) + fn
 
 
 # ------------------------------------------------------------------ passes 7, 8, 9a
@@ -575,58 +617,71 @@ def evap_surface_absorb(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.
     wmax = cst[C_WMAX]
     rate = cst[C_RATE]
     alpha = cst[C_ALPHA]
-    for j in prange(1, bh + 1):
-        y = y0 + j - 1
-        for i in range(1, bw + 1):
-            x = x0 + i - 1
-            wv = w3[j, i]
-            if do_evap and wv > ZERO:
-                nd = ZERO
-                if not w3[j, i + 1] > ZERO:
-                    nd += ONE
-                if not w3[j, i - 1] > ZERO:
-                    nd += ONE
-                if not w3[j + 1, i] > ZERO:
-                    nd += ONE
-                if not w3[j - 1, i] > ZERO:
-                    nd += ONE
-                loss = e + ((edge * nd) * wv) * e
-                loss = loss if loss < wv else wv
-                wv = wv - loss
-                evap[y, x] = evap[y, x] + loss
-            if do_surface and wet[j, i] != ZERO:
-                hv = h[y, x]
+    nch = min(bh, N_CHUNKS)
+    for ch in prange(nch):
+        j0, j1 = _chunk(ch, nch, bh)
+        buf = np.empty((2, bw + 2), F32)
+        wrow, frow = buf[0], buf[1]
+        for j in range(j0, j1):
+            y = y0 + j - 1
+            # pass 7: n = 4-neighbours without fluid water (the ring counts as dry)
+            for i in range(1, bw + 1):
+                x = x0 + i - 1
+                wv = w3[j, i]
+                if do_evap:
+                    nd = (((ZERO if w3[j, i + 1] > ZERO else ONE)
+                           + (ZERO if w3[j, i - 1] > ZERO else ONE))
+                          + (ZERO if w3[j + 1, i] > ZERO else ONE)) \
+                        + (ZERO if w3[j - 1, i] > ZERO else ONE)
+                    loss = e + ((edge * nd) * wv) * e
+                    loss = loss if loss < wv else wv
+                    loss = loss if wv > ZERO else ZERO
+                    wv = wv - loss
+                    evap[y, x] = evap[y, x] + loss
+                wrow[i] = wv
                 f = wv / wmax
                 f = f if f > ZERO else ZERO
-                f = f if f < ONE else ONE
+                frow[i] = f if f < ONE else ONE
+            # pass 8, slot by slot (wet cells only)
+            if do_surface:
                 for kk in range(ns):
-                    pv = p[kk, y, x]
-                    qv = q[kk, y, x]
                     g = gamma[kk]
                     d = delta[kk]
-                    down = (((rate * pv) * (ONE - f)) * (ONE - hv * g)) * d
-                    up = (((rate * qv) * f) * (ONE - (ONE - hv) * g)) * (d / beta[kk])
-                    down = down if down < pv else pv
-                    t = ONE - qv
-                    down = down if down < t else t
-                    up = up if up < qv else qv
-                    t = ONE - pv
-                    up = up if up < t else t
-                    net = down - up
-                    p[kk, y, x] = pv - net
-                    q[kk, y, x] = qv + net
-            wcv = wc[y, x]
-            cv = c[j, i]
-            if do_absorb and wv > ZERO and opn[j, i] != ZERO:
-                d = alpha if alpha < wv else wv
-                room = cv - wcv
-                room = room if room > ZERO else ZERO
-                d = d if d < room else room
-                wv = wv - d
-                wcv = wcv + d
-            w_state[y, x] = wv
-            wc[y, x] = wcv
-            sat_o[j, i] = wcv / cv
+                    db = d / beta[kk]
+                    for i in range(1, bw + 1):
+                        x = x0 + i - 1
+                        hv = h[y, x]
+                        f = frow[i]
+                        pv = p[kk, y, x]
+                        qv = q[kk, y, x]
+                        down = (((rate * pv) * (ONE - f)) * (ONE - hv * g)) * d
+                        up = (((rate * qv) * f) * (ONE - (ONE - hv) * g)) * db
+                        down = down if down < pv else pv
+                        t = ONE - qv
+                        down = down if down < t else t
+                        up = up if up < qv else qv
+                        t = ONE - pv
+                        up = up if up < t else t
+                        net = (down - up) if wet[j, i] != ZERO else ZERO
+                        p[kk, y, x] = pv - net
+                        q[kk, y, x] = qv + net
+            # pass 9a: absorption where there is fluid water and the cell is open
+            for i in range(1, bw + 1):
+                x = x0 + i - 1
+                wv = wrow[i]
+                wcv = wc[y, x]
+                cv = c[j, i]
+                if do_absorb:
+                    d = alpha if alpha < wv else wv
+                    room = cv - wcv
+                    room = room if room > ZERO else ZERO
+                    d = d if d < room else room
+                    d = d if (wv > ZERO and opn[j, i] != ZERO) else ZERO
+                    wv = wv - d
+                    wcv = wcv + d
+                w_state[y, x] = wv
+                wc[y, x] = wcv
+                sat_o[j, i] = wcv / cv
 
 
 # ------------------------------------------------------------------ passes 9b, 9c, 10
@@ -641,58 +696,61 @@ def capillary_dry(sat: np.ndarray, c: np.ndarray, opn: np.ndarray, v3x: np.ndarr
     k = cst[C_KC]
     ecap = cst[C_ECAP]
     wdry = cst[C_WDRY]
-    for j in prange(1, bh + 1):
-        y = y0 + j - 1
-        n_dry = 0
-        for i in range(1, bw + 1):
-            x = x0 + i - 1
-            wcv = wc[y, x]
+    nch = min(bh, N_CHUNKS)
+    for ch in prange(nch):
+        j0, j1 = _chunk(ch, nch, bh)
+        wcrow = np.empty(bw + 2, F32)
+        for j in range(j0, j1):
+            y = y0 + j - 1
             if do_capdiff:
-                o0 = opn[j, i]
-                c0 = c[j, i]
-                s0 = sat[j, i]
-                t = c[j, i + 1]
-                fe = ((k * (c0 if c0 < t else t)) * (s0 - sat[j, i + 1])) \
-                    if o0 * opn[j, i + 1] != ZERO else ZERO
-                t = c[j, i - 1]
-                fw = ((k * (t if t < c0 else c0)) * (sat[j, i - 1] - s0)) \
-                    if opn[j, i - 1] * o0 != ZERO else ZERO
-                t = c[j + 1, i]
-                fs = ((k * (c0 if c0 < t else t)) * (s0 - sat[j + 1, i])) \
-                    if o0 * opn[j + 1, i] != ZERO else ZERO
-                t = c[j - 1, i]
-                fn = ((k * (t if t < c0 else c0)) * (sat[j - 1, i] - s0)) \
-                    if opn[j - 1, i] * o0 != ZERO else ZERO
-                wcv = (((wcv - fe) + fw) - fs) + fn
-                wcv = wcv if wcv > ZERO else ZERO
-            wv = w[y, x]
-            ev = evap[y, x]
-            if wv == ZERO:
-                e = ecap if ecap < wcv else wcv
-                wcv = wcv - e
-                ev = ev + e
-            wc[y, x] = wcv
-            if do_dry:
-                if wv > ZERO and wv < wdry:
-                    ev = ev + wv
-                    wv = ZERO
-                    w[y, x] = wv
-                if wv == ZERO:
-                    n_dry += 1
-                    vx[y, x] = ZERO
-                    vy[y, x] = ZERO
-                else:
-                    vx[y, x] = v3x[j, i]
-                    vy[y, x] = v3y[j, i]
-            evap[y, x] = ev
-        if do_dry and n_dry > 0:
-            for kk in range(ns):
                 for i in range(1, bw + 1):
-                    x = x0 + i - 1
-                    if w[y, x] == ZERO:
+                    o0 = opn[j, i]
+                    c0 = c[j, i]
+                    s0 = sat[j, i]
+                    t = c[j, i + 1]
+                    fe = ((k * (c0 if c0 < t else t)) * (s0 - sat[j, i + 1])) \
+                        if o0 * opn[j, i + 1] != ZERO else ZERO
+                    t = c[j, i - 1]
+                    fw = ((k * (t if t < c0 else c0)) * (sat[j, i - 1] - s0)) \
+                        if opn[j, i - 1] * o0 != ZERO else ZERO
+                    t = c[j + 1, i]
+                    fs = ((k * (c0 if c0 < t else t)) * (s0 - sat[j + 1, i])) \
+                        if o0 * opn[j + 1, i] != ZERO else ZERO
+                    t = c[j - 1, i]
+                    fn = ((k * (t if t < c0 else c0)) * (sat[j - 1, i] - s0)) \
+                        if opn[j - 1, i] * o0 != ZERO else ZERO
+                    wcv = (((wc[y, x0 + i - 1] - fe) + fw) - fs) + fn
+                    wcrow[i] = wcv if wcv > ZERO else ZERO
+            else:
+                for i in range(1, bw + 1):
+                    wcrow[i] = wc[y, x0 + i - 1]
+            n_dry = 0
+            for i in range(1, bw + 1):
+                x = x0 + i - 1
+                wcv = wcrow[i]
+                wv = w[y, x]
+                ev = evap[y, x]
+                e = (ecap if ecap < wcv else wcv) if wv == ZERO else ZERO
+                wc[y, x] = wcv - e
+                ev = ev + e
+                if do_dry:
+                    tiny = wv > ZERO and wv < wdry
+                    ev = ev + (wv if tiny else ZERO)
+                    wv = ZERO if tiny else wv
+                    w[y, x] = wv
+                    dry = wv == ZERO
+                    n_dry += 1 if dry else 0
+                    vx[y, x] = ZERO if dry else v3x[j, i]
+                    vy[y, x] = ZERO if dry else v3y[j, i]
+                evap[y, x] = ev
+            if do_dry and n_dry > 0:
+                for kk in range(ns):
+                    for i in range(1, bw + 1):
+                        x = x0 + i - 1
                         pv = p[kk, y, x]
                         qv = q[kk, y, x]
                         t = ONE - qv
                         t = pv if pv < t else t
+                        t = t if w[y, x] == ZERO else ZERO
                         p[kk, y, x] = pv - t
                         q[kk, y, x] = qv + t
