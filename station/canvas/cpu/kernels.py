@@ -31,6 +31,10 @@ Sweeps (``n`` Jacobi iterations, ``s`` pigment slots in use):
 * ``evap_surface_absorb``: pass 7, pass 8, pass 9a;
 * ``capillary_dry``: pass 9b/9c and pass 10.
 
+State arrays are indexed with an *unsigned* column ``np.uint64(x0 + i - 1)``: numba
+wraps negative signed indices around, and the select that costs made LLVM give up
+vectorising those loops (measured 5-10x slower); an unsigned index cannot be negative.
+
 The constant vector ``cst`` (float32) is laid out as the ``C_*`` indices below.
 """
 
@@ -119,7 +123,7 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
     for j in prange(1, bh + 1):
         y = y0 + j - 1
         for i in range(1, bw + 1):
-            x = x0 + i - 1
+            x = np.uint64(x0 + i - 1)
             wv = w[y, x]
             un = mask[y, x] == ZERO
             wet = ((wv > ZERO) or (wc[y, x] > moist)) and un
@@ -143,7 +147,7 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
             opn_o[j, i] = ONE if un else ZERO
         for k in range(ns):
             for i in range(1, bw + 1):
-                p0_o[k, j, i] = p[k, y, x0 + i - 1]
+                p0_o[k, j, i] = p[k, y, np.uint64(x0 + i - 1)]
 
 
 # ------------------------------------------------------------------ pass 1 + Jacobi 1
@@ -571,7 +575,7 @@ def advect_apply(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, sout: np.ndarr
                     w3_o[j, i] = w[j, i]
                 for kk in range(ns):
                     for i in range(1, bw + 1):
-                        p_state[kk, y, x0 + i - 1] = p[kk, j, i]
+                        p_state[kk, y, np.uint64(x0 + i - 1)] = p[kk, j, i]
                 continue
             _row_rates(vx, vy, wet, j, bw, q4, buf)
             # limited rates r' of the x faces (i, i+1), i = 0..bw, and of the y faces
@@ -599,7 +603,7 @@ def advect_apply(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, sout: np.ndarr
                     fw = p[kk, j, i - 1] * axp[i - 1] - pv * axn[i - 1]
                     fs = pv * asp[i] - p[kk, j + 1, i] * asn[i]
                     fn = p[kk, j - 1, i] * anp[i] - pv * ann[i]
-                    p_state[kk, y, x0 + i - 1] = (((pv - fe) + fw) - fs) + fn
+                    p_state[kk, y, np.uint64(x0 + i - 1)] = (((pv - fe) + fw) - fs) + fn
 
 
 # ------------------------------------------------------------------ passes 7, 8, 9a
@@ -626,7 +630,7 @@ def evap_surface_absorb(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.
             y = y0 + j - 1
             # pass 7: n = 4-neighbours without fluid water (the ring counts as dry)
             for i in range(1, bw + 1):
-                x = x0 + i - 1
+                x = np.uint64(x0 + i - 1)
                 wv = w3[j, i]
                 if do_evap:
                     nd = (((ZERO if w3[j, i + 1] > ZERO else ONE)
@@ -649,7 +653,7 @@ def evap_surface_absorb(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.
                     d = delta[kk]
                     db = d / beta[kk]
                     for i in range(1, bw + 1):
-                        x = x0 + i - 1
+                        x = np.uint64(x0 + i - 1)
                         hv = h[y, x]
                         f = frow[i]
                         pv = p[kk, y, x]
@@ -667,7 +671,7 @@ def evap_surface_absorb(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.
                         q[kk, y, x] = qv + net
             # pass 9a: absorption where there is fluid water and the cell is open
             for i in range(1, bw + 1):
-                x = x0 + i - 1
+                x = np.uint64(x0 + i - 1)
                 wv = wrow[i]
                 wcv = wc[y, x]
                 cv = c[j, i]
@@ -719,14 +723,14 @@ def capillary_dry(sat: np.ndarray, c: np.ndarray, opn: np.ndarray, v3x: np.ndarr
                     t = c[j - 1, i]
                     fn = ((k * (t if t < c0 else c0)) * (sat[j - 1, i] - s0)) \
                         if opn[j - 1, i] * o0 != ZERO else ZERO
-                    wcv = (((wc[y, x0 + i - 1] - fe) + fw) - fs) + fn
+                    wcv = (((wc[y, np.uint64(x0 + i - 1)] - fe) + fw) - fs) + fn
                     wcrow[i] = wcv if wcv > ZERO else ZERO
             else:
                 for i in range(1, bw + 1):
-                    wcrow[i] = wc[y, x0 + i - 1]
+                    wcrow[i] = wc[y, np.uint64(x0 + i - 1)]
             n_dry = 0
             for i in range(1, bw + 1):
-                x = x0 + i - 1
+                x = np.uint64(x0 + i - 1)
                 wcv = wcrow[i]
                 wv = w[y, x]
                 ev = evap[y, x]
@@ -746,7 +750,7 @@ def capillary_dry(sat: np.ndarray, c: np.ndarray, opn: np.ndarray, v3x: np.ndarr
             if do_dry and n_dry > 0:
                 for kk in range(ns):
                     for i in range(1, bw + 1):
-                        x = x0 + i - 1
+                        x = np.uint64(x0 + i - 1)
                         pv = p[kk, y, x]
                         qv = q[kk, y, x]
                         t = ONE - qv
