@@ -126,7 +126,7 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
             x = np.uint64(x0 + i - 1)
             wv = w[y, x]
             un = mask[y, x] == ZERO
-            wet = ((wv > ZERO) or (wc[y, x] > moist)) and un
+            wet = ((wv > ZERO) | (wc[y, x] > moist)) & un
             wf = ONE if wet else ZERO
             wet_o[j, i] = wf
             w0_o[j, i] = wv
@@ -324,48 +324,41 @@ def height_limit(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: np.ndarr
     vm = cst[C_VMAX]
     for j in prange(1, bh + 1):
         wr, wn, ws = wet[j], wet[j - 1], wet[j + 1]
+        # the velocity after pass 2 (last Jacobi iteration, or the iterate as it is)
+        if do_vjac:
+            _jacobi_v_row(wet, v1x, v1y, xvx, xvy, v3x_o, v3y_o, j, bw, kv)
+        else:
+            for i in range(1, bw + 1):
+                v3x_o[j, i] = xvx[j, i]
+                v3y_o[j, i] = xvy[j, i]
+        # pass 3, branch-free; non-wet cells 0
         for i in range(1, bw + 1):
             c = wr[i]
             be = c * wr[i + 1]
             bwf = c * wr[i - 1]
             bs = c * ws[i]
             bn = c * wn[i]
-            if do_vjac:
-                den = ONE + kv * (((be * ONE + bwf * ONE) + bs * ONE) + bn * ONE)
-                sx = ((be * xvx[j, i + 1] + bwf * xvx[j, i - 1]) + bs * xvx[j + 1, i]) \
-                    + bn * xvx[j - 1, i]
-                sy = ((be * xvy[j, i + 1] + bwf * xvy[j, i - 1]) + bs * xvy[j + 1, i]) \
-                    + bn * xvy[j - 1, i]
-                nvx = (v1x[j, i] + kv * sx) / den
-                nvy = (v1y[j, i] + kv * sy) / den
-            else:
-                nvx = xvx[j, i]
-                nvy = xvy[j, i]
-            if c == ZERO:
-                nvx = ZERO
-                nvy = ZERO
-            elif do_height:
-                wc_ = w0[j, i]
-                w_e = w0[j, i + 1] if be != ZERO else wc_
-                w_w = w0[j, i - 1] if bwf != ZERO else wc_
-                w_s = w0[j + 1, i] if bs != ZERO else wc_
-                w_n = w0[j - 1, i] if bn != ZERO else wc_
-                nvx = oi * nvx + oh * (g * (w_e - w_w))
-                nvy = oi * nvy + oh * (g * (w_s - w_n))
-                if be == ZERO:
-                    nvx = nvx if nvx < ZERO else ZERO
-                if bwf == ZERO:
-                    nvx = nvx if nvx > ZERO else ZERO
-                if bs == ZERO:
-                    nvy = nvy if nvy < ZERO else ZERO
-                if bn == ZERO:
-                    nvy = nvy if nvy > ZERO else ZERO
-                nvx = nvx if nvx > -vm else -vm
-                nvx = nvx if nvx < vm else vm
-                nvy = nvy if nvy > -vm else -vm
-                nvy = nvy if nvy < vm else vm
-            v3x_o[j, i] = nvx
-            v3y_o[j, i] = nvy
+            vx0 = v3x_o[j, i]
+            vy0 = v3y_o[j, i]
+            wc_ = w0[j, i]
+            w_e = w0[j, i + 1] if be != ZERO else wc_
+            w_w = w0[j, i - 1] if bwf != ZERO else wc_
+            w_s = w0[j + 1, i] if bs != ZERO else wc_
+            w_n = w0[j - 1, i] if bn != ZERO else wc_
+            nvx = oi * vx0 + oh * (g * (w_e - w_w))
+            nvy = oi * vy0 + oh * (g * (w_s - w_n))
+            nvx = nvx if be != ZERO else (nvx if nvx < ZERO else ZERO)
+            nvx = nvx if bwf != ZERO else (nvx if nvx > ZERO else ZERO)
+            nvy = nvy if bs != ZERO else (nvy if nvy < ZERO else ZERO)
+            nvy = nvy if bn != ZERO else (nvy if nvy > ZERO else ZERO)
+            nvx = nvx if nvx > -vm else -vm
+            nvx = nvx if nvx < vm else vm
+            nvy = nvy if nvy > -vm else -vm
+            nvy = nvy if nvy < vm else vm
+            nvx = nvx if do_height else vx0
+            nvy = nvy if do_height else vy0
+            v3x_o[j, i] = nvx if c != ZERO else ZERO
+            v3y_o[j, i] = nvy if c != ZERO else ZERO
         if do_w:
             # water conductances: 1 on open faces; b_e[i] = face (i, i+1), b_s = face (j, j+1)
             for i in range(1, bw + 1):
