@@ -142,6 +142,31 @@ def test_tiles_on_and_off_give_the_same_painting() -> None:
     assert on.live_state.q.sum() > 0
 
 
+def test_several_boxes_per_step_match_the_reference() -> None:
+    """Two strokes far apart: two tile boxes of different shapes in every step (the
+    scratch ring is re-zeroed between them)."""
+    from station.canvas import tiles
+
+    a = NumpyCanvas(160, 96, seed=9, tiling=True)
+    b = CpuCanvas(160, 96, seed=9, tiling=True)
+    small = np.ones((5, 5), np.float32)
+    big = np.ones((14, 9), np.float32)
+    boxes = 0
+    for k in range(40):
+        for c in (a, b):
+            if k < 20:
+                c.add_sources(dw=0.5 * small, dp={PIGMENTS[0]: 0.05 * small}, dvx=12 * small,
+                              y0=6, x0=4 + k)
+                c.add_sources(dw=0.3 * big, dp={PIGMENTS[2]: 0.08 * big}, dvy=-9 * big,
+                              y0=70 - k, x0=120)
+            c.step()
+        boxes = max(boxes, len(tiles.active_regions(b.live_state)))
+    assert boxes >= 2
+    err = _max_rel_err(a.live_state, b.live_state)
+    assert max(err.values()) <= TOL, err
+    assert np.array_equal(a.live_state.tile_ttl, b.live_state.tile_ttl)
+
+
 def test_save_load_continues_exactly(tmp_path) -> None:
     a = _random_canvas(CpuCanvas, 4, tiling=True)
     for _ in range(10):
