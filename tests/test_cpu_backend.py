@@ -126,6 +126,32 @@ def test_parameter_variants_match(change: dict[str, Any]) -> None:
     assert max(err.values()) <= TOL, (change, err)
 
 
+def test_many_slots_match_the_reference() -> None:
+    """12 slots per layer, 10 in use (the scratch grows beyond its first slot count)."""
+    from station.canvas.palette import default_palette
+
+    names = default_palette().names()[:10]
+    assert len(names) == 10
+    runs = []
+    for cls in (NumpyCanvas, CpuCanvas):
+        c = cls(48, 40, seed=1, n_slots=12)
+        rng = np.random.default_rng(2)
+        fp = np.zeros((40, 48), np.float32)
+        fp[4:36, 5:44] = 1
+        c.add_sources(dw=0.6 * fp, dp={fp_name: fp * rng.uniform(0, 0.1, fp.shape)
+                                        .astype(np.float32) for fp_name in names[:1]},
+                      dvx=8 * fp)
+        c.step()  # the scratch is made for one slot here ...
+        c.add_sources(dp={n: fp * rng.uniform(0, 0.1, fp.shape).astype(np.float32)
+                          for n in names[1:]})
+        for _ in range(10):  # ... and has to grow to ten
+            c.step()
+        runs.append(c.live_state)
+    assert len(runs[1].slots) == 10
+    err = _max_rel_err(runs[0], runs[1])
+    assert max(err.values()) <= TOL, err
+
+
 def test_tiles_on_and_off_give_the_same_painting() -> None:
     on = CpuCanvas(96, 80, seed=2, tiling=True)
     off = CpuCanvas(96, 80, seed=2, tiling=False)
