@@ -21,8 +21,10 @@ Sweeps (``n`` Jacobi iterations, ``s`` pigment slots in use):
   beta_c, the masked velocity, paper capacity and the open (unmasked) flag;
 * ``advect_jacobi1``: pass 1 (semi-Lagrangian velocity) + Jacobi iteration 1 of the
   water and pigment solves (passes 4/5);
-* ``jacobi`` (n - 1 times): velocity iteration it - 1, water/pigment iteration it
-  (pass 2 lags one sweep behind: it needs pass 1's result at the neighbours);
+* ``jacobi_blocked`` (one sweep): velocity iterations 1..n-1 and water/pigment
+  iterations 2..n (pass 2 lags one iteration behind: it needs pass 1's result at the
+  neighbours), temporally blocked: chunks of rows keep the intermediate iterates in
+  cache and recompute the rows they share with their neighbours;
 * ``height_limit``: the last velocity iteration, pass 3, and the donor limiters of
   passes 4/5;
 * ``diffuse_apply``: the limited face fluxes of passes 4/5;
@@ -269,25 +271,146 @@ def _jacobi_p_row(wet: np.ndarray, bc: np.ndarray, u: np.ndarray, xin: np.ndarra
             xout[kk, j, i] = (acc * k + u[kk, j, i]) / den
 
 
-# ------------------------------------------------------------------ Jacobi sweeps
+# ------------------------------------------------------------------ Jacobi sweep
+@_inline
+def _jv_rows(wn: np.ndarray, wr: np.ndarray, ws: np.ndarray, u: np.ndarray, xn: np.ndarray,
+             xr: np.ndarray, xs: np.ndarray, o: np.ndarray, bw: int, k: np.float32) -> None:
+    """One Jacobi iteration of one velocity component on one row, from row views
+    (north, this, south) of the wet mask and the iterate: ``(u + k sum) / den``."""
+    for i in range(1, bw + 1):
+        c = wr[i]
+        be = c * wr[i + 1]
+        bwf = c * wr[i - 1]
+        bs = c * ws[i]
+        bn = c * wn[i]
+        den = ONE + k * (((be * ONE + bwf * ONE) + bs * ONE) + bn * ONE)
+        sx = ((be * xr[i + 1] + bwf * xr[i - 1]) + bs * xs[i]) + bn * xn[i]
+        o[i] = (u[i] + k * sx) / den
+
+
+@_inline
+def _jw_rows(wn: np.ndarray, wr: np.ndarray, ws: np.ndarray, u: np.ndarray, xn: np.ndarray,
+             xr: np.ndarray, xs: np.ndarray, o: np.ndarray, bw: int, k: np.float32) -> None:
+    """One Jacobi iteration of the water solve on one row: ``(sum k + u) / den``."""
+    for i in range(1, bw + 1):
+        c = wr[i]
+        be = c * wr[i + 1]
+        bwf = c * wr[i - 1]
+        bs = c * ws[i]
+        bn = c * wn[i]
+        den = ONE + k * (((be * ONE + bwf * ONE) + bs * ONE) + bn * ONE)
+        acc = ((be * xr[i + 1] + bwf * xr[i - 1]) + bs * xs[i]) + bn * xn[i]
+        o[i] = (acc * k + u[i]) / den
+
+
+@_inline
+def _jp_rows(wn: np.ndarray, wr: np.ndarray, ws: np.ndarray, bn_: np.ndarray,
+             br: np.ndarray, bs_: np.ndarray, u: np.ndarray, xn: np.ndarray, xr: np.ndarray,
+             xs: np.ndarray, o: np.ndarray, bw: int, k: np.float32) -> None:
+    """One Jacobi iteration of one pigment slot on one row (controller conductances)."""
+    for i in range(1, bw + 1):
+        c = wr[i]
+        b0 = br[i]
+        t = br[i + 1]
+        be = (b0 if b0 < t else t) if c * wr[i + 1] != ZERO else ZERO
+        t = br[i - 1]
+        bwf = (b0 if b0 < t else t) if c * wr[i - 1] != ZERO else ZERO
+        t = bs_[i]
+        bs = (b0 if b0 < t else t) if c * ws[i] != ZERO else ZERO
+        t = bn_[i]
+        bn = (b0 if b0 < t else t) if c * wn[i] != ZERO else ZERO
+        den = ONE + k * (((be * ONE + bwf * ONE) + bs * ONE) + bn * ONE)
+        acc = ((be * xr[i + 1] + bwf * xr[i - 1]) + bs * xs[i]) + bn * xn[i]
+        o[i] = (acc * k + u[i]) / den
+
+
+BLOCK_ROWS = 16
+"""Rows per chunk of the temporally blocked Jacobi sweep."""
+
+
 @_parallel
-def jacobi(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: np.ndarray,
-           xvx: np.ndarray, xvy: np.ndarray, ovx: np.ndarray, ovy: np.ndarray,
-           w0: np.ndarray, xw: np.ndarray, ow: np.ndarray,
-           p0: np.ndarray, xp: np.ndarray, op: np.ndarray,
-           bh: int, bw: int, ns: int, cst: np.ndarray,
-           do_v: bool, do_w: bool, do_p: bool) -> None:
-    """One Jacobi iteration of each solve that is switched on (velocity, water, pigment)."""
+def jacobi_blocked(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: np.ndarray,
+                   xvx: np.ndarray, xvy: np.ndarray, ovx: np.ndarray, ovy: np.ndarray,
+                   w0: np.ndarray, xw: np.ndarray, ow: np.ndarray,
+                   p0: np.ndarray, xp: np.ndarray, op: np.ndarray,
+                   bh: int, bw: int, ns: int, cst: np.ndarray,
+                   do_v: bool, do_w: bool, do_p: bool, levels: int) -> None:
+    """``levels`` Jacobi iterations of each solve that is switched on, in ONE sweep
+    (temporal blocking): each chunk of rows computes iteration l on its rows grown by
+    ``levels - l`` rows on each side (recomputing its neighbours' edge rows) into
+    chunk-local buffers that stay in cache, and writes only the last iteration. The
+    values are those of ``levels`` plain one-iteration sweeps, bit for bit (the same
+    row functions, the same operands)."""
     kv = cst[C_KV]
     kw = cst[C_KW]
     kp = cst[C_KP]
-    for j in prange(1, bh + 1):
-        if do_v:
-            _jacobi_v_row(wet, v1x, v1y, xvx, xvy, ovx, ovy, j, bw, kv)
-        if do_w:
-            _jacobi_w_row(wet, w0, xw, ow, j, bw, kw)
-        if do_p:
-            _jacobi_p_row(wet, bc, p0, xp, op, j, bw, ns, kp)
+    nch = (bh + BLOCK_ROWS - 1) // BLOCK_ROWS
+    for ch in prange(nch):
+        j0, j1 = _chunk(ch, nch, bh)
+        base = j0 - levels  # global row of buffer row 0
+        nrow = (j1 - j0) + 2 * levels
+        # buffers (parity, row, column); rows/columns never written stay zero
+        bvx = np.empty((2, nrow, bw + 2), F32)
+        bvy = np.empty((2, nrow, bw + 2), F32)
+        bww = np.empty((2, nrow, bw + 2), F32)
+        bpp = np.empty((2, ns, nrow, bw + 2), F32)
+        for par in range(2):
+            for t in range(nrow):
+                bvx[par, t, 0] = ZERO
+                bvx[par, t, bw + 1] = ZERO
+                bvy[par, t, 0] = ZERO
+                bvy[par, t, bw + 1] = ZERO
+                bww[par, t, 0] = ZERO
+                bww[par, t, bw + 1] = ZERO
+                for kk in range(ns):
+                    bpp[par, kk, t, 0] = ZERO
+                    bpp[par, kk, t, bw + 1] = ZERO
+                g = base + t
+                if g < 1 or g > bh:  # the ring rows (and beyond): zero like the scratch ring
+                    for i in range(bw + 2):
+                        bvx[par, t, i] = ZERO
+                        bvy[par, t, i] = ZERO
+                        bww[par, t, i] = ZERO
+                        for kk in range(ns):
+                            bpp[par, kk, t, i] = ZERO
+        for lev in range(1, levels + 1):
+            src = (lev - 1) % 2
+            dst = lev % 2
+            g_lo = max(j0 - (levels - lev), 1)
+            g_hi = min(j1 + (levels - lev), bh + 1)
+            last = lev == levels
+            for g in range(g_lo, g_hi):
+                t = g - base
+                wn, wr, ws = wet[g - 1], wet[g], wet[g + 1]
+                if do_v:
+                    if lev == 1:
+                        xn, xr, xs = xvx[g - 1], xvx[g], xvx[g + 1]
+                        yn, yr, ys = xvy[g - 1], xvy[g], xvy[g + 1]
+                    else:
+                        xn, xr, xs = bvx[src, t - 1], bvx[src, t], bvx[src, t + 1]
+                        yn, yr, ys = bvy[src, t - 1], bvy[src, t], bvy[src, t + 1]
+                    ox_ = ovx[g] if last else bvx[dst, t]
+                    oy_ = ovy[g] if last else bvy[dst, t]
+                    _jv_rows(wn, wr, ws, v1x[g], xn, xr, xs, ox_, bw, kv)
+                    _jv_rows(wn, wr, ws, v1y[g], yn, yr, ys, oy_, bw, kv)
+                if do_w:
+                    if lev == 1:
+                        xn, xr, xs = xw[g - 1], xw[g], xw[g + 1]
+                    else:
+                        xn, xr, xs = bww[src, t - 1], bww[src, t], bww[src, t + 1]
+                    o_ = ow[g] if last else bww[dst, t]
+                    _jw_rows(wn, wr, ws, w0[g], xn, xr, xs, o_, bw, kw)
+                if do_p:
+                    for kk in range(ns):
+                        if lev == 1:
+                            xn, xr, xs = xp[kk, g - 1], xp[kk, g], xp[kk, g + 1]
+                        else:
+                            xn = bpp[src, kk, t - 1]
+                            xr = bpp[src, kk, t]
+                            xs = bpp[src, kk, t + 1]
+                        o_ = op[kk, g] if last else bpp[dst, kk, t]
+                        _jp_rows(wn, wr, ws, bc[g - 1], bc[g], bc[g + 1], p0[kk, g], xn, xr,
+                                 xs, o_, bw, kp)
 
 
 # ------------------------------------------------------------------ pass 3 + limiters

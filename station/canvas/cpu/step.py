@@ -19,7 +19,7 @@ from station.canvas.state import CanvasState
 F32 = np.float32
 
 _FIELDS_2D = ("wet", "w0", "bc", "vsx", "vsy", "c", "opn", "v1x", "v1y", "xvax", "xvay",
-              "xvbx", "xvby", "xwa", "xwb", "v3x", "v3y", "sw", "w2", "sout", "sin", "w3",
+              "xwa", "xwb", "v3x", "v3y", "sw", "w2", "sout", "sin", "w3",
               "sat")
 _FIELDS_3D = ("p0", "xpa", "xpb", "sp", "p2")
 
@@ -127,13 +127,13 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
         state.vx[ys, xs] = _win(s2["v1x"], bh, bw)
         state.vy[ys, xs] = _win(s2["v1y"], bh, bw)
         return
-    # iterations 2..n of water/pigment, 1..n-1 of velocity (one sweep behind)
+    # iterations 2..n of water/pigment, 1..n-1 of velocity (one iteration behind)
     xvx, xvy = s2["v1x"], s2["v1y"]
-    pong = ((s2["xvax"], s2["xvay"]), (s2["xvbx"], s2["xvby"]))
-    for it in range(2, n_it + 1):
-        ovx, ovy = pong[it % 2]
-        K.jacobi(wet, bc, s2["v1x"], s2["v1y"], xvx, xvy, ovx, ovy, w0, xw, xw_next,
-                 p0, xp, xp_next, bh, bw, ns, cst, do_v, jw, jp)
+    pong = ((s2["xvax"], s2["xvay"]),)
+    if n_it >= 2:  # all of them in one temporally blocked sweep
+        ovx, ovy = pong[0]
+        K.jacobi_blocked(wet, bc, s2["v1x"], s2["v1y"], xvx, xvy, ovx, ovy, w0, xw, xw_next,
+                         p0, xp, xp_next, bh, bw, ns, cst, do_v, jw, jp, n_it - 1)
         if do_v:
             xvx, xvy = ovx, ovy
         if jw:

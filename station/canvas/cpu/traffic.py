@@ -21,8 +21,11 @@ def floats_per_cell_step(slots: int, jacobi_iters: int) -> dict[str, int]:
         "prep (wet mask, copies, diffusion controller, capacity)": (8 + s) + (7 + s),
         # read vsx, vsy, wet, w0, bc, p0(S); write v1(2), xw, xp(S)
         "advect_jacobi1 (pass 1, water/pigment Jacobi iteration 1)": (5 + s) + (3 + s),
-        # each: read wet, bc, v1(2), xv(2), w0, xw, p0(S), xp(S); write xv(2), xw, xp(S)
-        "jacobi (velocity it-1, water/pigment it) x (n-1)": (n - 1) * ((8 + 2 * s) + (3 + s)),
+        # one temporally blocked sweep for all remaining iterations (the intermediate
+        # iterates live in per-chunk buffers in cache): read wet, bc, v1(2), xv(2), w0, xw,
+        # p0(S), xp(S) once; write the last xv(2), xw, xp(S) once
+        "jacobi_blocked (velocity 1..n-1, water/pigment 2..n)":
+            ((8 + 2 * s) + (3 + s)) if n >= 2 else 0,
         # read wet, bc, v1(2), xv(2), w0, xw, p0(S), xp(S); write v3(2), sw, sp(S)
         "height_limit (last velocity iteration, pass 3, donor limiters)":
             (8 + 2 * s) + (3 + s),
