@@ -416,9 +416,10 @@ def test_auto_backend_choice_and_fallback(monkeypatch: pytest.MonkeyPatch,
         def release(self) -> None:
             pass
 
-    # a CPU rasterizer: numpy; a GPU: gl; no context at all: numpy
+    # a CPU rasterizer: the fastest CPU backend (cpu with numba, else numpy); a GPU: gl
+    cpu = backend_mod.fastest_cpu_backend()
     monkeypatch.setattr(context_mod, "create_context", lambda: FakeCtx("llvmpipe (LLVM 15)"))
-    assert paint_mod.auto_backend()[0] == "numpy"
+    assert paint_mod.auto_backend()[0] == cpu
     monkeypatch.setattr(context_mod, "create_context", lambda: FakeCtx("NVIDIA GeForce RTX"))
     assert paint_mod.auto_backend() == ("gl", "OpenGL renderer 'NVIDIA GeForce RTX'")
 
@@ -427,7 +428,7 @@ def test_auto_backend_choice_and_fallback(monkeypatch: pytest.MonkeyPatch,
 
     monkeypatch.setattr(context_mod, "create_context", no_egl)
     name, why = paint_mod.auto_backend()
-    assert name == "numpy" and "EGL: no display" in why and "\n" not in why
+    assert name == cpu and "EGL: no display" in why and "\n" not in why
 
     # GL chosen but it cannot start: numpy, with a one-line warning
     monkeypatch.setattr(context_mod, "create_context", lambda: FakeCtx("Some GPU"))

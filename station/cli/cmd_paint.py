@@ -8,7 +8,7 @@ import sys
 
 from station.sim.paint import parse_size
 
-BACKENDS = ("auto", "numpy", "gl")
+BACKENDS = ("auto", "cpu", "numpy", "gl")
 BACKEND_HELP = ("canvas backend: numpy (reference), gl (moderngl/EGL), or auto (the default): "
                 "gl on a GPU, numpy without one or on a CPU rasterizer such as llvmpipe")
 

@@ -232,6 +232,8 @@ backend overtakes it on llvmpipe; with a real GPU ``auto`` always picks GL."""
 
 def auto_backend() -> tuple[str, str]:
     """The backend ``auto`` means here, and why (one line)."""
+    from station.canvas.backend import fastest_cpu_backend
+
     try:
         from station.canvas.gl.context import create_context
 
@@ -242,9 +244,10 @@ def auto_backend() -> tuple[str, str]:
             ctx.release()
     except (ImportError, StationError) as exc:
         why = " | ".join(ln.strip() for ln in str(exc).splitlines() if ln.strip())
-        return "numpy", f"GL unavailable ({why[:300]})"
+        return fastest_cpu_backend(), f"GL unavailable ({why[:300]})"
     if SOFTWARE_GL_PREFERS_NUMPY and any(k in renderer.lower() for k in SOFTWARE_GL):
-        return "numpy", f"OpenGL renderer {renderer!r} runs on the CPU, where NumPy is faster"
+        cpu = fastest_cpu_backend()
+        return cpu, f"OpenGL renderer {renderer!r} runs on the CPU, where {cpu} is faster"
     return "gl", f"OpenGL renderer {renderer!r}"
 
 
