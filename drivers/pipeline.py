@@ -209,7 +209,8 @@ class EvdevPenSource:
 
 # -- device SPEC strings ---------------------------------------------------------
 SCHEMES = ("mock", "mock-hidraw", "mock-usb", "mock-evdev", "trace", "evdev", "hidraw",
-           "hidapi", "usb")
+           "hidapi", "usb", "serial", "serial-mock")
+HAPTIC_SCHEMES = ("serial", "serial-mock")  # drivers/haptic/source.py (docs/haptic-protocol.md)
 
 
 @dataclass(frozen=True)
@@ -229,6 +230,8 @@ class DeviceSpec:
             raise DeviceSpecError(f"device {text!r}: use one of {schemes} (see docs/drivers.md)",
                                   "--device")
         target, _, query = rest.partition("?")
+        if not target and scheme == "serial-mock":
+            target = "pen"  # the mock haptic device needs no name
         if not target:
             raise DeviceSpecError(f"device {text!r} names nothing after {scheme}:", "--device")
         return cls(scheme, target, dict(parse_query(query, "--device")), text)
@@ -306,6 +309,9 @@ def open_transport(spec_text: str) -> OpenedTransport:
     """Open the transport a SPEC string names (live, mock or recorded)."""
     spec = DeviceSpec.parse(spec_text)
     s = spec.scheme
+    if s in HAPTIC_SCHEMES:
+        raise DeviceSpecError(f"{s}: devices are haptic sessions, not report streams "
+                              "(use station driver)", "--device")
     if s == "mock":
         from station.drivers.mock.hidraw import MockHidrawNode
         from station.drivers.mock.tablet import mock_tablet_from_spec
@@ -401,6 +407,11 @@ def _open_mock_evdev(spec: DeviceSpec, dev: TraceDevice, speed: float | None) ->
 
 def open_device(spec_text: str, name: str | None = None, send_init: bool = True) -> PenSource:
     """Open the pen device a SPEC string names, with its parser (HID) or assembler (evdev)."""
+    spec = DeviceSpec.parse(spec_text)
+    if spec.scheme in HAPTIC_SCHEMES:
+        from station.drivers.haptic.source import open_haptic
+
+        return open_haptic(spec, name=name)
     opened = open_transport(spec_text)
     source: PenSource
     try:

@@ -138,6 +138,9 @@ def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
                                                                "calibrated": False}))
         t_offset = 0.0
         while not stop.is_set():
+            attach_bus = getattr(source, "attach_bus", None)
+            if attach_bus is not None:  # a haptic device: forces from haptic.<device>
+                attach_bus(args.bus)
             ident = source.describe()
             calibration = choose_calibration(args.calibration, int(ident.get("vid") or 0),
                                              int(ident.get("pid") or 0))
