@@ -167,6 +167,7 @@ class HapticSession:
         self.tick_times = array("d")
         self._bus = FrameInterpolator()
         self._bus_time: float | None = None
+        self._bus_offset: float | None = None
         self._bus_lock = threading.Lock()
         self._pending_vibration: Vibration | None = None
         self._bad_seen = 0
@@ -387,10 +388,11 @@ class HapticSession:
 
     # -- inputs from the station ----------------------------------------------------
     def submit_force(self, force: Vec3, t: float | None = None) -> None:
-        """A force frame from the simulation (N, canvas frame), interpolated between frames."""
-        now = self.clock() if t is None else t
+        """A force frame from the simulation (N, canvas frame) for time ``t`` on the loop's
+        clock (default: now), interpolated between frames; its arrival feeds the watchdog."""
+        now = self.clock()
         with self._bus_lock:
-            self._bus.push(now, force)
+            self._bus.push(now if t is None else t, force)
             self._bus_time = now
             self.stats.bus_forces += 1
 
@@ -401,7 +403,15 @@ class HapticSession:
         if limits is None:
             return
         if haptic.frequency_hz == 0.0:
-            self.submit_force((0.0, 0.0, haptic.amplitude * limits.magnitude))
+            # Frames are placed by the simulation's own time stamps, anchored at the least
+            # delayed arrival: the bus's delivery jitter must not become force jitter.
+            now = self.clock()
+            lag = now - haptic.t
+            if self._bus_offset is None or lag < self._bus_offset or \
+                    lag - self._bus_offset > 0.1:  # first frame, or the sim restarted its clock
+                self._bus_offset = lag
+            self.submit_force((0.0, 0.0, haptic.amplitude * limits.magnitude),
+                              haptic.t + self._bus_offset)
             return
         self.stats.vibrations += 1
         self._pending_vibration = Vibration(haptic.amplitude * limits.magnitude,
