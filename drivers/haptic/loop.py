@@ -28,6 +28,7 @@ import atexit
 import collections
 import logging
 import math
+import os
 import threading
 import time
 import weakref
@@ -89,7 +90,12 @@ class HapticConfig:
         paper_z: height of the paper surface in the device frame, mm.
         proximity_mm: the handle is "in proximity" below this height above the paper, mm.
         handshake_timeout: seconds to wait for the device's hello.
-        spin_s: busy-wait this long before each deadline (timing precision for CPU).
+        spin_s: busy-wait this long before each deadline (timing precision for CPU; on a
+            loaded machine without real-time priority it makes the scheduler preempt the
+            loop more, so the default is 0).
+        realtime: SCHED_FIFO priority for the loop thread (1..99; 0 = normal scheduling).
+            Needs CAP_SYS_NICE (or an rtprio limit); refused, the loop runs normally and
+            the status says why.
     """
 
     rate_hz: float = 1000.0
@@ -103,7 +109,8 @@ class HapticConfig:
     paper_z: float = 0.0
     proximity_mm: float = 30.0
     handshake_timeout: float = 1.0
-    spin_s: float = 0.0002
+    spin_s: float = 0.0
+    realtime: int = 0
 
 
 @dataclass
@@ -177,6 +184,7 @@ class HapticSession:
         self._stopped = False
         self._velocity: Vec3 = ZERO
         self._last_pose: Pose | None = None
+        self.realtime = "off"
 
     # -- setup ----------------------------------------------------------------------
     def handshake(self) -> Hello:
@@ -262,6 +270,13 @@ class HapticSession:
         period = 1.0 / self.config.rate_hz
         spin = self.config.spin_s
         clock = self.clock
+        if self.config.realtime:
+            try:  # Linux: pid 0 is this thread only
+                os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(self.config.realtime))
+                self.realtime = f"SCHED_FIFO {self.config.realtime}"
+            except (OSError, AttributeError) as exc:
+                self.realtime = f"refused: {exc}"
+                log.warning("haptic loop: no real-time priority (%s)", exc)
         next_t = clock()
         try:
             while not self._stop.is_set():
@@ -275,6 +290,7 @@ class HapticSession:
                 if now > next_t + period:
                     self.stats.overruns += 1
                     next_t = now
+                    time.sleep(period / 10)  # even late, never hog the CPU (under SCHED_FIFO)
                     continue
                 wait = next_t - now - spin
                 if wait > 0:
@@ -447,4 +463,5 @@ class HapticSession:
             "clamped": safety.clamped if safety else 0,
             "rate_limited": safety.rate_limited if safety else 0,
             "trips": dict(safety.trips) if safety else {},
+            "realtime": self.realtime,
         }

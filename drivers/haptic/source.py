@@ -12,7 +12,8 @@ Options (both schemes): ``input=0`` (forces only, no pen samples),
 ``force=0`` (input only, motors off), ``max_force`` (N, a limit below the
 device's), ``rate`` (loop Hz), ``slew`` (N/s), ``stiffness`` (N/mm), ``hair``
 (mm), ``friction``, ``grain``, ``full_force`` (N that is full pressure),
-``paper_z`` (mm), ``baud``.  ``serial-mock:`` adds the mock's options
+``paper_z`` (mm), ``baud``, ``rt`` (SCHED_FIFO priority of the loop thread,
+0 = off), ``spin_us`` (busy-wait before each deadline).  ``serial-mock:`` adds the mock's options
 (:mod:`station.drivers.mock.haptic`).
 """
 
@@ -47,7 +48,7 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 COMMON_OPTIONS = {"input", "force", "max_force", "rate", "slew", "stiffness", "hair", "friction",
-                  "grain", "full_force", "paper_z", "baud"}
+                  "grain", "full_force", "paper_z", "baud", "rt", "spin_us"}
 MOCK_OPTIONS = {"script", "limit", "corrupt", "seed", "unplug", "replug", "tilt", "pose_rate"}
 
 # The mock devices of this process by SPEC: a reconnecting driver reopens the
@@ -91,7 +92,9 @@ def haptic_config(spec: DeviceSpec) -> HapticConfig:
         rate_n_per_s=spec.number("slew", 200.0, 1.0, 10000.0),
         contact=contact,
         full_force=spec.number("full_force", 2.0, 0.05, 50.0),
-        paper_z=spec.number("paper_z", 0.0, -500.0, 500.0))
+        paper_z=spec.number("paper_z", 0.0, -500.0, 500.0),
+        realtime=round(spec.number("rt", 0, 0, 99)),
+        spin_s=spec.number("spin_us", 0.0, 0.0, 1000.0) / 1e6)
 
 
 def mock_device(spec: DeviceSpec) -> MockHapticDevice:
