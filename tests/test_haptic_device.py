@@ -6,6 +6,7 @@ against the device's declared limits and the configured ``max_force``.
 
 from __future__ import annotations
 
+import itertools
 import os
 import signal
 import threading
@@ -164,8 +165,8 @@ def test_bad_frames_are_counted_dropped_and_zero_the_force() -> None:
         poses = src.session.stats.poses
         bad = status["bad_reports"]
         assert 0.02 * (poses + bad) < bad < 0.09 * (poses + bad)
-        assert set(status["bad_reasons"]) <= {"CRC mismatch", "COBS block", "zero byte inside a COBS frame",
-                                              "pose payload", "frame too long"}
+        assert set(status["bad_reasons"]) <= {"CRC mismatch", "COBS block", "frame too long",
+                                              "zero byte inside a COBS frame", "pose payload"}
         assert src.session.safety is not None
         assert src.session.safety.stats.trips["bad frame"] >= bad * 0.5  # bursts merge in a tick
         assert len(samples) > 0.9 * poses  # good poses still become samples
@@ -218,7 +219,7 @@ def test_bus_forces_are_rendered_and_stop_with_the_bus(tmp_path: Path) -> None:
         fz = [(r.t, r.force.fz) for r in mock.received]
         peak = max(f for _, f in fz)
         assert 0.5 * 2.97 * 0.6 < peak <= 0.5 * 2.97 * (1 + 1e-6)  # limit magnitude 2.97 N
-        steps = [abs(b[1] - a[1]) for a, b in zip(fz, fz[1:]) if b[1] and a[1]]
+        steps = [abs(b[1] - a[1]) for a, b in itertools.pairwise(fz) if b[1] and a[1]]
         # interpolated: a 30 Hz staircase would make ~18 steps of 0.15 N (a stall of this
         # loaded machine may make one or two big ones)
         assert sum(s > 0.08 for s in steps) <= 2 and np.median(steps) < 0.01

@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 import random
 import struct
 
 import pytest
-
 from station.drivers.haptic.contact import (
     BrushState,
     FrameInterpolator,
@@ -82,9 +82,7 @@ def test_frame_round_trip(message) -> None:
     assert seq == 0xFFFE and type(back) is type(message)
     for name in message.__dataclass_fields__:
         a, b = getattr(message, name), getattr(back, name)
-        if isinstance(a, float):
-            assert b == pytest.approx(a, rel=1e-6)
-        elif isinstance(a, tuple):
+        if isinstance(a, (float, tuple)):
             assert b == pytest.approx(a, rel=1e-6)
         else:
             assert a == b
@@ -185,7 +183,7 @@ def test_safety_clamps_rate_limits_and_watchdogs() -> None:
     for _ in range(40):
         t += 0.001
         seen.append(f.apply((5.0, 5.0, 10.0), t, t))
-    steps = [abs(b[2] - a[2]) for a, b in zip(seen, seen[1:])]
+    steps = [abs(b[2] - a[2]) for a, b in itertools.pairwise(seen)]
     assert max(steps) <= 0.1 + 1e-9  # 100 N/s at 1 ms
     assert all(limits.within(v) for v in seen)
     assert math.sqrt(sum(v * v for v in seen[-1])) == pytest.approx(2.0, rel=1e-5)
@@ -214,7 +212,7 @@ def test_round_brush_spring_friction_and_grain() -> None:
     assert fx == pytest.approx(-0.15 * fz1) and fy == 0.0  # opposes the stroke
     grainy = RoundBrushContact(grain=0.1)
     along = [grainy.contact_force(BrushState(0, (x / 10, 0, 4.0)))[2] for x in range(200)]
-    assert 0.9 <= min(along) / 1.0 and max(along) / 1.0 <= 1.1  # ±10 % of the 1 N spring
+    assert min(along) / 1.0 >= 0.9 and max(along) / 1.0 <= 1.1  # ±10 % of the 1 N spring
     assert max(along) - min(along) > 0.05  # the grain is felt
     assert all(-1.0 <= paper_grain(u / 7, u / 3) <= 1.0 for u in range(500))
     assert pressure_from_force(1.0, 2.0) == 0.5 and pressure_from_force(9.0, 2.0) == 1.0
@@ -231,6 +229,6 @@ def test_frame_interpolator_turns_a_30hz_staircase_into_ramps() -> None:
             if t >= ft:
                 out.append(interp.sample(t)[2])
             t += 0.001
-    steps = [abs(b - a) for a, b in zip(out, out[1:])]
+    steps = [abs(b - a) for a, b in itertools.pairwise(out)]
     assert max(steps) < 0.05  # ≤ 1 N per 33 ms, never a 1 N step
     assert min(out) >= 0.0 and max(out) <= 1.0

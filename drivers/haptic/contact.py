@@ -22,6 +22,7 @@ user, z up from the paper surface), velocities in mm/s, forces in newtons.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 from typing import Protocol
@@ -157,7 +158,7 @@ class FrameInterpolator:
             return frames[0][1]
         delay = frames[-1][0] - frames[-2][0]
         t = now - delay
-        for (t0, f0), (t1, f1) in zip(frames, frames[1:]):
+        for (t0, f0), (t1, f1) in itertools.pairwise(frames):
             if t0 <= t <= t1:
                 a = (t - t0) / (t1 - t0)
                 return (f0[0] + a * (f1[0] - f0[0]), f0[1] + a * (f1[1] - f0[1]),

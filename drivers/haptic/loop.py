@@ -55,6 +55,7 @@ from station.drivers.serial.protocol import (
     Enable,
     Force,
     FrameDecoder,
+    Heartbeat,
     Hello,
     HelloRequest,
     Message,
@@ -185,6 +186,7 @@ class HapticSession:
         self._velocity: Vec3 = ZERO
         self._last_pose: Pose | None = None
         self.realtime = "off"
+        self._heartbeat = 0.0
 
     # -- setup ----------------------------------------------------------------------
     def handshake(self) -> Hello:
@@ -323,6 +325,9 @@ class HapticSession:
             self._bad_seen = bad
             safety.trip("bad frame")
         if not self.config.force:
+            if now - self._heartbeat >= 0.02:  # input only: the device still hears the station
+                self._heartbeat = now
+                self._send(Heartbeat(round(now * 1e6) & 0xFFFFFFFF))
             return
         wanted, updated = self._wanted(now)
         self.force = safety.apply(wanted, now, updated)
@@ -367,9 +372,12 @@ class HapticSession:
         if last is not None:
             dt = ((pose.t_us - last.t_us) & 0xFFFFFFFF) / 1e6
             if 0 < dt < 0.1:
-                a = min(1.0, dt / 0.005)  # 5 ms low-pass: finite differences of a 1 kHz pose are noisy
+                # 5 ms low-pass: finite differences of a 1 kHz pose are noisy
+                a = min(1.0, dt / 0.005)
                 v = ((pose.x - last.x) / dt, (pose.y - last.y) / dt, (pose.z - last.z) / dt)
-                self._velocity = tuple(p + a * (n - p) for p, n in zip(self._velocity, v))  # type: ignore[assignment]
+                p = self._velocity
+                self._velocity = (p[0] + a * (v[0] - p[0]), p[1] + a * (v[1] - p[1]),
+                                  p[2] + a * (v[2] - p[2]))
         self._last_pose = pose
         self.pose, self.pose_time = pose, now
         axis = handle_axis(pose.q)

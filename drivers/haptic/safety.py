@@ -57,7 +57,7 @@ class ForceLimits:
 
     def within(self, force: Vec3) -> bool:
         """True when ``force`` respects every limit (what a test asserts on every frame)."""
-        return all(abs(f) <= lim for f, lim in zip(force, self.axis)) and \
+        return all(abs(f) <= lim for f, lim in zip(force, self.axis, strict=False)) and \
             math.sqrt(sum(f * f for f in force)) <= self.magnitude
 
 
@@ -109,7 +109,8 @@ class SafetyFilter:
         if clamped != wanted:
             self.stats.clamped += 1
         step = lim.rate_n_per_s * dt
-        limited = tuple(p + min(step, max(-step, c - p)) for p, c in zip(self.last, clamped))
+        limited = tuple(p + min(step, max(-step, c - p))
+                        for p, c in zip(self.last, clamped, strict=True))
         if limited != clamped:
             self.stats.rate_limited += 1
         out = self._clamp((limited[0], limited[1], limited[2]))
@@ -118,7 +119,7 @@ class SafetyFilter:
 
     def _clamp(self, f: Vec3) -> Vec3:
         lim = self.limits
-        c = [min(a * _MARGIN, max(-a * _MARGIN, v)) for v, a in zip(f, lim.axis)]
+        c = [min(a * _MARGIN, max(-a * _MARGIN, v)) for v, a in zip(f, lim.axis, strict=False)]
         norm = math.sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2])
         cap = lim.magnitude * _MARGIN
         if norm > cap:

@@ -309,7 +309,7 @@ class MockHapticDevice:
         if isinstance(msg, Force):
             self.received.append(Received(now, msg, seq))
             lim = self.hello.max_force
-            if any(abs(f) > m for f, m in zip(msg.vector, lim)):
+            if any(abs(f) > m for f, m in zip(msg.vector, lim, strict=False)):
                 self.violations += 1
                 self._error(ERR_OVER_LIMIT, "force over the declared limit, clamped", now)
             self.command = msg
@@ -326,7 +326,7 @@ class MockHapticDevice:
         if not self.enabled or self.last_rx is None or t - self.last_rx > WATCHDOG_S:
             return (0.0, 0.0, 0.0)
         lim = self.hello.max_force
-        f = [min(m, max(-m, v)) for v, m in zip(self.command.vector, lim)]
+        f = [min(m, max(-m, v)) for v, m in zip(self.command.vector, lim, strict=False)]
         amp, hz, until = self.vibration
         if amp and t < until:
             f[2] += amp * math.sin(2 * math.pi * hz * t)
@@ -350,7 +350,7 @@ class MockHapticDevice:
         half = self.tilt / 2
         flags = (POSE_ENABLED if self.enabled else 0) | (POSE_WATCHDOG if self._tripped else 0)
         if self.enabled and any(abs(f) > m for f, m in zip(self.command.vector,
-                                                           self.hello.max_force)):
+                                                           self.hello.max_force, strict=False)):
             flags |= POSE_CLAMPED
         pose = Pose(round(now * 1e6) & 0xFFFFFFFF, x, y, z,
                     (math.cos(half), 0.0, math.sin(half), 0.0), 0, flags)

@@ -19,7 +19,7 @@ import math
 import struct
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import ClassVar, Union
+from typing import Any, ClassVar
 
 from station.errors import BadInput
 
@@ -366,8 +366,8 @@ class Heartbeat:
         return cls(*cls._S.unpack(data))
 
 
-Message = Union[Hello, Pose, DeviceError, HelloRequest, Force, Vibration, Enable, Heartbeat]
-MESSAGE_TYPES: dict[int, type] = {m.TYPE: m for m in (Hello, Pose, DeviceError, HelloRequest,
+Message = Hello | Pose | DeviceError | HelloRequest | Force | Vibration | Enable | Heartbeat
+MESSAGE_TYPES: dict[int, Any] = {m.TYPE: m for m in (Hello, Pose, DeviceError, HelloRequest,
                                                       Force, Vibration, Enable, Heartbeat)}
 DEVICE_TYPES = frozenset({Hello.TYPE, Pose.TYPE, DeviceError.TYPE})
 STATION_TYPES = frozenset({HelloRequest.TYPE, Force.TYPE, Vibration.TYPE, Enable.TYPE,

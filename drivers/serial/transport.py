@@ -128,7 +128,10 @@ class SerialTransport:
         return int(self._serial.fileno())
 
     def read(self, timeout: float | None = 0.0) -> bytes:
-        """Bytes that arrived (waiting up to ``timeout`` s for the first); DeviceGone if unplugged."""
+        """Bytes that arrived (waiting up to ``timeout`` s for the first).
+
+        Raises DeviceGone when the device is unplugged.
+        """
         try:
             if timeout:
                 ready, _, _ = select.select([self._serial.fileno()], [], [], timeout)

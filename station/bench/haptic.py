@@ -17,6 +17,7 @@ clock).  Target: 1 kHz with a p99 period jitter (|period − 1 ms|) ≤ 0.5 ms.
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import multiprocessing as mp
 import os
@@ -68,7 +69,7 @@ def _one(path: str, rate: float, seconds: float, spin_s: float, rt: int = 0) -> 
     session.stop()
     cpu = time.process_time() - cpu0
     ticks = list(session.tick_times)
-    periods = [(b - a) * 1000.0 for a, b in zip(ticks, ticks[1:])]
+    periods = [(b - a) * 1000.0 for a, b in itertools.pairwise(ticks)]
     nominal = 1000.0 / rate
     jitter = sorted(abs(p - nominal) for p in periods)
     periods.sort()
