@@ -126,18 +126,27 @@ def pressure_from_force(fz: float, full_force: float) -> float:
 class FrameInterpolator:
     """Forces computed at the simulation rate, rendered at the haptic rate.
 
-    ``push(t, force)`` adds a frame (t on the station's monotonic clock);
-    ``sample(now)`` renders the force at ``now - delay`` by linear
-    interpolation between the two frames around it, where ``delay`` is the
-    last frame interval: one sim frame of latency buys a force without steps
-    (a 30 Hz staircase is felt as a buzz).  Before the second frame, and past
-    the newest one, it holds the nearest frame.
+    ``push(t, force, arrival)`` adds a frame for time ``t`` (the station's
+    monotonic clock) that arrived at ``arrival``; ``sample(now)`` renders the
+    force at ``now - delay`` by linear interpolation between the two frames
+    around it.  ``delay`` is the last frame interval plus how late frames
+    arrive (the largest lateness seen, decaying 2 % a frame): one sim frame of
+    latency, and a little more on a jittery bus, buy a force without steps (a
+    30 Hz staircase is felt as a buzz).  When that target delay changes, the
+    delay used follows it at 10 % of real time, so the rendered time never
+    jumps.  Before the second frame, and past the newest one, it holds the
+    nearest frame.
     """
 
     def __init__(self) -> None:
         self._frames: list[tuple[float, Vec3]] = []
+        self._late = 0.0
+        self._delay: float | None = None
+        self._now = 0.0
 
-    def push(self, t: float, force: Vec3) -> None:
+    def push(self, t: float, force: Vec3, arrival: float | None = None) -> None:
+        late = 0.0 if arrival is None else max(0.0, arrival - t)
+        self._late = max(late, self._late * 0.98)
         if self._frames and t <= self._frames[-1][0]:
             self._frames[-1] = (self._frames[-1][0], force)
             return
@@ -149,6 +158,8 @@ class FrameInterpolator:
 
     def clear(self) -> None:
         self._frames.clear()
+        self._late = 0.0
+        self._delay = None
 
     def sample(self, now: float) -> Vec3:
         frames = self._frames
@@ -156,8 +167,14 @@ class FrameInterpolator:
             return (0.0, 0.0, 0.0)
         if len(frames) == 1:
             return frames[0][1]
-        delay = frames[-1][0] - frames[-2][0]
-        t = now - delay
+        target = frames[-1][0] - frames[-2][0] + self._late
+        if self._delay is None:
+            self._delay = target
+        else:
+            warp = 0.1 * max(0.0, now - self._now)
+            self._delay += min(warp, max(-warp, target - self._delay))
+        self._now = now
+        t = now - self._delay
         for (t0, f0), (t1, f1) in itertools.pairwise(frames):
             if t0 <= t <= t1:
                 a = (t - t0) / (t1 - t0)

@@ -416,7 +416,7 @@ class HapticSession:
         clock (default: now), interpolated between frames; its arrival feeds the watchdog."""
         now = self.clock()
         with self._bus_lock:
-            self._bus.push(now if t is None else t, force)
+            self._bus.push(now if t is None else t, force, now)
             self._bus_time = now
             self.stats.bus_forces += 1
 
