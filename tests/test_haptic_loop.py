@@ -7,6 +7,7 @@ frames, rate limit, trips) are checked exactly.
 
 from __future__ import annotations
 
+import itertools
 import math
 import random
 
@@ -158,7 +159,7 @@ def test_bus_frames_with_jittery_arrival_render_smoothly_and_stop_after_50ms() -
     _run(session, line, 2.2, publish)
     fz = [(t, f.fz) for t, f in line.forces() if t > 1.0]
     values = [f for t, f in fz if t < heard[-1] + 0.0499]  # before the watchdog
-    steps = [abs(b - a) for a, b in zip(values, values[1:], strict=False)]
+    steps = [abs(b - a) for a, b in itertools.pairwise(values)]
     # a staircase would jump 0.1 N per frame; with up to 12 ms of bus jitter a frame later
     # than any recent one still shows, as a step a fifth of that
     assert max(steps) < 0.025
