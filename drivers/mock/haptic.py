@@ -68,6 +68,13 @@ Vec3 = tuple[float, float, float]
 HandScript = Callable[[float], Vec3]
 WATCHDOG_S = 0.05
 STEP_S = 0.00025
+KEEP = 600_000
+"""Records kept per log (10 minutes at 1 kHz): a demo may run the mock for hours."""
+
+
+def _keep(log: list) -> None:
+    if len(log) > KEEP:
+        del log[: KEEP // 2]
 
 
 def _smooth(a: float) -> float:
@@ -308,6 +315,7 @@ class MockHapticDevice:
         self._tripped = False
         if isinstance(msg, Force):
             self.received.append(Received(now, msg, seq))
+            _keep(self.received)
             lim = self.hello.max_force
             if any(abs(f) > m for f, m in zip(msg.vector, lim, strict=False)):
                 self.violations += 1
@@ -344,6 +352,7 @@ class MockHapticDevice:
         if round(t / STEP_S) % 4 == 0:
             self.applied.append((t, math.sqrt(sum(f * f for f in force)),
                                  -1.0 if self.last_rx is None else self.last_rx))
+            _keep(self.applied)
 
     def _send_pose(self, now: float) -> None:
         x, y, z = self.model.mm
@@ -361,6 +370,7 @@ class MockHapticDevice:
             if frame[i] == 0:
                 frame[i] = 0x55
         self.poses_sent.append(now)
+        _keep(self.poses_sent)
         self._write_raw(bytes(frame))
 
     def _error(self, code: int, text: str, now: float) -> None:
