@@ -16,7 +16,9 @@ from station.drivers.haptic.contact import RoundBrushContact
 from station.drivers.haptic.loop import HapticConfig, HapticSession, handle_axis, tilt_degrees
 from station.drivers.mock.haptic import default_hello
 from station.drivers.serial.protocol import (
+    ERR_VERSION,
     STATION_TYPES,
+    DeviceError,
     Enable,
     Force,
     FrameDecoder,
@@ -104,6 +106,18 @@ def test_no_hello_is_a_transport_error() -> None:
     with pytest.raises(TransportError, match="no hello"):
         session.handshake()
     assert sum(isinstance(m, HelloRequest) for _, m in line.sent) == 5  # every 200 ms for 1 s
+
+    class Foreign(Line):
+        def read(self, timeout: float | None = 0.0) -> bytes:
+            if not self.inbox:
+                self.device_sends(DeviceError(ERR_VERSION, "speaks 2.x"))
+            data = bytes(self.inbox)
+            self.inbox.clear()
+            return data
+
+    line = Foreign()
+    with pytest.raises(TransportError, match="does not speak"):
+        HapticSession(line, HapticConfig(), clock=lambda: line.clock[0]).handshake()
 
 
 def test_pose_watchdog_zeroes_exactly_after_50ms() -> None:

@@ -50,6 +50,7 @@ from station.drivers.haptic.safety import ZERO, ForceLimits, SafetyFilter
 from station.drivers.raw import Axis, AxisRanges, RawSample
 from station.drivers.serial.protocol import (
     DEVICE_TYPES,
+    ERR_VERSION,
     PROTOCOL_MAJOR,
     DeviceError,
     Enable,
@@ -208,6 +209,9 @@ class HapticSession:
                     self.hello = msg
                 elif isinstance(msg, DeviceError):
                     self.stats.device_errors[msg.name] += 1
+                    if msg.code == ERR_VERSION:
+                        raise TransportError(f"device does not speak haptic protocol "
+                                             f"{PROTOCOL_MAJOR}.x ({msg.text})")
         hello = self.hello
         if hello.major != PROTOCOL_MAJOR:
             raise TransportError(f"device speaks haptic protocol {hello.major}.{hello.minor}, "
