@@ -100,7 +100,11 @@ class SerialTransport:
     """A serial port opened through pyserial, non-blocking; see the module docstring."""
 
     def __init__(self, port: str, baudrate: int = DEFAULT_BAUD, serial_factory: Any = None) -> None:
-        import serial
+        try:
+            import serial  # the optional "serial" extra
+        except ImportError:
+            raise TransportError("serial haptic devices need pyserial: "
+                                 "pip install 'painting-station[serial]'") from None
 
         self.port = port
         self._error = serial.SerialException
