@@ -1,4 +1,6 @@
-"""``station record --device SPEC -o FILE.hid``: record a device as a trace.
+"""``station record --device SPEC -o FILE.hid``: record a device as a trace;
+``station record --bus ENDPOINT -o FILE.jsonl``: record the pen samples and commands
+on the bus as a session log (the blueprint's ``<recorder>``).
 
 HID devices (hidraw, hidapi, usb, mock …) are written as hid-recorder text as
 reports arrive (flushed per report, so Ctrl-C loses nothing); evdev devices as
@@ -21,8 +23,13 @@ from station.errors import BadInput
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("record", help="record a pen device to a trace (.hid or .evemu)")
-    p.add_argument("--device", required=True, metavar="SPEC", help="device SPEC (docs/drivers.md)")
-    p.add_argument("-o", "--output", required=True, metavar="FILE", help="trace file to write")
+    src = p.add_mutually_exclusive_group(required=True)
+    src.add_argument("--device", metavar="SPEC", help="device SPEC (docs/drivers.md)")
+    src.add_argument("--bus", metavar="ENDPOINT",
+                     help="record what the bus carries (pen samples, commands) as a session "
+                          "log instead of a device's reports")
+    p.add_argument("-o", "--output", required=True, metavar="FILE",
+                   help="trace file to write (a session log .jsonl with --bus)")
     p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
     p.add_argument("--no-init", action="store_true",
                    help="do not send the init feature reports (records mouse mode on a Wacom)")
@@ -35,6 +42,8 @@ def run(args: argparse.Namespace) -> int:
 
     if args.duration is not None and not args.duration > 0:
         raise BadInput("duration must be > 0 seconds", "--duration")
+    if args.bus is not None:
+        return _record_bus(args)
     opened = open_transport(args.device)
     stop = threading.Event()
     old = {sig: signal.signal(sig, lambda *_: stop.set())
@@ -123,3 +132,54 @@ def _record_evdev(transport: Any, path: str, stop: threading.Event, deadline: fl
         with open(path, "w", encoding="utf-8") as fh:
             fh.write(text)
     return len(events)
+
+
+def _record_bus(args: argparse.Namespace) -> int:
+    """Subscribe to the bus and write every pen sample and command as a session log.
+
+    Samples keep their driver time; one that would go back in time (two devices with
+    their own clocks) is written at the last time and counted as ``retimed``."""
+    import dataclasses
+
+    from station.bus import Subscriber
+    from station.sessionlog import SessionHeader, SessionLogWriter
+
+    if args.bus.startswith("@"):
+        raise BadInput("the recorder connects to the bus (a driver or 'station bus' binds it); "
+                       "drop the '@'", "--bus")
+    stop = threading.Event()
+    old = {sig: signal.signal(sig, lambda *_: stop.set())
+           for sig in (signal.SIGINT, signal.SIGTERM)}
+    deadline = time.monotonic() + args.duration if args.duration else None
+    counts = {"samples": 0, "commands": 0, "retimed": 0}
+    sub = Subscriber(args.bus, topics=("pen.", "cmd"))
+    try:
+        header = SessionHeader(extra={"source": sub.endpoints[0].url,
+                                      "recorded_by": "station record"})
+        writer = SessionLogWriter(args.output, header)
+    except OSError as exc:
+        sub.close()
+        raise BadInput(f"cannot write ({exc.strerror})", args.output) from None
+    last_t = 0.0
+    try:
+        while not stop.is_set() and (deadline is None or time.monotonic() < deadline):
+            msg = sub.recv(100)
+            if msg is None or msg.kind not in ("pen", "cmd"):
+                continue
+            rec = msg.value
+            if rec.t < last_t:
+                rec = dataclasses.replace(rec, t=last_t)
+                counts["retimed"] += 1
+            last_t = rec.t
+            writer.write(rec)
+            counts["samples" if msg.kind == "pen" else "commands"] += 1
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
+        writer.close()
+        lost = sub.stats.lost
+        sub.close()
+    sys.stderr.write(f"station record: {counts['samples']} samples, {counts['commands']} "
+                     f"commands written to {args.output} (retimed {counts['retimed']}, "
+                     f"lost on the bus {lost})\n")
+    return 0
