@@ -80,7 +80,9 @@ def loads(data: bytes, name: str, overrides: list[str] | None = None) -> Bluepri
     except etree.XMLSyntaxError as exc:
         line = exc.lineno or 0
         raise BlueprintError(f"not well-formed XML: {exc.msg}", f"{name}:{line}") from None
-    if isinstance(root, etree._Element) and root.tag != "station":
+    if root.getroottree().docinfo.doctype:
+        raise BlueprintError("a blueprint has no DOCTYPE (no DTD, no entities)", f"{name}:1")
+    if root.tag != "station":
         raise BlueprintError(f"the root element is <{root.tag}>, not <station>",
                              f"{name}:{root.sourceline}")
     _validate(root, name)
@@ -92,8 +94,11 @@ def loads(data: bytes, name: str, overrides: list[str] | None = None) -> Bluepri
 
 def _validate(root: etree._Element, name: str, overrides: list[str] | None = None) -> None:
     xsd = schema()
-    if xsd.validate(root):
-        return
+    try:
+        if xsd.validate(root):
+            return
+    except etree.XMLSchemaValidateError as exc:
+        raise BlueprintError(f"schema: cannot validate ({exc})", f"{name}:1") from None
     err = xsd.error_log.last_error  # libxml2 stops at the first problem of an element
     first = xsd.error_log[0] if len(xsd.error_log) else err
     msg = _short(first.message)

@@ -453,21 +453,28 @@ def _check_clashes(bp: Blueprint, procs: dict[str, Process], run_dir: Path) -> N
                             ("device", [d for d in p.devices if d.startswith("/dev/input/")
                                         or d.startswith("/dev/hidraw")])):
             for item in items:
+                if item.startswith("tcp://"):
+                    continue  # below: a wildcard address clashes with every host
                 key = f"{what} {item}"
-                if key in owners and owners[key] != p.id:
-                    raise BlueprintError(f"{what} clash: {item} is already bound by "
-                                         f"{owners[key]!r} (line "
-                                         f"{by_id[owners[key]].where.line})", str(p.where))
+                if key in owners:
+                    other = owners[key]
+                    by = "itself" if other == p.id else \
+                        f"{other!r} (line {by_id[other].where.line})"
+                    raise BlueprintError(f"{what} clash: {item} is already bound by {by}",
+                                         str(p.where))
                 owners[key] = p.id
-        wildcard = [b for b in p.binds if b.startswith("tcp://0.0.0.0:")]
-        for b in wildcard:  # 0.0.0.0:PORT clashes with any HOST:PORT
-            port = b.rpartition(":")[2]
-            for key, owner in owners.items():
-                if owner != p.id and key.startswith("endpoint tcp://") and \
-                        key.endswith(f":{port}"):
+    tcp: list[tuple[str, str, str]] = []  # (host, port, owner)
+    for p in procs.values():
+        for b in p.binds:
+            if not b.startswith("tcp://"):
+                continue
+            host, _, port = b[6:].rpartition(":")
+            for h, q, owner in tcp:
+                if q == port and (h == host or "0.0.0.0" in (h, host)):
                     raise BlueprintError(f"endpoint clash: port {port} is already bound by "
                                          f"{owner!r} (line {by_id[owner].where.line})",
                                          str(p.where))
+            tcp.append((host, port, p.id))
 
 
 def _start_order(bp: Blueprint, procs: dict[str, Process]) -> list[str]:
