@@ -88,7 +88,7 @@ def run_systemd(args: argparse.Namespace) -> int:
     bp = load(args.file, args.overrides)
     written = write_units(bp, args.output, per_component=args.per_component,
                           install_path=args.install_path, user=args.user,
-                          station=args.station)
+                          station=args.station, overrides=args.overrides)
     for path in written:
         print(path)
     return 0
