@@ -1,0 +1,303 @@
+"""``station doctor``: is this machine ready to run a station, and what to fix if not.
+
+Each check gives ``ok``, ``warn`` (works, but worth knowing) or ``fail`` with the
+fix.  With a blueprint the checks are about what it uses: its devices, its
+calibration files, its gallery, the bus of a station already running it.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+from station.blueprint.model import BlueprintError
+from station.blueprint.plan import Plan
+
+UDEV_DIRS = (Path("/etc/udev/rules.d"), Path("/run/udev/rules.d"), Path("/lib/udev/rules.d"),
+             Path("/usr/lib/udev/rules.d"))
+DEFAULT_MIN_FREE = 1 << 30  # 1 GiB for the gallery and session logs
+GL_TIMEOUT_S = 60.0
+
+_GL_PROBE = """
+import json, moderngl
+ctx = moderngl.create_standalone_context(backend="egl", require=330)
+print(json.dumps({"vendor": ctx.info["GL_VENDOR"], "renderer": ctx.info["GL_RENDERER"],
+                  "version": ctx.version_code}))
+"""
+
+
+@dataclass(frozen=True)
+class Check:
+    """One finding: ``status`` is ok, warn or fail; ``fix`` says what to do."""
+
+    name: str
+    status: str
+    detail: str
+    fix: str = ""
+
+
+def check_gl() -> Check:
+    """An EGL context in a child process (a broken driver cannot take the doctor down)."""
+    try:
+        proc = subprocess.run([sys.executable, "-c", _GL_PROBE], capture_output=True,
+                              text=True, timeout=GL_TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        return Check("gl", "fail", f"creating an EGL context took over {GL_TIMEOUT_S:g} s",
+                     "check the GPU driver; meanwhile run the sim with --backend cpu")
+    if proc.returncode != 0:
+        last = (proc.stderr.strip().splitlines() or ["unknown error"])[-1]
+        return Check("gl", "fail", f"no EGL OpenGL context: {last}",
+                     "install Mesa's EGL and drivers (apt install libegl1 libgl1-mesa-dri) or "
+                     "the GPU vendor's driver; the sim still runs with --backend cpu")
+    info = json.loads(proc.stdout.strip().splitlines()[-1])
+    version = int(info["version"])
+    detail = (f"EGL: {info['vendor']} / {info['renderer']}, OpenGL "
+              f"{version // 100}.{version % 100 // 10}")
+    if version < 430:
+        return Check("gl", "warn", detail + " (the gl backend needs 4.3)",
+                     "use --backend cpu, or a newer driver for the gl backend")
+    if any(k in str(info["renderer"]).lower() for k in ("llvmpipe", "softpipe", "swrast")):
+        return Check("gl", "warn", detail + ": software rendering on the CPU",
+                     "install the GPU's driver for speed; --backend auto picks cpu meanwhile")
+    return Check("gl", "ok", detail)
+
+
+def check_devices(plan: Plan | None) -> list[Check]:
+    from station.cli.cmd_devices import scan
+
+    found = scan()
+    checks = []
+    for problem in found["problems"]:
+        checks.append(Check("devices", "fail", problem,
+                            "install the udev rules (station udev -o 70-painting-station.rules;"
+                            " sudo install -m 0644 it in /etc/udev/rules.d/) and add the user "
+                            "to the 'station' group"))
+    real = [d for k in ("evdev", "hidraw", "hidapi", "usb") for d in found[k]
+            if "problem" not in d]
+    wanted = _wanted_devices(plan)
+    for ident, spec, vid, pid in wanted:
+        if spec is not None and not spec.startswith(("mock", "trace:", "serial-mock")):
+            node = spec.split(":", 1)[1].split("?", 1)[0]
+            if node.startswith("/dev/") and not os.path.exists(node):
+                checks.append(Check("devices", "fail", f"{ident}: {node} does not exist",
+                                    "plug the device in, or fix device= in the blueprint"))
+            elif node.startswith("/dev/") and not os.access(node, os.R_OK | os.W_OK):
+                checks.append(Check("devices", "fail", f"{ident}: no read/write access to "
+                                    f"{node}", "install the udev rules and join the "
+                                               "'station' group (then log in again)"))
+            else:
+                checks.append(Check("devices", "ok", f"{ident}: {spec}"))
+        elif vid is not None:
+            match = [d for d in real if d.get("vid") == vid.lower() and d.get("pid") ==
+                     pid.lower()]  # type: ignore[union-attr]
+            if match:
+                checks.append(Check("devices", "ok", f"{ident}: {vid}:{pid} at "
+                                    f"{match[0]['spec']}"))
+            else:
+                checks.append(Check("devices", "fail", f"{ident}: no device {vid}:{pid} "
+                                    "found (or not readable)",
+                                    "plug the tablet in; `station devices` lists what is "
+                                    "here and why a device cannot be opened"))
+        else:
+            checks.append(Check("devices", "ok", f"{ident}: {spec} (no hardware needed)"))
+    if not wanted and not found["problems"]:
+        if real:
+            names = ", ".join(f"{d.get('name', '')} ({d['spec']})" for d in real[:4])
+            checks.append(Check("devices", "ok", f"{len(real)} pen device(s): {names}"))
+        else:
+            checks.append(Check("devices", "warn", "no pen tablet found",
+                                "plug one in; mocks (station devices lists them) work "
+                                "without"))
+    return checks
+
+
+def _wanted_devices(plan: Plan | None) -> list[tuple[str, str | None, str | None, str | None]]:
+    if plan is None:
+        return []
+    out = []
+    for c in plan.blueprint.components:
+        if c.kind in ("driver", "haptic"):
+            out.append((c.id, c.get("device"), c.get("vid"), c.get("pid")))
+    return out
+
+
+def check_udev(dirs: tuple[Path, ...] | None = None) -> Check:
+    from station.udev.generate import RULES_NAME, generate
+
+    dirs = dirs if dirs is not None else UDEV_DIRS
+    for d in dirs:
+        path = d / RULES_NAME
+        if path.is_file():
+            try:
+                text = path.read_text(encoding="utf-8")
+            except OSError as exc:
+                return Check("udev", "fail", f"{path}: cannot read ({exc.strerror})",
+                             f"sudo chmod 0644 {path}")
+            if text != generate():
+                return Check("udev", "warn", f"{path}: installed, but not the rules this "
+                             "version generates (new tablets missing?)",
+                             f"station udev -o {RULES_NAME} && sudo install -m 0644 "
+                             f"{RULES_NAME} {path}")
+            return Check("udev", "ok", f"{path}: up to date")
+    return Check("udev", "fail", f"no {RULES_NAME} in {', '.join(str(d) for d in dirs)}",
+                 f"station udev -o {RULES_NAME} && sudo install -m 0644 {RULES_NAME} "
+                 f"/etc/udev/rules.d/ && sudo udevadm control --reload && sudo udevadm "
+                 "trigger")
+
+
+def check_calibration(plan: Plan | None) -> list[Check]:
+    from station.calibration.files import config_dir, find_for_device, read_file
+
+    checks = []
+    if plan is not None:
+        for ident, path in plan.calibrations.items():
+            try:
+                read_file(path)
+            except OSError as exc:
+                checks.append(Check("calibration", "fail", f"{ident}: {path}: "
+                                    f"{exc.strerror or exc}",
+                                    "run `station calibrate` for the tablet, or fix file="))
+                continue
+            except BlueprintError:
+                raise
+            except Exception as exc:  # a malformed file: its own message names it
+                checks.append(Check("calibration", "fail", f"{ident}: {exc}",
+                                    "run `station calibrate` again to rewrite it"))
+                continue
+            checks.append(Check("calibration", "ok", f"{ident}: {path}"))
+        for c in plan.blueprint.components:
+            if c.kind == "driver" and c.get("vid") and c.get("calibration", "auto") == "auto" \
+                    and not any(w.interface == "calibration" for w in c.requires):
+                vid, pid = int(c.attrs["vid"], 16), int(c.attrs["pid"], 16)
+                found = find_for_device(vid, pid, c.get("serial"))
+                if found is None:
+                    checks.append(Check("calibration", "fail",
+                                        f"{c.id}: no calibration for {c.attrs['vid']}:"
+                                        f"{c.attrs['pid']} in {config_dir()}",
+                                        "run `station calibrate` with the tablet plugged in"))
+                else:
+                    checks.append(Check("calibration", "ok", f"{c.id}: {found}"))
+    if not checks:
+        files = sorted(config_dir().glob("*.json")) if config_dir().is_dir() else []
+        checks.append(Check("calibration", "ok" if files else "warn",
+                            f"{len(files)} calibration file(s) in {config_dir()}",
+                            "" if files else "run `station calibrate` for each tablet (pens "
+                                             "then map to the canvas exactly)"))
+    return checks
+
+
+def check_bus(plan: Plan | None) -> list[Check]:
+    from station.bus import Publisher, Subscriber, runtime_dir
+    from station.errors import StationError
+
+    checks = []
+    try:
+        rdir = runtime_dir()
+        with Publisher(f"@ipc://{rdir}/doctor-{os.getpid()}", replay=False):
+            pass
+        checks.append(Check("bus", "ok", f"ipc sockets can be made in {rdir} (0700)"))
+    except (StationError, OSError) as exc:
+        checks.append(Check("bus", "fail", f"the bus cannot be set up: {exc}",
+                            "set STATION_RUNTIME_DIR to a directory of your own (0700), or "
+                            "fix XDG_RUNTIME_DIR"))
+    if plan is not None:
+        from station.blueprint.supervisor import running_pid
+
+        pid = running_pid(plan.run_dir)
+        if pid is None:
+            checks.append(Check("bus", "ok", f"station {plan.blueprint.name!r} is not "
+                                f"running ({plan.run_dir})"))
+        else:
+            for p in plan.processes:
+                if p.status is None:
+                    continue
+                sub = Subscriber(p.status, topics=("status",))
+                try:
+                    msg = None
+                    for _ in range(30):
+                        msg = sub.recv(100)
+                        if msg is not None:
+                            break
+                finally:
+                    sub.close()
+                if msg is None:
+                    checks.append(Check("bus", "fail", f"{p.id}: no status on {p.status} in "
+                                        "3 s", f"look at {plan.run_dir}/logs/{p.id}.log"))
+                else:
+                    checks.append(Check("bus", "ok", f"{p.id} answers on {p.status}"))
+    return checks
+
+
+def _parse_size(text: str) -> int:
+    units = {"": 1, "B": 1, "K": 1 << 10, "KiB": 1 << 10, "M": 1 << 20, "MiB": 1 << 20,
+             "G": 1 << 30, "GiB": 1 << 30, "T": 1 << 40, "TiB": 1 << 40}
+    num = text.rstrip("KMGTiB")
+    unit = text[len(num):]
+    if unit not in units:
+        raise ValueError(text)
+    return int(float(num) * units[unit])
+
+
+def check_disk(plan: Plan | None, data_dir: Path | None = None) -> list[Check]:
+    targets: list[tuple[str, Path, int]] = []
+    if plan is not None:
+        for c in plan.blueprint.components:
+            if c.kind == "gallery":
+                try:
+                    need = _parse_size(c.get("min-free") or "1GiB")
+                except ValueError:
+                    raise BlueprintError(f"min-free={c.get('min-free')!r}: a size like 1GiB",
+                                         str(c.where)) from None
+                targets.append((c.id, plan.galleries[c.id], need))
+    if not targets:
+        base = data_dir or Path(os.environ.get("STATION_DATA_DIR") or Path(
+            os.environ.get("XDG_DATA_HOME") or Path.home() / ".local" / "share") / "station")
+        targets.append(("data", base, DEFAULT_MIN_FREE))
+    checks = []
+    for ident, path, need in targets:
+        probe = path
+        while not probe.exists() and probe != probe.parent:
+            probe = probe.parent
+        free = shutil.disk_usage(probe).free
+        detail = f"{ident}: {free / (1 << 30):.1f} GiB free at {path} (needs {need / (1 << 30):.1f})"
+        if free < need:
+            checks.append(Check("disk", "fail", detail,
+                                "free some space (old session logs in sessions/, gallery "
+                                "paintings) or point the gallery elsewhere"))
+        else:
+            checks.append(Check("disk", "ok", detail))
+    return checks
+
+
+def run_checks(plan: Plan | None, gl: bool = True) -> list[Check]:
+    checks: list[Check] = []
+    if gl:
+        checks.append(check_gl())
+    checks += check_devices(plan)
+    checks.append(check_udev())
+    checks += check_calibration(plan)
+    checks += check_bus(plan)
+    checks += check_disk(plan)
+    return checks
+
+
+def report(checks: list[Check]) -> str:
+    lines = []
+    for c in checks:
+        lines.append(f"{c.status.upper():<5} {c.name}: {c.detail}")
+        if c.fix and c.status != "ok":
+            lines.append(f"      fix: {c.fix}")
+    bad = sum(c.status == "fail" for c in checks)
+    lines.append(f"{bad} problem(s)" if bad else "all good")
+    return "\n".join(lines) + "\n"
+
+
+def as_json(checks: list[Check]) -> dict[str, Any]:
+    return {"ok": not any(c.status == "fail" for c in checks),
+            "checks": [asdict(c) for c in checks]}
