@@ -6,10 +6,10 @@ import json
 from pathlib import Path
 
 import pytest
+from station.udev.generate import RULES_NAME, generate
 
 from station.blueprint import doctor
 from station.cli import main
-from station.udev.generate import RULES_NAME, generate
 
 
 def run_doctor(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, dict]:

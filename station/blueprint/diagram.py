@@ -18,17 +18,17 @@ def text(plan: Plan) -> str:
     lines.append("wiring:")
     width = max((len(e.provider) for e in plan.edges), default=4)
     for e in plan.edges:
-        p, c = bp.component(e.provider), bp.component(e.consumer)
-        lines.append(f"  {e.provider:<{width}} ({p.kind}) --{e.interface}--> "
-                     f"{e.consumer} ({c.kind})")
+        src, dst = bp.component(e.provider), bp.component(e.consumer)
+        lines.append(f"  {e.provider:<{width}} ({src.kind}) --{e.interface}--> "
+                     f"{e.consumer} ({dst.kind})")
     lines.append("processes, in start order (stopped in reverse):")
-    for i, p in enumerate(plan.processes, 1):
-        lines.append(f"  {i}. {p.id} [{p.kind}, restart={p.restart}]: "
-                     f"station {shlex.join(p.argv)}")
-        if p.recover_argv:
-            lines.append(f"     after a crash: station {shlex.join(p.recover_argv)}")
-        if p.binds:
-            lines.append(f"     binds {', '.join(p.binds)}")
+    for i, proc in enumerate(plan.processes, 1):
+        lines.append(f"  {i}. {proc.id} [{proc.kind}, restart={proc.restart}]: "
+                     f"station {shlex.join(proc.argv)}")
+        if proc.recover_argv:
+            lines.append(f"     after a crash: station {shlex.join(proc.recover_argv)}")
+        if proc.binds:
+            lines.append(f"     binds {', '.join(proc.binds)}")
     resources = [c for c in bp.components if not KINDS[c.kind].process]
     if resources:
         lines.append("resources:")

@@ -265,7 +265,8 @@ def check_disk(plan: Plan | None, data_dir: Path | None = None) -> list[Check]:
         while not probe.exists() and probe != probe.parent:
             probe = probe.parent
         free = shutil.disk_usage(probe).free
-        detail = f"{ident}: {free / (1 << 30):.1f} GiB free at {path} (needs {need / (1 << 30):.1f})"
+        detail = (f"{ident}: {free / (1 << 30):.1f} GiB free at {path} "
+                  f"(needs {need / (1 << 30):.1f})")
         if free < need:
             checks.append(Check("disk", "fail", detail,
                                 "free some space (old session logs in sessions/, gallery "

@@ -210,9 +210,9 @@ def _check_rules(bp: Blueprint, by_id: dict[str, Component]) -> None:
             target = painters[0]
         for action in rule.actions:
             if action.name == "restart":
-                ident = action.attrs["component"]
-                if ident not in by_id or not KINDS[by_id[ident].kind].process:
-                    raise BlueprintError(f"no process component {ident!r} to restart",
+                victim = action.attrs["component"]
+                if victim not in by_id or not KINDS[by_id[victim].kind].process:
+                    raise BlueprintError(f"no process component {victim!r} to restart",
                                          str(action.where))
                 continue
             if action.name == "show-message":

@@ -102,7 +102,8 @@ def units(bp: Blueprint, per_component: bool = False, install_path: str | None =
         ident.append("Environment=DISPLAY=:0")
     out: dict[str, str] = {}
     if not per_component:
-        text = head + [
+        text = [
+            *head,
             "[Unit]",
             f"Description=Painting station {name} (blueprint, supervised)",
             "After=network.target",
@@ -131,7 +132,8 @@ def units(bp: Blueprint, per_component: bool = False, install_path: str | None =
     for i, p in enumerate(plan.processes):
         before = [names[q.id] for q in plan.processes[:i]]  # start order: everything earlier
         restart = p.restart if p.restart != "no" else "no"
-        text = head + [
+        text = [
+            *head,
             "[Unit]",
             f"Description=Painting station {name}: {p.id} ({p.kind})",
             f"PartOf={target}",
@@ -154,7 +156,8 @@ def units(bp: Blueprint, per_component: bool = False, install_path: str | None =
             f"WantedBy={target}",
         ]
         out[names[p.id]] = "\n".join(text) + "\n"
-    out[target] = "\n".join(head + [
+    out[target] = "\n".join([
+        *head,
         "[Unit]",
         f"Description=Painting station {name} (one unit per component)",
         f"Wants={' '.join(names.values())}",
