@@ -167,3 +167,14 @@ def test_idle_and_unplug_rules_fire_once_per_period(tmp_path: Path) -> None:
     assert [(f.rule.event, f.detail) for f in gone] == [("device-unplugged", {"device": "pen"})]
     assert eng.on_status("sim", {"samples": 6, "silent_devices": ["pen"]}, 24.5) == []
     assert eng.on_status("sim", {"samples": 6, "silent_devices": ["other"]}, 25.0) == []
+
+
+def test_the_documented_example_is_a_working_blueprint(tmp_path: Path) -> None:
+    doc = (Path(__file__).parents[1] / "docs" / "blueprint.md").read_text()
+    example = doc.split("```xml\n", 1)[1].split("```", 1)[0]
+    bp = loads(example.encode(), "docs/blueprint.md")
+    plan = resolve(bp, Path("/r"), tmp_path)
+    assert [p.id for p in plan.processes] == ["hub", "sim", "left", "right"]
+    assert plan.process("right").devices == ["/dev/input/by-id/usb-Wacom_Cintiq-event-stylus"]
+    assert [r.event for r in bp.rules] == ["idle", "device-unplugged"]
+    assert bp.rules[0].after_s == 300.0
