@@ -250,3 +250,29 @@ def test_kiosk_blueprint_under_xvfb(tmp_path: Path) -> None:
     assert "3 components up" in proc.stderr
     shots = list((tmp_path / "gallery").rglob("*.png"))
     assert shots, proc.stderr[-3000:]  # the painting was saved when the kiosk stopped
+
+
+@needs_live_sim
+def test_trace_and_haptic_device_through_the_bus(tmp_path: Path) -> None:
+    """A <replay> of a recorded trace and a <haptic> mock device on one canvas."""
+    rec = station("record", "--device", "mock:intuos-pro-m?script=arc&speed=max",
+                  "-o", "arc.hid", cwd=tmp_path)
+    assert rec.returncode == 0, rec.stderr
+    (tmp_path / "bp.xml").write_text("""<station name="rep" version="1">
+  <replay id="trace" trace="arc.hid" speed="max"/>
+  <haptic id="hand" device="serial-mock:?script=stroke"/>
+  <bus id="hub"><requires interface="pen" from="trace"/><requires interface="pen" from="hand"/>
+  </bus>
+  <sim id="sim" width="64" height="48" backend="numpy" png="out.png">
+    <requires interface="pen" from="hub"/></sim>
+</station>
+""")
+    run = tmp_path / "r"
+    proc = station("run", "bp.xml", "--once", "--run-dir", str(run), cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    log = Path(state(run)["components"]["sim"]["log"])
+    counts = {d: sum(1 for r in pens(log) if r["device"] == d) for d in ("trace", "hand")}
+    replayed = int(proc.stderr.split("reports -> ")[1].split(" samples")[0])
+    assert counts == {"trace": replayed, "hand": driver_total(run, "hand")}
+    assert min(counts.values()) > 100
+    assert painted(tmp_path / "out.png") > 40
