@@ -99,6 +99,9 @@ class HidPenSource:
         info = transport.info
         self.parser = parser or parser_for(info.vid, info.pid, info.descriptor, info.bus,
                                            interface=interface_from_phys(info.phys))
+        self.uclogic_params: Any = None
+        if send_init:
+            self.uclogic_params = _vendor_setup(self.parser, transport)
         if not self.parser.is_pen:
             raise DeviceSpecError(
                 f"{info.path}: {info.name} ({info.vid:04x}:{info.pid:04x}) is a "
@@ -399,6 +402,28 @@ def _open_mock_evdev(spec: DeviceSpec, dev: TraceDevice, speed: float | None) ->
     return OpenedTransport("evdev", transport, finite, spec, node)
 
 
+def _vendor_setup(parser: Any, transport: HidTransport) -> Any:
+    """UC-Logic tablets: the set-up over transports that can do it (pyusb), else say why not."""
+    from station.drivers.uclogic.init import UclogicControl
+
+    if not getattr(parser, "needs_control", False):
+        return None
+    if not isinstance(transport, UclogicControl):
+        log.info("%s: UC-Logic set-up needs raw USB (usb: SPEC); reading the reports its "
+                 "descriptor describes (the kernel's hid-uclogic may have set it up)",
+                 transport.info.path)
+        return None
+    params = parser.initialise(transport)
+    if params is None:
+        log.warning("%s: UC-Logic set-up found no parameters; reading the device's own reports",
+                    transport.info.path)
+    else:
+        log.info("%s: UC-Logic %s parameters: %dx%d, pressure %d, %d lpi", transport.info.path,
+                 params.kind, params.max_x, params.max_y, params.max_pressure,
+                 params.resolution_lpi)
+    return params
+
+
 def open_device(spec_text: str, name: str | None = None, send_init: bool = True) -> PenSource:
     """Open the pen device a SPEC string names, with its parser (HID) or assembler (evdev)."""
     opened = open_transport(spec_text)
@@ -515,7 +540,8 @@ class TraceReplay:
         except BadInput as exc:
             return f"no parser: {exc}"
         if not parser.is_pen:
-            return f"{getattr(parser, 'kind', 'non-pen')} interface"
+            why = getattr(parser, "why", "")
+            return f"{getattr(parser, 'kind', 'non-pen')} interface" + (f": {why}" if why else "")
         return ""
 
     def skipped_text(self) -> str:

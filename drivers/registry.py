@@ -30,10 +30,13 @@ from station.drivers.hid.errors import DescriptorError, ReportError
 from station.drivers.hid.pen import GenericPenParser
 from station.drivers.hid.quirks import pen_usage_quirks
 from station.drivers.raw import Axis, AxisRanges
+from station.drivers.uclogic.parser import UclogicPenParser
 from station.drivers.wacom.bamboo import BambooParser
+from station.drivers.wacom.bluetooth import IntuosBluetoothParser, Intuos4WirelessParser
 from station.drivers.wacom.common import WacomParams
 from station.drivers.wacom.graphire import GraphireParser
 from station.drivers.wacom.intuos import IntuosParser
+from station.drivers.wacom.legacy import PROTOCOLS as LEGACY, LegacyPenParser
 
 from station.errors import BadInput
 
@@ -73,13 +76,25 @@ PARSERS: dict[str, Callable[[dict[str, Any], Descriptor | None], ReportParser]] 
     "wacom-graphire": _wacom(GraphireParser),
     "wacom-graphire-bt": _wacom(GraphireParser, bluetooth=True),
     "wacom-graphire4": _wacom(GraphireParser, graphire4=True),
+    "wacom-intuos1": _wacom(IntuosParser, original=True),
+    "wacom-intuos4wl": _wacom(Intuos4WirelessParser),
+    "wacom-intuos-bt": _wacom(IntuosBluetoothParser),
 }
+for _name in LEGACY:
+    PARSERS[_name] = _wacom(LegacyPenParser.for_protocol(_name))
 GENERIC = "hid-generic"
+UCLOGIC = "uclogic"
+WACOM_VID = 0x056A
+# The interface that carries the pen on UC-Logic tablets (uclogic_params_init: Huion
+# and v1 tablets interface 0, UGEE v2 interface 2).
+UCLOGIC_PEN_INTERFACE = {"huion": 0, "v1": 0, "ugee-v2": 2}
+REPORT_HINT = ("please report it (docs/devices.md, 'Reporting a tablet'): attach "
+               "`station record --device hidraw:/dev/hidrawN -o tablet.hid` and `lsusb -v -d {vid:04x}:{pid:04x}`")
 
 
 def parser_names() -> list[str]:
     """Every parser name device data may use."""
-    return sorted([*PARSERS, GENERIC])
+    return sorted([*PARSERS, GENERIC, UCLOGIC])
 
 
 @lru_cache(maxsize=1)
@@ -121,10 +136,11 @@ def find_device(vid: int, pid: int, bus: int | None = None) -> dict[str, Any] | 
 
 
 def _model_ranges(model: dict[str, Any]) -> AxisRanges:
+    # Descriptor-driven models (hid-generic, uclogic) may carry no numbers: 0..1 then.
     res = model.get("resolution", {})
-    return AxisRanges(Axis(0, int(model["max_x"]), res.get("x")),
-                      Axis(0, int(model["max_y"]), res.get("y")),
-                      Axis(0, int(model["max_pressure"])))  # fmt: skip
+    return AxisRanges(Axis(0, int(model.get("max_x", 1)), res.get("x")),
+                      Axis(0, int(model.get("max_y", 1)), res.get("y")),
+                      Axis(0, int(model.get("max_pressure", 1))))  # fmt: skip
 
 
 def parser_for(vid: int, pid: int, descriptor: bytes | None, bus: int = BUS_USB,
@@ -145,6 +161,8 @@ def parser_for(vid: int, pid: int, descriptor: bytes | None, bus: int = BUS_USB,
     descriptor of a device that needs it.
     """
     model = find_device(vid, pid, bus)
+    if model is not None and model["parser"] == UCLOGIC:
+        return _uclogic(model, descriptor, interface)
     if model is not None and interface is not None:
         for ign in model.get("ignore_interfaces", []):
             if ign["interface"] == interface:
@@ -170,8 +188,11 @@ def parser_for(vid: int, pid: int, descriptor: bytes | None, bus: int = BUS_USB,
         return parser
     if not descriptor:
         what = model["name"] if model else f"unknown device {vid:04x}:{pid:04x}"
-        raise BadInput(f"{what} needs its report descriptor (generic HID parser)")
+        hint = f"; {REPORT_HINT.format(vid=vid, pid=pid)}" if model is None and vid == WACOM_VID else ""
+        raise BadInput(f"{what} needs its report descriptor (generic HID parser){hint}")
     desc = parse_descriptor(descriptor)
+    if model is None and vid == WACOM_VID:
+        return _unknown_wacom(vid, pid, desc, bus)
     parser = GenericPenParser(desc, model, _init_features(model) if model else [],
                               generic=model is None, quirks=pen_usage_quirks(vid, pid))
     if model is not None:
@@ -225,3 +246,66 @@ def interface_from_phys(phys: str) -> int | None:
     """The USB interface number in a physical path such as ``usb-0000:00:14.0-2/input1``."""
     m = re.search(r"/input(\d+)$", phys.strip())
     return int(m.group(1)) if m else None
+
+
+def _uclogic(model: dict[str, Any], descriptor: bytes | None,
+             interface: int | None) -> ReportParser:
+    """A UC-Logic interface: the pen one gets the set-up-capable parser, others are ignored."""
+    desc = None
+    if descriptor:
+        try:
+            desc = parse_descriptor(descriptor)
+        except DescriptorError as exc:
+            log.warning("%s: descriptor ignored: %s", model["name"], exc)
+    parser = UclogicPenParser(model, desc)
+    pen_interface = UCLOGIC_PEN_INTERFACE.get(parser.init_kind)
+    if (parser.fallback is None and desc is not None and interface is not None
+            and interface != pen_interface):
+        kinds = set(GenericPenParser(desc, model).kinds.values()) - {"pen"}
+        kind = "pad" if "pad" in kinds else "other"
+        return IgnoredInterface(f"uclogic/{kind}", kind, _model_ranges(model), model)
+    return parser
+
+
+# Pen report lengths (with the ID byte) of report 2 on a vendor-defined Wacom interface ->
+# the protocol it implies: 8 Graphire, 9 Bamboo "fun", 10..16 the Intuos family.
+_IMPLIED = ((8, "wacom-graphire"), (9, "wacom-bamboo")) + tuple(
+    (n, "wacom-intuos") for n in range(10, 17))
+
+
+def implied_protocol(desc: Descriptor) -> str | None:
+    """The Wacom protocol a descriptor implies (None: no vendor report 2 of a pen length)."""
+    lengths = {r.report_id: r.length(True) for r in desc.input_reports() if r.report_id}
+    return dict(_IMPLIED).get(lengths.get(2, 0))
+
+
+def _unknown_wacom(vid: int, pid: int, desc: Descriptor, bus: int) -> ReportParser:
+    """An unknown Wacom id: the generic pen path, or the protocol its descriptor implies."""
+    generic = GenericPenParser(desc, None, [], generic=True, quirks=pen_usage_quirks(vid, pid))
+    what = f"unknown Wacom tablet {vid:04x}:{pid:04x}"
+    if generic.is_pen:
+        generic.warning = (f"{what}: read through its HID descriptor (generic path); "
+                           + REPORT_HINT.format(vid=vid, pid=pid))
+        log.warning("%s", generic.warning)
+        return generic
+    family = implied_protocol(desc)
+    if family is None:
+        kinds = sorted(set(generic.kinds.values())) or ["no input reports"]
+        raise BadInput(f"{what} has no pen collection and no Wacom pen report in its report "
+                       f"descriptor (reports: {', '.join(kinds)}); "
+                       + REPORT_HINT.format(vid=vid, pid=pid))  # fmt: skip
+    # Ranges: the largest known model of the family, so no coordinate leaves its range;
+    # the mapping to the surface is a guess until the tablet is in the data.
+    peers = [m for m in _load() if m["parser"] == family and "max_x" in m]
+    big = max(peers, key=lambda m: int(m["max_x"]) * int(m["max_y"]))
+    model = {**{k: big[k] for k in ("max_x", "max_y", "max_pressure", "max_distance",
+                                     "resolution", "pad_report_ids") if k in big},
+             "id": f"wacom-unknown-{pid:04x}", "name": what, "vendor_id": f"{vid:04x}",
+             "product_id": f"{pid:04x}", "bus": BUS_NUMBERS.get(bus, "usb"),
+             "parser": family, "init_feature_reports": ["0202"] if bus == BUS_USB else []}
+    parser = PARSERS[family](model, desc)
+    parser.generic = True
+    parser.warning = (f"{what}: its descriptor implies the {family} protocol; ranges guessed "
+                      f"from {big['name']}; " + REPORT_HINT.format(vid=vid, pid=pid))
+    log.warning("%s", parser.warning)
+    return parser

@@ -1,0 +1,219 @@
+"""Single-tool Wacom protocols: PenPartner, PL/DTF pen displays, Cintiq Partner (PTU),
+DTU, DTUS/DTK and the ISDv4 Tablet PC pens.
+
+Byte facts from the kernel's wacom_wac.c (``wacom_penpartner_irq``,
+``wacom_pl_irq``, ``wacom_ptu_irq``, ``wacom_dtu_irq``, ``wacom_dtus_irq``,
+``wacom_tpc_pen``); d[0] is the report ID.  Each protocol is a pure decode
+function ``bytes -> Decoded``; :class:`LegacyPenParser` adds what they share:
+report ID and length checks, the tool kept while it is in proximity, and a
+proximity-out sample.
+
+| protocol | report | proximity | tool | x, y | pressure | tip | buttons |
+|---|---|---|---|---|---|---|---|
+| PenPartner | 1 / 2 | 1: d5&0x80, 2: always | d5&0x20 eraser | le16 d1, d3 | (s8)d6 + 127 | 1: (s8)d6 > -127; 2: (s8)d6 > -80 and not d5&0x20 | d5&0x40 |
+| PL | 2 | d1&0x40 | d4&0x20 at entry (or d0&0x10) eraser | 7-bit groups, see pl() | (s8)(d7<<1 \\| d4>>2&1) [<<1 \\| d4>>6&1] + (max+1)/2 | d4&0x08 | d4&0x10, pen only d4&0x20 |
+| PTU | 2 | d1&0x20 | d1&0x04 eraser | le16 d2, d4 | le16 d6 | pen d1&0x01, eraser d1&0x08 | d1&0x02, d1&0x10 |
+| DTU | 2 | d1&0x20 | d1&0x0c eraser | le16 d2, d4 | d6 \\| (d7&1)<<8 | d1&0x05 | d1&0x02, d1&0x10 |
+| DTUS | 17 (pad 21) | d1&0x80 | (d1>>3)&3: 1 eraser, 2 pen | be16 d3, d5 | (d1&3)<<8 \\| d2 | pressure > 10 | d1&0x20, d1&0x40 |
+| Tablet PC | 2 (or any 8-byte) | d1&0x20 | d1&0x0c eraser, at entry | le16 d2, d4 | (d7&7)<<8 \\| d6 | d1&0x05 | d1&0x02, d1&0x10 |
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from station.drivers.hid.base import ReportParser
+from station.drivers.hid.errors import ReportError
+from station.drivers.raw import Axis, AxisRanges, RawSample
+from station.drivers.wacom.common import WacomParams, unknown_id
+from station.drivers.wacom.modes import PEN_MODE_FEATURE
+from station.drivers.wacom.tools import ERASER_DEVICE_ID, STYLUS_DEVICE_ID
+
+from station.events import Button, Tool
+
+
+@dataclass(frozen=True, slots=True)
+class Decoded:
+    """One report's pen values (device units).  ``eraser`` None: the report does not say."""
+
+    prox: bool
+    x: int
+    y: int
+    pressure: int
+    tip: bool
+    buttons: int
+    eraser: bool | None = None
+
+
+def _le16(d: bytes, i: int) -> int:
+    return d[i] | (d[i + 1] << 8)
+
+
+def _s8(v: int) -> int:
+    v &= 0xFF
+    return v - 256 if v & 0x80 else v
+
+
+def _buttons(b1: int, b2: int) -> int:
+    return int((Button.STYLUS if b1 else 0) | (Button.STYLUS2 if b2 else 0))
+
+
+def penpartner(d: bytes, max_pressure: int) -> Decoded:
+    p = _s8(d[6])
+    if d[0] == 1:
+        prox = bool(d[5] & 0x80)
+        return Decoded(prox, _le16(d, 1), _le16(d, 3), p + 127 if prox else 0,
+                       prox and p > -127, _buttons(d[5] & 0x40, 0), bool(d[5] & 0x20))  # fmt: skip
+    return Decoded(True, _le16(d, 1), _le16(d, 3), p + 127, p > -80 and not d[5] & 0x20,
+                   _buttons(d[5] & 0x40, 0), False)  # fmt: skip
+
+
+def pl(d: bytes, max_pressure: int) -> Decoded:
+    pressure = _s8((d[7] << 1) | ((d[4] >> 2) & 1))
+    if max_pressure > 255:
+        pressure = (pressure << 1) | ((d[4] >> 6) & 1)
+    pressure += (max_pressure + 1) // 2
+    x = d[3] | (d[2] << 7) | ((d[1] & 0x03) << 14)
+    y = d[6] | (d[5] << 7) | ((d[4] & 0x03) << 14)
+    eraser = bool(d[0] & 0x10 or d[4] & 0x20)
+    # STYLUS2 only for the pen: with the eraser in, d4&0x20 is always set.
+    return Decoded(bool(d[1] & 0x40), x, y, pressure, bool(d[4] & 0x08),
+                   _buttons(d[4] & 0x10, 0), eraser)  # fmt: skip
+
+
+def ptu(d: bytes, max_pressure: int) -> Decoded:
+    eraser = bool(d[1] & 0x04)
+    tip = bool(d[1] & 0x08) if eraser else bool(d[1] & 0x01)
+    return Decoded(bool(d[1] & 0x20), _le16(d, 2), _le16(d, 4), _le16(d, 6), tip,
+                   _buttons(d[1] & 0x02, d[1] & 0x10), eraser)  # fmt: skip
+
+
+def dtu(d: bytes, max_pressure: int) -> Decoded:
+    prox = bool(d[1] & 0x20)
+    return Decoded(prox, _le16(d, 2), _le16(d, 4), ((d[7] & 0x01) << 8) | d[6],
+                   bool(d[1] & 0x05), _buttons(d[1] & 0x02, d[1] & 0x10),
+                   bool(d[1] & 0x0C) if prox else None)  # fmt: skip
+
+
+def dtus(d: bytes, max_pressure: int) -> Decoded:
+    prox = bool(d[1] & 0x80)
+    kind = (d[1] >> 3) & 3
+    eraser = {1: True, 2: False}.get(kind) if prox else None
+    pressure = ((d[1] & 0x03) << 8) | d[2]
+    return Decoded(prox, (d[3] << 8) | d[4], (d[5] << 8) | d[6], pressure, pressure > 10,
+                   _buttons(d[1] & 0x20, d[1] & 0x40), eraser)  # fmt: skip
+
+
+def tpc(d: bytes, max_pressure: int) -> Decoded:
+    return Decoded(bool(d[1] & 0x20), _le16(d, 2), _le16(d, 4), ((d[7] & 0x07) << 8) | d[6],
+                   bool(d[1] & 0x05), _buttons(d[1] & 0x02, d[1] & 0x10),
+                   bool(d[1] & 0x0C))  # fmt: skip
+
+
+@dataclass(frozen=True, slots=True)
+class Protocol:
+    """How one legacy protocol is framed."""
+
+    name: str
+    decode: Callable[[bytes, int], Decoded]
+    pen_ids: frozenset[int]
+    min_length: int
+    pad_ids: frozenset[int] = frozenset()
+    mouse_mode: bool = True  # report 1 is the boot mouse before the mode switch
+    tool_at_entry: bool = True  # the tool is chosen when it enters proximity, then kept
+    any_id_length: int | None = None  # a report of this length is a pen report whatever its ID
+
+
+PROTOCOLS: dict[str, Protocol] = {
+    "wacom-penpartner": Protocol("wacom-penpartner", penpartner, frozenset({1, 2}), 7,
+                                 mouse_mode=False, tool_at_entry=False),
+    "wacom-pl": Protocol("wacom-pl", pl, frozenset({2}), 8),
+    "wacom-ptu": Protocol("wacom-ptu", ptu, frozenset({2}), 8, tool_at_entry=False),
+    "wacom-dtu": Protocol("wacom-dtu", dtu, frozenset({2}), 8),
+    "wacom-dtus": Protocol("wacom-dtus", dtus, frozenset({17}), 7, pad_ids=frozenset({21})),
+    "wacom-tpc": Protocol("wacom-tpc", tpc, frozenset({2}), 8, any_id_length=8),
+}
+MAX_LENGTH = 64
+
+
+class LegacyPenParser(ReportParser):
+    """One of :data:`PROTOCOLS` on a pen interface."""
+
+    def __init__(self, protocol: str, params: WacomParams, model: dict[str, Any] | None = None,
+                 init_features: list[bytes] | None = None) -> None:
+        self.protocol = PROTOCOLS[protocol]
+        self.name = protocol
+        self.params = params
+        self.pen_report_ids = self.protocol.pen_ids
+        ranges = AxisRanges(x=params.x_axis(), y=params.y_axis(),
+                            pressure=Axis(0, params.max_pressure))  # fmt: skip
+        feats = [PEN_MODE_FEATURE] if init_features is None else init_features
+        super().__init__(ranges, model, feats)
+        self.tool: Tool | None = None  # None: nothing in proximity
+        self.x = self.y = 0
+
+    @classmethod
+    def for_protocol(cls, protocol: str) -> Any:
+        """A constructor with the protocol bound (what the registry's factories call)."""
+
+        def make(params: WacomParams, model: dict[str, Any] | None = None,
+                 init_features: list[bytes] | None = None) -> LegacyPenParser:
+            return cls(protocol, params, model, init_features)
+
+        return make
+
+    def reset(self) -> None:
+        self.tool = None
+
+    def parse(self, report: bytes, time: float) -> list[RawSample]:
+        proto = self.protocol
+        if not report:
+            raise unknown_id(b"\0", proto.name)
+        rid = report[0]
+        pen = rid in proto.pen_ids or len(report) == proto.any_id_length
+        if not pen:
+            if rid in proto.pad_ids or rid in self.params.skip_report_ids - {1}:
+                return self._skip("pad")
+            if rid == 1 and proto.mouse_mode:
+                return self._skip("mouse")
+            raise unknown_id(report, proto.name)
+        if not proto.min_length <= len(report) <= MAX_LENGTH:
+            raise ReportError(f"{proto.name} report {rid} is {len(report)} bytes, expected "
+                              f"{proto.min_length}..{MAX_LENGTH}")  # fmt: skip
+        v = proto.decode(report, self.params.max_pressure)
+        out: list[RawSample] = []
+        if v.prox:
+            want = Tool.ERASER if v.eraser else Tool.PEN
+            if self.tool is None or (v.eraser is not None and not proto.tool_at_entry):
+                tool = want
+            elif proto.name == "wacom-pl" and self.tool == Tool.ERASER and not v.eraser:
+                # PL: STYLUS2 always accompanies the eraser; without it the entry was
+                # misread, so the eraser leaves and the pen comes in (as the kernel does).
+                out.append(self._sample(time, False, self.tool, 0, False, 0))
+                tool = Tool.PEN
+            else:
+                tool = self.tool
+            if tool != self.tool and self.tool is not None:
+                out.append(self._sample(time, False, self.tool, 0, False, 0))
+            self.tool = tool
+            self.x, self.y = v.x, v.y
+            buttons = v.buttons if tool == Tool.PEN else v.buttons & ~int(Button.STYLUS2) \
+                if proto.name == "wacom-pl" else v.buttons
+            out.append(self._sample(time, True, tool, v.pressure, v.tip, buttons))
+            return out
+        if self.tool is None:
+            self.dropped += 1  # nothing in proximity and nothing to end
+            return []
+        tool, self.tool = self.tool, None
+        self.x, self.y = v.x, v.y
+        return [self._sample(time, False, tool, 0, False, 0)]
+
+    def _sample(self, time: float, prox: bool, tool: Tool, pressure: int, tip: bool,
+                buttons: int) -> RawSample:
+        tool_id = ERASER_DEVICE_ID if tool == Tool.ERASER else STYLUS_DEVICE_ID
+        return RawSample(time=time, proximity=prox, x=self.x, y=self.y, tip=tip,
+                         pressure=max(0, min(pressure, self.params.max_pressure)),
+                         buttons=buttons, tool=tool, serial=None, tool_id=tool_id,
+                         eraser=tool == Tool.ERASER, valid=prox)  # fmt: skip
