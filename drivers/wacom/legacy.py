@@ -192,7 +192,7 @@ class LegacyPenParser(ReportParser):
                 # PL: STYLUS2 always accompanies the eraser; without it the entry was
                 # misread, so the eraser leaves and the pen comes in (as the kernel does).
                 out.append(self._sample(time, False, self.tool, 0, False, 0))
-                tool = Tool.PEN
+                self.tool, tool = None, Tool.PEN
             else:
                 tool = self.tool
             if tool != self.tool and self.tool is not None:
