@@ -508,6 +508,10 @@ def libwacom_model(tabs: list[Tablet], key: tuple[str, int, int], uclogic: set[t
     }
     if uc_kind is not None:
         model["uclogic"] = {"init": uc_kind}
+        if uc_kind != "fixed-descriptor":
+            # A kernel without hid-uclogic support for this id binds hid-generic: hidraw then
+            # shows the compatibility reports and the set-up needs the raw USB interface.
+            model["udev_unbind_from"] = "hid-generic"
     if shared:
         model["models"] = sorted({t.name for t in tabs})
     else:
@@ -584,9 +588,14 @@ def curated_files(out_dir: Path) -> tuple[set[tuple[str, int, int]], list[Path]]
     for p in sorted(out_dir.glob("*.json")):
         if p.name.endswith(".schema.json"):
             continue
-        m = json.loads(p.read_text(encoding="utf-8"))
+        try:
+            m = json.loads(p.read_text(encoding="utf-8"))
+        except json.JSONDecodeError:
+            m = {}
         if "provenance" in m:
             generated.append(p)
+        elif not {"bus", "vendor_id", "product_id"} <= set(m):
+            continue  # broken: rewritten when it has a generated file's name, else left alone
         else:
             curated.add((m["bus"], int(m["vendor_id"], 16), int(m["product_id"], 16)))
     return curated, generated
