@@ -196,23 +196,24 @@ def test_intuos_ctl_bluetooth_frames_have_distance_at_7():
 
 # -- single-tool protocols ----------------------------------------------------------------------
 def test_legacy_decoders_follow_the_byte_facts():
+    # (proximity, x, y, pressure, tip, buttons, eraser)
     # PL: 7-bit coordinate groups, signed pressure around the middle of the range
-    d = bytes([2, 0x40 | 0x01, 0x05, 0x10, 0x08 | 0x02, 0x03, 0x22, 0x10])
-    v = pl(d, 511)
-    assert v.prox and v.x == 0x10 | (0x05 << 7) | (1 << 14) and v.y == 0x22 | (3 << 7) | (2 << 14)
-    assert v.pressure == ((0x10 << 1) << 1) + 256 and v.tip and not v.eraser
+    prox, x, y, p, tip, buttons, eraser = pl(bytes([2, 0x41, 0x05, 0x10, 0x0A, 0x03, 0x22, 0x10]),
+                                             511)
+    assert prox and x == 0x10 | (0x05 << 7) | (1 << 14) and y == 0x22 | (3 << 7) | (2 << 14)
+    assert p == ((0x10 << 1) << 1) + 256 and tip and not eraser and buttons == 0
     # PTU: eraser bit, tip from bit 3 then
-    v = ptu(bytes([2, 0x20 | 0x04 | 0x08, 1, 0, 2, 0, 44, 1]), 511)
-    assert v.prox and v.eraser and v.tip and (v.x, v.y, v.pressure) == (1, 2, 300)
-    # DTUS: big-endian coordinates, 10-bit pressure
-    v = dtus(bytes([17, 0x80 | 0x10 | 0x02, 0x20, 0x12, 0x34, 0x05, 0x06]), 1023)
-    assert v.prox and v.eraser is False and (v.x, v.y, v.pressure) == (0x1234, 0x0506, 0x220)
+    assert ptu(bytes([2, 0x20 | 0x04 | 0x08, 1, 0, 2, 0, 44, 1]), 511) == (
+        True, 1, 2, 300, True, 0, True)
+    # DTUS: big-endian coordinates, 10-bit pressure, pen when (d1 >> 3) & 3 == 2
+    assert dtus(bytes([17, 0x80 | 0x10 | 0x02, 0x20, 0x12, 0x34, 0x05, 0x06]), 1023) == (
+        True, 0x1234, 0x0506, 0x220, True, 0, False)
     # Tablet PC: 11-bit pressure
-    v = tpc(bytes([2, 0x20 | 0x01, 0x10, 0x27, 0x20, 0x4E, 0xFF, 0x03]), 1023)
-    assert (v.x, v.y, v.pressure, v.tip) == (10000, 20000, 0x3FF, True)
-    # PenPartner: signed pressure + 127
-    v = penpartner(bytes([1, 0x10, 0x00, 0x20, 0x00, 0x80 | 0x40, 0x10]), 255)
-    assert v.prox and (v.x, v.y, v.pressure) == (16, 32, 16 + 127) and v.buttons
+    assert tpc(bytes([2, 0x20 | 0x01, 0x10, 0x27, 0x20, 0x4E, 0xFF, 0x03]), 1023)[1:5] == (
+        10000, 20000, 0x3FF, True)
+    # PenPartner: signed pressure + 127, barrel on d5 & 0x40
+    assert penpartner(bytes([1, 0x10, 0x00, 0x20, 0x00, 0x80 | 0x40, 0x10]), 255) == (
+        True, 16, 32, 16 + 127, True, int(Button.STYLUS), False)
 
 
 def test_dtu_parser_keeps_the_tool_and_ends_the_stroke():

@@ -43,26 +43,44 @@ UGEE_TILT_AXIS = Axis(-61, 60, 1.0)
 FRAME_SUBREPORTS = {"v1": (), "v2": (0xE0, 0xF0), "ugee-v2": (0xF0,)}
 
 
-def decode(kind: str, d: bytes) -> tuple[bool, int, int, int, bool, int, int | None, int | None]:
-    """(in range, x, y, pressure, tip, buttons, tilt x, tilt y) of one full-resolution pen report."""
+Decoded = tuple[bool, int, int, int, bool, int, "int | None", "int | None"]
+"""(in range, x, y, pressure, tip, buttons, tilt x, tilt y) of one pen report."""
+_STYLUS, _STYLUS2 = int(Button.STYLUS), int(Button.STYLUS2)
+# d[1] & 0x06 -> button bits
+_BUTTONS = tuple((_STYLUS if b & 0x02 else 0) | (_STYLUS2 if b & 0x04 else 0) for b in range(8))
+
+
+def _s8(v: int) -> int:
+    return v - 256 if v & 0x80 else v
+
+
+def decode_v1(d: bytes) -> Decoded:
     f = d[1]
-    buttons = int((Button.STYLUS if f & 0x02 else 0) | (Button.STYLUS2 if f & 0x04 else 0))
-    tip = bool(f & 0x01)
-    if kind == "v1":
-        return (not f & 0x40, d[2] | d[3] << 8, d[4] | d[5] << 8, d[6] | d[7] << 8, tip, buttons,
-                None, None)  # fmt: skip
-    if kind == "v2":
-        tx = ty = None
-        if len(d) >= 12:
-            tx = d[10] - 256 if d[10] & 0x80 else d[10]
-            raw_y = d[11] - 256 if d[11] & 0x80 else d[11]
-            ty = -raw_y
-        return (True, d[2] | d[3] << 8 | d[8] << 16, d[4] | d[5] << 8 | d[9] << 16,
-                d[6] | d[7] << 8, tip, buttons, tx, ty)  # fmt: skip
-    tx = d[8] - 256 if d[8] & 0x80 else d[8]
-    ty = d[9] - 256 if d[9] & 0x80 else d[9]
+    return (not f & 0x40, d[2] | d[3] << 8, d[4] | d[5] << 8, d[6] | d[7] << 8, bool(f & 1),
+            _BUTTONS[f & 6], None, None)
+
+
+def decode_v2(d: bytes) -> Decoded:
+    f = d[1]
+    tx = ty = None
+    if len(d) >= 12:
+        tx, ty = _s8(d[10]), -_s8(d[11])
+    return (True, d[2] | d[3] << 8 | d[8] << 16, d[4] | d[5] << 8 | d[9] << 16, d[6] | d[7] << 8,
+            bool(f & 1), _BUTTONS[f & 6], tx, ty)
+
+
+def decode_ugee_v2(d: bytes) -> Decoded:
+    f = d[1]
     return (bool(f & 0x20), d[2] | d[3] << 8, d[4] | d[5] << 8, (d[6] | d[7] << 8) & 0x1FFF,
-            tip, buttons, tx, ty)  # fmt: skip
+            bool(f & 1), _BUTTONS[f & 6], _s8(d[8]), _s8(d[9]))
+
+
+DECODERS = {"v1": decode_v1, "v2": decode_v2, "ugee-v2": decode_ugee_v2}
+
+
+def decode(kind: str, d: bytes) -> Decoded:
+    """The values of one full-resolution pen report of ``kind``."""
+    return DECODERS[kind](d)
 
 
 class UclogicPenParser(ReportParser):
@@ -112,6 +130,10 @@ class UclogicPenParser(ReportParser):
                                  Axis(0, params.max_pressure), tilt, tilt)  # fmt: skip
         self.pen_report_ids = frozenset({params.report_id})
         self.is_pen, self.kind, self.why = True, "pen", ""
+        self._decode = DECODERS[params.kind]
+        self._frames = FRAME_SUBREPORTS[params.kind]
+        self._min = MIN_LENGTH[params.kind]
+        self._rid = params.report_id
 
     def describe(self) -> dict[str, Any]:
         out = super().describe()
@@ -126,18 +148,18 @@ class UclogicPenParser(ReportParser):
 
     def parse(self, report: bytes, time: float) -> list[RawSample]:
         p = self.params
-        if p is None or not report or report[0] != p.report_id:
+        if p is None or not report or report[0] != self._rid:
             if self.fallback is not None:
                 return self.fallback.parse(report, time)
             if not report:
                 raise ReportError("empty UC-Logic report")
             return self._skip("pre-init" if p is None else "other")
-        if len(report) >= 2 and report[1] in FRAME_SUBREPORTS[p.kind]:
-            return self._skip("pad")
-        if len(report) < MIN_LENGTH[p.kind]:
+        if len(report) < self._min:
             raise ReportError(f"UC-Logic {p.kind} pen report is {len(report)} bytes, "
-                              f"expected at least {MIN_LENGTH[p.kind]}")  # fmt: skip
-        in_range, x, y, pressure, tip, buttons, tx, ty = decode(p.kind, report)
+                              f"expected at least {self._min}")  # fmt: skip
+        if report[1] in self._frames:
+            return self._skip("pad")
+        in_range, x, y, pressure, tip, buttons, tx, ty = self._decode(report)
         if not in_range:
             if not self.tool_in:
                 self.dropped += 1
@@ -146,7 +168,8 @@ class UclogicPenParser(ReportParser):
             return [RawSample(time=time, proximity=False, x=self.x, y=self.y, tip=False,
                               pressure=0, tool=Tool.PEN, valid=False)]  # fmt: skip
         self.tool_in = True
-        self.x, self.y = min(x, p.max_x), min(y, p.max_y)
-        return [RawSample(time=time, proximity=True, x=self.x, y=self.y, tip=tip,
-                          pressure=min(pressure, p.max_pressure), tilt_x=tx, tilt_y=ty,
-                          buttons=buttons, tool=Tool.PEN)]  # fmt: skip
+        self.x = x if x <= p.max_x else p.max_x
+        self.y = y if y <= p.max_y else p.max_y
+        return [RawSample(time, True, self.x, self.y, tip,
+                          pressure if pressure <= p.max_pressure else p.max_pressure, tx, ty,
+                          None, None, None, buttons, Tool.PEN)]

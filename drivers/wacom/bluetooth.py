@@ -35,6 +35,8 @@ from station.drivers.wacom.tools import tool_from_id
 
 from station.events import Button, Tool
 
+_BUTTONS = tuple((int(Button.STYLUS) if b & 2 else 0) | (int(Button.STYLUS2) if b & 4 else 0)
+                 for b in range(8))  # f[0] & 0x06 -> button bits
 I4WL_FRAMES = {0x03: (2, 22), 0x04: (3, 32)}  # report ID -> (packets, minimum length)
 I4WL_PACKET = 10
 
@@ -129,16 +131,20 @@ class IntuosBluetoothParser(ReportParser):
         tool_id = d[self.id_at] | (d[self.id_at + 1] << 8)
         if serial >> 52 == 1:  # non-USI pens: the id's missing bits ride in the serial
             tool_id |= (serial >> 32) & 0xFFFFF
-        starts = [1 + i * self.frame_len for i in range(self.frames)]
-        valid_count = sum(1 for s in starts if d[s] & 0x80)
+        flen, pro2 = self.frame_len, self.pro2
+        valid_count = 0
+        for i in range(self.frames):
+            if d[1 + i * flen] & 0x80:
+                valid_count += 1
         st = self.state
         out: list[RawSample] = []
-        for s in starts[:valid_count]:
-            f = d[s:s + self.frame_len]
-            if not f[0] & 0x80:
+        for i in range(valid_count):  # the kernel reads the first valid_count frames
+            s = 1 + i * flen
+            f0 = d[s]
+            if not f0 & 0x80:
                 continue
-            prox, in_range, invert = bool(f[0] & 0x40), bool(f[0] & 0x20), bool(f[0] & 0x10)
-            if not prox:
+            in_range = f0 & 0x20
+            if not f0 & 0x40:  # out of proximity: the report ends here
                 if st.tool is not None:
                     out.append(self._sample(time, False, False, 0, False, 0, 0, serial, tool_id))
                 else:
@@ -147,36 +153,34 @@ class IntuosBluetoothParser(ReportParser):
                 return out
             if in_range:
                 if st.tool is None:
-                    st.tool = (Tool.ERASER if invert else
+                    st.tool = (Tool.ERASER if f0 & 0x10 else
                                tool_from_id(tool_id) if tool_id else Tool.PEN)  # fmt: skip
-                st.x, st.y = f[1] | (f[2] << 8), f[3] | (f[4] << 8)
-                if self.pro2:
-                    st.tilt_x = f[7] - 256 if f[7] & 0x80 else f[7]
-                    st.tilt_y = f[8] - 256 if f[8] & 0x80 else f[8]
-                    rot = int.from_bytes(f[9:11], "little", signed=True) + 450
+                st.x, st.y = d[s + 1] | (d[s + 2] << 8), d[s + 3] | (d[s + 4] << 8)
+                if pro2:
+                    tx, ty = d[s + 7], d[s + 8]
+                    st.tilt_x = tx - 256 if tx & 0x80 else tx
+                    st.tilt_y = ty - 256 if ty & 0x80 else ty
+                    rot = d[s + 9] | (d[s + 10] << 8)
+                    rot = (rot - 65536 if rot & 0x8000 else rot) + 450
                     st.rotation = rot - 1800 if rot > 899 else rot
-                    st.wheel = f[11] | (f[12] << 8)
+                    st.wheel = d[s + 11] | (d[s + 12] << 8)
             if st.tool is None:
                 self.dropped += 1  # near but never in range: nothing identified yet
                 continue
-            pressure = f[5] | (f[6] << 8)
-            dist_byte = f[13] if self.pro2 else f[7]
-            distance = dist_byte if in_range else self.params.max_distance
-            buttons = int((Button.STYLUS if f[0] & 0x02 else 0) |
-                          (Button.STYLUS2 if f[0] & 0x04 else 0))  # fmt: skip
-            out.append(self._sample(time, True, in_range, pressure, bool(f[0] & 0x09), buttons,
-                                    distance, serial, tool_id))  # fmt: skip
+            pressure = d[s + 5] | (d[s + 6] << 8)
+            distance = (d[s + 13] if pro2 else d[s + 7]) if in_range else self.params.max_distance
+            out.append(self._sample(time, True, bool(in_range), pressure, bool(f0 & 0x09),
+                                    _BUTTONS[f0 & 6], distance, serial, tool_id))  # fmt: skip
         return out
 
     def _sample(self, time: float, prox: bool, valid: bool, pressure: int, tip: bool,
                 buttons: int, distance: int, serial: int, tool_id: int) -> RawSample:
         st = self.state
         tool = st.tool or Tool.PEN
-        return RawSample(
-            time=time, proximity=prox, x=st.x, y=st.y, tip=tip,
-            pressure=min(pressure, self.params.max_pressure),
-            tilt_x=st.tilt_x if self.pro2 else None, tilt_y=st.tilt_y if self.pro2 else None,
-            distance=min(distance, self.params.max_distance), rotation=st.rotation,
-            wheel=st.wheel, buttons=buttons, tool=tool, serial=serial or None,
-            tool_id=tool_id or None, eraser=tool == Tool.ERASER, valid=valid,
-        )
+        top, far = self.params.max_pressure, self.params.max_distance
+        pro2 = self.pro2
+        # positional (built per frame): see RawSample's field order
+        return RawSample(time, prox, st.x, st.y, tip, pressure if pressure <= top else top,
+                         st.tilt_x if pro2 else None, st.tilt_y if pro2 else None,
+                         distance if distance <= far else far, st.rotation, st.wheel, buttons,
+                         tool, serial or None, tool_id or None, tool is Tool.ERASER, valid)

@@ -129,6 +129,8 @@ class IntuosParser(ReportParser):
             raise ValueError(f"unknown Intuos quirks {sorted(unknown)}")
         self.quirks = quirks
         self.tilt = "no-tilt" not in quirks
+        self._inverted = "distance-inverted" in quirks
+        self._drops = bool(quirks & {"no-lens", "ready-bit", "old-styli-invalid"})
         # Devices with less than 11 bits of pressure get the 11-bit value halved.
         self.halve_pressure = params.max_pressure < 2047
         ranges = AxisRanges(
@@ -171,7 +173,7 @@ class IntuosParser(ReportParser):
         check_length(report, PEN_LENGTHS, "Intuos")
         d = report
         d1 = d[1]
-        st = self.state = self.slots[d1 & 1] if self.original else self.slots[0]
+        st = self.state = self.slots[d1 & 1 if self.original else 0]
         if d1 & 0xFC == 0xC0:  # enter proximity: identify the tool
             st.serial = decode_serial(d)
             st.tool_id = decode_tool_id(d)
@@ -196,7 +198,7 @@ class IntuosParser(ReportParser):
         if rid in PROX_REPORT_IDS or not st.tool_id:  # data before the tool was identified
             self.dropped += 1
             return []
-        if self._invalid(d1, st):
+        if self._drops and self._invalid(d1, st):
             self.dropped += 1
             return []
         # Intuos3 and later: one extra bit of x and y in d[9]; the original protocol has none.
@@ -205,7 +207,7 @@ class IntuosParser(ReportParser):
         distance = d[9] >> 2
         if self.original:
             x, y, distance = x >> 1, y >> 1, distance >> 1
-        if "distance-inverted" in self.quirks:
+        if self._inverted:
             distance = self.params.max_distance - distance
         st.x, st.y, st.distance = x, y, distance
         ptype = (d1 >> 1) & 0xF

@@ -34,17 +34,9 @@ from station.drivers.wacom.tools import ERASER_DEVICE_ID, STYLUS_DEVICE_ID
 from station.events import Button, Tool
 
 
-@dataclass(frozen=True, slots=True)
-class Decoded:
-    """One report's pen values (device units).  ``eraser`` None: the report does not say."""
-
-    prox: bool
-    x: int
-    y: int
-    pressure: int
-    tip: bool
-    buttons: int
-    eraser: bool | None = None
+Decoded = tuple[bool, int, int, int, bool, int, "bool | None"]
+"""One report's pen values in device units: (proximity, x, y, pressure, tip, buttons,
+eraser); eraser None: the report does not say.  A plain tuple: it is built per report."""
 
 
 def _le16(d: bytes, i: int) -> int:
@@ -56,17 +48,20 @@ def _s8(v: int) -> int:
     return v - 256 if v & 0x80 else v
 
 
+_STYLUS, _STYLUS2 = int(Button.STYLUS), int(Button.STYLUS2)  # plain ints: built per report
+
+
 def _buttons(b1: int, b2: int) -> int:
-    return int((Button.STYLUS if b1 else 0) | (Button.STYLUS2 if b2 else 0))
+    return (_STYLUS if b1 else 0) | (_STYLUS2 if b2 else 0)
 
 
 def penpartner(d: bytes, max_pressure: int) -> Decoded:
     p = _s8(d[6])
     if d[0] == 1:
         prox = bool(d[5] & 0x80)
-        return Decoded(prox, _le16(d, 1), _le16(d, 3), p + 127 if prox else 0,
-                       prox and p > -127, _buttons(d[5] & 0x40, 0), bool(d[5] & 0x20))  # fmt: skip
-    return Decoded(True, _le16(d, 1), _le16(d, 3), p + 127, p > -80 and not d[5] & 0x20,
+        return (prox, _le16(d, 1), _le16(d, 3), p + 127 if prox else 0,
+                prox and p > -127, _buttons(d[5] & 0x40, 0), bool(d[5] & 0x20))
+    return (True, _le16(d, 1), _le16(d, 3), p + 127, p > -80 and not d[5] & 0x20,
                    _buttons(d[5] & 0x40, 0), False)  # fmt: skip
 
 
@@ -79,20 +74,20 @@ def pl(d: bytes, max_pressure: int) -> Decoded:
     y = d[6] | (d[5] << 7) | ((d[4] & 0x03) << 14)
     eraser = bool(d[0] & 0x10 or d[4] & 0x20)
     # STYLUS2 only for the pen: with the eraser in, d4&0x20 is always set.
-    return Decoded(bool(d[1] & 0x40), x, y, pressure, bool(d[4] & 0x08),
-                   _buttons(d[4] & 0x10, 0), eraser)  # fmt: skip
+    return (bool(d[1] & 0x40), x, y, pressure, bool(d[4] & 0x08),
+            _buttons(d[4] & 0x10, d[4] & 0x20), eraser)
 
 
 def ptu(d: bytes, max_pressure: int) -> Decoded:
     eraser = bool(d[1] & 0x04)
     tip = bool(d[1] & 0x08) if eraser else bool(d[1] & 0x01)
-    return Decoded(bool(d[1] & 0x20), _le16(d, 2), _le16(d, 4), _le16(d, 6), tip,
+    return (bool(d[1] & 0x20), _le16(d, 2), _le16(d, 4), _le16(d, 6), tip,
                    _buttons(d[1] & 0x02, d[1] & 0x10), eraser)  # fmt: skip
 
 
 def dtu(d: bytes, max_pressure: int) -> Decoded:
     prox = bool(d[1] & 0x20)
-    return Decoded(prox, _le16(d, 2), _le16(d, 4), ((d[7] & 0x01) << 8) | d[6],
+    return (prox, _le16(d, 2), _le16(d, 4), ((d[7] & 0x01) << 8) | d[6],
                    bool(d[1] & 0x05), _buttons(d[1] & 0x02, d[1] & 0x10),
                    bool(d[1] & 0x0C) if prox else None)  # fmt: skip
 
@@ -102,12 +97,12 @@ def dtus(d: bytes, max_pressure: int) -> Decoded:
     kind = (d[1] >> 3) & 3
     eraser = {1: True, 2: False}.get(kind) if prox else None
     pressure = ((d[1] & 0x03) << 8) | d[2]
-    return Decoded(prox, (d[3] << 8) | d[4], (d[5] << 8) | d[6], pressure, pressure > 10,
+    return (prox, (d[3] << 8) | d[4], (d[5] << 8) | d[6], pressure, pressure > 10,
                    _buttons(d[1] & 0x20, d[1] & 0x40), eraser)  # fmt: skip
 
 
 def tpc(d: bytes, max_pressure: int) -> Decoded:
-    return Decoded(bool(d[1] & 0x20), _le16(d, 2), _le16(d, 4), ((d[7] & 0x07) << 8) | d[6],
+    return (bool(d[1] & 0x20), _le16(d, 2), _le16(d, 4), ((d[7] & 0x07) << 8) | d[6],
                    bool(d[1] & 0x05), _buttons(d[1] & 0x02, d[1] & 0x10),
                    bool(d[1] & 0x0C))  # fmt: skip
 
@@ -182,38 +177,39 @@ class LegacyPenParser(ReportParser):
         if not proto.min_length <= len(report) <= MAX_LENGTH:
             raise ReportError(f"{proto.name} report {rid} is {len(report)} bytes, expected "
                               f"{proto.min_length}..{MAX_LENGTH}")  # fmt: skip
-        v = proto.decode(report, self.params.max_pressure)
+        prox, x, y, pressure, tip, buttons, eraser = proto.decode(report, self.params.max_pressure)
         out: list[RawSample] = []
-        if v.prox:
-            want = Tool.ERASER if v.eraser else Tool.PEN
-            if self.tool is None or (v.eraser is not None and not proto.tool_at_entry):
-                tool = want
-            elif proto.name == "wacom-pl" and self.tool == Tool.ERASER and not v.eraser:
+        if prox:
+            tool = self.tool
+            if tool is None or (eraser is not None and not proto.tool_at_entry):
+                tool = Tool.ERASER if eraser else Tool.PEN
+            elif proto.name == "wacom-pl" and tool == Tool.ERASER and not eraser:
                 # PL: STYLUS2 always accompanies the eraser; without it the entry was
                 # misread, so the eraser leaves and the pen comes in (as the kernel does).
-                out.append(self._sample(time, False, self.tool, 0, False, 0))
+                out.append(self._sample(time, False, tool, 0, False, 0))
                 self.tool, tool = None, Tool.PEN
-            else:
-                tool = self.tool
             if tool != self.tool and self.tool is not None:
                 out.append(self._sample(time, False, self.tool, 0, False, 0))
             self.tool = tool
-            self.x, self.y = v.x, v.y
-            buttons = v.buttons if tool == Tool.PEN else v.buttons & ~int(Button.STYLUS2) \
-                if proto.name == "wacom-pl" else v.buttons
-            out.append(self._sample(time, True, tool, v.pressure, v.tip, buttons))
+            self.x, self.y = x, y
+            if proto.name == "wacom-pl" and tool != Tool.PEN:
+                buttons &= ~_STYLUS2  # PL: STYLUS2 only for the pen
+            out.append(self._sample(time, True, tool, pressure, tip, buttons))
             return out
         if self.tool is None:
             self.dropped += 1  # nothing in proximity and nothing to end
             return []
         tool, self.tool = self.tool, None
-        self.x, self.y = v.x, v.y
+        self.x, self.y = x, y
         return [self._sample(time, False, tool, 0, False, 0)]
 
     def _sample(self, time: float, prox: bool, tool: Tool, pressure: int, tip: bool,
                 buttons: int) -> RawSample:
-        tool_id = ERASER_DEVICE_ID if tool == Tool.ERASER else STYLUS_DEVICE_ID
-        return RawSample(time=time, proximity=prox, x=self.x, y=self.y, tip=tip,
-                         pressure=max(0, min(pressure, self.params.max_pressure)),
-                         buttons=buttons, tool=tool, serial=None, tool_id=tool_id,
-                         eraser=tool == Tool.ERASER, valid=prox)  # fmt: skip
+        eraser = tool is Tool.ERASER
+        top = self.params.max_pressure
+        # positional: (time, proximity, x, y, tip, pressure, tilt x/y, distance, rotation,
+        # wheel, buttons, tool, serial, tool id, eraser, valid) -- built per report
+        return RawSample(time, prox, self.x, self.y, tip,
+                         0 if pressure < 0 else top if pressure > top else pressure,
+                         None, None, None, None, None, buttons, tool, None,
+                         ERASER_DEVICE_ID if eraser else STYLUS_DEVICE_ID, eraser, prox)
