@@ -398,6 +398,8 @@ def kernel_model(e: KernelEntry, src: Source, tablets: dict[tuple[str, int, int]
                  styli: Any, groups: Any, lw_src: Source) -> dict[str, Any] | None:
     f = e.features
     ktype = str(f.get("type"))
+    if ktype == "HID_GENERIC" and not f.get("x_max"):
+        return generic_kernel_model(e, src, tablets, styli, groups, lw_src)
     if ktype in NOT_PEN_TYPES or not isinstance(f.get("x_max"), int) or not f.get("pressure_max"):
         return None
     parser, family, quirks = TYPE_PROTOCOL[ktype]
@@ -456,6 +458,28 @@ def kernel_model(e: KernelEntry, src: Source, tablets: dict[tuple[str, int, int]
     prov = [src.ref(f"wacom_features_{e.macro_arg}")]
     if tab is not None:
         prov.append(lw_src.ref(tab.file))
+    model["provenance"] = {"generator": GENERATOR, "sources": prov}
+    return model
+
+
+def generic_kernel_model(e: KernelEntry, src: Source, tablets: dict[tuple[str, int, int], Tablet],
+                         styli: Any, groups: Any, lw_src: Source) -> dict[str, Any] | None:
+    """A kernel entry of type HID_GENERIC without numbers: the descriptor says everything."""
+    tab = tablets.get((e.bus, e.vid, e.pid))
+    if tab is not None and not tab.stylus:
+        return None
+    name = str(e.features["name"])
+    model: dict[str, Any] = {
+        "id": file_id(e.vid, e.pid, e.bus, name), "name": tab.name if tab else name,
+        "vendor_id": f"{e.vid:04x}", "product_id": f"{e.pid:04x}", "bus": e.bus,
+        "parser": "hid-generic", "family": "Wacom generic HID", "kernel_type": "HID_GENERIC",
+        "kernel_name": name, "init_feature_reports": [], "ignore_interfaces": [],
+        "screen_tablet": bool(tab and "Display" in tab.integrated),
+        "integrated_in": [i.lower() for i in tab.integrated] if tab else [],
+    }
+    if tab is not None:
+        _libwacom_facts(model, tab, styli, groups)
+    prov = [src.ref(f"wacom_features_{e.macro_arg}")] + ([lw_src.ref(tab.file)] if tab else [])
     model["provenance"] = {"generator": GENERATOR, "sources": prov}
     return model
 
