@@ -32,11 +32,12 @@ from station.drivers.hid.quirks import pen_usage_quirks
 from station.drivers.raw import Axis, AxisRanges
 from station.drivers.uclogic.parser import UclogicPenParser
 from station.drivers.wacom.bamboo import BambooParser
-from station.drivers.wacom.bluetooth import IntuosBluetoothParser, Intuos4WirelessParser
+from station.drivers.wacom.bluetooth import Intuos4WirelessParser, IntuosBluetoothParser
 from station.drivers.wacom.common import WacomParams
 from station.drivers.wacom.graphire import GraphireParser
 from station.drivers.wacom.intuos import IntuosParser
-from station.drivers.wacom.legacy import PROTOCOLS as LEGACY, LegacyPenParser
+from station.drivers.wacom.legacy import PROTOCOLS as LEGACY
+from station.drivers.wacom.legacy import LegacyPenParser
 
 from station.errors import BadInput
 
@@ -89,7 +90,8 @@ WACOM_VID = 0x056A
 # and v1 tablets interface 0, UGEE v2 interface 2).
 UCLOGIC_PEN_INTERFACE = {"huion": 0, "v1": 0, "ugee-v2": 2}
 REPORT_HINT = ("please report it (docs/devices.md, 'Reporting a tablet'): attach "
-               "`station record --device hidraw:/dev/hidrawN -o tablet.hid` and `lsusb -v -d {vid:04x}:{pid:04x}`")
+               "`station record --device hidraw:/dev/hidrawN -o tablet.hid` and "
+               "`lsusb -v -d {vid:04x}:{pid:04x}`")
 
 
 def parser_names() -> list[str]:
@@ -188,7 +190,8 @@ def parser_for(vid: int, pid: int, descriptor: bytes | None, bus: int = BUS_USB,
         return parser
     if not descriptor:
         what = model["name"] if model else f"unknown device {vid:04x}:{pid:04x}"
-        hint = f"; {REPORT_HINT.format(vid=vid, pid=pid)}" if model is None and vid == WACOM_VID else ""
+        unknown_wacom = model is None and vid == WACOM_VID
+        hint = f"; {REPORT_HINT.format(vid=vid, pid=pid)}" if unknown_wacom else ""
         raise BadInput(f"{what} needs its report descriptor (generic HID parser){hint}")
     desc = parse_descriptor(descriptor)
     if model is None and vid == WACOM_VID:
@@ -269,8 +272,8 @@ def _uclogic(model: dict[str, Any], descriptor: bytes | None,
 
 # Pen report lengths (with the ID byte) of report 2 on a vendor-defined Wacom interface ->
 # the protocol it implies: 8 Graphire, 9 Bamboo "fun", 10..16 the Intuos family.
-_IMPLIED = ((8, "wacom-graphire"), (9, "wacom-bamboo")) + tuple(
-    (n, "wacom-intuos") for n in range(10, 17))
+_IMPLIED = ((8, "wacom-graphire"), (9, "wacom-bamboo"),
+            *((n, "wacom-intuos") for n in range(10, 17)))
 
 
 def implied_protocol(desc: Descriptor) -> str | None:
@@ -298,11 +301,13 @@ def _unknown_wacom(vid: int, pid: int, desc: Descriptor, bus: int) -> ReportPars
     # the mapping to the surface is a guess until the tablet is in the data.
     peers = [m for m in _load() if m["parser"] == family and "max_x" in m]
     big = max(peers, key=lambda m: int(m["max_x"]) * int(m["max_y"]))
-    model = {**{k: big[k] for k in ("max_x", "max_y", "max_pressure", "max_distance",
-                                     "resolution", "pad_report_ids") if k in big},
-             "id": f"wacom-unknown-{pid:04x}", "name": what, "vendor_id": f"{vid:04x}",
-             "product_id": f"{pid:04x}", "bus": BUS_NUMBERS.get(bus, "usb"),
-             "parser": family, "init_feature_reports": ["0202"] if bus == BUS_USB else []}
+    kept = ("max_x", "max_y", "max_pressure", "max_distance", "resolution", "pad_report_ids")
+    model: dict[str, Any] = {
+        **{k: big[k] for k in kept if k in big},
+        "id": f"wacom-unknown-{pid:04x}", "name": what, "vendor_id": f"{vid:04x}",
+        "product_id": f"{pid:04x}", "bus": BUS_NUMBERS.get(bus, "usb"),
+        "parser": family, "init_feature_reports": ["0202"] if bus == BUS_USB else [],
+    }
     parser = PARSERS[family](model, desc)
     parser.generic = True
     parser.warning = (f"{what}: its descriptor implies the {family} protocol; ranges guessed "

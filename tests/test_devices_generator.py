@@ -14,7 +14,8 @@ from station.drivers import registry
 from station.cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
-spec = importlib.util.spec_from_file_location("gen_wacom_devices", ROOT / "tools/gen_wacom_devices.py")
+GEN = ROOT / "tools/gen_wacom_devices.py"
+spec = importlib.util.spec_from_file_location("gen_wacom_devices", GEN)
 gen = importlib.util.module_from_spec(spec)
 assert spec.loader is not None
 sys.modules[spec.name] = gen  # dataclasses look their module up
@@ -141,7 +142,8 @@ def test_c_initialisers_are_read_with_c_rules():
     assert feats["0xF6"] == {"name": "Wacom Cintiq 24HD touch", "type": "WACOM_24HDT",
                              "oVid": 0x056A, "oPid": 0xF8, "touch_max": 10}  # fmt: skip
     # a positional value after a designator continues from the designated member
-    text = 'static const struct wacom_features wacom_features_0x1 =\n\t{ "P", 1, 2, .type = PL, 7, 8 };'
+    text = ('static const struct wacom_features wacom_features_0x1 =\n'
+            '\t{ "P", 1, 2, .type = PL, 7, 8 };')
     assert gen.parse_features(text, {})["0x1"]["x_resolution"] == 7
 
 
@@ -221,4 +223,5 @@ def test_devices_list_shows_every_model_with_its_protocol(capsys):
     assert len(data["models"]) == len(registry.load_devices())
     assert data["pen_models"] >= 150
     one = next(m for m in data["models"] if m["id"] == "wacom-0044-intuos2-12x12")
-    assert one["protocol"] == "wacom-intuos1" and one["file"].endswith("wacom-0044-intuos2-12x12.json")
+    assert one["protocol"] == "wacom-intuos1"
+    assert one["file"].endswith("wacom-0044-intuos2-12x12.json")

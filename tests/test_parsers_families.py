@@ -33,7 +33,8 @@ def parser(pid: int, bus: int = 3):
      (0x033B, 3, "wacom-intuos", "Intuos (CTL/CTH-490/690)", (15200, 9500, 2047, 63, 100)),
      (0x00BD, 5, "wacom-intuos4wl", "Intuos4 wireless (Bluetooth)", (40640, 25400, 2047, 63, 200)),
      (0x0360, 5, "wacom-intuos-bt", "Intuos Pro 2 (Bluetooth)", (44800, 29600, 8191, 63, 200)),
-     (0x0377, 5, "wacom-intuos-bt", "Intuos CTL-4100/6100 (Bluetooth)", (15200, 9500, 4095, 63, 100)),
+     (0x0377, 5, "wacom-intuos-bt", "Intuos CTL-4100/6100 (Bluetooth)",
+      (15200, 9500, 4095, 63, 100)),
      (0x00F0, 3, "wacom-dtu", "DTU pen display", (34623, 19553, 511, 0, 100)),
      (0x0030, 3, "wacom-pl", "PL / DTF / DTU pen display", (5408, 4056, 255, 0, 20)),
      (0x0003, 3, "wacom-ptu", "Cintiq Partner (PTU)", (20480, 15360, 511, 0, 20)),
@@ -91,7 +92,7 @@ def test_intuos1_halves_coordinates_and_keeps_two_tools_apart():
     assert still.tool == Tool.PEN and still.serial == 0x111  # the pen slot is untouched
 
 
-# -- quirks of the Intuos3+ family, as data ---------------------------------------------------------
+# -- quirks of the Intuos3+ family, as data ------------------------------------------------
 def test_first_cintiq_sends_data_only_with_the_ready_bit():
     p = parser(0x003F)
     assert registry.find_device(WACOM, 0x3F)["protocol_quirks"] == ["ready-bit"]

@@ -45,7 +45,7 @@ def test_v2_parameters_have_24_bit_coordinates_and_are_not_text():
     assert P.looks_like_text(name)
     with pytest.raises(ReportError, match="only text"):
         P.parse_v2(name[:32])  # what a 32-byte read of the name returns
-    with pytest.raises(ReportError, match="18..32"):
+    with pytest.raises(ReportError, match=r"18\.\.32"):
         P.parse_v2(hs610[:17])
     assert P.parse_v2(P.encode_v2(50800, 31750, 8191, 5080)) == p
 
@@ -94,7 +94,7 @@ def test_ugee_v2_probes_endpoint_3_before_reading_its_parameters():
     c = FakeControl({100: P.encode_ugee_v2(30480, 20320, 8191, 5080, 8)})
     assert initialise(c, "ugee-v2").kind == "ugee-v2"
     assert c.calls[0] == ("out", 3, UGEE_V2_PROBE) and c.calls[1][:2] == ("string", 100)
-    assert UGEE_V2_PROBE == bytes([0x02, 0xB0, 0x04, 0, 0, 0, 0, 0, 0, 0])
+    assert bytes([0x02, 0xB0, 0x04, 0, 0, 0, 0, 0, 0, 0]) == UGEE_V2_PROBE
 
 
 def test_no_parameters_keeps_the_device_reports():
@@ -104,10 +104,10 @@ def test_no_parameters_keeps_the_device_reports():
         initialise(FakeControl({}), "magic")
 
 
-# -- report layouts ----------------------------------------------------------------------------------
+# -- report layouts ---------------------------------------------------------------------------
 def test_v2_report_high_bytes_come_after_the_pressure():
     d = bytes([8, 0x81, 0x34, 0x12, 0x78, 0x56, 0x10, 0x20, 0x01, 0x02, 0xF6, 0x05])
-    in_range, x, y, p, tip, buttons, tx, ty = decode("v2", d)
+    in_range, x, y, p, tip, _buttons, tx, ty = decode("v2", d)
     assert (x, y, p) == (0x011234, 0x025678, 0x2010) and tip and in_range
     assert (tx, ty) == (-10, -5)  # y tilt points the other way on the wire
 
@@ -143,7 +143,8 @@ def test_mock_tablet_full_resolution_after_the_set_up(kind):
     src = HidPenSource(transport, finite=True)
     assert src.parser.name == "uclogic" and tablet.full
     assert src.uclogic_params.kind == kind
-    assert src.ranges.x.maximum == tablet.max_x and src.ranges.pressure.maximum == tablet.max_pressure
+    assert src.ranges.x.maximum == tablet.max_x
+    assert src.ranges.pressure.maximum == tablet.max_pressure
     samples = _read_all(src)
     touching = [s for s in samples if s.tip]
     assert len(touching) >= 20

@@ -284,11 +284,19 @@ def parse_tablet(path: Path) -> Tablet | None:
         v = dev.get(key)
         return float(v) if v and float(v) > 0 else None
 
-    return Tablet(file=path.name, name=dev.get("Name", path.stem), model_name=dev.get("ModelName", ""),
+    return Tablet(file=path.name, name=dev.get("Name", path.stem),
+                  model_name=dev.get("ModelName", ""),
                   matches=matches, width_mm=mm("Width"), height_mm=mm("Height"),
                   integrated=_parts(dev.get("IntegratedIn", "")), styli=styli, stylus=stylus,
                   touch=feats.get("Touch", "false").lower() == "true",
                   tablet_class=dev.get("Class", ""))  # fmt: skip
+
+
+def stylus_key(bits: list[str]) -> tuple[int, int]:
+    """``[vid, id]`` or ``[id]`` (a Wacom stylus) of a ``0x56a:0x802`` style reference."""
+    if len(bits) == 2:
+        return int(bits[0], 16), int(bits[1], 16)
+    return WACOM, int(bits[0], 16)
 
 
 def parse_styli(paths: list[Path]) -> tuple[dict[str, dict[str, str]], dict[str, list[str]]]:
@@ -298,8 +306,7 @@ def parse_styli(paths: list[Path]) -> tuple[dict[str, dict[str, str]], dict[str,
     for path in paths:
         for sec, kv in read_keyfile(path).items():
             bits = sec.split(":")
-            vid, sid = (int(bits[0], 16), int(bits[1], 16)) if len(bits) == 2 else (WACOM,
-                                                                                     int(bits[0], 16))
+            vid, sid = stylus_key(bits)
             key = f"{vid:04x}:{sid:05x}"
             styli[key] = kv
             if "Group" in kv:
@@ -315,8 +322,7 @@ def resolve_styli(refs: list[str], styli: dict[str, dict[str, str]],
             keys.extend(groups.get(ref[1:], []))
         else:
             bits = ref.split(":")
-            vid, sid = (int(bits[0], 16), int(bits[1], 16)) if len(bits) == 2 else (WACOM,
-                                                                                     int(bits[0], 16))
+            vid, sid = stylus_key(bits)
             keys.append(f"{vid:04x}:{sid:05x}")
     out = []
     for key in dict.fromkeys(keys):
@@ -341,7 +347,7 @@ def resolve_styli(refs: list[str], styli: dict[str, dict[str, str]],
     return out
 
 
-# -- uclogic ----------------------------------------------------------------------------------------
+# -- uclogic ---------------------------------------------------------------------------------
 def uclogic_ids(core: str, ids_h: str) -> set[tuple[int, int]]:
     defines = c_defines(ids_h)
     start = core.index("uclogic_devices[] = {")
@@ -352,12 +358,13 @@ def uclogic_ids(core: str, ids_h: str) -> set[tuple[int, int]]:
     return out
 
 
-UCLOGIC_INIT_CALLS = (("uclogic_params_huion_init", "huion"), ("uclogic_params_ugee_v2_init", "ugee-v2"),
+UCLOGIC_INIT_CALLS = (("uclogic_params_huion_init", "huion"),
+                      ("uclogic_params_ugee_v2_init", "ugee-v2"),
                       ("uclogic_params_pen_init_v1", "v1"), ("WITH_OPT_DESC", "fixed-descriptor"))
 
 
 def uclogic_init_kinds(params_c: str, ids_h: str) -> dict[tuple[int, int], str]:
-    """(vid, pid) -> how uclogic_params_init() sets the tablet up (the first call after its cases)."""
+    """(vid, pid) -> how uclogic_params_init() sets the tablet up (first call after its cases)."""
     defines = c_defines(ids_h)
     start = params_c.index("switch (VID_PID(hdev->vendor, hdev->product))")
     body = strip_c_comments(params_c[start:])
@@ -434,7 +441,7 @@ def kernel_model(e: KernelEntry, src: Source, tablets: dict[tuple[str, int, int]
         init = list(BT_INIT.get(ktype, []))
     model["init_feature_reports"] = init
     model["ignore_interfaces"] = []
-    if parser in PAD_REPORT_IDS and PAD_REPORT_IDS[parser]:
+    if PAD_REPORT_IDS.get(parser):
         model["pad_report_ids"] = PAD_REPORT_IDS[parser]
     integrated = tab.integrated if tab else (["Display"] if ktype in DISPLAY_TYPES else [])
     if ktype.startswith(("TABLETPC", "MTSCREEN", "MTTPC")) and not tab:
@@ -631,7 +638,8 @@ def render(model: dict[str, Any]) -> str:
     for key, value in model.items():
         k = json.dumps(key)
         if key == "provenance":
-            items = ",\n".join(f"      {json.dumps(s, ensure_ascii=False)}" for s in value["sources"])
+            items = ",\n".join(f"      {json.dumps(src, ensure_ascii=False)}"
+                                for src in value["sources"])
             text = (f'{{\n    "generator": {json.dumps(value["generator"])},\n'
                     f'    "sources": [\n{items}\n    ]\n  }}')
         elif isinstance(value, list) and value and isinstance(value[0], dict):

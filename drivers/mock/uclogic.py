@@ -65,11 +65,10 @@ class MockUclogicTablet:
 
     # -- the device's behaviour ------------------------------------------------------
     def _string_read(self, index: int) -> None:
-        if self.kind == "v2" and index == P.V2_INDEX and not self.transition:
-            self.full = True
-        elif self.kind == "v1" and index == P.V1_INDEX:
-            self.full = True
-        elif self.kind == "ugee-v2" and index == P.V1_INDEX and self.probed:
+        v2 = self.kind == "v2" and index == P.V2_INDEX and not self.transition
+        v1 = self.kind == "v1" and index == P.V1_INDEX
+        ugee = self.kind == "ugee-v2" and index == P.V1_INDEX and self.probed
+        if v2 or v1 or ugee:
             self.full = True
 
     def _out(self, endpoint: int, data: bytes) -> None:

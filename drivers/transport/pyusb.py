@@ -193,7 +193,8 @@ class UsbTransport:
             raise TransportError(f"{self.info.path}: interrupt OUT {endpoint:#04x} failed "
                                  f"({exc})") from None  # fmt: skip
         if sent != len(data):
-            raise TransportError(f"{self.info.path}: interrupt OUT sent {sent} of {len(data)} bytes")
+            raise TransportError(f"{self.info.path}: interrupt OUT sent {sent} of "
+                                 f"{len(data)} bytes")
 
     def close(self) -> None:
         number = self._intf.bInterfaceNumber

@@ -6,11 +6,12 @@ tablet from its low-resolution compatibility reports to full resolution.
 ``buf`` below is the whole descriptor as the device sends it (bLength,
 bDescriptorType 0x03, then the payload), offsets as the kernel uses them.
 
-| kind | index | length | x max | y max | pressure max | resolution (lpi) | pen report |
-|---|---|---|---|---|---|---|---|
-| v1 | 100 (0x64) | 12 | le16 @2 | le16 @4 | le16 @8 | le16 @10 | ID 7, in-range bit inverted |
-| v2 | 200 (0xc8) | 18..32, not text | le24 @2 | le24 @5 | le16 @8 | le16 @10 | ID 8, x/y high bytes apart, tilt |
-| ugee-v2 | 100 (0x64) | 12 | le16 @2 | le16 @4 | le16 @8 | le16 @10 (frame buttons @6) | ID 2, 13-bit pressure, tilt |
+- v1: string 100 (0x64), 12 bytes: x max le16 @2, y max le16 @4, pressure max
+  le16 @8, resolution (lpi) le16 @10; then pen report 7 (in-range bit inverted).
+- v2: string 200 (0xc8), 18..32 bytes and not text: x max le24 @2, y max le24 @5,
+  pressure max le16 @8, lpi le16 @10; then pen report 8 (x/y high bytes apart, tilt).
+- ugee-v2: string 100, 12 bytes: as v1, plus the frame buttons @6; then pen
+  report 2 (13-bit pressure, tilt).
 """
 
 from __future__ import annotations

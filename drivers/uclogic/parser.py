@@ -107,7 +107,7 @@ class UclogicPenParser(ReportParser):
         self.params: UclogicParams | None = None
         self.tool_in = False
         self.x = self.y = 0
-        self.pen_report_ids = frozenset()
+        self.pen_report_ids: frozenset[int] = frozenset()
 
     @property
     def needs_control(self) -> bool:

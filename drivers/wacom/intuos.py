@@ -162,9 +162,7 @@ class IntuosParser(ReportParser):
                 pass  # a proximity packet answering the tool query: read below
             elif rid in self.params.skip_report_ids:
                 return self._skip("mouse" if rid == 1 else "pad")
-            elif rid == STATUS_REPORT_ID:
-                return self._skip("status")
-            elif rid in PROX_REPORT_IDS:
+            elif rid == STATUS_REPORT_ID or rid in PROX_REPORT_IDS:
                 return self._skip("status")
             else:
                 raise unknown_id(report, "Intuos")

@@ -8,14 +8,22 @@ function ``bytes -> Decoded``; :class:`LegacyPenParser` adds what they share:
 report ID and length checks, the tool kept while it is in proximity, and a
 proximity-out sample.
 
-| protocol | report | proximity | tool | x, y | pressure | tip | buttons |
-|---|---|---|---|---|---|---|---|
-| PenPartner | 1 / 2 | 1: d5&0x80, 2: always | d5&0x20 eraser | le16 d1, d3 | (s8)d6 + 127 | 1: (s8)d6 > -127; 2: (s8)d6 > -80 and not d5&0x20 | d5&0x40 |
-| PL | 2 | d1&0x40 | d4&0x20 at entry (or d0&0x10) eraser | 7-bit groups, see pl() | (s8)(d7<<1 \\| d4>>2&1) [<<1 \\| d4>>6&1] + (max+1)/2 | d4&0x08 | d4&0x10, pen only d4&0x20 |
-| PTU | 2 | d1&0x20 | d1&0x04 eraser | le16 d2, d4 | le16 d6 | pen d1&0x01, eraser d1&0x08 | d1&0x02, d1&0x10 |
-| DTU | 2 | d1&0x20 | d1&0x0c eraser | le16 d2, d4 | d6 \\| (d7&1)<<8 | d1&0x05 | d1&0x02, d1&0x10 |
-| DTUS | 17 (pad 21) | d1&0x80 | (d1>>3)&3: 1 eraser, 2 pen | be16 d3, d5 | (d1&3)<<8 \\| d2 | pressure > 10 | d1&0x20, d1&0x40 |
-| Tablet PC | 2 (or any 8-byte) | d1&0x20 | d1&0x0c eraser, at entry | le16 d2, d4 | (d7&7)<<8 \\| d6 | d1&0x05 | d1&0x02, d1&0x10 |
+- PenPartner, report 1/2: proximity d5&0x80 (report 2: always); eraser d5&0x20;
+  x, y le16 at d1, d3; pressure (s8)d6 + 127; tip (s8)d6 > -127 (report 2: > -80
+  and not d5&0x20); barrel d5&0x40.
+- PL, report 2: proximity d1&0x40; eraser at entry when d4&0x20 (or d0&0x10); x, y
+  in 7-bit groups (see ``pl``); pressure (s8)(d7<<1 | d4>>2&1), one more bit
+  (d4>>6&1) above 255, plus (max+1)/2; tip d4&0x08; buttons d4&0x10, d4&0x20 (pen).
+- PTU, report 2: proximity d1&0x20; eraser d1&0x04; x, y, pressure le16 at d2, d4,
+  d6; tip d1&0x01 (eraser: d1&0x08); buttons d1&0x02, d1&0x10.
+- DTU, report 2: proximity d1&0x20; eraser d1&0x0c; x, y le16 at d2, d4; pressure
+  d6 | (d7&1)<<8; tip d1&0x05; buttons d1&0x02, d1&0x10.
+- DTUS, report 17 (pad 21): proximity d1&0x80; (d1>>3)&3: 1 eraser, 2 pen; x, y
+  big-endian at d3, d5; pressure (d1&3)<<8 | d2; tip pressure > 10; buttons
+  d1&0x20, d1&0x40.
+- Tablet PC, report 2 (or any 8-byte report): proximity d1&0x20; eraser d1&0x0c at
+  entry; x, y le16 at d2, d4; pressure (d7&7)<<8 | d6; tip d1&0x05; buttons
+  d1&0x02, d1&0x10.
 """
 
 from __future__ import annotations
@@ -32,7 +40,6 @@ from station.drivers.wacom.modes import PEN_MODE_FEATURE
 from station.drivers.wacom.tools import ERASER_DEVICE_ID, STYLUS_DEVICE_ID
 
 from station.events import Button, Tool
-
 
 Decoded = tuple[bool, int, int, int, bool, int, "bool | None"]
 """One report's pen values in device units: (proximity, x, y, pressure, tip, buttons,

@@ -257,8 +257,8 @@ def run(args: argparse.Namespace) -> int:
             parser = d.get("parser") or "none"
             extra = f" — {d['problem']}" if "problem" in d else (
                 f" ({d['note']})" if d.get("note") else "")
-            data = f"  data={d['data_file']}" if d.get("data_file") else "  data=none"
-            w(f"{title}: {d['spec']}  {d.get('name', '')}  parser={parser}{data}{extra}\n")
+            file = f"  data={d['data_file']}" if d.get("data_file") else "  data=none"
+            w(f"{title}: {d['spec']}  {d.get('name', '')}  parser={parser}{file}{extra}\n")
     for note in result["notes"]:
         w(f"  note: {note}\n")
     for problem in result["problems"]:
