@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from station.drivers.hid.base import IgnoredInterface, ReportParser
-from station.drivers.hid.descriptor import Descriptor, parse_descriptor
+from station.drivers.hid.descriptor import Descriptor, ReportType, parse_descriptor
 from station.drivers.hid.errors import DescriptorError, ReportError
 from station.drivers.hid.pen import GenericPenParser
 from station.drivers.hid.quirks import pen_usage_quirks
@@ -196,7 +196,10 @@ def parser_for(vid: int, pid: int, descriptor: bytes | None, bus: int = BUS_USB,
     desc = parse_descriptor(descriptor)
     if model is None and vid == WACOM_VID:
         return _unknown_wacom(vid, pid, desc, bus)
-    parser = GenericPenParser(desc, model, _init_features(model) if model else [],
+    feats = _init_features(model) if model else []
+    if vid == WACOM_VID:
+        feats += [f for f in [wacom_data_mode_feature(desc)] if f and f not in feats]
+    parser = GenericPenParser(desc, model, feats,
                               generic=model is None, quirks=pen_usage_quirks(vid, pid))
     if model is not None:
         parser.name = GENERIC
@@ -270,6 +273,19 @@ def _uclogic(model: dict[str, Any], descriptor: bytes | None,
     return parser
 
 
+WACOM_HID_WD_DATAMODE = 0xFF0D1002
+
+
+def wacom_data_mode_feature(desc: Descriptor) -> bytes | None:
+    """The kernel's mode switch for generic-HID Wacoms (wacom_hid_usage_quirk / set_device_mode):
+    the feature report holding Wacom's Data Mode usage gets value 2 in its first byte."""
+    for (rtype, rid), report in sorted(desc.reports.items(), key=lambda kv: kv[0][1]):
+        if rtype == ReportType.FEATURE and rid and any(
+                WACOM_HID_WD_DATAMODE in f.usages for f in report.fields):
+            return bytes([rid, 2]) + bytes(max(0, report.length(True) - 2))
+    return None
+
+
 # Pen report lengths (with the ID byte) of report 2 on a vendor-defined Wacom interface ->
 # the protocol it implies: 8 Graphire, 9 Bamboo "fun", 10..16 the Intuos family.
 _IMPLIED = ((8, "wacom-graphire"), (9, "wacom-bamboo"),
@@ -284,7 +300,9 @@ def implied_protocol(desc: Descriptor) -> str | None:
 
 def _unknown_wacom(vid: int, pid: int, desc: Descriptor, bus: int) -> ReportParser:
     """An unknown Wacom id: the generic pen path, or the protocol its descriptor implies."""
-    generic = GenericPenParser(desc, None, [], generic=True, quirks=pen_usage_quirks(vid, pid))
+    mode = wacom_data_mode_feature(desc)
+    generic = GenericPenParser(desc, None, [mode] if mode else [], generic=True,
+                               quirks=pen_usage_quirks(vid, pid))
     what = f"unknown Wacom tablet {vid:04x}:{pid:04x}"
     if generic.is_pen:
         generic.warning = (f"{what}: read through its HID descriptor (generic path); "

@@ -9,6 +9,7 @@ from __future__ import annotations
 import pytest
 from station.drivers import registry
 from station.drivers import synth as S
+from station.drivers.hid.descriptor import ReportType, parse_descriptor
 from station.drivers.hid.errors import ReportError
 from station.drivers.wacom.legacy import dtus, penpartner, pl, ptu, tpc
 
@@ -260,3 +261,22 @@ def test_unknown_wacom_without_any_pen_report_says_how_to_report_it():
         registry.parser_for(WACOM, 0x0FFB, S.touch_descriptor())
     with pytest.raises(Exception, match="please report it"):
         registry.parser_for(WACOM, 0x0FFB, None)
+
+
+def test_generic_hid_wacom_gets_the_data_mode_switch_from_its_descriptor():
+    # wacom_hid_usage_quirk: a feature field with WACOM_HID_WD_DATAMODE (0xff0d1002) makes
+    # its report the mode report, value 2 (report length as the descriptor declares it).
+    b = S.DescriptorBuilder()
+    b.raw(S.pth660_like_descriptor())
+    b.usage_page(0xFF0D).usage(0x01).collection(1).report_id(0x02)
+    b.usage(0xFF0D1002, extended=True).logical(0, 255).report_size(8).report_count(1).feature()
+    b.report_size(8).report_count(2).feature(1)
+    b.end_collection()
+    raw = b.to_bytes()
+    declared = parse_descriptor(raw).report(ReportType.FEATURE, 2).length(True)
+    want = b"\x02\x02" + bytes(declared - 2)
+    p = registry.parser_for(WACOM, 0x0357, raw)
+    assert p.name == "hid-generic" and p.init_features == [want] and declared >= 4
+    unknown = registry.parser_for(WACOM, 0x0FFA, raw)
+    assert unknown.init_features == [want]
+    assert registry.parser_for(WACOM, 0x0357, S.pth660_like_descriptor()).init_features == []
