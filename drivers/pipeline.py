@@ -211,8 +211,8 @@ class EvdevPenSource:
 
 
 # -- device SPEC strings ---------------------------------------------------------
-SCHEMES = ("mock", "mock-hidraw", "mock-usb", "mock-evdev", "trace", "evdev", "hidraw",
-           "hidapi", "usb")
+SCHEMES = ("mock", "mock-hidraw", "mock-usb", "mock-evdev", "mock-uclogic", "trace", "evdev",
+           "hidraw", "hidapi", "usb")
 
 
 @dataclass(frozen=True)
@@ -319,6 +319,8 @@ def open_transport(spec_text: str) -> OpenedTransport:
         node = MockHidrawNode(tablet.info, tablet.timed_reports(), speed=speed,
                               on_feature=tablet.feature, finite=finite)
         return OpenedTransport("hid", HidrawTransport(node), finite, spec, tablet)
+    if s == "mock-uclogic":
+        return _open_mock_uclogic(spec)
     if s in ("mock-hidraw", "mock-usb", "mock-evdev", "trace"):
         trace = read_trace(spec.target)
         dev = _trace_pen_device(trace, spec)
@@ -400,6 +402,28 @@ def _open_mock_evdev(spec: DeviceSpec, dev: TraceDevice, speed: float | None) ->
                          drop_frames=drop, finite=finite)
     transport = EvdevNodeTransport(node.path, grab=spec.flag("grab"), opener=lambda _: node)
     return OpenedTransport("evdev", transport, finite, spec, node)
+
+
+def _open_mock_uclogic(spec: DeviceSpec) -> OpenedTransport:
+    """``mock-uclogic:v1|v2|ugee-v2?script=…&reports=…&speed=…``: the UC-Logic mock over pyusb."""
+    from station.drivers.mock.script import SCRIPTS
+    from station.drivers.mock.uclogic import TABLETS, MockUclogicTablet
+    from station.drivers.mock.usb import RecordedUsbBackend
+    from station.drivers.transport.pyusb import UsbTransport
+
+    if spec.target not in TABLETS:
+        raise DeviceSpecError(f"mock-uclogic:{spec.target}: one of {', '.join(TABLETS)}",
+                              "--device")
+    script = spec.options.get("script", "line")
+    if script not in SCRIPTS:
+        raise DeviceSpecError(f"unknown script {script!r} (one of {', '.join(SCRIPTS)})",
+                              "--device")
+    tablet = MockUclogicTablet(spec.target, script=script,
+                               rate=spec.number("rate", 200.0, 1, 2000),
+                               reports=int(spec.number("reports", 60, 2, 100000)))
+    tablet.device.speed = spec.speed(1.0)
+    transport = UsbTransport(tablet.vid, tablet.pid, backend=RecordedUsbBackend([tablet.device]))
+    return OpenedTransport("hid", transport, True, spec, tablet)
 
 
 def _vendor_setup(parser: Any, transport: HidTransport) -> Any:

@@ -180,3 +180,15 @@ def test_registry_uclogic_interfaces():
     assert not ignored.is_pen
     m = registry.find_device(0x28BD, 0x0905)
     assert m["uclogic"] == {"init": "ugee-v2"} and m["parser"] == "uclogic"
+
+
+def test_mock_uclogic_spec_opens_through_the_driver_pipeline():
+    from station.drivers.pipeline import open_device
+    from station.drivers.transport.base import DeviceSpecError
+
+    src = open_device("mock-uclogic:ugee-v2?speed=max&reports=20&script=spiral")
+    assert src.parser.name == "uclogic" and src.uclogic_params.kind == "ugee-v2"
+    samples = _read_all(src)
+    assert sum(1 for s in samples if s.tip) >= 15
+    with pytest.raises(DeviceSpecError, match="one of v1, v2, ugee-v2"):
+        open_device("mock-uclogic:v9")
