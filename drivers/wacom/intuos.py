@@ -42,6 +42,10 @@ ROTATION_AXIS = Axis(-900, 899, 5.0)  # Art Pen: 1800 units per turn, 5 per degr
 WHEEL_AXIS = Axis(0, 1023, None)  # airbrush finger wheel
 TILT_AXIS = Axis(-64, 63, 1.0)  # about one unit per degree
 
+# d[1] & 0x06 -> pen button bits, as plain ints (IntFlag arithmetic is slow per report)
+_PEN_BUTTONS = tuple((int(Button.STYLUS) if b & 2 else 0) | (int(Button.STYLUS2) if b & 4 else 0)
+                     for b in range(8))
+
 # packet types (d[1] >> 1) & 0xf
 PEN_TYPES = frozenset({0, 1, 2, 3})
 TYPE_MOUSE_4D, TYPE_ROTATION, TYPE_MOUSE_I4, TYPE_AIRBRUSH = 0x4, 0x5, 0x6, 0xA
@@ -216,7 +220,7 @@ class IntuosParser(ReportParser):
             st.pressure = t
             if self.tilt:
                 st.tilt_x, st.tilt_y = decode_tilt(d)
-            st.buttons = (Button.STYLUS if d1 & 2 else 0) | (Button.STYLUS2 if d1 & 4 else 0)
+            st.buttons = _PEN_BUTTONS[d1 & 6]
         elif ptype == TYPE_AIRBRUSH:
             st.wheel = (d[6] << 2) | ((d[7] >> 6) & 3)
             st.tilt_x, st.tilt_y = decode_tilt(d)
@@ -244,26 +248,18 @@ class IntuosParser(ReportParser):
 
     def _sample(self, time: float, proximity: bool, valid: bool) -> RawSample:
         st = self.state
-        cursor = st.tool in (Tool.MOUSE, Tool.LENS)
-        return RawSample(
-            time=time,
-            proximity=proximity,
-            x=st.x,
-            y=st.y,
-            tip=st.pressure > 10 if not cursor else False,  # the kernel's BTN_TOUCH rule
-            pressure=None if cursor else st.pressure,
-            tilt_x=None if st.tool == Tool.LENS or not self.tilt else st.tilt_x,
-            tilt_y=None if st.tool == Tool.LENS or not self.tilt else st.tilt_y,
-            distance=st.distance,
-            rotation=None if self.original else st.rotation,
-            wheel=st.wheel,
-            buttons=int(st.buttons),
-            tool=st.tool,
-            serial=st.serial if st.tool_id else None,
-            tool_id=st.tool_id or None,
-            eraser=st.tool == Tool.ERASER,
-            valid=valid,
-        )
+        tool = st.tool
+        cursor = tool is Tool.MOUSE or tool is Tool.LENS
+        no_tilt = tool is Tool.LENS or not self.tilt
+        # Positional, in RawSample's field order (time, proximity, x, y, tip, pressure,
+        # tilt x/y, distance, rotation, wheel, buttons, tool, serial, tool id, eraser,
+        # valid): built for every report.  tip: the kernel's BTN_TOUCH rule, pressure > 10.
+        return RawSample(time, proximity, st.x, st.y, False if cursor else st.pressure > 10,
+                         None if cursor else st.pressure, None if no_tilt else st.tilt_x,
+                         None if no_tilt else st.tilt_y, st.distance,
+                         None if self.original else st.rotation, st.wheel, st.buttons,
+                         tool, st.serial if st.tool_id else None, st.tool_id or None,
+                         tool is Tool.ERASER, valid)
 
 
 def _mouse_buttons(bits: int, side: int, extra: int) -> int:
