@@ -225,3 +225,23 @@ def test_devices_list_shows_every_model_with_its_protocol(capsys):
     one = next(m for m in data["models"] if m["id"] == "wacom-0044-intuos2-12x12")
     assert one["protocol"] == "wacom-intuos1"
     assert one["file"].endswith("wacom-0044-intuos2-12x12.json")
+
+
+def test_devices_says_per_node_which_file_and_protocol_or_why_none():
+    from station.cli.cmd_devices import _parser_name
+    from station.drivers import synth as S
+
+    known = _parser_name(0x056A, 0x00B1, S.wacom_protocol_descriptor(9), 3)
+    assert known["parser"] == "wacom-intuos" and known["family"] == "Intuos3"
+    assert known["data_file"] == "devices/wacom-00b1-intuos3-6x8.json" and "note" not in known
+    touch = _parser_name(0x056A, 0x00B1, S.touch_descriptor(), 3)
+    assert touch["is_pen"] is False and touch["note"].startswith("not a pen: touch")
+    unknown_wacom = _parser_name(0x056A, 0x0FF0, S.pth660_like_descriptor(), 3)
+    assert unknown_wacom["data_file"] is None and "please report it" in unknown_wacom["note"]
+    other = _parser_name(0x1234, 0x0001, S.ntrig_like_descriptor(), 0x18)
+    assert other["parser"] == "hid-generic" and "descriptor" in other["note"]
+    refused = _parser_name(0x1234, 0x0002, S.touch_descriptor(), 3)
+    assert refused["parser"] is None and refused["note"].startswith("no parser: ")
+    uc = _parser_name(0x256C, 0x006D, bytes.fromhex("06 00 ff 09 01 a1 01 85 08 75 68 95 01 09 01"
+                                                    " 81 02 c0"), 3)
+    assert uc["data_file"] == "devices/huion-006d-shared.json" and "UC-Logic set-up" in uc["note"]
