@@ -10,8 +10,10 @@ from pathlib import Path
 
 import pytest
 from station.drivers import registry
+from station.drivers import synth as S
 
 from station.cli import main
+from station.cli.cmd_devices import _parser_name
 
 ROOT = Path(__file__).resolve().parent.parent
 GEN = ROOT / "tools/gen_wacom_devices.py"
@@ -228,9 +230,7 @@ def test_devices_list_shows_every_model_with_its_protocol(capsys):
 
 
 def test_devices_says_per_node_which_file_and_protocol_or_why_none():
-    from station.drivers import synth as S
 
-    from station.cli.cmd_devices import _parser_name
 
     known = _parser_name(0x056A, 0x00B1, S.wacom_protocol_descriptor(9), 3)
     assert known["parser"] == "wacom-intuos" and known["family"] == "Intuos3"

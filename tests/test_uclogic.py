@@ -13,8 +13,8 @@ from station.drivers import synth as S
 from station.drivers.hid.errors import ReportError
 from station.drivers.mock.uclogic import MockUclogicTablet
 from station.drivers.mock.usb import RecordedUsbBackend
-from station.drivers.pipeline import HidPenSource
-from station.drivers.transport.base import DeviceGone
+from station.drivers.pipeline import HidPenSource, open_device
+from station.drivers.transport.base import DeviceGone, DeviceSpecError
 from station.drivers.transport.pyusb import UsbTransport
 from station.drivers.uclogic import params as P
 from station.drivers.uclogic.init import TRANSITION_FIRMWARE, UGEE_V2_PROBE, initialise
@@ -183,9 +183,6 @@ def test_registry_uclogic_interfaces():
 
 
 def test_mock_uclogic_spec_opens_through_the_driver_pipeline():
-    from station.drivers.pipeline import open_device
-    from station.drivers.transport.base import DeviceSpecError
-
     src = open_device("mock-uclogic:ugee-v2?speed=max&reports=20&script=spiral")
     assert src.parser.name == "uclogic" and src.uclogic_params.kind == "ugee-v2"
     samples = _read_all(src)
