@@ -6,6 +6,8 @@ or with the synth encoders; no third-party captures.
 
 from __future__ import annotations
 
+import json
+
 import pytest
 from station.drivers import registry
 from station.drivers import synth as S
@@ -13,6 +15,7 @@ from station.drivers.hid.descriptor import ReportType, parse_descriptor
 from station.drivers.hid.errors import ReportError
 from station.drivers.wacom.legacy import dtus, penpartner, pl, ptu, tpc
 
+from station.cli import main
 from station.events import Button, Tool
 
 WACOM = 0x056A
@@ -280,3 +283,59 @@ def test_generic_hid_wacom_gets_the_data_mode_switch_from_its_descriptor():
     unknown = registry.parser_for(WACOM, 0x0FFA, raw)
     assert unknown.init_features == [want]
     assert registry.parser_for(WACOM, 0x0357, S.pth660_like_descriptor()).init_features == []
+
+
+# -- whole recordings through `station replay` -------------------------------------------------
+def _stroke_times(n: int) -> list[float]:
+    return [i * 0.005 + (0.001 if i % 2 else 0.0) for i in range(n)]
+
+
+def _intuos2_reports() -> list[bytes]:
+    out = [S.intuos_prox_in(0x022, 0x5EED)]
+    for i in range(30):
+        p = min(1023, i * 60)
+        out.append(S.intuos_pen(2 * (3000 + 500 * i), 2 * (4000 + 300 * i), p, i - 15, 15 - i,
+                                8, 0, 1023))  # fmt: skip
+    return [*out, S.intuos_prox_out()]
+
+
+def _i4wl_reports() -> list[bytes]:
+    pens = [S.intuos_pen(2000 + 900 * i, 3000 + 500 * i, min(2047, 120 * i), 3, -3)
+            for i in range(30)]  # fmt: skip
+    out = [bytes([3]) + S.intuos_prox_in(0x802, 0x77) + pens[0] + b"\x07"]
+    out += [bytes([3]) + pens[i] + pens[i + 1] + b"\x07" for i in range(1, 29, 2)]
+    return [*out, bytes([3]) + S.intuos_prox_out() + bytes(10) + b"\x07"]
+
+
+def _pl_reports() -> list[bytes]:
+    out = []
+    for i in range(30):
+        x, y, on = 300 + 100 * i, 200 + 80 * i, i > 3
+        out.append(bytes([2, 0x40 | (x >> 14), (x >> 7) & 0x7F, x & 0x7F,
+                          (0x08 if on else 0) | (y >> 14), (y >> 7) & 0x7F, y & 0x7F,
+                          (4 * i) & 0x7F]))  # fmt: skip
+    return [*out, bytes([2, 0, 0, 0, 0, 0, 0, 0])]
+
+
+@pytest.mark.parametrize(("pid", "bus", "make", "tool", "serial"), [
+    (0x0044, 3, _intuos2_reports, "pen", 0x5EED),
+    (0x00BD, 5, _i4wl_reports, "pen", 0x77),
+    (0x0030, 3, _pl_reports, "pen", None),
+])  # fmt: skip
+def test_recorded_strokes_of_the_new_families_replay(tmp_path, pid, bus, make, tool, serial):
+    reports = make()
+    dev = S.RecordedDevice(f"Wacom {pid:04x}", WACOM, pid, S.wacom_protocol_descriptor(9),
+                           list(zip(_stroke_times(len(reports)), reports, strict=True)), bus=bus)
+    path = tmp_path / "stroke.hid"
+    S.write_hid_recorder([dev], path)
+    out = tmp_path / "out.jsonl"
+    assert main(["replay", str(path), "--jsonl", str(out)]) == 0
+    rows = [json.loads(ln) for ln in out.read_text().splitlines()[1:]]
+    pens = [r for r in rows if r.get("type") == "pen"]
+    assert len(pens) >= 25
+    assert all(0.0 <= r["x"] <= 1.0 and 0.0 <= r["y"] <= 1.0 for r in pens)
+    assert all(r["tool"] == tool and r["serial"] == serial for r in pens if r["proximity"])
+    touching = [r for r in pens if r["touching"]]
+    assert len(touching) >= 10 and max(r["pressure"] for r in touching) > 0.3
+    assert all(r["pressure"] == 0 for r in pens if not r["touching"])
+    assert not pens[-1]["proximity"]  # the stroke ends with a proximity-out
