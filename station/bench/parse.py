@@ -3,8 +3,8 @@
 Synthetic strokes are encoded with :mod:`station.drivers.synth` (the exact
 inverses of the parsers), then parsed in a tight loop on one core (the
 process is pinned to one CPU where the OS allows).  Devices send 100-233
-reports per second; the target is >= 100 000 reports/s per parser, so one
-core has ~500x headroom.  The normaliser (``station.drivers.normalise``)
+reports per second; the target is >= 300 000 reports/s per parser (pen
+packets/s for bundled Bluetooth reports), so one core has ~1500x headroom.  The normaliser (``station.drivers.normalise``)
 is measured on the Intuos parser's samples when it is installed.
 """
 
@@ -18,7 +18,9 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-TARGET = 100_000
+# Reports per second a parser keeps on one idle core (issue 9: >= 300 000).  For Bluetooth
+# reports that bundle several pen packets the target applies to packets (samples).
+TARGET = 300_000
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -186,7 +188,7 @@ def measure(n: int, repeat: int) -> dict[str, Any]:
             "reports_per_s": round(len(reports) / seconds),
             "samples_per_s": round(samples_of[name] / seconds),
             "us_per_report": round(seconds / len(reports) * 1e6, 3),
-            "meets_target": len(reports) / seconds >= TARGET,
+            "meets_target": max(len(reports), samples_of[name]) / seconds >= TARGET,
         }
     parser, reports = work["wacom-intuos"]
     parser.reset()
