@@ -197,6 +197,15 @@ def test_checked_in_data_is_what_the_generator_writes():
     assert gen.main(["--cache", str(CACHE), "--check"]) == 0
 
 
+@pytest.mark.skipif(not (CACHE / "input-wacom/4.18/wacom_wac.c").exists(),
+                    reason="source texts not fetched (docs/devices.md)")
+def test_curated_files_agree_with_the_kernel_table():
+    # The one difference is deliberate: the Bluetooth Graphire's mouse distance is clamped
+    # to 0..31 by the kernel's own formula although its table says 32.
+    assert gen.curated_disagreements(CACHE, registry.DEVICES_DIR) == [
+        "wacom-graphire-bt.json: max_distance 31, kernel distance_max 32"]
+
+
 def test_checked_in_data_has_provenance_and_breadth():
     models = registry.load_devices()
     generated = [m for m in models if "provenance" in m]

@@ -614,6 +614,40 @@ def build(cache: Path, curated: set[tuple[str, int, int]]) -> list[dict[str, Any
     return out
 
 
+def kernel_entries(cache: Path) -> dict[tuple[str, int, int], KernelEntry]:
+    """The kernel table's entries by (bus, vid, pid)."""
+    wac_c = (cache / "input-wacom/4.18/wacom_wac.c").read_text(encoding="utf-8")
+    wac_h = (cache / "input-wacom/4.18/wacom_wac.h").read_text(encoding="utf-8")
+    text = strip_c_comments(wac_c)
+    features = parse_features(text, c_defines(wac_c) | c_defines(wac_h))
+    return {(e.bus, e.vid, e.pid): e for e in parse_id_table(text, features)}
+
+
+def curated_disagreements(cache: Path, out_dir: Path) -> list[str]:
+    """Curated files whose numbers differ from the kernel's table (a check of the hand work)."""
+    entries = kernel_entries(cache)
+    out = []
+    for p in sorted(out_dir.glob("*.json")):
+        if p.name.endswith(".schema.json"):
+            continue
+        m = json.loads(p.read_text(encoding="utf-8"))
+        if "provenance" in m or "max_x" not in m:
+            continue
+        e = entries.get((m["bus"], int(m["vendor_id"], 16), int(m["product_id"], 16)))
+        if e is None:
+            continue
+        k = e.features
+        pairs = [("max_x", "x_max"), ("max_y", "y_max"), ("max_pressure", "pressure_max"),
+                 ("max_distance", "distance_max")]
+        for ours, theirs in pairs:
+            if m.get(ours) != k.get(theirs):
+                out.append(f"{p.name}: {ours} {m.get(ours)}, kernel {theirs} {k.get(theirs)}")
+        if m["resolution"]["x"] != k.get("x_resolution"):
+            res = m["resolution"]["x"]
+            out.append(f"{p.name}: resolution {res}, kernel {k.get('x_resolution')}")
+    return out
+
+
 def curated_files(out_dir: Path) -> tuple[set[tuple[str, int, int]], list[Path]]:
     curated, generated = set(), []
     for p in sorted(out_dir.glob("*.json")):
@@ -662,6 +696,8 @@ def main(argv: list[str] | None = None) -> int:
     want = {args.out / f"{m['id']}.json": render(m) for m in models}
     stale = [p for p in old if p not in want]
     changed = [p for p, t in want.items() if not p.exists() or p.read_text(encoding="utf-8") != t]
+    for line in curated_disagreements(args.cache, args.out):
+        print(f"note: curated {line}", file=sys.stderr)
     if args.check:
         for p in stale + changed:
             print(f"{p}: not current", file=sys.stderr)

@@ -4,8 +4,9 @@ Synthetic strokes are encoded with :mod:`station.drivers.synth` (the exact
 inverses of the parsers), then parsed in a tight loop on one core (the
 process is pinned to one CPU where the OS allows).  Devices send 100-233
 reports per second; the target is >= 300 000 reports/s per parser (pen
-packets/s for bundled Bluetooth reports), so one core has ~1500x headroom.  The normaliser (``station.drivers.normalise``)
-is measured on the Intuos parser's samples when it is installed.
+packets/s for bundled Bluetooth reports), so one core has ~1500x headroom.
+The normaliser (``station.drivers.normalise``) is measured on the Intuos
+parser's samples when it is installed.
 """
 
 from __future__ import annotations
