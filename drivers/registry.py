@@ -124,9 +124,17 @@ def device_ids(model: dict[str, Any]) -> tuple[int, int, int]:
     return (int(model["vendor_id"], 16), int(model["product_id"], 16), BUS_NAMES[model["bus"]])
 
 
+@lru_cache(maxsize=1)
+def _by_ids() -> dict[tuple[int, int], list[dict[str, Any]]]:
+    index: dict[tuple[int, int], list[dict[str, Any]]] = {}
+    for m in _load():
+        index.setdefault(device_ids(m)[:2], []).append(m)
+    return index
+
+
 def find_device(vid: int, pid: int, bus: int | None = None) -> dict[str, Any] | None:
     """The model with this vid/pid (and bus, when given; else USB first), or None."""
-    matches = [m for m in _load() if device_ids(m)[:2] == (vid, pid)]
+    matches = _by_ids().get((vid, pid), [])
     if not matches:
         return None
     if bus is not None:
