@@ -155,6 +155,7 @@ def scan_usb() -> tuple[list[dict[str, Any]], list[str]]:
         out.append({"spec": f"usb:{d.idVendor:04x}:{d.idProduct:04x}", "name": model["name"],
                     "vid": f"{d.idVendor:04x}", "pid": f"{d.idProduct:04x}",
                     "model": model["id"], "parser": model["parser"],
+                    "data_file": _data_file(model), "family": model.get("family"),
                     "note": "claimed by the kernel? use hidraw:/evdev:, or usb:…?detach=1"})
     return out, []
 
