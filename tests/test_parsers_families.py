@@ -239,6 +239,9 @@ def test_pl_eraser_misdetection_hands_over_to_the_pen():
     assert e[0].tool == Tool.ERASER
     out = p.parse(bytes([2, 0x40, 0, 0, 0x00, 0, 0, 0]), 0.01)  # STYLUS2 gone: it was the pen
     assert [(s.tool, s.proximity) for s in out] == [(Tool.ERASER, False), (Tool.PEN, True)]
+    p.parse(bytes([2, 0x00, 0, 0, 0, 0, 0, 0]), 0.02)  # out
+    (first,) = p.parse(bytes([2, 0x40, 0, 0, 0x00, 0, 0, 0]), 0.03)  # a fresh entry: the pen
+    assert first.tool == Tool.PEN and first.proximity
 
 
 # -- fallbacks for ids the data does not know ---------------------------------------------------

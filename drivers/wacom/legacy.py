@@ -190,10 +190,11 @@ class LegacyPenParser(ReportParser):
             tool = self.tool
             if tool is None or (eraser is not None and not proto.tool_at_entry):
                 tool = Tool.ERASER if eraser else Tool.PEN
-            elif proto.name == "wacom-pl" and tool == Tool.ERASER and not eraser:
+            if proto.name == "wacom-pl" and tool is Tool.ERASER and not buttons & _STYLUS2:
                 # PL: STYLUS2 always accompanies the eraser; without it the entry was
                 # misread, so the eraser leaves and the pen comes in (as the kernel does).
-                out.append(self._sample(time, False, tool, 0, False, 0))
+                if self.tool is Tool.ERASER:
+                    out.append(self._sample(time, False, Tool.ERASER, 0, False, 0))
                 self.tool, tool = None, Tool.PEN
             if tool != self.tool and self.tool is not None:
                 out.append(self._sample(time, False, self.tool, 0, False, 0))
