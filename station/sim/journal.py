@@ -100,18 +100,27 @@ class StorageReport:
     def __init__(self) -> None:
         self.failures = 0
         self.problems: dict[str, str] = {}  # what -> first error text
+        self._reported = False
 
     def failed(self, what: str, exc: OSError) -> None:
+        """One failure; the first of an episode is logged as an error, the rest counted
+        (a full disk fails the log, the autosave and the image alike)."""
         self.failures += 1
-        if what not in self.problems:
-            text = f"{exc.strerror or exc}" + (f" ({errno.errorcode.get(exc.errno, '')})"
-                                               if exc.errno else "")
-            self.problems[what] = text
+        if what in self.problems:
+            return
+        text = f"{exc.strerror or exc}" + (f" ({errno.errorcode.get(exc.errno, '')})"
+                                           if exc.errno else "")
+        self.problems[what] = text
+        if not self._reported:
+            self._reported = True
             log.error("cannot write %s: %s; painting goes on, will retry", what, text)
+        else:
+            log.info("cannot write %s either: %s", what, text)
 
     def recovered(self, what: str) -> None:
-        if self.problems.pop(what, None) is not None:
-            log.warning("writing %s works again", what)
+        if self.problems.pop(what, None) is not None and not self.problems:
+            self._reported = False
+            log.warning("storage works again (%s written)", what)
 
 
 class SessionJournal:
