@@ -18,8 +18,9 @@ header's sequence number being the first one's (the batch takes ``count``
 consecutive numbers); cmd and status bodies are UTF-8 JSON objects; the haptic
 and heartbeat bodies are fixed structs.  Heartbeats (kind 6, topic
 ``hb.<device>``) were added compatibly: a version-1 subscriber of ``pen.``/``cmd``
-never receives them (ZeroMQ filters topics at the publisher).  Decoding validates everything: a message that is not exactly
-this raises :class:`WireError` and the subscriber counts and drops it.
+never receives them (ZeroMQ filters topics at the publisher).  Decoding
+validates everything: a message that is not exactly this raises
+:class:`WireError` and the subscriber counts and drops it.
 """
 
 from __future__ import annotations

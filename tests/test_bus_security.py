@@ -66,8 +66,8 @@ def test_each_driver_its_own_key_and_rejected_peers_are_logged(tmp_path: Path,
     with pytest.raises(BusConfigError, match="exists"):
         add_client_key("tab2", keys)
     (keys / "authorized" / "client-tab2.key").unlink()  # revoke tab2
-    tab2_public = [ln.split('"')[1] for ln in tab2.read_text().splitlines()
-                   if ln.strip().startswith("public-key")][0]
+    tab2_public = next(ln.split('"')[1] for ln in tab2.read_text().splitlines()
+                       if ln.strip().startswith("public-key"))
     ctx = zmq.Context()
     port = 40000 + os.getpid() % 9000
     endpoint = f"tcp://127.0.0.1:{port}"

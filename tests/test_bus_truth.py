@@ -19,7 +19,7 @@ from livesim import idle, log_records, start_sim, stop, wait_for, wait_subscript
 from station import wire
 from station.bus import EndpointInUse, Publisher, Subscriber
 from station.errors import BusConfigError, WireError
-from station.events import Command, PenSample, Tool
+from station.events import PenSample, Tool
 from station.sim.live import LiveConfig, LiveCore
 
 

@@ -9,6 +9,7 @@ with the same log, a full disk.
 
 from __future__ import annotations
 
+import itertools
 import json
 import signal
 import subprocess
@@ -59,8 +60,8 @@ def device_seqs(log: Path) -> list[int]:
 
 
 def gaps(seqs: list[int]) -> int:
-    assert all(b > a for a, b in zip(seqs, seqs[1:], strict=False)), "a sample twice"
-    return sum(b - a - 1 for a, b in zip(seqs, seqs[1:], strict=False))
+    assert all(b > a for a, b in itertools.pairwise(seqs)), "a sample twice"
+    return sum(b - a - 1 for a, b in itertools.pairwise(seqs))
 
 
 def strokes_balanced(log: Path) -> None:

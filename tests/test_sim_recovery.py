@@ -93,7 +93,8 @@ def test_kill_9_mid_painting_then_recover_is_pixel_exact(tmp_path: Path, backend
     assert rec.returncode == 0, rec.stderr
     assert f"{len(crashed) - saved} records replayed after the autosave" in rec.stderr
     paint(tmp_path / "pristine.jsonl", tmp_path / "uninterrupted.png", backend)
-    recovered, reference = pixels(tmp_path / "recovered.png"), pixels(tmp_path / "uninterrupted.png")
+    recovered = pixels(tmp_path / "recovered.png")
+    reference = pixels(tmp_path / "uninterrupted.png")
     assert (reference.sum(axis=2) < 650).mean() > 0.05  # there is a painting
     assert np.array_equal(recovered, reference)
 

@@ -208,9 +208,10 @@ class CanvasState:
         arrays["r_composed"] = self.r_composed
         arrays["tile_ttl"] = self.tile_ttl
         meta = np.array(json.dumps(self.metadata()))
-        entries = {f"extra_{k}": np.array(json.dumps(v)) for k, v in (extra or {}).items()}
+        arrays["meta"] = meta
+        arrays.update({f"extra_{k}": np.array(json.dumps(v)) for k, v in (extra or {}).items()})
         buf = io.BytesIO()
-        np.savez_compressed(buf, meta=meta, **arrays, **entries)
+        np.savez_compressed(buf, **arrays)
         return buf.getvalue()
 
     @classmethod

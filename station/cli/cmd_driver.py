@@ -105,13 +105,11 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
-    from station.bus import Publisher
+    from station.bus import HEARTBEAT_S, Publisher
     from station.drivers.calibrated import choose_calibration
     from station.drivers.pipeline import PenDriver, open_device
     from station.drivers.transport.base import DeviceGone, EndOfStream, TransportError
     from station.sessionlog import SessionHeader, SessionLogWriter
-
-    from station.bus import HEARTBEAT_S
 
     publisher = Publisher(args.bus, keys=args.keys, client_key=args.client_key,
                           heartbeat=args.heartbeat or HEARTBEAT_S)

@@ -7,9 +7,8 @@ import json
 import math
 import sys
 
-from station.errors import BadInput
-
 from station.cli.cmd_paint import BACKEND_HELP, BACKENDS
+from station.errors import BadInput
 from station.sim.paint import check_outputs, load_resume_state, parse_size
 
 MAX_AUTOSAVE_S = 86400.0

@@ -196,9 +196,8 @@ class SessionJournal:
         """Hand pending records to the kernel; ``True`` when nothing is pending."""
         if not self._pending:
             return True
-        if self._fd is None:
-            if time.monotonic() < self._next_retry or not self._open():
-                return False
+        if self._fd is None and (time.monotonic() < self._next_retry or not self._open()):
+            return False
         assert self._fd is not None
         data = b"".join(self._pending)
         try:
