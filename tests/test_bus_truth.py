@@ -213,6 +213,7 @@ def test_two_sims_cannot_share_the_command_endpoint(tmp_path: Path) -> None:
              "--size", "16x16", "--backend", "numpy", "--status", "none", "--log",
              str(tmp_path / "b.jsonl")], capture_output=True, text=True, timeout=60)
         assert second.returncode == 2 and "in use" in second.stderr
+        assert not (tmp_path / "b.jsonl").exists()  # refused before any file was made
         assert first.poll() is None
     finally:
         code, err = stop(first)

@@ -122,7 +122,11 @@ def test_kill_9_driver(tmp_path: Path) -> None:
         drv.wait(10)
         silent = statuses(st_sub, lambda s: DEVICE in s["silent_devices"], 5)
         named_after = time.monotonic() - killed
-        assert silent is not None and named_after < 1.0, named_after
+        assert silent is not None
+        # within 1 s of the device's last message, by the sim's clock (and, seen from
+        # here, with some slack for a loaded test machine)
+        assert silent["devices"][DEVICE]["last_seen_s"] < 1.0, silent["devices"]
+        assert named_after < 1.5, named_after
         assert silent["synthetic_pen_ups"] == 1 and silent["lost_samples"] == 0
         code, err = stop(sim)
         assert code == 0, err
@@ -146,7 +150,7 @@ def test_two_drivers_on_one_endpoint(tmp_path: Path) -> None:
     counted on both ends (today's bug: 666 of 800 delivered, ``lost: 0``)."""
     bus, log = f"ipc://{tmp_path}/bus", tmp_path / "s.jsonl"
     first_jsonl = tmp_path / "first.jsonl"
-    first = start_driver(bus, "script=line&reports=400&rate=200", "--wait-subscribers", "1",
+    first = start_driver(bus, "script=line&reports=3000&rate=500", "--wait-subscribers", "1",
                          "--jsonl", str(first_jsonl))
     sim = start_sim(bus, *SIM, "--log", str(log), "--status", "none")
     try:
@@ -155,6 +159,7 @@ def test_two_drivers_on_one_endpoint(tmp_path: Path) -> None:
             [sys.executable, "-m", "station", "driver", "--device",
              "mock:intuos-pro-m?script=line&reports=400&rate=200", "--bus", bus, "--name",
              "mock-1"], capture_output=True, text=True, timeout=60)
+        assert first.poll() is None, "the first driver ended before the second started"
         assert second.returncode == 2 and "in use by another live process" in second.stderr
         assert first.wait(60) == 0  # the script ends the first driver
         _out, drv_err = first.communicate()

@@ -63,12 +63,14 @@ from station.durable import atomic_write
 from station.errors import BadInput
 from station.events import Command, PenSample
 from station.sessionlog import SessionHeader
+from station.sim import recovery
 from station.sim.journal import (
     SessionJournal,
     StorageReport,
     autosave_path,
     default_log_path,
     free_path,
+    record_line,
 )
 from station.sim.player import SessionPlayer
 from station.wire import Heartbeat
@@ -81,8 +83,6 @@ DRAIN_MAX = 2000  # messages handled between two steps at most (steps must go on
 SYNC_EVERY_S = 1.0  # fsync of the log (it reaches the kernel before every step)
 SILENCE_INTERVALS = 3.0  # heartbeat intervals without a message: the device is silent
 RECOVERED_STROKE_GRACE_S = 1.0  # a stroke open at a crash ends if its device stays quiet
-CHECKPOINT_VERSION = 1
-LIVE_ONLY_COMMANDS = ("stop", "save")  # handled here, never logged
 
 
 @dataclass
@@ -154,7 +154,6 @@ class LiveCore:
 
     def __init__(self, cfg: LiveConfig) -> None:
         from station.canvas.palette import default_palette
-        from station.sim import recovery
         from station.sim.paint import make_backend
 
         self.cfg = cfg
@@ -210,8 +209,6 @@ class LiveCore:
                 extra={"sim": {"rate": self.player.rate}, "recorded_by": "station sim",
                        **({"resumed_from": str(Path(cfg.resume).resolve())}
                           if cfg.resume else {})})
-            from station.sim.journal import record_line
-
             self.header_line = record_line(header).decode().rstrip("\n")
             self.journal = SessionJournal(self.log_path, header, self.report)
         self.autosave_path = autosave_path(self.log_path)
@@ -222,6 +219,7 @@ class LiveCore:
         self._next_autosave = time.monotonic() + (cfg.autosave or math.inf)
         self._save_requested = False
         self.stop_requested = False
+        self.newly_silent: list[str] = []  # fell silent since the caller last looked
 
     # -- clock ---------------------------------------------------------------
     def now(self) -> float:
@@ -383,6 +381,7 @@ class LiveCore:
                 continue
             dev.silent = True
             fell.append(name)
+            self.newly_silent.append(name)
             log.warning("device %s is silent (no message for %.1f s)", name,
                         now - dev.last_seen)
             if dev.touching and dev.last_sample is not None:
@@ -422,7 +421,7 @@ class LiveCore:
     def checkpoint_session(self) -> dict[str, Any]:
         p, b, c = self.player, self.player.brush, self.counters
         return {
-            "version": CHECKPOINT_VERSION,
+            "version": recovery.CHECKPOINT_VERSION,
             "log": {"path": str(self.log_path), "header": self.header_line,
                     "records": self.journal.records_written},
             "player": {
@@ -462,7 +461,7 @@ class LiveCore:
                   "synthetic_pen_ups"):
             setattr(self.counters, k, int(ls[k]))
 
-    def _replay(self, plan: Any) -> None:
+    def _replay(self, plan: recovery.Plan) -> None:
         """Apply the log records after the checkpoint exactly as they were applied
         live (each after ``floor((t + waited)·rate)`` steps), then continue the
         session clock from there."""
@@ -577,7 +576,7 @@ class LiveSim(LiveCore):
     def __init__(self, cfg: LiveConfig) -> None:
         from station.bus import Publisher, Subscriber
 
-        super().__init__(cfg)
+        # The bus first: an endpoint in use ends the run before any file is made.
         endpoints = [cfg.bus]
         cmd_ep = cfg.cmd or "@" + DEFAULT_CMD_ENDPOINT
         if cmd_ep != "none":
@@ -586,8 +585,12 @@ class LiveSim(LiveCore):
         status_ep = cfg.status or default_status_endpoint(cfg.bus)
         try:
             self.pub = None if status_ep == "none" else Publisher(status_ep)
+            super().__init__(cfg)
         except BaseException:
             self.sub.close()
+            pub = getattr(self, "pub", None)
+            if pub is not None:
+                pub.close()
             raise
         self._next_status = 0.0
         self._fps_mark = (time.monotonic(), self.player.counters.steps)
@@ -649,7 +652,9 @@ class LiveSim(LiveCore):
                 else:
                     wait = min(self.seconds_to_next_step(), 0.1)
                     self.drain(max(0, int(wait * 1000) + 1))
-                if self.check_devices():
+                self.check_devices()
+                if self.newly_silent:
+                    self.newly_silent.clear()
                     self.publish_status()  # name a silent device at once
                 self.maybe_publish_status()
         finally:
