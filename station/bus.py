@@ -329,9 +329,8 @@ def _attach(sock: zmq.Socket, endpoint: Endpoint, keys_directory: Path | None,
                 path = Path(endpoint.url[6:])
                 if endpoint.private:  # our own runtime directory: 0700, checked
                     secure_dir(path.parent)
-                elif not path.parent.is_dir():
-                    raise BusConfigError(f"directory {path.parent} of {endpoint.url} does not "
-                                         "exist")
+                elif not path.parent.is_dir():  # an environment problem (exit 1), as before
+                    raise BusError(f"directory {path.parent} of {endpoint.url} does not exist")
                 if ipc_in_use(path):
                     raise EndpointInUse(f"{endpoint.url} is in use by another live process "
                                         "(a second driver or sim?); stop it or pick another "

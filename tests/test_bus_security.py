@@ -17,7 +17,7 @@ import pytest
 import zmq
 
 from station.bus import Publisher, Subscriber, add_client_key, generate_keys, runtime_dir
-from station.errors import BusConfigError
+from station.errors import BusConfigError, BusError
 from station.events import PenSample, Tool
 
 
@@ -36,7 +36,7 @@ def test_binding_an_explicit_ipc_path_never_changes_its_directory(tmp_path: Path
 
 def test_an_explicit_ipc_directory_is_never_created(tmp_path: Path) -> None:
     missing = tmp_path / "nope"
-    with pytest.raises(BusConfigError, match="does not exist"):
+    with pytest.raises(BusError, match="does not exist"):
         Publisher(f"ipc://{missing}/bus")
     assert not missing.exists()
 
