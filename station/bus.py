@@ -77,8 +77,12 @@ def runtime_dir() -> Path:
     return secure_dir(path)
 
 
-def secure_dir(path: Path) -> Path:
-    """Create ``path`` with mode 0700 (or check an existing one)."""
+def secure_dir(path: Path, repair: bool = True) -> Path:
+    """Create ``path`` with mode 0700 (or check an existing one).
+
+    An existing directory open to others is set to 0700 when it is the station's
+    own (``repair``); one the user named is refused instead, never chmod-ed.
+    """
     try:
         path.mkdir(mode=0o700, parents=True, exist_ok=True)
         st = path.lstat()
@@ -89,6 +93,10 @@ def secure_dir(path: Path) -> Path:
     if st.st_uid != os.getuid():
         raise BusError(f"{path} belongs to uid {st.st_uid}, not to you: refusing to use it")
     if st.st_mode & 0o077:
+        if not repair:
+            raise BusConfigError(f"{path} is open to other users (mode "
+                                 f"{stat.S_IMODE(st.st_mode):o}); chmod 700 it yourself or "
+                                 "use another directory")
         os.chmod(path, 0o700)
     return path
 
@@ -157,9 +165,10 @@ def generate_keys(directory: Path | None = None, force: bool = False) -> dict[st
     """
     import zmq.auth
 
+    repair = directory is None  # a directory the user named is checked, never chmod-ed
     directory = directory or keys_dir()
-    secure_dir(directory)
-    authorized = secure_dir(directory / "authorized")
+    secure_dir(directory, repair)
+    authorized = secure_dir(directory / "authorized", repair)
     paths: dict[str, Path] = {}
     for name in ("server", "client"):
         public = directory / f"{name}.key"
@@ -195,6 +204,7 @@ def add_client_key(name: str, directory: Path | None = None, force: bool = False
     """
     import zmq.auth
 
+    repair = directory is None
     directory = directory or keys_dir()
     base = f"client-{client_key_name(name)}"
     if not (directory / "server.key").exists():
@@ -202,8 +212,8 @@ def add_client_key(name: str, directory: Path | None = None, force: bool = False
     public = directory / f"{base}.key"
     if public.exists() and not force:
         raise BusConfigError(f"{public} exists; pass --force to replace it")
-    secure_dir(directory)
-    authorized = secure_dir(directory / "authorized")
+    secure_dir(directory, repair)
+    authorized = secure_dir(directory / "authorized", repair)
     pub, sec = zmq.auth.create_certificates(str(directory), base)
     os.chmod(sec, 0o600)
     (authorized / f"{base}.key").write_bytes(Path(pub).read_bytes())

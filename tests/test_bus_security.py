@@ -116,3 +116,13 @@ def test_keys_cli_adds_a_driver_key_and_driver_flag_uses_it(tmp_path: Path) -> N
                       "--bus", ">tcp://127.0.0.1:9", "--keys", str(keys), "--client-key",
                       "nobody")
     assert missing.returncode == 2 and "client-nobody" in missing.stderr
+
+
+def test_keys_never_chmod_a_directory_the_user_named(tmp_path: Path) -> None:
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    os.chmod(shared, 0o755)
+    r = subprocess.run([sys.executable, "-m", "station", "keys", "--dir", str(shared)],
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == 2 and "open to other users" in r.stderr
+    assert stat.S_IMODE(shared.stat().st_mode) == 0o755 and not list(shared.iterdir())

@@ -26,7 +26,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     directory = args.dir or keys_dir()
     if args.client:
-        public = add_client_key(args.client, directory, force=args.force)
+        public = add_client_key(args.client, args.dir, force=args.force)
         if args.json:
             json.dump({"client": str(public)}, sys.stdout)
             sys.stdout.write("\n")
@@ -35,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
                   f"--client-key {args.client} (copy {public.name}_secret and server.key "
                   "to its machine)")
         return 0
-    paths = generate_keys(directory, force=args.force)
+    paths = generate_keys(args.dir, force=args.force)
     if args.json:
         json.dump({k: str(v) for k, v in paths.items()}, sys.stdout)
         sys.stdout.write("\n")

@@ -487,7 +487,10 @@ class LiveCore:
                 if rec.cmd == "wait":
                     while p.counters.steps < p.steps_due(rec.t):
                         self.step()
-        self.start = time.monotonic() - (p.counters.steps / p.rate - p.waited)
+        # The clock goes on at the start of the next step's slot: that step runs first,
+        # with whatever stamps are pending (or were put into the canvas by a final
+        # autosave), exactly as a replay of the continued log runs it.
+        self.start = time.monotonic() - ((p.counters.steps + 1) / p.rate - p.waited)
         now = time.monotonic()
         for name, dev in self.devices.items():
             dev.last_seen = now
