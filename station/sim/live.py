@@ -646,9 +646,10 @@ class LiveSim(LiveCore):
     # -- main loop -----------------------------------------------------------
     def run(self) -> dict[str, Any]:
         """Run until stopped; returns the final status."""
+        end = None if self.cfg.duration is None else self.now() + self.cfg.duration
         try:
             while not self.stop_requested:
-                if self.cfg.duration is not None and self.now() >= self._end_at():
+                if end is not None and self.now() >= end:
                     break
                 if self.tick():
                     self.drain(0)
@@ -663,11 +664,6 @@ class LiveSim(LiveCore):
         finally:
             final = self.shutdown()
         return final
-
-    def _end_at(self) -> float:
-        if not hasattr(self, "_end"):
-            self._end = self.now() + (self.cfg.duration or 0.0)
-        return self._end
 
     def shutdown(self) -> dict[str, Any]:
         """Finish (see :meth:`LiveCore.finish`), publish the final status, close."""
