@@ -277,3 +277,33 @@ def test_recover_replays_the_whole_log_without_autosave(tmp_path: Path) -> None:
         rec.step()
     assert np.array_equal(rec.canvas.state().w, want.w)
     assert np.array_equal(rec.canvas.state().p, want.p)
+
+
+def test_clean_stop_then_recover_continues_exactly(tmp_path: Path) -> None:
+    """Stop with stamps still pending (the final autosave holds them in the canvas),
+    recover, paint on: the canvas equals the whole continued log painted from scratch."""
+    core = _core(tmp_path, autosave=30.0)
+    core.feed_command(Command(t=0.0, cmd="brush", args={"size": 6, "pigment": {"Black": 0.6}}))
+    _paint(core, 0.3)
+    core.feed_sample(PenSample(t=1.0, device="e", tool=Tool.PEN, x=0.5, y=0.3, pressure=0.9,
+                               touching=True, seq=1))
+    core.feed_sample(PenSample(t=1.01, device="e", tool=Tool.PEN, x=0.5, y=0.3,
+                               touching=False, proximity=False, seq=2))
+    assert core.player.brush.pending  # a dab not yet stepped
+    core.finish()
+    assert core.counters.autosaves == 1
+    rec = LiveCore(LiveConfig(bus=None, backend="numpy", recover=str(core.log_path),
+                              autosave=0.0))
+    assert rec.tick()  # the next slot's step runs first
+    _paint(rec, 0.3)  # over the wet first stroke and the pending dab
+    rec.finish()
+    from station.cli import main
+
+    assert main(["paint", str(core.log_path), "-o", str(tmp_path / "r.png"), "--backend",
+                 "numpy", "--state", str(tmp_path / "r.npz")]) == 0
+    from station.canvas.state import CanvasState
+
+    whole, live = CanvasState.load(tmp_path / "r.npz"), rec.canvas.state()
+    assert whole.step_count == live.step_count
+    for name in ("w", "p", "q", "wc", "vx", "vy"):
+        assert np.array_equal(getattr(whole, name), getattr(live, name)), name
