@@ -498,3 +498,8 @@ class RoundBrush:
     @property
     def pending(self) -> int:
         return len(self._pending)
+
+    @property
+    def drawing(self) -> bool:
+        """A stroke is in progress (some device's pen is down)."""
+        return bool(self._strokes)

@@ -17,6 +17,7 @@ import signal
 import sys
 import threading
 import time
+from pathlib import Path
 from typing import Any
 
 from station.errors import BadInput
@@ -53,6 +54,14 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="also write the device-normalised (uncalibrated) samples as JSONL")
     p.add_argument("--wait-subscribers", type=int, default=0, metavar="N",
                    help="wait (up to 5 s) for N subscribers before reading the device")
+    p.add_argument("--keys", type=Path, default=None, metavar="DIR",
+                   help="CURVE key directory for tcp endpoints (default ~/.config/station/keys)")
+    p.add_argument("--client-key", metavar="NAME",
+                   help="connect over tcp with this driver's own key pair (made by "
+                        "`station keys --client NAME`) instead of the shared client key")
+    p.add_argument("--heartbeat", type=float, default=None, metavar="S",
+                   help="seconds between heartbeats on hb.<device> (default 0.2; the sim "
+                        "names a silent device after 3 missed ones)")
     p.set_defaults(func=run)
 
 
@@ -96,13 +105,14 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
-    from station.bus import Publisher
+    from station.bus import HEARTBEAT_S, Publisher
     from station.drivers.calibrated import choose_calibration
     from station.drivers.pipeline import PenDriver, open_device
     from station.drivers.transport.base import DeviceGone, EndOfStream, TransportError
     from station.sessionlog import SessionHeader, SessionLogWriter
 
-    publisher = Publisher(args.bus)
+    publisher = Publisher(args.bus, keys=args.keys, client_key=args.client_key,
+                          heartbeat=args.heartbeat or HEARTBEAT_S)
     writer = None
     raw_writer = None
     reconnects = 0
@@ -158,6 +168,7 @@ def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
                         if writer is not None:
                             writer.write(sample)
                         totals["total_samples"] += 1
+                    publisher.tick()  # alive, even while the pen is away
                     if time.monotonic() >= next_status:
                         status("running", driver)
                         next_status = time.monotonic() + args.status_interval

@@ -188,10 +188,7 @@ class SessionPlayer:
         self.brush.set(settings.scaled(self.brush_scale))
 
     def _profile(self, args: Mapping[str, Any], where: str | None) -> None:
-        name = args.get("name")
-        if not isinstance(name, str) or name not in PROFILES:
-            raise PlayerError(f"unknown profile {name!r} (one of {', '.join(sorted(PROFILES))})",
-                              where)
+        name = _profile_name(args, where)
         self.flush_sources()
         try:
             self.backend.set_profile(name)
@@ -207,11 +204,7 @@ class SessionPlayer:
         self.brush.set(brush_defaults(prof).scaled(self.brush_scale))
 
     def _wait(self, args: Mapping[str, Any], where: str | None) -> None:
-        seconds = args.get("seconds", 0.0)
-        if (isinstance(seconds, bool) or not isinstance(seconds, (int, float))
-                or not math.isfinite(seconds) or not 0.0 <= seconds <= MAX_WAIT_SECONDS):
-            raise PlayerError(f"wait seconds {seconds!r} must be a number in [0, "
-                              f"{MAX_WAIT_SECONDS:g}]", where)
+        seconds = _wait_seconds(args, where)
         self.waited += float(seconds)
         self.counters.waited_s += float(seconds)
 
@@ -250,6 +243,49 @@ class SessionPlayer:
         self.waited += seconds
         self.advance_to(self.last_t, on_step)
         self.flush_sources()
+
+
+def _profile_name(args: Mapping[str, Any], where: str | None) -> str:
+    name = args.get("name")
+    if not isinstance(name, str) or name not in PROFILES:
+        raise PlayerError(f"unknown profile {name!r} (one of {', '.join(sorted(PROFILES))})",
+                          where)
+    return name
+
+
+def _wait_seconds(args: Mapping[str, Any], where: str | None) -> float:
+    seconds = args.get("seconds", 0.0)
+    if (isinstance(seconds, bool) or not isinstance(seconds, (int, float))
+            or not math.isfinite(seconds) or not 0.0 <= seconds <= MAX_WAIT_SECONDS):
+        raise PlayerError(f"wait seconds {seconds!r} must be a number in [0, "
+                          f"{MAX_WAIT_SECONDS:g}]", where)
+    return float(seconds)
+
+
+LIVE_COMMANDS = frozenset({"save", "stop"})
+"""Commands only a running simulation executes (``station sim``; never logged)."""
+
+
+def check_command(cmd: Command, pigments: Container[str] | None = None,
+                  where: str | None = None) -> None:
+    """Validate a command exactly as the player validates it when it runs it (the
+    same checks of ``brush``, ``profile`` and ``wait`` arguments), and refuse one
+    that nothing would execute; for ``station send``, before it goes on the bus.
+
+    Raises :class:`PlayerError` (bad input)."""
+    name = cmd.cmd
+    if name in LIVE_COMMANDS:
+        return
+    if name not in _HANDLERS:
+        what = "is not implemented yet" if cmd.known else "is unknown"
+        runs = ", ".join(sorted({*_HANDLERS, *LIVE_COMMANDS}))
+        raise PlayerError(f"command {name!r} {what} (one of {runs})", where)
+    if name == "brush":
+        BrushSettings.from_args(cmd.args, where, pigments, BrushSettings())
+    elif name == "profile":
+        _profile_name(cmd.args, where)
+    elif name == "wait":
+        _wait_seconds(cmd.args, where)
 
 
 def _dry(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
