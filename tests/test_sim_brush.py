@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from station.canvas.brush import (
+from station.brush.stamp import (
     BrushError,
     BrushModel,
     BrushSettings,

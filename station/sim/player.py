@@ -31,7 +31,7 @@ from collections.abc import Callable, Container, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from station.canvas.brush import BrushModel, BrushSettings, RoundBrush
+from station.brush.stamp import BrushModel, BrushSettings, RoundBrush
 from station.canvas.params import PROFILES, Profile, get_profile
 from station.canvas.state import DEFAULT_SLOTS
 from station.errors import BadInput
