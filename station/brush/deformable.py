@@ -67,15 +67,17 @@ class TuftModel:
         ramp: depth over which a bristle's contact weight goes from 0 to 1.
         min_bristle_radius: thinnest bristle tube drawn, cells.
         spacing: stamp spacing as a fraction of the footprint's half-size.
-        dry_threshold: as the reservoir empties, weights below
-            ``dry_threshold · (1 - fill)`` leave nothing (the stroke breaks up).
+        dry_lift: as the reservoir empties, the footprint's contact is lifted by
+            ``dry_lift · (1 - fill)² · depth_max``: a drying brush gives paint only
+            where its bristles press deepest into the paper, so the stroke breaks
+            up along the paper's hills.
     """
 
     tooth: float = 1.5
     ramp: float = 0.6
     min_bristle_radius: float = 0.35
     spacing: float = 0.25
-    dry_threshold: float = 0.9
+    dry_lift: float = 0.9
 
 
 @dataclass(slots=True)
@@ -266,13 +268,14 @@ class DeformableBrush:
 
     def _stamp(self, s: _Stroke, maps: FootprintMaps, dy: int, dx: int) -> None:
         tm = self.tuft_model
-        y0, x0, wt = weight(maps, self.paper, tm.tooth, tm.ramp, dy, dx)
+        dry = 1.0 - self.reservoir.fill
+        lift = tm.dry_lift * dry * dry * max(0.0, float(maps.depth.max(initial=0.0)))
+        y0, x0, wt = weight(maps, self.paper, tm.tooth, tm.ramp, dy, dx, lift)
         self.stamps += 1
         if wt.size == 0:
             s.previous = None
             return
-        theta = tm.dry_threshold * (1.0 - self.reservoir.fill)
-        eff = np.clip((wt.astype(np.float64) - theta) / max(1e-6, 1.0 - theta), 0.0, 1.0)
+        eff = wt.astype(np.float64)
         fp = Footprint(y0, x0, eff)
         fresh = fp.without(s.previous)
         s.previous = fp

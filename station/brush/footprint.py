@@ -123,13 +123,15 @@ def rasterise(segs: np.ndarray, radius: float,
 
 
 def weight(maps: FootprintMaps, paper: np.ndarray, tooth: float, ramp: float,
-           dy: int = 0, dx: int = 0) -> tuple[int, int, np.ndarray]:
+           dy: int = 0, dx: int = 0, lift: float = 0.0) -> tuple[int, int, np.ndarray]:
     """Contact weight in [0, 1] of ``maps`` shifted by ``(dy, dx)`` cells on paper ``h``.
 
     ``weight = cover · clip((depth - tooth·(1-h)) / ramp + 1/2, 0, 1)``: full
     where the bristles reach half a ramp below the local paper surface, none
     where they stay half a ramp above it.  Returns ``(y0, x0, weight)``
-    clipped to the canvas (an empty array when outside).
+    clipped to the canvas (an empty array when outside).  ``lift`` (cells)
+    raises the bristles: a drying brush gives paint only where it presses
+    deepest into the paper.
     """
     hh, ww = paper.shape
     y0, x0 = maps.y0 + dy, maps.x0 + dx
@@ -141,5 +143,5 @@ def weight(maps: FootprintMaps, paper: np.ndarray, tooth: float, ramp: float,
     cov = maps.cover[ya - y0:yb - y0, xa - x0:xb - x0]
     dep = maps.depth[ya - y0:yb - y0, xa - x0:xb - x0]
     below = np.float32(tooth) * (np.float32(1.0) - paper[ya:yb, xa:xb])
-    reach = np.clip((dep - below) / np.float32(ramp) + np.float32(0.5), 0.0, 1.0)
+    reach = np.clip((dep - np.float32(lift) - below) / np.float32(ramp) + np.float32(0.5), 0.0, 1.0)
     return ya, xa, (cov * reach).astype(np.float32)

@@ -82,6 +82,7 @@ class BrushShape:
     plasticity: float
     recovery: float
     seed: int
+    spread: float = 0.0
 
     @classmethod
     def from_dict(cls, data: Any, where: str | None = None) -> BrushShape:
@@ -114,7 +115,8 @@ class BrushShape:
             press_depth=float(data.get("press_depth", 0.7)),
             capacity=float(data.get("capacity", 50.0)), pickup=float(data.get("pickup", 0.25)),
             plasticity=float(data.get("plasticity", 0.02)),
-            recovery=float(data.get("recovery", 0.3)), seed=int(data.get("seed", 0)))
+            recovery=float(data.get("recovery", 0.3)), seed=int(data.get("seed", 0)),
+            spread=float(data.get("spread", 0.0)))
 
     @classmethod
     def load(cls, path: str | Path) -> BrushShape:
@@ -223,10 +225,17 @@ class Tuft:
             frames_all.append(np.concatenate([frames[:1], frames], axis=0))
         if shape.spines == 1:
             joints, frames = joints_all[0], frames_all[0]
+            # Flattening (Chu et al.'s lateral nodes): a layer whose segment lies on the
+            # paper opens sideways by ``spread`` and thins through the tuft, so a
+            # pressed round brush widens instead of only bending.
+            flat = 1.0 - np.abs(frames[:, 2, 2])
+            flat = np.where(joints[:, 2] <= 0.5 * shape.radius, flat, 0.0)
+            across = shape.radius * (1.0 + shape.spread * flat)[:, None]
+            through = shape.radius * (1.0 / (1.0 + shape.spread * flat))[:, None]
             for a in range(2):
                 for b in range(2):
-                    out[a, b] = (joints + (2 * a - 1) * shape.radius * frames[:, :, 0]
-                                 + (2 * b - 1) * shape.radius * frames[:, :, 1])
+                    out[a, b] = (joints + (2 * a - 1) * across * frames[:, :, 0]
+                                 + (2 * b - 1) * through * frames[:, :, 1])
         else:
             half = 0.5 * shape.thickness
             for a in range(na):
