@@ -226,16 +226,25 @@ class Tuft:
         if shape.spines == 1:
             joints, frames = joints_all[0], frames_all[0]
             # Flattening (Chu et al.'s lateral nodes): a layer whose segment lies on the
-            # paper opens sideways by ``spread`` and thins through the tuft, so a
-            # pressed round brush widens instead of only bending.
-            flat = 1.0 - np.abs(frames[:, 2, 2])
-            flat = np.where(joints[:, 2] <= 0.5 * shape.radius, flat, 0.0)
+            # paper opens sideways (horizontally, across the segment) by ``spread`` and
+            # thins through the tuft, so a pressed round brush widens instead of only
+            # bending.  ``flat`` goes smoothly from 0 (upright or clear of the paper) to 1.
+            axis = -frames[:, :, 2]
+            side = np.cross(np.array([0.0, 0.0, 1.0]), axis)
+            norm = np.linalg.norm(side, axis=1)
+            upright = norm < 1e-6
+            side = np.where(upright[:, None], frames[:, :, 0],
+                            side / np.where(upright, 1.0, norm)[:, None])
+            up = np.cross(axis, side)
+            lying = 1.0 - np.abs(axis[:, 2])
+            near = np.clip(1.0 - joints[:, 2] / shape.radius, 0.0, 1.0)
+            flat = lying * near
             across = shape.radius * (1.0 + shape.spread * flat)[:, None]
             through = shape.radius * (1.0 / (1.0 + shape.spread * flat))[:, None]
             for a in range(2):
                 for b in range(2):
-                    out[a, b] = (joints + (2 * a - 1) * across * frames[:, :, 0]
-                                 + (2 * b - 1) * through * frames[:, :, 1])
+                    out[a, b] = (joints + (2 * a - 1) * across * side
+                                 + (2 * b - 1) * through * up)
         else:
             half = 0.5 * shape.thickness
             for a in range(na):
