@@ -3,6 +3,7 @@ taper, reservoir and pick-up, the ``brush`` command, replay, the CLI."""
 
 from __future__ import annotations
 
+import itertools
 import json
 from pathlib import Path
 
@@ -57,7 +58,7 @@ def test_builtin_shapes_load_and_validate() -> None:
 def test_footprint_area_grows_monotonically_with_pressure(kind: str) -> None:
     b = brush(kind)
     areas = [pressed(b, p) for p in (0.05, 0.25, 0.5, 0.75, 1.0)]
-    assert all(b2 > b1 for b1, b2 in zip(areas, areas[1:], strict=False)), areas
+    assert all(b2 > b1 for b1, b2 in itertools.pairwise(areas)), areas
     assert b.solver.counters.fallbacks == 0
 
 

@@ -30,7 +30,7 @@ def test_spec_tapers_toward_the_tip() -> None:
     assert spec.n == 4 and math.isclose(sum(spec.lengths), 1.0)
     assert all(a > b for a, b in itertools.pairwise(spec.lengths))
     assert all(a > b for a, b in itertools.pairwise(spec.stiffness))
-    lo, hi = spec.bounds()
+    _, hi = spec.bounds()
     assert hi[0] == THETA_MAX < math.pi / 2  # θ kept away from the gimbal lock
 
 
@@ -74,7 +74,7 @@ def test_energy_gradient_matches_finite_differences() -> None:
         args = [kw[k] for k in ("lengths", "stiffness", "rest", "root", "handle", "contact",
                                 "anchor", "pull", "mu_n")]
 
-        def e(v: np.ndarray) -> float:
+        def e(v: np.ndarray, args: list = args, kw: dict = kw) -> float:
             return energy(v, np.empty(0), *args, kw["c_eta"], kw["k_eta"])
 
         g = np.empty(8)
@@ -94,7 +94,7 @@ def test_constraint_gradient_matches_finite_differences() -> None:
 
 def _brute_force(spec: SpineSpec, root: np.ndarray, steps: int = 61) -> tuple[float, np.ndarray]:
     """Exhaustive grid over a planar 2-segment chain (φ only) with z ≥ 0 (no friction)."""
-    lengths, stiffness, rest = spec.arrays()
+    lengths, stiffness, _ = spec.arrays()
     grid = np.linspace(-2.9, 2.9, steps)
     best, arg = math.inf, None
     for a, b in itertools.product(grid, grid):
@@ -127,7 +127,8 @@ def test_equilibrium_matches_brute_force_minimisation(height: float) -> None:
     root = np.array([0.0, 0.0, height])
     st = SpineState.at_rest(spec)
     st.x = np.array([0.0, 0.3, 0.0, 0.3])  # start bent one way (the search's optimum too)
-    st.pos, _, _ = chain(st.x, np.asarray(spec.lengths), root + [0, 0, 1], np.eye(3))
+    above = root + np.array([0.0, 0.0, 1.0])
+    st.pos, _, _ = chain(st.x, np.asarray(spec.lengths), above, np.eye(3))
     st.contact = np.zeros(2, bool)
     # no friction: the static equilibrium is the constrained spring minimum
     solver = SpineSolver(Friction(mu_n=0.0), max_evals=500)

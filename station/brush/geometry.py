@@ -26,6 +26,7 @@ deforming the tuft is one matrix product.
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 from dataclasses import dataclass
@@ -92,7 +93,7 @@ class BrushShape:
             path = "/".join(str(p) for p in exc.absolute_path) or "top level"
             raise BrushShapeError(f"brush shape {path}: {exc.message}", where) from None
         prof = tuple((float(u), float(w)) for u, w in data.get("profile", [[0, 1], [1, 1]]))
-        if any(b[0] <= a[0] for a, b in zip(prof, prof[1:], strict=False)):
+        if any(b[0] <= a[0] for a, b in itertools.pairwise(prof)):
             raise BrushShapeError("brush shape profile: u must increase", where)
         if prof[0][0] != 0.0 or prof[-1][0] != 1.0:
             raise BrushShapeError("brush shape profile must run from u=0 to u=1", where)

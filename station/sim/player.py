@@ -149,7 +149,7 @@ class SessionPlayer:
             state = getattr(self.backend, "live_state", None)
             if requests and state is None:
                 self.pickups_skipped += len(requests)
-            elif requests:
+            elif requests and state is not None:
                 for r in requests:
                     pickup(state, self.brush.reservoir, r.weight, r.y0, r.x0,
                            self.brush.shape.pickup)
