@@ -12,10 +12,12 @@ import pytest
 
 from station.brush.deformable import DeformableBrush
 from station.brush.footprint import rasterise, weight
+from station.brush.footprint_gl import GLFootprint
 from station.brush.geometry import BrushShape, BrushShapeError, builtin_shapes
 from station.brush.reservoir import Reservoir, pickup
 from station.brush.stamp import BrushError, BrushModel, BrushSettings
 from station.canvas.backend import create_backend
+from station.canvas.gl.context import GLUnavailable
 from station.canvas.paper import make_paper
 from station.canvas.params import get_profile
 from station.cli import main
@@ -243,3 +245,26 @@ def test_bad_brush_commands_and_files_exit_2_with_one_line(
     code = main(["brush-sheet", "--kinds", "sponge", "-o", str(tmp_path / "s.png")])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "sponge" in err[0]
+
+
+def test_gl_footprint_matches_the_numba_rasteriser() -> None:
+    try:
+        gl = GLFootprint()
+    except GLUnavailable as exc:
+        pytest.skip(f"no OpenGL context: {exc}")
+    try:
+        for kind in ("round3d", "flat"):
+            b = brush(kind)
+            for k in range(8):
+                bristles = b.frame(30.0 + k, 30.0, 0.7 * (k + 1) / 8, tilt_y=-20.0)
+            cpu = b.footprint(bristles)
+            b.rasterise = gl.rasterise
+            gpu = b.footprint(bristles)
+            assert (cpu.y0, cpu.x0, cpu.cover.shape) == (gpu.y0, gpu.x0, gpu.cover.shape)
+            assert cpu.area > 10.0
+            assert np.abs(cpu.cover - gpu.cover).max() < 1e-3
+            both = (cpu.cover > 0) & (gpu.cover > 0)
+            assert ((cpu.cover > 0) != (gpu.cover > 0)).sum() <= 2
+            assert np.abs(cpu.depth - gpu.depth)[both].max() < 1e-3
+    finally:
+        gl.close()

@@ -31,6 +31,7 @@ replays to the same pixels.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -105,7 +106,9 @@ class DeformableBrush:
 
     def __init__(self, width: int, height: int, settings: BrushSettings, model: BrushModel,
                  paper: np.ndarray, time_scale: float = 1.0, tuft: TuftModel | None = None,
-                 time_budget_s: float | None = None) -> None:
+                 time_budget_s: float | None = None,
+                 rasteriser: Callable[[np.ndarray, float], FootprintMaps] | None = None
+                 ) -> None:
         if width < 1 or height < 1:
             raise BadInput(f"canvas {width}x{height} has no cells")
         if paper.shape != (height, width):
@@ -116,6 +119,9 @@ class DeformableBrush:
         self.paper = np.ascontiguousarray(paper, np.float32)
         self.time_scale = time_scale
         self.solver_budget = time_budget_s
+        # numba by default: the same bytes on every machine (replays); a live station
+        # with a GL context may pass ``GLFootprint().rasterise`` (same maps to 1e-5)
+        self.rasterise = rasteriser or rasterise
         self.settings = settings
         self.shape: BrushShape = get_shape(settings.kind)
         self._build()
@@ -192,7 +198,7 @@ class DeformableBrush:
         """Rasterise deformed bristles (cells) into cover and depth maps."""
         L = self.tuft_length
         radius = max(self.tuft_model.min_bristle_radius, 0.5 * self.shape.bristle_width * L)
-        return rasterise(segments(bristles), radius)
+        return self.rasterise(segments(bristles), radius)
 
     def _plasticity(self) -> None:
         shape = self.shape
