@@ -286,8 +286,12 @@ class DeformableBrush:
         fresh = fp.without(s.previous)
         s.previous = fp
         dw, dp = self.reservoir.deposit(fresh.cover, self.model.water_scale)
-        if self.shape.pickup > 0.0 and eff.any():
-            self.pickups.append(PickupRequest(y0, x0, eff.astype(np.float32)))
+        if self.shape.pickup > 0.0 and fresh.cover.any():
+            # like the deposit, only the cells the footprint newly covers: a brush
+            # sliding over its own wet trail would otherwise soak it back up at
+            # every stamp and never run dry
+            self.pickups.append(PickupRequest(fresh.y0, fresh.x0,
+                                              fresh.cover.astype(np.float32)))
         m = self.model
         scale = m.velocity_gain / self.time_scale if self.time_scale > 0 else 0.0
         vx, vy = s.vx * scale, s.vy * scale

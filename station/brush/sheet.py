@@ -14,6 +14,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from dataclasses import replace
+
 import numpy as np
 
 from station.brush.deformable import DeformableBrush
@@ -21,11 +23,21 @@ from station.brush.footprint import rasterise
 from station.brush.stamp import BrushModel, BrushSettings
 from station.canvas.backend import create_backend
 from station.canvas.render import to_srgb8
+from station.events import PenSample
 from station.sim.player import SessionPlayer
 from station.sim.script import Script, swell, taper
 
 COLUMNS = ("press-and-lift", "S-curve", "side-pressure", "dry-brush", "running dry")
 INK = "Sumi Ink"
+TWIST = (90.0, 0.0, 0.0, 90.0, 90.0)
+"""Barrel rotation per column (Art Pen): a flat brush is held with its width
+across the main direction of the stroke; round brushes do not care."""
+
+
+def _twist(s: Script, start: int, degrees: float) -> None:
+    """Give the pen samples recorded since ``start`` the barrel rotation ``degrees``."""
+    s.records[start:] = [replace(r, rotation=degrees) if isinstance(r, PenSample) else r
+                         for r in s.records[start:]]
 
 
 def strokes_script(width: int, height: int, kinds: Sequence[str], size: float) -> Script:
@@ -38,22 +50,29 @@ def strokes_script(width: int, height: int, kinds: Sequence[str], size: float) -
         dy = 0.3 / rows
         x = [c * cw for c in range(len(COLUMNS))]
         s.brush(size=size, water=0.9, pigment={INK: 0.7}, kind=kind)
+        at = len(s.records)
         s.line((x[0] + 0.03, yc + dy * 0.4), (x[0] + cw - 0.03, yc - dy * 0.4), 0.6,
                pressure=taper(1.0, start=0.45, end=0.4, attack=0.2))
+        _twist(s, at, TWIST[0])
         s.brush(size=size, water=0.9, pigment={INK: 0.7}, kind=kind)
         s.curve([(x[1] + 0.03, yc + dy), (x[1] + cw * 0.35, yc - dy),
                  (x[1] + cw * 0.65, yc + dy), (x[1] + cw - 0.03, yc - dy)], 0.8,
                 pressure=swell(0.35, 0.8, 1.5))
         s.brush(size=size, water=0.9, pigment={INK: 0.7}, kind=kind)
         s.line((x[2] + cw * 0.5, yc - dy * 1.2), (x[2] + cw * 0.5, yc + dy * 1.2), 0.6,
-               pressure=0.6, tilt=(45.0, 0.0))
-        s.brush(size=size, water=0.5, pigment={INK: 0.9}, kind=kind)
-        s.line((x[3] + 0.03, yc), (x[3] + cw - 0.03, yc), 0.12, pressure=0.3,
-               tilt=(0.0, -30.0))
-        s.brush(size=size, water=0.35, pigment={INK: 0.6}, kind=kind)
-        s.curve([(x[4] + 0.03, yc - dy), (x[4] + cw - 0.03, yc - dy),
-                 (x[4] + 0.03, yc + dy * 0.2), (x[4] + cw - 0.03, yc + dy)], 2.0,
-                pressure=0.7, tilt=(0.0, -25.0))
+               pressure=0.85, tilt=(45.0, 0.0))
+        s.brush(size=size, water=0.3, pigment={INK: 0.9}, kind=kind)
+        at = len(s.records)
+        s.line((x[3] + 0.03, yc + dy * 0.3), (x[3] + cw - 0.03, yc - dy * 0.3), 0.15,
+               pressure=0.55, tilt=(35.0, 0.0))
+        _twist(s, at, TWIST[3])
+        s.brush(size=size, water=1.0, pigment={INK: 0.6}, kind=kind)
+        at = len(s.records)
+        s.curve([(x[4] + 0.03, yc - dy * 1.2), (x[4] + cw - 0.03, yc - dy * 1.2),
+                 (x[4] + 0.03, yc - dy * 0.4), (x[4] + cw - 0.03, yc + dy * 0.4),
+                 (x[4] + 0.03, yc + dy * 1.2), (x[4] + cw - 0.03, yc + dy * 1.2)], 3.0,
+                pressure=0.7, tilt=(20.0, 0.0))
+        _twist(s, at, TWIST[4])
     s.wait(0.5)
     return s
 
