@@ -268,3 +268,44 @@ def test_gl_footprint_matches_the_numba_rasteriser() -> None:
             assert np.abs(cpu.depth - gpu.depth)[both].max() < 1e-3
     finally:
         gl.close()
+
+
+def test_twist_turns_a_flat_brush() -> None:
+    """The Art Pen's barrel rotation turns the flat brush's width with it."""
+
+    def extent(rotation: float) -> tuple[int, int]:
+        b = brush("flat", size=20)
+        for k in range(8):
+            bristles = b.frame(W / 2, H / 2, 0.6 * (k + 1) / 8, rotation=rotation)
+        m = b.footprint(bristles).cover > 0.5
+        rows, cols = np.flatnonzero(m.any(axis=1)), np.flatnonzero(m.any(axis=0))
+        return int(np.ptp(rows)) + 1, int(np.ptp(cols)) + 1
+
+    h0, w0 = extent(0.0)
+    h90, w90 = extent(90.0)
+    assert w0 > 1.5 * h0 and h90 > 1.5 * w90, (h0, w0, h90, w90)
+
+
+def test_plasticity_bends_rest_angles_while_wet_and_recovers_when_lifted() -> None:
+    b = brush("calligraphy", size=16)
+    rest0 = [st.rest.copy() for st in b.spines]
+    for k in range(30):
+        b.feed(PenSample(t=k / 60, device="d", tool="pen", x=0.2 + 0.01 * k, y=0.5,  # type: ignore[arg-type]
+                         pressure=0.8, touching=True))
+    drift = max(float(np.abs(st.rest - r).max()) for st, r in zip(b.spines, rest0, strict=True))
+    assert drift > 0.05
+    for k in range(30):  # lifted: hovering samples
+        b.feed(PenSample(t=1 + k / 60, device="d", tool="pen", x=0.5, y=0.5,  # type: ignore[arg-type]
+                         touching=False))
+        b.end_strokes()
+    left = max(float(np.abs(st.rest - r).max()) for st, r in zip(b.spines, rest0, strict=True))
+    assert left < 0.1 * drift
+
+
+def test_time_budget_falls_back_to_the_last_shape_and_counts_it() -> None:
+    b = brush("round3d", size=16, time_budget_s=1e-9)
+    for k in range(5):
+        b.frame(W / 2 + k, H / 2, 0.5)
+    c = b.solver.counters
+    assert c.solves == 5 and c.fallbacks == 5
+    assert all(np.isfinite(st.x).all() for st in b.spines)

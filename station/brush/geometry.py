@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import Any
 
 import jsonschema
+import numba
 import numpy as np
 
 from station.brush.solver import Friction, SpineState
@@ -180,6 +181,39 @@ def _bernstein(n: int, t: np.ndarray) -> np.ndarray:
     return comb * tt**i * (1.0 - tt) ** (n - i)
 
 
+@numba.njit(cache=True)
+def _round_lattice(joints: np.ndarray, frames: np.ndarray, radius: float, spread: float,
+                   out: np.ndarray) -> None:  # pragma: no cover - compiled
+    """The 2×2×(n+1) lattice of a one-spine tuft around ``joints`` (n+1, 3).
+
+    Flattening (Chu et al.'s lateral nodes): a layer whose segment lies on the
+    paper opens sideways (horizontally, across the segment) by ``spread`` and
+    thins through the tuft, so a pressed round brush widens instead of only
+    bending; ``flat`` goes smoothly from 0 (upright or clear of the paper) to 1.
+    """
+    for m in range(joints.shape[0]):
+        ax, ay, az = -frames[m, 0, 2], -frames[m, 1, 2], -frames[m, 2, 2]
+        sx, sy = -ay, ax  # ẑ × axis
+        norm = math.sqrt(sx * sx + sy * sy)
+        if norm < 1e-6:  # upright: any horizontal direction; the frame's X keeps twist
+            sx, sy, sz = frames[m, 0, 0], frames[m, 1, 0], frames[m, 2, 0]
+        else:
+            sx, sy, sz = sx / norm, sy / norm, 0.0
+        ux = ay * sz - az * sy  # axis × side
+        uy = az * sx - ax * sz
+        uz = ax * sy - ay * sx
+        near = min(1.0, max(0.0, 1.0 - joints[m, 2] / radius))
+        flat = (1.0 - abs(az)) * near
+        across = radius * (1.0 + spread * flat)
+        through = radius / (1.0 + spread * flat)
+        for a in range(2):
+            for b in range(2):
+                fa, fb = (2 * a - 1) * across, (2 * b - 1) * through
+                out[a, b, m, 0] = joints[m, 0] + fa * sx + fb * ux
+                out[a, b, m, 1] = joints[m, 1] + fa * sy + fb * uy
+                out[a, b, m, 2] = joints[m, 2] + fa * sz + fb * uz
+
+
 class Tuft:
     """The bristles of a shape and their FFD weights (built once per shape)."""
 
@@ -225,27 +259,7 @@ class Tuft:
             joints_all.append(np.vstack([root[None, :], pos]))
             frames_all.append(np.concatenate([frames[:1], frames], axis=0))
         if shape.spines == 1:
-            joints, frames = joints_all[0], frames_all[0]
-            # Flattening (Chu et al.'s lateral nodes): a layer whose segment lies on the
-            # paper opens sideways (horizontally, across the segment) by ``spread`` and
-            # thins through the tuft, so a pressed round brush widens instead of only
-            # bending.  ``flat`` goes smoothly from 0 (upright or clear of the paper) to 1.
-            axis = -frames[:, :, 2]
-            side = np.cross(np.array([0.0, 0.0, 1.0]), axis)
-            norm = np.linalg.norm(side, axis=1)
-            upright = norm < 1e-6
-            side = np.where(upright[:, None], frames[:, :, 0],
-                            side / np.where(upright, 1.0, norm)[:, None])
-            up = np.cross(axis, side)
-            lying = 1.0 - np.abs(axis[:, 2])
-            near = np.clip(1.0 - joints[:, 2] / shape.radius, 0.0, 1.0)
-            flat = lying * near
-            across = shape.radius * (1.0 + shape.spread * flat)[:, None]
-            through = shape.radius * (1.0 / (1.0 + shape.spread * flat))[:, None]
-            for a in range(2):
-                for b in range(2):
-                    out[a, b] = (joints + (2 * a - 1) * across * side
-                                 + (2 * b - 1) * through * up)
+            _round_lattice(joints_all[0], frames_all[0], shape.radius, shape.spread, out)
         else:
             half = 0.5 * shape.thickness
             for a in range(na):
