@@ -70,22 +70,42 @@ def measure_solver(kind: str, frames: int) -> dict[str, Any]:
 
 
 def measure_sim(kind: str, width: int, height: int, seconds: float) -> dict[str, Any]:
+    """cpu backend steps/s with one live stroke: ``station bench sim``'s stroke (a
+    round disc source per step) and the deformable brush (one pen frame per step),
+    measured one after the other in this process: their ratio is the brush's cost."""
+    from station.bench.sim import _StrokePath
     from station.brush.stamp import BrushSettings
     from station.canvas.backend import create_backend
     from station.canvas.params import get_profile
     from station.events import PenSample
     from station.sim.player import add_sources, brush_model
 
+    def run(advance: Any, canvas: Any) -> tuple[int, float, float]:
+        for _ in range(10):
+            advance()
+            canvas.step()
+        steps, extra, t0 = 0, 0.0, time.perf_counter()
+        while steps < 3 or time.perf_counter() - t0 < seconds:
+            tb = time.perf_counter()
+            advance()
+            extra += time.perf_counter() - tb
+            canvas.step()
+            steps += 1
+        return steps, time.perf_counter() - t0, extra
+
+    peer: Any = create_backend("cpu", width, height, "watercolor", 1, tiling=True)
+    disc = _StrokePath(peer, width, height)
+    p_steps, p_wall, _ = run(disc.advance, peer)
+
     canvas: Any = create_backend("cpu", width, height, "watercolor", 1, tiling=True)
-    paper = canvas.live_state.h
-    b = _stroke_brush(kind, width, height, 24.0, paper)
+    b = _stroke_brush(kind, width, height, 24.0, canvas.live_state.h)
     b.model = brush_model(get_profile("watercolor"))
     b.set(BrushSettings(kind=kind, size=24.0, water=1.0, pigment={"French Ultramarine": 0.5}))
     k = 0
 
     def advance() -> None:
         nonlocal k
-        x = (0.05 + 0.9 * ((k * 3.0 / width) % 1.0))
+        x = 0.05 + 0.9 * ((k * 3.0 / width) % 1.0)  # 3 cells per step, as the peer
         y = 0.5 + 0.15 * math.sin(k / 20.0)
         b.feed(PenSample(t=k / 30.0, device="bench", tool="pen", x=x, y=y,  # type: ignore[arg-type]
                          pressure=0.6, touching=True))
@@ -94,21 +114,13 @@ def measure_sim(kind: str, width: int, height: int, seconds: float) -> dict[str,
             add_sources(canvas, src)
         k += 1
 
-    for _ in range(10):
-        advance()
-        canvas.step()
-    steps, t0 = 0, time.perf_counter()
-    brush_s = 0.0
-    while steps < 3 or time.perf_counter() - t0 < seconds:
-        tb = time.perf_counter()
-        advance()
-        brush_s += time.perf_counter() - tb
-        canvas.step()
-        steps += 1
-    wall = time.perf_counter() - t0
-    return {"backend": "cpu", "size": f"{width}x{height}", "kind": kind, "steps": steps,
-            "sim_steps_per_s": round(steps / wall, 2),
-            "brush_ms_per_step": round(1e3 * brush_s / steps, 3), "goal_steps_per_s": 100}
+    steps, wall, brush_s = run(advance, canvas)
+    return {"backend": "cpu", "size": f"{width}x{height}", "kind": kind,
+            "steps": steps, "sim_steps_per_s": round(steps / wall, 2),
+            "brush_ms_per_step": round(1e3 * brush_s / steps, 3),
+            "peer_round_disc_steps_per_s": round(p_steps / p_wall, 2),
+            "ratio_to_peer": round((steps / wall) / (p_steps / p_wall), 3),
+            "goal_steps_per_s": 100}
 
 
 def register(sub: argparse._SubParsersAction) -> None:

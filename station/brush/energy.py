@@ -91,6 +91,20 @@ def energy(x: np.ndarray, grad: np.ndarray, lengths: np.ndarray, stiffness: np.n
 
 
 @numba.njit(cache=True)
+def evaluate(x: np.ndarray, grad: np.ndarray, z: np.ndarray, zgrad: np.ndarray,
+             lengths: np.ndarray, stiffness: np.ndarray, rest: np.ndarray, root: np.ndarray,
+             handle: np.ndarray, contact: np.ndarray, anchor: np.ndarray, pull: np.ndarray,
+             mu_n: np.ndarray, c_eta: float, k_eta: float) -> float:  # pragma: no cover
+    """:func:`energy` and :func:`heights` in one call (one pass over the chain): the
+    solver evaluates both at every SQP iterate, and each call back from NLopt costs
+    more than the arithmetic."""
+    e = energy(x, grad, lengths, stiffness, rest, root, handle, contact, anchor, pull, mu_n,
+               c_eta, k_eta)
+    z[:] = heights(x, zgrad, lengths, root, handle)
+    return e
+
+
+@numba.njit(cache=True)
 def heights(x: np.ndarray, grad: np.ndarray, lengths: np.ndarray, root: np.ndarray,
             handle: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
     """Joint heights ``z_j`` (n,); writes ``∂z_j/∂x`` into ``grad`` (n, 2n) when sized so."""

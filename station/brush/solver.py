@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import nlopt
 import numpy as np
 
-from station.brush.energy import energy, heights
+from station.brush.energy import evaluate, heights
 from station.brush.spine import SpineSpec, chain
 
 TOL = 1e-6
@@ -163,31 +163,40 @@ class SpineSolver:
         cflt = contact.astype(np.float64)
         rest = st.rest
         evals = [0]
+        eq = np.flatnonzero(contact)
+        free = np.flatnonzero(~contact)
+        # one numba call per SQP iterate fills all three callbacks (NLopt asks for the
+        # objective and then the constraints at the same x)
+        cache_x = np.full(2 * n, np.nan)
+        g = np.empty(2 * n)
+        z = np.empty(n)
+        zg = np.empty((n, 2 * n))
+        e_val = [0.0]
+
+        def at(x: np.ndarray) -> None:
+            if not np.array_equal(x, cache_x):
+                e_val[0] = evaluate(x, g, z, zg, lengths, stiffness, rest, root, handle, cflt,
+                                    anchor, pull, mu_n, fr.c_eta, fr.k_eta)
+                cache_x[:] = x
 
         def objective(x: np.ndarray, grad: np.ndarray) -> float:
             evals[0] += 1
-            g = np.empty(2 * n)
-            e = energy(x, g, lengths, stiffness, rest, root, handle, cflt, anchor, pull,
-                       mu_n, fr.c_eta, fr.k_eta)
+            at(x)
             if grad.size:
                 grad[:] = g
-            return float(e)
-
-        eq = np.flatnonzero(contact)
-        free = np.flatnonzero(~contact)
-        zbuf = np.empty((n, 2 * n))
+            return float(e_val[0])
 
         def eq_c(result: np.ndarray, x: np.ndarray, grad: np.ndarray) -> None:
-            z = heights(x, zbuf, lengths, root, handle)
+            at(x)
             result[:] = z[eq]
             if grad.size:
-                grad[:] = zbuf[eq]
+                grad[:] = zg[eq]
 
         def ineq_c(result: np.ndarray, x: np.ndarray, grad: np.ndarray) -> None:
-            z = heights(x, zbuf, lengths, root, handle)
+            at(x)
             result[:] = -z[free]  # NLopt wants c(x) <= 0
             if grad.size:
-                grad[:] = -zbuf[free]
+                grad[:] = -zg[free]
 
         opt = nlopt.opt(nlopt.LD_SLSQP, 2 * n)
         lo, hi = spec.bounds()
