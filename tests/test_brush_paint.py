@@ -217,10 +217,13 @@ def test_session_with_deformable_brushes_replays_bit_identically(tmp_path: Path)
     s.save(log)
     outs = []
     for i in range(2):
-        png = tmp_path / f"o{i}.png"
-        assert main(["paint", "--backend", "numpy", str(log), "-o", str(png)]) == 0
+        png, stats = tmp_path / f"o{i}.png", tmp_path / f"s{i}.json"
+        assert main(["paint", "--backend", "numpy", str(log), "-o", str(png),
+                     "--stats", str(stats)]) == 0
         outs.append(png.read_bytes())
     assert outs[0] == outs[1]
+    text = stats.read_text()
+    assert '"brush_fallbacks": 0' in text and '"brush_solves"' in text
 
 
 def test_bad_brush_commands_and_files_exit_2_with_one_line(

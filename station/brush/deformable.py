@@ -39,7 +39,7 @@ import numpy as np
 from station.brush.footprint import FootprintMaps, rasterise, segments, weight
 from station.brush.geometry import BrushShape, Tuft, get_shape
 from station.brush.reservoir import Reservoir
-from station.brush.solver import SpineSolver, SpineState
+from station.brush.solver import SolverCounters, SpineSolver, SpineState
 from station.brush.spine import handle_frame
 from station.brush.stamp import (
     NO_PRESSURE_TOOLS,
@@ -107,8 +107,8 @@ class DeformableBrush:
     def __init__(self, width: int, height: int, settings: BrushSettings, model: BrushModel,
                  paper: np.ndarray, time_scale: float = 1.0, tuft: TuftModel | None = None,
                  time_budget_s: float | None = None,
-                 rasteriser: Callable[[np.ndarray, float], FootprintMaps] | None = None
-                 ) -> None:
+                 rasteriser: Callable[[np.ndarray, float], FootprintMaps] | None = None,
+                 counters: SolverCounters | None = None) -> None:
         if width < 1 or height < 1:
             raise BadInput(f"canvas {width}x{height} has no cells")
         if paper.shape != (height, width):
@@ -122,6 +122,7 @@ class DeformableBrush:
         # numba by default: the same bytes on every machine (replays); a live station
         # with a GL context may pass ``GLFootprint().rasterise`` (same maps to 1e-5)
         self.rasterise = rasteriser or rasterise
+        self.solver_counters = counters if counters is not None else SolverCounters()
         self.settings = settings
         self.shape: BrushShape = get_shape(settings.kind)
         self._build()
@@ -142,7 +143,8 @@ class DeformableBrush:
     def _build(self) -> None:
         shape = self.shape
         self.tuft = Tuft(shape)
-        self.solver = SpineSolver(shape.friction, time_budget_s=self.solver_budget)
+        self.solver = SpineSolver(shape.friction, time_budget_s=self.solver_budget,
+                                  counters=self.solver_counters)
         self.specs = shape.spine_specs()
         self.spines = [SpineState.at_rest(s) for s in self.specs]
         self.offsets = shape.spine_offsets()

@@ -33,6 +33,7 @@ from typing import Any
 
 from station.brush.deformable import DeformableBrush
 from station.brush.reservoir import pickup
+from station.brush.solver import SolverCounters
 from station.brush.stamp import STAMP_KIND, BrushModel, BrushSettings, RoundBrush
 from station.canvas.params import PROFILES, Profile, get_profile
 from station.canvas.state import DEFAULT_SLOTS
@@ -104,6 +105,7 @@ class SessionPlayer:
             width, height, brush_defaults(prof).scaled(brush_scale), brush_model(prof),
             time_scale=self.rate * self.dt)
         self.pickups_skipped = 0  # pick-ups on a backend whose arrays are not in memory
+        self.solver = SolverCounters()  # the deformable brushes' spine solves, all kinds
         self.counters = PlayerCounters()
         # Pigments painted into the active layer, to refuse a ninth one at the pen
         # sample that would bring it (the canvas would only notice at the next step).
@@ -216,13 +218,25 @@ class SessionPlayer:
         old = self.brush
         if deformable:
             self.brush = DeformableBrush(self.width, self.height, settings, old.model,
-                                         self._paper(), time_scale=old.time_scale)
+                                         self._paper(), time_scale=old.time_scale,
+                                         counters=self.solver)
         else:
             self.brush = RoundBrush(self.width, self.height, settings, old.model,
                                     time_scale=old.time_scale)
         # the counters of the session go on across brushes
         self.brush.stamps, self.brush.samples = old.stamps, old.samples
         self.brush.strokes, self.brush.eraser_samples = old.strokes, old.eraser_samples
+
+    def brush_counters(self) -> dict[str, Any]:
+        """What the brushes did: stamps, strokes, eraser samples, spine solves."""
+        b = self.brush
+        out: dict[str, Any] = {"stamps": b.stamps, "strokes": b.strokes,
+                               "eraser_samples": b.eraser_samples}
+        if self.solver.solves:
+            out.update(brush_solves=self.solver.solves,
+                       brush_fallbacks=self.solver.fallbacks,
+                       pickups_skipped=self.pickups_skipped)
+        return out
 
     def _paper(self) -> Any:
         """The paper height of the backend (read back once from a GPU backend)."""
