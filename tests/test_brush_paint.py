@@ -93,9 +93,8 @@ def dry_brush_stroke(paper: np.ndarray, pressure: float, bristles: int) -> np.nd
                                           "thickness", "bristle_width", "splay_deg")}
     data.update(bristles=bristles, friction={"mu_n": 0.35, "c_eta": 0.8, "k_eta": 2})
     custom = BrushShape.from_dict(data)
-    b = brush("flat", size=18, paper=paper)
-    b.shape = custom
-    b._build()
+    settings = BrushSettings(kind="flat", size=18, water=1.0, pigment={"Sumi Ink": 0.5})
+    b = DeformableBrush(W, H, settings, BrushModel(), paper, shape=custom)
     y = 0.5
     t = 0.0
     for i in range(13):  # fast: 0.1 s across the canvas
@@ -312,3 +311,20 @@ def test_time_budget_falls_back_to_the_last_shape_and_counts_it() -> None:
     c = b.solver.counters
     assert c.solves == 5 and c.fallbacks == 5
     assert all(np.isfinite(st.x).all() for st in b.spines)
+
+
+def test_brush_sheet_with_a_shape_file_and_bad_shape_files(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"name": "wide", "spines": 2, "segments": 4, "length": 1,
+                               "bristles": 10}))  # several spines need a width
+    out = tmp_path / "s.png"
+    code = main(["brush-sheet", "--kinds", "round3d", "--shape", str(bad), "-o", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "bad.json" in err[0] and "width" in err[0]
+    bad.write_text(json.dumps({"name": "flat", "spines": 1, "segments": 4, "length": 1,
+                               "bristles": 10}))
+    code = main(["brush-sheet", "--kinds", "round3d", "--shape", str(bad), "-o", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "taken" in err[0]
+    assert not out.exists()

@@ -102,13 +102,17 @@ class _Stroke:
 
 
 class DeformableBrush:
-    """Spine-driven brush of one :class:`BrushShape` (same interface as ``RoundBrush``)."""
+    """Spine-driven brush of one :class:`BrushShape` (same interface as ``RoundBrush``).
+
+    The shape is ``settings.kind``'s unless ``shape`` is given (tests, a shape file).
+    """
 
     def __init__(self, width: int, height: int, settings: BrushSettings, model: BrushModel,
                  paper: np.ndarray, time_scale: float = 1.0, tuft: TuftModel | None = None,
                  time_budget_s: float | None = None,
                  rasteriser: Callable[[np.ndarray, float], FootprintMaps] | None = None,
-                 counters: SolverCounters | None = None) -> None:
+                 counters: SolverCounters | None = None,
+                 shape: BrushShape | None = None) -> None:
         if width < 1 or height < 1:
             raise BadInput(f"canvas {width}x{height} has no cells")
         if paper.shape != (height, width):
@@ -124,7 +128,7 @@ class DeformableBrush:
         self.rasterise = rasteriser or rasterise
         self.solver_counters = counters if counters is not None else SolverCounters()
         self.settings = settings
-        self.shape: BrushShape = get_shape(settings.kind)
+        self.shape: BrushShape = shape if shape is not None else get_shape(settings.kind)
         self._build()
         self.reservoir = Reservoir(self._capacity())
         self.reservoir.load(settings.water, settings.pigment, model.water_scale,

@@ -165,8 +165,24 @@ def builtin_shapes() -> dict[str, BrushShape]:
     return out
 
 
+_REGISTERED: dict[str, BrushShape] = {}
+
+
+def register_shape(shape: BrushShape) -> None:
+    """Make a shape loaded from a user's file usable as a ``brush`` kind in this process
+    (a built-in name cannot be replaced)."""
+    if shape.name in builtin_shapes() or shape.name == "round":
+        raise BrushShapeError(f"brush shape name {shape.name!r} is taken by a built-in brush")
+    _REGISTERED[shape.name] = shape
+
+
+def known_shapes() -> dict[str, BrushShape]:
+    """Built-in and registered shapes by name."""
+    return {**builtin_shapes(), **_REGISTERED}
+
+
 def get_shape(name: str, where: str | None = None) -> BrushShape:
-    shapes = builtin_shapes()
+    shapes = known_shapes()
     if name not in shapes:
         raise BrushShapeError(f"unknown brush shape {name!r} (one of {', '.join(shapes)})",
                               where)

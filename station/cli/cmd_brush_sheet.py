@@ -18,17 +18,27 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-o", "--output", default="strokes.png", metavar="OUT.png")
     p.add_argument("--kinds", default="round3d,flat,calligraphy",
                    help="comma-separated brush kinds, one row each (default %(default)s)")
+    p.add_argument("--shape", action="append", default=[], metavar="SHAPE.json",
+                   help="a brush shape file (schema: station/data/brushes/schema.json) "
+                        "painted as one more row; may be repeated")
     p.add_argument("--width", type=int, default=720, help="sheet width in cells")
     p.add_argument("--backend", default="auto", choices=("auto", "numpy", "cpu"))
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.brush.geometry import get_shape
+    from station.brush.geometry import BrushShape, get_shape, register_shape
     from station.brush.sheet import brush_sheet
     from station.canvas.png import encode_png
 
     kinds = [k for k in args.kinds.split(",") if k]
+    for path in args.shape:
+        shape = BrushShape.load(path)
+        try:
+            register_shape(shape)
+        except BadInput as exc:
+            raise BadInput(str(exc), path) from None
+        kinds.append(shape.name)
     if not kinds:
         raise BadInput("give at least one brush kind", "--kinds")
     for k in kinds:
