@@ -4,12 +4,16 @@ Measures, on this machine and in this process:
 
 * ``solve_ms_per_spine``: SLSQP equilibrium per spine per frame along a
   pressed, wavy stroke (warm started, analytic gradients), with the
-  evaluations per solve and the fallbacks;
+  evaluations per solve and the fallbacks; ``solve_cpu_ms_per_spine`` is the
+  same in this thread's CPU time (on a shared machine the wall clock also
+  counts the other processes' slices);
 * ``frame_ms``: a whole brush frame (spines + FFD + footprint raster);
-* ``sim_steps_per_s``: the cpu canvas backend at ``--size`` (800x600) with one
-  live stroke of the deformable brush: one pen frame per simulation step,
-  its sources added before the step — the figure to compare with ``station
-  bench sim``'s stroke scenario (goal ≥ 100 steps/s).
+* ``sim_steps_per_s``: the cpu canvas backend at 800x600 with one live
+  stroke of the deformable brush: one pen frame per simulation step, its
+  sources added before the step (goal ≥ 100 steps/s), beside the peer run of
+  ``station bench sim``'s stroke scenario (a round disc source per step) in
+  the same process; ``*_per_cpu_s`` divide by the process's CPU time instead
+  of the wall clock.
 
 The goal for the solve is ≤ 1 ms per spine per frame (Baxter et al. 2004:
 about 0.1 ms per 3-joint spine in C at 1 GHz): NLopt's SLSQP calls back into
@@ -50,21 +54,24 @@ def measure_solver(kind: str, frames: int) -> dict[str, Any]:
         b.frame(40.0, 150.0, 0.06 * k)
     c0 = b.solver.counters
     solves0, evals0, secs0, fb0 = c0.solves, c0.evaluations, c0.seconds, c0.fallbacks
-    t0 = time.perf_counter()
+    cpu0 = c0.cpu_seconds
+    t0, tc0 = time.perf_counter(), time.thread_time()
     for k in range(frames):
         x = 40.0 + 320.0 * k / frames
         y = 150.0 + 60.0 * math.sin(k / 15.0)
         p = 0.55 + 0.35 * math.sin(k / 23.0)
         b.footprint(b.frame(x, y, p, 0.0, -20.0, 0.0))
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.thread_time() - tc0
     c = b.solver.counters
     solves = c.solves - solves0
     return {
         "kind": kind, "spines": len(b.spines), "segments": b.specs[0].n, "frames": frames,
         "solve_ms_per_spine": round(1e3 * (c.seconds - secs0) / solves, 4),
+        "solve_cpu_ms_per_spine": round(1e3 * (c.cpu_seconds - cpu0) / solves, 4),
         "evaluations_per_solve": round((c.evaluations - evals0) / solves, 2),
         "fallbacks": c.fallbacks - fb0,
         "frame_ms": round(1e3 * wall / frames, 4),
+        "frame_cpu_ms": round(1e3 * cpu / frames, 4),
         "goal_ms_per_spine": GOAL_MS,
     }
 
@@ -80,22 +87,24 @@ def measure_sim(kind: str, width: int, height: int, seconds: float) -> dict[str,
     from station.events import PenSample
     from station.sim.player import add_sources, brush_model
 
-    def run(advance: Any, canvas: Any) -> tuple[int, float, float]:
+    def run(advance: Any, canvas: Any) -> tuple[int, float, float, float]:
+        """Steps, wall seconds, process CPU seconds, CPU seconds in ``advance``."""
         for _ in range(10):
             advance()
             canvas.step()
-        steps, extra, t0 = 0, 0.0, time.perf_counter()
+        steps, extra = 0, 0.0
+        t0, c0 = time.perf_counter(), time.process_time()
         while steps < 3 or time.perf_counter() - t0 < seconds:
-            tb = time.perf_counter()
+            tb = time.process_time()
             advance()
-            extra += time.perf_counter() - tb
+            extra += time.process_time() - tb
             canvas.step()
             steps += 1
-        return steps, time.perf_counter() - t0, extra
+        return steps, time.perf_counter() - t0, time.process_time() - c0, extra
 
     peer: Any = create_backend("cpu", width, height, "watercolor", 1, tiling=True)
     disc = _StrokePath(peer, width, height)
-    p_steps, p_wall, _ = run(disc.advance, peer)
+    p_steps, p_wall, p_cpu, _ = run(disc.advance, peer)
 
     canvas: Any = create_backend("cpu", width, height, "watercolor", 1, tiling=True)
     b = _stroke_brush(kind, width, height, 24.0, canvas.live_state.h)
@@ -114,12 +123,14 @@ def measure_sim(kind: str, width: int, height: int, seconds: float) -> dict[str,
             add_sources(canvas, src)
         k += 1
 
-    steps, wall, brush_s = run(advance, canvas)
-    return {"backend": "cpu", "size": f"{width}x{height}", "kind": kind,
-            "steps": steps, "sim_steps_per_s": round(steps / wall, 2),
-            "brush_ms_per_step": round(1e3 * brush_s / steps, 3),
+    steps, wall, cpu, brush_s = run(advance, canvas)
+    return {"backend": "cpu", "size": f"{width}x{height}", "kind": kind, "steps": steps,
+            "sim_steps_per_s": round(steps / wall, 2),
+            "sim_steps_per_cpu_s": round(steps / cpu, 2),
+            "brush_cpu_ms_per_step": round(1e3 * brush_s / steps, 3),
             "peer_round_disc_steps_per_s": round(p_steps / p_wall, 2),
-            "ratio_to_peer": round((steps / wall) / (p_steps / p_wall), 3),
+            "peer_round_disc_steps_per_cpu_s": round(p_steps / p_cpu, 2),
+            "ratio_to_peer_cpu": round((steps / cpu) / (p_steps / p_cpu), 3),
             "goal_steps_per_s": 100}
 
 
