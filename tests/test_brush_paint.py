@@ -328,3 +328,26 @@ def test_brush_sheet_with_a_shape_file_and_bad_shape_files(
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and "taken" in err[0]
     assert not out.exists()
+
+
+def test_session_books_balance_brush_and_canvas_pigment() -> None:
+    """Per pigment: canvas (present + removed by other tools) + brush = loaded - washed."""
+    s = Script(W, H, seed=4, rate_hz=60.0)
+    s.brush(size=12, water=1.0, pigment={"French Ultramarine": 0.3}, kind="round3d")
+    s.line((0.45, 0.2), (0.45, 0.8), 0.3, pressure=0.9)
+    s.brush(size=12, water=0.9, pigment={"Hansa Yellow": 0.3}, kind="round3d")
+    s.line((0.1, 0.5), (0.9, 0.5), 0.5, pressure=0.7)
+    s.wait(0.3)
+    be = create_backend("numpy", W, H, "watercolor", 4)
+    player = SessionPlayer(be, W, H, "watercolor")
+    player.play(s.records)
+    st = be.live_state
+    res = player.brush.reservoir  # type: ignore[union-attr]
+    assert res.picked.get("French Ultramarine", 0.0) > 0.0  # the dirty brush took blue
+    for name in ("French Ultramarine", "Hansa Yellow"):
+        k = st.slots.index(name)
+        canvas = float(st.p[k].sum(dtype=np.float64) + st.q[k].sum(dtype=np.float64)
+                       + st.removed_p[k].sum(dtype=np.float64)) - res.picked.get(name, 0.0)
+        brush_now = res.mass.get(name, 0.0)
+        books = res.loaded.get(name, 0.0) - res.washed.get(name, 0.0)
+        assert abs(canvas + brush_now - books) <= 1e-4 * books, (name, canvas, brush_now, books)

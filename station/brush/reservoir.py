@@ -35,13 +35,33 @@ W_WET = 0.1
 """Fluid water height at which a cell's paint comes along fully."""
 
 
+def _book(ledger: dict[str, float], name: str, amount: float) -> None:
+    ledger[name] = ledger.get(name, 0.0) + amount
+
+
 @dataclass(slots=True)
 class Reservoir:
-    """Water ``volume`` and pigment ``mass`` per name held by the brush."""
+    """Water ``volume`` and pigment ``mass`` per name held by the brush.
+
+    The ledgers book every pigment movement, so that per name
+    ``mass = loaded - washed - deposited + picked`` (the session's bookkeeping:
+    with the canvas's own books, brush + canvas is conserved).
+    """
 
     capacity: float
     volume: float = 0.0
     mass: dict[str, float] = field(default_factory=dict)
+    loaded: dict[str, float] = field(default_factory=dict)
+    washed: dict[str, float] = field(default_factory=dict)
+    deposited: dict[str, float] = field(default_factory=dict)
+    picked: dict[str, float] = field(default_factory=dict)
+
+    def ledger(self) -> dict[str, dict[str, float]]:
+        """The reservoir's books (JSON-able)."""
+        return {"volume": {"now": self.volume, "capacity": self.capacity},
+                "mass": dict(self.mass), "loaded": dict(self.loaded),
+                "washed": dict(self.washed), "deposited": dict(self.deposited),
+                "picked": dict(self.picked)}
 
     @property
     def fill(self) -> float:
@@ -49,10 +69,14 @@ class Reservoir:
 
     def load(self, water: float, pigment: Mapping[str, float], water_scale: float,
              pigment_scale: float) -> None:
-        """Dip the brush: refill to ``water`` and the pigment mix of the command."""
+        """Dip the brush: rinse what it held, refill to ``water`` and the command's mix."""
+        for name, m in self.mass.items():
+            _book(self.washed, name, m)
         self.volume = max(water, 0.02) * self.capacity
         ratio = pigment_scale / water_scale if water_scale > 0 else 0.0
         self.mass = {k: a * ratio * self.capacity for k, a in pigment.items() if a > 0.0}
+        for name, m in self.mass.items():
+            _book(self.loaded, name, m)
 
     def total_pigment(self) -> float:
         return float(sum(self.mass.values()))
@@ -73,6 +97,7 @@ class Reservoir:
                 if m > 0.0:
                     dp[name] = dw * (m / self.volume)
                     self.mass[name] = m * (1.0 - share)
+                    _book(self.deposited, name, m * share)
         self.volume -= total
         return dw, dp
 
@@ -115,5 +140,6 @@ def pickup(state: CanvasState, res: Reservoir, weight: np.ndarray, y0: int, x0: 
         state.p[k][sl] = plane - lift
         state.removed_p[k][sl] += lift
         res.mass[name] = res.mass.get(name, 0.0) + got
+        _book(res.picked, name, got)
         out[name] = got
     return out

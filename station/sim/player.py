@@ -236,6 +236,8 @@ class SessionPlayer:
             out.update(brush_solves=self.solver.solves,
                        brush_fallbacks=self.solver.fallbacks,
                        pickups_skipped=self.pickups_skipped)
+        if isinstance(b, DeformableBrush):
+            out["brush_reservoir"] = b.reservoir.ledger()
         return out
 
     def _paper(self) -> Any:
