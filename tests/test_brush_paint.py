@@ -351,3 +351,21 @@ def test_session_books_balance_brush_and_canvas_pigment() -> None:
         brush_now = res.mass.get(name, 0.0)
         books = res.loaded.get(name, 0.0) - res.washed.get(name, 0.0)
         assert abs(canvas + brush_now - books) <= 1e-4 * books, (name, canvas, brush_now, books)
+
+
+def test_a_drying_stroke_breaks_up_along_the_paper() -> None:
+    paper = make_paper(get_profile("watercolor").paper, H, W, 5)
+    b = brush("round3d", size=12, paper=paper)
+    b.reservoir.capacity /= 6
+    b.reservoir.load(1.0, {"Sumi Ink": 0.5}, b.model.water_scale, b.model.pigment_scale)
+    for i in range(60):
+        b.feed(PenSample(t=i / 60, device="d", tool="pen", x=0.08 + 0.84 * i / 59, y=0.5,  # type: ignore[arg-type]
+                         pressure=0.6, touching=True))
+    src = b.take()
+    assert src is not None
+    painted = src.full(W, H).dw > 0
+    rows = np.flatnonzero(painted.any(axis=1))
+    band = painted[rows.min():rows.max() + 1]
+    first, last = band[:, 14:34], band[:, 60:80]
+    assert (1 - last.mean()) > (1 - first.mean()) + 0.15, (first.mean(), last.mean())
+    assert b.reservoir.fill < 0.5
