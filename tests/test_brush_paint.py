@@ -369,3 +369,16 @@ def test_a_drying_stroke_breaks_up_along_the_paper() -> None:
     first, last = band[:, 14:34], band[:, 60:80]
     assert (1 - last.mean()) > (1 - first.mean()) + 0.15, (first.mean(), last.mean())
     assert b.reservoir.fill < 0.5
+
+
+@pytest.mark.parametrize("kind", sorted(builtin_shapes()))
+def test_no_joint_below_the_canvas_in_any_frame(kind: str) -> None:
+    b = brush(kind, size=14)
+    low = []
+    for k in range(40):
+        p = 0.5 + 0.45 * np.sin(k / 5.0)
+        b.frame(20.0 + 1.5 * k, H / 2 + 8.0 * np.sin(k / 7.0), p, 25.0 * np.cos(k / 9.0),
+                -20.0, 3.0 * k)
+        low.append(min(float(st.pos[:, 2].min()) for st in b.spines if st.pos is not None))
+    assert min(low) >= -1e-6
+    assert b.solver.counters.fallbacks == 0

@@ -173,6 +173,9 @@ class SessionPlayer:
 
     def _check_layer(self, where: str | None) -> None:
         names = [k for k, a in self.brush.settings.pigment.items() if a > 0.0]
+        if isinstance(self.brush, DeformableBrush):  # a dirty brush carries what it picked up
+            names += [k for k, m in self.brush.reservoir.mass.items()
+                      if m > 0.0 and k not in names]
         new = [k for k in names if k not in self.layer_pigments]
         if not new:
             return
