@@ -175,3 +175,61 @@ def test_lifted_spine_springs_back() -> None:
     for z in (0.9, 0.6, 0.4, 0.6, 1.2):
         pos = solver.solve(st, np.array([0.0, 0.0, z]), np.eye(3))
     assert pos[:, 2].min() > 0.15 and np.abs(st.x).max() < 1e-3
+
+
+def test_dragged_equilibrium_with_friction_matches_brute_force() -> None:
+    """A 2-segment chain whose tip lies on the canvas is dragged: SLSQP's energy equals
+    a 1-D exhaustive search along the contact manifold (tip height 0), same energy."""
+    spec = SpineSpec((0.55, 0.45), (1.0, 0.5), (0.0, 0.0, 0.0, 0.0))
+    lengths, stiffness, rest = spec.arrays()
+    fr = Friction(mu_n=0.5, c_eta=0.8, k_eta=2.0)
+    handle = np.eye(3)
+    solver = SpineSolver(fr, max_evals=500)
+    st = SpineState.at_rest(spec)
+    root = np.array([0.0, 0.0, 0.8])
+    for _ in range(5):
+        solver.solve(st, root, handle)
+    assert st.contact is not None and st.contact[-1]
+    last, was = st.pos.copy(), st.contact.copy()
+    root2 = root + np.array([0.12, 0.0, 0.0])
+    solver.solve(st, root2, handle)
+    e_sqp_x = st.x.copy()
+    # the frame's friction set-up, from the documented rules
+    anchor = np.zeros((2, 2))
+    pull = np.zeros((2, 2))
+    contact = np.array([0.0, 1.0])
+    anchor[1] = last[1, :2]
+    v = last[0, :2] - last[1, :2]
+    pull[1] = v / np.linalg.norm(v)
+    mu = np.array([0.0, fr.mu_n])
+    assert was[1]
+
+    def e(x: np.ndarray) -> float:
+        return energy(x, np.empty(0), lengths, stiffness, rest, root2, handle, contact,
+                      anchor, pull, mu, fr.c_eta, fr.k_eta)
+
+    def tip_z(a: float, b: float) -> float:
+        return float(heights(np.array([0.0, a, 0.0, b]), np.empty((0, 0)), lengths, root2,
+                             handle)[1])
+
+    best = math.inf
+    for a in np.linspace(-1.4, 1.4, 2801):
+        # φ1 putting the tip on the plane, on the branch bending the same way as SQP's
+        lo, hi = (0.0, 2.9) if e_sqp_x[3] >= 0 else (-2.9, 0.0)
+        zl, zh = tip_z(a, lo), tip_z(a, hi)
+        if zl * zh > 0:
+            continue
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            if (tip_z(a, mid) > 0) == (zl > 0):
+                lo = mid
+            else:
+                hi = mid
+        x = np.array([0.0, a, 0.0, 0.5 * (lo + hi)])
+        if heights(x, np.empty((0, 0)), lengths, root2, handle)[0] < 0:
+            continue
+        best = min(best, e(x))
+    e_sqp = e(e_sqp_x)
+    assert math.isfinite(best)
+    assert abs(e_sqp_x[0]) < 1e-4 and abs(e_sqp_x[2]) < 1e-4  # planar, as the search
+    assert e_sqp <= best + 1e-5 and e_sqp >= best - 1e-3, (e_sqp, best)
