@@ -99,8 +99,9 @@ def dry_brush_stroke(paper: np.ndarray, pressure: float, bristles: int) -> np.nd
     t = 0.0
     for i in range(13):  # fast: 0.1 s across the canvas
         x = 0.15 + 0.7 * i / 12
+        # held across the stroke (barrel rotation 90°), trailing behind the pen
         b.feed(PenSample(t=t, device="d", tool="pen", x=x, y=y, pressure=pressure,  # type: ignore[arg-type]
-                         touching=True, tilt_y=-30.0))
+                         touching=True, tilt_x=30.0, rotation=90.0))
         t += 0.1 / 12
     src = b.take()
     assert src is not None
@@ -121,6 +122,9 @@ def test_dry_brush_leaves_bare_paper_following_its_height() -> None:
     assert bare >= 0.25, bare
     # the paint lies on the hills of the paper
     assert paper[inside & painted].mean() > paper[inside & ~painted].mean() + 0.05
+    # pressed firmly with a full tuft, the same stroke covers the valleys too
+    firm = dry_brush_stroke(paper, 0.6, 70) > 0
+    assert 1.0 - firm[inside].mean() < 0.5 * bare, (bare, 1.0 - firm[inside].mean())
 
 
 def test_stroke_tapers_at_press_in_and_lift_off() -> None:
