@@ -130,7 +130,8 @@ def test_dry_brush_leaves_bare_paper_following_its_height() -> None:
 def test_stroke_tapers_at_press_in_and_lift_off() -> None:
     s = Script(W, H, seed=2, rate_hz=120.0)
     s.brush(size=14, water=0.9, pigment={"Sumi Ink": 0.6}, kind="round3d")
-    s.line((0.1, 0.5), (0.9, 0.5), 0.6, pressure=taper(1.0, start=0.4, end=0.4, attack=0.2))
+    s.line((0.1, 0.5), (0.9, 0.5), 0.6, pressure=taper(1.0, start=0.05, end=0.05, attack=0.35,
+                                                             release=0.35))
     be = create_backend("numpy", W, H, "ink", 2)
     player = SessionPlayer(be, W, H, "ink")
     for rec in s.records:
