@@ -51,7 +51,7 @@ def strokes_script(width: int, height: int, kinds: Sequence[str], size: float) -
         s.brush(size=size, water=0.9, pigment={INK: 0.7}, kind=kind)
         at = len(s.records)
         s.line((x[0] + 0.03, yc + dy * 0.4), (x[0] + cw - 0.03, yc - dy * 0.4), 0.6,
-               pressure=taper(1.0, start=0.45, end=0.4, attack=0.2))
+               pressure=taper(1.0, start=0.05, end=0.05, attack=0.35, release=0.35))
         _twist(s, at, TWIST[0])
         s.brush(size=size, water=0.9, pigment={INK: 0.7}, kind=kind)
         s.curve([(x[1] + 0.03, yc + dy), (x[1] + cw * 0.35, yc - dy),
