@@ -230,7 +230,7 @@ class LiveSim:
             "bad_commands": self.bad_commands, "bad_samples": self.bad_samples,
             "dropped_sources": self.dropped_sources,
             "lost_samples": self.sub.stats.lost, "bus": self.sub.stats.as_dict(),
-            "stamps": p.brush.stamps, "eraser_samples": p.brush.eraser_samples,
+            **p.brush_counters(),
         }
 
     def maybe_publish_status(self) -> None:
