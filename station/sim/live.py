@@ -58,7 +58,7 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
-from station.canvas.brush import BrushSettings
+from station.brush.stamp import BrushSettings
 from station.durable import atomic_write
 from station.errors import BadInput
 from station.events import Command, PenSample
@@ -529,6 +529,7 @@ class LiveCore:
             "autosave": str(self.autosave_path), "autosaves": c.autosaves,
             "storage_failures": self.report.failures,
             "storage_problems": dict(self.report.problems),
+            **p.brush_counters(),
         }
 
     # -- end -----------------------------------------------------------------------

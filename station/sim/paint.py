@@ -362,9 +362,7 @@ def paint(
             width=width, height=height, profile=player.profile, backend=backend,
             renderer=str(getattr(canvas, "renderer", backend)), steps=player.counters.steps,
             painting_seconds=player.painting_time, wall_seconds=wall,
-            counters={**player.counters.as_dict(), "stamps": player.brush.stamps,
-                      "strokes": player.brush.strokes,
-                      "eraser_samples": player.brush.eraser_samples},
+            counters={**player.counters.as_dict(), **player.brush_counters()},
             error=error,
         )
         write_outputs(canvas, result, out_png, state_path, stats_path, bits)

@@ -31,7 +31,10 @@ from collections.abc import Callable, Container, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from station.canvas.brush import BrushModel, BrushSettings, RoundBrush
+from station.brush.deformable import DeformableBrush
+from station.brush.reservoir import pickup
+from station.brush.solver import SolverCounters
+from station.brush.stamp import STAMP_KIND, BrushModel, BrushSettings, RoundBrush
 from station.canvas.params import PROFILES, Profile, get_profile
 from station.canvas.state import DEFAULT_SLOTS
 from station.errors import BadInput
@@ -97,8 +100,12 @@ class SessionPlayer:
         self.pigments = pigments
         self.brush_scale = brush_scale
         self.profile = prof.name
-        self.brush = RoundBrush(width, height, brush_defaults(prof).scaled(brush_scale),
-                                brush_model(prof), time_scale=self.rate * self.dt)
+        self.width, self.height = width, height
+        self.brush: RoundBrush | DeformableBrush = RoundBrush(
+            width, height, brush_defaults(prof).scaled(brush_scale), brush_model(prof),
+            time_scale=self.rate * self.dt)
+        self.pickups_skipped = 0  # pick-ups on a backend whose arrays are not in memory
+        self.solver = SolverCounters()  # the deformable brushes' spine solves, all kinds
         self.counters = PlayerCounters()
         # Pigments painted into the active layer, to refuse a ninth one at the pen
         # sample that would bring it (the canvas would only notice at the next step).
@@ -133,7 +140,21 @@ class SessionPlayer:
                 on_step(self)
 
     def flush_sources(self) -> None:
-        """Hand the pending brush stamps to the backend (no step)."""
+        """Hand the pending brush stamps to the backend (no step).
+
+        A deformable brush first lifts wet paint under its footprints (dirty
+        brush) from the canvas arrays, where the backend keeps them in memory
+        (``live_state``); a GPU backend's pick-ups are counted and skipped.
+        """
+        if isinstance(self.brush, DeformableBrush):
+            requests = self.brush.take_pickups()
+            state = getattr(self.backend, "live_state", None)
+            if requests and state is None:
+                self.pickups_skipped += len(requests)
+            elif requests and state is not None:
+                for r in requests:
+                    pickup(state, self.brush.reservoir, r.weight, r.y0, r.x0,
+                           self.brush.shape.pickup)
         src = self.brush.take()
         if src is not None:
             add_sources(self.backend, src)
@@ -152,6 +173,9 @@ class SessionPlayer:
 
     def _check_layer(self, where: str | None) -> None:
         names = [k for k, a in self.brush.settings.pigment.items() if a > 0.0]
+        if isinstance(self.brush, DeformableBrush):  # a dirty brush carries what it picked up
+            names += [k for k, m in self.brush.reservoir.mass.items()
+                      if m > 0.0 and k not in names]
         new = [k for k in names if k not in self.layer_pigments]
         if not new:
             return
@@ -185,7 +209,46 @@ class SessionPlayer:
         if canonical is not None:  # the palette: use its spelling of each name
             settings = BrushSettings(settings.kind, settings.size, settings.water,
                                      {canonical(k).name: v for k, v in settings.pigment.items()})
-        self.brush.set(settings.scaled(self.brush_scale))
+        self._use(settings.scaled(self.brush_scale))
+
+    def _use(self, settings: BrushSettings) -> None:
+        """Set the brush, swapping the stamp brush and a deformable one as the kind asks."""
+        deformable = settings.kind != STAMP_KIND
+        if deformable == isinstance(self.brush, DeformableBrush):
+            self.brush.set(settings)
+            return
+        self.flush_sources()
+        old = self.brush
+        if deformable:
+            self.brush = DeformableBrush(self.width, self.height, settings, old.model,
+                                         self._paper(), time_scale=old.time_scale,
+                                         counters=self.solver)
+        else:
+            self.brush = RoundBrush(self.width, self.height, settings, old.model,
+                                    time_scale=old.time_scale)
+        # the counters of the session go on across brushes
+        self.brush.stamps, self.brush.samples = old.stamps, old.samples
+        self.brush.strokes, self.brush.eraser_samples = old.strokes, old.eraser_samples
+
+    def brush_counters(self) -> dict[str, Any]:
+        """What the brushes did: stamps, strokes, eraser samples, spine solves."""
+        b = self.brush
+        out: dict[str, Any] = {"stamps": b.stamps, "strokes": b.strokes,
+                               "eraser_samples": b.eraser_samples}
+        if self.solver.solves:
+            out.update(brush_solves=self.solver.solves,
+                       brush_fallbacks=self.solver.fallbacks,
+                       pickups_skipped=self.pickups_skipped)
+        if isinstance(b, DeformableBrush):
+            out["brush_reservoir"] = b.reservoir.ledger()
+        return out
+
+    def _paper(self) -> Any:
+        """The paper height of the backend (read back once from a GPU backend)."""
+        state = getattr(self.backend, "live_state", None)
+        if state is None:
+            state = self.backend.state()
+        return state.h
 
     def _profile(self, args: Mapping[str, Any], where: str | None) -> None:
         name = _profile_name(args, where)
@@ -201,7 +264,7 @@ class SessionPlayer:
         self.dt = prof.params.dt
         self.brush.time_scale = self.rate * self.dt
         self.brush.model = brush_model(prof)
-        self.brush.set(brush_defaults(prof).scaled(self.brush_scale))
+        self._use(brush_defaults(prof).scaled(self.brush_scale))
 
     def _wait(self, args: Mapping[str, Any], where: str | None) -> None:
         seconds = _wait_seconds(args, where)

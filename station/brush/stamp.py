@@ -47,10 +47,19 @@ from typing import Any
 
 import numpy as np
 
+from station.brush.geometry import known_shapes
 from station.errors import BadInput
 from station.events import PenSample, Tool
 
-BRUSH_KINDS = ("round",)
+STAMP_KIND = "round"
+"""The round stamp brush of chapter 5 (the mouse's brush, and every log made before
+the deformable brushes): the kind of the ``brush`` command's default."""
+
+
+def brush_kinds() -> tuple[str, ...]:
+    """``round`` (this module) and the deformable shapes (``station/data/brushes`` and
+    any registered with :func:`station.brush.geometry.register_shape`)."""
+    return (STAMP_KIND, *known_shapes())
 NO_PRESSURE_TOOLS = frozenset({Tool.MOUSE, Tool.FINGER, Tool.LENS})
 """Tools that report no pressure: a touching sample with pressure 0 paints at
 :attr:`BrushModel.default_pressure` instead of the thinnest line."""
@@ -65,7 +74,8 @@ class BrushSettings:
     """What the ``brush`` command sets (interfaces.md).
 
     Attributes:
-        kind: brush kind; only ``"round"`` today.
+        kind: ``"round"`` (the stamp brush) or a deformable shape's name
+            (``round3d``, ``flat``, ``rigger``, ``fan``, ``mop``, ``calligraphy``).
         size: footprint diameter at full pressure, in cells (> 0).
         water: water load in ``[0, 1]``.
         pigment: pigment name → amount in ``[0, 1]``; empty for clear water.
@@ -100,8 +110,9 @@ class BrushSettings:
         """
         base = base or cls()
         kind = args.get("kind", base.kind)
-        if kind not in BRUSH_KINDS:
-            raise BrushError(f"unknown brush kind {kind!r} (one of {', '.join(BRUSH_KINDS)})",
+        kinds = brush_kinds()
+        if not isinstance(kind, str) or kind not in kinds:
+            raise BrushError(f"unknown brush kind {kind!r} (one of {', '.join(kinds)})",
                              where)
         size = _number(args.get("size", base.size), "brush size", 0.0, 4096.0, where)
         if size <= 0.0:
