@@ -22,6 +22,9 @@ from station.calibration.fit import PointSet
 
 REQUIRED = ("device_x", "device_y", "canvas_x", "canvas_y")
 TILT = ("tilt_x", "tilt_y")
+MAX_ABS = 1e9
+"""Largest magnitude a coordinate may have: no tablet reports a billion units, and
+squares of larger numbers (1e308) overflow in the fit's statistics."""
 
 
 def _lines(text: str) -> Iterable[tuple[int, str]]:
@@ -68,6 +71,10 @@ def parse_points(text: str, name: str = "<points>") -> PointSet:
                 ) from None
             if not math.isfinite(v):
                 raise DegeneratePoints(f"{header[c]} is {text_value}, not a finite number", where)
+            if abs(v) > MAX_ABS:
+                raise CalibrationError(
+                    f"{header[c]} {text_value} is out of range (at most {MAX_ABS:g} in size: "
+                    "device units, canvas-normalised or degrees)", where)
             row.append(v)
         values.append(row)
         labels.append(where)

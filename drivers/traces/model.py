@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import logging
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 
 from station.drivers.evdev.frames import EvdevCaps, InputEvent
@@ -9,9 +11,32 @@ from station.drivers.transport.base import HidDeviceInfo, TimedReport
 
 from station.errors import BadInput
 
+log = logging.getLogger(__name__)
+
 
 class TraceError(BadInput):
     """A trace file is malformed; ``where`` is ``file:line``."""
+
+
+def numbered_lines(lines: Iterable[str]) -> Iterator[tuple[int, str, bool]]:
+    """``(line number, text, cut)`` for each line; ``cut`` marks a last line without
+    its newline — what a recorder killed mid-write leaves behind."""
+    it = iter(lines)
+    prev = next(it, None)
+    number = 1
+    for line in it:
+        assert prev is not None
+        yield number, prev, False
+        prev, number = line, number + 1
+    if prev is not None:
+        yield number, prev, not prev.endswith(("\n", "\r"))
+
+
+def cut_line(exc: TraceError, where: str) -> None:
+    """A malformed last line that was cut off: warn (naming it) instead of refusing
+    the recording, which then plays up to the cut."""
+    log.warning("%s: last line cut off (the recorder stopped mid-write?): %s; playing the "
+                "recording up to it", where, str(exc).removeprefix(f"{where}: "))
 
 
 @dataclass
