@@ -40,7 +40,10 @@ def parse_points(text: str, name: str = "<points>") -> PointSet:
     if not rows:
         raise CalibrationError("empty file: no header", f"{name}:1")
     head_no, head = rows[0]
-    header = [h.strip().lower() for h in next(csv.reader([head]))]
+    try:
+        header = [h.strip().lower() for h in next(csv.reader([head]))]
+    except csv.Error as exc:
+        raise CalibrationError(f"not a CSV header ({exc})", f"{name}:{head_no}") from None
     missing = [c for c in REQUIRED if c not in header]
     if missing:
         raise CalibrationError(
@@ -55,7 +58,10 @@ def parse_points(text: str, name: str = "<points>") -> PointSet:
     labels: list[str] = []
     for number, line in rows[1:]:
         where = f"{name}:{number}"
-        fields = next(csv.reader([line]))
+        try:
+            fields = next(csv.reader([line]))
+        except csv.Error as exc:  # a field past the csv module's 128 KiB limit, a NUL
+            raise CalibrationError(f"not a CSV line ({exc})", where) from None
         if len(fields) < len(header):
             raise CalibrationError(
                 f"{len(fields)} fields, the header has {len(header)}", where

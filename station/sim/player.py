@@ -215,8 +215,8 @@ class SessionPlayer:
     def _wait(self, args: Mapping[str, Any], where: str | None) -> None:
         seconds = args.get("seconds", 0.0)
         if (isinstance(seconds, bool) or not isinstance(seconds, (int, float))
-                or not math.isfinite(seconds) or not 0.0 <= seconds <= MAX_WAIT_SECONDS):
-            raise PlayerError(f"wait seconds {seconds!r} must be a number in [0, "
+                or not 0.0 <= seconds <= MAX_WAIT_SECONDS):  # NaN fails the comparison
+            raise PlayerError(f"wait seconds {seconds!r:.40} must be a number in [0, "
                               f"{MAX_WAIT_SECONDS:g}]", where)
         self.waited += float(seconds)
         self.counters.waited_s += float(seconds)
