@@ -27,10 +27,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
 from station.calibration.errors import CalibrationError
 from station.calibration.fit import Mapping, fit_mapping
 from station.calibration.session import STEP_TEXT, CalibrationSession, TapResult
-
 from station.errors import StationError
 from station.events import PenSample
 
@@ -302,10 +302,10 @@ class _Loop:
 
 def run_interactive(args: argparse.Namespace) -> int:
     """The ``--device`` mode of ``station calibrate``."""
+    from station.calibrate.sources import open_source
     from station.calibration.area import AreaSettings
     from station.calibration.files import default_path, write_file
     from station.calibration.model import Calibration, FitInfo
-    from station.calibration.sources import open_source
 
     source = open_source(args.device)
     window = CalibrationWindow(fullscreen=not args.windowed)
