@@ -269,10 +269,10 @@ class CalibrationSession:
         if new not in suspects:
             if len(old) == 1:
                 self._withdraw(acc[old[0]], suspects_err(pd, pc, old[0]))
-                return True, (f"ok; the earlier tap at target {acc[old[0]].target + 1} was "
+                return True, (f"the earlier tap at target {acc[old[0]].target + 1} was "
                               "the misclick and is asked again"), at
             names = ", ".join(str(acc[j].target + 1) for j in old)
-            return True, f"ok; targets {names} disagree: the final check asks them again", at
+            return True, f"targets {names} disagree: the final check asks them again", at
         if len(old) == 1:
             others = np.arange(len(dev)) != old[0]  # the suspect cannot vouch for it
             ok, why, _ = self._check_alignment(dev[others], can[others], d_new, c_new, thr)

@@ -230,12 +230,13 @@ def _describe(result: TapResult, session: CalibrationSession, prov: Mapping | No
     n = len(session.targets)
     if not result.accepted:
         return f"target {result.target + 1}/{n}: REJECTED ({result.reason}); tap it again"
+    note = f" ({result.reason})" if result.reason else ""  # a provisional tap, a withdrawn one
     if prov is not None:
         w, h = session.screen
         m = prov.map(np.array([[result.tap.x, result.tap.y]]))[0]
         err = math.hypot((m[0] - result.xy[0]) * w, (m[1] - result.xy[1]) * h)
-        return f"target {result.target + 1}/{n}: ok, residual {err:.1f} px"
-    return f"target {result.target + 1}/{n}: ok"
+        return f"target {result.target + 1}/{n}: ok, residual {err:.1f} px{note}"
+    return f"target {result.target + 1}/{n}: ok{note}"
 
 
 class _Loop:
