@@ -14,7 +14,7 @@ from collections.abc import Iterable
 
 from station.drivers.evdev import codes as c
 from station.drivers.evdev.frames import AbsInfo, EvdevCaps, InputEvent
-from station.drivers.traces.model import Trace, TraceDevice, TraceError, cut_line, numbered_lines
+from station.drivers.traces.model import Trace, TraceDevice, TraceError, tolerate_cut
 
 
 def _ints(tokens: list[str], base: int, where: str, what: str) -> list[int]:
@@ -25,6 +25,11 @@ def _ints(tokens: list[str], base: int, where: str, what: str) -> list[int]:
 
 
 def parse_evemu(lines: Iterable[str], name: str) -> Trace:
+    """Parse evemu-record text; a last line cut off mid-write is dropped with a warning."""
+    return tolerate_cut(_parse_evemu, lines, name)
+
+
+def _parse_evemu(lines: Iterable[str], name: str) -> Trace:
     dev_name = ""
     ids = [0, 0, 0, 0]
     bitmasks: dict[int, bytearray] = {}
@@ -34,63 +39,57 @@ def parse_evemu(lines: Iterable[str], name: str) -> Trace:
     seen_msc: set[int] = set()
     header_where = f"{name}:1"
     last_t = None
-    for line_no, raw_line, cut in numbered_lines(lines):
-        try:
-            where = f"{name}:{line_no}"
-            line = raw_line.split("#", 1)[0].strip()
-            if not line:
-                continue
-            tag, sep, rest = line.partition(":")
-            if not sep or len(tag) != 1:
-                continue
-            tokens = rest.split()
-            if tag == "N":
-                dev_name = rest.strip()
-                header_where = where
-            elif tag == "I":
-                values = _ints(tokens, 16, where, "'I:' ids")
-                if len(values) < 3:
-                    raise TraceError("'I:' needs bus vid pid [version]", where)
-                ids = [*values, 0][:4]
-            elif tag == "B":
-                values = _ints(tokens, 16, where, "'B:' bitmask")
-                if not values or any(not 0 <= v <= 0xFF for v in values):
-                    raise TraceError("'B:' needs a type and mask bytes 00..ff", where)
-                bitmasks.setdefault(values[0], bytearray()).extend(values[1:])
-            elif tag == "A":
-                if len(tokens) < 5:
-                    raise TraceError("'A:' needs code min max fuzz flat [resolution]", where)
-                (code,) = _ints(tokens[:1], 16, where, "'A:' code")
-                values = _ints(tokens[1:], 10, where, "'A:' axis")
-                lo, hi, fuzz, flat = values[:4]
-                res = values[4] if len(values) > 4 else 0
-                if hi < lo:
-                    raise TraceError(f"axis {code:#x}: max {hi} < min {lo}", where)
-                absinfo[code] = AbsInfo(lo, hi, fuzz, flat, res, min(max(0, lo), hi))
-            elif tag == "E":
-                if len(tokens) != 4:
-                    raise TraceError("'E:' needs sec.usec type code value", where)
-                try:
-                    t = float(tokens[0])
-                    etype, code = int(tokens[1], 16), int(tokens[2], 16)
-                    value = int(tokens[3], 10)
-                except ValueError:
-                    raise TraceError(f"'E:' {rest.strip()!r} is malformed", where) from None
-                if not (0 <= t < 1e12) or not (0 <= etype <= 0x1F and 0 <= code <= 0x2FF):
-                    raise TraceError(f"'E:' {rest.strip()!r} out of range", where)
-                if last_t is not None and t + 1e-6 < last_t:
-                    raise TraceError(f"time {t} goes back (previous {last_t})", where)
-                last_t = t
-                if etype == c.EV_KEY:
-                    seen_keys.add(code)
-                elif etype == c.EV_MSC:
-                    seen_msc.add(code)
-                events.append(InputEvent(t, etype, code, value))
-        except TraceError as exc:
-            if not cut:
-                raise
-            cut_line(exc, f"{name}:{line_no}")
-            break
+    for line_no, raw_line in enumerate(lines, 1):
+        where = f"{name}:{line_no}"
+        line = raw_line.split("#", 1)[0].strip()
+        if not line:
+            continue
+        tag, sep, rest = line.partition(":")
+        if not sep or len(tag) != 1:
+            continue
+        tokens = rest.split()
+        if tag == "N":
+            dev_name = rest.strip()
+            header_where = where
+        elif tag == "I":
+            values = _ints(tokens, 16, where, "'I:' ids")
+            if len(values) < 3:
+                raise TraceError("'I:' needs bus vid pid [version]", where)
+            ids = [*values, 0][:4]
+        elif tag == "B":
+            values = _ints(tokens, 16, where, "'B:' bitmask")
+            if not values or any(not 0 <= v <= 0xFF for v in values):
+                raise TraceError("'B:' needs a type and mask bytes 00..ff", where)
+            bitmasks.setdefault(values[0], bytearray()).extend(values[1:])
+        elif tag == "A":
+            if len(tokens) < 5:
+                raise TraceError("'A:' needs code min max fuzz flat [resolution]", where)
+            (code,) = _ints(tokens[:1], 16, where, "'A:' code")
+            values = _ints(tokens[1:], 10, where, "'A:' axis")
+            lo, hi, fuzz, flat = values[:4]
+            res = values[4] if len(values) > 4 else 0
+            if hi < lo:
+                raise TraceError(f"axis {code:#x}: max {hi} < min {lo}", where)
+            absinfo[code] = AbsInfo(lo, hi, fuzz, flat, res, min(max(0, lo), hi))
+        elif tag == "E":
+            if len(tokens) != 4:
+                raise TraceError("'E:' needs sec.usec type code value", where)
+            try:
+                t = float(tokens[0])
+                etype, code = int(tokens[1], 16), int(tokens[2], 16)
+                value = int(tokens[3], 10)
+            except ValueError:
+                raise TraceError(f"'E:' {rest.strip()!r} is malformed", where) from None
+            if not (0 <= t < 1e12) or not (0 <= etype <= 0x1F and 0 <= code <= 0x2FF):
+                raise TraceError(f"'E:' {rest.strip()!r} out of range", where)
+            if last_t is not None and t + 1e-6 < last_t:
+                raise TraceError(f"time {t} goes back (previous {last_t})", where)
+            last_t = t
+            if etype == c.EV_KEY:
+                seen_keys.add(code)
+            elif etype == c.EV_MSC:
+                seen_msc.add(code)
+            events.append(InputEvent(t, etype, code, value))
     if not dev_name and not absinfo:
         raise TraceError("not an evemu recording (no N: or A: lines)", f"{name}:1")
 

@@ -19,7 +19,7 @@ import string
 from collections.abc import Iterable
 from typing import IO
 
-from station.drivers.traces.model import Trace, TraceDevice, TraceError, cut_line, numbered_lines
+from station.drivers.traces.model import Trace, TraceDevice, TraceError, tolerate_cut
 from station.drivers.transport.base import TimedReport
 
 log = logging.getLogger(__name__)
@@ -53,7 +53,13 @@ def _length(tok: str, where: str, what: str, limit: int) -> int:
 
 
 def parse_hid_recorder(lines: Iterable[str], name: str) -> Trace:
-    """Parse hid-recorder text; ``name`` is used in ``file:line`` messages."""
+    """Parse hid-recorder text; ``name`` is used in ``file:line`` messages.
+
+    A last line cut off mid-write is dropped with a warning (:func:`tolerate_cut`)."""
+    return tolerate_cut(_parse_hid_recorder, lines, name)
+
+
+def _parse_hid_recorder(lines: Iterable[str], name: str) -> Trace:
     devices: dict[int, TraceDevice] = {}
     current = -1
 
@@ -66,88 +72,81 @@ def parse_hid_recorder(lines: Iterable[str], name: str) -> Trace:
     # An 'R:' line wrapped onto following lines of bare hex bytes (mail clients and
     # bug trackers wrap long lines): (device, declared length, bytes so far, where).
     wrapped: tuple[TraceDevice, int, bytearray, str] | None = None
-    for line_no, raw_line, cut in numbered_lines(lines):
-        try:
-            where = f"{name}:{line_no}"
-            if "\x1b" in raw_line:  # colours of `hid-recorder --output-file` run on a terminal
-                raw_line = ANSI_ESCAPE.sub("", raw_line)
-            line = raw_line.strip()
-            if not line or line.startswith("#"):
+    for line_no, raw_line in enumerate(lines, 1):
+        where = f"{name}:{line_no}"
+        if "\x1b" in raw_line:  # colours of `hid-recorder --output-file` run on a terminal
+            raw_line = ANSI_ESCAPE.sub("", raw_line)
+        line = raw_line.strip()
+        if not line or line.startswith("#"):
+            continue
+        if wrapped is not None:
+            wdev, n, sofar, rwhere = wrapped
+            if ":" not in line:
+                sofar += _hex_bytes(line.split(), where, "report descriptor")
+                if len(sofar) >= n:
+                    if len(sofar) != n:
+                        raise TraceError(f"report descriptor says {n} bytes but has "
+                                         f"{len(sofar)}", rwhere)
+                    wdev.descriptor = bytes(sofar)
+                    wrapped = None
                 continue
-            if wrapped is not None:
-                wdev, n, sofar, rwhere = wrapped
-                if ":" not in line:
-                    sofar += _hex_bytes(line.split(), where, "report descriptor")
-                    if len(sofar) >= n:
-                        if len(sofar) != n:
-                            raise TraceError(f"report descriptor says {n} bytes but has "
-                                             f"{len(sofar)}", rwhere)
-                        wdev.descriptor = bytes(sofar)
-                        wrapped = None
-                    continue
-                raise TraceError(f"report descriptor says {n} bytes but has {len(sofar)}", rwhere)
-            tag, sep, rest = line.partition(":")
-            if not sep or len(tag) != 1:
-                log.debug("%s: skipping unknown line", where)
+            raise TraceError(f"report descriptor says {n} bytes but has {len(sofar)}", rwhere)
+        tag, sep, rest = line.partition(":")
+        if not sep or len(tag) != 1:
+            log.debug("%s: skipping unknown line", where)
+            continue
+        tokens = rest.split()
+        if tag == "D":
+            if len(tokens) != 1 or not tokens[0].isdigit():
+                raise TraceError(f"'D:' needs one device number, got {rest.strip()!r}", where)
+            current = int(tokens[0])
+            device(current, where)
+            continue
+        dev = device(max(current, 0), where)
+        if tag == "R":
+            if not tokens:
+                raise TraceError("'R:' without a length", where)
+            n = _length(tokens[0], where, "report descriptor", MAX_DESCRIPTOR)
+            data = _hex_bytes(tokens[1:], where, "report descriptor")
+            if len(data) < n:
+                wrapped = (dev, n, bytearray(data), where)
                 continue
-            tokens = rest.split()
-            if tag == "D":
-                if len(tokens) != 1 or not tokens[0].isdigit():
-                    raise TraceError(f"'D:' needs one device number, got {rest.strip()!r}", where)
-                current = int(tokens[0])
-                device(current, where)
-                continue
-            dev = device(max(current, 0), where)
-            if tag == "R":
-                if not tokens:
-                    raise TraceError("'R:' without a length", where)
-                n = _length(tokens[0], where, "report descriptor", MAX_DESCRIPTOR)
-                data = _hex_bytes(tokens[1:], where, "report descriptor")
-                if len(data) < n:
-                    wrapped = (dev, n, bytearray(data), where)
-                    continue
-                if len(data) != n:
-                    raise TraceError(f"report descriptor says {n} bytes but has {len(data)}", where)
-                dev.descriptor = data
-            elif tag == "N":
-                dev.name = rest.strip()
-            elif tag == "P":
-                dev.phys = rest.strip()
-            elif tag == "I":
-                if len(tokens) < 3:
-                    raise TraceError(f"'I:' needs bus vid pid, got {rest.strip()!r}", where)
-                try:
-                    dev.bus, dev.vid, dev.pid = (int(t, 16) for t in tokens[:3])
-                except ValueError:
-                    raise TraceError(f"'I:' ids {rest.strip()!r} are not hex", where) from None
-                if not (0 <= dev.vid <= 0xFFFF and 0 <= dev.pid <= 0xFFFF):
-                    raise TraceError(f"'I:' ids {rest.strip()!r} out of range", where)
-            elif tag == "E":
-                if len(tokens) < 2:
-                    raise TraceError("'E:' needs a time, a length and the bytes", where)
-                try:
-                    t = float(tokens[0])
-                except ValueError:
-                    raise TraceError(f"'E:' time {tokens[0]!r} is not sec.usec", where) from None
-                if not (t == t and 0 <= t < 1e12):
-                    raise TraceError(f"'E:' time {tokens[0]!r} out of range", where)
-                n = _length(tokens[1], where, "report", MAX_REPORT)
-                data = _hex_bytes(tokens[2:], where, "report")
-                if len(data) != n:
-                    raise TraceError(f"report says {n} bytes but has {len(data)} (truncated?)",
-                                     where)
-                index = dev.index
-                if t + 1e-6 < last_time.get(index, t):
-                    raise TraceError(f"time {t} goes back (previous {last_time[index]})", where)
-                last_time[index] = t
-                dev.reports.append(TimedReport(t, data))
-            else:
-                log.debug("%s: skipping unknown line %r", where, tag)
-        except TraceError as exc:
-            if not cut:
-                raise
-            cut_line(exc, f"{name}:{line_no}")
-            break
+            if len(data) != n:
+                raise TraceError(f"report descriptor says {n} bytes but has {len(data)}", where)
+            dev.descriptor = data
+        elif tag == "N":
+            dev.name = rest.strip()
+        elif tag == "P":
+            dev.phys = rest.strip()
+        elif tag == "I":
+            if len(tokens) < 3:
+                raise TraceError(f"'I:' needs bus vid pid, got {rest.strip()!r}", where)
+            try:
+                dev.bus, dev.vid, dev.pid = (int(t, 16) for t in tokens[:3])
+            except ValueError:
+                raise TraceError(f"'I:' ids {rest.strip()!r} are not hex", where) from None
+            if not (0 <= dev.vid <= 0xFFFF and 0 <= dev.pid <= 0xFFFF):
+                raise TraceError(f"'I:' ids {rest.strip()!r} out of range", where)
+        elif tag == "E":
+            if len(tokens) < 2:
+                raise TraceError("'E:' needs a time, a length and the bytes", where)
+            try:
+                t = float(tokens[0])
+            except ValueError:
+                raise TraceError(f"'E:' time {tokens[0]!r} is not sec.usec", where) from None
+            if not (t == t and 0 <= t < 1e12):
+                raise TraceError(f"'E:' time {tokens[0]!r} out of range", where)
+            n = _length(tokens[1], where, "report", MAX_REPORT)
+            data = _hex_bytes(tokens[2:], where, "report")
+            if len(data) != n:
+                raise TraceError(f"report says {n} bytes but has {len(data)} (truncated?)", where)
+            index = dev.index
+            if t + 1e-6 < last_time.get(index, t):
+                raise TraceError(f"time {t} goes back (previous {last_time[index]})", where)
+            last_time[index] = t
+            dev.reports.append(TimedReport(t, data))
+        else:
+            log.debug("%s: skipping unknown line %r", where, tag)
     if wrapped is not None:
         raise TraceError(f"report descriptor says {wrapped[1]} bytes but has "
                          f"{len(wrapped[2])}", wrapped[3])

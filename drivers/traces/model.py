@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
 from station.drivers.evdev.frames import EvdevCaps, InputEvent
@@ -18,25 +18,22 @@ class TraceError(BadInput):
     """A trace file is malformed; ``where`` is ``file:line``."""
 
 
-def numbered_lines(lines: Iterable[str]) -> Iterator[tuple[int, str, bool]]:
-    """``(line number, text, cut)`` for each line; ``cut`` marks a last line without
-    its newline — what a recorder killed mid-write leaves behind."""
-    it = iter(lines)
-    prev = next(it, None)
-    number = 1
-    for line in it:
-        assert prev is not None
-        yield number, prev, False
-        prev, number = line, number + 1
-    if prev is not None:
-        yield number, prev, not prev.endswith(("\n", "\r"))
-
-
-def cut_line(exc: TraceError, where: str) -> None:
-    """A malformed last line that was cut off: warn (naming it) instead of refusing
-    the recording, which then plays up to the cut."""
-    log.warning("%s: last line cut off (the recorder stopped mid-write?): %s; playing the "
-                "recording up to it", where, str(exc).removeprefix(f"{where}: "))
+def tolerate_cut(parse: Callable[[list[str], str], Trace], lines: Iterable[str],
+                 name: str) -> Trace:
+    """``parse(lines, name)``, except that a last line without its newline — what a
+    recorder killed mid-write leaves behind — that ``parse`` refuses is dropped with a
+    warning naming it, and the recording plays up to the cut.  Any other malformed
+    line stays a :class:`TraceError`."""
+    text = list(lines)
+    try:
+        return parse(text, name)
+    except TraceError as exc:
+        where = f"{name}:{len(text)}"
+        if not text or text[-1].endswith(("\n", "\r")) or exc.where != where:
+            raise
+        log.warning("%s: last line cut off (the recorder stopped mid-write?): %s; playing "
+                    "the recording up to it", where, str(exc).removeprefix(f"{where}: ")[:200])
+        return parse(text[:-1], name)
 
 
 @dataclass
