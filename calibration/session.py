@@ -30,12 +30,18 @@ every later tap.  So on a conflict each tap of the set, the new one included,
 is left out in turn; a tap is a *suspect* when the others agree among
 themselves (every one of them predicted by an affine fit of the rest — the
 leave-one-out residual — within the threshold) and the fit of the others puts
-it beyond the threshold.  One suspect, an earlier tap: that tap is withdrawn
-(its target is asked again at the end) and the new tap accepted.  The new tap
-the only suspect: it is rejected.  Exactly two suspects, the new tap and one
-earlier tap that no redundant set of taps has checked yet: the taps cannot
-tell which is wrong, so the new tap is accepted provisionally when it keeps
-its row and column, and the next tap decides.  Anything else: rejected.
+it beyond the threshold.  Then:
+
+* the new tap the only suspect (or no suspect at all): it is rejected;
+* one suspect, an earlier tap: that tap is withdrawn (its target is asked
+  again at the end) and the new tap accepted;
+* several earlier suspects, the new tap not among them: it is accepted and
+  the final check (:meth:`CalibrationSession.finish`) asks the suspects again;
+* the new tap and one earlier tap, which no redundant set of taps has checked
+  yet: nothing tells which is wrong, so the new tap is accepted provisionally
+  when it keeps its row and column (judged without the other suspect) and the
+  next tap decides;
+* anything else: the new tap is rejected.
 
 A rejected tap is reported and the same target is asked again; a re-tap that
 lands where the rejected one did (within the threshold) is accepted — the
@@ -268,7 +274,7 @@ class CalibrationSession:
             return rejected
         if new not in suspects:
             if len(old) == 1:
-                self._withdraw(acc[old[0]], suspects_err(pd, pc, old[0]))
+                self._withdraw(acc[old[0]], loo_miss(pd, pc, old[0]))
                 return True, (f"the earlier tap at target {acc[old[0]].target + 1} was "
                               "the misclick and is asked again"), at
             names = ", ".join(str(acc[j].target + 1) for j in old)
@@ -381,7 +387,7 @@ def _miss(m: np.ndarray, d: np.ndarray, c: np.ndarray) -> float:
     return float(np.hypot(*(np.append(d, 1.0) @ m - c)))
 
 
-def suspects_err(dev: np.ndarray, can: np.ndarray, j: int) -> float:
+def loo_miss(dev: np.ndarray, can: np.ndarray, j: int) -> float:
     """How far the affine fit of all points but ``j`` puts point ``j`` (px; inf if none)."""
     keep = np.arange(len(dev)) != j
     m = _affine(dev[keep], can[keep])
@@ -389,9 +395,10 @@ def suspects_err(dev: np.ndarray, can: np.ndarray, j: int) -> float:
 
 
 def _agree(dev: np.ndarray, can: np.ndarray, thr: float) -> bool:
-    """Every point is predicted within ``thr`` by the others (where they can predict it)."""
-    return all(suspects_err(dev, can, i) <= thr or math.isinf(suspects_err(dev, can, i))
-               for i in range(len(dev)))
+    """Every point is predicted within ``thr`` by the others (where they can predict it:
+    a point the others cannot fit, being collinear, is not held against them)."""
+    misses = (loo_miss(dev, can, i) for i in range(len(dev)))
+    return all(m <= thr or math.isinf(m) for m in misses)
 
 
 def _suspects(dev: np.ndarray, can: np.ndarray, thr: float) -> list[int]:
@@ -403,7 +410,7 @@ def _suspects(dev: np.ndarray, can: np.ndarray, thr: float) -> list[int]:
     out = []
     for j in range(len(dev)):
         keep = np.arange(len(dev)) != j
-        if math.isinf(err := suspects_err(dev, can, j)) or err <= thr:
+        if math.isinf(err := loo_miss(dev, can, j)) or err <= thr:
             continue
         if _agree(dev[keep], can[keep], thr):
             out.append(j)
