@@ -298,8 +298,9 @@ class Normaliser:
         out: list[PenSample] = []
         if self.origin is None:
             self.origin = raw.time
-        if self._timed_out(raw.time):
-            self._force_out(self._last_time + self.config.proximity_timeout, out)  # type: ignore[operator]
+        due = self._forced_out_due(raw.time)
+        if due is not None:
+            self._force_out(due, out)
         if self._last_time is not None and raw.time < self._last_time:
             self.stats.time_backwards += 1
         self._last_time = raw.time if self._last_time is None else max(raw.time, self._last_time)
@@ -324,25 +325,28 @@ class Normaliser:
             return out  # in range without data / proximity-in packet: identity only
         entering = not self._in_prox
         self._in_prox = True
+        self._buttons = raw.buttons & 0xFFFF  # a held button re-arms the proximity timer
         sample = self._make(raw, entering, t_mono)
         if sample is not None:
-            self._buttons = sample.buttons
             self._emit(sample, out)
         return out
 
     def tick(self, now: float) -> list[PenSample]:
         """Call when no report came: forces proximity-out once ``now`` is past the timeout."""
         out: list[PenSample] = []
-        if self._timed_out(now):
-            self._force_out(self._last_time + self.config.proximity_timeout, out)  # type: ignore[operator]
+        due = self._forced_out_due(now)
+        if due is not None:
+            self._force_out(due, out)
         return out
 
-    def _timed_out(self, now: float) -> bool:
-        """libinput's proximity timer: due, and not re-armed by contact or a held button."""
+    def _forced_out_due(self, now: float) -> float | None:
+        """libinput's proximity timer: the time of a forced proximity-out due by ``now``,
+        or None (not due, re-armed by contact or a held button, or unloaded)."""
         timeout = self.config.proximity_timeout
-        return (self._in_prox and timeout is not None and self._last_time is not None
-                and now - self._last_time > timeout and not self._device_sends_out
-                and not self._touching and not self._buttons)
+        if (not self._in_prox or timeout is None or self._last_time is None
+                or self._device_sends_out or self._touching or self._buttons):
+            return None
+        return self._last_time + timeout if now - self._last_time > timeout else None
 
     def flush(self) -> list[PenSample]:
         """End of stream: a tool in proximity leaves it (timeout after its last report)."""
