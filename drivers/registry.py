@@ -100,15 +100,42 @@ def parser_names() -> list[str]:
 
 
 @lru_cache(maxsize=1)
+def _validator() -> Any:
+    import jsonschema
+
+    return jsonschema.Draft202012Validator(json.loads(SCHEMA_PATH.read_text(encoding="utf-8")))
+
+
+def parse_device_data(text: str, where: str) -> dict[str, Any]:
+    """One device model from its JSON text, checked against ``devices.schema.json``
+    and for a parser this station has; anything else is :class:`BadInput` at ``where``."""
+    try:
+        model = json.loads(text)
+    except ValueError as exc:
+        raise BadInput(f"device data is not JSON: {exc}", where) from None
+    except RecursionError:
+        raise BadInput("device data is not JSON (nested too deeply)", where) from None
+    try:
+        error = next(iter(_validator().iter_errors(model)), None)
+    except RecursionError:
+        raise BadInput("device data is nested too deeply", where) from None
+    if error is not None:
+        at = "/".join(str(p) for p in error.absolute_path) or "the top level"
+        raise BadInput(f"device data does not fit devices.schema.json at {at}: "
+                       f"{error.message[:200]}", where)
+    if model["parser"] not in parser_names():
+        raise BadInput(f"device data names unknown parser {model['parser']!r} "
+                       f"(one of {', '.join(parser_names())})", where)
+    return model
+
+
+@lru_cache(maxsize=1)
 def _load() -> tuple[dict[str, Any], ...]:
     models = []
     for path in sorted(DEVICES_DIR.glob("*.json")):
         if path.name.endswith(".schema.json"):
             continue
-        try:
-            model = json.loads(path.read_text(encoding="utf-8"))
-        except json.JSONDecodeError as exc:
-            raise BadInput(f"device data is not JSON: {exc}", str(path)) from None
+        model = parse_device_data(path.read_text(encoding="utf-8"), str(path))
         model["_path"] = str(path)
         models.append(model)
     return tuple(models)

@@ -225,7 +225,9 @@ class MockTablet:
     def _generic(self, s: PenState) -> bytes:
         assert self.generic is not None and self.generic.primary is not None
         r = self.ranges
-        eraser = s.tool is Tool.ERASER
+        fields = self.generic.primary.fields
+        # a pen without an eraser end (no Eraser/Invert usage) touches with its tip
+        eraser = s.tool is Tool.ERASER and ("eraser" in fields or "invert" in fields)
         values: dict[int, int | bool] = {U.DG_IN_RANGE: s.proximity, U.WD_SENSE: s.proximity}
         if s.proximity:
             x, y = self._xy(s)

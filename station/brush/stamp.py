@@ -135,9 +135,13 @@ class BrushSettings:
 def _number(value: Any, name: str, lo: float, hi: float, where: str | None) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise BrushError(f"{name} must be a number, got {value!r}", where)
-    v = float(value)
+    try:
+        v = float(value)
+    except OverflowError:  # an integer of hundreds of digits
+        raise BrushError(f"{name} of {len(str(value))} digits outside [{lo:g}, {hi:g}]",
+                         where) from None
     if not math.isfinite(v) or not lo <= v <= hi:
-        raise BrushError(f"{name} {value!r} outside [{lo:g}, {hi:g}]", where)
+        raise BrushError(f"{name} {value!r:.40} outside [{lo:g}, {hi:g}]", where)
     return v
 
 

@@ -49,7 +49,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-init", action="store_true", help="do not send init feature reports")
     p.add_argument("--calibration", default="auto", metavar="auto|none|FILE",
                    help="device -> canvas calibration: the device's file from the config dir "
-                   "(auto, the default), none (device-normalised), or a calibration file")
+                   "(auto, the default), none (the tablet mapped by --mapping), or a "
+                   "calibration file")
+    p.add_argument("--mapping", choices=("fit", "stretch"), default="fit",
+                   help="without a calibration: fit keeps the tablet's aspect ratio on the "
+                        "canvas (letterboxed, centred; the default), stretch fills it")
+    p.add_argument("--canvas", default="800x600", metavar="WxH",
+                   help="size (or just the shape) of the canvas the samples are for "
+                        "(default 800x600, the sim's default)")
     p.add_argument("--raw-jsonl", metavar="FILE",
                    help="also write the device-normalised (uncalibrated) samples as JSONL")
     p.add_argument("--wait-subscribers", type=int, default=0, metavar="N",
@@ -85,9 +92,12 @@ def normaliser_config(args: argparse.Namespace) -> Any:
             raise BadInput("needs four numbers x0,y0,x1,y1", "--area") from None
         if len(area) != 4:
             raise BadInput("needs four numbers x0,y0,x1,y1", "--area")
+    from station.sim.paint import parse_size
+
     return NormaliserConfig(area=area, tip_down=args.tip_down, tip_up=args.tip_up,
                             smoothing_ms=args.smoothing, pressure_curve=curve,
-                            proximity_timeout=args.proximity_timeout or None)
+                            proximity_timeout=args.proximity_timeout or None,
+                            mapping=args.mapping, canvas=parse_size(args.canvas, "--canvas"))
 
 
 def run(args: argparse.Namespace) -> int:

@@ -43,6 +43,12 @@ from station.events import Command, PenSample, Tool
 log = logging.getLogger(__name__)
 
 MAX_WAIT_SECONDS = 3600.0
+MAX_PAINTING_SECONDS = 86400.0
+"""Longest painting time a replayed session may reach (session time + waits +
+``--settle``): one day.  A record past it (``t`` = 1e12 would mean simulating
+for millennia) is refused as bad input instead of running "forever"."""
+MAX_RATE = 1000.0
+"""Most simulation steps per second of painting time a replay may ask for."""
 
 
 class PlayerError(BadInput):
@@ -288,9 +294,11 @@ class SessionPlayer:
         """
         try:
             for rec in records:
+                self._check_time(rec.t, 0.0, where)
                 self.advance_to(rec.t, on_step)
                 self.apply(rec, where() if where else None)
                 if isinstance(rec, Command) and rec.cmd == "wait":
+                    self._check_time(rec.t, 0.0, where)
                     self.advance_to(rec.t, on_step)
         except BadInput:
             try:  # keep what was painted before the bad record ...
@@ -300,9 +308,20 @@ class SessionPlayer:
             raise
         self.flush_sources()
 
+    def _check_time(self, t: float, more: float, where: Callable[[], str] | None,
+                    flag: str | None = None) -> None:
+        """Refuse painting time past :data:`MAX_PAINTING_SECONDS` (before running it)."""
+        total = t + self.waited + more
+        if total > MAX_PAINTING_SECONDS:
+            raise PlayerError(
+                f"painting time {total:g} s (session time {t:g} s + waits {self.waited:g} s"
+                f"{f' + {more:g} s' if more else ''}) is past the {MAX_PAINTING_SECONDS:g} s "
+                "a session may last", where() if where else flag)
+
     def settle(self, seconds: float, on_step: Callable[[SessionPlayer], None] | None = None
                ) -> None:
         """Run ``seconds`` more painting time after the last record."""
+        self._check_time(self.last_t, seconds, None, "--settle")
         self.waited += seconds
         self.advance_to(self.last_t, on_step)
         self.flush_sources()
@@ -319,8 +338,8 @@ def _profile_name(args: Mapping[str, Any], where: str | None) -> str:
 def _wait_seconds(args: Mapping[str, Any], where: str | None) -> float:
     seconds = args.get("seconds", 0.0)
     if (isinstance(seconds, bool) or not isinstance(seconds, (int, float))
-            or not math.isfinite(seconds) or not 0.0 <= seconds <= MAX_WAIT_SECONDS):
-        raise PlayerError(f"wait seconds {seconds!r} must be a number in [0, "
+            or not 0.0 <= seconds <= MAX_WAIT_SECONDS):  # NaN fails the comparison
+        raise PlayerError(f"wait seconds {seconds!r:.40} must be a number in [0, "
                           f"{MAX_WAIT_SECONDS:g}]", where)
     return float(seconds)
 

@@ -32,11 +32,13 @@ from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
+
 from station.calibration.area import DeviceGeometry
 from station.calibration.errors import CalibrationError
 from station.calibration.geometry import Array, project, rotation, scaling, translation
 from station.calibration.model import DeviceId
-
+from station.drivers.pipeline import PenDriver, open_device
+from station.drivers.transport.base import DeviceGone
 from station.events import PenSample, Tool
 
 SAMPLE_PERIOD = 0.005  # 200 Hz, an Intuos-class report rate
@@ -282,12 +284,6 @@ class DriverSource:
     """A real (or drivers-mock) device through the drivers' pipeline, device-normalised."""
 
     def __init__(self, spec: str) -> None:
-        try:
-            from station.drivers.pipeline import PenDriver, open_device
-            from station.drivers.transport.base import DeviceGone
-        except ImportError as exc:
-            raise CalibrationError(f"the drivers' pipeline is not available ({exc})",
-                                   "--device") from None
         self._source: Any = open_device(spec)
         self._driver = PenDriver(self._source, live=True)
         self.name = self._source.name

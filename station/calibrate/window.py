@@ -27,10 +27,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
 from station.calibration.errors import CalibrationError
 from station.calibration.fit import Mapping, fit_mapping
 from station.calibration.session import STEP_TEXT, CalibrationSession, TapResult
-
 from station.errors import StationError
 from station.events import PenSample
 
@@ -230,12 +230,13 @@ def _describe(result: TapResult, session: CalibrationSession, prov: Mapping | No
     n = len(session.targets)
     if not result.accepted:
         return f"target {result.target + 1}/{n}: REJECTED ({result.reason}); tap it again"
+    note = f" ({result.reason})" if result.reason else ""  # a provisional tap, a withdrawn one
     if prov is not None:
         w, h = session.screen
         m = prov.map(np.array([[result.tap.x, result.tap.y]]))[0]
         err = math.hypot((m[0] - result.xy[0]) * w, (m[1] - result.xy[1]) * h)
-        return f"target {result.target + 1}/{n}: ok, residual {err:.1f} px"
-    return f"target {result.target + 1}/{n}: ok"
+        return f"target {result.target + 1}/{n}: ok, residual {err:.1f} px{note}"
+    return f"target {result.target + 1}/{n}: ok{note}"
 
 
 class _Loop:
@@ -302,10 +303,10 @@ class _Loop:
 
 def run_interactive(args: argparse.Namespace) -> int:
     """The ``--device`` mode of ``station calibrate``."""
+    from station.calibrate.sources import open_source
     from station.calibration.area import AreaSettings
     from station.calibration.files import default_path, write_file
     from station.calibration.model import Calibration, FitInfo
-    from station.calibration.sources import open_source
 
     source = open_source(args.device)
     window = CalibrationWindow(fullscreen=not args.windowed)
