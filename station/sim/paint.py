@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
+from station.canvas.backend import make_backend as _make_backend
 from station.errors import BadInput, StationError
 from station.events import Command, PenSample
 from station.sessionlog import SessionHeader, SessionLogReader
@@ -221,62 +222,9 @@ def load_resume_state(path: str, size: tuple[int, int] | None, profile: str | No
     return state
 
 
-SOFTWARE_GL = ("llvmpipe", "softpipe", "swrast", "lavapipe", "software rasterizer")
-SOFTWARE_GL_PREFERS_NUMPY = True
-"""``auto`` on a CPU-only OpenGL (Mesa llvmpipe): use the NumPy reference, which
-was the faster backend there when measured (2-core machine, ``station bench sim
---quick``, 800x600: stroke 129 vs 74 steps/s, wash 13.4 vs 8.7 steps/s; the
-400x300 demo in 17 s vs 31 s, identical pictures to 1 level).  Set to False if the GL
-backend overtakes it on llvmpipe; with a real GPU ``auto`` always picks GL."""
-
-
-def auto_backend() -> tuple[str, str]:
-    """The backend ``auto`` means here, and why (one line)."""
-    from station.canvas.backend import fastest_cpu_backend
-
-    try:
-        from station.canvas.gl.context import create_context
-
-        ctx = create_context()
-        try:
-            renderer = str(ctx.info.get("GL_RENDERER", "unknown"))
-        finally:
-            ctx.release()
-    except (ImportError, StationError) as exc:
-        why = " | ".join(ln.strip() for ln in str(exc).splitlines() if ln.strip())
-        return fastest_cpu_backend(), f"GL unavailable ({why[:300]})"
-    if SOFTWARE_GL_PREFERS_NUMPY and any(k in renderer.lower() for k in SOFTWARE_GL):
-        cpu = fastest_cpu_backend()
-        return cpu, f"OpenGL renderer {renderer!r} runs on the CPU, where {cpu} is faster"
-    return "gl", f"OpenGL renderer {renderer!r}"
-
-
-def make_backend(name: str, width: int, height: int, profile: str, seed: int,
-                 **opts: Any) -> tuple[Any, str]:
-    """Create a canvas backend; ``auto`` picks GL on a GPU, else NumPy.
-
-    Returns the backend and the name of the one made.  An explicit ``gl`` that
-    cannot start is an environment failure (exit 1), not bad input; ``auto``
-    then falls back to NumPy with a one-line warning.
-    """
-    from station.canvas.backend import create_backend
-
-    if name == "auto":
-        name, why = auto_backend()
-        log.info("backend auto: %s (%s)", name, why)
-        if name == "gl":
-            try:
-                return create_backend("gl", width, height, profile, seed, **opts), "gl"
-            except BadInput:
-                raise
-            except (ImportError, StationError) as exc:
-                why = " | ".join(ln.strip() for ln in str(exc).splitlines() if ln.strip())
-                log.warning("GL backend unavailable (%s): painting with numpy", why[:300])
-                name = "numpy"
-    try:
-        return create_backend(name, width, height, profile, seed, **opts), name
-    except ImportError as exc:
-        raise StationError(f"backend {name!r} cannot be loaded: {exc}") from None
+# What ``auto`` means is decided in one place, station.canvas.backend.resolve_auto
+# (through make_backend); the name stays importable from here for the live sim.
+make_backend = _make_backend
 
 
 def paint(
