@@ -342,7 +342,7 @@ def test_progress_only_when_asked_or_on_a_terminal(tmp_path: Path,
     small_session().save(log)
     paint_api(str(log), str(tmp_path / "a.png"), backend="numpy", progress=True)
     err = capsys.readouterr().err
-    assert err.startswith("\rpainting ") and "%" in err and err.endswith("\n")
+    assert err.startswith("\rpainting:") and "%" in err and err.endswith("\n")
     paint_api(str(log), str(tmp_path / "b.png"), backend="numpy")  # stderr is not a tty here
     assert capsys.readouterr().err == ""
 

@@ -18,6 +18,8 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from station.progress import Progress
+
 TARGET = 100_000
 
 
@@ -107,7 +109,10 @@ def _pin() -> int | None:
 def measure(n: int, repeat: int) -> dict[str, Any]:
     results: dict[str, Any] = {}
     intuos_samples = []
-    for name, (parser, reports) in _workloads(n).items():
+    workloads = _workloads(n)
+    bar = Progress(len(workloads) + 1, "bench parse", unit="parser")
+    for name, (parser, reports) in workloads.items():
+        bar.note(name)
         def loop(parser: Any = parser, reports: list[bytes] = reports) -> int:
             parser.reset()
             parse = parser.parse
@@ -131,6 +136,8 @@ def measure(n: int, repeat: int) -> dict[str, Any]:
             parser.reset()
             intuos_samples = [s for i, r in enumerate(reports) for s in parser.parse(r, i * 0.005)]
             intuos_ranges = parser.ranges
+        bar.update()
+    bar.note("normaliser")
     try:
         from station.drivers.normalise import Normaliser
     except ImportError:
@@ -152,6 +159,8 @@ def measure(n: int, repeat: int) -> dict[str, Any]:
             "us_per_report": round(seconds / len(intuos_samples) * 1e6, 3),
             "meets_target": len(intuos_samples) / seconds >= TARGET,
         }
+    bar.update()
+    bar.close()
     return results
 
 

@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import sys
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -32,6 +31,7 @@ import numpy as np
 
 from station.canvas.backend import available_backends, create_backend, resolve_auto
 from station.errors import BadInput, StationError
+from station.progress import Progress
 
 DEFAULT_SIZES = ("512x512", "800x600", "1024x1024", "2048x2048")
 SCENARIOS = ("wash", "stroke")
@@ -253,20 +253,25 @@ def run(args: argparse.Namespace) -> int:
     bandwidth = memory_bandwidth_gb_s()
     results: list[dict[str, Any]] = []
     renderer = "numpy"
+    bar = Progress(len(backends) * len(dims) * len(scenarios), "bench sim", unit="run")
     for backend in backends:
         for w, h in dims:
             for scenario in scenarios:
+                bar.note(f"{backend} {w}x{h} {scenario}")
                 try:
                     r = measure(backend, w, h, scenario, seconds)
                 except (StationError, ImportError) as exc:
                     results.append({"backend": backend, "size": f"{w}x{h}",
                                     "scenario": scenario, "error": str(exc)})
+                    bar.update()
                     continue
                 if backend == "gl":
                     renderer = r.renderer
                 results.append(r.as_dict(bandwidth))
-                print(f"bench sim: {backend} {w}x{h} {scenario}: "
-                      f"{results[-1]['steps_per_s']} steps/s", file=sys.stderr)
+                bar.write(f"bench sim: {backend} {w}x{h} {scenario}: "
+                          f"{results[-1]['steps_per_s']} steps/s")
+                bar.update()
+    bar.close()
     out = {"renderer": renderer, "memory_bandwidth_gb_s": round(bandwidth, 3),
            "auto": resolve_auto()[0], "results": results}
     print(json.dumps(out, indent=2))

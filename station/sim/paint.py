@@ -22,16 +22,16 @@ import logging
 import math
 import os
 import re
-import sys
 import time
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
 from station.canvas.backend import make_backend as _make_backend
 from station.errors import BadInput, StationError
 from station.events import Command, PenSample
+from station.progress import Progress
 from station.sessionlog import SessionHeader, SessionLogReader
 from station.sim.player import SessionPlayer
 
@@ -175,37 +175,6 @@ def _session_length(path: str) -> float:
     return last + waited
 
 
-class Progress:
-    """A one-line progress display on a terminal (stderr), at most 4 updates/s."""
-
-    def __init__(self, total_s: float, stream: IO[str] | None = None) -> None:
-        self.total = total_s
-        self.stream = stream or sys.stderr
-        self.t0 = time.monotonic()
-        self.last = 0.0
-        self.shown = False
-
-    def __call__(self, player: SessionPlayer, force: bool = False) -> None:
-        now = time.monotonic()
-        if now - self.last < 0.25 and not force:
-            return
-        self.last = now
-        t = player.painting_time
-        pct = f"{min(100.0, 100.0 * t / self.total):5.1f}% " if self.total > 0 else ""
-        rate = player.counters.steps / max(now - self.t0, 1e-9)
-        self.stream.write(f"\rpainting {pct}{t:7.1f}/{self.total:.1f} s painting time, "
-                          f"{player.counters.steps} steps, {rate:5.1f} steps/s ")
-        self.stream.flush()
-        self.shown = True
-
-    def done(self, player: SessionPlayer | None = None) -> None:
-        if player is not None and self.shown:
-            self(player, force=True)  # the final count, not the last throttled one
-        if self.shown:
-            self.stream.write("\n")
-            self.stream.flush()
-
-
 # -- painting ------------------------------------------------------------------------
 def load_resume_state(path: str, size: tuple[int, int] | None, profile: str | None,
                       flag: str = "--resume") -> Any:
@@ -292,19 +261,24 @@ def paint(
                                brush_scale=scale)
         if start is not None:
             player.layer_pigments.update(start.slots)
-        show = sys.stderr.isatty() if progress is None else progress
-        prog = Progress(_session_length(input_path) + settle) if show else None
+        bar = Progress(_session_length(input_path) + settle, "painting", unit="s",
+                       show=progress)
+
+        def prog(p: SessionPlayer) -> None:
+            bar.set(p.painting_time)
+
         t0 = time.monotonic()
         error: BadInput | None = None
+        finished = False
         try:
             player.play(source.records, source.where, on_step=prog)
             if settle > 0:
                 player.settle(settle, on_step=prog)
+            finished = True
         except BadInput as exc:
             error = exc
         finally:
-            if prog is not None:
-                prog.done(player)
+            bar.close(complete=finished)
         wall = time.monotonic() - t0
         result = PaintResult(
             width=width, height=height, profile=player.profile, backend=backend,
