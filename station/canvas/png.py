@@ -36,7 +36,7 @@ def _write(stream: IO[bytes], pixels: np.ndarray) -> None:
     _check(pixels)
     h, w, _ = pixels.shape
     if pixels.dtype == np.uint8:
-        Image.fromarray(np.ascontiguousarray(pixels), "RGB").save(
+        Image.fromarray(np.ascontiguousarray(pixels)).save(  # (H, W, 3) uint8 is RGB
             stream, format="PNG", compress_level=COMPRESS_LEVEL)
     else:
         writer = pypng.Writer(w, h, greyscale=False, bitdepth=16, compression=COMPRESS_LEVEL)
@@ -52,6 +52,5 @@ def encode_png(pixels: np.ndarray) -> bytes:
 
 def write_png(path: str | Path, pixels: np.ndarray) -> None:
     """Write ``pixels`` (uint8 or uint16 (H, W, 3)) to ``path``."""
-    _check(pixels)  # before the file is opened: a bad array leaves no empty file behind
-    with open(path, "wb") as fh:
-        _write(fh, pixels)
+    # encoded first: a bad array or a failing encoder leaves no half-written file behind
+    Path(path).write_bytes(encode_png(pixels))
