@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib.util
 import io
+import subprocess
 import sys
 import zlib
 
@@ -89,6 +90,16 @@ def test_evdev_codes_are_python_evdevs() -> None:
             assert getattr(c, name) == getattr(ecodes, name), name
     assert c.TYPE_NAMES[c.EV_ABS] == "EV_ABS"
     assert c.PEN_TOOL_KEYS[ecodes.BTN_TOOL_RUBBER].name == "ERASER"
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="compares with python-evdev")
+def test_evdev_fallback_off_linux_has_the_kernels_numbers() -> None:
+    code = ("import sys, importlib; import station.drivers.evdev.codes as c;"
+            "real = {n: getattr(c, n) for n in c.__all__}; sys.platform = 'darwin';"
+            "importlib.reload(c); print(sorted(n for n in real if real[n] != getattr(c, n)))")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == "['EV']"  # the full table vs the subset the readers name
 
 
 def test_hid_usage_names_come_from_the_usage_tables() -> None:

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from station.canvas.backend import make_backend as _make_backend
+from station.canvas.backend import make_backend  # auto: resolve_auto decides, once
 from station.errors import BadInput, StationError
 from station.events import Command, PenSample
 from station.progress import Progress
@@ -189,11 +189,6 @@ def load_resume_state(path: str, size: tuple[int, int] | None, profile: str | No
         raise PaintInputError(f"--profile {profile} differs from the resumed canvas's "
                               f"({state.profile}); switch with a profile command instead", flag)
     return state
-
-
-# What ``auto`` means is decided in one place, station.canvas.backend.resolve_auto
-# (through make_backend); the name stays importable from here for the live sim.
-make_backend = _make_backend
 
 
 def paint(
