@@ -589,6 +589,12 @@ class TraceReplay:
         firsts += [d.events[0].time for d in self.pen_devices if d.events]
         return min(firsts) if firsts else 0.0
 
+    def duration(self) -> float:
+        """Seconds from the first to the last pen report (the samples' ``t`` range)."""
+        lasts = [d.reports[-1].time for d in self.pen_devices if d.reports]
+        lasts += [d.events[-1].time for d in self.pen_devices if d.events]
+        return max(0.0, max(lasts) - self._origin()) if lasts else 0.0
+
     def open_drivers(self, speed: float | None = None) -> list[PenDriver]:
         from station.drivers.transport.recording import (
             RecordedEvdevTransport,

@@ -19,6 +19,8 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from station.progress import Progress
+
 # Reports per second a parser keeps on one idle core (issue 9: >= 300 000).  For Bluetooth
 # reports that bundle several pen packets the target applies to packets (samples).
 TARGET = 300_000
@@ -171,6 +173,7 @@ def _loop(parser: Any, reports: list[bytes]) -> int:
 def measure(n: int, repeat: int) -> dict[str, Any]:
     results: dict[str, Any] = {}
     work = _workloads(n)
+    bar = Progress(repeat + 1, "bench parse", unit="round")
     # Round-robin: every run visits every parser once, so a load change on a shared
     # machine hits all parsers alike and the best-of-R figures stay comparable.
     best = dict.fromkeys(work, math.inf)
@@ -180,6 +183,8 @@ def measure(n: int, repeat: int) -> dict[str, Any]:
             t0 = time.perf_counter()
             samples_of[name] = _loop(parser, reports)
             best[name] = min(best[name], time.perf_counter() - t0)
+        bar.update()
+    bar.note("normaliser")
     for name, (_, reports) in work.items():
         seconds = best[name]
         results[name] = {
@@ -216,6 +221,8 @@ def measure(n: int, repeat: int) -> dict[str, Any]:
             "us_per_report": round(seconds / len(intuos_samples) * 1e6, 3),
             "meets_target": len(intuos_samples) / seconds >= TARGET,
         }
+    bar.update()
+    bar.close()
     return results
 
 

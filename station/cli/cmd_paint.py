@@ -9,8 +9,8 @@ import sys
 from station.sim.paint import parse_size
 
 BACKENDS = ("auto", "cpu", "numpy", "gl")
-BACKEND_HELP = ("canvas backend: numpy (reference), gl (moderngl/EGL), or auto (the default): "
-                "gl on a GPU, numpy without one or on a CPU rasterizer such as llvmpipe")
+BACKEND_HELP = ("canvas backend: numpy (reference), cpu (numba), gl (moderngl/EGL), or auto "
+                "(the default: the fastest here, see docs/painting.md)")
 
 
 def add_canvas_options(p: argparse.ArgumentParser, backend_default: str = "auto") -> None:

@@ -16,6 +16,7 @@ import threading
 from typing import Any
 
 from station.errors import BadInput
+from station.progress import Progress
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -73,9 +74,11 @@ def run(args: argparse.Namespace) -> int:
             publisher.wait_for_subscribers(args.wait_subscribers, timeout=5.0)
     stop = threading.Event()
     count = {"samples": 0}
+    bar = Progress(replay.duration(), "replay", unit="s")
 
     def emit(sample: PenSample) -> None:
         count["samples"] += 1
+        bar.set(sample.t)
         if writer is not None:
             writer.write(sample)
         if publisher is not None:
@@ -89,6 +92,7 @@ def run(args: argparse.Namespace) -> int:
             batch: list[PenSample] = []
             for sample in replay.samples():
                 count["samples"] += 1
+                bar.set(sample.t)
                 if writer is not None:
                     writer.write(sample)
                 if publisher is not None:
@@ -107,6 +111,7 @@ def run(args: argparse.Namespace) -> int:
         if publisher is not None:
             publisher.publish_status({"kind": "replay", "state": "done", **summary})
     finally:
+        bar.close()
         for sig, handler in old.items():
             signal.signal(sig, handler)
         if writer is not None:
