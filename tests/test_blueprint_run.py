@@ -276,3 +276,38 @@ def test_trace_and_haptic_device_through_the_bus(tmp_path: Path) -> None:
     assert counts == {"trace": replayed, "hand": driver_total(run, "hand")}
     assert min(counts.values()) > 100
     assert painted(tmp_path / "out.png") > 40
+
+
+def test_a_crashing_component_backs_off_exponentially(tmp_path: Path) -> None:
+    """A driver whose device is not there exits 1 each time: restarted after 0.1, 0.2,
+    0.4 … s, each restart logged; the station's exit code says a component failed."""
+    (tmp_path / "bp.xml").write_text("""<station name="crash" version="1">
+  <driver id="pen" device="hidraw:/dev/hidraw-not-here" restart-delay="100ms"/>
+  <recorder id="rec" output="rec.jsonl"><requires interface="pen" from="pen"/></recorder>
+</station>
+""")
+    run = tmp_path / "r"
+    proc = station("run", "bp.xml", "--duration", "8", "--run-dir", str(run), cwd=tmp_path)
+    assert proc.returncode == 1, proc.stderr
+    delays = [float(ln.rsplit(" in ", 1)[1].split()[0]) for ln in proc.stderr.splitlines()
+              if ln.startswith("station run: pen died (exit 1)")]
+    assert len(delays) >= 3, proc.stderr
+    assert delays[:3] == [0.1, 0.2, 0.4]
+    st = state(run)["components"]["pen"]
+    assert st["restarts"] >= 2 and st["exit"] == 1
+    assert "failed: pen" in proc.stderr
+
+
+def test_run_refuses_a_broken_blueprint_before_starting(tmp_path: Path) -> None:
+    (tmp_path / "bp.xml").write_text("""<station name="broken" version="1">
+  <driver id="pen" device="mock:intuos-pro-m"/>
+  <driver id="pen" device="mock:cintiq-22hd"/>
+</station>
+""")
+    run = tmp_path / "r"
+    proc = station("run", "bp.xml", "--run-dir", str(run), cwd=tmp_path)
+    assert proc.returncode == 2
+    assert proc.stderr.strip().splitlines() == [
+        "station run: bp.xml:3: <driver id=\"pen\">: duplicate id 'pen' "
+        "(first at line 2)"]
+    assert not run.exists()  # nothing started, nothing made
