@@ -285,6 +285,8 @@ def resolve(bp: Blueprint, run_dir: Path, workdir: Path, stamp: str | None = Non
             if via_bus:
                 bus = by_id[via_bus[0].id]
                 target = ">" + (bus.get("pub") or ipc(f"{bus.id}.pub"))
+                if target.startswith(">tcp://") and c.kind != "replay" and bus.get("keys"):
+                    keys = str(in_path(bus.attrs["keys"]))
                 binds: list[str] = []
                 waits = 1
             else:
@@ -292,7 +294,19 @@ def resolve(bp: Blueprint, run_dir: Path, workdir: Path, stamp: str | None = Non
                 target, binds, waits = "@" + ep, [_norm(ep, run_dir)], len(direct)
                 pen_out[c.id] = ep
             procs[c.id] = _source(c, target, binds, waits, calibrations, in_path)
+            if via_bus and target.startswith(">tcp://"):
+                if c.kind == "replay":
+                    raise BlueprintError("station replay takes no CURVE keys: a <replay> "
+                                         "publishes to an ipc bus only", str(c.where))
+                if bus.get("keys"):
+                    procs[c.id].argv += ["--keys", keys]
     for c in bp.components:
+        provider = by_id[c.requires[0].provider] if c.kind in ("sim", "kiosk", "recorder") \
+            else None
+        if provider is not None and pen_out[provider.id].startswith("tcp://"):
+            raise BlueprintError(f"station {c.kind} takes no CURVE keys: subscribe to an ipc "
+                                 "bus (a tcp bus serves remote drivers on its pub side)",
+                                 str(c.where))
         if c.kind == "sim":
             procs[c.id] = _sim(c, pen_out[c.requires[0].provider], ipc, out_path, in_path,
                                bp.name, stamp, run_dir)
