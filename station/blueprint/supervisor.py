@@ -39,6 +39,7 @@ STABLE_S = 10.0  # a component that ran this long starts its back-off afresh
 READY_TIMEOUT_S = 60.0
 STOP_TIMEOUT_S = 30.0
 DRAIN_S = 1.0  # --once: painters quiet this long after the sources finished
+FRESH_STATUS_S = 1.0  # a painter publishes status twice a second while it runs
 SAVE_TIMEOUT_S = 15.0
 EXIT_BAD_INPUT = 2
 
@@ -390,7 +391,9 @@ class Supervisor:
         return bool(sources) and all(c.state in ("finished", "failed") for c in sources)
 
     def _drained(self, now: float) -> bool:
-        """Every painter's sample count unchanged for :data:`DRAIN_S`."""
+        """Every painter alive (a fresh status) and its sample count unchanged for
+        :data:`DRAIN_S`: a starved painter publishes no status, so it is not taken for a
+        finished one."""
         if self._sources_done_at is None:
             self._sources_done_at = now
         quiet = now - self._sources_done_at >= DRAIN_S
@@ -402,7 +405,7 @@ class Supervisor:
             if samples != last:
                 self._drain[c.proc.id] = (samples, now)
                 quiet = False
-            elif now - since < DRAIN_S:
+            elif now - since < DRAIN_S or now - c.status_at > FRESH_STATUS_S:
                 quiet = False
         return quiet
 
