@@ -178,3 +178,15 @@ def test_the_documented_example_is_a_working_blueprint(tmp_path: Path) -> None:
     assert plan.process("right").devices == ["/dev/input/by-id/usb-Wacom_Cintiq-event-stylus"]
     assert [r.event for r in bp.rules] == ["idle", "device-unplugged"]
     assert bp.rules[0].after_s == 300.0
+
+
+def test_a_restarted_sim_recovers_the_log_it_really_writes(tmp_path: Path) -> None:
+    from station.blueprint.supervisor import Supervisor, argv_for
+
+    sim = resolve(load(str(write(tmp_path, PEN + SIM))), Path("/r"), tmp_path).process("sim")
+    assert argv_for(sim) == sim.argv  # no log yet: a fresh start
+    real = tmp_path / "sessions" / "t-sim-2.jsonl"  # the name was taken: the sim chose -2
+    Supervisor._follow_log(sim, str(real))
+    real.parent.mkdir()
+    real.write_text("{}\n")
+    assert argv_for(sim)[-2:] == ["--recover", str(real)]

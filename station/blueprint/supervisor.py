@@ -293,8 +293,19 @@ class Supervisor:
                 continue
             child = self.by_id[ident]
             child.status, child.status_at = dict(msg.value), time.monotonic()
+            self._follow_log(child.proc, child.status.get("log"))
             for fired in self.rules.on_status(ident, child.status, child.status_at):
                 self._act(fired)
+
+    @staticmethod
+    def _follow_log(proc: Process, log: object) -> None:
+        """The log the sim really writes (it never overwrites: an existing name becomes
+        NAME-2.jsonl), so a restart recovers the right one."""
+        if proc.kind != "sim" or not isinstance(log, str) or proc.recover_argv is None:
+            return
+        if proc.log is None or Path(log) != proc.log:
+            proc.log = Path(log)
+            proc.recover_argv[-1] = log
 
     def _command(self, target: str, name: str, args: dict[str, Any] | None = None) -> bool:
         from station.bus import Publisher
