@@ -282,25 +282,22 @@ _HANDLERS: dict[str, Callable[[SessionPlayer, Mapping[str, Any], str | None], No
 }
 
 
-PIGMENT_GAIN = 4.0
-"""Pigment per stamp of a ``brush`` amount of 1, in units of the profile's
-``pigment_load``: the profile's load is the *nominal* paint (amount 0.25) and
-amount 1 is paint four times as strong, straight from the tube.  With the
-Curtis coefficients a single pass at the nominal load is a pale tint; painters
-need the range above it for saturated washes and darks."""
-
-
 def brush_model(profile: Profile) -> BrushModel:
-    """The round-brush model of a profile: its per-stamp water and pigment, its v_max."""
+    """The round-brush model of a profile: its per-stamp water and pigment, its v_max.
+
+    ``pigment_load`` is the pigment of a full stamp of tube-strength paint (brush amount
+    1); there is no gain on top of it.
+    """
     b = profile.brush
-    return BrushModel(water_scale=b.water, pigment_scale=b.pigment_load * PIGMENT_GAIN,
+    return BrushModel(water_scale=b.water, pigment_scale=b.pigment_load,
                       v_max=profile.params.v_max)
 
 
 def brush_defaults(profile: Profile) -> BrushSettings:
-    """The brush a profile starts with: its radius, full water, its default pigment."""
+    """The brush a profile starts with: its radius, full water, its default pigment at the
+    profile's nominal amount."""
     b = profile.brush
-    return BrushSettings(size=2.0 * b.radius, water=1.0, pigment={b.pigment: 1.0 / PIGMENT_GAIN})
+    return BrushSettings(size=2.0 * b.radius, water=1.0, pigment={b.pigment: b.amount})
 
 
 def add_sources(backend: Any, src: Any) -> None:
