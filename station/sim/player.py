@@ -34,6 +34,7 @@ from typing import Any
 from station.canvas.brush import BrushModel, BrushSettings, RoundBrush
 from station.canvas.params import PROFILES, Profile, get_profile
 from station.canvas.state import DEFAULT_SLOTS
+from station.canvas.tools import HairDryer, blow, on_state
 from station.errors import BadInput
 from station.events import Command, PenSample, Tool
 
@@ -104,6 +105,9 @@ class SessionPlayer:
         # sample that would bring it (the canvas would only notice at the next step).
         self.layer_pigments: set[str] = set()
         self.n_slots = int(getattr(backend, "n_slots", None) or DEFAULT_SLOTS)
+        self.dryer: HairDryer | None = None  # the hair dryer while it blows
+        self.dryer_until = 0  # step count at which it stops
+        self.width, self.height = width, height
         self.waited = 0.0  # painting seconds inserted by wait commands
         self.last_t = 0.0  # session time of the last record applied
         self._warned: set[str] = set()
@@ -121,6 +125,12 @@ class SessionPlayer:
     def step(self) -> None:
         """One simulation step with the brush sources collected since the last."""
         self.flush_sources()
+        dryer = self.dryer
+        if dryer is not None:
+            if self.counters.steps < self.dryer_until:
+                on_state(self.backend, lambda st: blow(st, dryer, self.dt))
+            else:
+                self.dryer = None
         self.backend.step()
         self.counters.steps += 1
 
@@ -257,6 +267,33 @@ def _dry(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
     p.backend.dry()
 
 
+def _number(args: Mapping[str, Any], key: str, default: float, lo: float, hi: float,
+            where: str | None) -> float:
+    v = args.get(key, default)
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
+            or not lo <= v <= hi:
+        raise PlayerError(f"hairdryer {key} {v!r} must be a number in [{lo:g}, {hi:g}]", where)
+    return float(v)
+
+
+def _hairdryer(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+    """Hold a hair dryer over (x, y) (canvas-normalised) for ``seconds`` of painting time
+    from now (0 switches it off): ``radius`` [cells of the session's canvas],
+    ``temperature`` [C] and ``airflow`` [1] of its air at the sheet."""
+    x = _number(args, "x", 0.5, 0.0, 1.0, where)
+    y = _number(args, "y", 0.5, 0.0, 1.0, where)
+    seconds = _number(args, "seconds", 10.0, 0.0, MAX_WAIT_SECONDS, where)
+    radius = _number(args, "radius", 60.0, 1.0, 2048.0, where) * p.brush_scale
+    temp = _number(args, "temperature", 45.0, -10.0, 60.0, where)
+    flow = _number(args, "airflow", 20.0, 0.0, 200.0, where)
+    p.flush_sources()
+    p.dryer = HairDryer(cx=x * (p.width - 1), cy=y * (p.height - 1),
+                        radius=max(1.0, min(radius, 2048.0)), temperature=temp, airflow=flow)
+    p.dryer_until = p.counters.steps + int(round(seconds * p.rate))
+    if seconds == 0:
+        p.dryer = None
+
+
 def _new_layer(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
     p.flush_sources()
     try:
@@ -277,6 +314,7 @@ _HANDLERS: dict[str, Callable[[SessionPlayer, Mapping[str, Any], str | None], No
     "profile": SessionPlayer._profile,
     "wait": SessionPlayer._wait,
     "dry": _dry,
+    "hairdryer": _hairdryer,
     "new_layer": _new_layer,
     "clear": _clear,
 }
