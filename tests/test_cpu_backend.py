@@ -117,7 +117,9 @@ def test_multi_step_stroke_is_bitwise_equal() -> None:
                                     {"nu_p": 0.0, "cap_diffusion": 0.0, "block_fade": 0.0},
                                     {"flow_outward": 0.0, "advance_height": 0.0},
                                     {"flow_outward": 0.8, "wet_blur": 4.0, "temperature": 35.0,
-                                     "humidity": 0.2, "advance_height": 0.3}])
+                                     "humidity": 0.2, "advance_height": 0.3},
+                                    {"paper_relief": 0.6}, {"paper_relief": 0.4,
+                                                            "flow_outward": 0.0}])
 def test_parameter_variants_match(change: dict[str, Any]) -> None:
     prm = dataclasses.replace(get_profile("watercolor").params, **change)
     a = _random_canvas(NumpyCanvas, 3, params=prm)

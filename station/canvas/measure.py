@@ -76,3 +76,87 @@ def paper_following(q: np.ndarray, h: np.ndarray, footprint: np.ndarray,
     if not reached.any() or not rim_dry.any():
         return 0.0
     return float(h[reached].mean() - h[rim_dry].mean())
+
+
+def _contour_segments(f: np.ndarray, level: float) -> np.ndarray:
+    """Marching-squares segments of the iso-line ``f == level`` (cell centres as grid
+    points, linear interpolation along the square sides): float64 (N, 2, 2) of (y, x)."""
+    a = np.pad(np.asarray(f, np.float64), 1, constant_values=-np.inf) >= level
+    v = np.pad(np.asarray(f, np.float64), 1, constant_values=float(np.min(f)) - 1.0)
+    segs: list[tuple[tuple[float, float], tuple[float, float]]] = []
+    hh, ww = v.shape
+
+    def cross(y0: int, x0: int, y1: int, x1: int) -> tuple[float, float]:
+        f0, f1 = v[y0, x0], v[y1, x1]
+        t = 0.5 if f1 == f0 else (level - f0) / (f1 - f0)
+        t = min(max(t, 0.0), 1.0)
+        return (y0 + t * (y1 - y0), x0 + t * (x1 - x0))
+
+    for y in range(hh - 1):
+        for x in range(ww - 1):
+            tl, tr, br, bl = a[y, x], a[y, x + 1], a[y + 1, x + 1], a[y + 1, x]
+            k = int(tl) | int(tr) << 1 | int(br) << 2 | int(bl) << 3
+            if k in (0, 15):
+                continue
+            top = cross(y, x, y, x + 1)
+            right = cross(y, x + 1, y + 1, x + 1)
+            bottom = cross(y + 1, x, y + 1, x + 1)
+            left = cross(y, x, y + 1, x)
+            edges = {1: [(left, top)], 2: [(top, right)], 3: [(left, right)],
+                     4: [(right, bottom)], 5: [(left, top), (right, bottom)],
+                     6: [(top, bottom)], 7: [(left, bottom)], 8: [(bottom, left)],
+                     9: [(top, bottom)], 10: [(top, right), (bottom, left)],
+                     11: [(right, bottom)], 12: [(right, left)], 13: [(top, right)],
+                     14: [(left, top)]}[k]
+            segs.extend(edges)
+    if not segs:
+        return np.zeros((0, 2, 2))
+    return np.asarray(segs, np.float64) - 1.0
+
+
+def _hull_perimeter(points: np.ndarray) -> float:
+    """Perimeter of the convex hull of (N, 2) points (Andrew's monotone chain)."""
+    pts = sorted(set(map(tuple, np.round(points, 9).tolist())))
+    if len(pts) < 3:
+        return 0.0
+
+    def turn(o: tuple[float, ...], a: tuple[float, ...], b: tuple[float, ...]) -> float:
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    lower: list[tuple[float, ...]] = []
+    for p in pts:
+        while len(lower) >= 2 and turn(lower[-2], lower[-1], p) <= 0:
+            lower.pop()
+        lower.append(p)
+    upper: list[tuple[float, ...]] = []
+    for p in reversed(pts):
+        while len(upper) >= 2 and turn(upper[-2], upper[-1], p) <= 0:
+            upper.pop()
+        upper.append(p)
+    hull = np.asarray(lower[:-1] + upper[:-1])
+    return float(np.linalg.norm(hull - np.roll(hull, 1, axis=0), axis=1).sum())
+
+
+@dataclass(frozen=True)
+class Spread:
+    """How a drop spread: ``area_ratio`` = area inside the iso-line over the footprint's
+    area [1]; ``feather`` = iso-line length over its convex hull's perimeter [1] (1 for a
+    convex blot, larger for a feathered, irregular boundary)."""
+
+    area_ratio: float
+    feather: float
+
+
+def spread(q: np.ndarray, footprint: np.ndarray, level_share: float = 0.2) -> Spread:
+    """The spread of the deposit ``q`` of a drop painted over ``footprint``: the iso-line
+    at ``level_share`` of the mean deposit the footprint would hold had nothing moved
+    (total / footprint area)."""
+    area_fp = float((footprint > 0).sum())
+    level = level_share * float(q.sum()) / max(area_fp, 1.0)
+    inside = float((q >= level).sum())
+    segs = _contour_segments(q, level)
+    if len(segs) == 0:
+        return Spread(inside / max(area_fp, 1.0), 0.0)
+    length = float(np.linalg.norm(segs[:, 0] - segs[:, 1], axis=1).sum())
+    hull = _hull_perimeter(segs.reshape(-1, 2))
+    return Spread(inside / max(area_fp, 1.0), length / hull if hull > 0 else 0.0)

@@ -61,6 +61,10 @@ class SimParams:
         advance_height: a dry cell joins the wet area when a 4-neighbour's fluid water
             exceeds ``advance_height * (1.5 - h)`` [height] (0: pinned at the footprint);
             the contact line creeps on where the paper lets it, so edges follow the grain.
+        paper_relief: relief of the paper under the water [height per unit of ``h``]: the
+            water-height term levels the free surface ``w + paper_relief * h``, so water
+            runs off the paper's hills into its valleys (Curtis 1997's flow down the paper
+            texture) and a flowing front frays along them.
         wet_blur: standard deviation of the Gaussian that blurs the wet mask [cells]
             (0: no flow-outward term); the kernel is truncated at ``ceil(2 * wet_blur)``.
         alpha: capillary absorption rate [height/s].
@@ -102,6 +106,7 @@ class SimParams:
     edge_evap: float = 1.0
     flow_outward: float = 0.3
     advance_height: float = 0.7
+    paper_relief: float = 0.0
     wet_blur: float = 2.0
     alpha: float = 0.03
     cap_diffusion: float = 1.5

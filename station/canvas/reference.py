@@ -26,7 +26,7 @@ CHANGED: wet mask: a dry unmasked cell is wet when a 4-neighbour's w exceeds
 CHANGED: passes 7 and 9c use ``prm.evap_shallow()`` / ``prm.evap_cap()``: eps_shallow and
   eps_cap scaled by the drying power of the air (temperature, humidity, airflow); exactly
   eps_* at the reference conditions 20 C, 50 %, airflow 1.
-CHANGED: pass 3 levels ``P = w - flow_outward (1 - M')`` instead of w (Curtis 1997's
+CHANGED: pass 3 levels ``P = (w + paper_relief h) - flow_outward (1 - M')`` instead of w (Curtis 1997's
   flow-outward term; new SimParams ``flow_outward``, ``wet_blur``); ``edge_evap`` default
   4 -> 1 (the spec's value).
 NOTE (API): ``PASS_ORDER`` names the passes; ``step_region(state, box, dt, stop_after=name)``
@@ -66,8 +66,9 @@ the same float32 value on both sides).
    Jacobi not Gauss-Seidel); non-wet cells 0.
 
 3. ``water_height_and_boundary``: the levelled height is the pressure
-   ``P = w - flow_outward * (1 - M')`` on wet cells (``P = w`` elsewhere; Curtis 1997's
-   flow outward), ``M'`` = ``blurred_wet``: the wet mask (1/0) blurred with the float32
+   ``P = (w + paper_relief * h) - flow_outward * (1 - M')`` on wet cells (``P = w``
+   elsewhere; the free surface over the paper's relief, lowered near the edge by Curtis
+   1997's flow outward; a term whose parameter is 0 is left out), ``M'`` = ``blurred_wet``: the wet mask (1/0) blurred with the float32
    Gaussian ``gaussian_taps(wet_blur)`` along x, then along y, each sum over the taps in
    order (offset -R first), cells outside the region 0. For each wet cell, neighbour
    heights (of P) ``wE = P[y,x+1]`` if face E is open else ``w[y,x]`` (same for W, N, S);
@@ -269,17 +270,23 @@ def blurred_wet(wet: np.ndarray, taps: np.ndarray) -> np.ndarray:
     return out
 
 
-def flow_pressure(w: np.ndarray, own: np.ndarray, wet: np.ndarray,
+def flow_pressure(w: np.ndarray, own: np.ndarray, wet: np.ndarray, h: np.ndarray,
                   prm: SimParams) -> np.ndarray:
-    """The height the water-height term levels: ``w - eta (1 - M')`` on wet cells, ``M'``
-    the blurred ``own`` wet area (Curtis 1997 flow outward; ``w`` itself when
-    ``flow_outward`` or ``wet_blur`` is 0)."""
+    """The height the water-height term levels, on wet cells: the free surface over the
+    paper, ``w + paper_relief * h``, lowered by ``flow_outward * (1 - M')`` near the edge
+    of the ``own`` wet area (Curtis 1997: flow outward, and water runs downhill over the
+    paper's relief); ``w`` elsewhere, and ``w`` itself when both terms are off."""
     taps = gaussian_taps(prm.wet_blur)
-    if prm.flow_outward <= 0 or len(taps) == 0:
+    outward = prm.flow_outward > 0 and len(taps) > 0
+    if not outward and prm.paper_relief <= 0:
         return w
-    mb = blurred_wet(own, taps)
-    low = F32(prm.flow_outward) * (_ONE - mb)
-    return np.where(wet, w - low, w).astype(F32)
+    pr = w
+    if prm.paper_relief > 0:
+        pr = w + F32(prm.paper_relief) * h
+    if outward:
+        mb = blurred_wet(own, taps)
+        pr = pr - F32(prm.flow_outward) * (_ONE - mb)
+    return np.where(wet, pr, w).astype(F32)
 
 
 # ---------------------------------------------------------------- passes
@@ -590,7 +597,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
         elif name == "diffuse_velocity":
             vx, vy = diffuse_velocity(vx, vy, wet, prm, dt)
         elif name == "water_height_and_boundary":
-            pr = flow_pressure(w, own_wet(w, wc, mask, prm), wet, prm)
+            pr = flow_pressure(w, own_wet(w, wc, mask, prm), wet, h, prm)
             vx, vy = water_height_and_boundary(vx, vy, pr, wet, prm)
         elif name == "diffuse_water":
             w = diffuse_water(w, wet, prm, dt)

@@ -77,7 +77,8 @@ C_FADE = 22       # block_fade
 C_BPAPER = 23     # block_paper
 C_ADV = 24        # advance_height
 C_ETA = 25        # flow_outward
-N_CONST = 26
+C_RELIEF = 26     # paper_relief
+N_CONST = 27
 
 # the sweeps: rows in parallel; IEEE float32 maths exactly as written (no fastmath, no FMA
 # contraction), numpy's error model (division without ZeroDivision checks: every division
@@ -172,32 +173,41 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
 
 # ------------------------------------------------------------------ flow outward
 @_parallel
-def flow_pressure(own: np.ndarray, wet: np.ndarray, w0: np.ndarray, taps: np.ndarray,
-                  bh: int, bw: int, cst: np.ndarray, mbx: np.ndarray,
-                  pr_o: np.ndarray) -> None:
-    """Pass 3's levelled height ``P = w - eta (1 - M')`` on wet cells (``w`` elsewhere),
-    ``M'`` the own wet area blurred with ``taps`` along x then y (the reference's order:
-    offset -R first; cells outside the box are 0 and add nothing)."""
+def flow_pressure(own: np.ndarray, wet: np.ndarray, w0: np.ndarray, h: np.ndarray,
+                  taps: np.ndarray, y0: int, x0: int, bh: int, bw: int, cst: np.ndarray,
+                  outward: bool, mbx: np.ndarray, pr_o: np.ndarray) -> None:
+    """Pass 3's levelled height ``P = (w + relief h) - eta (1 - M')`` on wet cells (``w``
+    elsewhere; a term whose parameter is 0 is left out), ``M'`` the own wet area blurred
+    with ``taps`` along x then y (the reference's order: offset -R first; cells outside
+    the box are 0 and add nothing)."""
     eta = cst[C_ETA]
+    relief = cst[C_RELIEF]
     nt = taps.shape[0]
     r = (nt - 1) // 2
+    if outward:
+        for j in prange(1, bh + 1):
+            for i in range(1, bw + 1):
+                acc = ZERO
+                for k in range(nt):
+                    ii = i + k - r
+                    if ii >= 1 and ii <= bw:
+                        acc = acc + taps[k] * own[j, ii]
+                mbx[j, i] = acc
     for j in prange(1, bh + 1):
+        y = y0 + j - 1
         for i in range(1, bw + 1):
-            acc = ZERO
-            for k in range(nt):
-                ii = i + k - r
-                if ii >= 1 and ii <= bw:
-                    acc = acc + taps[k] * own[j, ii]
-            mbx[j, i] = acc
-    for j in prange(1, bh + 1):
-        for i in range(1, bw + 1):
-            acc = ZERO
-            for k in range(nt):
-                jj = j + k - r
-                if jj >= 1 and jj <= bh:
-                    acc = acc + taps[k] * mbx[jj, i]
             wv = w0[j, i]
-            pr_o[j, i] = (wv - eta * (ONE - acc)) if wet[j, i] != ZERO else wv
+            pv = wv
+            if relief > ZERO:
+                pv = wv + relief * h[y, np.uint64(x0 + i - 1)]
+            if outward:
+                acc = ZERO
+                for k in range(nt):
+                    jj = j + k - r
+                    if jj >= 1 and jj <= bh:
+                        acc = acc + taps[k] * mbx[jj, i]
+                pv = pv - eta * (ONE - acc)
+            pr_o[j, i] = pv if wet[j, i] != ZERO else wv
 
 
 # ------------------------------------------------------------------ pass 1 + Jacobi 1

@@ -53,6 +53,7 @@ def constants(prm: SimParams, dt: float, sim_time: float) -> np.ndarray:
     c[K.C_BPAPER] = F32(prm.block_paper)
     c[K.C_ADV] = F32(prm.advance_height)
     c[K.C_ETA] = F32(prm.flow_outward)
+    c[K.C_RELIEF] = F32(prm.paper_relief)
     return c
 
 
@@ -116,9 +117,11 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
            s2["own"])
     wet, bc, w0, p0 = s2["wet"], s2["bc"], s2["w0"], s3["p0"]
     taps = reference.gaussian_taps(prm.wet_blur)
-    pr = w0  # pass 3 levels w itself unless the flow-outward term is on
-    if prm.flow_outward > 0 and len(taps) > 0 and runs("water_height_and_boundary"):
-        K.flow_pressure(s2["own"], wet, w0, taps, bh, bw, cst, s2["mbx"], s2["pr"])
+    outward = prm.flow_outward > 0 and len(taps) > 0
+    pr = w0  # pass 3 levels w itself unless the flow-outward or the relief term is on
+    if (outward or prm.paper_relief > 0) and runs("water_height_and_boundary"):
+        K.flow_pressure(s2["own"], wet, w0, state.h, taps, y0, x0, bh, bw, cst, outward,
+                        s2["mbx"], s2["pr"])
         pr = s2["pr"]
     # pass 1 + iteration 1 of the water/pigment solves (x0 = u)
     jw = do_w and n_it >= 1

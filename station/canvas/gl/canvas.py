@@ -435,6 +435,7 @@ class GLCanvas:
         pp = p["pressure"]
         _set(pp, "u_moist", prm.moist_threshold)
         _set(pp, "u_eta", prm.flow_outward)
+        _set(pp, "u_relief", prm.paper_relief)
         _set(pp, "u_ntaps", len(taps))
         _set(pp, "u_taps", [float(t) for t in taps] + [0.0] * (17 - len(taps)))
         kv, kw, kp = (float(F32(prm.viscosity * dt)), float(F32(prm.nu_w * dt)),
