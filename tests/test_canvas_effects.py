@@ -11,7 +11,7 @@ import colorsys
 import numpy as np
 import pytest
 
-from station.canvas.measure import edge_band, edge_roughness, paper_following
+from station.canvas.measure import edge_band, edge_roughness, paper_following, spread
 from station.canvas.numpy_backend import NumpyCanvas
 from station.canvas.palette import Palette, Pigment, default_palette
 from station.canvas.params import SimParams
@@ -263,3 +263,30 @@ def test_diffusion_controller_blocks_and_roughens_the_spread() -> None:
     blocked_out, blocked_cv = _ink_spread(0.9)
     assert blocked_out < 0.85 * free_out  # paper fibres hold the ink back
     assert blocked_cv > 1.2 * free_cv  # and make its edge irregular (feathery)
+
+
+def _drop_into_wash(wait_s: float, wash: float, seed: int = 2) -> tuple[np.ndarray, np.ndarray]:
+    """A loaded brush touched into a wash ``wait_s`` seconds old: (q of the drop, footprint)."""
+    c = NumpyCanvas(64, 64, seed=seed)
+    paint(c, rect(64, 64, 2, 62, 2, 62), wash)
+    for _ in range(int(wait_s * 30)):
+        c.step()
+    fp = disc(64, 64, 32, 32, 6)
+    paint(c, fp, 0.6, {"French Ultramarine": 0.8})
+    run_until_dry(c, 4000)
+    c.dry()
+    return c.live_state.q[0].copy(), fp
+
+
+def test_backrun_in_a_half_dry_wash_is_a_ragged_bloom_with_a_dark_fringe() -> None:
+    # issue 10 item 2: water-laden paint into a wash that lost its shine pushes its
+    # pigment out along the paper into a cauliflower with a dark fringe
+    q, fp = _drop_into_wash(16.0, 0.4)
+    sp = spread(q, fp)
+    assert sp.feather >= 1.3, sp
+    assert sp.area_ratio >= 1.5, sp
+    band = edge_band(q, threshold=1.2, interior_from=3)
+    assert band.ring_ratio[0] > 1.2, band  # the fringe is darker than the inside
+    # the same drop into a fresh wash gives a soft, round blot: the bloom is the paper's
+    fresh = spread(*_drop_into_wash(2.0, 0.6))
+    assert fresh.feather < sp.feather - 0.5, (fresh, sp)

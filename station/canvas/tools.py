@@ -80,14 +80,15 @@ class HairDryer:
 
     cx, cy: centre [cells]; radius: where its air still dries [cells]; temperature: of the
     air at the sheet [C]; airflow: mass-transfer factor of its jet relative to the room's
-    reference draught [1] (a hand dryer at 10 cm: tens).
+    reference draught [1]. The defaults (40 C, twice the draught) dry about six times
+    faster than the room, as a hand dryer held at arm's length does.
     """
 
     cx: float
     cy: float
     radius: float = 60.0
-    temperature: float = 45.0
-    airflow: float = 20.0
+    temperature: float = 40.0
+    airflow: float = 2.0
 
     def __post_init__(self) -> None:
         for name in ("cx", "cy", "radius", "temperature", "airflow"):

@@ -284,8 +284,8 @@ def _hairdryer(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> 
     y = _number(args, "y", 0.5, 0.0, 1.0, where)
     seconds = _number(args, "seconds", 10.0, 0.0, MAX_WAIT_SECONDS, where)
     radius = _number(args, "radius", 60.0, 1.0, 2048.0, where) * p.brush_scale
-    temp = _number(args, "temperature", 45.0, -10.0, 60.0, where)
-    flow = _number(args, "airflow", 20.0, 0.0, 200.0, where)
+    temp = _number(args, "temperature", 40.0, -10.0, 60.0, where)
+    flow = _number(args, "airflow", 2.0, 0.0, 200.0, where)
     p.flush_sources()
     p.dryer = HairDryer(cx=x * (p.width - 1), cy=y * (p.height - 1),
                         radius=max(1.0, min(radius, 2048.0)), temperature=temp, airflow=flow)
