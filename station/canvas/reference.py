@@ -26,9 +26,12 @@ CHANGED: wet mask: a dry unmasked cell is wet when a 4-neighbour's w exceeds
 CHANGED: passes 7 and 9c use ``prm.evap_shallow()`` / ``prm.evap_cap()``: eps_shallow and
   eps_cap scaled by the drying power of the air (temperature, humidity, airflow); exactly
   eps_* at the reference conditions 20 C, 50 %, airflow 1.
-CHANGED: pass 3 levels ``P = (w + paper_relief h) - flow_outward (1 - M')`` instead of w (Curtis 1997's
-  flow-outward term; new SimParams ``flow_outward``, ``wet_blur``); ``edge_evap`` default
-  4 -> 1 (the spec's value).
+CHANGED: pass 3 levels ``P = (w + paper_relief h) - flow_outward (1 - M')`` instead of w
+  (Curtis 1997's flow-outward term; new SimParams ``flow_outward``, ``wet_blur``,
+  ``paper_relief``); ``edge_evap`` default 4 -> 1 (the spec's value); surface_rate
+  0.5 -> 0.1 (Stokes settling of micron pigment through a film takes tens of seconds).
+CHANGED: tiles.HALO = 2 (was 1): a dry cell next to a wet one can join the wet area,
+  absorb, and pass capillary water one cell further within the step.
 NOTE (API): ``PASS_ORDER`` names the passes; ``step_region(state, box, dt, stop_after=name)``
   writes the fields back right after pass ``name`` (pass-by-pass comparisons).
 NOTE (no maths change): pass 1 computes the bilinear weight from the displacement,
@@ -68,7 +71,8 @@ the same float32 value on both sides).
 3. ``water_height_and_boundary``: the levelled height is the pressure
    ``P = (w + paper_relief * h) - flow_outward * (1 - M')`` on wet cells (``P = w``
    elsewhere; the free surface over the paper's relief, lowered near the edge by Curtis
-   1997's flow outward; a term whose parameter is 0 is left out), ``M'`` = ``blurred_wet``: the wet mask (1/0) blurred with the float32
+   1997's flow outward; a term whose parameter is 0 is left out), ``M'`` = ``blurred_wet``:
+   the wet mask (1/0) blurred with the float32
    Gaussian ``gaussian_taps(wet_blur)`` along x, then along y, each sum over the taps in
    order (offset -R first), cells outside the region 0. For each wet cell, neighbour
    heights (of P) ``wE = P[y,x+1]`` if face E is open else ``w[y,x]`` (same for W, N, S);
