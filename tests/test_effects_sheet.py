@@ -51,11 +51,12 @@ def test_colour_science() -> None:
 
 
 # issue 10 thresholds the model does not meet yet: strict, so a fix is noticed
-@pytest.mark.xfail(strict=True, reason="a drop into a fresh wash spreads ~1.8x as a soft, "
-                   "round blot (feather ~1.04): no feathering mechanism in a shiny wash")
-def test_wet_in_wet_spreads_twice_its_footprint_feathered() -> None:
+def test_wet_in_wet_stroke_spreads_twice_its_footprint() -> None:
     e = fx.wet_in_wet()
-    assert e.numbers["spread_area_ratio"] >= 2.0 and e.numbers["feather"] >= 1.3
+    assert e.checks["spread >= 2x"], e.numbers
+    assert e.numbers["feather"] < 1.3, e.numbers  # see the strict xfail below
+    pytest.xfail("a stroke into a fresh wash spreads as a soft blur (feather ~1.07 < 1.3): "
+                 "no feathering mechanism in a shiny wash")
 
 
 @pytest.mark.xfail(strict=True, reason="ink spreads ~1.2x with a smooth edge: no fibre "
