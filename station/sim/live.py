@@ -34,7 +34,7 @@ import math
 import os
 import signal
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from types import FrameType
 from typing import Any
 
@@ -67,6 +67,7 @@ class LiveConfig:
     status: str | None = None  # endpoint for status; "none" disables
     duration: float | None = None  # stop after this many seconds (tests, benchmarks)
     resume: str | None = None  # continue this saved canvas state (size, profile, seed)
+    backend_opts: dict[str, Any] = field(default_factory=dict)  # e.g. ctx= of a kiosk window
 
 
 def default_status_endpoint(bus: str | None) -> str:
@@ -94,7 +95,7 @@ class LiveSim:
             cfg.width, cfg.height = start.width, start.height
             cfg.profile, cfg.seed = start.profile, start.seed
         self.canvas, self.backend_name = make_backend(cfg.backend, cfg.width, cfg.height,
-                                                      cfg.profile, cfg.seed)
+                                                      cfg.profile, cfg.seed, **cfg.backend_opts)
         if start is not None:
             self.canvas.load_state(start)
         self.player = SessionPlayer(self.canvas, cfg.width, cfg.height, cfg.profile,
