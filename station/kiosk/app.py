@@ -205,7 +205,7 @@ class KioskApp:
         self.driver_seen = 0.0
         self.driver_events: list[str] = []
         self.saved: list[str] = []
-        self.qr: tuple[int, tuple[int, int]] | None = None
+        self.qr: tuple[int, tuple[int, int]] | None = None  # ImGui texture id, size
         self.qr_url: str | None = None
         self.qr_texture: Any = None
         self.screenshots: list[Path] = []
@@ -463,12 +463,15 @@ class KioskApp:
         return "  ".join(parts)
 
     def draw_ui(self, dt: float) -> None:
-        from station.kiosk.ui import draw_banner, draw_panel
+        from station.kiosk.ui import draw_banner, draw_panel, draw_qr
 
         self.gui.new_frame(dt)
         w, h = self.size
         self.rects = {}
-        draw_panel(self.panel, self.panel_w, h, self.status_line(), self.rects, self.qr)
+        draw_panel(self.panel, self.panel_w, h, self.status_line(), self.rects)
+        if self.qr is not None:
+            side = min(240.0, h * 0.3)
+            draw_qr(self.qr[0], w - side - 40, h - side - 80, side, self.rects)
         now = time.monotonic()
         a = self.area
         if self.pen_missing():

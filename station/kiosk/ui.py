@@ -152,7 +152,7 @@ def _button(imgui: Any, label: str, w: float, h: float, rects: dict[str, Any], k
 
 
 def draw_panel(st: PanelState, width: float, height: float, status: str,
-               rects: dict[str, Any], qr: tuple[int, tuple[int, int]] | None = None) -> None:
+               rects: dict[str, Any]) -> None:
     """The panel window at the left edge; fills ``rects`` with each control's rectangle."""
     from imgui_bundle import imgui
 
@@ -242,14 +242,27 @@ def draw_panel(st: PanelState, width: float, height: float, status: str,
 
     if _button(imgui, "Save & take home", avail, row_h, rects, "save", color=(0.2, 0.5, 0.3)):
         st.save()
-    if qr is not None:
-        tex_id, (qw, qh) = qr
-        side = min(avail, 220.0)
-        imgui.image(imgui.ImTextureRef(tex_id), imgui.ImVec2(side, side * qh / qw))
-        rects["qr"] = _rect(imgui)
     imgui.text_wrapped(("ERASER  " if st.eraser else "") + status)
     if st.message:
         imgui.text_wrapped(st.message)
+    imgui.end()
+
+
+def draw_qr(tex_id: int, x: float, y: float, side: float, rects: dict[str, Any]) -> None:
+    """The QR code of the visitor's painting, bottom right over the canvas area."""
+    from imgui_bundle import imgui
+
+    pad = imgui.get_style().window_padding
+    imgui.set_next_window_pos(imgui.ImVec2(x, y))
+    imgui.set_next_window_size(imgui.ImVec2(side + 2 * pad.x,
+                                            side + 2 * pad.y + imgui.get_text_line_height() + 6))
+    flags = (imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_move
+             | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_inputs
+             | imgui.WindowFlags_.no_saved_settings | imgui.WindowFlags_.no_scrollbar)
+    imgui.begin("qr", None, flags)
+    imgui.text("Take it home:")
+    imgui.image(imgui.ImTextureRef(tex_id), imgui.ImVec2(side, side))
+    rects["qr"] = _rect(imgui)
     imgui.end()
 
 
@@ -271,8 +284,10 @@ def draw_banner(text: str, x: float, y: float, w: float, h: float, key: str,
              | imgui.WindowFlags_.no_saved_settings)
     imgui.begin(key, None, flags)
     if big:
-        imgui.set_window_font_scale(1.6)
+        imgui.push_font(None, imgui.get_style().font_size_base * 1.8)
     tw = imgui.calc_text_size(text).x
     imgui.set_cursor_pos(imgui.ImVec2(max(8.0, (w - tw) / 2), h / 2 - imgui.get_text_line_height()))
     imgui.text(text)
+    if big:
+        imgui.pop_font()
     imgui.end()

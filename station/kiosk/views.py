@@ -125,7 +125,7 @@ def fit_2d(area: Viewport, aspect: float, margin: float = 0.04) -> Camera:
 
 def table_3d(area: Viewport, aspect: float) -> Camera:
     """The canvas on a table, seen by a standing visitor in front of it."""
-    eye = np.array([0.0, -1.15, 0.95])
+    eye = np.array([0.0, -1.75, 1.45])
     target = np.array([0.0, 0.02, 0.0])
     proj = perspective(42.0, area.w / area.h, 0.05, 20.0)
     view = look_at(eye, target, np.array([0.0, 0.0, 1.0]))
