@@ -207,9 +207,14 @@ def test_idle_timeout_saves_to_the_gallery_and_unplug_is_survived(display: str,
         # the tablet is unplugged at the end of its stroke and plugged in again once
         run_driver("mock:intuos-pro-m?script=line&rate=200&unplug=1", "--calibration", str(cal),
                    "--max-reconnects", "1", "--status-interval", "0.2")
-        s = k.wait(lambda s: "gone" in s["driver_events"], 20, "unplug seen")
-        events = s["driver_events"]
-        assert events.index("gone") < len(events) - 1 or s["driver_state"] == "gone"
+        def replugged(s: dict) -> bool:
+            ev = s["driver_events"]
+            return "gone" in ev and "running" in ev[ev.index("gone") + 1:]
+
+        k.wait(replugged, 20, "unplug, then the pen back")
+        # the driver gave up after its one reconnection: the kiosk says the pen is missing
+        s = k.wait(lambda s: s["driver_state"] == "gone", 20, "second unplug")
+        assert s["pen_missing"]
         s = k.wait(lambda s: s["painting_id"] != first, 30, "idle finish")
         assert s["saved"] == [first] and s["stamps"] == 0  # a fresh canvas
         assert s["attract"]  # nobody there: the attract screen shows

@@ -174,8 +174,16 @@ def export_replay(log_path: str | os.PathLike[str], out: str | os.PathLike[str],
     returns the number of frames.  The last frame (the painting) is held."""
     from PIL import Image
 
-    imgs = [Image.fromarray(f) for f in replay_frames(log_path, frames, width)]
-    durations = [frame_ms] * (len(imgs) - 1) + [hold_ms]
+    arrays: list[np.ndarray] = []
+    durations: list[int] = []
+    for f in replay_frames(log_path, frames, width):
+        if arrays and np.array_equal(arrays[-1], f):  # nothing changed: show it longer
+            durations[-1] += frame_ms
+        else:
+            arrays.append(f)
+            durations.append(frame_ms)
+    durations[-1] = max(durations[-1], hold_ms)
+    imgs = [Image.fromarray(a) for a in arrays]
     out = Path(out)
     tmp = out.with_name(out.name + ".tmp")
     fmt = "GIF" if out.suffix.lower() == ".gif" else "WEBP"
