@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import shutil
 import subprocess
 import urllib.error
@@ -47,7 +48,7 @@ def painted_image(log: Path) -> np.ndarray:
     """What ``station paint`` makes of the log (same player, same backend)."""
     from station.sessionlog import read_session
 
-    header, records = read_session(log)
+    _header, records = read_session(log)
     canvas, _ = make_backend("auto", W, H, "watercolor", 0)
     player = SessionPlayer(canvas, W, H, "watercolor", rate=30.0, pigments=default_palette())
     player.play(records)
@@ -76,7 +77,7 @@ def test_replay_animation_ends_on_the_painting(tmp_path: Path) -> None:
     counts = [int(green(f).sum()) for f in frames]
     assert counts[0] == 0 and counts[-1] > 300
     moving = counts[:len(counts) // 2]
-    assert all(b > a + 100 for a, b in zip(moving, moving[1:], strict=False)), counts
+    assert all(b > a + 100 for a, b in itertools.pairwise(moving)), counts
     assert all(abs(c - counts[-1]) < 0.06 * counts[-1] for c in counts[len(counts) // 2 + 1:])
     assert abs(counts[-1] - int(green(painting).sum())) < 0.1 * counts[-1]
     assert np.abs(frames[-1] - painting.astype(int)).mean() < 4  # lossy WebP of the same image

@@ -72,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
                        "drop the '@'", "--bus")
     serve = None if args.serve == "none" else args.serve
     if serve is not None:
-        host, sep, port = serve.rpartition(":")
+        _host, sep, port = serve.rpartition(":")
         if not sep or not port.isdigit() or not 0 <= int(port) < 65536:
             raise BadInput(f"{serve!r} is not HOST:PORT", "--serve")
     cfg = KioskConfig(

@@ -155,7 +155,7 @@ class KioskApp:
                                        lambda w: glfw.set_window_should_close(w, False))
         if cfg.fullscreen:
             glfw.set_input_mode(self.window, glfw.CURSOR, glfw.CURSOR_HIDDEN)
-        self.ctx = moderngl.create_context()
+        self.ctx: Any = moderngl.create_context()
         self.size = tuple(glfw.get_framebuffer_size(self.window))
         w, h = self.size
         self.panel_w = int(max(300, w * cfg.panel_fraction))

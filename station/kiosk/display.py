@@ -4,7 +4,8 @@ Both displays give a texture of *linear* reflectance (the window's shader
 applies the sRGB transfer), row 0 = the canvas's top row.
 
 * :class:`CpuDisplay` (numpy and cpu backends): Kubelka–Munk render of the
-  dirty tiles only (``render_region`` per run of dirty tiles in a tile row),
+  dirty tiles only (per run of dirty tiles in a tile row; the numba twin of the
+  reference KM in :mod:`station.kiosk.km_fast`, gouache by the reference),
   uploaded with ``texture.write(viewport=…)``.  A full 800×600 render costs
   about 21 ms on the 2-core development machine, one stroke's wet tiles a few.
   Brush stamps made since the last simulation step are shown at once as a
@@ -24,7 +25,8 @@ from typing import Any
 import numpy as np
 
 from station.canvas.params import get_profile
-from station.canvas.render import render_region
+from station.canvas.render import region_amount, render_region
+from station.kiosk.km_fast import km_layer_fast
 
 F32 = np.float32
 
@@ -81,7 +83,7 @@ class CpuDisplay:
         for ty, a, b in tile_runs(dirty):
             ys = slice(ty * ts, min((ty + 1) * ts, st.height))
             xs = slice(a * ts, min(b * ts, st.width))
-            self._upload(render_region(st, kind, ys, xs), ys, xs)
+            self._upload(self._render(st, kind, ys, xs), ys, xs)
             cells += (ys.stop - ys.start) * (xs.stop - xs.start)
         src = self.session.player.brush.peek()
         if src is not None:
@@ -93,12 +95,20 @@ class CpuDisplay:
                 h, w = ys.stop - ys.start, xs.stop - xs.start
                 extra = {name: a[oy:oy + h, ox:ox + w].astype(F32) * (st.mask[ys, xs] == 0)
                          for name, a in src.dp.items()}
-                self._upload(render_region(st, kind, ys, xs, extra), ys, xs)
+                self._upload(self._render(st, kind, ys, xs, extra), ys, xs)
                 self.preview_box = (ys, xs)
                 cells += h * w
         self.cells_rendered = cells
         self.render_seconds = time.perf_counter() - t0
         return cells
+
+    @staticmethod
+    def _render(st: Any, kind: str, ys: slice, xs: slice,
+                extra: dict[str, np.ndarray] | None = None) -> np.ndarray:
+        if kind == "km":  # the compiled twin of the reference (held together by tests)
+            amount, pigments = region_amount(st, ys, xs, extra)
+            return km_layer_fast(amount, pigments, st.r_composed[ys, xs])
+        return render_region(st, kind, ys, xs, extra)
 
     def _upload(self, rgb: np.ndarray, ys: slice, xs: slice) -> None:
         data = np.ascontiguousarray(rgb, dtype=F32)

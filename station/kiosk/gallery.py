@@ -339,7 +339,7 @@ class GalleryServer:
         except OSError as exc:
             raise GalleryError(f"cannot serve the gallery on {host}:{port}: "
                                f"{exc.strerror}") from None
-        self.port = int(self.server.effective_port)  # type: ignore[union-attr]
+        self.port = int(self.server.effective_port)
         self.thread = threading.Thread(target=self.server.run, name="gallery", daemon=True)
 
     def start(self) -> GalleryServer:

@@ -57,7 +57,7 @@ class PanelState:
 
     palette: Palette
     send: Callable[[str, dict[str, Any]], None]
-    on_save: Callable[[], None]
+    on_save: Callable[[], object]
     mix: dict[str, float] = field(default_factory=dict)  # pigment -> parts
     strength: float = 0.6  # brush pigment amount of the whole mix (0.25 = nominal load)
     size: float = 24.0  # footprint diameter [cells]
