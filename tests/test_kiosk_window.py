@@ -231,3 +231,28 @@ def test_idle_timeout_saves_to_the_gallery_and_unplug_is_survived(display: str,
     png = rgb(d / "painting.png")
     assert painted(png).sum() > 50
     assert (d / "session.jsonl").read_text().count('"type": "pen"') == meta["samples"]
+
+
+def test_gl_backend_paints_from_its_own_texture(display: str, tmp_path: Path) -> None:
+    """The GPU canvas in the window's GL 4.3 context (llvmpipe here): the window samples
+    the canvas's render texture, no read-back; a pen stroke shows where the pen was."""
+    k = Kiosk(display, tmp_path, "--backend", "gl", "--size", "160x120")
+    try:
+        assert k.last["backend"] == "gl"
+        cx, cy, cw, ch = k.last["canvas_rect"]
+        for i in range(30):
+            k.pen(cx + cw * (0.2 + 0.02 * i), cy + ch * 0.5, touching=True)
+            time.sleep(0.02)
+        k.pen(cx + cw * 0.8, cy + ch * 0.5)
+        k.wait(lambda s: s["stamps"] > 10, 30, "the stroke")
+        time.sleep(0.5)
+        shot = rgb(k.screenshot("gl"))
+        x0, x1 = int(cx) + 3, int(cx + cw) - 3
+        row = painted(shot[int(cy + ch * 0.5) - 2:int(cy + ch * 0.5) + 3, x0:x1])
+        cols = np.nonzero(row.any(axis=0))[0] + x0
+        assert cols.min() == pytest.approx(cx + cw * 0.2, abs=25)
+        assert cols.max() == pytest.approx(cx + cw * 0.78, abs=25)
+        assert not painted(shot[int(cy) + 3:int(cy + ch * 0.3), x0:x1]).any()  # above: paper
+    finally:
+        rc, err = k.stop()
+    assert rc == 0, err

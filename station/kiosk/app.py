@@ -436,7 +436,7 @@ class KioskApp:
         self.canvas_vao.render(ctx.TRIANGLE_STRIP)
         if self.hover is not None:
             # the brush's shadow: its footprint at full pressure, light from the top left
-            r = self.panel.size / 2 / self.cfg.height
+            r = self.session.player.brush.settings.size / 2 / self.cfg.height
             u, v = self.hover
             off = 0.0 if self.touching else 0.006
             self._disc(cam, u + off, v + off, r, CURSOR_TOUCH if self.touching else SHADOW)
