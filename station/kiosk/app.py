@@ -349,6 +349,29 @@ class KioskApp:
             return s.with_(x=last.x, y=last.y, touching=False, pressure=0.0)
         return s.with_(x=float(uv[0]), y=float(uv[1]))
 
+    def _sync_panel(self) -> None:
+        """Show the brush the painting really has (an operator's ``brush`` command on the
+        bus changes it too)."""
+        b = self.session.player.brush.settings
+        key = (b.kind, b.size, b.water, tuple(sorted(b.pigment.items())))
+        if key == getattr(self, "_brush_key", None):
+            return
+        self._brush_key = key
+        p = self.panel
+        mine = p.brush_args()
+        if (mine["kind"] == b.kind and math.isclose(mine["size"], b.size)
+                and math.isclose(mine["water"], b.water)
+                and mine["pigment"].keys() == b.pigment.keys()
+                and all(math.isclose(v, b.pigment[k]) for k, v in mine["pigment"].items())):
+            return  # the panel's own brush: keep its parts as the visitor mixed them
+        p.kind, p.size, p.water = b.kind, float(b.size), float(b.water)
+        total = sum(b.pigment.values())
+        if total > 0:
+            p.strength = float(total)
+            p.mix = {name: float(v / total) for name, v in b.pigment.items()}
+        else:
+            p.mix = {}
+
     def _kiosk_command(self, cmd: Command) -> bool:
         """Commands for the window: ``view {name}``, ``save``, ``screenshot {name}``."""
         if cmd.cmd == "view":
@@ -503,6 +526,7 @@ class KioskApp:
         now = time.monotonic()
         if self.session.painted_stamps > 0:
             self.idle.painted = True
+        self._sync_panel()
         if self.idle.should_finish(now):
             pid = self.fresh_canvas("idle")
             log.info("idle: painting %s saved to the gallery, fresh canvas", pid)
