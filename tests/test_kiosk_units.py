@@ -240,3 +240,24 @@ def test_compiled_km_matches_the_reference() -> None:
     ref = km_layer(a, pigs, r)
     assert np.abs(km_layer_fast(a, pigs, r) - ref).max() < 2e-6
     assert np.array_equal(km_layer_fast(a, [], r), r)
+
+
+@pytest.mark.parametrize(("argv", "where"), [
+    (["kiosk", "--bus", "@ipc:x"], "--bus"),
+    (["kiosk", "--size", "3x3"], "--size"),
+    (["kiosk", "--serve", "no-port"], "--serve"),
+    (["kiosk", "--idle-minutes", "0"], "--idle-minutes"),
+    (["kiosk", "--attract-after", "-1"], "--attract-after"),
+    (["kiosk", "--windowed", "10"], "--windowed"),
+    (["bench", "latency", "--seconds", "0"], "--seconds"),
+    (["bench", "latency", "--rate", "5"], "--rate"),
+])
+def test_bad_flags_exit_2_with_one_line(argv: list[str], where: str) -> None:
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-m", "station", *argv], capture_output=True,
+                          text=True, timeout=60)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and where in lines[0], proc.stderr

@@ -189,8 +189,6 @@ def test_each_pen_control_does_what_it_says(display: str, tmp_path: Path) -> Non
         k.wait(lambda s: s["panel"]["eraser"], 10, "eraser")
         k.pen(cx + cw / 2, cy + ch / 2)
         k.wait(lambda s: not s["panel"]["eraser"], 10, "pen")
-        # no key quits: a visitor's Escape / Alt+F4 reach nothing (no handler exists); the
-        # window refuses close requests — checked in test_kiosk_units
     finally:
         rc, err = k.stop()
     assert rc == 0, err
@@ -256,3 +254,32 @@ def test_gl_backend_paints_from_its_own_texture(display: str, tmp_path: Path) ->
     finally:
         rc, err = k.stop()
     assert rc == 0, err
+
+
+def test_a_visitor_cannot_close_the_window(display: str, tmp_path: Path,
+                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    import glfw
+
+    from station.kiosk.app import KioskApp, KioskConfig
+
+    monkeypatch.setenv("DISPLAY", display)
+    app = KioskApp(KioskConfig(bus=f"ipc://{tmp_path}/bus", width=64, height=48,
+                               backend="numpy", fullscreen=False, gallery=tmp_path / "g",
+                               serve=None, status="none", vsync=False))
+    try:
+        for _ in range(3):
+            app.frame(0.016)
+        # the window manager's close request (Alt+F4, a close button) is refused ...
+        ours = glfw.set_window_close_callback(app.window, None)
+        assert ours is not None
+        glfw.set_window_should_close(app.window, True)
+        ours(app.window)
+        assert not glfw.window_should_close(app.window)
+        glfw.set_window_close_callback(app.window, ours)
+        # ... and no key does anything: nothing listens to the keyboard
+        assert glfw.set_key_callback(app.window, None) is None
+        assert glfw.set_char_callback(app.window, None) is None
+        app.frame(0.016)
+        assert not app.stop_requested
+    finally:
+        app.close()

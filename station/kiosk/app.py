@@ -213,6 +213,7 @@ class KioskApp:
         self.latencies: list[float] = []
         self.phase = {"input": 0.0, "sim": 0.0, "render": 0.0, "ui": 0.0, "present": 0.0}
         self.steps_run = 0
+        self.frame_errors = 0
         self._next_status = 0.0
         self.session: KioskSession = self._new_session()
         self.display: CpuDisplay | GpuDisplay = make_display(self.ctx, self.session)
@@ -273,7 +274,12 @@ class KioskApp:
         pid: str = s.painting_id  # type: ignore[attr-defined]
         if s.writer is not None:
             s.writer.flush()
-        self.gallery.save(pid, self._render_srgb8(), s.cfg.log_path, self._meta("save"))
+        try:
+            self.gallery.save(pid, self._render_srgb8(), s.cfg.log_path, self._meta("save"))
+        except (OSError, StationError) as exc:  # the painting goes on; its log is kept
+            log.error("cannot save painting %s to the gallery: %s", pid, exc)
+            self.panel.message = "Sorry, the painting could not be saved just now."
+            return pid
         self.saved.append(pid)
         self._set_qr(painting_url(self.base_url, pid))
         return pid
@@ -285,15 +291,22 @@ class KioskApp:
         painted = s.painted_stamps > 0 or pid in self.saved
         meta = self._meta(reason)
         s.shutdown()  # log end marker, log closed
+        stored = True
         if painted:
-            self.gallery.save(pid, self._render_srgb8(), s.cfg.log_path, meta)
-            self.saved.append(pid)
+            try:
+                self.gallery.save(pid, self._render_srgb8(), s.cfg.log_path, meta)
+                self.saved.append(pid)
+            except (OSError, StationError) as exc:
+                # the session log stays in <gallery>/.live: `station paint` repaints it
+                log.error("cannot save painting %s to the gallery (%s); its log is kept in %s",
+                          pid, exc, s.cfg.log_path)
+                stored = False
         close = getattr(s.canvas, "close", None)
         if close is not None:
             close()
-        if s.cfg.log_path:
+        if s.cfg.log_path and stored:
             Path(s.cfg.log_path).unlink(missing_ok=True)
-        return pid if painted else None
+        return pid if painted and stored else None
 
     def fresh_canvas(self, reason: str) -> str | None:
         pid = self.finish_painting(reason)
@@ -561,12 +574,24 @@ class KioskApp:
         """Frames until stopped (signal, ``stop`` command, ``duration``)."""
         start = time.monotonic()
         last = start
+        failures = 0
         try:
             while not self.stop_requested and not self.session.stop_requested:
                 now = time.monotonic()
                 if self.cfg.duration is not None and now - start >= self.cfg.duration:
                     break
-                self.frame(now - last)
+                try:
+                    self.frame(now - last)
+                    failures = 0
+                except (StationError, OSError, ValueError, RuntimeError) as exc:
+                    # a kiosk keeps showing the painting: log, count, go on — unless every
+                    # frame fails, which is a bug to report, not to spin on
+                    failures += 1
+                    self.frame_errors += 1
+                    if failures == 1:
+                        log.exception("frame failed: %s", exc)
+                    if failures >= 100:
+                        raise
                 last = now
         finally:
             final = self.kiosk_status()
@@ -578,6 +603,7 @@ class KioskApp:
         st = s.status()
         st.update({
             "process": "kiosk", "view": self.panel.view, "frames": self.frames,
+            "frame_errors": self.frame_errors,
             "painting_id": s.painting_id,  # type: ignore[attr-defined]
             "painted_stamps": s.painted_stamps, "saved": list(self.saved),
             "qr_url": self.qr_url, "driver_state": self.driver_state,
