@@ -123,6 +123,8 @@ def test_each_pen_control_does_what_it_says(display: str, tmp_path: Path) -> Non
     k = Kiosk(display, tmp_path, "--backend", "numpy", "--size", "200x150")
     try:
         ui = k.last["ui"]
+        k.tap(ui["kind:round"])
+        k.wait(lambda s: "kind:round" in s["panel"]["pressed"], 10, "brush kind")
         k.tap(ui["fresh_mix"])
         s = k.wait(lambda s: s["panel"]["mix"] == {}, 10, "fresh mix")
         k.tap(ui["pigment:Quinacridone Rose"])

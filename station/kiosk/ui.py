@@ -188,12 +188,14 @@ def draw_panel(st: PanelState, width: float, height: float, status: str,
         st.fresh_mix()
 
     # brush
-    if len(BRUSH_KINDS) > 1:
-        for k in BRUSH_KINDS:
-            if _button(imgui, k, avail / len(BRUSH_KINDS) - gap, row_h, rects, f"kind:{k}"):
-                st.set_kind(k)
+    # brush kinds: the round brush today; the deformable brush (issue 11) adds its own
+    kw = (avail - gap * (len(BRUSH_KINDS) - 1)) / len(BRUSH_KINDS)
+    for i, k in enumerate(BRUSH_KINDS):
+        if i:
             imgui.same_line()
-        imgui.new_line()
+        sel = (0.25, 0.45, 0.75) if st.kind == k else None
+        if _button(imgui, f"{k} brush", kw, row_h * 0.8, rects, f"kind:{k}", color=sel):
+            st.set_kind(k)
     imgui.push_item_width(avail)
     changed, value = imgui.slider_float("##size", st.size, 4.0, 80.0, "size %.0f")
     rects["size"] = _rect(imgui)
