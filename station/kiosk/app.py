@@ -43,6 +43,7 @@ log = logging.getLogger(__name__)
 
 DRIVER_SILENT_S = 5.0  # a driver that said nothing this long is taken as gone
 STATUS_EVERY_S = 0.5
+REDRAW_EVERY_S = 0.25  # a quiet kiosk still redraws this often (status line, banners)
 SCREENSHOT_NAME = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 
 CANVAS_VERT = """
@@ -211,7 +212,10 @@ class KioskApp:
         self.screenshots: list[Path] = []
         self.frames = 0
         self.latencies: list[float] = []
-        self.phase = {"input": 0.0, "sim": 0.0, "render": 0.0, "ui": 0.0, "present": 0.0}
+        self.phase = {"wait": 0.0, "input": 0.0, "sim": 0.0, "render": 0.0, "ui": 0.0,
+                      "present": 0.0}
+        self._need_draw = True
+        self._last_draw = 0.0
         self.steps_run = 0
         self.frame_errors = 0
         self._next_status = 0.0
@@ -351,10 +355,12 @@ class KioskApp:
         self.hover = uv if (s.proximity and inside) else None
         if inside and uv is not None:
             self.follow_at = uv
+        near = s.proximity
         if capture == "ui" or (capture is None and px < self.panel_w):
-            self.gui.pointer(px if s.proximity else None, py if s.proximity else None, touching)
+            self.gui.pointer(px if near else None, py if near else None, touching)
             return None
-        self.gui.pointer(None, None, False)
+        # over the canvas ImGui still follows the pen (a drag released there ends there)
+        self.gui.pointer(px if near else None, py if near else None, False)
         if not inside or uv is None:  # off the canvas: the stroke lifts
             last = self.session.last_canvas_pen if hasattr(self, "session") else None
             if last is None or not last.touching:
@@ -525,13 +531,31 @@ class KioskApp:
         data = self.ctx.screen.read(viewport=(0, 0, w, h), components=3, alignment=1)
         img = np.frombuffer(data, np.uint8).reshape(h, w, 3)[::-1]
         path.parent.mkdir(parents=True, exist_ok=True)
-        Image.fromarray(img).save(path)
+        tmp = path.with_name(path.name + ".tmp")
+        Image.fromarray(img).save(tmp, format="PNG")
+        os.replace(tmp, path)  # whoever waits for the file never sees half of it
 
     # -- the loop --------------------------------------------------------------------------
+    def _quiet_wait_ms(self) -> int:
+        """How long a quiet kiosk may wait for the pen: until the next step is due."""
+        p = self.session.player
+        t_next = (p.counters.steps + 1) / p.rate - p.waited
+        wait = min(max(t_next - self.session.now(), 0.0), REDRAW_EVERY_S)
+        return int(wait * 1000)
+
     def frame(self, dt: float) -> None:
+        """One pass of the loop: input, then (if anything changed) a frame, then steps.
+
+        A quiet kiosk (no pen, nothing wet) does not redraw 60 times a second: it waits
+        on the bus until the next step is due, so a pen sample is handled the moment it
+        comes, and it redraws at least every :data:`REDRAW_EVERY_S` (status, banners).
+        """
         t0 = time.perf_counter()
         self.glfw.poll_events()
-        self.session.pump()
+        received = self.session.sub.stats.received
+        self.session.drain(0 if self._need_draw else self._quiet_wait_ms())
+        tw = time.perf_counter()
+        got_input = self.session.sub.stats.received != received
         self._driver_status()
         if getattr(self, "_fresh_requested", False):
             self._fresh_requested = False
@@ -543,31 +567,44 @@ class KioskApp:
         if self.idle.should_finish(now):
             pid = self.fresh_canvas("idle")
             log.info("idle: painting %s saved to the gallery, fresh canvas", pid)
-        t1 = time.perf_counter()
-        self.display.update()
-        t2 = time.perf_counter()
-        self.draw_scene()
-        self.draw_ui(dt)
-        for path in self.screenshots:
-            self._screenshot(path)
-        self.screenshots.clear()
-        t3 = time.perf_counter()
-        self.ctx.finish()
-        self.glfw.swap_buffers(self.window)
-        shown = time.monotonic()
-        t4 = time.perf_counter()
-        for t_read in self.session.awaiting_paint:
-            self.latencies.append(shown - t_read)
-        self.session.awaiting_paint.clear()
-        self.steps_run += self.session.run_due_steps(max_steps=2)
+            got_input = True
+        s = self.session
+        draw = (self._need_draw or got_input or bool(self.screenshots) or s.whole_dirty
+                or bool(s.dirty.any()) or s.player.brush.pending > 0
+                or now - self._last_draw >= REDRAW_EVERY_S)
+        t1 = t2 = t3 = t4 = time.perf_counter()
+        if draw:
+            self.display.update()
+            t2 = time.perf_counter()
+            self.draw_scene()
+            self.draw_ui(now - self._last_draw if self._last_draw else dt)
+            for path in self.screenshots:
+                self._screenshot(path)
+            self.screenshots.clear()
+            t3 = time.perf_counter()
+            self.ctx.finish()
+            self.glfw.swap_buffers(self.window)
+            shown = time.monotonic()
+            t4 = time.perf_counter()
+            for t_read in s.awaiting_paint:
+                self.latencies.append(shown - t_read)
+            s.awaiting_paint.clear()
+            self._last_draw = shown
+            self.frames += 1
+        # ImGui spreads pen events queued together over the next frames: draw one more
+        self._need_draw = got_input
+        steps = s.run_due_steps(max_steps=2)
+        if steps:
+            self.steps_run += steps
+            self._need_draw = True
         t5 = time.perf_counter()
         ph = self.phase
-        ph["input"] += t1 - t0
+        ph["wait"] += tw - t0
+        ph["input"] += t1 - tw
         ph["render"] += t2 - t1
         ph["ui"] += t3 - t2
         ph["present"] += t4 - t3
         ph["sim"] += t5 - t4
-        self.frames += 1
         self.maybe_publish_status()
 
     def run(self) -> dict[str, Any]:
