@@ -258,30 +258,44 @@ def test_gl_backend_paints_from_its_own_texture(display: str, tmp_path: Path) ->
     assert rc == 0, err
 
 
-def test_a_visitor_cannot_close_the_window(display: str, tmp_path: Path,
-                                           monkeypatch: pytest.MonkeyPatch) -> None:
-    import glfw
-
-    from station.kiosk.app import KioskApp, KioskConfig
-
-    monkeypatch.setenv("DISPLAY", display)
-    app = KioskApp(KioskConfig(bus=f"ipc://{tmp_path}/bus", width=64, height=48,
-                               backend="numpy", fullscreen=False, gallery=tmp_path / "g",
-                               serve=None, status="none", vsync=False))
-    try:
-        for _ in range(3):
-            app.frame(0.016)
-        # the window manager's close request (Alt+F4, a close button) is refused ...
-        ours = glfw.set_window_close_callback(app.window, None)
-        assert ours is not None
-        glfw.set_window_should_close(app.window, True)
-        ours(app.window)
-        assert not glfw.window_should_close(app.window)
-        glfw.set_window_close_callback(app.window, ours)
-        # ... and no key does anything: nothing listens to the keyboard
-        assert glfw.set_key_callback(app.window, None) is None
-        assert glfw.set_char_callback(app.window, None) is None
+VISITOR_SCRIPT = """
+import sys
+from pathlib import Path
+import glfw
+from station.kiosk.app import KioskApp, KioskConfig
+tmp = Path(sys.argv[1])
+app = KioskApp(KioskConfig(bus=f"ipc://{tmp}/bus", width=64, height=48, backend="numpy",
+                           fullscreen=False, gallery=tmp / "g", serve=None, status="none",
+                           vsync=False))
+try:
+    for _ in range(3):
         app.frame(0.016)
-        assert not app.stop_requested
-    finally:
-        app.close()
+    # the window manager's close request (Alt+F4, a close button) is refused ...
+    ours = glfw.set_window_close_callback(app.window, None)
+    assert ours is not None
+    glfw.set_window_should_close(app.window, True)
+    ours(app.window)
+    assert not glfw.window_should_close(app.window)
+    glfw.set_window_close_callback(app.window, ours)
+    # ... and no key does anything: nothing listens to the keyboard
+    assert glfw.set_key_callback(app.window, None) is None
+    assert glfw.set_char_callback(app.window, None) is None
+    app.frame(0.016)
+    assert not app.stop_requested
+finally:
+    app.close()
+print("visitor cannot leave")
+"""
+
+
+def test_a_visitor_cannot_close_the_window(display: str, tmp_path: Path) -> None:
+    # in a process of its own: Xlib ends a process that mixes an EGL context (other tests
+    # here) with a GLX window, and the kiosk is one process with one context anyway
+    import os
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-c", VISITOR_SCRIPT, str(tmp_path)],
+                          capture_output=True, text=True, timeout=120,
+                          env={**os.environ, "DISPLAY": display})
+    assert proc.returncode == 0 and "visitor cannot leave" in proc.stdout, proc.stderr
