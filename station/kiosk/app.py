@@ -552,10 +552,13 @@ class KioskApp:
         """
         t0 = time.perf_counter()
         self.glfw.poll_events()
-        received = self.session.sub.stats.received
-        self.session.drain(0 if self._need_draw else self._quiet_wait_ms())
+        s = self.session
+        busy = (self._need_draw or s.whole_dirty or bool(s.dirty.any())
+                or s.player.brush.pending > 0 or bool(self.screenshots))
+        received = s.sub.stats.received
+        s.drain(0 if busy else self._quiet_wait_ms())
         tw = time.perf_counter()
-        got_input = self.session.sub.stats.received != received
+        got_input = s.sub.stats.received != received
         self._driver_status()
         if getattr(self, "_fresh_requested", False):
             self._fresh_requested = False
