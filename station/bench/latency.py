@@ -159,8 +159,10 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
             t_end = t0 + seconds
             while time.monotonic() < t_end:
                 now = time.monotonic()
+                drawn = app.frames
                 app.frame(now - last)
-                cells += app.display.cells_rendered
+                if app.frames > drawn:  # a pass that drew nothing rendered nothing
+                    cells += app.display.cells_rendered
                 last = now
             wall = time.monotonic() - t0
             st = app.session
