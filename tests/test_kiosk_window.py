@@ -191,6 +191,13 @@ def test_each_pen_control_does_what_it_says(display: str, tmp_path: Path) -> Non
         k.wait(lambda s: s["panel"]["eraser"], 10, "eraser")
         k.pen(cx + cw / 2, cy + ch / 2)
         k.wait(lambda s: not s["panel"]["eraser"], 10, "pen")
+        # the operator's "fresh": the painting is saved, a new one starts
+        old = s["painting_id"]
+        k.cmd("fresh")
+        s = k.wait(lambda s: s["painting_id"] != old, 10, "fresh canvas")
+        assert old in s["saved"] and s["qr_url"] is None and s["stamps"] == 0
+        assert json.loads((tmp_path / "gallery" / old / "meta.json").read_text())["reason"] \
+            == "operator"
     finally:
         rc, err = k.stop()
     assert rc == 0, err

@@ -216,6 +216,8 @@ class KioskApp:
                       "present": 0.0}
         self._need_draw = True
         self._last_draw = 0.0
+        self._fresh_requested = False  # an operator's "fresh" command
+        self._brush_key: tuple[Any, ...] | None = None
         self.steps_run = 0
         self.frame_errors = 0
         self._next_status = 0.0
@@ -246,7 +248,7 @@ class KioskApp:
                           log_path=str(self.live_dir / f"{pid}.jsonl"), status="none",
                           backend_opts=opts)
         session = KioskSession(live, map_pen=self._map_pen, kiosk_command=self._kiosk_command)
-        session.painting_id = pid  # type: ignore[attr-defined]
+        session.painting_id = pid
         self.session = session
         self.panel.apply_brush()  # the visitor's brush carries over, logged first
         self.idle.fresh(time.monotonic())
@@ -275,7 +277,7 @@ class KioskApp:
     def save_now(self) -> str:
         """Save the painting so far to the gallery (the visitor's Save); shows its QR."""
         s = self.session
-        pid: str = s.painting_id  # type: ignore[attr-defined]
+        pid = s.painting_id
         if s.writer is not None:
             s.writer.flush()
         try:
@@ -291,7 +293,7 @@ class KioskApp:
     def finish_painting(self, reason: str) -> str | None:
         """Save the painting to the gallery (if anything was painted) and start afresh."""
         s = self.session
-        pid: str = s.painting_id  # type: ignore[attr-defined]
+        pid = s.painting_id
         painted = s.painted_stamps > 0 or pid in self.saved
         meta = self._meta(reason)
         s.shutdown()  # log end marker, log closed
@@ -373,7 +375,7 @@ class KioskApp:
         bus changes it too)."""
         b = self.session.player.brush.settings
         key = (b.kind, b.size, b.water, tuple(sorted(b.pigment.items())))
-        if key == getattr(self, "_brush_key", None):
+        if key == self._brush_key:
             return
         self._brush_key = key
         p = self.panel
@@ -560,7 +562,7 @@ class KioskApp:
         tw = time.perf_counter()
         got_input = s.sub.stats.received != received
         self._driver_status()
-        if getattr(self, "_fresh_requested", False):
+        if self._fresh_requested:
             self._fresh_requested = False
             self.fresh_canvas("operator")
         now = time.monotonic()
@@ -641,7 +643,7 @@ class KioskApp:
         st.update({
             "process": "kiosk", "view": self.panel.view, "frames": self.frames,
             "frame_errors": self.frame_errors,
-            "painting_id": s.painting_id,  # type: ignore[attr-defined]
+            "painting_id": s.painting_id,
             "painted_stamps": s.painted_stamps, "saved": list(self.saved),
             "qr_url": self.qr_url, "driver_state": self.driver_state,
             "driver_events": list(self.driver_events), "pen_missing": self.pen_missing(),

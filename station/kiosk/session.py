@@ -58,6 +58,7 @@ class KioskSession(LiveSim):
         self.last_pen: PenSample | None = None  # last screen-space sample
         self.last_canvas_pen: PenSample | None = None
         self.painted_stamps = 0
+        self.painting_id = ""  # the gallery id the window gives this painting
 
     # -- geometry ----------------------------------------------------------------
     def _tile_shape(self) -> tuple[int, int]:
