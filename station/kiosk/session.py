@@ -115,12 +115,15 @@ class KioskSession(LiveSim):
             return
         self.dirty |= st.tile_ttl > 0
 
-    def run_due_steps(self, max_steps: int = 4) -> int:
-        """Run the steps due by the session clock (at most ``max_steps``: the frame
-        must go on; a slow machine falls behind and catches up as ``station sim`` does)."""
+    def run_due_steps(self, max_steps: int = 2) -> int:
+        """Run the steps due by the session clock: one, or up to ``max_steps`` when more
+        than three are due (a frame waits for at most that many; a slow machine falls
+        behind and catches up as ``station sim`` does)."""
         p = self.player
+        behind = p.steps_due(self.now()) - p.counters.steps
+        limit = max_steps if behind > 3 else 1
         n = 0
-        while n < max_steps and p.counters.steps < p.steps_due(self.now()):
+        while n < limit and p.counters.steps < p.steps_due(self.now()):
             self.step()
             n += 1
         return n
