@@ -6,8 +6,9 @@ PYTHON  ?= python3
 PY      := $(VENV)/bin/python
 STATION := $(VENV)/bin/station
 # Mesa headless GL (EGL + llvmpipe), Xvfb for the interactive-calibration tests,
-# kernel headers for python-evdev's build, libusb for pyusb.
-SYS_PKGS := libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libgles2 xvfb xauth linux-libc-dev libusb-1.0-0 \
+# libusb for pyusb.  No compiler or headers: every Python dependency installs from a
+# binary wheel (python-evdev as evdev-binary).
+SYS_PKGS := libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libgles2 xvfb xauth libusb-1.0-0 \
             python3-venv
 # Chromium for the kiosk's gallery-page test (skipped where it cannot be installed).
 TEST_PKGS := chromium
@@ -36,7 +37,10 @@ venv: $(VENV)/.installed
 $(VENV)/.installed: pyproject.toml
 	@[ -x $(PY) ] || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip setuptools wheel
-	$(PY) -m pip install -q -e '.[test]'
+	@# a venv made before evdev-binary has the source-built evdev in the same files: replace it
+	@if $(PY) -m pip show -q evdev >/dev/null 2>&1; then \
+	  $(PY) -m pip uninstall -q -y evdev evdev-binary; fi
+	$(PY) -m pip install -q --only-binary=:all: -e '.[test]'
 	@touch $@
 
 demo: setup

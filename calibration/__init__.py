@@ -4,7 +4,7 @@ Installs as ``station.calibration``.  Modules:
 
 * :mod:`~station.calibration.pointset` — point sets, mappings, refusal of degenerate sets;
 * :mod:`~station.calibration.fit` — affine / homography fits, parallax,
-  misclick detection, leave-one-out error (:mod:`~station.calibration.lm`: the solver);
+  misclick detection, leave-one-out error (the solver: SciPy's ``least_squares``);
 * :mod:`~station.calibration.points` — the points CSV;
 * :mod:`~station.calibration.area` — active area, rotation, left-handed,
   aspect lock, output rectangle, composed into one matrix;

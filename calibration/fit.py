@@ -21,7 +21,8 @@ Robust fitting (misclicks): least trimmed squares over minimal subsets
 every point by its leverage-corrected studentised residual against the 99.9 %
 quantile of ``2·F(2, dof)`` (chi-square when the noise is known); see
 :func:`fit_points`.  Point sets and their validation live in
-:mod:`station.calibration.pointset`, the solver in :mod:`station.calibration.lm`.
+:mod:`station.calibration.pointset`; the non-linear refinement is SciPy's
+Levenberg–Marquardt (``least_squares(method="lm")``, MINPACK).
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from scipy.optimize import least_squares
 from station.calibration.errors import DegeneratePoints
 from station.calibration.geometry import (
     CHI2_2_0999,
@@ -45,7 +47,6 @@ from station.calibration.geometry import (
     project,
     spread,
 )
-from station.calibration.lm import levenberg_marquardt
 from station.calibration.pointset import (
     COLLINEAR_TOL,
     COND_MAX,
@@ -64,7 +65,7 @@ __all__ = [
     "CHI2_2_0999", "COLLINEAR_TOL", "COND_MAX", "DUPLICATE_TOL", "MIN_POINTS",
     "MIN_TILT_SPREAD", "MODELS", "N_PARAMS", "FitReport", "Mapping", "PointSet",
     "check_points", "fit_affine", "fit_homography", "fit_mapping", "fit_points",
-    "leave_one_out", "levenberg_marquardt", "outlier_limit", "residuals", "residuals_mm",
+    "leave_one_out", "outlier_limit", "residuals", "residuals_mm",
 ]  # fmt: skip
 
 MAX_SUBSETS = 400  # minimal subsets tried by the robust search
@@ -270,15 +271,32 @@ def _fit_normalised(
     if parallax:
         par = _parallax_init(model, m, nz)
     if (model == "homography" and refine) or parallax:
-        theta, _cost = levenberg_marquardt(
-            lambda th: _residuals_jac(model, th, nz.dn, nz.cn, nz.tn, parallax),
-            _pack(model, m, par if parallax else None),
-        )
+        theta = _refine(model, nz, parallax, _pack(model, m, par if parallax else None))
         m, p2 = _unpack(model, theta)
         if parallax:
             par = p2
             _check_parallax_conditioning(model, theta, nz)
     return m, par, cond
+
+
+def _refine(model: str, nz: _Normalised, parallax: bool, theta0: Array) -> Array:
+    """Minimise the canvas-space error from ``theta0`` (Levenberg–Marquardt, MINPACK)."""
+
+    def fun(th: Array) -> Array:
+        return _residuals_jac(model, th, nz.dn, nz.cn, nz.tn, parallax)[0]
+
+    def jac(th: Array) -> Array:
+        return _residuals_jac(model, th, nz.dn, nz.cn, nz.tn, parallax)[1]
+
+    # A start that sends a point to infinity (a degenerate minimal subset of the
+    # robust search) has nothing to refine; the caller judges the mapping.  A trial
+    # step reaching w = 0 gives MINPACK a non-finite cost: rejected, step shortened.
+    with np.errstate(all="ignore"):
+        if not np.isfinite(fun(theta0)).all():
+            return np.asarray(theta0, dtype=np.float64)
+        sol = least_squares(fun, theta0, jac=jac, method="lm", xtol=1e-14, ftol=1e-14,
+                            gtol=1e-14)
+    return np.asarray(sol.x, dtype=np.float64)
 
 
 def _check_parallax_conditioning(model: str, theta: Array, nz: _Normalised) -> None:

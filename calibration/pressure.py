@@ -18,9 +18,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import least_squares
 from station.calibration.errors import CalibrationError
 from station.calibration.geometry import Array
-from station.calibration.lm import levenberg_marquardt
 
 LINEAR = (0.0, 0.0, 1.0, 1.0)
 
@@ -63,9 +63,11 @@ def fit_curve(
 ) -> tuple[float, float, float, float]:
     """Bézier control points whose curve best maps ``inputs`` to ``targets``.
 
-    Least squares on the output by Levenberg–Marquardt over (x1, y1, x2, y2),
-    parameterised through a logistic so they stay inside [0, 1], started from
-    a small grid (the problem is not convex).
+    Least squares on the output over (x1, y1, x2, y2) with SciPy's trust-region
+    reflective solver (Levenberg–Marquardt needs at least as many targets as
+    parameters; two or three targets are allowed), parameterised through a
+    logistic so they stay inside [0, 1], started from a small grid (the problem
+    is not convex).
     """
     xs = np.asarray(inputs, dtype=np.float64)
     ys = np.asarray(targets, dtype=np.float64)
@@ -81,22 +83,18 @@ def fit_curve(
     def unpack(z: Array) -> Array:
         return 1.0 / (1.0 + np.exp(-np.clip(z, -30, 30)))
 
-    def fun(z: Array) -> tuple[Array, Array]:
-        r = bezier_eval(unpack(z), xs) - ys
-        jac = np.empty((len(xs), 4))
-        for k in range(4):
-            dz = np.zeros(4)
-            dz[k] = 1e-6
-            jac[:, k] = (bezier_eval(unpack(z + dz), xs) - bezier_eval(unpack(z - dz), xs)) / 2e-6
-        return r, jac
+    def fun(z: Array) -> Array:
+        return bezier_eval(unpack(z), xs) - ys
 
     best: tuple[float, Array] | None = None
     for a in (0.2, 0.5, 0.8):
         for b in (0.2, 0.5, 0.8):
             z0 = np.log(np.array([a, b, 1 - b, 1 - a]) / (1 - np.array([a, b, 1 - b, 1 - a])))
-            z, cost = levenberg_marquardt(fun, z0, max_iter=60, tol=1e-12)
+            sol = least_squares(fun, z0, jac="3-point", method="trf", xtol=1e-12, ftol=1e-12,
+                                gtol=1e-12, max_nfev=600)
+            cost = float(sol.fun @ sol.fun)
             if best is None or cost < best[0]:
-                best = (cost, z)
+                best = (cost, np.asarray(sol.x))
     assert best is not None  # the grid is never empty
     p = unpack(best[1])
     return (float(p[0]), float(p[1]), float(p[2]), float(p[3]))

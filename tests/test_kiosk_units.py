@@ -99,7 +99,7 @@ def _session(tmp_path, size=(96, 64), **kw):  # type: ignore[no-untyped-def]
 
     cfg = LiveConfig(bus=f"ipc://{tmp_path}/bus", width=size[0], height=size[1],
                      backend="numpy",
-                     status="none", log_path=str(tmp_path / "s.jsonl"))
+                     status="none", cmd="none", log_path=str(tmp_path / "s.jsonl"))
     return KioskSession(cfg, **kw)
 
 
@@ -144,13 +144,13 @@ def test_the_screen_is_mapped_and_window_commands_stay_out_of_the_canvas(tmp_pat
     try:
         s.handle("pen", PenSample(t=0, device="p", tool=Tool.PEN, x=0.1, y=0.5, touching=True,
                                   pressure=0.5))
-        assert s.samples == 0 and s.last_pen is not None and s.last_canvas_pen is None
+        assert s.counters.samples == 0 and s.last_pen is not None and s.last_canvas_pen is None
         s.handle("pen", PenSample(t=0, device="p", tool=Tool.ERASER, x=0.65, y=0.5))
-        assert s.samples == 1 and s.last_canvas_pen.x == pytest.approx(0.5)
+        assert s.counters.samples == 1 and s.last_canvas_pen.x == pytest.approx(0.5)
         assert s.eraser_selected()
         s.handle("cmd", Command(t=0, cmd="view", args={"name": "3d"}))
         s.handle("cmd", Command(t=0, cmd="dry", args={}))
-        assert seen == ["view", "dry"] and s.commands == 1  # only dry reached the player
+        assert seen == ["view", "dry"] and s.counters.commands == 1  # only dry reached the player
     finally:
         s.shutdown()
 

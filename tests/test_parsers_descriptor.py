@@ -224,7 +224,7 @@ def test_wacom_vendor_usage_equivalents():
     assert U.equivalent_usage(0xFF0D1001) == 0xFF0D1001  # pad sub-page kept
     assert U.equivalent_usage(U.GD_X) == U.GD_X
     assert U.usage_name(U.DG_TIP_PRESSURE) == "Tip Pressure"
-    assert U.usage_name(0xFF000001) == "0xff00:0001"
+    assert U.usage_name(0xFF420001) == "0xff42:0001"  # a page no table names
 
 
 # -- extraction --------------------------------------------------------------------

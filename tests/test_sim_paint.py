@@ -342,7 +342,7 @@ def test_progress_only_when_asked_or_on_a_terminal(tmp_path: Path,
     small_session().save(log)
     paint_api(str(log), str(tmp_path / "a.png"), backend="numpy", progress=True)
     err = capsys.readouterr().err
-    assert err.startswith("\rpainting ") and "%" in err and err.endswith("\n")
+    assert err.startswith("\rpainting:") and "%" in err and err.endswith("\n")
     paint_api(str(log), str(tmp_path / "b.png"), backend="numpy")  # stderr is not a tty here
     assert capsys.readouterr().err == ""
 
@@ -419,18 +419,18 @@ def test_auto_backend_choice_and_fallback(monkeypatch: pytest.MonkeyPatch,
     # a CPU rasterizer: the fastest CPU backend (cpu with numba, else numpy); a GPU: gl
     cpu = backend_mod.fastest_cpu_backend()
     monkeypatch.setattr(context_mod, "create_context", lambda: FakeCtx("llvmpipe (LLVM 15)"))
-    assert paint_mod.auto_backend()[0] == cpu
+    assert backend_mod.resolve_auto()[0] == cpu
     monkeypatch.setattr(context_mod, "create_context", lambda: FakeCtx("NVIDIA GeForce RTX"))
-    assert paint_mod.auto_backend() == ("gl", "OpenGL renderer 'NVIDIA GeForce RTX'")
+    assert backend_mod.resolve_auto() == ("gl", "OpenGL renderer 'NVIDIA GeForce RTX'")
 
     def no_egl() -> Any:
         raise GLUnavailable("cannot create a context\nEGL: no display")
 
     monkeypatch.setattr(context_mod, "create_context", no_egl)
-    name, why = paint_mod.auto_backend()
+    name, why = backend_mod.resolve_auto()
     assert name == cpu and "EGL: no display" in why and "\n" not in why
 
-    # GL chosen but it cannot start: numpy, with a one-line warning
+    # GL chosen but it cannot start: the fastest CPU backend, with a one-line warning
     monkeypatch.setattr(context_mod, "create_context", lambda: FakeCtx("Some GPU"))
     real = backend_mod.create_backend
 
@@ -441,7 +441,8 @@ def test_auto_backend_choice_and_fallback(monkeypatch: pytest.MonkeyPatch,
 
     monkeypatch.setattr(backend_mod, "create_backend", no_gl)
     canvas, name = paint_mod.make_backend("auto", 32, 32, "watercolor", 0)
-    assert name == "numpy" and canvas.renderer == "numpy"
+    assert name == cpu and type(canvas).__name__ == {"cpu": "CpuCanvas",
+                                                      "numpy": "NumpyCanvas"}[cpu]
     assert any("shader failed | second line" in r.getMessage() for r in caplog.records)
     with pytest.raises(StationError):  # an explicit gl that cannot start: exit 1
         paint_mod.make_backend("gl", 32, 32, "watercolor", 0)

@@ -28,7 +28,7 @@ def _evdev() -> Any:
     try:
         import evdev
     except ImportError as exc:  # pragma: no cover - declared extra on Linux
-        raise TransportError(f"python-evdev is not installed ({exc}); pip install evdev") \
+        raise TransportError(f"python-evdev is not installed ({exc}); pip install evdev-binary") \
             from None
     return evdev
 

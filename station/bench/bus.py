@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from station.events import PenSample, Tool
+from station.progress import Progress
 
 TARGET_P99_MS = 0.5
 TARGET_FLAT_OUT = 100_000
@@ -139,7 +140,8 @@ def run(args: argparse.Namespace) -> int:
     report: dict[str, Any] = {"targets": {"p99_ms_at_1khz": TARGET_P99_MS,
                                           "flat_out_samples_per_s": TARGET_FLAT_OUT,
                                           "lost_at_1khz": 0}}
-    with tempfile.TemporaryDirectory(prefix="station-bench-") as tmp:
+    bar = Progress(3 * len(transports), "bench bus", unit="run")
+    with bar, tempfile.TemporaryDirectory(prefix="station-bench-") as tmp:
         rundir = secure_dir(Path(tmp) / "run")
         keys = str(Path(tmp) / "keys")
         generate_keys(Path(keys))
@@ -148,17 +150,23 @@ def run(args: argparse.Namespace) -> int:
                 endpoint, k = f"ipc://{rundir}/bench", None
             else:
                 endpoint, k = f"tcp://127.0.0.1:{_free_port()}", keys
+            bar.note(f"{transport} at 1 kHz")
             r1 = _one_run(endpoint, k, args.samples_1khz, 0.001)
+            bar.update()
             if transport == "tcp":
                 endpoint = f"tcp://127.0.0.1:{_free_port()}"
             else:
                 endpoint = f"ipc://{rundir}/bench-flat"
+            bar.note(f"{transport} flat out")
             r2 = _one_run(endpoint, k, args.samples_flat, 0.0)
+            bar.update()
             if transport == "tcp":
                 endpoint = f"tcp://127.0.0.1:{_free_port()}"
             else:
                 endpoint = f"ipc://{rundir}/bench-batch"
+            bar.note(f"{transport} flat out, batches")
             r3 = _one_run(endpoint, k, args.samples_flat, 0.0, batch=args.batch)
+            bar.update()
             report[transport] = {
                 "rate_1khz": {key: r1[key] for key in ("p50_ms", "p99_ms", "max_ms", "lost",
                                                        "sent", "received") if key in r1},

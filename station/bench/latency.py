@@ -116,7 +116,7 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
     with tempfile.TemporaryDirectory(prefix="station-latency-") as tmp:
         cfg = KioskConfig(bus=f">ipc:{bus}", width=width, height=height, backend=backend,
                           fullscreen=False, gallery=Path(tmp) / "gallery", serve=None,
-                          status="none", vsync=False,
+                          status="none", vsync=False, cmd="none",
                           idle=IdleConfig(attract_after=3600, finish_after=7200))
         app = KioskApp(cfg)
         spec = f"mock:{model}?script={script}&repeat=0&reports={rate * 2}&rate={rate}"
@@ -142,9 +142,9 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
                 now = time.monotonic()
                 app.frame(now - last)
                 last = now
-                if app.session.samples > 0 and t_end == give_up:
+                if app.session.counters.samples > 0 and t_end == give_up:
                     t_end = now + 2.0
-            if app.session.samples == 0:
+            if app.session.counters.samples == 0:
                 raise StationError("no pen samples arrived from the mock driver: "
                                    + (driver.stderr.read().decode()[-500:]
                                       if driver.poll() is not None and driver.stderr else ""))
@@ -153,7 +153,7 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
             app.steps_run = 0
             for k in app.phase:
                 app.phase[k] = 0.0
-            samples0, stamps0 = app.session.samples, app.session.painted_stamps
+            samples0, stamps0 = app.session.counters.samples, app.session.painted_stamps
             cells = 0
             t0 = time.monotonic()
             t_end = t0 + seconds
@@ -173,7 +173,7 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
                     app.ctx.info.get("GL_RENDERER", ""),
                 "cpus": os.cpu_count(), "load_avg": [round(v, 2) for v in os.getloadavg()],
                 "tablet": {"model": model, "script": script, "reports_per_s": rate,
-                           "samples": st.samples - samples0,
+                           "samples": st.counters.samples - samples0,
                            "stamps": st.painted_stamps - stamps0},
                 "latency": {**_percentiles(app.latencies),
                             "goal_p99_ms": GOAL_P99_MS,

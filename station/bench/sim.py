@@ -1,6 +1,7 @@
 """``station bench sim``: simulation speed of the canvas backends (issue 3 §9).
 
-For each backend (``gl``, ``numpy``, ``cpu``), canvas size and scenario it measures
+For each backend (by default every one that can run here: ``numpy``, ``cpu`` with
+numba, ``gl`` when an OpenGL 4.3 context can be made), canvas size and scenario it measures
 steps per second and cell-steps per second:
 
 * ``wash``: the whole canvas wet (water and two pigments everywhere, a gentle
@@ -22,20 +23,21 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import sys
 import time
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from station.canvas.backend import available_backends, create_backend, resolve_auto
 from station.errors import BadInput, StationError
+from station.progress import Progress
 
 DEFAULT_SIZES = ("512x512", "800x600", "1024x1024", "2048x2048")
 SCENARIOS = ("wash", "stroke")
 BACKENDS = ("gl", "numpy", "cpu")
-DEFAULT_BACKENDS = ("gl", "numpy")
-"""Measured without ``--backends`` (``cpu``, numba, is asked for by name)."""
+"""Without ``--backends`` every one available here is measured
+(:func:`station.canvas.backend.available_backends`), the one ``auto`` picks included."""
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -180,8 +182,6 @@ class _StrokePath:
 def measure(backend: str, width: int, height: int, scenario: str, seconds: float,
             min_steps: int = 3, warmup: int = 10) -> Result:
     """Run one configuration for about ``seconds`` (after ``warmup`` steps)."""
-    from station.canvas.backend import create_backend
-
     canvas = create_backend(backend, width, height, "watercolor", 1,
                             tiling=(scenario == "stroke"))
     probe = _Probe(canvas)
@@ -223,8 +223,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print JSON (the default output too)")
     p.add_argument("--sizes", default=",".join(DEFAULT_SIZES),
                    help="comma-separated WIDTHxHEIGHT list (default: %(default)s)")
-    p.add_argument("--backends", default=",".join(DEFAULT_BACKENDS),
-                   help="gl,numpy,cpu or some of them (default: %(default)s)")
+    p.add_argument("--backends", default=None,
+                   help="gl,numpy,cpu or some of them (default: every one available here)")
     p.add_argument("--scenarios", default=",".join(SCENARIOS), help="wash,stroke or one")
     p.add_argument("--seconds", type=float, default=3.0,
                    help="measuring time per configuration (default %(default)s s)")
@@ -239,7 +239,10 @@ def run(args: argparse.Namespace) -> int:
     if not seconds > 0:
         raise BadInput("must be > 0", "--seconds")
     dims = [parse_size(s) for s in sizes]
-    backends = [b for b in args.backends.split(",") if b]
+    if args.backends is None:
+        backends = available_backends()
+    else:
+        backends = [b for b in args.backends.split(",") if b]
     scenarios = [s for s in args.scenarios.split(",") if s]
     for b in backends:
         if b not in BACKENDS:
@@ -250,21 +253,26 @@ def run(args: argparse.Namespace) -> int:
     bandwidth = memory_bandwidth_gb_s()
     results: list[dict[str, Any]] = []
     renderer = "numpy"
+    bar = Progress(len(backends) * len(dims) * len(scenarios), "bench sim", unit="run")
     for backend in backends:
         for w, h in dims:
             for scenario in scenarios:
+                bar.note(f"{backend} {w}x{h} {scenario}")
                 try:
                     r = measure(backend, w, h, scenario, seconds)
                 except (StationError, ImportError) as exc:
                     results.append({"backend": backend, "size": f"{w}x{h}",
                                     "scenario": scenario, "error": str(exc)})
+                    bar.update()
                     continue
                 if backend == "gl":
                     renderer = r.renderer
                 results.append(r.as_dict(bandwidth))
-                print(f"bench sim: {backend} {w}x{h} {scenario}: "
-                      f"{results[-1]['steps_per_s']} steps/s", file=sys.stderr)
+                bar.write(f"bench sim: {backend} {w}x{h} {scenario}: "
+                          f"{results[-1]['steps_per_s']} steps/s")
+                bar.update()
+    bar.close()
     out = {"renderer": renderer, "memory_bandwidth_gb_s": round(bandwidth, 3),
-           "results": results}
+           "auto": resolve_auto()[0], "results": results}
     print(json.dumps(out, indent=2))
     return 0

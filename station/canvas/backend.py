@@ -11,6 +11,9 @@ receive nothing. Unknown pigments, or a ninth pigment in one layer, raise
 
 from __future__ import annotations
 
+import importlib
+import importlib.util
+import logging
 from collections.abc import Mapping
 from typing import Any, Protocol, runtime_checkable
 
@@ -18,21 +21,102 @@ import numpy as np
 
 from station.canvas.params import CanvasInputError
 from station.canvas.state import CanvasState
+from station.errors import BadInput, StationError
+
+log = logging.getLogger(__name__)
 
 BACKENDS = ("numpy", "gl", "cpu")
 
 
 def numba_available() -> bool:
     """Whether the ``cpu`` backend can run (numba importable)."""
-    import importlib.util
-
     return importlib.util.find_spec("numba") is not None
 
 
 def fastest_cpu_backend() -> str:
     """The backend to use without a GPU: ``"cpu"`` (numba) when numba is installed,
-    else the ``"numpy"`` reference. ``create_backend("auto", ...)`` makes this one."""
+    else the ``"numpy"`` reference."""
     return "cpu" if numba_available() else "numpy"
+
+
+SOFTWARE_GL = ("llvmpipe", "softpipe", "swrast", "lavapipe", "software rasterizer")
+"""GL_RENDERER words of OpenGL implementations that run on the CPU."""
+
+
+def _gl_renderer() -> str:
+    """GL_RENDERER of a fresh context; :class:`StationError` or ImportError if none."""
+    from station.canvas.gl.context import create_context  # lazy: moderngl only when probed
+
+    ctx = create_context()
+    try:
+        return str(ctx.info.get("GL_RENDERER", "unknown"))
+    finally:
+        ctx.release()
+
+
+def _one_line(exc: BaseException) -> str:
+    return " | ".join(ln.strip() for ln in str(exc).splitlines() if ln.strip())[:300]
+
+
+def resolve_auto() -> tuple[str, str]:
+    """What ``--backend auto`` means on this machine, and why (one line).
+
+    The only place that decides it: ``gl`` when an OpenGL 4.3 context runs on a real
+    GPU; otherwise :func:`fastest_cpu_backend` (``cpu`` with numba, else ``numpy``),
+    also when the context is a CPU rasterizer such as Mesa llvmpipe, where the CPU
+    backends are faster (docs/gpu.md, docs/cpu-backend.md: on the 2-core machine at
+    800x600 llvmpipe GL did 73 stroke steps/s, NumPy 95, cpu 5-8x NumPy).
+    """
+    cpu = fastest_cpu_backend()
+    try:
+        renderer = _gl_renderer()
+    except (ImportError, StationError) as exc:
+        return cpu, f"GL unavailable ({_one_line(exc)})"
+    if any(k in renderer.lower() for k in SOFTWARE_GL):
+        return cpu, f"OpenGL renderer {renderer!r} runs on the CPU, where {cpu} is faster"
+    return "gl", f"OpenGL renderer {renderer!r}"
+
+
+def available_backends() -> list[str]:
+    """Every backend that can run here: ``numpy`` always, ``cpu`` with numba, ``gl``
+    when an OpenGL 4.3 context can be made (a CPU rasterizer counts)."""
+    names = ["numpy"]
+    if numba_available():
+        names.append("cpu")
+    try:
+        _gl_renderer()
+    except (ImportError, StationError):
+        pass
+    else:
+        names.append("gl")
+    return names
+
+
+def make_backend(name: str, width: int, height: int, profile: str = "watercolor",
+                 seed: int = 0, **opts: Any) -> tuple[CanvasBackend, str]:
+    """Create backend ``name`` (``auto`` through :func:`resolve_auto`); returns it and
+    the name of the one made.
+
+    An explicit ``gl`` that cannot start is an environment failure (exit 1), not bad
+    input; ``auto`` then falls back to :func:`fastest_cpu_backend` with a one-line
+    warning.
+    """
+    if name == "auto":
+        name, why = resolve_auto()
+        log.info("backend auto: %s (%s)", name, why)
+        if name == "gl":
+            try:
+                return create_backend("gl", width, height, profile, seed, **opts), "gl"
+            except BadInput:
+                raise
+            except (ImportError, StationError) as exc:
+                name = fastest_cpu_backend()
+                log.warning("GL backend unavailable (%s): painting with %s",
+                            _one_line(exc), name)
+    try:
+        return create_backend(name, width, height, profile, seed, **opts), name
+    except ImportError as exc:
+        raise StationError(f"backend {name!r} cannot be loaded: {exc}") from None
 
 
 @runtime_checkable
@@ -100,17 +184,14 @@ def create_backend(name: str, width: int, height: int, profile: str = "watercolo
                    seed: int = 0, **opts: Any) -> CanvasBackend:
     """Make a backend: ``"numpy"`` (reference), ``"gl"`` (moderngl, imported lazily),
     ``"cpu"`` (the reference fused and compiled with numba, imported lazily) or
-    ``"auto"`` (:func:`fastest_cpu_backend`: ``cpu`` when numba is installed, else
-    ``numpy``; GL is only made when asked for by name).
+    ``"auto"`` (:func:`resolve_auto` decides, through :func:`make_backend`).
 
     ``opts`` go to the backend (e.g. ``tiling=False``, ``n_slots=8``,
     ``params=SimParams(...)`` overriding the profile's parameters).
     """
     if name == "auto":
-        name = fastest_cpu_backend()
+        return make_backend("auto", width, height, profile, seed, **opts)[0]
     if name == "cpu":
-        import importlib
-
         cpu = importlib.import_module("station.canvas.cpu")  # lazy: numba only when asked
         made: CanvasBackend = cpu.CpuCanvas(width, height, profile=profile, seed=seed, **opts)
         return made
@@ -119,8 +200,6 @@ def create_backend(name: str, width: int, height: int, profile: str = "watercolo
 
         return NumpyCanvas(width, height, profile=profile, seed=seed, **opts)
     if name == "gl":
-        import importlib
-
         gl = importlib.import_module("station.canvas.gl")  # lazy: moderngl only when asked
         backend: CanvasBackend = gl.GLCanvas(width, height, profile=profile, seed=seed, **opts)
         return backend

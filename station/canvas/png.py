@@ -1,48 +1,56 @@
-"""Minimal PNG writer (8- and 16-bit RGB) with zlib and struct only.
+"""PNG output, 8- and 16-bit RGB, through Pillow and pypng.
 
 Pixels are written as given (no gamma chunk): callers convert linear reflectance
-to sRGB first (``render.to_srgb8`` / ``to_srgb16``).
+to sRGB first (``render.to_srgb8`` / ``to_srgb16``).  Both depths are lossless: a
+file decodes to exactly the array that was written.
+
+8-bit goes through Pillow.  16-bit goes through pypng because Pillow has no
+48-bit RGB image mode (Pillow 13: ``Image.fromarray`` of an (H, W, 3) uint16 array
+raises "Cannot handle this data type"; its PNG writer only knows 16-bit grey).
 """
 
 from __future__ import annotations
 
-import struct
-import zlib
+import io
 from pathlib import Path
+from typing import IO
 
 import numpy as np
+import png as pypng
+from PIL import Image
 
 from station.errors import StationError
 
-_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+COMPRESS_LEVEL = 6
+"""zlib level of both writers (6: zlib's default balance of size and speed)."""
 
 
-def _chunk(kind: bytes, data: bytes) -> bytes:
-    crc = zlib.crc32(kind + data) & 0xFFFFFFFF
-    return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", crc)
+def _check(pixels: np.ndarray) -> None:
+    if pixels.ndim != 3 or pixels.shape[2] != 3:
+        raise StationError("PNG pixels must have shape (H, W, 3)")
+    if pixels.dtype not in (np.uint8, np.uint16):
+        raise StationError(f"PNG pixels must be uint8 or uint16, not {pixels.dtype}")
+
+
+def _write(stream: IO[bytes], pixels: np.ndarray) -> None:
+    _check(pixels)
+    h, w, _ = pixels.shape
+    if pixels.dtype == np.uint8:
+        Image.fromarray(np.ascontiguousarray(pixels)).save(  # (H, W, 3) uint8 is RGB
+            stream, format="PNG", compress_level=COMPRESS_LEVEL)
+    else:
+        writer = pypng.Writer(w, h, greyscale=False, bitdepth=16, compression=COMPRESS_LEVEL)
+        writer.write_array(stream, np.ascontiguousarray(pixels).reshape(-1))
 
 
 def encode_png(pixels: np.ndarray) -> bytes:
     """PNG bytes of ``pixels``: uint8 or uint16 array (H, W, 3) (RGB)."""
-    if pixels.ndim != 3 or pixels.shape[2] != 3:
-        raise StationError("PNG pixels must have shape (H, W, 3)")
-    if pixels.dtype == np.uint8:
-        depth = 8
-        raw = np.ascontiguousarray(pixels)
-    elif pixels.dtype == np.uint16:
-        depth = 16
-        raw = np.ascontiguousarray(pixels.astype(">u2"))
-    else:
-        raise StationError(f"PNG pixels must be uint8 or uint16, not {pixels.dtype}")
-    h, w, _ = pixels.shape
-    rows = raw.reshape(h, -1).view(np.uint8)
-    filt = np.zeros((h, 1), np.uint8)  # filter type 0 (None) on every row
-    data = np.concatenate([filt, rows], axis=1).tobytes()
-    ihdr = struct.pack(">IIBBBBB", w, h, depth, 2, 0, 0, 0)
-    return (_SIGNATURE + _chunk(b"IHDR", ihdr) + _chunk(b"IDAT", zlib.compress(data, 6))
-            + _chunk(b"IEND", b""))
+    buf = io.BytesIO()
+    _write(buf, pixels)
+    return buf.getvalue()
 
 
 def write_png(path: str | Path, pixels: np.ndarray) -> None:
     """Write ``pixels`` (uint8 or uint16 (H, W, 3)) to ``path``."""
+    # encoded first: a bad array or a failing encoder leaves no half-written file behind
     Path(path).write_bytes(encode_png(pixels))

@@ -44,6 +44,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--view", choices=("2d", "3d", "follow"), default="2d", help="first view")
     p.add_argument("--status", metavar="ENDPOINT",
                    help="where to publish status ('none' to disable; default as station sim)")
+    p.add_argument("--cmd", metavar="ENDPOINT",
+                   help="where `station send` reaches the kiosk (default @ipc:sim-cmd; 'none' "
+                        "to disable)")
+    p.add_argument("--autosave", type=float, default=30.0, metavar="SECONDS",
+                   help="seconds between autosaves of the painting in <gallery>/.live (0: off)")
     p.add_argument("--no-vsync", action="store_true", help="do not wait for vertical blank")
     p.add_argument("--duration", type=float, metavar="SECONDS", help="stop after this long")
     p.add_argument("--screenshot-dir", metavar="DIR",
@@ -70,6 +75,8 @@ def run(args: argparse.Namespace) -> int:
     if args.bus and args.bus.startswith("@"):
         raise BadInput("the kiosk connects to the bus (a driver or 'station bus' binds it); "
                        "drop the '@'", "--bus")
+    if not (0 <= args.autosave <= 3600):
+        raise BadInput("must be 0 (off) to 3600 seconds", "--autosave")
     serve = None if args.serve == "none" else args.serve
     if serve is not None:
         _host, sep, port = serve.rpartition(":")
@@ -83,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
         idle=IdleConfig(attract_after=args.attract_after, finish_after=args.idle_minutes * 60),
         status=args.status, duration=args.duration,
         screenshot_dir=Path(args.screenshot_dir) if args.screenshot_dir else None,
-        view=args.view, vsync=not args.no_vsync)
+        view=args.view, vsync=not args.no_vsync, cmd=args.cmd, autosave=args.autosave)
     app = KioskApp(cfg)
     app.install_signal_handlers()
     sys.stderr.write(f"station kiosk: {width}x{height} {cfg.profile} on "

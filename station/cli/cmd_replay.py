@@ -16,6 +16,7 @@ import threading
 from typing import Any
 
 from station.errors import BadInput
+from station.progress import Progress
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -54,11 +55,11 @@ def run(args: argparse.Namespace) -> int:
     speed = parse_speed(args.speed)
     trace = read_trace(args.trace)
     replay = TraceReplay(trace, device_name=args.name)
+    if not replay.pen_devices:  # one line: the skipped devices are in the message
+        raise BadInput(f"no pen device in this trace ({replay.skipped_text()})", args.trace)
     for s in replay.skipped:
         sys.stderr.write(f"station replay: skipped device {s['device']} {s['name']!r}: "
                          f"{s['reason']} ({s['reports']} reports)\n")
-    if not replay.pen_devices:
-        raise BadInput(f"no pen device in this trace ({replay.skipped_text()})", args.trace)
     writer = None
     publisher: Any = None
     if args.jsonl:
@@ -73,9 +74,11 @@ def run(args: argparse.Namespace) -> int:
             publisher.wait_for_subscribers(args.wait_subscribers, timeout=5.0)
     stop = threading.Event()
     count = {"samples": 0}
+    bar = Progress(replay.duration(), "replay", unit="s")
 
     def emit(sample: PenSample) -> None:
         count["samples"] += 1
+        bar.set(sample.t)
         if writer is not None:
             writer.write(sample)
         if publisher is not None:
@@ -89,6 +92,7 @@ def run(args: argparse.Namespace) -> int:
             batch: list[PenSample] = []
             for sample in replay.samples():
                 count["samples"] += 1
+                bar.set(sample.t)
                 if writer is not None:
                     writer.write(sample)
                 if publisher is not None:
@@ -107,6 +111,7 @@ def run(args: argparse.Namespace) -> int:
         if publisher is not None:
             publisher.publish_status({"kind": "replay", "state": "done", **summary})
     finally:
+        bar.close()
         for sig, handler in old.items():
             signal.signal(sig, handler)
         if writer is not None:

@@ -37,7 +37,7 @@ from station.kiosk.gallery import Gallery, GalleryServer, new_id, painting_url, 
 from station.kiosk.idle import IdleClock, IdleConfig
 from station.kiosk.session import KioskSession
 from station.kiosk.views import VIEWS, Camera, Viewport, input_camera, make_camera
-from station.sim.live import LiveConfig
+from station.sim.live import DEFAULT_CMD_ENDPOINT, LiveConfig
 
 log = logging.getLogger(__name__)
 
@@ -108,6 +108,8 @@ class KioskConfig:
     view: str = "2d"
     vsync: bool = True
     panel_fraction: float = 0.3
+    cmd: str | None = None  # where `station send` reaches the kiosk; "none" disables
+    autosave: float = 30.0  # seconds between autosaves of the painting (0: off)
 
 
 class KioskApp:
@@ -190,6 +192,10 @@ class KioskApp:
         status_ep = cfg.status or default_status_endpoint(cfg.bus)
         self.pub = None if status_ep == "none" else Publisher(status_ep)
         self.driver_sub = Subscriber(cfg.bus, topics=("status",))
+        # `station send` reaches the kiosk here (the sessions come and go; this stays)
+        cmd_ep = cfg.cmd or "@" + DEFAULT_CMD_ENDPOINT
+        self.cmd_sub = None if cmd_ep == "none" else Subscriber(
+            cmd_ep if cmd_ep[0] in "@>" else "@" + cmd_ep, topics=("cmd",))
         from station.canvas.params import get_profile
 
         brush = get_profile(cfg.profile).brush
@@ -246,7 +252,7 @@ class KioskApp:
         live = LiveConfig(bus=cfg.bus, width=cfg.width, height=cfg.height, profile=cfg.profile,
                           backend=cfg.backend, seed=cfg.seed, rate=cfg.rate,
                           log_path=str(self.live_dir / f"{pid}.jsonl"), status="none",
-                          backend_opts=opts)
+                          cmd="none", autosave=cfg.autosave, backend_opts=opts)
         session = KioskSession(live, map_pen=self._map_pen, kiosk_command=self._kiosk_command)
         session.painting_id = pid
         self.session = session
@@ -278,10 +284,9 @@ class KioskApp:
         """Save the painting so far to the gallery (the visitor's Save); shows its QR."""
         s = self.session
         pid = s.painting_id
-        if s.writer is not None:
-            s.writer.flush()
+        s.journal.sync()  # the copy in the gallery holds every record so far
         try:
-            self.gallery.save(pid, self._render_srgb8(), s.cfg.log_path, self._meta("save"))
+            self.gallery.save(pid, self._render_srgb8(), s.log_path, self._meta("save"))
         except (OSError, StationError) as exc:  # the painting goes on; its log is kept
             log.error("cannot save painting %s to the gallery: %s", pid, exc)
             self.panel.message = "Sorry, the painting could not be saved just now."
@@ -300,18 +305,19 @@ class KioskApp:
         stored = True
         if painted:
             try:
-                self.gallery.save(pid, self._render_srgb8(), s.cfg.log_path, meta)
+                self.gallery.save(pid, self._render_srgb8(), s.log_path, meta)
                 self.saved.append(pid)
             except (OSError, StationError) as exc:
                 # the session log stays in <gallery>/.live: `station paint` repaints it
                 log.error("cannot save painting %s to the gallery (%s); its log is kept in %s",
-                          pid, exc, s.cfg.log_path)
+                          pid, exc, s.log_path)
                 stored = False
         close = getattr(s.canvas, "close", None)
         if close is not None:
             close()
-        if s.cfg.log_path and stored:
-            Path(s.cfg.log_path).unlink(missing_ok=True)
+        if stored:  # in the gallery now (or nothing was painted): the live files go
+            Path(s.log_path).unlink(missing_ok=True)
+            Path(s.autosave_path).unlink(missing_ok=True)
         return pid if painted and stored else None
 
     def fresh_canvas(self, reason: str) -> str | None:
@@ -421,6 +427,15 @@ class KioskApp:
             return True
         return False
 
+    def _commands(self) -> None:
+        """Commands sent to the kiosk's own endpoint (``station send``)."""
+        if self.cmd_sub is None:
+            return
+        msg = self.cmd_sub.recv(0)
+        while msg is not None:
+            self.session.handle(msg.kind, msg.value, msg.topic, msg.replay)
+            msg = self.cmd_sub.recv(0)
+
     def _driver_status(self) -> None:
         msg = self.driver_sub.recv(0)
         while msg is not None:
@@ -502,7 +517,7 @@ class KioskApp:
             parts.append(f"wet {100 * wet:.1f}%")
             tiles = s.active_tiles()
             parts.append("drying" if tiles else ("dry" if wet == 0 else "settled"))
-        if s.bad_samples:
+        if s.counters.bad_samples:
             parts.append("layer full: press New layer")
         return "  ".join(parts)
 
@@ -561,6 +576,7 @@ class KioskApp:
         s.drain(0 if busy else self._quiet_wait_ms())
         tw = time.perf_counter()
         got_input = s.sub.stats.received != received
+        self._commands()
         self._driver_status()
         if self._fresh_requested:
             self._fresh_requested = False
@@ -692,6 +708,8 @@ class KioskApp:
                     pass
                 self.pub.close()
             self.driver_sub.close()
+            if self.cmd_sub is not None:
+                self.cmd_sub.close()
             if self.server is not None:
                 self.server.stop()
             self.display.release()

@@ -85,7 +85,8 @@ class CpuDisplay:
             xs = slice(a * ts, min(b * ts, st.width))
             self._upload(self._render(st, kind, ys, xs), ys, xs)
             cells += (ys.stop - ys.start) * (xs.stop - xs.start)
-        src = self.session.player.brush.peek()
+        peek = getattr(self.session.player.brush, "peek", None)  # the stamp brush has it
+        src = peek() if peek is not None else None
         if src is not None:
             ys, xs = src.region
             ys = slice(max(ys.start, 0), min(ys.stop, st.height))

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from station.events import Command, PenSample, Tool
-from station.sim.live import LiveConfig, LiveSim
+from station.sim.live import SYNC_EVERY_S, LiveConfig, LiveSim
 
 #: Commands that may change every cell: the display re-renders the whole canvas.
 WHOLE_CANVAS_COMMANDS = frozenset({"dry", "new_layer", "clear", "profile", "undo"})
@@ -62,7 +62,8 @@ class KioskSession(LiveSim):
 
     # -- geometry ----------------------------------------------------------------
     def _tile_shape(self) -> tuple[int, int]:
-        ts = int(self.canvas.params.tile_size)
+        canvas: Any = self.canvas  # every backend has params (the protocol does not say)
+        ts = int(canvas.params.tile_size)
         return -(-self.cfg.height // ts), -(-self.cfg.width // ts)
 
     @property
@@ -71,7 +72,7 @@ class KioskSession(LiveSim):
         return getattr(self.canvas, "live_state", None)
 
     # -- input -------------------------------------------------------------------
-    def handle(self, kind: str, value: Any) -> None:
+    def handle(self, kind: str, value: Any, topic: str = "", replay: bool = False) -> None:
         if kind == "pen" and isinstance(value, PenSample):
             self.last_pen = value
             sample = self.map_pen(value) if self.map_pen is not None else value
@@ -79,7 +80,7 @@ class KioskSession(LiveSim):
                 return
             self.last_canvas_pen = sample
             before = self.player.brush.stamps
-            super().handle(kind, sample)
+            super().handle(kind, sample, topic, replay)
             made = self.player.brush.stamps - before
             if made > 0:
                 self.painted_stamps += made
@@ -89,7 +90,7 @@ class KioskSession(LiveSim):
         if (kind == "cmd" and isinstance(value, Command) and self.kiosk_command is not None
                 and self.kiosk_command(value)):
             return  # the window's own command (view, save, screenshot): not the canvas's
-        super().handle(kind, value)
+        super().handle(kind, value, topic, replay)
         if kind == "cmd" and isinstance(value, Command) and value.cmd in WHOLE_CANVAS_COMMANDS:
             self.mark_all_dirty()
 
@@ -118,14 +119,17 @@ class KioskSession(LiveSim):
     def run_due_steps(self, max_steps: int = 2) -> int:
         """Run the steps due by the session clock: one, or up to ``max_steps`` when more
         than three are due (a frame waits for at most that many; a slow machine falls
-        behind and catches up as ``station sim`` does)."""
-        p = self.player
-        behind = p.steps_due(self.now()) - p.counters.steps
-        limit = max_steps if behind > 3 else 1
+        behind and catches up as ``station sim`` does); then ``station sim``'s
+        housekeeping (autosave between strokes, log sync, silent devices)."""
+        limit = max_steps if self.steps_due() > 3 else 1
         n = 0
-        while n < limit and p.counters.steps < p.steps_due(self.now()):
+        while n < limit and self.steps_due() > 0:
             self.step()
             n += 1
+        if n:
+            self.maybe_autosave()
+        self.journal.maybe_sync(SYNC_EVERY_S)
+        self.check_devices()
         return n
 
     def pump(self) -> None:

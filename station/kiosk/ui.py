@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from station.canvas.brush import BRUSH_KINDS
+from station.brush.stamp import brush_kinds
 from station.canvas.palette import Palette
 from station.canvas.render import km_layer, linear_to_srgb
 from station.kiosk.views import VIEWS
@@ -188,13 +188,14 @@ def draw_panel(st: PanelState, width: float, height: float, status: str,
         st.fresh_mix()
 
     # brush
-    # brush kinds: the round brush today; the deformable brush (issue 11) adds its own
-    kw = (avail - gap * (len(BRUSH_KINDS) - 1)) / len(BRUSH_KINDS)
-    for i, k in enumerate(BRUSH_KINDS):
-        if i:
+    # brush kinds: the round stamp brush and the deformable brushes, two to a row
+    kinds = brush_kinds()
+    kw = (avail - gap) / 2
+    for i, k in enumerate(kinds):
+        if i % 2:
             imgui.same_line()
         sel = (0.25, 0.45, 0.75) if st.kind == k else None
-        if _button(imgui, f"{k} brush", kw, row_h * 0.8, rects, f"kind:{k}", color=sel):
+        if _button(imgui, k, kw, row_h * 0.7, rects, f"kind:{k}", color=sel):
             st.set_kind(k)
     imgui.push_item_width(avail)
     changed, value = imgui.slider_float("##size", st.size, 4.0, 80.0, "size %.0f")

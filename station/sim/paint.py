@@ -22,17 +22,18 @@ import logging
 import math
 import os
 import re
-import sys
 import time
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
+from station.canvas.backend import make_backend  # auto: resolve_auto decides, once
 from station.errors import BadInput, StationError
 from station.events import Command, PenSample
+from station.progress import Progress
 from station.sessionlog import SessionHeader, SessionLogReader
-from station.sim.player import SessionPlayer
+from station.sim.player import MAX_PAINTING_SECONDS, MAX_RATE, SessionPlayer
 
 log = logging.getLogger(__name__)
 
@@ -114,16 +115,20 @@ class _Source:
             self._close()
 
 
-def open_input(path: str) -> _Source:
-    """Open a session log, or a device trace when the drivers can read it."""
+def open_input(path: str, canvas: tuple[int, int] = (800, 600), mapping: str = "fit") -> _Source:
+    """Open a session log, or a device trace when the drivers can read it.
+
+    A trace's pen samples are mapped onto ``canvas`` (width, height) by ``mapping``
+    (``fit`` keeps the tablet's aspect ratio, ``stretch`` fills the canvas).
+    """
     if path.lower().endswith(TRACE_SUFFIXES):
-        return _open_trace(path)
+        return _open_trace(path, canvas, mapping)
     reader = SessionLogReader(path)
     return _Source(reader.header, reader, lambda: f"{reader.name}:{reader.line_no}",
                    reader.close)
 
 
-def _open_trace(path: str) -> _Source:
+def _open_trace(path: str, canvas: tuple[int, int], mapping: str) -> _Source:
     """A device trace through ``station.drivers.traces`` (issue 4), if it is there."""
     suffix = Path(path).suffix.lower()
     try:
@@ -139,10 +144,14 @@ def _open_trace(path: str) -> _Source:
             "(station.drivers.traces has no reader); give a session log (.jsonl)", path)
     if not os.path.exists(path):
         raise PaintInputError("no such file", path)
-    samples = iter(reader(path))
+    from station.drivers.normalise import NormaliserConfig
+
+    samples = iter(reader(path, config=NormaliserConfig(mapping=mapping, canvas=canvas)))
     # The drivers read the whole trace on the first sample: a trace that does not
-    # parse is refused before anything is painted.
+    # parse (or holds no pen device) is refused before anything is painted.
     first = next(samples, None)
+    if first is None:
+        raise PaintInputError("the trace holds no pen samples: nothing to paint", path)
     count = [0]
 
     def counted() -> Iterator[PenSample | Command]:
@@ -174,37 +183,6 @@ def _session_length(path: str) -> float:
     return last + waited
 
 
-class Progress:
-    """A one-line progress display on a terminal (stderr), at most 4 updates/s."""
-
-    def __init__(self, total_s: float, stream: IO[str] | None = None) -> None:
-        self.total = total_s
-        self.stream = stream or sys.stderr
-        self.t0 = time.monotonic()
-        self.last = 0.0
-        self.shown = False
-
-    def __call__(self, player: SessionPlayer, force: bool = False) -> None:
-        now = time.monotonic()
-        if now - self.last < 0.25 and not force:
-            return
-        self.last = now
-        t = player.painting_time
-        pct = f"{min(100.0, 100.0 * t / self.total):5.1f}% " if self.total > 0 else ""
-        rate = player.counters.steps / max(now - self.t0, 1e-9)
-        self.stream.write(f"\rpainting {pct}{t:7.1f}/{self.total:.1f} s painting time, "
-                          f"{player.counters.steps} steps, {rate:5.1f} steps/s ")
-        self.stream.flush()
-        self.shown = True
-
-    def done(self, player: SessionPlayer | None = None) -> None:
-        if player is not None and self.shown:
-            self(player, force=True)  # the final count, not the last throttled one
-        if self.shown:
-            self.stream.write("\n")
-            self.stream.flush()
-
-
 # -- painting ------------------------------------------------------------------------
 def load_resume_state(path: str, size: tuple[int, int] | None, profile: str | None,
                       flag: str = "--resume") -> Any:
@@ -221,64 +199,6 @@ def load_resume_state(path: str, size: tuple[int, int] | None, profile: str | No
     return state
 
 
-SOFTWARE_GL = ("llvmpipe", "softpipe", "swrast", "lavapipe", "software rasterizer")
-SOFTWARE_GL_PREFERS_NUMPY = True
-"""``auto`` on a CPU-only OpenGL (Mesa llvmpipe): use the NumPy reference, which
-was the faster backend there when measured (2-core machine, ``station bench sim
---quick``, 800x600: stroke 129 vs 74 steps/s, wash 13.4 vs 8.7 steps/s; the
-400x300 demo in 17 s vs 31 s, identical pictures to 1 level).  Set to False if the GL
-backend overtakes it on llvmpipe; with a real GPU ``auto`` always picks GL."""
-
-
-def auto_backend() -> tuple[str, str]:
-    """The backend ``auto`` means here, and why (one line)."""
-    from station.canvas.backend import fastest_cpu_backend
-
-    try:
-        from station.canvas.gl.context import create_context
-
-        ctx = create_context()
-        try:
-            renderer = str(ctx.info.get("GL_RENDERER", "unknown"))
-        finally:
-            ctx.release()
-    except (ImportError, StationError) as exc:
-        why = " | ".join(ln.strip() for ln in str(exc).splitlines() if ln.strip())
-        return fastest_cpu_backend(), f"GL unavailable ({why[:300]})"
-    if SOFTWARE_GL_PREFERS_NUMPY and any(k in renderer.lower() for k in SOFTWARE_GL):
-        cpu = fastest_cpu_backend()
-        return cpu, f"OpenGL renderer {renderer!r} runs on the CPU, where {cpu} is faster"
-    return "gl", f"OpenGL renderer {renderer!r}"
-
-
-def make_backend(name: str, width: int, height: int, profile: str, seed: int,
-                 **opts: Any) -> tuple[Any, str]:
-    """Create a canvas backend; ``auto`` picks GL on a GPU, else NumPy.
-
-    Returns the backend and the name of the one made.  An explicit ``gl`` that
-    cannot start is an environment failure (exit 1), not bad input; ``auto``
-    then falls back to NumPy with a one-line warning.
-    """
-    from station.canvas.backend import create_backend
-
-    if name == "auto":
-        name, why = auto_backend()
-        log.info("backend auto: %s (%s)", name, why)
-        if name == "gl":
-            try:
-                return create_backend("gl", width, height, profile, seed, **opts), "gl"
-            except BadInput:
-                raise
-            except (ImportError, StationError) as exc:
-                why = " | ".join(ln.strip() for ln in str(exc).splitlines() if ln.strip())
-                log.warning("GL backend unavailable (%s): painting with numpy", why[:300])
-                name = "numpy"
-    try:
-        return create_backend(name, width, height, profile, seed, **opts), name
-    except ImportError as exc:
-        raise StationError(f"backend {name!r} cannot be loaded: {exc}") from None
-
-
 def paint(
     input_path: str,
     out_png: str | None,
@@ -293,10 +213,12 @@ def paint(
     progress: bool | None = None,
     backend_opts: dict[str, Any] | None = None,
     resume: str | None = None,
+    mapping: str = "fit",
 ) -> PaintResult:
     """Paint ``input_path`` headless; see the module docstring for errors.
 
-    ``resume`` continues a saved canvas state (``--state`` of an earlier run)
+    ``mapping`` (``fit`` | ``stretch``) maps a device trace's tablet onto the
+    canvas.  ``resume`` continues a saved canvas state (``--state`` of an earlier run)
     instead of blank paper: its size, profile and seed win over the session
     header's; brush sizes are not rescaled.
 
@@ -309,11 +231,16 @@ def paint(
 
     if bits not in (8, 16):
         raise PaintInputError(f"--bits {bits} must be 8 or 16", "--bits")
-    if settle < 0 or not math.isfinite(settle):
-        raise PaintInputError(f"--settle {settle} must be >= 0 seconds", "--settle")
+    if not (math.isfinite(settle) and 0 <= settle <= MAX_PAINTING_SECONDS):
+        raise PaintInputError(f"--settle {settle:g} must be 0..{MAX_PAINTING_SECONDS:g} seconds "
+                              "(the longest painting time a session may have)", "--settle")
+    if rate is not None and not (math.isfinite(rate) and 0 < rate <= MAX_RATE):
+        raise PaintInputError(f"--rate {rate:g} must be > 0 and at most {MAX_RATE:g} steps/s",
+                              "--rate")
     check_outputs(((out_png, "-o"), (state_path, "--state"), (stats_path, "--stats")))
     start = load_resume_state(resume, size, profile) if resume else None
-    source = open_input(input_path)
+    trace_canvas = size or ((start.width, start.height) if start is not None else (800, 600))
+    source = open_input(input_path, trace_canvas, mapping)
     try:
         header = source.header
         prof_name = start.profile if start is not None else (profile or header.profile)
@@ -344,27 +271,30 @@ def paint(
                                brush_scale=scale)
         if start is not None:
             player.layer_pigments.update(start.slots)
-        show = sys.stderr.isatty() if progress is None else progress
-        prog = Progress(_session_length(input_path) + settle) if show else None
+        bar = Progress(_session_length(input_path) + settle, "painting", unit="s",
+                       show=progress)
+
+        def prog(p: SessionPlayer) -> None:
+            bar.set(p.painting_time)
+
         t0 = time.monotonic()
         error: BadInput | None = None
+        finished = False
         try:
             player.play(source.records, source.where, on_step=prog)
             if settle > 0:
                 player.settle(settle, on_step=prog)
+            finished = True
         except BadInput as exc:
             error = exc
         finally:
-            if prog is not None:
-                prog.done(player)
+            bar.close(complete=finished)
         wall = time.monotonic() - t0
         result = PaintResult(
             width=width, height=height, profile=player.profile, backend=backend,
             renderer=str(getattr(canvas, "renderer", backend)), steps=player.counters.steps,
             painting_seconds=player.painting_time, wall_seconds=wall,
-            counters={**player.counters.as_dict(), "stamps": player.brush.stamps,
-                      "strokes": player.brush.strokes,
-                      "eraser_samples": player.brush.eraser_samples},
+            counters={**player.counters.as_dict(), **player.brush_counters()},
             error=error,
         )
         write_outputs(canvas, result, out_png, state_path, stats_path, bits)
