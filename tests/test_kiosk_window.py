@@ -123,8 +123,17 @@ def test_each_pen_control_does_what_it_says(display: str, tmp_path: Path) -> Non
     k = Kiosk(display, tmp_path, "--backend", "numpy", "--size", "200x150")
     try:
         ui = k.last["ui"]
-        k.tap(ui["kind:round"])
-        k.wait(lambda s: "kind:round" in s["panel"]["pressed"], 10, "brush kind")
+        def pick_kind(kind: str) -> dict:
+            k.tap(k.last["ui"]["kind"])  # the list of brush kinds opens ...
+            k.wait(lambda s: f"kind:{kind}" in s["ui"], 10, "brush kinds listed")
+            time.sleep(0.6)  # a popup settles its place in its first frames
+            s = k.wait(lambda s: f"kind:{kind}" in s["ui"], 10, "brush kinds listed")
+            k.tap(s["ui"][f"kind:{kind}"])  # ... and one is picked
+            return k.wait(lambda s: s["brush"]["kind"] == kind, 10, f"{kind} brush")
+
+        s = pick_kind("flat")  # a deformable brush
+        assert "kind:flat" in s["panel"]["pressed"] and "kind:round" not in s["ui"]
+        pick_kind("round")
         k.tap(ui["fresh_mix"])
         s = k.wait(lambda s: s["panel"]["mix"] == {}, 10, "fresh mix")
         k.tap(ui["pigment:Quinacridone Rose"])

@@ -188,15 +188,17 @@ def draw_panel(st: PanelState, width: float, height: float, status: str,
         st.fresh_mix()
 
     # brush
-    # brush kinds: the round stamp brush and the deformable brushes, two to a row
-    kinds = brush_kinds()
-    kw = (avail - gap) / 2
-    for i, k in enumerate(kinds):
-        if i % 2:
-            imgui.same_line()
-        sel = (0.25, 0.45, 0.75) if st.kind == k else None
-        if _button(imgui, k, kw, row_h * 0.7, rects, f"kind:{k}", color=sel):
-            st.set_kind(k)
+    # brush kinds (the round stamp brush and the deformable brushes): a drop-down list
+    imgui.push_item_width(avail)
+    if imgui.begin_combo("##kind", f"{st.kind} brush", imgui.ComboFlags_.height_largest):
+        for k in brush_kinds():
+            if imgui.selectable(k, st.kind == k, 0, imgui.ImVec2(0, row_h * 0.7))[0]:
+                st.set_kind(k)
+            rects[f"kind:{k}"] = _rect(imgui)
+        imgui.end_combo()
+    rects["kind"] = (imgui.get_item_rect_min().x, imgui.get_item_rect_min().y,
+                     imgui.get_item_rect_max().x, imgui.get_item_rect_max().y)
+    imgui.pop_item_width()
     imgui.push_item_width(avail)
     changed, value = imgui.slider_float("##size", st.size, 4.0, 80.0, "size %.0f")
     rects["size"] = _rect(imgui)
