@@ -119,8 +119,15 @@ class Kiosk:
         self.pen(x, y, touching=False)
         time.sleep(pause)
 
-    def stop(self) -> tuple[int, str]:
-        self.cmd("stop")
+    def stop(self, send: bool = False) -> tuple[int, str]:
+        """Stop the kiosk: a ``stop`` on the bus, or ``station send stop`` (its own
+        command endpoint, as an operator would)."""
+        if send:
+            sender = station("send", "stop")
+            _, err = sender.communicate(timeout=60)
+            assert sender.returncode == 0, err
+        else:
+            self.cmd("stop")
         try:
             _, err = self.proc.communicate(timeout=60)
         finally:

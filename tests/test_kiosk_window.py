@@ -237,7 +237,7 @@ def test_idle_timeout_saves_to_the_gallery_and_unplug_is_survived(display: str,
         shot = rgb(k.screenshot("attract"))
         assert shot.shape == (SCREEN[1], SCREEN[0], 3)
     finally:
-        rc, err = k.stop()
+        rc, err = k.stop(send=True)  # the operator: `station send stop`
     assert rc == 0, err
     d = tmp_path / "gallery" / first
     meta = json.loads((d / "meta.json").read_text())
