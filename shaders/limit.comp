@@ -1,8 +1,8 @@
 #version 430
 // limit.comp: after the last Jacobi iteration.
 //  * velocity: pass 2's result (0 on non-wet cells), then pass 3 water_height_and_boundary:
-//    v <- (1 - omega_h) v + omega_h v_h, v_h = -height_gain ((wE - wW)/2, (wS - wN)/2) with
-//    closed faces reading the cell's own height; no flow through closed faces; clamp v_max.
+//    v <- (1 - omega_h) v + omega_h v_h, v_h = -height_gain ((PE - PW)/2, (PS - PN)/2) with
+//    closed faces reading the cell's own P (pressure.comp: w lowered near the edge); no flow through closed faces; clamp v_max.
 //  * implicit_diffusion's donor limiter for water (pass 4) and pigment (pass 5): face fluxes
 //    F = k b (x_i - x_n) from the converged iterate; s = u / out where the outflow exceeds u.
 // Writes vel_out (final velocity), js = (xw, 0, s_w, wb) and jd_out = s_p.
@@ -16,6 +16,7 @@ layout(rgba32f, binding = 4) uniform readonly image2DArray pig_in;
 layout(rg32f, binding = 5) uniform writeonly image2D vel_out;
 layout(rgba32f, binding = 6) uniform writeonly image2D js_out;
 layout(rgba32f, binding = 7) uniform writeonly image2DArray jd_out;
+layout(r32f, binding = 0) uniform readonly image2D pr_in;  // pass 3's levelled height P
 
 uniform float u_kw;
 uniform float u_kp;
@@ -31,9 +32,10 @@ void main() {
     vec4 j = imageLoad(jv_in, c);
     bool wet = is_wet(j.w);
     float w = imageLoad(water_in, c).x;
+    float pc = imageLoad(pr_in, c).x;
     float outw = 0.0;
     bool open_f[4] = bool[4](false, false, false, false);
-    float wn[4] = float[4](w, w, w, w);
+    float wn[4] = float[4](pc, pc, pc, pc);
     float kb[4];  // pigment conductance k_p b of each face (0 when closed)
     // branch-free over the faces (llvmpipe runs this markedly faster); closed faces add 0
     for (int f = 0; f < 4; ++f) {
@@ -42,7 +44,7 @@ void main() {
         bool open_ = wet && inside(c + OFFS[f]) && is_wet(jn.w);
         float o = open_ ? 1.0 : 0.0;
         open_f[f] = open_;
-        wn[f] = open_ ? imageLoad(water_in, n).x : w;
+        wn[f] = open_ ? imageLoad(pr_in, n).x : pc;
         // flux leaving this cell over face f (the reference's face flux, signed to us)
         outw += o * max(u_kw * (j.z - jn.z), 0.0);
         kb[f] = o * u_kp * min(j.w, jn.w);

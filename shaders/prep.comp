@@ -1,5 +1,6 @@
 #version 430
-// prep.comp: once per step, after the sources.  Reference: wet_mask, blocking (diffusion
+// prep.comp: once per step, after the sources.  Reference: wet_mask (own water, or the
+// advancing contact line), blocking (diffusion
 // controller beta_c) and pass 1 advect_velocity (semi-Lagrangian back-trace, bilinear).
 // Writes aux = (v1, w) (the right-hand sides of the velocity and water diffusions, read
 // by every Jacobi iteration in one load) and the first Jacobi
@@ -18,6 +19,7 @@ uniform float u_moist;        // moist_threshold [height]
 uniform float u_sim_time;     // [s]
 uniform float u_block_fade;   // [s]
 uniform float u_block_paper;  // share of paper height in the blocking value
+uniform float u_advance;      // advance_height [height] (0: contact line pinned)
 
 bool wet_at(ivec2 c) {
     vec4 wa = imageLoad(water_in, c);
@@ -37,6 +39,16 @@ void main() {
     vec4 pa = imageLoad(paper_in, c);
     vec4 wa = imageLoad(water_in, c);
     bool wet = (wa.x > 0.0 || wa.y > u_moist) && pa.y == 0.0;
+    if (!wet && u_advance > 0.0 && pa.y == 0.0) {
+        // the contact line advances into this dry cell when a neighbour's fluid water
+        // stands above its advancing height advance_height (1.5 - h)
+        float nb = 0.0;
+        for (int f = 0; f < 4; ++f) {
+            ivec2 n = c + OFFS[f];
+            if (inside(n)) nb = max(nb, imageLoad(water_in, n).x);
+        }
+        wet = nb > u_advance * (1.5 - pa.x);
+    }
     // diffusion controller: beta_c = min(1 - block_paper (1 - h), block_eff)
     float age = u_block_fade > 0.0 ? clamp((u_sim_time - pa.w) / u_block_fade, 0.0, 1.0) : 1.0;
     float eff = pa.z + (1.0 - pa.z) * age;

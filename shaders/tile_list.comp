@@ -24,15 +24,15 @@ bool act(ivec2 n) {
         && tile_ttl[n.y * u_tiles.x + n.x] > 0;
 }
 
-// Number of cells of tile tc (size sz) within one cell of an active neighbour tile:
+// Number of cells of tile tc (size sz) within two cells of an active neighbour tile:
 // edge strips towards active E/W/S/N tiles, corner cells towards active diagonal ones.
 uint halo_cells(ivec2 tc, ivec2 sz) {
     bool e = act(tc + ivec2(1, 0)), w = act(tc + ivec2(-1, 0));
     bool s = act(tc + ivec2(0, 1)), n = act(tc + ivec2(0, -1));
-    int count = (e ? sz.y : 0) + (w ? sz.y : 0) + (s ? sz.x : 0) + (n ? sz.x : 0);
-    count -= int(e && n) + int(e && s) + int(w && n) + int(w && s);
-    count += int(act(tc + ivec2(1, -1)) && !e && !n) + int(act(tc + ivec2(1, 1)) && !e && !s)
-           + int(act(tc + ivec2(-1, -1)) && !w && !n) + int(act(tc + ivec2(-1, 1)) && !w && !s);
+    int count = 2 * ((e ? sz.y : 0) + (w ? sz.y : 0) + (s ? sz.x : 0) + (n ? sz.x : 0));
+    count -= 4 * (int(e && n) + int(e && s) + int(w && n) + int(w && s));
+    count += 4 * (int(act(tc + ivec2(1, -1)) && !e && !n) + int(act(tc + ivec2(1, 1)) && !e && !s)
+           + int(act(tc + ivec2(-1, -1)) && !w && !n) + int(act(tc + ivec2(-1, 1)) && !w && !s));
     return uint(count);
 }
 

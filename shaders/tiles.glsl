@@ -2,7 +2,7 @@
 // Dispatch: (ceil(TILE/LX), ceil(TILE/LY), number of list entries), indirect when the
 // list is built on the GPU (tile_list.comp).  An entry is a tile index; bit 31 set marks
 // a HALO entry: a tile that is not active itself but borders an active one, of which only
-// the cells within one cell of an active tile (the reference's one-cell halo) are
+// the cells within two cells of an active tile (the reference's halo, tiles.HALO) are
 // simulated.  Tiling off is the same dispatch over the list of all tiles, none HALO.
 
 layout(local_size_x = LX, local_size_y = LY) in;
@@ -20,10 +20,11 @@ bool tile_active(int tx, int ty) {
         && tile_ttl_r[ty * u_tiles_x + tx] > 0;
 }
 
-// Is a cell of an active tile within one cell (8-neighbourhood) of c?
+// Is a cell of an active tile within two cells (Chebyshev) of c?  (tiles.HALO: a dry cell
+// can join the wet area, absorb and pass capillary water one cell further in one step.)
 bool near_active(ivec2 c) {
-    ivec2 lo = max(c - 1, ivec2(0)) / TILE;
-    ivec2 hi = min(c + 1, u_size - 1) / TILE;
+    ivec2 lo = max(c - 2, ivec2(0)) / TILE;
+    ivec2 hi = min(c + 2, u_size - 1) / TILE;
     for (int ty = lo.y; ty <= hi.y; ++ty)
         for (int tx = lo.x; tx <= hi.x; ++tx)
             if (tile_active(tx, ty)) return true;

@@ -174,7 +174,7 @@ def test_masked_cells_take_nothing() -> None:
     for _ in range(50):
         w, wc, _ = ref.capillary(w, wc, h, mask, np.zeros_like(h), PRM, DT)
     assert wc[:, 4:].sum() == 0 and w[:, 4:].sum() == 0
-    wet = ref.wet_mask(np.ones_like(h), wc, mask, PRM)
+    wet = ref.wet_mask(np.ones_like(h), wc, mask, PRM, h)
     assert not wet[:, 4:].any()
 
 

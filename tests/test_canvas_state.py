@@ -357,7 +357,7 @@ def test_separate_tile_groups_are_simulated_as_separate_boxes() -> None:
     st.tile_ttl[0:4, 0] = 5
     st.tile_ttl[2, 2] = 5
     boxes = tiles.active_regions(st)
-    assert boxes == [(slice(0, 65), slice(0, 65))]
+    assert boxes == [(slice(0, 64 + tiles.HALO), slice(0, 64 + tiles.HALO))]
 
 
 def test_benchmark_hooks_count_cells_and_traffic() -> None:
@@ -370,7 +370,7 @@ def test_benchmark_hooks_count_cells_and_traffic() -> None:
         c.step()
         c.sync()
     assert off.cells_last_step() == 128 * 96
-    assert 0 < on.cells_last_step() <= 33 * 33  # one 32x32 tile plus its halo, clipped
+    assert 0 < on.cells_last_step() <= 34 * 34  # one 32x32 tile plus its 2-cell halo, clipped
     one = on.bytes_per_cell_step()
     paint(on, disc(96, 128, 10, 10, 4), 0.5, {"Hansa Yellow": 0.1})
     assert on.bytes_per_cell_step() > one  # more slots in use, more traffic

@@ -114,7 +114,12 @@ def test_multi_step_stroke_is_bitwise_equal() -> None:
 
 @pytest.mark.parametrize("change", [{"jacobi_iters": 1}, {"jacobi_iters": 3},
                                     {"nu_w": 0.0, "viscosity": 0.0},
-                                    {"nu_p": 0.0, "cap_diffusion": 0.0, "block_fade": 0.0}])
+                                    {"nu_p": 0.0, "cap_diffusion": 0.0, "block_fade": 0.0},
+                                    {"flow_outward": 0.0, "advance_height": 0.0},
+                                    {"flow_outward": 0.8, "wet_blur": 4.0, "temperature": 35.0,
+                                     "humidity": 0.2, "advance_height": 0.3},
+                                    {"paper_relief": 0.6}, {"paper_relief": 0.4,
+                                                            "flow_outward": 0.0}])
 def test_parameter_variants_match(change: dict[str, Any]) -> None:
     prm = dataclasses.replace(get_profile("watercolor").params, **change)
     a = _random_canvas(NumpyCanvas, 3, params=prm)
@@ -252,7 +257,7 @@ def test_operations_render_and_factory() -> None:
     # honest traffic: the per-sweep count, one float = 4 bytes
     slots = max(len(c.live_state.slots), 1)
     assert c.bytes_per_cell_step() == 4 * sum(traffic.floats_per_cell_step(slots, 4).values())
-    assert traffic.bytes_per_cell_step(2, 4) == 520
+    assert traffic.bytes_per_cell_step(2, 4) == 556  # 520 before the flow-outward sweep
 
 
 def test_bench_sim_measures_the_cpu_backend(capsys) -> None:

@@ -213,16 +213,16 @@ def test_bus_forces_are_rendered_and_stop_with_the_bus(tmp_path: Path) -> None:
         for i in range(20):  # 30 Hz frames, 0 → 0.5 of the limit and back
             amp = 0.5 * (1 - abs(i - 10) / 10)
             pub.publish_haptic("hx", wire.Haptic(t=i / 30, amplitude=amp))
-            time.sleep(t0 + (i + 1) / 30 - time.monotonic())
+            time.sleep(max(0.0, t0 + (i + 1) / 30 - time.monotonic()))
         stop_at = mock.now()
         time.sleep(0.15)
         fz = [(r.t, r.force.fz) for r in mock.received]
         peak = max(f for _, f in fz)
         assert 0.5 * 2.97 * 0.6 < peak <= 0.5 * 2.97 * (1 + 1e-6)  # limit magnitude 2.97 N
         steps = [abs(b[1] - a[1]) for a, b in itertools.pairwise(fz) if b[1] and a[1]]
-        # interpolated: a 30 Hz staircase would make ~18 steps of 0.15 N (a stall of this
-        # loaded machine may make one or two big ones)
-        assert sum(s > 0.08 for s in steps) <= 2 and np.median(steps) < 0.01
+        # interpolated: a 30 Hz staircase would make ~18 steps of 0.15 N (stalls of a
+        # loaded machine make a few big ones: up to 5 were seen with 8 jobs on 2 cores)
+        assert sum(s > 0.08 for s in steps) <= 6 and np.median(steps) < 0.01
         assert all(f == 0.0 for t, f in fz if t > stop_at + 0.05 + 0.015)
         assert src.session.stats.bus_forces == 20
     finally:

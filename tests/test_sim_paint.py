@@ -14,7 +14,7 @@ import pytest
 from station.canvas.state import CanvasState
 from station.cli import main
 from station.events import Command, PenSample
-from station.sim.player import PIGMENT_GAIN, SessionPlayer, brush_model
+from station.sim.player import SessionPlayer, brush_model
 from station.sim.script import Script, taper
 
 W, H = 64, 48
@@ -126,7 +126,7 @@ def test_commands_unknown_skipped_eraser_counted(caplog: pytest.LogCaptureFixtur
     assert p.brush.eraser_samples == 2
     assert not [c for c in spy.calls if c[0] == "sources"]
     assert ("profile", "ink") in spy.calls and p.profile == "ink"
-    assert p.brush.settings.pigment == {"Sumi Ink": 1.0 / PIGMENT_GAIN}
+    assert p.brush.settings.pigment == {"Sumi Ink": 0.25}
     assert p.counters.commands == {"new_layer": 1, "clear": 1, "profile": 1}
 
 
@@ -153,7 +153,7 @@ def test_brush_model_follows_profile() -> None:
         prof = get_profile(name)
         m = brush_model(prof)
         assert m.water_scale == prof.brush.water
-        assert m.pigment_scale == pytest.approx(prof.brush.pigment_load * PIGMENT_GAIN)
+        assert m.pigment_scale == prof.brush.pigment_load  # no gain on top of the load
         assert m.v_max == prof.params.v_max
 
 
@@ -396,7 +396,8 @@ def test_paint_a_device_trace(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     summary = json.loads(captured.out)
     assert summary["samples"] > 50 and summary["strokes"] == 1 and summary["stamps"] > 20
     img = read_png(tmp_path / "t.png")
-    painted = img.sum(axis=2) < 735
+    level = img.sum(axis=2)
+    painted = level < np.median(level) - 12  # darker than the bare paper around it
     # the profile's brush (12 cells across), not one scaled down from 800x600
     assert painted.sum() > 12 * 20 and painted.any(axis=1).sum() >= 8
 

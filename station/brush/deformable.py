@@ -174,6 +174,11 @@ class DeformableBrush:
         self.reservoir.load(settings.water, settings.pigment, self.model.water_scale,
                             self.model.pigment_scale)
 
+    @property
+    def drawing(self) -> bool:
+        """A stroke is in progress (some device's pen is down)."""
+        return bool(self._strokes)
+
     def end_strokes(self) -> None:
         self._strokes.clear()
         self._relax_all()

@@ -26,6 +26,16 @@ class CanvasInputError(BadInput):
     """Bad input to the canvas (pigment, profile, size, state file, parameter)."""
 
 
+def vapour_deficit(temperature: float, humidity: float) -> float:
+    """``rho_sat(T) * (1 - RH)``: water vapour the air can still take [kg/m^3].
+
+    Saturation vapour pressure by the Magnus formula (hPa), ideal-gas vapour density.
+    """
+    e_sat = 611.2 * math.exp(17.62 * temperature / (243.12 + temperature))  # Pa
+    rho_sat = e_sat / (461.5 * (temperature + 273.15))
+    return rho_sat * (1.0 - humidity)
+
+
 @dataclass(frozen=True)
 class SimParams:
     """Numerical and physical parameters of one simulation step.
@@ -40,14 +50,32 @@ class SimParams:
         height_gain: ``v_h = -height_gain * grad(w)`` [cell/s per height/cell].
         nu_w: water diffusion rate [cell^2/s].
         nu_p: pigment diffusion rate [cell^2/s].
-        eps_shallow: fluid-layer evaporation rate [height/s].
+        eps_shallow: fluid-layer evaporation rate at the reference air (20 C, 50 % relative
+            humidity, airflow 1) [height/s]; the passes use :meth:`evap_shallow`.
         edge_evap: factor on the extra side evaporation ``w * eps_shallow * dt`` per face
-            towards a neighbour without fluid water (spec: 1; default 4 because the
-            evaporative flux diverges at a pinned contact line, Deegan 2000).
+            towards a neighbour without fluid water (spec: 1, the default).
+        flow_outward: Curtis 1997's flow-outward strength eta [height]: the pressure of
+            the water-height term is lowered by ``eta * (1 - M')`` on wet cells, ``M'`` the
+            wet mask blurred by a Gaussian of ``wet_blur`` cells, so water (and the pigment
+            it carries) flows towards the pinned edge while the stroke dries.
+        advance_height: a dry cell joins the wet area when a 4-neighbour's fluid water
+            exceeds ``advance_height * (1.5 - h)`` [height] (0: pinned at the footprint);
+            the contact line creeps on where the paper lets it, so edges follow the grain.
+        paper_relief: relief of the paper under the water [height per unit of ``h``]: the
+            water-height term levels the free surface ``w + paper_relief * h``, so water
+            runs off the paper's hills into its valleys (Curtis 1997's flow down the paper
+            texture) and a flowing front frays along them.
+        wet_blur: standard deviation of the Gaussian that blurs the wet mask [cells]
+            (0: no flow-outward term); the kernel is truncated at ``ceil(2 * wet_blur)``.
         alpha: capillary absorption rate [height/s].
         cap_diffusion: capillary diffusion rate kappa on the saturation difference [1/s];
             ``cap_diffusion * dt <= 1/8`` keeps ``wc`` inside ``[0, c]`` exactly.
-        eps_cap: capillary evaporation rate [height/s].
+        eps_cap: capillary evaporation rate at the reference air [height/s]; the passes
+            use :meth:`evap_cap`.
+        temperature: air (and paper) temperature [degrees C], -10 ... 60.
+        humidity: relative humidity of the air [1], 0 ... 0.99.
+        airflow: mass-transfer factor of the air movement over the sheet relative to the
+            reference draught [1] (evaporation is proportional to it).
         c_min, c_max: capillary capacity at paper height 0 and 1 [height].
         moist_threshold: ``wc`` above which a cell is moist, hence wet [height].
         v_max: bound of each velocity component [cell/s]; ``v_max * dt <= 1``.
@@ -74,16 +102,23 @@ class SimParams:
     height_gain: float = 100.0
     nu_w: float = 0.1
     nu_p: float = 0.3
-    eps_shallow: float = 0.06
-    edge_evap: float = 4.0
+    eps_shallow: float = 0.01
+    edge_evap: float = 1.0
+    flow_outward: float = 0.3
+    advance_height: float = 0.7
+    paper_relief: float = 0.0
+    wet_blur: float = 2.0
     alpha: float = 0.03
     cap_diffusion: float = 1.5
-    eps_cap: float = 0.02
+    eps_cap: float = 0.004
+    temperature: float = 20.0
+    humidity: float = 0.5
+    airflow: float = 1.0
     c_min: float = 0.1
     c_max: float = 0.4
     moist_threshold: float = 0.25
     v_max: float = 30.0
-    surface_rate: float = 0.5
+    surface_rate: float = 0.1
     block_paper: float = 0.0
     block_fade: float = 2.0
     w_dry_eps: float = 1e-5
@@ -122,8 +157,32 @@ class SimParams:
             raise CanvasInputError("jacobi_iters must be an integer >= 1", "params")
         if not 0 <= self.gouache_white <= 1:
             raise CanvasInputError("gouache_white must lie in [0, 1]", "params")
+        if self.wet_blur > 4:
+            raise CanvasInputError("wet_blur must be <= 4 cells", "params")
+        if not -10 <= self.temperature <= 60:
+            raise CanvasInputError("temperature must lie in [-10, 60] C", "params")
+        if not 0 <= self.humidity <= 0.99:
+            raise CanvasInputError("humidity must lie in [0, 0.99]", "params")
         if not 0 <= self.block_paper <= 1:
             raise CanvasInputError("block_paper must lie in [0, 1]", "params")
+
+    def drying_power(self) -> float:
+        """Evaporation relative to the reference air (20 C, 50 %, airflow 1) [1].
+
+        Evaporation is mass transfer driven by the vapour-density deficit of the air,
+        ``airflow * rho_sat(T) * (1 - RH)`` (rho_sat from the Magnus formula); exactly 1.0
+        at the reference conditions.
+        """
+        ref = vapour_deficit(20.0, 0.5)
+        return float(self.airflow) * vapour_deficit(self.temperature, self.humidity) / ref
+
+    def evap_shallow(self) -> float:
+        """Fluid-layer evaporation rate in this air [height/s]."""
+        return self.eps_shallow * self.drying_power()
+
+    def evap_cap(self) -> float:
+        """Capillary-layer evaporation rate in this air [height/s]."""
+        return self.eps_cap * self.drying_power()
 
     def replace(self, **changes: Any) -> SimParams:
         """A copy with ``changes`` applied (validated)."""
@@ -152,8 +211,8 @@ class SimParams:
         """
         if self.tile_check > 0:
             return int(self.tile_check)
-        fluid = self.w_max / max(self.eps_shallow + self.alpha, 1e-6)
-        cap = self.c_max / max(self.eps_cap, 1e-6)
+        fluid = self.w_max / max(self.evap_shallow() + self.alpha, 1e-6)
+        cap = self.c_max / max(self.evap_cap(), 1e-6)
         return max(1, min(int(math.ceil((fluid + cap) / self.dt / 4.0)), 4096))
 
 
@@ -161,14 +220,18 @@ class SimParams:
 class BrushDefaults:
     """Defaults the round brush of a profile starts from.
 
-    radius [cells] at full pressure, water [height] and pigment [area fraction]
-    deposited per stamp at full pressure, pigment: the default pigment name.
+    radius [cells] at full pressure; water [height] deposited per stamp at full pressure;
+    pigment_load [area fraction]: pigment of a full stamp of tube-strength paint (brush
+    amount 1): a paint film about a third pigment by area, as tube watercolour is before
+    it is thinned; amount: the brush amount the profile starts with (a mid wash, 1/4 of
+    tube strength) [1]; pigment: the default pigment name.
     """
 
     radius: float = 6.0
     water: float = 0.5
-    pigment_load: float = 0.08
+    pigment_load: float = 0.32
     pigment: str = "French Ultramarine"
+    amount: float = 0.25
 
 
 @dataclass(frozen=True)
@@ -207,7 +270,7 @@ PROFILES: dict[str, Profile] = {
         name="gouache",
         params=_WATERCOLOR.replace(
             viscosity=2.0, nu_w=0.1, nu_p=0.05, alpha=0.005, height_gain=20.0,
-            eps_shallow=0.05,
+            eps_shallow=0.008,
         ),
         paper="hot-press",
         renderer="gouache",
@@ -215,7 +278,8 @@ PROFILES: dict[str, Profile] = {
             "Titanium White", "French Ultramarine", "Cadmium Yellow", "Cadmium Red",
             "Quinacridone Rose", "Phthalo Green", "Burnt Umber", "Black",
         ),
-        brush=BrushDefaults(radius=6.0, water=0.4, pigment_load=0.3, pigment="Titanium White"),
+        brush=BrushDefaults(radius=6.0, water=0.4, pigment_load=1.0, pigment="Titanium White",
+                            amount=0.3),
         description="opaque concentration blend with a white pigment, hot-press paper",
     ),
     # Oriental ink (seed 6.3.3): rough absorbent paper (higher absorption, faster
@@ -225,12 +289,12 @@ PROFILES: dict[str, Profile] = {
         name="ink",
         params=_WATERCOLOR.replace(
             alpha=0.12, cap_diffusion=3.0, moist_threshold=0.15, nu_p=0.8,
-            block_paper=0.7, eps_cap=0.03,
+            block_paper=0.7, eps_cap=0.006, flow_outward=0.0, surface_rate=0.5,
         ),
         paper="rough",
         renderer="km",
         pigments=("Sumi Ink", "Black"),
-        brush=BrushDefaults(radius=4.0, water=0.6, pigment_load=0.15, pigment="Sumi Ink"),
+        brush=BrushDefaults(radius=4.0, water=0.6, pigment_load=0.6, pigment="Sumi Ink"),
         description="rough absorbent paper, dense black ink, diffusion controller",
     ),
 }

@@ -21,6 +21,17 @@ CHANGED: bookkeeping: ``CanvasState.evaporated_folded`` (float64 metadata, defau
   stats report ``evaporated_folded + sum(evaporated)``. Backends must carry the field
   through state()/load_state() (a float32 accumulator that grows large rounds small
   increments: 6e-5 relative error after 18k steps without folding, 2e-6 with).
+CHANGED: wet mask: a dry unmasked cell is wet when a 4-neighbour's w exceeds
+  ``advance_height * (1.5 - h)`` (new SimParams field; cells outside the region have w 0).
+CHANGED: passes 7 and 9c use ``prm.evap_shallow()`` / ``prm.evap_cap()``: eps_shallow and
+  eps_cap scaled by the drying power of the air (temperature, humidity, airflow); exactly
+  eps_* at the reference conditions 20 C, 50 %, airflow 1.
+CHANGED: pass 3 levels ``P = (w + paper_relief h) - flow_outward (1 - M')`` instead of w
+  (Curtis 1997's flow-outward term; new SimParams ``flow_outward``, ``wet_blur``,
+  ``paper_relief``); ``edge_evap`` default 4 -> 1 (the spec's value); surface_rate
+  0.5 -> 0.1 (Stokes settling of micron pigment through a film takes tens of seconds).
+CHANGED: tiles.HALO = 2 (was 1): a dry cell next to a wet one can join the wet area,
+  absorb, and pass capillary water one cell further within the step.
 NOTE (API): ``PASS_ORDER`` names the passes; ``step_region(state, box, dt, stop_after=name)``
   writes the fields back right after pass ``name`` (pass-by-pass comparisons).
 NOTE (no maths change): pass 1 computes the bilinear weight from the displacement,
@@ -30,7 +41,9 @@ NOTE (no maths change): pass 1 computes the bilinear weight from the displacemen
 NOTE (no maths change): pass 6 evaluates ``r' = (r * s_out[donor]) * s_in[receiver]`` in
   that order; pass 4/5 skip the donor limiter when no cell is short (bitwise the same).
 
-Notation: ``dt`` step [s]; ``wet = ((w > 0) | (wc > moist_threshold)) & (mask == 0)``
+Notation: ``dt`` step [s]; ``own = ((w > 0) | (wc > moist_threshold)) & (mask == 0)``;
+``wet = own | (unmasked and max_4-neighbours(w) > advance_height * (1.5 - h))`` (the
+contact line advances where the paper lets it; off when ``advance_height == 0``)
 is computed ONCE per step, after the sources were added, and used by passes 1-6
 and 8. A *face* is the side shared by two 4-neighbours; a face is *open* when
 both of its cells are wet (``fx[y, x]`` joins (y, x) and (y, x+1), shape (H, W-1);
@@ -55,8 +68,14 @@ the same float32 value on both sides).
    (1 + k * n_open)`` (n_open = number of open faces of the cell; all old x, i.e.
    Jacobi not Gauss-Seidel); non-wet cells 0.
 
-3. ``water_height_and_boundary``: for each wet cell, neighbour heights
-   ``wE = w[y,x+1]`` if face E is open else ``w[y,x]`` (same for W, N, S);
+3. ``water_height_and_boundary``: the levelled height is the pressure
+   ``P = (w + paper_relief * h) - flow_outward * (1 - M')`` on wet cells (``P = w``
+   elsewhere; the free surface over the paper's relief, lowered near the edge by Curtis
+   1997's flow outward; a term whose parameter is 0 is left out), ``M'`` = ``blurred_wet``:
+   the wet mask (1/0) blurred with the float32
+   Gaussian ``gaussian_taps(wet_blur)`` along x, then along y, each sum over the taps in
+   order (offset -R first), cells outside the region 0. For each wet cell, neighbour
+   heights (of P) ``wE = P[y,x+1]`` if face E is open else ``w[y,x]`` (same for W, N, S);
    ``vh = -height_gain * ((wE - wW)/2, (wS - wN)/2)``;
    ``v <- (1 - omega_h) v + omega_h vh``; boundary (no flow into non-wet cells or
    the border): face E closed -> ``vx = min(vx, 0)``, face W closed -> ``vx = max(vx, 0)``,
@@ -143,9 +162,30 @@ _ONE = F32(1.0)
 
 
 # ---------------------------------------------------------------- helpers
-def wet_mask(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams) -> np.ndarray:
-    """Cells taking part in the fluid and surface layers this step (bool (H, W))."""
+def own_wet(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams) -> np.ndarray:
+    """Cells wet by their own water: fluid water, or capillary water above the moist
+    threshold, and not masked (bool (H, W)); the wet area the flow-outward term blurs."""
     return ((w > 0) | (wc > F32(prm.moist_threshold))) & (mask == 0)
+
+
+def wet_mask(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams,
+             h: np.ndarray) -> np.ndarray:
+    """Cells taking part in the fluid and surface layers this step (bool (H, W)).
+
+    With ``advance_height > 0`` an unmasked dry cell also joins when
+    a 4-neighbour's fluid water stands above the cell's advancing height
+    ``advance_height * (1.5 - h)``: the contact line creeps on where the paper lets it.
+    """
+    own = own_wet(w, wc, mask, prm)
+    if prm.advance_height > 0:
+        thr = F32(prm.advance_height) * (F32(1.5) - h)
+        nb = np.zeros(w.shape, F32)
+        nb[:, :-1] = w[:, 1:]
+        nb[:, 1:] = np.maximum(nb[:, 1:], w[:, :-1])
+        nb[:-1, :] = np.maximum(nb[:-1, :], w[1:, :])
+        nb[1:, :] = np.maximum(nb[1:, :], w[:-1, :])
+        own = own | ((nb > thr) & (mask == 0))
+    return own
 
 
 def open_faces(wet: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -207,6 +247,50 @@ def implicit_diffusion(u: np.ndarray, bx: np.ndarray, by: np.ndarray, k: float,
         fx = fxp * s[..., :, :-1] + fxn * s[..., :, 1:]
         fy = fyp * s[..., :-1, :] + fyn * s[..., 1:, :]
     return apply_fluxes(u, fx, fy)
+
+
+def gaussian_taps(sigma: float) -> np.ndarray:
+    """Normalised float32 Gaussian taps ``g[0..2R]``, ``R = ceil(2 sigma)`` (empty: sigma 0)."""
+    if sigma <= 0:
+        return np.zeros(0, F32)
+    r = int(np.ceil(2.0 * sigma))
+    d = np.arange(-r, r + 1, dtype=np.float64)
+    g = np.exp(-0.5 * (d / sigma) ** 2)
+    return (g / g.sum()).astype(F32)
+
+
+def blurred_wet(wet: np.ndarray, taps: np.ndarray) -> np.ndarray:
+    """``M'``: the wet mask blurred separably (x, then y) with ``taps``; cells outside the
+    region count as non-wet. Each sum runs over the taps in order, offset -R first."""
+    hh, ww = wet.shape
+    r = (len(taps) - 1) // 2
+    m = np.pad(wet.astype(F32), r)
+    mx = np.zeros((hh + 2 * r, ww), F32)
+    for k in range(2 * r + 1):
+        mx = mx + taps[k] * m[:, k:k + ww]
+    out = np.zeros((hh, ww), F32)
+    for k in range(2 * r + 1):
+        out = out + taps[k] * mx[k:k + hh, :]
+    return out
+
+
+def flow_pressure(w: np.ndarray, own: np.ndarray, wet: np.ndarray, h: np.ndarray,
+                  prm: SimParams) -> np.ndarray:
+    """The height the water-height term levels, on wet cells: the free surface over the
+    paper, ``w + paper_relief * h``, lowered by ``flow_outward * (1 - M')`` near the edge
+    of the ``own`` wet area (Curtis 1997: flow outward, and water runs downhill over the
+    paper's relief); ``w`` elsewhere, and ``w`` itself when both terms are off."""
+    taps = gaussian_taps(prm.wet_blur)
+    outward = prm.flow_outward > 0 and len(taps) > 0
+    if not outward and prm.paper_relief <= 0:
+        return w
+    pr = w
+    if prm.paper_relief > 0:
+        pr = w + F32(prm.paper_relief) * h
+    if outward:
+        mb = blurred_wet(own, taps)
+        pr = pr - F32(prm.flow_outward) * (_ONE - mb)
+    return np.where(wet, pr, w).astype(F32)
 
 
 # ---------------------------------------------------------------- passes
@@ -404,7 +488,7 @@ def evaporate(w: np.ndarray, evaporated: np.ndarray, prm: SimParams,
     n_dry[:, 0] += 1
     n_dry[-1, :] += 1
     n_dry[0, :] += 1
-    e = F32(prm.eps_shallow * dt)
+    e = F32(prm.evap_shallow() * dt)
     loss = e + F32(prm.edge_evap) * n_dry * w * e
     loss = np.where(has, np.minimum(loss, w), _ZERO).astype(F32)
     return w - loss, evaporated + loss
@@ -449,7 +533,7 @@ def capillary(w: np.ndarray, wc: np.ndarray, h: np.ndarray, mask: np.ndarray,
                       k * np.minimum(c[:-1, :], c[1:, :]) * (s[:-1, :] - s[1:, :]), _ZERO)
         wc = apply_fluxes(wc, fx, fy)
         wc = np.maximum(wc, _ZERO)  # guards -0.0/rounding only; the flux bound keeps wc >= 0
-    e = np.where(w == 0, np.minimum(F32(prm.eps_cap * dt), wc), _ZERO).astype(F32)
+    e = np.where(w == 0, np.minimum(F32(prm.evap_cap() * dt), wc), _ZERO).astype(F32)
     return w, wc - e, evaporated + e
 
 
@@ -510,14 +594,15 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     pp = p[:n_used]
     qq = q[:n_used]
 
-    wet = wet_mask(w, wc, mask, prm)
+    wet = wet_mask(w, wc, mask, prm, h)
     for name in PASS_ORDER:
         if name == "advect_velocity":
             vx, vy = advect_velocity(vx, vy, wet, dt)
         elif name == "diffuse_velocity":
             vx, vy = diffuse_velocity(vx, vy, wet, prm, dt)
         elif name == "water_height_and_boundary":
-            vx, vy = water_height_and_boundary(vx, vy, w, wet, prm)
+            pr = flow_pressure(w, own_wet(w, wc, mask, prm), wet, h, prm)
+            vx, vy = water_height_and_boundary(vx, vy, pr, wet, prm)
         elif name == "diffuse_water":
             w = diffuse_water(w, wet, prm, dt)
         elif name == "diffuse_pigment":

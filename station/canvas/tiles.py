@@ -22,6 +22,10 @@ import numpy as np
 
 from station.canvas.state import CanvasState
 
+HALO = 2
+"""Cells simulated around the active tiles. Two, not one: a dry cell next to a wet one can
+join the wet area (the advancing contact line), receive fluid water, absorb it and pass
+capillary water one cell further within the same step."""
 
 def mark_cells(state: CanvasState, y0: int, y1: int, x0: int, x1: int) -> None:
     """Activate the tiles covering cells ``[y0, y1) x [x0, x1)`` (clipped)."""
@@ -57,15 +61,15 @@ def mark_nonzero(state: CanvasState, ys: slice, xs: slice, values: np.ndarray) -
 
 
 def active_region(state: CanvasState) -> tuple[slice, slice] | None:
-    """Bounding box (cells) of the active tiles plus a one-cell halo, or None."""
+    """Bounding box (cells) of the active tiles plus the ``HALO``-cell halo, or None."""
     ty, tx = np.nonzero(state.tile_ttl > 0)
     if ty.size == 0:
         return None
     ts = int(state.params.tile_size)
-    y0 = max(int(ty.min()) * ts - 1, 0)
-    y1 = min((int(ty.max()) + 1) * ts + 1, state.height)
-    x0 = max(int(tx.min()) * ts - 1, 0)
-    x1 = min((int(tx.max()) + 1) * ts + 1, state.width)
+    y0 = max(int(ty.min()) * ts - HALO, 0)
+    y1 = min((int(ty.max()) + 1) * ts + HALO, state.height)
+    x0 = max(int(tx.min()) * ts - HALO, 0)
+    x1 = min((int(tx.max()) + 1) * ts + HALO, state.width)
     return slice(y0, y1), slice(x0, x1)
 
 
@@ -105,10 +109,10 @@ def active_regions(state: CanvasState) -> list[tuple[slice, slice]]:
     boxes: list[tuple[int, int, int, int]] = []
     for lab in np.unique(labels[labels > 0]):
         ty, tx = np.nonzero(labels == lab)
-        boxes.append((max(int(ty.min()) * ts - 1, 0),
-                      min((int(ty.max()) + 1) * ts + 1, state.height),
-                      max(int(tx.min()) * ts - 1, 0),
-                      min((int(tx.max()) + 1) * ts + 1, state.width)))
+        boxes.append((max(int(ty.min()) * ts - HALO, 0),
+                      min((int(ty.max()) + 1) * ts + HALO, state.height),
+                      max(int(tx.min()) * ts - HALO, 0),
+                      min((int(tx.max()) + 1) * ts + HALO, state.width)))
     merged = True
     while merged:  # few boxes: a plain pairwise merge
         merged = False

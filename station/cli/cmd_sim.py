@@ -7,7 +7,7 @@ import json
 import math
 import sys
 
-from station.cli.argtypes import positive_seconds
+from station.cli.argtypes import seconds_or_zero
 from station.cli.cmd_paint import BACKEND_HELP, BACKENDS
 from station.errors import BadInput
 from station.sim.paint import check_outputs, load_resume_state, parse_size
@@ -39,7 +39,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--status", metavar="ENDPOINT",
                    help="where to publish status (default: the proxy's ipc:pub when --bus is "
                         "ipc:sub, else @ipc:sim-status; 'none' to disable)")
-    p.add_argument("--duration", type=positive_seconds, metavar="SECONDS",
+    p.add_argument("--duration", type=seconds_or_zero, metavar="SECONDS",
                    help="stop by itself after this many seconds")
     p.add_argument("--resume", metavar="S.npz",
                    help="continue a saved canvas state (its size, profile and seed)")

@@ -37,6 +37,7 @@ from station.brush.solver import SolverCounters
 from station.brush.stamp import STAMP_KIND, BrushModel, BrushSettings, RoundBrush
 from station.canvas.params import PROFILES, Profile, get_profile
 from station.canvas.state import DEFAULT_SLOTS
+from station.canvas.tools import HairDryer, blow, on_state
 from station.errors import BadInput
 from station.events import Command, PenSample, Tool
 
@@ -117,6 +118,9 @@ class SessionPlayer:
         # sample that would bring it (the canvas would only notice at the next step).
         self.layer_pigments: set[str] = set()
         self.n_slots = int(getattr(backend, "n_slots", None) or DEFAULT_SLOTS)
+        self.dryer: HairDryer | None = None  # the hair dryer while it blows
+        self.dryer_until = 0  # step count at which it stops
+        self.width, self.height = width, height
         self.waited = 0.0  # painting seconds inserted by wait commands
         self.last_t = 0.0  # session time of the last record applied
         self._warned: set[str] = set()
@@ -134,6 +138,12 @@ class SessionPlayer:
     def step(self) -> None:
         """One simulation step with the brush sources collected since the last."""
         self.flush_sources()
+        dryer = self.dryer
+        if dryer is not None:
+            if self.counters.steps < self.dryer_until:
+                on_state(self.backend, lambda st: blow(st, dryer, self.dt))
+            else:
+                self.dryer = None
         self.backend.step()
         self.counters.steps += 1
 
@@ -375,6 +385,33 @@ def _dry(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
     p.backend.dry()
 
 
+def _number(args: Mapping[str, Any], key: str, default: float, lo: float, hi: float,
+            where: str | None) -> float:
+    v = args.get(key, default)
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
+            or not lo <= v <= hi:
+        raise PlayerError(f"hairdryer {key} {v!r} must be a number in [{lo:g}, {hi:g}]", where)
+    return float(v)
+
+
+def _hairdryer(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+    """Hold a hair dryer over (x, y) (canvas-normalised) for ``seconds`` of painting time
+    from now (0 switches it off): ``radius`` [cells of the session's canvas],
+    ``temperature`` [C] and ``airflow`` [1] of its air at the sheet."""
+    x = _number(args, "x", 0.5, 0.0, 1.0, where)
+    y = _number(args, "y", 0.5, 0.0, 1.0, where)
+    seconds = _number(args, "seconds", 10.0, 0.0, MAX_WAIT_SECONDS, where)
+    radius = _number(args, "radius", 60.0, 1.0, 2048.0, where) * p.brush_scale
+    temp = _number(args, "temperature", 40.0, -10.0, 60.0, where)
+    flow = _number(args, "airflow", 2.0, 0.0, 200.0, where)
+    p.flush_sources()
+    p.dryer = HairDryer(cx=x * (p.width - 1), cy=y * (p.height - 1),
+                        radius=max(1.0, min(radius, 2048.0)), temperature=temp, airflow=flow)
+    p.dryer_until = p.counters.steps + int(round(seconds * p.rate))
+    if seconds == 0:
+        p.dryer = None
+
+
 def _new_layer(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
     p.flush_sources()
     try:
@@ -395,30 +432,28 @@ _HANDLERS: dict[str, Callable[[SessionPlayer, Mapping[str, Any], str | None], No
     "profile": SessionPlayer._profile,
     "wait": SessionPlayer._wait,
     "dry": _dry,
+    "hairdryer": _hairdryer,
     "new_layer": _new_layer,
     "clear": _clear,
 }
 
 
-PIGMENT_GAIN = 4.0
-"""Pigment per stamp of a ``brush`` amount of 1, in units of the profile's
-``pigment_load``: the profile's load is the *nominal* paint (amount 0.25) and
-amount 1 is paint four times as strong, straight from the tube.  With the
-Curtis coefficients a single pass at the nominal load is a pale tint; painters
-need the range above it for saturated washes and darks."""
-
-
 def brush_model(profile: Profile) -> BrushModel:
-    """The round-brush model of a profile: its per-stamp water and pigment, its v_max."""
+    """The round-brush model of a profile: its per-stamp water and pigment, its v_max.
+
+    ``pigment_load`` is the pigment of a full stamp of tube-strength paint (brush amount
+    1); there is no gain on top of it.
+    """
     b = profile.brush
-    return BrushModel(water_scale=b.water, pigment_scale=b.pigment_load * PIGMENT_GAIN,
+    return BrushModel(water_scale=b.water, pigment_scale=b.pigment_load,
                       v_max=profile.params.v_max)
 
 
 def brush_defaults(profile: Profile) -> BrushSettings:
-    """The brush a profile starts with: its radius, full water, its default pigment."""
+    """The brush a profile starts with: its radius, full water, its default pigment at the
+    profile's nominal amount."""
     b = profile.brush
-    return BrushSettings(size=2.0 * b.radius, water=1.0, pigment={b.pigment: 1.0 / PIGMENT_GAIN})
+    return BrushSettings(size=2.0 * b.radius, water=1.0, pigment={b.pigment: b.amount})
 
 
 def add_sources(backend: Any, src: Any) -> None:

@@ -75,7 +75,10 @@ C_MOIST = 20      # moist_threshold
 C_TIME = 21       # sim_time
 C_FADE = 22       # block_fade
 C_BPAPER = 23     # block_paper
-N_CONST = 24
+C_ADV = 24        # advance_height
+C_ETA = 25        # flow_outward
+C_RELIEF = 26     # paper_relief
+N_CONST = 27
 
 # the sweeps: rows in parallel; IEEE float32 maths exactly as written (no fastmath, no FMA
 # contraction), numpy's error model (division without ZeroDivision checks: every division
@@ -114,9 +117,14 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
          p: np.ndarray, h: np.ndarray, block: np.ndarray, block_time: np.ndarray,
          y0: int, x0: int, bh: int, bw: int, ns: int, cst: np.ndarray,
          wet_o: np.ndarray, w0_o: np.ndarray, p0_o: np.ndarray, bc_o: np.ndarray,
-         vsx_o: np.ndarray, vsy_o: np.ndarray, c_o: np.ndarray, opn_o: np.ndarray) -> None:
-    """Wet mask (once per step), copies, beta_c (diffusion controller), capacity, open."""
+         vsx_o: np.ndarray, vsy_o: np.ndarray, c_o: np.ndarray, opn_o: np.ndarray,
+         own_o: np.ndarray) -> None:
+    """Wet mask (once per step; own water, or the advancing contact line: a neighbour's
+    w above ``advance_height (1.5 - h)``, cells outside the box count as w = 0), the own
+    wet area, copies, beta_c (diffusion controller), capacity, open."""
     moist = cst[C_MOIST]
+    adv = cst[C_ADV]
+    one5 = np.float32(1.5)
     t_now = cst[C_TIME]
     fade = cst[C_FADE]
     bpaper = cst[C_BPAPER]
@@ -128,7 +136,18 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
             x = np.uint64(x0 + i - 1)
             wv = w[y, x]
             un = mask[y, x] == ZERO
-            wet = ((wv > ZERO) | (wc[y, x] > moist)) & un
+            own = ((wv > ZERO) | (wc[y, x] > moist)) & un
+            own_o[j, i] = ONE if own else ZERO
+            wet = own
+            if adv > ZERO and un and not own:
+                nb = w[y, np.uint64(x0 + i)] if i < bw else ZERO
+                t = w[y, np.uint64(x0 + i - 2)] if i > 1 else ZERO
+                nb = nb if nb > t else t
+                t = w[y + 1, x] if j < bh else ZERO
+                nb = nb if nb > t else t
+                t = w[y - 1, x] if j > 1 else ZERO
+                nb = nb if nb > t else t
+                wet = nb > adv * (one5 - h[y, x])
             wf = ONE if wet else ZERO
             wet_o[j, i] = wf
             w0_o[j, i] = wv
@@ -150,6 +169,62 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
         for k in range(ns):
             for i in range(1, bw + 1):
                 p0_o[k, j, i] = p[k, y, np.uint64(x0 + i - 1)]
+
+
+# ------------------------------------------------------------------ flow outward
+@_parallel
+def flow_pressure(own: np.ndarray, wet: np.ndarray, w0: np.ndarray, h: np.ndarray,
+                  taps: np.ndarray, y0: int, x0: int, bh: int, bw: int, cst: np.ndarray,
+                  outward: bool, mbx: np.ndarray, pr_o: np.ndarray) -> None:
+    """Pass 3's levelled height ``P = (w + relief h) - eta (1 - M')`` on wet cells (``w``
+    elsewhere; a term whose parameter is 0 is left out), ``M'`` the own wet area blurred
+    with ``taps`` along x then y (the reference's order: offset -R first; cells outside
+    the box are 0 and add nothing)."""
+    eta = cst[C_ETA]
+    relief = cst[C_RELIEF]
+    nt = taps.shape[0]
+    r = (nt - 1) // 2
+    nch = min(bh, N_CHUNKS)
+    # tap-outer, column-inner loops (vectorised); per cell the taps still add in order,
+    # and a tap falling outside the box is skipped where the reference adds 0
+    if outward:
+        for ch in prange(nch):
+            j0, j1 = _chunk(ch, nch, bh)
+            acc = np.empty(bw + 2, F32)
+            for j in range(j0, j1):
+                for i in range(1, bw + 1):
+                    acc[i] = ZERO
+                for k in range(nt):
+                    d = k - r
+                    lo = 1 - d if d < 0 else 1
+                    hi = bw - d if d > 0 else bw
+                    g = taps[k]
+                    for i in range(lo, hi + 1):
+                        acc[i] = acc[i] + g * own[j, i + d]
+                for i in range(1, bw + 1):
+                    mbx[j, i] = acc[i]
+    for ch in prange(nch):
+        j0, j1 = _chunk(ch, nch, bh)
+        acc = np.empty(bw + 2, F32)
+        for j in range(j0, j1):
+            y = y0 + j - 1
+            if outward:
+                for i in range(1, bw + 1):
+                    acc[i] = ZERO
+                for k in range(nt):
+                    jj = j + k - r
+                    if jj >= 1 and jj <= bh:
+                        g = taps[k]
+                        for i in range(1, bw + 1):
+                            acc[i] = acc[i] + g * mbx[jj, i]
+            for i in range(1, bw + 1):
+                wv = w0[j, i]
+                pv = wv
+                if relief > ZERO:
+                    pv = wv + relief * h[y, np.uint64(x0 + i - 1)]
+                if outward:
+                    pv = pv - eta * (ONE - acc[i])
+                pr_o[j, i] = pv if wet[j, i] != ZERO else wv
 
 
 # ------------------------------------------------------------------ pass 1 + Jacobi 1
@@ -432,11 +507,11 @@ def _limiter_row(wet: np.ndarray, b_e: np.ndarray, b_s: np.ndarray, u: np.ndarra
 @_parallel
 def height_limit(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: np.ndarray,
                  xvx: np.ndarray, xvy: np.ndarray, w0: np.ndarray, xw: np.ndarray,
-                 p0: np.ndarray, xp: np.ndarray, bh: int, bw: int, ns: int,
+                 p0: np.ndarray, xp: np.ndarray, pr: np.ndarray, bh: int, bw: int, ns: int,
                  cst: np.ndarray, do_vjac: bool, do_height: bool, do_w: bool, do_p: bool,
                  v3x_o: np.ndarray, v3y_o: np.ndarray, sw_o: np.ndarray,
                  sp_o: np.ndarray) -> None:
-    """Last velocity Jacobi iteration, pass 3 (height term, boundary, clamp), and the
+    """Last velocity Jacobi iteration, pass 3 (height term on ``pr``, boundary, clamp), and the
     donor limiters of the water and pigment diffusion from their final iterates."""
     kv = cst[C_KV]
     kw = cst[C_KW]
@@ -463,11 +538,11 @@ def height_limit(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: np.ndarr
             bn = c * wn[i]
             vx0 = v3x_o[j, i]
             vy0 = v3y_o[j, i]
-            wc_ = w0[j, i]
-            w_e = w0[j, i + 1] if be != ZERO else wc_
-            w_w = w0[j, i - 1] if bwf != ZERO else wc_
-            w_s = w0[j + 1, i] if bs != ZERO else wc_
-            w_n = w0[j - 1, i] if bn != ZERO else wc_
+            wc_ = pr[j, i]
+            w_e = pr[j, i + 1] if be != ZERO else wc_
+            w_w = pr[j, i - 1] if bwf != ZERO else wc_
+            w_s = pr[j + 1, i] if bs != ZERO else wc_
+            w_n = pr[j - 1, i] if bn != ZERO else wc_
             nvx = oi * vx0 + oh * (g * (w_e - w_w))
             nvy = oi * vy0 + oh * (g * (w_s - w_n))
             nvx = nvx if be != ZERO else (nvx if nvx < ZERO else ZERO)

@@ -20,7 +20,7 @@ F32 = np.float32
 
 _FIELDS_2D = ("wet", "w0", "bc", "vsx", "vsy", "c", "opn", "v1x", "v1y", "xvax", "xvay",
               "xwa", "xwb", "v3x", "v3y", "sw", "w2", "sout", "sin", "w3",
-              "sat")
+              "sat", "own", "mbx", "pr")
 _FIELDS_3D = ("p0", "xpa", "xpb", "sp", "p2")
 
 
@@ -38,19 +38,22 @@ def constants(prm: SimParams, dt: float, sim_time: float) -> np.ndarray:
     c[K.C_Q4] = F32(0.25 * dt)
     c[K.C_WMIN] = F32(prm.w_min)
     c[K.C_WMAX] = F32(prm.w_max)
-    c[K.C_EVAP] = F32(prm.eps_shallow * dt)
+    c[K.C_EVAP] = F32(prm.evap_shallow() * dt)
     c[K.C_EDGE] = F32(prm.edge_evap)
     c[K.C_RATE] = F32(prm.surface_rate * dt)
     c[K.C_CMIN] = F32(prm.c_min)
     c[K.C_CSPAN] = F32(prm.c_max - prm.c_min)
     c[K.C_ALPHA] = F32(prm.alpha * dt)
     c[K.C_KC] = F32(prm.cap_diffusion * dt)
-    c[K.C_ECAP] = F32(prm.eps_cap * dt)
+    c[K.C_ECAP] = F32(prm.evap_cap() * dt)
     c[K.C_WDRY] = F32(prm.w_dry_eps)
     c[K.C_MOIST] = F32(prm.moist_threshold)
     c[K.C_TIME] = F32(sim_time)
     c[K.C_FADE] = F32(prm.block_fade)
     c[K.C_BPAPER] = F32(prm.block_paper)
+    c[K.C_ADV] = F32(prm.advance_height)
+    c[K.C_ETA] = F32(prm.flow_outward)
+    c[K.C_RELIEF] = F32(prm.paper_relief)
     return c
 
 
@@ -110,8 +113,16 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
 
     K.prep(state.w, state.wc, state.mask, state.vx, state.vy, state.p, state.h,
            state.block, state.block_time, y0, x0, bh, bw, ns, cst,
-           s2["wet"], s2["w0"], s3["p0"], s2["bc"], s2["vsx"], s2["vsy"], s2["c"], s2["opn"])
+           s2["wet"], s2["w0"], s3["p0"], s2["bc"], s2["vsx"], s2["vsy"], s2["c"], s2["opn"],
+           s2["own"])
     wet, bc, w0, p0 = s2["wet"], s2["bc"], s2["w0"], s3["p0"]
+    taps = reference.gaussian_taps(prm.wet_blur)
+    outward = prm.flow_outward > 0 and len(taps) > 0
+    pr = w0  # pass 3 levels w itself unless the flow-outward or the relief term is on
+    if (outward or prm.paper_relief > 0) and runs("water_height_and_boundary"):
+        K.flow_pressure(s2["own"], wet, w0, state.h, taps, y0, x0, bh, bw, cst, outward,
+                        s2["mbx"], s2["pr"])
+        pr = s2["pr"]
     # pass 1 + iteration 1 of the water/pigment solves (x0 = u)
     jw = do_w and n_it >= 1
     jp = do_p and n_it >= 1
@@ -141,7 +152,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
         if jp:
             xp, xp_next = xp_next, xp
     # last velocity iteration, pass 3, donor limiters of passes 4/5
-    K.height_limit(wet, bc, s2["v1x"], s2["v1y"], xvx, xvy, w0, xw, p0, xp, bh, bw, ns,
+    K.height_limit(wet, bc, s2["v1x"], s2["v1y"], xvx, xvy, w0, xw, p0, xp, pr, bh, bw, ns,
                    cst, do_v, runs("water_height_and_boundary"), do_w, do_p,
                    s2["v3x"], s2["v3y"], s2["sw"], s3["sp"])
     v3x, v3y = s2["v3x"], s2["v3y"]

@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from station.canvas import operations
+from station.canvas import operations, reference
 from station.canvas.palette import Palette
 from station.canvas.params import CanvasInputError, SimParams, get_profile
 from station.canvas.render import WHITE_K, WHITE_S, _coefficients
@@ -51,6 +51,7 @@ F32 = np.float32
 #: Programs compiled per canvas: name -> (file, extra defines).
 _PROGRAMS: dict[str, tuple[str, dict[str, object]]] = {
     "prep": ("prep.comp", {}),
+    "pressure": ("pressure.comp", {}),
     "jacobi": ("jacobi.comp", {}),
     "limit": ("limit.comp", {}),
     "diffuse_apply": ("diffuse_apply.comp", {}),
@@ -134,6 +135,7 @@ class GLCanvas:
         self.jd = [ctx.texture_array((width, height, self.npl), 4, dtype="f4")
                    for _ in range(2)]
         self.srcw = ctx.texture((width, height), 4, dtype="f4")
+        self.pr = ctx.texture((width, height), 1, dtype="f4")  # pass 3's levelled height P
         self.srcp = ctx.texture_array((width, height, self.npl), 4, dtype="f4")
         self.rgb = ctx.texture((width, height), 4, dtype="f4")
         n = self.ntiles
@@ -161,8 +163,8 @@ class GLCanvas:
         self._shape = (width, height, n_slots, tile)
 
     def _release_resources(self) -> None:
-        for name in ("aux", "srcw", "srcp", "rgb", "b_list", "b_alive", "b_ttl", "b_prev", "b_mark",
-                     "b_args", "b_all", "b_added", "b_folded"):
+        for name in ("aux", "pr", "srcw", "srcp", "rgb", "b_list", "b_alive", "b_ttl", "b_prev",
+                     "b_mark", "b_args", "b_all", "b_added", "b_folded"):
             obj = getattr(self, name, None)
             if obj is not None:
                 obj.release()
@@ -426,6 +428,16 @@ class GLCanvas:
         _set(p["prep"], "u_sim_time", float(F32(self.sim_time)))
         _set(p["prep"], "u_block_fade", prm.block_fade)
         _set(p["prep"], "u_block_paper", prm.block_paper)
+        _set(p["prep"], "u_advance", prm.advance_height)
+        taps = reference.gaussian_taps(prm.wet_blur) if prm.flow_outward > 0 else np.zeros(0, F32)
+        if len(taps) > 17:
+            raise CanvasInputError("wet_blur too large for the GL backend (at most 4)", "params")
+        pp = p["pressure"]
+        _set(pp, "u_moist", prm.moist_threshold)
+        _set(pp, "u_eta", prm.flow_outward)
+        _set(pp, "u_relief", prm.paper_relief)
+        _set(pp, "u_ntaps", len(taps))
+        _set(pp, "u_taps", [float(t) for t in taps] + [0.0] * (17 - len(taps)))
         kv, kw, kp = (float(F32(prm.viscosity * dt)), float(F32(prm.nu_w * dt)),
                       float(F32(prm.nu_p * dt)))
         layers = -(-len(self.slots) // 4)
@@ -445,7 +457,7 @@ class GLCanvas:
         _set(p["advect_limit"], "u_wmin", prm.w_min)
         _set(p["advect_limit"], "u_wmax", prm.w_max)
         es = p["evap_surface"]
-        _set(es, "u_e", float(F32(prm.eps_shallow * dt)))
+        _set(es, "u_e", float(F32(prm.evap_shallow() * dt)))
         _set(es, "u_edge_evap", prm.edge_evap)
         _set(es, "u_wmax", prm.w_max)
         _set(es, "u_rate", float(F32(prm.surface_rate * dt)))
@@ -457,7 +469,7 @@ class GLCanvas:
             _set(p[name], "u_crange", float(F32(prm.c_max - prm.c_min)))
         cd = p["capillary_dry"]
         _set(cd, "u_kcap", float(F32(prm.cap_diffusion * dt)))
-        _set(cd, "u_ecap", float(F32(prm.eps_cap * dt)))
+        _set(cd, "u_ecap", float(F32(prm.evap_cap() * dt)))
         _set(cd, "u_dry_eps", prm.w_dry_eps)
         _set(p["tile_update"], "u_ttl", prm.tile_ttl_steps())
 
@@ -493,6 +505,11 @@ class GLCanvas:
         self._bind(4, self.aux, False, True)
         self._bind(5, self.jv[0], False, True)
         self._dispatch("prep")
+        self._bind(1, f["water"].src, True, False)
+        self._bind(2, f["paper"].src, True, False)
+        self._bind(3, self.jv[0], True, False)
+        self._bind(4, self.pr, False, True)
+        self._dispatch("pressure")
         # until the diffusion passes run, jv[0] holds wb (.w) and jv[1] is free
         self._js, self._jfree = self.jv[0], self.jv[1]
 
@@ -518,6 +535,7 @@ class GLCanvas:
         self._bind(5, f["vel"].dst, False, True)
         self._bind(6, self.jv[1 - cur], False, True)
         self._bind(7, self.jd[1 - cur], False, True)
+        self._bind(0, self.pr, True, False)
         self._dispatch("limit")
         f["vel"].swap()
         self._bind(1, self.jv[1 - cur], True, False)
