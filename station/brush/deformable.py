@@ -334,8 +334,3 @@ class DeformableBrush:
     @property
     def pending(self) -> int:
         return len(self._pending)
-
-    @property
-    def drawing(self) -> bool:
-        """A stroke is in progress (some device's pen is down), as ``RoundBrush.drawing``."""
-        return bool(self._strokes)
