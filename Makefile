@@ -14,7 +14,7 @@ SYS_PKGS := libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libgles2 xvfb xauth libu
 TEST_PKGS := chromium
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: setup sysdeps venv demo test lint bench clean
+.PHONY: setup sysdeps testdeps venv demo test lint bench clean
 
 setup: sysdeps venv
 
@@ -26,6 +26,9 @@ sysdeps:
 	  echo "installing system packages:$$missing"; \
 	  $(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq $$missing; \
 	fi
+
+# only `make test` needs these: `make demo` stays small
+testdeps: sysdeps
 	@for p in $(TEST_PKGS); do \
 	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "ok installed" || \
 	  DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq $$p || \
@@ -46,7 +49,7 @@ $(VENV)/.installed: pyproject.toml
 demo: setup
 	$(STATION) demo -o painting.png
 
-test: setup
+test: testdeps venv
 	$(PY) -m pytest -q
 
 lint: venv
