@@ -207,8 +207,11 @@ def test_dirty_brush_carries_blue_into_a_yellow_stroke() -> None:
     blue = st.slots.index("French Ultramarine")
     amount = st.p[blue] + st.q[blue]
     # blue beyond the blue stripe, along the yellow stroke's path after it
-    assert float(amount[28:36, 56:80].sum()) > 0.05
-    assert float(amount[28:36, 5:35].sum()) < 1e-3  # and none before it
+    after, before = float(amount[28:36, 56:80].sum()), float(amount[28:36, 5:35].sum())
+    assert after > 0.05
+    # before the stripe only what wet-in-wet flow spreads back through the joined wet
+    # areas (the flow-outward canvas keeps strokes wet longer): a tenth of what the brush carried
+    assert before < 0.1 * after
 
 
 def test_session_with_deformable_brushes_replays_bit_identically(tmp_path: Path) -> None:

@@ -6,7 +6,7 @@ ways files and messages break: numbers swapped for extremes (1e308, nan, inf,
 2**64, -1), bytes flipped, lines cut, dropped, doubled or swapped, random
 text and deep nesting inserted.  Every reader must return a clean result or
 raise :class:`~station.errors.BadInput` (exit 2 at the CLI) — never another
-exception, never a hang (each input runs under a 2 s alarm).
+exception, never a hang (each input runs under a 10 s alarm).
 
 Readers: the session log, the three trace formats (hid-recorder, evemu,
 libinput-record) through the whole driver pipeline (descriptor and report
@@ -65,7 +65,7 @@ INTERESTING = [
 ]
 HEX_BYTE = re.compile(r"(?<= )[0-9a-fA-F]{2}(?= |$)", re.MULTILINE)
 NUMBER = re.compile(r"-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?")
-ALARM_S = 2.0
+ALARM_S = 10.0  # generous: a loaded 2-core CI machine; a real hang never ends
 
 
 class Hang(Exception):
@@ -400,7 +400,7 @@ def test_the_cli_on_fuzzed_files_exits_0_or_2_with_one_line(tmp_path: Path, caps
     codes: dict[int, int] = {}
     for argv, seed in cli_cases(tmp_path):
         try:
-            with alarm(10.0):
+            with alarm(60.0):  # a paint of a fuzzed log on a loaded machine
                 rc = main(argv)
         except SystemExit as exc:  # argparse usage errors
             rc = int(exc.code or 0)

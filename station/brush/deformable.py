@@ -327,6 +327,10 @@ class DeformableBrush:
         out, self.pickups = self.pickups, []
         return out
 
+    def peek(self) -> Sources | None:
+        """The sources :meth:`take` would return, left pending (a live view's preview)."""
+        return accumulate(list(self._pending))
+
     @property
     def pending(self) -> int:
         return len(self._pending)

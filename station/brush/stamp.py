@@ -510,6 +510,10 @@ class RoundBrush:
         pending, self._pending = self._pending, []
         return accumulate(pending)
 
+    def peek(self) -> Sources | None:
+        """The sources :meth:`take` would return, left pending (a live view's preview)."""
+        return accumulate(list(self._pending))
+
     @property
     def pending(self) -> int:
         return len(self._pending)

@@ -115,6 +115,48 @@ def render_state(state: CanvasState, renderer: str) -> np.ndarray:
     return km_layer(amount, pigments, state.r_composed)
 
 
+def region_amount(state: CanvasState, ys: slice, xs: slice,
+                  extra: dict[str, np.ndarray] | None = None
+                  ) -> tuple[np.ndarray, list[Pigment]]:
+    """Pigment thickness ``p + q`` per pigment of the cells ``[ys, xs]`` and the pigments,
+    with ``extra`` pigment per name (region-shaped arrays) added to ``p`` and capped at 1
+    per cell as ``add_sources`` caps it (a preview of stamps not yet simulated)."""
+    pigments = state.slot_pigments()
+    amount = state.p[:len(pigments), ys, xs] + state.q[:len(pigments), ys, xs]
+    if not extra:
+        return amount, pigments
+    names = [p.name for p in pigments]
+    rows = list(amount)
+    for name, add in extra.items():
+        pig = state.palette.get(name)
+        if pig.name in names:
+            k = names.index(pig.name)
+            rows[k] = state.q[k, ys, xs] + np.minimum(state.p[k, ys, xs] + add, F32(1.0))
+        else:
+            names.append(pig.name)
+            pigments = [*pigments, pig]
+            rows.append(np.minimum(add, F32(1.0)).astype(F32))
+    return (np.stack(rows) if rows else amount), pigments
+
+
+def render_region(state: CanvasState, renderer: str, ys: slice, xs: slice,
+                  extra: dict[str, np.ndarray] | None = None) -> np.ndarray:
+    """Linear reflectance of the cells ``[ys, xs]`` only, float32 (h, w, 3).
+
+    Equals ``render_state(state, renderer)[ys, xs]`` (every cell is rendered on its
+    own), so a live view re-renders just the tiles that changed.  ``extra``: see
+    :func:`region_amount`.
+    """
+    amount, pigments = region_amount(state, ys, xs, extra)
+    r_prev = state.r_composed[ys, xs]
+    if renderer == "gouache":
+        white = state.palette.get("Titanium White") if "Titanium White" in state.palette else None
+        ks = (white.K, white.S) if white is not None else (WHITE_K, WHITE_S)
+        return gouache_layer(amount, pigments, r_prev, state.params.gouache_opaque,
+                             state.params.gouache_white, ks)
+    return km_layer(amount, pigments, r_prev)
+
+
 def to_srgb8(rgb: np.ndarray) -> np.ndarray:
     """Linear reflectance in [0, 1] -> uint8 sRGB (for PNG output)."""
     return np.round(linear_to_srgb(rgb) * 255.0).astype(np.uint8)

@@ -105,6 +105,7 @@ class LiveConfig:
     autosave: float = 30.0  # seconds between autosaves; 0 disables
     recover: str | None = None  # continue this session log (autosave + replay)
     cmd: str | None = None  # command endpoint for `station send`; "none" disables
+    backend_opts: dict[str, Any] = field(default_factory=dict)  # e.g. ctx= of a kiosk window
 
 
 def default_status_endpoint(bus: str | None) -> str:
@@ -177,7 +178,7 @@ class LiveCore:
             cfg.width, cfg.height = start.width, start.height
             cfg.profile, cfg.seed = start.profile, start.seed
         self.canvas, self.backend_name = make_backend(cfg.backend, cfg.width, cfg.height,
-                                                      cfg.profile, cfg.seed)
+                                                      cfg.profile, cfg.seed, **cfg.backend_opts)
         if start is not None:
             self.canvas.load_state(start)
         session = plan.session if plan is not None else None

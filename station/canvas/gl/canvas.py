@@ -672,6 +672,14 @@ class GLCanvas:
     # ------------------------------------------------------------ rendering
     def render(self) -> np.ndarray:
         """Linear reflectance float32 (H, W, 3) in [0, 1], computed on the GPU."""
+        self.render_texture()
+        self.ctx.memory_barrier()  # all bits: the read-back follows image stores
+        out = np.frombuffer(self._read(self.rgb), F32).reshape(self.height, self.width, 4)
+        return np.ascontiguousarray(out[..., :3])
+
+    def render_texture(self) -> Any:
+        """Render into the RGBA32F texture ``self.rgb`` (linear reflectance) and return
+        it, with no read-back: a window sharing this context samples it directly."""
         kind = self._renderer_kind
         prog = self._programs["render_gouache" if kind == "gouache" else "render_km"]
         n = 4 * self.npl
@@ -698,9 +706,7 @@ class GLCanvas:
         self._bind(4, self.rgb, False, True)
         prog.run(-(-self.width // 16), -(-self.height // 16), 1)
         self._barrier()
-        self.ctx.memory_barrier()  # all bits: the read-back follows image stores
-        out = np.frombuffer(self._read(self.rgb), F32).reshape(self.height, self.width, 4)
-        return np.ascontiguousarray(out[..., :3])
+        return self.rgb
 
     # ------------------------------------------------------------ benchmarks
     def sync(self) -> None:

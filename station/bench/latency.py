@@ -1,0 +1,197 @@
+"""``station bench latency``: pen-to-screen latency and frame rate of the kiosk.
+
+A mock tablet is read by a real ``station driver`` process (it stamps each
+report with ``time.monotonic()`` as it reads it) and published on a private
+bus; the kiosk window runs in this process on a canvas of ``--size`` and
+paints the samples.  For every sample that made paint, the latency is the time
+from the driver's read to the end of the buffer swap of the first frame that
+shows it (``glFinish`` then ``swap_buffers``; under Xvfb there is no scan-out,
+so that is when the frame is complete).  Both processes read the same
+system-wide monotonic clock.
+
+The tablet draws spirals continuously (one live stroke at a time) through a
+calibration that maps it onto the canvas.  Frames are not synchronised to a
+display (no vsync) so frames/s is what the loop can do; the share of time in
+simulation, canvas render (dirty tiles), UI (scene + ImGui) and presentation
+is reported.  Without ``$DISPLAY`` a private Xvfb is started (it must be
+installed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from station.errors import BadInput, StationError
+
+GOAL_P99_MS = 16.0
+GOAL_FPS = 60.0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("latency", help="kiosk pen-to-screen latency and frame rate (JSON)")
+    p.add_argument("--json", action="store_true", help="print JSON (the default output too)")
+    p.add_argument("--size", default="800x600", help="canvas size (800x600)")
+    p.add_argument("--backend", default="cpu", choices=("cpu", "numpy", "gl"),
+                   help="canvas backend (cpu)")
+    p.add_argument("--seconds", type=float, default=8.0, help="measuring time (8 s)")
+    p.add_argument("--rate", type=int, default=200, help="tablet reports per second (200)")
+    p.add_argument("--model", default="intuos-pro-m", help="mock tablet model")
+    p.add_argument("--script", default="arc", choices=("arc", "line", "spiral"),
+                   help="the mock tablet's stroke, repeated (arc: a half circle, 2 s)")
+    p.set_defaults(func=run)
+
+
+def _percentiles(xs: list[float]) -> dict[str, float | int | None]:
+    if not xs:
+        return {"n": 0, "p50_ms": None, "p95_ms": None, "p99_ms": None, "max_ms": None}
+    a = np.array(xs) * 1000.0
+    return {"n": int(a.size), "p50_ms": round(float(np.percentile(a, 50)), 2),
+            "p95_ms": round(float(np.percentile(a, 95)), 2),
+            "p99_ms": round(float(np.percentile(a, 99)), 2),
+            "max_ms": round(float(a.max()), 2)}
+
+
+def _start_xvfb() -> tuple[subprocess.Popen[bytes], str]:
+    exe = shutil.which("Xvfb")
+    if exe is None:
+        raise StationError("no $DISPLAY and no Xvfb: the latency bench needs a display")
+    for number in range(170, 220):
+        if not Path(f"/tmp/.X11-unix/X{number}").exists() and \
+                not Path(f"/tmp/.X{number}-lock").exists():
+            break
+    proc = subprocess.Popen([exe, f":{number}", "-screen", "0", "1024x768x24", "-nolisten",
+                             "tcp"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 10
+    while not Path(f"/tmp/.X11-unix/X{number}").exists():
+        if time.monotonic() > deadline or proc.poll() is not None:
+            proc.kill()
+            raise StationError("Xvfb did not start")
+        time.sleep(0.05)
+    return proc, f":{number}"
+
+
+def run(args: argparse.Namespace) -> int:
+    from station.sim.paint import parse_size
+
+    width, height = parse_size(args.size)
+    if not args.seconds > 0:
+        raise BadInput("must be > 0", "--seconds")
+    if not 10 <= args.rate <= 2000:
+        raise BadInput("must be 10..2000 reports/s", "--rate")
+    xvfb = None
+    if not os.environ.get("DISPLAY"):
+        xvfb, os.environ["DISPLAY"] = _start_xvfb()
+    try:
+        result = measure(width, height, args.backend, args.seconds, args.rate, args.model,
+                         args.script)
+    finally:
+        if xvfb is not None:
+            xvfb.terminate()
+            xvfb.wait(10)
+    sys.stdout.write(json.dumps(result, indent=1) + "\n")
+    return 0
+
+
+def measure(width: int, height: int, backend: str, seconds: float, rate: int,
+            model: str, script: str = "arc") -> dict[str, Any]:
+    from station.calibration.area import AreaSettings, Rect
+    from station.calibration.files import write_file
+    from station.calibration.model import Calibration, DeviceId
+    from station.drivers.pipeline import open_device
+    from station.kiosk.app import KioskApp, KioskConfig
+    from station.kiosk.idle import IdleConfig
+
+    bus = f"bench-latency-{os.getpid()}"
+    with tempfile.TemporaryDirectory(prefix="station-latency-") as tmp:
+        cfg = KioskConfig(bus=f">ipc:{bus}", width=width, height=height, backend=backend,
+                          fullscreen=False, gallery=Path(tmp) / "gallery", serve=None,
+                          status="none", vsync=False, cmd="none",
+                          idle=IdleConfig(attract_after=3600, finish_after=7200))
+        app = KioskApp(cfg)
+        spec = f"mock:{model}?script={script}&repeat=0&reports={rate * 2}&rate={rate}"
+        probe = open_device(spec)
+        ident = probe.describe()
+        probe.close()
+        x, y, w, h = app.canvas_rect()
+        sw, sh = app.size
+        cal = Calibration(DeviceId(int(ident["vid"]), int(ident["pid"])), area=AreaSettings(
+            output=Rect(x / sw, y / sh, w / sw, h / sh)))
+        cal_path = Path(tmp) / "cal.json"
+        write_file(cal, cal_path)
+        driver = subprocess.Popen(
+            [sys.executable, "-m", "station", "driver", "--device", spec, "--bus",
+             f"@ipc:{bus}", "--calibration", str(cal_path), "--status-interval", "0.5"],
+            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        try:
+            # warm up (first frames, JIT, the first stroke), then measure from a clean slate
+            give_up = time.monotonic() + 30.0
+            t_end = give_up
+            last = time.monotonic()
+            while time.monotonic() < min(t_end, give_up):
+                now = time.monotonic()
+                app.frame(now - last)
+                last = now
+                if app.session.counters.samples > 0 and t_end == give_up:
+                    t_end = now + 2.0
+            if app.session.counters.samples == 0:
+                raise StationError("no pen samples arrived from the mock driver: "
+                                   + (driver.stderr.read().decode()[-500:]
+                                      if driver.poll() is not None and driver.stderr else ""))
+            app.latencies.clear()
+            app.frames = 0
+            app.steps_run = 0
+            for k in app.phase:
+                app.phase[k] = 0.0
+            samples0, stamps0 = app.session.counters.samples, app.session.painted_stamps
+            cells = 0
+            t0 = time.monotonic()
+            t_end = t0 + seconds
+            while time.monotonic() < t_end:
+                now = time.monotonic()
+                drawn = app.frames
+                app.frame(now - last)
+                if app.frames > drawn:  # a pass that drew nothing rendered nothing
+                    cells += app.display.cells_rendered
+                last = now
+            wall = time.monotonic() - t0
+            st = app.session
+            result = {
+                "bench": "latency", "size": f"{width}x{height}", "backend": st.backend_name,
+                "renderer": str(getattr(st.canvas, "renderer", "")),
+                "display": os.environ.get("DISPLAY"), "gl_renderer":
+                    app.ctx.info.get("GL_RENDERER", ""),
+                "cpus": os.cpu_count(), "load_avg": [round(v, 2) for v in os.getloadavg()],
+                "tablet": {"model": model, "script": script, "reports_per_s": rate,
+                           "samples": st.counters.samples - samples0,
+                           "stamps": st.painted_stamps - stamps0},
+                "latency": {**_percentiles(app.latencies),
+                            "goal_p99_ms": GOAL_P99_MS,
+                            "from": "driver read (time.monotonic)",
+                            "to": "end of glFinish + swap of the first frame showing its paint"},
+                "frames": {"fps": round(app.frames / wall, 1), "frames": app.frames,
+                           "seconds": round(wall, 2), "goal_fps": GOAL_FPS,
+                           "sim_steps_per_s": round(app.steps_run / wall, 1),
+                           "cells_rendered_per_frame": int(cells / max(app.frames, 1)),
+                           "share": {k: round(v / wall, 3) for k, v in app.phase.items()},
+                           "ms_per_frame": {k: round(1000 * v / max(app.frames, 1), 2)
+                                            for k, v in app.phase.items()}},
+            }
+        finally:
+            driver.terminate()
+            try:
+                driver.wait(10)
+            except subprocess.TimeoutExpired:
+                driver.kill()
+            app.close()
+    return result

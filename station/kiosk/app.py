@@ -1,0 +1,721 @@
+"""The kiosk window and its frame loop.
+
+One process, one thread: glfw window + moderngl context, the simulation of the
+current painting (:class:`~station.kiosk.session.KioskSession`, fed by the
+bus), the canvas display, the ImGui panel.  A frame:
+
+1. take every message waiting on the bus (pen samples are mapped through the
+   view: over the panel they go to ImGui, over the canvas to the brush);
+2. re-render the changed tiles and the stamps not yet simulated, draw the view
+   and the panel, present — the driver read time of every sample that made
+   paint is now shown (latency);
+3. run the simulation steps that are due (after presenting, so a step's cost
+   delays the next frame, not the paint that just arrived).
+
+A visitor cannot leave: no title bar in fullscreen, the window's close request
+is refused, no key does anything.  The operator ends the kiosk with SIGTERM /
+SIGINT or a ``stop`` command on the bus; the painting is saved to the gallery.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import re
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from station.errors import BadInput, StationError
+from station.events import Command, PenSample, Tool
+from station.kiosk.display import CpuDisplay, GpuDisplay, make_display
+from station.kiosk.gallery import Gallery, GalleryServer, new_id, painting_url, qr_matrix
+from station.kiosk.idle import IdleClock, IdleConfig
+from station.kiosk.session import KioskSession
+from station.kiosk.views import VIEWS, Camera, Viewport, input_camera, make_camera
+from station.sim.live import DEFAULT_CMD_ENDPOINT, LiveConfig
+
+log = logging.getLogger(__name__)
+
+DRIVER_SILENT_S = 5.0  # a driver that said nothing this long is taken as gone
+STATUS_EVERY_S = 0.5
+REDRAW_EVERY_S = 0.25  # a quiet kiosk still redraws this often (status line, banners)
+SCREENSHOT_NAME = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
+
+CANVAS_VERT = """
+#version 330
+uniform mat4 vp;
+in vec3 pos;
+in vec2 uv;
+out vec2 f_uv;
+void main() { f_uv = uv; gl_Position = vp * vec4(pos, 1.0); }
+"""
+CANVAS_FRAG = """
+#version 330
+uniform sampler2D canvas;
+in vec2 f_uv;
+out vec4 frag;
+vec3 srgb(vec3 x) {  // the sRGB transfer function (render.linear_to_srgb)
+    x = clamp(x, 0.0, 1.0);
+    return mix(12.92 * x, 1.055 * pow(x, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, x));
+}
+void main() { frag = vec4(srgb(texture(canvas, f_uv).rgb), 1.0); }
+"""
+FLAT_VERT = """
+#version 330
+uniform mat4 vp;
+in vec3 pos;
+void main() { gl_Position = vp * vec4(pos, 1.0); }
+"""
+FLAT_FRAG = """
+#version 330
+uniform vec4 color;
+out vec4 frag;
+void main() { frag = color; }
+"""
+
+BACKGROUND = (0.13, 0.13, 0.15)
+TABLE = (0.42, 0.29, 0.18, 1.0)
+SHADOW = (0.0, 0.0, 0.0, 0.28)
+CURSOR_TOUCH = (0.1, 0.1, 0.1, 0.55)
+
+
+@dataclass
+class KioskConfig:
+    """Settings of one ``station kiosk`` run."""
+
+    bus: str | None = None
+    width: int = 800
+    height: int = 600
+    profile: str = "watercolor"
+    backend: str = "auto"
+    seed: int = 0
+    rate: float | None = None
+    fullscreen: bool = True
+    monitor: int = 0
+    window: tuple[int, int] = (1024, 768)
+    gallery: Path = Path("gallery")
+    serve: str | None = "0.0.0.0:8080"  # HOST:PORT of the gallery web page; None: no server
+    base_url: str | None = None  # what QR codes point to (default: this machine's address)
+    idle: IdleConfig = field(default_factory=IdleConfig)
+    status: str | None = None  # status endpoint; "none" disables
+    duration: float | None = None
+    screenshot_dir: Path | None = None
+    view: str = "2d"
+    vsync: bool = True
+    panel_fraction: float = 0.3
+    cmd: str | None = None  # where `station send` reaches the kiosk; "none" disables
+    autosave: float = 30.0  # seconds between autosaves of the painting (0: off)
+
+
+class KioskApp:
+    """The window, the current painting, the panel, the gallery (see module docstring)."""
+
+    def __init__(self, cfg: KioskConfig) -> None:
+        try:
+            import glfw
+            import moderngl
+        except ImportError as exc:
+            raise StationError(f"the kiosk needs glfw and moderngl ({exc}); "
+                               "pip install 'painting-station[kiosk]'") from None
+        if cfg.view not in VIEWS:
+            raise BadInput(f"unknown view {cfg.view!r} (one of {', '.join(VIEWS)})", "--view")
+        self.cfg = cfg
+        self.glfw = glfw
+        if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+            raise StationError("no display: the kiosk needs X or Wayland (try Xvfb)")
+        if not glfw.init():
+            raise StationError("glfw could not initialise (no display?)")
+        gl43 = cfg.backend == "gl"
+        glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, 4 if gl43 else 3)
+        glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, 3)
+        glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
+        glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, True)
+        monitor = None
+        width, height = cfg.window
+        if cfg.fullscreen:
+            monitors = glfw.get_monitors() or []
+            if not 0 <= cfg.monitor < len(monitors):
+                glfw.terminate()
+                raise BadInput(f"monitor {cfg.monitor} does not exist ({len(monitors)} "
+                               "connected)", "--monitor")
+            monitor = monitors[cfg.monitor]
+            mode = glfw.get_video_mode(monitor)
+            width, height = mode.size.width, mode.size.height
+        self.window = glfw.create_window(width, height, "station kiosk", monitor, None)
+        if not self.window:
+            glfw.terminate()
+            raise StationError("glfw could not open a window"
+                               + (" with OpenGL 4.3 (the gl backend needs it)" if gl43 else ""))
+        glfw.make_context_current(self.window)
+        glfw.swap_interval(1 if cfg.vsync else 0)
+        # a visitor cannot close the kiosk: refuse every close request
+        glfw.set_window_close_callback(self.window,
+                                       lambda w: glfw.set_window_should_close(w, False))
+        if cfg.fullscreen:
+            glfw.set_input_mode(self.window, glfw.CURSOR, glfw.CURSOR_HIDDEN)
+        self.ctx: Any = moderngl.create_context()
+        self.size = tuple(glfw.get_framebuffer_size(self.window))
+        w, h = self.size
+        self.panel_w = int(max(300, w * cfg.panel_fraction))
+        self.area = Viewport(self.panel_w, 0, w - self.panel_w, h)
+        self.aspect = cfg.width / cfg.height
+
+        from station.kiosk.imgui_gl import ImGuiLayer
+
+        self.gui = ImGuiLayer(self.ctx, (w, h), scale=max(1.5, h / 480))
+        self._programs()
+        self.gallery = Gallery(cfg.gallery)
+        self.live_dir = self.gallery.root / ".live"
+        self.live_dir.mkdir(exist_ok=True)
+        self.server: GalleryServer | None = None
+        base_url = cfg.base_url
+        if cfg.serve:
+            host, _, port = cfg.serve.rpartition(":")
+            self.server = GalleryServer(self.gallery, host or "0.0.0.0", int(port),
+                                        base_url).start()
+            if base_url is None:
+                from station.kiosk.gallery import default_base_url
+
+                base_url = default_base_url(self.server.port)
+        self.base_url = base_url or "http://127.0.0.1:8080"
+
+        from station.bus import Publisher, Subscriber
+        from station.canvas.palette import default_palette
+        from station.kiosk.ui import PanelState
+        from station.sim.live import default_status_endpoint
+
+        status_ep = cfg.status or default_status_endpoint(cfg.bus)
+        self.pub = None if status_ep == "none" else Publisher(status_ep)
+        self.driver_sub = Subscriber(cfg.bus, topics=("status",))
+        # `station send` reaches the kiosk here (the sessions come and go; this stays)
+        cmd_ep = cfg.cmd or "@" + DEFAULT_CMD_ENDPOINT
+        self.cmd_sub = None if cmd_ep == "none" else Subscriber(
+            cmd_ep if cmd_ep[0] in "@>" else "@" + cmd_ep, topics=("cmd",))
+        from station.canvas.params import get_profile
+
+        brush = get_profile(cfg.profile).brush
+        self.panel = PanelState(default_palette(), self._send, self.save_now, view=cfg.view,
+                                mix={brush.pigment: 1.0}, size=2.0 * brush.radius)
+        self.rects: dict[str, Any] = {}
+        self.idle = IdleClock(cfg.idle, time.monotonic())
+        self.stop_requested = False
+        self.capture: str | None = None  # "ui" or "canvas" while the tip is down
+        self.hover: tuple[float, float] | None = None  # canvas (u, v) of the pen
+        self.touching = False
+        self.follow_at = (0.5, 0.5)
+        self.driver_state = "unknown"
+        self.driver_seen = 0.0
+        self.driver_events: list[str] = []
+        self.saved: list[str] = []
+        self.qr: tuple[int, tuple[int, int]] | None = None  # ImGui texture id, size
+        self.qr_url: str | None = None
+        self.qr_texture: Any = None
+        self.screenshots: list[Path] = []
+        self.frames = 0
+        self.latencies: list[float] = []
+        self.phase = {"wait": 0.0, "input": 0.0, "sim": 0.0, "render": 0.0, "ui": 0.0,
+                      "present": 0.0}
+        self._need_draw = True
+        self._last_draw = 0.0
+        self._fresh_requested = False  # an operator's "fresh" command
+        self._brush_key: tuple[Any, ...] | None = None
+        self.steps_run = 0
+        self.frame_errors = 0
+        self._next_status = 0.0
+        self.session: KioskSession = self._new_session()
+        self.display: CpuDisplay | GpuDisplay = make_display(self.ctx, self.session)
+
+    # -- GL programs -------------------------------------------------------------
+    def _programs(self) -> None:
+        ctx = self.ctx
+        self.canvas_prog = ctx.program(vertex_shader=CANVAS_VERT, fragment_shader=CANVAS_FRAG)
+        self.flat_prog = ctx.program(vertex_shader=FLAT_VERT, fragment_shader=FLAT_FRAG)
+        a = self.aspect / 2
+        quad = np.array([[-a, 0.5, 0, 0, 0], [a, 0.5, 0, 1, 0], [-a, -0.5, 0, 0, 1],
+                         [a, -0.5, 0, 1, 1]], "f4")  # uv row 0 = canvas top
+        self.canvas_vbo = ctx.buffer(quad.tobytes())
+        self.canvas_vao = ctx.vertex_array(self.canvas_prog,
+                                           [(self.canvas_vbo, "3f 2f", "pos", "uv")])
+        self.flat_vbo = ctx.buffer(reserve=4096 * 12, dynamic=True)
+        self.flat_vao = ctx.vertex_array(self.flat_prog, [(self.flat_vbo, "3f", "pos")])
+
+    # -- sessions (one per painting) ---------------------------------------------------
+    def _new_session(self) -> KioskSession:
+        cfg = self.cfg
+        pid = new_id()
+        opts: dict[str, Any] = {"ctx": self.ctx} if cfg.backend == "gl" else {}
+        live = LiveConfig(bus=cfg.bus, width=cfg.width, height=cfg.height, profile=cfg.profile,
+                          backend=cfg.backend, seed=cfg.seed, rate=cfg.rate,
+                          log_path=str(self.live_dir / f"{pid}.jsonl"), status="none",
+                          cmd="none", autosave=cfg.autosave, backend_opts=opts)
+        session = KioskSession(live, map_pen=self._map_pen, kiosk_command=self._kiosk_command)
+        session.painting_id = pid
+        self.session = session
+        self.panel.apply_brush()  # the visitor's brush carries over, logged first
+        self.idle.fresh(time.monotonic())
+        self._set_qr(None)
+        return session
+
+    def _send(self, name: str, args: dict[str, Any]) -> None:
+        session = getattr(self, "session", None)
+        if session is not None:
+            session.command(name, **args)
+
+    def _meta(self, reason: str) -> dict[str, Any]:
+        s = self.session
+        st = s.status()
+        return {"width": s.cfg.width, "height": s.cfg.height, "profile": s.player.profile,
+                "backend": s.backend_name, "seed": s.cfg.seed, "started": s.started_wall,
+                "reason": reason, "steps": st["steps"], "samples": st["samples"],
+                "commands": st["commands"], "stamps": st["stamps"],
+                "painting_seconds": st["painting_time"]}
+
+    def _render_srgb8(self) -> np.ndarray:
+        from station.canvas.render import to_srgb8
+
+        return to_srgb8(self.session.canvas.render())
+
+    def save_now(self) -> str:
+        """Save the painting so far to the gallery (the visitor's Save); shows its QR."""
+        s = self.session
+        pid = s.painting_id
+        s.journal.sync()  # the copy in the gallery holds every record so far
+        try:
+            self.gallery.save(pid, self._render_srgb8(), s.log_path, self._meta("save"))
+        except (OSError, StationError) as exc:  # the painting goes on; its log is kept
+            log.error("cannot save painting %s to the gallery: %s", pid, exc)
+            self.panel.message = "Sorry, the painting could not be saved just now."
+            return pid
+        self.saved.append(pid)
+        self._set_qr(painting_url(self.base_url, pid))
+        return pid
+
+    def finish_painting(self, reason: str) -> str | None:
+        """Save the painting to the gallery (if anything was painted) and start afresh."""
+        s = self.session
+        pid = s.painting_id
+        painted = s.painted_stamps > 0 or pid in self.saved
+        meta = self._meta(reason)
+        s.shutdown()  # log end marker, log closed
+        stored = True
+        if painted:
+            try:
+                self.gallery.save(pid, self._render_srgb8(), s.log_path, meta)
+                self.saved.append(pid)
+            except (OSError, StationError) as exc:
+                # the session log stays in <gallery>/.live: `station paint` repaints it
+                log.error("cannot save painting %s to the gallery (%s); its log is kept in %s",
+                          pid, exc, s.log_path)
+                stored = False
+        close = getattr(s.canvas, "close", None)
+        if close is not None:
+            close()
+        if stored:  # in the gallery now (or nothing was painted): the live files go
+            Path(s.log_path).unlink(missing_ok=True)
+            Path(s.autosave_path).unlink(missing_ok=True)
+        return pid if painted and stored else None
+
+    def fresh_canvas(self, reason: str) -> str | None:
+        pid = self.finish_painting(reason)
+        self.session = self._new_session()
+        self.display.bind(self.session)
+        return pid
+
+    def _set_qr(self, url: str | None) -> None:
+        self.qr_url = url
+        if url is None:
+            self.qr = None
+            return
+        m = qr_matrix(url)
+        img = np.where(m[:, :, None] > 0, 0, 255).astype(np.uint8).repeat(4, axis=2)
+        img[..., 3] = 255
+        img = img.repeat(8, axis=0).repeat(8, axis=1)  # crisp modules when scaled
+        if self.qr_texture is not None:
+            self.qr_texture.release()
+        self.qr_texture = self.ctx.texture((img.shape[1], img.shape[0]), 4, img.tobytes())
+        self.qr_texture.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
+        self.qr = (self.gui.add_texture(self.qr_texture), (img.shape[1], img.shape[0]))
+
+    # -- input -----------------------------------------------------------------------------
+    def _map_pen(self, s: PenSample) -> PenSample | None:
+        """Screen-space sample → the canvas's sample (``None``: the panel has it)."""
+        now = time.monotonic()
+        w, h = self.size
+        px, py = s.x * w, s.y * h
+        self.panel.eraser = s.tool is Tool.ERASER
+        if s.proximity:
+            self.idle.activity(now)
+        touching = s.touching and s.proximity
+        if touching and not self.touching:
+            self.capture = "ui" if px < self.panel_w else "canvas"
+        self.touching = touching
+        capture = self.capture
+        if not touching:
+            self.capture = None
+        cam = input_camera(self.panel.view, self.area, self.aspect)
+        uv = cam.screen_to_canvas(px, py) if px >= self.panel_w else None
+        inside = uv is not None and 0.0 <= uv[0] <= 1.0 and 0.0 <= uv[1] <= 1.0
+        self.hover = uv if (s.proximity and inside) else None
+        if inside and uv is not None:
+            self.follow_at = uv
+        near = s.proximity
+        if capture == "ui" or (capture is None and px < self.panel_w):
+            self.gui.pointer(px if near else None, py if near else None, touching)
+            return None
+        # over the canvas ImGui still follows the pen (a drag released there ends there)
+        self.gui.pointer(px if near else None, py if near else None, False)
+        if not inside or uv is None:  # off the canvas: the stroke lifts
+            last = self.session.last_canvas_pen if hasattr(self, "session") else None
+            if last is None or not last.touching:
+                return None
+            return s.with_(x=last.x, y=last.y, touching=False, pressure=0.0)
+        return s.with_(x=float(uv[0]), y=float(uv[1]))
+
+    def _sync_panel(self) -> None:
+        """Show the brush the painting really has (an operator's ``brush`` command on the
+        bus changes it too)."""
+        b = self.session.player.brush.settings
+        key = (b.kind, b.size, b.water, tuple(sorted(b.pigment.items())))
+        if key == self._brush_key:
+            return
+        self._brush_key = key
+        p = self.panel
+        mine = p.brush_args()
+        if (mine["kind"] == b.kind and math.isclose(mine["size"], b.size)
+                and math.isclose(mine["water"], b.water)
+                and mine["pigment"].keys() == b.pigment.keys()
+                and all(math.isclose(v, b.pigment[k]) for k, v in mine["pigment"].items())):
+            return  # the panel's own brush: keep its parts as the visitor mixed them
+        p.kind, p.size, p.water = b.kind, float(b.size), float(b.water)
+        total = sum(b.pigment.values())
+        if total > 0:
+            p.strength = float(total)
+            p.mix = {name: float(v / total) for name, v in b.pigment.items()}
+        else:
+            p.mix = {}
+
+    def _kiosk_command(self, cmd: Command) -> bool:
+        """Commands for the window: ``view {name}``, ``save``, ``screenshot {name}``."""
+        if cmd.cmd == "view":
+            name = cmd.args.get("name")
+            if name in VIEWS:
+                self.panel.set_view(str(name))
+            else:
+                log.warning("view %r is not one of %s", name, ", ".join(VIEWS))
+            return True
+        if cmd.cmd == "save":
+            self.save_now()
+            return True
+        if cmd.cmd == "fresh":
+            self._fresh_requested = True
+            return True
+        if cmd.cmd == "screenshot":
+            name = cmd.args.get("name")
+            if self.cfg.screenshot_dir is None or not isinstance(name, str) \
+                    or not SCREENSHOT_NAME.match(name):
+                log.warning("screenshot refused (needs --screenshot-dir and a plain name)")
+            else:
+                self.screenshots.append(self.cfg.screenshot_dir / f"{name}.png")
+            return True
+        if cmd.cmd == "stop":
+            self.stop_requested = True
+            return True
+        return False
+
+    def _commands(self) -> None:
+        """Commands sent to the kiosk's own endpoint (``station send``)."""
+        if self.cmd_sub is None:
+            return
+        msg = self.cmd_sub.recv(0)
+        while msg is not None:
+            self.session.handle(msg.kind, msg.value, msg.topic, msg.replay)
+            msg = self.cmd_sub.recv(0)
+
+    def _driver_status(self) -> None:
+        msg = self.driver_sub.recv(0)
+        while msg is not None:
+            v = msg.value
+            if isinstance(v, dict) and v.get("kind") == "driver":
+                state = str(v.get("state", "unknown"))
+                if state != self.driver_state:
+                    self.driver_events.append(state)
+                self.driver_state = state
+                self.driver_seen = time.monotonic()
+            msg = self.driver_sub.recv(0)
+
+    def pen_missing(self) -> bool:
+        """Whether to show "the pen is unplugged": a driver said so, or went silent."""
+        if self.driver_state in ("gone", "waiting", "failed"):
+            return True
+        return (self.driver_state == "running"
+                and time.monotonic() - self.driver_seen > DRIVER_SILENT_S)
+
+    # -- drawing ---------------------------------------------------------------------------
+    def camera(self) -> Camera:
+        return make_camera(self.panel.view, self.area, self.aspect, self.follow_at)
+
+    def _flat(self, cam: Camera, pts: np.ndarray, color: tuple[float, ...], mode: int) -> None:
+        data = np.asarray(pts, "f4").tobytes()
+        if len(data) > self.flat_vbo.size:
+            self.flat_vbo.orphan(len(data))
+        self.flat_vbo.write(data)
+        self.flat_prog["vp"].write(cam.vp.T.astype("f4").tobytes())
+        self.flat_prog["color"].value = color
+        self.flat_vao.render(mode, vertices=len(pts))
+
+    def _disc(self, cam: Camera, u: float, v: float, r: float, color: tuple[float, ...]
+              ) -> None:
+        c = cam.canvas_to_world(u, v)
+        ang = np.linspace(0, 2 * math.pi, 41)
+        ring = np.column_stack([c[0] + r * np.cos(ang), c[1] + r * np.sin(ang),
+                                np.full(ang.size, 1e-4)])
+        self._flat(cam, np.vstack([[c[0], c[1], 1e-4], ring]), color, self.ctx.TRIANGLE_FAN)
+
+    def draw_scene(self) -> None:
+        ctx = self.ctx
+        w, h = self.size
+        ctx.viewport = (0, 0, w, h)
+        ctx.clear(*BACKGROUND)
+        cam = self.camera()
+        ctx.viewport = cam.viewport.gl(h)
+        ctx.enable(ctx.BLEND)
+        ctx.blend_func = ctx.SRC_ALPHA, ctx.ONE_MINUS_SRC_ALPHA
+        if cam.name != "2d":
+            t = 3.0
+            self._flat(cam, np.array([[-t, t, -1e-3], [t, t, -1e-3], [-t, -t, -1e-3],
+                                      [t, -t, -1e-3]]), TABLE, ctx.TRIANGLE_STRIP)
+        self.display.texture.use(0)
+        self.canvas_prog["canvas"].value = 0
+        self.canvas_prog["vp"].write(cam.vp.T.astype("f4").tobytes())
+        self.canvas_vao.render(ctx.TRIANGLE_STRIP)
+        if self.hover is not None:
+            # the brush's shadow: its footprint at full pressure, light from the top left
+            r = self.session.player.brush.settings.size / 2 / self.cfg.height
+            u, v = self.hover
+            off = 0.0 if self.touching else 0.006
+            self._disc(cam, u + off, v + off, r, CURSOR_TOUCH if self.touching else SHADOW)
+        ctx.disable(ctx.BLEND)
+        ctx.viewport = (0, 0, w, h)
+
+    def canvas_rect(self) -> list[float]:
+        """Where the canvas is on the screen in the 2D view: x, y, width, height (pixels)."""
+        cam = make_camera("2d", self.area, self.aspect)
+        x0, y0 = cam.world_to_screen(cam.canvas_to_world(0.0, 0.0)) or (0.0, 0.0)
+        x1, y1 = cam.world_to_screen(cam.canvas_to_world(1.0, 1.0)) or (0.0, 0.0)
+        return [x0, y0, x1 - x0, y1 - y0]
+
+    def status_line(self) -> str:
+        s = self.session
+        wet = s.wet_fraction()
+        parts = []
+        if wet is not None:
+            parts.append(f"wet {100 * wet:.1f}%")
+            tiles = s.active_tiles()
+            parts.append("drying" if tiles else ("dry" if wet == 0 else "settled"))
+        if s.counters.bad_samples:
+            parts.append("layer full: press New layer")
+        return "  ".join(parts)
+
+    def draw_ui(self, dt: float) -> None:
+        from station.kiosk.ui import draw_banner, draw_panel, draw_qr
+
+        self.gui.new_frame(dt)
+        w, h = self.size
+        self.rects = {}
+        draw_panel(self.panel, self.panel_w, h, self.status_line(), self.rects)
+        if self.qr is not None:
+            side = min(240.0, h * 0.3)
+            draw_qr(self.qr[0], w - side - 40, h - side - 80, side, self.rects)
+        now = time.monotonic()
+        a = self.area
+        if self.pen_missing():
+            draw_banner("The pen is unplugged - please wait, it will be back",
+                        a.x + 20, a.y + 20, a.w - 40, 110, "unplugged", big=False)
+        elif self.idle.attract(now):
+            draw_banner("Pick up the pen and paint!", a.x + a.w * 0.1, a.y + a.h * 0.38,
+                        a.w * 0.8, a.h * 0.24, "attract")
+        self.gui.render()
+
+    def _screenshot(self, path: Path) -> None:
+        from PIL import Image
+
+        w, h = self.size
+        data = self.ctx.screen.read(viewport=(0, 0, w, h), components=3, alignment=1)
+        img = np.frombuffer(data, np.uint8).reshape(h, w, 3)[::-1]
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(path.name + ".tmp")
+        Image.fromarray(img).save(tmp, format="PNG")
+        os.replace(tmp, path)  # whoever waits for the file never sees half of it
+
+    # -- the loop --------------------------------------------------------------------------
+    def _quiet_wait_ms(self) -> int:
+        """How long a quiet kiosk may wait for the pen: until the next step is due."""
+        p = self.session.player
+        t_next = (p.counters.steps + 1) / p.rate - p.waited
+        wait = min(max(t_next - self.session.now(), 0.0), REDRAW_EVERY_S)
+        return int(wait * 1000)
+
+    def frame(self, dt: float) -> None:
+        """One pass of the loop: input, then (if anything changed) a frame, then steps.
+
+        A quiet kiosk (no pen, nothing wet) does not redraw 60 times a second: it waits
+        on the bus until the next step is due, so a pen sample is handled the moment it
+        comes, and it redraws at least every :data:`REDRAW_EVERY_S` (status, banners).
+        """
+        t0 = time.perf_counter()
+        self.glfw.poll_events()
+        s = self.session
+        busy = (self._need_draw or s.whole_dirty or bool(s.dirty.any())
+                or s.player.brush.pending > 0 or bool(self.screenshots))
+        received = s.sub.stats.received
+        s.drain(0 if busy else self._quiet_wait_ms())
+        tw = time.perf_counter()
+        got_input = s.sub.stats.received != received
+        self._commands()
+        self._driver_status()
+        if self._fresh_requested:
+            self._fresh_requested = False
+            self.fresh_canvas("operator")
+        now = time.monotonic()
+        if self.session.painted_stamps > 0:
+            self.idle.painted = True
+        self._sync_panel()
+        if self.idle.should_finish(now):
+            pid = self.fresh_canvas("idle")
+            log.info("idle: painting %s saved to the gallery, fresh canvas", pid)
+            got_input = True
+        s = self.session
+        draw = (self._need_draw or got_input or bool(self.screenshots) or s.whole_dirty
+                or bool(s.dirty.any()) or s.player.brush.pending > 0
+                or now - self._last_draw >= REDRAW_EVERY_S)
+        t1 = t2 = t3 = t4 = time.perf_counter()
+        if draw:
+            self.display.update()
+            t2 = time.perf_counter()
+            self.draw_scene()
+            self.draw_ui(now - self._last_draw if self._last_draw else dt)
+            for path in self.screenshots:
+                self._screenshot(path)
+            self.screenshots.clear()
+            t3 = time.perf_counter()
+            self.ctx.finish()
+            self.glfw.swap_buffers(self.window)
+            shown = time.monotonic()
+            t4 = time.perf_counter()
+            for t_read in s.awaiting_paint:
+                self.latencies.append(shown - t_read)
+            s.awaiting_paint.clear()
+            self._last_draw = shown
+            self.frames += 1
+        # ImGui spreads pen events queued together over the next frames: draw one more
+        self._need_draw = got_input
+        self.steps_run += s.run_due_steps(max_steps=2)  # what they change: dirty tiles
+        t5 = time.perf_counter()
+        ph = self.phase
+        ph["wait"] += tw - t0
+        ph["input"] += t1 - tw
+        ph["render"] += t2 - t1
+        ph["ui"] += t3 - t2
+        ph["present"] += t4 - t3
+        ph["sim"] += t5 - t4
+        self.maybe_publish_status()
+
+    def run(self) -> dict[str, Any]:
+        """Frames until stopped (signal, ``stop`` command, ``duration``)."""
+        start = time.monotonic()
+        last = start
+        failures = 0
+        try:
+            while not self.stop_requested and not self.session.stop_requested:
+                now = time.monotonic()
+                if self.cfg.duration is not None and now - start >= self.cfg.duration:
+                    break
+                try:
+                    self.frame(now - last)
+                    failures = 0
+                except (StationError, OSError, ValueError, RuntimeError) as exc:
+                    # a kiosk keeps showing the painting: log, count, go on — unless every
+                    # frame fails, which is a bug to report, not to spin on
+                    failures += 1
+                    self.frame_errors += 1
+                    if failures == 1:
+                        log.exception("frame failed: %s", exc)
+                    if failures >= 100:
+                        raise
+                last = now
+        finally:
+            final = self.kiosk_status()
+            self.close()
+        return final
+
+    def kiosk_status(self) -> dict[str, Any]:
+        s = self.session
+        st = s.status()
+        st.update({
+            "process": "kiosk", "view": self.panel.view, "frames": self.frames,
+            "frame_errors": self.frame_errors,
+            "painting_id": s.painting_id,
+            "painted_stamps": s.painted_stamps, "saved": list(self.saved),
+            "qr_url": self.qr_url, "driver_state": self.driver_state,
+            "driver_events": list(self.driver_events), "pen_missing": self.pen_missing(),
+            "attract": self.idle.attract(time.monotonic()), "ui": dict(self.rects),
+            "window": list(self.size), "canvas_rect": self.canvas_rect(), "panel": {
+                "mix": dict(self.panel.mix), "size": self.panel.size,
+                "water": self.panel.water, "strength": self.panel.strength,
+                "confirm_clear": self.panel.confirm_clear, "eraser": self.panel.eraser,
+                "pressed": list(self.panel.pressed)},
+            "player_commands": dict(s.player.counters.commands),
+            "skipped_commands": dict(s.player.counters.skipped_commands),
+            "brush": s.player.brush.settings.to_args(),
+            "wet_fraction": s.wet_fraction(),
+            "gallery_url": self.base_url,
+        })
+        return st
+
+    def maybe_publish_status(self) -> None:
+        now = time.monotonic()
+        if self.pub is None or now < self._next_status:
+            return
+        self._next_status = now + STATUS_EVERY_S
+        try:
+            self.pub.publish_status(self.kiosk_status())
+        except Exception as exc:  # status is best effort; the kiosk goes on
+            log.warning("cannot publish status: %s", exc)
+
+    def install_signal_handlers(self) -> None:
+        import signal
+
+        def on_signal(signum: int, frame: Any) -> None:
+            self.stop_requested = True
+
+        signal.signal(signal.SIGTERM, on_signal)
+        signal.signal(signal.SIGINT, on_signal)
+
+    def close(self) -> None:
+        """Save the painting (the operator stopped the kiosk), release everything."""
+        try:
+            self.finish_painting("stopped")
+        finally:
+            if self.pub is not None:
+                try:
+                    self.pub.publish_status({**self.kiosk_status_safe(), "state": "stopped"})
+                except Exception:
+                    pass
+                self.pub.close()
+            self.driver_sub.close()
+            if self.cmd_sub is not None:
+                self.cmd_sub.close()
+            if self.server is not None:
+                self.server.stop()
+            self.display.release()
+            self.gui.close()
+            self.glfw.destroy_window(self.window)
+            self.glfw.terminate()
+
+    def kiosk_status_safe(self) -> dict[str, Any]:
+        return {"process": "kiosk", "saved": list(self.saved), "frames": self.frames}

@@ -1,0 +1,156 @@
+"""The canvas as a texture for the window, re-rendered as little as possible.
+
+Both displays give a texture of *linear* reflectance (the window's shader
+applies the sRGB transfer), row 0 = the canvas's top row.
+
+* :class:`CpuDisplay` (numpy and cpu backends): Kubelka–Munk render of the
+  dirty tiles only (per run of dirty tiles in a tile row; the numba twin of the
+  reference KM in :mod:`station.kiosk.km_fast`, gouache by the reference),
+  uploaded with ``texture.write(viewport=…)``.  A full 800×600 render costs
+  about 21 ms on the 2-core development machine, one stroke's wet tiles a few.
+  Brush stamps made since the last simulation step are shown at once as a
+  preview (the same KM render of the state plus those stamps' pigment, capped
+  as ``add_sources`` caps it), so a pen stroke appears in the next frame and
+  not only after the next step (up to 1/30 s later).
+* :class:`GpuDisplay` (gl backend): the canvas's render pass writes its own
+  RGBA32F texture in the window's GL context; the window samples it with no
+  read-back.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from station.canvas.params import get_profile
+from station.canvas.render import region_amount, render_region
+from station.kiosk.km_fast import km_layer_fast
+
+F32 = np.float32
+
+
+def tile_runs(dirty: np.ndarray) -> list[tuple[int, int, int]]:
+    """Runs of dirty tiles per tile row: ``(row, first column, end column)``."""
+    runs = []
+    for ty in np.nonzero(dirty.any(axis=1))[0]:
+        row = np.concatenate(([False], dirty[ty], [False]))
+        edges = np.flatnonzero(row[1:] != row[:-1])
+        for a, b in zip(edges[0::2], edges[1::2], strict=True):
+            runs.append((int(ty), int(a), int(b)))
+    return runs
+
+
+class CpuDisplay:
+    """Dirty-tile rendering of a CPU canvas into a float texture (see module docstring)."""
+
+    def __init__(self, ctx: Any, session: Any) -> None:
+        self.ctx = ctx
+        self.bind(session)
+
+    def bind(self, session: Any) -> None:
+        """Show ``session``'s canvas (a fresh painting: everything is re-rendered)."""
+        self.session = session
+        w, h = session.cfg.width, session.cfg.height
+        old = getattr(self, "texture", None)
+        if old is None or old.size != (w, h):
+            if old is not None:
+                old.release()
+            self.texture = self.ctx.texture((w, h), 3, dtype="f4")
+            self.texture.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+        self.preview_box: tuple[slice, slice] | None = None
+        self.cells_rendered = 0
+        self.render_seconds = 0.0
+        session.mark_all_dirty()
+
+    def _renderer_kind(self) -> str:
+        return str(getattr(self.session.canvas, "_renderer_kind", None)
+                   or get_profile(self.session.player.profile).renderer)
+
+    def update(self) -> int:
+        """Re-render what changed; returns the number of cells rendered."""
+        t0 = time.perf_counter()
+        st = self.session.cpu_state
+        kind = self._renderer_kind()
+        ts = int(st.params.tile_size)
+        dirty = self.session.take_dirty()
+        if self.preview_box is not None:  # last frame's preview: replace it with the state
+            ys, xs = self.preview_box
+            dirty[ys.start // ts:-(-ys.stop // ts), xs.start // ts:-(-xs.stop // ts)] = True
+            self.preview_box = None
+        cells = 0
+        for ty, a, b in tile_runs(dirty):
+            ys = slice(ty * ts, min((ty + 1) * ts, st.height))
+            xs = slice(a * ts, min(b * ts, st.width))
+            self._upload(self._render(st, kind, ys, xs), ys, xs)
+            cells += (ys.stop - ys.start) * (xs.stop - xs.start)
+        peek = getattr(self.session.player.brush, "peek", None)  # the stamp brush has it
+        src = peek() if peek is not None else None
+        if src is not None:
+            ys, xs = src.region
+            ys = slice(max(ys.start, 0), min(ys.stop, st.height))
+            xs = slice(max(xs.start, 0), min(xs.stop, st.width))
+            if ys.stop > ys.start and xs.stop > xs.start:
+                oy, ox = ys.start - src.y0, xs.start - src.x0
+                h, w = ys.stop - ys.start, xs.stop - xs.start
+                extra = {name: a[oy:oy + h, ox:ox + w].astype(F32) * (st.mask[ys, xs] == 0)
+                         for name, a in src.dp.items()}
+                self._upload(self._render(st, kind, ys, xs, extra), ys, xs)
+                self.preview_box = (ys, xs)
+                cells += h * w
+        self.cells_rendered = cells
+        self.render_seconds = time.perf_counter() - t0
+        return cells
+
+    @staticmethod
+    def _render(st: Any, kind: str, ys: slice, xs: slice,
+                extra: dict[str, np.ndarray] | None = None) -> np.ndarray:
+        if kind == "km":  # the compiled twin of the reference (held together by tests)
+            amount, pigments = region_amount(st, ys, xs, extra)
+            return km_layer_fast(amount, pigments, st.r_composed[ys, xs])
+        return render_region(st, kind, ys, xs, extra)
+
+    def _upload(self, rgb: np.ndarray, ys: slice, xs: slice) -> None:
+        data = np.ascontiguousarray(rgb, dtype=F32)
+        self.texture.write(data.tobytes(), viewport=(xs.start, ys.start, xs.stop - xs.start,
+                                                     ys.stop - ys.start))
+
+    def release(self) -> None:
+        self.texture.release()
+
+
+class GpuDisplay:
+    """The GL canvas's own render texture (no read-back; see module docstring)."""
+
+    def __init__(self, ctx: Any, session: Any) -> None:
+        self.ctx = ctx
+        self.bind(session)
+
+    def bind(self, session: Any) -> None:
+        self.session = session
+        self.cells_rendered = 0
+        self.render_seconds = 0.0
+        self.texture = session.canvas.render_texture()
+        self.texture.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+
+    def update(self) -> int:
+        t0 = time.perf_counter()
+        # pending stamps go in now: on the GPU the sources pass is cheap and the preview
+        # would need the state on the CPU
+        self.session.player.flush_sources()
+        self.session.take_dirty()
+        self.texture = self.session.canvas.render_texture()
+        self.ctx.memory_barrier()  # image stores → texture fetches of the window's shader
+        self.cells_rendered = self.session.cfg.width * self.session.cfg.height
+        self.render_seconds = time.perf_counter() - t0
+        return self.cells_rendered
+
+    def release(self) -> None:
+        """The texture belongs to the canvas."""
+
+
+def make_display(ctx: Any, session: Any) -> CpuDisplay | GpuDisplay:
+    if session.cpu_state is not None:
+        return CpuDisplay(ctx, session)
+    return GpuDisplay(ctx, session)

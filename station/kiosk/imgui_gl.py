@@ -1,0 +1,155 @@
+"""Dear ImGui (imgui-bundle) drawn with moderngl, fed by the pen, not a mouse.
+
+imgui-bundle's own Python backends draw with PyOpenGL; the kiosk's GL state is
+moderngl's, so this module renders ImGui's draw lists through moderngl (one
+program, one streaming vertex/index buffer, scissor per command) and manages
+ImGui's textures (the font atlas, 1.92's ``RendererHasTextures`` protocol).
+
+Input: :meth:`ImGuiLayer.pointer` takes the pen's window position and whether
+its tip touches; nothing else (no keyboard, no mouse) reaches ImGui.
+"""
+
+from __future__ import annotations
+
+import ctypes
+from typing import Any
+
+import numpy as np
+from imgui_bundle import imgui
+
+VERTEX = """
+#version 330
+uniform mat4 proj;
+in vec2 pos;
+in vec2 uv;
+in vec4 col;
+out vec2 f_uv;
+out vec4 f_col;
+void main() { f_uv = uv; f_col = col; gl_Position = proj * vec4(pos, 0.0, 1.0); }
+"""
+
+FRAGMENT = """
+#version 330
+uniform sampler2D tex;
+in vec2 f_uv;
+in vec4 f_col;
+out vec4 frag;
+void main() { frag = f_col * texture(tex, f_uv); }
+"""
+
+
+class ImGuiLayer:
+    """An ImGui context drawn into a moderngl context of ``size`` pixels."""
+
+    def __init__(self, ctx: Any, size: tuple[int, int], scale: float = 2.0) -> None:
+        self.ctx = ctx
+        self.size = size
+        self.context = imgui.create_context()
+        io = imgui.get_io()
+        io.display_size = imgui.ImVec2(float(size[0]), float(size[1]))
+        io.set_ini_filename("")  # a kiosk keeps no layout file
+        io.backend_flags |= imgui.BackendFlags_.renderer_has_textures
+        io.config_flags |= imgui.ConfigFlags_.no_mouse_cursor_change
+        style = imgui.get_style()
+        style.scale_all_sizes(scale)
+        style.font_scale_main = scale
+        self.prog = ctx.program(vertex_shader=VERTEX, fragment_shader=FRAGMENT)
+        self.prog["tex"].value = 0
+        self.vbo = ctx.buffer(reserve=1 << 20, dynamic=True)
+        self.ibo = ctx.buffer(reserve=1 << 19, dynamic=True)
+        self.vao = ctx.vertex_array(self.prog, [(self.vbo, "2f 2f 4f1", "pos", "uv", "col")],
+                                    index_buffer=self.ibo, index_element_size=imgui.INDEX_SIZE)
+        self.textures: dict[int, Any] = {}
+        self._next_id = 1
+        self.touching = False
+
+    # -- textures --------------------------------------------------------------
+    def add_texture(self, texture: Any) -> int:
+        """Register a moderngl texture for ``imgui.image``; returns its ImGui id."""
+        tex_id = self._next_id
+        self._next_id += 1
+        self.textures[tex_id] = texture
+        return tex_id
+
+    def _sync_textures(self) -> None:
+        for tex in imgui.get_platform_io().textures:
+            status = tex.status
+            if status in (imgui.ImTextureStatus.want_create, imgui.ImTextureStatus.want_updates):
+                pixels = np.asarray(tex.get_pixels_array(), np.uint8).tobytes()
+                if status == imgui.ImTextureStatus.want_create or tex.tex_id not in self.textures:
+                    gl_tex = self.ctx.texture((tex.width, tex.height), 4, pixels)
+                    gl_tex.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+                    tex.set_tex_id(self.add_texture(gl_tex))
+                else:
+                    self.textures[tex.tex_id].write(pixels)
+                tex.set_status(imgui.ImTextureStatus.ok)
+            elif status == imgui.ImTextureStatus.want_destroy:
+                gl_tex = self.textures.pop(tex.tex_id, None)
+                if gl_tex is not None:
+                    gl_tex.release()
+                tex.set_tex_id(0)
+                tex.set_status(imgui.ImTextureStatus.destroyed)
+
+    # -- input ---------------------------------------------------------------------
+    def pointer(self, x: float | None, y: float | None, touching: bool) -> None:
+        """The pen: window pixel position (``None`` out of proximity) and tip state."""
+        imgui.set_current_context(self.context)
+        io = imgui.get_io()
+        io.add_mouse_source_event(imgui.MouseSource.pen)
+        if x is None or y is None:
+            io.add_mouse_pos_event(-imgui.FLT_MAX, -imgui.FLT_MAX)
+        else:
+            io.add_mouse_pos_event(float(x), float(y))
+        if touching != self.touching:
+            io.add_mouse_button_event(0, touching)
+            self.touching = touching
+
+    def want_pointer(self) -> bool:
+        """Whether the pen is over an ImGui window (the canvas must not paint)."""
+        imgui.set_current_context(self.context)
+        return bool(imgui.get_io().want_capture_mouse)
+
+    # -- frames --------------------------------------------------------------------
+    def new_frame(self, dt: float) -> None:
+        imgui.set_current_context(self.context)
+        imgui.get_io().delta_time = max(dt, 1e-4)
+        imgui.new_frame()
+
+    def render(self) -> None:
+        """End the ImGui frame and draw it over what is in the framebuffer."""
+        imgui.render()
+        self._sync_textures()
+        data = imgui.get_draw_data()
+        w, h = self.size
+        ctx = self.ctx
+        ctx.viewport = (0, 0, w, h)
+        ctx.enable_only(ctx.BLEND)
+        ctx.blend_func = ctx.SRC_ALPHA, ctx.ONE_MINUS_SRC_ALPHA
+        self.prog["proj"].write(np.array(
+            [[2.0 / w, 0, 0, 0], [0, -2.0 / h, 0, 0], [0, 0, -1, 0], [-1, 1, 0, 1]],
+            "f4").tobytes())
+        for cmds in data.cmd_lists:
+            vbytes = cmds.vtx_buffer.size() * imgui.VERTEX_SIZE
+            ibytes = cmds.idx_buffer.size() * imgui.INDEX_SIZE
+            if vbytes > self.vbo.size:
+                self.vbo.orphan(vbytes * 2)
+            if ibytes > self.ibo.size:
+                self.ibo.orphan(ibytes * 2)
+            self.vbo.write(ctypes.string_at(cmds.vtx_buffer.data_address(), vbytes))
+            self.ibo.write(ctypes.string_at(cmds.idx_buffer.data_address(), ibytes))
+            for cmd in cmds.cmd_buffer:
+                tex = self.textures.get(cmd.tex_ref.get_tex_id())
+                if tex is None:
+                    continue
+                tex.use(0)
+                x0, y0, x1, y1 = cmd.clip_rect
+                ctx.scissor = (int(x0), int(h - y1), int(x1 - x0), int(y1 - y0))
+                self.vao.render(ctx.TRIANGLES, vertices=cmd.elem_count, first=cmd.idx_offset)
+        ctx.scissor = None
+        ctx.disable(ctx.BLEND)
+
+    def close(self) -> None:
+        for tex in self.textures.values():
+            tex.release()
+        self.textures.clear()
+        imgui.destroy_context(self.context)

@@ -1,0 +1,298 @@
+"""The pen-only control panel (Dear ImGui), sized for a kiosk.
+
+:class:`PanelState` holds what the panel controls and turns every control into
+what it does (a ``brush``/``dry``/``new_layer``/``clear``/``undo`` command into
+the simulation, logged like any command; a view switch; a gallery save) — the
+drawing in :func:`draw_panel` only calls it, so tests can check each control by
+tapping it with a pen and reading the state.
+
+Targets are large (ImGui scaled ×2, buttons at least 64 px high) for a pen in
+a standing visitor's hand.  Clear asks for confirmation.  Undo is offered only
+when the simulation's player has an ``undo`` command (the tools issue adds it);
+until then the button is shown disabled with the reason.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from station.brush.stamp import brush_kinds
+from station.canvas.palette import Palette
+from station.canvas.render import km_layer, linear_to_srgb
+from station.kiosk.views import VIEWS
+
+MAX_MIX = 4  # pigments in one mix (a layer holds 8; a mix of more is mud anyway)
+VIEW_LABELS = {"2d": "Top", "3d": "Table", "follow": "Brush"}
+
+
+def swatch(palette: Palette, mix: dict[str, float], thickness: float = 0.35
+           ) -> tuple[float, float, float]:
+    """sRGB colour (0..1) of ``mix`` (name → parts) painted at ``thickness`` over white
+    paper, by the canvas's own Kubelka–Munk layer."""
+    total = sum(mix.values())
+    if total <= 0:
+        return (1.0, 1.0, 1.0)
+    pigs = [palette.get(n) for n in mix]
+    amount = np.array([[[thickness * v / total]] for v in mix.values()], np.float32)
+    rgb = km_layer(amount, pigs, np.ones((1, 1, 3), np.float32))[0, 0]
+    srgb = linear_to_srgb(rgb)
+    return (float(srgb[0]), float(srgb[1]), float(srgb[2]))
+
+
+def undo_available() -> bool:
+    """Whether the session player executes ``undo`` (issue 14's tools)."""
+    from station.sim import player
+
+    return "undo" in getattr(player, "_HANDLERS", {})
+
+
+@dataclass
+class PanelState:
+    """What the panel shows and sets.  ``send(cmd, args)`` applies a command to the
+    current painting; ``on_view``/``on_save`` are the window's."""
+
+    palette: Palette
+    send: Callable[[str, dict[str, Any]], None]
+    on_save: Callable[[], object]
+    mix: dict[str, float] = field(default_factory=dict)  # pigment -> parts
+    strength: float = 0.6  # brush pigment amount of the whole mix (0.25 = nominal load)
+    size: float = 24.0  # footprint diameter [cells]
+    water: float = 0.8
+    kind: str = "round"
+    view: str = "2d"
+    confirm_clear: bool = False
+    eraser: bool = False
+    message: str = ""
+    pressed: list[str] = field(default_factory=list)  # every control used, in order
+
+    # -- actions -----------------------------------------------------------------
+    def brush_args(self) -> dict[str, Any]:
+        total = sum(self.mix.values())
+        pigment = {n: self.strength * v / total for n, v in self.mix.items()} if total else {}
+        return {"kind": self.kind, "size": self.size, "water": self.water, "pigment": pigment}
+
+    def apply_brush(self) -> None:
+        self.send("brush", self.brush_args())
+
+    def add_pigment(self, name: str) -> None:
+        self.pressed.append(f"pigment:{name}")
+        if name not in self.mix and len(self.mix) >= MAX_MIX:
+            self.message = f"a mix holds {MAX_MIX} pigments: start a fresh mix"
+            return
+        self.mix[name] = self.mix.get(name, 0.0) + 1.0
+        self.apply_brush()
+
+    def fresh_mix(self) -> None:
+        self.pressed.append("fresh_mix")
+        self.mix.clear()
+        self.apply_brush()
+
+    def set_size(self, size: float) -> None:
+        self.size = float(size)
+        self.apply_brush()
+
+    def set_water(self, water: float) -> None:
+        self.water = float(water)
+        self.apply_brush()
+
+    def set_strength(self, strength: float) -> None:
+        self.strength = float(strength)
+        self.apply_brush()
+
+    def set_kind(self, kind: str) -> None:
+        self.pressed.append(f"kind:{kind}")
+        self.kind = kind
+        self.apply_brush()
+
+    def simple(self, name: str) -> None:
+        """``dry``, ``new_layer``, ``undo``."""
+        self.pressed.append(name)
+        self.send(name, {})
+
+    def ask_clear(self) -> None:
+        self.pressed.append("clear?")
+        self.confirm_clear = True
+
+    def answer_clear(self, yes: bool) -> None:
+        self.pressed.append("clear:yes" if yes else "clear:no")
+        self.confirm_clear = False
+        if yes:
+            self.send("clear", {})
+
+    def set_view(self, view: str) -> None:
+        self.pressed.append(f"view:{view}")
+        self.view = view
+
+    def save(self) -> None:
+        self.pressed.append("save")
+        self.on_save()
+
+
+# -- drawing ------------------------------------------------------------------------
+def _button(imgui: Any, label: str, w: float, h: float, rects: dict[str, Any], key: str,
+            color: tuple[float, float, float] | None = None, disabled: bool = False) -> bool:
+    if color is not None:
+        imgui.push_style_color(imgui.Col_.button, imgui.ImVec4(*color, 1.0))
+        imgui.push_style_color(imgui.Col_.button_hovered, imgui.ImVec4(*color, 0.85))
+        imgui.push_style_color(imgui.Col_.button_active, imgui.ImVec4(*color, 0.7))
+    if disabled:
+        imgui.begin_disabled()
+    hit = bool(imgui.button(label, imgui.ImVec2(w, h)))
+    if disabled:
+        imgui.end_disabled()
+    if color is not None:
+        imgui.pop_style_color(3)
+    lo, hi = imgui.get_item_rect_min(), imgui.get_item_rect_max()
+    rects[key] = (lo.x, lo.y, hi.x, hi.y)
+    return hit and not disabled
+
+
+def draw_panel(st: PanelState, width: float, height: float, status: str,
+               rects: dict[str, Any]) -> None:
+    """The panel window at the left edge; fills ``rects`` with each control's rectangle."""
+    from imgui_bundle import imgui
+
+    imgui.set_next_window_pos(imgui.ImVec2(0, 0))
+    imgui.set_next_window_size(imgui.ImVec2(width, height))
+    flags = (imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_move
+             | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_collapse
+             | imgui.WindowFlags_.no_saved_settings)
+    imgui.begin("panel", None, flags)
+    avail = imgui.get_content_region_avail().x
+    gap = imgui.get_style().item_spacing.x
+    row_h = 56.0
+
+    # palette: a grid of swatches, tap to add to the mix
+    imgui.text("Paint")
+    names = list(st.palette.names())
+    cols = 5
+    sw = (avail - gap * (cols - 1)) / cols
+    for i, name in enumerate(names):
+        if i % cols:
+            imgui.same_line()
+        imgui.push_id(name)
+        if _button(imgui, "##p", sw, sw * 0.8, rects, f"pigment:{name}",
+                   color=swatch(st.palette, {name: 1.0}, 1.5)):
+            st.add_pigment(name)
+        imgui.pop_id()
+    # current mix
+    mix_rgb = swatch(st.palette, st.mix)
+    _button(imgui, "mix" if st.mix else "water", avail * 0.55, row_h, rects, "mix",
+            color=mix_rgb)
+    imgui.same_line()
+    if _button(imgui, "Fresh", avail * 0.45 - gap, row_h, rects, "fresh_mix"):
+        st.fresh_mix()
+
+    # brush
+    # brush kinds (the round stamp brush and the deformable brushes): a drop-down list
+    imgui.push_item_width(avail)
+    if imgui.begin_combo("##kind", f"{st.kind} brush", imgui.ComboFlags_.height_largest):
+        for k in brush_kinds():
+            if imgui.selectable(k, st.kind == k, 0, imgui.ImVec2(0, row_h * 0.7))[0]:
+                st.set_kind(k)
+            rects[f"kind:{k}"] = _rect(imgui)
+        imgui.end_combo()
+    rects["kind"] = (imgui.get_item_rect_min().x, imgui.get_item_rect_min().y,
+                     imgui.get_item_rect_max().x, imgui.get_item_rect_max().y)
+    imgui.pop_item_width()
+    imgui.push_item_width(avail)
+    changed, value = imgui.slider_float("##size", st.size, 4.0, 80.0, "size %.0f")
+    rects["size"] = _rect(imgui)
+    if changed:
+        st.set_size(value)
+    changed, value = imgui.slider_float("##water", st.water, 0.0, 1.0, "water %.2f")
+    rects["water"] = _rect(imgui)
+    if changed:
+        st.set_water(value)
+    changed, value = imgui.slider_float("##strength", st.strength, 0.05, 1.0, "paint %.2f")
+    rects["strength"] = _rect(imgui)
+    if changed:
+        st.set_strength(value)
+    imgui.pop_item_width()
+
+    # canvas operations
+    half = (avail - gap) / 2
+    if _button(imgui, "Dry", half, row_h, rects, "dry"):
+        st.simple("dry")
+    imgui.same_line()
+    if _button(imgui, "New layer", half, row_h, rects, "new_layer"):
+        st.simple("new_layer")
+    can_undo = undo_available()
+    if _button(imgui, "Undo" if can_undo else "Undo (n/a)", half, row_h, rects, "undo",
+               disabled=not can_undo):
+        st.simple("undo")
+    imgui.same_line()
+    if _button(imgui, "Clear", half, row_h, rects, "clear"):
+        st.ask_clear()
+    if st.confirm_clear:
+        imgui.text("Clear the painting?")
+        if _button(imgui, "Yes, clear", half, row_h, rects, "clear:yes", color=(0.7, 0.2, 0.2)):
+            st.answer_clear(True)
+        imgui.same_line()
+        if _button(imgui, "Keep it", half, row_h, rects, "clear:no"):
+            st.answer_clear(False)
+
+    # views
+    third = (avail - 2 * gap) / 3
+    for i, v in enumerate(VIEWS):
+        if i:
+            imgui.same_line()
+        sel = (0.25, 0.45, 0.75) if st.view == v else None
+        if _button(imgui, VIEW_LABELS[v], third, row_h, rects, f"view:{v}", color=sel):
+            st.set_view(v)
+
+    if _button(imgui, "Save & take home", avail, row_h, rects, "save", color=(0.2, 0.5, 0.3)):
+        st.save()
+    imgui.text_wrapped(("ERASER  " if st.eraser else "") + status)
+    if st.message:
+        imgui.text_wrapped(st.message)
+    imgui.end()
+
+
+def draw_qr(tex_id: int, x: float, y: float, side: float, rects: dict[str, Any]) -> None:
+    """The QR code of the visitor's painting, bottom right over the canvas area."""
+    from imgui_bundle import imgui
+
+    pad = imgui.get_style().window_padding
+    imgui.set_next_window_pos(imgui.ImVec2(x, y))
+    imgui.set_next_window_size(imgui.ImVec2(side + 2 * pad.x,
+                                            side + 2 * pad.y + imgui.get_text_line_height() + 6))
+    flags = (imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_move
+             | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_inputs
+             | imgui.WindowFlags_.no_saved_settings | imgui.WindowFlags_.no_scrollbar)
+    imgui.begin("qr", None, flags)
+    imgui.text("Take it home:")
+    imgui.image(imgui.ImTextureRef(tex_id), imgui.ImVec2(side, side))
+    rects["qr"] = _rect(imgui)
+    imgui.end()
+
+
+def _rect(imgui: Any) -> tuple[float, float, float, float]:
+    lo, hi = imgui.get_item_rect_min(), imgui.get_item_rect_max()
+    return (lo.x, lo.y, hi.x, hi.y)
+
+
+def draw_banner(text: str, x: float, y: float, w: float, h: float, key: str,
+                big: bool = True) -> None:
+    """A borderless, centred message window (attract screen, pen unplugged)."""
+    from imgui_bundle import imgui
+
+    imgui.set_next_window_pos(imgui.ImVec2(x, y))
+    imgui.set_next_window_size(imgui.ImVec2(w, h))
+    imgui.set_next_window_bg_alpha(0.82)
+    flags = (imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_move
+             | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_inputs
+             | imgui.WindowFlags_.no_saved_settings)
+    imgui.begin(key, None, flags)
+    if big:
+        imgui.push_font(None, imgui.get_style().font_size_base * 1.8)
+    tw = imgui.calc_text_size(text).x
+    imgui.set_cursor_pos(imgui.ImVec2(max(8.0, (w - tw) / 2), h / 2 - imgui.get_text_line_height()))
+    imgui.text(text)
+    if big:
+        imgui.pop_font()
+    imgui.end()

@@ -1,0 +1,140 @@
+"""Helpers of the kiosk tests: Xvfb, a bus proxy, the kiosk process, a scripted pen."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from station.bus import Publisher, Subscriber
+from station.events import Command, PenSample, Tool
+
+SCREEN = (1024, 768)
+
+
+@contextmanager
+def xvfb() -> Iterator[str]:
+    exe = shutil.which("Xvfb")
+    if exe is None:
+        pytest.skip("Xvfb is not installed (make test installs it: apt-get install xvfb)")
+    for number in range(121, 160):
+        if not Path(f"/tmp/.X11-unix/X{number}").exists() and not Path(
+                f"/tmp/.X{number}-lock").exists():
+            break
+    proc = subprocess.Popen([exe, f":{number}", "-screen", "0", f"{SCREEN[0]}x{SCREEN[1]}x24",
+                             "-nolisten", "tcp"], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    sock = Path(f"/tmp/.X11-unix/X{number}")
+    deadline = time.monotonic() + 10
+    while not sock.exists() and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+    if not sock.exists():
+        proc.kill()
+        pytest.fail(f"Xvfb :{number} did not start")
+    try:
+        yield f":{number}"
+    finally:
+        proc.terminate()
+        proc.wait(timeout=10)
+
+
+def station(*argv: str, display: str | None = None, **kw: Any) -> subprocess.Popen[str]:
+    env = dict(os.environ)
+    if display:
+        env["DISPLAY"] = display
+    return subprocess.Popen([sys.executable, "-m", "station", *argv], env=env, text=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, **kw)
+
+
+class Kiosk:
+    """A ``station kiosk`` process on a private bus proxy, watched through its status."""
+
+    def __init__(self, display: str, tmp: Path, *extra: str) -> None:
+        self.tmp = tmp
+        self.gallery = tmp / "gallery"
+        self.shots = tmp / "shots"
+        self.bus = station("bus")
+        time.sleep(0.3)
+        self.status_sub = Subscriber("ipc:sub", topics=("status",))
+        self.pub = Publisher(">ipc:pub")
+        self.proc = station("kiosk", "--windowed", "--bus", "ipc:sub", "--gallery",
+                            str(self.gallery), "--serve", "127.0.0.1:0", "--base-url",
+                            "http://kiosk.test:8080", "--screenshot-dir", str(self.shots),
+                            "--no-vsync", *extra, display=display)
+        self.last: dict[str, Any] = {}
+        self.t = 0.0
+        self.wait(lambda s: s.get("frames", 0) > 2, 90, "the kiosk did not start")
+
+    def wait(self, cond: Callable[[dict[str, Any]], bool], timeout: float = 20,
+             what: str = "condition") -> dict[str, Any]:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if self.proc.poll() is not None:
+                raise AssertionError(f"kiosk exited {self.proc.returncode}: "
+                                     f"{self.proc.stderr.read() if self.proc.stderr else ''}")
+            m = self.status_sub.recv(100)
+            if m is not None and isinstance(m.value, dict) and m.value.get("process") == "kiosk":
+                self.last = m.value
+                if cond(m.value):
+                    return m.value
+        raise AssertionError(f"timed out waiting for {what}; last status {self.last}")
+
+    def cmd(self, command: str, **args: Any) -> None:
+        self.pub.publish_cmd(Command(t=0.0, cmd=command, args=args))
+
+    def screenshot(self, name: str) -> Path:
+        path = self.shots / f"{name}.png"
+        path.unlink(missing_ok=True)
+        self.cmd("screenshot", name=name)
+        deadline = time.monotonic() + 20
+        while not path.exists() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        time.sleep(0.2)  # written by PIL in one go; let it finish
+        assert path.exists(), "no screenshot"
+        return path
+
+    def pen(self, x: float, y: float, touching: bool = False, proximity: bool = True,
+            pressure: float = 0.6, tool: Tool = Tool.PEN) -> None:
+        """One sample of a scripted pen at window pixel (x, y)."""
+        self.t += 0.005
+        self.pub.publish_pen(PenSample(
+            t=self.t, device="testpen", tool=tool, x=x / SCREEN[0], y=y / SCREEN[1],
+            pressure=pressure if touching else 0.0, proximity=proximity, touching=touching,
+            t_mono=time.monotonic()))
+
+    def tap(self, rect: list[float] | tuple[float, ...], pause: float = 0.15) -> None:
+        x, y = (rect[0] + rect[2]) / 2, (rect[1] + rect[3]) / 2
+        self.pen(x, y)
+        time.sleep(pause)
+        self.pen(x, y, touching=True)
+        time.sleep(pause)
+        self.pen(x, y, touching=False)
+        time.sleep(pause)
+
+    def stop(self, send: bool = False) -> tuple[int, str]:
+        """Stop the kiosk: a ``stop`` on the bus, or ``station send stop`` (its own
+        command endpoint, as an operator would)."""
+        if send:
+            sender = station("send", "stop")
+            _, err = sender.communicate(timeout=60)
+            assert sender.returncode == 0, err
+        else:
+            self.cmd("stop")
+        try:
+            _, err = self.proc.communicate(timeout=60)
+        finally:
+            if self.proc.poll() is None:
+                self.proc.kill()
+            self.bus.terminate()
+            self.bus.wait(10)
+            self.status_sub.close()
+            self.pub.close()
+        return self.proc.returncode, err

@@ -1,0 +1,155 @@
+"""The gallery: saving, the replay animation, the web page in a real headless Chromium."""
+
+from __future__ import annotations
+
+import itertools
+import shutil
+import subprocess
+import urllib.error
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from station.canvas.palette import default_palette
+from station.canvas.render import to_srgb8
+from station.events import Command, PenSample, Tool
+from station.kiosk.gallery import (
+    Gallery,
+    GalleryServer,
+    export_replay,
+    new_id,
+    painting_url,
+    qr_matrix,
+)
+from station.sessionlog import SessionHeader, SessionLogWriter
+from station.sim.paint import make_backend
+from station.sim.player import SessionPlayer
+
+W, H = 160, 120
+
+
+def write_log(path: Path) -> None:
+    """A short session: a Phthalo Green stroke across the canvas, then a wait."""
+    with SessionLogWriter(path, SessionHeader(width=W, height=H, extra={"sim": {"rate": 30.0}})
+                          ) as w:
+        w.write(Command(t=0.0, cmd="brush", args={"size": 14, "water": 0.9,
+                                                   "pigment": {"Phthalo Green": 0.8}}))
+        for i in range(40):
+            w.write(PenSample(t=0.1 + i * 0.02, device="pen", tool=Tool.PEN, x=0.15 + 0.018 * i,
+                              y=0.5, pressure=0.8, touching=True))
+        w.write(PenSample(t=0.92, device="pen", tool=Tool.PEN, x=0.85, y=0.5, proximity=False))
+        w.write(Command(t=1.0, cmd="wait", args={"seconds": 1.0}))
+
+
+def painted_image(log: Path) -> np.ndarray:
+    """What ``station paint`` makes of the log (same player, same backend)."""
+    from station.sessionlog import read_session
+
+    _header, records = read_session(log)
+    canvas, _ = make_backend("auto", W, H, "watercolor", 0)
+    player = SessionPlayer(canvas, W, H, "watercolor", rate=30.0, pigments=default_palette())
+    player.play(records)
+    return to_srgb8(canvas.render())
+
+
+def green(img: np.ndarray) -> np.ndarray:
+    img = img.astype(int)
+    return (img[..., 1] - img[..., 0] > 20) & (img[..., 2] - img[..., 0] > 10)
+
+
+def test_replay_animation_ends_on_the_painting(tmp_path: Path) -> None:
+    log = tmp_path / "s.jsonl"
+    write_log(log)
+    out = tmp_path / "replay.webp"
+    n = export_replay(log, out, frames=12, width=W)
+    anim = Image.open(out)
+    assert anim.format == "WEBP" and anim.n_frames == n >= 10
+    frames = []
+    for k in range(anim.n_frames):
+        anim.seek(k)
+        frames.append(np.asarray(anim.convert("RGB")).astype(int))
+    painting = painted_image(log)
+    # the stroke grows frame by frame while the pen moves (the first ~0.9 s of 2 s), then
+    # the wash only settles: green area within a few per cent of the painting's
+    counts = [int(green(f).sum()) for f in frames]
+    assert counts[0] == 0 and counts[-1] > 300
+    moving = counts[:len(counts) // 2]
+    assert all(b > a + 100 for a, b in itertools.pairwise(moving)), counts
+    assert all(abs(c - counts[-1]) < 0.06 * counts[-1] for c in counts[len(counts) // 2 + 1:])
+    assert abs(counts[-1] - int(green(painting).sum())) < 0.1 * counts[-1]
+    assert np.abs(frames[-1] - painting.astype(int)).mean() < 4  # lossy WebP of the same image
+    gif = tmp_path / "replay.gif"
+    assert export_replay(log, gif, frames=6, width=80) >= 6
+    assert Image.open(gif).n_frames >= 6
+
+
+def test_ids_are_checked_before_touching_the_disk(tmp_path: Path) -> None:
+    g = Gallery(tmp_path / "g")
+    from station.errors import BadInput
+
+    for bad in ("../x", "20261124-000000-zzzzzz", "", "20261124-000000-abcdef/.."):
+        with pytest.raises(BadInput):
+            g.path(bad)
+
+
+def test_qr_matrix_decodes_to_the_url() -> None:
+    import zxingcpp
+
+    url = "http://192.168.1.20:8080/p/20261124-101500-a1b2c3"
+    m = qr_matrix(url)
+    img = np.where(m > 0, 0, 255).astype(np.uint8).repeat(6, 0).repeat(6, 1)
+    assert [r.text for r in zxingcpp.read_barcodes(Image.fromarray(img))] == [url]
+
+
+def chromium() -> str | None:
+    return shutil.which("chromium") or shutil.which("chromium-browser") or \
+        shutil.which("google-chrome")
+
+
+@pytest.mark.skipif(chromium() is None, reason="no Chromium (apt-get install chromium)")
+def test_gallery_page_in_headless_chromium(tmp_path: Path) -> None:
+    import zxingcpp
+
+    log = tmp_path / "s.jsonl"
+    write_log(log)
+    painting = painted_image(log)
+    g = Gallery(tmp_path / "gallery")
+    pid = new_id()
+    g.save(pid, painting, log, {"width": W, "height": H, "profile": "watercolor"})
+    server = GalleryServer(g, "127.0.0.1", 0).start()
+    try:
+        base = f"http://127.0.0.1:{server.port}"
+        url = painting_url(base, pid)
+        shot = tmp_path / "page.png"
+        proc = subprocess.run(
+            [str(chromium()), "--headless=new", "--no-sandbox", "--disable-gpu",
+             "--hide-scrollbars", "--force-device-scale-factor=1", "--window-size=800,600",
+             f"--screenshot={shot}", url],
+            capture_output=True, text=True, timeout=90)
+        assert shot.exists(), proc.stderr[-2000:]
+        page = np.asarray(Image.open(shot).convert("RGB"))
+        # the QR code on the page decodes to the painting's own address
+        assert [r.text for r in zxingcpp.read_barcodes(Image.fromarray(page))] == [url]
+        # the painting is shown at its size: its green stroke is on the page, pixel for pixel
+        assert abs(int(green(page).sum()) - int(green(painting).sum())) <= 5
+        ys, xs = np.nonzero(green(page))
+        top, left = ys.min() - np.nonzero(green(painting))[0].min(), \
+            xs.min() - np.nonzero(green(painting))[1].min()
+        assert np.abs(page[top:top + H, left:left + W].astype(int) - painting).max() <= 2
+        # the other files, and nothing outside the gallery
+        with urllib.request.urlopen(f"{url}/replay.webp", timeout=60) as r:
+            assert r.headers["Content-Type"] == "image/webp" and r.read(12)[8:12] == b"WEBP"
+        with urllib.request.urlopen(f"{url}/session.jsonl", timeout=10) as r:
+            assert r.read() == log.read_bytes()
+        with urllib.request.urlopen(f"{base}/", timeout=10) as r:
+            assert pid in r.read().decode()
+        for bad in ("/p/../../etc/passwd", "/p/20261124-000000-abcdef", f"/p/{pid}/meta.py",
+                    f"/p/{pid}/..%2f..%2fs.jsonl"):
+            with pytest.raises(urllib.error.HTTPError) as exc:
+                urllib.request.urlopen(base + bad, timeout=10)
+            assert exc.value.code == 404, bad
+    finally:
+        server.stop()

@@ -1,0 +1,263 @@
+"""Kiosk parts without a window: views, idle rules, dirty tiles, the display, the panel."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from station.canvas.backend import create_backend
+from station.canvas.render import render_region, render_state
+from station.events import Command, PenSample, Tool
+from station.kiosk.display import tile_runs
+from station.kiosk.idle import IdleClock, IdleConfig
+from station.kiosk.views import VIEWS, Viewport, input_camera, make_camera
+from station.sim.live import LiveConfig
+
+AREA = Viewport(300, 0, 724, 768)
+
+
+@pytest.mark.parametrize("view", VIEWS)
+def test_screen_and_canvas_round_trip(view: str) -> None:
+    cam = make_camera(view, AREA, 4 / 3, (0.3, 0.6))
+    for u, v in [(0.5, 0.5), (0.1, 0.2), (0.9, 0.8), (0.3, 0.6)]:
+        xy = cam.world_to_screen(cam.canvas_to_world(u, v))
+        assert xy is not None
+        back = cam.screen_to_canvas(*xy)
+        assert back == pytest.approx((u, v), abs=1e-9)
+
+
+def test_2d_fits_the_canvas_and_3d_is_a_table_in_perspective() -> None:
+    cam = make_camera("2d", AREA, 4 / 3)
+    x0, y0 = cam.world_to_screen(cam.canvas_to_world(0, 0))
+    x1, y1 = cam.world_to_screen(cam.canvas_to_world(1, 1))
+    assert (x1 - x0) / (y1 - y0) == pytest.approx(4 / 3)
+    assert (x0 + x1) / 2 == pytest.approx(300 + 724 / 2) and (y0 + y1) / 2 == pytest.approx(384)
+    assert AREA.x <= x0 and x1 <= AREA.x + AREA.w and y0 >= 0 and y1 <= 768
+    t = make_camera("3d", AREA, 4 / 3)
+    far = [t.world_to_screen(t.canvas_to_world(u, 0)) for u in (0, 1)]
+    near = [t.world_to_screen(t.canvas_to_world(u, 1)) for u in (0, 1)]
+    assert near[1][0] - near[0][0] > 1.2 * (far[1][0] - far[0][0])  # nearer = wider
+    assert near[0][1] > far[0][1]  # the near edge is lower on the screen
+    # the pen paints through the 3D camera in 3d, through the 2D one otherwise
+    assert input_camera("3d", AREA, 4 / 3).name == "3d"
+    assert input_camera("follow", AREA, 4 / 3).name == "2d"
+    # above the horizon there is no table to paint on
+    assert t.screen_to_world(AREA.x + 10, -5000) is None
+
+
+def test_idle_rules() -> None:
+    clock = IdleClock(IdleConfig(attract_after=10, finish_after=60), now=0.0)
+    assert not clock.attract(9.9) and clock.attract(10.0)
+    assert not clock.should_finish(100.0)  # nothing painted: the canvas just stays
+    clock.painted = True
+    assert not clock.should_finish(59.0) and clock.should_finish(60.0)
+    clock.activity(50.0)
+    assert not clock.attract(55.0) and not clock.should_finish(100.0)
+    assert clock.should_finish(110.0)
+    clock.fresh(110.0)
+    assert not clock.should_finish(500.0)
+    with pytest.raises(ValueError):
+        IdleConfig(attract_after=0)
+
+
+def test_tile_runs() -> None:
+    d = np.zeros((3, 6), bool)
+    d[0, 1:3] = True
+    d[0, 4] = True
+    d[2, :] = True
+    assert tile_runs(d) == [(0, 1, 3), (0, 4, 5), (2, 0, 6)]
+
+
+def _painted_canvas():  # type: ignore[no-untyped-def]
+    c = create_backend("numpy", 96, 64, "watercolor", seed=3)
+    yy, xx = np.mgrid[0:20, 0:30]
+    blob = np.exp(-((yy - 10) ** 2 + (xx - 15) ** 2) / 40.0).astype(np.float32)
+    c.add_sources(blob * 0.5, {"French Ultramarine": blob * 0.3}, y0=20, x0=30)
+    for _ in range(5):
+        c.step()
+    return c
+
+
+def test_render_region_equals_the_full_render_and_previews_add_sources() -> None:
+    c = _painted_canvas()
+    st = c.live_state
+    full = render_state(st, "km")
+    ys, xs = slice(16, 48), slice(25, 70)
+    assert np.array_equal(render_region(st, "km", ys, xs), full[ys, xs])
+    assert np.array_equal(render_region(st, "gouache", ys, xs), render_state(st, "gouache")[ys, xs])
+    # the preview of stamps not yet added = rendering after add_sources (in a slot, and new)
+    add = {"French Ultramarine": np.full((32, 45), 0.2, np.float32),
+           "Hansa Yellow": np.full((32, 45), 0.1, np.float32)}
+    preview = render_region(st, "km", ys, xs, add)
+    c.add_sources(None, add, y0=16, x0=25)
+    after = render_state(c.live_state, "km")
+    assert np.abs(preview - after[ys, xs]).max() < 1e-6
+
+
+def _session(tmp_path, size=(96, 64), **kw):  # type: ignore[no-untyped-def]
+    from station.kiosk.session import KioskSession
+
+    cfg = LiveConfig(bus=f"ipc://{tmp_path}/bus", width=size[0], height=size[1],
+                     backend="numpy",
+                     status="none", cmd="none", log_path=str(tmp_path / "s.jsonl"))
+    return KioskSession(cfg, **kw)
+
+
+def test_dirty_tiles_cover_every_pixel_that_changes(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    s = _session(tmp_path, (256, 192))
+    try:
+        s.take_dirty()  # the first full render
+        ts = int(s.canvas.params.tile_size)
+        before = s.canvas.render()
+        s.command("brush", size=10, water=1.0, pigment={"French Ultramarine": 0.5})
+        for i in range(8):
+            s.handle("pen", PenSample(t=0.01 * i, device="p", tool=Tool.PEN, x=0.3 + 0.02 * i,
+                                      y=0.4, pressure=0.8, touching=True, t_mono=1.0 + i))
+        assert len(s.awaiting_paint) == 8 and s.painted_stamps > 0
+        for _ in range(20):
+            s.step()
+        after = s.canvas.render()
+        dirty = s.take_dirty()
+        changed = np.abs(after - before).max(axis=2) > 0
+        ys, xs = np.nonzero(changed)
+        assert ys.size > 0
+        assert dirty[ys // ts, xs // ts].all()  # nothing changed outside the dirty tiles
+        assert dirty.mean() < 0.5  # and not everything is re-rendered
+        assert not s.take_dirty().any()  # taken
+        s.command("clear")
+        assert s.take_dirty().all()  # a whole-canvas command
+        assert s.player.counters.commands["clear"] == 1
+    finally:
+        s.shutdown()
+    log = (tmp_path / "s.jsonl").read_text()
+    assert '"cmd": "brush"' in log and '"cmd": "clear"' in log
+
+
+def test_the_screen_is_mapped_and_window_commands_stay_out_of_the_canvas(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    seen: list[str] = []
+
+    def mapper(s: PenSample) -> PenSample | None:
+        return None if s.x < 0.3 else s.with_(x=(s.x - 0.3) / 0.7)
+
+    s = _session(tmp_path, map_pen=mapper, kiosk_command=lambda c: seen.append(c.cmd) or
+                 c.cmd == "view")
+    try:
+        s.handle("pen", PenSample(t=0, device="p", tool=Tool.PEN, x=0.1, y=0.5, touching=True,
+                                  pressure=0.5))
+        assert s.counters.samples == 0 and s.last_pen is not None and s.last_canvas_pen is None
+        s.handle("pen", PenSample(t=0, device="p", tool=Tool.ERASER, x=0.65, y=0.5))
+        assert s.counters.samples == 1 and s.last_canvas_pen.x == pytest.approx(0.5)
+        assert s.eraser_selected()
+        s.handle("cmd", Command(t=0, cmd="view", args={"name": "3d"}))
+        s.handle("cmd", Command(t=0, cmd="dry", args={}))
+        assert seen == ["view", "dry"] and s.counters.commands == 1  # only dry reached the player
+    finally:
+        s.shutdown()
+
+
+def test_cpu_display_texture_equals_a_full_render(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from station.canvas.gl.context import GLUnavailable, create_context
+    from station.kiosk.display import CpuDisplay
+
+    try:
+        import moderngl
+
+        ctx = moderngl.create_context(standalone=True, backend="egl")
+    except Exception as exc:  # no EGL here
+        pytest.skip(f"no EGL context: {exc}")
+    del create_context, GLUnavailable
+    s = _session(tmp_path)
+    try:
+        disp = CpuDisplay(ctx, s)
+        disp.update()
+        s.command("brush", size=12, water=1.0, pigment={"Hansa Yellow": 0.6})
+        for i in range(6):
+            s.handle("pen", PenSample(t=0.01 * i, device="p", tool=Tool.PEN, x=0.5 + 0.03 * i,
+                                      y=0.5, pressure=0.9, touching=True))
+        # stamps not yet simulated are on screen at once (the preview)
+        cells = disp.update()
+        tex = np.frombuffer(disp.texture.read(), np.float32).reshape(64, 96, 3)
+        preview_only = render_state(s.cpu_state, "km")
+        assert cells < 96 * 64 and (np.abs(tex - preview_only).max(axis=2) > 0.01).sum() > 20
+        for _ in range(10):
+            s.step()
+            disp.update()
+        tex = np.frombuffer(disp.texture.read(), np.float32).reshape(64, 96, 3)
+        ref = s.canvas.render()
+        # nothing pending: the texture is the canvas (the compiled KM: to float32 rounding)
+        assert s.player.brush.pending == 0
+        assert np.abs(tex - ref).max() < 2e-6
+    finally:
+        s.shutdown()
+        ctx.release()
+
+
+def test_panel_controls_send_commands() -> None:
+    from station.canvas.palette import default_palette
+    from station.kiosk.ui import PanelState, swatch, undo_available
+
+    sent: list[tuple[str, dict]] = []
+    saved: list[int] = []
+    p = PanelState(default_palette(), lambda c, a: sent.append((c, a)),
+                   lambda: saved.append(1), mix={})
+    p.add_pigment("Hansa Yellow")
+    p.add_pigment("Hansa Yellow")
+    p.add_pigment("Phthalo Green")
+    assert sent[-1] == ("brush", {"kind": "round", "size": 24.0, "water": 0.8, "pigment": {
+        "Hansa Yellow": pytest.approx(0.4), "Phthalo Green": pytest.approx(0.2)}})
+    for name in ("Black", "Cadmium Red", "Burnt Umber"):
+        p.add_pigment(name)
+    assert len(p.mix) == 4 and "Burnt Umber" not in p.mix and "fresh mix" in p.message
+    p.set_water(0.3)
+    assert sent[-1][1]["water"] == 0.3
+    p.ask_clear()
+    assert sent[-1][0] == "brush"  # nothing until confirmed
+    p.answer_clear(True)
+    assert sent[-1] == ("clear", {})
+    p.simple("dry")
+    p.save()
+    assert sent[-1] == ("dry", {}) and saved == [1]
+    # the mix swatch is the KM colour: yellow + green is a yellow-green, white paper is white
+    r, g, b = swatch(default_palette(), {"Hansa Yellow": 1, "Phthalo Green": 1}, 1.0)
+    assert g > r > b
+    assert swatch(default_palette(), {}) == (1.0, 1.0, 1.0)
+    assert undo_available() is False  # issue 14 has not added undo yet
+
+
+def test_compiled_km_matches_the_reference() -> None:
+    from station.canvas.palette import default_palette
+    from station.canvas.render import km_layer
+    from station.kiosk.km_fast import km_layer_fast
+
+    pal = default_palette()
+    pigs = [pal.get(n) for n in ("French Ultramarine", "Hansa Yellow", "Burnt Umber", "Black")]
+    rng = np.random.default_rng(0)
+    a = (rng.random((4, 60, 80)) * 0.6).astype(np.float32)
+    a[:, :10] = 0.0  # bare paper
+    a[:, 10:20] = 1e-7  # nearly none: the b -> 0 branch and tiny d
+    a[:, 20:30] = 50.0  # thick: t capped at 30
+    r = (0.6 + 0.4 * rng.random((60, 80, 3))).astype(np.float32)
+    ref = km_layer(a, pigs, r)
+    assert np.abs(km_layer_fast(a, pigs, r) - ref).max() < 2e-6
+    assert np.array_equal(km_layer_fast(a, [], r), r)
+
+
+@pytest.mark.parametrize(("argv", "where"), [
+    (["kiosk", "--bus", "@ipc:x"], "--bus"),
+    (["kiosk", "--size", "3x3"], "--size"),
+    (["kiosk", "--serve", "no-port"], "--serve"),
+    (["kiosk", "--idle-minutes", "0"], "--idle-minutes"),
+    (["kiosk", "--attract-after", "-1"], "--attract-after"),
+    (["kiosk", "--windowed", "10"], "--windowed"),
+    (["bench", "latency", "--seconds", "0"], "--seconds"),
+    (["bench", "latency", "--rate", "5"], "--rate"),
+])
+def test_bad_flags_exit_2_with_one_line(argv: list[str], where: str) -> None:
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-m", "station", *argv], capture_output=True,
+                          text=True, timeout=60)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and where in lines[0], proc.stderr
