@@ -235,24 +235,30 @@ def _have_kiosk() -> bool:
                     reason="no Xvfb/xvfb-run here")
 @pytest.mark.skipif(not _have_kiosk(), reason="station kiosk is not merged here")
 def test_kiosk_blueprint_under_xvfb(tmp_path: Path) -> None:
+    """The bundled kiosk blueprint with its tablet swapped for a mock (a spiral from the
+    middle of the tablet, which the window maps right of the panel): the pen stream
+    reaches the window through the bus proxy, the unplug rule puts its message on the
+    panel, and the kiosk stops cleanly under the supervisor."""
     run = tmp_path / "r"
     proc = subprocess.run(
-        ["xvfb-run", "-a", "-s", "-screen 0 640x480x24", sys.executable, "-m", "station",
+        ["xvfb-run", "-a", "-s", "-screen 0 1024x768x24", sys.executable, "-m", "station",
          "run", "kiosk", "--duration", "25", "--run-dir", str(run),
          "--set", "tablet.vid=", "--set", "tablet.pid=", "--set", "tablet.calibration=none",
-         "--set", "tablet.device=mock:intuos-pro-m?script=line",
-         "--set", "kiosk.windowed=320x240", "--set", "kiosk.width=64",
+         "--set", "tablet.device=mock:intuos-pro-m?script=spiral",
+         "--set", "kiosk.windowed=800x600", "--set", "kiosk.width=64",
          "--set", "kiosk.height=48", "--set", "kiosk.backend=numpy", "--set", "kiosk.serve=none"],
         cwd=tmp_path, capture_output=True, text=True, timeout=150)
     assert proc.returncode == 0, proc.stderr[-3000:]
     st = state(run)["components"]
     assert st["kiosk"]["exit"] == 0 and st["kiosk"]["restarts"] == 0
-    assert "3 components up" in proc.stderr
-    shots = list((tmp_path / "gallery").rglob("*.png"))
-    assert shots, proc.stderr[-3000:]  # the painting was saved when the kiosk stopped
+    assert "kiosk: 3 components up" in proc.stderr
+    final = json.loads(proc.stderr.split("station kiosk: stopped ", 1)[1].splitlines()[0])
+    assert final["samples"] > 50, proc.stderr[-3000:]  # the pen reached the window
+    assert "rule on device-unplugged (line 25), device tablet: show-message" in proc.stderr
+    assert "'message' is unknown" not in proc.stderr  # the kiosk took it
+    assert (tmp_path / "gallery").is_dir()
 
 
-@needs_live_sim
 def test_trace_and_haptic_device_through_the_bus(tmp_path: Path) -> None:
     """A <replay> of a recorded trace and a <haptic> mock device on one canvas."""
     rec = station("record", "--device", "mock:intuos-pro-m?script=arc&speed=max",

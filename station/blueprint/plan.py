@@ -229,12 +229,6 @@ def _check_rules(bp: Blueprint, by_id: dict[str, Component]) -> None:
                 if ident is None and not galleries:
                     raise BlueprintError("<save-to-gallery/> needs a <gallery>",
                                          str(action.where))
-            if painter.kind == "kiosk":
-                source = by_id[painter.requires[0].provider]
-                if source.kind != "bus":
-                    raise BlueprintError(
-                        f"<{action.name}/> reaches a kiosk through its bus: wire its pens "
-                        "through a <bus>", str(action.where))
 
 
 # -- resolution -----------------------------------------------------------------------
@@ -312,7 +306,7 @@ def resolve(bp: Blueprint, run_dir: Path, workdir: Path, stamp: str | None = Non
                                bp.name, stamp, run_dir)
         elif c.kind == "kiosk":
             procs[c.id] = _kiosk(c, pen_out[c.requires[0].provider], ipc, out_path, galleries,
-                                 run_dir, by_id)
+                                 run_dir)
         elif c.kind == "recorder":
             out = out_path(c.attrs["output"])
             argv = ["record", "--bus", pen_out[c.requires[0].provider], "-o", str(out)]
@@ -422,9 +416,9 @@ def _sim(c: Component, bus: str, ipc: object, out_path: object, in_path: object,
 
 
 def _kiosk(c: Component, bus: str, ipc: object, out_path: object,
-           galleries: dict[str, Path], run_dir: Path, by_id: dict[str, Component]) -> Process:
-    status = ipc(f"{c.id}.status")  # type: ignore[operator]
-    argv = ["kiosk", "--bus", bus, "--status", "@" + status]
+           galleries: dict[str, Path], run_dir: Path) -> Process:
+    status, cmd = ipc(f"{c.id}.status"), ipc(f"{c.id}.cmd")  # type: ignore[operator]
+    argv = ["kiosk", "--bus", bus, "--status", "@" + status, "--cmd", "@" + cmd]
     if c.get("width") or c.get("height"):
         argv += ["--size", f"{c.get('width') or 800}x{c.get('height') or 600}"]
     for attr in ("profile", "backend", "seed", "rate", "monitor", "view", "base-url"):
@@ -432,6 +426,8 @@ def _kiosk(c: Component, bus: str, ipc: object, out_path: object,
             argv += [f"--{attr}", c.attrs[attr]]
     if c.get("windowed"):
         argv += ["--windowed", c.attrs["windowed"]]
+    if c.get("autosave"):
+        argv += ["--autosave", _secs(c.attrs["autosave"])]
     if c.get("attract-after"):
         argv += ["--attract-after", _secs(c.attrs["attract-after"])]
     if c.get("idle-timeout"):
@@ -441,7 +437,7 @@ def _kiosk(c: Component, bus: str, ipc: object, out_path: object,
         argv.append("--no-vsync")
     serve = c.get("serve") or "none"
     argv += ["--serve", serve]
-    binds = [_norm(status, run_dir)]
+    binds = [_norm(status, run_dir), _norm(cmd, run_dir)]
     if serve != "none":
         host, _, port = serve.rpartition(":")
         binds.append(f"tcp://{host or '0.0.0.0'}:{port}")
@@ -450,11 +446,6 @@ def _kiosk(c: Component, bus: str, ipc: object, out_path: object,
     if gal:
         argv += ["--gallery", str(galleries[gal[0].provider])]
         outputs.append(galleries[gal[0].provider])
-    # The kiosk takes commands on its bus: through the proxy's publisher side.
-    source = by_id[c.requires[0].provider]
-    cmd = None
-    if source.kind == "bus":
-        cmd = source.get("pub") or ipc(f"{source.id}.pub")  # type: ignore[operator]
     return _proc(c, argv, binds=binds, status=status, cmd=cmd, outputs=outputs,
                  devices=["/dev/dri"])
 

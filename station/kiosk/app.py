@@ -400,7 +400,8 @@ class KioskApp:
             p.mix = {}
 
     def _kiosk_command(self, cmd: Command) -> bool:
-        """Commands for the window: ``view {name}``, ``save``, ``screenshot {name}``."""
+        """Commands for the window: ``view {name}``, ``save``, ``fresh``,
+        ``message {text}``, ``screenshot {name}``, ``stop``."""
         if cmd.cmd == "view":
             name = cmd.args.get("name")
             if name in VIEWS:
@@ -413,6 +414,13 @@ class KioskApp:
             return True
         if cmd.cmd == "fresh":
             self._fresh_requested = True
+            return True
+        if cmd.cmd == "message":  # an operator's note on the panel (blueprint show-message)
+            text = cmd.args.get("text")
+            if isinstance(text, str) and text.strip():
+                self.panel.message = " ".join(text.split())[:200]
+            else:
+                log.warning("message needs {\"text\": \"...\"}")
             return True
         if cmd.cmd == "screenshot":
             name = cmd.args.get("name")
