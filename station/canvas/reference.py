@@ -483,6 +483,24 @@ PASS_ORDER = (
 )
 """The passes of one step, in order (the contract the GL backend follows)."""
 
+STENCIL_RADIUS_EXTRA = 6
+"""How far one step reaches beyond its Jacobi iterations [cells, Chebyshev distance].
+
+A cell's new value depends on old values at most ``stencil_radius(params)`` cells away:
+pass 1 reaches 1 cell (bilinear back-trace, ``|v dt| <= 1``); pass 2 adds one per
+Jacobi iteration (velocity: ``1 + n``); passes 4/5 reach ``n`` (iterations) ``+ 1``
+(face fluxes) ``+ 1`` (the donor limiter of the neighbour); pass 6 adds 2 (face rates
+and the limiters ``s_out``/``s_in`` of the neighbour) on top of ``n + 2``; pass 7 and
+the capillary diffusion of pass 9 add one each: ``n + 6``. The distributed canvas uses
+it as its halo width; ``tests/test_stencil_radius.py`` measures it, so a new term that
+reaches farther must raise this constant.
+"""
+
+
+def stencil_radius(prm: SimParams) -> int:
+    """Halo one step needs: ``jacobi_iters + STENCIL_RADIUS_EXTRA`` [cells]."""
+    return int(prm.jacobi_iters) + STENCIL_RADIUS_EXTRA
+
 
 def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
                 stop_after: str | None = None) -> None:
