@@ -42,6 +42,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--settle", type=float, default=0.0, metavar="SECONDS",
                    help="painting time to simulate after the last record (default 0)")
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
+    p.add_argument("--distributed", action="store_true",
+                   help="one canvas over all ranks of an MPI job: mpiexec -n N station paint "
+                        "... --distributed (needs the mpi extra; see docs/distributed.md)")
     p.set_defaults(func=run)
 
 
@@ -52,8 +55,8 @@ def run(args: argparse.Namespace) -> int:
     result = paint(args.input, args.output, size=size, profile=args.profile,
                    backend=args.backend, stats_path=args.stats,
                    state_path=args.state, bits=args.bits, rate=args.rate, settle=args.settle,
-                   resume=args.resume)
-    if args.json:
+                   resume=args.resume, distributed=args.distributed)
+    if args.json and result.root:
         json.dump({"width": result.width, "height": result.height, "profile": result.profile,
                    "backend": result.backend, "renderer": result.renderer,
                    "steps": result.steps, "painting_seconds": result.painting_seconds,

@@ -28,6 +28,7 @@ recomputed from the cells the dirty-tile boxes simulate per tile row
 from __future__ import annotations
 
 import dataclasses
+import itertools
 from collections.abc import Mapping
 from typing import Any
 
@@ -266,13 +267,13 @@ class DistributedCanvas:
         if delta.size:
             self.comm.Allreduce(MPI.IN_PLACE, delta, op=MPI.SUM)
         pos = 0
-        for (name, _sl, _a), size in zip(books, sizes, strict=True):
+        for (pig, _sl, _a), size in zip(books, sizes, strict=True):
             added = float(delta[pos:pos + size].sum(dtype=np.float64))
             pos += size
-            if name is None:
+            if pig is None:
                 sh.water_added += added
             else:
-                pname = sh.palette.get(name).name
+                pname = sh.palette.get(pig).name
                 sh.pigment_added[pname] = sh.pigment_added.get(pname, 0.0) + added
         touched = [pl for pl in (placed_w, *placed_p.values(), *placed_v) if pl is not None]
         ts = int(sh.params.tile_size)
@@ -383,8 +384,7 @@ class DistributedCanvas:
         mine = np.ascontiguousarray(plane[s.lo - s.pad_lo:s.hi - s.pad_lo], F32)
         if self.is_root:
             full = np.empty((sh.height, sh.width, *tail), F32)
-            counts = [(b - a) * per_row for a, b in zip(self._bounds[:-1], self._bounds[1:],
-                                                         strict=True)]
+            counts = [(b - a) * per_row for a, b in itertools.pairwise(self._bounds)]
             displs = [a * per_row for a in self._bounds[:-1]]
             self.comm.Gatherv(mine, [full, counts, displs, MPI.FLOAT], root=self.root)
             return full
@@ -462,7 +462,7 @@ class DistributedCanvas:
         ts = int(self._shell.params.tile_size)
         if (len(bounds) != self.size + 1 or bounds[0] != 0 or bounds[-1] != self.height
                 or any(b % ts and b != self.height for b in bounds)
-                or any(a >= b for a, b in zip(bounds[:-1], bounds[1:], strict=True))):
+                or any(a >= b for a, b in itertools.pairwise(bounds))):
             raise CanvasInputError(f"bounds {bounds} are not {self.size} tile-aligned strips",
                                    "bounds")
         self._redistribute(list(bounds))

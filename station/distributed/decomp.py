@@ -13,12 +13,13 @@ share the painted rows evenly wherever they are.
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-IDLE_ROW_WEIGHT = 0.02
+IDLE_ROW_WEIGHT = 0.002
 """Weight of a tile row nobody paints, relative to a fully simulated one: the per-row
 cost that remains (tile bookkeeping, halo scans), so idle rows are still spread."""
 
@@ -41,7 +42,7 @@ class Strip:
 def strips(bounds: Sequence[int], height: int, radius: int) -> list[Strip]:
     """Strips for ``bounds`` (``n + 1`` increasing row numbers from 0 to ``height``)."""
     out = []
-    for lo, hi in zip(bounds[:-1], bounds[1:], strict=True):
+    for lo, hi in itertools.pairwise(bounds):
         out.append(Strip(int(lo), int(hi), max(int(lo) - radius, 0),
                          min(int(hi) + radius, height)))
     return out
@@ -94,7 +95,7 @@ def balanced_split(work: np.ndarray, height: int, tile_size: int, n: int) -> lis
 def imbalance(work: np.ndarray, bounds: Sequence[int], tile_size: int) -> float:
     """Largest rank's share of ``work`` over the mean share (1.0 = perfect)."""
     shares = []
-    for lo, hi in zip(bounds[:-1], bounds[1:], strict=True):
+    for lo, hi in itertools.pairwise(bounds):
         shares.append(float(work[lo // tile_size:-(-hi // tile_size)].sum()))
     mean = sum(shares) / len(shares)
     return max(shares) / mean if mean > 0 else 1.0

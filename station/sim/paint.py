@@ -95,6 +95,8 @@ class PaintResult:
     counters: dict[str, Any] = field(default_factory=dict)
     written: list[str] = field(default_factory=list)
     error: BadInput | None = None
+    root: bool = True
+    """False on the ranks of a distributed run that do not write (nor print)."""
 
 
 # -- inputs -------------------------------------------------------------------------
@@ -293,12 +295,17 @@ def paint(
     progress: bool | None = None,
     backend_opts: dict[str, Any] | None = None,
     resume: str | None = None,
+    distributed: bool = False,
 ) -> PaintResult:
     """Paint ``input_path`` headless; see the module docstring for errors.
 
     ``resume`` continues a saved canvas state (``--state`` of an earlier run)
     instead of blank paper: its size, profile and seed win over the session
     header's; brush sizes are not rescaled.
+
+    ``distributed``: every rank of the MPI job runs this same call (``mpiexec -n N
+    station paint ... --distributed``) on a :class:`DistributedCanvas`; rank 0 writes
+    the outputs (see docs/distributed.md).
 
     Returns the :class:`PaintResult`; a bad record mid-file raises after the
     outputs are written (``result.error`` is set on the exception as
@@ -335,8 +342,12 @@ def paint(
                 and not isinstance(logged_rate, bool):
             rate = float(logged_rate)  # the rate the session was recorded at
         seed = start.seed if start is not None else header.seed
-        canvas, backend = make_backend(backend, width, height, prof.name, seed,
-                                       **(backend_opts or {}))
+        if distributed:
+            canvas, backend = make_distributed(backend, width, height, prof.name, seed,
+                                               **(backend_opts or {}))
+        else:
+            canvas, backend = make_backend(backend, width, height, prof.name, seed,
+                                           **(backend_opts or {}))
         if start is not None:
             canvas.load_state(start)
         palette = default_palette()
@@ -345,6 +356,7 @@ def paint(
         if start is not None:
             player.layer_pigments.update(start.slots)
         show = sys.stderr.isatty() if progress is None else progress
+        show = show and bool(getattr(canvas, "is_root", True))
         prog = Progress(_session_length(input_path) + settle) if show else None
         t0 = time.monotonic()
         error: BadInput | None = None
@@ -365,7 +377,7 @@ def paint(
             counters={**player.counters.as_dict(), "stamps": player.brush.stamps,
                       "strokes": player.brush.strokes,
                       "eraser_samples": player.brush.eraser_samples},
-            error=error,
+            error=error, root=bool(getattr(canvas, "is_root", True)),
         )
         write_outputs(canvas, result, out_png, state_path, stats_path, bits)
     finally:
@@ -379,18 +391,48 @@ def paint(
     return result
 
 
+def make_distributed(name: str, width: int, height: int, profile: str, seed: int,
+                     **opts: Any) -> tuple[Any, str]:
+    """A :class:`~station.distributed.canvas.DistributedCanvas` stepping ``name``
+    (``auto``: cpu when numba is installed, else numpy) on every rank's strip."""
+    from station.canvas.backend import fastest_cpu_backend
+
+    if name == "auto":
+        name = fastest_cpu_backend()
+    if name not in ("numpy", "cpu"):
+        raise PaintInputError(f"--distributed steps the numpy or cpu backend, not {name!r}",
+                              "--backend")
+    try:
+        dist = importlib.import_module("station.distributed.canvas")
+    except ImportError as exc:
+        raise StationError(f"--distributed needs mpi4py and an MPI library (pip install "
+                           f"'painting-station[mpi]'): {exc}") from None
+    canvas = dist.DistributedCanvas(width, height, profile, seed, base=name, **opts)
+    return canvas, f"distributed-{name}"
+
+
 def write_outputs(canvas: Any, result: PaintResult, out_png: str | None,
                   state_path: str | None, stats_path: str | None, bits: int) -> None:
-    """Render and write the PNG, the state and the stats (each when asked)."""
+    """Render and write the PNG, the state and the stats (each when asked).
+
+    A distributed canvas gathers on every rank (collective calls) and its root writes.
+    """
+    root = bool(getattr(canvas, "is_root", True))
     try:
         if out_png:
-            write_image(out_png, canvas.render(), bits)
+            rgb = canvas.render()
+            if root:
+                write_image(out_png, rgb, bits)
             result.written.append(out_png)
         if state_path:
-            canvas.state().save(state_path)
+            st = canvas.state()
+            if root:
+                st.save(state_path)
             result.written.append(state_path)
         if stats_path:
             stats = canvas.stats()
+            if not root:
+                return
             stats["player"] = result.counters
             with open(stats_path, "w", encoding="utf-8") as fh:
                 json.dump(stats, fh, indent=2)
