@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import time
@@ -19,10 +20,13 @@ import mpi_session as ms
 import numpy as np
 import pytest
 
+from station.bus import Publisher
 from station.canvas.cpu import CpuCanvas
 from station.canvas.numpy_backend import NumpyCanvas
 from station.canvas.state import CanvasState
 from station.distributed import decomp
+from station.events import Command, PenSample
+from station.sessionlog import read_session
 from station.sim.script import Script
 
 pytest.importorskip("mpi4py")
@@ -161,3 +165,91 @@ def test_balanced_split_follows_the_painted_corner() -> None:
     assert all(b % ts == 0 for b in bal)
     four = decomp.balanced_split(work, height, ts, 4)
     assert len(four) == 5 and four == sorted(four) and len(set(four)) == 5
+
+
+# -- station sim --distributed: rank 0 on the bus, the others follow ----------------------
+def _sim(tmp_path: Path, marker: str) -> tuple[subprocess.Popen[str], Publisher, Path, Path]:
+    bus = f"ipc://{tmp_path}/bus"
+    log, state = tmp_path / "live.jsonl", tmp_path / "live.npz"
+    pub = Publisher(bus, bind=True)
+    assert MPIEXEC is not None
+    proc = subprocess.Popen(
+        [MPIEXEC, "-n", "2", sys.executable, "-m", "station", "sim", "--distributed",
+         "--bus", bus, "--size", "64x96", "--backend", "numpy", "--log", str(log),
+         "--state", str(state), "--status", "none", "--rate", "30"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        env={**os.environ, "STATION_TEST_MARKER": marker})
+    assert pub.wait_for_subscribers(1, timeout=60.0), "rank 0 never subscribed"
+    return proc, pub, log, state
+
+
+def _stroke(pub: Publisher, n: int) -> None:
+    pub.publish_cmd(Command(t=0.0, cmd="brush", args={
+        "size": 12, "water": 1.0, "pigment": {"Burnt Umber": 1.0}}))
+    for i in range(n):  # down across the strip border at row 64
+        pub.publish_pen(PenSample(t=i * 0.02, device="p", tool="pen",  # type: ignore[arg-type]
+                                  x=0.3 + 0.01 * i, y=0.4 + 0.4 * i / n, pressure=0.9,
+                                  touching=True))
+        time.sleep(0.02)
+
+
+def test_sim_distributed_paints_what_its_log_replays(tmp_path: Path) -> None:
+    proc, pub, log, state = _sim(tmp_path, "sim-ok")
+    try:
+        _stroke(pub, 30)
+        time.sleep(0.3)
+        pub.publish_cmd(Command(t=0.0, cmd="stop", args={}))
+        _out, err = proc.communicate(timeout=60)
+        assert proc.returncode == 0, err
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+        pub.close()
+    replay = tmp_path / "replay.npz"
+    res = subprocess.run([str(BIN / "station"), "paint", str(log), "-o", str(tmp_path / "r.png"),
+                          "--backend", "numpy", "--state", str(replay)],
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    live = CanvasState.load(state)
+    assert live.step_count > 10 and float((live.p + live.q).sum()) > 1.0
+    assert_same_state(CanvasState.load(replay), live)
+
+
+def _rank_pid(marker: str, rank: int) -> int | None:
+    for d in Path("/proc").iterdir():
+        try:
+            env = (d / "environ").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        if (f"STATION_TEST_MARKER={marker}".encode() in env
+                and f"PMI_RANK={rank}".encode() in env):
+            return int(d.name)
+    return None
+
+
+def test_sim_distributed_rank_death_aborts_and_keeps_the_log(tmp_path: Path) -> None:
+    marker = f"sim-death-{os.getpid()}"
+    proc, pub, log, _state = _sim(tmp_path, marker)
+    try:
+        _stroke(pub, 20)
+        deadline = time.monotonic() + 20
+        while time.monotonic() < deadline and log.read_text().count('"pen"') < 20:
+            time.sleep(0.1)
+        pid = _rank_pid(marker, 1)
+        assert pid is not None
+        os.kill(pid, signal.SIGKILL)
+        t0 = time.monotonic()
+        out, err = proc.communicate(timeout=60)
+        assert time.monotonic() - t0 < 60
+        assert proc.returncode != 0
+        text = out + err  # mpiexec names the rank that died and how
+        assert "BAD TERMINATION" in text and "signal 9" in text, text
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+        pub.close()
+    header, records = read_session(log)  # whole lines only: it parses
+    assert (header.width, header.height) == (64, 96)
+    assert sum(isinstance(r, PenSample) for r in records) == 20

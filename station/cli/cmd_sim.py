@@ -5,9 +5,14 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from typing import TYPE_CHECKING
 
 from station.cli.cmd_paint import BACKEND_HELP, BACKENDS
+from station.errors import StationError
 from station.sim.paint import check_outputs, load_resume_state, parse_size
+
+if TYPE_CHECKING:
+    from station.sim.live import LiveConfig
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -34,6 +39,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="stop by itself after this many seconds")
     p.add_argument("--resume", metavar="S.npz",
                    help="continue a saved canvas state (its size, profile and seed)")
+    p.add_argument("--distributed", action="store_true",
+                   help="one canvas over all ranks of an MPI job: mpiexec -n N station sim "
+                        "... --distributed; rank 0 reads the bus and writes log, state and "
+                        "status (see docs/distributed.md)")
     p.set_defaults(func=run)
 
 
@@ -53,6 +62,9 @@ def run(args: argparse.Namespace) -> int:
                      backend=args.backend, seed=args.seed, rate=args.rate,
                      log_path=args.log, state_path=args.state, png_path=args.png,
                      status=args.status, duration=args.duration, resume=args.resume)
+    if args.distributed and _follower(cfg):
+        return 0
+    cfg.distributed = args.distributed
     sim = LiveSim(cfg)
     sim.install_signal_handlers()
     sys.stderr.write(f"station sim: {cfg.width}x{cfg.height} {cfg.profile} on {sim.backend_name}, "
@@ -62,3 +74,25 @@ def run(args: argparse.Namespace) -> int:
         {k: final[k] for k in ("steps", "sim_time", "samples", "commands", "bad_commands",
                                "lost_samples")}) + "\n")
     return 0
+
+
+def _follower(cfg: LiveConfig) -> bool:
+    """On ranks other than 0 of an MPI job: follow rank 0's canvas calls; True when done."""
+    import signal
+
+    from station.sim.paint import make_distributed
+
+    try:
+        from mpi4py import MPI
+    except ImportError as exc:
+        raise StationError(f"--distributed needs mpi4py and an MPI library (pip install "
+                           f"'painting-station[mpi]'): {exc}") from None
+    if MPI.COMM_WORLD.Get_rank() == 0:
+        return False
+    from station.distributed.relay import follow
+
+    canvas, _name = make_distributed(cfg.backend, cfg.width, cfg.height, cfg.profile, cfg.seed)
+    # Ctrl-C reaches every rank; rank 0 alone decides when to stop (then tells the others)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    follow(canvas)
+    return True

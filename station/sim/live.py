@@ -67,6 +67,7 @@ class LiveConfig:
     status: str | None = None  # endpoint for status; "none" disables
     duration: float | None = None  # stop after this many seconds (tests, benchmarks)
     resume: str | None = None  # continue this saved canvas state (size, profile, seed)
+    distributed: bool = False  # rank 0 of an MPI job: the canvas spans every rank
 
 
 def default_status_endpoint(bus: str | None) -> str:
@@ -93,8 +94,17 @@ class LiveSim:
             start = CanvasState.load(cfg.resume)
             cfg.width, cfg.height = start.width, start.height
             cfg.profile, cfg.seed = start.profile, start.seed
-        self.canvas, self.backend_name = make_backend(cfg.backend, cfg.width, cfg.height,
-                                                      cfg.profile, cfg.seed)
+        self.canvas: Any
+        if cfg.distributed:  # this is rank 0; the others follow (station.distributed.relay)
+            from station.distributed.relay import Leader
+            from station.sim.paint import make_distributed
+
+            dist, self.backend_name = make_distributed(cfg.backend, cfg.width, cfg.height,
+                                                       cfg.profile, cfg.seed)
+            self.canvas = Leader(dist)
+        else:
+            self.canvas, self.backend_name = make_backend(cfg.backend, cfg.width, cfg.height,
+                                                          cfg.profile, cfg.seed)
         if start is not None:
             self.canvas.load_state(start)
         self.player = SessionPlayer(self.canvas, cfg.width, cfg.height, cfg.profile,
@@ -108,7 +118,10 @@ class LiveSim:
             width=cfg.width, height=cfg.height, profile=cfg.profile, seed=cfg.seed,
             extra={"sim": {"rate": self.player.rate}, "recorded_by": "station sim",
                    **({"resumed_from": cfg.resume} if cfg.resume else {})})
-        self.writer = SessionLogWriter(cfg.log_path, header) if cfg.log_path else None
+        # distributed: another rank's death kills this process from outside (mpiexec),
+        # so every record goes to the OS at once and the log stays whole
+        self.writer = (SessionLogWriter(cfg.log_path, header, line_buffered=cfg.distributed)
+                       if cfg.log_path else None)
         self.stop_requested = False
         self.start = time.monotonic()
         self._offsets: dict[str, float] = {}
@@ -285,14 +298,17 @@ class LiveSim:
             t_end = max(self._last_t, p.counters.steps / p.rate - p.waited)
             t_end = math.ceil(t_end * 1e6) / 1e6
             self.writer.write(Command(t=t_end, cmd="wait", args={"seconds": 0.0}))
+            # closed before the canvas is saved: the log survives whatever happens next
+            # (a distributed canvas needs every rank alive to gather its state)
+            self.writer.close()
         if self.cfg.state_path:
             self.canvas.state().save(self.cfg.state_path)
         if self.cfg.png_path:
             from station.sim.paint import write_image
 
             write_image(self.cfg.png_path, self.canvas.render())
-        if self.writer is not None:
-            self.writer.close()
+        if hasattr(self.canvas, "close") and self.cfg.distributed:
+            self.canvas.close()  # the follower ranks return
         final = self.status()
         self.publish_status(final=True)
         self.sub.close()
