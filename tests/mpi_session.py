@@ -101,6 +101,30 @@ def play(canvas: Any, ops: list[tuple[Any, ...]], tmp: str, die_at: int = -1) ->
                 canvas.load_state(CanvasState.load(path))
 
 
+def render_delta(canvas: Any, out: str) -> int:
+    """Paint a wash, render, then a dab in one corner: the second picture sends only
+    the changed tiles. Writes both pictures and the cells each rank sent."""
+    ops = delta_ops()
+    play(canvas, ops[0], str(Path(out).parent))
+    first = canvas.render()
+    sent = [canvas.comm.allreduce(canvas.render_cells_last)]
+    play(canvas, ops[1], str(Path(out).parent))
+    second = canvas.render()
+    sent.append(canvas.comm.allreduce(canvas.render_cells_last))
+    if canvas.is_root:
+        np.save(out + ".first.npy", first)
+        np.save(out + ".second.npy", second)
+        Path(out + ".sent.json").write_text(json.dumps(sent))
+    return 0
+
+
+def delta_ops() -> tuple[list[tuple[Any, ...]], list[tuple[Any, ...]]]:
+    """A stroke down the canvas, dried; then one dab in the top-left corner."""
+    before = [("src", 20 + 12 * i, 60, 8, "Burnt Umber", 0.6) for i in range(8)]
+    return ([*before, ("step", 6), ("dry",)],
+            [("src", 10, 10, 5, "French Ultramarine", 0.6), ("step", 3)])
+
+
 def main(argv: list[str]) -> int:
     from station.distributed.canvas import DistributedCanvas
 
@@ -110,6 +134,8 @@ def main(argv: list[str]) -> int:
     canvas = DistributedCanvas(WIDTH, HEIGHT, seed=3, base=base, params=PARAMS,
                                rebalance_every=0)
     die_at = die["step"] if die is not None and die["rank"] == canvas.rank else -1
+    if script == "render-delta":
+        return render_delta(canvas, out)
     play(canvas, SESSIONS[script], str(Path(out).parent), die_at)
     rgb = canvas.render()
     stats = canvas.stats()

@@ -253,3 +253,19 @@ def test_sim_distributed_rank_death_aborts_and_keeps_the_log(tmp_path: Path) -> 
     header, records = read_session(log)  # whole lines only: it parses
     assert (header.width, header.height) == (64, 96)
     assert sum(isinstance(r, PenSample) for r in records) == 20
+
+
+def test_render_gathers_only_the_changed_tiles(tmp_path: Path) -> None:
+    out = tmp_path / "delta.npz"
+    res = mpirun(4, [sys.executable, str(DRIVER), str(out), "numpy", "render-delta"])
+    assert res.returncode == 0, res.stdout + res.stderr
+    one = NumpyCanvas(ms.WIDTH, ms.HEIGHT, seed=3, params=ms.PARAMS)
+    first_ops, second_ops = ms.delta_ops()
+    ms.play(one, first_ops, str(tmp_path))
+    assert np.array_equal(np.load(str(out) + ".first.npy"), one.render())
+    ms.play(one, second_ops, str(tmp_path))
+    assert np.array_equal(np.load(str(out) + ".second.npy"), one.render())
+    sent = json.loads(Path(str(out) + ".sent.json").read_text())
+    assert sent[0] == ms.WIDTH * ms.HEIGHT  # the first picture: everything
+    # the dab's tiles (and their neighbours reached by the step's boxes) only
+    assert 0 < sent[1] <= 3 * 16 * 3 * 16

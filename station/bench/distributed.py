@@ -102,6 +102,7 @@ def measure(width: int, height: int, scenario: str, seconds: float, base: str,
         canvas.step()
     comm.Barrier()
     steps, halo, cells = 0, 0, 0
+    comm0 = canvas.comm_seconds
     t0 = time.perf_counter()
     while True:
         if stroke:
@@ -116,6 +117,7 @@ def measure(width: int, height: int, scenario: str, seconds: float, base: str,
             break
     elapsed = time.perf_counter() - t0
     halo_all = comm.allreduce(halo, op=MPI.SUM)
+    comm_share = comm.gather((canvas.comm_seconds - comm0) / elapsed, root=0)
     cells_each = comm.gather(cells / steps, root=0)
     if comm.Get_rank() != 0:
         return None
@@ -125,6 +127,7 @@ def measure(width: int, height: int, scenario: str, seconds: float, base: str,
             "base": base, "steps": steps, "seconds": round(elapsed, 3),
             "steps_per_s": steps / elapsed, "halo_bytes_per_step": halo_all / steps,
             "cells_per_rank_step": [round(c) for c in cells_each],
+            "comm_share_per_rank": [round(c, 3) for c in comm_share or []],
             "work_balance": (sum(cells_each) / len(cells_each)) / busiest if busiest else 1.0,
             "bounds": canvas.bounds, "rebalances": canvas.rebalances}
 

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import time
 from collections.abc import Mapping
 from typing import Any
 
@@ -147,6 +148,8 @@ class DistributedCanvas:
         self._dirty = np.ones(full_ttl.shape, bool)
         self._shown = False  # no picture sent to the root yet (same on every rank)
         self.halo_bytes_last = 0
+        self.render_cells_last = 0  # cells this rank sent for the last picture
+        self.comm_seconds = 0.0  # halo exchange + tile reduction, waiting included [s]
         self.cells_last = 0
         self.rebalances = 0
 
@@ -316,9 +319,11 @@ class DistributedCanvas:
             self._step_region((slice(lo - s.pad_lo, hi - s.pad_lo), xs), dt)
             cells += (hi - lo) * (xs.stop - xs.start)
         self.cells_last = cells
+        t0 = time.perf_counter()
         self.halo_bytes_last = self._exchange_halo(regions)
         if sh.tiling:
             self._update_tiles(regions)
+        self.comm_seconds += time.perf_counter() - t0
         ts = int(sh.params.tile_size)
         for ys, xs in regions:
             self._dirty[ys.start // ts:-(-ys.stop // ts), xs.start // ts:-(-xs.stop // ts)] = True
@@ -579,6 +584,7 @@ class DistributedCanvas:
             bands.append((r0, r1, c0, c1, render_state(view, self._renderer_kind)))
         self._dirty[...] = False
         self._shown = True
+        self.render_cells_last = sum((b[1] - b[0]) * (b[3] - b[2]) for b in bands)
         got = self.comm.gather(bands, root=self.root)
         if not self.is_root:
             return np.zeros((0, sh.width, 3), F32)
