@@ -80,6 +80,8 @@ def play(canvas: Any, ops: list[tuple[Any, ...]], tmp: str, die_at: int = -1) ->
                 steps += 1
                 if steps == die_at:
                     os.kill(os.getpid(), signal.SIGKILL)
+        elif kind == "profile":
+            canvas.set_profile(op[1])
         elif kind == "dry":
             canvas.dry()
         elif kind == "layer":

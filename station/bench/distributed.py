@@ -143,7 +143,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="backend stepping each strip (default %(default)s)")
     p.add_argument("--threads", type=int, default=1,
                    help="numba threads per rank for the cpu base (default %(default)s)")
-    p.add_argument("--quick", action="store_true", help="512x512, ranks 1,2, 1 s")
+    p.add_argument("--repeat", type=int, default=2,
+                   help="rounds over the rank counts; the best steps/s of each configuration "
+                        "is kept (a shared machine's load comes and goes; default %(default)s)")
+    p.add_argument("--quick", action="store_true", help="512x512, ranks 1,2, 1 s, 1 round")
     p.set_defaults(func=run)
 
 
@@ -176,15 +179,25 @@ def run(args: argparse.Namespace) -> int:
     if mpiexec is None:
         raise StationError("no mpiexec: pip install 'painting-station[mpi]'")
     env = {**os.environ, "NUMBA_NUM_THREADS": str(args.threads)}
-    runs: list[dict[str, Any]] = []
-    for n in ranks:
-        cmd = [mpiexec, "-n", str(n), sys.executable, "-m", "station", "bench", "distributed",
-               "--sizes", ",".join(sizes), "--scenarios", ",".join(scenarios),
-               "--seconds", str(seconds), "--base", args.base]
-        res = subprocess.run(cmd, capture_output=True, text=True, env=env)
-        if res.returncode != 0:
-            raise StationError(f"mpiexec -n {n} failed: {res.stderr.strip()[-400:]}")
-        runs.extend(json.loads(res.stdout.strip().splitlines()[-1])["results"])
+    best: dict[tuple[int, str, str], dict[str, Any]] = {}
+    rounds = 1 if args.quick else max(1, int(args.repeat))
+    for _round in range(rounds):
+        for n in ranks:  # interleaved, so every rank count sees the same load history
+            cmd = [mpiexec, "-n", str(n), sys.executable, "-m", "station", "bench",
+                   "distributed", "--sizes", ",".join(sizes), "--scenarios",
+                   ",".join(scenarios), "--seconds", str(seconds), "--base", args.base]
+            res = subprocess.run(cmd, capture_output=True, text=True, env=env)
+            if res.returncode != 0:
+                raise StationError(f"mpiexec -n {n} failed: {res.stderr.strip()[-400:]}")
+            for r in json.loads(res.stdout.strip().splitlines()[-1])["results"]:
+                key = (r["ranks"], r["size"], r["scenario"])
+                r["rounds_steps_per_s"] = [*best.get(key, {}).get("rounds_steps_per_s", []),
+                                           round(r["steps_per_s"], 3)]
+                if key not in best or r["steps_per_s"] > best[key]["steps_per_s"]:
+                    best[key] = r
+                else:
+                    best[key]["rounds_steps_per_s"] = r["rounds_steps_per_s"]
+    runs = list(best.values())
     one = {(r["size"], r["scenario"]): r["steps_per_s"] for r in runs if r["ranks"] == 1}
     for r in runs:
         ref = one.get((r["size"], r["scenario"]))
@@ -192,7 +205,8 @@ def run(args: argparse.Namespace) -> int:
             r["speedup"] = r["steps_per_s"] / ref
             r["efficiency"] = r["speedup"] / r["ranks"]
     out = {"bench": "distributed", "cores": os.cpu_count(), "base": args.base,
-           "threads_per_rank": args.threads, "runs": runs,
+           "threads_per_rank": args.threads, "rounds": rounds,
+           "load_average": list(os.getloadavg()), "runs": runs,
            "note": "shared machine: other jobs may be running; ratios come from one run"}
     json.dump(out, sys.stdout, indent=2)
     sys.stdout.write("\n")
