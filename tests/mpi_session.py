@@ -62,8 +62,9 @@ def disc(radius: int, amount: float) -> np.ndarray:
     return (np.clip(1.0 - d, 0.0, 1.0) * amount).astype(np.float32)
 
 
-def play(canvas: Any, ops: list[tuple[Any, ...]], tmp: str, die_at: int = -1) -> None:
-    """Apply ``ops`` to ``canvas`` (a NumpyCanvas or a DistributedCanvas)."""
+def play(canvas: Any, ops: list[tuple[Any, ...]], tmp: str, die_at: int = 0) -> None:
+    """Apply ``ops`` to ``canvas`` (a NumpyCanvas or a DistributedCanvas); at step
+    ``die_at`` (> 0) this process is killed, at step ``-die_at`` it raises."""
     steps = 0
     for op in ops:
         kind = op[0]
@@ -80,6 +81,8 @@ def play(canvas: Any, ops: list[tuple[Any, ...]], tmp: str, die_at: int = -1) ->
                 steps += 1
                 if steps == die_at:
                     os.kill(os.getpid(), signal.SIGKILL)
+                if steps == -die_at:
+                    raise RuntimeError("a bug on one rank only")
         elif kind == "profile":
             canvas.set_profile(op[1])
         elif kind == "dry":
@@ -135,7 +138,7 @@ def main(argv: list[str]) -> int:
     die = json.loads(argv[3]) if len(argv) > 3 else None
     canvas = DistributedCanvas(WIDTH, HEIGHT, seed=3, base=base, params=PARAMS,
                                rebalance_every=0)
-    die_at = die["step"] if die is not None and die["rank"] == canvas.rank else -1
+    die_at = die["step"] if die is not None and die["rank"] == canvas.rank else 0
     if script == "render-delta":
         return render_delta(canvas, out)
     play(canvas, SESSIONS[script], str(Path(out).parent), die_at)
@@ -150,4 +153,7 @@ def main(argv: list[str]) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))
+    from station.distributed.guard import abort_job_on_error
+
+    with abort_job_on_error():
+        sys.exit(main(sys.argv[1:]))

@@ -122,6 +122,16 @@ def test_a_rank_that_dies_aborts_the_job(tmp_path: Path) -> None:
     assert not out.exists()  # nothing half-gathered was written
 
 
+def test_an_exception_on_one_rank_aborts_the_job_instead_of_hanging(tmp_path: Path) -> None:
+    out = tmp_path / "bug.npz"
+    res = mpirun(2, [sys.executable, str(DRIVER), str(out), "numpy", "stroke",
+                     json.dumps({"rank": 1, "step": -4})], timeout=60.0)
+    assert res.returncode != 0
+    assert "rank 1 failed (RuntimeError: a bug on one rank only); aborting the MPI job" \
+        in res.stderr, res.stderr
+    assert not out.exists()
+
+
 def test_paint_cli_distributed_equals_one_process(tmp_path: Path) -> None:
     s = Script(96, 128, seed=5, rate_hz=60.0)
     s.brush(size=14, water=0.9, pigment={"French Ultramarine": 0.8})

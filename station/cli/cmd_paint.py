@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
+from typing import Any
 
 from station.sim.paint import parse_size
 
@@ -52,10 +54,16 @@ def run(args: argparse.Namespace) -> int:
     from station.sim.paint import paint
 
     size = parse_size(args.size) if args.size else None
-    result = paint(args.input, args.output, size=size, profile=args.profile,
-                   backend=args.backend, stats_path=args.stats,
-                   state_path=args.state, bits=args.bits, rate=args.rate, settle=args.settle,
-                   resume=args.resume, distributed=args.distributed)
+    guard: Any = contextlib.nullcontext()
+    if args.distributed:
+        from station.distributed.guard import abort_job_on_error
+
+        guard = abort_job_on_error()
+    with guard:
+        result = paint(args.input, args.output, size=size, profile=args.profile,
+                       backend=args.backend, stats_path=args.stats,
+                       state_path=args.state, bits=args.bits, rate=args.rate,
+                       settle=args.settle, resume=args.resume, distributed=args.distributed)
     if args.json and result.root:
         json.dump({"width": result.width, "height": result.height, "profile": result.profile,
                    "backend": result.backend, "renderer": result.renderer,

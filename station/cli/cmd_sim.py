@@ -12,7 +12,7 @@ from station.errors import StationError
 from station.sim.paint import check_outputs, load_resume_state, parse_size
 
 if TYPE_CHECKING:
-    from station.sim.live import LiveConfig
+    from station.sim.live import LiveConfig, LiveSim
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -62,10 +62,19 @@ def run(args: argparse.Namespace) -> int:
                      backend=args.backend, seed=args.seed, rate=args.rate,
                      log_path=args.log, state_path=args.state, png_path=args.png,
                      status=args.status, duration=args.duration, resume=args.resume)
-    if args.distributed and _follower(cfg):
-        return 0
-    cfg.distributed = args.distributed
-    sim = LiveSim(cfg)
+    if args.distributed:
+        from station.distributed.guard import abort_job_on_error
+
+        with abort_job_on_error():
+            if _follower(cfg):
+                return 0
+            cfg.distributed = True
+            return _lead(LiveSim(cfg))
+    return _lead(LiveSim(cfg))
+
+
+def _lead(sim: LiveSim) -> int:
+    cfg = sim.cfg
     sim.install_signal_handlers()
     sys.stderr.write(f"station sim: {cfg.width}x{cfg.height} {cfg.profile} on {sim.backend_name}, "
                      f"{sim.player.rate:g} steps/s, subscribed to {sim.sub.endpoints[0].url}\n")

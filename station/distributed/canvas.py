@@ -48,7 +48,7 @@ from station.distributed.exchange import Rect
 
 F32 = np.float32
 BASES = ("numpy", "cpu")
-REBALANCE_THRESHOLD = 1.15
+REBALANCE_THRESHOLD = 1.25
 """Rebalance only when the busiest rank has this much more work than the mean."""
 
 
@@ -68,8 +68,9 @@ def _empty_shell(st: CanvasState) -> CanvasState:
     return CanvasState(**kw)
 
 
-def _local_from_shell(shell: CanvasState, rows: int) -> CanvasState:
-    """A zeroed strip of ``rows`` rows with its own copy of the shell's metadata.
+def _local_from_shell(shell: CanvasState, rows: int, zeroed: bool = True) -> CanvasState:
+    """A strip of ``rows`` rows (zeros, or uninitialised for the caller to fill
+    completely) with its own copy of the shell's metadata.
 
     Its ``tile_ttl`` is private (``operations`` mark it in strip coordinates; nothing
     reads it): the canvas's tiles are the shell's.
@@ -80,7 +81,9 @@ def _local_from_shell(shell: CanvasState, rows: int) -> CanvasState:
         shape = ((rows, shell.width, 3) if n == "r_composed" else
                  (shell.n_slots, rows, shell.width) if n in exchange.STACKS else
                  (rows, shell.width))
-        setattr(loc, n, np.zeros(shape, F32))
+        # free pigment slots are never moved: stacks always start as zeros
+        fill = zeroed or n in exchange.STACKS
+        setattr(loc, n, np.zeros(shape, F32) if fill else np.empty(shape, F32))
     ts = int(shell.params.tile_size)
     loc.tile_ttl = np.zeros((-(-rows // ts), -(-shell.width // ts)), np.int32)
     return loc
@@ -110,7 +113,7 @@ class DistributedCanvas:
                  *, base: str = "numpy", comm: MPI.Comm | None = None, tiling: bool = True,
                  tiles: bool | None = None, n_slots: int = DEFAULT_SLOTS,
                  params: SimParams | None = None, paper: str | None = None,
-                 palette: Palette | None = None, rebalance_every: int = 32,
+                 palette: Palette | None = None, rebalance_every: int = 64,
                  root: int = 0) -> None:
         if base not in BASES:
             raise CanvasInputError(f"distributed base backend {base!r} (known: "
@@ -268,7 +271,7 @@ class DistributedCanvas:
                 view[o[1], :] = arr[o[0], o[2]] - b0
             pos += size
         if delta.size:
-            self.comm.Allreduce(MPI.IN_PLACE, delta, op=MPI.SUM)
+            exchange.wait_all([self.comm.Iallreduce(MPI.IN_PLACE, delta, op=MPI.SUM)])
         pos = 0
         for (pig, _sl, _a), size in zip(books, sizes, strict=True):
             added = float(delta[pos:pos + size].sum(dtype=np.float64))
@@ -376,7 +379,7 @@ class DistributedCanvas:
             starts = np.flatnonzero(np.r_[True, trow[1:] != trow[:-1]])
             red = np.logical_or.reduceat(per_col, starts, axis=0)
             alive[trow[starts], tx0:tx1] |= red.astype(np.uint8)
-        self.comm.Allreduce(MPI.IN_PLACE, alive, op=MPI.MAX)
+        exchange.wait_all([self.comm.Iallreduce(MPI.IN_PLACE, alive, op=MPI.MAX)])
         renew = (alive > 0) & inside & (ttl <= 0)
         ttl[renew] = sh.params.tile_ttl_steps()
 
@@ -483,11 +486,23 @@ class DistributedCanvas:
                 if a < b:
                     plan.setdefault((o, r), []).append((a, b, 0, self.width))
         loc = self._local
-        s_new = new[self.rank]
+        s_new, s_old = new[self.rank], old[self.rank]
         self._sync_local()
-        fresh = _local_from_shell(self._shell, s_new.rows)
+        fresh = _local_from_shell(self._shell, s_new.rows, zeroed=False)
         fresh.slots = list(loc.slots)
-        exchange.move(self.comm, loc, old[self.rank].pad_lo, fresh, s_new.pad_lo, plan,
+        # rows this rank keeps: a plain copy, not through a message buffer
+        a, b = max(s_new.pad_lo, s_old.lo), min(s_new.pad_hi, s_old.hi)
+        if a < b:
+            for n in exchange.ALL_FIELDS:
+                src, dst = getattr(loc, n), getattr(fresh, n)
+                if n in exchange.STACKS:
+                    dst[:, a - s_new.pad_lo:b - s_new.pad_lo] = src[:, a - s_old.pad_lo:
+                                                                     b - s_old.pad_lo]
+                else:
+                    dst[a - s_new.pad_lo:b - s_new.pad_lo] = src[a - s_old.pad_lo:
+                                                                 b - s_old.pad_lo]
+        plan.pop((self.rank, self.rank), None)
+        exchange.move(self.comm, loc, s_old.pad_lo, fresh, s_new.pad_lo, plan,
                       exchange.ALL_FIELDS, max(self._slots_used(), 1), exchange.TAG_MOVE)
         self._local = fresh
         self._bounds = list(bounds)

@@ -8,7 +8,9 @@ float32 buffer, in plan order.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 from mpi4py import MPI
@@ -28,6 +30,35 @@ DYNAMIC_FIELDS = ("vx", "vy", "w", "wc", "p", "q")
 
 TAG_HALO = 11
 TAG_MOVE = 12
+TAG_RELAY = 13
+
+SPIN_S = 2e-4
+"""How long a waiting rank polls flat out before it starts sleeping between polls [s]."""
+NAP_S = 5e-5
+"""Sleep between polls after that [s]."""
+
+
+def wait_obj(req: MPI.Request) -> Any:
+    """The object of a pickled receive (``comm.irecv``), waited for like :func:`wait_all`."""
+    give_up_spin = time.perf_counter() + SPIN_S
+    while True:
+        done, obj = req.test()
+        if done:
+            return obj
+        if time.perf_counter() > give_up_spin:
+            time.sleep(NAP_S)
+
+
+def wait_all(reqs: Sequence[MPI.Request]) -> None:
+    """``Waitall`` that gives the core away: MPICH's blocking waits spin at 100 % CPU,
+    so a rank waiting for a busier neighbour would take the core that neighbour needs
+    on an oversubscribed or shared machine. Spin briefly, then test and nap."""
+    if not reqs:
+        return
+    give_up_spin = time.perf_counter() + SPIN_S
+    while not MPI.Request.Testall(list(reqs)):
+        if time.perf_counter() > give_up_spin:
+            time.sleep(NAP_S)
 
 
 def _views(st: CanvasState, off: int, rect: Rect, names: Sequence[str],
@@ -98,7 +129,7 @@ def move(comm: MPI.Comm, src: CanvasState | None, src_off: int, dst: CanvasState
     own = plan.get((me, me))
     if own and src is not None:
         unpack(pack(src, src_off, own, names, slots), dst, dst_off, own, names, slots)
-    MPI.Request.Waitall(reqs)
+    wait_all(reqs)
     for buf, rects in incoming:
         unpack(buf, dst, dst_off, rects, names, slots)
     return sent

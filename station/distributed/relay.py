@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from station.canvas.state import CanvasState
+from station.distributed import exchange
 from station.distributed.canvas import DistributedCanvas
 from station.errors import BadInput
 
@@ -30,8 +31,13 @@ class Leader:
         self.canvas = canvas
         self._stopped = False
 
+    def _send(self, msg: tuple[str, tuple[Any, ...], dict[str, Any]]) -> None:
+        comm, root = self.canvas.comm, self.canvas.root
+        exchange.wait_all([comm.isend(msg, dest=r, tag=exchange.TAG_RELAY)
+                           for r in range(comm.Get_size()) if r != root])
+
     def _relay(self, name: str, *args: Any, **kw: Any) -> Any:
-        self.canvas.comm.bcast((name, args, kw), root=self.canvas.root)
+        self._send((name, args, kw))
         return getattr(self.canvas, name)(*args, **kw)
 
     # properties are local (replicated on every rank)
@@ -86,14 +92,14 @@ class Leader:
 
     def load_state(self, state: CanvasState) -> None:
         """The state stays on rank 0; each follower receives its rows only."""
-        self.canvas.comm.bcast(("load_state", (), {}), root=self.canvas.root)
+        self._send(("load_state", (), {}))
         self.canvas.load_state(state)
 
     def close(self) -> None:
         """Let the followers return (once)."""
         if not self._stopped:
             self._stopped = True
-            self.canvas.comm.bcast((STOP, (), {}), root=self.canvas.root)
+            self._send((STOP, (), {}))
 
 
 def follow(canvas: DistributedCanvas) -> int:
@@ -103,7 +109,10 @@ def follow(canvas: DistributedCanvas) -> int:
     checks come before any communication), so it is skipped on both sides.
     """
     while True:
-        name, args, kw = canvas.comm.bcast(None, root=canvas.root)
+        # a follower waits most of the time (the leader waits for the pen): it naps
+        # between polls instead of spinning in a blocking receive
+        req = canvas.comm.irecv(source=canvas.root, tag=exchange.TAG_RELAY)
+        name, args, kw = exchange.wait_obj(req)
         if name == STOP:
             return 0
         if name == "load_state":
