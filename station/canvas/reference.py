@@ -21,6 +21,9 @@ CHANGED: bookkeeping: ``CanvasState.evaporated_folded`` (float64 metadata, defau
   stats report ``evaporated_folded + sum(evaporated)``. Backends must carry the field
   through state()/load_state() (a float32 accumulator that grows large rounds small
   increments: 6e-5 relative error after 18k steps without folding, 2e-6 with).
+NOTE (API): ``stencil_radius(params) = jacobi_iters + STENCIL_RADIUS_EXTRA`` bounds how far
+  one step reaches (the distributed canvas's halo); a term that reaches farther must raise
+  ``STENCIL_RADIUS_EXTRA`` (``tests/test_stencil_radius.py`` measures it).
 NOTE (API): ``PASS_ORDER`` names the passes; ``step_region(state, box, dt, stop_after=name)``
   writes the fields back right after pass ``name`` (pass-by-pass comparisons).
 NOTE (no maths change): pass 1 computes the bilinear weight from the displacement,
