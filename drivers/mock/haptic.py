@@ -254,12 +254,22 @@ class MockHapticDevice:
         shutil.rmtree(self._dir, ignore_errors=True)
 
     def now(self) -> float:
-        """Device clock: seconds since start()."""
+        """Device clock: seconds since a station first opened a session (the script's time)."""
         return time.monotonic() - self._t0
 
     def _run(self) -> None:
         period = 1.0 / self.hello.rate_hz
+        # The script waits for a station: its clock starts at the first session, so how long
+        # a (loaded) station takes to open the port and shake hands costs none of the script.
+        while not self._stop.is_set() and not self.session:
+            with self._lock:
+                if self.plugged:
+                    self._receive(0.0)
+            if not self.session:
+                time.sleep(period)
+        self._t0 = time.monotonic()
         model_t = 0.0
+        next_pose = 0.0  # model time of the next pose
         next_t = time.monotonic()
         unplugged_at: float | None = None
         while not self._stop.is_set():
@@ -278,11 +288,16 @@ class MockHapticDevice:
             with self._lock:
                 if self.plugged:
                     self._receive(now)
+                # A real device keeps its own 1 kHz clock whatever the host does: when this
+                # thread was held up, the poses of the missed periods go out now, each with
+                # the model state and the time stamp of its own period.
                 while model_t + STEP_S <= now:
                     model_t += STEP_S
                     self._physics(model_t)
-                if self.plugged and self.session and not self.muted:
-                    self._send_pose(now)
+                    if model_t + STEP_S / 2 >= next_pose:
+                        next_pose += period
+                        if self.plugged and self.session and not self.muted:
+                            self._send_pose(model_t)
             next_t += period
             wait = next_t - time.monotonic()
             if wait > 0:
@@ -296,6 +311,8 @@ class MockHapticDevice:
             data = os.read(self._master, 65536) if ready else b""
         except OSError:  # EIO: the station's side is not open (yet)
             data = b""
+        if data:  # stamped when read: this thread may have been held up since its tick began
+            now = max(now, self.now())
         before = self.decoder.stats.bad_frames
         for seq, msg in self.decoder.feed(data):
             self._handle(seq, msg, now)
