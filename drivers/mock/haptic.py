@@ -179,6 +179,8 @@ class MockHapticDevice:
         self.applied: list[tuple[float, float, float]] = []
         """(t, applied |F| in N, t of the last station frame) at every 1 ms of model time."""
         self.poses_sent: list[float] = []
+        """Device time of every pose that went out whole."""
+        self.poses_dropped = 0  # poses the station's full input buffer did not take
         self.violations = 0
         self.bad_frames = 0
         self.watchdog_trips = 0
@@ -386,9 +388,11 @@ class MockHapticDevice:
             frame[i] ^= 1 << self.rng.randrange(8)
             if frame[i] == 0:
                 frame[i] = 0x55
-        self.poses_sent.append(now)
-        _keep(self.poses_sent)
-        self._write_raw(bytes(frame))
+        if self._write_raw(bytes(frame)):
+            self.poses_sent.append(now)
+            _keep(self.poses_sent)
+        else:
+            self.poses_dropped += 1
 
     def _error(self, code: int, text: str, now: float) -> None:
         if now - self._error_sent >= 0.01:  # at most 100 error frames a second
@@ -398,10 +402,11 @@ class MockHapticDevice:
     def _write(self, msg: Message) -> None:
         self._write_raw(self.seq.frame(msg))
 
-    def _write_raw(self, data: bytes) -> None:
+    def _write_raw(self, data: bytes) -> bool:
+        """Send bytes to the station; False when they were lost (unplugged, buffer full)."""
         if not self.plugged:
-            return
+            return False
         try:
-            os.write(self._master, data)
+            return os.write(self._master, data) == len(data)
         except OSError:  # nobody reads: the pty buffer is full; like a UART, frames are lost
-            pass
+            return False
