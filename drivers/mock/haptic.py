@@ -28,12 +28,15 @@ hand leans the handle to the right).
 
 from __future__ import annotations
 
+import fcntl
 import math
 import os
 import random
 import select
 import shutil
+import struct
 import tempfile
+import termios
 import threading
 import time
 import tty
@@ -68,6 +71,8 @@ Vec3 = tuple[float, float, float]
 HandScript = Callable[[float], Vec3]
 WATCHDOG_S = 0.05
 STEP_S = 0.00025
+STATION_BUFFER = 4000
+"""Bytes the station's side of the pty holds unread before frames are lost (N_TTY: 4 KiB)."""
 KEEP = 600_000
 """Records kept per log (10 minutes at 1 kHz): a demo may run the mock for hours."""
 
@@ -403,10 +408,18 @@ class MockHapticDevice:
         self._write_raw(self.seq.frame(msg))
 
     def _write_raw(self, data: bytes) -> bool:
-        """Send bytes to the station; False when they were lost (unplugged, buffer full)."""
+        """Send a frame to the station; False when it was lost (unplugged, buffer full).
+
+        Whole frames or nothing, like a USB device's packets: a frame cut where the
+        station's input buffer filled up would reach it as a bad frame.
+        """
         if not self.plugged:
             return False
         try:
+            pending = struct.unpack("i", fcntl.ioctl(self._slave, termios.FIONREAD,
+                                                     b"\0\0\0\0"))[0]
+            if pending + len(data) > STATION_BUFFER:
+                return False  # the station is not reading: the frame is lost
             return os.write(self._master, data) == len(data)
-        except OSError:  # nobody reads: the pty buffer is full; like a UART, frames are lost
+        except OSError:
             return False
