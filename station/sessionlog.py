@@ -235,10 +235,14 @@ class SessionLogWriter:
         target: str | os.PathLike[str] | IO[str],
         header: SessionHeader,
         flush_every: float = 1.0,
+        line_buffered: bool = False,
     ) -> None:
         if isinstance(target, (str, os.PathLike)):
             self.path: Path | None = Path(target)
-            self._fh: IO[str] = open(target, "w", encoding="utf-8", newline="\n")  # noqa: SIM115
+            # line_buffered: every record reaches the OS at once (a process killed from
+            # outside leaves whole lines; fsync still follows flush_every)
+            self._fh: IO[str] = open(target, "w", encoding="utf-8", newline="\n",  # noqa: SIM115
+                                     buffering=1 if line_buffered else -1)
             self._owns = True
         else:
             self.path = None

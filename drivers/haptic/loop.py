@@ -74,6 +74,8 @@ POS_RES = 100.0  # raw position units per mm
 TILT_RES = 100.0  # raw tilt units per degree
 PRESSURE_MAX = 1000
 HISTORY = 65536  # tick times kept for the period statistics
+BACKLOG_S = 0.5
+"""Poses queued longer than this are stamped with their arrival (a device clock jump), s."""
 
 
 @dataclass
@@ -188,6 +190,7 @@ class HapticSession:
         self._last_pose: Pose | None = None
         self.realtime = "off"
         self._heartbeat = 0.0
+        self._sample_t = -math.inf
 
     # -- setup ----------------------------------------------------------------------
     def handshake(self) -> Hello:
@@ -320,8 +323,16 @@ class HapticSession:
         if len(self.tick_times) >= HISTORY:
             del self.tick_times[: HISTORY // 2]
         self.tick_times.append(now)
-        for _, msg in self.decoder.feed(self.transport.read(0)):
-            self._handle(msg, now)
+        msgs = self.decoder.feed(self.transport.read(0))
+        newest = next((m.t_us for _, m in reversed(msgs) if isinstance(m, Pose)), None)
+        for _, msg in msgs:
+            if isinstance(msg, Pose) and newest is not None:
+                # Poses that queued up while this loop was held up keep their spacing: the
+                # newest arrived now, the others the device's own time stamps earlier.
+                age = ((newest - msg.t_us) & 0xFFFFFFFF) / 1e6
+                self._pose(msg, now, now - age if age < BACKLOG_S else now)
+            else:
+                self._handle(msg, now)
         safety = self.safety
         assert safety is not None, "handshake first"
         bad = self.decoder.stats.bad_frames
@@ -370,7 +381,8 @@ class HapticSession:
             if self.stats.device_errors[msg.name] <= 3:
                 log.warning("haptic device error %s: %s", msg.name, msg.text)
 
-    def _pose(self, pose: Pose, now: float) -> None:
+    def _pose(self, pose: Pose, now: float, sample_t: float | None = None) -> None:
+        """A pose arrived ``now``; ``sample_t``: when the device took it (station clock)."""
         self.stats.poses += 1
         last = self._last_pose
         if last is not None:
@@ -388,7 +400,9 @@ class HapticSession:
         self.state = BrushState(now, (pose.x, pose.y, pose.z - self.config.paper_z),
                                 self._velocity, axis)
         if self.config.input:
-            self._sample(pose, axis, now)
+            t = now if sample_t is None else sample_t
+            self._sample_t = t = min(now, max(t, self._sample_t))  # never backwards
+            self._sample(pose, axis, t)
 
     def _sample(self, pose: Pose, axis: Vec3, now: float) -> None:
         assert self.hello is not None and self.state is not None

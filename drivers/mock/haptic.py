@@ -28,12 +28,15 @@ hand leans the handle to the right).
 
 from __future__ import annotations
 
+import fcntl
 import math
 import os
 import random
 import select
 import shutil
+import struct
 import tempfile
+import termios
 import threading
 import time
 import tty
@@ -68,6 +71,8 @@ Vec3 = tuple[float, float, float]
 HandScript = Callable[[float], Vec3]
 WATCHDOG_S = 0.05
 STEP_S = 0.00025
+STATION_BUFFER = 4000
+"""Bytes the station's side of the pty holds unread before frames are lost (N_TTY: 4 KiB)."""
 KEEP = 600_000
 """Records kept per log (10 minutes at 1 kHz): a demo may run the mock for hours."""
 
@@ -179,6 +184,8 @@ class MockHapticDevice:
         self.applied: list[tuple[float, float, float]] = []
         """(t, applied |F| in N, t of the last station frame) at every 1 ms of model time."""
         self.poses_sent: list[float] = []
+        """Device time of every pose that went out whole."""
+        self.poses_dropped = 0  # poses the station's full input buffer did not take
         self.violations = 0
         self.bad_frames = 0
         self.watchdog_trips = 0
@@ -254,12 +261,22 @@ class MockHapticDevice:
         shutil.rmtree(self._dir, ignore_errors=True)
 
     def now(self) -> float:
-        """Device clock: seconds since start()."""
+        """Device clock: seconds since a station first opened a session (the script's time)."""
         return time.monotonic() - self._t0
 
     def _run(self) -> None:
         period = 1.0 / self.hello.rate_hz
+        # The script waits for a station: its clock starts at the first session, so how long
+        # a (loaded) station takes to open the port and shake hands costs none of the script.
+        while not self._stop.is_set() and not self.session:
+            with self._lock:
+                if self.plugged:
+                    self._receive(0.0)
+            if not self.session:
+                time.sleep(period)
+        self._t0 = time.monotonic()
         model_t = 0.0
+        next_pose = 0.0  # model time of the next pose
         next_t = time.monotonic()
         unplugged_at: float | None = None
         while not self._stop.is_set():
@@ -278,11 +295,16 @@ class MockHapticDevice:
             with self._lock:
                 if self.plugged:
                     self._receive(now)
+                # A real device keeps its own 1 kHz clock whatever the host does: when this
+                # thread was held up, the poses of the missed periods go out now, each with
+                # the model state and the time stamp of its own period.
                 while model_t + STEP_S <= now:
                     model_t += STEP_S
                     self._physics(model_t)
-                if self.plugged and self.session and not self.muted:
-                    self._send_pose(now)
+                    if model_t + STEP_S / 2 >= next_pose:
+                        next_pose += period
+                        if self.plugged and self.session and not self.muted:
+                            self._send_pose(model_t)
             next_t += period
             wait = next_t - time.monotonic()
             if wait > 0:
@@ -296,6 +318,8 @@ class MockHapticDevice:
             data = os.read(self._master, 65536) if ready else b""
         except OSError:  # EIO: the station's side is not open (yet)
             data = b""
+        if data:  # stamped when read: this thread may have been held up since its tick began
+            now = max(now, self.now())
         before = self.decoder.stats.bad_frames
         for seq, msg in self.decoder.feed(data):
             self._handle(seq, msg, now)
@@ -369,9 +393,11 @@ class MockHapticDevice:
             frame[i] ^= 1 << self.rng.randrange(8)
             if frame[i] == 0:
                 frame[i] = 0x55
-        self.poses_sent.append(now)
-        _keep(self.poses_sent)
-        self._write_raw(bytes(frame))
+        if self._write_raw(bytes(frame)):
+            self.poses_sent.append(now)
+            _keep(self.poses_sent)
+        else:
+            self.poses_dropped += 1
 
     def _error(self, code: int, text: str, now: float) -> None:
         if now - self._error_sent >= 0.01:  # at most 100 error frames a second
@@ -381,10 +407,19 @@ class MockHapticDevice:
     def _write(self, msg: Message) -> None:
         self._write_raw(self.seq.frame(msg))
 
-    def _write_raw(self, data: bytes) -> None:
+    def _write_raw(self, data: bytes) -> bool:
+        """Send a frame to the station; False when it was lost (unplugged, buffer full).
+
+        Whole frames or nothing, like a USB device's packets: a frame cut where the
+        station's input buffer filled up would reach it as a bad frame.
+        """
         if not self.plugged:
-            return
+            return False
         try:
-            os.write(self._master, data)
-        except OSError:  # nobody reads: the pty buffer is full; like a UART, frames are lost
-            pass
+            pending = struct.unpack("i", fcntl.ioctl(self._slave, termios.FIONREAD,
+                                                     b"\0\0\0\0"))[0]
+            if pending + len(data) > STATION_BUFFER:
+                return False  # the station is not reading: the frame is lost
+            return os.write(self._master, data) == len(data)
+        except OSError:
+            return False

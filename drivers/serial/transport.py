@@ -2,9 +2,15 @@
 
 It moves bytes, nothing else: :meth:`SerialTransport.read` returns what has
 arrived (``b""`` when nothing came within the timeout), :meth:`write` sends a
-whole frame.  An unplugged device (read/write errors, the node vanishing)
-raises :class:`DeviceGone`; a port that cannot be opened raises
-:class:`TransportError` (or :class:`PermissionProblem`).
+whole frame.  pyserial opens and configures the port; frames are written on its
+non-blocking descriptor here, because pyserial's ``write_timeout`` counts the
+writer's own scheduling delays: a thread preempted for longer than the timeout
+inside ``write()`` gets "Write timeout" although every byte went out, and a
+loaded machine then looks like an unplugged device.  Here only a device that
+leaves its input buffer full for :data:`WRITE_TIMEOUT` is "gone".  An
+unplugged device (read/write errors, the node vanishing) raises
+:class:`DeviceGone`; a port that cannot be opened raises :class:`TransportError`
+(or :class:`PermissionProblem`).
 
 Ports are named by path (``/dev/ttyACM0``) or by USB identity
 (``usb:VID:PID[:SERIAL]``): the udev symlink ``/dev/station-haptic-…`` that
@@ -19,6 +25,7 @@ import logging
 import os
 import re
 import select
+import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -35,6 +42,11 @@ DEFAULT_BAUD = 921600
 """USB CDC ignores the baud rate; a real UART needs ≥ 500 kbaud for 1 kHz poses and forces."""
 SYMLINK_DIR = "/dev"
 GROUP = "station"
+READ_CHUNK = 4096
+MAX_CHUNKS = 256
+"""A read takes at most 1 MiB (seconds of poses): a device that floods cannot stall the loop."""
+WRITE_TIMEOUT = 0.05
+"""Seconds a device may leave its input buffer full before it counts as gone, s."""
 
 
 @dataclass(frozen=True)
@@ -111,7 +123,7 @@ class SerialTransport:
         factory = serial_factory or serial.Serial
         try:
             # exclusive: a second driver on the same device fails instead of stealing frames.
-            self._serial = factory(port, baudrate=baudrate, timeout=0, write_timeout=0.05,
+            self._serial = factory(port, baudrate=baudrate, timeout=0, write_timeout=0,
                                    exclusive=True)
         except serial.SerialException as exc:
             err = getattr(exc, "errno", None)
@@ -125,6 +137,12 @@ class SerialTransport:
             self._serial.set_low_latency_mode(True)
         except (AttributeError, OSError, ValueError, serial.SerialException):
             pass  # a pty or a CDC device has no latency timer
+        try:
+            # pyserial opens it so already; write() relies on it never blocking.
+            os.set_blocking(self.fileno(), False)
+        except (AttributeError, OSError, ValueError, serial.SerialException) as exc:
+            self.close()
+            raise TransportError(f"{port}: cannot make the port non-blocking ({exc})") from None
         self.bytes_in = 0
         self.bytes_out = 0
 
@@ -132,28 +150,57 @@ class SerialTransport:
         return int(self._serial.fileno())
 
     def read(self, timeout: float | None = 0.0) -> bytes:
-        """Bytes that arrived (waiting up to ``timeout`` s for the first).
+        """All the bytes that arrived (waiting up to ``timeout`` s for the first).
 
-        Raises DeviceGone when the device is unplugged.
+        All of them: a loop that was held up must catch up with the device at once, not
+        4 KiB a tick behind it (its forces would follow ever older poses).  Raises
+        DeviceGone when the device is unplugged.
         """
         try:
             if timeout:
                 ready, _, _ = select.select([self._serial.fileno()], [], [], timeout)
                 if not ready:
                     return b""
-            data = bytes(self._serial.read(4096))
+            chunks = [bytes(self._serial.read(READ_CHUNK))]
+            while len(chunks[-1]) == READ_CHUNK and len(chunks) < MAX_CHUNKS:
+                chunks.append(bytes(self._serial.read(READ_CHUNK)))
+            data = b"".join(chunks)
         except (self._error, OSError, ValueError, TypeError) as exc:
             raise DeviceGone(f"{self.port}: {exc}") from None
         self.bytes_in += len(data)
         return data
 
     def write(self, data: bytes) -> None:
-        """Send one frame whole; DeviceGone if the device went away or stopped reading."""
+        """Send one frame whole; DeviceGone if the device went away or stopped reading.
+
+        Waits for room only while the port's buffer is full, and judges the
+        device by whether it drains that buffer within :data:`WRITE_TIMEOUT`,
+        not by the time this thread spent preempted.
+        """
+        view = memoryview(data)
+        deadline: float | None = None
         try:
-            n = self._serial.write(data)
+            fd = self.fileno()
+            while view:
+                try:
+                    n = os.write(fd, view)
+                except BlockingIOError:
+                    n = 0
+                view = view[n:]
+                if not view:
+                    break
+                now = time.monotonic()
+                if deadline is None:
+                    deadline = now + WRITE_TIMEOUT
+                # After a stall of our own the deadline may be past: a zero-timeout select
+                # still reports a buffer the device has drained meanwhile.
+                _, ready, _ = select.select([], [fd], [], max(0.0, deadline - now))
+                if not ready:
+                    raise DeviceGone(f"{self.port}: the device stopped reading (its input "
+                                     f"buffer stayed full for {WRITE_TIMEOUT * 1000:.0f} ms)")
         except (self._error, OSError, ValueError, TypeError) as exc:
             raise DeviceGone(f"{self.port}: {exc}") from None
-        self.bytes_out += int(n or 0)
+        self.bytes_out += len(data)
 
     def close(self) -> None:
         try:

@@ -32,6 +32,9 @@ CHANGED: pass 3 levels ``P = (w + paper_relief h) - flow_outward (1 - M')`` inst
   0.5 -> 0.1 (Stokes settling of micron pigment through a film takes tens of seconds).
 CHANGED: tiles.HALO = 2 (was 1): a dry cell next to a wet one can join the wet area,
   absorb, and pass capillary water one cell further within the step.
+NOTE (API): ``stencil_radius(params) = jacobi_iters + STENCIL_RADIUS_EXTRA`` bounds how far
+  one step reaches (the distributed canvas's halo); a term that reaches farther must raise
+  ``STENCIL_RADIUS_EXTRA`` (``tests/test_stencil_radius.py`` measures it).
 NOTE (API): ``PASS_ORDER`` names the passes; ``step_region(state, box, dt, stop_after=name)``
   writes the fields back right after pass ``name`` (pass-by-pass comparisons).
 NOTE (no maths change): pass 1 computes the bilinear weight from the displacement,
@@ -566,6 +569,24 @@ PASS_ORDER = (
     "capillary", "dry_cells",
 )
 """The passes of one step, in order (the contract the GL backend follows)."""
+
+STENCIL_RADIUS_EXTRA = 6
+"""How far one step reaches beyond its Jacobi iterations [cells, Chebyshev distance].
+
+A cell's new value depends on old values at most ``stencil_radius(params)`` cells away:
+pass 1 reaches 1 cell (bilinear back-trace, ``|v dt| <= 1``); pass 2 adds one per
+Jacobi iteration (velocity: ``1 + n``); passes 4/5 reach ``n`` (iterations) ``+ 1``
+(face fluxes) ``+ 1`` (the donor limiter of the neighbour); pass 6 adds 2 (face rates
+and the limiters ``s_out``/``s_in`` of the neighbour) on top of ``n + 2``; pass 7 and
+the capillary diffusion of pass 9 add one each: ``n + 6``. The distributed canvas uses
+it as its halo width; ``tests/test_stencil_radius.py`` measures it, so a new term that
+reaches farther must raise this constant.
+"""
+
+
+def stencil_radius(prm: SimParams) -> int:
+    """Halo one step needs: ``jacobi_iters + STENCIL_RADIUS_EXTRA`` [cells]."""
+    return int(prm.jacobi_iters) + STENCIL_RADIUS_EXTRA
 
 
 def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,

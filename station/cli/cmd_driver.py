@@ -148,7 +148,7 @@ def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
                 status("failed", error=str(exc))
                 raise
             source = _wait_for_device(args, stop, status)
-            if source is None:  # stopped while waiting
+            if source is None:  # stopped while waiting, or a finite source ended meanwhile
                 return 0
         if args.jsonl:
             writer = SessionLogWriter(args.jsonl, SessionHeader(extra={"source": args.device}))
@@ -241,18 +241,24 @@ def _replugged_spec(spec: str, identity: dict[str, Any] | None) -> str:
 
 def _wait_for_device(args: argparse.Namespace, stop: threading.Event, status: Any,
                      identity: dict[str, Any] | None = None) -> Any:
-    """Try to reopen the device every 0.5 s until it is back (or we are stopped).
+    """Try to reopen the device every 0.5 s until it is back (or we are stopped, or it has
+    ended: a finite source that reports EndOfStream; None then).
 
     An evdev device is also looked for by name and ids, as a replug may give it
     another event node."""
     from station.drivers.pipeline import open_device
-    from station.drivers.transport.base import TransportError
+    from station.drivers.transport.base import EndOfStream, TransportError
 
     next_note = 0.0
     while not stop.is_set():
         try:
             return open_device(_replugged_spec(args.device, identity),
                                name=args.name, send_init=not args.no_init)
+        except EndOfStream as exc:
+            # A finite script that ended while we were away will never come back: waiting
+            # for it (EndOfStream is a TransportError too) would hang the driver for good.
+            status("done", error=str(exc))
+            return None
         except TransportError as exc:
             if time.monotonic() >= next_note:
                 status("waiting", error=str(exc))

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import sys
+from typing import Any
 
 from station.sim.paint import parse_size
 
@@ -49,6 +51,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--mapping", choices=("fit", "stretch"), default="fit",
                    help="device traces: fit keeps the tablet's aspect ratio (letterboxed, "
                         "centred; the default), stretch fills the canvas")
+    p.add_argument("--distributed", action="store_true",
+                   help="one canvas over all ranks of an MPI job: mpiexec -n N station paint "
+                        "... --distributed (needs the mpi extra; see docs/distributed.md)")
     p.set_defaults(func=run)
 
 
@@ -56,11 +61,18 @@ def run(args: argparse.Namespace) -> int:
     from station.sim.paint import paint
 
     size = parse_size(args.size) if args.size else None
-    result = paint(args.input, args.output, size=size, profile=args.profile,
-                   backend=args.backend, stats_path=args.stats,
-                   state_path=args.state, bits=args.bits, rate=args.rate, settle=args.settle,
-                   resume=args.resume, mapping=args.mapping, render_scale=args.scale)
-    if args.json:
+    guard: Any = contextlib.nullcontext()
+    if args.distributed:
+        from station.distributed.guard import abort_job_on_error
+
+        guard = abort_job_on_error()
+    with guard:
+        result = paint(args.input, args.output, size=size, profile=args.profile,
+                       backend=args.backend, stats_path=args.stats,
+                       state_path=args.state, bits=args.bits, rate=args.rate,
+                       settle=args.settle, resume=args.resume, mapping=args.mapping,
+                       render_scale=args.scale, distributed=args.distributed)
+    if args.json and result.root:
         json.dump({"width": result.width, "height": result.height, "profile": result.profile,
                    "backend": result.backend, "renderer": result.renderer,
                    "steps": result.steps, "painting_seconds": result.painting_seconds,

@@ -6,11 +6,15 @@ import argparse
 import json
 import math
 import sys
+from typing import TYPE_CHECKING
 
 from station.cli.argtypes import seconds_or_zero
 from station.cli.cmd_paint import BACKEND_HELP, BACKENDS
-from station.errors import BadInput
+from station.errors import BadInput, StationError
 from station.sim.paint import check_outputs, load_resume_state, parse_size
+
+if TYPE_CHECKING:
+    from station.sim.live import LiveConfig, LiveSim
 
 MAX_AUTOSAVE_S = 86400.0
 
@@ -53,6 +57,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--cmd", metavar="ENDPOINT",
                    help="where `station send` reaches this sim (default @ipc:sim-cmd; "
                         "'none' to disable)")
+    p.add_argument("--distributed", action="store_true",
+                   help="one canvas over all ranks of an MPI job: mpiexec -n N station sim "
+                        "... --distributed; rank 0 reads the bus and writes log, state and "
+                        "status (see docs/distributed.md)")
     p.set_defaults(func=run)
 
 
@@ -81,7 +89,19 @@ def run(args: argparse.Namespace) -> int:
                      log_path=args.log, state_path=args.state, png_path=args.png,
                      status=args.status, duration=args.duration, resume=args.resume,
                      autosave=args.autosave, recover=args.recover, cmd=args.cmd)
-    sim = LiveSim(cfg)
+    if args.distributed:
+        from station.distributed.guard import abort_job_on_error
+
+        with abort_job_on_error():
+            if _follower(cfg):
+                return 0
+            cfg.distributed = True
+            return _lead(LiveSim(cfg))
+    return _lead(LiveSim(cfg))
+
+
+def _lead(sim: LiveSim) -> int:
+    cfg = sim.cfg
     sim.install_signal_handlers()
     sys.stderr.write(f"station sim: {cfg.width}x{cfg.height} {cfg.profile} on {sim.backend_name}, "
                      f"{sim.player.rate:g} steps/s, subscribed to {sim.sub.endpoints[0].url}, "
@@ -92,3 +112,25 @@ def run(args: argparse.Namespace) -> int:
                                "lost_samples", "synthetic_pen_ups", "storage_failures")})
         + "\n")
     return 0
+
+
+def _follower(cfg: LiveConfig) -> bool:
+    """On ranks other than 0 of an MPI job: follow rank 0's canvas calls; True when done."""
+    import signal
+
+    from station.sim.paint import make_distributed
+
+    try:
+        from mpi4py import MPI
+    except ImportError as exc:
+        raise StationError(f"--distributed needs mpi4py and an MPI library (pip install "
+                           f"'painting-station[mpi]'): {exc}") from None
+    if MPI.COMM_WORLD.Get_rank() == 0:
+        return False
+    from station.distributed.relay import follow
+
+    canvas, _name = make_distributed(cfg.backend, cfg.width, cfg.height, cfg.profile, cfg.seed)
+    # Ctrl-C reaches every rank; rank 0 alone decides when to stop (then tells the others)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    follow(canvas)
+    return True

@@ -106,6 +106,7 @@ class LiveConfig:
     recover: str | None = None  # continue this session log (autosave + replay)
     cmd: str | None = None  # command endpoint for `station send`; "none" disables
     backend_opts: dict[str, Any] = field(default_factory=dict)  # e.g. ctx= of a kiosk window
+    distributed: bool = False  # rank 0 of an MPI job: the canvas spans every rank
 
 
 def default_status_endpoint(bus: str | None) -> str:
@@ -177,8 +178,18 @@ class LiveCore:
             start = CanvasState.load(cfg.resume)
             cfg.width, cfg.height = start.width, start.height
             cfg.profile, cfg.seed = start.profile, start.seed
-        self.canvas, self.backend_name = make_backend(cfg.backend, cfg.width, cfg.height,
-                                                      cfg.profile, cfg.seed, **cfg.backend_opts)
+        self.canvas: Any
+        if cfg.distributed:  # this is rank 0; the others follow (station.distributed.relay)
+            from station.distributed.relay import Leader
+            from station.sim.paint import make_distributed
+
+            dist, self.backend_name = make_distributed(cfg.backend, cfg.width, cfg.height,
+                                                       cfg.profile, cfg.seed)
+            self.canvas = Leader(dist)
+        else:
+            self.canvas, self.backend_name = make_backend(cfg.backend, cfg.width, cfg.height,
+                                                          cfg.profile, cfg.seed,
+                                                          **cfg.backend_opts)
         if start is not None:
             self.canvas.load_state(start)
         session = plan.session if plan is not None else None
@@ -569,10 +580,15 @@ class LiveCore:
         t_end = math.ceil(t_end * 1e6) / 1e6
         self._last_t = t_end
         self.journal.write(Command(t=t_end, cmd="wait", args={"seconds": 0.0}))
+        if self.cfg.distributed:
+            # the log is whole before the canvas is gathered: that needs every rank alive
+            self.journal.flush()
         self.write_outputs()
         if self.cfg.autosave and not p.brush.drawing:
             self.autosave()
         self.journal.close()
+        if self.cfg.distributed and hasattr(self.canvas, "close"):
+            self.canvas.close()  # the follower ranks return
 
 
 class LiveSim(LiveCore):

@@ -96,6 +96,8 @@ class PaintResult:
     counters: dict[str, Any] = field(default_factory=dict)
     written: list[str] = field(default_factory=list)
     error: BadInput | None = None
+    root: bool = True
+    """False on the ranks of a distributed run that do not write (nor print)."""
 
 
 # -- inputs -------------------------------------------------------------------------
@@ -215,6 +217,7 @@ def paint(
     resume: str | None = None,
     mapping: str = "fit",
     render_scale: int = 1,
+    distributed: bool = False,
 ) -> PaintResult:
     """Paint ``input_path`` headless; see the module docstring for errors.
 
@@ -222,6 +225,10 @@ def paint(
     canvas.  ``resume`` continues a saved canvas state (``--state`` of an earlier run)
     instead of blank paper: its size, profile and seed win over the session
     header's; brush sizes are not rescaled.
+
+    ``distributed``: every rank of the MPI job runs this same call (``mpiexec -n N
+    station paint ... --distributed``) on a :class:`DistributedCanvas`; rank 0 writes
+    the outputs (see docs/distributed.md).
 
     Returns the :class:`PaintResult`; a bad record mid-file raises after the
     outputs are written (``result.error`` is set on the exception as
@@ -266,8 +273,12 @@ def paint(
                 and not isinstance(logged_rate, bool):
             rate = float(logged_rate)  # the rate the session was recorded at
         seed = start.seed if start is not None else header.seed
-        canvas, backend = make_backend(backend, width, height, prof.name, seed,
-                                       **(backend_opts or {}))
+        if distributed:
+            canvas, backend = make_distributed(backend, width, height, prof.name, seed,
+                                               **(backend_opts or {}))
+        else:
+            canvas, backend = make_backend(backend, width, height, prof.name, seed,
+                                           **(backend_opts or {}))
         if start is not None:
             canvas.load_state(start)
         palette = default_palette()
@@ -275,8 +286,9 @@ def paint(
                                brush_scale=scale)
         if start is not None:
             player.layer_pigments.update(start.slots)
+        root = bool(getattr(canvas, "is_root", True))  # a distributed canvas: rank 0 shows it
         bar = Progress(_session_length(input_path) + settle, "painting", unit="s",
-                       show=progress)
+                       show=progress if root else False)
 
         def prog(p: SessionPlayer) -> None:
             bar.set(p.painting_time)
@@ -299,7 +311,7 @@ def paint(
             renderer=str(getattr(canvas, "renderer", backend)), steps=player.counters.steps,
             painting_seconds=player.painting_time, wall_seconds=wall,
             counters={**player.counters.as_dict(), **player.brush_counters()},
-            error=error,
+            error=error, root=root,
         )
         write_outputs(canvas, result, out_png, state_path, stats_path, bits, render_scale)
     finally:
@@ -313,28 +325,58 @@ def paint(
     return result
 
 
+def make_distributed(name: str, width: int, height: int, profile: str, seed: int,
+                     **opts: Any) -> tuple[Any, str]:
+    """A :class:`~station.distributed.canvas.DistributedCanvas` stepping ``name``
+    (``auto``: cpu when numba is installed, else numpy) on every rank's strip."""
+    from station.canvas.backend import fastest_cpu_backend
+
+    if name == "auto":
+        name = fastest_cpu_backend()
+    if name not in ("numpy", "cpu"):
+        raise PaintInputError(f"--distributed steps the numpy or cpu backend, not {name!r}",
+                              "--backend")
+    try:
+        dist = importlib.import_module("station.distributed.canvas")
+    except ImportError as exc:
+        raise StationError(f"--distributed needs mpi4py and an MPI library (pip install "
+                           f"'painting-station[mpi]'): {exc}") from None
+    canvas = dist.DistributedCanvas(width, height, profile, seed, base=name, **opts)
+    return canvas, f"distributed-{name}"
+
+
 def write_outputs(canvas: Any, result: PaintResult, out_png: str | None,
                   state_path: str | None, stats_path: str | None, bits: int,
                   render_scale: int = 1) -> None:
     """Render and write the PNG (at ``render_scale`` pixels per cell), the state and the
-    stats (each when asked)."""
+    stats (each when asked).
+
+    A distributed canvas gathers on every rank (collective calls) and its root writes.
+    """
     from station.canvas.params import get_profile
     from station.canvas.upscale import render_scaled
 
+    root = bool(getattr(canvas, "is_root", True))
     try:
         if out_png:
             if render_scale > 1:
                 st = canvas.state()
-                rgb = render_scaled(st, get_profile(st.profile).renderer, render_scale)
+                rgb = render_scaled(st, get_profile(st.profile).renderer, render_scale) \
+                    if root else None
             else:
                 rgb = canvas.render()
-            write_image(out_png, rgb, bits)
+            if root:
+                write_image(out_png, rgb, bits)
             result.written.append(out_png)
         if state_path:
-            canvas.state().save(state_path)
+            st = canvas.state()
+            if root:
+                st.save(state_path)
             result.written.append(state_path)
         if stats_path:
             stats = canvas.stats()
+            if not root:
+                return
             stats["player"] = result.counters
             with open(stats_path, "w", encoding="utf-8") as fh:
                 json.dump(stats, fh, indent=2)

@@ -1,0 +1,135 @@
+"""Moving rectangles of canvas fields between ranks (non-blocking point-to-point MPI).
+
+A *rect* is ``(r0, r1, c0, c1)`` in canvas cells. Every rank builds the same plan
+(who sends which rects to whom) from replicated data, so messages need no headers:
+the receiver knows the sizes. All rects from one rank to another travel in one
+float32 buffer, in plan order.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from mpi4py import MPI
+
+from station.canvas.state import CanvasState
+
+Rect = tuple[int, int, int, int]
+
+PLANES = ("vx", "vy", "w", "wc", "h", "mask", "block", "block_time", "evaporated",
+          "removed_w")
+STACKS = ("p", "q", "removed_p")
+ALL_FIELDS = (*PLANES, *STACKS, "r_composed")
+"""Every per-cell field of :class:`CanvasState` (rebalancing and scattering move these)."""
+DYNAMIC_FIELDS = ("vx", "vy", "w", "wc", "p", "q")
+"""The fields a step changes and its neighbours read (the halo exchange moves these;
+``evaporated`` also changes but is never read across cells)."""
+
+TAG_HALO = 11
+TAG_MOVE = 12
+TAG_RELAY = 13
+
+SPIN_S = 2e-4
+"""How long a waiting rank polls flat out before it starts sleeping between polls [s]."""
+NAP_S = 5e-5
+"""Sleep between polls after that [s]."""
+
+
+def wait_obj(req: MPI.Request) -> Any:
+    """The object of a pickled receive (``comm.irecv``), waited for like :func:`wait_all`."""
+    give_up_spin = time.perf_counter() + SPIN_S
+    while True:
+        done, obj = req.test()
+        if done:
+            return obj
+        if time.perf_counter() > give_up_spin:
+            time.sleep(NAP_S)
+
+
+def wait_all(reqs: Sequence[MPI.Request]) -> None:
+    """``Waitall`` that gives the core away: MPICH's blocking waits spin at 100 % CPU,
+    so a rank waiting for a busier neighbour would take the core that neighbour needs
+    on an oversubscribed or shared machine. Spin briefly, then test and nap."""
+    if not reqs:
+        return
+    give_up_spin = time.perf_counter() + SPIN_S
+    while not MPI.Request.Testall(list(reqs)):
+        if time.perf_counter() > give_up_spin:
+            time.sleep(NAP_S)
+
+
+def _views(st: CanvasState, off: int, rect: Rect, names: Sequence[str],
+           slots: int) -> list[np.ndarray]:
+    r0, r1, c0, c1 = rect
+    a, b = r0 - off, r1 - off
+    out = []
+    for n in names:
+        arr = getattr(st, n)
+        if n in STACKS:
+            out.append(arr[:slots, a:b, c0:c1])
+        else:  # planes (H, W) and r_composed (H, W, 3)
+            out.append(arr[a:b, c0:c1])
+    return out
+
+
+def rect_size(rect: Rect, names: Sequence[str], slots: int) -> int:
+    """float32 values of ``names`` in ``rect``."""
+    cells = (rect[1] - rect[0]) * (rect[3] - rect[2])
+    per = sum(slots if n in STACKS else 3 if n == "r_composed" else 1 for n in names)
+    return cells * per
+
+
+def pack(st: CanvasState, off: int, rects: Sequence[Rect], names: Sequence[str],
+         slots: int) -> np.ndarray:
+    """The fields of ``rects`` (``st`` holds canvas row ``off`` at its row 0) in one buffer."""
+    parts = [v.ravel() for r in rects for v in _views(st, off, r, names, slots)]
+    if not parts:
+        return np.zeros(0, np.float32)
+    return np.concatenate(parts).astype(np.float32, copy=False)
+
+
+def unpack(buf: np.ndarray, st: CanvasState, off: int, rects: Sequence[Rect],
+           names: Sequence[str], slots: int) -> None:
+    """Write a buffer made by :func:`pack` for the same rects into ``st``."""
+    pos = 0
+    for r in rects:
+        for v in _views(st, off, r, names, slots):
+            n = v.size
+            v[...] = buf[pos:pos + n].reshape(v.shape)
+            pos += n
+
+
+def move(comm: MPI.Comm, src: CanvasState | None, src_off: int, dst: CanvasState,
+         dst_off: int, plan: Mapping[tuple[int, int], Sequence[Rect]],
+         names: Sequence[str], slots: int, tag: int) -> int:
+    """Carry out ``plan`` (``(from_rank, to_rank) -> rects``); returns bytes sent.
+
+    Receives are posted first, then sends; rects a rank moves to itself are copied.
+    ``src`` may be ``None`` on a rank that sends nothing.
+    """
+    me = comm.Get_rank()
+    reqs = []
+    incoming: list[tuple[np.ndarray, Sequence[Rect]]] = []
+    for (a, b), rects in plan.items():
+        if b == me and a != me:
+            buf = np.empty(sum(rect_size(r, names, slots) for r in rects), np.float32)
+            reqs.append(comm.Irecv(buf, source=a, tag=tag))
+            incoming.append((buf, rects))
+    sent = 0
+    outgoing = []
+    for (a, b), rects in plan.items():
+        if a == me and b != me and src is not None:
+            buf = pack(src, src_off, rects, names, slots)
+            outgoing.append(buf)  # kept alive until Waitall
+            reqs.append(comm.Isend(buf, dest=b, tag=tag))
+            sent += buf.nbytes
+    own = plan.get((me, me))
+    if own and src is not None:
+        unpack(pack(src, src_off, own, names, slots), dst, dst_off, own, names, slots)
+    wait_all(reqs)
+    for buf, rects in incoming:
+        unpack(buf, dst, dst_off, rects, names, slots)
+    return sent
