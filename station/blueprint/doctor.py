@@ -175,7 +175,7 @@ def check_calibration(plan: Plan | None) -> list[Check]:
             if c.kind == "driver" and c.get("vid") and c.get("calibration", "auto") == "auto" \
                     and not any(w.interface == "calibration" for w in c.requires):
                 vid, pid = int(c.attrs["vid"], 16), int(c.attrs["pid"], 16)
-                found = find_for_device(vid, pid, c.get("serial"))
+                found = find_for_device(vid, pid)
                 if found is None:
                     checks.append(Check("calibration", "fail",
                                         f"{c.id}: no calibration for {c.attrs['vid']}:"

@@ -367,8 +367,6 @@ def _source(c: Component, target: str, binds: list[str], waits: int,
         spec = c.attrs["device"]
     else:  # a selector: hidapi finds the device by its ids wherever it is plugged
         spec = f"hidapi:{c.attrs['vid'].lower()}:{c.attrs['pid'].lower()}"
-        if c.get("serial"):
-            spec += f"?serial={c.attrs['serial']}"
     argv = ["driver", "--device", spec, "--bus", target, "--name", c.get("name") or c.id,
             "--wait-subscribers", str(waits)]
     cal = [w for w in c.requires if w.interface == "calibration"]
