@@ -13,6 +13,7 @@ layout(rgba32f, binding = 2) uniform readonly image2D water_in;
 layout(rgba32f, binding = 3) uniform readonly image2D paper_in;
 layout(rgba32f, binding = 4) uniform writeonly image2D aux_out;
 layout(rgba32f, binding = 5) uniform writeonly image2D jv_out;
+layout(rg32f, binding = 6) uniform readonly image2D fibre_in;   // fibre along x, along y
 
 uniform float u_dt;
 uniform float u_moist;        // moist_threshold [height]
@@ -20,6 +21,7 @@ uniform float u_sim_time;     // [s]
 uniform float u_block_fade;   // [s]
 uniform float u_block_paper;  // share of paper height in the blocking value
 uniform float u_advance;      // advance_height [height] (0: contact line pinned)
+uniform float u_wick;         // fibre_wick: a fibre along the axis lowers the advancing height
 
 bool wet_at(ivec2 c) {
     vec4 wa = imageLoad(water_in, c);
@@ -41,13 +43,15 @@ void main() {
     bool wet = (wa.x > 0.0 || wa.y > u_moist) && pa.y == 0.0;
     if (!wet && u_advance > 0.0 && pa.y == 0.0) {
         // the contact line advances into this dry cell when a neighbour's fluid water
-        // stands above its advancing height advance_height (1.5 - h)
-        float nb = 0.0;
+        // stands above its advancing height advance_height (1.5 - h), times
+        // (1 - fibre_wick * fibre) along the axis of that neighbour (x: .x, y: .y)
+        float thr = u_advance * (1.5 - pa.x);
+        vec2 fib = u_wick > 0.0 ? imageLoad(fibre_in, c).xy : vec2(0.0);
         for (int f = 0; f < 4; ++f) {
             ivec2 n = c + OFFS[f];
-            if (inside(n)) nb = max(nb, imageLoad(water_in, n).x);
+            float along = OFFS[f].x != 0 ? fib.x : fib.y;
+            if (inside(n) && imageLoad(water_in, n).x > thr * (1.0 - u_wick * along)) wet = true;
         }
-        wet = nb > u_advance * (1.5 - pa.x);
     }
     // diffusion controller: beta_c = min(1 - block_paper (1 - h), block_eff)
     float age = u_block_fade > 0.0 ? clamp((u_sim_time - pa.w) / u_block_fade, 0.0, 1.0) : 1.0;

@@ -272,3 +272,19 @@ def test_bench_sim_measures_the_cpu_backend(capsys) -> None:
     for r in out["results"]:
         assert r["steps_per_s"] > 0 and r["bytes_per_cell_step"] > 0
         assert r["renderer"].startswith("cpu")
+
+
+def test_fibre_wick_on_rough_paper_is_bitwise_equal() -> None:
+    """The ink profile's front running along the paper's fibres (fibre_wick) agrees bit
+    for bit, and the fibres change the result (the comparison is not vacuous)."""
+    a = _random_canvas(NumpyCanvas, 4, profile="ink")
+    b = _random_canvas(CpuCanvas, 4, profile="ink")
+    assert a.live_state.params.fibre_wick > 0 and a.live_state.fibre.any()
+    flat = _random_canvas(NumpyCanvas, 4, profile="ink",
+                          params=dataclasses.replace(get_profile("ink").params, fibre_wick=0.0))
+    for _ in range(30):
+        for c in (a, b, flat):
+            c.step()
+    for f in FIELDS:
+        assert np.array_equal(getattr(a.live_state, f), getattr(b.live_state, f)), f
+    assert not np.array_equal(a.live_state.w, flat.live_state.w)

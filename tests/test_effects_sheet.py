@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -9,23 +10,25 @@ import pytest
 from PIL import Image
 
 from station.canvas import effects as fx
+from station.canvas.params import get_profile
 from station.cli import main
 
 
 def test_effects_json_and_sheet(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "fx.png"
-    code = main(["effects", "-o", str(out), "--json", "--only", "density,ink_bleed",
+    code = main(["effects", "-o", str(out), "--json", "--only", "density,ink_bleed,glazing",
                  "--scale", "2"])
     cap = capsys.readouterr()
     assert code == 0, cap.err
     data = json.loads(cap.out)
-    assert set(data) == {"density", "ink bleed"}
+    assert set(data) == {"density", "ink bleed", "glazing"}
     dens = data["density"]
     assert dens["ok"] and dens["checks"] == {"heavy settles faster": True}
     assert dens["numbers"]["settled_heavy_2s"] > 2 * dens["numbers"]["settled_light_2s"]
     with Image.open(out) as im:
         assert im.mode == "RGB" and im.size[0] > 2 * 64 and im.size[1] > 2 * 48
-    assert "missed: ink bleed" in cap.err  # the sheet reports what misses its threshold
+    assert data["ink bleed"]["ok"] and "missed: ink bleed" not in cap.err
+    assert "missed: glazing" in cap.err  # the sheet reports what misses its threshold
 
 
 @pytest.mark.parametrize("flags", [["--only", "sparkle"], ["--only", ","],
@@ -59,15 +62,21 @@ def test_wet_in_wet_stroke_spreads_twice_its_footprint() -> None:
                  "no feathering mechanism in a shiny wash")
 
 
-@pytest.mark.xfail(strict=True, reason="ink spreads ~1.2x with a smooth edge: no fibre "
-                   "texture drives anisotropic capillary flow yet")
 def test_ink_bleeds_along_fibres() -> None:
-    assert fx.ink_bleed().ok
+    e = fx.ink_bleed()
+    assert e.ok, e.numbers
+    # the fibres do it: the same stroke on the same paper with the front pinned along
+    # fibres (fibre_wick 0) neither spreads nor feathers as far
+    assert e.numbers["feather"] >= 1.3 and e.numbers["spread_area_ratio"] >= 1.3
+    pinned = fx.ink_bleed(dataclasses.replace(get_profile("ink").params, fibre_wick=0.0))
+    assert pinned.numbers["feather"] < e.numbers["feather"] - 0.2, pinned.numbers
+    assert pinned.numbers["spread_area_ratio"] < e.numbers["spread_area_ratio"], pinned.numbers
 
 
 def test_render_scale_smooths_edges_and_keeps_cell_means(tmp_path: Path) -> None:
     import numpy as np
 
+    from station.canvas.measure import _contour_segments
     from station.canvas.numpy_backend import NumpyCanvas
     from station.canvas.params import CanvasInputError
     from station.canvas.scenarios import disc, paint, run_until_dry
@@ -89,11 +98,25 @@ def test_render_scale_smooths_edges_and_keeps_cell_means(tmp_path: Path) -> None
     # detail below the cell: pixels of one cell differ (paper grain, granulation)
     cells = three.reshape(40, 3, 40, 3, 3).transpose(0, 2, 1, 3, 4)
     assert cells[inner].std(axis=(1, 2)).mean() > 1e-3
-    # smoother edge: the largest step between neighbouring pixels across the rim is
-    # smaller than between neighbouring cells at one pixel per cell
-    lum1 = one.mean(axis=2)
-    lum3 = three.mean(axis=2)
-    assert np.abs(np.diff(lum3, axis=1)).max() < 0.8 * np.abs(np.diff(lum1, axis=1)).max()
+    # no staircase: a deposit whose cells end in a 45-degree staircase renders with a
+    # straight edge at 4 pixels per cell (its 1/2 iso-line keeps row + col within a
+    # quarter cell; plain bicubic fields wiggle by about half a cell)
+    flat = NumpyCanvas(32, 32, seed=1).state()
+    k = flat.slot_of("French Ultramarine")
+    yy, xx = np.mgrid[0:32, 0:32]
+    flat.q[k] = np.where(xx + yy < 30, 0.3, 0.0).astype(np.float32)
+    lum = render_scaled(flat, "km", 4).mean(axis=2)
+    level = 0.5 * (np.median(lum[:32, :32]) + np.median(lum[-32:, -32:]))
+    mid = _contour_segments(lum, float(level)).mean(axis=1) / 4  # [cells]
+    diag = mid.sum(axis=1)
+    diag = diag[(mid[:, 0] > 4) & (mid[:, 0] < 26) & (np.abs(diag - 30) < 5)]
+    assert len(diag) > 100 and np.ptp(diag) < 0.25, (len(diag), np.ptp(diag))
+    # a lone painted cell stays visible (a round dot about a cell wide)
+    dot = NumpyCanvas(12, 12, seed=1).state()
+    dot.q[dot.slot_of("French Ultramarine"), 6, 6] = 0.5
+    lum = render_scaled(dot, "km", 4).mean(axis=2)
+    assert lum[24:28, 24:28].mean() < lum[:8, :8].mean() - 0.1
+    assert (lum < lum[:8, :8].mean() - 0.1).sum() >= 12
     for bad in (0, 5):
         with pytest.raises(CanvasInputError):
             render_scaled(st, "km", bad)

@@ -16,6 +16,7 @@ import pytest
 
 from station.canvas import reference as ref
 from station.canvas.palette import default_palette
+from station.canvas.paper import make_fibres
 from station.canvas.params import SimParams
 from station.canvas.render import render_state
 from station.canvas.state import CanvasState
@@ -99,7 +100,7 @@ def test_state_round_trip_is_lossless(ctx) -> None:
     c.load_state(st)
     back = c.state()
     for name in ("vx", "vy", "w", "wc", "h", "mask", "block", "block_time", "p", "q",
-                 "r_composed", "evaporated", "removed_w", "removed_p", "tile_ttl"):
+                 "r_composed", "evaporated", "removed_w", "removed_p", "tile_ttl", "fibre"):
         assert np.array_equal(getattr(back, name), getattr(st, name)), name
     assert back.slots == st.slots and back.sim_time == st.sim_time
     assert back.water_added == st.water_added
@@ -121,6 +122,19 @@ def test_prep_wet_controller_and_velocity_advection(ctx) -> None:
     assert np.array_equal(jv[..., 3] >= 0, wet)
     close("beta_c", jv[..., 3][wet], beta_c[wet])
     assert wet.sum() > 500 and (~wet).sum() > 300  # both kinds of cell present
+
+
+def test_prep_front_runs_along_fibres(ctx) -> None:
+    """fibre_wick: the advancing height is lowered along the paper's fibres, per axis."""
+    st = random_state(2, params=SimParams(fibre_wick=1.0))
+    st.fibre = make_fibres("rough", H, W, 3)
+    c = gl_canvas(ctx, st)
+    c._pass_prep()
+    wet = ref.wet_mask(st.w, st.wc, st.mask, st.params, st.h, st.fibre)
+    jv = read_rgba(c, c.jv[0])
+    assert np.array_equal(jv[..., 3] >= 0, wet)
+    plain = ref.wet_mask(st.w, st.wc, st.mask, st.params, st.h)
+    assert (wet & ~plain).sum() >= 5  # the fibres carried the front on
 
 
 @pytest.mark.parametrize("iters", [1, 4])

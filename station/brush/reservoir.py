@@ -17,9 +17,8 @@ arrays is exactly what the brush gains: reservoir + canvas is conserved.
   paint comes along).  The canvas books the pigment and water it loses in its
   ``removed_p`` / ``removed_w`` fields like every tool that takes paint.
 
-The canvas-side lift lives here as :func:`pickup`, a narrow function on the
-:class:`~station.canvas.state.CanvasState` arrays (issue 10 adds a canvas
-pickup interface; the two are to be unified).
+:func:`pickup` moves what the canvas-side interface
+:func:`station.canvas.tools.pickup` takes off the canvas into the reservoir.
 """
 
 from __future__ import annotations
@@ -30,6 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from station.canvas.state import CanvasState
+from station.canvas.tools import pickup as canvas_pickup
 
 W_WET = 0.1
 """Fluid water height at which a cell's paint comes along fully."""
@@ -106,40 +106,22 @@ def pickup(state: CanvasState, res: Reservoir, weight: np.ndarray, y0: int, x0: 
            rate: float) -> dict[str, float]:
     """Lift wet paint under ``weight`` (placed at ``y0, x0``) into ``res``.
 
-    Returns the pigment lifted per name.  Only the fluid layer is touched
-    (deposited pigment ``q`` stays: it has settled into the paper).
+    The canvas side is :func:`station.canvas.tools.pickup` (no scrubbing: a loaded brush
+    gliding over paint lifts the suspended pigment only, deposited pigment ``q`` stays;
+    the drink follows the standing water up to ``W_WET`` and stops when the brush is
+    full).  Returns the pigment lifted per name.
     """
-    h, w = weight.shape
-    ya, yb = max(y0, 0), min(y0 + h, state.height)
-    xa, xb = max(x0, 0), min(x0 + w, state.width)
+    if rate <= 0.0:
+        return {}
+    got = canvas_pickup(state, weight, y0=y0, x0=x0, thirst=min(float(rate), 1.0),
+                        scrub=0.0, wet_depth=W_WET,
+                        room=max(0.0, res.capacity - res.volume))
+    res.volume += got.water
     out: dict[str, float] = {}
-    if ya >= yb or xa >= xb or rate <= 0.0:
-        return out
-    sl = (slice(ya, yb), slice(xa, xb))
-    wt = weight[ya - y0:yb - y0, xa - x0:xb - x0].astype(np.float32)
-    water = state.w[sl]
-    live = state.mask[sl] == 0
-    share = np.where(live, np.float32(rate) * wt * np.clip(water / np.float32(W_WET), 0, 1),
-                     np.float32(0.0)).astype(np.float32)
-    if not share.any():
-        return out
-    room = max(0.0, res.capacity - res.volume)
-    lift_w = share * water
-    total_w = float(lift_w.sum(dtype=np.float64))
-    if total_w > room and total_w > 0.0:  # a full brush takes no more water
-        lift_w *= np.float32(room / total_w)
-    state.w[sl] = water - lift_w
-    state.removed_w[sl] += lift_w
-    res.volume += float(lift_w.sum(dtype=np.float64))
-    for k, name in enumerate(state.slots):
-        plane = state.p[k][sl]
-        lift = share * plane
-        got = float(lift.sum(dtype=np.float64))
-        if got <= 0.0:
+    for name, m in got.pigment.items():
+        if m <= 0.0:
             continue
-        state.p[k][sl] = plane - lift
-        state.removed_p[k][sl] += lift
-        res.mass[name] = res.mass.get(name, 0.0) + got
-        _book(res.picked, name, got)
-        out[name] = got
+        res.mass[name] = res.mass.get(name, 0.0) + m
+        _book(res.picked, name, m)
+        out[name] = m
     return out

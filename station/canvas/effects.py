@@ -246,8 +246,10 @@ def gouache_over_dark() -> Effect:
                   {"covers the dark": hide >= 0.8}, c.render())
 
 
-def ink_bleed() -> Effect:
-    c = NumpyCanvas(64, 48, profile="ink", seed=3)
+def ink_bleed(params: SimParams | None = None) -> Effect:
+    """A stroke of Sumi ink on the ink profile's absorbent, fibrous paper (``params``
+    replace the profile's, for comparisons)."""
+    c = NumpyCanvas(64, 48, profile="ink", seed=3, params=params)
     fp = rect(48, 64, 20, 28, 8, 56)
     _layer(c, fp, {"Sumi Ink": 0.4}, water=0.6)
     sp = spread(c.live_state.q[0], fp)

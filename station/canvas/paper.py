@@ -1,7 +1,18 @@
-"""Paper height from seedable Worley (cellular) noise (Worley 1996, seed 4.7.1).
+"""Paper height from seedable Worley (cellular) noise (Worley 1996, seed 4.7.1), and
+the paper's fibre texture.
 
 The height ``h`` in ``[0, 1]`` drives granulation, the capillary capacity
 ``c = c_min + h (c_max - c_min)`` and the diffusion controller.
+
+The fibre texture (:func:`make_fibres`, MoXi's fibre feathering; the seed's ch. 4
+capillary layer) is a set of straight fibres laid at random positions and orientations
+with a preset's coverage and mean length. Per cell it holds how much fibre runs along x
+and along y: ``fibre[0] = min(1, sum cos^2 theta)``, ``fibre[1] = min(1, sum sin^2 theta)``
+over the fibres crossing the cell (each counted by its length inside the cell). Water
+runs along a fibre where it would stay pinned on the felt between fibres: the wet mask
+lowers a dry cell's advancing height by ``1 - fibre_wick * fibre`` for the neighbours on
+the fibre's axis (``SimParams.fibre_wick``), so the front, and the ink it carries, feathers
+out along the fibres.
 """
 
 from __future__ import annotations
@@ -21,6 +32,9 @@ class PaperPreset:
     octaves: tuple[tuple[float, float], ...]
     low: float  # h range after rescaling: [low, high]
     high: float
+    # fibre texture: coverage (fibre length per cell area, ~ fibres crossing a cell) and
+    # mean fibre length [cells]; (0, 0): no fibre texture
+    fibres: tuple[float, float] = (0.0, 0.0)
 
 
 PAPER_PRESETS: dict[str, PaperPreset] = {
@@ -28,8 +42,10 @@ PAPER_PRESETS: dict[str, PaperPreset] = {
     "hot-press": PaperPreset("hot-press", ((12.0, 1.0), (5.0, 0.3)), 0.3, 0.7),
     # the watercolourist's cold-pressed paper: medium tooth, full range
     "cold-press": PaperPreset("cold-press", ((7.0, 1.0), (3.0, 0.5)), 0.0, 1.0),
-    # rough / absorbent paper for ink: small cells plus fine fibre noise
-    "rough": PaperPreset("rough", ((4.0, 1.0), (2.0, 0.7), (1.3, 0.4)), 0.0, 1.0),
+    # rough / absorbent paper for ink (xuan-like): small cells plus fine fibre noise, and a
+    # felt of long fibres the ink wicks along
+    "rough": PaperPreset("rough", ((4.0, 1.0), (2.0, 0.7), (1.3, 0.4)), 0.0, 1.0,
+                         fibres=(0.35, 14.0)),
 }
 
 
@@ -78,3 +94,38 @@ def make_paper(preset: str, height: int, width: int, seed: int) -> np.ndarray:
     norm = (total - lo) / (hi - lo) if hi > lo else np.zeros_like(total)
     h = np.float32(p.low) + norm * np.float32(p.high - p.low)
     return np.clip(h, 0.0, 1.0).astype(np.float32)
+
+
+def make_fibres(preset: str, height: int, width: int, seed: int) -> np.ndarray:
+    """The fibre texture of ``preset`` (float32 (2, H, W) in [0, 1]: fibre along x, along
+    y), deterministic in ``seed``; zeros for a preset without fibres."""
+    try:
+        p = PAPER_PRESETS[preset]
+    except KeyError:
+        raise CanvasInputError(
+            f"unknown paper preset {preset!r} (known: {', '.join(PAPER_PRESETS)})", "paper"
+        ) from None
+    out = np.zeros((2, height, width), np.float32)
+    coverage, length = p.fibres
+    if coverage <= 0 or length <= 0:
+        return out
+    rng = np.random.default_rng(seed + 104729)  # own stream: h is unchanged by fibres
+    n = max(1, int(round(coverage * height * width / length)))
+    cy = rng.random(n) * height
+    cx = rng.random(n) * width
+    theta = rng.random(n) * np.pi
+    lens = length * (0.5 + rng.random(n))  # lengths uniform in [L/2, 3L/2]
+    # sample each fibre every half cell; each sample stands for half a cell of fibre
+    m = int(np.ceil(lens.max() / 0.5)) + 1
+    t = (np.arange(m)[None, :] / (m - 1) - 0.5) * lens[:, None]
+    keep = np.abs(t) <= lens[:, None] / 2
+    ys = np.floor(cy[:, None] + t * np.sin(theta)[:, None]).astype(np.int64)
+    xs = np.floor(cx[:, None] + t * np.cos(theta)[:, None]).astype(np.int64)
+    keep &= (ys >= 0) & (ys < height) & (xs >= 0) & (xs < width)
+    seg = (lens / (m - 1))[:, None] * np.ones((1, m))  # fibre length per sample
+    flat = (ys * width + xs)[keep]
+    for axis, share in enumerate((np.cos(theta) ** 2, np.sin(theta) ** 2)):
+        acc = np.bincount(flat, weights=(seg * share[:, None])[keep],
+                          minlength=height * width)
+        out[axis] = np.minimum(acc, 1.0).reshape(height, width)
+    return out

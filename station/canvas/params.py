@@ -60,6 +60,10 @@ class SimParams:
             it carries) flows towards the pinned edge while the stroke dries.
         advance_height: a dry cell joins the wet area when a 4-neighbour's fluid water
             exceeds ``advance_height * (1.5 - h)`` [height] (0: pinned at the footprint);
+        fibre_wick: how far a paper fibre running along a face's axis lowers that
+            advancing height, ``* (1 - fibre_wick * fibre)`` (``paper.make_fibres``; 1: the
+            water runs freely along a whole fibre, the ink bleed of absorbent paper) [1];
+            0: the fibre texture is not used.
             the contact line creeps on where the paper lets it, so edges follow the grain.
         paper_relief: relief of the paper under the water [height per unit of ``h``]: the
             water-height term levels the free surface ``w + paper_relief * h``, so water
@@ -110,6 +114,7 @@ class SimParams:
     wet_blur: float = 2.0
     alpha: float = 0.03
     cap_diffusion: float = 1.5
+    fibre_wick: float = 0.0
     eps_cap: float = 0.004
     temperature: float = 20.0
     humidity: float = 0.5
@@ -163,6 +168,8 @@ class SimParams:
             raise CanvasInputError("temperature must lie in [-10, 60] C", "params")
         if not 0 <= self.humidity <= 0.99:
             raise CanvasInputError("humidity must lie in [0, 0.99]", "params")
+        if not 0 <= self.fibre_wick <= 1:
+            raise CanvasInputError("fibre_wick must be in [0, 1]", "params")
         if not 0 <= self.block_paper <= 1:
             raise CanvasInputError("block_paper must lie in [0, 1]", "params")
 
@@ -283,13 +290,15 @@ PROFILES: dict[str, Profile] = {
         description="opaque concentration blend with a white pigment, hot-press paper",
     ),
     # Oriental ink (seed 6.3.3): rough absorbent paper (higher absorption, faster
-    # capillary spread) and a dense black pigment; the diffusion controller blocks
-    # pigment on paper fibres (low h) to give feathery edges.
+    # capillary spread) with a felt of long fibres the ink runs along (fibre_wick: the
+    # contact line is not pinned along a fibre; MoXi's fibre feathering) and a dense black
+    # pigment; the diffusion controller blocks pigment on paper fibres (low h).
     "ink": Profile(
         name="ink",
         params=_WATERCOLOR.replace(
-            alpha=0.12, cap_diffusion=3.0, moist_threshold=0.15, nu_p=0.8,
+            alpha=0.05, cap_diffusion=3.0, moist_threshold=0.15, nu_p=0.8,
             block_paper=0.7, eps_cap=0.006, flow_outward=0.0, surface_rate=0.5,
+            fibre_wick=1.0,
         ),
         paper="rough",
         renderer="km",

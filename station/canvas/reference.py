@@ -23,6 +23,10 @@ CHANGED: bookkeeping: ``CanvasState.evaporated_folded`` (float64 metadata, defau
   increments: 6e-5 relative error after 18k steps without folding, 2e-6 with).
 CHANGED: wet mask: a dry unmasked cell is wet when a 4-neighbour's w exceeds
   ``advance_height * (1.5 - h)`` (new SimParams field; cells outside the region have w 0).
+CHANGED: wet mask along the paper's fibres: with ``fibre_wick > 0`` the advancing height
+  is ``advance_height * (1.5 - h) * (1 - fibre_wick * fibre[0])`` for the two x
+  neighbours and ``... * fibre[1]`` for the two y neighbours (``CanvasState.fibre``, the
+  paper's fibre texture): the front runs on along fibres (ink bleed).
 CHANGED: passes 7 and 9c use ``prm.evap_shallow()`` / ``prm.evap_cap()``: eps_shallow and
   eps_cap scaled by the drying power of the air (temperature, humidity, airflow); exactly
   eps_* at the reference conditions 20 C, 50 %, airflow 1.
@@ -172,16 +176,30 @@ def own_wet(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams) -> 
 
 
 def wet_mask(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams,
-             h: np.ndarray) -> np.ndarray:
+             h: np.ndarray, fibre: np.ndarray | None = None) -> np.ndarray:
     """Cells taking part in the fluid and surface layers this step (bool (H, W)).
 
     With ``advance_height > 0`` an unmasked dry cell also joins when
     a 4-neighbour's fluid water stands above the cell's advancing height
     ``advance_height * (1.5 - h)``: the contact line creeps on where the paper lets it.
+    With ``fibre_wick > 0`` and the fibre texture ``fibre`` (2, H, W), that height is
+    lowered by ``1 - fibre_wick * fibre[axis]`` for the neighbours on each axis: along a
+    fibre the water is not pinned.
     """
     own = own_wet(w, wc, mask, prm)
     if prm.advance_height > 0:
         thr = F32(prm.advance_height) * (F32(1.5) - h)
+        if prm.fibre_wick > 0 and fibre is not None:
+            # a fibre along the face axis wicks the front on: lower pinning height
+            thx = thr * (_ONE - F32(prm.fibre_wick) * fibre[0])
+            thy = thr * (_ONE - F32(prm.fibre_wick) * fibre[1])
+            nx = np.zeros(w.shape, F32)
+            nx[:, :-1] = w[:, 1:]
+            nx[:, 1:] = np.maximum(nx[:, 1:], w[:, :-1])
+            ny = np.zeros(w.shape, F32)
+            ny[:-1, :] = w[1:, :]
+            ny[1:, :] = np.maximum(ny[1:, :], w[:-1, :])
+            return own | (((nx > thx) | (ny > thy)) & (mask == 0))
         nb = np.zeros(w.shape, F32)
         nb[:, :-1] = w[:, 1:]
         nb[:, 1:] = np.maximum(nb[:, 1:], w[:, :-1])
@@ -615,7 +633,8 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     pp = p[:n_used]
     qq = q[:n_used]
 
-    wet = wet_mask(w, wc, mask, prm, h)
+    fib = state.fibre[:, ys, xs]
+    wet = wet_mask(w, wc, mask, prm, h, fib)
     for name in PASS_ORDER:
         if name == "advect_velocity":
             vx, vy = advect_velocity(vx, vy, wet, dt)

@@ -6,6 +6,9 @@ Array fields (float32, shape (H, W) unless noted):
 - surface layer: ``q`` (S, H, W) [area fraction];
 - capillary layer: ``wc`` [height];
 - paper: ``h`` in [0, 1] (capacity is derived: ``c = c_min + h (c_max - c_min)``);
+  ``fibre`` (2, H, W) in [0, 1], the fibre texture (along x, along y) of the paper
+  preset (``paper.make_fibres``; static, regenerated from preset and seed when a saved
+  state lacks it);
 - tools: ``mask`` in {0, 1}; ``block`` in [0, 1] (1 = free) with ``block_time``, the
   simulated time [s] at which the pattern was written (its age is ``sim_time -
   block_time``; storing the write time instead of an age keeps the field static
@@ -34,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from station.canvas.palette import Palette, Pigment, default_palette
+from station.canvas.paper import make_fibres
 from station.canvas.params import CanvasInputError, SimParams, get_profile
 from station.durable import atomic_write
 
@@ -94,6 +98,11 @@ class CanvasState:
     pigment_removed_past: dict[str, float] = field(default_factory=dict)
     pigment_dried: dict[str, float] = field(default_factory=dict)
     layers: list[dict[str, float]] = field(default_factory=list)
+    fibre: np.ndarray = field(default_factory=lambda: np.zeros((2, 0, 0), np.float32))
+
+    def __post_init__(self) -> None:
+        if self.fibre.shape != (2, self.height, self.width):
+            self.fibre = make_fibres(self.paper_preset, self.height, self.width, self.seed)
 
     # ----------------------------------------------------------------- creation
     @classmethod
@@ -206,6 +215,7 @@ class CanvasState:
         arrays = {n: getattr(self, n) for n in _PLANE_FIELDS}
         arrays.update({n: getattr(self, n)[:used] for n in _STACK_FIELDS})
         arrays["r_composed"] = self.r_composed
+        arrays["fibre"] = self.fibre
         arrays["tile_ttl"] = self.tile_ttl
         meta = np.array(json.dumps(self.metadata()))
         arrays["meta"] = meta
@@ -264,6 +274,10 @@ class CanvasState:
                 arrays[name] = full
             for s in slots:
                 palette.get(s)
+            fib = files.get("fibre")  # optional: older states regenerate it (same seed)
+            if (fib is not None and fib.shape == (2, height, width) and fib.dtype == np.float32
+                    and np.isfinite(fib).all()):
+                arrays["fibre"] = np.ascontiguousarray(fib)
             st = cls(
                 width=width, height=height, params=params, palette=palette, profile=profile,
                 paper_preset=str(meta["paper_preset"]), seed=int(meta["seed"]),

@@ -152,7 +152,8 @@ class Pickup:
 
 
 def pickup(state: CanvasState, weight: np.ndarray, *, y0: int = 0, x0: int = 0,
-           thirst: float = 0.8, scrub: float = 0.25) -> Pickup:
+           thirst: float = 0.8, scrub: float = 0.25, wet_depth: float = 0.0,
+           room: float = float("inf")) -> Pickup:
     """A brush footprint ``weight`` (contact in [0, 1], top-left at row ``y0``, column
     ``x0``) touching the canvas takes paint into the brush.
 
@@ -163,9 +164,17 @@ def pickup(state: CanvasState, weight: np.ndarray, *, y0: int = 0, x0: int = 0,
     (pigment leaves with the water that carries it). Everything taken is booked in
     ``removed_w`` / ``removed_p`` and returned. A dry canvas gives nothing: a brush
     only lifts paint it has wetted first. ``thirst`` in [0, 1], ``scrub`` >= 0 [1].
+
+    Two limits for a brush that is already loaded (the deformable brush's dirty-brush
+    pickup calls this function): ``wet_depth`` > 0 [height] makes the drink follow the
+    standing water, ``share * clip(w / wet_depth, 0, 1)`` (bristles reach a puddle, not a
+    damp film); ``room`` [height * cells] is the water the brush can still hold: a fuller
+    take is scaled down as a whole (water and the pigment it carries).
     """
-    if not (0.0 <= thirst <= 1.0) or not (0.0 <= scrub <= 50.0):
-        raise CanvasInputError("pickup needs thirst in [0, 1] and scrub in [0, 50]", "pickup")
+    if (not (0.0 <= thirst <= 1.0) or not (0.0 <= scrub <= 50.0) or not wet_depth >= 0.0
+            or not room >= 0.0):
+        raise CanvasInputError("pickup needs thirst in [0, 1], scrub in [0, 50], "
+                               "wet_depth >= 0 and room >= 0", "pickup")
     wgt_all = _weights(weight)
     win = _window(state, wgt_all.shape, y0, x0)
     names = state.slot_pigments()
@@ -184,7 +193,13 @@ def pickup(state: CanvasState, weight: np.ndarray, *, y0: int = 0, x0: int = 0,
     p = p + lift
     q = q - lift
     share = np.where(wet, F32(thirst) * wgt, F32(0)).astype(F32)
+    if wet_depth > 0.0:
+        share = (share * np.clip(w / F32(wet_depth), F32(0), F32(1))).astype(F32)
     tw = w * share
+    total = float(tw.sum(dtype=np.float64))
+    if total > room:  # a full brush takes no more
+        share = (share * F32(room / total)).astype(F32)
+        tw = w * share
     tp = p * share
     state.w[ys, xs] = w - tw
     state.p[:ns, ys, xs] = p - tp

@@ -78,7 +78,8 @@ C_BPAPER = 23     # block_paper
 C_ADV = 24        # advance_height
 C_ETA = 25        # flow_outward
 C_RELIEF = 26     # paper_relief
-N_CONST = 27
+C_WICK = 27       # fibre_wick
+N_CONST = 28
 
 # the sweeps: rows in parallel; IEEE float32 maths exactly as written (no fastmath, no FMA
 # contraction), numpy's error model (division without ZeroDivision checks: every division
@@ -115,15 +116,18 @@ def zero_ring3(a: np.ndarray, ns: int, bh: int, bw: int) -> None:
 @_parallel
 def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np.ndarray,
          p: np.ndarray, h: np.ndarray, block: np.ndarray, block_time: np.ndarray,
-         y0: int, x0: int, bh: int, bw: int, ns: int, cst: np.ndarray,
+         fibre: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int, cst: np.ndarray,
          wet_o: np.ndarray, w0_o: np.ndarray, p0_o: np.ndarray, bc_o: np.ndarray,
          vsx_o: np.ndarray, vsy_o: np.ndarray, c_o: np.ndarray, opn_o: np.ndarray,
          own_o: np.ndarray) -> None:
     """Wet mask (once per step; own water, or the advancing contact line: a neighbour's
-    w above ``advance_height (1.5 - h)``, cells outside the box count as w = 0), the own
-    wet area, copies, beta_c (diffusion controller), capacity, open."""
+    w above ``advance_height (1.5 - h)``, lowered along the paper's fibres by
+    ``1 - fibre_wick * fibre[axis]`` for the neighbours on that axis; cells outside the box
+    count as w = 0), the own wet area, copies, beta_c (diffusion controller), capacity,
+    open."""
     moist = cst[C_MOIST]
     adv = cst[C_ADV]
+    wick = cst[C_WICK]
     one5 = np.float32(1.5)
     t_now = cst[C_TIME]
     fade = cst[C_FADE]
@@ -140,14 +144,22 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
             own_o[j, i] = ONE if own else ZERO
             wet = own
             if adv > ZERO and un and not own:
+                thr = adv * (one5 - h[y, x])
                 nb = w[y, np.uint64(x0 + i)] if i < bw else ZERO
                 t = w[y, np.uint64(x0 + i - 2)] if i > 1 else ZERO
                 nb = nb if nb > t else t
-                t = w[y + 1, x] if j < bh else ZERO
-                nb = nb if nb > t else t
-                t = w[y - 1, x] if j > 1 else ZERO
-                nb = nb if nb > t else t
-                wet = nb > adv * (one5 - h[y, x])
+                if wick > ZERO:
+                    ny = w[y + 1, x] if j < bh else ZERO
+                    t = w[y - 1, x] if j > 1 else ZERO
+                    ny = ny if ny > t else t
+                    wet = (nb > thr * (ONE - wick * fibre[0, y, x])) | \
+                        (ny > thr * (ONE - wick * fibre[1, y, x]))
+                else:
+                    t = w[y + 1, x] if j < bh else ZERO
+                    nb = nb if nb > t else t
+                    t = w[y - 1, x] if j > 1 else ZERO
+                    nb = nb if nb > t else t
+                    wet = nb > thr
             wf = ONE if wet else ZERO
             wet_o[j, i] = wf
             w0_o[j, i] = wv

@@ -54,6 +54,7 @@ def constants(prm: SimParams, dt: float, sim_time: float) -> np.ndarray:
     c[K.C_ADV] = F32(prm.advance_height)
     c[K.C_ETA] = F32(prm.flow_outward)
     c[K.C_RELIEF] = F32(prm.paper_relief)
+    c[K.C_WICK] = F32(prm.fibre_wick)
     return c
 
 
@@ -112,7 +113,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     do_p = prm.nu_p * dt > 0 and runs("diffuse_pigment")
 
     K.prep(state.w, state.wc, state.mask, state.vx, state.vy, state.p, state.h,
-           state.block, state.block_time, y0, x0, bh, bw, ns, cst,
+           state.block, state.block_time, state.fibre, y0, x0, bh, bw, ns, cst,
            s2["wet"], s2["w0"], s3["p0"], s2["bc"], s2["vsx"], s2["vsy"], s2["c"], s2["opn"],
            s2["own"])
     wet, bc, w0, p0 = s2["wet"], s2["bc"], s2["w0"], s3["p0"]

@@ -199,6 +199,8 @@ class GLCanvas:
         for t in f["water"].textures:
             t.write(tx.pack_planes(st.w, st.wc, st.evaporated, st.removed_w).tobytes())
         f["paper"].src.write(tx.pack_planes(st.h, st.mask, st.block, st.block_time).tobytes())
+        f["fibre"].src.write(tx.pack_planes(st.fibre[0], st.fibre[1]).tobytes())
+        self.fibre = st.fibre.copy()  # static: the state read back carries this copy
         for t in f["pig"].textures:
             t.write(tx.pack_stack(st.p, self.npl).tobytes())
         f["dep"].src.write(tx.pack_stack(st.q, self.npl).tobytes())
@@ -258,7 +260,7 @@ class GLCanvas:
             profile=self.profile, paper_preset=self.paper_preset, seed=self.seed,
             vx=vx, vy=vy, w=w, wc=wc, h=h, mask=mask, block=block, block_time=block_time,
             p=p, q=q, r_composed=np.ascontiguousarray(rc), evaporated=evap, removed_w=rem_w,
-            removed_p=rp, tile_ttl=ttl.copy(), slots=list(self.slots),
+            removed_p=rp, tile_ttl=ttl.copy(), slots=list(self.slots), fibre=self.fibre.copy(),
             step_count=self.step_count, sim_time=self.sim_time, tiling=self.tiling,
             water_added=self.water_added_base + float(added[0]),
             evaporated_folded=self.evaporated_folded_base + float(
@@ -429,6 +431,7 @@ class GLCanvas:
         _set(p["prep"], "u_block_fade", prm.block_fade)
         _set(p["prep"], "u_block_paper", prm.block_paper)
         _set(p["prep"], "u_advance", prm.advance_height)
+        _set(p["prep"], "u_wick", prm.fibre_wick)
         taps = reference.gaussian_taps(prm.wet_blur) if prm.flow_outward > 0 else np.zeros(0, F32)
         if len(taps) > 17:
             raise CanvasInputError("wet_blur too large for the GL backend (at most 4)", "params")
@@ -504,6 +507,7 @@ class GLCanvas:
         self._bind(3, f["paper"].src, True, False)
         self._bind(4, self.aux, False, True)
         self._bind(5, self.jv[0], False, True)
+        self._bind(6, f["fibre"].src, True, False)
         self._dispatch("prep")
         self._bind(1, f["water"].src, True, False)
         self._bind(2, f["paper"].src, True, False)

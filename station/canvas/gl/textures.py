@@ -14,6 +14,7 @@ texture     format      pp     channels
 ``dep``     RGBA32F[L]  no     deposited pigment q, 4 slots per layer
 ``rem``     RGBA32F[L]  no     removed pigment (tool accumulator)
 ``rcomp``   RGBA32F     no     r_composed RGB, 1
+``fibre``   RG32F       no     the paper's fibre texture: along x, along y (static)
 ==========  ==========  =====  ===========================================
 
 With the default 8 slots the pigments of a layer sit in two RGBA32F layers
@@ -71,6 +72,7 @@ def allocate(ctx: Any, width: int, height: int, n_layers: int) -> dict[str, Fiel
         Field("dep", 4, n_layers, False),
         Field("rem", 4, n_layers, False),
         Field("rcomp", 4, 0, False),
+        Field("fibre", 2, 0, False),
     ]
     out: dict[str, Field] = {}
     for f in specs:
