@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from conftest import needs_pty
 
 SMALL = ["--set", "sim.backend=numpy", "--set", "sim.width=64", "--set", "sim.height=48",
          "--set", "sim.rate=40"]
@@ -259,6 +260,7 @@ def test_kiosk_blueprint_under_xvfb(tmp_path: Path) -> None:
     assert (tmp_path / "gallery").is_dir()
 
 
+@needs_pty
 def test_trace_and_haptic_device_through_the_bus(tmp_path: Path) -> None:
     """A <replay> of a recorded trace and a <haptic> mock device on one canvas."""
     rec = station("record", "--device", "mock:intuos-pro-m?script=arc&speed=max",

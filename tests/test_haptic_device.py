@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import needs_pty
 from station.drivers.haptic import source as haptic_source
 from station.drivers.haptic.safety import ForceLimits
 from station.drivers.pipeline import DeviceSpec, PenDriver, open_device
@@ -27,7 +28,7 @@ from station.cli import cmd_driver, main
 from station.events import PenSample
 from station.sessionlog import read_session
 
-pytestmark = pytest.mark.timeout(60)
+pytestmark = [pytest.mark.timeout(60), needs_pty]
 
 
 @pytest.fixture(autouse=True)
