@@ -154,6 +154,8 @@ def parse_tslib(
     except ValueError:
         raise CalibrationFileError(f"pointercal values {text.strip()!r} are not integers",
                                    where) from None
+    if any(not -(1 << 31) <= v < 1 << 31 for v in ints):  # tslib reads C ints
+        raise CalibrationFileError("pointercal values must fit 32-bit integers", where)
     if len(ints) >= 9:
         xres, yres = ints[7], ints[8]
     if len(ints) == 10 and ints[9] != 0:

@@ -146,6 +146,8 @@ def from_json(rec: Any, where: str = "<calibration>") -> Calibration:
         raise
     except CalibrationError as exc:
         raise CalibrationFileError(str(exc), where) from None
+    except OverflowError:  # an integer of hundreds of digits passes the schema's "number"
+        raise CalibrationFileError("a number in the file is too large", where) from None
 
 
 def _reject_constant(name: str) -> float:
@@ -157,6 +159,8 @@ def loads(text: str, where: str = "<calibration>") -> Calibration:
         rec = json.loads(text, parse_constant=_reject_constant)
     except ValueError as exc:
         raise CalibrationFileError(f"not valid JSON ({exc})", where) from None
+    except RecursionError:  # "[[[[…": the decoder recurses per level
+        raise CalibrationFileError("not valid JSON (nested too deeply)", where) from None
     return from_json(rec, where)
 
 

@@ -22,6 +22,9 @@ from station.calibration.fit import PointSet
 
 REQUIRED = ("device_x", "device_y", "canvas_x", "canvas_y")
 TILT = ("tilt_x", "tilt_y")
+MAX_ABS = 1e9
+"""Largest magnitude a coordinate may have: no tablet reports a billion units, and
+squares of larger numbers (1e308) overflow in the fit's statistics."""
 
 
 def _lines(text: str) -> Iterable[tuple[int, str]]:
@@ -37,7 +40,10 @@ def parse_points(text: str, name: str = "<points>") -> PointSet:
     if not rows:
         raise CalibrationError("empty file: no header", f"{name}:1")
     head_no, head = rows[0]
-    header = [h.strip().lower() for h in next(csv.reader([head]))]
+    try:
+        header = [h.strip().lower() for h in next(csv.reader([head]))]
+    except csv.Error as exc:
+        raise CalibrationError(f"not a CSV header ({exc})", f"{name}:{head_no}") from None
     missing = [c for c in REQUIRED if c not in header]
     if missing:
         raise CalibrationError(
@@ -52,7 +58,10 @@ def parse_points(text: str, name: str = "<points>") -> PointSet:
     labels: list[str] = []
     for number, line in rows[1:]:
         where = f"{name}:{number}"
-        fields = next(csv.reader([line]))
+        try:
+            fields = next(csv.reader([line]))
+        except csv.Error as exc:  # a field past the csv module's 128 KiB limit, a NUL
+            raise CalibrationError(f"not a CSV line ({exc})", where) from None
         if len(fields) < len(header):
             raise CalibrationError(
                 f"{len(fields)} fields, the header has {len(header)}", where
@@ -68,6 +77,10 @@ def parse_points(text: str, name: str = "<points>") -> PointSet:
                 ) from None
             if not math.isfinite(v):
                 raise DegeneratePoints(f"{header[c]} is {text_value}, not a finite number", where)
+            if abs(v) > MAX_ABS:
+                raise CalibrationError(
+                    f"{header[c]} {text_value} is out of range (at most {MAX_ABS:g} in size: "
+                    "device units, canvas-normalised or degrees)", where)
             row.append(v)
         values.append(row)
         labels.append(where)

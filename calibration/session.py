@@ -22,6 +22,27 @@ default threshold 15 px):
   five) of the accepted taps must predict the new tap's target within the
   threshold.
 
+A tap that the fit of the accepted taps does not predict is not blamed
+blindly: an earlier tap can be the misclick (one accepted while the taps so far
+could not check it, e.g. the fourth target's, checked only for its column
+against the collinear top row) and its error then pollutes the fit that judges
+every later tap.  So on a conflict each tap of the set, the new one included,
+is left out in turn; a tap is a *suspect* when the others agree among
+themselves (every one of them predicted by an affine fit of the rest — the
+leave-one-out residual — within the threshold) and the fit of the others puts
+it beyond the threshold.  Then:
+
+* the new tap the only suspect (or no suspect at all): it is rejected;
+* one suspect, an earlier tap: that tap is withdrawn (its target is asked
+  again at the end) and the new tap accepted;
+* several earlier suspects, the new tap not among them: it is accepted and
+  the final check (:meth:`CalibrationSession.finish`) asks the suspects again;
+* the new tap and one earlier tap, which no redundant set of taps has checked
+  yet: nothing tells which is wrong, so the new tap is accepted provisionally
+  when it keeps its row and column (judged without the other suspect) and the
+  next tap decides;
+* anything else: the new tap is rejected.
+
 A rejected tap is reported and the same target is asked again; a re-tap that
 lands where the rejected one did (within the threshold) is accepted — the
 user insists, so the provisional model is what is wrong — and left to the
@@ -30,6 +51,7 @@ final robust fit to judge.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -231,10 +253,46 @@ class CalibrationSession:
             if mapping is not None:
                 pred = mapping.map(d_new[None])[0]
                 err = float(np.hypot(*(pred - c_new)))
-                verdict = err <= thr
-                why = "" if verdict else f"misclick: {err:.0f} px from the predicted target"
-                return verdict, why, (float(pred[0]), float(pred[1]))
+                at = (float(pred[0]), float(pred[1]))
+                if err <= thr:
+                    return True, "", at
+                return self._judge_conflict(acc, dev, can, d_new, c_new, thr, err, at)
         return self._check_alignment(dev, can, d_new, c_new, thr)
+
+    def _judge_conflict(
+        self, acc: list[TapResult], dev: np.ndarray, can: np.ndarray, d_new: np.ndarray,
+        c_new: np.ndarray, thr: float, err: float, at: tuple[float, float],
+    ) -> tuple[bool, str, tuple[float, float] | None]:
+        """The new tap disagrees with the fit of the accepted ones: find the misclick."""
+        pd = np.vstack([dev, d_new[None]])
+        pc = np.vstack([can, c_new[None]])
+        new = len(pd) - 1
+        suspects = _suspects(pd, pc, thr)
+        rejected = False, f"misclick: {err:.0f} px from the predicted target", at
+        old = [j for j in suspects if j != new]
+        if not old:
+            return rejected
+        if new not in suspects:
+            if len(old) == 1:
+                self._withdraw(acc[old[0]], loo_miss(pd, pc, old[0]))
+                return True, (f"the earlier tap at target {acc[old[0]].target + 1} was "
+                              "the misclick and is asked again"), at
+            names = ", ".join(str(acc[j].target + 1) for j in old)
+            return True, f"targets {names} disagree: the final check asks them again", at
+        if len(old) == 1:
+            others = np.arange(len(dev)) != old[0]  # the suspect cannot vouch for it
+            ok, why, _ = self._check_alignment(dev[others], can[others], d_new, c_new, thr)
+            if ok:
+                return True, (f"provisional: disagrees with target {acc[old[0]].target + 1}; "
+                              "the next tap decides which was the misclick"), at
+            return False, why, at
+        return rejected
+
+    def _withdraw(self, res: TapResult, err: float) -> None:
+        """An accepted tap turned out to be the misclick: un-accept it, ask it again."""
+        res.accepted = False
+        res.reason = f"misclick found by later taps: {err:.0f} px off the fit of the others"
+        self._add(res.xy, self.hints[res.target], STEP_TAP)
 
     def _check_alignment(
         self, dev: np.ndarray, can: np.ndarray, d_new: np.ndarray, c_new: np.ndarray, thr: float
@@ -259,6 +317,20 @@ class CalibrationSession:
                         f"(allowed {allow:.0f})"
                     ), None
         return True, "", None
+
+    def _leave_one_out_suspects(self) -> list[int]:
+        """Position taps (indices into :attr:`position_taps`) that the others disagree with.
+
+        The final fit's own outlier test needs redundancy a small set may lack; this
+        is the on-the-spot test of :meth:`_judge_conflict` over the whole set.
+        """
+        acc = self.position_taps
+        idx = [k for k, r in enumerate(acc) if self.hints[r.target] is None]
+        if len(idx) < 4:
+            return []
+        dev = np.array([self._px(np.array([acc[k].tap.x, acc[k].tap.y])) for k in idx])
+        can = np.array([self._px(np.array(acc[k].xy)) for k in idx])
+        return [idx[j] for j in _suspects(dev, can, self.misclick_px)]
 
     # -- result ------------------------------------------------------------
     def _press_settings(self) -> None:
@@ -286,6 +358,7 @@ class CalibrationSession:
         suspects = set(report.outliers)
         for i, others in report.ambiguous.items():
             suspects.update([i, *others])
+        suspects.update(self._leave_one_out_suspects())
         if not suspects or self.reasked:
             return True
         self.reasked = True
@@ -298,3 +371,47 @@ class CalibrationSession:
             self._add(res.xy, self.hints[res.target], STEP_TAP)
         self.current = first_new
         return False
+
+
+def _affine(dev: np.ndarray, can: np.ndarray) -> np.ndarray | None:
+    """Least-squares affine map (3×2, ``[x y 1] @ m``) of pixel points; None if degenerate."""
+    if len(dev) < 3 or min(planarity(dev), planarity(can)) <= COLLINEAR_TOL:
+        return None
+    a = np.hstack([dev, np.ones((len(dev), 1))])
+    m, *_ = np.linalg.lstsq(a, can, rcond=None)
+    return m if np.isfinite(m).all() else None
+
+
+def _miss(m: np.ndarray, d: np.ndarray, c: np.ndarray) -> float:
+    """Pixels between where the affine map ``m`` puts device point ``d`` and target ``c``."""
+    return float(np.hypot(*(np.append(d, 1.0) @ m - c)))
+
+
+def loo_miss(dev: np.ndarray, can: np.ndarray, j: int) -> float:
+    """How far the affine fit of all points but ``j`` puts point ``j`` (px; inf if none)."""
+    keep = np.arange(len(dev)) != j
+    m = _affine(dev[keep], can[keep])
+    return float("inf") if m is None else _miss(m, dev[j], can[j])
+
+
+def _agree(dev: np.ndarray, can: np.ndarray, thr: float) -> bool:
+    """Every point is predicted within ``thr`` by the others (where they can predict it:
+    a point the others cannot fit, being collinear, is not held against them)."""
+    misses = (loo_miss(dev, can, i) for i in range(len(dev)))
+    return all(m <= thr or math.isinf(m) for m in misses)
+
+
+def _suspects(dev: np.ndarray, can: np.ndarray, thr: float) -> list[int]:
+    """Indices that may be the single misclick: the others agree and miss this one.
+
+    Affine fits only (small sets, exact least squares; the perspective of a real
+    mounting is a few pixels across the screen, well inside the threshold).
+    """
+    out = []
+    for j in range(len(dev)):
+        keep = np.arange(len(dev)) != j
+        if math.isinf(err := loo_miss(dev, can, j)) or err <= thr:
+            continue
+        if _agree(dev[keep], can[keep], thr):
+            out.append(j)
+    return out

@@ -17,7 +17,7 @@ from __future__ import annotations
 import itertools
 import math
 import os
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -122,24 +122,6 @@ def read_targets(path: str | os.PathLike[str]) -> Array:
     if not out:
         raise CalibrationError("no targets after the header", f"{p}:{rows[0][0]}")
     return np.array(out)
-
-
-def iter_samples(path: str | os.PathLike[str]) -> Iterator[PenSample]:
-    """Pen samples of a session log (``.jsonl``) or a device trace (drivers' readers)."""
-    p = Path(path)
-    if p.suffix.lower() in (".jsonl", ".json"):
-        from station.sessionlog import SessionLogReader
-
-        with SessionLogReader(p) as reader:
-            for rec in reader:
-                if isinstance(rec, PenSample):
-                    yield rec
-        return
-    try:
-        from station.drivers.traces import iter_trace_samples
-    except ImportError as exc:  # the drivers' trace readers are optional here
-        raise CalibrationError(f"cannot read device traces here ({exc})", str(p)) from None
-    yield from iter_trace_samples(p)
 
 
 def match_taps(

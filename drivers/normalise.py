@@ -2,10 +2,14 @@
 
 What it does, in order, for each raw sample:
 
-* **forced proximity-out**: a tool that sends nothing for ``proximity_timeout``
-  seconds (50 ms) is taken out of proximity — on the next report or on
-  :meth:`Normaliser.tick`, both driven by transport time, so it is testable
-  without sleeping;
+* **forced proximity-out** (libinput's tablet proximity timer): a tool that
+  sends nothing for ``proximity_timeout`` seconds (50 ms) is taken out of
+  proximity — on the next report or on :meth:`Normaliser.tick`, both driven by
+  transport time, so it is testable without sleeping — but never while the tip
+  touches or a button is held (libinput re-arms the timer then: a USB or
+  Bluetooth stall mid-stroke must not split the stroke), and never again once
+  the device has sent a proximity-out of its own (it is then a device that
+  reports leaving, and the timer is for those that do not);
 * **tool identity** ``(type, serial, tool id)``: Wacom sends serial and tool id
   only at proximity-in; they are kept for the whole proximity and after it
   (devices that never repeat them keep the last ones); per-tool state (the
@@ -13,9 +17,14 @@ What it does, in order, for each raw sample:
 * **coordinates** to ``[0, 1]`` of the active area (default: the whole axis), clamped;
 * **pressure**: worn-nib offset (on proximity-in a resting pressure ≤ 50 % of
   the range becomes the tool's new zero; lower resting values seen while
-  hovering lower it), tip contact by hysteresis (down at 5 %, up at 1 % of the
-  range above the offset), renormalised so the down threshold maps to 0, then
-  the cubic-Bézier pressure curve; 0 and ``touching=False`` out of contact;
+  hovering lower it); contact follows the device's tip switch where it has one
+  (``RawSample.tip`` not ``None``; above a worn nib's resting pressure, as
+  firmware that derives the tip bit from pressure would otherwise keep a
+  worn nib in contact), else hysteresis (down at 5 %, up at 1 % of the range
+  above the offset); the pressure is renormalised so the contact threshold
+  (the offset for a tip switch, the down threshold otherwise) maps to 0 and
+  grows continuously from there, then the cubic-Bézier pressure curve; 0 and
+  ``touching=False`` out of contact;
 * **tilt** in degrees (resolution in units per degree; without one the range
   maps to ±64°), rotation in degrees (without resolution the range maps to
   ±180°), distance and wheel to ``[0, 1]``;
@@ -23,7 +32,13 @@ What it does, in order, for each raw sample:
   in milliseconds of latency (off by default);
 * sequence numbers and timestamps from the transport (``t`` counts from the
   first report, or from ``origin``);
-* the optional ``transform`` hook last (device → canvas calibration).
+* the optional ``transform`` hook last (device → canvas calibration); without
+  one, the **mapping** to a canvas of known size: ``fit`` (the default) keeps
+  the tablet's aspect ratio — the active area (in millimetres where the device
+  gives a resolution) is letterboxed, centred, into the canvas so a circle on
+  the tablet paints a circle — and ``stretch`` maps it onto the whole canvas.
+  Without a canvas (``canvas=None``) samples stay device-normalised (what
+  calibration and raw dumps need).
 
 A sample that fails :class:`PenSample` validation is counted and dropped,
 never published.
@@ -48,6 +63,10 @@ class NormaliserConfigError(BadInput):
     """A normaliser setting is out of range."""
 
 
+MAPPINGS = ("fit", "stretch")
+"""Device → canvas mappings without a calibration (see :class:`NormaliserConfig`)."""
+
+
 @dataclass(frozen=True)
 class NormaliserConfig:
     """Normaliser settings.
@@ -66,6 +85,11 @@ class NormaliserConfig:
         tilt_range_degrees: degrees the tilt range maps to when there is no resolution.
         validate: build samples through the full PenSample constructor (slower);
             by default the normaliser checks the same ranges with plain comparisons.
+        mapping: ``"fit"`` (keep the tablet's aspect ratio, letterboxed) or
+            ``"stretch"`` (the whole area onto the whole canvas); used only with a
+            ``canvas`` and without a ``transform`` (a calibration is the mapping).
+        canvas: ``(width, height)`` of the canvas the samples are for (cells or
+            pixels: only the ratio counts); ``None`` = device-normalised samples.
     """
 
     area: tuple[float, float, float, float] | None = None
@@ -78,6 +102,8 @@ class NormaliserConfig:
     pressure_curve: tuple[float, float, float, float] | None = None
     tilt_range_degrees: float = 64.0
     validate: bool = False
+    mapping: str = "fit"
+    canvas: tuple[int, int] | None = None
 
     def __post_init__(self) -> None:
         if not 0.0 < self.tip_up < self.tip_down < 1.0:
@@ -97,6 +123,13 @@ class NormaliserConfig:
             x0, y0, x1, y1 = self.area
             if not (x1 > x0 and y1 > y0):
                 raise NormaliserConfigError(f"active area {self.area} is empty")
+        if self.mapping not in MAPPINGS:
+            raise NormaliserConfigError(
+                f"mapping {self.mapping!r} is not one of {', '.join(MAPPINGS)}")
+        if self.canvas is not None and not (
+                len(self.canvas) == 2 and all(isinstance(v, (int, float)) and math.isfinite(v)
+                                              and v > 0 for v in self.canvas)):
+            raise NormaliserConfigError(f"canvas {self.canvas} needs a positive width, height")
 
 
 class BezierCurve:
@@ -210,9 +243,12 @@ class Normaliser:
         else:
             self._area = (float(ranges.x.minimum), float(ranges.y.minimum),
                           float(ranges.x.maximum), float(ranges.y.maximum))
+        self._fit = self._fit_scale()
         self._seq = 0
         self._in_prox = False
         self._touching = False
+        self._buttons = 0
+        self._device_sends_out = False  # a real proximity-out seen: no forced ones
         self._last_time: float | None = None
         self._last_t = t_offset
         self._last: PenSample | None = None
@@ -221,6 +257,22 @@ class Normaliser:
         self._tool_id: int | None = None
         self._pressure: int | None = None
         self._smooth: tuple[float, float, float] | None = None  # (x, y, time)
+
+    def _fit_scale(self) -> tuple[float, float] | None:
+        """Factors that letterbox the area into the canvas (``fit``), or None."""
+        cfg = self.config
+        if cfg.canvas is None or cfg.mapping != "fit" or self.transform is not None:
+            return None
+        x0, y0, x1, y1 = self._area
+        w, h = x1 - x0, y1 - y0
+        r = self.ranges
+        if r.has_resolution:  # millimetres; without a resolution the units are taken square
+            w, h = w / float(r.x.resolution or 1.0), h / float(r.y.resolution or 1.0)
+        tablet = w / h if h > 0 else 1.0
+        canvas = cfg.canvas[0] / cfg.canvas[1]
+        if tablet >= canvas:  # wider than the canvas: bands above and below
+            return 1.0, canvas / tablet
+        return tablet / canvas, 1.0
 
     # -- public API -------------------------------------------------------
     @property
@@ -246,10 +298,9 @@ class Normaliser:
         out: list[PenSample] = []
         if self.origin is None:
             self.origin = raw.time
-        timeout = self.config.proximity_timeout
-        if (self._in_prox and timeout is not None and self._last_time is not None
-                and raw.time - self._last_time > timeout):
-            self._force_out(self._last_time + timeout, out)
+        due = self._forced_out_due(raw.time)
+        if due is not None:
+            self._force_out(due, out)
         if self._last_time is not None and raw.time < self._last_time:
             self.stats.time_backwards += 1
         self._last_time = raw.time if self._last_time is None else max(raw.time, self._last_time)
@@ -266,6 +317,7 @@ class Normaliser:
             self._tool, self._serial, self._tool_id = after
             self.stats.tool_changes += 1
         if not raw.proximity:
+            self._device_sends_out = True  # libinput: a real BTN_TOOL_PEN 0 unloads the timer
             if self._in_prox:
                 self._leave(raw.time, out, t_mono)
             return out
@@ -273,6 +325,7 @@ class Normaliser:
             return out  # in range without data / proximity-in packet: identity only
         entering = not self._in_prox
         self._in_prox = True
+        self._buttons = raw.buttons & 0xFFFF  # a held button re-arms the proximity timer
         sample = self._make(raw, entering, t_mono)
         if sample is not None:
             self._emit(sample, out)
@@ -281,11 +334,19 @@ class Normaliser:
     def tick(self, now: float) -> list[PenSample]:
         """Call when no report came: forces proximity-out once ``now`` is past the timeout."""
         out: list[PenSample] = []
-        timeout = self.config.proximity_timeout
-        if (self._in_prox and timeout is not None and self._last_time is not None
-                and now - self._last_time > timeout):
-            self._force_out(self._last_time + timeout, out)
+        due = self._forced_out_due(now)
+        if due is not None:
+            self._force_out(due, out)
         return out
+
+    def _forced_out_due(self, now: float) -> float | None:
+        """libinput's proximity timer: the time of a forced proximity-out due by ``now``,
+        or None (not due, re-armed by contact or a held button, or unloaded)."""
+        timeout = self.config.proximity_timeout
+        if (not self._in_prox or timeout is None or self._last_time is None
+                or self._device_sends_out or self._touching or self._buttons):
+            return None
+        return self._last_time + timeout if now - self._last_time > timeout else None
 
     def flush(self) -> list[PenSample]:
         """End of stream: a tool in proximity leaves it (timeout after its last report)."""
@@ -328,6 +389,7 @@ class Normaliser:
     def _leave(self, time: float, out: list[PenSample], t_mono: float) -> None:
         self._in_prox = False
         self._touching = False
+        self._buttons = 0
         self._smooth = None
         last = self._last
         if last is None:
@@ -364,6 +426,10 @@ class Normaliser:
             except EventError as exc:
                 self._reject(f"transform {exc}")
                 return
+        elif self._fit is not None:
+            sx, sy = self._fit
+            sample = dataclasses.replace(sample, x=0.5 + (sample.x - 0.5) * sx,
+                                         y=0.5 + (sample.y - 0.5) * sy)
         self.stats.samples += 1
         out.append(sample)
 
@@ -371,6 +437,7 @@ class Normaliser:
         axis = self.ranges.pressure
         if axis is None:
             touching = bool(raw.tip)
+            self._touching = touching
             return (1.0 if touching else 0.0), touching
         if raw.pressure is not None:
             self._pressure = raw.pressure
@@ -394,11 +461,20 @@ class Normaliser:
         span = max(full - offset, 1)
         down = offset + cfg.tip_down * span
         up = offset + cfg.tip_up * span
-        touching = p >= up if self._touching else p >= down
+        if raw.tip is not None:
+            # The tip switch rules contact, so its first sample is never dropped for a
+            # pressure below the hysteresis threshold.  A worn nib rests above zero and
+            # firmware that derives the bit from pressure (Intuos: > 10) then reports a
+            # hovering pen as touching: above an offset the pressure must clear it too.
+            touching = raw.tip and (offset == 0 or p >= up)
+            zero = float(offset) if offset == 0 else up
+        else:
+            touching = p >= up if self._touching else p >= down
+            zero = down
         self._touching = touching
         if not touching:
             return 0.0, False
-        value = min(1.0, max(0.0, (p - down) / max(full - down, 1e-9)))
+        value = min(1.0, max(0.0, (p - zero) / max(full - zero, 1e-9)))
         if self._curve is not None:
             value = self._curve(value)
         return value, True

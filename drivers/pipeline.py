@@ -99,6 +99,9 @@ class HidPenSource:
         info = transport.info
         self.parser = parser or parser_for(info.vid, info.pid, info.descriptor, info.bus,
                                            interface=interface_from_phys(info.phys))
+        self.uclogic_params: Any = None
+        if send_init:
+            self.uclogic_params = _vendor_setup(self.parser, transport)
         if not self.parser.is_pen:
             raise DeviceSpecError(
                 f"{info.path}: {info.name} ({info.vid:04x}:{info.pid:04x}) is a "
@@ -208,8 +211,9 @@ class EvdevPenSource:
 
 
 # -- device SPEC strings ---------------------------------------------------------
-SCHEMES = ("mock", "mock-hidraw", "mock-usb", "mock-evdev", "trace", "evdev", "hidraw",
-           "hidapi", "usb")
+SCHEMES = ("mock", "mock-hidraw", "mock-usb", "mock-evdev", "mock-uclogic", "trace", "evdev",
+           "hidraw", "hidapi", "usb", "serial", "serial-mock")
+HAPTIC_SCHEMES = ("serial", "serial-mock")  # drivers/haptic/source.py (docs/haptic-protocol.md)
 
 
 @dataclass(frozen=True)
@@ -229,6 +233,8 @@ class DeviceSpec:
             raise DeviceSpecError(f"device {text!r}: use one of {schemes} (see docs/drivers.md)",
                                   "--device")
         target, _, query = rest.partition("?")
+        if not target and scheme == "serial-mock":
+            target = "pen"  # the mock haptic device needs no name
         if not target:
             raise DeviceSpecError(f"device {text!r} names nothing after {scheme}:", "--device")
         return cls(scheme, target, dict(parse_query(query, "--device")), text)
@@ -306,6 +312,9 @@ def open_transport(spec_text: str) -> OpenedTransport:
     """Open the transport a SPEC string names (live, mock or recorded)."""
     spec = DeviceSpec.parse(spec_text)
     s = spec.scheme
+    if s in HAPTIC_SCHEMES:
+        raise DeviceSpecError(f"{s}: devices are haptic sessions, not report streams "
+                              "(use station driver)", "--device")
     if s == "mock":
         from station.drivers.mock.hidraw import MockHidrawNode
         from station.drivers.mock.tablet import mock_tablet_from_spec
@@ -316,6 +325,8 @@ def open_transport(spec_text: str) -> OpenedTransport:
         node = MockHidrawNode(tablet.info, tablet.timed_reports(), speed=speed,
                               on_feature=tablet.feature, finite=finite)
         return OpenedTransport("hid", HidrawTransport(node), finite, spec, tablet)
+    if s == "mock-uclogic":
+        return _open_mock_uclogic(spec)
     if s in ("mock-hidraw", "mock-usb", "mock-evdev", "trace"):
         trace = read_trace(spec.target)
         dev = _trace_pen_device(trace, spec)
@@ -399,8 +410,57 @@ def _open_mock_evdev(spec: DeviceSpec, dev: TraceDevice, speed: float | None) ->
     return OpenedTransport("evdev", transport, finite, spec, node)
 
 
+def _open_mock_uclogic(spec: DeviceSpec) -> OpenedTransport:
+    """``mock-uclogic:v1|v2|ugee-v2?script=…&reports=…&speed=…``: the UC-Logic mock over pyusb."""
+    from station.drivers.mock.script import SCRIPTS
+    from station.drivers.mock.uclogic import TABLETS, MockUclogicTablet
+    from station.drivers.mock.usb import RecordedUsbBackend
+    from station.drivers.transport.pyusb import UsbTransport
+
+    if spec.target not in TABLETS:
+        raise DeviceSpecError(f"mock-uclogic:{spec.target}: one of {', '.join(TABLETS)}",
+                              "--device")
+    script = spec.options.get("script", "line")
+    if script not in SCRIPTS:
+        raise DeviceSpecError(f"unknown script {script!r} (one of {', '.join(SCRIPTS)})",
+                              "--device")
+    tablet = MockUclogicTablet(spec.target, script=script,
+                               rate=spec.number("rate", 200.0, 1, 2000),
+                               reports=int(spec.number("reports", 60, 2, 100000)))
+    tablet.device.speed = spec.speed(1.0)
+    transport = UsbTransport(tablet.vid, tablet.pid, backend=RecordedUsbBackend([tablet.device]))
+    return OpenedTransport("hid", transport, True, spec, tablet)
+
+
+def _vendor_setup(parser: Any, transport: HidTransport) -> Any:
+    """UC-Logic tablets: the set-up over transports that can do it (pyusb), else say why not."""
+    from station.drivers.uclogic.init import UclogicControl
+
+    if not getattr(parser, "needs_control", False):
+        return None
+    if not isinstance(transport, UclogicControl):
+        log.info("%s: UC-Logic set-up needs raw USB (usb: SPEC); reading the reports its "
+                 "descriptor describes (the kernel's hid-uclogic may have set it up)",
+                 transport.info.path)
+        return None
+    params = parser.initialise(transport)
+    if params is None:
+        log.warning("%s: UC-Logic set-up found no parameters; reading the device's own reports",
+                    transport.info.path)
+    else:
+        log.info("%s: UC-Logic %s parameters: %dx%d, pressure %d, %d lpi", transport.info.path,
+                 params.kind, params.max_x, params.max_y, params.max_pressure,
+                 params.resolution_lpi)
+    return params
+
+
 def open_device(spec_text: str, name: str | None = None, send_init: bool = True) -> PenSource:
     """Open the pen device a SPEC string names, with its parser (HID) or assembler (evdev)."""
+    spec = DeviceSpec.parse(spec_text)
+    if spec.scheme in HAPTIC_SCHEMES:
+        from station.drivers.haptic.source import open_haptic
+
+        return open_haptic(spec, name=name)
     opened = open_transport(spec_text)
     source: PenSource
     try:
@@ -515,7 +575,8 @@ class TraceReplay:
         except BadInput as exc:
             return f"no parser: {exc}"
         if not parser.is_pen:
-            return f"{getattr(parser, 'kind', 'non-pen')} interface"
+            why = getattr(parser, "why", "")
+            return f"{getattr(parser, 'kind', 'non-pen')} interface" + (f": {why}" if why else "")
         return ""
 
     def skipped_text(self) -> str:

@@ -25,15 +25,19 @@ from pathlib import Path
 from typing import Any
 
 from station.drivers.hid.base import IgnoredInterface, ReportParser
-from station.drivers.hid.descriptor import Descriptor, parse_descriptor
+from station.drivers.hid.descriptor import Descriptor, ReportType, parse_descriptor
 from station.drivers.hid.errors import DescriptorError, ReportError
 from station.drivers.hid.pen import GenericPenParser
 from station.drivers.hid.quirks import pen_usage_quirks
 from station.drivers.raw import Axis, AxisRanges
+from station.drivers.uclogic.parser import UclogicPenParser
 from station.drivers.wacom.bamboo import BambooParser
+from station.drivers.wacom.bluetooth import Intuos4WirelessParser, IntuosBluetoothParser
 from station.drivers.wacom.common import WacomParams
 from station.drivers.wacom.graphire import GraphireParser
 from station.drivers.wacom.intuos import IntuosParser
+from station.drivers.wacom.legacy import PROTOCOLS as LEGACY
+from station.drivers.wacom.legacy import LegacyPenParser
 
 from station.errors import BadInput
 
@@ -73,13 +77,56 @@ PARSERS: dict[str, Callable[[dict[str, Any], Descriptor | None], ReportParser]] 
     "wacom-graphire": _wacom(GraphireParser),
     "wacom-graphire-bt": _wacom(GraphireParser, bluetooth=True),
     "wacom-graphire4": _wacom(GraphireParser, graphire4=True),
+    "wacom-intuos1": _wacom(IntuosParser, original=True),
+    "wacom-intuos4wl": _wacom(Intuos4WirelessParser),
+    "wacom-intuos-bt": _wacom(IntuosBluetoothParser),
 }
+for _name in LEGACY:
+    PARSERS[_name] = _wacom(LegacyPenParser.for_protocol(_name))
 GENERIC = "hid-generic"
+UCLOGIC = "uclogic"
+WACOM_VID = 0x056A
+# The interface that carries the pen on UC-Logic tablets (uclogic_params_init: Huion
+# and v1 tablets interface 0, UGEE v2 interface 2).
+UCLOGIC_PEN_INTERFACE = {"huion": 0, "v1": 0, "ugee-v2": 2}
+REPORT_HINT = ("please report it (docs/devices.md, 'Reporting a tablet'): attach "
+               "`station record --device hidraw:/dev/hidrawN -o tablet.hid` and "
+               "`lsusb -v -d {vid:04x}:{pid:04x}`")
 
 
 def parser_names() -> list[str]:
     """Every parser name device data may use."""
-    return sorted([*PARSERS, GENERIC])
+    return sorted([*PARSERS, GENERIC, UCLOGIC])
+
+
+@lru_cache(maxsize=1)
+def _validator() -> Any:
+    import jsonschema
+
+    return jsonschema.Draft202012Validator(json.loads(SCHEMA_PATH.read_text(encoding="utf-8")))
+
+
+def parse_device_data(text: str, where: str) -> dict[str, Any]:
+    """One device model from its JSON text, checked against ``devices.schema.json``
+    and for a parser this station has; anything else is :class:`BadInput` at ``where``."""
+    try:
+        model = json.loads(text)
+    except ValueError as exc:
+        raise BadInput(f"device data is not JSON: {exc}", where) from None
+    except RecursionError:
+        raise BadInput("device data is not JSON (nested too deeply)", where) from None
+    try:
+        error = next(iter(_validator().iter_errors(model)), None)
+    except RecursionError:
+        raise BadInput("device data is nested too deeply", where) from None
+    if error is not None:
+        at = "/".join(str(p) for p in error.absolute_path) or "the top level"
+        raise BadInput(f"device data does not fit devices.schema.json at {at}: "
+                       f"{error.message[:200]}", where)
+    if model["parser"] not in parser_names():
+        raise BadInput(f"device data names unknown parser {model['parser']!r} "
+                       f"(one of {', '.join(parser_names())})", where)
+    return model
 
 
 @lru_cache(maxsize=1)
@@ -88,10 +135,7 @@ def _load() -> tuple[dict[str, Any], ...]:
     for path in sorted(DEVICES_DIR.glob("*.json")):
         if path.name.endswith(".schema.json"):
             continue
-        try:
-            model = json.loads(path.read_text(encoding="utf-8"))
-        except json.JSONDecodeError as exc:
-            raise BadInput(f"device data is not JSON: {exc}", str(path)) from None
+        model = parse_device_data(path.read_text(encoding="utf-8"), str(path))
         model["_path"] = str(path)
         models.append(model)
     return tuple(models)
@@ -107,9 +151,17 @@ def device_ids(model: dict[str, Any]) -> tuple[int, int, int]:
     return (int(model["vendor_id"], 16), int(model["product_id"], 16), BUS_NAMES[model["bus"]])
 
 
+@lru_cache(maxsize=1)
+def _by_ids() -> dict[tuple[int, int], list[dict[str, Any]]]:
+    index: dict[tuple[int, int], list[dict[str, Any]]] = {}
+    for m in _load():
+        index.setdefault(device_ids(m)[:2], []).append(m)
+    return index
+
+
 def find_device(vid: int, pid: int, bus: int | None = None) -> dict[str, Any] | None:
     """The model with this vid/pid (and bus, when given; else USB first), or None."""
-    matches = [m for m in _load() if device_ids(m)[:2] == (vid, pid)]
+    matches = _by_ids().get((vid, pid), [])
     if not matches:
         return None
     if bus is not None:
@@ -121,10 +173,11 @@ def find_device(vid: int, pid: int, bus: int | None = None) -> dict[str, Any] | 
 
 
 def _model_ranges(model: dict[str, Any]) -> AxisRanges:
+    # Descriptor-driven models (hid-generic, uclogic) may carry no numbers: 0..1 then.
     res = model.get("resolution", {})
-    return AxisRanges(Axis(0, int(model["max_x"]), res.get("x")),
-                      Axis(0, int(model["max_y"]), res.get("y")),
-                      Axis(0, int(model["max_pressure"])))  # fmt: skip
+    return AxisRanges(Axis(0, int(model.get("max_x", 1)), res.get("x")),
+                      Axis(0, int(model.get("max_y", 1)), res.get("y")),
+                      Axis(0, int(model.get("max_pressure", 1))))  # fmt: skip
 
 
 def parser_for(vid: int, pid: int, descriptor: bytes | None, bus: int = BUS_USB,
@@ -145,6 +198,8 @@ def parser_for(vid: int, pid: int, descriptor: bytes | None, bus: int = BUS_USB,
     descriptor of a device that needs it.
     """
     model = find_device(vid, pid, bus)
+    if model is not None and model["parser"] == UCLOGIC:
+        return _uclogic(model, descriptor, interface)
     if model is not None and interface is not None:
         for ign in model.get("ignore_interfaces", []):
             if ign["interface"] == interface:
@@ -170,9 +225,16 @@ def parser_for(vid: int, pid: int, descriptor: bytes | None, bus: int = BUS_USB,
         return parser
     if not descriptor:
         what = model["name"] if model else f"unknown device {vid:04x}:{pid:04x}"
-        raise BadInput(f"{what} needs its report descriptor (generic HID parser)")
+        unknown_wacom = model is None and vid == WACOM_VID
+        hint = f"; {REPORT_HINT.format(vid=vid, pid=pid)}" if unknown_wacom else ""
+        raise BadInput(f"{what} needs its report descriptor (generic HID parser){hint}")
     desc = parse_descriptor(descriptor)
-    parser = GenericPenParser(desc, model, _init_features(model) if model else [],
+    if model is None and vid == WACOM_VID:
+        return _unknown_wacom(vid, pid, desc, bus)
+    feats = _init_features(model) if model else []
+    if vid == WACOM_VID:
+        feats += [f for f in [wacom_data_mode_feature(desc)] if f and f not in feats]
+    parser = GenericPenParser(desc, model, feats,
                               generic=model is None, quirks=pen_usage_quirks(vid, pid))
     if model is not None:
         parser.name = GENERIC
@@ -225,3 +287,83 @@ def interface_from_phys(phys: str) -> int | None:
     """The USB interface number in a physical path such as ``usb-0000:00:14.0-2/input1``."""
     m = re.search(r"/input(\d+)$", phys.strip())
     return int(m.group(1)) if m else None
+
+
+def _uclogic(model: dict[str, Any], descriptor: bytes | None,
+             interface: int | None) -> ReportParser:
+    """A UC-Logic interface: the pen one gets the set-up-capable parser, others are ignored."""
+    desc = None
+    if descriptor:
+        try:
+            desc = parse_descriptor(descriptor)
+        except DescriptorError as exc:
+            log.warning("%s: descriptor ignored: %s", model["name"], exc)
+    parser = UclogicPenParser(model, desc)
+    pen_interface = UCLOGIC_PEN_INTERFACE.get(parser.init_kind)
+    if (parser.fallback is None and desc is not None and interface is not None
+            and interface != pen_interface):
+        kinds = set(GenericPenParser(desc, model).kinds.values()) - {"pen"}
+        kind = "pad" if "pad" in kinds else "other"
+        return IgnoredInterface(f"uclogic/{kind}", kind, _model_ranges(model), model)
+    return parser
+
+
+WACOM_HID_WD_DATAMODE = 0xFF0D1002
+
+
+def wacom_data_mode_feature(desc: Descriptor) -> bytes | None:
+    """The kernel's mode switch for generic-HID Wacoms (wacom_hid_usage_quirk / set_device_mode):
+    the feature report holding Wacom's Data Mode usage gets value 2 in its first byte."""
+    for (rtype, rid), report in sorted(desc.reports.items(), key=lambda kv: kv[0][1]):
+        if rtype == ReportType.FEATURE and rid and any(
+                WACOM_HID_WD_DATAMODE in f.usages for f in report.fields):
+            return bytes([rid, 2]) + bytes(max(0, report.length(True) - 2))
+    return None
+
+
+# Pen report lengths (with the ID byte) of report 2 on a vendor-defined Wacom interface ->
+# the protocol it implies: 8 Graphire, 9 Bamboo "fun", 10..16 the Intuos family.
+_IMPLIED = ((8, "wacom-graphire"), (9, "wacom-bamboo"),
+            *((n, "wacom-intuos") for n in range(10, 17)))
+
+
+def implied_protocol(desc: Descriptor) -> str | None:
+    """The Wacom protocol a descriptor implies (None: no vendor report 2 of a pen length)."""
+    lengths = {r.report_id: r.length(True) for r in desc.input_reports() if r.report_id}
+    return dict(_IMPLIED).get(lengths.get(2, 0))
+
+
+def _unknown_wacom(vid: int, pid: int, desc: Descriptor, bus: int) -> ReportParser:
+    """An unknown Wacom id: the generic pen path, or the protocol its descriptor implies."""
+    mode = wacom_data_mode_feature(desc)
+    generic = GenericPenParser(desc, None, [mode] if mode else [], generic=True,
+                               quirks=pen_usage_quirks(vid, pid))
+    what = f"unknown Wacom tablet {vid:04x}:{pid:04x}"
+    if generic.is_pen:
+        generic.warning = (f"{what}: read through its HID descriptor (generic path); "
+                           + REPORT_HINT.format(vid=vid, pid=pid))
+        log.warning("%s", generic.warning)
+        return generic
+    family = implied_protocol(desc)
+    if family is None:
+        kinds = sorted(set(generic.kinds.values())) or ["no input reports"]
+        raise BadInput(f"{what} has no pen collection and no Wacom pen report in its report "
+                       f"descriptor (reports: {', '.join(kinds)}); "
+                       + REPORT_HINT.format(vid=vid, pid=pid))  # fmt: skip
+    # Ranges: the largest known model of the family, so no coordinate leaves its range;
+    # the mapping to the surface is a guess until the tablet is in the data.
+    peers = [m for m in _load() if m["parser"] == family and "max_x" in m]
+    big = max(peers, key=lambda m: int(m["max_x"]) * int(m["max_y"]))
+    kept = ("max_x", "max_y", "max_pressure", "max_distance", "resolution", "pad_report_ids")
+    model: dict[str, Any] = {
+        **{k: big[k] for k in kept if k in big},
+        "id": f"wacom-unknown-{pid:04x}", "name": what, "vendor_id": f"{vid:04x}",
+        "product_id": f"{pid:04x}", "bus": BUS_NUMBERS.get(bus, "usb"),
+        "parser": family, "init_feature_reports": ["0202"] if bus == BUS_USB else [],
+    }
+    parser = PARSERS[family](model, desc)
+    parser.generic = True
+    parser.warning = (f"{what}: its descriptor implies the {family} protocol; ranges guessed "
+                      f"from {big['name']}; " + REPORT_HINT.format(vid=vid, pid=pid))
+    log.warning("%s", parser.warning)
+    return parser

@@ -750,3 +750,48 @@ def stroke_recording(kind: str, n: int = 50, start: float = 0.0, tool_id: int = 
     return RecordedDevice(dev.name, dev.vid, dev.pid, dev.descriptor,
                           list(zip(times, reports, strict=True)), bus=dev.bus,
                           phys=f"usb-0000:00:14.0-1/input0#{kind}")  # fmt: skip
+
+
+# -- UC-Logic -------------------------------------------------------------------------------
+def uclogic_pen_report(kind: str, x: int, y: int, pressure: int, tip: bool = False,
+                       buttons: int = 0, in_range: bool = True, tilt_x: int = 0,
+                       tilt_y: int = 0) -> bytes:
+    """A full-resolution UC-Logic pen report as the tablet sends it (inverse of
+    :func:`station.drivers.uclogic.parser.decode`): v1 report 7, v2 report 8, ugee-v2 report 2."""
+    flags = (0x01 if tip else 0) | (0x02 if buttons & Button.STYLUS else 0) | (
+        0x04 if buttons & Button.STYLUS2 else 0)
+    if kind == "v1":
+        flags |= 0 if in_range else 0x40  # the in-range bit is inverted
+        return bytes([7, flags]) + b"".join(v.to_bytes(2, "little") for v in (x, y, pressure))
+    if kind == "v2":
+        return bytes([8, flags | 0x80, x & 0xFF, (x >> 8) & 0xFF, y & 0xFF, (y >> 8) & 0xFF,
+                      pressure & 0xFF, pressure >> 8, x >> 16, y >> 16, tilt_x & 0xFF,
+                      (-tilt_y) & 0xFF])  # fmt: skip
+    if kind == "ugee-v2":
+        flags |= 0x20 if in_range else 0
+        return bytes([2, flags, x & 0xFF, x >> 8, y & 0xFF, y >> 8, pressure & 0xFF,
+                      (pressure >> 8) & 0x1F, tilt_x & 0xFF, tilt_y & 0xFF])  # fmt: skip
+    raise ValueError(f"unknown UC-Logic report kind {kind!r}")
+
+
+def uclogic_compat_descriptor(max_x: int, max_y: int) -> bytes:
+    """A UC-Logic compatibility-mode pen (before the set-up): report 9, X/Y at a quarter of
+    the full resolution over the same inches, 10-bit pressure; lpi 1000 per axis unit."""
+    b = DescriptorBuilder()
+    b.usage_page(U.PAGE_DIGITIZER).usage(0x02).collection(CollectionKind.APPLICATION)
+    b.report_id(0x09).usage(0x20).collection(CollectionKind.PHYSICAL)
+    b.bits(U.PAGE_DIGITIZER, [0x42, 0x44, 0x5A]).padding(2).bits(U.PAGE_DIGITIZER, [0x32])
+    b.padding(2)
+    b.value(U.PAGE_GENERIC_DESKTOP, 0x30, 16, 0, max_x // 4, phys=(0, max_x // 4), unit=UNIT_INCH,
+            exponent=-3)
+    b.value(U.PAGE_GENERIC_DESKTOP, 0x31, 16, 0, max_y // 4, phys=(0, max_y // 4))
+    b.physical(0, 0).unit(0).unit_exponent(0)
+    b.value(U.PAGE_DIGITIZER, 0x30, 16, 0, 1023)
+    b.end_collection().end_collection()
+    return b.to_bytes()
+
+
+def uclogic_compat_report(x: int, y: int, pressure: int, tip: bool, in_range: bool) -> bytes:
+    """A report of :func:`uclogic_compat_descriptor` (x, y already at compat resolution)."""
+    flags = (0x01 if tip else 0) | (0x20 if in_range else 0)
+    return bytes([9, flags]) + b"".join(v.to_bytes(2, "little") for v in (x, y, pressure))

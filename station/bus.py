@@ -17,14 +17,23 @@ re-send the samples of the current proximity period (flagged *replayed*) so a
 subscriber that starts mid-stroke still sees the stroke from its first sample.
 Subscribers drop replayed messages they already have (by sequence number) and
 count gaps in the per-publisher, per-topic sequence as lost samples.
+
+Truth about who is there: binding an endpoint that a live process already
+holds fails (:class:`EndpointInUse`, exit 2) instead of taking it over (an ipc
+socket file whose process died is replaced); a publisher created with
+``heartbeat=S`` sends a heartbeat per device every ``S`` seconds on
+``hb.<device>`` (:meth:`Publisher.tick`), so a subscriber notices a publisher
+that stopped, and samples lost at the very end of its stream.
 """
 
 from __future__ import annotations
 
 import collections
+import errno
 import logging
 import os
 import random
+import socket
 import stat
 import threading
 import time
@@ -43,6 +52,11 @@ log = logging.getLogger(__name__)
 HWM = 100_000  # ~100 s of one 1 kHz device: never drops in normal use, bounds memory (~12 MB)
 REPLAY_LIMIT = 4096  # samples kept per pen topic for late joiners (20 s at 200 Hz)
 DEFAULT_NAME = "bus"
+HEARTBEAT_S = 0.2  # drivers' heartbeat interval: a silent device is named within ~1 s
+
+
+class EndpointInUse(BusConfigError):
+    """Another live process already binds the endpoint (bad input: exit 2)."""
 
 
 # -- where things live -------------------------------------------------------
@@ -63,8 +77,12 @@ def runtime_dir() -> Path:
     return secure_dir(path)
 
 
-def secure_dir(path: Path) -> Path:
-    """Create ``path`` with mode 0700 (or check an existing one)."""
+def secure_dir(path: Path, repair: bool = True) -> Path:
+    """Create ``path`` with mode 0700 (or check an existing one).
+
+    An existing directory open to others is set to 0700 when it is the station's
+    own (``repair``); one the user named is refused instead, never chmod-ed.
+    """
     try:
         path.mkdir(mode=0o700, parents=True, exist_ok=True)
         st = path.lstat()
@@ -75,6 +93,10 @@ def secure_dir(path: Path) -> Path:
     if st.st_uid != os.getuid():
         raise BusError(f"{path} belongs to uid {st.st_uid}, not to you: refusing to use it")
     if st.st_mode & 0o077:
+        if not repair:
+            raise BusConfigError(f"{path} is open to other users (mode "
+                                 f"{stat.S_IMODE(st.st_mode):o}); chmod 700 it yourself or "
+                                 "use another directory")
         os.chmod(path, 0o700)
     return path
 
@@ -97,6 +119,7 @@ class Endpoint:
 
     url: str
     bind: bool
+    private: bool = False  # an ipc socket in the station's own runtime directory
 
     @property
     def is_tcp(self) -> bool:
@@ -114,13 +137,13 @@ def resolve_endpoint(spec: str | None, bind: bool) -> Endpoint:
         name = spec[4:] or DEFAULT_NAME
         if not name.replace("-", "").replace("_", "").replace(".", "").isalnum():
             raise BusConfigError(f"ipc bus name {name!r} must be letters, digits, - _ .")
-        return Endpoint(f"ipc://{runtime_dir() / name}", bind)
+        return Endpoint(f"ipc://{runtime_dir() / name}", bind, private=True)
     if spec.startswith("ipc://"):
+        # A directory the user named is used as it is: never created, never chmod-ed
+        # (on a shared /tmp or /run that would break every other user and service).
         path = Path(spec[6:])
         if not path.is_absolute():
             raise BusConfigError(f"ipc endpoint {spec!r} needs an absolute path")
-        if bind:
-            secure_dir(path.parent) if not path.parent.exists() else None
         return Endpoint(spec, bind)
     if spec.startswith("tcp://"):
         hostport = spec[6:]
@@ -142,9 +165,10 @@ def generate_keys(directory: Path | None = None, force: bool = False) -> dict[st
     """
     import zmq.auth
 
+    repair = directory is None  # a directory the user named is checked, never chmod-ed
     directory = directory or keys_dir()
-    secure_dir(directory)
-    authorized = secure_dir(directory / "authorized")
+    secure_dir(directory, repair)
+    authorized = secure_dir(directory / "authorized", repair)
     paths: dict[str, Path] = {}
     for name in ("server", "client"):
         public = directory / f"{name}.key"
@@ -166,7 +190,40 @@ class CurveKeys:
     authorized_dir: Path
 
 
-def load_keys(directory: Path | None = None, role: str = "server") -> CurveKeys:
+def client_key_name(name: str) -> str:
+    """Check a per-device client key name (it becomes a file name)."""
+    if not name or not name.replace("-", "").replace("_", "").isalnum() or len(name) > 64:
+        raise BusConfigError(f"client key name {name!r} must be 1-64 letters, digits, - _")
+    return name
+
+
+def add_client_key(name: str, directory: Path | None = None, force: bool = False) -> Path:
+    """A key pair of its own for one driver: ``client-NAME.key[_secret]``, authorised.
+
+    Revoke it by deleting ``authorized/client-NAME.key``.
+    """
+    import zmq.auth
+
+    repair = directory is None
+    directory = directory or keys_dir()
+    base = f"client-{client_key_name(name)}"
+    if not (directory / "server.key").exists():
+        raise BusConfigError(f"no server key in {directory}; run 'station keys' first")
+    public = directory / f"{base}.key"
+    if public.exists() and not force:
+        raise BusConfigError(f"{public} exists; pass --force to replace it")
+    secure_dir(directory, repair)
+    authorized = secure_dir(directory / "authorized", repair)
+    pub, sec = zmq.auth.create_certificates(str(directory), base)
+    os.chmod(sec, 0o600)
+    (authorized / f"{base}.key").write_bytes(Path(pub).read_bytes())
+    return Path(pub)
+
+
+def load_keys(directory: Path | None = None, role: str = "server",
+              client: str | None = None) -> CurveKeys:
+    """Keys for a CURVE server, or for a client: ``client.key_secret`` or, with
+    ``client=NAME``, that driver's own ``client-NAME.key_secret``."""
     import zmq.auth
 
     directory = directory or keys_dir()
@@ -175,7 +232,8 @@ def load_keys(directory: Path | None = None, role: str = "server") -> CurveKeys:
         if role == "server":
             pub, sec = server_pub, server_sec
         else:
-            pub, sec = zmq.auth.load_certificate(str(directory / "client.key_secret"))
+            base = f"client-{client_key_name(client)}" if client else "client"
+            pub, sec = zmq.auth.load_certificate(str(directory / f"{base}.key_secret"))
     except (OSError, ValueError) as exc:
         raise BusConfigError(
             f"no usable CURVE keys in {directory} ({exc}); run 'station keys' first"
@@ -189,7 +247,37 @@ _auth_lock = threading.Lock()
 _authenticators: dict[int, Any] = {}
 
 
-def _secure(sock: zmq.Socket, endpoint: Endpoint, keys_directory: Path | None) -> None:
+class KeyCheck:
+    """The ZAP handler's verdict on a CURVE client: allowed if its public key is in
+    the authorised directory (read at every connection, so a key added or revoked
+    counts at once); a rejected peer is logged with its public key, once per key."""
+
+    def __init__(self, authorized_dir: Path) -> None:
+        self.authorized_dir = authorized_dir
+        self.rejected: dict[str, int] = {}  # z85 public key -> connection attempts
+
+    def allowed_keys(self) -> set[bytes]:
+        import zmq.auth
+
+        try:
+            return set(zmq.auth.load_certificates(str(self.authorized_dir)))
+        except (OSError, ValueError) as exc:
+            log.error("cannot read authorised keys in %s: %s", self.authorized_dir, exc)
+            return set()
+
+    def callback(self, domain: str, key: bytes) -> bool:
+        if key in self.allowed_keys():
+            return True
+        text = key.decode("ascii", "replace")
+        self.rejected[text] = self.rejected.get(text, 0) + 1
+        if self.rejected[text] == 1:
+            log.warning("rejected a CURVE peer with public key %s (not in %s)", text,
+                        self.authorized_dir)
+        return False
+
+
+def _secure(sock: zmq.Socket, endpoint: Endpoint, keys_directory: Path | None,
+            client: str | None = None) -> None:
     """CURVE on tcp: the binding side is the server and checks client keys."""
     if not endpoint.is_tcp:
         return
@@ -200,33 +288,71 @@ def _secure(sock: zmq.Socket, endpoint: Endpoint, keys_directory: Path | None) -
             if id(ctx) not in _authenticators:
                 from zmq.auth.thread import ThreadAuthenticator
 
-                auth = ThreadAuthenticator(ctx)
+                auth = ThreadAuthenticator(ctx, log=logging.getLogger("station.bus.zap"))
                 auth.start()
-                auth.configure_curve(domain="*", location=str(keys.authorized_dir))
+                auth.configure_curve_callback(domain="*",
+                                              credentials_provider=KeyCheck(keys.authorized_dir))
                 _authenticators[id(ctx)] = auth
         sock.curve_secretkey = keys.secret
         sock.curve_publickey = keys.public
         sock.curve_server = True
     else:
-        keys = load_keys(keys_directory, "client")
+        keys = load_keys(keys_directory, "client", client)
         sock.curve_secretkey = keys.secret
         sock.curve_publickey = keys.public
         sock.curve_serverkey = keys.server_public
 
 
-def _attach(sock: zmq.Socket, endpoint: Endpoint, keys_directory: Path | None) -> None:
-    _secure(sock, endpoint, keys_directory)
+def ipc_in_use(path: Path) -> bool:
+    """Whether a live process answers on the ipc socket file ``path``.
+
+    ZeroMQ unlinks whatever is at the path when it binds, so without this check a
+    second publisher silently steals the endpoint.  A socket nobody accepts on
+    (its process died) is stale and may be replaced; a path that is not a socket
+    is never replaced.
+    """
+    try:
+        st = path.lstat()
+    except FileNotFoundError:
+        return False
+    except OSError as exc:
+        raise BusError(f"cannot inspect {path}: {exc.strerror}") from None
+    if not stat.S_ISSOCK(st.st_mode):
+        raise BusConfigError(f"{path} exists and is not a socket: refusing to replace it")
+    probe = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    probe.settimeout(1.0)
+    try:
+        probe.connect(str(path))
+    except OSError as exc:
+        return exc.errno not in (errno.ECONNREFUSED, errno.ENOENT)
+    finally:
+        probe.close()
+    return True
+
+
+def _attach(sock: zmq.Socket, endpoint: Endpoint, keys_directory: Path | None,
+            client: str | None = None) -> None:
+    _secure(sock, endpoint, keys_directory, client)
     try:
         if endpoint.bind:
             if endpoint.url.startswith("ipc://"):
                 path = Path(endpoint.url[6:])
-                secure_dir(path.parent)
+                if endpoint.private:  # our own runtime directory: 0700, checked
+                    secure_dir(path.parent)
+                elif not path.parent.is_dir():  # an environment problem (exit 1), as before
+                    raise BusError(f"directory {path.parent} of {endpoint.url} does not exist")
+                if ipc_in_use(path):
+                    raise EndpointInUse(f"{endpoint.url} is in use by another live process "
+                                        "(a second driver or sim?); stop it or pick another "
+                                        "endpoint")
             sock.bind(endpoint.url)
             if endpoint.url.startswith("ipc://"):
-                os.chmod(endpoint.url[6:], 0o600)
+                os.chmod(endpoint.url[6:], 0o600)  # the socket we just made, nothing else
         else:
             sock.connect(endpoint.url)
     except zmq.ZMQError as exc:
+        if endpoint.bind and exc.errno == errno.EADDRINUSE:
+            raise EndpointInUse(f"{endpoint.url} is in use by another process") from None
         verb = "bind" if endpoint.bind else "connect"
         raise BusError(f"cannot {verb} {endpoint.url}: {exc}") from None
 
@@ -242,6 +368,8 @@ class Publisher:
         keys: Path | None = None,
         context: zmq.Context | None = None,
         replay: bool = True,
+        heartbeat: float | None = None,
+        client_key: str | None = None,
     ) -> None:
         self.endpoint = resolve_endpoint(endpoint, bind)
         self.ctx = context or zmq.Context.instance()
@@ -249,8 +377,18 @@ class Publisher:
         self.sock.setsockopt(zmq.SNDHWM, HWM)
         self.sock.setsockopt(zmq.XPUB_VERBOSE, 1)  # see every subscription: late-joiner replay
         self.sock.setsockopt(zmq.LINGER, 1000)
-        _attach(self.sock, self.endpoint, keys)
+        try:
+            _attach(self.sock, self.endpoint, keys, client_key)
+        except BaseException:
+            self.sock.close(linger=0)
+            raise
         self.publisher_id = random.SystemRandom().getrandbits(32)
+        if heartbeat is not None and not 0.0 < heartbeat <= wire.MAX_HEARTBEAT_INTERVAL:
+            raise BusConfigError(f"heartbeat interval {heartbeat!r} s outside (0, "
+                                 f"{wire.MAX_HEARTBEAT_INTERVAL:g}]")
+        self.heartbeat_interval = heartbeat
+        self._hb_devices: set[str] = set()
+        self._next_heartbeat = 0.0
         self._seq: dict[str, int] = collections.defaultdict(int)
         self._recent: dict[str, collections.deque[list[bytes]]] = {}
         self.replay_enabled = replay
@@ -284,7 +422,11 @@ class Publisher:
 
     def publish_pen(self, sample: PenSample) -> int:
         """Publish on ``pen.<device>``; returns the bus sequence number."""
-        return self._send(f"pen.{sample.device}", sample)
+        seq = self._send(f"pen.{sample.device}", sample)
+        if self.heartbeat_interval is not None:
+            self._hb_devices.add(sample.device)
+            self.tick()
+        return seq
 
     def publish_pens(self, samples: list[PenSample]) -> int:
         """Publish samples that are ready together (a replay at full speed, a burst
@@ -309,6 +451,9 @@ class Publisher:
                 last = seq + len(chunk) - 1
                 if self.replay_enabled:
                     self._remember_batch(topic, chunk, seq)
+        if self.heartbeat_interval is not None:
+            self._hb_devices.update(s.device for s in samples)
+            self.tick()
         return last
 
     def _remember_batch(self, topic: str, chunk: list[PenSample], seq: int) -> None:
@@ -329,6 +474,25 @@ class Publisher:
 
     def publish_haptic(self, device: str, haptic: wire.Haptic) -> int:
         return self._send(f"haptic.{device}", haptic)
+
+    # -- heartbeats ----------------------------------------------------------------
+    def announce(self, device: str) -> None:
+        """Send heartbeats for ``device`` from now on, before its first sample."""
+        if self.heartbeat_interval is not None:
+            self._hb_devices.add(device)
+
+    def tick(self) -> None:
+        """Send the heartbeats that are due; call it from the publishing loop, idle
+        or not (a heartbeat says the process is alive, so no thread sends it)."""
+        if self.heartbeat_interval is None or not self._hb_devices:
+            return
+        now = time.monotonic()
+        if now < self._next_heartbeat:
+            return
+        self._next_heartbeat = now + self.heartbeat_interval
+        for device in sorted(self._hb_devices):
+            hb = wire.Heartbeat(self.heartbeat_interval, self._seq.get(f"pen.{device}", 0))
+            self._send(f"hb.{device}", hb)
 
     def _serve_subscriptions(self) -> None:
         while True:
@@ -378,7 +542,8 @@ class SubscriberStats:
     """Counters of one subscriber; all integers count messages."""
 
     received: int = 0
-    lost: int = 0
+    lost: int = 0  # samples and commands (heartbeats are not counted as lost)
+    heartbeats: int = 0
     duplicates: int = 0
     malformed: int = 0
     foreign: int = 0
@@ -387,7 +552,8 @@ class SubscriberStats:
 
     def as_dict(self) -> dict[str, Any]:
         return {
-            "received": self.received, "lost": self.lost, "duplicates": self.duplicates,
+            "received": self.received, "lost": self.lost, "heartbeats": self.heartbeats,
+            "duplicates": self.duplicates,
             "malformed": self.malformed, "foreign": self.foreign,
             "version_mismatch": self.version_mismatch, "started_at": dict(self.started_at),
         }  # fmt: skip
@@ -398,7 +564,7 @@ class Message:
     """What :meth:`Subscriber.recv` returns."""
 
     topic: str
-    kind: str  # 'pen' | 'cmd' | 'status' | 'haptic'
+    kind: str  # 'pen' | 'cmd' | 'status' | 'haptic' | 'heartbeat'
     value: Any
     publisher: int
     seq: int
@@ -415,6 +581,7 @@ class Subscriber:
         bind: bool = False,
         keys: Path | None = None,
         context: zmq.Context | None = None,
+        client_key: str | None = None,
     ) -> None:
         specs = endpoint if isinstance(endpoint, list) else [endpoint]
         self.endpoints = [resolve_endpoint(s, bind) for s in specs]
@@ -424,8 +591,12 @@ class Subscriber:
         self.sock.setsockopt(zmq.LINGER, 0)
         for t in topics:
             self.sock.setsockopt(zmq.SUBSCRIBE, t.encode())
-        for ep in self.endpoints:
-            _attach(self.sock, ep, keys)
+        try:
+            for ep in self.endpoints:
+                _attach(self.sock, ep, keys, client_key)
+        except BaseException:
+            self.sock.close(linger=0)
+            raise
         self.stats = SubscriberStats()
         self._last: dict[tuple[int, str], int] = {}
         self._pending: collections.deque[Message] = collections.deque()
@@ -463,6 +634,8 @@ class Subscriber:
             except WireError as exc:
                 self._drop(exc)
                 continue
+            if env.kind == "heartbeat":
+                return self._heartbeat(env)
             key = (env.publisher, env.topic)
             last = self._last.get(key)
             end = env.seq + env.count - 1
@@ -484,6 +657,16 @@ class Subscriber:
                 return msgs[0]
             self.stats.received += 1
             return Message(env.topic, env.kind, env.value, env.publisher, env.seq, env.replay)
+
+    def _heartbeat(self, env: wire.Envelope) -> Message:
+        """A heartbeat: samples it says were sent that never came are lost."""
+        self.stats.heartbeats += 1
+        key = (env.publisher, "pen." + env.topic.partition(".")[2])
+        last = self._last.get(key)
+        if last is not None and env.value.pen_seq > last:
+            self.stats.lost += env.value.pen_seq - last
+            self._last[key] = env.value.pen_seq
+        return Message(env.topic, "heartbeat", env.value, env.publisher, env.seq, env.replay)
 
     def close(self) -> None:
         self.sock.close()

@@ -58,7 +58,10 @@ BUTTON_MASK = 0xFFFF
 def _check_finite(name: str, value: Any, lo: float, hi: float, where: str | None) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise EventError(f"{name} must be a number, got {value!r}", where)
-    v = float(value)
+    try:
+        v = float(value)
+    except OverflowError:  # an integer of hundreds of digits
+        raise EventError(f"{name} is too large a number", where) from None
     if math.isnan(v) or math.isinf(v):
         raise EventError(f"{name} is {v}, not a finite number", where)
     if not lo <= v <= hi:
@@ -267,7 +270,7 @@ _PEN_RECORD_KEYS = frozenset(
 
 KNOWN_COMMANDS = frozenset(
     {"brush", "profile", "wait", "dry", "new_layer", "clear", "tissue", "eraser", "mask",
-     "diffusion", "palette", "stop", "hairdryer"}
+     "diffusion", "palette", "stop", "save", "hairdryer"}
 )  # fmt: skip
 """Command names the station knows today; others pass with a warning (forward-compatible)."""
 

@@ -97,12 +97,20 @@ def _reject_constant(name: str) -> float:
     raise ValueError(f"{name} is not a JSON number")
 
 
+def _loads(text: str, where: str, header: bool = False) -> Any:
+    """JSON of one line; malformed or absurdly nested text is a :class:`SessionLogError`."""
+    prefix = "header is " if header else ""
+    try:
+        return json.loads(text, parse_constant=_reject_constant)
+    except ValueError as exc:
+        raise SessionLogError(f"{prefix}not valid JSON ({exc})", where) from None
+    except RecursionError:  # "[[[[…" 50,000 deep: the decoder recurses per level
+        raise SessionLogError(f"{prefix}not valid JSON (nested too deeply)", where) from None
+
+
 def parse_line(text: str, where: str, warn: bool = True) -> Record | None:
     """Parse one non-header line; ``None`` for an unknown record type (warned)."""
-    try:
-        rec = json.loads(text, parse_constant=_reject_constant)
-    except ValueError as exc:
-        raise SessionLogError(f"not valid JSON ({exc})", where) from None
+    rec = _loads(text, where)
     if not isinstance(rec, dict):
         raise SessionLogError("a record must be a JSON object", where)
     kind = rec.get("type")
@@ -146,6 +154,7 @@ class SessionLogReader:
             self._owns = False
         self.line_no = 0
         self.unknown = 0
+        self.cut: str | None = None  # ``file:line`` of a cut-off last line that was skipped
         self.header = self._read_header()
 
     def _next_line(self) -> str | None:
@@ -168,11 +177,7 @@ class SessionLogReader:
             if line.strip():
                 break
         where = f"{self.name}:{self.line_no}"
-        try:
-            rec = json.loads(line, parse_constant=_reject_constant)
-        except ValueError as exc:
-            raise SessionLogError(f"header is not valid JSON ({exc})", where) from None
-        return SessionHeader.from_record(rec, where)
+        return SessionHeader.from_record(_loads(line, where, header=True), where)
 
     def __iter__(self) -> Iterator[Record]:
         last_t = 0.0
@@ -183,7 +188,17 @@ class SessionLogReader:
             if not line.strip():
                 continue
             where = f"{self.name}:{self.line_no}"
-            rec = parse_line(line, where)
+            try:
+                rec = parse_line(line, where)
+            except SessionLogError as exc:
+                if line.endswith(("\n", "\r")):
+                    raise
+                # The last line without its newline: the writer was killed mid-line.
+                self.cut = where
+                log.warning("%s: last line cut off (the station stopped mid-write?): %s; "
+                            "playing the log up to it", where,
+                            str(exc).removeprefix(f"{where}: "))
+                return
             if rec is None:
                 self.unknown += 1
                 continue

@@ -6,7 +6,7 @@ and a payload that starts with a 20-byte header::
     offset size  field
     0      2     magic  b"ST"
     2      1     version (1)
-    3      1     kind: 1 pen, 2 cmd, 3 status, 4 haptic, 5 pen batch
+    3      1     kind: 1 pen, 2 cmd, 3 status, 4 haptic, 5 pen batch, 6 heartbeat
     4      1     flags: bit 0 = replayed (sent again for a late joiner)
     5      3     reserved, zero
     8      4     publisher id (u32, random per publisher instance)
@@ -16,8 +16,11 @@ All integers little-endian.  The pen body is a fixed 104-byte struct (see
 ``_PEN``); a pen batch is a u16 count followed by that many pen bodies, the
 header's sequence number being the first one's (the batch takes ``count``
 consecutive numbers); cmd and status bodies are UTF-8 JSON objects; the haptic
-body is a fixed struct.  Decoding validates everything: a message that is not exactly
-this raises :class:`WireError` and the subscriber counts and drops it.
+and heartbeat bodies are fixed structs.  Heartbeats (kind 6, topic
+``hb.<device>``) were added compatibly: a version-1 subscriber of ``pen.``/``cmd``
+never receives them (ZeroMQ filters topics at the publisher).  Decoding
+validates everything: a message that is not exactly this raises
+:class:`WireError` and the subscriber counts and drops it.
 """
 
 from __future__ import annotations
@@ -34,8 +37,10 @@ from station.events import TOOL_CODES, Command, PenSample
 MAGIC = b"ST"
 VERSION = 1
 KIND_PEN, KIND_CMD, KIND_STATUS, KIND_HAPTIC, KIND_PEN_BATCH = 1, 2, 3, 4, 5
+KIND_HEARTBEAT = 6
 KIND_NAMES = {KIND_PEN: "pen", KIND_CMD: "cmd", KIND_STATUS: "status", KIND_HAPTIC: "haptic",
-              KIND_PEN_BATCH: "pen"}
+              KIND_PEN_BATCH: "pen", KIND_HEARTBEAT: "heartbeat"}
+MAX_HEARTBEAT_INTERVAL = 60.0
 MAX_BATCH = 512  # samples per batch message (53 KiB)
 FLAG_REPLAY = 0x01
 MAX_JSON_BODY = 64 * 1024
@@ -53,6 +58,7 @@ _PF_ROTATION, _PF_DISTANCE, _PF_WHEEL = 16, 32, 64
 _TOOL_INDEX = {tool: i for i, tool in enumerate(TOOL_CODES)}
 
 _HAPTIC = struct.Struct("<dddd")
+_HEARTBEAT = struct.Struct("<dQ")  # interval_s, last sequence number sent on pen.<device>
 
 
 @dataclass(frozen=True, slots=True)
@@ -84,6 +90,31 @@ class Haptic:
 
 
 @dataclass(frozen=True, slots=True)
+class Heartbeat:
+    """A publisher's "still here" for one device (topic ``hb.<device>``).
+
+    Attributes:
+        interval_s: seconds between this publisher's heartbeats, ``(0, 60]``; a
+            subscriber calls the device silent after a few intervals without one.
+        pen_seq: the last sequence number the publisher sent on ``pen.<device>``
+            (0: none yet), so a subscriber also notices samples lost at the end
+            of a stream, when no later sample shows the gap.
+    """
+
+    interval_s: float
+    pen_seq: int = 0
+
+    def __post_init__(self) -> None:
+        v = self.interval_s
+        if (isinstance(v, bool) or not isinstance(v, (int, float)) or math.isnan(v)
+                or not 0.0 < v <= MAX_HEARTBEAT_INTERVAL):
+            raise EventError(f"heartbeat interval_s={v!r} outside (0, {MAX_HEARTBEAT_INTERVAL}]")
+        if isinstance(self.pen_seq, bool) or not isinstance(self.pen_seq, int) \
+                or not 0 <= self.pen_seq < 2**64:
+            raise EventError(f"heartbeat pen_seq={self.pen_seq!r} is not a u64")
+
+
+@dataclass(frozen=True, slots=True)
 class Envelope:
     """A decoded message: what it is, who sent it, in which order."""
 
@@ -92,7 +123,7 @@ class Envelope:
     publisher: int
     seq: int
     replay: bool
-    value: Any  # PenSample | Command | dict | Haptic | list[PenSample] (a pen batch)
+    value: Any  # PenSample | Command | dict | Haptic | Heartbeat | list[PenSample] (a pen batch)
 
     @property
     def count(self) -> int:
@@ -207,6 +238,8 @@ def encode(topic: str, value: Any, publisher: int, seq: int, flags: int = 0) -> 
     elif isinstance(value, Haptic):
         kind = KIND_HAPTIC
         body = _HAPTIC.pack(value.t, value.amplitude, value.frequency_hz, value.duration_s)
+    elif isinstance(value, Heartbeat):
+        kind, body = KIND_HEARTBEAT, _HEARTBEAT.pack(value.interval_s, value.pen_seq)
     elif isinstance(value, dict):
         kind, body = KIND_STATUS, _encode_json(value)
     else:
@@ -252,6 +285,15 @@ def decode(frames: list[bytes]) -> Envelope:
             raise WireError(f"haptic body is {len(body)} bytes, expected {_HAPTIC.size}")
         try:
             value = Haptic(*_HAPTIC.unpack(body))
+        except EventError as exc:
+            raise WireError(str(exc)) from None
+    elif kind == KIND_HEARTBEAT:
+        if prefix != "hb" or not suffix:
+            raise WireError(f"heartbeat on topic {topic!r}")
+        if len(body) != _HEARTBEAT.size:
+            raise WireError(f"heartbeat body is {len(body)} bytes, expected {_HEARTBEAT.size}")
+        try:
+            value = Heartbeat(*_HEARTBEAT.unpack(body))
         except EventError as exc:
             raise WireError(str(exc)) from None
     else:

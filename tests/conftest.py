@@ -17,3 +17,4 @@ def _private_station_dirs(
     run = Path(f"/tmp/st-{os.getpid()}-{base.name[-6:]}")
     monkeypatch.setenv("STATION_RUNTIME_DIR", str(run))
     monkeypatch.setenv("STATION_CONFIG_DIR", str(base / "config"))
+    monkeypatch.setenv("STATION_DATA_DIR", str(base / "data"))

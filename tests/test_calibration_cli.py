@@ -180,7 +180,7 @@ def test_from_trace_detects_taps_and_fits(tmp_path: Path,
     record_session(log)
     targets = tmp_path / "targets.csv"
     targets.write_text("canvas_x,canvas_y\n" + "".join(f"{x},{y}\n" for x, y in grid9()))
-    from station.calibration.taps import iter_samples
+    from station.calibrate.samples import iter_samples
 
     taps, strokes = detect_taps(iter_samples(log))
     assert len(taps) == 10 and strokes == 1

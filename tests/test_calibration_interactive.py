@@ -22,8 +22,8 @@ import pytest
 from station.calibration.files import read_file
 from station.calibration.geometry import project
 from station.calibration.session import CalibrationSession, target_grid
-from station.calibration.sources import MockUserSource
 
+from station.calibrate.sources import MockUserSource
 from station.events import PenSample, Tool
 
 SCREEN = (1024, 768)

@@ -49,10 +49,23 @@ def test_auto_applies_the_devices_file_and_keeps_raw_samples(tmp_path: Path) -> 
 def test_none_publishes_device_normalised(tmp_path: Path) -> None:
     cal = Calibration(DeviceId(*INTUOS_PRO_M), area=AreaSettings(left_handed=True))
     write_file(cal, default_path(cal.device))
-    r = run_driver(tmp_path, "--calibration", "none")
+    r = run_driver(tmp_path, "--calibration", "none", "--mapping", "stretch")
     assert r.returncode == 0, r.stderr
     out, raw = pens(tmp_path / "out.jsonl"), pens(tmp_path / "raw.jsonl")
     assert [(s.x, s.y) for s in out] == [(s.x, s.y) for s in raw]
+
+
+def test_none_fits_the_tablet_to_the_canvas_keeping_its_aspect(tmp_path: Path) -> None:
+    # Intuos Pro M: 44704 x 27940 units at the same resolution, 1.6:1, onto 4:3 (800x600):
+    # x spans the canvas, y a centred band 4/3 / 1.6 of its height
+    r = run_driver(tmp_path, "--calibration", "none")
+    assert r.returncode == 0, r.stderr
+    out, raw = pens(tmp_path / "out.jsonl"), pens(tmp_path / "raw.jsonl")
+    assert len(out) == len(raw) > 20
+    band = (4 / 3) / (44704 / 27940)
+    for o, w in zip(out, raw, strict=True):
+        assert o.x == pytest.approx(w.x, abs=1e-12)
+        assert o.y - 0.5 == pytest.approx((w.y - 0.5) * band, abs=1e-12)
 
 
 def test_explicit_file_of_another_device_is_refused_exit_2(tmp_path: Path) -> None:
@@ -73,4 +86,6 @@ def test_auto_with_a_corrupt_file_runs_uncalibrated_and_says_why(tmp_path: Path)
     assert r.returncode == 0, r.stderr
     assert "calibration refused" in r.stderr
     out, raw = pens(tmp_path / "out.jsonl"), pens(tmp_path / "raw.jsonl")
-    assert [(s.x, s.y) for s in out] == [(s.x, s.y) for s in raw]
+    band = (4 / 3) / (44704 / 27940)  # uncalibrated: the tablet fitted to the canvas
+    assert [v for s in out for v in (s.x, 0.5 + (s.y - 0.5) / band)] == pytest.approx(
+        [v for s in raw for v in (s.x, s.y)], abs=1e-12)

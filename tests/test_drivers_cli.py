@@ -129,7 +129,8 @@ def test_record_evdev_as_libinput_yaml_and_driver_area(tmp_path: Path) -> None:
     # the active area: the left half of the tablet becomes the whole [0, 1]
     log = tmp_path / "area.jsonl"
     assert main(["driver", "--device", f"mock-evdev:{src}?speed=max", "--bus",
-                 f"ipc://{tmp_path}/bus", "--area", "0,0,22352,27940", "--jsonl", str(log)]) == 0
+                 f"ipc://{tmp_path}/bus", "--area", "0,0,22352,27940", "--mapping", "stretch",
+                 "--jsonl", str(log)]) == 0
     _, records = read_session(log)
     xs = [r.x for r in records if isinstance(r, PenSample)]
     full = [s.x for s in a]

@@ -89,7 +89,8 @@ def test_worn_nib_not_taken_while_tip_down() -> None:
     n = Normaliser(RANGES)
     (s,) = n.feed(raw(0.0, 300, tip=True))
     assert n.tools[(Tool.PEN, None, None)].pressure_offset == 0
-    assert s.touching and s.pressure == pytest.approx(250 / 950)
+    # the tip switch rules contact: pressure counts from zero, not from the 5 % threshold
+    assert s.touching and s.pressure == pytest.approx(300 / 1000)
 
 
 def test_tilt_rotation_distance_wheel() -> None:
@@ -126,7 +127,7 @@ def test_bezier_pressure_curve() -> None:
 def test_forced_proximity_out_after_50_ms_on_tick_and_on_next_report() -> None:
     n = Normaliser(RANGES)
     n.feed(raw(10.000))
-    n.feed(raw(10.005, 500))
+    n.feed(raw(10.005, 30))  # hovering: 3 % of the range is under the contact threshold
     assert n.tick(10.054) == []  # 49 ms: still in proximity
     (out,) = n.tick(10.0551)
     assert not out.proximity and not out.touching and out.pressure == 0.0

@@ -85,7 +85,7 @@ def test_replay_of_every_supported_device(model: str, tmp_path: Path) -> None:
     strokes = sum(1 for a, b in pairwise(samples)
                   if b.touching and not a.touching)
     assert strokes == 5
-    assert 0.7 < max(s.pressure for s in touching) <= 0.8 + 1e-6
+    assert 0.7 < max(s.pressure for s in touching) <= 0.8 + 1 / 511  # one device unit
     buttons = {0, int(Button.STYLUS)} | ({int(Button.STYLUS2)} if model != "ntrig-like" else set())
     assert {s.buttons for s in samples} == buttons  # N-trig-like: one barrel switch only
     # the line script starts at (0.1, 0.2): x/y land within one device unit
@@ -116,7 +116,8 @@ def test_golden_intuos_samples_field_by_field(tmp_path: Path) -> None:
                   proximity=True, touching=False, distance=40 / 63, seq=1, **common),
         PenSample(t=0.010, x=1.0, y=0.0, pressure=1.0, proximity=True, touching=True,
                   buttons=int(Button.STYLUS), distance=0.0, seq=2, **common),
-        PenSample(t=0.016, x=0.0, y=1.0, pressure=(1100 - 0.05 * 2047) / (2047 - 0.05 * 2047),
+        # the Intuos protocol has a tip bit (set above 10): pressure counts from zero
+        PenSample(t=0.016, x=0.0, y=1.0, pressure=1100 / 2047,
                   tilt_x=-64.0, tilt_y=63.0, proximity=True, touching=True, distance=0.0,
                   seq=3, **common),
         PenSample(t=0.021, x=0.0, y=1.0, pressure=0.0, tilt_x=-64.0, tilt_y=63.0,
@@ -228,9 +229,14 @@ def test_malformed_hid_recorder_exit_2_with_file_and_line(tmp_path: Path, capsys
 def test_truncated_trace_is_a_clear_error(tmp_path: Path) -> None:
     text = synth.write_hid_recorder([recording("graphire-usb", "line", reports=4)])
     path = tmp_path / "cut.hid"
-    path.write_text(text[: text.rindex(" ") - 3])  # the last report cut mid-line
+    cut = text[: text.rindex(" ") - 3]
+    path.write_text(cut + "\n")  # a report short of bytes in a whole line: malformed
     with pytest.raises(TraceError, match="truncated"):
         read_trace(path)
+    # the recorder killed mid-write (no newline after the cut): played up to the cut
+    # (tests/test_hostile_input.py checks the warning naming the line)
+    path.write_text(cut)
+    assert len(read_trace(path).devices[0].reports) == text.count("E: ") - 1
     empty = tmp_path / "empty.hid"
     empty.write_text("# nothing\n")
     with pytest.raises(TraceError, match="no device"):
@@ -268,7 +274,9 @@ def test_trace_without_pen_is_exit_2(tmp_path: Path, capsys) -> None:
     synth.write_hid_recorder([touch], path)
     assert main(["replay", str(path)]) == 2
     err = capsys.readouterr().err
-    assert "no pen device" in err and "skipped device 0" in err
+    # one line, naming the device that was skipped and why
+    assert "no pen device" in err and "device 0 'touch only'" in err
+    assert len(err.strip().splitlines()) == 1
 
 
 def test_hid_recorder_writer_round_trip(tmp_path: Path) -> None:
@@ -320,11 +328,14 @@ def test_worn_nib_through_a_bamboo_trace(tmp_path: Path) -> None:
     synth.write_hid_recorder([dev], path)
     samples = list(iter_trace_samples(path))
     assert len(samples) == len(pressures) + 1
-    # offset 60: down = 60 + 5 % of 963 = 108.15, up = 60 + 1 % of 963 = 69.63
-    assert [s.touching for s in samples[:-1]] == [False, False, False, True, True, True, True,
+    # offset 60; the Bamboo has a tip bit, so contact follows it (set here above 100) as
+    # long as the pressure clears the worn nib's up threshold 60 + 1 % of 963 = 69.63,
+    # and the pressure counts from that threshold
+    assert [s.touching for s in samples[:-1]] == [False, False, True, True, True, True, False,
                                                    False, False]
-    down = 60 + 0.05 * 963
-    assert samples[4].pressure == pytest.approx((400 - down) / (1023 - down))
+    up = 60 + 0.01 * 963
+    assert samples[2].pressure == pytest.approx((108 - up) / (1023 - up))
+    assert samples[4].pressure == pytest.approx((400 - up) / (1023 - up))
     assert samples[5].pressure == 1.0
     assert all(s.pressure == 0.0 for s in samples if not s.touching)
 

@@ -17,6 +17,11 @@ def test_measure_parses_every_report_of_every_workload():
         r = results[name]
         assert r["reports"] == 60 and r["samples"] == 60, name  # one sample per report
         assert r["reports_per_s"] > 0 and r["us_per_report"] > 0
+    bundled = {"wacom-intuos4wl", "wacom-intuos-bt"}  # Bluetooth: 2 pen packets a report
+    for name in {"wacom-intuos1", "wacom-tpc", "uclogic-v2"} | bundled:
+        r = results[name]
+        assert r["samples"] == (2 * r["reports"] if name in bundled else r["reports"]), name
+        assert r["samples_per_s"] >= r["reports_per_s"] > 0
     norm = results["normaliser"]
     assert "skipped" in norm or norm["raw_samples"] == 60
 
@@ -24,7 +29,7 @@ def test_measure_parses_every_report_of_every_workload():
 def test_cli_prints_json(capsys):
     assert main(["bench", "parse", "--json", "--reports", "40", "--repeat", "1", "--no-pin"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["benchmark"] == "parse" and out["target_reports_per_s"] == 100_000
+    assert out["benchmark"] == "parse" and out["target_reports_per_s"] == 300_000
     assert out["pinned_cpu"] is None
     assert out["slowest_reports_per_s"] == min(
         r["reports_per_s"] for r in out["results"].values() if "reports_per_s" in r)

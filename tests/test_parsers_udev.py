@@ -59,3 +59,35 @@ def test_cli_udev_check_and_output(tmp_path, capsys):
     assert main(["udev"]) == 0
     assert capsys.readouterr().out == G.generate()
     assert G.main(["--check", "-o", str(out)]) == 1
+
+
+def test_rules_cover_every_model_scoped_by_vendor_and_product():
+    text = G.generate()
+    models = load_devices()
+    assert len(models) >= 150
+    for line in text.splitlines():
+        if line.startswith("SUBSYSTEM==\"usb\""):
+            assert "ATTR{idVendor}==" in line and "ATTR{idProduct}==" in line
+        elif line.startswith(("SUBSYSTEM", "ACTION==\"bind\"")):
+            assert re.search(r'KERNELS?=="00(03|05|18):[0-9A-F]{4}:[0-9A-F]{4}\.\*"', line), line
+
+
+def test_unbind_rule_only_where_the_user_space_path_needs_the_raw_device():
+    text = G.generate()
+    unbind = [ln for ln in text.splitlines() if "usbhid/unbind" in ln]
+    wanted = {(m["vendor_id"].upper(), m["product_id"].upper()) for m in load_devices()
+              if m.get("udev_unbind_from")}  # fmt: skip
+    assert wanted and len(unbind) == len(wanted)
+    for line in unbind:
+        assert line.startswith('ACTION=="bind", SUBSYSTEM=="hid", DRIVER=="hid-generic"')
+        vid, pid = re.search(r'0003:([0-9A-F]{4}):([0-9A-F]{4})', line).groups()
+        assert (vid, pid) in wanted
+    # every such model is a UC-Logic tablet that needs the set-up over raw USB
+    for m in load_devices():
+        if m.get("udev_unbind_from"):
+            assert m["parser"] == "uclogic" and m["uclogic"]["init"] != "fixed-descriptor"
+
+
+def test_rules_regenerate_identically():
+    assert G.generate() == G.generate()
+    assert G.RULES_PATH.read_text(encoding="utf-8") == G.generate()

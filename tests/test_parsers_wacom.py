@@ -259,7 +259,8 @@ def test_graphire_usb_golden():
 
 def test_graphire_bluetooth_pressure_msb_in_d1():
     p = parser_for(0x056A, 0x0081, None, bus=5)
-    assert p.name == "wacom-graphire-bt" and p.init_features == []
+    # the kernel's Bluetooth set-up (wacom_bt_query_tablet_data): 03 00, then 06 00 (high speed)
+    assert p.name == "wacom-graphire-bt" and p.init_features == [b"\x03\x00", b"\x06\x00"]
     (s,) = p.parse(h("03 89 e8 03 d0 07 2c 00"), 0.0)
     assert s.pressure == 300 and s.tip is True
     with pytest.raises(ReportError, match="unknown Graphire report ID 2"):

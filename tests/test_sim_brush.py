@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from station.canvas.brush import (
+from station.brush.stamp import (
     BrushError,
     BrushModel,
     BrushSettings,
@@ -244,7 +244,7 @@ def test_brush_settings_validation() -> None:
         ({"size": "big"}, "must be a number"),
         ({"water": 1.5}, "outside [0, 1]"),
         ({"pigment": {"Black": float("nan")}}, "outside"),
-        ({"kind": "flat"}, "unknown brush kind"),
+        ({"kind": "sponge"}, "unknown brush kind"),
         ({"pigment": ["Black"]}, "must be an object"),
     ]
     for args, text in bad:

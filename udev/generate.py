@@ -46,6 +46,16 @@ def rules_for(model: dict[str, Any]) -> list[str]:
         f'SUBSYSTEM=="hidraw", KERNELS=="{hid_name}", {_access()}',
         f'SUBSYSTEM=="input", KERNEL=="event*", KERNELS=="{hid_name}", {_access()}',
     ]
+    unbind = model.get("udev_unbind_from")
+    if unbind and bus == "usb":
+        # Only for devices whose user-space path needs the raw device: when the kernel
+        # binds a driver that cannot set the tablet up, the USB interface (the HID
+        # device's parent) is released from usbhid for the station's usb: transport.
+        lines.append(
+            f'ACTION=="bind", SUBSYSTEM=="hid", DRIVER=="{unbind}", KERNEL=="{hid_name}", '
+            "RUN+=\"/bin/sh -c 'echo -n $$(basename $$(readlink -f /sys%p/..)) > "
+            "/sys/bus/usb/drivers/usbhid/unbind'\""
+        )
     if bus == "usb":
         lines.append(
             f'SUBSYSTEM=="usb", ENV{{DEVTYPE}}=="usb_device", ATTR{{idVendor}}=="{vid}", '

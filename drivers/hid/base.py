@@ -53,6 +53,8 @@ class ReportParser:
         self.skipped = 0
         self.skipped_by_kind: Counter[str] = Counter()
         self.dropped = 0
+        # Set when the device is served by a fallback (unknown id): what and how to report it.
+        self.warning: str | None = None
 
     def parse(self, report: bytes, time: float) -> list[RawSample]:
         """Parse one input report received at ``time`` (seconds, transport clock).
@@ -86,6 +88,7 @@ class ReportParser:
             "resolution": [r.x.resolution, r.y.resolution],
             "tilt": r.tilt_x is not None,
             "init_features": [b.hex() for b in self.init_features],
+            "warning": self.warning,
         }
 
 

@@ -54,6 +54,9 @@ TOOL_IDS = {"pen": (Tool.PEN, 0x802), "pencil": (Tool.PENCIL, 0x812),
 ERASER_IDS = {0x802: 0x80A, 0x812: 0x81A, 0x832: 0x83A, 0x902: 0x90A, 0x10804: 0x1080C}
 BUS = {"usb": 3, "bluetooth": 5, "i2c": 0x18}
 MOUSE_REPORT = bytes([1, 0, 0, 0])
+# Protocols the mock encodes (synth's encoders); UC-Logic has its own mock (mock/uclogic.py).
+MOCK_PROTOCOLS = frozenset({"wacom-intuos", "wacom-bamboo", "wacom-graphire", "wacom-graphire-bt",
+                            "wacom-graphire4", "hid-generic"})
 
 
 def find_model(name: str) -> dict[str, Any]:
@@ -90,6 +93,10 @@ class MockTablet:
                                   "--device")
         self.model = model
         self.protocol = str(model["parser"])
+        if self.protocol not in MOCK_PROTOCOLS:
+            raise DeviceSpecError(f"mock {model.get('id')}: no mock encoder for the "
+                                  f"{self.protocol} protocol (mock protocols: "
+                                  f"{', '.join(sorted(MOCK_PROTOCOLS))})", "--device")
         self.script, self.seed, self.repeat = script, seed, repeat
         self.reports_per_stroke, self.peak, self.tilt = reports, peak, tilt
         self.tool_type, self.tool_id = TOOL_IDS[tool]
@@ -218,7 +225,9 @@ class MockTablet:
     def _generic(self, s: PenState) -> bytes:
         assert self.generic is not None and self.generic.primary is not None
         r = self.ranges
-        eraser = s.tool is Tool.ERASER
+        fields = self.generic.primary.fields
+        # a pen without an eraser end (no Eraser/Invert usage) touches with its tip
+        eraser = s.tool is Tool.ERASER and ("eraser" in fields or "invert" in fields)
         values: dict[int, int | bool] = {U.DG_IN_RANGE: s.proximity, U.WD_SENSE: s.proximity}
         if s.proximity:
             x, y = self._xy(s)

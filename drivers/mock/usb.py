@@ -57,6 +57,12 @@ class RecordedUsbDevice:
     address: int = 7
     features: list[bytes] = field(default_factory=list)
     log: list[str] = field(default_factory=list)
+    # Vendor behaviour (UC-Logic): raw string descriptors by index (a stall for any other
+    # index above 2), an interrupt OUT endpoint, and hooks the device reacts with.
+    strings: dict[int, bytes] = field(default_factory=dict)
+    out_endpoint: int | None = None
+    on_string: Any = None  # callable(index) after a string descriptor was read
+    on_out: Any = None  # callable(endpoint, data) after an interrupt OUT transfer
     _iter: Iterator[TimedReport] | None = None
     _origin: tuple[float, float] | None = None
     _pending: TimedReport | None = None
@@ -127,12 +133,19 @@ class RecordedUsbBackend(usb.backend.IBackend):
         if intf != 0 or alt != 0 or config != 0:
             raise IndexError("one interface, one alternate setting")
         return SimpleNamespace(bLength=9, bDescriptorType=4, bInterfaceNumber=HID_INTERFACE,
-                               bAlternateSetting=0, bNumEndpoints=1, bInterfaceClass=3,
+                               bAlternateSetting=0,
+                               bNumEndpoints=1 if dev.out_endpoint is None else 2,
+                               bInterfaceClass=3,
                                bInterfaceSubClass=0, bInterfaceProtocol=0, iInterface=0,
                                extra_descriptors=list(_hid_class_descriptor(len(dev.descriptor))))
 
     def get_endpoint_descriptor(self, dev: RecordedUsbDevice, ep: int, intf: int, alt: int,
                                 config: int) -> Any:
+        if ep == 1 and dev.out_endpoint is not None and intf == 0 and alt == 0 and config == 0:
+            return SimpleNamespace(bLength=7, bDescriptorType=5,
+                                   bEndpointAddress=dev.out_endpoint & 0x7F, bmAttributes=0x03,
+                                   wMaxPacketSize=dev.max_packet, bInterval=1, bRefresh=0,
+                                   bSynchAddress=0, extra_descriptors=[])  # fmt: skip
         if ep != 0 or intf != 0 or alt != 0 or config != 0:
             raise IndexError("one endpoint")
         return SimpleNamespace(bLength=7, bDescriptorType=5, bEndpointAddress=IN_ENDPOINT,
@@ -192,13 +205,28 @@ class RecordedUsbBackend(usb.backend.IBackend):
         buff[:n] = type(buff)(buff.typecode, report.data[:n])
         return n
 
+    def intr_write(self, handle: RecordedUsbDevice, ep: int, intf: int, data: Any,
+                   timeout: int) -> int:
+        if handle.out_endpoint is None or ep != handle.out_endpoint & 0x7F:
+            raise usb.core.USBError("Invalid endpoint", errno=errno.EINVAL)
+        sent = bytes(data)
+        handle.log.append(f"out {ep:#04x} {sent.hex(' ')}")
+        if handle.on_out is not None:
+            handle.on_out(ep, sent)
+        return len(sent)
+
     def ctrl_transfer(self, handle: RecordedUsbDevice, bmRequestType: int, bRequest: int,
                       wValue: int, wIndex: int, data: Any, timeout: int) -> Any:
         if bmRequestType & 0x80 and bRequest == 0x06:  # GET_DESCRIPTOR
             kind, index = wValue >> 8, wValue & 0xFF
             if kind == 0x22:
                 payload = handle.descriptor
-            elif kind == 0x03:
+            elif kind == 0x03 and index in handle.strings:
+                payload = handle.strings[index]
+                handle.log.append(f"string {index}")
+                if handle.on_string is not None:
+                    handle.on_string(index)
+            elif kind == 0x03 and index <= 2:
                 text = {1: "Station mock", 2: handle.name}.get(index, "")
                 body = b"\x09\x04" if index == 0 else text.encode("utf-16-le")
                 payload = bytes([2 + len(body), 3]) + body

@@ -24,7 +24,11 @@ from station.drivers.traces.hidrecorder import (
 from station.drivers.traces.libinput_record import parse_libinput_record, read_libinput_record
 from station.drivers.traces.model import Trace, TraceDevice, TraceError
 
+from station.errors import BadInput
+
 if TYPE_CHECKING:
+    from station.drivers.normalise import NormaliserConfig
+
     from station.events import PenSample
 
 __all__ = [
@@ -101,12 +105,18 @@ def read_trace(path: str | os.PathLike[str]) -> Trace:
     return read_hid_recorder(path)
 
 
-def iter_trace_samples(path: str | os.PathLike[str], device: str | None = None
-                       ) -> Iterator[PenSample]:
-    """Pen samples of every pen device in the trace, device-normalised, in time order."""
+def iter_trace_samples(path: str | os.PathLike[str], device: str | None = None,
+                       config: NormaliserConfig | None = None) -> Iterator[PenSample]:
+    """Pen samples of every pen device in the trace, in time order.
+
+    Device-normalised unless ``config`` names a canvas to map them onto.  A
+    trace without a pen device raises :class:`~station.errors.BadInput`.
+    """
     from station.drivers.pipeline import TraceReplay
 
-    replay = TraceReplay(read_trace(path), device_name=device)
+    replay = TraceReplay(read_trace(path), config=config, device_name=device)
+    if not replay.pen_devices:
+        raise BadInput(f"no pen device in this trace ({replay.skipped_text()})", str(path))
     yield from replay.samples()
 
 

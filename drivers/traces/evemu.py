@@ -14,7 +14,7 @@ from collections.abc import Iterable
 
 from station.drivers.evdev import codes as c
 from station.drivers.evdev.frames import AbsInfo, EvdevCaps, InputEvent
-from station.drivers.traces.model import Trace, TraceDevice, TraceError
+from station.drivers.traces.model import Trace, TraceDevice, TraceError, tolerate_cut
 
 
 def _ints(tokens: list[str], base: int, where: str, what: str) -> list[int]:
@@ -25,6 +25,11 @@ def _ints(tokens: list[str], base: int, where: str, what: str) -> list[int]:
 
 
 def parse_evemu(lines: Iterable[str], name: str) -> Trace:
+    """Parse evemu-record text; a last line cut off mid-write is dropped with a warning."""
+    return tolerate_cut(_parse_evemu, lines, name)
+
+
+def _parse_evemu(lines: Iterable[str], name: str) -> Trace:
     dev_name = ""
     ids = [0, 0, 0, 0]
     bitmasks: dict[int, bytearray] = {}

@@ -19,7 +19,7 @@ import string
 from collections.abc import Iterable
 from typing import IO
 
-from station.drivers.traces.model import Trace, TraceDevice, TraceError
+from station.drivers.traces.model import Trace, TraceDevice, TraceError, tolerate_cut
 from station.drivers.transport.base import TimedReport
 
 log = logging.getLogger(__name__)
@@ -53,7 +53,13 @@ def _length(tok: str, where: str, what: str, limit: int) -> int:
 
 
 def parse_hid_recorder(lines: Iterable[str], name: str) -> Trace:
-    """Parse hid-recorder text; ``name`` is used in ``file:line`` messages."""
+    """Parse hid-recorder text; ``name`` is used in ``file:line`` messages.
+
+    A last line cut off mid-write is dropped with a warning (:func:`tolerate_cut`)."""
+    return tolerate_cut(_parse_hid_recorder, lines, name)
+
+
+def _parse_hid_recorder(lines: Iterable[str], name: str) -> Trace:
     devices: dict[int, TraceDevice] = {}
     current = -1
 

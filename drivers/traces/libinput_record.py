@@ -16,6 +16,7 @@ import yaml
 from station.drivers.evdev import codes as c
 from station.drivers.evdev.frames import AbsInfo, EvdevCaps, InputEvent
 from station.drivers.traces.model import Trace, TraceDevice, TraceError
+from yaml.composer import ComposerError
 
 
 def _int(value: Any, where: str, what: str) -> int:
@@ -24,14 +25,30 @@ def _int(value: Any, where: str, what: str) -> int:
     return value
 
 
+class _Loader(yaml.SafeLoader):
+    """Safe YAML without aliases: libinput record never writes them, and aliases let a
+    small file expand into an enormous document ("billion laughs")."""
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        if self.check_event(yaml.AliasEvent):
+            raise ComposerError(None, None, "aliases (*name) are not used by libinput record",
+                                self.peek_event().start_mark)
+        return super().compose_node(parent, index)
+
+
+MAX_SECONDS = 1e9  # event times beyond this (31 years) are not a recording
+
+
 def parse_libinput_record(text: str, name: str) -> Trace:
     try:
-        doc = yaml.safe_load(text)
+        doc = yaml.load(text, Loader=_Loader)  # a SafeLoader without aliases
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line = (mark.line + 1) if mark is not None else 1
         raise TraceError(f"not valid YAML ({getattr(exc, 'problem', exc)})",
                          f"{name}:{line}") from None
+    except RecursionError:  # the composer recurses per nesting level
+        raise TraceError("not valid YAML (nested too deeply)", f"{name}:1") from None
     if not isinstance(doc, dict) or not isinstance(doc.get("devices"), list):
         raise TraceError("not a libinput recording (no 'devices' list)", f"{name}:1")
     devices: list[TraceDevice] = []
@@ -76,9 +93,11 @@ def parse_libinput_record(text: str, name: str) -> Trace:
                 if not isinstance(item, list) or len(item) != 5:
                     raise TraceError(f"{item!r} is not [sec, usec, type, code, value]", ew)
                 sec, usec, etype, code, value = (_int(v, ew, "event field") for v in item)
+                if not (0 <= sec < MAX_SECONDS and 0 <= usec < 1_000_000 and 0 <= etype <= 0x1F
+                        and 0 <= code <= 0x2FF and -(1 << 31) <= value < 1 << 31):
+                    raise TraceError(f"{item!r:.80} out of range", ew)
                 t = sec + usec / 1e6
-                if not (0 <= usec < 1_000_000 and 0 <= etype <= 0x1F and 0 <= code <= 0x2FF
-                        and t >= 0):
+                if not t >= 0:
                     raise TraceError(f"{item!r} out of range", ew)
                 if last_t is not None and t + 1e-6 < last_t:
                     raise TraceError(f"time {t} goes back (previous {last_t})", ew)

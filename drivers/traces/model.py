@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import logging
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
 from station.drivers.evdev.frames import EvdevCaps, InputEvent
@@ -9,9 +11,29 @@ from station.drivers.transport.base import HidDeviceInfo, TimedReport
 
 from station.errors import BadInput
 
+log = logging.getLogger(__name__)
+
 
 class TraceError(BadInput):
     """A trace file is malformed; ``where`` is ``file:line``."""
+
+
+def tolerate_cut(parse: Callable[[list[str], str], Trace], lines: Iterable[str],
+                 name: str) -> Trace:
+    """``parse(lines, name)``, except that a last line without its newline — what a
+    recorder killed mid-write leaves behind — that ``parse`` refuses is dropped with a
+    warning naming it, and the recording plays up to the cut.  Any other malformed
+    line stays a :class:`TraceError`."""
+    text = list(lines)
+    try:
+        return parse(text, name)
+    except TraceError as exc:
+        where = f"{name}:{len(text)}"
+        if not text or text[-1].endswith(("\n", "\r")) or exc.where != where:
+            raise
+        log.warning("%s: last line cut off (the recorder stopped mid-write?): %s; playing "
+                    "the recording up to it", where, str(exc).removeprefix(f"{where}: ")[:200])
+        return parse(text[:-1], name)
 
 
 @dataclass

@@ -28,6 +28,9 @@ REQ_GET_DESCRIPTOR, REQ_SET_REPORT = 0x06, 0x09
 HID_REPORT_DESCRIPTOR = 0x22
 REPORT_TYPE_FEATURE = 3
 RT_STANDARD_IN_INTERFACE = 0x81
+RT_STANDARD_IN_DEVICE = 0x80
+USB_DT_STRING = 0x03
+LANGID_EN_US = 0x0409
 RT_CLASS_OUT_INTERFACE = 0x21
 
 
@@ -165,6 +168,33 @@ class UsbTransport:
             raise TransportError(f"{self.info.path}: SET_REPORT {data.hex(' ')} failed ({exc})") \
                 from None
         self.features_sent.append(data)
+
+    def get_string_descriptor(self, index: int, length: int) -> bytes | None:
+        """GET_DESCRIPTOR(string ``index``, US English) as raw bytes; None when the device stalls.
+
+        UC-Logic tablets keep binary parameters in such "strings" (see
+        :mod:`station.drivers.uclogic.init`); reading them switches their mode.
+        """
+        try:
+            data = self._dev.ctrl_transfer(RT_STANDARD_IN_DEVICE, REQ_GET_DESCRIPTOR,
+                                           USB_DT_STRING << 8 | index, LANGID_EN_US, length)
+        except self._usb.core.USBError as exc:
+            if getattr(exc, "errno", None) == 32:  # EPIPE: no such descriptor
+                return None
+            raise TransportError(f"{self.info.path}: string descriptor {index} failed ({exc})") \
+                from None
+        return bytes(data)
+
+    def write_interrupt(self, endpoint: int, data: bytes) -> None:
+        """Write ``data`` to interrupt OUT ``endpoint`` of the device (UGEE v2 set-up)."""
+        try:
+            sent = self._dev.write(endpoint & 0x7F, bytes(data), 1000)
+        except self._usb.core.USBError as exc:
+            raise TransportError(f"{self.info.path}: interrupt OUT {endpoint:#04x} failed "
+                                 f"({exc})") from None  # fmt: skip
+        if sent != len(data):
+            raise TransportError(f"{self.info.path}: interrupt OUT sent {sent} of "
+                                 f"{len(data)} bytes")
 
     def close(self) -> None:
         number = self._intf.bInterfaceNumber

@@ -42,6 +42,10 @@ ROTATION_AXIS = Axis(-900, 899, 5.0)  # Art Pen: 1800 units per turn, 5 per degr
 WHEEL_AXIS = Axis(0, 1023, None)  # airbrush finger wheel
 TILT_AXIS = Axis(-64, 63, 1.0)  # about one unit per degree
 
+# d[1] & 0x06 -> pen button bits, as plain ints (IntFlag arithmetic is slow per report)
+_PEN_BUTTONS = tuple((int(Button.STYLUS) if b & 2 else 0) | (int(Button.STYLUS2) if b & 4 else 0)
+                     for b in range(8))
+
 # packet types (d[1] >> 1) & 0xf
 PEN_TYPES = frozenset({0, 1, 2, 3})
 TYPE_MOUSE_4D, TYPE_ROTATION, TYPE_MOUSE_I4, TYPE_AIRBRUSH = 0x4, 0x5, 0x6, 0xA
@@ -95,50 +99,83 @@ class IntuosState:
         self.buttons = 0
 
 
+# Quirks inside the family (device data ``protocol_quirks``; wacom_intuos_general's type tests).
+QUIRKS = frozenset({"no-lens", "ready-bit", "old-styli-invalid", "no-tilt", "distance-inverted"})
+# Report IDs that may carry proximity packets: the answers to the kernel's tool query
+# (WACOM_REPORT_INTUOS_ID1/ID2) come in as reports 5 and 6.
+PROX_REPORT_IDS = frozenset({5, 6})
+
+
 class IntuosParser(ReportParser):
-    """Intuos3/4/5/Pro and Cintiq pen interface (report IDs 2 and 16)."""
+    """Intuos family pen interface (report IDs 2 and 16).
+
+    ``original=True`` is the first protocol generation (Intuos, Intuos2: kernel
+    type INTUOS): two tool slots chosen by ``d[1] & 1`` (a pen and a puck can
+    be in proximity together), coordinates and distance without the extra low
+    bit (the kernel shifts them right once), and packet type 5 is the 4D
+    mouse's second packet instead of the Art Pen rotation.
+    """
 
     name = "wacom-intuos"
     pen_report_ids = PEN_REPORT_IDS
 
     def __init__(self, params: WacomParams, model: dict[str, Any] | None = None,
-                 init_features: list[bytes] | None = None) -> None:
+                 init_features: list[bytes] | None = None, original: bool = False,
+                 quirks: frozenset[str] | None = None) -> None:
         self.params = params
+        self.original = original
+        if original:
+            self.name = "wacom-intuos1"
+        if quirks is None:
+            quirks = frozenset((model or {}).get("protocol_quirks", []))
+        unknown = quirks - QUIRKS
+        if unknown:
+            raise ValueError(f"unknown Intuos quirks {sorted(unknown)}")
+        self.quirks = quirks
+        self.tilt = "no-tilt" not in quirks
+        self._inverted = "distance-inverted" in quirks
+        self._drops = bool(quirks & {"no-lens", "ready-bit", "old-styli-invalid"})
         # Devices with less than 11 bits of pressure get the 11-bit value halved.
         self.halve_pressure = params.max_pressure < 2047
         ranges = AxisRanges(
             x=params.x_axis(),
             y=params.y_axis(),
             pressure=Axis(0, params.max_pressure),
-            tilt_x=TILT_AXIS,
-            tilt_y=TILT_AXIS,
+            tilt_x=TILT_AXIS if self.tilt else None,
+            tilt_y=TILT_AXIS if self.tilt else None,
             distance=Axis(0, params.max_distance),
-            rotation=ROTATION_AXIS,
+            rotation=None if original else ROTATION_AXIS,
             wheel=WHEEL_AXIS,
         )
         feats = [PEN_MODE_FEATURE] if init_features is None else init_features
         super().__init__(ranges, model, feats)
-        self.state = IntuosState()
+        self.slots = (IntuosState(), IntuosState())
+        self.state = self.slots[0]
 
     def reset(self) -> None:
-        self.state = IntuosState()
+        self.slots = (IntuosState(), IntuosState())
+        self.state = self.slots[0]
 
     def parse(self, report: bytes, time: float) -> list[RawSample]:
         if not report:
             raise unknown_id(b"\0", "Intuos")
         rid = report[0]
         if rid not in PEN_REPORT_IDS:
-            if rid in self.params.skip_report_ids:
+            if rid in PROX_REPORT_IDS and len(report) >= REPORT_LENGTH and (
+                    report[1] & 0xFC == 0xC0 or report[1] & 0xFE in (0x20, 0x80)):
+                pass  # a proximity packet answering the tool query: read below
+            elif rid in self.params.skip_report_ids:
                 return self._skip("mouse" if rid == 1 else "pad")
-            if rid == STATUS_REPORT_ID:
+            elif rid == STATUS_REPORT_ID or rid in PROX_REPORT_IDS:
                 return self._skip("status")
-            raise unknown_id(report, "Intuos")
+            else:
+                raise unknown_id(report, "Intuos")
         if len(report) == TOUCH_LENGTH:
             return self._skip("touch")
         check_length(report, PEN_LENGTHS, "Intuos")
         d = report
-        st = self.state
         d1 = d[1]
+        st = self.state = self.slots[d1 & 1 if self.original else 0]
         if d1 & 0xFC == 0xC0:  # enter proximity: identify the tool
             st.serial = decode_serial(d)
             st.tool_id = decode_tool_id(d)
@@ -160,26 +197,36 @@ class IntuosParser(ReportParser):
             out = self._sample(time, False, valid=False)
             st.tool_id, st.serial, st.tool = 0, 0, None
             return [out]
-        if not st.tool_id:  # data before the tool was identified
+        if rid in PROX_REPORT_IDS or not st.tool_id:  # data before the tool was identified
             self.dropped += 1
             return []
-        # Intuos3 and later: one extra bit of x and y in d[9].
-        st.x = (((d[2] << 8) | d[3]) << 1) | ((d[9] >> 1) & 1)
-        st.y = (((d[4] << 8) | d[5]) << 1) | (d[9] & 1)
-        st.distance = d[9] >> 2
+        if self._drops and self._invalid(d1, st):
+            self.dropped += 1
+            return []
+        # Intuos3 and later: one extra bit of x and y in d[9]; the original protocol has none.
+        x = (((d[2] << 8) | d[3]) << 1) | ((d[9] >> 1) & 1)
+        y = (((d[4] << 8) | d[5]) << 1) | (d[9] & 1)
+        distance = d[9] >> 2
+        if self.original:
+            x, y, distance = x >> 1, y >> 1, distance >> 1
+        if self._inverted:
+            distance = self.params.max_distance - distance
+        st.x, st.y, st.distance = x, y, distance
         ptype = (d1 >> 1) & 0xF
         if ptype in PEN_TYPES:
             t = (d[6] << 3) | ((d[7] & 0xC0) >> 5) | (d1 & 1)
             if self.halve_pressure:
                 t >>= 1
             st.pressure = t
-            st.tilt_x, st.tilt_y = decode_tilt(d)
-            st.buttons = (Button.STYLUS if d1 & 2 else 0) | (Button.STYLUS2 if d1 & 4 else 0)
+            if self.tilt:
+                st.tilt_x, st.tilt_y = decode_tilt(d)
+            st.buttons = _PEN_BUTTONS[d1 & 6]
         elif ptype == TYPE_AIRBRUSH:
             st.wheel = (d[6] << 2) | ((d[7] >> 6) & 3)
             st.tilt_x, st.tilt_y = decode_tilt(d)
         elif ptype == TYPE_ROTATION:
-            st.rotation = decode_rotation(d)
+            if not self.original:  # original protocol: the 4D mouse's throttle packet
+                st.rotation = decode_rotation(d)
         elif ptype == TYPE_MOUSE_I4:
             st.buttons = _mouse_buttons(d[6], side=0x08, extra=0x10)
             st.tilt_x, st.tilt_y = decode_tilt(d)
@@ -190,28 +237,29 @@ class IntuosParser(ReportParser):
         st.reporting = True
         return [self._sample(time, True, valid=True)]
 
+    def _invalid(self, d1: int, st: IntuosState) -> bool:
+        """Data the kernel drops for this device type (wacom_intuos_general)."""
+        q = self.quirks
+        if "old-styli-invalid" in q and not (st.tool_id >> 16) & 1:
+            return True  # Intuos4-generation styli do not work on the 21UX2
+        if "no-lens" in q and st.tool == Tool.LENS:
+            return True  # only the large Intuos3/4/5 take the lens cursor
+        return "ready-bit" in q and not d1 & 0x40  # the first Cintiq: data only when ready
+
     def _sample(self, time: float, proximity: bool, valid: bool) -> RawSample:
         st = self.state
-        cursor = st.tool in (Tool.MOUSE, Tool.LENS)
-        return RawSample(
-            time=time,
-            proximity=proximity,
-            x=st.x,
-            y=st.y,
-            tip=st.pressure > 10 if not cursor else False,  # the kernel's BTN_TOUCH rule
-            pressure=None if cursor else st.pressure,
-            tilt_x=None if cursor and st.tool == Tool.LENS else st.tilt_x,
-            tilt_y=None if cursor and st.tool == Tool.LENS else st.tilt_y,
-            distance=st.distance,
-            rotation=st.rotation,
-            wheel=st.wheel,
-            buttons=int(st.buttons),
-            tool=st.tool,
-            serial=st.serial if st.tool_id else None,
-            tool_id=st.tool_id or None,
-            eraser=st.tool == Tool.ERASER,
-            valid=valid,
-        )
+        tool = st.tool
+        cursor = tool is Tool.MOUSE or tool is Tool.LENS
+        no_tilt = tool is Tool.LENS or not self.tilt
+        # Positional, in RawSample's field order (time, proximity, x, y, tip, pressure,
+        # tilt x/y, distance, rotation, wheel, buttons, tool, serial, tool id, eraser,
+        # valid): built for every report.  tip: the kernel's BTN_TOUCH rule, pressure > 10.
+        return RawSample(time, proximity, st.x, st.y, False if cursor else st.pressure > 10,
+                         None if cursor else st.pressure, None if no_tilt else st.tilt_x,
+                         None if no_tilt else st.tilt_y, st.distance,
+                         None if self.original else st.rotation, st.wheel, st.buttons,
+                         tool, st.serial if st.tool_id else None, st.tool_id or None,
+                         tool is Tool.ERASER, valid)
 
 
 def _mouse_buttons(bits: int, side: int, extra: int) -> int:

@@ -3,9 +3,10 @@
 Synthetic strokes are encoded with :mod:`station.drivers.synth` (the exact
 inverses of the parsers), then parsed in a tight loop on one core (the
 process is pinned to one CPU where the OS allows).  Devices send 100-233
-reports per second; the target is >= 100 000 reports/s per parser, so one
-core has ~500x headroom.  The normaliser (``station.drivers.normalise``)
-is measured on the Intuos parser's samples when it is installed.
+reports per second; the target is >= 300 000 reports/s per parser (pen
+packets/s for bundled Bluetooth reports), so one core has ~1500x headroom.
+The normaliser (``station.drivers.normalise``) is measured on the Intuos
+parser's samples when it is installed.
 """
 
 from __future__ import annotations
@@ -18,7 +19,9 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-TARGET = 100_000
+# Reports per second a parser keeps on one idle core (issue 9: >= 300 000).  For Bluetooth
+# reports that bundle several pen packets the target applies to packets (samples).
+TARGET = 300_000
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -80,7 +83,57 @@ def _workloads(n: int) -> dict[str, tuple[Any, list[bytes]]]:
             U.DG_Y_TILT: int(ty * tmax), U.DG_TRANSDUCER_SERIAL: 77,
         }) for u, v, p, tx, ty in stroke]  # fmt: skip
         work[f"hid-generic/{label}"] = (GenericPenParser(d), reports)
+    _more_workloads(work, stroke)
     return work
+
+
+def _more_workloads(work: dict[str, tuple[Any, list[bytes]]],
+                    stroke: list[tuple[float, float, float, float, float]]) -> None:
+    """The protocol families read from the kernel's table (one representative each)."""
+    from station.drivers import synth as S
+    from station.drivers.registry import parser_for
+    from station.drivers.uclogic.params import UclogicParams
+
+    n = len(stroke)
+    # Intuos2 12x12 (original protocol: coordinates without the low bit, encoded doubled)
+    i1 = parser_for(0x056A, 0x0044, None)
+    reps = [S.intuos_prox_in(0x022, 0x42)]
+    reps += [S.intuos_pen(2 * int(u * 30480), 2 * int(v * 31680), int(p * 1023),
+                          int(tx * 63), int(ty * 63), 5, 0, 1023)
+             for u, v, p, tx, ty in stroke[: n - 1]]  # fmt: skip
+    work["wacom-intuos1"] = (i1, reps)
+    # Intuos4 WL over Bluetooth: two Intuos packets a report
+    i4 = parser_for(0x056A, 0x00BD, 5)
+    pens = [S.intuos_pen(int(u * 40640), int(v * 25400), int(p * 2047), int(tx * 63),
+                         int(ty * 63), 5, 0) for u, v, p, tx, ty in stroke]  # fmt: skip
+    reps = [bytes([3]) + S.intuos_prox_in(0x802, 7) + pens[0] + b"\x07"]
+    reps += [bytes([3]) + pens[i] + pens[i + 1] + b"\x07" for i in range(1, n - 1, 2)]
+    work["wacom-intuos4wl"] = (i4, reps)
+    # Intuos Pro 2 over Bluetooth: up to seven 14-byte frames a report (here 2)
+    bt = parser_for(0x056A, 0x0360, 5)
+    tail = bytes(14 * 5) + ((1 << 52) | 0x1234).to_bytes(8, "little") + bytes([2, 8])
+    reps = []
+    for i in range(0, n - 1, 2):
+        frames = b""
+        for u, v, p, tx, ty in stroke[i:i + 2]:
+            frames += (bytes([0xE0 | (p > 0.1)]) + int(u * 44800).to_bytes(2, "little")
+                       + int(v * 29600).to_bytes(2, "little") + int(p * 8191).to_bytes(2, "little")
+                       + bytes([int(tx * 60) & 0xFF, int(ty * 60) & 0xFF]) + bytes(4) + b"\x05")
+        reps.append(bytes([0x81]) + frames + tail)
+    work["wacom-intuos-bt"] = (bt, reps)
+    # ISDv4 Tablet PC pen (the single-tool family)
+    tpc = parser_for(0x056A, 0x0093, None)
+    work["wacom-tpc"] = (tpc, [bytes([2, 0x20 | (p > 0.1)]) + int(u * 26202).to_bytes(2, "little")
+                               + int(v * 16325).to_bytes(2, "little")
+                               + int(p * 255).to_bytes(2, "little")
+                               for u, v, p, _, _ in stroke])  # fmt: skip
+    # UC-Logic v2 (after the set-up)
+    uc = parser_for(0x256C, 0x006D, S.huion_like_descriptor())
+    uc.use_params(UclogicParams("v2", 50800, 31750, 8191, 5080))
+    work["uclogic-v2"] = (uc, [S.uclogic_pen_report("v2", int(u * 50800), int(v * 31750),
+                                                    int(p * 8191), p > 0.1, 0, True,
+                                                    int(tx * 60), int(ty * 60))
+                               for u, v, p, tx, ty in stroke])  # fmt: skip
 
 
 def _time_it(fn: Callable[[], int], repeat: int) -> tuple[float, int]:
@@ -104,33 +157,44 @@ def _pin() -> int | None:
         return None
 
 
+def _loop(parser: Any, reports: list[bytes]) -> int:
+    parser.reset()
+    parse = parser.parse
+    got = 0
+    t = 0.0
+    for r in reports:
+        t += 0.005
+        got += len(parse(r, t))
+    return got
+
+
 def measure(n: int, repeat: int) -> dict[str, Any]:
     results: dict[str, Any] = {}
-    intuos_samples = []
-    for name, (parser, reports) in _workloads(n).items():
-        def loop(parser: Any = parser, reports: list[bytes] = reports) -> int:
-            parser.reset()
-            parse = parser.parse
-            got = 0
-            t = 0.0
-            for r in reports:
-                t += 0.005
-                got += len(parse(r, t))
-            return got
-
-        seconds, samples = _time_it(loop, repeat)
+    work = _workloads(n)
+    # Round-robin: every run visits every parser once, so a load change on a shared
+    # machine hits all parsers alike and the best-of-R figures stay comparable.
+    best = dict.fromkeys(work, math.inf)
+    samples_of: dict[str, int] = {}
+    for _ in range(repeat):
+        for name, (parser, reports) in work.items():
+            t0 = time.perf_counter()
+            samples_of[name] = _loop(parser, reports)
+            best[name] = min(best[name], time.perf_counter() - t0)
+    for name, (_, reports) in work.items():
+        seconds = best[name]
         results[name] = {
             "reports": len(reports),
-            "samples": samples,
+            "samples": samples_of[name],
             "seconds": round(seconds, 6),
             "reports_per_s": round(len(reports) / seconds),
+            "samples_per_s": round(samples_of[name] / seconds),
             "us_per_report": round(seconds / len(reports) * 1e6, 3),
-            "meets_target": len(reports) / seconds >= TARGET,
+            "meets_target": max(len(reports), samples_of[name]) / seconds >= TARGET,
         }
-        if name == "wacom-intuos":
-            parser.reset()
-            intuos_samples = [s for i, r in enumerate(reports) for s in parser.parse(r, i * 0.005)]
-            intuos_ranges = parser.ranges
+    parser, reports = work["wacom-intuos"]
+    parser.reset()
+    intuos_samples = [s for i, r in enumerate(reports) for s in parser.parse(r, i * 0.005)]
+    intuos_ranges = parser.ranges
     try:
         from station.drivers.normalise import Normaliser
     except ImportError:

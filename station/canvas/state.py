@@ -24,6 +24,7 @@ layer; slots are assigned on first use; ``new_layer`` frees them.
 
 from __future__ import annotations
 
+import io
 import json
 import zipfile
 from dataclasses import dataclass, field
@@ -34,6 +35,7 @@ import numpy as np
 
 from station.canvas.palette import Palette, Pigment, default_palette
 from station.canvas.params import CanvasInputError, SimParams, get_profile
+from station.durable import atomic_write
 
 STATE_VERSION = 1
 DEFAULT_SLOTS = 8
@@ -192,15 +194,25 @@ class CanvasState:
 
         Pigment planes are stored for the used slots only (the others are zero by
         construction) and the archive is zlib-compressed: a mostly blank canvas is small.
+        The file is replaced atomically: a crash or a full disk leaves the old one.
         """
+        atomic_write(path, self.npz_bytes())
+
+    def npz_bytes(self, extra: dict[str, Any] | None = None) -> bytes:
+        """The .npz archive :meth:`save` writes; ``extra`` adds JSON entries (a live
+        session's checkpoint data), which :meth:`load` ignores and
+        :func:`read_extra` returns."""
         used = len(self.slots)
         arrays = {n: getattr(self, n) for n in _PLANE_FIELDS}
         arrays.update({n: getattr(self, n)[:used] for n in _STACK_FIELDS})
         arrays["r_composed"] = self.r_composed
         arrays["tile_ttl"] = self.tile_ttl
         meta = np.array(json.dumps(self.metadata()))
-        with open(path, "wb") as fh:
-            np.savez_compressed(fh, meta=meta, **arrays)
+        arrays["meta"] = meta
+        arrays.update({f"extra_{k}": np.array(json.dumps(v)) for k, v in (extra or {}).items()})
+        buf = io.BytesIO()
+        np.savez_compressed(buf, **arrays)
+        return buf.getvalue()
 
     @classmethod
     def load(cls, path: str | Path) -> CanvasState:
@@ -271,3 +283,18 @@ class CanvasState:
         except (KeyError, TypeError, ValueError, AttributeError) as exc:
             raise CanvasInputError(f"state metadata is malformed ({exc})", where) from None
         return st
+
+
+def read_extra(path: str | Path, name: str) -> Any:
+    """The JSON entry ``name`` that :meth:`CanvasState.npz_bytes` added, or ``None``."""
+    where = str(path)
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            key = f"extra_{name}"
+            if key not in z.files:
+                return None
+            return json.loads(str(z[key]))
+    except FileNotFoundError:
+        raise CanvasInputError("state file not found", where) from None
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError) as exc:
+        raise CanvasInputError(f"corrupt state file ({exc.__class__.__name__})", where) from None

@@ -52,6 +52,17 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+MAX_MESSAGE = 500
+
+
+def one_line(exc: BaseException) -> str:
+    """The message of ``exc`` as one line of at most :data:`MAX_MESSAGE` characters:
+    hostile input quoted in a message (a 100 kB token, a YAML error's own line
+    breaks) must not turn the promised one line into a screenful."""
+    text = " ".join(str(exc).split())
+    return text if len(text) <= MAX_MESSAGE else text[:MAX_MESSAGE - 1] + "…"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -64,10 +75,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.func(args) or 0)
     except BadInput as exc:
-        sys.stderr.write(f"station {args.command}: {exc}\n")
+        sys.stderr.write(f"station {args.command}: {one_line(exc)}\n")
         return EXIT_BAD_INPUT
     except StationError as exc:
-        sys.stderr.write(f"station {args.command}: error: {exc}\n")
+        sys.stderr.write(f"station {args.command}: error: {one_line(exc)}\n")
         return EXIT_FAIL
     except KeyboardInterrupt:
         sys.stderr.write(f"station {args.command}: interrupted\n")

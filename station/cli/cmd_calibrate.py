@@ -233,7 +233,8 @@ def run_fit(args: argparse.Namespace) -> int:
 
 
 def run_from_trace(args: argparse.Namespace) -> int:
-    from station.calibration.taps import detect_taps, iter_samples, match_taps, read_targets
+    from station.calibrate.samples import iter_samples
+    from station.calibration.taps import detect_taps, match_taps, read_targets
 
     if not args.targets:
         raise BadInput("--from-trace needs --targets TARGETS.csv", "--targets")
@@ -397,6 +398,6 @@ def run(args: argparse.Namespace) -> int:
         return run_check(args)
     if args.edit:
         return run_edit(args)
-    from station.calibration.interactive import run_interactive
+    from station.calibrate.window import run_interactive
 
     return run_interactive(args)

@@ -1,9 +1,10 @@
-"""``station devices [--json]``: what pen devices this machine has, and who serves them.
+"""``station devices [--json] [--list]``: what pen devices this machine has, and who serves them.
 
 Looks at evdev nodes, hidraw nodes, USB (pyusb) and hidapi, and lists the
-mock models.  For each real device: what it is, which parser serves it and,
-when it cannot be opened, why and how to fix it.  A machine with no tablet
-says so plainly.
+mock models.  For each real device: what it is, which device-data file and
+protocol serve it and, when none does or it cannot be opened, exactly why and
+how to fix it.  A machine with no tablet says so plainly.  ``--list`` prints
+every model in the device data with its protocol instead.
 """
 
 from __future__ import annotations
@@ -12,32 +13,53 @@ import argparse
 import json
 import os
 import sys
+from pathlib import Path
 from typing import Any
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("devices", help="list pen devices (evdev, hidraw, USB, mock)")
     p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.add_argument("--list", action="store_true",
+                   help="list every supported pen model (device data) with its protocol")
     p.set_defaults(func=run)
 
 
-def _parser_name(vid: int, pid: int, descriptor: bytes | None, bus: int) -> dict[str, Any]:
+def _data_file(model: dict[str, Any] | None) -> str | None:
+    if model is None:
+        return None
+    path = Path(model["_path"])
+    return f"{path.parent.name}/{path.name}"
+
+
+def _parser_name(vid: int, pid: int, descriptor: bytes | None, bus: int,
+                 interface: int | None = None) -> dict[str, Any]:
+    """Which data file and protocol serve this node, or exactly why none does."""
     from station.drivers.registry import find_device, parser_for
     from station.errors import BadInput
 
     model = find_device(vid, pid, bus)
+    base = {"model": model.get("id") if model else None, "data_file": _data_file(model),
+            "family": model.get("family") if model else None}
     try:
-        parser = parser_for(vid, pid, descriptor, bus)
+        parser = parser_for(vid, pid, descriptor, bus, interface=interface)
     except BadInput as exc:
-        return {"parser": None, "model": model.get("id") if model else None,
-                "note": str(exc)}
-    return {"parser": parser.name, "model": model.get("id") if model else None,
-            "generic": bool(parser.generic), "is_pen": bool(parser.is_pen),
-            "kind": getattr(parser, "kind", "pen")}
+        return {**base, "parser": None, "note": f"no parser: {exc}"}
+    out = {**base, "parser": parser.name, "generic": bool(parser.generic),
+           "is_pen": bool(parser.is_pen), "kind": getattr(parser, "kind", "pen")}
+    if parser.warning:
+        out["note"] = parser.warning
+    elif not parser.is_pen:
+        why = getattr(parser, "why", "")
+        out["note"] = f"not a pen: {out['kind']} interface" + (f" ({why})" if why else "")
+    elif model is None:
+        out["note"] = "not in the device data: served from its report descriptor"
+    return out
 
 
 def scan_evdev() -> tuple[list[dict[str, Any]], list[str]]:
     from station.drivers.evdev.frames import is_pen_device, ranges_from_caps
+    from station.drivers.registry import find_device
     from station.drivers.transport.base import TransportError
     from station.drivers.transport.evdev import list_evdev
 
@@ -58,11 +80,18 @@ def scan_evdev() -> tuple[list[dict[str, Any]], list[str]]:
         if not is_pen_device(caps):
             continue
         ranges = ranges_from_caps(caps)
+        model = find_device(caps.vid, caps.pid, getattr(caps, "bus", None))
         item = {"spec": f"evdev:{entry['path']}", "path": entry["path"], "name": caps.name,
                 "vid": f"{caps.vid:04x}", "pid": f"{caps.pid:04x}", "parser": "evdev",
-                "resolution": ranges.has_resolution}
+                "resolution": ranges.has_resolution, "model": model["id"] if model else None,
+                "data_file": _data_file(model)}
+        notes = []
+        if model is not None:
+            notes.append(f"kernel driver; the station's own protocol for it: {model['parser']}")
         if not ranges.has_resolution:
-            item["note"] = "no resolution: normalised units only, cannot map millimetres"
+            notes.append("no resolution: normalised units only, cannot map millimetres")
+        if notes:
+            item["note"] = "; ".join(notes)
         out.append(item)
     unreadable = [d for d in out if "problem" in d]
     if unreadable:
@@ -95,8 +124,12 @@ def scan_hidraw() -> tuple[list[dict[str, Any]], list[str]]:
         else:
             item["problem"] = (f"no permission to open {e['path']}: install the station udev "
                                "rules (uaccess) or join the 'station' group")
-        item.update(_parser_name(vid, pid, descriptor, bus))
-        if item.get("parser") or item.get("model"):
+        from station.drivers.registry import WACOM_VID, interface_from_phys
+
+        item.update(_parser_name(vid, pid, descriptor, bus,
+                                 interface_from_phys(str(e.get("phys", "")))))
+        # Every node a data file names, every pen, and every unknown Wacom (with the reason).
+        if item.get("parser") or item.get("model") or vid == WACOM_VID or "problem" in item:
             out.append(item)
     return out, []
 
@@ -122,6 +155,7 @@ def scan_usb() -> tuple[list[dict[str, Any]], list[str]]:
         out.append({"spec": f"usb:{d.idVendor:04x}:{d.idProduct:04x}", "name": model["name"],
                     "vid": f"{d.idVendor:04x}", "pid": f"{d.idProduct:04x}",
                     "model": model["id"], "parser": model["parser"],
+                    "data_file": _data_file(model), "family": model.get("family"),
                     "note": "claimed by the kernel? use hidraw:/evdev:, or usb:…?detach=1"})
     return out, []
 
@@ -143,11 +177,13 @@ def scan_hidapi() -> tuple[list[dict[str, Any]], list[str]]:
 
 
 def mock_models() -> list[dict[str, Any]]:
+    """The curated models (hand-written data, encoded by the mock tablet) and generic pens."""
     from station.drivers.mock.tablet import GENERIC_MODELS
     from station.drivers.registry import load_devices
 
     out = []
-    for m in [*load_devices(), *GENERIC_MODELS.values()]:
+    curated = [m for m in load_devices() if "provenance" not in m]
+    for m in [*curated, *GENERIC_MODELS.values()]:
         mid = str(m.get("id"))
         out.append({"spec": f"mock:{mid.removeprefix('wacom-')}", "name": m.get("name"),
                     "vid": m.get("vendor_id"), "pid": m.get("product_id"),
@@ -173,7 +209,41 @@ def scan() -> dict[str, Any]:
     return result
 
 
+def model_list() -> dict[str, Any]:
+    """Every model of the device data: id, ids, protocol, family, name, file."""
+    from station.drivers.registry import load_devices
+
+    rows = []
+    for m in sorted(load_devices(), key=lambda m: (m["vendor_id"], m["product_id"], m["bus"])):
+        rows.append({"id": m["id"], "vid": m["vendor_id"], "pid": m["product_id"],
+                     "bus": m["bus"], "protocol": m["parser"], "family": m.get("family", ""),
+                     "name": m["name"], "models": len(m.get("models", [])) or 1,
+                     "screen_tablet": bool(m.get("screen_tablet")), "file": _data_file(m),
+                     "source": "generated" if "provenance" in m else "curated"})
+    pen_models = sum(r["models"] for r in rows)
+    return {"models": rows, "device_ids": len(rows), "pen_models": pen_models}
+
+
+def print_list(data: dict[str, Any]) -> None:
+    w = sys.stdout.write
+    w(f"{data['device_ids']} device ids, {data['pen_models']} pen models "
+      "(ids shared by several products count each product):\n")
+    w(f"{'vid:pid':<10}{'bus':<10}{'protocol':<18}{'family':<34}name\n")
+    for r in data["models"]:
+        more = f" [{r['models']} models]" if r["models"] > 1 else ""
+        w(f"{r['vid']}:{r['pid']} {r['bus']:<9} {r['protocol']:<17} {r['family'][:33]:<33} "
+          f"{r['name']}{more}\n")
+
+
 def run(args: argparse.Namespace) -> int:
+    if args.list:
+        data = model_list()
+        if args.json:
+            json.dump(data, sys.stdout, indent=2)
+            sys.stdout.write("\n")
+        else:
+            print_list(data)
+        return 0
     result = scan()
     if args.json:
         json.dump(result, sys.stdout, indent=2)
@@ -188,11 +258,13 @@ def run(args: argparse.Namespace) -> int:
             parser = d.get("parser") or "none"
             extra = f" — {d['problem']}" if "problem" in d else (
                 f" ({d['note']})" if d.get("note") else "")
-            w(f"{title}: {d['spec']}  {d.get('name', '')}  parser={parser}{extra}\n")
+            file = f"  data={d['data_file']}" if d.get("data_file") else "  data=none"
+            w(f"{title}: {d['spec']}  {d.get('name', '')}  parser={parser}{file}{extra}\n")
     for note in result["notes"]:
         w(f"  note: {note}\n")
     for problem in result["problems"]:
         w(f"  problem: {problem}\n")
+    w("Supported models: `station devices --list`.\n")
     w("Mock devices (for testing without a tablet; add ?script=demo&rate=200):\n")
     for m in result["mock"]:
         w(f"  {m['spec']:<34} {m['name']}  parser={m['parser']}\n")

@@ -17,6 +17,7 @@ import signal
 import sys
 import threading
 import time
+from pathlib import Path
 from typing import Any
 
 from station.errors import BadInput
@@ -48,11 +49,26 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-init", action="store_true", help="do not send init feature reports")
     p.add_argument("--calibration", default="auto", metavar="auto|none|FILE",
                    help="device -> canvas calibration: the device's file from the config dir "
-                   "(auto, the default), none (device-normalised), or a calibration file")
+                   "(auto, the default), none (the tablet mapped by --mapping), or a "
+                   "calibration file")
+    p.add_argument("--mapping", choices=("fit", "stretch"), default="fit",
+                   help="without a calibration: fit keeps the tablet's aspect ratio on the "
+                        "canvas (letterboxed, centred; the default), stretch fills it")
+    p.add_argument("--canvas", default="800x600", metavar="WxH",
+                   help="size (or just the shape) of the canvas the samples are for "
+                        "(default 800x600, the sim's default)")
     p.add_argument("--raw-jsonl", metavar="FILE",
                    help="also write the device-normalised (uncalibrated) samples as JSONL")
     p.add_argument("--wait-subscribers", type=int, default=0, metavar="N",
                    help="wait (up to 5 s) for N subscribers before reading the device")
+    p.add_argument("--keys", type=Path, default=None, metavar="DIR",
+                   help="CURVE key directory for tcp endpoints (default ~/.config/station/keys)")
+    p.add_argument("--client-key", metavar="NAME",
+                   help="connect over tcp with this driver's own key pair (made by "
+                        "`station keys --client NAME`) instead of the shared client key")
+    p.add_argument("--heartbeat", type=float, default=None, metavar="S",
+                   help="seconds between heartbeats on hb.<device> (default 0.2; the sim "
+                        "names a silent device after 3 missed ones)")
     p.set_defaults(func=run)
 
 
@@ -76,9 +92,12 @@ def normaliser_config(args: argparse.Namespace) -> Any:
             raise BadInput("needs four numbers x0,y0,x1,y1", "--area") from None
         if len(area) != 4:
             raise BadInput("needs four numbers x0,y0,x1,y1", "--area")
+    from station.sim.paint import parse_size
+
     return NormaliserConfig(area=area, tip_down=args.tip_down, tip_up=args.tip_up,
                             smoothing_ms=args.smoothing, pressure_curve=curve,
-                            proximity_timeout=args.proximity_timeout or None)
+                            proximity_timeout=args.proximity_timeout or None,
+                            mapping=args.mapping, canvas=parse_size(args.canvas, "--canvas"))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -96,13 +115,14 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
-    from station.bus import Publisher
+    from station.bus import HEARTBEAT_S, Publisher
     from station.drivers.calibrated import choose_calibration
     from station.drivers.pipeline import PenDriver, open_device
     from station.drivers.transport.base import DeviceGone, EndOfStream, TransportError
     from station.sessionlog import SessionHeader, SessionLogWriter
 
-    publisher = Publisher(args.bus)
+    publisher = Publisher(args.bus, keys=args.keys, client_key=args.client_key,
+                          heartbeat=args.heartbeat or HEARTBEAT_S)
     writer = None
     raw_writer = None
     reconnects = 0
@@ -138,6 +158,9 @@ def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
                                                                "calibrated": False}))
         t_offset = 0.0
         while not stop.is_set():
+            attach_bus = getattr(source, "attach_bus", None)
+            if attach_bus is not None:  # a haptic device: forces from haptic.<device>
+                attach_bus(args.bus)
             ident = source.describe()
             calibration = choose_calibration(args.calibration, int(ident.get("vid") or 0),
                                              int(ident.get("pid") or 0))
@@ -155,6 +178,7 @@ def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
                         if writer is not None:
                             writer.write(sample)
                         totals["total_samples"] += 1
+                    publisher.tick()  # alive, even while the pen is away
                     if time.monotonic() >= next_status:
                         status("running", driver)
                         next_status = time.monotonic() + args.status_interval

@@ -7,7 +7,7 @@ import json
 import sys
 from pathlib import Path
 
-from station.bus import generate_keys, keys_dir
+from station.bus import add_client_key, generate_keys, keys_dir
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -16,12 +16,26 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="key directory (default ~/.config/station/keys)")
     p.add_argument("--force", action="store_true", help="replace existing keys")
     p.add_argument("--json", action="store_true", help="print the paths as JSON")
+    p.add_argument("--client", metavar="NAME",
+                   help="add a key pair of its own for one driver (client-NAME.key, "
+                        "authorised; revoke by deleting authorized/client-NAME.key); the "
+                        "server keys must exist")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     directory = args.dir or keys_dir()
-    paths = generate_keys(directory, force=args.force)
+    if args.client:
+        public = add_client_key(args.client, args.dir, force=args.force)
+        if args.json:
+            json.dump({"client": str(public)}, sys.stdout)
+            sys.stdout.write("\n")
+        else:
+            print(f"client key {public} written and authorised; run the driver with "
+                  f"--client-key {args.client} (copy {public.name}_secret and server.key "
+                  "to its machine)")
+        return 0
+    paths = generate_keys(args.dir, force=args.force)
     if args.json:
         json.dump({k: str(v) for k, v in paths.items()}, sys.stdout)
         sys.stdout.write("\n")

@@ -40,8 +40,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--resume", metavar="S.npz",
                    help="paint on a saved canvas state (from --state) instead of blank paper")
     p.add_argument("--settle", type=float, default=0.0, metavar="SECONDS",
-                   help="painting time to simulate after the last record (default 0)")
+                   help="painting time to simulate after the last record (default 0; "
+                        "at most a day, like a whole session)")
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
+    p.add_argument("--mapping", choices=("fit", "stretch"), default="fit",
+                   help="device traces: fit keeps the tablet's aspect ratio (letterboxed, "
+                        "centred; the default), stretch fills the canvas")
     p.set_defaults(func=run)
 
 
@@ -52,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
     result = paint(args.input, args.output, size=size, profile=args.profile,
                    backend=args.backend, stats_path=args.stats,
                    state_path=args.state, bits=args.bits, rate=args.rate, settle=args.settle,
-                   resume=args.resume)
+                   resume=args.resume, mapping=args.mapping)
     if args.json:
         json.dump({"width": result.width, "height": result.height, "profile": result.profile,
                    "backend": result.backend, "renderer": result.renderer,

@@ -14,8 +14,9 @@ import signal
 import sys
 import threading
 import time
-from typing import Any
+from typing import IO, Any
 
+from station.cli.argtypes import positive_seconds
 from station.errors import BadInput
 
 
@@ -23,7 +24,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("record", help="record a pen device to a trace (.hid or .evemu)")
     p.add_argument("--device", required=True, metavar="SPEC", help="device SPEC (docs/drivers.md)")
     p.add_argument("-o", "--output", required=True, metavar="FILE", help="trace file to write")
-    p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
+    p.add_argument("--duration", type=positive_seconds, metavar="S",
+                   help="stop after S seconds")
     p.add_argument("--no-init", action="store_true",
                    help="do not send the init feature reports (records mouse mode on a Wacom)")
     p.set_defaults(func=run)
@@ -33,20 +35,25 @@ def run(args: argparse.Namespace) -> int:
     from station.drivers.pipeline import open_transport
     from station.drivers.transport.base import DeviceGone
 
-    if args.duration is not None and not args.duration > 0:
-        raise BadInput("duration must be > 0 seconds", "--duration")
     opened = open_transport(args.device)
+    try:  # before recording anything: a path that cannot be written is bad input
+        out = open(args.output, "w", encoding="utf-8")  # noqa: SIM115 (closed below)
+    except OSError as exc:
+        opened.transport.close()
+        raise BadInput(f"cannot write {args.output!r} ({exc.strerror})", "-o") from None
     stop = threading.Event()
     old = {sig: signal.signal(sig, lambda *_: stop.set())
            for sig in (signal.SIGINT, signal.SIGTERM)}
     deadline = time.monotonic() + args.duration if args.duration else None
     count = 0
     try:
-        if opened.kind == "evdev":
-            count = _record_evdev(opened.transport, args.output, stop, deadline, args.duration)
-        else:
-            count = _record_hid(opened.transport, args.output, stop, deadline, args.duration,
-                                not args.no_init)
+        with out:
+            if opened.kind == "evdev":
+                count = _record_evdev(opened.transport, out, args.output, stop, deadline,
+                                      args.duration)
+            else:
+                count = _record_hid(opened.transport, out, stop, deadline, args.duration,
+                                    not args.no_init)
     except DeviceGone as exc:
         sys.stderr.write(f"station record: {exc}\n")
     finally:
@@ -66,38 +73,37 @@ def _init_features(info: Any) -> list[bytes]:
         return []
 
 
-def _record_hid(transport: Any, path: str, stop: threading.Event, deadline: float | None,
+def _record_hid(transport: Any, fh: IO[str], stop: threading.Event, deadline: float | None,
                 duration: float | None, send_init: bool) -> int:
     from station.drivers.traces.hidrecorder import HidRecorderWriter
     from station.drivers.transport.base import EndOfStream
 
     info = transport.info
-    with open(path, "w", encoding="utf-8") as fh:
-        fh.write(f"# recorded by station record from {info.path}\n")
-        writer = HidRecorderWriter(fh)
-        writer.add_device(info.name, info.vid, info.pid, info.bus, info.descriptor, info.phys)
-        if send_init:
-            for feature in _init_features(info):
-                transport.send_feature(feature)
-        first: float | None = None
-        try:
-            while not stop.is_set():
-                if deadline is not None and time.monotonic() >= deadline:
-                    break
-                report = transport.read(0.05)
-                if report is None:
-                    continue
-                first = report.time if first is None else first
-                if duration is not None and report.time - first > duration:
-                    break  # recording clock (a fast replayed mock) past the duration
-                writer.write_report(report.time, report.data)
-        except EndOfStream:
-            pass
+    fh.write(f"# recorded by station record from {info.path}\n")
+    writer = HidRecorderWriter(fh)
+    writer.add_device(info.name, info.vid, info.pid, info.bus, info.descriptor, info.phys)
+    if send_init:
+        for feature in _init_features(info):
+            transport.send_feature(feature)
+    first: float | None = None
+    try:
+        while not stop.is_set():
+            if deadline is not None and time.monotonic() >= deadline:
+                break
+            report = transport.read(0.05)
+            if report is None:
+                continue
+            first = report.time if first is None else first
+            if duration is not None and report.time - first > duration:
+                break  # recording clock (a fast replayed mock) past the duration
+            writer.write_report(report.time, report.data)
+    except EndOfStream:
+        pass
     return writer.reports
 
 
-def _record_evdev(transport: Any, path: str, stop: threading.Event, deadline: float | None,
-                  duration: float | None) -> int:
+def _record_evdev(transport: Any, fh: IO[str], path: str, stop: threading.Event,
+                  deadline: float | None, duration: float | None) -> int:
     from station.drivers.evdev.frames import InputEvent
     from station.drivers.traces.evemu import format_evemu
     from station.drivers.traces.libinput_record import format_libinput_record
@@ -120,6 +126,5 @@ def _record_evdev(transport: Any, path: str, stop: threading.Event, deadline: fl
             text = format_libinput_record([(transport.caps, rel)])
         else:
             text = format_evemu(transport.caps, rel)
-        with open(path, "w", encoding="utf-8") as fh:
-            fh.write(text)
+        fh.write(text)
     return len(events)

@@ -54,11 +54,11 @@ def run(args: argparse.Namespace) -> int:
     speed = parse_speed(args.speed)
     trace = read_trace(args.trace)
     replay = TraceReplay(trace, device_name=args.name)
+    if not replay.pen_devices:  # one line: the skipped devices are in the message
+        raise BadInput(f"no pen device in this trace ({replay.skipped_text()})", args.trace)
     for s in replay.skipped:
         sys.stderr.write(f"station replay: skipped device {s['device']} {s['name']!r}: "
                          f"{s['reason']} ({s['reports']} reports)\n")
-    if not replay.pen_devices:
-        raise BadInput(f"no pen device in this trace ({replay.skipped_text()})", args.trace)
     writer = None
     publisher: Any = None
     if args.jsonl:

@@ -4,18 +4,24 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 
+from station.cli.argtypes import positive_seconds
 from station.cli.cmd_paint import BACKEND_HELP, BACKENDS
+from station.errors import BadInput
 from station.sim.paint import check_outputs, load_resume_state, parse_size
+
+MAX_AUTOSAVE_S = 86400.0
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("sim", help="run the live canvas simulation on the bus",
                        description="Subscribe to pen samples and commands on the bus, paint "
                                    "them with the round brush, step the canvas at a fixed "
-                                   "rate, log the session and publish status. SIGTERM or "
-                                   "SIGINT saves state and log and exits 0.")
+                                   "rate, log the session, autosave, and publish status. "
+                                   "SIGTERM or SIGINT saves state and log and exits 0; after "
+                                   "a crash --recover continues where it stopped.")
     p.add_argument("--bus", default=None, metavar="ENDPOINT",
                    help="bus endpoint to subscribe to (default ipc; ipc:sub for a proxy)")
     p.add_argument("--size", metavar="WxH", help="canvas size (800x600)")
@@ -24,16 +30,29 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, help="paper seed")
     p.add_argument("--rate", type=float, metavar="HZ",
                    help="simulation steps per second (default 1/dt of the profile)")
-    p.add_argument("--log", metavar="session.jsonl", help="write the session log here")
+    p.add_argument("--log", metavar="session.jsonl",
+                   help="write the session log here (default: a new file in "
+                        "$XDG_DATA_HOME/station/sessions); an existing file is never "
+                        "overwritten: the session then goes to NAME-2.jsonl")
     p.add_argument("--state", metavar="S.npz", help="save the canvas state here on exit")
     p.add_argument("--png", metavar="OUT.png", help="write the final image here on exit")
     p.add_argument("--status", metavar="ENDPOINT",
                    help="where to publish status (default: the proxy's ipc:pub when --bus is "
                         "ipc:sub, else @ipc:sim-status; 'none' to disable)")
-    p.add_argument("--duration", type=float, metavar="SECONDS",
+    p.add_argument("--duration", type=positive_seconds, metavar="SECONDS",
                    help="stop by itself after this many seconds")
     p.add_argument("--resume", metavar="S.npz",
                    help="continue a saved canvas state (its size, profile and seed)")
+    p.add_argument("--autosave", type=float, default=30.0, metavar="SECONDS",
+                   help="write the full state next to the log every SECONDS, between "
+                        "strokes (default 30; 0 = off)")
+    p.add_argument("--recover", nargs="?", const="latest", metavar="LOG",
+                   help="after a crash: load LOG's autosave, replay the log since it and "
+                        "go on appending to LOG (default: the newest log in the sessions "
+                        "directory)")
+    p.add_argument("--cmd", metavar="ENDPOINT",
+                   help="where `station send` reaches this sim (default @ipc:sim-cmd; "
+                        "'none' to disable)")
     p.set_defaults(func=run)
 
 
@@ -45,6 +64,14 @@ def run(args: argparse.Namespace) -> int:
     if args.profile:
         get_profile(args.profile)
     check_outputs(((args.log, "--log"), (args.state, "--state"), (args.png, "--png")))
+    if not (math.isfinite(args.autosave) and 0 <= args.autosave <= MAX_AUTOSAVE_S):
+        raise BadInput(f"must be 0 (off) or up to {MAX_AUTOSAVE_S:g} seconds", "--autosave")
+    if args.recover is not None:
+        for flag, value in (("--resume", args.resume), ("--log", args.log),
+                            ("--size", args.size), ("--profile", args.profile)):
+            if value:
+                raise BadInput(f"{flag} cannot be used with --recover (the log says it)",
+                               flag)
     if args.resume:  # the state's size and profile; flags must agree
         load_resume_state(args.resume, size, args.profile)
     width, height = size or (800, 600)
@@ -52,13 +79,16 @@ def run(args: argparse.Namespace) -> int:
     cfg = LiveConfig(bus=args.bus, width=width, height=height, profile=profile,
                      backend=args.backend, seed=args.seed, rate=args.rate,
                      log_path=args.log, state_path=args.state, png_path=args.png,
-                     status=args.status, duration=args.duration, resume=args.resume)
+                     status=args.status, duration=args.duration, resume=args.resume,
+                     autosave=args.autosave, recover=args.recover, cmd=args.cmd)
     sim = LiveSim(cfg)
     sim.install_signal_handlers()
     sys.stderr.write(f"station sim: {cfg.width}x{cfg.height} {cfg.profile} on {sim.backend_name}, "
-                     f"{sim.player.rate:g} steps/s, subscribed to {sim.sub.endpoints[0].url}\n")
+                     f"{sim.player.rate:g} steps/s, subscribed to {sim.sub.endpoints[0].url}, "
+                     f"logging to {sim.log_path}\n")
     final = sim.run()
     sys.stderr.write("station sim: stopped " + json.dumps(
         {k: final[k] for k in ("steps", "sim_time", "samples", "commands", "bad_commands",
-                               "lost_samples")}) + "\n")
+                               "lost_samples", "synthetic_pen_ups", "storage_failures")})
+        + "\n")
     return 0

@@ -18,6 +18,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("udev", help="udev rules giving the seat user / station group the tablets")
     p.add_argument("--check", action="store_true",
                    help="check the rules file is up to date (exit 1 if stale)")  # fmt: skip
+    p.add_argument("--haptic", metavar="VID:PID[:SERIAL]",
+                   help="print the rule giving this serial haptic device its stable symlink "
+                        "/dev/station-haptic-… (docs/haptic-protocol.md)")
     p.add_argument("-o", "--output", type=Path, default=None,
                    help="write the rules to this file (default: print them)")  # fmt: skip
     p.set_defaults(func=run)
@@ -26,13 +29,18 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from station.udev.generate import RULES_PATH, check, generate
 
-    if args.check:
+    if args.haptic:
+        from station.drivers.serial.transport import UsbSerialId
+
+        text = UsbSerialId.parse(args.haptic, "--haptic").udev_rule()
+    elif args.check:
         ok, message = check(args.output or RULES_PATH)
         if not ok:
             raise StationError(message)
         print(message)
         return 0
-    text = generate()
+    else:
+        text = generate()
     if args.output is None:
         sys.stdout.write(text)
         return 0

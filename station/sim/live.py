@@ -1,12 +1,25 @@
-"""The live simulation process (``station sim``).
+"""The live simulation (``station sim``): :class:`LiveCore` paints, :class:`LiveSim` listens.
 
-It subscribes to pen samples (``pen.*``) and commands (``cmd``) on the bus,
-feeds them to the :class:`~station.sim.player.SessionPlayer` (round brush →
-canvas backend), steps the canvas at a fixed rate of ``rate`` steps per
-second of wall-clock time whatever the input rate, writes a session log of
-everything it applied, and publishes its status on the ``status`` topic twice
-a second.  SIGTERM, SIGINT or a ``stop`` command end it cleanly: pending
-stamps go into the canvas, the state and the log are saved, exit code 0.
+:class:`LiveCore` is the simulation without a bus, for ``station sim`` and the
+kiosk alike: feed it pen samples and commands (:meth:`LiveCore.feed_sample`,
+:meth:`LiveCore.feed_command`, or :meth:`LiveCore.handle` for bus messages),
+call :meth:`LiveCore.tick` as often as you can (it runs the steps due at the
+fixed ``rate`` of steps per wall-clock second, whatever the input rate, flushes
+the log, autosaves and watches for silent devices), and :meth:`LiveCore.shutdown`
+at the end.  :class:`LiveSim` adds the bus: it subscribes to ``pen.*``, ``hb.*``
+and ``cmd`` (also on a command endpoint of its own, for ``station send``) and
+publishes the status on the ``status`` topic twice a second and whenever a
+device falls silent.  SIGTERM, SIGINT or a ``stop`` command end it cleanly:
+pending stamps go into the canvas, the state and the log are saved, exit 0.
+
+No painting is lost.  Every run keeps a session log (:mod:`station.sim.journal`:
+``--log`` or a new file in the user's data directory; an existing log is never
+overwritten).  Every record is in the kernel before the step that paints it
+runs, so a ``kill -9`` loses nothing painted.  Every ``autosave`` seconds,
+between strokes, the full state (canvas, player, counters, and how many log
+records it holds) is written atomically next to the log.  ``--recover LOG``
+loads that state, replays the log records after it exactly as they were applied
+(:mod:`station.sim.recovery`) and goes on appending to the same log.
 
 Time stamps.  Publishers have their own clocks, so every record is logged in
 the simulation's session clock (seconds since ``station sim`` started): a pen
@@ -15,10 +28,16 @@ offset fixed by the device's first sample and re-synchronised when the mapped
 time strays more than :data:`RESYNC_S` from the receipt time — and is clamped
 so the log never goes back in time, and moved into the time slot of the step
 it is applied before (a process that falls behind compresses the records into
-the steps it actually ran).  On exit a ``wait {"seconds": 0}`` marks the
-session time of the last step.  Replaying the log with ``station paint`` then
-applies every record between the same two steps with the same times, so on
-the same backend it repaints the live canvas exactly.
+the steps it actually ran).  That slot *is* the step index: a replay applies
+each record after exactly ``floor((t + waited)·rate)`` steps, as this process
+did.  On exit a ``wait {"seconds": 0}`` marks the session time of the last
+step.  So ``station paint`` of the log, or a recovery from any autosave, gives
+the same pixels on the same backend.
+
+Devices.  A device whose publisher sends heartbeats (``hb.<device>``) and then
+stops for :data:`SILENCE_INTERVALS` intervals is *silent*: the status names it
+at once, and a stroke in progress is ended with a synthesised pen-up (counted
+in ``synthetic_pen_ups`` and logged, so replays agree).
 
 Bad messages: the bus drops undecodable ones (counted in ``bus.malformed``);
 a command the player rejects (unknown pigment, bad numbers) is counted in
@@ -34,20 +53,36 @@ import math
 import os
 import signal
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from pathlib import Path
 from types import FrameType
 from typing import Any
 
+from station.brush.stamp import BrushSettings
+from station.durable import atomic_write
 from station.errors import BadInput
 from station.events import Command, PenSample
-from station.sessionlog import SessionHeader, SessionLogWriter
+from station.sessionlog import SessionHeader
+from station.sim import recovery
+from station.sim.journal import (
+    SessionJournal,
+    StorageReport,
+    autosave_path,
+    default_log_path,
+    free_path,
+    record_line,
+)
 from station.sim.player import SessionPlayer
+from station.wire import Heartbeat
 
 log = logging.getLogger(__name__)
 
 RESYNC_S = 1.0
 STATUS_EVERY_S = 0.5
 DRAIN_MAX = 2000  # messages handled between two steps at most (steps must go on)
+SYNC_EVERY_S = 1.0  # fsync of the log (it reaches the kernel before every step)
+SILENCE_INTERVALS = 3.0  # heartbeat intervals without a message: the device is silent
+RECOVERED_STROKE_GRACE_S = 1.0  # a stroke open at a crash ends if its device stays quiet
 
 
 @dataclass
@@ -61,12 +96,15 @@ class LiveConfig:
     backend: str = "auto"
     seed: int = 0
     rate: float | None = None
-    log_path: str | None = None
+    log_path: str | None = None  # None: a new log in the data directory
     state_path: str | None = None
     png_path: str | None = None
     status: str | None = None  # endpoint for status; "none" disables
     duration: float | None = None  # stop after this many seconds (tests, benchmarks)
     resume: str | None = None  # continue this saved canvas state (size, profile, seed)
+    autosave: float = 30.0  # seconds between autosaves; 0 disables
+    recover: str | None = None  # continue this session log (autosave + replay)
+    cmd: str | None = None  # command endpoint for `station send`; "none" disables
 
 
 def default_status_endpoint(bus: str | None) -> str:
@@ -77,17 +115,62 @@ def default_status_endpoint(bus: str | None) -> str:
     return "@ipc:sim-status"
 
 
-class LiveSim:
-    """The running simulation process (see the module docstring)."""
+DEFAULT_CMD_ENDPOINT = "ipc:sim-cmd"
+
+
+@dataclass
+class DeviceState:
+    """What the simulation knows of one pen device."""
+
+    last_seen: float  # monotonic seconds of its last message
+    heartbeat_s: float | None = None  # its publisher's interval; None: never sent one
+    silent: bool = False
+    touching: bool = False  # its last applied sample touched the paper
+    last_sample: PenSample | None = None
+    resume_seq: int | None = None  # after a recovery: the last device seq in the log
+
+    def timeout(self) -> float | None:
+        if self.heartbeat_s is None:
+            return None
+        return SILENCE_INTERVALS * self.heartbeat_s + 0.1
+
+
+@dataclass
+class Counters:
+    samples: int = 0
+    commands: int = 0
+    bad_commands: int = 0
+    bad_samples: int = 0
+    dropped_sources: int = 0
+    synthetic_pen_ups: int = 0
+    recovered_duplicates: int = 0  # replayed samples the log already had (dropped)
+    missed_while_down: int = 0  # device samples sent while no sim was listening
+    autosaves: int = 0
+    extra: dict[str, int] = field(default_factory=dict)
+
+
+class LiveCore:
+    """The live simulation without a bus (see the module docstring)."""
 
     def __init__(self, cfg: LiveConfig) -> None:
-        from station.bus import Publisher, Subscriber
         from station.canvas.palette import default_palette
         from station.sim.paint import make_backend
 
         self.cfg = cfg
+        self.report = StorageReport()
+        self.counters = Counters()
+        self.devices: dict[str, DeviceState] = {}
+        self._warned: set[str] = set()
+        self._last_t = 0.0
+        self._offsets: dict[str, float] = {}
+        plan = recovery.plan(cfg.recover) if cfg.recover else None
         start = None
-        if cfg.resume:
+        if plan is not None:
+            h = plan.header
+            cfg.width, cfg.height, cfg.profile, cfg.seed = h.width, h.height, h.profile, h.seed
+            cfg.rate = plan.rate
+            start = plan.state
+        elif cfg.resume:
             from station.canvas.state import CanvasState
 
             start = CanvasState.load(cfg.resume)
@@ -97,35 +180,51 @@ class LiveSim:
                                                       cfg.profile, cfg.seed)
         if start is not None:
             self.canvas.load_state(start)
-        self.player = SessionPlayer(self.canvas, cfg.width, cfg.height, cfg.profile,
+        session = plan.session if plan is not None else None
+        profile = session["player"]["profile"] if session else (
+            start.profile if start is not None else cfg.profile)
+        self.player = SessionPlayer(self.canvas, cfg.width, cfg.height, profile,
                                     rate=cfg.rate, pigments=default_palette())
-        if start is not None:
+        if session:
+            self._restore(session)
+        elif start is not None:
             self.player.layer_pigments.update(start.slots)
-        self.sub = Subscriber(cfg.bus, topics=("pen.", "cmd"))
-        status_ep = cfg.status or default_status_endpoint(cfg.bus)
-        self.pub = None if status_ep == "none" else Publisher(status_ep)
-        header = SessionHeader(
-            width=cfg.width, height=cfg.height, profile=cfg.profile, seed=cfg.seed,
-            extra={"sim": {"rate": self.player.rate}, "recorded_by": "station sim",
-                   **({"resumed_from": cfg.resume} if cfg.resume else {})})
-        self.writer = SessionLogWriter(cfg.log_path, header) if cfg.log_path else None
-        self.stop_requested = False
+
+        if plan is not None:
+            self.log_path = plan.log_path
+            self.header_line = plan.header_line
+            self.journal = SessionJournal(self.log_path, None, self.report,
+                                          records=plan.records_total)
+        else:
+            if cfg.log_path:
+                wanted = Path(cfg.log_path)
+                self.log_path = free_path(wanted)
+                if self.log_path != wanted:
+                    log.warning("%s exists and is kept; this session logs to %s "
+                                "(continue the old one with --recover)", wanted, self.log_path)
+            else:
+                self.log_path = default_log_path()
+            header = SessionHeader(
+                width=cfg.width, height=cfg.height, profile=cfg.profile, seed=cfg.seed,
+                extra={"sim": {"rate": self.player.rate}, "recorded_by": "station sim",
+                       **({"resumed_from": str(Path(cfg.resume).resolve())}
+                          if cfg.resume else {})})
+            self.header_line = record_line(header).decode().rstrip("\n")
+            self.journal = SessionJournal(self.log_path, header, self.report)
+        self.autosave_path = autosave_path(self.log_path)
         self.start = time.monotonic()
-        self._offsets: dict[str, float] = {}
-        self._last_t = 0.0
-        self.samples = 0
-        self.commands = 0
-        self.bad_commands = 0
-        self.bad_samples = 0
-        self.dropped_sources = 0
-        self._warned: set[str] = set()
-        self._next_status = 0.0
-        self._fps_mark = (self.start, 0)
-        self.fps = 0.0
+        if plan is not None:
+            self._replay(plan)
+        self.journal.flush()
+        self._next_autosave = time.monotonic() + (cfg.autosave or math.inf)
+        self._save_requested = False
+        self.stop_requested = False
+        self.newly_silent: list[str] = []  # fell silent since the caller last looked
 
     # -- clock ---------------------------------------------------------------
     def now(self) -> float:
-        """Session time: seconds since start."""
+        """Session time: seconds since start (after a recovery: since the log's start,
+        the time the process was down left out)."""
         return time.monotonic() - self.start
 
     def _in_this_step(self, t: float) -> float:
@@ -150,39 +249,86 @@ class LiveSim:
             off = self._offsets[s.device] = now - s.t
         return s.with_(t=self._in_this_step(min(now, s.t + off)), t_mono=0.0)
 
-    # -- messages ------------------------------------------------------------
-    def handle(self, kind: str, value: Any) -> None:
-        now = self.now()
+    # -- input -----------------------------------------------------------------
+    def handle(self, kind: str, value: Any, topic: str = "", replay: bool = False) -> None:
+        """One bus message (``Message.kind``/``value``/``topic``/``replay``)."""
         if kind == "pen" and isinstance(value, PenSample):
-            rec = self._stamp_sample(value, now)
-            try:
-                self.player.apply(rec)
-            except BadInput as exc:  # e.g. a ninth pigment in the layer: not painted
-                self.bad_samples += 1
-                self._warn(f"sample not painted: {exc}")
-                return
-            self.samples += 1
-            if self.writer is not None:
-                self.writer.write(rec)
+            self.feed_sample(value, replay=replay)
         elif kind == "cmd" and isinstance(value, Command):
-            cmd = Command(t=self._in_this_step(now), cmd=value.cmd, args=value.args)
-            if cmd.cmd == "stop":
-                self.stop_requested = True
-                return
-            try:
-                self.player.command(cmd)
-            except BadInput as exc:
-                self.bad_commands += 1
-                self._warn(f"rejected command {cmd.cmd!r}: {exc}")
-                return
-            self.commands += 1
-            if self.writer is not None:
-                self.writer.write(cmd)
-            if cmd.cmd == "wait":  # its painting time runs now, as in a replay
-                while (self.player.counters.steps < self.player.steps_due(cmd.t)
-                       and not self.stop_requested):  # SIGTERM cuts a long wait short
-                    self.step()
-                    self.maybe_publish_status()
+            self.feed_command(value)
+        elif kind == "heartbeat" and isinstance(value, Heartbeat):
+            self._seen(topic.partition(".")[2], value.interval_s)
+
+    def _seen(self, device: str, heartbeat_s: float | None = None) -> DeviceState:
+        dev = self.devices.get(device)
+        if dev is None:
+            dev = self.devices[device] = DeviceState(last_seen=time.monotonic())
+        dev.last_seen = time.monotonic()
+        if heartbeat_s is not None:
+            dev.heartbeat_s = heartbeat_s
+        if dev.silent:
+            dev.silent = False
+            log.warning("device %s is back", device)
+        return dev
+
+    def feed_sample(self, sample: PenSample, replay: bool = False) -> bool:
+        """Apply a pen sample now; ``False`` if it was not painted (counted)."""
+        dev = self._seen(sample.device)
+        if dev.resume_seq is not None and sample.seq:
+            # First samples after a recovery: the publisher re-sends the current
+            # proximity period to us, a late joiner; drop what the log already has.
+            if replay and sample.seq <= dev.resume_seq:
+                self.counters.recovered_duplicates += 1
+                return False
+            if sample.seq > dev.resume_seq + 1:
+                self.counters.missed_while_down += sample.seq - dev.resume_seq - 1
+            dev.resume_seq = None
+        return self._apply_sample(self._stamp_sample(sample, self.now()), dev)
+
+    def _apply_sample(self, rec: PenSample, dev: DeviceState, synthetic: bool = False
+                      ) -> bool:
+        try:
+            self.player.apply(rec)
+        except BadInput as exc:  # e.g. a ninth pigment in the layer: not painted
+            self.counters.bad_samples += 1
+            self._warn(f"sample not painted: {exc}")
+            return False
+        if synthetic:
+            self.counters.synthetic_pen_ups += 1
+        else:
+            self.counters.samples += 1
+        dev.touching = rec.touching and rec.proximity
+        dev.last_sample = rec
+        self.journal.write(rec)
+        return True
+
+    def feed_command(self, command: Command) -> bool:
+        """Apply a command now; ``False`` if it was rejected (counted)."""
+        cmd = Command(t=self._in_this_step(self.now()), cmd=command.cmd, args=command.args)
+        if cmd.cmd == "stop":
+            self.stop_requested = True
+            return True
+        if cmd.cmd == "save":
+            self._save_requested = True
+            self.write_outputs()
+            return True
+        try:
+            self.player.command(cmd)
+        except BadInput as exc:
+            self.counters.bad_commands += 1
+            self._warn(f"rejected command {cmd.cmd!r}: {exc}")
+            return False
+        self.counters.commands += 1
+        self.journal.write(cmd)
+        if cmd.cmd == "wait":  # its painting time runs now, as in a replay
+            while (self.player.counters.steps < self.player.steps_due(cmd.t)
+                   and not self.stop_requested):  # SIGTERM cuts a long wait short
+                self.step()
+                self.on_wait_step()
+        return True
+
+    def on_wait_step(self) -> None:
+        """Called between the steps of a long ``wait`` (LiveSim publishes status)."""
 
     def _warn(self, text: str) -> None:
         """Warn once per distinct message (a bad stroke must not flood the log)."""
@@ -190,24 +336,282 @@ class LiveSim:
             self._warned.add(text)
             log.warning("%s", text)
 
+    # -- steps ---------------------------------------------------------------------
     def step(self) -> None:
-        """One step; stamps the canvas refuses are dropped (counted), the step runs."""
+        """One step; stamps the canvas refuses are dropped (counted), the step runs.
+
+        Everything applied before it is handed to the kernel first: what is
+        painted is in the log.
+        """
+        self.journal.flush()
         try:
             self.player.flush_sources()
         except BadInput as exc:
-            self.dropped_sources += 1
+            self.counters.dropped_sources += 1
             self._warn(f"brush sources dropped: {exc}")
         self.player.step()
+
+    def steps_due(self) -> int:
+        return self.player.steps_due(self.now()) - self.player.counters.steps
+
+    def seconds_to_next_step(self) -> float:
+        p = self.player
+        return (p.counters.steps + 1) / p.rate - p.waited - self.now()
+
+    def tick(self) -> bool:
+        """Run at most one due step, then housekeeping; ``True`` if a step ran."""
+        ran = False
+        if self.steps_due() > 0:
+            self.step()
+            ran = True
+            self.maybe_autosave()
+        self.journal.maybe_sync(SYNC_EVERY_S)
+        self.check_devices()
+        return ran
+
+    # -- devices -----------------------------------------------------------------
+    def check_devices(self) -> list[str]:
+        """Mark devices silent after their heartbeats stop; end their strokes.
+        Returns the devices that fell silent now."""
+        now = time.monotonic()
+        fell: list[str] = []
+        for name, dev in self.devices.items():
+            timeout = dev.timeout()
+            if dev.silent or timeout is None or now - dev.last_seen <= timeout:
+                continue
+            dev.silent = True
+            fell.append(name)
+            self.newly_silent.append(name)
+            log.warning("device %s is silent (no message for %.1f s)", name,
+                        now - dev.last_seen)
+            if dev.touching and dev.last_sample is not None:
+                up = dev.last_sample.with_(t=self._in_this_step(self.now()), touching=False,
+                                           proximity=False, pressure=0.0, buttons=0, seq=0)
+                self._apply_sample(up, dev, synthetic=True)
+        return fell
+
+    def silent_devices(self) -> list[str]:
+        return sorted(n for n, d in self.devices.items() if d.silent)
+
+    # -- autosave ------------------------------------------------------------------
+    def maybe_autosave(self) -> None:
+        """Autosave when due (or asked for by ``save``), between strokes only: then
+        no stroke state is pending and the state plus the log is the whole truth."""
+        due = self._save_requested or (self.cfg.autosave
+                                       and time.monotonic() >= self._next_autosave)
+        if due and not self.player.brush.drawing and not self.player.brush.pending:
+            self.autosave()
+
+    def autosave(self) -> bool:
+        """Write the checkpoint now; ``False`` (reported) if storage refuses."""
+        self._next_autosave = time.monotonic() + (self.cfg.autosave or math.inf)
+        self._save_requested = False
+        if not self.journal.sync():  # the checkpoint may only count records on disk
+            return False
+        data = self.canvas.state().npz_bytes(extra={"session": self.checkpoint_session()})
+        try:
+            atomic_write(self.autosave_path, data)
+        except OSError as exc:
+            self.report.failed(f"autosave {self.autosave_path}", exc)
+            return False
+        self.report.recovered(f"autosave {self.autosave_path}")
+        self.counters.autosaves += 1
+        return True
+
+    def checkpoint_session(self) -> dict[str, Any]:
+        p, b, c = self.player, self.player.brush, self.counters
+        return {
+            "version": recovery.CHECKPOINT_VERSION,
+            "log": {"path": str(self.log_path), "header": self.header_line,
+                    "records": self.journal.records_written},
+            "player": {
+                "steps": p.counters.steps, "waited": p.waited, "last_t": p.last_t,
+                "profile": p.profile, "brush": b.settings.to_args(),
+                "layer_pigments": sorted(p.layer_pigments),
+                "samples": p.counters.samples, "commands": p.counters.commands,
+                "skipped_commands": p.counters.skipped_commands,
+                "waited_s": p.counters.waited_s,
+                "stamps": b.stamps, "brush_samples": b.samples,
+                "eraser_samples": b.eraser_samples, "strokes": b.strokes,
+            },
+            "live": {"last_t": self._last_t, "samples": c.samples, "commands": c.commands,
+                     "bad_commands": c.bad_commands, "bad_samples": c.bad_samples,
+                     "dropped_sources": c.dropped_sources,
+                     "synthetic_pen_ups": c.synthetic_pen_ups},
+        }
+
+    def _restore(self, s: dict[str, Any]) -> None:
+        """Player and counters as the checkpoint left them (recovery.plan checked it)."""
+        p, b, ps, ls = self.player, self.player.brush, s["player"], s["live"]
+        p.counters.steps = int(ps["steps"])
+        p.waited, p.last_t = float(ps["waited"]), float(ps["last_t"])
+        a = ps["brush"]
+        b.set(BrushSettings(str(a["kind"]), float(a["size"]), float(a["water"]),
+                            {str(k): float(v) for k, v in a["pigment"].items()}))
+        p.layer_pigments = set(ps["layer_pigments"])
+        p.counters.samples = int(ps["samples"])
+        p.counters.commands = {str(k): int(v) for k, v in ps["commands"].items()}
+        p.counters.skipped_commands = {str(k): int(v)
+                                       for k, v in ps["skipped_commands"].items()}
+        p.counters.waited_s = float(ps["waited_s"])
+        b.stamps, b.samples = int(ps["stamps"]), int(ps["brush_samples"])
+        b.eraser_samples, b.strokes = int(ps["eraser_samples"]), int(ps["strokes"])
+        self._last_t = float(ls["last_t"])
+        for k in ("samples", "commands", "bad_commands", "bad_samples", "dropped_sources",
+                  "synthetic_pen_ups"):
+            setattr(self.counters, k, int(ls[k]))
+
+    def _replay(self, plan: recovery.Plan) -> None:
+        """Apply the log records after the checkpoint exactly as they were applied
+        live (each after ``floor((t + waited)·rate)`` steps), then continue the
+        session clock from there."""
+        p = self.player
+        last_seq: dict[str, int] = {}
+        for rec in plan.records():
+            while p.counters.steps < p.steps_due(rec.t):
+                self.step()
+            try:
+                p.apply(rec)
+            except BadInput as exc:  # not in a log this process wrote; counted anyway
+                self._warn(f"recovery: record not applied: {exc}")
+                continue
+            self._last_t = max(self._last_t, rec.t)
+            if isinstance(rec, PenSample):
+                dev = self.devices.setdefault(rec.device, DeviceState(last_seen=0.0))
+                dev.touching, dev.last_sample = rec.touching and rec.proximity, rec
+                if rec.seq:
+                    last_seq[rec.device] = rec.seq
+                self.counters.samples += 1
+            else:
+                self.counters.commands += 1
+                if rec.cmd == "wait":
+                    while p.counters.steps < p.steps_due(rec.t):
+                        self.step()
+        # The clock goes on at the start of the next step's slot: that step runs first,
+        # with whatever stamps are pending (or were put into the canvas by a final
+        # autosave), exactly as a replay of the continued log runs it.
+        self.start = time.monotonic() - ((p.counters.steps + 1) / p.rate - p.waited)
+        now = time.monotonic()
+        for name, dev in self.devices.items():
+            dev.last_seen = now
+            dev.resume_seq = last_seq.get(name)
+            if dev.touching:  # a stroke open at the crash: ends unless its device speaks
+                dev.heartbeat_s = RECOVERED_STROKE_GRACE_S / SILENCE_INTERVALS
+        log.warning("recovered %s: %d records replayed after the autosave (%d steps)",
+                    plan.log_path, plan.replayed, p.counters.steps)
+
+    # -- status ------------------------------------------------------------------
+    def status(self) -> dict[str, Any]:
+        p, c = self.player, self.counters
+        now = time.monotonic()
+        session = self.now()
+        return {
+            "width": self.cfg.width, "height": self.cfg.height, "profile": p.profile,
+            "backend": self.backend_name, "renderer": str(getattr(self.canvas, "renderer", "")),
+            "steps": p.counters.steps, "sim_time": p.counters.steps * p.dt,
+            "painting_time": p.painting_time, "session_time": session,
+            "lag_s": max(0.0, session + p.waited - p.painting_time),
+            "rate": p.rate,
+            "samples": c.samples, "commands": c.commands,
+            "bad_commands": c.bad_commands, "bad_samples": c.bad_samples,
+            "dropped_sources": c.dropped_sources, "synthetic_pen_ups": c.synthetic_pen_ups,
+            "recovered_duplicates": c.recovered_duplicates,
+            "missed_while_down": c.missed_while_down,
+            "stamps": p.brush.stamps, "eraser_samples": p.brush.eraser_samples,
+            "devices": {n: {"state": "silent" if d.silent else "live",
+                            "last_seen_s": round(now - d.last_seen, 3),
+                            "heartbeat_s": d.heartbeat_s, "touching": d.touching}
+                        for n, d in sorted(self.devices.items())},
+            "silent_devices": self.silent_devices(),
+            "log": str(self.log_path), "log_records": self.journal.records,
+            "log_pending_bytes": self.journal.pending_bytes,
+            "log_dropped": self.journal.dropped,
+            "autosave": str(self.autosave_path), "autosaves": c.autosaves,
+            "storage_failures": self.report.failures,
+            "storage_problems": dict(self.report.problems),
+            **p.brush_counters(),
+        }
+
+    # -- end -----------------------------------------------------------------------
+    def write_outputs(self) -> None:
+        """Write ``--state`` and ``--png`` now (atomically; failures reported)."""
+        if self.cfg.state_path:
+            try:
+                self.canvas.state().save(self.cfg.state_path)
+            except OSError as exc:
+                self.report.failed(f"state {self.cfg.state_path}", exc)
+        if self.cfg.png_path:
+            from station.sim.paint import write_image
+
+            png = Path(self.cfg.png_path)
+            tmp = png.with_name(f".{png.name}.tmp-{os.getpid()}")
+            try:  # all or nothing, like the state: a full disk keeps the old image
+                write_image(str(tmp), self.canvas.render())
+                os.replace(tmp, png)
+            except OSError as exc:
+                tmp.unlink(missing_ok=True)
+                self.report.failed(f"image {self.cfg.png_path}", exc)
+
+    def finish(self) -> None:
+        """Hand pending stamps to the canvas, write the end marker, the outputs and
+        a last autosave, close the log."""
+        p = self.player
+        try:
+            p.flush_sources()
+        except BadInput as exc:
+            self.counters.dropped_sources += 1
+            self._warn(f"brush sources dropped: {exc}")
+        # End marker: a no-op wait at the session time the last step belongs to, so
+        # a replay of the log runs as many steps as this process did.
+        # (rounded up to the µs, so it does not fall just short of the step's end)
+        t_end = max(self._last_t, p.counters.steps / p.rate - p.waited)
+        t_end = math.ceil(t_end * 1e6) / 1e6
+        self._last_t = t_end
+        self.journal.write(Command(t=t_end, cmd="wait", args={"seconds": 0.0}))
+        self.write_outputs()
+        if self.cfg.autosave and not p.brush.drawing:
+            self.autosave()
+        self.journal.close()
+
+
+class LiveSim(LiveCore):
+    """The running simulation process: :class:`LiveCore` on the bus."""
+
+    def __init__(self, cfg: LiveConfig) -> None:
+        from station.bus import Publisher, Subscriber
+
+        # The bus first: an endpoint in use ends the run before any file is made.
+        endpoints = [cfg.bus]
+        cmd_ep = cfg.cmd or "@" + DEFAULT_CMD_ENDPOINT
+        if cmd_ep != "none":
+            endpoints.append(cmd_ep if cmd_ep[0] in "@>" else "@" + cmd_ep)
+        self.sub = Subscriber(endpoints, topics=("pen.", "cmd", "hb."))  # type: ignore[arg-type]
+        status_ep = cfg.status or default_status_endpoint(cfg.bus)
+        try:
+            self.pub = None if status_ep == "none" else Publisher(status_ep)
+            super().__init__(cfg)
+        except BaseException:
+            self.sub.close()
+            pub = getattr(self, "pub", None)
+            if pub is not None:
+                pub.close()
+            raise
+        self._next_status = 0.0
+        self._fps_mark = (time.monotonic(), self.player.counters.steps)
+        self.fps = 0.0
 
     def drain(self, timeout_ms: int) -> None:
         msg = self.sub.recv(timeout_ms)
         n = 0
         while msg is not None:
-            self.handle(msg.kind, msg.value)
+            self.handle(msg.kind, msg.value, msg.topic, msg.replay)
             n += 1
             if n >= DRAIN_MAX or self.stop_requested:
                 return
             msg = self.sub.recv(0)
+
+    def on_wait_step(self) -> None:
+        self.maybe_publish_status()
 
     # -- status --------------------------------------------------------------
     def status(self) -> dict[str, Any]:
@@ -217,21 +621,11 @@ class LiveSim:
         if now - mark_t >= 0.25:
             self.fps = (p.counters.steps - mark_steps) / (now - mark_t)
             self._fps_mark = (now, p.counters.steps)
-        session = now - self.start
-        return {
-            "process": "sim", "pid": os.getpid(),
-            "width": self.cfg.width, "height": self.cfg.height, "profile": p.profile,
-            "backend": self.backend_name, "renderer": str(getattr(self.canvas, "renderer", "")),
-            "steps": p.counters.steps, "sim_time": p.counters.steps * p.dt,
-            "painting_time": p.painting_time, "session_time": session,
-            "lag_s": max(0.0, session + p.waited - p.painting_time),
-            "fps": self.fps, "rate": p.rate,
-            "samples": self.samples, "commands": self.commands,
-            "bad_commands": self.bad_commands, "bad_samples": self.bad_samples,
-            "dropped_sources": self.dropped_sources,
-            "lost_samples": self.sub.stats.lost, "bus": self.sub.stats.as_dict(),
-            "stamps": p.brush.stamps, "eraser_samples": p.brush.eraser_samples,
-        }
+        st = {"process": "sim", "pid": os.getpid(), **super().status(), "fps": self.fps,
+              "bus": self.sub.stats.as_dict()}
+        # samples lost on the bus, and those sent while no sim listened (recovery)
+        st["lost_samples"] = self.sub.stats.lost + self.counters.missed_while_down
+        return st
 
     def maybe_publish_status(self) -> None:
         """Publish the status when the last one is :data:`STATUS_EVERY_S` old."""
@@ -253,46 +647,28 @@ class LiveSim:
     # -- main loop -----------------------------------------------------------
     def run(self) -> dict[str, Any]:
         """Run until stopped; returns the final status."""
-        p = self.player
+        end = None if self.cfg.duration is None else self.now() + self.cfg.duration
         try:
             while not self.stop_requested:
-                now = self.now()
-                if self.cfg.duration is not None and now >= self.cfg.duration:
+                if end is not None and self.now() >= end:
                     break
-                if p.counters.steps < p.steps_due(now):
-                    self.step()
+                if self.tick():
                     self.drain(0)
                 else:
-                    next_step = (p.counters.steps + 1) / p.rate - p.waited
-                    self.drain(max(0, min(100, int((next_step - now) * 1000) + 1)))
+                    wait = min(self.seconds_to_next_step(), 0.1)
+                    self.drain(max(0, int(wait * 1000) + 1))
+                self.check_devices()
+                if self.newly_silent:
+                    self.newly_silent.clear()
+                    self.publish_status()  # name a silent device at once
                 self.maybe_publish_status()
         finally:
             final = self.shutdown()
         return final
 
     def shutdown(self) -> dict[str, Any]:
-        """Hand pending stamps to the canvas, save state, PNG and log."""
-        p = self.player
-        try:
-            p.flush_sources()
-        except BadInput as exc:
-            self.dropped_sources += 1
-            self._warn(f"brush sources dropped: {exc}")
-        if self.writer is not None:
-            # End marker: a no-op wait at the session time the last step belongs to, so
-            # a replay of the log runs as many steps as this process did.
-            # (rounded up to the µs, so it does not fall just short of the step's end)
-            t_end = max(self._last_t, p.counters.steps / p.rate - p.waited)
-            t_end = math.ceil(t_end * 1e6) / 1e6
-            self.writer.write(Command(t=t_end, cmd="wait", args={"seconds": 0.0}))
-        if self.cfg.state_path:
-            self.canvas.state().save(self.cfg.state_path)
-        if self.cfg.png_path:
-            from station.sim.paint import write_image
-
-            write_image(self.cfg.png_path, self.canvas.render())
-        if self.writer is not None:
-            self.writer.close()
+        """Finish (see :meth:`LiveCore.finish`), publish the final status, close."""
+        self.finish()
         final = self.status()
         self.publish_status(final=True)
         self.sub.close()

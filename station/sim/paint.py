@@ -32,7 +32,7 @@ from typing import IO, Any
 from station.errors import BadInput, StationError
 from station.events import Command, PenSample
 from station.sessionlog import SessionHeader, SessionLogReader
-from station.sim.player import SessionPlayer
+from station.sim.player import MAX_PAINTING_SECONDS, MAX_RATE, SessionPlayer
 
 log = logging.getLogger(__name__)
 
@@ -114,16 +114,20 @@ class _Source:
             self._close()
 
 
-def open_input(path: str) -> _Source:
-    """Open a session log, or a device trace when the drivers can read it."""
+def open_input(path: str, canvas: tuple[int, int] = (800, 600), mapping: str = "fit") -> _Source:
+    """Open a session log, or a device trace when the drivers can read it.
+
+    A trace's pen samples are mapped onto ``canvas`` (width, height) by ``mapping``
+    (``fit`` keeps the tablet's aspect ratio, ``stretch`` fills the canvas).
+    """
     if path.lower().endswith(TRACE_SUFFIXES):
-        return _open_trace(path)
+        return _open_trace(path, canvas, mapping)
     reader = SessionLogReader(path)
     return _Source(reader.header, reader, lambda: f"{reader.name}:{reader.line_no}",
                    reader.close)
 
 
-def _open_trace(path: str) -> _Source:
+def _open_trace(path: str, canvas: tuple[int, int], mapping: str) -> _Source:
     """A device trace through ``station.drivers.traces`` (issue 4), if it is there."""
     suffix = Path(path).suffix.lower()
     try:
@@ -139,10 +143,14 @@ def _open_trace(path: str) -> _Source:
             "(station.drivers.traces has no reader); give a session log (.jsonl)", path)
     if not os.path.exists(path):
         raise PaintInputError("no such file", path)
-    samples = iter(reader(path))
+    from station.drivers.normalise import NormaliserConfig
+
+    samples = iter(reader(path, config=NormaliserConfig(mapping=mapping, canvas=canvas)))
     # The drivers read the whole trace on the first sample: a trace that does not
-    # parse is refused before anything is painted.
+    # parse (or holds no pen device) is refused before anything is painted.
     first = next(samples, None)
+    if first is None:
+        raise PaintInputError("the trace holds no pen samples: nothing to paint", path)
     count = [0]
 
     def counted() -> Iterator[PenSample | Command]:
@@ -293,10 +301,12 @@ def paint(
     progress: bool | None = None,
     backend_opts: dict[str, Any] | None = None,
     resume: str | None = None,
+    mapping: str = "fit",
 ) -> PaintResult:
     """Paint ``input_path`` headless; see the module docstring for errors.
 
-    ``resume`` continues a saved canvas state (``--state`` of an earlier run)
+    ``mapping`` (``fit`` | ``stretch``) maps a device trace's tablet onto the
+    canvas.  ``resume`` continues a saved canvas state (``--state`` of an earlier run)
     instead of blank paper: its size, profile and seed win over the session
     header's; brush sizes are not rescaled.
 
@@ -309,11 +319,16 @@ def paint(
 
     if bits not in (8, 16):
         raise PaintInputError(f"--bits {bits} must be 8 or 16", "--bits")
-    if settle < 0 or not math.isfinite(settle):
-        raise PaintInputError(f"--settle {settle} must be >= 0 seconds", "--settle")
+    if not (math.isfinite(settle) and 0 <= settle <= MAX_PAINTING_SECONDS):
+        raise PaintInputError(f"--settle {settle:g} must be 0..{MAX_PAINTING_SECONDS:g} seconds "
+                              "(the longest painting time a session may have)", "--settle")
+    if rate is not None and not (math.isfinite(rate) and 0 < rate <= MAX_RATE):
+        raise PaintInputError(f"--rate {rate:g} must be > 0 and at most {MAX_RATE:g} steps/s",
+                              "--rate")
     check_outputs(((out_png, "-o"), (state_path, "--state"), (stats_path, "--stats")))
     start = load_resume_state(resume, size, profile) if resume else None
-    source = open_input(input_path)
+    trace_canvas = size or ((start.width, start.height) if start is not None else (800, 600))
+    source = open_input(input_path, trace_canvas, mapping)
     try:
         header = source.header
         prof_name = start.profile if start is not None else (profile or header.profile)
@@ -362,9 +377,7 @@ def paint(
             width=width, height=height, profile=player.profile, backend=backend,
             renderer=str(getattr(canvas, "renderer", backend)), steps=player.counters.steps,
             painting_seconds=player.painting_time, wall_seconds=wall,
-            counters={**player.counters.as_dict(), "stamps": player.brush.stamps,
-                      "strokes": player.brush.strokes,
-                      "eraser_samples": player.brush.eraser_samples},
+            counters={**player.counters.as_dict(), **player.brush_counters()},
             error=error,
         )
         write_outputs(canvas, result, out_png, state_path, stats_path, bits)

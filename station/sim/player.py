@@ -31,7 +31,10 @@ from collections.abc import Callable, Container, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from station.canvas.brush import BrushModel, BrushSettings, RoundBrush
+from station.brush.deformable import DeformableBrush
+from station.brush.reservoir import pickup
+from station.brush.solver import SolverCounters
+from station.brush.stamp import STAMP_KIND, BrushModel, BrushSettings, RoundBrush
 from station.canvas.params import PROFILES, Profile, get_profile
 from station.canvas.state import DEFAULT_SLOTS
 from station.canvas.tools import HairDryer, blow, on_state
@@ -41,6 +44,12 @@ from station.events import Command, PenSample, Tool
 log = logging.getLogger(__name__)
 
 MAX_WAIT_SECONDS = 3600.0
+MAX_PAINTING_SECONDS = 86400.0
+"""Longest painting time a replayed session may reach (session time + waits +
+``--settle``): one day.  A record past it (``t`` = 1e12 would mean simulating
+for millennia) is refused as bad input instead of running "forever"."""
+MAX_RATE = 1000.0
+"""Most simulation steps per second of painting time a replay may ask for."""
 
 
 class PlayerError(BadInput):
@@ -98,8 +107,12 @@ class SessionPlayer:
         self.pigments = pigments
         self.brush_scale = brush_scale
         self.profile = prof.name
-        self.brush = RoundBrush(width, height, brush_defaults(prof).scaled(brush_scale),
-                                brush_model(prof), time_scale=self.rate * self.dt)
+        self.width, self.height = width, height
+        self.brush: RoundBrush | DeformableBrush = RoundBrush(
+            width, height, brush_defaults(prof).scaled(brush_scale), brush_model(prof),
+            time_scale=self.rate * self.dt)
+        self.pickups_skipped = 0  # pick-ups on a backend whose arrays are not in memory
+        self.solver = SolverCounters()  # the deformable brushes' spine solves, all kinds
         self.counters = PlayerCounters()
         # Pigments painted into the active layer, to refuse a ninth one at the pen
         # sample that would bring it (the canvas would only notice at the next step).
@@ -143,7 +156,21 @@ class SessionPlayer:
                 on_step(self)
 
     def flush_sources(self) -> None:
-        """Hand the pending brush stamps to the backend (no step)."""
+        """Hand the pending brush stamps to the backend (no step).
+
+        A deformable brush first lifts wet paint under its footprints (dirty
+        brush) from the canvas arrays, where the backend keeps them in memory
+        (``live_state``); a GPU backend's pick-ups are counted and skipped.
+        """
+        if isinstance(self.brush, DeformableBrush):
+            requests = self.brush.take_pickups()
+            state = getattr(self.backend, "live_state", None)
+            if requests and state is None:
+                self.pickups_skipped += len(requests)
+            elif requests and state is not None:
+                for r in requests:
+                    pickup(state, self.brush.reservoir, r.weight, r.y0, r.x0,
+                           self.brush.shape.pickup)
         src = self.brush.take()
         if src is not None:
             add_sources(self.backend, src)
@@ -162,6 +189,9 @@ class SessionPlayer:
 
     def _check_layer(self, where: str | None) -> None:
         names = [k for k, a in self.brush.settings.pigment.items() if a > 0.0]
+        if isinstance(self.brush, DeformableBrush):  # a dirty brush carries what it picked up
+            names += [k for k, m in self.brush.reservoir.mass.items()
+                      if m > 0.0 and k not in names]
         new = [k for k in names if k not in self.layer_pigments]
         if not new:
             return
@@ -195,13 +225,49 @@ class SessionPlayer:
         if canonical is not None:  # the palette: use its spelling of each name
             settings = BrushSettings(settings.kind, settings.size, settings.water,
                                      {canonical(k).name: v for k, v in settings.pigment.items()})
-        self.brush.set(settings.scaled(self.brush_scale))
+        self._use(settings.scaled(self.brush_scale))
+
+    def _use(self, settings: BrushSettings) -> None:
+        """Set the brush, swapping the stamp brush and a deformable one as the kind asks."""
+        deformable = settings.kind != STAMP_KIND
+        if deformable == isinstance(self.brush, DeformableBrush):
+            self.brush.set(settings)
+            return
+        self.flush_sources()
+        old = self.brush
+        if deformable:
+            self.brush = DeformableBrush(self.width, self.height, settings, old.model,
+                                         self._paper(), time_scale=old.time_scale,
+                                         counters=self.solver)
+        else:
+            self.brush = RoundBrush(self.width, self.height, settings, old.model,
+                                    time_scale=old.time_scale)
+        # the counters of the session go on across brushes
+        self.brush.stamps, self.brush.samples = old.stamps, old.samples
+        self.brush.strokes, self.brush.eraser_samples = old.strokes, old.eraser_samples
+
+    def brush_counters(self) -> dict[str, Any]:
+        """What the brushes did: stamps, strokes, eraser samples, spine solves."""
+        b = self.brush
+        out: dict[str, Any] = {"stamps": b.stamps, "strokes": b.strokes,
+                               "eraser_samples": b.eraser_samples}
+        if self.solver.solves:
+            out.update(brush_solves=self.solver.solves,
+                       brush_fallbacks=self.solver.fallbacks,
+                       pickups_skipped=self.pickups_skipped)
+        if isinstance(b, DeformableBrush):
+            out["brush_reservoir"] = b.reservoir.ledger()
+        return out
+
+    def _paper(self) -> Any:
+        """The paper height of the backend (read back once from a GPU backend)."""
+        state = getattr(self.backend, "live_state", None)
+        if state is None:
+            state = self.backend.state()
+        return state.h
 
     def _profile(self, args: Mapping[str, Any], where: str | None) -> None:
-        name = args.get("name")
-        if not isinstance(name, str) or name not in PROFILES:
-            raise PlayerError(f"unknown profile {name!r} (one of {', '.join(sorted(PROFILES))})",
-                              where)
+        name = _profile_name(args, where)
         self.flush_sources()
         try:
             self.backend.set_profile(name)
@@ -214,14 +280,10 @@ class SessionPlayer:
         self.dt = prof.params.dt
         self.brush.time_scale = self.rate * self.dt
         self.brush.model = brush_model(prof)
-        self.brush.set(brush_defaults(prof).scaled(self.brush_scale))
+        self._use(brush_defaults(prof).scaled(self.brush_scale))
 
     def _wait(self, args: Mapping[str, Any], where: str | None) -> None:
-        seconds = args.get("seconds", 0.0)
-        if (isinstance(seconds, bool) or not isinstance(seconds, (int, float))
-                or not math.isfinite(seconds) or not 0.0 <= seconds <= MAX_WAIT_SECONDS):
-            raise PlayerError(f"wait seconds {seconds!r} must be a number in [0, "
-                              f"{MAX_WAIT_SECONDS:g}]", where)
+        seconds = _wait_seconds(args, where)
         self.waited += float(seconds)
         self.counters.waited_s += float(seconds)
 
@@ -242,9 +304,11 @@ class SessionPlayer:
         """
         try:
             for rec in records:
+                self._check_time(rec.t, 0.0, where)
                 self.advance_to(rec.t, on_step)
                 self.apply(rec, where() if where else None)
                 if isinstance(rec, Command) and rec.cmd == "wait":
+                    self._check_time(rec.t, 0.0, where)
                     self.advance_to(rec.t, on_step)
         except BadInput:
             try:  # keep what was painted before the bad record ...
@@ -254,12 +318,66 @@ class SessionPlayer:
             raise
         self.flush_sources()
 
+    def _check_time(self, t: float, more: float, where: Callable[[], str] | None,
+                    flag: str | None = None) -> None:
+        """Refuse painting time past :data:`MAX_PAINTING_SECONDS` (before running it)."""
+        total = t + self.waited + more
+        if total > MAX_PAINTING_SECONDS:
+            raise PlayerError(
+                f"painting time {total:g} s (session time {t:g} s + waits {self.waited:g} s"
+                f"{f' + {more:g} s' if more else ''}) is past the {MAX_PAINTING_SECONDS:g} s "
+                "a session may last", where() if where else flag)
+
     def settle(self, seconds: float, on_step: Callable[[SessionPlayer], None] | None = None
                ) -> None:
         """Run ``seconds`` more painting time after the last record."""
+        self._check_time(self.last_t, seconds, None, "--settle")
         self.waited += seconds
         self.advance_to(self.last_t, on_step)
         self.flush_sources()
+
+
+def _profile_name(args: Mapping[str, Any], where: str | None) -> str:
+    name = args.get("name")
+    if not isinstance(name, str) or name not in PROFILES:
+        raise PlayerError(f"unknown profile {name!r} (one of {', '.join(sorted(PROFILES))})",
+                          where)
+    return name
+
+
+def _wait_seconds(args: Mapping[str, Any], where: str | None) -> float:
+    seconds = args.get("seconds", 0.0)
+    if (isinstance(seconds, bool) or not isinstance(seconds, (int, float))
+            or not 0.0 <= seconds <= MAX_WAIT_SECONDS):  # NaN fails the comparison
+        raise PlayerError(f"wait seconds {seconds!r:.40} must be a number in [0, "
+                          f"{MAX_WAIT_SECONDS:g}]", where)
+    return float(seconds)
+
+
+LIVE_COMMANDS = frozenset({"save", "stop"})
+"""Commands only a running simulation executes (``station sim``; never logged)."""
+
+
+def check_command(cmd: Command, pigments: Container[str] | None = None,
+                  where: str | None = None) -> None:
+    """Validate a command exactly as the player validates it when it runs it (the
+    same checks of ``brush``, ``profile`` and ``wait`` arguments), and refuse one
+    that nothing would execute; for ``station send``, before it goes on the bus.
+
+    Raises :class:`PlayerError` (bad input)."""
+    name = cmd.cmd
+    if name in LIVE_COMMANDS:
+        return
+    if name not in _HANDLERS:
+        what = "is not implemented yet" if cmd.known else "is unknown"
+        runs = ", ".join(sorted({*_HANDLERS, *LIVE_COMMANDS}))
+        raise PlayerError(f"command {name!r} {what} (one of {runs})", where)
+    if name == "brush":
+        BrushSettings.from_args(cmd.args, where, pigments, BrushSettings())
+    elif name == "profile":
+        _profile_name(cmd.args, where)
+    elif name == "wait":
+        _wait_seconds(cmd.args, where)
 
 
 def _dry(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:

@@ -1,0 +1,165 @@
+"""``station bench brush --json``: the deformable brush's cost per frame.
+
+Measures, on this machine and in this process:
+
+* ``solve_ms_per_spine``: SLSQP equilibrium per spine per frame along a
+  pressed, wavy stroke (warm started, analytic gradients), with the
+  evaluations per solve and the fallbacks; ``solve_cpu_ms_per_spine`` is the
+  same in this thread's CPU time (on a shared machine the wall clock also
+  counts the other processes' slices);
+* ``frame_ms``: a whole brush frame (spines + FFD + footprint raster);
+* ``sim_steps_per_s``: the cpu canvas backend at 800x600 with one live
+  stroke of the deformable brush: one pen frame per simulation step, its
+  sources added before the step (goal ≥ 100 steps/s), beside the peer run of
+  ``station bench sim``'s stroke scenario (a round disc source per step) in
+  the same process; ``*_per_cpu_s`` divide by the process's CPU time instead
+  of the wall clock.
+
+The goal for the solve is ≤ 1 ms per spine per frame (Baxter et al. 2004:
+about 0.1 ms per 3-joint spine in C at 1 GHz): NLopt's SLSQP calls back into
+Python for every evaluation (~10 µs each with the numba kernels), and a
+pressed frame takes 15–40 evaluations.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from typing import Any
+
+import numpy as np
+
+from station.errors import BadInput
+
+GOAL_MS = 1.0
+
+
+def _stroke_brush(kind: str, width: int, height: int, size: float, paper: np.ndarray
+                  ) -> Any:
+    from station.brush.deformable import DeformableBrush
+    from station.brush.stamp import BrushModel, BrushSettings
+
+    return DeformableBrush(width, height, BrushSettings(kind=kind, size=size, water=1.0,
+                                                        pigment={"French Ultramarine": 0.5}),
+                           BrushModel(), paper)
+
+
+def measure_solver(kind: str, frames: int) -> dict[str, Any]:
+    paper = np.ones((300, 400), np.float32)
+    b = _stroke_brush(kind, 400, 300, 24.0, paper)
+    for k in range(10):  # press in
+        b.frame(40.0, 150.0, 0.06 * k)
+    c0 = b.solver.counters
+    solves0, evals0, secs0, fb0 = c0.solves, c0.evaluations, c0.seconds, c0.fallbacks
+    cpu0 = c0.cpu_seconds
+    t0, tc0 = time.perf_counter(), time.thread_time()
+    for k in range(frames):
+        x = 40.0 + 320.0 * k / frames
+        y = 150.0 + 60.0 * math.sin(k / 15.0)
+        p = 0.55 + 0.35 * math.sin(k / 23.0)
+        b.footprint(b.frame(x, y, p, 0.0, -20.0, 0.0))
+    wall, cpu = time.perf_counter() - t0, time.thread_time() - tc0
+    c = b.solver.counters
+    solves = c.solves - solves0
+    return {
+        "kind": kind, "spines": len(b.spines), "segments": b.specs[0].n, "frames": frames,
+        "solve_ms_per_spine": round(1e3 * (c.seconds - secs0) / solves, 4),
+        "solve_cpu_ms_per_spine": round(1e3 * (c.cpu_seconds - cpu0) / solves, 4),
+        "evaluations_per_solve": round((c.evaluations - evals0) / solves, 2),
+        "fallbacks": c.fallbacks - fb0,
+        "frame_ms": round(1e3 * wall / frames, 4),
+        "frame_cpu_ms": round(1e3 * cpu / frames, 4),
+        "goal_ms_per_spine": GOAL_MS,
+    }
+
+
+def measure_sim(kind: str, width: int, height: int, seconds: float) -> dict[str, Any]:
+    """cpu backend steps/s with one live stroke: ``station bench sim``'s stroke (a
+    round disc source per step) and the deformable brush (one pen frame per step),
+    measured one after the other in this process: their ratio is the brush's cost."""
+    from station.bench.sim import _StrokePath
+    from station.brush.stamp import BrushSettings
+    from station.canvas.backend import create_backend
+    from station.canvas.params import get_profile
+    from station.events import PenSample
+    from station.sim.player import add_sources, brush_model
+
+    def run(advance: Any, canvas: Any) -> tuple[int, float, float, float]:
+        """Steps, wall seconds, process CPU seconds, CPU seconds in ``advance``."""
+        for _ in range(10):
+            advance()
+            canvas.step()
+        steps, extra = 0, 0.0
+        t0, c0 = time.perf_counter(), time.process_time()
+        while steps < 3 or time.perf_counter() - t0 < seconds:
+            tb = time.process_time()
+            advance()
+            extra += time.process_time() - tb
+            canvas.step()
+            steps += 1
+        return steps, time.perf_counter() - t0, time.process_time() - c0, extra
+
+    peer: Any = create_backend("cpu", width, height, "watercolor", 1, tiling=True)
+    disc = _StrokePath(peer, width, height)
+    p_steps, p_wall, p_cpu, _ = run(disc.advance, peer)
+
+    canvas: Any = create_backend("cpu", width, height, "watercolor", 1, tiling=True)
+    b = _stroke_brush(kind, width, height, 24.0, canvas.live_state.h)
+    b.model = brush_model(get_profile("watercolor"))
+    b.set(BrushSettings(kind=kind, size=24.0, water=1.0, pigment={"French Ultramarine": 0.5}))
+    k = 0
+
+    def advance() -> None:
+        nonlocal k
+        x = 0.05 + 0.9 * ((k * 3.0 / width) % 1.0)  # 3 cells per step, as the peer
+        y = 0.5 + 0.15 * math.sin(k / 20.0)
+        b.feed(PenSample(t=k / 30.0, device="bench", tool="pen", x=x, y=y,  # type: ignore[arg-type]
+                         pressure=0.6, touching=True))
+        src = b.take()
+        if src is not None:
+            add_sources(canvas, src)
+        k += 1
+
+    steps, wall, cpu, brush_s = run(advance, canvas)
+    return {"backend": "cpu", "size": f"{width}x{height}", "kind": kind, "steps": steps,
+            "sim_steps_per_s": round(steps / wall, 2),
+            "sim_steps_per_cpu_s": round(steps / cpu, 2),
+            "brush_cpu_ms_per_step": round(1e3 * brush_s / steps, 3),
+            "peer_round_disc_steps_per_s": round(p_steps / p_wall, 2),
+            "peer_round_disc_steps_per_cpu_s": round(p_steps / p_cpu, 2),
+            "ratio_to_peer_cpu": round((steps / cpu) / (p_steps / p_cpu), 3),
+            "goal_steps_per_s": 100}
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("brush", help="deformable brush: solve time per spine per frame (JSON)")
+    p.add_argument("--json", action="store_true", help="print JSON (the default output too)")
+    p.add_argument("--kinds", default="round3d,flat", help="brush kinds (default %(default)s)")
+    p.add_argument("--frames", type=int, default=300, help="frames per kind")
+    p.add_argument("--sim-seconds", type=float, default=3.0,
+                   help="seconds of the 800x600 cpu stroke measurement (0: skip)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from station.brush.geometry import get_shape
+
+    kinds = [k for k in args.kinds.split(",") if k]
+    for k in kinds:
+        get_shape(k, "--kinds")
+    if not 10 <= args.frames <= 100000:
+        raise BadInput(f"frames {args.frames} outside [10, 100000]", "--frames")
+    if not 0.0 <= args.sim_seconds <= 600.0:
+        raise BadInput(f"{args.sim_seconds} outside [0, 600]", "--sim-seconds")
+    results = [measure_solver(k, args.frames) for k in kinds]
+    for r in results:
+        print(f"bench brush: {r['kind']}: {r['solve_ms_per_spine']} ms per spine per frame",
+              file=sys.stderr)
+    out: dict[str, Any] = {"solver": results}
+    if args.sim_seconds > 0:
+        out["sim"] = measure_sim(kinds[0], 800, 600, args.sim_seconds)
+    print(json.dumps(out, indent=2))
+    return 0

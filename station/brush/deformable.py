@@ -1,0 +1,327 @@
+"""The deformable brush: pen samples → spines → tuft → footprints → paint (issue 11).
+
+Pen mapping (§7):
+
+* position: the pen point is where the handle's axis meets the canvas;
+* pressure ``p`` → the ferrule's height over the canvas,
+  ``z = L · (1 - REACH - press_depth · p)`` (``L`` the tuft length in cells):
+  at the lightest touch the straight tip just reaches the paper, harder
+  pressure lowers the handle and the spines bend and spread;
+* tilt → the handle's orientation (:func:`~station.brush.spine.handle_frame`);
+* rotation (Art Pen) → twist of the handle about its axis (a flat brush's
+  width turns with it).
+
+Every pen sample is a *frame*: the spines find their equilibrium (warm
+started), the tuft is deformed and its footprint rasterised.  Between two
+frames the footprint is stamped along the path at a spacing of a fraction of
+its size (shifted by whole cells), each stamp giving only what the previous
+one did not cover, so the bristle marks run along the stroke.  The paint
+comes from the :class:`~station.brush.reservoir.Reservoir`; where the
+footprint passes over wet paint, pick-up requests are queued for the player,
+which applies them to the canvas arrays before the next step.
+
+Plasticity: while the brush is wet and touching, each spine's rest angles
+drift toward its current angles (``plasticity · fill`` per frame); lifted,
+they relax back to the shape's rest (``recovery`` per frame).
+
+Everything is deterministic (evaluation budget, seeded tuft): a session
+replays to the same pixels.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from station.brush.footprint import FootprintMaps, rasterise, segments, weight
+from station.brush.geometry import BrushShape, Tuft, get_shape
+from station.brush.reservoir import Reservoir
+from station.brush.solver import SolverCounters, SpineSolver, SpineState
+from station.brush.spine import handle_frame
+from station.brush.stamp import (
+    NO_PRESSURE_TOOLS,
+    BrushModel,
+    BrushSettings,
+    Footprint,
+    Sources,
+    Stamp,
+    accumulate,
+)
+from station.errors import BadInput
+from station.events import PenSample, Tool
+
+REACH = 0.03
+"""How far below the plane the straight tip would reach at the lightest touch
+(tuft lengths): the bristles touch as soon as the pen does."""
+
+
+@dataclass(frozen=True, slots=True)
+class TuftModel:
+    """Canvas-facing constants of the deformable brush (cells).
+
+    Attributes:
+        tooth: depth of the paper's tooth: a cell of height ``h`` lies
+            ``tooth·(1-h)`` below the plane the spines rest on.
+        ramp: depth over which a bristle's contact weight goes from 0 to 1.
+        min_bristle_radius: thinnest bristle tube drawn, cells.
+        spacing: stamp spacing as a fraction of the footprint's half-size.
+        dry_lift: as the reservoir empties, the footprint's contact is lifted by
+            ``dry_lift · (1 - fill)² · depth_max``: a drying brush gives paint only
+            where its bristles press deepest into the paper, so the stroke breaks
+            up along the paper's hills.
+    """
+
+    tooth: float = 1.5
+    ramp: float = 0.6
+    min_bristle_radius: float = 0.35
+    spacing: float = 0.25
+    dry_lift: float = 0.9
+
+
+@dataclass(slots=True)
+class PickupRequest:
+    """A footprint weight placed at ``(y0, x0)`` under which wet paint is lifted."""
+
+    y0: int
+    x0: int
+    weight: np.ndarray
+
+
+@dataclass(slots=True)
+class _Stroke:
+    x: float
+    y: float
+    t: float
+    vx: float = 0.0
+    vy: float = 0.0
+    to_next: float = 0.0
+    previous: Footprint | None = None
+
+
+class DeformableBrush:
+    """Spine-driven brush of one :class:`BrushShape` (same interface as ``RoundBrush``).
+
+    The shape is ``settings.kind``'s unless ``shape`` is given (tests, a shape file).
+    """
+
+    def __init__(self, width: int, height: int, settings: BrushSettings, model: BrushModel,
+                 paper: np.ndarray, time_scale: float = 1.0, tuft: TuftModel | None = None,
+                 time_budget_s: float | None = None,
+                 rasteriser: Callable[[np.ndarray, float], FootprintMaps] | None = None,
+                 counters: SolverCounters | None = None,
+                 shape: BrushShape | None = None) -> None:
+        if width < 1 or height < 1:
+            raise BadInput(f"canvas {width}x{height} has no cells")
+        if paper.shape != (height, width):
+            raise BadInput("paper height does not match the canvas")
+        self.width, self.height = width, height
+        self.model = model
+        self.tuft_model = tuft or TuftModel()
+        self.paper = np.ascontiguousarray(paper, np.float32)
+        self.time_scale = time_scale
+        self.solver_budget = time_budget_s
+        # numba by default: the same bytes on every machine (replays); a live station
+        # with a GL context may pass ``GLFootprint().rasterise`` (same maps to 1e-5)
+        self.rasterise = rasteriser or rasterise
+        self.solver_counters = counters if counters is not None else SolverCounters()
+        self.settings = settings
+        self.shape: BrushShape = shape if shape is not None else get_shape(settings.kind)
+        self._build()
+        self.reservoir = Reservoir(self._capacity())
+        self.reservoir.load(settings.water, settings.pigment, model.water_scale,
+                            model.pigment_scale)
+        self._strokes: dict[str, _Stroke] = {}
+        self._pending: list[Stamp] = []
+        self.pickups: list[PickupRequest] = []
+        self.stamps = 0
+        self.samples = 0
+        self.eraser_samples = 0
+        self.strokes = 0
+        self.frames = 0
+        self.last_maps: FootprintMaps | None = None
+
+    # -- setup ---------------------------------------------------------------------
+    def _build(self) -> None:
+        shape = self.shape
+        self.tuft = Tuft(shape)
+        self.solver = SpineSolver(shape.friction, time_budget_s=self.solver_budget,
+                                  counters=self.solver_counters)
+        self.specs = shape.spine_specs()
+        self.spines = [SpineState.at_rest(s) for s in self.specs]
+        self.offsets = shape.spine_offsets()
+
+    @property
+    def tuft_length(self) -> float:
+        """Tuft length in cells."""
+        return self.settings.size * self.shape.length
+
+    def _capacity(self) -> float:
+        r = 0.5 * self.settings.size
+        return self.shape.capacity * math.pi * r * r * self.model.water_scale
+
+    def set(self, settings: BrushSettings) -> None:
+        """A ``brush`` command: dip the brush (refill) and take the new shape or size."""
+        if settings.kind != self.settings.kind or settings.size != self.settings.size:
+            self._strokes.clear()
+        if settings.kind != self.settings.kind:
+            self.shape = get_shape(settings.kind)
+            self._build()
+        self.settings = settings
+        self.reservoir.capacity = self._capacity()
+        self.reservoir.load(settings.water, settings.pigment, self.model.water_scale,
+                            self.model.pigment_scale)
+
+    def end_strokes(self) -> None:
+        self._strokes.clear()
+        self._relax_all()
+
+    # -- frames --------------------------------------------------------------------
+    def pose(self, x: float, y: float, pressure: float, tilt_x: float, tilt_y: float,
+             rotation: float) -> tuple[np.ndarray, np.ndarray]:
+        """Spine roots (K, 3) in tuft units and the handle frame for a pen state (cells)."""
+        L = self.tuft_length
+        handle = handle_frame(tilt_x, tilt_y, rotation)
+        z = 1.0 - REACH - self.shape.press_depth * pressure
+        up = handle[:, 2]
+        centre = np.array([x / L, y / L, 0.0]) + (z / up[2]) * up
+        roots = centre[None, :] + self.offsets[:, None] * handle[:, 0][None, :]
+        return roots, handle
+
+    def frame(self, x: float, y: float, pressure: float, tilt_x: float = 0.0,
+              tilt_y: float = 0.0, rotation: float = 0.0) -> np.ndarray:
+        """Solve the spines for a pen state; the deformed bristles (B, S, 3) in cells."""
+        roots, handle = self.pose(x, y, pressure, tilt_x, tilt_y, rotation)
+        for st, root in zip(self.spines, roots, strict=True):
+            self.solver.solve(st, root, handle)
+        self._plasticity()
+        self.frames += 1
+        return self.tuft.deform(self.tuft.lattice(self.spines, roots, handle)) * self.tuft_length
+
+    def footprint(self, bristles: np.ndarray) -> FootprintMaps:
+        """Rasterise deformed bristles (cells) into cover and depth maps."""
+        L = self.tuft_length
+        radius = max(self.tuft_model.min_bristle_radius, 0.5 * self.shape.bristle_width * L)
+        return self.rasterise(segments(bristles), radius)
+
+    def _plasticity(self) -> None:
+        shape = self.shape
+        fill = self.reservoir.fill
+        for st, spec in zip(self.spines, self.specs, strict=True):
+            touching = st.contact is not None and bool(st.contact.any())
+            if touching:
+                st.rest += shape.plasticity * fill * (st.x - st.rest)
+            else:
+                st.rest += shape.recovery * (np.asarray(spec.rest) - st.rest)
+
+    def _relax_all(self) -> None:
+        """Lift: spines straighten (static equilibrium in air is the rest pose)."""
+        for st, spec in zip(self.spines, self.specs, strict=True):
+            st.rest += self.shape.recovery * (np.asarray(spec.rest) - st.rest)
+            st.x = st.rest.copy()
+            st.pos = None
+            st.contact = None
+
+    # -- input ---------------------------------------------------------------------
+    def feed(self, sample: PenSample) -> int:
+        """Apply one pen sample; returns the number of stamps it produced."""
+        key = sample.device
+        if sample.tool is Tool.ERASER:
+            self.eraser_samples += 1
+            if self._strokes.pop(key, None) is not None:
+                self._relax_all()
+            return 0
+        if not (sample.touching and sample.proximity):
+            if self._strokes.pop(key, None) is not None:
+                self._relax_all()
+            return 0
+        self.samples += 1
+        p = sample.pressure
+        if p == 0.0 and sample.tool in NO_PRESSURE_TOOLS:
+            p = self.model.default_pressure
+        x, y = sample.x * self.width, sample.y * self.height
+        maps = self.footprint(self.frame(x, y, p, sample.tilt_x, sample.tilt_y,
+                                         sample.rotation or 0.0))
+        self.last_maps = maps
+        stroke = self._strokes.get(key)
+        if stroke is None:
+            self.strokes += 1
+            stroke = _Stroke(x, y, sample.t)
+            self._strokes[key] = stroke
+            self._stamp(stroke, maps, 0, 0)
+            stroke.to_next = self._spacing(maps)
+            return 1
+        dx, dy = x - stroke.x, y - stroke.y
+        dist = math.hypot(dx, dy)
+        dt = sample.t - stroke.t
+        if dt > 1e-6:
+            stroke.vx, stroke.vy = dx / dt, dy / dt
+        elif dist == 0.0:
+            stroke.vx = stroke.vy = 0.0
+        made = 0
+        pos = stroke.to_next
+        step = self._spacing(maps)
+        while pos <= dist and dist > 0.0:
+            back = dist - pos  # the footprint belongs to the frame's end point
+            self._stamp(stroke, maps, -int(round(dy * back / dist)),
+                        -int(round(dx * back / dist)))
+            made += 1
+            pos += step
+        if dist > 0.0:
+            stroke.to_next = pos - dist
+        stroke.x, stroke.y, stroke.t = x, y, sample.t
+        return made
+
+    def _spacing(self, maps: FootprintMaps) -> float:
+        h, w = maps.cover.shape
+        return max(1.0, self.tuft_model.spacing * 0.5 * max(h, w, 1))
+
+    def _stamp(self, s: _Stroke, maps: FootprintMaps, dy: int, dx: int) -> None:
+        tm = self.tuft_model
+        dry = 1.0 - self.reservoir.fill
+        lift = tm.dry_lift * dry * dry * max(0.0, float(maps.depth.max(initial=0.0)))
+        y0, x0, wt = weight(maps, self.paper, tm.tooth, tm.ramp, dy, dx, lift)
+        self.stamps += 1
+        if wt.size == 0:
+            s.previous = None
+            return
+        eff = wt.astype(np.float64)
+        fp = Footprint(y0, x0, eff)
+        fresh = fp.without(s.previous)
+        s.previous = fp
+        dw, dp = self.reservoir.deposit(fresh.cover, self.model.water_scale)
+        if self.shape.pickup > 0.0 and fresh.cover.any():
+            # like the deposit, only the cells the footprint newly covers: a brush
+            # sliding over its own wet trail would otherwise soak it back up at
+            # every stamp and never run dry
+            self.pickups.append(PickupRequest(fresh.y0, fresh.x0,
+                                              fresh.cover.astype(np.float32)))
+        m = self.model
+        scale = m.velocity_gain / self.time_scale if self.time_scale > 0 else 0.0
+        vx, vy = s.vx * scale, s.vy * scale
+        speed = math.hypot(vx, vy)
+        if speed > m.v_max:
+            vx, vy = vx * m.v_max / speed, vy * m.v_max / speed
+        cover = fresh.cover
+        # Stamp carries per-cell amounts as cover × scalar; ours vary per cell, so
+        # the amounts ride in the cover array and the scalars are 1.
+        self._pending.append(Stamp(Footprint(y0, x0, dw), 1.0, {}, 0.0, 0.0))
+        for name, arr in dp.items():
+            self._pending.append(Stamp(Footprint(y0, x0, arr), 0.0, {name: 1.0}, 0.0, 0.0))
+        if vx or vy:
+            self._pending.append(Stamp(Footprint(y0, x0, cover), 0.0, {}, vx, vy))
+
+    # -- output --------------------------------------------------------------------
+    def take(self) -> Sources | None:
+        pending, self._pending = self._pending, []
+        return accumulate(pending)
+
+    def take_pickups(self) -> list[PickupRequest]:
+        out, self.pickups = self.pickups, []
+        return out
+
+    @property
+    def pending(self) -> int:
+        return len(self._pending)

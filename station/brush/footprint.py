@@ -1,0 +1,147 @@
+"""The footprint: the deformed tuft seen from below the canvas (§7.4.2).
+
+Each bristle is a tube of radius ``r_b`` around its polyline.  Looking up
+through the canvas with an orthographic camera, a cell sees the lowest point
+of every tube above it: ``z_low = z(τ) - sqrt(r_b² - d²)`` where ``d`` is the
+cell's distance to the bristle's axis and ``τ`` the closest point.  The back
+clip plane sits ``ε`` above the canvas plane: nothing higher touches.
+
+The rasteriser writes two maps over a window of cells:
+
+* ``cover``: the anti-aliased coverage of the bristles (max over bristles);
+* ``depth``: how far the lowest bristle reaches below the plane, ``-z_low``
+  (max over bristles; ``-inf`` where none).
+
+The weight the paint sees is computed per cell *where the stamp lands*, from
+the paper's height: the plane is the top of the paper's tooth and a cell's
+surface lies ``tooth · (1 - h)`` below it, so a bristle reaches it when
+``depth ≥ tooth · (1 - h)`` (:func:`weight`).  A light touch with few bristles
+only reaches the hills: dry-brush.  Pressing harder pushes more of the tuft
+below the plane and fills the valleys.
+
+:func:`rasterise` is the numba path for headless CPUs;
+:mod:`station.brush.footprint_gl` draws the same tubes with OpenGL and the
+tests hold the two together.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+
+NO_DEPTH = -1.0e6
+CLIP_ABOVE = 0.05
+"""ε: the back clip plane's height above the canvas plane, cells."""
+
+
+@dataclass(frozen=True, slots=True)
+class FootprintMaps:
+    """Cover and depth over a window whose cell (0, 0) is canvas cell (y0, x0)."""
+
+    y0: int
+    x0: int
+    cover: np.ndarray  # float32 (h, w)
+    depth: np.ndarray  # float32 (h, w), cells below the plane
+
+    @property
+    def area(self) -> float:
+        return float(self.cover.sum(dtype=np.float64))
+
+
+def segments(points: np.ndarray) -> np.ndarray:
+    """Bristle polylines (B, S, 3) → segments (B·(S-1), 2, 3)."""
+    a = points[:, :-1, :]
+    b = points[:, 1:, :]
+    return np.ascontiguousarray(np.stack([a, b], axis=2).reshape(-1, 2, 3))
+
+
+def window(segs: np.ndarray, radius: float) -> tuple[int, int, int, int]:
+    """Cells ``(y0, x0, h, w)`` that can be touched (segments in cell units)."""
+    low = segs[:, :, 2].min(axis=1) <= CLIP_ABOVE + radius
+    if not low.any():
+        return 0, 0, 0, 0
+    pts = segs[low].reshape(-1, 3)
+    x0 = int(math.floor(pts[:, 0].min() - radius - 1.0))
+    y0 = int(math.floor(pts[:, 1].min() - radius - 1.0))
+    x1 = int(math.ceil(pts[:, 0].max() + radius + 1.0))
+    y1 = int(math.ceil(pts[:, 1].max() + radius + 1.0))
+    return y0, x0, y1 - y0, x1 - x0
+
+
+@numba.njit(cache=True)
+def _raster(segs: np.ndarray, radius: float, y0: int, x0: int, cover: np.ndarray,
+            depth: np.ndarray) -> None:  # pragma: no cover - compiled
+    h, w = cover.shape
+    r2 = radius * radius
+    for k in range(segs.shape[0]):
+        ax, ay, az = segs[k, 0, 0], segs[k, 0, 1], segs[k, 0, 2]
+        bx, by, bz = segs[k, 1, 0], segs[k, 1, 1], segs[k, 1, 2]
+        if min(az, bz) - radius > CLIP_ABOVE:
+            continue
+        ex, ey = bx - ax, by - ay
+        ll = ex * ex + ey * ey
+        lo_x = int(math.floor(min(ax, bx) - radius - 1.0)) - x0
+        hi_x = int(math.ceil(max(ax, bx) + radius + 1.0)) - x0
+        lo_y = int(math.floor(min(ay, by) - radius - 1.0)) - y0
+        hi_y = int(math.ceil(max(ay, by) + radius + 1.0)) - y0
+        for i in range(max(lo_y, 0), min(hi_y, h)):
+            cy = y0 + i + 0.5
+            for j in range(max(lo_x, 0), min(hi_x, w)):
+                cx = x0 + j + 0.5
+                tau = 0.0
+                if ll > 1e-12:
+                    tau = ((cx - ax) * ex + (cy - ay) * ey) / ll
+                    tau = min(1.0, max(0.0, tau))
+                px, py = ax + tau * ex - cx, ay + tau * ey - cy
+                d2 = px * px + py * py
+                d = math.sqrt(d2)
+                c = min(1.0, max(0.0, radius - d + 0.5))
+                if c <= 0.0:
+                    continue
+                zl = az + tau * (bz - az) - math.sqrt(max(r2 - d2, 0.0))
+                if zl > CLIP_ABOVE:
+                    continue
+                if c > cover[i, j]:
+                    cover[i, j] = c
+                if -zl > depth[i, j]:
+                    depth[i, j] = -zl
+
+
+def rasterise(segs: np.ndarray, radius: float,
+              win: tuple[int, int, int, int] | None = None) -> FootprintMaps:
+    """Cover and depth maps of tube segments (cells; see the module docstring)."""
+    segs = np.ascontiguousarray(segs, np.float64)
+    y0, x0, h, w = win if win is not None else window(segs, radius)
+    cover = np.zeros((max(h, 0), max(w, 0)), np.float32)
+    depth = np.full((max(h, 0), max(w, 0)), NO_DEPTH, np.float32)
+    if h > 0 and w > 0 and segs.shape[0]:
+        _raster(segs, float(radius), y0, x0, cover, depth)
+    return FootprintMaps(y0, x0, cover, depth)
+
+
+def weight(maps: FootprintMaps, paper: np.ndarray, tooth: float, ramp: float,
+           dy: int = 0, dx: int = 0, lift: float = 0.0) -> tuple[int, int, np.ndarray]:
+    """Contact weight in [0, 1] of ``maps`` shifted by ``(dy, dx)`` cells on paper ``h``.
+
+    ``weight = cover · clip((depth - tooth·(1-h)) / ramp + 1/2, 0, 1)``: full
+    where the bristles reach half a ramp below the local paper surface, none
+    where they stay half a ramp above it.  Returns ``(y0, x0, weight)``
+    clipped to the canvas (an empty array when outside).  ``lift`` (cells)
+    raises the bristles: a drying brush gives paint only where it presses
+    deepest into the paper.
+    """
+    hh, ww = paper.shape
+    y0, x0 = maps.y0 + dy, maps.x0 + dx
+    h, w = maps.cover.shape
+    ya, yb = max(y0, 0), min(y0 + h, hh)
+    xa, xb = max(x0, 0), min(x0 + w, ww)
+    if ya >= yb or xa >= xb:
+        return 0, 0, np.zeros((0, 0), np.float32)
+    cov = maps.cover[ya - y0:yb - y0, xa - x0:xb - x0]
+    dep = maps.depth[ya - y0:yb - y0, xa - x0:xb - x0]
+    below = np.float32(tooth) * (np.float32(1.0) - paper[ya:yb, xa:xb])
+    reach = np.clip((dep - np.float32(lift) - below) / np.float32(ramp) + np.float32(0.5), 0.0, 1.0)
+    return ya, xa, (cov * reach).astype(np.float32)

@@ -1,0 +1,248 @@
+"""Static equilibrium of a spine per frame with NLopt's SLSQP (dissertation §7.3.4).
+
+The dissertation minimised the energy with donlp2 (an SQP code); NLopt's SLSQP
+is the same method with a binary wheel.  Each frame:
+
+1. *Predict*: the last frame's angles at the new root and handle pose.
+2. *Contact set*: joints whose predicted height is at or below the plane
+   (joints that lay on the canvas and are still pushed onto it stay; joints the
+   handle lifted clear leave it).  A joint touching down this frame gets the
+   crossing point of its last → predicted path as its anchor (fig. 7.4); a joint
+   that lay on the canvas keeps its last position.
+3. *Solve* from the last angles (warm start) with analytic gradients: equality
+   ``z_j = 0`` for the contact set, ``z_j ≥ 0`` for the others, ``|θ| ≤ 80°``.
+4. *Accept* a finite result that keeps every joint above ``-TOL``; otherwise
+   keep the last shape and count a fallback.  The budget is an evaluation
+   count (deterministic, so a replay gives the same brush) plus, in live use
+   only, a wall-clock limit (``time_budget_s``).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import nlopt
+import numpy as np
+
+from station.brush.energy import evaluate, heights
+from station.brush.spine import SpineSpec, chain
+
+TOL = 1e-6
+"""Largest accepted penetration of a joint below the plane, tuft units."""
+CONTACT_TOL = 1e-7
+SUBSTEPS = 4
+BUCKLE = 0.05
+"""Bend (rad per joint) given to a straight spine pressed onto the canvas."""
+
+
+@dataclass(frozen=True, slots=True)
+class Friction:
+    """Friction constants (energy per tuft unit of drag).
+
+    Attributes:
+        mu_n: kinetic friction coefficient times the (constant per frame) normal
+            force of a joint in contact.
+        c_eta: anisotropy ``Cη`` in [0, 1]: the share of the friction removed
+            when the joint is pulled straight behind its parent.
+        k_eta: exponent ``k`` of the anisotropic cone.
+    """
+
+    mu_n: float = 0.35
+    c_eta: float = 0.8
+    k_eta: float = 2.0
+
+
+@dataclass(slots=True)
+class SpineState:
+    """What one spine carries from frame to frame."""
+
+    spec: SpineSpec
+    x: np.ndarray  # angles (2n,)
+    rest: np.ndarray  # current rest angles (plasticity moves them)
+    pos: np.ndarray | None = None  # joints (n, 3) last frame
+    contact: np.ndarray | None = None  # (n,) bool last frame
+    root: np.ndarray | None = None  # root (3,) last frame
+
+    @classmethod
+    def at_rest(cls, spec: SpineSpec) -> SpineState:
+        _, _, rest = spec.arrays()
+        return cls(spec, rest.copy(), rest.copy())
+
+
+@dataclass(slots=True)
+class SolverCounters:
+    """Per-solver bookkeeping (``station bench brush`` reads it)."""
+
+    solves: int = 0
+    fallbacks: int = 0
+    evaluations: int = 0
+    seconds: float = 0.0  # wall clock
+    cpu_seconds: float = 0.0  # this thread's CPU time (what a shared machine leaves us)
+
+    def as_dict(self) -> dict[str, float]:
+        return {"solves": self.solves, "fallbacks": self.fallbacks,
+                "evaluations": self.evaluations, "seconds": round(self.seconds, 6),
+                "cpu_seconds": round(self.cpu_seconds, 6)}
+
+
+@dataclass
+class SpineSolver:
+    """Finds each frame's equilibrium of a spine (see the module docstring).
+
+    Attributes:
+        friction: the friction constants.
+        max_evals: evaluation budget per frame (deterministic).
+        time_budget_s: wall-clock budget per frame, or ``None`` (replays).
+        xtol: relative tolerance on the angles.
+    """
+
+    friction: Friction = field(default_factory=Friction)
+    max_evals: int = 200
+    time_budget_s: float | None = None
+    xtol: float = 1e-6
+    counters: SolverCounters = field(default_factory=SolverCounters)
+
+    def solve(self, st: SpineState, root: np.ndarray, handle: np.ndarray) -> np.ndarray:
+        """Move ``st`` to its equilibrium at ``root`` (3,), ``handle`` (3, 3); joints (n, 3).
+
+        A frame SQP cannot solve from the last shape (typically a touch-down
+        straight into deep pressure) is retried by continuation: the root
+        approaches from where it was (from just above the canvas for a new
+        stroke) in ``SUBSTEPS`` steps.  Only when that fails too is the last
+        shape kept and a fallback counted.
+        """
+        t0, c0 = time.perf_counter(), time.thread_time()
+        root = np.ascontiguousarray(root, np.float64)
+        handle = np.ascontiguousarray(handle, np.float64)
+        saved = (st.x.copy(), st.pos, st.contact, st.root)
+        ok = self._solve(st, root, handle)
+        if not ok:
+            st.x, st.pos, st.contact, st.root = saved
+            start = st.root if st.root is not None else root + handle[:, 2] * (
+                1.0 - root[2]) / max(handle[2, 2], 0.2)
+            for k in range(1, SUBSTEPS + 1):
+                ok = self._solve(st, start + (root - start) * (k / SUBSTEPS), handle)
+                if not ok:
+                    break
+        self.counters.solves += 1
+        if not ok:
+            self.counters.fallbacks += 1
+            st.x, st.pos, st.contact, st.root = saved
+            pos, _, _ = chain(st.x, st.spec.arrays()[0], root, handle)
+            st.pos, st.root = pos, root
+            st.contact = pos[:, 2] <= 1e-5
+        self.counters.seconds += time.perf_counter() - t0
+        self.counters.cpu_seconds += time.thread_time() - c0
+        return st.pos if st.pos is not None else np.zeros((st.spec.n, 3))
+
+    def _solve(self, st: SpineState, root: np.ndarray, handle: np.ndarray) -> bool:
+        spec = st.spec
+        n = spec.n
+        lengths, stiffness, _ = spec.arrays()
+        pred, _, _ = chain(st.x, lengths, root, handle)
+        contact = pred[:, 2] <= CONTACT_TOL
+        anchor = np.zeros((n, 2))
+        pull = np.zeros((n, 2))
+        if st.pos is not None and st.contact is not None:
+            last = st.pos
+            starts = np.vstack([root[None, :], last[:-1]])
+            for j in np.flatnonzero(contact):
+                if st.contact[j]:
+                    anchor[j] = last[j, :2]
+                else:  # touched down during this frame: where its path crossed the plane
+                    z0, z1 = last[j, 2], pred[j, 2]
+                    f = z0 / (z0 - z1) if z0 > z1 else 1.0
+                    anchor[j] = last[j, :2] + f * (pred[j, :2] - last[j, :2])
+                v = starts[j, :2] - last[j, :2]
+                norm = math.hypot(v[0], v[1])
+                if norm > 1e-9:
+                    pull[j] = v / norm
+        else:
+            anchor[:] = pred[:, :2]
+        fr = self.friction
+        mu_n = np.where(contact, fr.mu_n, 0.0)
+        cflt = contact.astype(np.float64)
+        rest = st.rest
+        evals = [0]
+        eq = np.flatnonzero(contact)
+        free = np.flatnonzero(~contact)
+        # one numba call per SQP iterate fills all three callbacks (NLopt asks for the
+        # objective and then the constraints at the same x)
+        cache = [b""]
+        g = np.empty(2 * n)
+        z = np.empty(n)
+        zg = np.empty((n, 2 * n))
+        e_val = [0.0]
+
+        def at(x: np.ndarray) -> None:
+            key = x.tobytes()
+            if key != cache[0]:
+                e_val[0] = evaluate(x, g, z, zg, lengths, stiffness, rest, root, handle, cflt,
+                                    anchor, pull, mu_n, fr.c_eta, fr.k_eta)
+                cache[0] = key
+
+        def objective(x: np.ndarray, grad: np.ndarray) -> float:
+            evals[0] += 1
+            at(x)
+            if grad.size:
+                grad[:] = g
+            return float(e_val[0])
+
+        def eq_c(result: np.ndarray, x: np.ndarray, grad: np.ndarray) -> None:
+            at(x)
+            result[:] = z[eq]
+            if grad.size:
+                grad[:] = zg[eq]
+
+        def ineq_c(result: np.ndarray, x: np.ndarray, grad: np.ndarray) -> None:
+            at(x)
+            result[:] = -z[free]  # NLopt wants c(x) <= 0
+            if grad.size:
+                grad[:] = -zg[free]
+
+        opt = nlopt.opt(nlopt.LD_SLSQP, 2 * n)
+        lo, hi = spec.bounds()
+        opt.set_lower_bounds(lo)
+        opt.set_upper_bounds(hi)
+        opt.set_min_objective(objective)
+        if eq.size:
+            opt.add_equality_mconstraint(eq_c, np.full(eq.size, 1e-9))
+        if free.size:
+            opt.add_inequality_mconstraint(ineq_c, np.full(free.size, 1e-9))
+        opt.set_xtol_rel(self.xtol)
+        opt.set_ftol_abs(1e-12)
+        opt.set_maxeval(self.max_evals)
+        if self.time_budget_s is not None:
+            opt.set_maxtime(self.time_budget_s)
+        x0 = np.clip(st.x, lo, hi)
+        if eq.size and float(np.abs(x0).max()) < BUCKLE:
+            # A straight chain pushed onto the plane is at a saddle: its joints' heights
+            # have no first-order dependence on the angles, and SQP cannot start.  A
+            # slight bend about the handle's Y axis (along its X) breaks the symmetry,
+            # deterministically, the way a real tuft always buckles one way.
+            x0 = x0.copy()
+            x0[1::2] += BUCKLE
+        ok = True
+        try:
+            x = opt.optimize(x0)
+        except (nlopt.RoundoffLimited, RuntimeError, ValueError):
+            x = None
+            ok = False
+        if ok and x is not None:
+            ok = bool(np.isfinite(x).all())
+            if ok:
+                z = heights(x, np.empty((0, 0)), lengths, root, handle)
+                ok = bool(z.min() >= -TOL and (eq.size == 0 or np.abs(z[eq]).max() <= 1e-5))
+            if ok and opt.last_optimize_result() == nlopt.MAXTIME_REACHED:
+                ok = False
+        self.counters.evaluations += evals[0]
+        if not ok or x is None:
+            return False
+        pos, _, _ = chain(x, lengths, root, handle)
+        st.x = np.asarray(x, np.float64)
+        st.pos = pos
+        st.root = root
+        st.contact = pos[:, 2] <= 1e-5
+        return True

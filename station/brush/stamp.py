@@ -1,0 +1,520 @@
+"""The simple round brush of the dissertation's chapter 5 (issue 3 §6).
+
+A pen stroke becomes a sequence of *stamps*: a circular (elliptical when the
+pen is tilted) footprint placed at positions interpolated between pen samples,
+spaced a fraction of the radius apart along the path.  Every stamp deposits
+water, pigment and a velocity into the cells of its footprint **except** what
+the previous stamp already covered (seed figure 5.5), so a stroke fills each
+cell it passes over once, however fast the pen moves and however many samples
+the device reports: the water put down is proportional to the covered area,
+not to the number of samples.
+
+Units and mapping (all decisions written down here):
+
+* Positions: pen ``x, y`` in ``[0, 1]`` map to cell coordinates ``x·W, y·H``;
+  cell ``(i, j)`` (row, column) has its centre at ``(j + 0.5, i + 0.5)``.
+  The footprint is cell coverage: 1 inside, a one-cell linear ramp on the rim
+  (anti-aliased; ``soft_edge=False`` gives the seed's all-or-nothing map of
+  the cells whose centres lie inside).  Masking subtracts the previous
+  stamp's coverage, so a cell's deposits add up to its largest coverage.
+* Radius: ``size`` is the footprint *diameter* in cells at full pressure.
+  ``r(p) = size/2 · (r_min + (1 - r_min) · p^radius_gamma)`` for pressure ``p``,
+  never below half a cell.
+* Load: ``load(p) = load_min + (1 - load_min) · p``.  A stamp adds
+  ``water · load · water_scale`` of water height to each of its cells and
+  ``amount_k · load · pigment_scale`` of pigment ``k`` (fraction of cell area).
+* Velocity: the pen velocity (cells per session second), converted to cells
+  per unit of simulation time with ``time_scale`` (simulation time units per
+  session second = steps per second × dt), times ``velocity_gain``, clamped to
+  ``v_max``; written into every cell of the stamp, times its coverage.
+* Tilt: a tilted pen flattens the tuft, so the footprint stretches along the
+  tilt direction by ``1 + tilt_stretch · sin(tilt)`` (tilt = magnitude of the
+  tilt vector in degrees, the two tilt angles combined as a vector).
+* Tools: every tool paints while touching except the eraser, which lifts
+  nothing yet (the selective eraser is a later tool): its samples end the
+  current stroke and are counted in :attr:`RoundBrush.eraser_samples`.
+
+Everything is pure NumPy in float64 with float32 results, restricted to the
+bounding box of the stamps, and deterministic.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Container, Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from station.brush.geometry import known_shapes
+from station.errors import BadInput
+from station.events import PenSample, Tool
+
+STAMP_KIND = "round"
+"""The round stamp brush of chapter 5 (the mouse's brush, and every log made before
+the deformable brushes): the kind of the ``brush`` command's default."""
+
+
+def brush_kinds() -> tuple[str, ...]:
+    """``round`` (this module) and the deformable shapes (``station/data/brushes`` and
+    any registered with :func:`station.brush.geometry.register_shape`)."""
+    return (STAMP_KIND, *known_shapes())
+NO_PRESSURE_TOOLS = frozenset({Tool.MOUSE, Tool.FINGER, Tool.LENS})
+"""Tools that report no pressure: a touching sample with pressure 0 paints at
+:attr:`BrushModel.default_pressure` instead of the thinnest line."""
+
+
+class BrushError(BadInput):
+    """A ``brush`` command has wrong settings (unknown kind or pigment, bad number)."""
+
+
+@dataclass(frozen=True, slots=True)
+class BrushSettings:
+    """What the ``brush`` command sets (interfaces.md).
+
+    Attributes:
+        kind: ``"round"`` (the stamp brush) or a deformable shape's name
+            (``round3d``, ``flat``, ``rigger``, ``fan``, ``mop``, ``calligraphy``).
+        size: footprint diameter at full pressure, in cells (> 0).
+        water: water load in ``[0, 1]``.
+        pigment: pigment name → amount in ``[0, 1]``; empty for clear water.
+    """
+
+    kind: str = "round"
+    size: float = 24.0
+    water: float = 0.8
+    pigment: Mapping[str, float] = field(default_factory=dict)
+
+    def scaled(self, factor: float) -> BrushSettings:
+        """The same brush with its size multiplied by ``factor`` (canvas resize)."""
+        return BrushSettings(self.kind, self.size * factor, self.water, dict(self.pigment))
+
+    def to_args(self) -> dict[str, Any]:
+        return {"kind": self.kind, "size": self.size, "water": self.water,
+                "pigment": dict(self.pigment)}
+
+    @classmethod
+    def from_args(
+        cls,
+        args: Mapping[str, Any],
+        where: str | None = None,
+        pigments: Container[str] | None = None,
+        base: BrushSettings | None = None,
+    ) -> BrushSettings:
+        """Validate ``brush`` command arguments.
+
+        Missing keys keep the value of ``base`` (the current brush), so
+        ``{"size": 8}`` only changes the size.  ``pigments`` holds the palette's
+        names (any container with ``in``); an unknown name raises :class:`BrushError`.
+        """
+        base = base or cls()
+        kind = args.get("kind", base.kind)
+        kinds = brush_kinds()
+        if not isinstance(kind, str) or kind not in kinds:
+            raise BrushError(f"unknown brush kind {kind!r} (one of {', '.join(kinds)})",
+                             where)
+        size = _number(args.get("size", base.size), "brush size", 0.0, 4096.0, where)
+        if size <= 0.0:
+            raise BrushError(f"brush size {size} must be > 0 cells", where)
+        water = _number(args.get("water", base.water), "brush water", 0.0, 1.0, where)
+        raw = args.get("pigment", base.pigment)
+        if not isinstance(raw, Mapping):
+            raise BrushError(f"brush pigment must be an object {{name: amount}}, got {raw!r}",
+                             where)
+        pig: dict[str, float] = {}
+        for name, amount in raw.items():
+            if not isinstance(name, str):
+                raise BrushError(f"pigment name {name!r} must be a string", where)
+            if pigments is not None and name not in pigments:
+                raise BrushError(f"unknown pigment {name!r}", where)
+            pig[name] = _number(amount, f"amount of {name!r}", 0.0, 1.0, where)
+        return cls(kind=kind, size=size, water=water, pigment=pig)
+
+
+def _number(value: Any, name: str, lo: float, hi: float, where: str | None) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise BrushError(f"{name} must be a number, got {value!r}", where)
+    try:
+        v = float(value)
+    except OverflowError:  # an integer of hundreds of digits
+        raise BrushError(f"{name} of {len(str(value))} digits outside [{lo:g}, {hi:g}]",
+                         where) from None
+    if not math.isfinite(v) or not lo <= v <= hi:
+        raise BrushError(f"{name} {value!r:.40} outside [{lo:g}, {hi:g}]", where)
+    return v
+
+
+@dataclass(frozen=True, slots=True)
+class BrushModel:
+    """How settings and pen state turn into amounts (see the module docstring).
+
+    Attributes:
+        r_min: radius at zero pressure as a fraction of the full radius.
+        radius_gamma: exponent of the pressure → radius curve.
+        load_min: load at zero pressure (fraction of the full load).
+        water_scale: water height added per cell by a full-load stamp, cell units.
+        pigment_scale: pigment (fraction of cell area) added per cell by a
+            full-load stamp of amount 1.
+        velocity_gain: fraction of the pen velocity given to the paint.
+        v_max: largest velocity source, cells per unit of simulation time.
+        spacing: stamp spacing as a fraction of the radius.
+        tilt_stretch: footprint elongation per sin(tilt).
+        default_pressure: pressure used for tools that report none.
+        soft_edge: anti-aliased footprint rim (fractional coverage) instead of
+            the seed's all-or-nothing cell map.
+    """
+
+    r_min: float = 0.3
+    radius_gamma: float = 1.0
+    load_min: float = 0.5
+    water_scale: float = 0.5
+    pigment_scale: float = 0.1
+    velocity_gain: float = 0.1
+    v_max: float = 2.0
+    spacing: float = 0.25
+    tilt_stretch: float = 0.5
+    default_pressure: float = 0.6
+    soft_edge: bool = True
+
+    def radius(self, size: float, pressure: float) -> float:
+        """Footprint radius in cells for a brush of diameter ``size`` at ``pressure``."""
+        frac = self.r_min + (1.0 - self.r_min) * pressure**self.radius_gamma
+        return max(0.5, 0.5 * size * frac)
+
+    def load(self, pressure: float) -> float:
+        return self.load_min + (1.0 - self.load_min) * pressure
+
+
+@dataclass(frozen=True, slots=True)
+class Footprint:
+    """Cell coverage in ``[0, 1]`` placed at row ``y0``, column ``x0`` of the canvas.
+
+    1 is a cell wholly under the brush, 0 a cell outside; a soft-edged
+    footprint has fractions on its rim (an anti-aliased disc).
+    """
+
+    y0: int
+    x0: int
+    cover: np.ndarray  # float64 (h, w)
+
+    @property
+    def y1(self) -> int:
+        return self.y0 + self.cover.shape[0]
+
+    @property
+    def x1(self) -> int:
+        return self.x0 + self.cover.shape[1]
+
+    @property
+    def mask(self) -> np.ndarray:
+        """Cells touched at all (bool)."""
+        return self.cover > 0.0
+
+    @property
+    def cells(self) -> int:
+        return int(self.mask.sum())
+
+    @property
+    def area(self) -> float:
+        """Covered area in cells (sum of the coverage)."""
+        return float(self.cover.sum())
+
+    def without(self, other: Footprint | None) -> Footprint:
+        """This footprint minus what ``other`` already covered (seed figure 5.5).
+
+        Per cell ``max(0, cover - other.cover)``: a cell the previous stamp
+        covered fully gets nothing, a rim cell gets only the coverage it gains.
+        Along a stroke a cell's coverage rises then falls, so the increments
+        add up to its largest coverage: each cell is filled once.
+        """
+        if other is None:
+            return self
+        ya, yb = max(self.y0, other.y0), min(self.y1, other.y1)
+        xa, xb = max(self.x0, other.x0), min(self.x1, other.x1)
+        if ya >= yb or xa >= xb:
+            return self
+        cover = self.cover.copy()
+        mine = cover[ya - self.y0:yb - self.y0, xa - self.x0:xb - self.x0]
+        theirs = other.cover[ya - other.y0:yb - other.y0, xa - other.x0:xb - other.x0]
+        np.maximum(mine - theirs, 0.0, out=mine)
+        return Footprint(self.y0, self.x0, cover)
+
+
+def footprint(
+    cx: float, cy: float, radius: float, width: int, height: int,
+    stretch: float = 1.0, angle: float = 0.0, soft: bool = False,
+) -> Footprint:
+    """The ellipse at ``(cx, cy)`` (cell units) as cell coverage.
+
+    ``radius`` is the semi-axis across, ``radius·stretch`` the semi-axis along
+    direction ``angle`` (radians, x right, y down).  Hard: cells whose centres
+    lie inside get 1 (the seed's cell map).  Soft: coverage falls linearly
+    from 1 to 0 over the cell straddling the rim (``clip(r - d + 1/2, 0, 1)``
+    for a disc, ``d`` the centre distance), so the area is ``πr²`` without
+    a staircase edge.  Clipped to the canvas; empty when outside.
+    """
+    reach = radius * max(1.0, stretch) + (1.0 if soft else 0.0)
+    x0 = max(0, int(math.floor(cx - reach)))
+    x1 = min(width, int(math.ceil(cx + reach)) + 1)
+    y0 = max(0, int(math.floor(cy - reach)))
+    y1 = min(height, int(math.ceil(cy + reach)) + 1)
+    if x0 >= x1 or y0 >= y1:
+        return Footprint(0, 0, np.zeros((0, 0), dtype=np.float64))
+    dx = (np.arange(x0, x1, dtype=np.float64) + 0.5 - cx)[None, :]
+    dy = (np.arange(y0, y1, dtype=np.float64) + 0.5 - cy)[:, None]
+    if stretch == 1.0:
+        rho = np.sqrt(dx * dx + dy * dy) / radius  # centre distance in radii
+    else:
+        c, s = math.cos(angle), math.sin(angle)
+        along = (dx * c + dy * s) / (radius * stretch)
+        across = (-dx * s + dy * c) / radius
+        rho = np.sqrt(along * along + across * across)
+    if soft:
+        cover = np.clip((1.0 - rho) * radius + 0.5, 0.0, 1.0)
+    else:
+        cover = (rho <= 1.0).astype(np.float64)
+    return Footprint(y0, x0, cover)
+
+
+@dataclass(frozen=True, slots=True)
+class Stamp:
+    """One application of the footprint: its new cells and what they receive.
+
+    ``water`` and ``pigment`` are per-cell amounts; ``vx, vy`` the velocity
+    source in cells per unit of simulation time.
+    """
+
+    cells: Footprint
+    water: float
+    pigment: Mapping[str, float]
+    vx: float
+    vy: float
+
+
+@dataclass(slots=True)
+class Sources:
+    """Brush sources restricted to a bounding box, ready for ``add_sources``.
+
+    Arrays are float32 of shape ``(h, w)`` placed at row ``y0``, column ``x0``
+    of the canvas; :meth:`full` expands them to the whole canvas.
+    """
+
+    y0: int
+    x0: int
+    dw: np.ndarray
+    dp: dict[str, np.ndarray]
+    dvx: np.ndarray
+    dvy: np.ndarray
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.dw.shape
+
+    @property
+    def region(self) -> tuple[slice, slice]:
+        h, w = self.dw.shape
+        return (slice(self.y0, self.y0 + h), slice(self.x0, self.x0 + w))
+
+    def full(self, width: int, height: int) -> Sources:
+        """The same sources as whole-canvas arrays (for backends without regions)."""
+        def grow(a: np.ndarray) -> np.ndarray:
+            out = np.zeros((height, width), dtype=np.float32)
+            out[self.region] = a
+            return out
+
+        return Sources(0, 0, grow(self.dw), {k: grow(v) for k, v in self.dp.items()},
+                       grow(self.dvx), grow(self.dvy))
+
+
+def accumulate(stamps: Iterable[Stamp]) -> Sources | None:
+    """Sum stamps into one bounding-box :class:`Sources` (``None`` if nothing).
+
+    Along a stroke each stamp holds only what its predecessor did not cover;
+    a stroke that comes back over itself re-wets, so overlapping stamps add.
+    """
+    stamps = [s for s in stamps if s.cells.mask.size and s.cells.mask.any()]
+    if not stamps:
+        return None
+    y0 = min(s.cells.y0 for s in stamps)
+    x0 = min(s.cells.x0 for s in stamps)
+    y1 = max(s.cells.y1 for s in stamps)
+    x1 = max(s.cells.x1 for s in stamps)
+    shape = (y1 - y0, x1 - x0)
+    dw = np.zeros(shape, dtype=np.float64)
+    dvx = np.zeros(shape, dtype=np.float64)
+    dvy = np.zeros(shape, dtype=np.float64)
+    dp: dict[str, np.ndarray] = {}
+    for s in stamps:
+        fp = s.cells
+        sl = (slice(fp.y0 - y0, fp.y1 - y0), slice(fp.x0 - x0, fp.x1 - x0))
+        m = fp.cover
+        dw[sl] += m * s.water
+        dvx[sl] += m * s.vx
+        dvy[sl] += m * s.vy
+        for name, amount in s.pigment.items():
+            if amount <= 0.0:
+                continue
+            if name not in dp:
+                dp[name] = np.zeros(shape, dtype=np.float64)
+            dp[name][sl] += m * amount
+    f32 = np.float32
+    return Sources(y0, x0, dw.astype(f32), {k: v.astype(f32) for k, v in dp.items()},
+                   dvx.astype(f32), dvy.astype(f32))
+
+
+@dataclass(slots=True)
+class _Stroke:
+    """The running stroke of one device."""
+
+    x: float  # cells
+    y: float
+    t: float  # session seconds
+    pressure: float
+    tilt_x: float
+    tilt_y: float
+    vx: float = 0.0  # cells per session second
+    vy: float = 0.0
+    to_next: float = 0.0  # path length (cells) until the next stamp
+    previous: Footprint | None = None
+
+
+class RoundBrush:
+    """Turns pen samples into stamps on a ``width × height`` canvas.
+
+    ``time_scale`` is simulation time per session second (steps per second ×
+    dt), used to express the pen velocity in the simulation's units.  Feed
+    samples with :meth:`feed` (in time order per device) and collect the
+    pending sources with :meth:`take`.
+    """
+
+    def __init__(
+        self,
+        width: int,
+        height: int,
+        settings: BrushSettings | None = None,
+        model: BrushModel | None = None,
+        time_scale: float = 1.0,
+    ) -> None:
+        if width < 1 or height < 1:
+            raise BadInput(f"canvas {width}x{height} has no cells")
+        self.width, self.height = width, height
+        self.settings = settings or BrushSettings()
+        self.model = model or BrushModel()
+        self.time_scale = time_scale
+        self._strokes: dict[str, _Stroke] = {}
+        self._pending: list[Stamp] = []
+        self.stamps = 0  # stamps applied (including fully masked ones)
+        self.samples = 0  # touching samples that painted
+        self.eraser_samples = 0  # eraser samples (no paint yet)
+        self.strokes = 0
+
+    # -- settings ------------------------------------------------------------
+    def set(self, settings: BrushSettings) -> None:
+        """Change the brush; a running stroke continues with the new paint."""
+        self.settings = settings
+
+    def end_strokes(self) -> None:
+        """Lift every pen (e.g. before ``dry``/``clear``): the next stamp is a fresh start."""
+        self._strokes.clear()
+
+    # -- input ---------------------------------------------------------------
+    def feed(self, sample: PenSample) -> int:
+        """Apply one pen sample; returns the number of stamps it produced."""
+        key = sample.device
+        if sample.tool is Tool.ERASER:
+            self.eraser_samples += 1
+            self._strokes.pop(key, None)
+            return 0
+        if not (sample.touching and sample.proximity):
+            self._strokes.pop(key, None)
+            return 0
+        self.samples += 1
+        pressure = sample.pressure
+        if pressure == 0.0 and sample.tool in NO_PRESSURE_TOOLS:
+            pressure = self.model.default_pressure
+        x, y = sample.x * self.width, sample.y * self.height
+        stroke = self._strokes.get(key)
+        if stroke is None:
+            self.strokes += 1
+            stroke = _Stroke(x, y, sample.t, pressure, sample.tilt_x, sample.tilt_y)
+            self._strokes[key] = stroke
+            self._stamp(stroke, x, y, pressure, sample.tilt_x, sample.tilt_y)
+            return 1
+        return self._segment(stroke, x, y, sample.t, pressure, sample.tilt_x, sample.tilt_y)
+
+    def _segment(
+        self, s: _Stroke, x: float, y: float, t: float, p: float, tx: float, ty: float
+    ) -> int:
+        dx, dy = x - s.x, y - s.y
+        dist = math.hypot(dx, dy)
+        dt = t - s.t
+        if dt > 1e-6:
+            s.vx, s.vy = dx / dt, dy / dt
+        elif dist == 0.0:
+            s.vx = s.vy = 0.0
+        # else: same timestamp, moved: keep the last known velocity
+        made = 0
+        pos = s.to_next
+        p0, tx0, ty0 = s.pressure, s.tilt_x, s.tilt_y
+        while pos <= dist and dist > 0.0:
+            f = pos / dist
+            pf = p0 + (p - p0) * f
+            self._stamp(s, s.x + dx * f, s.y + dy * f, pf, tx0 + (tx - tx0) * f,
+                        ty0 + (ty - ty0) * f, advance=False)
+            made += 1
+            pos += self._spacing(pf)
+        s.to_next = pos - dist if dist > 0.0 else s.to_next
+        s.x, s.y, s.t, s.pressure, s.tilt_x, s.tilt_y = x, y, t, p, tx, ty
+        return made
+
+    def _spacing(self, pressure: float) -> float:
+        r = self.model.radius(self.settings.size, pressure)
+        return max(0.5, self.model.spacing * r)
+
+    def _stamp(
+        self, s: _Stroke, x: float, y: float, p: float, tx: float, ty: float,
+        advance: bool = True,
+    ) -> None:
+        m = self.model
+        r = m.radius(self.settings.size, p)
+        tilt = min(90.0, math.hypot(tx, ty))
+        stretch = 1.0 + m.tilt_stretch * math.sin(math.radians(tilt))
+        angle = math.atan2(ty, tx) if tilt > 0.0 else 0.0
+        fp = footprint(x, y, r, self.width, self.height, stretch, angle, soft=m.soft_edge)
+        fresh = fp.without(s.previous)
+        s.previous = fp
+        if advance:
+            s.to_next = self._spacing(p)
+        self.stamps += 1
+        load = m.load(p)
+        scale = m.velocity_gain / self.time_scale if self.time_scale > 0 else 0.0
+        vx, vy = s.vx * scale, s.vy * scale
+        speed = math.hypot(vx, vy)
+        if speed > m.v_max:
+            vx, vy = vx * m.v_max / speed, vy * m.v_max / speed
+        stg = self.settings
+        self._pending.append(
+            Stamp(
+                cells=fresh,
+                water=stg.water * load * m.water_scale,
+                pigment={k: a * load * m.pigment_scale for k, a in stg.pigment.items()},
+                vx=vx,
+                vy=vy,
+            )
+        )
+
+    # -- output --------------------------------------------------------------
+    def take(self) -> Sources | None:
+        """The sources of every stamp since the last call, summed; ``None`` if none."""
+        pending, self._pending = self._pending, []
+        return accumulate(pending)
+
+    @property
+    def pending(self) -> int:
+        return len(self._pending)
+
+    @property
+    def drawing(self) -> bool:
+        """A stroke is in progress (some device's pen is down)."""
+        return bool(self._strokes)
