@@ -315,7 +315,7 @@ def paint(
     ``exc.result``).
     """
     from station.canvas.palette import default_palette
-    from station.canvas.params import get_profile
+    from station.canvas.profiles import get_profile
 
     if bits not in (8, 16):
         raise PaintInputError(f"--bits {bits} must be 8 or 16", "--bits")

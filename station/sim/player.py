@@ -35,7 +35,8 @@ from station.brush.deformable import DeformableBrush
 from station.brush.reservoir import pickup
 from station.brush.solver import SolverCounters
 from station.brush.stamp import STAMP_KIND, BrushModel, BrushSettings, RoundBrush
-from station.canvas.params import PROFILES, Profile, get_profile
+from station.canvas.params import Profile
+from station.canvas.profiles import get_profile, profile_names
 from station.canvas.state import DEFAULT_SLOTS
 from station.canvas.tools import HairDryer, blow, on_state
 from station.errors import BadInput
@@ -339,9 +340,13 @@ class SessionPlayer:
 
 def _profile_name(args: Mapping[str, Any], where: str | None) -> str:
     name = args.get("name")
-    if not isinstance(name, str) or name not in PROFILES:
-        raise PlayerError(f"unknown profile {name!r} (one of {', '.join(sorted(PROFILES))})",
-                          where)
+    if not isinstance(name, str):
+        raise PlayerError(f"profile name {name!r} must be a string (one of "
+                          f"{', '.join(profile_names())})", where)
+    try:
+        get_profile(name)  # built-in or a user file; a bad file names its line
+    except BadInput as exc:
+        raise PlayerError(str(exc).removeprefix("--profile: "), where) from None
     return name
 
 
