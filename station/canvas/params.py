@@ -136,7 +136,7 @@ class SimParams:
     gouache_white: float = 0.25
     tilt: float = 0.0
     tilt_direction: float = 90.0
-    gravity: float = 20.0
+    gravity: float = 100.0
 
     def __post_init__(self) -> None:
         self.validate()
@@ -186,7 +186,9 @@ class SimParams:
             return 0.0, 0.0
         g = self.gravity * math.sin(math.radians(self.tilt))
         a = math.radians(self.tilt_direction)
-        return g * math.cos(a), g * math.sin(a)
+        # cos(90 deg) is 6e-17 in floating point: a slope straight down must not creep sideways
+        ca, sa = (0.0 if abs(t) < 1e-12 else t for t in (math.cos(a), math.sin(a)))
+        return g * ca, g * sa
 
     def drying_power(self) -> float:
         """Evaporation relative to the reference air (20 C, 50 %, airflow 1) [1].

@@ -453,6 +453,7 @@ class GLCanvas:
         _set(p["limit"], "u_omega_i", float(F32(1.0 - prm.omega_h)))
         _set(p["limit"], "u_half_gain", float(F32(-0.5 * prm.height_gain)))
         _set(p["limit"], "u_vmax", prm.v_max)
+        _set(p["limit"], "u_tilt", [float(x) for x in reference.tilt_kick(prm, dt)])
         q4 = float(F32(0.25 * dt))
         for name in ("advect_limit", "advect_apply"):
             _set(p[name], "u_q4", q4)
