@@ -25,6 +25,7 @@ stops there, so the caller can still save what was painted.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from collections.abc import Callable, Container, Iterable, Mapping
@@ -41,6 +42,9 @@ from station.canvas.state import DEFAULT_SLOTS
 from station.canvas.tools import HairDryer, blow, on_state
 from station.errors import BadInput
 from station.events import Command, PenSample, Tool
+from station.tools import eraser as eraser_tool
+from station.tools import mask as mask_tool
+from station.tools import tissue as tissue_tool
 
 log = logging.getLogger(__name__)
 
@@ -125,6 +129,14 @@ class SessionPlayer:
         self.waited = 0.0  # painting seconds inserted by wait commands
         self.last_t = 0.0  # session time of the last record applied
         self._warned: set[str] = set()
+        # the tool in the painter's hand instead of the brush (None: the brush)
+        self.tool: str | None = None
+        self.tilt = (0.0, 90.0)  # canvas tilt (angle, direction) [deg]; kept across profiles
+        self.mask_radius = 6.0
+        self.eraser = eraser_tool.Eraser()
+        self.tissue = tissue_tool.Tissue()
+        self._tissue_tex: Any = None
+        self._dab: Any = None  # cells the previous dab / this press hit
 
     # -- time ------------------------------------------------------------------
     @property
@@ -182,11 +194,45 @@ class SessionPlayer:
         self.last_t = max(self.last_t, record.t)
         if isinstance(record, PenSample):
             self.counters.samples += 1
-            if record.touching and record.tool is not Tool.ERASER:
+            tool = "eraser" if record.tool is Tool.ERASER else self.tool
+            if tool is not None:
+                self._tool_sample(tool, record, where)
+                if record.tool is not Tool.ERASER:  # the brush sees the pen hovering
+                    record = dataclasses.replace(record, touching=False, pressure=0.0)
+            elif record.touching:
                 self._check_layer(where)
             self.brush.feed(record)
         else:
             self.command(record, where)
+
+    def _tool_sample(self, tool: str, rec: PenSample, where: str | None) -> None:
+        """A pen sample with a tool in hand: a dab where the pen touches, the press ends
+        (and with it the cells marked as hit) where it lifts."""
+        if not rec.touching:
+            self._dab = None
+            return
+        self.flush_sources()  # what the brush painted before comes first
+        cx, cy = rec.x * self.width, rec.y * self.height
+        try:
+            self._dab_at(tool, cx, cy, rec.pressure)
+        except BadInput as exc:
+            raise PlayerError(str(exc), where) from None
+
+    def _dab_at(self, tool: str, cx: float, cy: float, pressure: float) -> None:
+        prev = self._dab
+        if tool == "mask":
+            on_state(self.backend, lambda st: mask_tool.paint(st, cx, cy, self.mask_radius))
+        elif tool == "eraser":
+            self._dab = on_state(self.backend, lambda st: eraser_tool.erase(
+                st, self.eraser, cx, cy, pressure, prev))
+        else:  # tissue
+            if self._tissue_tex is None:
+                t = self.tissue
+                self._tissue_tex = tissue_tool.texture(t.kind, self.height, self.width,
+                                                       t.scale, t.seed, t.image)
+            tex = self._tissue_tex
+            self._dab = on_state(self.backend, lambda st: tissue_tool.blot(
+                st, self.tissue, tex, cx, cy, pressure, prev))[1]
 
     def _check_layer(self, where: str | None) -> None:
         names = [k for k, a in self.brush.settings.pigment.items() if a > 0.0]
@@ -218,6 +264,7 @@ class SessionPlayer:
         self.counters.commands[name] = self.counters.commands.get(name, 0) + 1
 
     def _brush(self, args: Mapping[str, Any], where: str | None) -> None:
+        self.tool = None  # the brush back in hand
         base = self.brush.settings
         unscaled = BrushSettings(base.kind, base.size / self.brush_scale, base.water,
                                  base.pigment)
@@ -276,6 +323,8 @@ class SessionPlayer:
             raise PlayerError(str(exc).removeprefix("--profile: "), where) from None
         prof = get_profile(name)
         self.profile = name
+        if self.tilt[0] != 0.0:
+            _apply_tilt(self)
         # The rate (steps per painting second) stays; a profile with another dt
         # changes how much simulated time a painting second holds.
         self.dt = prof.params.dt
@@ -432,7 +481,122 @@ def _clear(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None
     p.layer_pigments.clear()
 
 
+def _tool_number(tool: str, args: Mapping[str, Any], key: str, default: float, lo: float,
+                 hi: float, where: str | None) -> float:
+    v = args.get(key, default)
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
+            or not lo <= v <= hi:
+        raise PlayerError(f"{tool} {key} {v!r:.40} must be a number in [{lo:g}, {hi:g}]",
+                          where)
+    return float(v)
+
+
+def _check_keys(tool: str, args: Mapping[str, Any], known: set[str], where: str | None) -> None:
+    extra = sorted(set(args) - known)
+    if extra:
+        raise PlayerError(f"{tool}: unknown argument {extra[0]!r} (known: "
+                          f"{', '.join(sorted(known))})", where)
+
+
+_AT = {"x", "y", "pressure"}
+
+
+def _pick_up(p: SessionPlayer, tool: str, args: Mapping[str, Any], where: str | None) -> None:
+    """Take ``tool`` in hand; with ``x``/``y`` (canvas-normalised) also dab once there."""
+    p.flush_sources()
+    p.tool = tool
+    p._dab = None
+    if "x" in args or "y" in args:
+        x = _tool_number(tool, args, "x", 0.5, 0.0, 1.0, where)
+        y = _tool_number(tool, args, "y", 0.5, 0.0, 1.0, where)
+        pr = _tool_number(tool, args, "pressure", 1.0, 0.0, 1.0, where)
+        try:
+            p._dab_at(tool, x * p.width, y * p.height, pr)
+        except BadInput as exc:
+            raise PlayerError(str(exc), where) from None
+        p._dab = None
+
+
+def _mask(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+    """Masking fluid: ``size`` (diameter, cells of the session's canvas)."""
+    _check_keys("mask", args, {"size"} | _AT, where)
+    if "size" in args:
+        p.mask_radius = _tool_number("mask", args, "size", 12, 1, 1024, where) * \
+            p.brush_scale / 2.0
+    _pick_up(p, "mask", args, where)
+
+
+def _mask_remove(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+    _check_keys("mask_remove", args, set(), where)
+    p.flush_sources()
+    on_state(p.backend, mask_tool.rub_off)
+
+
+def _eraser(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+    """The selective eraser: ``fields`` (list), ``fraction``, ``size`` (diameter)."""
+    _check_keys("eraser", args, {"fields", "fraction", "size"} | _AT, where)
+    e = p.eraser
+    fields = args.get("fields", list(e.fields))
+    if not isinstance(fields, list) or not all(isinstance(f, str) for f in fields):
+        raise PlayerError("eraser fields must be a list of strings", where)
+    frac = _tool_number("eraser", args, "fraction", e.fraction, 0.0, 1.0, where)
+    size = _tool_number("eraser", args, "size", 2 * e.radius / p.brush_scale, 1, 1024, where)
+    try:
+        p.eraser = eraser_tool.Eraser(tuple(fields), frac, size * p.brush_scale / 2.0)
+    except BadInput as exc:
+        raise PlayerError(str(exc).removeprefix("eraser: "), where) from None
+    _pick_up(p, "eraser", args, where)
+
+
+def _tissue(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+    """The textured tissue: ``kind`` (crepe, weave, flat), ``scale`` cells, ``seed``,
+    ``size`` (diameter), ``absorb``."""
+    _check_keys("tissue", args, {"kind", "scale", "seed", "size", "absorb"} | _AT, where)
+    t = p.tissue
+    kind = args.get("kind", t.kind)
+    if kind not in tissue_tool.KINDS:
+        raise PlayerError(f"tissue kind {kind!r:.40} must be one of "
+                          f"{', '.join(tissue_tool.KINDS)}", where)
+    seed = args.get("seed", t.seed)
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32:
+        raise PlayerError(f"tissue seed {seed!r:.40} must be an integer in [0, 2^32)", where)
+    scale = _tool_number("tissue", args, "scale", t.scale, 1, 256, where)
+    size = _tool_number("tissue", args, "size", 2 * t.radius / p.brush_scale, 1, 1024, where)
+    absorb = _tool_number("tissue", args, "absorb", t.absorb, 0, 1, where)
+    new = tissue_tool.Tissue(kind, scale * p.brush_scale, seed, None,
+                             size * p.brush_scale / 2.0, absorb)
+    if (new.kind, new.scale, new.seed) != (t.kind, t.scale, t.seed):
+        p._tissue_tex = None
+    p.tissue = new
+    _pick_up(p, "tissue", args, where)
+
+
+def _tilt(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+    """Tilt the canvas: ``angle`` from the horizontal [deg, 0 ... 90], ``direction`` of
+    the downhill slope on the canvas [deg from +x towards +y; 90 = towards the bottom]."""
+    _check_keys("tilt", args, {"angle", "direction"}, where)
+    angle = _tool_number("tilt", args, "angle", 0.0, 0.0, 90.0, where)
+    direction = _tool_number("tilt", args, "direction", 90.0, 0.0, 359.999, where)
+    p.flush_sources()
+    p.tilt = (angle, direction)
+    _apply_tilt(p)
+
+
+def _apply_tilt(p: SessionPlayer) -> None:
+    angle, direction = p.tilt
+
+    def put(st: Any) -> None:
+        st.params = st.params.replace(tilt=angle, tilt_direction=direction)
+
+    on_state(p.backend, put)
+
+
 _HANDLERS: dict[str, Callable[[SessionPlayer, Mapping[str, Any], str | None], None]] = {
+    "tilt": _tilt,
+    "mask": _mask,
+    "mask_remove": _mask_remove,
+    "eraser": _eraser,
+    "tissue": _tissue,
     "brush": SessionPlayer._brush,
     "profile": SessionPlayer._profile,
     "wait": SessionPlayer._wait,
