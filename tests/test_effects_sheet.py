@@ -51,14 +51,51 @@ def test_colour_science() -> None:
 
 
 # issue 10 thresholds the model does not meet yet: strict, so a fix is noticed
-@pytest.mark.xfail(strict=True, reason="a drop into a fresh wash spreads ~1.8x as a soft, "
-                   "round blot (feather ~1.04): no feathering mechanism in a shiny wash")
-def test_wet_in_wet_spreads_twice_its_footprint_feathered() -> None:
+def test_wet_in_wet_stroke_spreads_twice_its_footprint() -> None:
     e = fx.wet_in_wet()
-    assert e.numbers["spread_area_ratio"] >= 2.0 and e.numbers["feather"] >= 1.3
+    assert e.checks["spread >= 2x"], e.numbers
+    assert e.numbers["feather"] < 1.3, e.numbers  # see the strict xfail below
+    pytest.xfail("a stroke into a fresh wash spreads as a soft blur (feather ~1.07 < 1.3): "
+                 "no feathering mechanism in a shiny wash")
 
 
 @pytest.mark.xfail(strict=True, reason="ink spreads ~1.2x with a smooth edge: no fibre "
                    "texture drives anisotropic capillary flow yet")
 def test_ink_bleeds_along_fibres() -> None:
     assert fx.ink_bleed().ok
+
+
+def test_render_scale_smooths_edges_and_keeps_cell_means(tmp_path: Path) -> None:
+    import numpy as np
+
+    from station.canvas.numpy_backend import NumpyCanvas
+    from station.canvas.params import CanvasInputError
+    from station.canvas.scenarios import disc, paint, run_until_dry
+    from station.canvas.upscale import render_scaled
+
+    c = NumpyCanvas(40, 40, seed=3)
+    paint(c, disc(40, 40, 20, 20, 12), 0.5, {"French Ultramarine": 0.3})
+    run_until_dry(c, 4000)
+    c.dry()
+    st = c.state()
+    one = render_scaled(st, "km", 1)
+    three = render_scaled(st, "km", 3)
+    assert three.shape == (120, 120, 3)
+    # cell averages stay close to the one-pixel-per-cell picture
+    means = three.reshape(40, 3, 40, 3, 3).mean(axis=(1, 3))
+    inner = disc(40, 40, 20, 20, 9) > 0
+    err = np.abs(means[inner] - one[inner])
+    assert err.mean() < 0.01 and err.max() < 0.05, (err.mean(), err.max())
+    # detail below the cell: pixels of one cell differ (paper grain, granulation)
+    cells = three.reshape(40, 3, 40, 3, 3).transpose(0, 2, 1, 3, 4)
+    assert cells[inner].std(axis=(1, 2)).mean() > 1e-3
+    # smoother edge: the largest step between neighbouring pixels across the rim is
+    # smaller than between neighbouring cells at one pixel per cell
+    lum1 = one.mean(axis=2)
+    lum3 = three.mean(axis=2)
+    assert np.abs(np.diff(lum3, axis=1)).max() < 0.8 * np.abs(np.diff(lum1, axis=1)).max()
+    for bad in (0, 5):
+        with pytest.raises(CanvasInputError):
+            render_scaled(st, "km", bad)
+    out = tmp_path / "s.png"
+    assert main(["demo", "-o", str(out), "--scale", "9"]) == 2

@@ -111,8 +111,20 @@ def _drop(wait_s: float, wash: float) -> tuple[NumpyCanvas, np.ndarray]:
 
 
 def wet_in_wet() -> Effect:
-    c, fp = _drop(2.0, 0.6)
-    sp = spread(c.live_state.q[0], fp)
+    """A stroke (an r = 5 stamp moving one cell per step, 40 steps) into a 2 s old wash."""
+    c = NumpyCanvas(96, 64, seed=2)
+    paint(c, rect(64, 96, 2, 62, 2, 94), 0.6)
+    for _ in range(60):
+        c.step()
+    covered = np.zeros((64, 96), F32)
+    for k in range(40):
+        stamp = disc(64, 96, 32, 28 + k, 5)
+        paint(c, stamp * (covered == 0), 0.6, {"French Ultramarine": 0.8})
+        covered = np.maximum(covered, stamp)
+        c.step()
+    run_until_dry(c, 6000)
+    c.dry()
+    sp = spread(c.live_state.q[0], covered)
     return Effect("wet-in-wet", {"spread_area_ratio": sp.area_ratio, "feather": sp.feather},
                   {"spread >= 2x": sp.area_ratio >= 2.0, "feather >= 1.3": sp.feather >= 1.3},
                   c.render())

@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any, TypeVar
 
 import numpy as np
@@ -42,6 +43,7 @@ def on_state(backend: Any, fn: Callable[[CanvasState], T]) -> T:
     return out
 
 
+@lru_cache(maxsize=8)
 def gaussian_footprint(radius: float) -> np.ndarray:
     """Weights in [0, 1] of a Gaussian spot, ``sigma = radius / 2``, cut at ``radius``
     (float32, square of side ``2 ceil(radius) + 1``)."""
@@ -51,7 +53,9 @@ def gaussian_footprint(radius: float) -> np.ndarray:
     sig = max(radius / 2.0, 0.5)
     wgt = np.exp(-0.5 * d2 / (sig * sig))
     wgt[d2 > radius * radius] = 0.0
-    return wgt.astype(F32)
+    out = wgt.astype(F32)
+    out.flags.writeable = False  # cached and shared between calls
+    return out
 
 
 def _window(state: CanvasState, shape: tuple[int, int], y0: int, x0: int

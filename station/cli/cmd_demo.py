@@ -20,6 +20,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--size", metavar="WxH", help="canvas size (default: the demo's, 320x240)")
     p.add_argument("--backend", choices=BACKENDS, default="auto", help=BACKEND_HELP)
     p.add_argument("--bits", type=int, choices=(8, 16), default=8, help="PNG bit depth")
+    p.add_argument("--scale", type=int, default=1, metavar="K",
+                   help="render K pixels per simulation cell (1..4): smooth edges, paper "
+                        "detail below the cell")
     p.add_argument("--stats", metavar="S.json", help="write mass bookkeeping as JSON")
     p.add_argument("--state", metavar="S.npz", help="write the full canvas state")
     p.add_argument("--session", action="store_true",
@@ -36,7 +39,8 @@ def run(args: argparse.Namespace) -> int:
         return 0
     size = parse_size(args.size) if args.size else None
     result = paint(str(DEMO_FILE), args.output, size=size, backend=args.backend,
-                   stats_path=args.stats, state_path=args.state, bits=args.bits)
+                   stats_path=args.stats, state_path=args.state, bits=args.bits,
+                   render_scale=args.scale)
     sys.stderr.write(f"station demo: {result.width}x{result.height} on {result.backend} "
                      f"({result.renderer}): {result.steps} steps, "
                      f"{result.painting_seconds:.1f} s painting time in "

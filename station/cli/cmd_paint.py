@@ -37,6 +37,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--stats", metavar="S.json", help="write mass bookkeeping as JSON")
     p.add_argument("--state", metavar="S.npz", help="write the full canvas state")
     p.add_argument("--bits", type=int, choices=(8, 16), default=8, help="PNG bit depth")
+    p.add_argument("--scale", type=int, default=1, metavar="K",
+                   help="render K pixels per simulation cell (1..4): smooth edges, paper "
+                        "detail below the cell")
     p.add_argument("--resume", metavar="S.npz",
                    help="paint on a saved canvas state (from --state) instead of blank paper")
     p.add_argument("--settle", type=float, default=0.0, metavar="SECONDS",
@@ -56,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
     result = paint(args.input, args.output, size=size, profile=args.profile,
                    backend=args.backend, stats_path=args.stats,
                    state_path=args.state, bits=args.bits, rate=args.rate, settle=args.settle,
-                   resume=args.resume, mapping=args.mapping)
+                   resume=args.resume, mapping=args.mapping, render_scale=args.scale)
     if args.json:
         json.dump({"width": result.width, "height": result.height, "profile": result.profile,
                    "backend": result.backend, "renderer": result.renderer,

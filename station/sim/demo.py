@@ -78,6 +78,14 @@ def _tree(s: Script, cells: float, foot: tuple[float, float], height: float, lea
             s.line(end, tw, 0.12, pressure=taper(0.6, 0.6, 0.05, attack=0.05, release=0.7))
 
 
+def _blow_dry(s: Script, seconds: float) -> None:
+    """A hair dryer over the whole sheet for ``seconds`` of painting time, then ``dry``
+    for what is left: the paint dries by evaporation (rims, backruns), only faster."""
+    s.cmd("hairdryer", x=0.5, y=0.5, radius=500, seconds=seconds)
+    s.wait(seconds)
+    s.dry()
+
+
 def landscape(width: int = DEMO_WIDTH, height: int = DEMO_HEIGHT) -> Script:
     """The demo session (see the module docstring)."""
     s = Script(width, height, profile="watercolor", seed=DEMO_SEED, device="demo-0",
@@ -103,8 +111,7 @@ def landscape(width: int = DEMO_WIDTH, height: int = DEMO_HEIGHT) -> Script:
     s.brush(size=7 * cells, water=0.6, pigment={"Quinacridone Rose": 0.4})
     for x in (0.15, 0.42, 0.7, 0.9):
         s.curve([(x - 0.08, 0.36), (x, 0.34), (x + 0.08, 0.37)], 0.3, pressure=taper(0.7))
-    s.wait(4.0)
-    s.dry()
+    _blow_dry(s, 12.0)
     s.new_layer()
 
     # 2. Distant hills, wet-on-dry on the dried sky: hard, dark edges.
@@ -112,24 +119,21 @@ def landscape(width: int = DEMO_WIDTH, height: int = DEMO_HEIGHT) -> Script:
             pigment={"French Ultramarine": 0.45, "Quinacridone Rose": 0.25})
     _fill_hill(s, base=0.47, amp=0.06, phase=0.1, waves=1.2, bottom=0.56, rows=3,
                size_px=6 * cells, duration=0.8, lean=15.0)
-    s.wait(5.0)
-    s.dry()
+    _blow_dry(s, 12.0)
     s.new_layer()
 
     # 3. Nearer hills in granulating Cerulean Blue, dried, then a yellow glaze.
     s.brush(size=8 * cells, water=0.8, pigment={"Cerulean Blue": 0.7})
     _fill_hill(s, base=0.62, amp=0.05, phase=0.55, waves=0.9, bottom=0.8, rows=5,
                size_px=8 * cells, duration=0.7, lean=-20.0)
-    s.wait(3.0)
-    s.dry()
+    _blow_dry(s, 12.0)
     s.new_layer()
     s.brush(size=12 * cells, water=0.8, pigment={"Hansa Yellow": 0.6})
     for i in range(5):
         y = 0.6 + i * 0.07
         a, b = ((0.0, y), (1.0, y + 0.02)) if i % 2 == 0 else ((1.0, y + 0.02), (0.0, y))
         s.line(a, b, 0.6, pressure=taper(0.95, 0.7, 0.7), tilt=tilt_const(0.0, 25.0))
-    s.wait(3.0)
-    s.dry()
+    _blow_dry(s, 10.0)
     s.new_layer()
 
     # 4. Foreground: granulating earth, wet-on-dry.
@@ -141,8 +145,7 @@ def landscape(width: int = DEMO_WIDTH, height: int = DEMO_HEIGHT) -> Script:
         if i % 2:
             pts.reverse()
         s.curve(pts, 0.8, pressure=swell(0.5, 1.0, 2.0), tilt=tilt_const(30.0, 5.0))
-    s.wait(4.0)
-    s.dry()
+    _blow_dry(s, 12.0)
 
     # A pond laid wet-on-dry with plenty of water: left to dry, its rim darkens.
     s.brush(size=3.5 * cells, water=1.0,
@@ -152,8 +155,7 @@ def landscape(width: int = DEMO_WIDTH, height: int = DEMO_HEIGHT) -> Script:
         half = 0.16 * math.sqrt(max(0.0, 1.0 - ((y - 0.87) / 0.04) ** 2))
         a, b = (0.3 - half, y), (0.3 + half, y)
         s.line(a if i % 2 == 0 else b, b if i % 2 == 0 else a, 0.5, pressure=0.85)
-    s.wait(5.0)
-    s.dry()
+    _blow_dry(s, 14.0)
 
     # 5. Ink: a tree, grass and birds.
     s.profile("ink")

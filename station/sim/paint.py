@@ -302,6 +302,7 @@ def paint(
     backend_opts: dict[str, Any] | None = None,
     resume: str | None = None,
     mapping: str = "fit",
+    render_scale: int = 1,
 ) -> PaintResult:
     """Paint ``input_path`` headless; see the module docstring for errors.
 
@@ -319,6 +320,9 @@ def paint(
 
     if bits not in (8, 16):
         raise PaintInputError(f"--bits {bits} must be 8 or 16", "--bits")
+    if isinstance(render_scale, bool) or not isinstance(render_scale, int) \
+            or not 1 <= render_scale <= 4:
+        raise PaintInputError(f"--scale {render_scale} must be an integer 1..4", "--scale")
     if not (math.isfinite(settle) and 0 <= settle <= MAX_PAINTING_SECONDS):
         raise PaintInputError(f"--settle {settle:g} must be 0..{MAX_PAINTING_SECONDS:g} seconds "
                               "(the longest painting time a session may have)", "--settle")
@@ -380,7 +384,7 @@ def paint(
             counters={**player.counters.as_dict(), **player.brush_counters()},
             error=error,
         )
-        write_outputs(canvas, result, out_png, state_path, stats_path, bits)
+        write_outputs(canvas, result, out_png, state_path, stats_path, bits, render_scale)
     finally:
         source.close()
     if error is not None:
@@ -393,11 +397,21 @@ def paint(
 
 
 def write_outputs(canvas: Any, result: PaintResult, out_png: str | None,
-                  state_path: str | None, stats_path: str | None, bits: int) -> None:
-    """Render and write the PNG, the state and the stats (each when asked)."""
+                  state_path: str | None, stats_path: str | None, bits: int,
+                  render_scale: int = 1) -> None:
+    """Render and write the PNG (at ``render_scale`` pixels per cell), the state and the
+    stats (each when asked)."""
+    from station.canvas.params import get_profile
+    from station.canvas.upscale import render_scaled
+
     try:
         if out_png:
-            write_image(out_png, canvas.render(), bits)
+            if render_scale > 1:
+                st = canvas.state()
+                rgb = render_scaled(st, get_profile(st.profile).renderer, render_scale)
+            else:
+                rgb = canvas.render()
+            write_image(out_png, rgb, bits)
             result.written.append(out_png)
         if state_path:
             canvas.state().save(state_path)

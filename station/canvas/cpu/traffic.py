@@ -17,8 +17,10 @@ def floats_per_cell_step(slots: int, jacobi_iters: int) -> dict[str, int]:
     n = max(int(jacobi_iters), 1)
     return {
         # read w, wc, mask, vx, vy, h, block, block_time, p(S);
-        # write wet, w0, bc, vsx, vsy, c, opn, p0(S)
-        "prep (wet mask, copies, diffusion controller, capacity)": (8 + s) + (7 + s),
+        # write wet, own, w0, bc, vsx, vsy, c, opn, p0(S)
+        "prep (wet mask, copies, diffusion controller, capacity)": (8 + s) + (8 + s),
+        # read own, wet, w0, h, the row blur mbx; write mbx, pr (flow outward / relief)
+        "flow_pressure (pass 3's levelled height)": 5 + 2,
         # read vsx, vsy, wet, w0, bc, p0(S); write v1(2), xw, xp(S)
         "advect_jacobi1 (pass 1, water/pigment Jacobi iteration 1)": (5 + s) + (3 + s),
         # one temporally blocked sweep for all remaining iterations (the intermediate
@@ -26,9 +28,9 @@ def floats_per_cell_step(slots: int, jacobi_iters: int) -> dict[str, int]:
         # p0(S), xp(S) once; write the last xv(2), xw, xp(S) once
         "jacobi_blocked (velocity 1..n-1, water/pigment 2..n)":
             ((8 + 2 * s) + (3 + s)) if n >= 2 else 0,
-        # read wet, bc, v1(2), xv(2), w0, xw, p0(S), xp(S); write v3(2), sw, sp(S)
+        # read wet, bc, v1(2), xv(2), w0, xw, pr, p0(S), xp(S); write v3(2), sw, sp(S)
         "height_limit (last velocity iteration, pass 3, donor limiters)":
-            (8 + 2 * s) + (3 + s),
+            (9 + 2 * s) + (3 + s),
         # read wet, bc, w0, xw, sw, p0(S), xp(S), sp(S); write w2, p2(S)
         "diffuse_apply (passes 4/5 fluxes)": (5 + 3 * s) + (1 + s),
         # read wet, v3(2), w2, p2(S); write sout, sin

@@ -19,12 +19,14 @@ def floats_per_cell_step(slots: int, jacobi_iters: int) -> dict[str, int]:
         # read v(2), w, wc, h, mask, block, block_time; write aux = (v1(2), w) and the
         # first iterate jv = (v1(2), w, wb)
         "prep (wet, controller, advect_velocity)": 8 + 7,
+        # read w, wc, h, mask, wb (the blur's neighbours come from cache); write P
+        "pressure (pass 3's levelled height)": 5 + 1,
         # each iteration reads the iterate jv = (xv(2), xw, wb), the right-hand sides
         # (v1(2), w), p(S) and the pigment iterate xp(S) (= p in the first iteration);
         # writes jv(4) and xp(S)
         "jacobi (velocity, water, pigment)": (7 + s + 4 + s) + (n - 1) * (7 + 2 * s + 4 + s),
-        # read jv(4), xp(S), w, p(S); write v(2), (xw, s_w, wb), s_p(S)
-        "limit (height term, boundary, limiters)": (5 + 2 * s) + (5 + s),
+        # read jv(4), xp(S), w, P, p(S); write v(2), (xw, s_w, wb), s_p(S)
+        "limit (height term, boundary, limiters)": (6 + 2 * s) + (5 + s),
         # read (xw, s_w, wb), xp(S), s_p(S), w, p(S); write w, p(S)
         "diffuse_apply": (4 + 3 * s) + (1 + s),
         # read v(2), wb, w, p(S); write (s_out, s_in, wb)
