@@ -401,7 +401,7 @@ def write_outputs(canvas: Any, result: PaintResult, out_png: str | None,
                   render_scale: int = 1) -> None:
     """Render and write the PNG (at ``render_scale`` pixels per cell), the state and the
     stats (each when asked)."""
-    from station.canvas.params import get_profile
+    from station.canvas.profiles import get_profile
     from station.canvas.upscale import render_scaled
 
     try:

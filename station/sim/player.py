@@ -42,6 +42,7 @@ from station.canvas.state import DEFAULT_SLOTS
 from station.canvas.tools import HairDryer, blow, on_state
 from station.errors import BadInput
 from station.events import Command, PenSample, Tool
+from station.tools import diffusion as diffusion_tool
 from station.tools import eraser as eraser_tool
 from station.tools import mask as mask_tool
 from station.tools import tissue as tissue_tool
@@ -131,6 +132,9 @@ class SessionPlayer:
         self._warned: set[str] = set()
         # the tool in the painter's hand instead of the brush (None: the brush)
         self.tool: str | None = None
+        self.controller: diffusion_tool.Controller | None = None  # the brush writes it
+        self._controller_field: Any = None
+        self._controller_count = 0
         self.tilt = (0.0, 90.0)  # canvas tilt (angle, direction) [deg]; kept across profiles
         self.mask_radius = 6.0
         self.eraser = eraser_tool.Eraser()
@@ -201,9 +205,28 @@ class SessionPlayer:
                     record = dataclasses.replace(record, touching=False, pressure=0.0)
             elif record.touching:
                 self._check_layer(where)
+                if self.controller is not None:
+                    self._write_controller(record)
             self.brush.feed(record)
         else:
             self.command(record, where)
+
+    def _write_controller(self, rec: PenSample) -> None:
+        """Every ``interval``-th touching brush sample writes the controller's pattern under
+        the brush (its radius at full size)."""
+        ctrl = self.controller
+        if ctrl is None:
+            return
+        self._controller_count += 1
+        if (self._controller_count - 1) % ctrl.interval:
+            return
+        if self._controller_field is None:
+            self._controller_field = ctrl.field(self.height, self.width)
+        field = self._controller_field
+        cx, cy = rec.x * self.width, rec.y * self.height
+        radius = max(self.brush.settings.size / 2.0, 0.5)
+        on_state(self.backend, lambda st: diffusion_tool.write(st, field, ctrl.strength, cx, cy,
+                                                               radius))
 
     def _tool_sample(self, tool: str, rec: PenSample, where: str | None) -> None:
         """A pen sample with a tool in hand: a dab where the pen touches, the press ends
@@ -591,7 +614,33 @@ def _apply_tilt(p: SessionPlayer) -> None:
     on_state(p.backend, put)
 
 
+def _diffusion(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+    """The diffusion controller: while on, the brush writes ``pattern`` (``stripes``,
+    ``rings``, ``dots``, ``checks``; ``off`` stops it) of ``period`` cells at ``angle``
+    degrees with ``strength`` every ``interval`` touching samples along its strokes."""
+    _check_keys("diffusion", args, {"pattern", "period", "angle", "strength", "interval"},
+                where)
+    pattern = args.get("pattern", "stripes")
+    if pattern == "off":
+        p.controller = None
+        return
+    interval = args.get("interval", 1)
+    if isinstance(interval, bool) or not isinstance(interval, int) or not 1 <= interval <= 1000:
+        raise PlayerError(f"diffusion interval {interval!r:.40} must be an integer in "
+                          "[1, 1000]", where)
+    if pattern not in diffusion_tool.PATTERNS:
+        raise PlayerError(f"diffusion pattern {pattern!r:.40} must be off or one of "
+                          f"{', '.join(diffusion_tool.PATTERNS)}", where)
+    period = _tool_number("diffusion", args, "period", 4.0, 2.0, 512.0, where) * p.brush_scale
+    p.controller = diffusion_tool.Controller(
+        pattern, max(period, 2.0), _tool_number("diffusion", args, "angle", 0.0, -360, 360, where),
+        _tool_number("diffusion", args, "strength", 1.0, 0.0, 1.0, where), interval)
+    p._controller_field = None
+    p._controller_count = 0
+
+
 _HANDLERS: dict[str, Callable[[SessionPlayer, Mapping[str, Any], str | None], None]] = {
+    "diffusion": _diffusion,
     "tilt": _tilt,
     "mask": _mask,
     "mask_remove": _mask_remove,
