@@ -33,6 +33,7 @@ from station.errors import BadInput, StationError
 from station.events import Command, PenSample
 from station.sessionlog import SessionHeader, SessionLogReader
 from station.sim.player import MAX_PAINTING_SECONDS, MAX_RATE, SessionPlayer
+from station.sim.undo import UndoHistory, log_mentions_undo
 
 log = logging.getLogger(__name__)
 
@@ -363,6 +364,8 @@ def paint(
                                brush_scale=scale)
         if start is not None:
             player.layer_pigments.update(start.slots)
+        if log_mentions_undo(input_path):  # undos replay against the strokes they undo
+            UndoHistory(player)
         show = sys.stderr.isatty() if progress is None else progress
         prog = Progress(_session_length(input_path) + settle) if show else None
         t0 = time.monotonic()

@@ -135,6 +135,7 @@ class SessionPlayer:
         self.controller: diffusion_tool.Controller | None = None  # the brush writes it
         self._controller_field: Any = None
         self._controller_count = 0
+        self.history: Any = None  # an undo.UndoHistory when undo is wanted
         self.tilt = (0.0, 90.0)  # canvas tilt (angle, direction) [deg]; kept across profiles
         self.mask_radius = 6.0
         self.eraser = eraser_tool.Eraser()
@@ -197,6 +198,8 @@ class SessionPlayer:
         """Apply one record now (no time advance: see :meth:`play`)."""
         self.last_t = max(self.last_t, record.t)
         if isinstance(record, PenSample):
+            if self.history is not None:
+                self.history.before(record)
             self.counters.samples += 1
             tool = "eraser" if record.tool is Tool.ERASER else self.tool
             if tool is not None:
@@ -274,6 +277,8 @@ class SessionPlayer:
 
     def command(self, cmd: Command, where: str | None = None) -> None:
         name = cmd.cmd
+        if self.history is not None and name in _HANDLERS:
+            self.history.before(cmd)
         handler = _HANDLERS.get(name)
         if handler is None:
             self.counters.skipped_commands[name] = self.counters.skipped_commands.get(name, 0) + 1
@@ -639,7 +644,22 @@ def _diffusion(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> 
     p._controller_count = 0
 
 
+def _undo(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+    """Undo the newest stroke or dab (``station.sim.undo``); nothing to undo: counted."""
+    _check_keys("undo", args, set(), where)
+    if p.history is None or not p.history.undo():
+        p.counters.skipped_commands["undo"] = p.counters.skipped_commands.get("undo", 0) + 1
+
+
+def _redo(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+    _check_keys("redo", args, set(), where)
+    if p.history is None or not p.history.redo():
+        p.counters.skipped_commands["redo"] = p.counters.skipped_commands.get("redo", 0) + 1
+
+
 _HANDLERS: dict[str, Callable[[SessionPlayer, Mapping[str, Any], str | None], None]] = {
+    "undo": _undo,
+    "redo": _redo,
     "diffusion": _diffusion,
     "tilt": _tilt,
     "mask": _mask,
