@@ -46,6 +46,7 @@ from station.tools import diffusion as diffusion_tool
 from station.tools import eraser as eraser_tool
 from station.tools import mask as mask_tool
 from station.tools import tissue as tissue_tool
+from station.tools import well as well_tool
 
 log = logging.getLogger(__name__)
 
@@ -136,6 +137,7 @@ class SessionPlayer:
         self._controller_field: Any = None
         self._controller_count = 0
         self.history: Any = None  # an undo.UndoHistory when undo is wanted
+        self.well: well_tool.MixingWell | None = None  # the palette's mixing well
         self.tilt = (0.0, 90.0)  # canvas tilt (angle, direction) [deg]; kept across profiles
         self.mask_radius = 6.0
         self.eraser = eraser_tool.Eraser()
@@ -657,7 +659,40 @@ def _redo(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
         p.counters.skipped_commands["redo"] = p.counters.skipped_commands.get("redo", 0) + 1
 
 
+def _well(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+    """The palette's mixing well: ``add`` a pigment (``amount`` of tube strength, ``water``,
+    ``settle`` seconds of mixing), ``pick`` the mix up with the brush, or ``clear`` it."""
+    _check_keys("well", args, {"add", "amount", "water", "settle", "pick", "clear"}, where)
+    if p.well is None:
+        prof = get_profile(p.profile)
+        p.well = well_tool.MixingWell(prof.params, prof.brush.pigment_load)
+    well = p.well
+    if args.get("clear") is True:
+        well.clear()
+    name = args.get("add")
+    if name is not None:
+        if not isinstance(name, str):
+            raise PlayerError(f"well add {name!r:.40} must be a pigment name", where)
+        amount = _tool_number("well", args, "amount", 0.5, 0.0, 1.0, where)
+        water = _tool_number("well", args, "water", 0.6, 0.05, 1.0, where)
+        settle = _tool_number("well", args, "settle", 2.0, 0.0, 60.0, where)
+        try:
+            well_tool.check_room(well, name)
+            well.add(name, amount, water, settle)
+        except BadInput as exc:
+            raise PlayerError(str(exc).removeprefix("well: ").removeprefix("pigment: "),
+                              where) from None
+    if args.get("pick") is True:
+        mix = well.mix()
+        if not mix:
+            raise PlayerError("the well is empty: nothing to pick up", where)
+        b = p.brush.settings
+        p._use(BrushSettings(b.kind, b.size, b.water, mix))
+        p.tool = None
+
+
 _HANDLERS: dict[str, Callable[[SessionPlayer, Mapping[str, Any], str | None], None]] = {
+    "well": _well,
     "undo": _undo,
     "redo": _redo,
     "diffusion": _diffusion,
