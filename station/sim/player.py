@@ -144,6 +144,7 @@ class SessionPlayer:
         self.tissue = tissue_tool.Tissue()
         self._tissue_tex: Any = None
         self._dab: Any = None  # cells the previous dab / this press hit
+        self._tool_last: tuple[float, float] | None = None  # the tool's last dab [cells]
 
     # -- time ------------------------------------------------------------------
     @property
@@ -238,11 +239,23 @@ class SessionPlayer:
         (and with it the cells marked as hit) where it lifts."""
         if not rec.touching:
             self._dab = None
+            self._tool_last = None
             return
         self.flush_sources()  # what the brush painted before comes first
         cx, cy = rec.x * self.width, rec.y * self.height
+        # dabs every third of the tool's radius between two samples, as the brush stamps
+        radius = {"mask": self.mask_radius, "eraser": self.eraser.radius}.get(
+            tool, self.tissue.radius)
+        points = [(cx, cy)]
+        last = self._tool_last
+        if last is not None and tool != "tissue":  # a tissue is pressed, not dragged
+            n = int(math.hypot(cx - last[0], cy - last[1]) / max(radius / 3.0, 0.5))
+            points = [(last[0] + (cx - last[0]) * k / (n + 1),
+                       last[1] + (cy - last[1]) * k / (n + 1)) for k in range(1, n + 2)]
+        self._tool_last = (cx, cy)
         try:
-            self._dab_at(tool, cx, cy, rec.pressure)
+            for x, y in points:
+                self._dab_at(tool, x, y, rec.pressure)
         except BadInput as exc:
             raise PlayerError(str(exc), where) from None
 
@@ -536,6 +549,7 @@ def _pick_up(p: SessionPlayer, tool: str, args: Mapping[str, Any], where: str | 
     p.flush_sources()
     p.tool = tool
     p._dab = None
+    p._tool_last = None
     if "x" in args or "y" in args:
         x = _tool_number(tool, args, "x", 0.5, 0.0, 1.0, where)
         y = _tool_number(tool, args, "y", 0.5, 0.0, 1.0, where)
