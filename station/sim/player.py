@@ -639,8 +639,16 @@ def _diffusion(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> 
     """The diffusion controller: while on, the brush writes ``pattern`` (``stripes``,
     ``rings``, ``dots``, ``checks``; ``off`` stops it) of ``period`` cells at ``angle``
     degrees with ``strength`` every ``interval`` touching samples along its strokes."""
-    _check_keys("diffusion", args, {"pattern", "period", "angle", "strength", "interval"},
-                where)
+    _check_keys("diffusion", args, {"pattern", "period", "angle", "strength", "interval",
+                                    "fade"}, where)
+    if "fade" in args:  # how long a written pattern takes to age back to free [s]
+        fade = _tool_number("diffusion", args, "fade", 2.0, 0.0, 3600.0, where)
+        p.flush_sources()
+
+        def put(st: Any) -> None:
+            st.params = st.params.replace(block_fade=fade)
+
+        on_state(p.backend, put)
     pattern = args.get("pattern", "stripes")
     if pattern == "off":
         p.controller = None

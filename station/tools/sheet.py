@@ -102,19 +102,19 @@ def session_lines() -> list[str]:
     log.stroke([_at(2, 0.1, 0.5), _at(2, 0.5, 0.5), _at(2, 0.9, 0.5)], dt=0.03)
     log.wait(1.0)
     log.cmd("dry")
-    # 4 diffusion controller (ink: rough paper, fast pigment diffusion)
-    log.cmd("profile", name="ink")
-    log.cmd("diffusion", pattern="stripes", period=4, angle=45, strength=1.0, interval=1)
-    log.cmd("brush", size=44, water=1.0, pigment={"Sumi Ink": 0.0})
-    log.stroke([_at(3, 0.2, 0.5), _at(3, 0.8, 0.5)], dt=0.05)
+    # 4 diffusion controller: stripes at 45 degrees under a clear-water wash, then drops
+    log.cmd("diffusion", pattern="stripes", period=3, angle=45, strength=1.0, interval=1,
+            fade=30.0)
+    log.cmd("brush", size=44, water=1.0, pigment={"Burnt Umber": 0.0})
+    for _ in range(3):
+        log.stroke([_at(3, 0.12, 0.5), _at(3, 0.88, 0.5)], dt=0.05)
     log.cmd("diffusion", pattern="off")
-    log.cmd("brush", size=10, water=1.0, pigment={"Sumi Ink": 1.0})
-    log.stroke([_at(3, 0.5, 0.5)], dt=0.05)
-    log.stroke([_at(3, 0.3, 0.5)], dt=0.05)
-    log.stroke([_at(3, 0.7, 0.5)], dt=0.05)
-    log.wait(6.0)
+    log.cmd("brush", size=10, water=0.1, pigment={"Burnt Umber": 1.0})
+    for u in (0.3, 0.5, 0.7):
+        log.stroke([_at(3, u, 0.5)], dt=0.05)
+    log.wait(12.0)
     log.cmd("dry")
-    log.cmd("profile", name="watercolor")
+    log.cmd("diffusion", fade=2.0, pattern="off")
     # 5 mixing well
     log.cmd("well", add="Cerulean Blue", amount=0.6)
     log.cmd("well", add="Hansa Yellow", amount=0.6, settle=3.0)
