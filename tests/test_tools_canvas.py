@@ -179,3 +179,29 @@ def test_bad_tool_arguments_are_bad_input_naming_the_line(cmd: str, args: dict, 
     with pytest.raises(BadInput) as ei:
         p.play([Command(t=0.0, cmd=cmd, args=args)], where=lambda: "s.jsonl:7")
     assert str(ei.value).startswith("s.jsonl:7:") and what in str(ei.value)
+
+
+def test_tool_session_on_the_gl_backend_agrees_with_the_reference() -> None:
+    gl = pytest.importorskip("station.canvas.gl")
+    try:
+        gl.create_context().release()
+    except gl.GLUnavailable as exc:
+        pytest.skip(f"no OpenGL 4.3 context: {exc}")
+    ref = play("numpy").backend.state()
+    got = play("gl").backend.state()
+    assert np.array_equal(got.mask, ref.mask)
+    for name in ("w", "p", "q", "removed_w"):
+        a, b = getattr(got, name).astype(np.float64), getattr(ref, name)
+        assert np.abs(a - b).max() <= 1e-3 * max(1.0, float(np.abs(b).max())), name
+
+
+def test_tissue_texture_from_a_grayscale_image(tmp_path) -> None:
+    pil = pytest.importorskip("PIL.Image")
+    a = np.zeros((4, 6), np.uint8)
+    a[:, ::2] = 255
+    pil.fromarray(a).save(tmp_path / "t.png")
+    tex = tissue.texture("flat", 10, 13, image=str(tmp_path / "t.png"))
+    assert tex.shape == (10, 13) and tex[0, 0] == 1 and tex[0, 1] == 0 and tex[5, 12] == 1
+    (tmp_path / "bad.png").write_bytes(b"not a png")
+    with pytest.raises(BadInput, match=r"bad\.png"):
+        tissue.texture("flat", 10, 13, image=str(tmp_path / "bad.png"))
