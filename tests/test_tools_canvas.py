@@ -205,3 +205,14 @@ def test_tissue_texture_from_a_grayscale_image(tmp_path) -> None:
     (tmp_path / "bad.png").write_bytes(b"not a png")
     with pytest.raises(BadInput, match=r"bad\.png"):
         tissue.texture("flat", 10, 13, image=str(tmp_path / "bad.png"))
+
+
+def test_station_send_checks_tool_arguments_like_the_player() -> None:
+    from station.sim.player import check_command
+
+    check_command(Command(t=0.0, cmd="tissue", args={"kind": "weave"}))
+    check_command(Command(t=0.0, cmd="undo", args={}))
+    for cmd, args in (("tissue", {"kind": "silk"}), ("eraser", {"fraction": 2}),
+                      ("tilt", {"angle": -1}), ("well", {"add": "Nope"})):
+        with pytest.raises(BadInput):
+            check_command(Command(t=0.0, cmd=cmd, args=args), where="send")

@@ -36,6 +36,7 @@ from station.brush.deformable import DeformableBrush
 from station.brush.reservoir import pickup
 from station.brush.solver import SolverCounters
 from station.brush.stamp import STAMP_KIND, BrushModel, BrushSettings, RoundBrush
+from station.canvas.numpy_backend import NumpyCanvas
 from station.canvas.params import Profile
 from station.canvas.profiles import get_profile, profile_names
 from station.canvas.state import DEFAULT_SLOTS
@@ -451,6 +452,8 @@ def _wait_seconds(args: Mapping[str, Any], where: str | None) -> float:
     return float(seconds)
 
 
+_SCRATCH_CHECKED = frozenset({"mask", "mask_remove", "eraser", "tissue", "tilt", "diffusion",
+                              "well", "undo", "redo"})
 LIVE_COMMANDS = frozenset({"save", "stop"})
 """Commands only a running simulation executes (``station sim``; never logged)."""
 
@@ -475,6 +478,9 @@ def check_command(cmd: Command, pigments: Container[str] | None = None,
         _profile_name(cmd.args, where)
     elif name == "wait":
         _wait_seconds(cmd.args, where)
+    elif name in _SCRATCH_CHECKED:  # run it on a scratch canvas: the same checks, no effect
+        scratch = SessionPlayer(NumpyCanvas(16, 16), 16, 16)
+        _HANDLERS[name](scratch, cmd.args, where)
 
 
 def _dry(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
