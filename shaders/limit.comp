@@ -2,7 +2,7 @@
 // limit.comp: after the last Jacobi iteration.
 //  * velocity: pass 2's result (0 on non-wet cells), then pass 3 water_height_and_boundary:
 //    v <- (1 - omega_h) v + omega_h v_h, v_h = -height_gain ((PE - PW)/2, (PS - PN)/2) with
-//    closed faces reading the cell's own P (pressure.comp: w lowered near the edge); no flow through closed faces; clamp v_max.
+//    closed faces reading the cell's own P (pressure.comp: w lowered near the edge); no flow through closed faces; tilt gravity added; clamp v_max.
 //  * implicit_diffusion's donor limiter for water (pass 4) and pigment (pass 5): face fluxes
 //    F = k b (x_i - x_n) from the converged iterate; s = u / out where the outflow exceeds u.
 // Writes vel_out (final velocity), js = (xw, 0, s_w, wb) and jd_out = s_p.
@@ -24,6 +24,7 @@ uniform float u_omega_h;
 uniform float u_omega_i;    // float32(1 - omega_h), as the reference rounds it
 uniform float u_half_gain;  // float32(-0.5 * height_gain)
 uniform float u_vmax;
+uniform vec2 u_tilt;        // float32(ax dt, ay dt) of the canvas tilt
 
 void main() {
     bool valid;
@@ -65,6 +66,9 @@ void main() {
     vec2 nv;
     nv.x = u_omega_i * v.x + u_omega_h * (u_half_gain * (wn[0] - wn[1]));
     nv.y = u_omega_i * v.y + u_omega_h * (u_half_gain * (wn[2] - wn[3]));
+    // the tilt's gravity (reference.tilt_kick); a flat canvas adds nothing
+    if (u_tilt.x != 0.0) nv.x = nv.x + u_tilt.x;
+    if (u_tilt.y != 0.0) nv.y = nv.y + u_tilt.y;
     if (!open_f[0]) nv.x = min(nv.x, 0.0);
     if (!open_f[1]) nv.x = max(nv.x, 0.0);
     if (!open_f[2]) nv.y = min(nv.y, 0.0);

@@ -270,7 +270,8 @@ _PEN_RECORD_KEYS = frozenset(
 
 KNOWN_COMMANDS = frozenset(
     {"brush", "profile", "wait", "dry", "new_layer", "clear", "tissue", "eraser", "mask",
-     "diffusion", "palette", "stop", "save", "hairdryer"}
+     "diffusion", "palette", "stop", "save", "hairdryer", "mask_remove", "tilt",
+     "undo", "redo", "well"}
 )  # fmt: skip
 """Command names the station knows today; others pass with a warning (forward-compatible)."""
 

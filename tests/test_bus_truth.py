@@ -177,7 +177,7 @@ def test_station_send_drives_a_live_sim(tmp_path: Path) -> None:
                             (["profile", "name=oil"], "unknown profile 'oil'"),
                             (["wait", "seconds=1e12"], "wait seconds"),
                             (["fly"], "command 'fly' is unknown"),
-                            (["tissue"], "not implemented yet"),
+                            (["palette"], "not implemented yet"),
                             (["brush", "size"], "is not key=value"),
                             (["brush", "{nope"], "not a JSON object")):
             bad = send(*words)

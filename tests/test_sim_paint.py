@@ -115,13 +115,14 @@ def test_commands_unknown_skipped_eraser_counted(caplog: pytest.LogCaptureFixtur
     records: list[PenSample | Command] = [
         Command(t=0.0, cmd="sparkle", args={"level": 3}),
         Command(t=0.0, cmd="sparkle", args={}),
-        Command(t=0.0, cmd="tissue", args={}),
-        pen(0.1, 0.3, tool="eraser"), pen(0.2, 0.4, tool="eraser"),
+        Command(t=0.0, cmd="palette", args={}),
+        pen(0.1, 0.3, touching=False, tool="eraser"),
+        pen(0.2, 0.4, touching=False, tool="eraser"),
         Command(t=0.3, cmd="new_layer"), Command(t=0.3, cmd="clear"),
         Command(t=0.4, cmd="profile", args={"name": "ink"}),
     ]
     p.play(records)
-    assert p.counters.skipped_commands == {"sparkle": 2, "tissue": 1}
+    assert p.counters.skipped_commands == {"sparkle": 2, "palette": 1}
     assert sum("sparkle" in r.getMessage() for r in caplog.records) == 1  # warned once
     assert p.brush.eraser_samples == 2
     assert not [c for c in spy.calls if c[0] == "sources"]

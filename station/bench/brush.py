@@ -83,7 +83,7 @@ def measure_sim(kind: str, width: int, height: int, seconds: float) -> dict[str,
     from station.bench.sim import _StrokePath
     from station.brush.stamp import BrushSettings
     from station.canvas.backend import create_backend
-    from station.canvas.params import get_profile
+    from station.canvas.profiles import get_profile
     from station.events import PenSample
     from station.sim.player import add_sources, brush_model
 

@@ -9,7 +9,8 @@ import numpy as np
 
 from station.canvas import operations, reference, tiles
 from station.canvas.palette import Palette
-from station.canvas.params import SimParams, get_profile
+from station.canvas.params import SimParams
+from station.canvas.profiles import get_profile, profile_palette
 from station.canvas.render import render_state
 from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
 from station.canvas.stats import canvas_stats
@@ -73,7 +74,8 @@ class NumpyCanvas:
 
         h = make_paper(preset, height, width, seed)
         self._state = CanvasState.blank(width, height, prm, h, profile=prof.name,
-                                        paper_preset=preset, seed=seed, palette=palette,
+                                        paper_preset=preset, seed=seed,
+                                        palette=palette or profile_palette(prof),
                                         n_slots=n_slots, tiling=tiling)
         self._renderer_kind = prof.renderer
         self._cells_last = 0

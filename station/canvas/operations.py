@@ -12,7 +12,8 @@ import numpy as np
 
 from station.canvas import tiles
 from station.canvas.paper import make_paper
-from station.canvas.params import CanvasInputError, get_profile
+from station.canvas.params import CanvasInputError
+from station.canvas.profiles import get_profile, profile_palette
 from station.canvas.state import CanvasState
 
 F32 = np.float32
@@ -206,6 +207,7 @@ def set_profile(state: CanvasState, name: str) -> None:
         raise CanvasInputError("profiles must share the tile size", "profile")
     state.params = prof.params
     state.profile = prof.name
+    state.palette = profile_palette(prof, state.palette)
 
 
 def new_paper(name: str, width: int, height: int, seed: int) -> np.ndarray:

@@ -17,7 +17,7 @@ from functools import lru_cache
 from importlib import resources
 from typing import Any
 
-from station.canvas.params import CanvasInputError
+from station.canvas.errors import CanvasInputError
 
 
 @dataclass(frozen=True)

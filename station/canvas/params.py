@@ -15,15 +15,15 @@ are the station's decisions (see ``docs/canvas-model.md``): the seed gives only
 from __future__ import annotations
 
 import dataclasses
+import importlib
 import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from station.errors import BadInput
+from station.canvas.errors import CanvasInputError
+from station.canvas.palette import Pigment
 
-
-class CanvasInputError(BadInput):
-    """Bad input to the canvas (pigment, profile, size, state file, parameter)."""
+__all__ = ["BrushDefaults", "CanvasInputError", "Profile", "SimParams", "vapour_deficit"]
 
 
 def vapour_deficit(temperature: float, humidity: float) -> float:
@@ -95,6 +95,13 @@ class SimParams:
         paper_shade: darkening of paper valleys in the blank paper reflectance [1].
         gouache_opaque: pigment thickness at which a gouache layer hides what is below [1].
         gouache_white: share of the implicit white filler in a gouache body colour [1].
+        tilt: angle of the canvas from the horizontal [degrees], 0 ... 90 (0: flat).
+        tilt_direction: downhill direction on the canvas [degrees from +x towards +y]
+            (90: the top edge is raised, paint runs towards the bottom row).
+        gravity: acceleration of a film of paint on a vertical sheet [cell/s^2]; pass 3
+            adds ``gravity * sin(tilt) * (cos, sin)(tilt_direction) * dt`` to the velocity
+            of wet cells (the omega_h blend damps it to a terminal speed of
+            ``gravity * sin(tilt) * dt / omega_h``).
     """
 
     dt: float = 1.0 / 30.0
@@ -132,6 +139,9 @@ class SimParams:
     paper_shade: float = 0.05
     gouache_opaque: float = 0.6
     gouache_white: float = 0.25
+    tilt: float = 0.0
+    tilt_direction: float = 90.0
+    gravity: float = 100.0
 
     def __post_init__(self) -> None:
         self.validate()
@@ -172,6 +182,20 @@ class SimParams:
             raise CanvasInputError("fibre_wick must be in [0, 1]", "params")
         if not 0 <= self.block_paper <= 1:
             raise CanvasInputError("block_paper must lie in [0, 1]", "params")
+        if not 0 <= self.tilt <= 90:
+            raise CanvasInputError("tilt must lie in [0, 90] degrees", "params")
+        if not 0 <= self.tilt_direction < 360:
+            raise CanvasInputError("tilt_direction must lie in [0, 360) degrees", "params")
+
+    def tilt_acceleration(self) -> tuple[float, float]:
+        """Downhill acceleration of the paint film (x, y) [cell/s^2]; (0, 0) when flat."""
+        if self.tilt == 0 or self.gravity == 0:
+            return 0.0, 0.0
+        g = self.gravity * math.sin(math.radians(self.tilt))
+        a = math.radians(self.tilt_direction)
+        # cos(90 deg) is 6e-17 in floating point: a slope straight down must not creep sideways
+        ca, sa = (0.0 if abs(t) < 1e-12 else t for t in (math.cos(a), math.sin(a)))
+        return g * ca, g * sa
 
     def drying_power(self) -> float:
         """Evaporation relative to the reference air (20 C, 50 %, airflow 1) [1].
@@ -243,7 +267,11 @@ class BrushDefaults:
 
 @dataclass(frozen=True)
 class Profile:
-    """A paint medium: simulation parameters, paper, palette, renderer, brush."""
+    """A paint medium: simulation parameters, paper, palette, renderer, brush.
+
+    ``pigments`` names the palette in order; ``pigment_defs`` holds the same pigments with
+    their Kubelka-Munk and surface properties as the profile file gives them.
+    """
 
     name: str
     params: SimParams
@@ -252,68 +280,14 @@ class Profile:
     pigments: tuple[str, ...]
     brush: BrushDefaults = field(default_factory=BrushDefaults)
     description: str = ""
+    pigment_defs: tuple[Pigment, ...] = ()
+    source: str = ""  # the file it was read from
 
 
-_WATERCOLOR = SimParams()
-
-PROFILES: dict[str, Profile] = {
-    "watercolor": Profile(
-        name="watercolor",
-        params=_WATERCOLOR,
-        paper="cold-press",
-        renderer="km",
-        pigments=(
-            "French Ultramarine", "Cerulean Blue", "Hansa Yellow", "Cadmium Yellow",
-            "Quinacridone Rose", "Cadmium Red", "Indian Red", "Burnt Umber",
-            "Phthalo Green", "Hookers Green", "Brilliant Orange", "Interference Lilac",
-            "Black",
-        ),
-        brush=BrushDefaults(),
-        description="transparent glazes (Kubelka-Munk), cold-press paper",
-    ),
-    # Gouache (seed 6.3.2): thicker (higher viscosity, slower diffusion), stays on the
-    # surface (little absorption), more pigment per stamp, opaque blend with white.
-    "gouache": Profile(
-        name="gouache",
-        params=_WATERCOLOR.replace(
-            viscosity=2.0, nu_w=0.1, nu_p=0.05, alpha=0.005, height_gain=20.0,
-            eps_shallow=0.008,
-        ),
-        paper="hot-press",
-        renderer="gouache",
-        pigments=(
-            "Titanium White", "French Ultramarine", "Cadmium Yellow", "Cadmium Red",
-            "Quinacridone Rose", "Phthalo Green", "Burnt Umber", "Black",
-        ),
-        brush=BrushDefaults(radius=6.0, water=0.4, pigment_load=1.0, pigment="Titanium White",
-                            amount=0.3),
-        description="opaque concentration blend with a white pigment, hot-press paper",
-    ),
-    # Oriental ink (seed 6.3.3): rough absorbent paper (higher absorption, faster
-    # capillary spread) with a felt of long fibres the ink runs along (fibre_wick: the
-    # contact line is not pinned along a fibre; MoXi's fibre feathering) and a dense black
-    # pigment; the diffusion controller blocks pigment on paper fibres (low h).
-    "ink": Profile(
-        name="ink",
-        params=_WATERCOLOR.replace(
-            alpha=0.05, cap_diffusion=3.0, moist_threshold=0.15, nu_p=0.8,
-            block_paper=0.7, eps_cap=0.006, flow_outward=0.0, surface_rate=0.5,
-            fibre_wick=1.0,
-        ),
-        paper="rough",
-        renderer="km",
-        pigments=("Sumi Ink", "Black"),
-        brush=BrushDefaults(radius=4.0, water=0.6, pigment_load=0.6, pigment="Sumi Ink"),
-        description="rough absorbent paper, dense black ink, diffusion controller",
-    ),
-}
-
-
-def get_profile(name: str) -> Profile:
-    """The profile called ``name``; unknown names raise :class:`CanvasInputError`."""
-    try:
-        return PROFILES[name]
-    except KeyError:
-        raise CanvasInputError(
-            f"unknown profile {name!r} (known: {', '.join(sorted(PROFILES))})", "--profile"
-        ) from None
+def __getattr__(name: str) -> Any:
+    """``PROFILES`` and ``get_profile`` live in :mod:`station.canvas.profiles` (profiles
+    are data files read with lxml); the old names stay importable from here."""
+    if name in ("PROFILES", "get_profile"):
+        profiles = importlib.import_module("station.canvas.profiles")
+        return getattr(profiles, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -39,6 +39,8 @@ CHANGED: tiles.HALO = 2 (was 1): a dry cell next to a wet one can join the wet a
 NOTE (API): ``stencil_radius(params) = jacobi_iters + STENCIL_RADIUS_EXTRA`` bounds how far
   one step reaches (the distributed canvas's halo); a term that reaches farther must raise
   ``STENCIL_RADIUS_EXTRA`` (``tests/test_stencil_radius.py`` measures it).
+CHANGED: pass 3 adds the tilt's gravity ``(ax dt, ay dt)`` after the blend, before the
+  boundary (new SimParams ``tilt``, ``tilt_direction``, ``gravity``; flat by default).
 NOTE (API): ``PASS_ORDER`` names the passes; ``step_region(state, box, dt, stop_after=name)``
   writes the fields back right after pass ``name`` (pass-by-pass comparisons).
 NOTE (no maths change): pass 1 computes the bilinear weight from the displacement,
@@ -84,7 +86,9 @@ the same float32 value on both sides).
    order (offset -R first), cells outside the region 0. For each wet cell, neighbour
    heights (of P) ``wE = P[y,x+1]`` if face E is open else ``w[y,x]`` (same for W, N, S);
    ``vh = -height_gain * ((wE - wW)/2, (wS - wN)/2)``;
-   ``v <- (1 - omega_h) v + omega_h vh``; boundary (no flow into non-wet cells or
+   ``v <- (1 - omega_h) v + omega_h vh``; then the tilt (``tilt_kick``: float32
+   ``(ax dt, ay dt)`` of ``SimParams.tilt_acceleration``) is added to each component
+   where it is nonzero (a flat canvas adds nothing); boundary (no flow into non-wet cells or
    the border): face E closed -> ``vx = min(vx, 0)``, face W closed -> ``vx = max(vx, 0)``,
    face S closed -> ``vy = min(vy, 0)``, face N closed -> ``vy = max(vy, 0)``;
    then clamp each component to [-v_max, v_max]; non-wet cells 0.
@@ -378,9 +382,17 @@ def diffuse_velocity(vx: np.ndarray, vy: np.ndarray, wet: np.ndarray, prm: SimPa
     return res[0], res[1]
 
 
+def tilt_kick(prm: SimParams, dt: float) -> tuple[np.float32, np.float32]:
+    """The velocity a tilted canvas adds to wet cells in one step, float32 (x, y) [cell/s]."""
+    ax, ay = prm.tilt_acceleration()
+    return F32(ax * dt), F32(ay * dt)
+
+
 def water_height_and_boundary(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, wet: np.ndarray,
-                              prm: SimParams) -> tuple[np.ndarray, np.ndarray]:
-    """Pass 3: blend in the water-height velocity, then the no-penetration boundary."""
+                              prm: SimParams, dt: float | None = None
+                              ) -> tuple[np.ndarray, np.ndarray]:
+    """Pass 3: blend in the water-height velocity and the tilt's gravity, then the
+    no-penetration boundary (``dt`` defaults to ``prm.dt``)."""
     ox, oy = open_faces(wet)
     w_e = w.copy()
     w_e[:, :-1] = np.where(ox, w[:, 1:], w[:, :-1])
@@ -395,6 +407,11 @@ def water_height_and_boundary(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, wet
     oi = F32(1.0 - prm.omega_h)
     nvx = oi * vx + oh * (g * (w_e - w_w))
     nvy = oi * vy + oh * (g * (w_s - w_n))
+    gx, gy = tilt_kick(prm, prm.dt if dt is None else dt)
+    if gx != 0:  # flat canvas: no addition at all (x + 0 would turn -0.0 into +0.0)
+        nvx = nvx + gx
+    if gy != 0:
+        nvy = nvy + gy
     e_open = np.zeros(wet.shape, bool)
     e_open[:, :-1] = ox
     w_open = np.zeros(wet.shape, bool)
@@ -642,7 +659,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
             vx, vy = diffuse_velocity(vx, vy, wet, prm, dt)
         elif name == "water_height_and_boundary":
             pr = flow_pressure(w, own_wet(w, wc, mask, prm), wet, h, prm)
-            vx, vy = water_height_and_boundary(vx, vy, pr, wet, prm)
+            vx, vy = water_height_and_boundary(vx, vy, pr, wet, prm, dt)
         elif name == "diffuse_water":
             w = diffuse_water(w, wet, prm, dt)
         elif name == "diffuse_pigment":

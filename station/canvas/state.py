@@ -38,7 +38,8 @@ import numpy as np
 
 from station.canvas.palette import Palette, Pigment, default_palette
 from station.canvas.paper import make_fibres
-from station.canvas.params import CanvasInputError, SimParams, get_profile
+from station.canvas.params import CanvasInputError, SimParams
+from station.canvas.profiles import get_profile
 from station.durable import atomic_write
 
 STATE_VERSION = 1

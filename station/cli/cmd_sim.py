@@ -65,7 +65,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.canvas.params import get_profile
+    from station.canvas.profiles import get_profile
     from station.sim.live import LiveConfig, LiveSim
 
     size = parse_size(args.size) if args.size else None

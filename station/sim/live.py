@@ -73,6 +73,7 @@ from station.sim.journal import (
     record_line,
 )
 from station.sim.player import SessionPlayer
+from station.sim.undo import UndoHistory
 from station.wire import Heartbeat
 
 log = logging.getLogger(__name__)
@@ -197,6 +198,9 @@ class LiveCore:
             start.profile if start is not None else cfg.profile)
         self.player = SessionPlayer(self.canvas, cfg.width, cfg.height, profile,
                                     rate=cfg.rate, pigments=default_palette())
+        # undo/redo of strokes (the kiosk's button, the undo/redo commands); it reaches
+        # back to the strokes made since this process started or recovered
+        self.history = UndoHistory(self.player)
         if session:
             self._restore(session)
         elif start is not None:
@@ -541,6 +545,7 @@ class LiveCore:
             "autosave": str(self.autosave_path), "autosaves": c.autosaves,
             "storage_failures": self.report.failures,
             "storage_problems": dict(self.report.problems),
+            "undo": self.history.status(),
             **p.brush_counters(),
         }
 

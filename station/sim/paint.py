@@ -34,6 +34,7 @@ from station.events import Command, PenSample
 from station.progress import Progress
 from station.sessionlog import SessionHeader, SessionLogReader
 from station.sim.player import MAX_PAINTING_SECONDS, MAX_RATE, SessionPlayer
+from station.sim.undo import UndoHistory, log_mentions_undo
 
 log = logging.getLogger(__name__)
 
@@ -235,7 +236,7 @@ def paint(
     ``exc.result``).
     """
     from station.canvas.palette import default_palette
-    from station.canvas.params import get_profile
+    from station.canvas.profiles import get_profile
 
     if bits not in (8, 16):
         raise PaintInputError(f"--bits {bits} must be 8 or 16", "--bits")
@@ -286,6 +287,8 @@ def paint(
                                brush_scale=scale)
         if start is not None:
             player.layer_pigments.update(start.slots)
+        if log_mentions_undo(input_path):  # undos replay against the strokes they undo
+            UndoHistory(player)
         root = bool(getattr(canvas, "is_root", True))  # a distributed canvas: rank 0 shows it
         bar = Progress(_session_length(input_path) + settle, "painting", unit="s",
                        show=progress if root else False)
@@ -353,7 +356,7 @@ def write_outputs(canvas: Any, result: PaintResult, out_png: str | None,
 
     A distributed canvas gathers on every rank (collective calls) and its root writes.
     """
-    from station.canvas.params import get_profile
+    from station.canvas.profiles import get_profile
     from station.canvas.upscale import render_scaled
 
     root = bool(getattr(canvas, "is_root", True))

@@ -25,6 +25,7 @@ stops there, so the caller can still save what was painted.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from collections.abc import Callable, Container, Iterable, Mapping
@@ -35,11 +36,18 @@ from station.brush.deformable import DeformableBrush
 from station.brush.reservoir import pickup
 from station.brush.solver import SolverCounters
 from station.brush.stamp import STAMP_KIND, BrushModel, BrushSettings, RoundBrush
-from station.canvas.params import PROFILES, Profile, get_profile
+from station.canvas.numpy_backend import NumpyCanvas
+from station.canvas.params import Profile
+from station.canvas.profiles import get_profile, profile_names
 from station.canvas.state import DEFAULT_SLOTS
 from station.canvas.tools import HairDryer, blow, on_state
 from station.errors import BadInput
 from station.events import Command, PenSample, Tool
+from station.tools import diffusion as diffusion_tool
+from station.tools import eraser as eraser_tool
+from station.tools import mask as mask_tool
+from station.tools import tissue as tissue_tool
+from station.tools import well as well_tool
 
 log = logging.getLogger(__name__)
 
@@ -124,6 +132,20 @@ class SessionPlayer:
         self.waited = 0.0  # painting seconds inserted by wait commands
         self.last_t = 0.0  # session time of the last record applied
         self._warned: set[str] = set()
+        # the tool in the painter's hand instead of the brush (None: the brush)
+        self.tool: str | None = None
+        self.controller: diffusion_tool.Controller | None = None  # the brush writes it
+        self._controller_field: Any = None
+        self._controller_count = 0
+        self.history: Any = None  # an undo.UndoHistory when undo is wanted
+        self.well: well_tool.MixingWell | None = None  # the palette's mixing well
+        self.tilt = (0.0, 90.0)  # canvas tilt (angle, direction) [deg]; kept across profiles
+        self.mask_radius = 6.0
+        self.eraser = eraser_tool.Eraser()
+        self.tissue = tissue_tool.Tissue()
+        self._tissue_tex: Any = None
+        self._dab: Any = None  # cells the previous dab / this press hit
+        self._tool_last: tuple[float, float] | None = None  # the tool's last dab [cells]
 
     # -- time ------------------------------------------------------------------
     @property
@@ -180,12 +202,79 @@ class SessionPlayer:
         """Apply one record now (no time advance: see :meth:`play`)."""
         self.last_t = max(self.last_t, record.t)
         if isinstance(record, PenSample):
+            if self.history is not None:
+                self.history.before(record)
             self.counters.samples += 1
-            if record.touching and record.tool is not Tool.ERASER:
+            tool = "eraser" if record.tool is Tool.ERASER else self.tool
+            if tool is not None:
+                self._tool_sample(tool, record, where)
+                if record.tool is not Tool.ERASER:  # the brush sees the pen hovering
+                    record = dataclasses.replace(record, touching=False, pressure=0.0)
+            elif record.touching:
                 self._check_layer(where)
+                if self.controller is not None:
+                    self._write_controller(record)
             self.brush.feed(record)
         else:
             self.command(record, where)
+
+    def _write_controller(self, rec: PenSample) -> None:
+        """Every ``interval``-th touching brush sample writes the controller's pattern under
+        the brush (its radius at full size)."""
+        ctrl = self.controller
+        if ctrl is None:
+            return
+        self._controller_count += 1
+        if (self._controller_count - 1) % ctrl.interval:
+            return
+        if self._controller_field is None:
+            self._controller_field = ctrl.field(self.height, self.width)
+        field = self._controller_field
+        cx, cy = rec.x * self.width, rec.y * self.height
+        radius = max(self.brush.settings.size / 2.0, 0.5)
+        on_state(self.backend, lambda st: diffusion_tool.write(st, field, ctrl.strength, cx, cy,
+                                                               radius))
+
+    def _tool_sample(self, tool: str, rec: PenSample, where: str | None) -> None:
+        """A pen sample with a tool in hand: a dab where the pen touches, the press ends
+        (and with it the cells marked as hit) where it lifts."""
+        if not rec.touching:
+            self._dab = None
+            self._tool_last = None
+            return
+        self.flush_sources()  # what the brush painted before comes first
+        cx, cy = rec.x * self.width, rec.y * self.height
+        # dabs every third of the tool's radius between two samples, as the brush stamps
+        radius = {"mask": self.mask_radius, "eraser": self.eraser.radius}.get(
+            tool, self.tissue.radius)
+        points = [(cx, cy)]
+        last = self._tool_last
+        if last is not None and tool != "tissue":  # a tissue is pressed, not dragged
+            n = int(math.hypot(cx - last[0], cy - last[1]) / max(radius / 3.0, 0.5))
+            points = [(last[0] + (cx - last[0]) * k / (n + 1),
+                       last[1] + (cy - last[1]) * k / (n + 1)) for k in range(1, n + 2)]
+        self._tool_last = (cx, cy)
+        try:
+            for x, y in points:
+                self._dab_at(tool, x, y, rec.pressure)
+        except BadInput as exc:
+            raise PlayerError(str(exc), where) from None
+
+    def _dab_at(self, tool: str, cx: float, cy: float, pressure: float) -> None:
+        prev = self._dab
+        if tool == "mask":
+            on_state(self.backend, lambda st: mask_tool.paint(st, cx, cy, self.mask_radius))
+        elif tool == "eraser":
+            self._dab = on_state(self.backend, lambda st: eraser_tool.erase(
+                st, self.eraser, cx, cy, pressure, prev))
+        else:  # tissue
+            if self._tissue_tex is None:
+                t = self.tissue
+                self._tissue_tex = tissue_tool.texture(t.kind, self.height, self.width,
+                                                       t.scale, t.seed, t.image)
+            tex = self._tissue_tex
+            self._dab = on_state(self.backend, lambda st: tissue_tool.blot(
+                st, self.tissue, tex, cx, cy, pressure, prev))[1]
 
     def _check_layer(self, where: str | None) -> None:
         names = [k for k, a in self.brush.settings.pigment.items() if a > 0.0]
@@ -204,6 +293,8 @@ class SessionPlayer:
 
     def command(self, cmd: Command, where: str | None = None) -> None:
         name = cmd.cmd
+        if self.history is not None and name in _HANDLERS:
+            self.history.before(cmd)
         handler = _HANDLERS.get(name)
         if handler is None:
             self.counters.skipped_commands[name] = self.counters.skipped_commands.get(name, 0) + 1
@@ -217,6 +308,7 @@ class SessionPlayer:
         self.counters.commands[name] = self.counters.commands.get(name, 0) + 1
 
     def _brush(self, args: Mapping[str, Any], where: str | None) -> None:
+        self.tool = None  # the brush back in hand
         base = self.brush.settings
         unscaled = BrushSettings(base.kind, base.size / self.brush_scale, base.water,
                                  base.pigment)
@@ -275,6 +367,8 @@ class SessionPlayer:
             raise PlayerError(str(exc).removeprefix("--profile: "), where) from None
         prof = get_profile(name)
         self.profile = name
+        if self.tilt[0] != 0.0:
+            _apply_tilt(self)
         # The rate (steps per painting second) stays; a profile with another dt
         # changes how much simulated time a painting second holds.
         self.dt = prof.params.dt
@@ -339,9 +433,13 @@ class SessionPlayer:
 
 def _profile_name(args: Mapping[str, Any], where: str | None) -> str:
     name = args.get("name")
-    if not isinstance(name, str) or name not in PROFILES:
-        raise PlayerError(f"unknown profile {name!r} (one of {', '.join(sorted(PROFILES))})",
-                          where)
+    if not isinstance(name, str):
+        raise PlayerError(f"profile name {name!r} must be a string (one of "
+                          f"{', '.join(profile_names())})", where)
+    try:
+        get_profile(name)  # built-in or a user file; a bad file names its line
+    except BadInput as exc:
+        raise PlayerError(str(exc).removeprefix("--profile: "), where) from None
     return name
 
 
@@ -354,6 +452,8 @@ def _wait_seconds(args: Mapping[str, Any], where: str | None) -> float:
     return float(seconds)
 
 
+_SCRATCH_CHECKED = frozenset({"mask", "mask_remove", "eraser", "tissue", "tilt", "diffusion",
+                              "well", "undo", "redo"})
 LIVE_COMMANDS = frozenset({"save", "stop"})
 """Commands only a running simulation executes (``station sim``; never logged)."""
 
@@ -378,6 +478,9 @@ def check_command(cmd: Command, pigments: Container[str] | None = None,
         _profile_name(cmd.args, where)
     elif name == "wait":
         _wait_seconds(cmd.args, where)
+    elif name in _SCRATCH_CHECKED:  # run it on a scratch canvas: the same checks, no effect
+        scratch = SessionPlayer(NumpyCanvas(16, 16), 16, 16)
+        _HANDLERS[name](scratch, cmd.args, where)
 
 
 def _dry(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
@@ -427,7 +530,205 @@ def _clear(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None
     p.layer_pigments.clear()
 
 
+def _tool_number(tool: str, args: Mapping[str, Any], key: str, default: float, lo: float,
+                 hi: float, where: str | None) -> float:
+    v = args.get(key, default)
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
+            or not lo <= v <= hi:
+        raise PlayerError(f"{tool} {key} {v!r:.40} must be a number in [{lo:g}, {hi:g}]",
+                          where)
+    return float(v)
+
+
+def _check_keys(tool: str, args: Mapping[str, Any], known: set[str], where: str | None) -> None:
+    extra = sorted(set(args) - known)
+    if extra:
+        raise PlayerError(f"{tool}: unknown argument {extra[0]!r} (known: "
+                          f"{', '.join(sorted(known))})", where)
+
+
+_AT = {"x", "y", "pressure"}
+
+
+def _pick_up(p: SessionPlayer, tool: str, args: Mapping[str, Any], where: str | None) -> None:
+    """Take ``tool`` in hand; with ``x``/``y`` (canvas-normalised) also dab once there."""
+    p.flush_sources()
+    p.tool = tool
+    p._dab = None
+    p._tool_last = None
+    if "x" in args or "y" in args:
+        x = _tool_number(tool, args, "x", 0.5, 0.0, 1.0, where)
+        y = _tool_number(tool, args, "y", 0.5, 0.0, 1.0, where)
+        pr = _tool_number(tool, args, "pressure", 1.0, 0.0, 1.0, where)
+        try:
+            p._dab_at(tool, x * p.width, y * p.height, pr)
+        except BadInput as exc:
+            raise PlayerError(str(exc), where) from None
+        p._dab = None
+
+
+def _mask(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+    """Masking fluid: ``size`` (diameter, cells of the session's canvas)."""
+    _check_keys("mask", args, {"size"} | _AT, where)
+    if "size" in args:
+        p.mask_radius = _tool_number("mask", args, "size", 12, 1, 1024, where) * \
+            p.brush_scale / 2.0
+    _pick_up(p, "mask", args, where)
+
+
+def _mask_remove(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+    _check_keys("mask_remove", args, set(), where)
+    p.flush_sources()
+    on_state(p.backend, mask_tool.rub_off)
+
+
+def _eraser(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+    """The selective eraser: ``fields`` (list), ``fraction``, ``size`` (diameter)."""
+    _check_keys("eraser", args, {"fields", "fraction", "size"} | _AT, where)
+    e = p.eraser
+    fields = args.get("fields", list(e.fields))
+    if not isinstance(fields, list) or not all(isinstance(f, str) for f in fields):
+        raise PlayerError("eraser fields must be a list of strings", where)
+    frac = _tool_number("eraser", args, "fraction", e.fraction, 0.0, 1.0, where)
+    size = _tool_number("eraser", args, "size", 2 * e.radius / p.brush_scale, 1, 1024, where)
+    try:
+        p.eraser = eraser_tool.Eraser(tuple(fields), frac, size * p.brush_scale / 2.0)
+    except BadInput as exc:
+        raise PlayerError(str(exc).removeprefix("eraser: "), where) from None
+    _pick_up(p, "eraser", args, where)
+
+
+def _tissue(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+    """The textured tissue: ``kind`` (crepe, weave, flat), ``scale`` cells, ``seed``,
+    ``size`` (diameter), ``absorb``."""
+    _check_keys("tissue", args, {"kind", "scale", "seed", "size", "absorb"} | _AT, where)
+    t = p.tissue
+    kind = args.get("kind", t.kind)
+    if kind not in tissue_tool.KINDS:
+        raise PlayerError(f"tissue kind {kind!r:.40} must be one of "
+                          f"{', '.join(tissue_tool.KINDS)}", where)
+    seed = args.get("seed", t.seed)
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32:
+        raise PlayerError(f"tissue seed {seed!r:.40} must be an integer in [0, 2^32)", where)
+    scale = _tool_number("tissue", args, "scale", t.scale, 1, 256, where)
+    size = _tool_number("tissue", args, "size", 2 * t.radius / p.brush_scale, 1, 1024, where)
+    absorb = _tool_number("tissue", args, "absorb", t.absorb, 0, 1, where)
+    new = tissue_tool.Tissue(kind, scale * p.brush_scale, seed, None,
+                             size * p.brush_scale / 2.0, absorb)
+    if (new.kind, new.scale, new.seed) != (t.kind, t.scale, t.seed):
+        p._tissue_tex = None
+    p.tissue = new
+    _pick_up(p, "tissue", args, where)
+
+
+def _tilt(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+    """Tilt the canvas: ``angle`` from the horizontal [deg, 0 ... 90], ``direction`` of
+    the downhill slope on the canvas [deg from +x towards +y; 90 = towards the bottom]."""
+    _check_keys("tilt", args, {"angle", "direction"}, where)
+    angle = _tool_number("tilt", args, "angle", 0.0, 0.0, 90.0, where)
+    direction = _tool_number("tilt", args, "direction", 90.0, 0.0, 359.999, where)
+    p.flush_sources()
+    p.tilt = (angle, direction)
+    _apply_tilt(p)
+
+
+def _apply_tilt(p: SessionPlayer) -> None:
+    angle, direction = p.tilt
+
+    def put(st: Any) -> None:
+        st.params = st.params.replace(tilt=angle, tilt_direction=direction)
+
+    on_state(p.backend, put)
+
+
+def _diffusion(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+    """The diffusion controller: while on, the brush writes ``pattern`` (``stripes``,
+    ``rings``, ``dots``, ``checks``; ``off`` stops it) of ``period`` cells at ``angle``
+    degrees with ``strength`` every ``interval`` touching samples along its strokes."""
+    _check_keys("diffusion", args, {"pattern", "period", "angle", "strength", "interval",
+                                    "fade"}, where)
+    if "fade" in args:  # how long a written pattern takes to age back to free [s]
+        fade = _tool_number("diffusion", args, "fade", 2.0, 0.0, 3600.0, where)
+        p.flush_sources()
+
+        def put(st: Any) -> None:
+            st.params = st.params.replace(block_fade=fade)
+
+        on_state(p.backend, put)
+    pattern = args.get("pattern", "stripes")
+    if pattern == "off":
+        p.controller = None
+        return
+    interval = args.get("interval", 1)
+    if isinstance(interval, bool) or not isinstance(interval, int) or not 1 <= interval <= 1000:
+        raise PlayerError(f"diffusion interval {interval!r:.40} must be an integer in "
+                          "[1, 1000]", where)
+    if pattern not in diffusion_tool.PATTERNS:
+        raise PlayerError(f"diffusion pattern {pattern!r:.40} must be off or one of "
+                          f"{', '.join(diffusion_tool.PATTERNS)}", where)
+    period = _tool_number("diffusion", args, "period", 4.0, 2.0, 512.0, where) * p.brush_scale
+    p.controller = diffusion_tool.Controller(
+        pattern, max(period, 2.0), _tool_number("diffusion", args, "angle", 0.0, -360, 360, where),
+        _tool_number("diffusion", args, "strength", 1.0, 0.0, 1.0, where), interval)
+    p._controller_field = None
+    p._controller_count = 0
+
+
+def _undo(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+    """Undo the newest stroke or dab (``station.sim.undo``); nothing to undo: counted."""
+    _check_keys("undo", args, set(), where)
+    if p.history is None or not p.history.undo():
+        p.counters.skipped_commands["undo"] = p.counters.skipped_commands.get("undo", 0) + 1
+
+
+def _redo(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+    _check_keys("redo", args, set(), where)
+    if p.history is None or not p.history.redo():
+        p.counters.skipped_commands["redo"] = p.counters.skipped_commands.get("redo", 0) + 1
+
+
+def _well(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+    """The palette's mixing well: ``add`` a pigment (``amount`` of tube strength, ``water``,
+    ``settle`` seconds of mixing), ``pick`` the mix up with the brush, or ``clear`` it."""
+    _check_keys("well", args, {"add", "amount", "water", "settle", "pick", "clear"}, where)
+    if p.well is None:
+        prof = get_profile(p.profile)
+        p.well = well_tool.MixingWell(prof.params, prof.brush.pigment_load)
+    well = p.well
+    if args.get("clear") is True:
+        well.clear()
+    name = args.get("add")
+    if name is not None:
+        if not isinstance(name, str):
+            raise PlayerError(f"well add {name!r:.40} must be a pigment name", where)
+        amount = _tool_number("well", args, "amount", 0.5, 0.0, 1.0, where)
+        water = _tool_number("well", args, "water", 0.6, 0.05, 1.0, where)
+        settle = _tool_number("well", args, "settle", 2.0, 0.0, 60.0, where)
+        try:
+            well_tool.check_room(well, name)
+            well.add(name, amount, water, settle)
+        except BadInput as exc:
+            raise PlayerError(str(exc).removeprefix("well: ").removeprefix("pigment: "),
+                              where) from None
+    if args.get("pick") is True:
+        mix = well.mix()
+        if not mix:
+            raise PlayerError("the well is empty: nothing to pick up", where)
+        b = p.brush.settings
+        p._use(BrushSettings(b.kind, b.size, b.water, mix))
+        p.tool = None
+
+
 _HANDLERS: dict[str, Callable[[SessionPlayer, Mapping[str, Any], str | None], None]] = {
+    "well": _well,
+    "undo": _undo,
+    "redo": _redo,
+    "diffusion": _diffusion,
+    "tilt": _tilt,
+    "mask": _mask,
+    "mask_remove": _mask_remove,
+    "eraser": _eraser,
+    "tissue": _tissue,
     "brush": SessionPlayer._brush,
     "profile": SessionPlayer._profile,
     "wait": SessionPlayer._wait,

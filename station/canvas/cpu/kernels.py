@@ -79,7 +79,9 @@ C_ADV = 24        # advance_height
 C_ETA = 25        # flow_outward
 C_RELIEF = 26     # paper_relief
 C_WICK = 27       # fibre_wick
-N_CONST = 28
+C_TILTX = 28      # tilt kick x: float32(ax * dt)
+C_TILTY = 29      # tilt kick y
+N_CONST = 30
 
 # the sweeps: rows in parallel; IEEE float32 maths exactly as written (no fastmath, no FMA
 # contraction), numpy's error model (division without ZeroDivision checks: every division
@@ -532,6 +534,8 @@ def height_limit(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: np.ndarr
     oh = cst[C_OH]
     oi = cst[C_OI]
     vm = cst[C_VMAX]
+    tgx = cst[C_TILTX]
+    tgy = cst[C_TILTY]
     for j in prange(1, bh + 1):
         wr, wn, ws = wet[j], wet[j - 1], wet[j + 1]
         # the velocity after pass 2 (last Jacobi iteration, or the iterate as it is)
@@ -557,6 +561,8 @@ def height_limit(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: np.ndarr
             w_n = pr[j - 1, i] if bn != ZERO else wc_
             nvx = oi * vx0 + oh * (g * (w_e - w_w))
             nvy = oi * vy0 + oh * (g * (w_s - w_n))
+            nvx = nvx + tgx if tgx != ZERO else nvx
+            nvy = nvy + tgy if tgy != ZERO else nvy
             nvx = nvx if be != ZERO else (nvx if nvx < ZERO else ZERO)
             nvx = nvx if bwf != ZERO else (nvx if nvx > ZERO else ZERO)
             nvy = nvy if bs != ZERO else (nvy if nvy < ZERO else ZERO)

@@ -36,7 +36,8 @@ import numpy as np
 
 from station.canvas import operations, reference
 from station.canvas.palette import Palette
-from station.canvas.params import CanvasInputError, SimParams, get_profile
+from station.canvas.params import CanvasInputError, SimParams
+from station.canvas.profiles import get_profile, profile_palette
 from station.canvas.render import WHITE_K, WHITE_S, _coefficients
 from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
 from station.canvas.stats import canvas_stats
@@ -94,7 +95,8 @@ class GLCanvas:
 
         h = make_paper(preset, height, width, seed)
         blank = CanvasState.blank(width, height, prm, h, profile=prof.name,
-                                  paper_preset=preset, seed=seed, palette=palette,
+                                  paper_preset=preset, seed=seed,
+                                  palette=palette or profile_palette(prof),
                                   n_slots=n_slots, tiling=tiling)
         self._own_ctx = ctx is None
         self.ctx = create_context(gl_backend) if ctx is None else ctx
@@ -454,6 +456,7 @@ class GLCanvas:
         _set(p["limit"], "u_omega_i", float(F32(1.0 - prm.omega_h)))
         _set(p["limit"], "u_half_gain", float(F32(-0.5 * prm.height_gain)))
         _set(p["limit"], "u_vmax", prm.v_max)
+        _set(p["limit"], "u_tilt", [float(x) for x in reference.tilt_kick(prm, dt)])
         q4 = float(F32(0.25 * dt))
         for name in ("advect_limit", "advect_apply"):
             _set(p[name], "u_q4", q4)

@@ -1,0 +1,290 @@
+"""Undo and redo of whole strokes and tool dabs under a live simulation (issue 14, item 7).
+
+The paint goes on moving after a stroke, so undo cannot just paste an old picture back:
+it restores the canvas *as it would be now had the stroke never been made*. It does so by
+checkpoints and deterministic replay. Before the first record of every undoable unit the
+history keeps a checkpoint: the canvas state (pigment planes of the used slots only) and a
+deep copy of the player (brush, reservoir, pending stamps, tool settings, clocks). Undo of
+a unit restores the checkpoint taken before it and replays every later record, without the
+unit's, through the same player, up to the step the session had reached; the later units'
+checkpoints are taken afresh on the way. Replay is the session player's own, so the result
+is bit-identical (CPU backends) to a session in which the stroke was never made (tested).
+Redo puts the unit's records back where they were and replays the same way; a new unit
+clears the redo stack.
+
+Units: a pen stroke (a device's touching samples up to and including its lift, whatever
+the tool in hand: brush, masking fluid, eraser, tissue) or a one-dab tool command
+(``tissue``/``eraser``/``mask`` with ``x``/``y``). Other records (hovering samples,
+``brush``, ``wait``, ``profile`` ...) are never undone; they stay in place and replay.
+
+Bounded memory: at most ``limit`` units (default :data:`DEFAULT_LIMIT` = 20) and at most
+``budget`` bytes of checkpoints (default :data:`DEFAULT_BUDGET` = 512 MiB) are kept,
+undo and redo stacks together; the oldest checkpoint goes first and its unit can no
+longer be undone. A checkpoint holds ``(10 + 3 S) H W + 3 H W`` float32 values (S pigments
+in the layer): 44 MB for 800x600 with 3 pigments, so about 11 strokes fit the default
+budget there; a 256x192 canvas keeps all 20.
+
+API (the kiosk's undo button): ``hist = UndoHistory(player)`` attaches itself to the
+player (``player.history``); from then on every record the player applies is recorded;
+``hist.can_undo()`` / ``hist.can_redo()`` say whether the buttons are live,
+``hist.undo()`` / ``hist.redo()`` act (``True`` when something was undone/redone) and
+:meth:`UndoHistory.status` gives depth, limit and bytes for a status line. The
+session-log commands ``undo`` and ``redo`` call the same methods, so a logged session
+replays its undos exactly.
+"""
+
+from __future__ import annotations
+
+import copy
+import logging
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from station.canvas.state import CanvasState
+from station.events import Command, PenSample
+
+if TYPE_CHECKING:
+    from station.sim.player import SessionPlayer
+
+log = logging.getLogger(__name__)
+
+DEFAULT_LIMIT = 20
+DEFAULT_BUDGET = 512 << 20
+DAB_COMMANDS = frozenset({"tissue", "eraser", "mask"})
+_SHARED = ("backend", "history", "pigments")  # player attributes a checkpoint does not copy
+_STACKS = ("p", "q", "removed_p")
+
+Record = PenSample | Command
+
+
+@dataclass
+class Checkpoint:
+    """The canvas and the player just before a unit's first record."""
+
+    state: CanvasState  # pigment stacks cut to the used slots
+    n_slots: int
+    player: dict[str, Any]
+    nbytes: int
+
+
+@dataclass
+class Unit:
+    """One undoable stroke or dab: its records' ids and the checkpoint before it."""
+
+    uid: int
+    checkpoint: Checkpoint | None
+    records: list[int] = field(default_factory=list)  # ids into UndoHistory._recs
+
+
+def _pack(state: CanvasState) -> tuple[CanvasState, int]:
+    ns = state.n_slots
+    used = max(len(state.slots), 1)
+    for name in _STACKS:
+        setattr(state, name, np.ascontiguousarray(getattr(state, name)[:used]))
+    return state, ns
+
+
+def _unpack(cp: Checkpoint) -> CanvasState:
+    st = cp.state.copy()
+    for name in _STACKS:
+        a = getattr(st, name)
+        full = np.zeros((cp.n_slots, *a.shape[1:]), np.float32)
+        full[: a.shape[0]] = a
+        setattr(st, name, full)
+    return st
+
+
+def _state_bytes(st: CanvasState) -> int:
+    return sum(v.nbytes for v in vars(st).values() if isinstance(v, np.ndarray))
+
+
+class UndoHistory:
+    """Undo/redo for one :class:`SessionPlayer` (see the module docstring)."""
+
+    def __init__(self, player: SessionPlayer, limit: int = DEFAULT_LIMIT,
+                 budget: int = DEFAULT_BUDGET) -> None:
+        if limit < 1 or budget < 1:
+            raise ValueError("undo limit and budget must be positive")
+        self.player = player
+        self.limit = int(limit)
+        self.budget = int(budget)
+        self._recs: dict[int, Record] = {}
+        self._order: list[int] = []  # record ids in session order (undone units left out)
+        self._unit_of: dict[int, int] = {}  # record id -> unit id
+        self._units: dict[int, Unit] = {}
+        self._done: list[int] = []  # undoable unit ids, oldest first
+        self._redo: list[tuple[Unit, list[int]]] = []  # (unit, its record positions)
+        self._open: dict[str, int] = {}  # device -> unit id of its stroke in progress
+        self._next = 0
+        self._uids = 0
+        self.replaying = False
+        self.undone = 0
+        self.redone = 0
+        self.replayed_steps = 0
+        player.history = self
+
+    # -- recording -----------------------------------------------------------------
+    def before(self, rec: Record) -> None:
+        """Called by the player just before it applies ``rec``."""
+        if self.replaying or (isinstance(rec, Command) and rec.cmd in ("undo", "redo")):
+            return
+        uid = self._unit_for(rec)
+        rid = self._next
+        self._next += 1
+        self._recs[rid] = rec
+        self._order.append(rid)
+        if uid is not None:
+            self._unit_of[rid] = uid
+            self._units[uid].records.append(rid)
+
+    def _unit_for(self, rec: Record) -> int | None:
+        if isinstance(rec, PenSample):
+            uid = self._open.get(rec.device)
+            if rec.touching:
+                if uid is None:
+                    uid = self._start_unit()
+                    self._open[rec.device] = uid
+                return uid
+            if uid is not None:  # the lift ends the stroke and belongs to it
+                del self._open[rec.device]
+            return uid
+        if rec.cmd in DAB_COMMANDS and ("x" in rec.args or "y" in rec.args):
+            return self._start_unit()
+        return None
+
+    def _start_unit(self) -> int:
+        self._redo.clear()
+        uid = self._next_uid()
+        self._units[uid] = Unit(uid, self._checkpoint())
+        self._done.append(uid)
+        self._trim()
+        return uid
+
+    def _next_uid(self) -> int:
+        self._uids += 1
+        return self._uids
+
+    def _checkpoint(self) -> Checkpoint:
+        p = self.player
+        st, ns = _pack(p.backend.state())
+        memo = {id(getattr(p, k)): getattr(p, k) for k in _SHARED if hasattr(p, k)}
+        snap = {k: copy.deepcopy(v, memo) for k, v in vars(p).items() if k not in _SHARED}
+        return Checkpoint(st, ns, snap, _state_bytes(st))
+
+    def _trim(self) -> None:
+        """Drop the oldest checkpoints beyond the limit or the byte budget."""
+        def held() -> list[Unit]:
+            return [self._units[u] for u in self._done if self._units[u].checkpoint] + [
+                u for u, _ in self._redo if u.checkpoint]
+
+        while True:
+            kept = held()
+            total = sum(u.checkpoint.nbytes for u in kept if u.checkpoint)
+            if len(kept) <= self.limit and (total <= self.budget or len(kept) <= 1):
+                return
+            oldest = self._units[self._done[0]]
+            oldest.checkpoint = None  # no longer undoable; its records stay for good
+            self._done.pop(0)
+
+    # -- undo / redo ---------------------------------------------------------------
+    def can_undo(self) -> bool:
+        return any(self._units[u].checkpoint is not None for u in self._done)
+
+    def can_redo(self) -> bool:
+        return bool(self._redo)
+
+    def undo(self) -> bool:
+        """Undo the newest unit still undoable; ``False`` when there is none."""
+        if not self.can_undo():
+            return False
+        unit = self._units[self._done.pop()]
+        for dev, uid in list(self._open.items()):
+            if uid == unit.uid:
+                del self._open[dev]
+        positions = [self._order.index(r) for r in unit.records]
+        start = positions[0] if positions else len(self._order)
+        for r in unit.records:
+            self._order.remove(r)
+        self._redo.append((unit, positions))
+        self._rewind(unit, start)
+        self.undone += 1
+        return True
+
+    def redo(self) -> bool:
+        """Redo the unit undone last; ``False`` when there is none."""
+        if not self._redo:
+            return False
+        unit, positions = self._redo.pop()
+        for pos, rid in zip(positions, unit.records, strict=True):
+            self._order.insert(pos, rid)
+        self._done.append(unit.uid)
+        self._done.sort(key=lambda u: self._first_pos(u))
+        start = positions[0] if positions else len(self._order)
+        self._rewind(unit, start)
+        self.redone += 1
+        return True
+
+    def _first_pos(self, uid: int) -> int:
+        recs = self._units[uid].records
+        return self._order.index(recs[0]) if recs and recs[0] in self._order else -1
+
+    def _rewind(self, unit: Unit, start: int) -> None:
+        """Restore ``unit``'s checkpoint and replay ``_order[start:]`` to the present step."""
+        cp = unit.checkpoint
+        if cp is None:  # cannot happen for units in _done/_redo (trim drops them)
+            raise RuntimeError("undo unit without a checkpoint")
+        p = self.player
+        target = p.counters.steps
+        p.backend.load_state(_unpack(cp))
+        memo = {id(getattr(p, k)): getattr(p, k) for k in _SHARED if hasattr(p, k)}
+        for k, v in cp.player.items():
+            setattr(p, k, copy.deepcopy(v, memo))
+        self.replaying = True
+        steps0 = p.counters.steps
+        try:
+            for rid in self._order[start:]:
+                rec = self._recs[rid]
+                uid = self._unit_of.get(rid)
+                p.advance_to(rec.t)
+                if uid is not None and self._units[uid].records[0] == rid and (
+                        uid in self._done or uid == unit.uid):
+                    self._units[uid].checkpoint = self._checkpoint()
+                p.apply(rec)
+                if isinstance(rec, Command) and rec.cmd == "wait":
+                    p.advance_to(rec.t)
+            while p.counters.steps < target:
+                p.step()
+        finally:
+            self.replaying = False
+        self.replayed_steps += p.counters.steps - steps0
+        self._trim()
+
+    def status(self) -> dict[str, Any]:
+        """Depth of both stacks, the limits and the bytes held (for a status line)."""
+        held = [self._units[u].checkpoint for u in self._done] + [u.checkpoint for u, _ in
+                                                                   self._redo]
+        return {"undo_depth": sum(1 for u in self._done if self._units[u].checkpoint),
+                "redo_depth": len(self._redo), "limit": self.limit, "budget": self.budget,
+                "bytes": sum(c.nbytes for c in held if c is not None),
+                "undone": self.undone, "redone": self.redone,
+                "replayed_steps": self.replayed_steps}
+
+
+def log_mentions_undo(path: str, chunk: int = 1 << 20) -> bool:
+    """Whether a session log may hold ``undo``/``redo`` commands (a byte search, so a
+    replay knows to keep an undo history from its first record)."""
+    tail = b""
+    try:
+        with open(path, "rb") as f:
+            while True:
+                block = f.read(chunk)
+                if not block:
+                    return False
+                data = tail + block
+                if b'"undo"' in data or b'"redo"' in data:
+                    return True
+                tail = data[-8:]
+    except OSError:
+        return False

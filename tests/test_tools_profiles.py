@@ -1,0 +1,137 @@
+"""Paint profiles as XML data (issue 14, item 5): built-ins reproduce the old code values,
+files round-trip, user profiles switch mid-painting, bad files name element and line."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from station.canvas.backend import create_backend
+from station.canvas.errors import CanvasInputError
+from station.canvas.palette import default_palette
+from station.canvas.params import SimParams
+from station.canvas.profiles import (
+    PROFILES,
+    get_profile,
+    load_profile_file,
+    parse_profile,
+    profile_palette,
+    profile_xml,
+)
+from station.cli import main
+
+# The values the profiles had as code before they became files (params.py, issue 14).
+OLD = {
+    "watercolor": SimParams(),
+    "gouache": SimParams().replace(viscosity=2.0, nu_w=0.1, nu_p=0.05, alpha=0.005,
+                                   height_gain=20.0, eps_shallow=0.008),
+    "ink": SimParams().replace(alpha=0.12, cap_diffusion=3.0, moist_threshold=0.15, nu_p=0.8,
+                               block_paper=0.7, eps_cap=0.006, flow_outward=0.0,
+                               surface_rate=0.5),
+}
+
+
+def test_builtin_files_reproduce_the_old_parameters_exactly() -> None:
+    for name, prm in OLD.items():
+        assert PROFILES[name].params == prm
+    assert PROFILES["gouache"].brush.pigment_load == 1.0
+    assert PROFILES["ink"].paper == "rough" and PROFILES["gouache"].renderer == "gouache"
+    pal = default_palette()
+    for prof in PROFILES.values():
+        for p in prof.pigment_defs:  # K, S, staining ... equal the packaged tables
+            assert pal.get(p.name) == p
+        assert profile_palette(prof) is pal
+
+
+@pytest.mark.parametrize("name", ["watercolor", "gouache", "ink"])
+def test_profile_round_trips_through_xml(name: str) -> None:
+    prof = PROFILES[name]
+    back = parse_profile(profile_xml(prof), "mem")
+    assert back.params == prof.params and back.pigment_defs == prof.pigment_defs
+    assert (back.brush, back.paper, back.renderer, back.pigments) == (
+        prof.brush, prof.paper, prof.renderer, prof.pigments)
+
+
+def _user(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, name: str, text: str) -> Path:
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path))
+    d = tmp_path / "station" / "profiles"
+    d.mkdir(parents=True, exist_ok=True)
+    f = d / f"{name}.xml"
+    f.write_text(text)
+    return f
+
+
+WET = """<?xml version="1.0"?>
+<profile name="wet" renderer="km">
+  <paper preset="hot-press" alpha="0.001"/>
+  <fluid nu_p="0.9" eps_shallow="0.0"/>
+  <palette>
+    <pigment name="French Ultramarine"/>
+    <pigment name="Mars Violet" K="0.5 1.2 0.6" S="0.2 0.1 0.2" staining="1.5" \
+granulation="0.4" density="0.7"/>
+  </palette>
+  <brush radius="3" pigment="Mars Violet"/>
+</profile>
+"""
+
+
+def test_user_profile_switches_mid_painting(tmp_path: Path,
+                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    _user(tmp_path, monkeypatch, "wet", WET)
+    prof = get_profile("wet")
+    assert prof.params.alpha == 0.001 and prof.params.nu_p == 0.9
+    assert prof.params.viscosity == SimParams().viscosity  # left out: default
+    b = create_backend("numpy", 24, 16, "watercolor", seed=1)
+    b.add_sources(np.full((4, 4), 0.5, np.float32), {"French Ultramarine":
+                                                     np.full((4, 4), 0.2, np.float32)}, y0=6, x0=4)
+    b.step()
+    b.set_profile("wet")
+    st = b.state()
+    assert st.params == prof.params and st.profile == "wet"
+    b.add_sources(np.full((4, 4), 0.5, np.float32),
+                  {"Mars Violet": np.full((4, 4), 0.2, np.float32)}, y0=6, x0=14)
+    b.step()
+    st = b.state()
+    assert st.slots == ["French Ultramarine", "Mars Violet"]
+    assert st.palette.get("mars violet").K == (0.5, 1.2, 0.6)
+    img = b.render()
+    assert img[8, 16, 1] < img[8, 16, 0]  # the new pigment shows (absorbs green most)
+    b.set_profile("watercolor")
+    assert b.state().params == OLD["watercolor"]
+
+
+@pytest.mark.parametrize("text, element, line", [
+    (WET.replace('nu_p="0.9"', 'nu_p="fast"'), "fluid", 4),
+    (WET.replace('alpha="0.001"', 'alpha="0.001" humidity="0.5"'), "paper", 3),
+    (WET.replace('humidity', 'x') .replace('eps_shallow="0.0"', 'humidity="1.5"'), "fluid", 4),
+    (WET.replace('staining="1.5"', 'staining="0"'), "pigment", 7),
+    (WET.replace('<brush radius="3" pigment="Mars Violet"/>', '<brush pigment="Teal"/>'),
+     "brush", 9),
+    (WET.replace("</palette>", "</palete>"), None, 8),
+])
+def test_bad_profile_file_names_element_and_line(tmp_path: Path,
+                                                 monkeypatch: pytest.MonkeyPatch, text: str,
+                                                 element: str | None, line: int) -> None:
+    f = _user(tmp_path, monkeypatch, "wet", text)
+    with pytest.raises(CanvasInputError) as ei:
+        load_profile_file(f)
+    msg = str(ei.value)
+    assert msg.startswith(f"{f}:{line}:"), msg
+    if element:
+        assert f"<{element}>" in msg, msg
+    assert "\n" not in msg
+
+
+def test_cli_bad_profile_exits_2_with_one_line(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    f = _user(tmp_path, monkeypatch, "wet", WET.replace('nu_p="0.9"', 'nu_p="-1"'))
+    log = tmp_path / "s.jsonl"
+    log.write_text('{"format": "station-session", "version": 1, '
+                   '"canvas": {"width": 16, "height": 16}, "profile": "watercolor", "seed": 1}\n'
+                   '{"type": "cmd", "t": 0.0, "cmd": "profile", "args": {"name": "wet"}}\n')
+    rc = main(["paint", str(log), "-o", str(tmp_path / "o.png"), "--backend", "numpy"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1
+    assert f"{f}:4: element <fluid>" in err[0]
