@@ -27,9 +27,10 @@ OLD = {
     "watercolor": SimParams(),
     "gouache": SimParams().replace(viscosity=2.0, nu_w=0.1, nu_p=0.05, alpha=0.005,
                                    height_gain=20.0, eps_shallow=0.008),
-    "ink": SimParams().replace(alpha=0.12, cap_diffusion=3.0, moist_threshold=0.15, nu_p=0.8,
+    # (issue 10's fibre feathering changed the ink in code just before: alpha 0.05, fibre_wick 1)
+    "ink": SimParams().replace(alpha=0.05, cap_diffusion=3.0, moist_threshold=0.15, nu_p=0.8,
                                block_paper=0.7, eps_cap=0.006, flow_outward=0.0,
-                               surface_rate=0.5),
+                               surface_rate=0.5, fibre_wick=1.0),
 }
 
 

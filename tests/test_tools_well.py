@@ -54,12 +54,21 @@ def test_the_brush_picks_up_the_mix_and_paints_green() -> None:
 
 @pytest.mark.parametrize("args, what", [
     ({"add": "Unobtainium"}, "Unobtainium"), ({"add": BLUE, "amount": 3}, "amount"),
-    ({"pick": True}, "empty"), ({"stir": 1}, "stir"),
+    ({"stir": 1}, "stir"),
 ])
 def test_bad_well_commands(args: dict, what: str) -> None:
     p = SessionPlayer(create_backend("numpy", 16, 16), 16, 16)
     with pytest.raises(BadInput, match=what):
         p.play([Command(t=0.0, cmd="well", args=args)], where=lambda: "s:3")
+
+
+def test_picking_from_an_empty_well_is_counted_and_skipped() -> None:
+    # a state, not a malformed command: `station send well pick` is checked on a scratch
+    # player whose well is always empty, and a live well may hold paint
+    p = SessionPlayer(create_backend("numpy", 16, 16), 16, 16)
+    before = p.brush.settings
+    p.play([Command(t=0.0, cmd="well", args={"pick": True})], where=lambda: "s:3")
+    assert p.counters.skipped_commands["well"] == 1 and p.brush.settings == before
 
 
 def test_the_well_holds_eight_pigments() -> None:

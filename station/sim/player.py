@@ -712,8 +712,13 @@ def _well(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
                               where) from None
     if args.get("pick") is True:
         mix = well.mix()
-        if not mix:
-            raise PlayerError("the well is empty: nothing to pick up", where)
+        if not mix:  # a state, not a malformed command (like undo with nothing to undo)
+            p.counters.skipped_commands["well"] = p.counters.skipped_commands.get("well", 0) + 1
+            if "well-empty" not in p._warned:
+                p._warned.add("well-empty")
+                log.warning("%sthe well is empty: nothing to pick up (skipped)",
+                            f"{where}: " if where else "")
+            return
         b = p.brush.settings
         p._use(BrushSettings(b.kind, b.size, b.water, mix))
         p.tool = None
