@@ -4,7 +4,7 @@ counted and that no painting is lost (the picture the sim ends with is the pictu
 log paints, and what was saved before the fault is intact).
 
 Cases: kill -9 of the sim, kill -9 of a driver, two drivers on one endpoint, a restart
-with the same log, a full disk.
+with the same log, a full disk, a 200 ms stall mid-stroke.
 """
 
 from __future__ import annotations
@@ -275,5 +275,44 @@ def test_disk_full(tmp_path: Path) -> None:
     seqs = device_seqs(log)
     assert seqs == list(range(1, pen.seq + 1)) and summary["lost_samples"] == 0
     strokes_balanced(log)
+    paint(log, tmp_path / "replay.png", "numpy")
+    assert np.array_equal(pixels(png), pixels(tmp_path / "replay.png"))
+
+
+def test_a_200ms_stall_mid_stroke(tmp_path: Path) -> None:
+    """A USB or Bluetooth stall: nothing arrives for 200 ms mid-stroke. A real driver plays
+    the recorded stall in real time to a real sim: one stroke, every contact sample in
+    the log, no synthesised pen-up (the driver's heartbeats cover the silence), nothing lost."""
+    from test_pen_stall import graphire_stroke_with_stall
+
+    from station.drivers import synth
+
+    trace = tmp_path / "stall.hid"
+    synth.write_hid_recorder([graphire_stroke_with_stall(bluetooth=False)], trace)
+    bus = f"ipc://{tmp_path}/bus"
+    log, png = tmp_path / "s.jsonl", tmp_path / "end.png"
+    sim = start_sim(bus, *SIM, "--log", str(log), "--png", str(png), "--status", "none")
+    drv = subprocess.Popen(
+        [sys.executable, "-m", "station", "driver", "--device", f"trace:{trace}?speed=1", "--bus", bus,
+         "--name", DEVICE, "--wait-subscribers", "1", "--no-reconnect"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        _out, derr = drv.communicate(timeout=60)
+        assert drv.returncode == 0, derr
+        assert wait_for(lambda: sum(r["type"] == "pen" for r in log_records(log)) >= 51, 20)
+        code, err = stop(sim)
+        assert code == 0, err
+    finally:
+        for p in (sim, drv):
+            if p.poll() is None:
+                stop(p)
+    summary = final_summary(err)
+    pens = [r for r in log_records(log) if r["type"] == "pen" and r["device"] == DEVICE]
+    touching = [r["touching"] for r in pens]
+    downs = sum(1 for a, b in itertools.pairwise([False, *touching]) if b and not a)
+    assert downs == 1 and sum(touching) == 40  # one stroke, every contact report in it
+    assert summary["synthetic_pen_ups"] == 0 and summary["lost_samples"] == 0
+    stall = max(b["t"] - a["t"] for a, b in itertools.pairwise(pens) if a["touching"])
+    assert stall > 0.15  # the stall really happened inside the stroke
     paint(log, tmp_path / "replay.png", "numpy")
     assert np.array_equal(pixels(png), pixels(tmp_path / "replay.png"))
