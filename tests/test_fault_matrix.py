@@ -283,9 +283,8 @@ def test_a_200ms_stall_mid_stroke(tmp_path: Path) -> None:
     """A USB or Bluetooth stall: nothing arrives for 200 ms mid-stroke. A real driver plays
     the recorded stall in real time to a real sim: one stroke, every contact sample in
     the log, no synthesised pen-up (the driver's heartbeats cover the silence), nothing lost."""
-    from test_pen_stall import graphire_stroke_with_stall
-
     from station.drivers import synth
+    from test_pen_stall import graphire_stroke_with_stall
 
     trace = tmp_path / "stall.hid"
     synth.write_hid_recorder([graphire_stroke_with_stall(bluetooth=False)], trace)
