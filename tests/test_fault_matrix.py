@@ -292,8 +292,8 @@ def test_a_200ms_stall_mid_stroke(tmp_path: Path) -> None:
     log, png = tmp_path / "s.jsonl", tmp_path / "end.png"
     sim = start_sim(bus, *SIM, "--log", str(log), "--png", str(png), "--status", "none")
     drv = subprocess.Popen(
-        [sys.executable, "-m", "station", "driver", "--device", f"trace:{trace}?speed=1", "--bus", bus,
-         "--name", DEVICE, "--wait-subscribers", "1", "--no-reconnect"],
+        [sys.executable, "-m", "station", "driver", "--device", f"trace:{trace}?speed=1",
+         "--bus", bus, "--name", DEVICE, "--wait-subscribers", "1", "--no-reconnect"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         _out, derr = drv.communicate(timeout=60)
