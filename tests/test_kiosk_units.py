@@ -221,7 +221,8 @@ def test_panel_controls_send_commands() -> None:
     r, g, b = swatch(default_palette(), {"Hansa Yellow": 1, "Phthalo Green": 1}, 1.0)
     assert g > r > b
     assert swatch(default_palette(), {}) == (1.0, 1.0, 1.0)
-    assert undo_available() is False  # issue 14 has not added undo yet
+    assert undo_available() is True  # the player runs `undo` (issue 14)
+    assert p.can_undo() is False  # a panel without a painting has nothing to undo
 
 
 def test_compiled_km_matches_the_reference() -> None:

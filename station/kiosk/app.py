@@ -200,7 +200,8 @@ class KioskApp:
 
         brush = get_profile(cfg.profile).brush
         self.panel = PanelState(default_palette(), self._send, self.save_now, view=cfg.view,
-                                mix={brush.pigment: 1.0}, size=2.0 * brush.radius)
+                                mix={brush.pigment: 1.0}, size=2.0 * brush.radius,
+                                can_undo=lambda: self.session.history.can_undo())
         self.rects: dict[str, Any] = {}
         self.idle = IdleClock(cfg.idle, time.monotonic())
         self.stop_requested = False

@@ -8,8 +8,8 @@ tapping it with a pen and reading the state.
 
 Targets are large (ImGui scaled ×2, buttons at least 64 px high) for a pen in
 a standing visitor's hand.  Clear asks for confirmation.  Undo is offered only
-when the simulation's player has an ``undo`` command (the tools issue adds it);
-until then the button is shown disabled with the reason.
+when the painting has a stroke to undo (the live sim's undo history, issue 14);
+until then the button is shown disabled.
 """
 
 from __future__ import annotations
@@ -50,6 +50,10 @@ def undo_available() -> bool:
     return "undo" in getattr(player, "_HANDLERS", {})
 
 
+def _nothing_to_undo() -> bool:
+    return False
+
+
 @dataclass
 class PanelState:
     """What the panel shows and sets.  ``send(cmd, args)`` applies a command to the
@@ -68,6 +72,8 @@ class PanelState:
     eraser: bool = False
     message: str = ""
     pressed: list[str] = field(default_factory=list)  # every control used, in order
+    # whether the painting has a stroke to undo now (the live sim's UndoHistory.can_undo)
+    can_undo: Callable[[], bool] = _nothing_to_undo
 
     # -- actions -----------------------------------------------------------------
     def brush_args(self) -> dict[str, Any]:
@@ -221,9 +227,8 @@ def draw_panel(st: PanelState, width: float, height: float, status: str,
     imgui.same_line()
     if _button(imgui, "New layer", half, row_h, rects, "new_layer"):
         st.simple("new_layer")
-    can_undo = undo_available()
-    if _button(imgui, "Undo" if can_undo else "Undo (n/a)", half, row_h, rects, "undo",
-               disabled=not can_undo):
+    can_undo = undo_available() and st.can_undo()
+    if _button(imgui, "Undo", half, row_h, rects, "undo", disabled=not can_undo):
         st.simple("undo")
     imgui.same_line()
     if _button(imgui, "Clear", half, row_h, rects, "clear"):
