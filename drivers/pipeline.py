@@ -636,8 +636,12 @@ class TraceReplay:
 
 
 def run_paced(drivers: list[PenDriver], emit: Callable[[PenSample], None],
-              stop: threading.Event | None = None) -> None:
-    """Run paced drivers (speed set on their transports) round-robin until all end."""
+              stop: threading.Event | None = None,
+              idle: Callable[[], None] | None = None) -> None:
+    """Run paced drivers (speed set on their transports) round-robin until all end.
+
+    ``idle`` is called after every poll, samples or not (at least every 0.05 s),
+    so the caller can send heartbeats while the recording waits."""
     active = list(drivers)
     while active and not (stop and stop.is_set()):
         for drv in list(active):
@@ -648,6 +652,8 @@ def run_paced(drivers: list[PenDriver], emit: Callable[[PenSample], None],
                 for sample in drv.normaliser.flush():
                     emit(sample)
                 active.remove(drv)
+            if idle is not None:
+                idle()
 
 
 __all__ = [

@@ -481,13 +481,14 @@ class Publisher:
         if self.heartbeat_interval is not None:
             self._hb_devices.add(device)
 
-    def tick(self) -> None:
+    def tick(self, force: bool = False) -> None:
         """Send the heartbeats that are due; call it from the publishing loop, idle
-        or not (a heartbeat says the process is alive, so no thread sends it)."""
+        or not (a heartbeat says the process is alive, so no thread sends it).
+        ``force`` sends them now (a stream's end: the last ``pen_seq`` goes out)."""
         if self.heartbeat_interval is None or not self._hb_devices:
             return
         now = time.monotonic()
-        if now < self._next_heartbeat:
+        if now < self._next_heartbeat and not force:
             return
         self._next_heartbeat = now + self.heartbeat_interval
         for device in sorted(self._hb_devices):

@@ -238,8 +238,9 @@ def _have_kiosk() -> bool:
 def test_kiosk_blueprint_under_xvfb(tmp_path: Path) -> None:
     """The bundled kiosk blueprint with its tablet swapped for a mock (a spiral from the
     middle of the tablet, which the window maps right of the panel): the pen stream
-    reaches the window through the bus proxy, the unplug rule puts its message on the
-    panel, and the kiosk stops cleanly under the supervisor."""
+    reaches the window through the bus proxy and paints (the part of the spiral that
+    leaves the letterboxed canvas is not painted), the unplug rule puts its message on the
+    panel, and the kiosk stops cleanly under the supervisor, saving the painting."""
     run = tmp_path / "r"
     proc = subprocess.run(
         ["xvfb-run", "-a", "-s", "-screen 0 1024x768x24", sys.executable, "-m", "station",
@@ -255,9 +256,15 @@ def test_kiosk_blueprint_under_xvfb(tmp_path: Path) -> None:
     assert "kiosk: 3 components up" in proc.stderr
     final = json.loads(proc.stderr.split("station kiosk: stopped ", 1)[1].splitlines()[0])
     assert final["samples"] > 50, proc.stderr[-3000:]  # the pen reached the window
+    # and painted: the spiral's samples over the canvas made brush stamps, and the
+    # painting the stop saved to the gallery shows them
+    assert final["stamps"] > 50, proc.stderr[-3000:]
     assert "rule on device-unplugged (line 25), device tablet: show-message" in proc.stderr
     assert "'message' is unknown" not in proc.stderr  # the kiosk took it
-    assert (tmp_path / "gallery").is_dir()
+    (pid,) = final["saved"]
+    meta = json.loads((tmp_path / "gallery" / pid / "meta.json").read_text())
+    assert meta["reason"] == "stopped" and meta["stamps"] == final["stamps"]
+    assert painted(tmp_path / "gallery" / pid / "painting.png") > 500  # 2021 of 3072 cells here
 
 
 @needs_pty

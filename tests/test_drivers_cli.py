@@ -48,6 +48,32 @@ def test_replay_onto_the_bus(tmp_path: Path, capsys) -> None:
     assert "cintiq: " in capsys.readouterr().out
 
 
+def test_paced_replay_sends_heartbeats_with_the_last_pen_seq(tmp_path: Path) -> None:
+    """Issue 8 item 3: a paced replay is a publisher like a driver: heartbeats on
+    hb.<device> while it plays (also between samples), each carrying the bus seq of the
+    last pen sample sent before it, and a last one at the end with the final seq."""
+    path = _recording(tmp_path)  # 44 samples over ~0.97 s; at --speed 2 ~0.48 s
+    endpoint = f"ipc://{tmp_path}/bus"
+    sub = Subscriber(endpoint, topics=("pen.", "hb."))
+    assert main(["replay", str(path), "--bus", endpoint, "--name", "cintiq", "--speed", "2",
+                 "--heartbeat", "0.05", "--wait-subscribers", "1"]) == 0
+    msgs = list(iter(lambda: sub.recv(1000), None))
+    sub.close()
+    pen_idx = [i for i, m in enumerate(msgs) if m.kind == "pen"]
+    beats = [(i, m) for i, m in enumerate(msgs) if m.kind == "heartbeat"]
+    assert len(pen_idx) == 44 and sub.stats.lost == 0 and sub.stats.malformed == 0
+    assert all(m.topic == "hb.cintiq" and m.value.interval_s == 0.05 for _, m in beats)
+    during = [i for i, _ in beats if pen_idx[0] < i < pen_idx[-1]]
+    assert len(during) >= 4, len(during)  # ~9 expected in 0.48 s; a busy machine lags
+    last_pen_seq = 0
+    for m in msgs:  # every heartbeat names exactly the pen seq sent before it
+        if m.kind == "pen":
+            last_pen_seq = m.seq
+        else:
+            assert m.value.pen_seq == last_pen_seq
+    assert msgs[-1].kind == "heartbeat" and msgs[-1].value.pen_seq == msgs[pen_idx[-1]].seq == 44
+
+
 def test_write_session_log_of_a_trace(tmp_path: Path) -> None:
     path = _recording(tmp_path, "graphire-bt")
     out = tmp_path / "s.jsonl"

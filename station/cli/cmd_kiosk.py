@@ -98,5 +98,5 @@ def run(args: argparse.Namespace) -> int:
                      f"{app.gallery.root} at {app.base_url}\n")
     final = app.run()
     sys.stderr.write("station kiosk: stopped " + json.dumps(
-        {k: final.get(k) for k in ("frames", "samples", "commands", "saved")}) + "\n")
+        {k: final.get(k) for k in ("frames", "samples", "commands", "stamps", "saved")}) + "\n")
     return 0

@@ -30,6 +30,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--name", help="device name in the samples (default: from the model)")
     p.add_argument("--wait-subscribers", type=int, default=0, metavar="N",
                    help="with --bus: wait (up to 5 s) for N subscribers before playing")
+    p.add_argument("--heartbeat", type=float, default=None, metavar="S",
+                   help="with --bus: seconds between heartbeats on hb.<device> (default "
+                        "0.2, as `station driver`: the sim notices a replay that stopped)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.set_defaults(func=run)
 
@@ -67,9 +70,9 @@ def run(args: argparse.Namespace) -> int:
         target: Any = sys.stdout if args.jsonl == "-" else args.jsonl
         writer = SessionLogWriter(target, header)
     if args.bus:
-        from station.bus import Publisher
+        from station.bus import HEARTBEAT_S, Publisher
 
-        publisher = Publisher(args.bus)
+        publisher = Publisher(args.bus, heartbeat=args.heartbeat or HEARTBEAT_S)
         if args.wait_subscribers:
             publisher.wait_for_subscribers(args.wait_subscribers, timeout=5.0)
     stop = threading.Event()
@@ -100,15 +103,25 @@ def run(args: argparse.Namespace) -> int:
                     if len(batch) >= 64:
                         publisher.publish_pens(batch)
                         batch = []
+                    else:
+                        publisher.tick()  # parsing a long trace: still alive
                 if stop.is_set():
                     break
             if batch:
                 publisher.publish_pens(batch)
         else:
-            run_paced(replay.open_drivers(speed), emit, stop)
+            drivers = replay.open_drivers(speed)
+            if publisher is not None:
+                for drv in drivers:  # heartbeats from the start, before the first sample
+                    publisher.announce(drv.normaliser.device)
+            run_paced(drivers, emit, stop,
+                      idle=publisher.tick if publisher is not None else None)
         summary = replay.status()
         summary["samples"] = count["samples"]
         if publisher is not None:
+            # A last heartbeat carries the last pen seq: samples lost at the very end
+            # of the replay are counted by the subscriber, not silently missing.
+            publisher.tick(force=True)
             publisher.publish_status({"kind": "replay", "state": "done", **summary})
     finally:
         bar.close()

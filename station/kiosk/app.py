@@ -660,6 +660,9 @@ class KioskApp:
         finally:
             final = self.kiosk_status()
             self.close()
+        # close() saves the painting to the gallery: the final status says so (taken
+        # before it, it would read "saved": [] for a painting that is in the gallery)
+        final["saved"] = list(self.saved)
         return final
 
     def kiosk_status(self) -> dict[str, Any]:
