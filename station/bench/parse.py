@@ -24,6 +24,9 @@ from station.progress import Progress
 # Reports per second a parser keeps on one idle core (issue 9: >= 300 000).  For Bluetooth
 # reports that bundle several pen packets the target applies to packets (samples).
 TARGET = 300_000
+# The normaliser (hysteresis, proximity timer, calibration) runs once per sample after the
+# parser; it keeps the bus's 100 000 samples/s (the foundation issue's figure), not 300 000.
+NORMALISER_TARGET = 100_000
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -219,7 +222,8 @@ def measure(n: int, repeat: int) -> dict[str, Any]:
             "seconds": round(seconds, 6),
             "reports_per_s": round(len(intuos_samples) / seconds),
             "us_per_report": round(seconds / len(intuos_samples) * 1e6, 3),
-            "meets_target": len(intuos_samples) / seconds >= TARGET,
+            "target_reports_per_s": NORMALISER_TARGET,
+            "meets_target": len(intuos_samples) / seconds >= NORMALISER_TARGET,
         }
     bar.update()
     bar.close()
