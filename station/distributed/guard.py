@@ -12,6 +12,7 @@ normally, exit code 2, after rank 0 has written what it must.
 from __future__ import annotations
 
 import sys
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 
@@ -31,5 +32,8 @@ def abort_job_on_error() -> Iterator[None]:
         sys.stderr.write(f"station: rank {rank} failed ({exc.__class__.__name__}: {exc}); "
                          "aborting the MPI job\n")
         sys.stderr.flush()
+        # mpiexec forwards a rank's stderr asynchronously and stops forwarding once the
+        # abort kills the job: give it a moment, or the one line saying why can be lost
+        time.sleep(0.5)
         MPI.COMM_WORLD.Abort(1)
         raise
