@@ -8,9 +8,10 @@ brush can be one: it implements ``contact_force(state) -> (fx, fy, fz)``.
   plus a little Coulomb friction opposing the stroke and the paper's grain as
   a vibration (a deterministic grain field under the tip modulating the
   normal force).  Cheap enough to evaluate on every 1 kHz tick.
-* A deformable brush (simulated at the sim rate, ~30 Hz, like Baxter's dAb
-  against its 1 kHz PHANToM loop) implements ``contact_force`` as the
-  gradient of its spring energy at the handle; its forces reach the loop as
+* The deformable brush (:class:`drivers.haptic.deformable.DeformableBrushContact`,
+  simulated at the sim rate, ~30 Hz, like Baxter's dAb against its 1 kHz
+  PHANToM loop) implements ``contact_force`` as the gradient of its spring
+  energy at the handle; its forces reach the loop as
   timed frames and :class:`FrameInterpolator` interpolates between them.
 
 The pressure a haptic handle reports as a pen is the normal force through the
