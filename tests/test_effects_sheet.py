@@ -122,3 +122,52 @@ def test_render_scale_smooths_edges_and_keeps_cell_means(tmp_path: Path) -> None
             render_scaled(st, "km", bad)
     out = tmp_path / "s.png"
     assert main(["demo", "-o", str(out), "--scale", "9"]) == 2
+
+
+def test_dry_brush_leaves_flying_white_a_wet_brush_does_not() -> None:
+    e = fx.dry_brush()
+    assert e.ok, e.numbers
+    assert e.numbers["bare_share_dry"] >= 0.2
+    assert e.numbers["bare_share_dry"] >= 3 * e.numbers["bare_share_wet"]
+
+
+def test_ink_is_black_and_flies_white_when_dry() -> None:
+    e = fx.ink_flying_white()
+    assert e.ok, e.numbers
+    assert e.numbers["L_loaded_p10"] <= 30.0 and e.numbers["bare_share_dry"] >= 0.2
+
+
+def test_wet_on_dry_edge_is_hard_wet_in_wet_soft() -> None:
+    e = fx.wet_on_dry_edge()
+    assert e.ok, e.numbers
+    assert e.numbers["edge_width_dry_cells"] <= 2.0
+    assert e.numbers["edge_width_wet_cells"] >= 3 * e.numbers["edge_width_dry_cells"]
+
+
+def test_flow_patterns_run_downhill_on_a_tilted_sheet() -> None:
+    e = fx.flow_patterns()
+    assert e.ok, e.numbers
+    assert abs(e.numbers["centre_shift_flat_cells"]) < 1.0
+    assert e.numbers["centre_shift_tilted_cells"] >= 3.0
+    assert e.numbers["front_roughness_cells"] >= 1.0
+    # the sheet draws the tile with the sub-cell renderer: finer than its cells
+    pic = e.picture(3)
+    assert pic.shape == (64 * 3, 64 * 3 * 2, 3)
+    cells = pic.reshape(64, 3, 128, 3, 3).transpose(0, 2, 1, 3, 4)
+    assert cells.std(axis=(2, 3)).mean() > 1e-3
+
+
+def test_measures_bare_share_and_edge_width() -> None:
+    import numpy as np
+
+    from station.canvas.measure import bare_share, edge_width
+
+    solid = np.zeros((20, 40), bool)
+    solid[8:12, 5:35] = True
+    assert bare_share(solid) == pytest.approx(0.0, abs=1e-9)
+    broken = solid.copy()
+    broken[:, ::3] = False
+    assert bare_share(broken) == pytest.approx(1 / 3, abs=0.05)
+    assert edge_width(np.array([0, 0, 0, 1, 1, 1, 1, 1.0])) == pytest.approx(0.8)
+    ramp = np.array([0, 0.1, 0.3, 0.5, 0.7, 0.9, 1, 1, 1, 1, 1, 1.0])
+    assert edge_width(ramp) == pytest.approx(4.0)

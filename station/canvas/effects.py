@@ -18,12 +18,15 @@ from typing import Any
 
 import numpy as np
 
-from station.canvas.measure import edge_band, edge_roughness, spread
+from station.canvas.measure import bare_share, edge_band, edge_roughness, edge_width, spread
 from station.canvas.numpy_backend import NumpyCanvas
 from station.canvas.palette import Palette, Pigment, default_palette
-from station.canvas.params import SimParams
+from station.canvas.params import SimParams, get_profile
 from station.canvas.scenarios import disc, distance_inside, paint, rect, run_until_dry
 from station.canvas.tools import HairDryer, blow, pickup
+from station.canvas.upscale import render_scaled
+from station.sim.player import SessionPlayer
+from station.sim.script import Script
 
 F32 = np.float32
 
@@ -37,14 +40,26 @@ class Effect:
     numbers: dict[str, float]
     checks: dict[str, bool]
     image: np.ndarray = field(repr=False)
+    canvases: tuple[NumpyCanvas, ...] = field(default=(), repr=False)
+    """The painted canvases behind ``image`` (left to right), for :meth:`picture`."""
 
     @property
     def ok(self) -> bool:
         return all(self.checks.values())
 
+    def picture(self, k: int) -> np.ndarray:
+        """The tile at ``k`` pixels per cell (linear RGB): the canvases drawn by the
+        sub-cell renderer (smooth contours, paper grain), or ``image`` enlarged when the
+        tile keeps no canvas."""
+        if k == 1 or not self.canvases:
+            return np.repeat(np.repeat(self.image, k, 0), k, 1)
+        return np.concatenate(
+            [render_scaled(c.state(), get_profile(c.state().profile).renderer, k)
+             for c in self.canvases], axis=1)
+
     def to_json(self) -> dict[str, Any]:
         return {"numbers": {k: round(v, 4) for k, v in self.numbers.items()},
-                "checks": self.checks, "ok": self.ok}
+                "checks": {k: bool(v) for k, v in self.checks.items()}, "ok": self.ok}
 
 
 # ------------------------------------------------------------------ colour science
@@ -95,7 +110,7 @@ def edge_darkening() -> Effect:
     return Effect("edge darkening", {"band_width_cells": band.width, "band_ratio": band.ratio,
                                      "edge_roughness_cells": rough},
                   {"band 3-6 cells": 3 <= band.width <= 6, "band >= 1.4x": band.ratio >= 1.4,
-                   "ragged edge": rough > 0.4}, c.render())
+                   "ragged edge": rough > 0.4}, c.render(), (c,))
 
 
 def _drop(wait_s: float, wash: float) -> tuple[NumpyCanvas, np.ndarray]:
@@ -127,7 +142,7 @@ def wet_in_wet() -> Effect:
     sp = spread(c.live_state.q[0], covered)
     return Effect("wet-in-wet", {"spread_area_ratio": sp.area_ratio, "feather": sp.feather},
                   {"spread >= 2x": sp.area_ratio >= 2.0, "feather >= 1.3": sp.feather >= 1.3},
-                  c.render())
+                  c.render(), (c,))
 
 
 def backrun() -> Effect:
@@ -138,7 +153,7 @@ def backrun() -> Effect:
     return Effect("backrun", {"feather": sp.feather, "fringe_ratio": fringe,
                               "spread_area_ratio": sp.area_ratio},
                   {"feather >= 1.3": sp.feather >= 1.3, "dark fringe": fringe > 1.2},
-                  c.render())
+                  c.render(), (c,))
 
 
 def granulation() -> Effect:
@@ -149,7 +164,7 @@ def granulation() -> Effect:
     inner = distance_inside(fp) >= 4
     r = float(np.corrcoef(st.q[0][inner], st.h[inner])[0, 1])
     return Effect("granulation", {"corr_deposit_paper_height": r},
-                  {"pigment in the valleys": r < -0.5}, c.render())
+                  {"pigment in the valleys": r < -0.5}, c.render(), (c,))
 
 
 def glazing() -> Effect:
@@ -167,12 +182,13 @@ def glazing() -> Effect:
     hue = hue_deg(g[inner].mean(axis=0))
     return Effect("glazing", {"delta_e76_glaze_vs_mix": de, "glaze_hue_deg": hue},
                   {"dE76 >= 5": de >= 5.0, "reads green (90-160)": 90.0 <= hue <= 160.0},
-                  np.concatenate([g, m], axis=1))
+                  np.concatenate([g, m], axis=1), (glaze, mixed))
 
 
 def staining_lifting() -> Effect:
     shares = {}
     images = []
+    canvases: list[NumpyCanvas] = []
     for name in ("Cerulean Blue", "Phthalo Green"):
         c = NumpyCanvas(40, 40, seed=4)
         _layer(c, disc(40, 40, 20, 20, 12), {name: 0.2})
@@ -189,10 +205,11 @@ def staining_lifting() -> Effect:
         c.dry()
         shares[name] = taken / inside
         images.append(c.render())
+        canvases.append(c)
     lift, stain = shares["Cerulean Blue"], shares["Phthalo Green"]
     return Effect("staining vs lifting", {"lifted_cerulean": lift, "lifted_phthalo": stain},
                   {"non-staining >= 30 %": lift >= 0.3, "staining <= 10 %": stain <= 0.1},
-                  np.concatenate(images, axis=1))
+                  np.concatenate(images, axis=1), tuple(canvases))
 
 
 def density() -> Effect:
@@ -205,7 +222,7 @@ def density() -> Effect:
     st = c.live_state
     settled = [float(st.q[k].sum() / (st.q[k].sum() + st.p[k].sum())) for k in range(2)]
     return Effect("density", {"settled_heavy_2s": settled[0], "settled_light_2s": settled[1]},
-                  {"heavy settles faster": settled[0] > 2.0 * settled[1]}, c.render())
+                  {"heavy settles faster": settled[0] > 2.0 * settled[1]}, c.render(), (c,))
 
 
 def wet_window() -> Effect:
@@ -227,7 +244,7 @@ def wet_window() -> Effect:
     blown, _ = wet_s(HairDryer(cx=24, cy=24, radius=60))
     return Effect("wet window", {"wet_seconds": still, "with_hair_dryer_seconds": blown},
                   {"wet >= 30 s": still >= 30.0, "dryer speeds up": blown < 0.5 * still},
-                  c.render())
+                  c.render(), (c,))
 
 
 def gouache_over_dark() -> Effect:
@@ -243,7 +260,7 @@ def gouache_over_dark() -> Effect:
     hide = (lum[1] - lum[0]) / max(lum[2] - lum[0], 1e-6)
     return Effect("gouache over dark", {"hiding_share": hide, "L_dark": lum[0],
                                         "L_gouache": lum[1]},
-                  {"covers the dark": hide >= 0.8}, c.render())
+                  {"covers the dark": hide >= 0.8}, c.render(), (c,))
 
 
 def ink_bleed(params: SimParams | None = None) -> Effect:
@@ -254,14 +271,121 @@ def ink_bleed(params: SimParams | None = None) -> Effect:
     _layer(c, fp, {"Sumi Ink": 0.4}, water=0.6)
     sp = spread(c.live_state.q[0], fp)
     return Effect("ink bleed", {"spread_area_ratio": sp.area_ratio, "feather": sp.feather},
-                  {"bleeds": sp.area_ratio >= 1.3, "feathered": sp.feather >= 1.3}, c.render())
+                  {"bleeds": sp.area_ratio >= 1.3, "feathered": sp.feather >= 1.3}, c.render(),
+                  (c,))
+
+
+def _scripted_stroke(profile: str, pigment: str, load: float, water: float, duration: float,
+                     pressure: float, paper: str | None = None, width: int = 120,
+                     height: int = 48) -> NumpyCanvas:
+    """One horizontal stroke of the deformable round brush (the brush issue's tuft, its
+    handle tilted 30 degrees along the motion), played by the session player like a pen,
+    then dried."""
+    s = Script(width, height, profile=profile, seed=7, rate_hz=200.0)
+    s.brush(size=28, water=water, pigment={pigment: load}, kind="round3d")
+    s.line((0.1, 0.5), (0.9, 0.5), duration, pressure=pressure, tilt=(30.0, 0.0))
+    c = (NumpyCanvas(width, height, profile=profile, seed=7) if paper is None
+         else NumpyCanvas(width, height, profile=profile, seed=7, paper=paper))
+    SessionPlayer(c, width, height, profile).play(s.records)
+    run_until_dry(c, 6000)
+    c.dry()
+    return c
+
+
+def _painted(c: NumpyCanvas, deposit: float = 1e-3) -> np.ndarray:
+    st = c.live_state
+    return np.asarray((st.q.sum(axis=0) + st.p.sum(axis=0)) > deposit)
+
+
+def dry_brush() -> Effect:
+    """A quick, light stroke of a nearly dry, pigment-rich brush over rough paper: the
+    tuft touches only the paper's hills and leaves bare paper between its marks; the same
+    brush loaded with water and drawn slowly fills its whole trail."""
+    dry = _scripted_stroke("watercolor", "French Ultramarine", 1.0, 0.2, 0.15, 0.6, "rough")
+    wet = _scripted_stroke("watercolor", "French Ultramarine", 1.0, 0.9, 0.8, 0.7, "rough")
+    bare_dry, bare_wet = bare_share(_painted(dry)), bare_share(_painted(wet))
+    return Effect("dry-brush", {"bare_share_dry": bare_dry, "bare_share_wet": bare_wet},
+                  {"flying white >= 20 %": bare_dry >= 0.2,
+                   "a wet brush fills it (dry >= 3x bare)": bare_dry >= 3.0 * bare_wet},
+                  np.concatenate([dry.render(), wet.render()], axis=0), (dry,))
+
+
+def ink_flying_white() -> Effect:
+    """Oriental ink: a loaded stroke is black; a fast, dry one shows the "flying white"
+    (fei bai) of the paper through the bristle marks."""
+    dry = _scripted_stroke("ink", "Sumi Ink", 1.0, 0.2, 0.15, 0.6)
+    wet = _scripted_stroke("ink", "Sumi Ink", 1.0, 0.9, 0.8, 0.8)
+    lum = lab(wet.render())[..., 0]
+    painted = _painted(wet)
+    dark = float(np.percentile(lum[painted], 10)) if painted.any() else 100.0
+    bare = bare_share(_painted(dry))
+    return Effect("ink flying white", {"L_loaded_p10": dark, "bare_share_dry": bare},
+                  {"black (L* <= 30)": dark <= 30.0, "flying white >= 20 %": bare >= 0.2},
+                  np.concatenate([dry.render(), wet.render()], axis=0), (dry, wet))
+
+
+def wet_on_dry_edge() -> Effect:
+    """The same band painted on dry paper and into a wet wash: wet-on-dry keeps a hard
+    edge (the water stops where the paper is dry), wet-in-wet softens it. Widths are the
+    10-90 % rise of the deposit across the band's long edges, averaged over its middle."""
+    widths = []
+    canvases = []
+    for wash in (0.0, 0.6):
+        c = NumpyCanvas(64, 48, seed=8)
+        if wash:
+            paint(c, rect(48, 64, 0, 48, 0, 64), wash)
+            for _ in range(30):
+                c.step()
+        paint(c, rect(48, 64, 16, 32, 8, 56), 0.5, {"French Ultramarine": 0.4})
+        run_until_dry(c, 6000)
+        c.dry()
+        q = c.live_state.q[0][:, 20:44].mean(axis=1)
+        widths.append(0.5 * (edge_width(q[:24]) + edge_width(q[24:][::-1])))
+        canvases.append(c)
+    hard, soft = widths
+    return Effect("wet-on-dry edge", {"edge_width_dry_cells": hard,
+                                      "edge_width_wet_cells": soft},
+                  {"hard edge <= 2 cells": hard <= 2.0, "wet-in-wet >= 3x softer": soft >= 3 * hard},
+                  np.concatenate([c.render() for c in canvases], axis=1), tuple(canvases))
+
+
+def flow_patterns() -> Effect:
+    """A wash at the top of a tilted sheet: the water runs downhill and carries the
+    pigment with it in uneven runs; on a flat sheet the same wash stays where it was laid.
+    Numbers: how far the deposit's centre moved down [cells], and how ragged the runs'
+    lower front is (standard deviation of its row over the columns [cells])."""
+    shift = []
+    fronts = []
+    canvases = []
+    for tilt in (0.0, 8.0):
+        c = NumpyCanvas(64, 64, seed=9)
+        st = c.live_state
+        st.params = st.params.replace(tilt=tilt, tilt_direction=90.0)
+        fp = rect(64, 64, 6, 22, 6, 58)
+        paint(c, fp, 0.8, {"Indian Red": 0.25})
+        run_until_dry(c, 6000)
+        c.dry()
+        q = c.live_state.q.sum(axis=0)
+        rows = np.arange(64, dtype=np.float64)[:, None]
+        shift.append(float((q * rows).sum() / q.sum()) - 13.5)
+        below = q[:, 10:54] > 1e-3
+        low = 63 - np.argmax(below[::-1], axis=0)
+        fronts.append(float(low.std()))
+        canvases.append(c)
+    return Effect("flow patterns", {"centre_shift_tilted_cells": shift[1],
+                                    "centre_shift_flat_cells": shift[0],
+                                    "front_roughness_cells": fronts[1]},
+                  {"runs downhill": shift[1] >= shift[0] + 3.0,
+                   "uneven runs": fronts[1] >= 1.0},
+                  np.concatenate([c.render() for c in canvases], axis=1), tuple(canvases))
 
 
 TILES: tuple[Callable[[], Effect], ...] = (
     edge_darkening, wet_in_wet, backrun, granulation, glazing, staining_lifting, density,
-    wet_window, gouache_over_dark, ink_bleed)
-"""The tiles of the sheet, in order (the dissertation's figure 6.1 list, as far as the
-canvas side goes; dry-brush belongs to the brush)."""
+    wet_window, gouache_over_dark, ink_bleed, dry_brush, ink_flying_white, wet_on_dry_edge,
+    flow_patterns)
+"""The tiles of the sheet, in order (the dissertation's figure 6.1 list; dry-brush and the
+ink's flying white are painted by the deformable brush through the session player)."""
 
 
 def run_effects(names: list[str] | None = None) -> list[Effect]:

@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import ndimage
 
 from station.canvas.scenarios import distance_inside
 
@@ -160,3 +161,38 @@ def spread(q: np.ndarray, footprint: np.ndarray, level_share: float = 0.2) -> Sp
     length = float(np.linalg.norm(segs[:, 0] - segs[:, 1], axis=1).sum())
     hull = _hull_perimeter(segs.reshape(-1, 2))
     return Spread(inside / max(area_fp, 1.0), length / hull if hull > 0 else 0.0)
+
+
+def bare_share(painted: np.ndarray, reach: int = 4) -> float:
+    """Share of a stroke's envelope left as bare paper [1]: the "flying white" of a dry
+    brush. The envelope is ``painted`` closed over ``reach`` cells across and twice that
+    along rows (a horizontal stroke) with its holes filled, so gaps between bristle marks
+    count and the paper around the stroke does not; 0 for a solid stroke."""
+    if not painted.any():
+        return 0.0
+    se = np.ones((2 * reach + 1, 4 * reach + 1), bool)
+    padded = np.pad(painted, 2 * reach)
+    closed = ndimage.binary_closing(padded, structure=se)[2 * reach:-2 * reach,
+                                                          2 * reach:-2 * reach]
+    envelope = ndimage.binary_fill_holes(closed | painted)
+    return 1.0 - float(painted.sum()) / float(envelope.sum())
+
+
+def edge_width(profile: np.ndarray, low: float = 0.1, high: float = 0.9) -> float:
+    """Width [cells] over which a deposit profile taken across an edge (outside first)
+    rises from ``low`` to ``high`` of its plateau (the median of its inner half); the
+    crossings are interpolated linearly between cells. A hard wet-on-dry edge is about a
+    cell; a soft wet-in-wet edge several."""
+    prof = np.asarray(profile, np.float64)
+    plateau = float(np.median(prof[len(prof) // 2:]))
+    if plateau <= 0:
+        return 0.0
+
+    def crossing(level: float) -> float:
+        v = prof / plateau
+        i = int(np.argmax(v >= level))
+        if i == 0:
+            return 0.0
+        return (i - 1) + (level - v[i - 1]) / max(v[i] - v[i - 1], 1e-12)
+
+    return crossing(high) - crossing(low)

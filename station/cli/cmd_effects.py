@@ -22,9 +22,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("effects", help="paint and measure the watercolour effects sheet",
                        description="Paints edge darkening, wet-in-wet, backrun, "
                                    "granulation, glazing, staining vs lifting, density, "
-                                   "the wet window, gouache over dark and ink bleed on "
-                                   "small canvases, measures each and writes a labelled "
-                                   "sheet (about a minute on one core).")
+                                   "the wet window, gouache over dark, ink bleed, dry-brush, "
+                                   "the ink's flying white, the wet-on-dry edge and flow "
+                                   "patterns on small canvases, measures each and writes a "
+                                   "labelled sheet drawn at --scale pixels per cell (about "
+                                   "two minutes on one core).")
     p.add_argument("-o", "--output", default="effects.png", metavar="OUT.png",
                    help="sheet to write (default effects.png)")
     p.add_argument("--json", action="store_true", help="print the numbers as JSON on stdout")
@@ -40,11 +42,17 @@ def _sheet(effects: list, scale: int) -> np.ndarray:
     from PIL import Image, ImageDraw
 
     from station.canvas.render import to_srgb8
+    from station.canvas.upscale import MAX_SCALE
 
     cols = 4
     pad = 8
     cap = 14 * 4
-    tiles = [np.repeat(np.repeat(to_srgb8(e.image), scale, 0), scale, 1) for e in effects]
+    # the sub-cell renderer draws up to MAX_SCALE pixels per cell; larger scales enlarge
+    # its picture
+    k = min(scale, MAX_SCALE)
+    extra = scale // k
+    tiles = [np.repeat(np.repeat(to_srgb8(np.clip(e.picture(k), 0.0, 1.0)), extra, 0), extra, 1)
+             for e in effects]
     cw = max(t.shape[1] for t in tiles) + pad
     ch = max(t.shape[0] for t in tiles) + cap + pad
     rows = -(-len(tiles) // cols)
