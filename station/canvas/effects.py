@@ -345,7 +345,8 @@ def wet_on_dry_edge() -> Effect:
     hard, soft = widths
     return Effect("wet-on-dry edge", {"edge_width_dry_cells": hard,
                                       "edge_width_wet_cells": soft},
-                  {"hard edge <= 2 cells": hard <= 2.0, "wet-in-wet >= 3x softer": soft >= 3 * hard},
+                  {"hard edge <= 2 cells": hard <= 2.0,
+                   "wet-in-wet >= 3x softer": soft >= 3 * hard},
                   np.concatenate([c.render() for c in canvases], axis=1), tuple(canvases))
 
 
