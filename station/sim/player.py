@@ -613,7 +613,9 @@ def _tissue(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> Non
     scale = _tool_number("tissue", args, "scale", t.scale, 1, 256, where)
     size = _tool_number("tissue", args, "size", 2 * t.radius / p.brush_scale, 1, 1024, where)
     absorb = _tool_number("tissue", args, "absorb", t.absorb, 0, 1, where)
-    new = tissue_tool.Tissue(kind, scale * p.brush_scale, seed, None,
+    # a session painted at a smaller size scales the texture with it, but no finer
+    # than a cell: the texture lives on the canvas grid
+    new = tissue_tool.Tissue(kind, max(1.0, scale * p.brush_scale), seed, None,
                              size * p.brush_scale / 2.0, absorb)
     if (new.kind, new.scale, new.seed) != (t.kind, t.scale, t.seed):
         p._tissue_tex = None
