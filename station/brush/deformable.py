@@ -31,8 +31,9 @@ replays to the same pixels.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -173,6 +174,47 @@ class DeformableBrush:
         self.reservoir.capacity = self._capacity()
         self.reservoir.load(settings.water, settings.pigment, self.model.water_scale,
                             self.model.pigment_scale)
+
+    # -- checkpoints -------------------------------------------------------------
+    def snapshot(self) -> dict[str, Any]:
+        """What the brush carries from one stroke to the next, JSON-able (the live sim's
+        autosave keeps it, so a recovery paints on exactly): the reservoir's contents and
+        books, and each spine's rest angles as plasticity left them. Taken between
+        strokes: a stroke in progress is not part of it (the autosave waits for the pen
+        to lift)."""
+        r = self.reservoir
+        return {"frames": self.frames,
+                "reservoir": {"capacity": r.capacity, "volume": r.volume, "mass": dict(r.mass),
+                              "loaded": dict(r.loaded), "washed": dict(r.washed),
+                              "deposited": dict(r.deposited), "picked": dict(r.picked)},
+                "rest": [st.rest.tolist() for st in self.spines]}
+
+    def restore(self, snap: Mapping[str, Any]) -> None:
+        """Take back a :meth:`snapshot` of a brush of the same kind and size
+        (``ValueError`` when it does not fit; the brush is then unchanged)."""
+        rest = [np.asarray(r, np.float64) for r in snap["rest"]]
+        if len(rest) != len(self.spines) or any(
+                a.shape != st.rest.shape or not np.isfinite(a).all()
+                for a, st in zip(rest, self.spines, strict=False)):
+            raise ValueError("the brush state does not fit this brush's spines")
+        res = snap["reservoir"]
+        books = {k: {str(n): float(v) for n, v in res[k].items()}
+                 for k in ("mass", "loaded", "washed", "deposited", "picked")}
+        capacity, volume = float(res["capacity"]), float(res["volume"])
+        numbers = [capacity, volume, *(v for d in books.values() for v in d.values())]
+        if not all(math.isfinite(v) for v in numbers) or volume < 0 or capacity < 0:
+            raise ValueError("the brush state has a bad reservoir")
+        frames = int(snap["frames"])
+        self._strokes.clear()
+        for st, a in zip(self.spines, rest, strict=True):
+            st.rest = a.astype(st.rest.dtype)
+            st.x = st.rest.copy()  # lifted: in air the rest pose is the equilibrium
+            st.pos = st.contact = st.root = None
+        r = self.reservoir
+        r.capacity, r.volume = capacity, volume
+        r.mass, r.loaded, r.washed = books["mass"], books["loaded"], books["washed"]
+        r.deposited, r.picked = books["deposited"], books["picked"]
+        self.frames = frames
 
     @property
     def drawing(self) -> bool:

@@ -58,6 +58,7 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
+from station.brush.deformable import DeformableBrush
 from station.brush.stamp import BrushSettings
 from station.durable import atomic_write
 from station.errors import BadInput
@@ -449,6 +450,7 @@ class LiveCore:
                 "waited_s": p.counters.waited_s,
                 "stamps": b.stamps, "brush_samples": b.samples,
                 "eraser_samples": b.eraser_samples, "strokes": b.strokes,
+                **({"deformable": b.snapshot()} if isinstance(b, DeformableBrush) else {}),
             },
             "live": {"last_t": self._last_t, "samples": c.samples, "commands": c.commands,
                      "bad_commands": c.bad_commands, "bad_samples": c.bad_samples,
@@ -458,12 +460,21 @@ class LiveCore:
 
     def _restore(self, s: dict[str, Any]) -> None:
         """Player and counters as the checkpoint left them (recovery.plan checked it)."""
-        p, b, ps, ls = self.player, self.player.brush, s["player"], s["live"]
+        p, ps, ls = self.player, s["player"], s["live"]
         p.counters.steps = int(ps["steps"])
         p.waited, p.last_t = float(ps["waited"]), float(ps["last_t"])
         a = ps["brush"]
-        b.set(BrushSettings(str(a["kind"]), float(a["size"]), float(a["water"]),
-                            {str(k): float(v) for k, v in a["pigment"].items()}))
+        # the saved settings are already scaled to the canvas; _use swaps in a deformable
+        # brush when the kind asks for one
+        p._use(BrushSettings(str(a["kind"]), float(a["size"]), float(a["water"]),
+                             {str(k): float(v) for k, v in a["pigment"].items()}))
+        b = p.brush
+        if isinstance(b, DeformableBrush) and "deformable" in ps:
+            try:
+                b.restore(ps["deformable"])
+            except (ValueError, KeyError, TypeError, AttributeError) as exc:
+                self._warn(f"recovery: the deformable brush's state was not restored ({exc}); "
+                           "it starts freshly loaded")
         p.layer_pigments = set(ps["layer_pigments"])
         p.counters.samples = int(ps["samples"])
         p.counters.commands = {str(k): int(v) for k, v in ps["commands"].items()}
