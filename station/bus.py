@@ -472,7 +472,7 @@ class Publisher:
     def publish_status(self, status: dict[str, Any], topic: str = "status") -> int:
         return self._send(topic, status)
 
-    def publish_haptic(self, device: str, haptic: wire.Haptic) -> int:
+    def publish_haptic(self, device: str, haptic: wire.Haptic | wire.HapticForce) -> int:
         return self._send(f"haptic.{device}", haptic)
 
     # -- heartbeats ----------------------------------------------------------------

@@ -46,10 +46,12 @@ from dataclasses import dataclass, field
 import numpy as np
 from station.drivers.haptic.contact import BrushState, Surface, Vec3
 
+from station.brush.deformable import REACH, DeformableBrush
 from station.brush.energy import heights
 from station.brush.geometry import BrushShape, get_shape
 from station.brush.solver import Friction, SpineSolver, SpineState
 from station.brush.spine import SpineSpec, chain
+from station.events import PenSample
 
 CONTACT_Z = 1e-5
 """A joint this close to the paper (tuft units) is in contact (as the solver decides)."""
@@ -202,6 +204,11 @@ class DeformableBrushContact:
         self.offsets = self.shape.spine_offsets()
         self.last: Equilibrium | None = None
 
+    def warm_up(self) -> None:
+        """One solve in the tuft (loads the compiled solver: the first takes ~1 s)."""
+        self.reaction(BrushState(0.0, (0.0, 0.0, 0.5 * self.tuft_mm)))
+        self.last = None
+
     def force_from(self, eq: Equilibrium) -> Vec3:
         """The canvas's reaction on the handle, N, for a solved tuft (tuft units → mm)."""
         g = -eq.gradient * (self.energy_scale / self.tuft_mm)
@@ -229,3 +236,47 @@ class DeformableBrushContact:
     def contact_force(self, state: BrushState) -> Vec3:
         """Reaction plus friction and grain (what the hand feels at this pose)."""
         return self.surface.apply(self.reaction(state), state)
+
+
+def height_pressure(z_mm: float, tuft_mm: float, press_depth: float) -> float:
+    """The pen pressure that puts the simulated brush's handle where the device's is.
+
+    The deformable brush maps pressure ``p`` to the ferrule's height
+    ``1 - REACH - press_depth·p`` tuft lengths (``station.brush.deformable``);
+    this inverts it for a handle ``z_mm`` above the paper with a ``tuft_mm`` tuft,
+    so the force the simulation computes is the one at the device's pose.
+    """
+    if press_depth <= 0.0 or tuft_mm <= 0.0:
+        return 0.0
+    return min(1.0, max(0.0, (1.0 - REACH - z_mm / tuft_mm) / press_depth))
+
+
+@dataclass
+class SimReaction:
+    """The deformable brush's reaction for a pen sample, as ``station sim`` publishes it.
+
+    The painting brush (:class:`~station.brush.deformable.DeformableBrush`) gives the
+    pose (its pressure → height and tilt → handle mapping, in tuft lengths) and the
+    plastic state (its spines' current rest angles); the tuft is re-solved from the
+    canonical start (:class:`TuftReaction`), so the force does not depend on the
+    painting solve's friction or history.
+
+    Attributes:
+        tuft_mm: the felt tuft length, mm (one tuft unit), as the driver's ``tuft=``.
+        energy_scale: N·mm per unit of tuft energy, as :class:`DeformableBrushContact`.
+    """
+
+    tuft_mm: float = 6.0
+    energy_scale: float = 6.0
+    model: TuftReaction = field(default_factory=TuftReaction)
+
+    def force(self, brush: DeformableBrush, sample: PenSample) -> Vec3:
+        """N at the handle (canvas frame; zero when the pen is not on the paper)."""
+        if not (sample.touching and sample.proximity):
+            return (0.0, 0.0, 0.0)
+        roots, handle = brush.pose(sample.x * brush.width, sample.y * brush.height,
+                                   sample.pressure, sample.tilt_x, sample.tilt_y,
+                                   sample.rotation or 0.0)
+        eq = self.model.solve(brush.specs, roots, handle, [st.rest for st in brush.spines])
+        g = -eq.gradient * (self.energy_scale / self.tuft_mm)
+        return (float(g[0]), float(g[1]), float(g[2]))

@@ -10,7 +10,11 @@ the protocol session (hello request → hello: identity, version, limits);
    filter (zero force this tick);
 2. computes the wanted force: the contact model (the brush against the canvas)
    evaluated on the newest pose, plus the force frames that arrive on the bus
-   (``haptic.<device>``) interpolated between simulation frames;
+   (``haptic.<device>``) interpolated between simulation frames, plus the
+   deformable brush's reaction frames (from the simulation's ``HapticForce``
+   messages or from a local :class:`ReactionWorker` at the sim rate),
+   interpolated likewise, with friction and paper grain added at the loop rate
+   (:class:`~station.drivers.haptic.contact.Surface`);
 3. passes it through the :class:`SafetyFilter` (watchdog, clamps, rate limit);
 4. sends it (a force frame every tick is also the device's heartbeat).
 
@@ -29,6 +33,7 @@ import collections
 import logging
 import math
 import os
+import sys
 import threading
 import time
 import weakref
@@ -36,13 +41,14 @@ from array import array
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 from station.drivers.haptic.contact import (
     BrushState,
     ContactModel,
     FrameInterpolator,
     RoundBrushContact,
+    Surface,
     Vec3,
     pressure_from_force,
 )
@@ -74,8 +80,18 @@ POS_RES = 100.0  # raw position units per mm
 TILT_RES = 100.0  # raw tilt units per degree
 PRESSURE_MAX = 1000
 HISTORY = 65536  # tick times kept for the period statistics
+SWITCH_INTERVAL_S = 0.0002
+"""GIL switch interval while a :class:`ReactionWorker` computes beside the loop, s."""
 BACKLOG_S = 0.5
 """Poses queued longer than this are stamped with their arrival (a device clock jump), s."""
+
+
+class ReactionModel(Protocol):
+    """A brush whose reaction is too costly for every tick (the deformable brush)."""
+
+    def reaction(self, state: BrushState) -> Vec3:
+        """The canvas's reaction at the handle, N, without friction or grain."""
+        ...
 
 
 @dataclass
@@ -100,6 +116,14 @@ class HapticConfig:
         realtime: SCHED_FIFO priority for the loop thread (1..99; 0 = normal scheduling).
             Needs CAP_SYS_NICE (or an rtprio limit); refused, the loop runs normally and
             the status says why.
+        reaction: a reaction model evaluated by a :class:`ReactionWorker` thread at
+            ``reaction_hz`` (the deformable brush computed in the driver).
+        reaction_hz: rate of that worker, Hz.
+        surface: friction and grain added at the loop rate to the reaction frames (the
+            worker's and the bus's ``HapticForce``); None: the frames as they come.
+        pressure: the pen pressure of a pose (None: the contact model's normal force over
+            ``full_force``); the deformable brush's is its handle height
+            (:func:`~station.drivers.haptic.deformable.height_pressure`).
     """
 
     rate_hz: float = 1000.0
@@ -115,6 +139,10 @@ class HapticConfig:
     handshake_timeout: float = 1.0
     spin_s: float = 0.0
     realtime: int = 0
+    reaction: ReactionModel | None = None
+    reaction_hz: float = 30.0
+    surface: Surface | None = None
+    pressure: Callable[[BrushState], float] | None = None
 
 
 @dataclass
@@ -127,6 +155,8 @@ class LoopStats:
     poses: int = 0
     device_errors: Counter[str] = field(default_factory=Counter)
     bus_forces: int = 0
+    reaction_frames: int = 0
+    reaction_s: float = 0.0  # seconds the reaction worker spent computing
     vibrations: int = 0
     dropped_samples: int = 0
 
@@ -180,6 +210,10 @@ class HapticSession:
         self._bus_time: float | None = None
         self._bus_offset: float | None = None
         self._bus_lock = threading.Lock()
+        self._reaction = FrameInterpolator()
+        self._reaction_time: float | None = None
+        self._reaction_offset: float | None = None
+        self._worker: ReactionWorker | None = None
         self._pending_vibration: Vibration | None = None
         self._bad_seen = 0
         self._thread: threading.Thread | None = None
@@ -247,6 +281,9 @@ class HapticSession:
         _LIVE.add(self)
         self._thread = threading.Thread(target=self._run, name="haptic-loop", daemon=True)
         self._thread.start()
+        if self.config.reaction is not None and self.config.force:
+            self._worker = ReactionWorker(self, self.config.reaction, self.config.reaction_hz)
+            self._worker.start()
 
     def pause(self, paused: bool = True) -> None:
         """Freeze the loop without zeroing (a hung station, for the device-watchdog test)."""
@@ -261,6 +298,8 @@ class HapticSession:
             return
         self._stopped = True
         self._stop.set()
+        if self._worker is not None:
+            self._worker.stop()
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join(timeout=2.0)
         if self.gone is None:
@@ -369,6 +408,20 @@ class HapticSession:
             elif bus_time is not None:  # the bus went quiet: its part stops
                 self._bus.clear()
                 self._bus_time = None
+            r_time = self._reaction_time
+            if r_time is not None and now - r_time <= self.config.watchdog_s:
+                r = self._reaction.sample(now)
+                if self.config.surface is not None and self.state is not None:
+                    r = self.config.surface.apply(r, self.state)
+                fx, fy, fz = fx + r[0], fy + r[1], fz + r[2]
+                if contact is None:
+                    # friction and grain follow the pose: both must be fresh
+                    pose_t = self.pose_time if self.pose_time is not None else -math.inf
+                    updated = min(r_time, pose_t) if updated is None else \
+                        min(updated, r_time, pose_t)
+            elif r_time is not None:  # the reaction frames stopped: their part stops
+                self._reaction.clear()
+                self._reaction_time = None
         return (fx, fy, fz), updated
 
     def _handle(self, msg: Message, now: float) -> None:
@@ -408,10 +461,13 @@ class HapticSession:
         assert self.hello is not None and self.state is not None
         wx, wy, _ = self.hello.workspace
         height = pose.z - self.config.paper_z
-        fz = 0.0
-        if self.config.contact is not None:
-            fz = self.config.contact.contact_force(self.state)[2]
-        pressure = pressure_from_force(fz, self.config.full_force)
+        if self.config.pressure is not None:
+            pressure = min(1.0, max(0.0, self.config.pressure(self.state)))
+        else:
+            fz = 0.0
+            if self.config.contact is not None:
+                fz = self.config.contact.contact_force(self.state)[2]
+            pressure = pressure_from_force(fz, self.config.full_force)
         tx, ty = tilt_degrees(axis)
         prox_units = round(self.config.proximity_mm * POS_RES)
         raw = RawSample(
@@ -438,11 +494,32 @@ class HapticSession:
             self._bus_time = now
             self.stats.bus_forces += 1
 
-    def submit_haptic(self, haptic: wire.Haptic) -> None:
-        """A ``haptic.<device>`` bus message: a constant force along the paper normal
-        (frequency 0: amplitude × the force limit, pushing the handle up), or a vibration."""
+    def submit_reaction(self, force: Vec3, t: float | None = None) -> None:
+        """A reaction frame of the deformable brush (N, canvas frame, no friction or
+        grain) for time ``t`` on the loop's clock (default: now); the loop interpolates
+        the frames, adds ``config.surface`` and its arrival feeds the watchdog."""
+        now = self.clock()
+        with self._bus_lock:
+            self._reaction.push(now if t is None else t, force, now)
+            self._reaction_time = now
+            self.stats.reaction_frames += 1
+
+    def submit_haptic(self, haptic: wire.Haptic | wire.HapticForce) -> None:
+        """A ``haptic.<device>`` bus message: the brush's reaction force (``HapticForce``,
+        N), a constant force along the paper normal (frequency 0: amplitude × the force
+        limit, pushing the handle up), or a vibration."""
         limits = self.limits
         if limits is None:
+            return
+        if isinstance(haptic, wire.HapticForce):
+            # placed by the simulation's time stamps, anchored at the least delayed arrival
+            now = self.clock()
+            lag = now - haptic.t
+            if self._reaction_offset is None or lag < self._reaction_offset or \
+                    lag - self._reaction_offset > 0.1:
+                self._reaction_offset = lag
+            self.submit_reaction((haptic.fx, haptic.fy, haptic.fz),
+                                 haptic.t + self._reaction_offset)
             return
         if haptic.frequency_hz == 0.0:
             # Frames are placed by the simulation's own time stamps, anchored at the least
@@ -482,6 +559,9 @@ class HapticSession:
             "poses": s.poses, "bad_frames": d.bad_frames, "bad_reasons": dict(d.bad_reasons),
             "lost_frames": d.lost, "device_errors": dict(s.device_errors),
             "bus_forces": s.bus_forces, "vibrations": s.vibrations,
+            "reaction_frames": s.reaction_frames,
+            "reaction_ms": round(1e3 * s.reaction_s / max(1, s.reaction_frames), 3)
+            if self._worker is not None else None,
             "dropped_samples": s.dropped_samples,
             "force_n": [round(f, 4) for f in self.force],
             "watchdog_trips": safety.watchdog_trips if safety else 0,
@@ -491,3 +571,54 @@ class HapticSession:
             "trips": dict(safety.trips) if safety else {},
             "realtime": self.realtime,
         }
+
+
+class ReactionWorker:
+    """Evaluates a :class:`ReactionModel` on the newest pose at ``rate_hz`` on its own thread
+    (as the simulation would) and hands each result to the loop as a timed frame.
+
+    The frame is stamped with the pose's time, so the loop's
+    :class:`~station.drivers.haptic.contact.FrameInterpolator` renders it one
+    frame late and smoothly; a frame that took longer than the period is simply
+    followed by the next one (the watchdog zeroes the force if they stop).
+    """
+
+    def __init__(self, session: HapticSession, model: ReactionModel, rate_hz: float) -> None:
+        self.session = session
+        self.model = model
+        self.period = 1.0 / rate_hz
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="haptic-reaction", daemon=True)
+
+    def start(self) -> None:
+        # A thread computing holds the GIL for slices of sys.getswitchinterval() (5 ms by
+        # default): the 1 kHz loop thread would wait that long behind a solve.
+        if sys.getswitchinterval() > SWITCH_INTERVAL_S:
+            sys.setswitchinterval(SWITCH_INTERVAL_S)
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not threading.current_thread():
+            self._thread.join(timeout=2.0)
+
+    def _run(self) -> None:
+        s = self.session
+        next_t = time.monotonic()
+        while not self._stop.is_set():
+            state = s.state
+            if state is not None and s.gone is None:
+                t0 = time.monotonic()
+                try:
+                    force = self.model.reaction(state)
+                except Exception:  # a failed solve must not end the loop: zero, logged
+                    log.exception("haptic reaction failed; zero until the next frame")
+                    force = ZERO
+                s.stats.reaction_s += time.monotonic() - t0
+                s.submit_reaction(force, state.t)
+            next_t += self.period
+            wait = next_t - time.monotonic()
+            if wait < 0:
+                next_t = time.monotonic()
+                wait = 0.0
+            self._stop.wait(wait)
