@@ -259,3 +259,44 @@ def test_the_sim_paints_with_the_deformable_brush_and_the_mock_feels_it(tmp_path
         src.close()
         pub.close()
         core.finish()
+
+
+class _Session:
+    """What a ReactionWorker uses of a HapticSession."""
+
+    def __init__(self, state: BrushState) -> None:
+        self.state: BrushState | None = state
+        self.gone = None
+        self.frames: list[tuple[float | None, tuple[float, float, float]]] = []
+        self.stats = type("S", (), {"reaction_s": 0.0})()
+
+    def submit_reaction(self, force: tuple[float, float, float], t: float | None = None
+                        ) -> None:
+        self.frames.append((t, force))
+
+
+@pytest.mark.timeout(60)
+def test_reaction_process_answers_as_the_model_and_its_death_is_survived() -> None:
+    from station.drivers.haptic.reaction import ReactionWorker
+
+    state = BrushState(3.5, (1.0, 2.0, 3.0), (10.0, 0.0, 0.0))
+    model = DeformableBrushContact()
+    session = _Session(state)
+    worker = ReactionWorker(session, model, rate_hz=50.0)  # type: ignore[arg-type]
+    worker.start()
+    try:
+        assert worker.ready.wait(30.0)
+        deadline = time.monotonic() + 10.0
+        while len(session.frames) < 3 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        expected = model.reaction(state)  # deterministic: the same solve, the same bits
+        assert session.frames[0] == (3.5, expected) and expected[2] > 0.3
+        assert worker._proc is not None
+        worker._proc.kill()  # the solver process dies: the worker ends quietly, no frames
+        worker._proc.wait()
+        time.sleep(0.2)
+        n = len(session.frames)
+        time.sleep(0.2)
+        assert len(session.frames) == n and not worker._thread.is_alive()
+    finally:
+        worker.stop()

@@ -33,7 +33,6 @@ import collections
 import logging
 import math
 import os
-import sys
 import threading
 import time
 import weakref
@@ -41,7 +40,7 @@ from array import array
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any
 
 from station.drivers.haptic.contact import (
     BrushState,
@@ -52,6 +51,7 @@ from station.drivers.haptic.contact import (
     Vec3,
     pressure_from_force,
 )
+from station.drivers.haptic.reaction import ReactionModel, ReactionWorker
 from station.drivers.haptic.safety import ZERO, ForceLimits, SafetyFilter
 from station.drivers.raw import Axis, AxisRanges, RawSample
 from station.drivers.serial.protocol import (
@@ -80,18 +80,12 @@ POS_RES = 100.0  # raw position units per mm
 TILT_RES = 100.0  # raw tilt units per degree
 PRESSURE_MAX = 1000
 HISTORY = 65536  # tick times kept for the period statistics
-SWITCH_INTERVAL_S = 0.0002
-"""GIL switch interval while a :class:`ReactionWorker` computes beside the loop, s."""
+READY_TIMEOUT_S = 30.0
+"""How long ``start()`` waits for the reaction worker's solver to load, s."""
 BACKLOG_S = 0.5
 """Poses queued longer than this are stamped with their arrival (a device clock jump), s."""
 
 
-class ReactionModel(Protocol):
-    """A brush whose reaction is too costly for every tick (the deformable brush)."""
-
-    def reaction(self, state: BrushState) -> Vec3:
-        """The canvas's reaction at the handle, N, without friction or grain."""
-        ...
 
 
 @dataclass
@@ -119,6 +113,7 @@ class HapticConfig:
         reaction: a reaction model evaluated by a :class:`ReactionWorker` thread at
             ``reaction_hz`` (the deformable brush computed in the driver).
         reaction_hz: rate of that worker, Hz.
+        reaction_process: solve in a child process (beside the loop, not sharing its GIL).
         surface: friction and grain added at the loop rate to the reaction frames (the
             worker's and the bus's ``HapticForce``); None: the frames as they come.
         pressure: the pen pressure of a pose (None: the contact model's normal force over
@@ -141,6 +136,7 @@ class HapticConfig:
     realtime: int = 0
     reaction: ReactionModel | None = None
     reaction_hz: float = 30.0
+    reaction_process: bool = True
     surface: Surface | None = None
     pressure: Callable[[BrushState], float] | None = None
 
@@ -274,6 +270,18 @@ class HapticSession:
                           tilt_x=Axis(-9000, 9000, TILT_RES), tilt_y=Axis(-9000, 9000, TILT_RES),
                           distance=Axis(0, round(prox * POS_RES), POS_RES))
 
+    def prepare(self) -> None:
+        """Start the reaction worker (``config.reaction``) and wait until its solver
+        answers (up to ``READY_TIMEOUT_S``); ``start()`` does it if not done before."""
+        if self._worker is not None or self.config.reaction is None or not self.config.force:
+            return
+        self._worker = ReactionWorker(self, self.config.reaction, self.config.reaction_hz,
+                                      self.config.reaction_process)
+        self._worker.start()
+        if not self._worker.ready.wait(READY_TIMEOUT_S):
+            log.warning("haptic reaction: solver not ready after %g s; its force comes "
+                        "when it is", READY_TIMEOUT_S)
+
     # -- the loop -------------------------------------------------------------------
     def start(self) -> None:
         if self.hello is None:
@@ -281,9 +289,7 @@ class HapticSession:
         _LIVE.add(self)
         self._thread = threading.Thread(target=self._run, name="haptic-loop", daemon=True)
         self._thread.start()
-        if self.config.reaction is not None and self.config.force:
-            self._worker = ReactionWorker(self, self.config.reaction, self.config.reaction_hz)
-            self._worker.start()
+        self.prepare()
 
     def pause(self, paused: bool = True) -> None:
         """Freeze the loop without zeroing (a hung station, for the device-watchdog test)."""
@@ -571,54 +577,3 @@ class HapticSession:
             "trips": dict(safety.trips) if safety else {},
             "realtime": self.realtime,
         }
-
-
-class ReactionWorker:
-    """Evaluates a :class:`ReactionModel` on the newest pose at ``rate_hz`` on its own thread
-    (as the simulation would) and hands each result to the loop as a timed frame.
-
-    The frame is stamped with the pose's time, so the loop's
-    :class:`~station.drivers.haptic.contact.FrameInterpolator` renders it one
-    frame late and smoothly; a frame that took longer than the period is simply
-    followed by the next one (the watchdog zeroes the force if they stop).
-    """
-
-    def __init__(self, session: HapticSession, model: ReactionModel, rate_hz: float) -> None:
-        self.session = session
-        self.model = model
-        self.period = 1.0 / rate_hz
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, name="haptic-reaction", daemon=True)
-
-    def start(self) -> None:
-        # A thread computing holds the GIL for slices of sys.getswitchinterval() (5 ms by
-        # default): the 1 kHz loop thread would wait that long behind a solve.
-        if sys.getswitchinterval() > SWITCH_INTERVAL_S:
-            sys.setswitchinterval(SWITCH_INTERVAL_S)
-        self._thread.start()
-
-    def stop(self) -> None:
-        self._stop.set()
-        if self._thread is not threading.current_thread():
-            self._thread.join(timeout=2.0)
-
-    def _run(self) -> None:
-        s = self.session
-        next_t = time.monotonic()
-        while not self._stop.is_set():
-            state = s.state
-            if state is not None and s.gone is None:
-                t0 = time.monotonic()
-                try:
-                    force = self.model.reaction(state)
-                except Exception:  # a failed solve must not end the loop: zero, logged
-                    log.exception("haptic reaction failed; zero until the next frame")
-                    force = ZERO
-                s.stats.reaction_s += time.monotonic() - t0
-                s.submit_reaction(force, state.t)
-            next_t += self.period
-            wait = next_t - time.monotonic()
-            if wait < 0:
-                next_t = time.monotonic()
-                wait = 0.0
-            self._stop.wait(wait)

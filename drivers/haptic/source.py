@@ -123,9 +123,8 @@ def haptic_config(spec: DeviceSpec) -> HapticConfig:
 
         extra = {"surface": surface, "pressure": pressure}
         if kind == "deformable":
-            model = DeformableBrushContact(shape=shape, tuft_mm=tuft, surface=surface)
-            model.warm_up()  # load the compiled solver now, not in the loop's first touch
-            extra["reaction"] = model
+            extra["reaction"] = DeformableBrushContact(shape=shape, tuft_mm=tuft,
+                                                       surface=surface)
             extra["reaction_hz"] = spec.number("reaction_rate", 30.0, 5.0, 500.0)
         elif "reaction_rate" in spec.options:
             raise DeviceSpecError("reaction_rate= is for contact=deformable (with contact=bus "
@@ -196,6 +195,7 @@ def open_haptic(spec: DeviceSpec, name: str | None = None) -> HapticPenSource:
     transport = SerialTransport(port, baudrate=baud)
     session = HapticSession(transport, config)
     try:
+        session.prepare()  # the deformable brush's solver loads before the hand is there
         session.handshake()
         session.start()
     except BaseException:
