@@ -130,7 +130,14 @@ def test_sim_publishes_the_deformable_brush_reaction(tmp_path: Path) -> None:
     core = LiveCore(LiveConfig(bus=None, width=48, height=32, backend="numpy",
                                log_path=str(tmp_path / "s.jsonl"), autosave=0))
     sent: list[tuple[str, wire.HapticForce]] = []
-    core.haptics.send = lambda name, f: sent.append((name, f))
+    rests: list[list[np.ndarray]] = []  # the brush's plastic state when each frame went
+
+    def send(name: str, f: wire.HapticForce) -> None:
+        sent.append((name, f))
+        rests.append([st.rest.copy() for st in core.player.brush.spines])
+
+    core.haptics.send = send
+    core.haptics.wanted = lambda name: name == "haptic-a"  # LiveSim asks its publisher
     core.haptics.period = 0.0
     try:
         core.feed_sample(_pen(0.0, "haptic-a", 0.5))
@@ -148,11 +155,14 @@ def test_sim_publishes_the_deformable_brush_reaction(tmp_path: Path) -> None:
             assert [name for name, _ in sent] == ["haptic-a"]  # only haptic devices cost
             fz.append(sent[0][1].fz)
         assert 0.0 < fz[0] < fz[1] < fz[2]
-        # the same force as the driver's model at the device height that pressure means
+        # the same force as the driver's model at the device height that pressure means,
+        # with the painting brush's plastic state (its spines' rest angles)
         model = DeformableBrushContact()
         z_mm = 6.0 * height_inverse(0.8)
-        assert fz[2] == pytest.approx(model.reaction(BrushState(0.0, (0, 0, z_mm)))[2],
-                                      rel=0.02)
+        assert fz[2] == pytest.approx(
+            model.reaction(BrushState(0.0, (0, 0, z_mm)), rests[-1])[2], rel=1e-6)
+        assert fz[2] != pytest.approx(model.reaction(BrushState(0.0, (0, 0, z_mm)))[2],
+                                      rel=1e-3)  # the wet brush has taken a little set
         sent.clear()
         core.feed_sample(_pen(0.0, "haptic-a", 0.0, touching=False))
         core.step()
@@ -219,6 +229,8 @@ def test_the_sim_paints_with_the_deformable_brush_and_the_mock_feels_it(tmp_path
         pub.publish_haptic(name, f)
 
     core.haptics.send = send
+    # as LiveSim does: only a device whose driver subscribed costs a solve
+    core.haptics.wanted = lambda name: pub.wants(f"haptic.{name}")
     assert core.feed_command(Command(t=0.0, cmd="brush", args={"kind": "round3d", "size": 10.0}))
     for i in range(4):  # a stroke of another pen: the painting path compiled before the hand
         core.feed_sample(_pen(0.0, "warm-up", 0.5, touching=i < 3))
@@ -300,3 +312,46 @@ def test_reaction_process_answers_as_the_model_and_its_death_is_survived() -> No
         assert len(session.frames) == n and not worker._thread.is_alive()
     finally:
         worker.stop()
+
+
+def test_publisher_knows_who_wants_haptic_forces(tmp_path: Path) -> None:
+    from station.bus import Subscriber
+
+    endpoint = f"ipc://{tmp_path}/sim-status"
+    pub = Publisher(endpoint, bind=True)
+    everything = Subscriber(endpoint, topics=("",))
+    try:
+        assert pub.wait_for_subscribers(1, timeout=10.0)
+        assert not pub.wants("haptic.hand")  # a subscriber of everything does not count
+        driver = Subscriber(endpoint, topics=("haptic.hand",))
+        assert pub.wait_for_subscribers(2, timeout=10.0)
+        assert pub.wants("haptic.hand") and not pub.wants("haptic.other")
+        driver.close()
+        deadline = time.monotonic() + 10.0
+        while pub.wants("haptic.hand"):  # its unsubscription arrives
+            assert time.monotonic() < deadline
+            time.sleep(0.02)
+    finally:
+        everything.close()
+        pub.close()
+
+
+def test_blueprint_points_a_haptic_driver_at_the_sims_it_paints_on(tmp_path: Path) -> None:
+    from station.blueprint.load import load
+    from station.blueprint.plan import resolve
+
+    (tmp_path / "bp.xml").write_text("""<station name="h" version="1">
+  <haptic id="hand" device="serial-mock:?script=stroke&amp;contact=bus"/>
+  <driver id="pen" device="mock:intuos-pro-m"/>
+  <bus id="hub"><requires interface="pen" from="hand"/><requires interface="pen" from="pen"/>
+  </bus>
+  <sim id="sim" width="64" height="48" backend="numpy"><requires interface="pen" from="hub"/>
+  </sim>
+  <recorder id="rec" output="rec.jsonl"><requires interface="pen" from="hub"/></recorder>
+</station>
+""")
+    plan = resolve(load(str(tmp_path / "bp.xml")), Path("/r"), tmp_path)
+    hand, pen = plan.process("hand").argv, plan.process("pen").argv
+    assert [hand[i + 1] for i, a in enumerate(hand) if a == "--haptic-bus"] == [
+        ">ipc:///r/sim.status"]
+    assert "--haptic-bus" not in pen

@@ -246,8 +246,9 @@ class HapticPenSource:
             "haptic": self.session.status(),
         }
 
-    def attach_bus(self, endpoint: str | None) -> None:
-        """Subscribe to ``haptic.<name>``: forces and vibrations from the station."""
+    def attach_bus(self, endpoint: str | list[str] | None) -> None:
+        """Subscribe to ``haptic.<name>`` at ``endpoint`` (or several): forces and
+        vibrations from the station."""
         from station.bus import Subscriber
 
         sub = Subscriber(endpoint, topics=(f"haptic.{self.name}",))

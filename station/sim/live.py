@@ -319,6 +319,8 @@ class LiveCore:
         dev.touching = rec.touching and rec.proximity
         dev.last_sample = rec
         self.journal.write(rec)
+        if not synthetic:
+            self.haptics.on_sample(self.player.brush, rec, self.now())
         return True
 
     def feed_command(self, command: Command) -> bool:
@@ -369,7 +371,6 @@ class LiveCore:
             self.counters.dropped_sources += 1
             self._warn(f"brush sources dropped: {exc}")
         self.player.step()
-        self.haptics.after_step(self.player.brush, self.devices, self.now())
 
     def publish_haptic(self, device: str, force: HapticForce) -> None:
         """Send a reaction frame to ``haptic.<device>`` (no bus here: dropped)."""
@@ -625,6 +626,9 @@ class LiveSim(LiveCore):
             if pub is not None:
                 pub.close()
             raise
+        pub = self.pub
+        if pub is not None:  # a haptic driver subscribes to haptic.<device>
+            self.haptics.wanted = lambda name: pub.wants(f"haptic.{name}")
         self._next_status = 0.0
         self._fps_mark = (time.monotonic(), self.player.counters.steps)
         self.fps = 0.0
