@@ -28,12 +28,15 @@ canonical start: the spine at its rest shape just touching the paper, pushed
 along the handle axis to the pose in steps of at most ``step`` tuft lengths,
 each warm-started from the previous one (the smooth descent), tightly
 converged.  The result depends on the pose and on the brush's plastic state
-(the spines' current rest angles) only.  The force solve is frictionless:
-with the canvas's friction inside it the energy would depend on where the
-bristles were dragged from, and its gradient would not be a reaction force.
+(the spines' current rest angles) only.  The force solve is frictionless
+(with the canvas's friction inside it the energy would depend on where the
+bristles were dragged from, and its gradient would not be a reaction force)
+and lets joints lift off the paper (``SpineSolver(hold=False)``: the painting
+solve holds a landed joint there, which can come out pulled down, a negative
+contact force, and dented the force curve).
 
 Cost: a few SQP solves per spine and evaluation (milliseconds), so it runs at
-the simulation rate (~30 Hz), not in the 1 kHz loop; its forces reach the loop
+the simulation rate (30–40 Hz), not in the 1 kHz loop; its forces reach the loop
 as timed frames through :class:`~station.drivers.haptic.contact.FrameInterpolator`.
 """
 

@@ -86,8 +86,6 @@ BACKLOG_S = 0.5
 """Poses queued longer than this are stamped with their arrival (a device clock jump), s."""
 
 
-
-
 @dataclass
 class HapticConfig:
     """How the station drives one haptic device.
@@ -112,7 +110,8 @@ class HapticConfig:
             the status says why.
         reaction: a reaction model evaluated by a :class:`ReactionWorker` thread at
             ``reaction_hz`` (the deformable brush computed in the driver).
-        reaction_hz: rate of that worker, Hz.
+        reaction_hz: rate of that worker, Hz (40: a frame every 25 ms keeps clear of the
+            50 ms watchdog when a solve is late).
         reaction_process: solve in a child process (beside the loop, not sharing its GIL).
         surface: friction and grain added at the loop rate to the reaction frames (the
             worker's and the bus's ``HapticForce``); None: the frames as they come.
@@ -135,7 +134,7 @@ class HapticConfig:
     spin_s: float = 0.0
     realtime: int = 0
     reaction: ReactionModel | None = None
-    reaction_hz: float = 30.0
+    reaction_hz: float = 40.0
     reaction_process: bool = True
     surface: Surface | None = None
     pressure: Callable[[BrushState], float] | None = None

@@ -125,7 +125,7 @@ def haptic_config(spec: DeviceSpec) -> HapticConfig:
         if kind == "deformable":
             extra["reaction"] = DeformableBrushContact(shape=shape, tuft_mm=tuft,
                                                        surface=surface)
-            extra["reaction_hz"] = spec.number("reaction_rate", 30.0, 5.0, 500.0)
+            extra["reaction_hz"] = spec.number("reaction_rate", 40.0, 5.0, 500.0)
         elif "reaction_rate" in spec.options:
             raise DeviceSpecError("reaction_rate= is for contact=deformable (with contact=bus "
                                   "the sim's rate sets it)", "--device")

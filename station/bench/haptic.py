@@ -9,8 +9,8 @@ machine load: ``sleep`` (sleep until each deadline: the driver's default),
 ``sleep+spin`` (sleep until 0.2 ms before it, then spin) and ``fifo`` (sleep,
 with the loop thread at SCHED_FIFO priority 50: ``rt=50`` in the SPEC; where
 the system refuses it the entry says so).  A fourth entry, ``deformable``, is
-``sleep`` with the deformable brush's reaction solved beside the loop at 30 Hz
-(``contact=deformable``: a :class:`~station.drivers.haptic.loop.ReactionWorker`
+``sleep`` with the deformable brush's reaction solved beside the loop at 40 Hz
+(``contact=deformable``: a :class:`~station.drivers.haptic.reaction.ReactionWorker`
 process beside the loop), the hand pressing 2 mm into the tuft: its jitter
 against ``sleep``'s is what the solves cost the loop (on a machine with a core
 to spare, nothing; on an overloaded one, the CPU they take);
