@@ -394,6 +394,7 @@ class Publisher:
         self.replay_enabled = replay
         self.subscriptions = 0
         self.replayed = 0
+        self._topics: set[bytes] = set()  # the prefixes subscribers hold now
 
     @property
     def url(self) -> str:
@@ -472,7 +473,7 @@ class Publisher:
     def publish_status(self, status: dict[str, Any], topic: str = "status") -> int:
         return self._send(topic, status)
 
-    def publish_haptic(self, device: str, haptic: wire.Haptic) -> int:
+    def publish_haptic(self, device: str, haptic: wire.Haptic | wire.HapticForce) -> int:
         return self._send(f"haptic.{device}", haptic)
 
     # -- heartbeats ----------------------------------------------------------------
@@ -501,10 +502,14 @@ class Publisher:
                 msg = self.sock.recv(zmq.NOBLOCK)
             except zmq.Again:
                 return
-            if not msg or msg[0] != 1:
+            if not msg or msg[0] not in (0, 1):
+                continue
+            prefix = msg[1:]
+            if msg[0] == 0:  # the last subscriber of this prefix left
+                self._topics.discard(prefix)
                 continue
             self.subscriptions += 1
-            prefix = msg[1:]
+            self._topics.add(prefix)
             for topic, frames in self._recent.items():
                 if topic.encode().startswith(prefix):
                     for fr in frames:
@@ -512,6 +517,14 @@ class Publisher:
                         header[4] |= wire.FLAG_REPLAY
                         self.sock.send_multipart([fr[0], bytes(header) + fr[1][wire.HEADER_SIZE:]])
                         self.replayed += 1
+
+    def wants(self, topic: str) -> bool:
+        """Whether a subscriber asked for ``topic`` by a prefix of it other than ``""``
+        (a subscriber of everything does not count): a publisher skips costly messages
+        nobody asked for (the sim's haptic forces)."""
+        self._serve_subscriptions()
+        t = topic.encode()
+        return any(p and t.startswith(p) for p in self._topics)
 
     def poll_subscriptions(self) -> None:
         """Serve pending subscriptions (late-joiner replay) without publishing."""

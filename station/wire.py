@@ -6,7 +6,8 @@ and a payload that starts with a 20-byte header::
     offset size  field
     0      2     magic  b"ST"
     2      1     version (1)
-    3      1     kind: 1 pen, 2 cmd, 3 status, 4 haptic, 5 pen batch, 6 heartbeat
+    3      1     kind: 1 pen, 2 cmd, 3 status, 4 haptic, 5 pen batch, 6 heartbeat,
+                 7 haptic force
     4      1     flags: bit 0 = replayed (sent again for a late joiner)
     5      3     reserved, zero
     8      4     publisher id (u32, random per publisher instance)
@@ -38,8 +39,10 @@ MAGIC = b"ST"
 VERSION = 1
 KIND_PEN, KIND_CMD, KIND_STATUS, KIND_HAPTIC, KIND_PEN_BATCH = 1, 2, 3, 4, 5
 KIND_HEARTBEAT = 6
+KIND_HAPTIC_FORCE = 7
 KIND_NAMES = {KIND_PEN: "pen", KIND_CMD: "cmd", KIND_STATUS: "status", KIND_HAPTIC: "haptic",
-              KIND_PEN_BATCH: "pen", KIND_HEARTBEAT: "heartbeat"}
+              KIND_PEN_BATCH: "pen", KIND_HEARTBEAT: "heartbeat", KIND_HAPTIC_FORCE: "haptic"}
+MAX_HAPTIC_FORCE = 1000.0  # N: far beyond any device; the driver clamps to its own limits
 MAX_HEARTBEAT_INTERVAL = 60.0
 MAX_BATCH = 512  # samples per batch message (53 KiB)
 FLAG_REPLAY = 0x01
@@ -59,6 +62,7 @@ _TOOL_INDEX = {tool: i for i, tool in enumerate(TOOL_CODES)}
 
 _HAPTIC = struct.Struct("<dddd")
 _HEARTBEAT = struct.Struct("<dQ")  # interval_s, last sequence number sent on pen.<device>
+_HAPTIC_FORCE = struct.Struct("<dddd")  # t, fx, fy, fz
 
 
 @dataclass(frozen=True, slots=True)
@@ -87,6 +91,35 @@ class Haptic:
             v = getattr(self, name)
             if not isinstance(v, (int, float)) or math.isnan(v) or not lo <= v <= hi:
                 raise EventError(f"haptic {name}={v!r} outside [{lo}, {hi}]")
+
+
+@dataclass(frozen=True, slots=True)
+class HapticForce:
+    """The canvas's reaction on the brush, for a haptic device (kind 7, ``haptic.<device>``).
+
+    Added to version 1 compatibly (docs/wire-format.md).  The driver adds friction
+    and paper grain at its own rate and passes the sum through its safety layer.
+
+    Attributes:
+        t: seconds on the publisher's clock when the force held (frames are
+            interpolated by these stamps).
+        fx, fy, fz: N in the canvas frame (x right, y toward the user, z up from
+            the paper), each within ``±MAX_HAPTIC_FORCE``.
+    """
+
+    t: float
+    fx: float
+    fy: float
+    fz: float
+
+    def __post_init__(self) -> None:
+        for name, lo, hi in (("t", 0.0, 1e12), ("fx", -MAX_HAPTIC_FORCE, MAX_HAPTIC_FORCE),
+                             ("fy", -MAX_HAPTIC_FORCE, MAX_HAPTIC_FORCE),
+                             ("fz", -MAX_HAPTIC_FORCE, MAX_HAPTIC_FORCE)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or math.isnan(v) \
+                    or not lo <= v <= hi:
+                raise EventError(f"haptic force {name}={v!r} outside [{lo}, {hi}]")
 
 
 @dataclass(frozen=True, slots=True)
@@ -123,7 +156,7 @@ class Envelope:
     publisher: int
     seq: int
     replay: bool
-    value: Any  # PenSample | Command | dict | Haptic | Heartbeat | list[PenSample] (a pen batch)
+    value: Any  # PenSample | Command | dict | Haptic | HapticForce | Heartbeat | list[PenSample]
 
     @property
     def count(self) -> int:
@@ -238,6 +271,9 @@ def encode(topic: str, value: Any, publisher: int, seq: int, flags: int = 0) -> 
     elif isinstance(value, Haptic):
         kind = KIND_HAPTIC
         body = _HAPTIC.pack(value.t, value.amplitude, value.frequency_hz, value.duration_s)
+    elif isinstance(value, HapticForce):
+        kind = KIND_HAPTIC_FORCE
+        body = _HAPTIC_FORCE.pack(value.t, value.fx, value.fy, value.fz)
     elif isinstance(value, Heartbeat):
         kind, body = KIND_HEARTBEAT, _HEARTBEAT.pack(value.interval_s, value.pen_seq)
     elif isinstance(value, dict):
@@ -285,6 +321,16 @@ def decode(frames: list[bytes]) -> Envelope:
             raise WireError(f"haptic body is {len(body)} bytes, expected {_HAPTIC.size}")
         try:
             value = Haptic(*_HAPTIC.unpack(body))
+        except EventError as exc:
+            raise WireError(str(exc)) from None
+    elif kind == KIND_HAPTIC_FORCE:
+        if prefix != "haptic" or not suffix:
+            raise WireError(f"haptic force on topic {topic!r}")
+        if len(body) != _HAPTIC_FORCE.size:
+            raise WireError(f"haptic force body is {len(body)} bytes, "
+                            f"expected {_HAPTIC_FORCE.size}")
+        try:
+            value = HapticForce(*_HAPTIC_FORCE.unpack(body))
         except EventError as exc:
             raise WireError(str(exc)) from None
     elif kind == KIND_HEARTBEAT:

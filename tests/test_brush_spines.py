@@ -233,3 +233,28 @@ def test_dragged_equilibrium_with_friction_matches_brute_force() -> None:
     assert math.isfinite(best)
     assert abs(e_sqp_x[0]) < 1e-4 and abs(e_sqp_x[2]) < 1e-4  # planar, as the search
     assert e_sqp <= best + 1e-5 and e_sqp >= best - 1e-3, (e_sqp, best)
+
+
+def test_unheld_joints_lift_off() -> None:
+    # hold=False (the haptic reaction's frictionless solve): pressed straight down from
+    # rest the joints only stay above the paper, SQP still starts (the buckle), and the
+    # joints that stay down are those the paper pushes; the default holds them
+    spec = SpineSpec.tapered(4, 0.75, 1.0, 0.6)
+    handle = np.eye(3)
+    for hold in (False, True):
+        solver = SpineSolver(friction=Friction(mu_n=0.0), hold=hold, xtol=1e-9, max_evals=500)
+        st = SpineState.at_rest(spec)
+        for z in np.linspace(0.98, 0.5, 13):
+            solver.solve(st, np.array([0.0, 0.0, z]), handle)
+        assert solver.counters.fallbacks == 0
+        lengths, stiffness, _ = spec.arrays()
+        zg = np.empty((4, 8))
+        zs = heights(st.x, zg, lengths, np.array([0.0, 0.0, 0.5]), handle)
+        on = np.flatnonzero(zs <= 1e-5)
+        grad = np.repeat(stiffness, 2) * (st.x - st.rest)
+        lam = np.linalg.lstsq(zg[on].T, grad, rcond=None)[0]
+        assert np.allclose(zg[on].T @ lam, grad, atol=1e-6)
+        if not hold:
+            assert (lam > -1e-6).all(), lam
+        else:
+            assert lam.min() < -0.1, lam  # a held joint the paper pulls down

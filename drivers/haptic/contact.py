@@ -86,18 +86,41 @@ class RoundBrushContact:
         return self.stiffness * depth + self.wall_stiffness * max(0.0, -z_mm)
 
     def contact_force(self, state: BrushState) -> Vec3:
-        x, y, z = state.position
-        fn = self.normal_force(z)
-        if fn == 0.0:
-            return (0.0, 0.0, 0.0)
+        fn = self.normal_force(state.position[2])
+        surface = Surface(self.friction, self.slip_mm_s, self.grain, self.grain_mm)
+        return surface.apply((0.0, 0.0, fn), state)
+
+
+@dataclass(frozen=True)
+class Surface:
+    """Friction and paper texture on top of a normal force (cheap: 1 kHz).
+
+    Attributes:
+        friction: Coulomb coefficient: ``friction · fz`` opposing the lateral velocity.
+        slip_mm_s: below this speed the friction fades in linearly (no stick-slip chatter).
+        grain: paper texture as a fraction of the normal force (0 = off).
+        grain_mm: size of a paper grain, mm.
+    """
+
+    friction: float = 0.15
+    slip_mm_s: float = 5.0
+    grain: float = 0.05
+    grain_mm: float = 0.4
+
+    def apply(self, force: Vec3, state: BrushState) -> Vec3:
+        """``force`` (N) with the grain modulating its normal part and the friction of
+        that normal part added against the stroke; nothing where ``fz <= 0``."""
+        fx, fy, fn = force
+        if fn <= 0.0:
+            return force
+        x, y, _ = state.position
         if self.grain:
             fn *= 1.0 + self.grain * paper_grain(x / self.grain_mm, y / self.grain_mm)
-        fx = fy = 0.0
         vx, vy, _ = state.velocity
         speed = math.hypot(vx, vy)
         if self.friction and speed > 0.0:
             scale = self.friction * fn * min(1.0, speed / self.slip_mm_s) / speed
-            fx, fy = -vx * scale, -vy * scale
+            fx, fy = fx - vx * scale, fy - vy * scale
         return (fx, fy, fn)
 
 

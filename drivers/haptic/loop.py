@@ -10,7 +10,11 @@ the protocol session (hello request → hello: identity, version, limits);
    filter (zero force this tick);
 2. computes the wanted force: the contact model (the brush against the canvas)
    evaluated on the newest pose, plus the force frames that arrive on the bus
-   (``haptic.<device>``) interpolated between simulation frames;
+   (``haptic.<device>``) interpolated between simulation frames, plus the
+   deformable brush's reaction frames (from the simulation's ``HapticForce``
+   messages or from a local :class:`ReactionWorker` at the sim rate),
+   interpolated likewise, with friction and paper grain added at the loop rate
+   (:class:`~station.drivers.haptic.contact.Surface`);
 3. passes it through the :class:`SafetyFilter` (watchdog, clamps, rate limit);
 4. sends it (a force frame every tick is also the device's heartbeat).
 
@@ -43,9 +47,11 @@ from station.drivers.haptic.contact import (
     ContactModel,
     FrameInterpolator,
     RoundBrushContact,
+    Surface,
     Vec3,
     pressure_from_force,
 )
+from station.drivers.haptic.reaction import ReactionModel, ReactionWorker
 from station.drivers.haptic.safety import ZERO, ForceLimits, SafetyFilter
 from station.drivers.raw import Axis, AxisRanges, RawSample
 from station.drivers.serial.protocol import (
@@ -74,6 +80,8 @@ POS_RES = 100.0  # raw position units per mm
 TILT_RES = 100.0  # raw tilt units per degree
 PRESSURE_MAX = 1000
 HISTORY = 65536  # tick times kept for the period statistics
+READY_TIMEOUT_S = 30.0
+"""How long ``start()`` waits for the reaction worker's solver to load, s."""
 BACKLOG_S = 0.5
 """Poses queued longer than this are stamped with their arrival (a device clock jump), s."""
 
@@ -100,6 +108,16 @@ class HapticConfig:
         realtime: SCHED_FIFO priority for the loop thread (1..99; 0 = normal scheduling).
             Needs CAP_SYS_NICE (or an rtprio limit); refused, the loop runs normally and
             the status says why.
+        reaction: a reaction model evaluated by a :class:`ReactionWorker` thread at
+            ``reaction_hz`` (the deformable brush computed in the driver).
+        reaction_hz: rate of that worker, Hz (40: a frame every 25 ms keeps clear of the
+            50 ms watchdog when a solve is late).
+        reaction_process: solve in a child process (beside the loop, not sharing its GIL).
+        surface: friction and grain added at the loop rate to the reaction frames (the
+            worker's and the bus's ``HapticForce``); None: the frames as they come.
+        pressure: the pen pressure of a pose (None: the contact model's normal force over
+            ``full_force``); the deformable brush's is its handle height
+            (:func:`~station.drivers.haptic.deformable.height_pressure`).
     """
 
     rate_hz: float = 1000.0
@@ -115,6 +133,11 @@ class HapticConfig:
     handshake_timeout: float = 1.0
     spin_s: float = 0.0
     realtime: int = 0
+    reaction: ReactionModel | None = None
+    reaction_hz: float = 40.0
+    reaction_process: bool = True
+    surface: Surface | None = None
+    pressure: Callable[[BrushState], float] | None = None
 
 
 @dataclass
@@ -127,6 +150,8 @@ class LoopStats:
     poses: int = 0
     device_errors: Counter[str] = field(default_factory=Counter)
     bus_forces: int = 0
+    reaction_frames: int = 0
+    reaction_s: float = 0.0  # seconds the reaction worker spent computing
     vibrations: int = 0
     dropped_samples: int = 0
 
@@ -180,6 +205,10 @@ class HapticSession:
         self._bus_time: float | None = None
         self._bus_offset: float | None = None
         self._bus_lock = threading.Lock()
+        self._reaction = FrameInterpolator()
+        self._reaction_time: float | None = None
+        self._reaction_offset: float | None = None
+        self._worker: ReactionWorker | None = None
         self._pending_vibration: Vibration | None = None
         self._bad_seen = 0
         self._thread: threading.Thread | None = None
@@ -240,6 +269,18 @@ class HapticSession:
                           tilt_x=Axis(-9000, 9000, TILT_RES), tilt_y=Axis(-9000, 9000, TILT_RES),
                           distance=Axis(0, round(prox * POS_RES), POS_RES))
 
+    def prepare(self) -> None:
+        """Start the reaction worker (``config.reaction``) and wait until its solver
+        answers (up to ``READY_TIMEOUT_S``); ``start()`` does it if not done before."""
+        if self._worker is not None or self.config.reaction is None or not self.config.force:
+            return
+        self._worker = ReactionWorker(self, self.config.reaction, self.config.reaction_hz,
+                                      self.config.reaction_process)
+        self._worker.start()
+        if not self._worker.ready.wait(READY_TIMEOUT_S):
+            log.warning("haptic reaction: solver not ready after %g s; its force comes "
+                        "when it is", READY_TIMEOUT_S)
+
     # -- the loop -------------------------------------------------------------------
     def start(self) -> None:
         if self.hello is None:
@@ -247,6 +288,7 @@ class HapticSession:
         _LIVE.add(self)
         self._thread = threading.Thread(target=self._run, name="haptic-loop", daemon=True)
         self._thread.start()
+        self.prepare()
 
     def pause(self, paused: bool = True) -> None:
         """Freeze the loop without zeroing (a hung station, for the device-watchdog test)."""
@@ -261,6 +303,8 @@ class HapticSession:
             return
         self._stopped = True
         self._stop.set()
+        if self._worker is not None:
+            self._worker.stop()
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join(timeout=2.0)
         if self.gone is None:
@@ -369,6 +413,20 @@ class HapticSession:
             elif bus_time is not None:  # the bus went quiet: its part stops
                 self._bus.clear()
                 self._bus_time = None
+            r_time = self._reaction_time
+            if r_time is not None and now - r_time <= self.config.watchdog_s:
+                r = self._reaction.sample(now)
+                if self.config.surface is not None and self.state is not None:
+                    r = self.config.surface.apply(r, self.state)
+                fx, fy, fz = fx + r[0], fy + r[1], fz + r[2]
+                if contact is None:
+                    # friction and grain follow the pose: both must be fresh
+                    pose_t = self.pose_time if self.pose_time is not None else -math.inf
+                    updated = min(r_time, pose_t) if updated is None else \
+                        min(updated, r_time, pose_t)
+            elif r_time is not None:  # the reaction frames stopped: their part stops
+                self._reaction.clear()
+                self._reaction_time = None
         return (fx, fy, fz), updated
 
     def _handle(self, msg: Message, now: float) -> None:
@@ -408,10 +466,13 @@ class HapticSession:
         assert self.hello is not None and self.state is not None
         wx, wy, _ = self.hello.workspace
         height = pose.z - self.config.paper_z
-        fz = 0.0
-        if self.config.contact is not None:
-            fz = self.config.contact.contact_force(self.state)[2]
-        pressure = pressure_from_force(fz, self.config.full_force)
+        if self.config.pressure is not None:
+            pressure = min(1.0, max(0.0, self.config.pressure(self.state)))
+        else:
+            fz = 0.0
+            if self.config.contact is not None:
+                fz = self.config.contact.contact_force(self.state)[2]
+            pressure = pressure_from_force(fz, self.config.full_force)
         tx, ty = tilt_degrees(axis)
         prox_units = round(self.config.proximity_mm * POS_RES)
         raw = RawSample(
@@ -438,11 +499,32 @@ class HapticSession:
             self._bus_time = now
             self.stats.bus_forces += 1
 
-    def submit_haptic(self, haptic: wire.Haptic) -> None:
-        """A ``haptic.<device>`` bus message: a constant force along the paper normal
-        (frequency 0: amplitude × the force limit, pushing the handle up), or a vibration."""
+    def submit_reaction(self, force: Vec3, t: float | None = None) -> None:
+        """A reaction frame of the deformable brush (N, canvas frame, no friction or
+        grain) for time ``t`` on the loop's clock (default: now); the loop interpolates
+        the frames, adds ``config.surface`` and its arrival feeds the watchdog."""
+        now = self.clock()
+        with self._bus_lock:
+            self._reaction.push(now if t is None else t, force, now)
+            self._reaction_time = now
+            self.stats.reaction_frames += 1
+
+    def submit_haptic(self, haptic: wire.Haptic | wire.HapticForce) -> None:
+        """A ``haptic.<device>`` bus message: the brush's reaction force (``HapticForce``,
+        N), a constant force along the paper normal (frequency 0: amplitude × the force
+        limit, pushing the handle up), or a vibration."""
         limits = self.limits
         if limits is None:
+            return
+        if isinstance(haptic, wire.HapticForce):
+            # placed by the simulation's time stamps, anchored at the least delayed arrival
+            now = self.clock()
+            lag = now - haptic.t
+            if self._reaction_offset is None or lag < self._reaction_offset or \
+                    lag - self._reaction_offset > 0.1:
+                self._reaction_offset = lag
+            self.submit_reaction((haptic.fx, haptic.fy, haptic.fz),
+                                 haptic.t + self._reaction_offset)
             return
         if haptic.frequency_hz == 0.0:
             # Frames are placed by the simulation's own time stamps, anchored at the least
@@ -482,6 +564,9 @@ class HapticSession:
             "poses": s.poses, "bad_frames": d.bad_frames, "bad_reasons": dict(d.bad_reasons),
             "lost_frames": d.lost, "device_errors": dict(s.device_errors),
             "bus_forces": s.bus_forces, "vibrations": s.vibrations,
+            "reaction_frames": s.reaction_frames,
+            "reaction_ms": round(1e3 * s.reaction_s / max(1, s.reaction_frames), 3)
+            if self._worker is not None else None,
             "dropped_samples": s.dropped_samples,
             "force_n": [round(f, 4) for f in self.force],
             "watchdog_trips": safety.watchdog_trips if safety else 0,

@@ -25,7 +25,7 @@ import os
 import threading
 from typing import TYPE_CHECKING, Any
 
-from station.drivers.haptic.contact import RoundBrushContact
+from station.drivers.haptic.contact import BrushState, RoundBrushContact, Surface
 from station.drivers.haptic.loop import HapticConfig, HapticSession, zero_all
 from station.drivers.raw import AxisRanges, RawSample
 from station.drivers.serial.transport import (
@@ -48,7 +48,12 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 COMMON_OPTIONS = {"input", "force", "max_force", "rate", "slew", "stiffness", "hair", "friction",
-                  "grain", "full_force", "paper_z", "baud", "rt", "spin_us"}
+                  "grain", "full_force", "paper_z", "baud", "rt", "spin_us", "contact", "shape",
+                  "tuft", "press_depth", "reaction_rate"}
+CONTACTS = ("round", "deformable", "bus")
+"""``contact=``: the round brush's spring in the loop (the default); the deformable
+brush solved in the driver at ``reaction_rate``; or the deformable brush's reaction
+from ``station sim`` over ``haptic.<device>`` (the sim holds the painting brush)."""
 MOCK_OPTIONS = {"script", "limit", "corrupt", "seed", "unplug", "replug", "tilt", "pose_rate"}
 
 # The mock devices of this process by SPEC: a reconnecting driver reopens the
@@ -79,11 +84,51 @@ def haptic_config(spec: DeviceSpec) -> HapticConfig:
           for k in ("input", "force")}
     if not on["input"] and not on["force"]:
         raise DeviceSpecError("input=0 and force=0 leave the device nothing to do", "--device")
-    contact = RoundBrushContact(
-        hair_mm=spec.number("hair", 6.0, 0.5, 50.0),
-        stiffness=spec.number("stiffness", 0.5, 0.01, 5.0),
-        friction=spec.number("friction", 0.15, 0.0, 1.0),
-        grain=spec.number("grain", 0.05, 0.0, 0.5))
+    friction = spec.number("friction", 0.15, 0.0, 1.0)
+    grain = spec.number("grain", 0.05, 0.0, 0.5)
+    kind = spec.options.get("contact", "round")
+    if kind not in CONTACTS:
+        raise DeviceSpecError(f"contact={kind!r}: one of {', '.join(CONTACTS)}", "--device")
+    extra: dict[str, Any] = {}
+    if kind == "round":
+        for opt in ("shape", "tuft", "press_depth", "reaction_rate"):
+            if opt in spec.options:
+                raise DeviceSpecError(f"{opt}= is for contact=deformable or contact=bus",
+                                      "--device")
+        contact: RoundBrushContact | None = RoundBrushContact(
+            hair_mm=spec.number("hair", 6.0, 0.5, 50.0),
+            stiffness=spec.number("stiffness", 0.5, 0.01, 5.0),
+            friction=friction, grain=grain)
+    else:
+        # the spine solver (numba, NLopt) only for a deformable brush: a round one starts fast
+        from station.drivers.haptic.deformable import DeformableBrushContact, height_pressure
+
+        from station.brush.geometry import BrushShapeError, get_shape
+
+        for opt in ("hair", "stiffness"):
+            if opt in spec.options:
+                raise DeviceSpecError(f"{opt}= is for contact=round (the deformable brush's "
+                                      "tuft is tuft= and shape=)", "--device")
+        try:
+            shape = get_shape(spec.options.get("shape", "round3d"))
+        except BrushShapeError as exc:
+            raise DeviceSpecError(f"shape=: {exc}", "--device") from None
+        tuft = spec.number("tuft", 6.0, 0.5, 50.0)
+        depth = spec.number("press_depth", shape.press_depth, 0.05, 0.97)
+        surface = Surface(friction=friction, grain=grain)
+        contact = None
+
+        def pressure(state: BrushState) -> float:
+            return height_pressure(state.position[2], tuft, depth)
+
+        extra = {"surface": surface, "pressure": pressure}
+        if kind == "deformable":
+            extra["reaction"] = DeformableBrushContact(shape=shape, tuft_mm=tuft,
+                                                       surface=surface)
+            extra["reaction_hz"] = spec.number("reaction_rate", 40.0, 5.0, 500.0)
+        elif "reaction_rate" in spec.options:
+            raise DeviceSpecError("reaction_rate= is for contact=deformable (with contact=bus "
+                                  "the sim's rate sets it)", "--device")
     max_force = spec.options.get("max_force")
     return HapticConfig(
         rate_hz=spec.number("rate", 1000.0, 50.0, 4000.0),
@@ -94,7 +139,7 @@ def haptic_config(spec: DeviceSpec) -> HapticConfig:
         full_force=spec.number("full_force", 2.0, 0.05, 50.0),
         paper_z=spec.number("paper_z", 0.0, -500.0, 500.0),
         realtime=round(spec.number("rt", 0, 0, 99)),
-        spin_s=spec.number("spin_us", 0.0, 0.0, 1000.0) / 1e6)
+        spin_s=spec.number("spin_us", 0.0, 0.0, 1000.0) / 1e6, **extra)
 
 
 def mock_device(spec: DeviceSpec) -> MockHapticDevice:
@@ -150,6 +195,7 @@ def open_haptic(spec: DeviceSpec, name: str | None = None) -> HapticPenSource:
     transport = SerialTransport(port, baudrate=baud)
     session = HapticSession(transport, config)
     try:
+        session.prepare()  # the deformable brush's solver loads before the hand is there
         session.handshake()
         session.start()
     except BaseException:
@@ -200,8 +246,9 @@ class HapticPenSource:
             "haptic": self.session.status(),
         }
 
-    def attach_bus(self, endpoint: str | None) -> None:
-        """Subscribe to ``haptic.<name>``: forces and vibrations from the station."""
+    def attach_bus(self, endpoint: str | list[str] | None) -> None:
+        """Subscribe to ``haptic.<name>`` at ``endpoint`` (or several): forces and
+        vibrations from the station."""
         from station.bus import Subscriber
 
         sub = Subscriber(endpoint, topics=(f"haptic.{self.name}",))

@@ -8,7 +8,13 @@ Three timing strategies in one run, so they compare as ratios on the same
 machine load: ``sleep`` (sleep until each deadline: the driver's default),
 ``sleep+spin`` (sleep until 0.2 ms before it, then spin) and ``fifo`` (sleep,
 with the loop thread at SCHED_FIFO priority 50: ``rt=50`` in the SPEC; where
-the system refuses it the entry says so).
+the system refuses it the entry says so).  A fourth entry, ``deformable``, is
+``sleep`` with the deformable brush's reaction solved beside the loop at 40 Hz
+(``contact=deformable``: a :class:`~station.drivers.haptic.reaction.ReactionWorker`
+process beside the loop), the hand pressing 2 mm into the tuft: its jitter
+against ``sleep``'s is what the solves cost the loop (on a machine with a core
+to spare, nothing; on an overloaded one, the CPU they take);
+``deformable+fifo`` is the same with the loop at SCHED_FIFO 50.
 
 Period statistics come from the loop's own tick start times (monotonic
 clock).  Target: 1 kHz with a p99 period jitter (|period − 1 ms|) ≤ 0.5 ms.
@@ -56,16 +62,29 @@ def _pct(values: list[float], q: float) -> float:
     return values[min(len(values) - 1, int(q * len(values)))]
 
 
-def _one(path: str, rate: float, seconds: float, spin_s: float, rt: int = 0) -> dict[str, Any]:
+def _one(path: str, rate: float, seconds: float, spin_s: float, rt: int = 0,
+         deformable: bool = False) -> dict[str, Any]:
     from station.drivers.haptic.loop import HapticConfig, HapticSession
     from station.drivers.serial.transport import SerialTransport
 
-    session = HapticSession(SerialTransport(path), HapticConfig(rate_hz=rate, spin_s=spin_s,
-                                                                input=False, realtime=rt))
+    config = HapticConfig(rate_hz=rate, spin_s=spin_s, input=False, realtime=rt)
+    if deformable:
+        from station.drivers.haptic.deformable import DeformableBrushContact
+
+        model = DeformableBrushContact()
+        config.contact, config.reaction, config.surface = None, model, model.surface
+    session = HapticSession(SerialTransport(path), config)
     session.handshake()
-    cpu0 = time.process_time()
     session.start()
+    if deformable:  # the reaction process has loaded its solver and answers
+        deadline = time.monotonic() + 30.0
+        while session.stats.reaction_frames < 3 and time.monotonic() < deadline:
+            time.sleep(0.05)
+        session.tick_times = type(session.tick_times)("d")  # time the loop from here
+    over0 = session.stats.overruns
+    cpu0 = time.process_time()
     time.sleep(seconds)
+    pressing = session.status()  # the force while the hand presses (stop zeroes it)
     session.stop()
     cpu = time.process_time() - cpu0
     ticks = list(session.tick_times)
@@ -81,8 +100,10 @@ def _one(path: str, rate: float, seconds: float, spin_s: float, rt: int = 0) -> 
         "period_ms": {"p50": round(_pct(periods, 0.5), 4), "p99": round(_pct(periods, 0.99), 4),
                       "p999": round(_pct(periods, 0.999), 4), "max": round(periods[-1], 4)},
         "jitter_p99_ms": round(_pct(jitter, 0.99), 4),
-        "overruns": st["overruns"], "poses": st["poses"], "bad_frames": st["bad_frames"],
+        "overruns": st["overruns"] - over0, "poses": st["poses"], "bad_frames": st["bad_frames"],
         "cpu_fraction": round(cpu / seconds, 3),
+        **({"reaction_frames": st["reaction_frames"], "reaction_ms": st["reaction_ms"],
+            "force_n": pressing["force_n"]} if deformable else {}),
         "meets_target": (len(ticks) - 1) / span >= 0.99 * TARGET_RATE_HZ
         and _pct(jitter, 0.99) <= TARGET_JITTER_P99_MS,
     }
@@ -107,6 +128,9 @@ def run(args: argparse.Namespace) -> int:
             "sleep": _one(path, args.rate, args.seconds, 0.0),
             "sleep+spin": _one(path, args.rate, args.seconds, 0.0002),
             "fifo": _one(path, args.rate, args.seconds, 0.0, rt=50),
+            "deformable": _one(path, args.rate, args.seconds, 0.0, deformable=True),
+            "deformable+fifo": _one(path, args.rate, args.seconds, 0.0, rt=50,
+                                    deformable=True),
         }
         parent.send("stop")
         if parent.poll(10):
@@ -117,7 +141,8 @@ def run(args: argparse.Namespace) -> int:
             proc.kill()
     base = max(report["sleep"]["jitter_p99_ms"], 1e-9)
     report["jitter_ratio_vs_sleep"] = {k: round(report[k]["jitter_p99_ms"] / base, 3)
-                                       for k in ("sleep+spin", "fifo")}
+                                       for k in ("sleep+spin", "fifo", "deformable",
+                                                 "deformable+fifo")}
     report["cpus"] = os.cpu_count()
     report["load_average"] = [round(v, 2) for v in os.getloadavg()]
     json.dump(report, sys.stdout, indent=2)

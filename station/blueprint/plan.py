@@ -288,6 +288,11 @@ def resolve(bp: Blueprint, run_dir: Path, workdir: Path, stamp: str | None = Non
                 target, binds, waits = "@" + ep, [_norm(ep, run_dir)], len(direct)
                 pen_out[c.id] = ep
             procs[c.id] = _source(c, target, binds, waits, calibrations, in_path)
+            if c.kind == "haptic":  # its forces come from the sims and kiosks it paints on
+                readers = direct + [k for b in via_bus for k, _ in consumers.get(b.id, [])]
+                for r in readers:
+                    if r.kind in ("sim", "kiosk"):
+                        procs[c.id].argv += ["--haptic-bus", ">" + ipc(f"{r.id}.status")]
             if via_bus and target.startswith(">tcp://"):
                 if c.kind == "replay":
                     raise BlueprintError("station replay takes no CURVE keys: a <replay> "

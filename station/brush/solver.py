@@ -96,6 +96,10 @@ class SpineSolver:
         max_evals: evaluation budget per frame (deterministic).
         time_budget_s: wall-clock budget per frame, or ``None`` (replays).
         xtol: relative tolerance on the angles.
+        hold: hold the joints that lie on the canvas there (an equality: they drag
+            instead of hopping off to escape their friction; the painting brush).
+            ``False``: every joint only stays above the canvas and may lift off (a
+            frictionless tuft whose contact forces are all pushes: the haptic reaction).
     """
 
     friction: Friction = field(default_factory=Friction)
@@ -103,6 +107,7 @@ class SpineSolver:
     time_budget_s: float | None = None
     xtol: float = 1e-6
     counters: SolverCounters = field(default_factory=SolverCounters)
+    hold: bool = True
 
     def solve(self, st: SpineState, root: np.ndarray, handle: np.ndarray) -> np.ndarray:
         """Move ``st`` to its equilibrium at ``root`` (3,), ``handle`` (3, 3); joints (n, 3).
@@ -142,7 +147,8 @@ class SpineSolver:
         n = spec.n
         lengths, stiffness, _ = spec.arrays()
         pred, _, _ = chain(st.x, lengths, root, handle)
-        contact = pred[:, 2] <= CONTACT_TOL
+        touching = pred[:, 2] <= CONTACT_TOL
+        contact = touching if self.hold else np.zeros(n, bool)
         anchor = np.zeros((n, 2))
         pull = np.zeros((n, 2))
         if st.pos is not None and st.contact is not None:
@@ -217,7 +223,7 @@ class SpineSolver:
         if self.time_budget_s is not None:
             opt.set_maxtime(self.time_budget_s)
         x0 = np.clip(st.x, lo, hi)
-        if eq.size and float(np.abs(x0).max()) < BUCKLE:
+        if touching.any() and float(np.abs(x0).max()) < BUCKLE:
             # A straight chain pushed onto the plane is at a saddle: its joints' heights
             # have no first-order dependence on the angles, and SQP cannot start.  A
             # slight bend about the handle's Y axis (along its X) breaks the symmetry,

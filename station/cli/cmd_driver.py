@@ -66,6 +66,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--client-key", metavar="NAME",
                    help="connect over tcp with this driver's own key pair (made by "
                         "`station keys --client NAME`) instead of the shared client key")
+    p.add_argument("--haptic-bus", action="append", default=None, metavar="ENDPOINT",
+                   help="a haptic device's forces (haptic.<device>) come from here: the "
+                        "endpoint station sim publishes its status on (repeatable; "
+                        "default: --bus)")
     p.add_argument("--heartbeat", type=float, default=None, metavar="S",
                    help="seconds between heartbeats on hb.<device> (default 0.2; the sim "
                         "names a silent device after 3 missed ones)")
@@ -160,7 +164,7 @@ def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
         while not stop.is_set():
             attach_bus = getattr(source, "attach_bus", None)
             if attach_bus is not None:  # a haptic device: forces from haptic.<device>
-                attach_bus(args.bus)
+                attach_bus(args.haptic_bus or args.bus)
             ident = source.describe()
             calibration = choose_calibration(args.calibration, int(ident.get("vid") or 0),
                                              int(ident.get("pid") or 0))

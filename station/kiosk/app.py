@@ -255,6 +255,10 @@ class KioskApp:
                           log_path=str(self.live_dir / f"{pid}.jsonl"), status="none",
                           cmd="none", autosave=cfg.autosave, backend_opts=opts)
         session = KioskSession(live, map_pen=self._map_pen, kiosk_command=self._kiosk_command)
+        pub = self.pub
+        if pub is not None:  # the deformable brush's reaction to haptic devices
+            session.haptics.send = pub.publish_haptic
+            session.haptics.wanted = lambda name: pub.wants(f"haptic.{name}")
         session.painting_id = pid
         self.session = session
         self.panel.apply_brush()  # the visitor's brush carries over, logged first

@@ -65,6 +65,7 @@ from station.errors import BadInput
 from station.events import Command, PenSample
 from station.sessionlog import SessionHeader
 from station.sim import recovery
+from station.sim.haptic import HapticFeedback
 from station.sim.journal import (
     SessionJournal,
     StorageReport,
@@ -75,7 +76,7 @@ from station.sim.journal import (
 )
 from station.sim.player import SessionPlayer
 from station.sim.undo import UndoHistory
-from station.wire import Heartbeat
+from station.wire import HapticForce, Heartbeat
 
 log = logging.getLogger(__name__)
 
@@ -202,6 +203,8 @@ class LiveCore:
         # undo/redo of strokes (the kiosk's button, the undo/redo commands); it reaches
         # back to the strokes made since this process started or recovered
         self.history = UndoHistory(self.player)
+        # the deformable brush's reaction for haptic devices (station.sim.haptic)
+        self.haptics = HapticFeedback(self.publish_haptic)
         if session:
             self._restore(session)
         elif start is not None:
@@ -317,6 +320,8 @@ class LiveCore:
         dev.touching = rec.touching and rec.proximity
         dev.last_sample = rec
         self.journal.write(rec)
+        if not synthetic:
+            self.haptics.on_sample(self.player.brush, rec, self.now())
         return True
 
     def feed_command(self, command: Command) -> bool:
@@ -367,6 +372,9 @@ class LiveCore:
             self.counters.dropped_sources += 1
             self._warn(f"brush sources dropped: {exc}")
         self.player.step()
+
+    def publish_haptic(self, device: str, force: HapticForce) -> None:
+        """Send a reaction frame to ``haptic.<device>`` (no bus here: dropped)."""
 
     def steps_due(self) -> int:
         return self.player.steps_due(self.now()) - self.player.counters.steps
@@ -629,6 +637,9 @@ class LiveSim(LiveCore):
             if pub is not None:
                 pub.close()
             raise
+        pub = self.pub
+        if pub is not None:  # a haptic driver subscribes to haptic.<device>
+            self.haptics.wanted = lambda name: pub.wants(f"haptic.{name}")
         self._next_status = 0.0
         self._fps_mark = (time.monotonic(), self.player.counters.steps)
         self.fps = 0.0
@@ -655,10 +666,14 @@ class LiveSim(LiveCore):
             self.fps = (p.counters.steps - mark_steps) / (now - mark_t)
             self._fps_mark = (now, p.counters.steps)
         st = {"process": "sim", "pid": os.getpid(), **super().status(), "fps": self.fps,
-              "bus": self.sub.stats.as_dict()}
+              "bus": self.sub.stats.as_dict(), "haptic": self.haptics.as_dict()}
         # samples lost on the bus, and those sent while no sim listened (recovery)
         st["lost_samples"] = self.sub.stats.lost + self.counters.missed_while_down
         return st
+
+    def publish_haptic(self, device: str, force: HapticForce) -> None:
+        if self.pub is not None:
+            self.pub.publish_haptic(device, force)
 
     def maybe_publish_status(self) -> None:
         """Publish the status when the last one is :data:`STATUS_EVERY_S` old."""
