@@ -30,7 +30,13 @@ from station.drivers.hid.base import ReportParser
 from station.drivers.hid.errors import ReportError
 from station.drivers.raw import Axis, AxisRanges, RawSample
 from station.drivers.wacom.common import WacomParams, unknown_id
-from station.drivers.wacom.intuos import ROTATION_AXIS, TILT_AXIS, WHEEL_AXIS, IntuosParser
+from station.drivers.wacom.intuos import (
+    PEN_REPORT_IDS,
+    ROTATION_AXIS,
+    TILT_AXIS,
+    WHEEL_AXIS,
+    IntuosParser,
+)
 from station.drivers.wacom.tools import tool_from_id
 
 from station.events import Button, Tool
@@ -39,6 +45,9 @@ _BUTTONS = tuple((int(Button.STYLUS) if b & 2 else 0) | (int(Button.STYLUS2) if 
                  for b in range(8))  # f[0] & 0x06 -> button bits
 I4WL_FRAMES = {0x03: (2, 22), 0x04: (3, 32)}  # report ID -> (packets, minimum length)
 I4WL_PACKET = 10
+# report ID -> (offsets of its packets, minimum length)
+_I4WL_OFFSETS = {rid: (tuple(range(1, 1 + n * I4WL_PACKET, I4WL_PACKET)), minimum)
+                 for rid, (n, minimum) in I4WL_FRAMES.items()}
 
 
 class Intuos4WirelessParser(ReportParser):
@@ -59,24 +68,27 @@ class Intuos4WirelessParser(ReportParser):
     def parse(self, report: bytes, time: float) -> list[RawSample]:
         if not report:
             raise unknown_id(b"\0", "Intuos4 WL")
-        framing = I4WL_FRAMES.get(report[0])
+        framing = _I4WL_OFFSETS.get(report[0])
         if framing is None:
             raise unknown_id(report, "Intuos4 WL")
-        count, minimum = framing
+        offsets, minimum = framing
         if len(report) < minimum:
             raise ReportError(f"Intuos4 WL report {report[0]:#04x} is {len(report)} bytes, "
                               f"expected at least {minimum}")  # fmt: skip
         out: list[RawSample] = []
-        before = self.inner.dropped
-        for i in range(count):
-            packet = report[1 + i * I4WL_PACKET:1 + (i + 1) * I4WL_PACKET]
-            rid = packet[0]
-            if rid in self.inner.pen_report_ids:
-                out.extend(self.inner.parse(packet, time))
+        inner = self.inner
+        before = inner.dropped
+        for at in offsets:  # each packet read in place by the Intuos parser
+            rid = report[at]
+            if rid in PEN_REPORT_IDS:
+                s = inner.packet(report, at, time)
+                if s is not None:
+                    out.append(s)
             elif rid in (3, 12, 17):
                 self._skip("pad")
             # other IDs: an unused slot of the bundle
-        self.dropped += self.inner.dropped - before
+        if inner.dropped != before:
+            self.dropped += inner.dropped - before
         return out
 
 
