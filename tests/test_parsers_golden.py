@@ -11,9 +11,10 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from parse_streams import GOLDEN, outputs, streams  # noqa: E402
+from parse_streams import GOLDEN, outputs, streams
 
-_GOLDEN = json.loads(gzip.open(GOLDEN, "rt", encoding="utf-8").read())
+with gzip.open(GOLDEN, "rt", encoding="utf-8") as _f:
+    _GOLDEN = json.load(_f)
 _STREAMS = streams()
 
 
@@ -28,7 +29,7 @@ def test_parser_outputs_match_the_golden_stream(label: str) -> None:
     got = json.loads(json.dumps(outputs(parser, reports)))  # tuples -> lists, as stored
     want = _GOLDEN[label]
     assert len(got) == len(want)
-    for i, (g, w) in enumerate(zip(got, want)):
+    for i, (g, w) in enumerate(zip(got, want, strict=True)):
         assert g == w, f"{label} report {i} ({reports[i].hex() if i < len(reports) else ''})"
     samples = sum(len(x) for x in want[:-1] if isinstance(x, list))
     assert samples > 10  # the stream exercises the parser, not only its error paths

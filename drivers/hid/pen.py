@@ -274,13 +274,20 @@ class GenericPenParser(ReportParser):
             is_pen = False
         super().__init__(ranges, model, init_features, generic=generic, is_pen=is_pen, kind=kind)
         self.long_reports = 0  # reports longer than the descriptor says (tail ignored)
+        # report ID -> (declared length, decoder) of the pen reports
+        self._pen_reports = {rid: (self.lengths[rid], dec) for rid, dec in self.decoders.items()}
 
     @property
     def pen_report_ids(self) -> list[int]:
         return sorted(self.plans)
 
     def parse(self, report: bytes, time: float) -> list[RawSample]:
-        if not report:
+        # The hot path: a pen report of exactly its declared length, one dict lookup.
+        if report:
+            pen = self._pen_reports.get(report[0] if self.numbered else 0)
+            if pen is not None and len(report) == pen[0]:
+                return [pen[1](report, time)]
+        else:
             raise ReportError("empty report")
         rid = report[0] if self.numbered else 0
         want = self.lengths.get(rid)
@@ -433,13 +440,16 @@ def compile_plan(plan: PenPlan) -> Callable[[bytes, float], RawSample] | None:
     serial = f"({val('serial', '0')} | ({val('serial_hi', '0')} << 32))"
     lines.append(f"    serial = ({serial} & {SERIAL_MASK}) or None")
     lines.append(
-        f"    return RawSample(time, prox, {val('x')}, {val('y')}, tip, {val('pressure')}, "
+        f"    return new(RawSample, (time, prox, {val('x')}, {val('y')}, tip, {val('pressure')}, "
         f"{val('tilt_x')}, {val('tilt_y')}, {val('distance')}, {val('twist')}, None, buttons, "
-        "tool, serial, tool_id, eraser, valid)"
+        "tool, serial, tool_id, eraser, valid))"
     )
     namespace: dict[str, Any] = {
         "from_bytes": int.from_bytes, "RawSample": RawSample, "ERASER": Tool.ERASER,
         "PEN": Tool.PEN, "tool_of": tool_from_id,
+        # RawSample is a named tuple: tuple.__new__ with the values in field order skips
+        # its Python-level __new__ (built per report)
+        "new": tuple.__new__,
     }  # fmt: skip
     exec(compile("\n".join(lines), f"<pen report {plan.report_id}>", "exec"), namespace)
     decoder: Callable[[bytes, float], RawSample] = namespace["decode"]

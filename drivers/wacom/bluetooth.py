@@ -23,6 +23,7 @@ with a proximity-out.
 
 from __future__ import annotations
 
+import struct
 from dataclasses import dataclass
 from typing import Any
 
@@ -43,6 +44,13 @@ from station.events import Button, Tool
 
 _BUTTONS = tuple((int(Button.STYLUS) if b & 2 else 0) | (int(Button.STYLUS2) if b & 4 else 0)
                  for b in range(8))  # f[0] & 0x06 -> button bits
+# A frame in one call: f[0]; x, y, pressure (little-endian 16 bits); Pro 2: tilt x, y (signed
+# bytes), rotation (signed 16 bits), wheel (16 bits), distance; the CTL: distance.
+_PRO2_FRAME = struct.Struct("<BHHHbbhHB")
+_CTL_FRAME = struct.Struct("<BHHHB")
+_tuple_new = tuple.__new__  # RawSample is a named tuple: built without its __new__ frame
+_SERIAL_ID = struct.Struct("<QH")  # serial (64 bits) and tool id (16 bits), adjacent
+_VALID = bytes(range(0x80, 0x100))  # f[0] values of a valid frame (deleted to count them)
 I4WL_FRAMES = {0x03: (2, 22), 0x04: (3, 32)}  # report ID -> (packets, minimum length)
 I4WL_PACKET = 10
 # report ID -> (offsets of its packets, minimum length)
@@ -117,6 +125,9 @@ class IntuosBluetoothParser(ReportParser):
         self.pro2 = pro2
         self.frame_len, self.frames = (14, 7) if pro2 else (8, 4)
         self.serial_at, self.id_at = (99, 107) if pro2 else (33, 41)
+        self.frame = _PRO2_FRAME if pro2 else _CTL_FRAME
+        self.starts = tuple(range(1, 1 + self.frames * self.frame_len, self.frame_len))
+        self.flags_end = 1 + self.frames * self.frame_len  # f[0] of every frame: d[1:end:len]
         ranges = AxisRanges(
             x=params.x_axis(), y=params.y_axis(), pressure=Axis(0, params.max_pressure),
             tilt_x=TILT_AXIS if pro2 else None, tilt_y=TILT_AXIS if pro2 else None,
@@ -139,20 +150,21 @@ class IntuosBluetoothParser(ReportParser):
             raise ReportError(f"Intuos BT report {report[0]:#04x} is {len(report)} bytes, "
                               f"expected at least {need}")  # fmt: skip
         d = report
-        serial = int.from_bytes(d[self.serial_at:self.serial_at + 8], "little")
-        tool_id = d[self.id_at] | (d[self.id_at + 1] << 8)
+        serial, tool_id = _SERIAL_ID.unpack_from(d, self.serial_at)
         if serial >> 52 == 1:  # non-USI pens: the id's missing bits ride in the serial
             tool_id |= (serial >> 32) & 0xFFFFF
-        flen, pro2 = self.frame_len, self.pro2
-        valid_count = 0
-        for i in range(self.frames):
-            if d[1 + i * flen] & 0x80:
-                valid_count += 1
+        # the kernel reads the first valid_count frames, valid_count the frames with 0x80
+        flags = d[1:self.flags_end:self.frame_len]
+        valid_count = len(flags) - len(flags.translate(None, _VALID))
         st = self.state
         out: list[RawSample] = []
-        for i in range(valid_count):  # the kernel reads the first valid_count frames
-            s = 1 + i * flen
-            f0 = d[s]
+        frame = self.frame
+        pro2 = self.pro2
+        top, far = self.params.max_pressure, self.params.max_distance
+        serial_out, id_out = serial or None, tool_id or None
+        for s in self.starts[:valid_count]:
+            f = frame.unpack_from(d, s)
+            f0 = f[0]
             if not f0 & 0x80:
                 continue
             in_range = f0 & 0x20
@@ -167,22 +179,24 @@ class IntuosBluetoothParser(ReportParser):
                 if st.tool is None:
                     st.tool = (Tool.ERASER if f0 & 0x10 else
                                tool_from_id(tool_id) if tool_id else Tool.PEN)  # fmt: skip
-                st.x, st.y = d[s + 1] | (d[s + 2] << 8), d[s + 3] | (d[s + 4] << 8)
+                st.x, st.y = f[1], f[2]
                 if pro2:
-                    tx, ty = d[s + 7], d[s + 8]
-                    st.tilt_x = tx - 256 if tx & 0x80 else tx
-                    st.tilt_y = ty - 256 if ty & 0x80 else ty
-                    rot = d[s + 9] | (d[s + 10] << 8)
-                    rot = (rot - 65536 if rot & 0x8000 else rot) + 450
+                    st.tilt_x, st.tilt_y = f[4], f[5]
+                    rot = f[6] + 450
                     st.rotation = rot - 1800 if rot > 899 else rot
-                    st.wheel = d[s + 11] | (d[s + 12] << 8)
+                    st.wheel = f[7]
             if st.tool is None:
                 self.dropped += 1  # near but never in range: nothing identified yet
                 continue
-            pressure = d[s + 5] | (d[s + 6] << 8)
-            distance = (d[s + 13] if pro2 else d[s + 7]) if in_range else self.params.max_distance
-            out.append(self._sample(time, True, bool(in_range), pressure, bool(f0 & 0x09),
-                                    _BUTTONS[f0 & 6], distance, serial, tool_id))  # fmt: skip
+            pressure = f[3]
+            distance = (f[8] if pro2 else f[4]) if in_range else far
+            tool = st.tool
+            # positional, in RawSample's field order (built per frame)
+            out.append(_tuple_new(RawSample, (
+                time, True, st.x, st.y, bool(f0 & 0x09), pressure if pressure <= top else top,
+                st.tilt_x if pro2 else None, st.tilt_y if pro2 else None,
+                distance if distance <= far else far, st.rotation, st.wheel, _BUTTONS[f0 & 6],
+                tool, serial_out, id_out, tool is Tool.ERASER, bool(in_range))))
         return out
 
     def _sample(self, time: float, prox: bool, valid: bool, pressure: int, tip: bool,

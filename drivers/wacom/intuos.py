@@ -277,7 +277,7 @@ class IntuosParser(ReportParser):
             s = st.last = _tuple_new(RawSample, (
                 time, True, x, y, t > 10, t, tx, ty, distance, st.rotation, st.wheel,
                 _PEN_BUTTONS[d1 & 6], st.tool, st.serial, st.tool_id, st.eraser, True))
-        return s  # type: ignore[no-any-return]
+        return s
 
     def _other(self, d: bytes, ptype: int, x: int, y: int, distance: int, st: IntuosState,
                time: float) -> RawSample:
