@@ -222,6 +222,7 @@ def parser_for(vid: int, pid: int, descriptor: bytes | None, bus: int = BUS_USB,
             ignored = _non_pen_interface(desc, model, parser)
             if ignored is not None:
                 return ignored
+            parser.unused_report_ids = unused_report_ids(desc, parser)
         return parser
     if not descriptor:
         what = model["name"] if model else f"unknown device {vid:04x}:{pid:04x}"
@@ -281,6 +282,21 @@ def _non_pen_interface(desc: Descriptor, model: dict[str, Any],
     if declared and all(n in TOUCH_REPORT_LENGTHS for n in declared.values()):
         return IgnoredInterface(f"{model['parser']}/touch", "touch", ranges, model)
     return None
+
+
+def unused_report_ids(desc: Descriptor, parser: ReportParser) -> frozenset[int]:
+    """Input report IDs the descriptor declares and the protocol parser does not read.
+
+    The kernel's Wacom protocol handlers (wacom_graphire_irq, wacom_intuos_irq …) return
+    on a report ID they do not handle (dev_dbg only): the PenPartner/PenStation2
+    descriptor declares a vendor report 0x63 that the device sends between pen reports.
+    Such reports are skipped and counted by ID; an ID the descriptor does not declare
+    stays a bad report.
+    """
+    if not desc.numbered:
+        return frozenset()
+    pen_ids: frozenset[int] = frozenset(getattr(parser, "pen_report_ids", ()))
+    return frozenset(r.report_id for r in desc.input_reports() if r.report_id) - pen_ids
 
 
 def interface_from_phys(phys: str) -> int | None:
@@ -362,6 +378,7 @@ def _unknown_wacom(vid: int, pid: int, desc: Descriptor, bus: int) -> ReportPars
         "parser": family, "init_feature_reports": ["0202"] if bus == BUS_USB else [],
     }
     parser = PARSERS[family](model, desc)
+    parser.unused_report_ids = unused_report_ids(desc, parser)
     parser.generic = True
     parser.warning = (f"{what}: its descriptor implies the {family} protocol; ranges guessed "
                       f"from {big['name']}; " + REPORT_HINT.format(vid=vid, pid=pid))

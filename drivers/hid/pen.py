@@ -303,7 +303,7 @@ class GenericPenParser(ReportParser):
             report = report[:want]
         decode = self.decoders.get(rid)
         if decode is None:
-            return self._skip(self.kinds[rid])
+            return self._skip(self.kinds[rid], rid)
         return [decode(report, time)]
 
     def decode(self, plan: PenPlan, report: bytes, time: float) -> RawSample:

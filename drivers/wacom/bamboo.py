@@ -77,12 +77,12 @@ class BambooParser(ReportParser):
             raise unknown_id(b"\0", "Bamboo")
         if report[0] != PEN_REPORT_ID:
             if report[0] == STATUS_REPORT_ID:
-                return self._skip("status")
+                return self._skip("status", report[0])
             if report[0] in self.params.skip_report_ids:
-                return self._skip("mouse" if report[0] == 1 else "pad")
-            raise unknown_id(report, "Bamboo")
+                return self._skip("mouse" if report[0] == 1 else "pad", report[0])
+            return self._not_pen(report, "Bamboo")
         if len(report) in TOUCH_LENGTHS:
-            return self._skip("touch")
+            return self._skip("touch", report[0])
         check_length(report, PEN_LENGTHS, "Bamboo pen")
         return self._pen(report, time)
 

@@ -78,7 +78,7 @@ class Intuos4WirelessParser(ReportParser):
             raise unknown_id(b"\0", "Intuos4 WL")
         framing = _I4WL_OFFSETS.get(report[0])
         if framing is None:
-            raise unknown_id(report, "Intuos4 WL")
+            return self._not_pen(report, "Intuos4 WL")
         offsets, minimum = framing
         if len(report) < minimum:
             raise ReportError(f"Intuos4 WL report {report[0]:#04x} is {len(report)} bytes, "
@@ -144,7 +144,7 @@ class IntuosBluetoothParser(ReportParser):
         if not report:
             raise unknown_id(b"\0", "Intuos BT")
         if report[0] not in self.pen_report_ids:
-            raise unknown_id(report, "Intuos BT")
+            return self._not_pen(report, "Intuos BT")
         need = self.id_at + 2
         if len(report) < need:
             raise ReportError(f"Intuos BT report {report[0]:#04x} is {len(report)} bytes, "

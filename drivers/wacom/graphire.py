@@ -80,8 +80,8 @@ class GraphireParser(ReportParser):
             raise unknown_id(b"\0", "Graphire")
         if report[0] != self.report_id:
             if report[0] in self.params.skip_report_ids:
-                return self._skip("mouse" if report[0] == 1 else "pad")
-            raise unknown_id(report, "Graphire")
+                return self._skip("mouse" if report[0] == 1 else "pad", report[0])
+            return self._not_pen(report, "Graphire")
         check_length(report, (REPORT_LENGTH,), "Graphire")
         return self._report(report, time)
 

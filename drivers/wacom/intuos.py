@@ -215,13 +215,13 @@ class IntuosParser(ReportParser):
                     report[1] & 0xFC == 0xC0 or report[1] & 0xFE in (0x20, 0x80)):
                 pass  # a proximity packet answering the tool query: read below
             elif rid in self.params.skip_report_ids:
-                return self._skip("mouse" if rid == 1 else "pad")
+                return self._skip("mouse" if rid == 1 else "pad", rid)
             elif rid == STATUS_REPORT_ID or rid in PROX_REPORT_IDS:
-                return self._skip("status")
+                return self._skip("status", rid)
             else:
-                raise unknown_id(report, "Intuos")
+                return self._not_pen(report, "Intuos")
         if len(report) == TOUCH_LENGTH:
-            return self._skip("touch")
+            return self._skip("touch", rid)
         check_length(report, PEN_LENGTHS, "Intuos")
         s = self.packet(report, 0, time)
         return [] if s is None else [s]
