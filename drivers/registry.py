@@ -24,6 +24,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
+from station.drivers.hid import usages as U
 from station.drivers.hid.base import IgnoredInterface, ReportParser
 from station.drivers.hid.descriptor import Descriptor, ReportType, parse_descriptor
 from station.drivers.hid.errors import DescriptorError, ReportError
@@ -42,6 +43,7 @@ from station.drivers.wacom.legacy import LegacyPenParser
 from station.errors import BadInput
 
 log = logging.getLogger(__name__)
+_eq_usage = U.equivalent_usage
 
 DEVICES_DIR = Path(__file__).resolve().parent / "devices"
 SCHEMA_PATH = DEVICES_DIR / "devices.schema.json"
@@ -276,6 +278,14 @@ def _non_pen_interface(desc: Descriptor, model: dict[str, Any],
     lengths = {r.report_id: r.length(True) for r in desc.input_reports() if r.report_id}
     if not lengths:
         return None
+    any_length = getattr(getattr(parser, "protocol", None), "any_id_length", None)
+    desktop_only = all(_eq_usage(a) >> 16 == U.PAGE_GENERIC_DESKTOP
+                       for a in desc.application_usages())
+    if desktop_only and not any(rid in pen_ids or n == any_length for rid, n in lengths.items()):
+        # Only a boot mouse/keyboard and no pen report (the third interface of the Intuos
+        # CTL/CTH-490, 056a:033c: report 1, a relative mouse).  hid-core drops undeclared
+        # report IDs before any driver sees them, so no pen report can come from here.
+        return IgnoredInterface(f"{model['parser']}/other", "other", ranges, model)
     declared = {rid: n for rid, n in lengths.items() if rid in pen_ids}
     # A descriptor that declares no pen ID at all is left alone (kernel fix-ups and
     # Bluetooth descriptors vary); only the touch-frame length is conclusive.

@@ -39,6 +39,7 @@ from station.events import Button, Tool
 
 PEN_APPLICATIONS = frozenset({U.DG_DIGITIZER, U.DG_PEN, U.DG_LIGHT_PEN, U.DG_WHITEBOARD})
 TOUCH_APPLICATIONS = frozenset({U.DG_TOUCH_SCREEN, U.DG_TOUCH_PAD})
+PEN_COLLECTIONS = frozenset({U.DG_STYLUS, U.DG_PEN, U.DG_LIGHT_PEN})
 
 # role name -> usages that fill it (first match in a report wins)
 ROLE_USAGES: dict[str, tuple[int, ...]] = {
@@ -90,7 +91,11 @@ def classify_report(desc: Descriptor, report: Report) -> str:
         apps.add(_eq(f.application))
     if U.DG_FINGER in chains or apps & TOUCH_APPLICATIONS:
         return "touch"
-    digitizer = bool(apps & PEN_APPLICATIONS) or U.DG_STYLUS in chains
+    # A Pen or Stylus collection makes a pen whatever encloses it: hid-input maps In Range
+    # inside a physical Pen to BTN_TOOL_PEN, and some UC-Logic tablets (Huion H580X,
+    # Gaomon 1080Pro: 256c:0064 interface 1) declare their pen as a physical Pen
+    # collection with no application collection at all.
+    digitizer = bool(apps & PEN_APPLICATIONS) or bool(chains & PEN_COLLECTIONS)
     has_xy = U.GD_X in variables and U.GD_Y in variables
     pen_bits = usages & {U.DG_TIP_SWITCH, U.DG_IN_RANGE, U.DG_TIP_PRESSURE, U.WD_SENSE}
     if digitizer and has_xy and pen_bits:
