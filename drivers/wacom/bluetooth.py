@@ -50,7 +50,7 @@ _PRO2_FRAME = struct.Struct("<BHHHbbhHB")
 _CTL_FRAME = struct.Struct("<BHHHB")
 _tuple_new = tuple.__new__  # RawSample is a named tuple: built without its __new__ frame
 _SERIAL_ID = struct.Struct("<QH")  # serial (64 bits) and tool id (16 bits), adjacent
-_VALID = bytes(range(0x80, 0x100))  # f[0] values of a valid frame (deleted to count them)
+_VALID = bytes(b >> 7 for b in range(256))  # f[0] -> 1 for a valid frame (0x80 set)
 I4WL_FRAMES = {0x03: (2, 22), 0x04: (3, 32)}  # report ID -> (packets, minimum length)
 I4WL_PACKET = 10
 # report ID -> (offsets of its packets, minimum length)
@@ -154,8 +154,7 @@ class IntuosBluetoothParser(ReportParser):
         if serial >> 52 == 1:  # non-USI pens: the id's missing bits ride in the serial
             tool_id |= (serial >> 32) & 0xFFFFF
         # the kernel reads the first valid_count frames, valid_count the frames with 0x80
-        flags = d[1:self.flags_end:self.frame_len]
-        valid_count = len(flags) - len(flags.translate(None, _VALID))
+        valid_count = d[1:self.flags_end:self.frame_len].translate(_VALID).count(1)
         st = self.state
         out: list[RawSample] = []
         frame = self.frame
