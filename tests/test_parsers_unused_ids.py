@@ -115,3 +115,11 @@ def test_malformed_reports_stay_bad_with_warnings_limited(
     assert sum("counted without a warning each" in w for w in warnings) == 1
     assert sum("10 bad reports dropped so far" in w for w in warnings) == 1  # … then counts
     assert len(warnings) == 7
+
+
+def test_replay_text_summary_names_the_skipped_ids(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path, unused, _ = _trace(tmp_path, bad=0)
+    assert main(["replay", str(path)]) == 0
+    line = capsys.readouterr().out
+    assert f"0 bad reports dropped, {unused} non-pen skipped (ID 99: {unused})" in line
