@@ -296,30 +296,32 @@ class Normaliser:
         """Normalise one raw sample; returns 0, 1 or 2 samples (a forced out first)."""
         self.stats.raw += 1
         out: list[PenSample] = []
+        time, proximity = raw.time, raw.proximity  # read once (a named tuple's fields)
         if self.origin is None:
-            self.origin = raw.time
-        due = self._forced_out_due(raw.time)
+            self.origin = time
+        due = self._forced_out_due(time)
         if due is not None:
             self._force_out(due, out)
-        if self._last_time is not None and raw.time < self._last_time:
+        last_time = self._last_time
+        if last_time is not None and time < last_time:
             self.stats.time_backwards += 1
-        self._last_time = raw.time if self._last_time is None else max(raw.time, self._last_time)
+        self._last_time = time if last_time is None else max(time, last_time)
         before = self.tool_key()
-        if raw.proximity:  # an out report names no tool: the one in proximity leaves
+        if proximity:  # an out report names no tool: the one in proximity leaves
             self._update_identity(raw)
-        if self._in_prox and raw.proximity and _other_tool(before, self.tool_key()):
+        if self._in_prox and proximity and _other_tool(before, self.tool_key()):
             # A new tool while the old one is in proximity (a pen flipped to its eraser
             # end without an out report): the old tool leaves first, as the kernel's
             # hid-input releases it in a frame of its own and libinput reports it.
             after = self.tool_key()
             self._tool, self._serial, self._tool_id = before
-            self._leave(raw.time, out, t_mono)
+            self._leave(time, out, t_mono)
             self._tool, self._serial, self._tool_id = after
             self.stats.tool_changes += 1
-        if not raw.proximity:
+        if not proximity:
             self._device_sends_out = True  # libinput: a real BTN_TOOL_PEN 0 unloads the timer
             if self._in_prox:
-                self._leave(raw.time, out, t_mono)
+                self._leave(time, out, t_mono)
             return out
         if not raw.valid:
             return out  # in range without data / proximity-in packet: identity only
@@ -357,18 +359,20 @@ class Normaliser:
 
     # -- internals --------------------------------------------------------
     def _update_identity(self, raw: RawSample) -> None:
-        if raw.tool is not None:
-            self._tool = raw.tool
-        if raw.eraser and self._tool in (Tool.PEN, Tool.PENCIL, Tool.BRUSH):
+        tool, eraser = raw.tool, raw.eraser
+        if tool is not None:
+            self._tool = tool
+        if eraser and self._tool in (Tool.PEN, Tool.PENCIL, Tool.BRUSH):
             self._tool = Tool.ERASER
-        elif not raw.eraser and raw.tool is None and self._tool is Tool.ERASER and \
+        elif not eraser and tool is None and self._tool is Tool.ERASER and \
                 raw.proximity and raw.valid and not self._in_prox:
             # Generic HID: the invert bit cleared on a new proximity means the tip end.
             self._tool = Tool.PEN
-        if raw.serial is not None:
-            self._serial = raw.serial
-        if raw.tool_id is not None:
-            self._tool_id = raw.tool_id
+        serial, tool_id = raw.serial, raw.tool_id
+        if serial is not None:
+            self._serial = serial
+        if tool_id is not None:
+            self._tool_id = tool_id
 
     def _tool_state(self) -> ToolState:
         key = self.tool_key()

@@ -129,9 +129,8 @@ class HidPenSource:
             reason = str(exc).split(":", 1)[0][:60]
             self.stats.bad_reasons[reason] += 1
             self.stats.last_error = str(exc)
-            if self.stats.bad_reports <= 10 or self.stats.bad_reports % 1000 == 0:
-                log.warning("%s: dropped report %d (%s): %s", self.transport.info.path,
-                            self.stats.reports, report.data[:16].hex(" "), exc)
+            _warn_bad(self.transport.info.path, self.stats.bad_reports, self.stats.reports,
+                      report.data, exc)
             return []
 
     def now(self) -> float:
@@ -152,6 +151,22 @@ class HidPenSource:
 
     def close(self) -> None:
         self.transport.close()
+
+
+# Bad reports warned one by one; after that only a count at 10, 100, 1000 … (the summary
+# and the status messages carry them all, by reason).
+BAD_WARNINGS = 5
+
+
+def _warn_bad(path: str, bad: int, index: int, data: bytes, exc: Exception) -> None:
+    if bad <= BAD_WARNINGS:
+        log.warning("%s: dropped report %d (%s): %s", path, index, data[:16].hex(" "), exc)
+        if bad == BAD_WARNINGS:
+            log.warning("%s: further bad reports are counted without a warning each "
+                        "(the summary lists them by reason)", path)
+        return
+    if bad >= 10 and str(bad).rstrip("0") == "1":  # 10, 100, 1000 …
+        log.warning("%s: %d bad reports dropped so far (last: %s)", path, bad, exc)
 
 
 def _model_name(parser: Any) -> str:
@@ -526,6 +541,10 @@ class PenDriver:
             "bad_reports": getattr(stats, "bad_reports", 0),
             "bad_reasons": dict(getattr(stats, "bad_reasons", {})),
             "skipped_reports": getattr(parser, "skipped", 0) if parser is not None else 0,
+            # skipped reports by report ID (decimal) and by kind (touch, pad, unused …)
+            "skipped_by_id": {str(k): v for k, v in sorted(
+                getattr(parser, "skipped_by_id", {}).items())},
+            "skipped_by_kind": dict(sorted(getattr(parser, "skipped_by_kind", {}).items())),
             "parser_dropped": getattr(parser, "dropped", 0) if parser is not None else 0,
             "long_reports": getattr(parser, "long_reports", 0) if parser is not None else 0,
             "samples": n.samples,

@@ -9,6 +9,7 @@ device's :class:`AxisRanges`.  Nothing here touches hardware.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from station.events import Tool
 
@@ -52,9 +53,13 @@ class AxisRanges:
         return bool(self.x.resolution) and bool(self.y.resolution)
 
 
-@dataclass(frozen=True, slots=True)
-class RawSample:
+class RawSample(NamedTuple):
     """One parsed pen state in device units (before normalisation).
+
+    A named tuple, not a frozen dataclass: parsers build one per report, and a
+    frozen dataclass's ``__init__`` (one ``object.__setattr__`` per field) cost
+    about 0.9 µs of a 3 µs Intuos report; a tuple is built in a fraction of that
+    and is just as immutable.
 
     Attributes:
         time: transport timestamp in seconds (monotonic or trace time), never

@@ -24,6 +24,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
+from station.drivers.hid import usages as U
 from station.drivers.hid.base import IgnoredInterface, ReportParser
 from station.drivers.hid.descriptor import Descriptor, ReportType, parse_descriptor
 from station.drivers.hid.errors import DescriptorError, ReportError
@@ -42,6 +43,7 @@ from station.drivers.wacom.legacy import LegacyPenParser
 from station.errors import BadInput
 
 log = logging.getLogger(__name__)
+_eq_usage = U.equivalent_usage
 
 DEVICES_DIR = Path(__file__).resolve().parent / "devices"
 SCHEMA_PATH = DEVICES_DIR / "devices.schema.json"
@@ -222,6 +224,7 @@ def parser_for(vid: int, pid: int, descriptor: bytes | None, bus: int = BUS_USB,
             ignored = _non_pen_interface(desc, model, parser)
             if ignored is not None:
                 return ignored
+            parser.unused_report_ids = unused_report_ids(desc, parser)
         return parser
     if not descriptor:
         what = model["name"] if model else f"unknown device {vid:04x}:{pid:04x}"
@@ -275,12 +278,35 @@ def _non_pen_interface(desc: Descriptor, model: dict[str, Any],
     lengths = {r.report_id: r.length(True) for r in desc.input_reports() if r.report_id}
     if not lengths:
         return None
+    any_length = getattr(getattr(parser, "protocol", None), "any_id_length", None)
+    desktop_only = all(_eq_usage(a) >> 16 == U.PAGE_GENERIC_DESKTOP
+                       for a in desc.application_usages())
+    if desktop_only and not any(rid in pen_ids or n == any_length for rid, n in lengths.items()):
+        # Only a boot mouse/keyboard and no pen report (the third interface of the Intuos
+        # CTL/CTH-490, 056a:033c: report 1, a relative mouse).  hid-core drops undeclared
+        # report IDs before any driver sees them, so no pen report can come from here.
+        return IgnoredInterface(f"{model['parser']}/other", "other", ranges, model)
     declared = {rid: n for rid, n in lengths.items() if rid in pen_ids}
     # A descriptor that declares no pen ID at all is left alone (kernel fix-ups and
     # Bluetooth descriptors vary); only the touch-frame length is conclusive.
     if declared and all(n in TOUCH_REPORT_LENGTHS for n in declared.values()):
         return IgnoredInterface(f"{model['parser']}/touch", "touch", ranges, model)
     return None
+
+
+def unused_report_ids(desc: Descriptor, parser: ReportParser) -> frozenset[int]:
+    """Input report IDs the descriptor declares and the protocol parser does not read.
+
+    The kernel's Wacom protocol handlers (wacom_graphire_irq, wacom_intuos_irq …) return
+    on a report ID they do not handle (dev_dbg only): the PenPartner/PenStation2
+    descriptor declares a vendor report 0x63 that the device sends between pen reports.
+    Such reports are skipped and counted by ID; an ID the descriptor does not declare
+    stays a bad report.
+    """
+    if not desc.numbered:
+        return frozenset()
+    pen_ids: frozenset[int] = frozenset(getattr(parser, "pen_report_ids", ()))
+    return frozenset(r.report_id for r in desc.input_reports() if r.report_id) - pen_ids
 
 
 def interface_from_phys(phys: str) -> int | None:
@@ -362,6 +388,7 @@ def _unknown_wacom(vid: int, pid: int, desc: Descriptor, bus: int) -> ReportPars
         "parser": family, "init_feature_reports": ["0202"] if bus == BUS_USB else [],
     }
     parser = PARSERS[family](model, desc)
+    parser.unused_report_ids = unused_report_ids(desc, parser)
     parser.generic = True
     parser.warning = (f"{what}: its descriptor implies the {family} protocol; ranges guessed "
                       f"from {big['name']}; " + REPORT_HINT.format(vid=vid, pid=pid))

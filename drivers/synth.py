@@ -488,10 +488,12 @@ def touch_descriptor(contacts: int = 2) -> bytes:
     return b.to_bytes()
 
 
-def wacom_protocol_descriptor(pen_bytes: int = 9) -> bytes:
+def wacom_protocol_descriptor(pen_bytes: int = 9, vendor_ids: Iterable[int] = ()) -> bytes:
     """A Wacom protocol pen interface as such tablets declare it: a boot mouse (report 1,
     the mouse mode) and a vendor-defined report 2 of ``pen_bytes`` payload bytes inside a
-    Digitizer application, plus feature report 2 (the mode switch)."""
+    Digitizer application, plus feature report 2 (the mode switch).  ``vendor_ids``: more
+    vendor input reports of the same size that the pen protocol does not read (the
+    PenPartner/PenStation2 declares report 0x63)."""
     b = DescriptorBuilder()
     b.usage_page(U.PAGE_GENERIC_DESKTOP).usage(0x02).collection(CollectionKind.APPLICATION)
     b.report_id(0x01).usage(0x01).collection(CollectionKind.PHYSICAL)
@@ -502,6 +504,11 @@ def wacom_protocol_descriptor(pen_bytes: int = 9) -> bytes:
     b.usage_page(U.PAGE_DIGITIZER).usage(0x01).collection(CollectionKind.APPLICATION)
     b.report_id(0x02).usage_page(0xFF00).usage(0x01).logical(0, 255).report_size(8)
     b.report_count(pen_bytes).input(FLAG_VARIABLE)
+    extra = list(vendor_ids)
+    for rid in extra:
+        b.report_id(rid).usage(0x01).input(FLAG_VARIABLE)
+    if extra:
+        b.report_id(0x02)
     b.usage(0x01).report_count(1).feature(FLAG_VARIABLE)
     b.end_collection()
     return b.to_bytes()

@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections import Counter
 from typing import Any
 
+from station.drivers.hid.errors import ReportError
 from station.drivers.raw import AxisRanges, RawSample
 
 
@@ -29,6 +30,10 @@ class ReportParser:
         kind: ``"pen"``, ``"touch"``, ``"pad"`` or ``"other"``.
         skipped: reports recognised as not pen (touch, pad, mouse mode …), counted.
         skipped_by_kind: the same count by kind.
+        skipped_by_id: the same count by report ID.
+        unused_report_ids: report IDs the interface's descriptor declares that the
+            protocol does not use (the kernel's Wacom handlers ignore them): skipped and
+            counted as kind ``"unused"``, never bad.  Set by the registry.
         dropped: pen reports that carried no usable sample (e.g. data before
             the tool was identified), counted.
     """
@@ -52,6 +57,8 @@ class ReportParser:
         self.kind = kind
         self.skipped = 0
         self.skipped_by_kind: Counter[str] = Counter()
+        self.skipped_by_id: Counter[int] = Counter()
+        self.unused_report_ids: frozenset[int] = frozenset()
         self.dropped = 0
         # Set when the device is served by a fallback (unknown id): what and how to report it.
         self.warning: str | None = None
@@ -68,10 +75,19 @@ class ReportParser:
     def reset(self) -> None:
         """Forget protocol state (the tool in proximity); called when the device reopens."""
 
-    def _skip(self, kind: str) -> list[RawSample]:
+    def _skip(self, kind: str, report_id: int | None = None) -> list[RawSample]:
         self.skipped += 1
         self.skipped_by_kind[kind] += 1
+        if report_id is not None:
+            self.skipped_by_id[report_id] += 1
         return []
+
+    def _not_pen(self, report: bytes, what: str) -> list[RawSample]:
+        """A report whose ID the protocol does not handle: skipped when the descriptor
+        declares it (as the kernel's handlers ignore it), else a :class:`ReportError`."""
+        if report[0] in self.unused_report_ids:
+            return self._skip("unused", report[0])
+        raise ReportError(f"unknown {what} report ID {report[0]}")
 
     def describe(self) -> dict[str, Any]:
         """A JSON-ready summary for ``station devices`` and replay reports."""
@@ -101,4 +117,4 @@ class IgnoredInterface(ReportParser):
         self.name = name
 
     def parse(self, report: bytes, time: float) -> list[RawSample]:
-        return self._skip(self.kind)
+        return self._skip(self.kind, report[0] if report else None)

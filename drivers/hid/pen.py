@@ -39,6 +39,7 @@ from station.events import Button, Tool
 
 PEN_APPLICATIONS = frozenset({U.DG_DIGITIZER, U.DG_PEN, U.DG_LIGHT_PEN, U.DG_WHITEBOARD})
 TOUCH_APPLICATIONS = frozenset({U.DG_TOUCH_SCREEN, U.DG_TOUCH_PAD})
+PEN_COLLECTIONS = frozenset({U.DG_STYLUS, U.DG_PEN, U.DG_LIGHT_PEN})
 
 # role name -> usages that fill it (first match in a report wins)
 ROLE_USAGES: dict[str, tuple[int, ...]] = {
@@ -90,7 +91,11 @@ def classify_report(desc: Descriptor, report: Report) -> str:
         apps.add(_eq(f.application))
     if U.DG_FINGER in chains or apps & TOUCH_APPLICATIONS:
         return "touch"
-    digitizer = bool(apps & PEN_APPLICATIONS) or U.DG_STYLUS in chains
+    # A Pen or Stylus collection makes a pen whatever encloses it: hid-input maps In Range
+    # inside a physical Pen to BTN_TOOL_PEN, and some UC-Logic tablets (Huion H580X,
+    # Gaomon 1080Pro: 256c:0064 interface 1) declare their pen as a physical Pen
+    # collection with no application collection at all.
+    digitizer = bool(apps & PEN_APPLICATIONS) or bool(chains & PEN_COLLECTIONS)
     has_xy = U.GD_X in variables and U.GD_Y in variables
     pen_bits = usages & {U.DG_TIP_SWITCH, U.DG_IN_RANGE, U.DG_TIP_PRESSURE, U.WD_SENSE}
     if digitizer and has_xy and pen_bits:
@@ -274,13 +279,20 @@ class GenericPenParser(ReportParser):
             is_pen = False
         super().__init__(ranges, model, init_features, generic=generic, is_pen=is_pen, kind=kind)
         self.long_reports = 0  # reports longer than the descriptor says (tail ignored)
+        # report ID -> (declared length, decoder) of the pen reports
+        self._pen_reports = {rid: (self.lengths[rid], dec) for rid, dec in self.decoders.items()}
 
     @property
     def pen_report_ids(self) -> list[int]:
         return sorted(self.plans)
 
     def parse(self, report: bytes, time: float) -> list[RawSample]:
-        if not report:
+        # The hot path: a pen report of exactly its declared length, one dict lookup.
+        if report:
+            pen = self._pen_reports.get(report[0] if self.numbered else 0)
+            if pen is not None and len(report) == pen[0]:
+                return [pen[1](report, time)]
+        else:
             raise ReportError("empty report")
         rid = report[0] if self.numbered else 0
         want = self.lengths.get(rid)
@@ -296,7 +308,7 @@ class GenericPenParser(ReportParser):
             report = report[:want]
         decode = self.decoders.get(rid)
         if decode is None:
-            return self._skip(self.kinds[rid])
+            return self._skip(self.kinds[rid], rid)
         return [decode(report, time)]
 
     def decode(self, plan: PenPlan, report: bytes, time: float) -> RawSample:
@@ -433,13 +445,16 @@ def compile_plan(plan: PenPlan) -> Callable[[bytes, float], RawSample] | None:
     serial = f"({val('serial', '0')} | ({val('serial_hi', '0')} << 32))"
     lines.append(f"    serial = ({serial} & {SERIAL_MASK}) or None")
     lines.append(
-        f"    return RawSample(time, prox, {val('x')}, {val('y')}, tip, {val('pressure')}, "
+        f"    return new(RawSample, (time, prox, {val('x')}, {val('y')}, tip, {val('pressure')}, "
         f"{val('tilt_x')}, {val('tilt_y')}, {val('distance')}, {val('twist')}, None, buttons, "
-        "tool, serial, tool_id, eraser, valid)"
+        "tool, serial, tool_id, eraser, valid))"
     )
     namespace: dict[str, Any] = {
         "from_bytes": int.from_bytes, "RawSample": RawSample, "ERASER": Tool.ERASER,
         "PEN": Tool.PEN, "tool_of": tool_from_id,
+        # RawSample is a named tuple: tuple.__new__ with the values in field order skips
+        # its Python-level __new__ (built per report)
+        "new": tuple.__new__,
     }  # fmt: skip
     exec(compile("\n".join(lines), f"<pen report {plan.report_id}>", "exec"), namespace)
     decoder: Callable[[bytes, float], RawSample] = namespace["decode"]

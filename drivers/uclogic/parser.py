@@ -153,12 +153,12 @@ class UclogicPenParser(ReportParser):
                 return self.fallback.parse(report, time)
             if not report:
                 raise ReportError("empty UC-Logic report")
-            return self._skip("pre-init" if p is None else "other")
+            return self._skip("pre-init" if p is None else "other", report[0])
         if len(report) < self._min:
             raise ReportError(f"UC-Logic {p.kind} pen report is {len(report)} bytes, "
                               f"expected at least {self._min}")  # fmt: skip
         if report[1] in self._frames:
-            return self._skip("pad")
+            return self._skip("pad", report[0])
         in_range, x, y, pressure, tip, buttons, tx, ty = self._decode(report)
         if not in_range:
             if not self.tool_in:

@@ -12,6 +12,7 @@ and report 192 carries the touch-switch state: both skipped and counted.
 
 from __future__ import annotations
 
+import struct
 from dataclasses import dataclass
 from typing import Any
 
@@ -29,6 +30,11 @@ PEN_REPORT_ID = 2
 STATUS_REPORT_ID = 192
 PEN_LENGTHS = (9, 10)  # Bamboo "fun" pen packets are 9 bytes, Intuos-HT pen packets 10
 TOUCH_LENGTHS = (20, 64)
+# ID, d[1], x, y, pressure (little-endian 16 bits at d[2], d[4], d[6]), d[8]: one call
+_PEN = struct.Struct("<BBHHHB")
+_PEN_BUTTONS = tuple((int(Button.STYLUS) if b & 2 else 0) | (int(Button.STYLUS2) if b & 4 else 0)
+                     for b in range(8))  # d[1] & 0x06 -> button bits
+_tuple_new = tuple.__new__  # RawSample is a named tuple: built without its __new__ frame
 
 
 @dataclass(slots=True)
@@ -65,40 +71,43 @@ class BambooParser(ReportParser):
         self.state = BambooState()
 
     def parse(self, report: bytes, time: float) -> list[RawSample]:
+        if 8 < len(report) < 11 and report[0] == PEN_REPORT_ID:  # PEN_LENGTHS: the hot path
+            return self._pen(report, time)
         if not report:
             raise unknown_id(b"\0", "Bamboo")
         if report[0] != PEN_REPORT_ID:
             if report[0] == STATUS_REPORT_ID:
-                return self._skip("status")
+                return self._skip("status", report[0])
             if report[0] in self.params.skip_report_ids:
-                return self._skip("mouse" if report[0] == 1 else "pad")
-            raise unknown_id(report, "Bamboo")
+                return self._skip("mouse" if report[0] == 1 else "pad", report[0])
+            return self._not_pen(report, "Bamboo")
         if len(report) in TOUCH_LENGTHS:
-            return self._skip("touch")
+            return self._skip("touch", report[0])
         check_length(report, PEN_LENGTHS, "Bamboo pen")
-        d = report
+        return self._pen(report, time)
+
+    def _pen(self, d: bytes, time: float) -> list[RawSample]:
+        _, d1, x, y, pressure, d8 = _PEN.unpack_from(d)
         st = self.state
-        in_range = bool(d[1] & 0x80)
-        prox = bool(d[1] & 0x40)
-        ready = bool(d[1] & 0x20)
-        pressure, tip, buttons = 0, False, 0
-        if ready:
-            pressure = d[6] | (d[7] << 8)
-            tip = bool(d[1] & 0x01)
-            buttons = (Button.STYLUS if d[1] & 0x02 else 0) | (Button.STYLUS2 if d[1] & 0x04 else 0)
-        if prox:
-            st.x = d[2] | (d[3] << 8)
-            st.y = d[4] | (d[5] << 8)
-            if d[1] & 0x08:
+        if d1 & 0x20:  # ready: pressure, tip and buttons are valid
+            tip = bool(d1 & 0x01)
+            buttons = _PEN_BUTTONS[d1 & 6]
+        else:
+            pressure, tip, buttons = 0, False, 0
+        if d1 & 0x40:  # in proximity: coordinates and the tool
+            st.x, st.y = x, y
+            if d1 & 0x08:
                 st.tool, st.tool_id = Tool.ERASER, ERASER_DEVICE_ID
             else:
                 st.tool, st.tool_id = Tool.PEN, STYLUS_DEVICE_ID
             st.reporting = True
         distance = 0
+        in_range = d1 & 0x80
         if in_range:
             # distance counts up from "out of proximity"; past max it means pressing.
-            if d[8] <= self.params.max_distance:
-                distance = self.params.max_distance - d[8]
+            far = self.params.max_distance
+            if d8 <= far:
+                distance = far - d8
         else:
             st.tool_id = 0
         if not st.reporting:  # in range, too far for coordinates, no tool yet
@@ -107,19 +116,8 @@ class BambooParser(ReportParser):
         if not in_range:
             st.x = st.y = 0  # the kernel reports 0, 0 on the way out
             st.reporting = False
-        sample = RawSample(
-            time=time,
-            proximity=in_range,
-            x=st.x,
-            y=st.y,
-            tip=tip,
-            pressure=pressure,
-            distance=distance,
-            buttons=int(buttons),
-            tool=st.tool,
-            serial=None,
-            tool_id=st.tool_id or None,
-            eraser=st.tool == Tool.ERASER,
-            valid=prox,
-        )
-        return [sample]
+        tool = st.tool
+        # positional, in RawSample's field order (built per report)
+        return [_tuple_new(RawSample, (
+            time, bool(in_range), st.x, st.y, tip, pressure, None, None, distance, None, None,
+            buttons, tool, None, st.tool_id or None, tool is Tool.ERASER, bool(d1 & 0x40)))]

@@ -23,6 +23,7 @@ with a proximity-out.
 
 from __future__ import annotations
 
+import struct
 from dataclasses import dataclass
 from typing import Any
 
@@ -30,15 +31,31 @@ from station.drivers.hid.base import ReportParser
 from station.drivers.hid.errors import ReportError
 from station.drivers.raw import Axis, AxisRanges, RawSample
 from station.drivers.wacom.common import WacomParams, unknown_id
-from station.drivers.wacom.intuos import ROTATION_AXIS, TILT_AXIS, WHEEL_AXIS, IntuosParser
+from station.drivers.wacom.intuos import (
+    PEN_REPORT_IDS,
+    ROTATION_AXIS,
+    TILT_AXIS,
+    WHEEL_AXIS,
+    IntuosParser,
+)
 from station.drivers.wacom.tools import tool_from_id
 
 from station.events import Button, Tool
 
 _BUTTONS = tuple((int(Button.STYLUS) if b & 2 else 0) | (int(Button.STYLUS2) if b & 4 else 0)
                  for b in range(8))  # f[0] & 0x06 -> button bits
+# A frame in one call: f[0]; x, y, pressure (little-endian 16 bits); Pro 2: tilt x, y (signed
+# bytes), rotation (signed 16 bits), wheel (16 bits), distance; the CTL: distance.
+_PRO2_FRAME = struct.Struct("<BHHHbbhHB")
+_CTL_FRAME = struct.Struct("<BHHHB")
+_tuple_new = tuple.__new__  # RawSample is a named tuple: built without its __new__ frame
+_SERIAL_ID = struct.Struct("<QH")  # serial (64 bits) and tool id (16 bits), adjacent
+_VALID = bytes(b >> 7 for b in range(256))  # f[0] -> 1 for a valid frame (0x80 set)
 I4WL_FRAMES = {0x03: (2, 22), 0x04: (3, 32)}  # report ID -> (packets, minimum length)
 I4WL_PACKET = 10
+# report ID -> (offsets of its packets, minimum length)
+_I4WL_OFFSETS = {rid: (tuple(range(1, 1 + n * I4WL_PACKET, I4WL_PACKET)), minimum)
+                 for rid, (n, minimum) in I4WL_FRAMES.items()}
 
 
 class Intuos4WirelessParser(ReportParser):
@@ -59,24 +76,27 @@ class Intuos4WirelessParser(ReportParser):
     def parse(self, report: bytes, time: float) -> list[RawSample]:
         if not report:
             raise unknown_id(b"\0", "Intuos4 WL")
-        framing = I4WL_FRAMES.get(report[0])
+        framing = _I4WL_OFFSETS.get(report[0])
         if framing is None:
-            raise unknown_id(report, "Intuos4 WL")
-        count, minimum = framing
+            return self._not_pen(report, "Intuos4 WL")
+        offsets, minimum = framing
         if len(report) < minimum:
             raise ReportError(f"Intuos4 WL report {report[0]:#04x} is {len(report)} bytes, "
                               f"expected at least {minimum}")  # fmt: skip
         out: list[RawSample] = []
-        before = self.inner.dropped
-        for i in range(count):
-            packet = report[1 + i * I4WL_PACKET:1 + (i + 1) * I4WL_PACKET]
-            rid = packet[0]
-            if rid in self.inner.pen_report_ids:
-                out.extend(self.inner.parse(packet, time))
+        inner = self.inner
+        before = inner.dropped
+        for at in offsets:  # each packet read in place by the Intuos parser
+            rid = report[at]
+            if rid in PEN_REPORT_IDS:
+                s = inner.packet(report, at, time)
+                if s is not None:
+                    out.append(s)
             elif rid in (3, 12, 17):
                 self._skip("pad")
             # other IDs: an unused slot of the bundle
-        self.dropped += self.inner.dropped - before
+        if inner.dropped != before:
+            self.dropped += inner.dropped - before
         return out
 
 
@@ -105,6 +125,9 @@ class IntuosBluetoothParser(ReportParser):
         self.pro2 = pro2
         self.frame_len, self.frames = (14, 7) if pro2 else (8, 4)
         self.serial_at, self.id_at = (99, 107) if pro2 else (33, 41)
+        self.frame = _PRO2_FRAME if pro2 else _CTL_FRAME
+        self.starts = tuple(range(1, 1 + self.frames * self.frame_len, self.frame_len))
+        self.flags_end = 1 + self.frames * self.frame_len  # f[0] of every frame: d[1:end:len]
         ranges = AxisRanges(
             x=params.x_axis(), y=params.y_axis(), pressure=Axis(0, params.max_pressure),
             tilt_x=TILT_AXIS if pro2 else None, tilt_y=TILT_AXIS if pro2 else None,
@@ -121,26 +144,26 @@ class IntuosBluetoothParser(ReportParser):
         if not report:
             raise unknown_id(b"\0", "Intuos BT")
         if report[0] not in self.pen_report_ids:
-            raise unknown_id(report, "Intuos BT")
+            return self._not_pen(report, "Intuos BT")
         need = self.id_at + 2
         if len(report) < need:
             raise ReportError(f"Intuos BT report {report[0]:#04x} is {len(report)} bytes, "
                               f"expected at least {need}")  # fmt: skip
         d = report
-        serial = int.from_bytes(d[self.serial_at:self.serial_at + 8], "little")
-        tool_id = d[self.id_at] | (d[self.id_at + 1] << 8)
+        serial, tool_id = _SERIAL_ID.unpack_from(d, self.serial_at)
         if serial >> 52 == 1:  # non-USI pens: the id's missing bits ride in the serial
             tool_id |= (serial >> 32) & 0xFFFFF
-        flen, pro2 = self.frame_len, self.pro2
-        valid_count = 0
-        for i in range(self.frames):
-            if d[1 + i * flen] & 0x80:
-                valid_count += 1
+        # the kernel reads the first valid_count frames, valid_count the frames with 0x80
+        valid_count = d[1:self.flags_end:self.frame_len].translate(_VALID).count(1)
         st = self.state
         out: list[RawSample] = []
-        for i in range(valid_count):  # the kernel reads the first valid_count frames
-            s = 1 + i * flen
-            f0 = d[s]
+        frame = self.frame
+        pro2 = self.pro2
+        top, far = self.params.max_pressure, self.params.max_distance
+        serial_out, id_out = serial or None, tool_id or None
+        for s in self.starts[:valid_count]:
+            f = frame.unpack_from(d, s)
+            f0 = f[0]
             if not f0 & 0x80:
                 continue
             in_range = f0 & 0x20
@@ -155,22 +178,24 @@ class IntuosBluetoothParser(ReportParser):
                 if st.tool is None:
                     st.tool = (Tool.ERASER if f0 & 0x10 else
                                tool_from_id(tool_id) if tool_id else Tool.PEN)  # fmt: skip
-                st.x, st.y = d[s + 1] | (d[s + 2] << 8), d[s + 3] | (d[s + 4] << 8)
+                st.x, st.y = f[1], f[2]
                 if pro2:
-                    tx, ty = d[s + 7], d[s + 8]
-                    st.tilt_x = tx - 256 if tx & 0x80 else tx
-                    st.tilt_y = ty - 256 if ty & 0x80 else ty
-                    rot = d[s + 9] | (d[s + 10] << 8)
-                    rot = (rot - 65536 if rot & 0x8000 else rot) + 450
+                    st.tilt_x, st.tilt_y = f[4], f[5]
+                    rot = f[6] + 450
                     st.rotation = rot - 1800 if rot > 899 else rot
-                    st.wheel = d[s + 11] | (d[s + 12] << 8)
+                    st.wheel = f[7]
             if st.tool is None:
                 self.dropped += 1  # near but never in range: nothing identified yet
                 continue
-            pressure = d[s + 5] | (d[s + 6] << 8)
-            distance = (d[s + 13] if pro2 else d[s + 7]) if in_range else self.params.max_distance
-            out.append(self._sample(time, True, bool(in_range), pressure, bool(f0 & 0x09),
-                                    _BUTTONS[f0 & 6], distance, serial, tool_id))  # fmt: skip
+            pressure = f[3]
+            distance = (f[8] if pro2 else f[4]) if in_range else far
+            tool = st.tool
+            # positional, in RawSample's field order (built per frame)
+            out.append(_tuple_new(RawSample, (
+                time, True, st.x, st.y, bool(f0 & 0x09), pressure if pressure <= top else top,
+                st.tilt_x if pro2 else None, st.tilt_y if pro2 else None,
+                distance if distance <= far else far, st.rotation, st.wheel, _BUTTONS[f0 & 6],
+                tool, serial_out, id_out, tool is Tool.ERASER, bool(in_range))))
         return out
 
     def _sample(self, time: float, prox: bool, valid: bool, pressure: int, tip: bool,

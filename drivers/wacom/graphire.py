@@ -10,6 +10,7 @@ little-endian 16-bit at d[2], d[4]; pen pressure ``d[6] | (d[7] & 3) << 8``
 
 from __future__ import annotations
 
+import struct
 from dataclasses import dataclass
 from typing import Any
 
@@ -24,6 +25,12 @@ from station.events import Button, Tool
 REPORT_LENGTH = 8
 USB_REPORT_ID = 2
 BT_REPORT_ID = 3
+# ID, d[1], x, y (little-endian 16 bits at d[2], d[4]), d[6], d[7]: one call
+_REPORT = struct.Struct("<BBHHBB")
+_PEN_BUTTONS = tuple((int(Button.STYLUS) if b & 2 else 0) | (int(Button.STYLUS2) if b & 4 else 0)
+                     for b in range(8))  # d[1] & 0x06 -> button bits
+_STYLUS3 = int(Button.STYLUS3)
+_tuple_new = tuple.__new__  # RawSample is a named tuple: built without its __new__ frame
 _TOOLS = ((Tool.PEN, STYLUS_DEVICE_ID), (Tool.ERASER, ERASER_DEVICE_ID),
           (Tool.MOUSE, CURSOR_DEVICE_ID), (Tool.MOUSE, CURSOR_DEVICE_ID))  # fmt: skip
 
@@ -67,54 +74,46 @@ class GraphireParser(ReportParser):
         self.state = GraphireState()
 
     def parse(self, report: bytes, time: float) -> list[RawSample]:
+        if len(report) == REPORT_LENGTH and report[0] == self.report_id:  # the hot path
+            return self._report(report, time)
         if not report:
             raise unknown_id(b"\0", "Graphire")
         if report[0] != self.report_id:
             if report[0] in self.params.skip_report_ids:
-                return self._skip("mouse" if report[0] == 1 else "pad")
-            raise unknown_id(report, "Graphire")
+                return self._skip("mouse" if report[0] == 1 else "pad", report[0])
+            return self._not_pen(report, "Graphire")
         check_length(report, (REPORT_LENGTH,), "Graphire")
-        d = report
+        return self._report(report, time)
+
+    def _report(self, d: bytes, time: float) -> list[RawSample]:
+        _, d1, x, y, d6, d7 = _REPORT.unpack_from(d)
         st = self.state
-        prox = bool(d[1] & 0x80)
+        prox = d1 & 0x80
         if not prox and not st.tool_id:
             self.dropped += 1  # nothing in proximity and nothing to end
             return []
         if prox:
-            st.tool, st.tool_id = _TOOLS[(d[1] >> 5) & 3]
-        x = d[2] | (d[3] << 8)
-        y = d[4] | (d[5] << 8)
+            st.tool, st.tool_id = _TOOLS[(d1 >> 5) & 3]
+        tool = st.tool
         pressure: int | None
-        if st.tool != Tool.MOUSE:
-            high = (d[1] & 0x08) << 5 if self.bluetooth else (d[7] & 0x03) << 8
-            pressure = d[6] | high
-            tip = bool(d[1] & 0x01)
-            buttons = (Button.STYLUS if d[1] & 0x02 else 0) | (Button.STYLUS2 if d[1] & 0x04 else 0)
+        if tool is not Tool.MOUSE:
+            pressure = d6 | ((d1 & 0x08) << 5 if self.bluetooth else (d7 & 0x03) << 8)
+            tip = bool(d1 & 0x01)
+            buttons = _PEN_BUTTONS[d1 & 6]
             distance = None
         else:
             pressure, tip = None, False
-            buttons = (Button.STYLUS if d[1] & 0x01 else 0) | (Button.STYLUS2 if d[1] & 0x02 else 0)
-            if (d[1] >> 5) & 3 == 2 and d[1] & 0x04:
-                buttons |= Button.STYLUS3  # middle button of the wheel mouse
+            buttons = _PEN_BUTTONS[(d1 << 1) & 6]  # left, right
+            if (d1 >> 5) & 3 == 2 and d1 & 0x04:
+                buttons |= _STYLUS3  # middle button of the wheel mouse
             if self.bluetooth:
-                distance = min(31, max(0, 44 - (d[6] >> 2)))
+                distance = min(31, max(0, 44 - (d6 >> 2)))
             else:
-                distance = (d[6] if self.graphire4 else d[7]) & 0x3F
-        sample = RawSample(
-            time=time,
-            proximity=prox,
-            x=x,
-            y=y,
-            tip=tip,
-            pressure=pressure,
-            distance=distance,
-            buttons=int(buttons),
-            tool=st.tool,
-            serial=None,
-            tool_id=st.tool_id,
-            eraser=st.tool == Tool.ERASER,
-            valid=prox,
-        )
+                distance = (d6 if self.graphire4 else d7) & 0x3F
+        tool_id = st.tool_id
         if not prox:
             st.tool_id = 0
-        return [sample]
+        # positional, in RawSample's field order (built per report)
+        return [_tuple_new(RawSample, (
+            time, bool(prox), x, y, tip, pressure, None, None, distance, None, None, buttons,
+            tool, None, tool_id, tool is Tool.ERASER, bool(prox)))]

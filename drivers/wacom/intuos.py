@@ -19,6 +19,7 @@ kernel does.
 
 from __future__ import annotations
 
+import struct
 from dataclasses import dataclass
 from typing import Any
 
@@ -45,6 +46,14 @@ TILT_AXIS = Axis(-64, 63, 1.0)  # about one unit per degree
 # d[1] & 0x06 -> pen button bits, as plain ints (IntFlag arithmetic is slow per report)
 _PEN_BUTTONS = tuple((int(Button.STYLUS) if b & 2 else 0) | (int(Button.STYLUS2) if b & 4 else 0)
                      for b in range(8))
+
+# d[1] -> 1 for the proximity packets (in: 0xc0-0xc3; in range: 0x20/21; out: 0x80/81)
+_PROXIMITY = bytes(int(b & 0xFC == 0xC0 or b & 0xFE in (0x20, 0x80)) for b in range(256))
+# One packet in one call: ID, d[1], x and y (big-endian 16 bits at d[2], d[4]), d[6..9].
+_PACKET = struct.Struct(">BBHHBBBB")
+# RawSample is a named tuple: tuple.__new__ with the values in field order skips its
+# Python-level __new__ (about a third of the cost of building one per report).
+_tuple_new = tuple.__new__
 
 # packet types (d[1] >> 1) & 0xf
 PEN_TYPES = frozenset({0, 1, 2, 3})
@@ -77,12 +86,16 @@ def decode_tilt(d: bytes) -> tuple[int, int]:
 
 @dataclass(slots=True)
 class IntuosState:
-    """Protocol state between packets: the tool in proximity and its last values."""
+    """Protocol state between packets: the tool in proximity and its last values.
+
+    Pen packets (the hot path) do not write the values back one by one: they keep
+    the sample they emit in ``last``, and :meth:`sync` copies its values into the
+    fields before any other packet reads or changes them.
+    """
 
     tool_id: int = 0  # 0: no tool identified (kernel: wacom->id[idx] == 0)
     serial: int = 0
     tool: Tool | None = None
-    reporting: bool = False  # a data packet was reported since proximity-in
     x: int = 0
     y: int = 0
     distance: int = 0
@@ -92,6 +105,37 @@ class IntuosState:
     rotation: int | None = None
     wheel: int | None = None
     buttons: int = 0
+    cursor: bool = False  # the tool is a mouse or lens cursor (no pressure, no tip)
+    no_tilt: bool = False  # its samples carry no tilt (the lens, or a device without tilt)
+    eraser: bool = False
+    last: RawSample | None = None  # the last data sample since proximity-in
+    synced: RawSample | None = None  # the sample the fields were last copied from
+
+    @property
+    def reporting(self) -> bool:
+        """A data packet was reported since proximity-in."""
+        return self.last is not None
+
+    def set_tool(self, tool_id: int, tool: Tool | None, tilt: bool) -> None:
+        """The tool now in proximity (0, None: none), with the facts each sample repeats."""
+        self.tool_id, self.tool = tool_id, tool
+        self.cursor = tool is Tool.MOUSE or tool is Tool.LENS
+        self.no_tilt = tool is Tool.LENS or not tilt
+        self.eraser = tool is Tool.ERASER
+        self.last = self.synced = None
+
+    def sync(self) -> None:
+        """The fields from the last pen packet's sample (only what that sample shows:
+        a cursor's pressure and a lens's tilt are never emitted, so never read back)."""
+        s = self.last
+        if s is None or s is self.synced:
+            return
+        self.synced = s
+        self.x, self.y, self.distance, self.buttons = s.x, s.y, int(s.distance or 0), s.buttons
+        if s.pressure is not None:
+            self.pressure = s.pressure
+        if s.tilt_x is not None and s.tilt_y is not None:
+            self.tilt_x, self.tilt_y = s.tilt_x, s.tilt_y
 
     def clear_values(self) -> None:
         self.x = self.y = self.distance = self.pressure = self.tilt_x = self.tilt_y = 0
@@ -151,12 +195,18 @@ class IntuosParser(ReportParser):
         super().__init__(ranges, model, feats)
         self.slots = (IntuosState(), IntuosState())
         self.state = self.slots[0]
+        # Read once per packet as one tuple (fewer attribute loads on the hot path).
+        self._mode = (original, self._drops, self._inverted, self.halve_pressure)
 
     def reset(self) -> None:
         self.slots = (IntuosState(), IntuosState())
         self.state = self.slots[0]
 
     def parse(self, report: bytes, time: float) -> list[RawSample]:
+        # The common case first: a pen-ID report of a pen length (no other checks apply).
+        if 9 < len(report) < 17 and report[0] in PEN_REPORT_IDS:
+            s = self.packet(report, 0, time)
+            return [] if s is None else [s]
         if not report:
             raise unknown_id(b"\0", "Intuos")
         rid = report[0]
@@ -165,63 +215,76 @@ class IntuosParser(ReportParser):
                     report[1] & 0xFC == 0xC0 or report[1] & 0xFE in (0x20, 0x80)):
                 pass  # a proximity packet answering the tool query: read below
             elif rid in self.params.skip_report_ids:
-                return self._skip("mouse" if rid == 1 else "pad")
+                return self._skip("mouse" if rid == 1 else "pad", rid)
             elif rid == STATUS_REPORT_ID or rid in PROX_REPORT_IDS:
-                return self._skip("status")
+                return self._skip("status", rid)
             else:
-                raise unknown_id(report, "Intuos")
+                return self._not_pen(report, "Intuos")
         if len(report) == TOUCH_LENGTH:
-            return self._skip("touch")
+            return self._skip("touch", rid)
         check_length(report, PEN_LENGTHS, "Intuos")
-        d = report
-        d1 = d[1]
-        st = self.state = self.slots[d1 & 1 if self.original else 0]
-        if d1 & 0xFC == 0xC0:  # enter proximity: identify the tool
-            st.serial = decode_serial(d)
-            st.tool_id = decode_tool_id(d)
-            st.tool = tool_from_id(st.tool_id)
-            st.reporting = False
-            st.clear_values()
-            st.distance = self.params.max_distance
-            return [self._sample(time, True, valid=False)]
-        if d1 & 0xFE == 0x20:  # in range, no valid data: not touching
-            st.pressure = 0
-            st.distance = self.params.max_distance
-            return [self._sample(time, True, valid=False)]
-        if d1 & 0xFE == 0x80:  # leave proximity
-            st.reporting = False
-            if not st.tool_id:  # the kernel does not report an exit for an unknown tool
-                self.dropped += 1
-                return []
-            st.clear_values()
-            out = self._sample(time, False, valid=False)
-            st.tool_id, st.serial, st.tool = 0, 0, None
-            return [out]
-        if rid in PROX_REPORT_IDS or not st.tool_id:  # data before the tool was identified
+        s = self.packet(report, 0, time)
+        return [] if s is None else [s]
+
+    def packet(self, d: bytes, at: int, time: float) -> RawSample | None:
+        """The sample of the 10-byte Intuos packet at ``d[at:]`` (its first byte the report
+        ID), or None when the packet carries none (counted in :attr:`dropped`).
+
+        The caller has checked the ID and the length; the Intuos4 WL parser calls this for
+        each packet of a bundle, in place (no slice, no list per packet).
+        """
+        d1 = d[at + 1]
+        original, drops, inverted, halve = self._mode
+        if original:
+            st = self.state = self.slots[d1 & 1]
+        else:
+            st = self.state
+        if _PROXIMITY[d1]:  # proximity in, in range without data, proximity out
+            return self._proximity(d[at:at + REPORT_LENGTH], d1, st, time)
+        if not st.tool_id or d[at] in PROX_REPORT_IDS:  # data before the tool was identified
             self.dropped += 1
-            return []
-        if self._drops and self._invalid(d1, st):
+            return None
+        if drops and self._invalid(d1, st):
             self.dropped += 1
-            return []
+            return None
+        _, _, x, y, d6, d7, d8, d9 = _PACKET.unpack_from(d, at)
         # Intuos3 and later: one extra bit of x and y in d[9]; the original protocol has none.
-        x = (((d[2] << 8) | d[3]) << 1) | ((d[9] >> 1) & 1)
-        y = (((d[4] << 8) | d[5]) << 1) | (d[9] & 1)
-        distance = d[9] >> 2
-        if self.original:
-            x, y, distance = x >> 1, y >> 1, distance >> 1
-        if self._inverted:
+        if original:
+            distance = d9 >> 3
+        else:
+            x = (x << 1) | ((d9 >> 1) & 1)
+            y = (y << 1) | (d9 & 1)
+            distance = d9 >> 2
+        if inverted:
             distance = self.params.max_distance - distance
+        if d1 & 0x18:  # packet type (d1 >> 1) & 0xf of 4 or more: not a pen packet
+            return self._other(d[at:at + REPORT_LENGTH], (d1 >> 1) & 0xF, x, y, distance, st,
+                               time)  # fmt: skip
+        t = (d6 << 3) | ((d7 & 0xC0) >> 5) | (d1 & 1)
+        if halve:
+            t >>= 1
+        if st.no_tilt:
+            tx = ty = None
+        else:
+            tx = (((d7 << 1) & 0x7E) | (d8 >> 7)) - 64
+            ty = (d8 & 0x7F) - 64
+        # positional, in RawSample's field order; tip: the kernel's rule, pressure > 10
+        if st.cursor:
+            s = st.last = _tuple_new(RawSample, (
+                time, True, x, y, False, None, tx, ty, distance, st.rotation, st.wheel,
+                _PEN_BUTTONS[d1 & 6], st.tool, st.serial, st.tool_id, st.eraser, True))
+        else:
+            s = st.last = _tuple_new(RawSample, (
+                time, True, x, y, t > 10, t, tx, ty, distance, st.rotation, st.wheel,
+                _PEN_BUTTONS[d1 & 6], st.tool, st.serial, st.tool_id, st.eraser, True))
+        return s
+
+    def _other(self, d: bytes, ptype: int, x: int, y: int, distance: int, st: IntuosState,
+               time: float) -> RawSample:
+        """Airbrush, Art Pen rotation, mouse and lens packets (the state kept in fields)."""
+        st.sync()
         st.x, st.y, st.distance = x, y, distance
-        ptype = (d1 >> 1) & 0xF
-        if ptype in PEN_TYPES:
-            t = (d[6] << 3) | ((d[7] & 0xC0) >> 5) | (d1 & 1)
-            if self.halve_pressure:
-                t >>= 1
-            st.pressure = t
-            if self.tilt:
-                st.tilt_x, st.tilt_y = decode_tilt(d)
-            st.buttons = _PEN_BUTTONS[d1 & 6]
-        elif ptype == TYPE_AIRBRUSH:
+        if ptype == TYPE_AIRBRUSH:
             st.wheel = (d[6] << 2) | ((d[7] >> 6) & 3)
             st.tilt_x, st.tilt_y = decode_tilt(d)
         elif ptype == TYPE_ROTATION:
@@ -234,8 +297,33 @@ class IntuosParser(ReportParser):
             st.buttons = _mouse_buttons(d[8], side=0x10 if ptype in LENS_TYPES else 0x20,
                                         extra=0x08 if ptype in LENS_TYPES else 0x10)
         # types 7, 9, 0xb, 0xd-0xf carry only position and distance
-        st.reporting = True
-        return [self._sample(time, True, valid=True)]
+        s = st.last = st.synced = self._sample(time, True, valid=True)
+        return s
+
+    def _proximity(self, d: bytes, d1: int, st: IntuosState, time: float) -> RawSample | None:
+        """Proximity in (identify the tool), in range without data, proximity out."""
+        if d1 & 0xFC == 0xC0:  # enter proximity: identify the tool
+            tool_id = decode_tool_id(d)
+            st.serial = decode_serial(d)
+            st.set_tool(tool_id, tool_from_id(tool_id), self.tilt)
+            st.clear_values()
+            st.distance = self.params.max_distance
+            return self._sample(time, True, valid=False)
+        st.sync()
+        if d1 & 0xFE == 0x20:  # in range, no valid data: not touching
+            st.pressure = 0
+            st.distance = self.params.max_distance
+            return self._sample(time, True, valid=False)
+        # leave proximity
+        if not st.tool_id:  # the kernel does not report an exit for an unknown tool
+            st.last = st.synced = None
+            self.dropped += 1
+            return None
+        st.clear_values()
+        out = self._sample(time, False, valid=False)
+        st.set_tool(0, None, self.tilt)
+        st.serial = 0
+        return out
 
     def _invalid(self, d1: int, st: IntuosState) -> bool:
         """Data the kernel drops for this device type (wacom_intuos_general)."""
@@ -250,7 +338,7 @@ class IntuosParser(ReportParser):
         st = self.state
         tool = st.tool
         cursor = tool is Tool.MOUSE or tool is Tool.LENS
-        no_tilt = tool is Tool.LENS or not self.tilt
+        no_tilt = st.no_tilt if tool is not None else not self.tilt
         # Positional, in RawSample's field order (time, proximity, x, y, tip, pressure,
         # tilt x/y, distance, rotation, wheel, buttons, tool, serial, tool id, eraser,
         # valid): built for every report.  tip: the kernel's BTN_TOUCH rule, pressure > 10.
@@ -259,7 +347,7 @@ class IntuosParser(ReportParser):
                          None if no_tilt else st.tilt_y, st.distance,
                          None if self.original else st.rotation, st.wheel, st.buttons,
                          tool, st.serial if st.tool_id else None, st.tool_id or None,
-                         tool is Tool.ERASER, valid)
+                         st.eraser, valid)
 
 
 def _mouse_buttons(bits: int, side: int, extra: int) -> int:

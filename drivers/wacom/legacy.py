@@ -177,10 +177,10 @@ class LegacyPenParser(ReportParser):
         pen = rid in proto.pen_ids or len(report) == proto.any_id_length
         if not pen:
             if rid in proto.pad_ids or rid in self.params.skip_report_ids - {1}:
-                return self._skip("pad")
+                return self._skip("pad", rid)
             if rid == 1 and proto.mouse_mode:
-                return self._skip("mouse")
-            raise unknown_id(report, proto.name)
+                return self._skip("mouse", rid)
+            return self._not_pen(report, proto.name)
         if not proto.min_length <= len(report) <= MAX_LENGTH:
             raise ReportError(f"{proto.name} report {rid} is {len(report)} bytes, expected "
                               f"{proto.min_length}..{MAX_LENGTH}")  # fmt: skip

@@ -138,6 +138,12 @@ def run(args: argparse.Namespace) -> int:
         for d in summary["devices"]:
             out.write(f"{d['name']}: {d['reports']} reports -> {d['samples']} samples "
                       f"({d['parser']}; {d['bad_reports']} bad reports dropped, "
-                      f"{d['skipped_reports']} non-pen skipped, "
+                      f"{d['skipped_reports']} non-pen skipped{_by_id(d)}, "
                       f"{d['forced_proximity_out']} forced proximity-out)\n")
     return 0
+
+
+def _by_id(device: dict[str, Any]) -> str:
+    """The skipped reports by ID, e.g. " (ID 99: 117)"."""
+    ids = device.get("skipped_by_id") or {}
+    return f" (ID {', ID '.join(f'{k}: {v}' for k, v in ids.items())})" if ids else ""
