@@ -32,6 +32,7 @@ import numpy as np
 
 from station.errors import BadInput, StationError
 from station.events import Command, PenSample, Tool
+from station.kiosk.compose import Box, Compositor
 from station.kiosk.display import CpuDisplay, GpuDisplay, make_display
 from station.kiosk.gallery import Gallery, GalleryServer, new_id, painting_url, qr_matrix
 from station.kiosk.idle import IdleClock, IdleConfig
@@ -228,8 +229,11 @@ class KioskApp:
         self.steps_run = 0
         self.frame_errors = 0
         self._next_status = 0.0
+        self._status_due = 0.0
+        self._status_cache = ""
         self.session: KioskSession = self._new_session()
         self.display: CpuDisplay | GpuDisplay = make_display(self.ctx, self.session)
+        self.compositor = Compositor(self.ctx, (w, h))
 
     # -- GL programs -------------------------------------------------------------
     def _programs(self) -> None:
@@ -485,13 +489,18 @@ class KioskApp:
                                 np.full(ang.size, 1e-4)])
         self._flat(cam, np.vstack([[c[0], c[1], 1e-4], ring]), color, self.ctx.TRIANGLE_FAN)
 
-    def draw_scene(self) -> None:
+    def draw_scene(self, cam: Camera, clip: Box | None = None) -> None:
+        """The view of the canvas (background, table, canvas) into the bound framebuffer;
+        ``clip``: only inside these window pixels (x0, y0, x1, y1)."""
         ctx = self.ctx
         w, h = self.size
+        scissor = None if clip is None else (clip[0], h - clip[3], clip[2] - clip[0],
+                                             clip[3] - clip[1])
         ctx.viewport = (0, 0, w, h)
+        ctx.scissor = scissor
         ctx.clear(*BACKGROUND)
-        cam = self.camera()
         ctx.viewport = cam.viewport.gl(h)
+        ctx.scissor = scissor
         ctx.enable(ctx.BLEND)
         ctx.blend_func = ctx.SRC_ALPHA, ctx.ONE_MINUS_SRC_ALPHA
         if cam.name != "2d":
@@ -502,12 +511,28 @@ class KioskApp:
         self.canvas_prog["canvas"].value = 0
         self.canvas_prog["vp"].write(cam.vp.T.astype("f4").tobytes())
         self.canvas_vao.render(ctx.TRIANGLE_STRIP)
-        if self.hover is not None:
-            # the brush's shadow: its footprint at full pressure, light from the top left
-            r = self.session.player.brush.settings.size / 2 / self.cfg.height
-            u, v = self.hover
-            off = 0.0 if self.touching else 0.006
-            self._disc(cam, u + off, v + off, r, CURSOR_TOUCH if self.touching else SHADOW)
+        ctx.disable(ctx.BLEND)
+        ctx.viewport = (0, 0, w, h)
+        ctx.scissor = None
+
+    def predicted_hover(self) -> tuple[float, float] | None:
+        return self.hover
+
+    def draw_cursor(self, cam: Camera) -> None:
+        """The brush's shadow over the presented picture: its footprint at full pressure,
+        light from the top left, where the pen is predicted to be when this frame shows."""
+        shown = self.predicted_hover()
+        if shown is None:
+            return
+        ctx = self.ctx
+        w, h = self.size
+        ctx.viewport = cam.viewport.gl(h)
+        ctx.enable(ctx.BLEND)
+        ctx.blend_func = ctx.SRC_ALPHA, ctx.ONE_MINUS_SRC_ALPHA
+        r = self.session.player.brush.settings.size / 2 / self.cfg.height
+        u, v = shown
+        off = 0.0 if self.touching else 0.006
+        self._disc(cam, u + off, v + off, r, CURSOR_TOUCH if self.touching else SHADOW)
         ctx.disable(ctx.BLEND)
         ctx.viewport = (0, 0, w, h)
 
@@ -530,13 +555,14 @@ class KioskApp:
             parts.append("layer full: press New layer")
         return "  ".join(parts)
 
-    def draw_ui(self, dt: float) -> None:
+    def build_ui(self, dt: float) -> int:
+        """One ImGui frame (panel, QR, banners), not drawn yet; returns its hash."""
         from station.kiosk.ui import draw_banner, draw_panel, draw_qr
 
         self.gui.new_frame(dt)
         w, h = self.size
         self.rects = {}
-        draw_panel(self.panel, self.panel_w, h, self.status_line(), self.rects)
+        draw_panel(self.panel, self.panel_w, h, self._status_text(), self.rects)
         if self.qr is not None:
             side = min(240.0, h * 0.3)
             draw_qr(self.qr[0], w - side - 40, h - side - 80, side, self.rects)
@@ -548,7 +574,29 @@ class KioskApp:
         elif self.idle.attract(now):
             draw_banner("Pick up the pen and paint!", a.x + a.w * 0.1, a.y + a.h * 0.38,
                         a.w * 0.8, a.h * 0.24, "attract")
-        self.gui.render()
+        return self.gui.end_frame()
+
+    def _status_text(self) -> str:
+        """The status line, refreshed every :data:`STATUS_EVERY_S` (people read it; a
+        text changing every step would redraw the panel every step)."""
+        now = time.monotonic()
+        if now >= self._status_due:
+            self._status_due = now + STATUS_EVERY_S
+            self._status_cache = self.status_line()
+        return self._status_cache
+
+    def compose(self, dt: float) -> Camera:
+        """Build the UI and redraw the damaged parts of the picture (see compose.py);
+        then the picture into the back buffer and the shadow over it."""
+        cam = self.camera()
+        ui_hash = self.build_ui(dt)
+        self.compositor.update(cam, self.display.damage, (self.cfg.width, self.cfg.height),
+                               ui_hash, self.gui.bounds(), lambda box: self.draw_scene(cam, box),
+                               self.gui.draw)
+        self.display.damage = []
+        self.compositor.present()
+        self.draw_cursor(cam)
+        return cam
 
     def _screenshot(self, path: Path) -> None:
         from PIL import Image
@@ -606,8 +654,7 @@ class KioskApp:
         if draw:
             self.display.update()
             t2 = time.perf_counter()
-            self.draw_scene()
-            self.draw_ui(now - self._last_draw if self._last_draw else dt)
+            self.compose(now - self._last_draw if self._last_draw else dt)
             for path in self.screenshots:
                 self._screenshot(path)
             self.screenshots.clear()
@@ -725,6 +772,7 @@ class KioskApp:
             if self.server is not None:
                 self.server.stop()
             self.display.release()
+            self.compositor.release()
             self.gui.close()
             self.glfw.destroy_window(self.window)
             self.glfw.terminate()

@@ -60,6 +60,7 @@ class CpuDisplay:
             self.texture = self.ctx.texture((w, h), 3, dtype="f4")
             self.texture.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
         self.preview_box: tuple[slice, slice] | None = None
+        self.damage: list[tuple[int, int, int, int]] = []  # cells (y0, y1, x0, x1) uploaded
         self.cells_rendered = 0
         self.render_seconds = 0.0
         session.mark_all_dirty()
@@ -80,6 +81,7 @@ class CpuDisplay:
             dirty[ys.start // ts:-(-ys.stop // ts), xs.start // ts:-(-xs.stop // ts)] = True
             self.preview_box = None
         cells = 0
+        self.damage = []
         for ty, a, b in tile_runs(dirty):
             ys = slice(ty * ts, min((ty + 1) * ts, st.height))
             xs = slice(a * ts, min(b * ts, st.width))
@@ -112,6 +114,7 @@ class CpuDisplay:
         return render_region(st, kind, ys, xs, extra)
 
     def _upload(self, rgb: np.ndarray, ys: slice, xs: slice) -> None:
+        self.damage.append((ys.start, ys.stop, xs.start, xs.stop))
         data = np.ascontiguousarray(rgb, dtype=F32)
         self.texture.write(data.tobytes(), viewport=(xs.start, ys.start, xs.stop - xs.start,
                                                      ys.stop - ys.start))
@@ -129,6 +132,7 @@ class GpuDisplay:
 
     def bind(self, session: Any) -> None:
         self.session = session
+        self.damage: list[tuple[int, int, int, int]] = []
         self.cells_rendered = 0
         self.render_seconds = 0.0
         self.texture = session.canvas.render_texture()
@@ -142,7 +146,9 @@ class GpuDisplay:
         self.session.take_dirty()
         self.texture = self.session.canvas.render_texture()
         self.ctx.memory_barrier()  # image stores → texture fetches of the window's shader
-        self.cells_rendered = self.session.cfg.width * self.session.cfg.height
+        w, h = self.session.cfg.width, self.session.cfg.height
+        self.damage = [(0, h, 0, w)]  # the whole canvas may have changed
+        self.cells_rendered = w * h
         self.render_seconds = time.perf_counter() - t0
         return self.cells_rendered
 
