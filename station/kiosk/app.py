@@ -19,10 +19,13 @@ SIGINT or a ``stop`` command on the bus; the painting is saved to the gallery.
 
 from __future__ import annotations
 
+import ctypes
+import dataclasses
 import logging
 import math
 import os
 import re
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -36,6 +39,7 @@ from station.kiosk.compose import Box, Compositor
 from station.kiosk.display import CpuDisplay, GpuDisplay, make_display
 from station.kiosk.gallery import Gallery, GalleryServer, new_id, painting_url, qr_matrix
 from station.kiosk.idle import IdleClock, IdleConfig
+from station.kiosk.predict import PenPredictor, PredictConfig
 from station.kiosk.session import KioskSession
 from station.kiosk.views import VIEWS, Camera, Viewport, input_camera, make_camera
 from station.sim.live import DEFAULT_CMD_ENDPOINT, LiveConfig
@@ -111,6 +115,34 @@ class KioskConfig:
     panel_fraction: float = 0.3
     cmd: str | None = None  # where `station send` reaches the kiosk; "none" disables
     autosave: float = 30.0  # seconds between autosaves of the painting (0: off)
+    sim_thread: bool = True  # steps in a thread of their own (False: in the frame loop)
+    predict_ms: float = 16.0  # the pen shadow drawn this far ahead of the last sample (0: off)
+
+
+def numba_threadsafe() -> bool:
+    """Whether numba's threading layer lets two threads launch parallel kernels at once
+    (``omp``, ``tbb``; the fallback ``workqueue`` aborts the process if they do)."""
+    try:
+        import numba
+        from numba.np.ufunc import parallel
+
+        parallel._launch_threads()
+        return str(numba.threading_layer()) in ("omp", "tbb")
+    except Exception:  # an unknown numba: assume the worst
+        return False
+
+
+def _gl_function(name: str) -> Any:
+    """A GL entry point through ctypes (released interpreter lock), or ``None``."""
+    for lib in ("libGL.so.1", "libOpenGL.so.0"):
+        try:
+            fn = getattr(ctypes.CDLL(lib), name)
+        except (OSError, AttributeError):
+            continue
+        fn.restype = None
+        fn.argtypes = []
+        return fn
+    return None
 
 
 class KioskApp:
@@ -125,8 +157,15 @@ class KioskApp:
                                "pip install 'painting-station[kiosk]'") from None
         if cfg.view not in VIEWS:
             raise BadInput(f"unknown view {cfg.view!r} (one of {', '.join(VIEWS)})", "--view")
+        if cfg.sim_thread and not numba_threadsafe():
+            log.warning("numba's threading layer is not thread-safe here (install tbb): "
+                        "the simulation steps in the frame loop")
+            cfg = dataclasses.replace(cfg, sim_thread=False)
         self.cfg = cfg
         self.glfw = glfw
+        # the window's thread gets the interpreter back from the simulation thread within
+        # a millisecond (the default 5 ms would be a third of a 60 Hz frame)
+        sys.setswitchinterval(0.001)
         if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
             raise StationError("no display: the kiosk needs X or Wayland (try Xvfb)")
         if not glfw.init():
@@ -226,7 +265,13 @@ class KioskApp:
         self._last_draw = 0.0
         self._fresh_requested = False  # an operator's "fresh" command
         self._brush_key: tuple[Any, ...] | None = None
-        self.steps_run = 0
+        self._glfinish = _gl_function("glFinish")
+        self.predictor = PenPredictor(PredictConfig(horizon_s=max(cfg.predict_ms, 0.0) / 1000))
+        # the latency bench's records: pen samples (t, x, y, touching) in window pixels,
+        # and per frame (shown, last sample's x, y, the shadow's predicted x, y)
+        self.pen_log: list[tuple[float, float, float, bool]] | None = None
+        self.cursor_log: list[tuple[float, float, float, float, float]] | None = None
+        self._cursor_drawn: tuple[tuple[float, float], tuple[float, float]] | None = None
         self.frame_errors = 0
         self._next_status = 0.0
         self._status_due = 0.0
@@ -264,6 +309,8 @@ class KioskApp:
         self.panel.apply_brush()  # the visitor's brush carries over, logged first
         self.idle.fresh(time.monotonic())
         self._set_qr(None)
+        if cfg.sim_thread:
+            session.start_worker()
         return session
 
     def _send(self, name: str, args: dict[str, Any]) -> None:
@@ -283,7 +330,18 @@ class KioskApp:
     def _render_srgb8(self) -> np.ndarray:
         from station.canvas.render import to_srgb8
 
-        return to_srgb8(self.session.canvas.render())
+        with self.session.lock:
+            self.session._wait_step()
+            return to_srgb8(self.session.canvas.render())
+
+    def _gl_finish(self) -> None:
+        """``glFinish`` through ctypes, which lets the simulation thread run while the GL
+        driver completes the frame (moderngl's ``finish`` holds the interpreter lock,
+        and llvmpipe rasterises in the call)."""
+        if self._glfinish is None:
+            self.ctx.finish()
+        else:
+            self._glfinish()
 
     def save_now(self) -> str:
         """Save the painting so far to the gallery (the visitor's Save); shows its QR."""
@@ -303,6 +361,7 @@ class KioskApp:
     def finish_painting(self, reason: str) -> str | None:
         """Save the painting to the gallery (if anything was painted) and start afresh."""
         s = self.session
+        s.stop_worker()
         pid = s.painting_id
         painted = s.painted_stamps > 0 or pid in self.saved
         meta = self._meta(reason)
@@ -324,6 +383,11 @@ class KioskApp:
             Path(s.log_path).unlink(missing_ok=True)
             Path(s.autosave_path).unlink(missing_ok=True)
         return pid if painted and stored else None
+
+    @property
+    def steps_run(self) -> int:
+        """Steps the current painting has run."""
+        return int(self.session.player.counters.steps)
 
     def fresh_canvas(self, reason: str) -> str | None:
         pid = self.finish_painting(reason)
@@ -352,6 +416,10 @@ class KioskApp:
         now = time.monotonic()
         w, h = self.size
         px, py = s.x * w, s.y * h
+        t = s.t_mono if s.t_mono > 0.0 else now
+        self.predictor.add(t, px, py, s.proximity, s.touching and s.proximity)
+        if self.pen_log is not None:
+            self.pen_log.append((t, px, py, s.touching and s.proximity))
         self.panel.eraser = s.tool is Tool.ERASER
         if s.proximity:
             self.idle.activity(now)
@@ -516,7 +584,21 @@ class KioskApp:
         ctx.scissor = None
 
     def predicted_hover(self) -> tuple[float, float] | None:
-        return self.hover
+        """Canvas (u, v) of the pen's shadow: the pen as predicted for when this frame is
+        seen (:mod:`station.kiosk.predict`), where it is over the canvas."""
+        self._cursor_drawn = None
+        if self.hover is None:
+            return None
+        last = self.predictor.last()
+        p = self.predictor.predict(time.monotonic())
+        if p is None or last is None:
+            return self.hover
+        uv = input_camera(self.panel.view, self.area, self.aspect).screen_to_canvas(*p) \
+            if p[0] >= self.panel_w else None
+        if uv is None or not (0.0 <= uv[0] <= 1.0 and 0.0 <= uv[1] <= 1.0):
+            uv = self.hover
+        self._cursor_drawn = ((last[1], last[2]), p)
+        return uv
 
     def draw_cursor(self, cam: Camera) -> None:
         """The brush's shadow over the presented picture: its footprint at full pressure,
@@ -652,25 +734,33 @@ class KioskApp:
                 or now - self._last_draw >= REDRAW_EVERY_S)
         t1 = t2 = t3 = t4 = time.perf_counter()
         if draw:
-            self.display.update()
+            with s.lock:  # not while a step hands its sources over (the kernel may run)
+                self.display.update()
             t2 = time.perf_counter()
             self.compose(now - self._last_draw if self._last_draw else dt)
             for path in self.screenshots:
                 self._screenshot(path)
             self.screenshots.clear()
             t3 = time.perf_counter()
-            self.ctx.finish()
+            self._gl_finish()
             self.glfw.swap_buffers(self.window)
             shown = time.monotonic()
             t4 = time.perf_counter()
             for t_read in s.awaiting_paint:
                 self.latencies.append(shown - t_read)
+            if self.cursor_log is not None and self._cursor_drawn is not None:
+                (rx, ry), (qx, qy) = self._cursor_drawn
+                self.cursor_log.append((shown, rx, ry, qx, qy))
             s.awaiting_paint.clear()
             self._last_draw = shown
             self.frames += 1
         # ImGui spreads pen events queued together over the next frames: draw one more
         self._need_draw = got_input
-        self.steps_run += s.run_due_steps(max_steps=2)  # what they change: dirty tiles
+        if self.cfg.sim_thread:
+            s.check_worker()
+            s.housekeeping()
+        else:  # the steps in this loop (after presenting: a step delays the next frame)
+            s.run_due_steps(max_steps=2)  # what they change: dirty tiles
         t5 = time.perf_counter()
         ph = self.phase
         ph["wait"] += tw - t0
