@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from station.canvas.palette import default_palette
-from station.events import Command, PenSample, Tool
+from station.events import PenSample, Tool
 from station.kiosk.compose import Compositor, canvas_box, union
 from station.kiosk.predict import (
     PenPredictor,
@@ -107,7 +107,12 @@ def test_samples_applied_while_a_step_runs_replay_exactly(tmp_path: Path) -> Non
             assert s.samples_during_steps == before + 5
             # a command waits for the kernel: it is applied only after the gate opens
             done = threading.Event()
-            waiter = threading.Thread(target=lambda: (s.command("dry"), done.set()))
+
+            def dry(done: threading.Event = done) -> None:
+                s.command("dry")
+                done.set()
+
+            waiter = threading.Thread(target=dry)
             if stroke == 1:
                 waiter.start()
                 assert not done.wait(0.3)  # held while the kernel runs
@@ -255,21 +260,22 @@ def test_canvas_box_covers_the_projected_cells() -> None:
     assert x0 <= tl[0] and y0 <= tl[1] and x1 >= br[0] and y1 >= br[1]
     small = canvas_box(cam, (100, 116, 200, 216), 800, 600)
     assert small is not None and (small[2] - small[0]) < 30 and (small[3] - small[1]) < 30
-    assert union(None, small) == small and union(small, (0, 0, 1, 1))[0] == 0
+    assert union(None, small) == small and union(small, (0, 0, 1, 1)) == (0, 0, small[2],
+                                                                           small[3])
 
 
 def test_damaged_rectangles_give_the_same_picture_as_a_full_redraw() -> None:
     try:
         import moderngl
 
-        ctx = moderngl.create_context(standalone=True, backend="egl")
+        ctx = moderngl.create_context(standalone=True, backend="egl")  # type: ignore[arg-type]
     except Exception as exc:  # no EGL here
         pytest.skip(f"no EGL context: {exc}")
     size = (160, 120)
     comp = Compositor(ctx, size)
     cam = make_camera("2d", Viewport(40, 0, 120, 120), 4 / 3)
-    colour = {"c": (0.2, 0.4, 0.6)}
-    ui = {"hash": 1, "box": (0, 0, 40, 120)}
+    colour: dict[str, tuple[float, float, float]] = {"c": (0.2, 0.4, 0.6)}
+    ui: dict[str, Any] = {"hash": 1, "box": (0, 0, 40, 120)}
 
     def scene(box: tuple[int, int, int, int]) -> None:
         ctx.scissor = (box[0], size[1] - box[3], box[2] - box[0], box[3] - box[1])
