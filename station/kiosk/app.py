@@ -49,6 +49,7 @@ log = logging.getLogger(__name__)
 DRIVER_SILENT_S = 5.0  # a driver that said nothing this long is taken as gone
 STATUS_EVERY_S = 0.5
 REDRAW_EVERY_S = 0.25  # a quiet kiosk still redraws this often (status line, banners)
+THREAD_POLL_S = 0.004  # a wet canvas: how often the window looks for the thread's steps
 SCREENSHOT_NAME = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 
 CANVAS_VERT = """
@@ -693,10 +694,13 @@ class KioskApp:
 
     # -- the loop --------------------------------------------------------------------------
     def _quiet_wait_ms(self) -> int:
-        """How long a quiet kiosk may wait for the pen: until the next step is due."""
+        """How long a quiet kiosk may wait for the pen: until the next step is due (with
+        the simulation thread, a few ms while paint is wet: its steps end any time)."""
         p = self.session.player
         t_next = (p.counters.steps + 1) / p.rate - p.waited
         wait = min(max(t_next - self.session.now(), 0.0), REDRAW_EVERY_S)
+        if self.cfg.sim_thread and self.session.active_tiles():
+            wait = min(wait, THREAD_POLL_S)
         return int(wait * 1000)
 
     def frame(self, dt: float) -> None:
@@ -710,7 +714,7 @@ class KioskApp:
         self.glfw.poll_events()
         s = self.session
         busy = (self._need_draw or s.whole_dirty or bool(s.dirty.any())
-                or s.player.brush.pending > 0 or bool(self.screenshots))
+                or self.display.behind() or bool(self.screenshots))
         received = s.sub.stats.received
         s.drain(0 if busy else self._quiet_wait_ms())
         tw = time.perf_counter()
@@ -729,8 +733,10 @@ class KioskApp:
             log.info("idle: painting %s saved to the gallery, fresh canvas", pid)
             got_input = True
         s = self.session
+        # new stamps come with input (their preview is drawn then); a step's changes
+        # come as dirty tiles
         draw = (self._need_draw or got_input or bool(self.screenshots) or s.whole_dirty
-                or bool(s.dirty.any()) or s.player.brush.pending > 0
+                or bool(s.dirty.any()) or self.display.behind()
                 or now - self._last_draw >= REDRAW_EVERY_S)
         t1 = t2 = t3 = t4 = time.perf_counter()
         if draw:
