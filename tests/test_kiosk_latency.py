@@ -343,3 +343,40 @@ def test_latency_bench_reports_goals_prediction_and_load(tmp_path: Path) -> None
         ok = (goal["measured"] <= goal["goal"]) if goal is r["goals"]["latency_p99_ms"] \
             else (goal["measured"] >= goal["goal"])
         assert (goal["flag"] == "PASS") == ok
+
+
+def test_the_display_spreads_a_whole_canvas_over_frames_within_its_budget(
+        tmp_path: Path) -> None:
+    from station.kiosk.display import CpuDisplay
+
+    try:
+        import moderngl
+
+        ctx = moderngl.create_context(standalone=True, backend="egl")  # type: ignore[arg-type]
+    except Exception as exc:  # no EGL here
+        pytest.skip(f"no EGL context: {exc}")
+    s = _session(tmp_path)
+    try:
+        s.command("brush", size=12, water=1.0, pigment={"Hansa Yellow": 0.6})
+        for i in range(8):
+            s.handle("pen", _pen(i, 0.2 + 0.08 * i))
+        for _ in range(4):
+            s.step()
+        budget = 1500
+        disp = CpuDisplay(ctx, s, max_cells=budget)
+        s.mark_all_dirty()
+        frames = 0
+        ts = int(s.canvas.params.tile_size)
+        while True:
+            cells = disp.update()
+            frames += 1
+            assert cells <= budget + W * ts  # a run of tiles may end past the budget
+            if not disp.behind():
+                break
+            assert frames < 50
+        assert frames >= (W * H) // (budget + W * ts)  # spread over several frames
+        tex = np.frombuffer(disp.texture.read(), np.float32).reshape(H, W, 3)
+        assert np.abs(tex - s.canvas.render()).max() < 2e-6  # every tile got there
+    finally:
+        s.shutdown()
+        ctx.release()
