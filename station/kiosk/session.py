@@ -97,7 +97,7 @@ class KioskSession(LiveSim):
         # the simulation thread (start_worker) and what it shares with the window
         self.lock = threading.Condition()
         self.inflight = False  # the canvas kernel of a step runs now, the lock released
-        self.sim_seconds = 0.0  # wall time the thread spent in steps
+        self.sim_seconds = 0.0  # wall time spent in steps (either thread)
         self.samples_during_steps = 0  # pen samples applied while a kernel ran
         self.worker_error: BaseException | None = None
         self.queue_log: list[float] | None = None  # bench: driver read → handled [s]
@@ -319,9 +319,11 @@ class KioskSession(LiveSim):
         housekeeping (autosave between strokes, log sync, silent devices)."""
         limit = max_steps if self.steps_due() > 3 else 1
         n = 0
+        t0 = time.perf_counter()
         while n < limit and self.steps_due() > 0:
             self.step()
             n += 1
+        self.sim_seconds += time.perf_counter() - t0
         if n:
             self.maybe_autosave()
         self.journal.maybe_sync(SYNC_EVERY_S)
