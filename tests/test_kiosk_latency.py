@@ -380,3 +380,43 @@ def test_the_display_spreads_a_whole_canvas_over_frames_within_its_budget(
     finally:
         s.shutdown()
         ctx.release()
+
+
+def test_a_frame_handles_the_bus_for_a_bounded_time_and_loses_nothing(tmp_path: Path) -> None:
+    from station.bus import Message
+    from station.kiosk import session as session_mod
+
+    s = _session(tmp_path)
+    real_sub = s.sub
+    queue = [Message(topic="pen.p", kind="pen", value=_pen(i, 0.2 + 0.001 * i), publisher=1,
+                     seq=i, replay=False) for i in range(400)]
+
+    class Queue:
+        def recv(self, timeout_ms: int | None = 0) -> Message | None:
+            return queue.pop(0) if queue else None
+
+    slow = s.handle
+
+    def handle(*a: Any, **kw: Any) -> None:
+        time.sleep(0.001)  # a slow machine: a millisecond a message
+        slow(*a, **kw)
+
+    s.sub = Queue()  # type: ignore[assignment]
+    s.handle = handle  # type: ignore[method-assign]
+    try:
+        s.command("brush", size=8, water=1.0, pigment={"French Ultramarine": 0.5})
+        t0 = time.perf_counter()
+        s.drain(0)
+        took = time.perf_counter() - t0
+        first = s.counters.samples
+        # one frame's worth, not the whole queue: the window draws, then goes on
+        assert 1 <= first <= 1 + session_mod.DRAIN_BUDGET_S / 0.001 + 2
+        assert took < session_mod.DRAIN_BUDGET_S + 0.05
+        frames = 1
+        while queue:
+            s.drain(0)
+            frames += 1
+        assert s.counters.samples == 400 and frames > 10  # every sample, over many frames
+    finally:
+        s.sub = real_sub
+        s.shutdown()

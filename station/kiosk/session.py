@@ -69,6 +69,8 @@ log = logging.getLogger(__name__)
 #: Commands that may change every cell: the display re-renders the whole canvas.
 WHOLE_CANVAS_COMMANDS = frozenset({"dry", "new_layer", "clear", "profile", "undo"})
 
+DRAIN_BUDGET_S = 0.004  # bus messages handled per frame at most this long
+
 PenMapper = Callable[[PenSample], "PenSample | None"]
 KioskCommands = Callable[[Command], bool]
 
@@ -338,8 +340,21 @@ class KioskSession(LiveSim):
             self.check_devices()
 
     def pump(self) -> None:
-        """Handle every message waiting on the bus (no blocking)."""
+        """Handle the messages waiting on the bus (no blocking)."""
         self.drain(0)
+
+    def drain(self, timeout_ms: int) -> None:
+        """Handle waiting messages for at most :data:`DRAIN_BUDGET_S` (after waiting up to
+        ``timeout_ms`` for the first): a window that fell behind draws what it has
+        handled and takes the rest in the next frames, instead of handling a growing
+        queue before it draws again (each frame longer, the queue longer)."""
+        msg = self.sub.recv(timeout_ms)
+        deadline = time.perf_counter() + DRAIN_BUDGET_S
+        while msg is not None:
+            self.handle(msg.kind, msg.value, msg.topic, msg.replay)
+            if self.stop_requested or time.perf_counter() > deadline:
+                return
+            msg = self.sub.recv(0)
 
     def mark_all_dirty(self) -> None:
         self.whole_dirty = True
