@@ -277,6 +277,11 @@ class KioskApp:
         self._next_status = 0.0
         self._status_due = 0.0
         self._status_cache = ""
+        # the UI is built only when what it shows may have changed (compose)
+        self._ui_last_key: tuple[Any, ...] | None = None
+        self._ui_built = 0.0
+        self._ui_hash = 0
+        self._ui_bounds: Box | None = None
         self.session: KioskSession = self._new_session()
         self.display: CpuDisplay | GpuDisplay = make_display(self.ctx, self.session)
         self.compositor = Compositor(self.ctx, (w, h))
@@ -659,6 +664,18 @@ class KioskApp:
                         a.w * 0.8, a.h * 0.24, "attract")
         return self.gui.end_frame()
 
+    def _ui_key(self, now: float) -> tuple[Any, ...]:
+        """What the panel and overlays show; the last item: the pen is near the panel
+        (ImGui must see it every frame: hover, taps, drags)."""
+        p = self.panel
+        pen = self.session.last_pen
+        near = pen is not None and pen.proximity and \
+            (pen.x * self.size[0] < self.panel_w + 40 or self.capture == "ui")
+        return (self._status_text(), tuple(sorted(p.mix.items())), p.size, p.water,
+                p.strength, p.kind, p.view, p.confirm_clear, p.eraser, p.message,
+                p.can_undo(), len(p.pressed), self.qr_url, self.pen_missing(),
+                self.idle.attract(now), near)
+
     def _status_text(self) -> str:
         """The status line, refreshed every :data:`STATUS_EVERY_S` (people read it; a
         text changing every step would redraw the panel every step)."""
@@ -672,10 +689,17 @@ class KioskApp:
         """Build the UI and redraw the damaged parts of the picture (see compose.py);
         then the picture into the back buffer and the shadow over it."""
         cam = self.camera()
-        ui_hash = self.build_ui(dt)
+        now = time.monotonic()
+        key = self._ui_key(now)
+        if (key != self._ui_last_key or key[-1] or bool(self.screenshots)
+                or now - self._ui_built >= REDRAW_EVERY_S):
+            self._ui_hash = self.build_ui(now - self._ui_built if self._ui_built else dt)
+            self._ui_bounds = self.gui.bounds()
+            self._ui_last_key, self._ui_built = key, now
+        # else: the panel looks as it did; ImGui's last draw data stays valid (no new frame)
         self.compositor.update(cam, self.display.damage, (self.cfg.width, self.cfg.height),
-                               ui_hash, self.gui.bounds(), lambda box: self.draw_scene(cam, box),
-                               self.gui.draw)
+                               self._ui_hash, self._ui_bounds,
+                               lambda box: self.draw_scene(cam, box), self.gui.draw)
         self.display.damage = []
         self.compositor.present()
         self.draw_cursor(cam)
