@@ -164,9 +164,10 @@ class KioskApp:
             cfg = dataclasses.replace(cfg, sim_thread=False)
         self.cfg = cfg
         self.glfw = glfw
-        # the window's thread gets the interpreter back from the simulation thread within
-        # a millisecond (the default 5 ms would be a third of a 60 Hz frame)
-        sys.setswitchinterval(0.001)
+        # the window's thread gets the interpreter back from the simulation thread's
+        # Python within half a millisecond (the default 5 ms would be a third of a 60 Hz
+        # frame, and every bus read gives it up)
+        sys.setswitchinterval(0.0005)
         if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
             raise StationError("no display: the kiosk needs X or Wayland (try Xvfb)")
         if not glfw.init():
@@ -280,6 +281,7 @@ class KioskApp:
         # the UI is built only when what it shows may have changed (compose)
         self._ui_last_key: tuple[Any, ...] | None = None
         self._ui_built = 0.0
+        self._last_pass_s = 0.0  # wall time of the last pass of the loop
         self._ui_hash = 0
         self._ui_bounds: Box | None = None
         self.session: KioskSession = self._new_session()
@@ -740,7 +742,9 @@ class KioskApp:
         busy = (self._need_draw or s.whole_dirty or bool(s.dirty.any())
                 or self.display.behind() or bool(self.screenshots))
         received = s.sub.stats.received
-        s.drain(0 if busy else self._quiet_wait_ms())
+        # handling may take half as long as the last pass took: it keeps up with the pen
+        # on a slow pass, and a queue that grew cannot hold the frames back
+        s.drain(0 if busy else self._quiet_wait_ms(), 0.5 * self._last_pass_s)
         tw = time.perf_counter()
         got_input = s.sub.stats.received != received
         self._commands()
@@ -792,6 +796,8 @@ class KioskApp:
         else:  # the steps in this loop (after presenting: a step delays the next frame)
             s.run_due_steps(max_steps=2)  # what they change: dirty tiles
         t5 = time.perf_counter()
+        if busy:  # a pass that did not wait for the bus
+            self._last_pass_s = t5 - t0
         ph = self.phase
         ph["wait"] += tw - t0
         ph["input"] += t1 - tw

@@ -69,7 +69,7 @@ log = logging.getLogger(__name__)
 #: Commands that may change every cell: the display re-renders the whole canvas.
 WHOLE_CANVAS_COMMANDS = frozenset({"dry", "new_layer", "clear", "profile", "undo"})
 
-DRAIN_BUDGET_S = 0.004  # bus messages handled per frame at most this long
+DRAIN_BUDGET_S = 0.004  # bus messages handled per frame at least this long, if waiting
 
 PenMapper = Callable[[PenSample], "PenSample | None"]
 KioskCommands = Callable[[Command], bool]
@@ -343,13 +343,13 @@ class KioskSession(LiveSim):
         """Handle the messages waiting on the bus (no blocking)."""
         self.drain(0)
 
-    def drain(self, timeout_ms: int) -> None:
-        """Handle waiting messages for at most :data:`DRAIN_BUDGET_S` (after waiting up to
+    def drain(self, timeout_ms: int, budget_s: float = DRAIN_BUDGET_S) -> None:
+        """Handle waiting messages for at most ``budget_s`` (after waiting up to
         ``timeout_ms`` for the first): a window that fell behind draws what it has
         handled and takes the rest in the next frames, instead of handling a growing
         queue before it draws again (each frame longer, the queue longer)."""
         msg = self.sub.recv(timeout_ms)
-        deadline = time.perf_counter() + DRAIN_BUDGET_S
+        deadline = time.perf_counter() + max(budget_s, DRAIN_BUDGET_S)
         while msg is not None:
             self.handle(msg.kind, msg.value, msg.topic, msg.replay)
             if self.stop_requested or time.perf_counter() > deadline:
