@@ -213,7 +213,7 @@ def test_constant_velocity_is_predicted_and_clamped() -> None:
     pred = PenPredictor(PredictConfig(horizon_s=0.02, max_speed=1000.0))
     for i in range(10):
         pred.add(i * 0.005, 100 + 500 * i * 0.005, 50.0, True, True)  # 500 px/s along x
-    x, y = pred.predict(now=0.046) or (0, 0)
+    x, y = pred.predict(age=0.001) or (0, 0)
     assert x == pytest.approx(100 + 500 * 0.045 + 500 * 0.02, abs=1e-6)
     assert y == pytest.approx(50.0)
     fast = PenPredictor(PredictConfig(horizon_s=0.02, max_speed=1000.0))
@@ -222,9 +222,9 @@ def test_constant_velocity_is_predicted_and_clamped() -> None:
     vx, _vy = fast.velocity()
     assert vx == pytest.approx(1000.0)
     # a pen held still (last sample 60 ms old) and a lift are not extrapolated
-    assert pred.predict(now=0.045 + 0.06) == pytest.approx((100 + 500 * 0.045, 50.0))
+    assert pred.predict(age=0.06) == pytest.approx((100 + 500 * 0.045, 50.0))
     pred.add(0.05, 130.0, 50.0, True, False)
-    assert pred.predict(now=0.05) == (130.0, 50.0)
+    assert pred.predict(age=0.0) == (130.0, 50.0)
     pred.add(0.055, 131.0, 50.0, False, False)
     assert pred.predict() is None
 

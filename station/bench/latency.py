@@ -198,8 +198,8 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
                 app.phase[k] = 0.0
             app.pen_log, app.cursor_log, st.queue_log = [], [], []
             samples0, stamps0 = st.counters.samples, st.painted_stamps
-            steps0, sim0, during0 = st.player.counters.steps, st.sim_seconds, \
-                st.samples_during_steps
+            steps0, during0 = st.player.counters.steps, st.samples_during_steps
+            p0 = time.perf_counter()
             cells = pixels = 0
             frame_ms: list[float] = []
             t0 = time.monotonic()
@@ -214,24 +214,26 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
                     frame_ms.append(time.monotonic() - now)
                 last = now
             wall = time.monotonic() - t0
+            p1 = time.perf_counter()
             load = [round(v, 2) for v in os.getloadavg()]
             n = max(app.frames, 1)
             lat = _percentiles(app.latencies)
             fps = round(app.frames / wall, 1)
             # the shadow: where it was drawn against the pen's path (prediction)
-            pen = np.array([(t, px, py) for t, px, py, down in app.pen_log if down])
-            stroke = np.cumsum([0] + [int(a[3] != b[3]) for a, b in
-                                      zip(app.pen_log[1:], app.pen_log[:-1], strict=True)])
-            stroke = np.array([k for k, r in zip(stroke, app.pen_log, strict=True) if r[3]])
-            curs = np.array(app.cursor_log) if app.cursor_log else np.zeros((0, 5))
+            # pen samples with the tip down: read time, device time, x, y; a stroke number
+            log_ = app.pen_log
+            pen = np.array([r[:4] for r in log_ if r[4]]).reshape(-1, 4)
+            stroke = np.cumsum([0] + [int(a[4] != b[4]) for a, b in
+                                      zip(log_[1:], log_[:-1], strict=True)])
+            stroke = np.array([k for k, r in zip(stroke, log_, strict=True) if r[4]], int)
+            curs = np.array(app.cursor_log).reshape(-1, 5)
             pc = PredictConfig(horizon_s=predict_ms / 1000)
-            errors = prediction_errors(pen[:, 0], pen[:, 1:], stroke, pc) if len(pen) \
-                else np.zeros(0)
-            lag_raw = perceived_lag(pen[:, 0], pen[:, 1:], curs[:, 0], curs[:, 1:3]) \
-                if len(pen) else np.zeros(0)
-            lag_pred = perceived_lag(pen[:, 0], pen[:, 1:], curs[:, 0], curs[:, 3:5]) \
-                if len(pen) else np.zeros(0)
-            sim_s = st.sim_seconds - sim0
+            # the predictor's own error on the device's clock; the shadow against the
+            # path on the read clock, which frames are stamped with too
+            errors = prediction_errors(pen[:, 1], pen[:, 2:], stroke, pc)
+            lag_raw = perceived_lag(pen[:, 0], pen[:, 2:], curs[:, 0], curs[:, 1:3])
+            lag_pred = perceived_lag(pen[:, 0], pen[:, 2:], curs[:, 0], curs[:, 3:5])
+            sim_s = st.sim_busy(p0, p1)
             result = {
                 "bench": "latency", "size": f"{width}x{height}", "backend": st.backend_name,
                 "renderer": str(getattr(st.canvas, "renderer", "")),

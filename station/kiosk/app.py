@@ -269,9 +269,11 @@ class KioskApp:
         self._brush_key: tuple[Any, ...] | None = None
         self._glfinish = _gl_function("glFinish")
         self.predictor = PenPredictor(PredictConfig(horizon_s=max(cfg.predict_ms, 0.0) / 1000))
-        # the latency bench's records: pen samples (t, x, y, touching) in window pixels,
-        # and per frame (shown, last sample's x, y, the shadow's predicted x, y)
-        self.pen_log: list[tuple[float, float, float, bool]] | None = None
+        self._pen_received = 0.0  # monotonic time the last pen sample came
+        # the latency bench's records: pen samples (read time, device time, x, y,
+        # touching) in window pixels, and per frame (shown, last sample's x, y, the
+        # shadow's predicted x, y)
+        self.pen_log: list[tuple[float, float, float, float, bool]] | None = None
         self.cursor_log: list[tuple[float, float, float, float, float]] | None = None
         self._cursor_drawn: tuple[tuple[float, float], tuple[float, float]] | None = None
         self.frame_errors = 0
@@ -424,10 +426,11 @@ class KioskApp:
         now = time.monotonic()
         w, h = self.size
         px, py = s.x * w, s.y * h
-        t = s.t_mono if s.t_mono > 0.0 else now
-        self.predictor.add(t, px, py, s.proximity, s.touching and s.proximity)
+        self._pen_received = now
+        self.predictor.add(s.t, px, py, s.proximity, s.touching and s.proximity)
         if self.pen_log is not None:
-            self.pen_log.append((t, px, py, s.touching and s.proximity))
+            self.pen_log.append((s.t_mono if s.t_mono > 0.0 else now, s.t, px, py,
+                                 s.touching and s.proximity))
         self.panel.eraser = s.tool is Tool.ERASER
         if s.proximity:
             self.idle.activity(now)
@@ -598,7 +601,7 @@ class KioskApp:
         if self.hover is None:
             return None
         last = self.predictor.last()
-        p = self.predictor.predict(time.monotonic())
+        p = self.predictor.predict(age=time.monotonic() - self._pen_received)
         if p is None or last is None:
             return self.hover
         uv = input_camera(self.panel.view, self.area, self.aspect).screen_to_canvas(*p) \

@@ -19,8 +19,9 @@ The prediction moves only the shadow (and, with the tip down, the shadow is
 where the paint is about to go: a provisional preview).  Paint is never put
 where the pen is predicted to be: the committed stroke is the samples'.
 
-Units: positions in window pixels, times in seconds of ``time.monotonic``
-(the driver's read time, or when the kiosk received a sample).
+Units: positions in window pixels, sample times in seconds of the device's
+clock (``PenSample.t``: regular report spacing, unlike read or receipt times,
+which bunch when a process is descheduled).
 """
 
 from __future__ import annotations
@@ -90,18 +91,18 @@ class PenPredictor:
             vx, vy = vx * self.cfg.max_speed / speed, vy * self.cfg.max_speed / speed
         return (vx, vy)
 
-    def predict(self, now: float | None = None) -> tuple[float, float] | None:
+    def predict(self, age: float | None = None) -> tuple[float, float] | None:
         """The pen ``horizon`` after its last sample (``None`` out of proximity).
 
-        ``now``: the time the prediction is for; a last sample older than ``stale_s``
-        before it is not extrapolated (the pen stopped, or samples stopped coming).
+        ``age``: how long ago the last sample came (the caller's clock); one older than
+        ``stale_s`` is not extrapolated (the pen stopped, or samples stopped coming).
         """
         last = self.last()
         if last is None:
             return None
-        t, x, y = last
+        _t, x, y = last
         h = self.cfg.horizon_s
-        if h <= 0.0 or (now is not None and now - t > self.cfg.stale_s):
+        if h <= 0.0 or (age is not None and age > self.cfg.stale_s):
             return (x, y)
         vx, vy = self.velocity()
         return (x + vx * h, y + vy * h)

@@ -54,6 +54,7 @@ import logging
 import math
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from typing import Any
 
@@ -100,6 +101,8 @@ class KioskSession(LiveSim):
         self.lock = threading.Condition()
         self.inflight = False  # the canvas kernel of a step runs now, the lock released
         self.sim_seconds = 0.0  # wall time spent in steps (either thread)
+        # (start, end) perf_counter times of the recent steps, for a bench's window
+        self.step_times: deque[tuple[float, float]] = deque(maxlen=4096)
         self.samples_during_steps = 0  # pen samples applied while a kernel ran
         self.worker_error: BaseException | None = None
         self.queue_log: list[float] | None = None  # bench: driver read → handled [s]
@@ -281,13 +284,19 @@ class KioskSession(LiveSim):
                     if wait <= 0.0:
                         t0 = time.perf_counter()
                         self._step_unlocked()
-                        self.sim_seconds += time.perf_counter() - t0
+                        t1 = time.perf_counter()
+                        self.sim_seconds += t1 - t0
+                        self.step_times.append((t0, t1))
                         self.maybe_autosave()
                         continue
                 self._halt.wait(min(wait, 0.05))
         except BaseException as exc:  # the window's thread reports it (check_worker)
             log.exception("the simulation thread failed")
             self.worker_error = exc
+
+    def sim_busy(self, t0: float, t1: float) -> float:
+        """Seconds of ``[t0, t1]`` (``perf_counter``) spent in steps."""
+        return sum(max(0.0, min(b, t1) - max(a, t0)) for a, b in list(self.step_times))
 
     def _copy_unlocked(self) -> None:
         """:meth:`materialize_checkpoints` with the lock released when the simulation
@@ -325,7 +334,10 @@ class KioskSession(LiveSim):
         while n < limit and self.steps_due() > 0:
             self.step()
             n += 1
-        self.sim_seconds += time.perf_counter() - t0
+        if n:
+            t1 = time.perf_counter()
+            self.sim_seconds += t1 - t0
+            self.step_times.append((t0, t1))
         if n:
             self.maybe_autosave()
         self.journal.maybe_sync(SYNC_EVERY_S)
