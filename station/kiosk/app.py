@@ -394,11 +394,6 @@ class KioskApp:
             Path(s.autosave_path).unlink(missing_ok=True)
         return pid if painted and stored else None
 
-    @property
-    def steps_run(self) -> int:
-        """Steps the current painting has run."""
-        return int(self.session.player.counters.steps)
-
     def fresh_canvas(self, reason: str) -> str | None:
         pid = self.finish_painting(reason)
         self.session = self._new_session()
