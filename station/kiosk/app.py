@@ -1,16 +1,21 @@
 """The kiosk window and its frame loop.
 
-One process, one thread: glfw window + moderngl context, the simulation of the
-current painting (:class:`~station.kiosk.session.KioskSession`, fed by the
-bus), the canvas display, the ImGui panel.  A frame:
+One process: glfw window + moderngl context, the simulation of the current
+painting (:class:`~station.kiosk.session.KioskSession`, fed by the bus; its
+steps in a thread of their own), the canvas display, the ImGui panel.  A pass
+of the window's loop:
 
-1. take every message waiting on the bus (pen samples are mapped through the
-   view: over the panel they go to ImGui, over the canvas to the brush);
-2. re-render the changed tiles and the stamps not yet simulated, draw the view
-   and the panel, present — the driver read time of every sample that made
-   paint is now shown (latency);
-3. run the simulation steps that are due (after presenting, so a step's cost
-   delays the next frame, not the paint that just arrived).
+1. take the messages waiting on the bus, for a bounded time (pen samples are
+   mapped through the view: over the panel they go to ImGui, over the canvas
+   to the brush);
+2. if anything changed: re-render the changed tiles and the stamps not yet
+   simulated, redraw the damaged parts of the picture
+   (:mod:`station.kiosk.compose`), the brush's shadow where the pen is
+   predicted to be (:mod:`station.kiosk.predict`), present — the driver read
+   time of every sample that made paint is now shown (latency);
+3. housekeeping (or, with ``sim_thread=False``, the due steps: after
+   presenting, so a step's cost delays the next frame, not the paint that just
+   arrived).
 
 A visitor cannot leave: no title bar in fullscreen, the window's close request
 is refused, no key does anything.  The operator ends the kiosk with SIGTERM /
