@@ -20,6 +20,7 @@ installed).
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import os
 import shutil
@@ -199,6 +200,17 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
             app.pen_log, app.cursor_log, st.queue_log = [], [], []
             samples0, stamps0 = st.counters.samples, st.painted_stamps
             steps0, during0 = st.player.counters.steps, st.samples_during_steps
+            pauses: list[tuple[int, float]] = []  # (generation, seconds) of each collection
+            gc_start = [0.0]
+
+            def on_gc(phase: str, info: dict[str, Any]) -> None:
+                if phase == "start":
+                    gc_start[0] = time.perf_counter()
+                else:
+                    pauses.append((int(info.get("generation", 0)),
+                                   time.perf_counter() - gc_start[0]))
+
+            gc.callbacks.append(on_gc)
             p0 = time.perf_counter()
             cells = pixels = 0
             frame_ms: list[float] = []
@@ -215,6 +227,7 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
                 last = now
             wall = time.monotonic() - t0
             p1 = time.perf_counter()
+            gc.callbacks.remove(on_gc)
             load = [round(v, 2) for v in os.getloadavg()]
             n = max(app.frames, 1)
             lat = _percentiles(app.latencies)
@@ -260,6 +273,10 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
                                st.samples_during_steps - during0,
                            "cells_rendered_per_frame": int(cells / n),
                            "pixels_redrawn_per_frame": int(pixels / n),
+                           "gc_pauses": {"n": len(pauses), "gen2": sum(
+                               1 for g, _ in pauses if g == 2), "max_ms": round(1000 * max(
+                                   (d for _, d in pauses), default=0.0), 2), "total_ms": round(
+                                   1000 * sum(d for _, d in pauses), 1)},
                            "share": {k: round(v / wall, 3) for k, v in app.phase.items()},
                            "ms_per_frame": {k: round(1000 * v / n, 2)
                                             for k, v in app.phase.items()}},
