@@ -253,7 +253,7 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
                 "display": os.environ.get("DISPLAY"), "gl_renderer":
                     app.ctx.info.get("GL_RENDERER", ""), "window": list(app.size),
                 "cpus": os.cpu_count(), "load_avg": load,
-                "sim": "thread" if sim_thread else "frame loop",
+                "sim": "thread" if st.threaded else "frame loop",
                 "tablet": {"model": model, "script": script, "reports_per_s": rate,
                            "samples": st.counters.samples - samples0,
                            "stamps": st.painted_stamps - stamps0},

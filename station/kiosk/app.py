@@ -728,7 +728,7 @@ class KioskApp:
         p = self.session.player
         t_next = (p.counters.steps + 1) / p.rate - p.waited
         wait = min(max(t_next - self.session.now(), 0.0), REDRAW_EVERY_S)
-        if self.cfg.sim_thread and self.session.active_tiles():
+        if self.session.threaded and self.session.active_tiles():
             wait = min(wait, THREAD_POLL_S)
         return int(wait * 1000)
 
@@ -793,7 +793,7 @@ class KioskApp:
             self.frames += 1
         # ImGui spreads pen events queued together over the next frames: draw one more
         self._need_draw = got_input
-        if self.cfg.sim_thread:
+        if s.threaded:
             s.check_worker()
             s.housekeeping()
         else:  # the steps in this loop (after presenting: a step delays the next frame)
@@ -846,6 +846,7 @@ class KioskApp:
         st = s.status()
         st.update({
             "process": "kiosk", "view": self.panel.view, "frames": self.frames,
+            "sim_thread": s.threaded,
             "frame_errors": self.frame_errors,
             "painting_id": s.painting_id,
             "painted_stamps": s.painted_stamps, "saved": list(self.saved),

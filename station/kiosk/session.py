@@ -253,12 +253,18 @@ class KioskSession(LiveSim):
 
     # -- the simulation thread ------------------------------------------------------
     def start_worker(self) -> None:
-        """Run the due steps in a thread of their own from now on (see module docstring)."""
-        if self._worker is not None:
+        """Run the due steps in a thread of their own from now on (see module docstring).
+        Not for a GPU canvas: its GL context belongs to the window's thread."""
+        if self._worker is not None or self.cpu_state is None:
             return
         self._halt.clear()
         self._worker = threading.Thread(target=self._work, name="kiosk-sim", daemon=True)
         self._worker.start()
+
+    @property
+    def threaded(self) -> bool:
+        """Whether the steps run in the simulation thread."""
+        return self._worker is not None
 
     def stop_worker(self) -> None:
         """Stop the simulation thread after its current step (the painting stays whole)."""
