@@ -155,8 +155,9 @@ class KioskSession(LiveSim):
                 and self.kiosk_command(value)):
             return  # the window's own command (view, save, screenshot): not the canvas's
         with self.lock:
-            self._wait_step()
-            self.materialize_checkpoints()
+            if kind == "cmd":  # a command may change the canvas (heartbeats do not)
+                self._wait_step()
+                self.materialize_checkpoints()
             super().handle(kind, value, topic, replay)
             if kind == "cmd" and isinstance(value, Command) and value.cmd in WHOLE_CANVAS_COMMANDS:
                 self.mark_all_dirty()
