@@ -66,7 +66,8 @@ def test_mock_stroke_appears_under_the_pen_and_every_view_renders(display: str,
         cx, cy, cw, ch = calibrate_to_canvas(k, tmp_path / "cal.json")
         run_driver("mock:intuos-pro-m?script=line&rate=200", "--calibration",
                    str(tmp_path / "cal.json"))
-        k.wait(lambda s: s["samples"] >= 100 and s["stamps"] > 50, 30, "the stroke")
+        st = k.wait(lambda s: s["samples"] >= 100 and s["stamps"] > 50, 30, "the stroke")
+        assert st["sim_thread"] is True  # the numpy backend steps in its own thread
         shot = rgb(k.screenshot("2d"))
         assert shot.shape == (SCREEN[1], SCREEN[0], 3)
         # the line script runs from (0.1, 0.2) to (0.9, 0.8) of the tablet = of the canvas
@@ -259,6 +260,7 @@ def test_gl_backend_paints_from_its_own_texture(display: str, tmp_path: Path) ->
     k = Kiosk(display, tmp_path, "--backend", "gl", "--size", "160x120")
     try:
         assert k.last["backend"] == "gl"
+        assert k.last["sim_thread"] is False  # the GL context is the window thread's
         cx, cy, cw, ch = k.last["canvas_rect"]
         for i in range(30):
             k.pen(cx + cw * (0.2 + 0.02 * i), cy + ch * 0.5, touching=True)

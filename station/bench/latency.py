@@ -20,6 +20,7 @@ installed).
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import os
 import shutil
@@ -49,17 +50,36 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--model", default="intuos-pro-m", help="mock tablet model")
     p.add_argument("--script", default="arc", choices=("arc", "line", "spiral"),
                    help="the mock tablet's stroke, repeated (arc: a half circle, 2 s)")
+    p.add_argument("--predict-ms", type=float, default=16.0, metavar="MS",
+                   help="pen prediction horizon of the shadow (16 ms; 0: none)")
+    p.add_argument("--inline-sim", action="store_true",
+                   help="run the steps in the frame loop, not in a thread of their own")
+    p.add_argument("--compare", action="store_true",
+                   help="also measure the peer (steps in the frame loop) in the same run, "
+                        "each for --seconds, and report the ratios")
     p.set_defaults(func=run)
 
 
-def _percentiles(xs: list[float]) -> dict[str, float | int | None]:
-    if not xs:
+def _percentiles(xs: list[float] | np.ndarray) -> dict[str, float | int | None]:
+    if len(xs) == 0:
         return {"n": 0, "p50_ms": None, "p95_ms": None, "p99_ms": None, "max_ms": None}
-    a = np.array(xs) * 1000.0
+    a = np.asarray(xs) * 1000.0
     return {"n": int(a.size), "p50_ms": round(float(np.percentile(a, 50)), 2),
             "p95_ms": round(float(np.percentile(a, 95)), 2),
             "p99_ms": round(float(np.percentile(a, 99)), 2),
             "max_ms": round(float(a.max()), 2)}
+
+
+def _px(xs: np.ndarray) -> dict[str, float | int | None]:
+    if xs.size == 0:
+        return {"n": 0, "p50": None, "p99": None, "max": None}
+    return {"n": int(xs.size), "p50": round(float(np.percentile(xs, 50)), 2),
+            "p99": round(float(np.percentile(xs, 99)), 2), "max": round(float(xs.max()), 2)}
+
+
+def _goal(measured: float | None, goal: float, at_most: bool) -> dict[str, Any]:
+    ok = measured is not None and (measured <= goal if at_most else measured >= goal)
+    return {"goal": goal, "measured": measured, "flag": "PASS" if ok else "MISS"}
 
 
 def _start_xvfb() -> tuple[subprocess.Popen[bytes], str]:
@@ -89,12 +109,21 @@ def run(args: argparse.Namespace) -> int:
         raise BadInput("must be > 0", "--seconds")
     if not 10 <= args.rate <= 2000:
         raise BadInput("must be 10..2000 reports/s", "--rate")
+    if not 0 <= args.predict_ms <= 200:
+        raise BadInput("must be 0..200 ms", "--predict-ms")
     xvfb = None
     if not os.environ.get("DISPLAY"):
         xvfb, os.environ["DISPLAY"] = _start_xvfb()
     try:
         result = measure(width, height, args.backend, args.seconds, args.rate, args.model,
-                         args.script)
+                         args.script, sim_thread=not args.inline_sim,
+                         predict_ms=args.predict_ms)
+        if args.compare:
+            peer = measure(width, height, args.backend, args.seconds, args.rate, args.model,
+                           args.script, sim_thread=args.inline_sim,
+                           predict_ms=args.predict_ms)
+            result["peer"] = {k: peer[k] for k in ("sim", "latency", "frames", "load_avg")}
+            result["ratios"] = _ratios(result, peer)
     finally:
         if xvfb is not None:
             xvfb.terminate()
@@ -103,20 +132,35 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _ratios(a: dict[str, Any], b: dict[str, Any]) -> dict[str, Any]:
+    """This run over its peer: latency percentiles (lower is better) and frames/s."""
+    out: dict[str, Any] = {}
+    for key in ("p50_ms", "p95_ms", "p99_ms"):
+        x, y = a["latency"][key], b["latency"][key]
+        out[f"latency_{key}"] = round(x / y, 3) if x is not None and y else None
+    fa, fb = a["frames"]["fps"], b["frames"]["fps"]
+    out["fps"] = round(fa / fb, 3) if fb else None
+    out["this"], out["peer"] = a["sim"], b["sim"]
+    return out
+
+
 def measure(width: int, height: int, backend: str, seconds: float, rate: int,
-            model: str, script: str = "arc") -> dict[str, Any]:
+            model: str, script: str = "arc", sim_thread: bool = True,
+            predict_ms: float = 16.0) -> dict[str, Any]:
     from station.calibration.area import AreaSettings, Rect
     from station.calibration.files import write_file
     from station.calibration.model import Calibration, DeviceId
     from station.drivers.pipeline import open_device
     from station.kiosk.app import KioskApp, KioskConfig
     from station.kiosk.idle import IdleConfig
+    from station.kiosk.predict import PredictConfig, perceived_lag, prediction_errors
 
-    bus = f"bench-latency-{os.getpid()}"
+    bus = f"bench-latency-{os.getpid()}-{int(sim_thread)}"
     with tempfile.TemporaryDirectory(prefix="station-latency-") as tmp:
         cfg = KioskConfig(bus=f">ipc:{bus}", width=width, height=height, backend=backend,
                           fullscreen=False, gallery=Path(tmp) / "gallery", serve=None,
-                          status="none", vsync=False, cmd="none",
+                          status="none", vsync=False, cmd="none", sim_thread=sim_thread,
+                          predict_ms=predict_ms,
                           idle=IdleConfig(attract_after=3600, finish_after=7200))
         app = KioskApp(cfg)
         spec = f"mock:{model}?script={script}&repeat=0&reports={rate * 2}&rate={rate}"
@@ -148,13 +192,28 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
                 raise StationError("no pen samples arrived from the mock driver: "
                                    + (driver.stderr.read().decode()[-500:]
                                       if driver.poll() is not None and driver.stderr else ""))
+            st = app.session
             app.latencies.clear()
             app.frames = 0
-            app.steps_run = 0
             for k in app.phase:
                 app.phase[k] = 0.0
-            samples0, stamps0 = app.session.counters.samples, app.session.painted_stamps
-            cells = 0
+            app.pen_log, app.cursor_log, st.queue_log = [], [], []
+            samples0, stamps0 = st.counters.samples, st.painted_stamps
+            steps0, during0 = st.player.counters.steps, st.samples_during_steps
+            pauses: list[tuple[int, float]] = []  # (generation, seconds) of each collection
+            gc_start = [0.0]
+
+            def on_gc(phase: str, info: dict[str, Any]) -> None:
+                if phase == "start":
+                    gc_start[0] = time.perf_counter()
+                else:
+                    pauses.append((int(info.get("generation", 0)),
+                                   time.perf_counter() - gc_start[0]))
+
+            gc.callbacks.append(on_gc)
+            p0 = time.perf_counter()
+            cells = pixels = 0
+            frame_ms: list[float] = []
             t0 = time.monotonic()
             t_end = t0 + seconds
             while time.monotonic() < t_end:
@@ -163,29 +222,74 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
                 app.frame(now - last)
                 if app.frames > drawn:  # a pass that drew nothing rendered nothing
                     cells += app.display.cells_rendered
+                    pixels += app.compositor.pixels_redrawn
+                    frame_ms.append(time.monotonic() - now)
                 last = now
             wall = time.monotonic() - t0
-            st = app.session
+            p1 = time.perf_counter()
+            gc.callbacks.remove(on_gc)
+            load = [round(v, 2) for v in os.getloadavg()]
+            n = max(app.frames, 1)
+            lat = _percentiles(app.latencies)
+            fps = round(app.frames / wall, 1)
+            # the shadow: where it was drawn against the pen's path (prediction)
+            # pen samples with the tip down: read time, device time, x, y; a stroke number
+            log_ = app.pen_log
+            pen = np.array([r[:4] for r in log_ if r[4]]).reshape(-1, 4)
+            stroke = np.cumsum([0] + [int(a[4] != b[4]) for a, b in
+                                      zip(log_[1:], log_[:-1], strict=True)])
+            stroke = np.array([k for k, r in zip(stroke, log_, strict=True) if r[4]], int)
+            curs = np.array(app.cursor_log).reshape(-1, 5)
+            pc = PredictConfig(horizon_s=predict_ms / 1000)
+            # the predictor's own error on the device's clock; the shadow against the
+            # path on the read clock, which frames are stamped with too
+            errors = prediction_errors(pen[:, 1], pen[:, 2:], stroke, pc)
+            lag_raw = perceived_lag(pen[:, 0], pen[:, 2:], curs[:, 0], curs[:, 1:3])
+            lag_pred = perceived_lag(pen[:, 0], pen[:, 2:], curs[:, 0], curs[:, 3:5])
+            sim_s = st.sim_busy(p0, p1)
             result = {
                 "bench": "latency", "size": f"{width}x{height}", "backend": st.backend_name,
                 "renderer": str(getattr(st.canvas, "renderer", "")),
                 "display": os.environ.get("DISPLAY"), "gl_renderer":
-                    app.ctx.info.get("GL_RENDERER", ""),
-                "cpus": os.cpu_count(), "load_avg": [round(v, 2) for v in os.getloadavg()],
+                    app.ctx.info.get("GL_RENDERER", ""), "window": list(app.size),
+                "cpus": os.cpu_count(), "load_avg": load,
+                "sim": "thread" if st.threaded else "frame loop",
                 "tablet": {"model": model, "script": script, "reports_per_s": rate,
                            "samples": st.counters.samples - samples0,
                            "stamps": st.painted_stamps - stamps0},
-                "latency": {**_percentiles(app.latencies),
-                            "goal_p99_ms": GOAL_P99_MS,
+                "latency": {**lat, "goal_p99_ms": GOAL_P99_MS,
                             "from": "driver read (time.monotonic)",
-                            "to": "end of glFinish + swap of the first frame showing its paint"},
-                "frames": {"fps": round(app.frames / wall, 1), "frames": app.frames,
+                            "to": "end of glFinish + swap of the first frame showing its paint",
+                            "read_to_handled": _percentiles(st.queue_log or [])},
+                "frames": {"fps": fps, "frames": app.frames,
                            "seconds": round(wall, 2), "goal_fps": GOAL_FPS,
-                           "sim_steps_per_s": round(app.steps_run / wall, 1),
-                           "cells_rendered_per_frame": int(cells / max(app.frames, 1)),
+                           "frame_time": _percentiles(frame_ms),
+                           "sim_steps_per_s": round((st.player.counters.steps - steps0) / wall,
+                                                    1),
+                           "sim_busy_share": round(sim_s / wall, 3),
+                           "sim_ms_per_step": round(1000 * sim_s / max(
+                               st.player.counters.steps - steps0, 1), 2),
+                           "samples_applied_during_steps":
+                               st.samples_during_steps - during0,
+                           "cells_rendered_per_frame": int(cells / n),
+                           "pixels_redrawn_per_frame": int(pixels / n),
+                           "gc_pauses": {"n": len(pauses), "gen2": sum(
+                               1 for g, _ in pauses if g == 2), "max_ms": round(1000 * max(
+                                   (d for _, d in pauses), default=0.0), 2), "total_ms": round(
+                                   1000 * sum(d for _, d in pauses), 1)},
                            "share": {k: round(v / wall, 3) for k, v in app.phase.items()},
-                           "ms_per_frame": {k: round(1000 * v / max(app.frames, 1), 2)
+                           "ms_per_frame": {k: round(1000 * v / n, 2)
                                             for k, v in app.phase.items()}},
+                "prediction": {
+                    "horizon_ms": predict_ms, "model": "constant velocity, least-squares "
+                    f"over {1000 * pc.window_s:.0f} ms, speed clamp {pc.max_speed:.0f} px/s",
+                    "error_px_at_horizon": _px(errors),
+                    "shadow_lag_ms": {"without": _percentiles(lag_raw),
+                                      "with": _percentiles(lag_pred)},
+                    "note": "shadow lag: how long before the frame the pen was where the "
+                            "frame's shadow is (window pixels, pen path interpolated)"},
+                "goals": {"latency_p99_ms": _goal(lat["p99_ms"], GOAL_P99_MS, at_most=True),
+                          "fps": _goal(fps, GOAL_FPS, at_most=False)},
             }
         finally:
             driver.terminate()

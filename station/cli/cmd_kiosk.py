@@ -50,6 +50,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--autosave", type=float, default=30.0, metavar="SECONDS",
                    help="seconds between autosaves of the painting in <gallery>/.live (0: off)")
     p.add_argument("--no-vsync", action="store_true", help="do not wait for vertical blank")
+    p.add_argument("--predict-ms", type=float, default=16.0, metavar="MS",
+                   help="draw the brush's shadow this far ahead along the pen's motion "
+                        "(16; 0: off)")
+    p.add_argument("--inline-sim", action="store_true",
+                   help="run the simulation steps in the frame loop, not in a thread")
     p.add_argument("--duration", type=float, metavar="SECONDS", help="stop after this long")
     p.add_argument("--screenshot-dir", metavar="DIR",
                    help="directory for 'screenshot {\"name\": N}' commands from the bus")
@@ -77,6 +82,8 @@ def run(args: argparse.Namespace) -> int:
                        "drop the '@'", "--bus")
     if not (0 <= args.autosave <= 3600):
         raise BadInput("must be 0 (off) to 3600 seconds", "--autosave")
+    if not (0 <= args.predict_ms <= 200):
+        raise BadInput("must be 0 (off) to 200 ms", "--predict-ms")
     serve = None if args.serve == "none" else args.serve
     if serve is not None:
         _host, sep, port = serve.rpartition(":")
@@ -90,7 +97,8 @@ def run(args: argparse.Namespace) -> int:
         idle=IdleConfig(attract_after=args.attract_after, finish_after=args.idle_minutes * 60),
         status=args.status, duration=args.duration,
         screenshot_dir=Path(args.screenshot_dir) if args.screenshot_dir else None,
-        view=args.view, vsync=not args.no_vsync, cmd=args.cmd, autosave=args.autosave)
+        view=args.view, vsync=not args.no_vsync, cmd=args.cmd, autosave=args.autosave,
+        sim_thread=not args.inline_sim, predict_ms=args.predict_ms)
     app = KioskApp(cfg)
     app.install_signal_handlers()
     sys.stderr.write(f"station kiosk: {width}x{height} {cfg.profile} on "

@@ -1,16 +1,21 @@
 """The kiosk window and its frame loop.
 
-One process, one thread: glfw window + moderngl context, the simulation of the
-current painting (:class:`~station.kiosk.session.KioskSession`, fed by the
-bus), the canvas display, the ImGui panel.  A frame:
+One process: glfw window + moderngl context, the simulation of the current
+painting (:class:`~station.kiosk.session.KioskSession`, fed by the bus; its
+steps in a thread of their own), the canvas display, the ImGui panel.  A pass
+of the window's loop:
 
-1. take every message waiting on the bus (pen samples are mapped through the
-   view: over the panel they go to ImGui, over the canvas to the brush);
-2. re-render the changed tiles and the stamps not yet simulated, draw the view
-   and the panel, present — the driver read time of every sample that made
-   paint is now shown (latency);
-3. run the simulation steps that are due (after presenting, so a step's cost
-   delays the next frame, not the paint that just arrived).
+1. take the messages waiting on the bus, for a bounded time (pen samples are
+   mapped through the view: over the panel they go to ImGui, over the canvas
+   to the brush);
+2. if anything changed: re-render the changed tiles and the stamps not yet
+   simulated, redraw the damaged parts of the picture
+   (:mod:`station.kiosk.compose`), the brush's shadow where the pen is
+   predicted to be (:mod:`station.kiosk.predict`), present — the driver read
+   time of every sample that made paint is now shown (latency);
+3. housekeeping (or, with ``sim_thread=False``, the due steps: after
+   presenting, so a step's cost delays the next frame, not the paint that just
+   arrived).
 
 A visitor cannot leave: no title bar in fullscreen, the window's close request
 is refused, no key does anything.  The operator ends the kiosk with SIGTERM /
@@ -19,10 +24,13 @@ SIGINT or a ``stop`` command on the bus; the painting is saved to the gallery.
 
 from __future__ import annotations
 
+import ctypes
+import dataclasses
 import logging
 import math
 import os
 import re
+import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -32,9 +40,11 @@ import numpy as np
 
 from station.errors import BadInput, StationError
 from station.events import Command, PenSample, Tool
+from station.kiosk.compose import Box, Compositor
 from station.kiosk.display import CpuDisplay, GpuDisplay, make_display
 from station.kiosk.gallery import Gallery, GalleryServer, new_id, painting_url, qr_matrix
 from station.kiosk.idle import IdleClock, IdleConfig
+from station.kiosk.predict import PenPredictor, PredictConfig
 from station.kiosk.session import KioskSession
 from station.kiosk.views import VIEWS, Camera, Viewport, input_camera, make_camera
 from station.sim.live import DEFAULT_CMD_ENDPOINT, LiveConfig
@@ -44,6 +54,7 @@ log = logging.getLogger(__name__)
 DRIVER_SILENT_S = 5.0  # a driver that said nothing this long is taken as gone
 STATUS_EVERY_S = 0.5
 REDRAW_EVERY_S = 0.25  # a quiet kiosk still redraws this often (status line, banners)
+THREAD_POLL_S = 0.004  # a wet canvas: how often the window looks for the thread's steps
 SCREENSHOT_NAME = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 
 CANVAS_VERT = """
@@ -110,6 +121,34 @@ class KioskConfig:
     panel_fraction: float = 0.3
     cmd: str | None = None  # where `station send` reaches the kiosk; "none" disables
     autosave: float = 30.0  # seconds between autosaves of the painting (0: off)
+    sim_thread: bool = True  # steps in a thread of their own (False: in the frame loop)
+    predict_ms: float = 16.0  # the pen shadow drawn this far ahead of the last sample (0: off)
+
+
+def numba_threadsafe() -> bool:
+    """Whether numba's threading layer lets two threads launch parallel kernels at once
+    (``omp``, ``tbb``; the fallback ``workqueue`` aborts the process if they do)."""
+    try:
+        import numba
+        from numba.np.ufunc import parallel
+
+        parallel._launch_threads()
+        return str(numba.threading_layer()) in ("omp", "tbb")
+    except Exception:  # an unknown numba: assume the worst
+        return False
+
+
+def _gl_function(name: str) -> Any:
+    """A GL entry point through ctypes (released interpreter lock), or ``None``."""
+    for lib in ("libGL.so.1", "libOpenGL.so.0"):
+        try:
+            fn = getattr(ctypes.CDLL(lib), name)
+        except (OSError, AttributeError):
+            continue
+        fn.restype = None
+        fn.argtypes = []
+        return fn
+    return None
 
 
 class KioskApp:
@@ -124,8 +163,16 @@ class KioskApp:
                                "pip install 'painting-station[kiosk]'") from None
         if cfg.view not in VIEWS:
             raise BadInput(f"unknown view {cfg.view!r} (one of {', '.join(VIEWS)})", "--view")
+        if cfg.sim_thread and not numba_threadsafe():
+            log.warning("numba's threading layer is not thread-safe here (install tbb): "
+                        "the simulation steps in the frame loop")
+            cfg = dataclasses.replace(cfg, sim_thread=False)
         self.cfg = cfg
         self.glfw = glfw
+        # the window's thread gets the interpreter back from the simulation thread's
+        # Python within half a millisecond (the default 5 ms would be a third of a 60 Hz
+        # frame, and every bus read gives it up)
+        sys.setswitchinterval(0.0005)
         if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
             raise StationError("no display: the kiosk needs X or Wayland (try Xvfb)")
         if not glfw.init():
@@ -225,11 +272,28 @@ class KioskApp:
         self._last_draw = 0.0
         self._fresh_requested = False  # an operator's "fresh" command
         self._brush_key: tuple[Any, ...] | None = None
-        self.steps_run = 0
+        self._glfinish = _gl_function("glFinish")
+        self.predictor = PenPredictor(PredictConfig(horizon_s=max(cfg.predict_ms, 0.0) / 1000))
+        self._pen_received = 0.0  # monotonic time the last pen sample came
+        # the latency bench's records: pen samples (read time, device time, x, y,
+        # touching) in window pixels, and per frame (shown, last sample's x, y, the
+        # shadow's predicted x, y)
+        self.pen_log: list[tuple[float, float, float, float, bool]] | None = None
+        self.cursor_log: list[tuple[float, float, float, float, float]] | None = None
+        self._cursor_drawn: tuple[tuple[float, float], tuple[float, float]] | None = None
         self.frame_errors = 0
         self._next_status = 0.0
+        self._status_due = 0.0
+        self._status_cache = ""
+        # the UI is built only when what it shows may have changed (compose)
+        self._ui_last_key: tuple[Any, ...] | None = None
+        self._ui_built = 0.0
+        self._last_pass_s = 0.0  # wall time of the last pass of the loop
+        self._ui_hash = 0
+        self._ui_bounds: Box | None = None
         self.session: KioskSession = self._new_session()
         self.display: CpuDisplay | GpuDisplay = make_display(self.ctx, self.session)
+        self.compositor = Compositor(self.ctx, (w, h))
 
     # -- GL programs -------------------------------------------------------------
     def _programs(self) -> None:
@@ -264,6 +328,8 @@ class KioskApp:
         self.panel.apply_brush()  # the visitor's brush carries over, logged first
         self.idle.fresh(time.monotonic())
         self._set_qr(None)
+        if cfg.sim_thread:
+            session.start_worker()
         return session
 
     def _send(self, name: str, args: dict[str, Any]) -> None:
@@ -283,7 +349,18 @@ class KioskApp:
     def _render_srgb8(self) -> np.ndarray:
         from station.canvas.render import to_srgb8
 
-        return to_srgb8(self.session.canvas.render())
+        with self.session.lock:
+            self.session._wait_step()
+            return to_srgb8(self.session.canvas.render())
+
+    def _gl_finish(self) -> None:
+        """``glFinish`` through ctypes, which lets the simulation thread run while the GL
+        driver completes the frame (moderngl's ``finish`` holds the interpreter lock,
+        and llvmpipe rasterises in the call)."""
+        if self._glfinish is None:
+            self.ctx.finish()
+        else:
+            self._glfinish()
 
     def save_now(self) -> str:
         """Save the painting so far to the gallery (the visitor's Save); shows its QR."""
@@ -303,6 +380,7 @@ class KioskApp:
     def finish_painting(self, reason: str) -> str | None:
         """Save the painting to the gallery (if anything was painted) and start afresh."""
         s = self.session
+        s.stop_worker()
         pid = s.painting_id
         painted = s.painted_stamps > 0 or pid in self.saved
         meta = self._meta(reason)
@@ -352,6 +430,11 @@ class KioskApp:
         now = time.monotonic()
         w, h = self.size
         px, py = s.x * w, s.y * h
+        self._pen_received = now
+        self.predictor.add(s.t, px, py, s.proximity, s.touching and s.proximity)
+        if self.pen_log is not None:
+            self.pen_log.append((s.t_mono if s.t_mono > 0.0 else now, s.t, px, py,
+                                 s.touching and s.proximity))
         self.panel.eraser = s.tool is Tool.ERASER
         if s.proximity:
             self.idle.activity(now)
@@ -489,13 +572,18 @@ class KioskApp:
                                 np.full(ang.size, 1e-4)])
         self._flat(cam, np.vstack([[c[0], c[1], 1e-4], ring]), color, self.ctx.TRIANGLE_FAN)
 
-    def draw_scene(self) -> None:
+    def draw_scene(self, cam: Camera, clip: Box | None = None) -> None:
+        """The view of the canvas (background, table, canvas) into the bound framebuffer;
+        ``clip``: only inside these window pixels (x0, y0, x1, y1)."""
         ctx = self.ctx
         w, h = self.size
+        scissor = None if clip is None else (clip[0], h - clip[3], clip[2] - clip[0],
+                                             clip[3] - clip[1])
         ctx.viewport = (0, 0, w, h)
+        ctx.scissor = scissor
         ctx.clear(*BACKGROUND)
-        cam = self.camera()
         ctx.viewport = cam.viewport.gl(h)
+        ctx.scissor = scissor
         ctx.enable(ctx.BLEND)
         ctx.blend_func = ctx.SRC_ALPHA, ctx.ONE_MINUS_SRC_ALPHA
         if cam.name != "2d":
@@ -506,12 +594,42 @@ class KioskApp:
         self.canvas_prog["canvas"].value = 0
         self.canvas_prog["vp"].write(cam.vp.T.astype("f4").tobytes())
         self.canvas_vao.render(ctx.TRIANGLE_STRIP)
-        if self.hover is not None:
-            # the brush's shadow: its footprint at full pressure, light from the top left
-            r = self.session.player.brush.settings.size / 2 / self.cfg.height
-            u, v = self.hover
-            off = 0.0 if self.touching else 0.006
-            self._disc(cam, u + off, v + off, r, CURSOR_TOUCH if self.touching else SHADOW)
+        ctx.disable(ctx.BLEND)
+        ctx.viewport = (0, 0, w, h)
+        ctx.scissor = None
+
+    def predicted_hover(self) -> tuple[float, float] | None:
+        """Canvas (u, v) of the pen's shadow: the pen as predicted for when this frame is
+        seen (:mod:`station.kiosk.predict`), where it is over the canvas."""
+        self._cursor_drawn = None
+        if self.hover is None:
+            return None
+        last = self.predictor.last()
+        p = self.predictor.predict(age=time.monotonic() - self._pen_received)
+        if p is None or last is None:
+            return self.hover
+        uv = input_camera(self.panel.view, self.area, self.aspect).screen_to_canvas(*p) \
+            if p[0] >= self.panel_w else None
+        if uv is None or not (0.0 <= uv[0] <= 1.0 and 0.0 <= uv[1] <= 1.0):
+            uv = self.hover
+        self._cursor_drawn = ((last[1], last[2]), p)
+        return uv
+
+    def draw_cursor(self, cam: Camera) -> None:
+        """The brush's shadow over the presented picture: its footprint at full pressure,
+        light from the top left, where the pen is predicted to be when this frame shows."""
+        shown = self.predicted_hover()
+        if shown is None:
+            return
+        ctx = self.ctx
+        w, h = self.size
+        ctx.viewport = cam.viewport.gl(h)
+        ctx.enable(ctx.BLEND)
+        ctx.blend_func = ctx.SRC_ALPHA, ctx.ONE_MINUS_SRC_ALPHA
+        r = self.session.player.brush.settings.size / 2 / self.cfg.height
+        u, v = shown
+        off = 0.0 if self.touching else 0.006
+        self._disc(cam, u + off, v + off, r, CURSOR_TOUCH if self.touching else SHADOW)
         ctx.disable(ctx.BLEND)
         ctx.viewport = (0, 0, w, h)
 
@@ -534,13 +652,14 @@ class KioskApp:
             parts.append("layer full: press New layer")
         return "  ".join(parts)
 
-    def draw_ui(self, dt: float) -> None:
+    def build_ui(self, dt: float) -> int:
+        """One ImGui frame (panel, QR, banners), not drawn yet; returns its hash."""
         from station.kiosk.ui import draw_banner, draw_panel, draw_qr
 
         self.gui.new_frame(dt)
         w, h = self.size
         self.rects = {}
-        draw_panel(self.panel, self.panel_w, h, self.status_line(), self.rects)
+        draw_panel(self.panel, self.panel_w, h, self._status_text(), self.rects)
         if self.qr is not None:
             side = min(240.0, h * 0.3)
             draw_qr(self.qr[0], w - side - 40, h - side - 80, side, self.rects)
@@ -552,7 +671,48 @@ class KioskApp:
         elif self.idle.attract(now):
             draw_banner("Pick up the pen and paint!", a.x + a.w * 0.1, a.y + a.h * 0.38,
                         a.w * 0.8, a.h * 0.24, "attract")
-        self.gui.render()
+        return self.gui.end_frame()
+
+    def _ui_key(self, now: float) -> tuple[Any, ...]:
+        """What the panel and overlays show; the last item: the pen is near the panel
+        (ImGui must see it every frame: hover, taps, drags)."""
+        p = self.panel
+        pen = self.session.last_pen
+        near = pen is not None and pen.proximity and \
+            (pen.x * self.size[0] < self.panel_w + 40 or self.capture == "ui")
+        return (self._status_text(), tuple(sorted(p.mix.items())), p.size, p.water,
+                p.strength, p.kind, p.view, p.confirm_clear, p.eraser, p.message,
+                p.can_undo(), len(p.pressed), self.qr_url, self.pen_missing(),
+                self.idle.attract(now), near)
+
+    def _status_text(self) -> str:
+        """The status line, refreshed every :data:`STATUS_EVERY_S` (people read it; a
+        text changing every step would redraw the panel every step)."""
+        now = time.monotonic()
+        if now >= self._status_due:
+            self._status_due = now + STATUS_EVERY_S
+            self._status_cache = self.status_line()
+        return self._status_cache
+
+    def compose(self, dt: float) -> Camera:
+        """Build the UI and redraw the damaged parts of the picture (see compose.py);
+        then the picture into the back buffer and the shadow over it."""
+        cam = self.camera()
+        now = time.monotonic()
+        key = self._ui_key(now)
+        if (key != self._ui_last_key or key[-1] or bool(self.screenshots)
+                or now - self._ui_built >= REDRAW_EVERY_S):
+            self._ui_hash = self.build_ui(now - self._ui_built if self._ui_built else dt)
+            self._ui_bounds = self.gui.bounds()
+            self._ui_last_key, self._ui_built = key, now
+        # else: the panel looks as it did; ImGui's last draw data stays valid (no new frame)
+        self.compositor.update(cam, self.display.damage, (self.cfg.width, self.cfg.height),
+                               self._ui_hash, self._ui_bounds,
+                               lambda box: self.draw_scene(cam, box), self.gui.draw)
+        self.display.damage = []
+        self.compositor.present()
+        self.draw_cursor(cam)
+        return cam
 
     def _screenshot(self, path: Path) -> None:
         from PIL import Image
@@ -567,10 +727,13 @@ class KioskApp:
 
     # -- the loop --------------------------------------------------------------------------
     def _quiet_wait_ms(self) -> int:
-        """How long a quiet kiosk may wait for the pen: until the next step is due."""
+        """How long a quiet kiosk may wait for the pen: until the next step is due (with
+        the simulation thread, a few ms while paint is wet: its steps end any time)."""
         p = self.session.player
         t_next = (p.counters.steps + 1) / p.rate - p.waited
         wait = min(max(t_next - self.session.now(), 0.0), REDRAW_EVERY_S)
+        if self.session.threaded and self.session.active_tiles():
+            wait = min(wait, THREAD_POLL_S)
         return int(wait * 1000)
 
     def frame(self, dt: float) -> None:
@@ -584,9 +747,11 @@ class KioskApp:
         self.glfw.poll_events()
         s = self.session
         busy = (self._need_draw or s.whole_dirty or bool(s.dirty.any())
-                or s.player.brush.pending > 0 or bool(self.screenshots))
+                or self.display.behind() or bool(self.screenshots))
         received = s.sub.stats.received
-        s.drain(0 if busy else self._quiet_wait_ms())
+        # handling may take half as long as the last pass took: it keeps up with the pen
+        # on a slow pass, and a queue that grew cannot hold the frames back
+        s.drain(0 if busy else self._quiet_wait_ms(), 0.5 * self._last_pass_s)
         tw = time.perf_counter()
         got_input = s.sub.stats.received != received
         self._commands()
@@ -603,32 +768,43 @@ class KioskApp:
             log.info("idle: painting %s saved to the gallery, fresh canvas", pid)
             got_input = True
         s = self.session
+        # new stamps come with input (their preview is drawn then); a step's changes
+        # come as dirty tiles
         draw = (self._need_draw or got_input or bool(self.screenshots) or s.whole_dirty
-                or bool(s.dirty.any()) or s.player.brush.pending > 0
+                or bool(s.dirty.any()) or self.display.behind()
                 or now - self._last_draw >= REDRAW_EVERY_S)
         t1 = t2 = t3 = t4 = time.perf_counter()
         if draw:
-            self.display.update()
+            with s.lock:  # not while a step hands its sources over (the kernel may run)
+                self.display.update()
             t2 = time.perf_counter()
-            self.draw_scene()
-            self.draw_ui(now - self._last_draw if self._last_draw else dt)
+            self.compose(now - self._last_draw if self._last_draw else dt)
             for path in self.screenshots:
                 self._screenshot(path)
             self.screenshots.clear()
             t3 = time.perf_counter()
-            self.ctx.finish()
+            self._gl_finish()
             self.glfw.swap_buffers(self.window)
             shown = time.monotonic()
             t4 = time.perf_counter()
             for t_read in s.awaiting_paint:
                 self.latencies.append(shown - t_read)
+            if self.cursor_log is not None and self._cursor_drawn is not None:
+                (rx, ry), (qx, qy) = self._cursor_drawn
+                self.cursor_log.append((shown, rx, ry, qx, qy))
             s.awaiting_paint.clear()
             self._last_draw = shown
             self.frames += 1
         # ImGui spreads pen events queued together over the next frames: draw one more
         self._need_draw = got_input
-        self.steps_run += s.run_due_steps(max_steps=2)  # what they change: dirty tiles
+        if s.threaded:
+            s.check_worker()
+            s.housekeeping()
+        else:  # the steps in this loop (after presenting: a step delays the next frame)
+            s.run_due_steps(max_steps=2)  # what they change: dirty tiles
         t5 = time.perf_counter()
+        if busy:  # a pass that did not wait for the bus
+            self._last_pass_s = t5 - t0
         ph = self.phase
         ph["wait"] += tw - t0
         ph["input"] += t1 - tw
@@ -674,6 +850,7 @@ class KioskApp:
         st = s.status()
         st.update({
             "process": "kiosk", "view": self.panel.view, "frames": self.frames,
+            "sim_thread": s.threaded,
             "frame_errors": self.frame_errors,
             "painting_id": s.painting_id,
             "painted_stamps": s.painted_stamps, "saved": list(self.saved),
@@ -729,6 +906,7 @@ class KioskApp:
             if self.server is not None:
                 self.server.stop()
             self.display.release()
+            self.compositor.release()
             self.gui.close()
             self.glfw.destroy_window(self.window)
             self.glfw.terminate()

@@ -6,8 +6,9 @@ applies the sRGB transfer), row 0 = the canvas's top row.
 * :class:`CpuDisplay` (numpy and cpu backends): Kubelka–Munk render of the
   dirty tiles only (per run of dirty tiles in a tile row; the numba twin of the
   reference KM in :mod:`station.kiosk.km_fast`, gouache by the reference),
-  uploaded with ``texture.write(viewport=…)``.  A full 800×600 render costs
-  about 21 ms on the 2-core development machine, one stroke's wet tiles a few.
+  uploaded with ``texture.write(viewport=…)``, at most :data:`MAX_CELLS_PER_FRAME`
+  a frame (the rest in the next frames).  A full 800×600 render costs about
+  21 ms on the 2-core development machine, one stroke's wet tiles a few.
   Brush stamps made since the last simulation step are shown at once as a
   preview (the same KM render of the state plus those stamps' pigment, capped
   as ``add_sources`` caps it), so a pen stroke appears in the next frame and
@@ -30,6 +31,11 @@ from station.kiosk.km_fast import km_layer_fast
 
 F32 = np.float32
 
+#: Cells of dirty tiles re-rendered in one frame at most (the pending stamps' preview
+#: always is): a step that wets many tiles, or a whole-canvas command, is shown over a
+#: few frames instead of stalling one (800×600 is 480 000 cells, about 5 ms here).
+MAX_CELLS_PER_FRAME = 120_000
+
 
 def tile_runs(dirty: np.ndarray) -> list[tuple[int, int, int]]:
     """Runs of dirty tiles per tile row: ``(row, first column, end column)``."""
@@ -45,8 +51,9 @@ def tile_runs(dirty: np.ndarray) -> list[tuple[int, int, int]]:
 class CpuDisplay:
     """Dirty-tile rendering of a CPU canvas into a float texture (see module docstring)."""
 
-    def __init__(self, ctx: Any, session: Any) -> None:
+    def __init__(self, ctx: Any, session: Any, max_cells: int = MAX_CELLS_PER_FRAME) -> None:
         self.ctx = ctx
+        self.max_cells = max_cells
         self.bind(session)
 
     def bind(self, session: Any) -> None:
@@ -60,6 +67,8 @@ class CpuDisplay:
             self.texture = self.ctx.texture((w, h), 3, dtype="f4")
             self.texture.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
         self.preview_box: tuple[slice, slice] | None = None
+        self.damage: list[tuple[int, int, int, int]] = []  # cells (y0, y1, x0, x1) uploaded
+        self._carry: np.ndarray | None = None  # dirty tiles over last frame's budget
         self.cells_rendered = 0
         self.render_seconds = 0.0
         session.mark_all_dirty()
@@ -79,12 +88,21 @@ class CpuDisplay:
             ys, xs = self.preview_box
             dirty[ys.start // ts:-(-ys.stop // ts), xs.start // ts:-(-xs.stop // ts)] = True
             self.preview_box = None
+        carried = self._carry if self._carry is not None and \
+            self._carry.shape == dirty.shape else np.zeros_like(dirty)
         cells = 0
-        for ty, a, b in tile_runs(dirty):
+        self.damage = []
+        left = np.zeros_like(dirty)
+        # tiles left over from the last frame first, then the new ones, up to the budget
+        for ty, a, b in tile_runs(carried) + tile_runs(dirty & ~carried):
+            if cells >= self.max_cells:
+                left[ty, a:b] = True
+                continue
             ys = slice(ty * ts, min((ty + 1) * ts, st.height))
             xs = slice(a * ts, min(b * ts, st.width))
             self._upload(self._render(st, kind, ys, xs), ys, xs)
             cells += (ys.stop - ys.start) * (xs.stop - xs.start)
+        self._carry = left if left.any() else None
         peek = getattr(self.session.player.brush, "peek", None)  # the stamp brush has it
         src = peek() if peek is not None else None
         if src is not None:
@@ -103,6 +121,10 @@ class CpuDisplay:
         self.render_seconds = time.perf_counter() - t0
         return cells
 
+    def behind(self) -> bool:
+        """Whether dirty tiles wait for the next frame (over this frame's budget)."""
+        return self._carry is not None
+
     @staticmethod
     def _render(st: Any, kind: str, ys: slice, xs: slice,
                 extra: dict[str, np.ndarray] | None = None) -> np.ndarray:
@@ -112,6 +134,7 @@ class CpuDisplay:
         return render_region(st, kind, ys, xs, extra)
 
     def _upload(self, rgb: np.ndarray, ys: slice, xs: slice) -> None:
+        self.damage.append((ys.start, ys.stop, xs.start, xs.stop))
         data = np.ascontiguousarray(rgb, dtype=F32)
         self.texture.write(data.tobytes(), viewport=(xs.start, ys.start, xs.stop - xs.start,
                                                      ys.stop - ys.start))
@@ -129,10 +152,15 @@ class GpuDisplay:
 
     def bind(self, session: Any) -> None:
         self.session = session
+        self.damage: list[tuple[int, int, int, int]] = []
         self.cells_rendered = 0
         self.render_seconds = 0.0
         self.texture = session.canvas.render_texture()
         self.texture.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+
+    def behind(self) -> bool:
+        """The GPU renders the whole canvas every frame: never behind."""
+        return False
 
     def update(self) -> int:
         t0 = time.perf_counter()
@@ -142,7 +170,9 @@ class GpuDisplay:
         self.session.take_dirty()
         self.texture = self.session.canvas.render_texture()
         self.ctx.memory_barrier()  # image stores → texture fetches of the window's shader
-        self.cells_rendered = self.session.cfg.width * self.session.cfg.height
+        w, h = self.session.cfg.width, self.session.cfg.height
+        self.damage = [(0, h, 0, w)]  # the whole canvas may have changed
+        self.cells_rendered = w * h
         self.render_seconds = time.perf_counter() - t0
         return self.cells_rendered
 

@@ -12,6 +12,8 @@ its tip touches; nothing else (no keyboard, no mouse) reaches ImGui.
 from __future__ import annotations
 
 import ctypes
+import math
+import zlib
 from typing import Any
 
 import numpy as np
@@ -117,8 +119,42 @@ class ImGuiLayer:
 
     def render(self) -> None:
         """End the ImGui frame and draw it over what is in the framebuffer."""
+        self.end_frame()
+        self.draw()
+
+    def end_frame(self) -> int:
+        """End the ImGui frame (textures synchronised); returns a hash of what it draws,
+        so a caller can tell whether the UI looks different from the last frame."""
         imgui.render()
         self._sync_textures()
+        data = imgui.get_draw_data()
+        h = 0
+        for cmds in data.cmd_lists:
+            vbytes = cmds.vtx_buffer.size() * imgui.VERTEX_SIZE
+            ibytes = cmds.idx_buffer.size() * imgui.INDEX_SIZE
+            h = zlib.crc32(ctypes.string_at(cmds.vtx_buffer.data_address(), vbytes), h)
+            h = zlib.crc32(ctypes.string_at(cmds.idx_buffer.data_address(), ibytes), h)
+            for cmd in cmds.cmd_buffer:
+                r = cmd.clip_rect
+                h = zlib.crc32(repr((r.x, r.y, r.z, r.w, cmd.tex_ref.get_tex_id(),
+                                     cmd.elem_count, cmd.idx_offset)).encode(), h)
+        return h
+
+    def bounds(self) -> tuple[int, int, int, int] | None:
+        """Window pixels (x0, y0, x1, y1) that the last ended frame draws on, or ``None``."""
+        box = None
+        for cmds in imgui.get_draw_data().cmd_lists:
+            for cmd in cmds.cmd_buffer:
+                r = cmd.clip_rect
+                b = (int(r.x), int(r.y), int(math.ceil(r.z)), int(math.ceil(r.w)))
+                box = b if box is None else (min(box[0], b[0]), min(box[1], b[1]),
+                                             max(box[2], b[2]), max(box[3], b[3]))
+        return box
+
+    def draw(self, clip: tuple[int, int, int, int] | None = None) -> None:
+        """Draw the last ended frame over what is in the framebuffer; ``clip``: only
+        inside these window pixels (x0, y0, x1, y1), as the compositor redraws a
+        damaged rectangle."""
         data = imgui.get_draw_data()
         w, h = self.size
         ctx = self.ctx
@@ -141,8 +177,13 @@ class ImGuiLayer:
                 tex = self.textures.get(cmd.tex_ref.get_tex_id())
                 if tex is None:
                     continue
-                tex.use(0)
                 x0, y0, x1, y1 = cmd.clip_rect
+                if clip is not None:
+                    x0, y0 = max(x0, clip[0]), max(y0, clip[1])
+                    x1, y1 = min(x1, clip[2]), min(y1, clip[3])
+                    if x1 <= x0 or y1 <= y0:
+                        continue
+                tex.use(0)
                 ctx.scissor = (int(x0), int(h - y1), int(x1 - x0), int(y1 - y0))
                 self.vao.render(ctx.TRIANGLES, vertices=cmd.elem_count, first=cmd.idx_offset)
         ctx.scissor = None

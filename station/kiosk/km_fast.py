@@ -20,7 +20,7 @@ from station.canvas.render import _coefficients
 F32 = np.float32
 
 
-@numba.njit(parallel=True, cache=True, fastmath=False, error_model="numpy")
+@numba.njit(parallel=True, cache=True, fastmath=False, error_model="numpy", nogil=True)
 def _km(amount: np.ndarray, kk: np.ndarray, ss: np.ndarray, r_prev: np.ndarray,
         out: np.ndarray) -> None:  # pragma: no cover - compiled
     n, h, w = amount.shape

@@ -10,7 +10,34 @@ subscription, session clock, session log and exact-replay time stamping as
 * the tiles that may have changed since the last frame (dirty tiles), so the
   CPU display re-renders only those;
 * for the latency benchmark, the driver read time of every sample that made
-  paint, until a frame shows it.
+  paint, until a frame shows it;
+* a simulation thread (:meth:`KioskSession.start_worker`), so the window never
+  waits for a step.
+
+The simulation thread.  Steps are due 30 times a second and take several
+milliseconds each on the CPU backends; run in the frame loop, a pen sample
+arriving as a step starts waits for the step and then for a frame.  So the
+steps run in a thread of their own, and a lock (:attr:`KioskSession.lock`)
+keeps the window's thread and the steps apart — except during the canvas
+kernel itself (``backend.step()``, most of a step), when the lock is
+released: then the window applies the pen samples that only feed the round
+brush (its stamps wait for the next step, as they would anyway) and renders
+the tiles it needs.  Everything else (commands, tools, a stroke's first sample,
+which takes the undo checkpoint) waits for the step to end.  A sample applied
+during step *k* is logged in the time slot of step *k + 1*, where its stamps
+go, so a replay of the log (``station paint``) gives the same pixels.  The
+display may read a tile while the kernel writes it; the tile is marked dirty
+by the step and rendered again in the next frame.
+
+Undo checkpoints.  The live sim's undo history copies the canvas (44 MB at
+800×600) before a stroke's first sample; done there, in the window's thread,
+that copy stalled the frames and every sample queued behind it for tens of
+milliseconds at each stroke start.  Here the checkpoint keeps the canvas's
+arrays by reference (the player is copied at once, as before), and the copy is
+made before anything next changes the canvas: at the start of the next step
+(in the simulation thread, lock released as for the kernel), or before a
+command or a tool's sample.  Nothing changes the canvas in between, so the
+checkpoint holds the same numbers as one copied at once.
 
 Why in-process and not a separate ``station sim`` feeding the window over the
 bus: the window needs the canvas every frame (60 per second); across a
@@ -22,17 +49,28 @@ the bus, so drivers, recorders and the blueprint see the same traffic as with
 
 from __future__ import annotations
 
+import json
+import logging
+import math
+import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
+from station.brush.stamp import RoundBrush
+from station.canvas.state import CanvasState
 from station.events import Command, PenSample, Tool
 from station.sim.live import SYNC_EVERY_S, LiveConfig, LiveSim
 
+log = logging.getLogger(__name__)
+
 #: Commands that may change every cell: the display re-renders the whole canvas.
 WHOLE_CANVAS_COMMANDS = frozenset({"dry", "new_layer", "clear", "profile", "undo"})
+
+DRAIN_BUDGET_S = 0.004  # bus messages handled per frame at least this long, if waiting
 
 PenMapper = Callable[[PenSample], "PenSample | None"]
 KioskCommands = Callable[[Command], bool]
@@ -59,6 +97,22 @@ class KioskSession(LiveSim):
         self.last_canvas_pen: PenSample | None = None
         self.painted_stamps = 0
         self.painting_id = ""  # the gallery id the window gives this painting
+        # the simulation thread (start_worker) and what it shares with the window
+        self.lock = threading.Condition()
+        self.inflight = False  # the canvas kernel of a step runs now, the lock released
+        self.sim_seconds = 0.0  # wall time spent in steps (either thread)
+        # (start, end) perf_counter times of the recent steps, for a bench's window
+        self.step_times: deque[tuple[float, float]] = deque(maxlen=4096)
+        self.samples_during_steps = 0  # pen samples applied while a kernel ran
+        self.worker_error: BaseException | None = None
+        self.queue_log: list[float] | None = None  # bench: driver read → handled [s]
+        self._worker: threading.Thread | None = None
+        self._halt = threading.Event()
+        self._window_waits = 0  # the window's thread waits for the step to end
+        # undo checkpoints still holding the live canvas arrays (see the module docstring)
+        self._lazy: list[Any] = []
+        self._checkpoint_now = self.history._checkpoint
+        self.history._checkpoint = self._checkpoint_deferred  # type: ignore[method-assign]
 
     # -- geometry ----------------------------------------------------------------
     def _tile_shape(self) -> tuple[int, int]:
@@ -75,13 +129,23 @@ class KioskSession(LiveSim):
     def handle(self, kind: str, value: Any, topic: str = "", replay: bool = False) -> None:
         if kind == "pen" and isinstance(value, PenSample):
             self.last_pen = value
+            if self.queue_log is not None and value.t_mono > 0.0:
+                self.queue_log.append(time.monotonic() - value.t_mono)
             sample = self.map_pen(value) if self.map_pen is not None else value
             if sample is None:
                 return
             self.last_canvas_pen = sample
-            before = self.player.brush.stamps
-            super().handle(kind, sample, topic, replay)
-            made = self.player.brush.stamps - before
+            with self.lock:
+                if self.inflight:
+                    if self._brush_only(sample):
+                        self.samples_during_steps += 1
+                    else:
+                        self._wait_step()
+                if not self._paints_only(sample):
+                    self.materialize_checkpoints()  # a tool's dab changes the canvas
+                before = self.player.brush.stamps
+                super().handle(kind, sample, topic, replay)
+                made = self.player.brush.stamps - before
             if made > 0:
                 self.painted_stamps += made
                 if value.t_mono > 0.0:
@@ -90,9 +154,79 @@ class KioskSession(LiveSim):
         if (kind == "cmd" and isinstance(value, Command) and self.kiosk_command is not None
                 and self.kiosk_command(value)):
             return  # the window's own command (view, save, screenshot): not the canvas's
-        super().handle(kind, value, topic, replay)
-        if kind == "cmd" and isinstance(value, Command) and value.cmd in WHOLE_CANVAS_COMMANDS:
-            self.mark_all_dirty()
+        with self.lock:
+            if kind == "cmd":  # a command may change the canvas (heartbeats do not)
+                self._wait_step()
+                self.materialize_checkpoints()
+            super().handle(kind, value, topic, replay)
+            if kind == "cmd" and isinstance(value, Command) and value.cmd in WHOLE_CANVAS_COMMANDS:
+                self.mark_all_dirty()
+
+    def _brush_only(self, s: PenSample) -> bool:
+        """Whether applying ``s`` touches nothing but the round brush's own state (no
+        canvas read or write): no tool in hand, no diffusion controller, no stroke
+        start (its undo checkpoint copies the canvas)."""
+        p = self.player
+        if (type(p.brush) is not RoundBrush or p.tool is not None or p.controller is not None
+                or s.tool is Tool.ERASER):
+            return False
+        if not (s.touching and s.proximity):
+            return True
+        dev = self.devices.get(s.device)
+        return dev is not None and dev.touching
+
+    def _paints_only(self, s: PenSample) -> bool:
+        """Whether ``s`` goes to the round brush alone (its stamps reach the canvas only
+        in the next step), a stroke's first sample included."""
+        p = self.player
+        return (type(p.brush) is RoundBrush and p.tool is None and p.controller is None
+                and s.tool is not Tool.ERASER)
+
+    # -- undo checkpoints, copied when the canvas is next changed ---------------------
+    def _checkpoint_deferred(self) -> Any:
+        """The undo history's checkpoint with the canvas arrays by reference (copied by
+        :meth:`materialize_checkpoints`); during an undo's replay, a copy at once."""
+        st = self.cpu_state
+        if self.history.replaying or st is None:
+            return self._checkpoint_now()
+        p = self.player
+        real = p.backend
+        p.backend = _SharedState(real, st)
+        try:
+            cp = self._checkpoint_now()
+        finally:
+            p.backend = real
+        self._lazy.append(cp)
+        return cp
+
+    def materialize_checkpoints(self) -> None:
+        """Copy the canvas into the checkpoints that still share it (before it changes)."""
+        for cp in self._lazy:
+            cp.state = cp.state.copy()
+        self._lazy.clear()
+
+    def _wait_step(self) -> None:
+        """Wait (lock held) until no canvas kernel runs.  The thread lets a waiting
+        window in before its next step (a thread behind schedule steps back to back)."""
+        self._window_waits += 1
+        try:
+            while self.inflight:
+                self.lock.wait()
+        finally:
+            self._window_waits -= 1
+
+    def _in_this_step(self, t: float) -> float:
+        """As :meth:`LiveCore._in_this_step`, but while step *k*'s kernel runs a record
+        belongs to step *k + 1* (its stamps were not in step *k*)."""
+        if not self.inflight:
+            return super()._in_this_step(t)
+        p = self.player
+        k = p.counters.steps + 1
+        lo = math.ceil((k / p.rate - p.waited) * 1e6) / 1e6
+        hi = math.floor(((k + 1) / p.rate - p.waited - 2e-6) * 1e6) / 1e6
+        t = round(min(max(t, lo, self._last_t), max(hi, lo)), 6)
+        self._last_t = t
+        return t
 
     def command(self, name: str, **args: Any) -> None:
         """Apply a command from the UI exactly as one from the bus (and log it)."""
@@ -106,6 +240,8 @@ class KioskSession(LiveSim):
         st = self.cpu_state
         if st is not None:
             self._note_active(st)
+        if self._lazy:
+            self._copy_unlocked()
         super().step()
         if st is not None:
             self._note_active(self.cpu_state)
@@ -116,6 +252,84 @@ class KioskSession(LiveSim):
             return
         self.dirty |= st.tile_ttl > 0
 
+    # -- the simulation thread ------------------------------------------------------
+    def start_worker(self) -> None:
+        """Run the due steps in a thread of their own from now on (see module docstring).
+        Not for a GPU canvas: its GL context belongs to the window's thread."""
+        if self._worker is not None or self.cpu_state is None:
+            return
+        self._halt.clear()
+        self._worker = threading.Thread(target=self._work, name="kiosk-sim", daemon=True)
+        self._worker.start()
+
+    @property
+    def threaded(self) -> bool:
+        """Whether the steps run in the simulation thread."""
+        return self._worker is not None
+
+    def stop_worker(self) -> None:
+        """Stop the simulation thread after its current step (the painting stays whole)."""
+        worker, self._worker = self._worker, None
+        if worker is None:
+            return
+        self._halt.set()
+        worker.join()
+
+    def check_worker(self) -> None:
+        """Raise what stopped the simulation thread, in the window's thread."""
+        err, self.worker_error = self.worker_error, None
+        if err is not None:
+            raise err
+
+    def _work(self) -> None:
+        try:
+            while not self._halt.is_set():
+                with self.lock:
+                    while self._window_waits:  # the window first (lock released meanwhile)
+                        self.lock.wait(0.002)
+                    wait = self.seconds_to_next_step()
+                    if wait <= 0.0:
+                        t0 = time.perf_counter()
+                        self._step_unlocked()
+                        t1 = time.perf_counter()
+                        self.sim_seconds += t1 - t0
+                        self.step_times.append((t0, t1))
+                        self.maybe_autosave()
+                        continue
+                self._halt.wait(min(wait, 0.05))
+        except BaseException as exc:  # the window's thread reports it (check_worker)
+            log.exception("the simulation thread failed")
+            self.worker_error = exc
+
+    def sim_busy(self, t0: float, t1: float) -> float:
+        """Seconds of ``[t0, t1]`` (``perf_counter``) spent in steps."""
+        return sum(max(0.0, min(b, t1) - max(a, t0)) for a, b in list(self.step_times))
+
+    def _copy_unlocked(self) -> None:
+        """:meth:`materialize_checkpoints` with the lock released when the simulation
+        thread holds it (brush samples go on meanwhile; nothing else changes the canvas)."""
+        if threading.current_thread() is not self._worker:
+            self.materialize_checkpoints()
+            return
+        self.inflight = True
+        self.lock.release()
+        try:
+            self.materialize_checkpoints()
+        finally:
+            self.lock.acquire()
+            self.inflight = False
+            self.lock.notify_all()
+
+    def _step_unlocked(self) -> None:
+        """One step (lock held), its canvas kernel run with the lock released."""
+        p = self.player
+        real = p.backend
+        p.backend = _KernelUnlocked(real, self)
+        try:
+            self.step()
+        finally:
+            p.backend = real
+
     def run_due_steps(self, max_steps: int = 2) -> int:
         """Run the steps due by the session clock: one, or up to ``max_steps`` when more
         than three are due (a frame waits for at most that many; a slow machine falls
@@ -123,18 +337,43 @@ class KioskSession(LiveSim):
         housekeeping (autosave between strokes, log sync, silent devices)."""
         limit = max_steps if self.steps_due() > 3 else 1
         n = 0
+        t0 = time.perf_counter()
         while n < limit and self.steps_due() > 0:
             self.step()
             n += 1
+        if n:
+            t1 = time.perf_counter()
+            self.sim_seconds += t1 - t0
+            self.step_times.append((t0, t1))
         if n:
             self.maybe_autosave()
         self.journal.maybe_sync(SYNC_EVERY_S)
         self.check_devices()
         return n
 
+    def housekeeping(self) -> None:
+        """``station sim``'s housekeeping when the thread runs the steps (log sync, silent
+        devices)."""
+        with self.lock:
+            self.journal.maybe_sync(SYNC_EVERY_S)
+            self.check_devices()
+
     def pump(self) -> None:
-        """Handle every message waiting on the bus (no blocking)."""
+        """Handle the messages waiting on the bus (no blocking)."""
         self.drain(0)
+
+    def drain(self, timeout_ms: int, budget_s: float = DRAIN_BUDGET_S) -> None:
+        """Handle waiting messages for at most ``budget_s`` (after waiting up to
+        ``timeout_ms`` for the first): a window that fell behind draws what it has
+        handled and takes the rest in the next frames, instead of handling a growing
+        queue before it draws again (each frame longer, the queue longer)."""
+        msg = self.sub.recv(timeout_ms)
+        deadline = time.perf_counter() + max(budget_s, DRAIN_BUDGET_S)
+        while msg is not None:
+            self.handle(msg.kind, msg.value, msg.topic, msg.replay)
+            if self.stop_requested or time.perf_counter() > deadline:
+                return
+            msg = self.sub.recv(0)
 
     def mark_all_dirty(self) -> None:
         self.whole_dirty = True
@@ -167,3 +406,47 @@ class KioskSession(LiveSim):
     def active_tiles(self) -> int | None:
         st = self.cpu_state
         return None if st is None else int(np.count_nonzero(st.tile_ttl > 0))
+
+
+class _KernelUnlocked:
+    """A backend whose ``step`` runs with the session's lock released (the window
+    applies brush samples meanwhile; see the module docstring)."""
+
+    def __init__(self, backend: Any, session: KioskSession) -> None:
+        self._backend = backend
+        self._session = session
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._backend, name)
+
+    def step(self, *args: Any, **kw: Any) -> None:
+        s = self._session
+        s.inflight = True
+        s.lock.release()
+        try:
+            self._backend.step(*args, **kw)
+        finally:
+            s.lock.acquire()
+            s.inflight = False
+            s.lock.notify_all()
+
+
+class _SharedState:
+    """A backend whose ``state()`` shares the live canvas arrays (small fields copied):
+    what a deferred undo checkpoint holds until the canvas next changes."""
+
+    def __init__(self, backend: Any, live: CanvasState) -> None:
+        self._backend = backend
+        self._live = live
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._backend, name)
+
+    def state(self) -> CanvasState:
+        kw: dict[str, Any] = {}
+        for name in self._live.__dataclass_fields__:
+            v = getattr(self._live, name)
+            if isinstance(v, (list, dict)):
+                v = json.loads(json.dumps(v))
+            kw[name] = v
+        return CanvasState(**kw)

@@ -85,9 +85,10 @@ N_CONST = 30
 
 # the sweeps: rows in parallel; IEEE float32 maths exactly as written (no fastmath, no FMA
 # contraction), numpy's error model (division without ZeroDivision checks: every division
-# is guarded like the reference's), compiled once and cached on disk
-_parallel = njit(parallel=True, fastmath=False, cache=True, error_model="numpy")
-_serial = njit(fastmath=False, cache=True, error_model="numpy")
+# is guarded like the reference's), compiled once and cached on disk; they release the
+# interpreter lock (the kiosk steps in a thread beside its window's)
+_parallel = njit(parallel=True, fastmath=False, cache=True, error_model="numpy", nogil=True)
+_serial = njit(fastmath=False, cache=True, error_model="numpy", nogil=True)
 _inline = njit(inline="always", fastmath=False, cache=True, error_model="numpy")
 
 

@@ -1,0 +1,422 @@
+"""Kiosk latency parts: the simulation thread (replays exactly), deferred undo checkpoints,
+pen prediction, damage-rectangle compositing, and the latency bench's JSON."""
+
+from __future__ import annotations
+
+import json
+import math
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from station.canvas.palette import default_palette
+from station.events import PenSample, Tool
+from station.kiosk.compose import Compositor, canvas_box, union
+from station.kiosk.predict import (
+    PenPredictor,
+    PredictConfig,
+    perceived_lag,
+    prediction_errors,
+)
+from station.kiosk.session import KioskSession
+from station.kiosk.views import Viewport, make_camera
+from station.sessionlog import read_session
+from station.sim.live import LiveConfig
+from station.sim.paint import make_backend
+from station.sim.player import SessionPlayer
+from station.sim.undo import UndoHistory
+
+W, H = 96, 64
+
+
+class _Gate:
+    """The canvas backend, its step held until the test opens the gate."""
+
+    def __init__(self, backend: Any) -> None:
+        self._backend = backend
+        self.entered = threading.Event()
+        self.open = threading.Event()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._backend, name)
+
+    def step(self, *a: Any, **kw: Any) -> None:
+        self.entered.set()
+        assert self.open.wait(20), "the test never opened the gate"
+        self._backend.step(*a, **kw)
+
+
+def _session(tmp_path: Path) -> KioskSession:
+    cfg = LiveConfig(bus=f"ipc://{tmp_path}/bus", width=W, height=H, backend="cpu",
+                     status="none", cmd="none", log_path=str(tmp_path / "s.jsonl"),
+                     autosave=0)
+    return KioskSession(cfg)
+
+
+def _pen(i: int, x: float, touching: bool = True) -> PenSample:
+    return PenSample(t=0.005 * i, device="p", tool=Tool.PEN, x=x, y=0.5, pressure=0.8,
+                     touching=touching, t_mono=1.0 + i)
+
+
+def _step_in_thread(s: KioskSession, gate: _Gate) -> threading.Thread:
+    """One step as the simulation thread runs it (lock held, released for the kernel),
+    stopped in its kernel until ``gate.open``."""
+    def one() -> None:
+        with s.lock:
+            s._step_unlocked()
+
+    gate.entered.clear()
+    gate.open.clear()
+    th = threading.Thread(target=one)
+    th.start()
+    assert gate.entered.wait(20)
+    return th
+
+
+def _replay(log: Path) -> Any:
+    _header, records = read_session(log)
+    canvas, _ = make_backend("cpu", W, H, "watercolor", 0)
+    player = SessionPlayer(canvas, W, H, "watercolor", rate=30.0, pigments=default_palette())
+    UndoHistory(player)
+    player.play(records)
+    return canvas
+
+
+def test_samples_applied_while_a_step_runs_replay_exactly(tmp_path: Path) -> None:
+    s = _session(tmp_path)
+    real = s.player.backend
+    gate = _Gate(real)
+    s.player.backend = gate
+    try:
+        s.command("brush", size=8, water=1.0, pigment={"French Ultramarine": 0.5})
+        k = 0
+        for stroke in range(3):
+            for _ in range(4):  # between steps: the lock is free
+                s.handle("pen", _pen(k, 0.2 + 0.01 * k))
+                k += 1
+            th = _step_in_thread(s, gate)
+            assert s.inflight
+            before = s.samples_during_steps
+            for _ in range(5):  # during the kernel: brush samples go straight on
+                s.handle("pen", _pen(k, 0.2 + 0.01 * k))
+                k += 1
+            assert s.samples_during_steps == before + 5
+            # a command waits for the kernel: it is applied only after the gate opens
+            done = threading.Event()
+
+            def dry(done: threading.Event = done) -> None:
+                s.command("dry")
+                done.set()
+
+            waiter = threading.Thread(target=dry)
+            if stroke == 1:
+                waiter.start()
+                assert not done.wait(0.3)  # held while the kernel runs
+            gate.open.set()
+            th.join(20)
+            if stroke == 1:
+                assert done.wait(20)
+                waiter.join()
+            s.handle("pen", _pen(k, 0.2 + 0.01 * k, touching=False))  # the stroke ends
+            k += 1
+            with s.lock:  # a step between strokes (the gate is open)
+                s.step()
+        s.command("undo")  # undoes the last stroke, from its deferred checkpoint
+        gate.open.set()
+        for _ in range(3):
+            s.step()
+        assert s.player.counters.commands.get("undo") == 1
+        assert s.history.undone == 1
+        live = s.canvas.state()
+    finally:
+        s.player.backend = real
+        s.shutdown()
+    replay = _replay(tmp_path / "s.jsonl").state()
+    assert replay.step_count == live.step_count
+    arrays = [k for k, v in vars(live).items() if isinstance(v, np.ndarray)]
+    assert len(arrays) > 5
+    for name in arrays:
+        assert np.array_equal(getattr(replay, name), getattr(live, name)), name
+    assert float(live.p.sum() + live.q.sum()) > 0.0  # two strokes are left on the canvas
+
+
+def test_stroke_start_waits_for_the_kernel_and_the_checkpoint_is_copied_later(
+        tmp_path: Path) -> None:
+    s = _session(tmp_path)
+    real = s.player.backend
+    gate = _Gate(real)
+    s.player.backend = gate
+    try:
+        s.command("brush", size=8, water=1.0, pigment={"Hansa Yellow": 0.6})
+        s.handle("pen", _pen(0, 0.3))  # a stroke starts: its checkpoint shares the canvas
+        assert len(s._lazy) == 1
+        cp = s._lazy[0]
+        live = s.cpu_state
+        assert np.shares_memory(cp.state.w, live.w)
+        w_before = live.w.copy()
+        th = _step_in_thread(s, gate)  # the step copies it first (lock released meanwhile)
+        assert not s._lazy and not np.shares_memory(cp.state.w, live.w)
+        assert np.array_equal(cp.state.w, w_before)
+        s.handle("pen", _pen(1, 0.31, touching=False))
+        started = threading.Event()
+        applied = threading.Event()
+
+        def new_stroke() -> None:
+            started.set()
+            s.handle("pen", _pen(2, 0.5))
+            applied.set()
+
+        t2 = threading.Thread(target=new_stroke)
+        t2.start()
+        assert started.wait(5) and not applied.wait(0.3)  # a stroke start waits
+        gate.open.set()
+        th.join(20)
+        assert applied.wait(20)
+        t2.join()
+        assert len(s._lazy) == 1  # the new stroke's checkpoint, not copied yet
+    finally:
+        gate.open.set()
+        s.player.backend = real
+        s.shutdown()
+
+
+def test_the_simulation_thread_keeps_time_and_stops(tmp_path: Path) -> None:
+    s = _session(tmp_path)
+    try:
+        s.start_worker()
+        s.command("brush", size=8, water=1.0, pigment={"French Ultramarine": 0.5})
+        t0 = time.monotonic()
+        for i in range(40):
+            s.handle("pen", _pen(i, 0.2 + 0.01 * i))
+            time.sleep(0.01)
+        s.handle("pen", _pen(41, 0.6, touching=False))
+        time.sleep(0.2)
+        s.check_worker()
+        s.stop_worker()
+        wall = time.monotonic() - t0
+        steps = s.player.counters.steps
+        assert steps >= 0.5 * 30 * wall  # the thread ran the due steps
+        assert s.player.brush.stamps > 0 and s.sim_seconds > 0
+    finally:
+        s.stop_worker()
+        s.shutdown()
+    replay = _replay(tmp_path / "s.jsonl")
+    assert np.array_equal(replay.render(), s.canvas.render())
+
+
+# -- prediction ------------------------------------------------------------------------
+def test_constant_velocity_is_predicted_and_clamped() -> None:
+    pred = PenPredictor(PredictConfig(horizon_s=0.02, max_speed=1000.0))
+    for i in range(10):
+        pred.add(i * 0.005, 100 + 500 * i * 0.005, 50.0, True, True)  # 500 px/s along x
+    x, y = pred.predict(age=0.001) or (0, 0)
+    assert x == pytest.approx(100 + 500 * 0.045 + 500 * 0.02, abs=1e-6)
+    assert y == pytest.approx(50.0)
+    fast = PenPredictor(PredictConfig(horizon_s=0.02, max_speed=1000.0))
+    for i in range(10):
+        fast.add(i * 0.005, 5000 * i * 0.005, 0.0, True, True)  # 5000 px/s: clamped
+    vx, _vy = fast.velocity()
+    assert vx == pytest.approx(1000.0)
+    # a pen held still (last sample 60 ms old) and a lift are not extrapolated
+    assert pred.predict(age=0.06) == pytest.approx((100 + 500 * 0.045, 50.0))
+    pred.add(0.05, 130.0, 50.0, True, False)
+    assert pred.predict(age=0.0) == (130.0, 50.0)
+    pred.add(0.055, 131.0, 50.0, False, False)
+    assert pred.predict() is None
+
+
+def test_prediction_beats_holding_the_last_sample_on_a_circle() -> None:
+    t = np.arange(0, 2.0, 0.005)
+    xy = np.column_stack([400 + 150 * np.cos(2 * t), 300 + 150 * np.sin(2 * t)])
+    strokes = np.zeros(t.size, int)
+    held = prediction_errors(t, xy, strokes, PredictConfig(horizon_s=0.0))
+    hold_err = [math.hypot(*(xy[i + 4] - xy[i])) for i in range(t.size - 4)]  # 20 ms on
+    err = prediction_errors(t, xy, strokes, PredictConfig(horizon_s=0.02))
+    assert held.max() == 0.0  # horizon 0: the last sample is where the pen is
+    assert np.percentile(err, 50) < 0.1 * np.percentile(hold_err, 50)
+    # the shadow 20 ms behind the pen reads as 20 ms of lag; predicted, close to none
+    frames_t = t[10:-10:3] + 0.02
+    late = np.array([xy[i] for i in range(10, t.size - 10, 3)])
+    ahead = late + 0.02 * np.column_stack([-300 * np.sin(2 * t[10:-10:3]),
+                                           300 * np.cos(2 * t[10:-10:3])])
+    lag_late = perceived_lag(t, xy, frames_t, late)
+    lag_pred = perceived_lag(t, xy, frames_t, ahead)
+    assert np.median(lag_late) == pytest.approx(0.02, abs=1e-3)
+    assert abs(np.median(lag_pred)) < 0.002
+
+
+# -- compositing -----------------------------------------------------------------------
+def test_canvas_box_covers_the_projected_cells() -> None:
+    area = Viewport(300, 0, 724, 768)
+    cam = make_camera("2d", area, 800 / 600)
+    x0, y0, x1, y1 = canvas_box(cam, (0, 600, 0, 800), 800, 600) or (0, 0, 0, 0)
+    tl = cam.world_to_screen(cam.canvas_to_world(0, 0))
+    br = cam.world_to_screen(cam.canvas_to_world(1, 1))
+    assert tl is not None and br is not None
+    assert x0 <= tl[0] and y0 <= tl[1] and x1 >= br[0] and y1 >= br[1]
+    small = canvas_box(cam, (100, 116, 200, 216), 800, 600)
+    assert small is not None and (small[2] - small[0]) < 30 and (small[3] - small[1]) < 30
+    assert union(None, small) == small and union(small, (0, 0, 1, 1)) == (0, 0, small[2],
+                                                                           small[3])
+
+
+def test_damaged_rectangles_give_the_same_picture_as_a_full_redraw() -> None:
+    try:
+        import moderngl
+
+        ctx = moderngl.create_context(standalone=True, backend="egl")  # type: ignore[arg-type]
+    except Exception as exc:  # no EGL here
+        pytest.skip(f"no EGL context: {exc}")
+    size = (160, 120)
+    comp = Compositor(ctx, size)
+    cam = make_camera("2d", Viewport(40, 0, 120, 120), 4 / 3)
+    colour: dict[str, tuple[float, float, float]] = {"c": (0.2, 0.4, 0.6)}
+    ui: dict[str, Any] = {"hash": 1, "box": (0, 0, 40, 120)}
+
+    def scene(box: tuple[int, int, int, int]) -> None:
+        ctx.scissor = (box[0], size[1] - box[3], box[2] - box[0], box[3] - box[1])
+        ctx.clear(*colour["c"])
+
+    def panel(box: tuple[int, int, int, int]) -> None:
+        x0, y0, x1, y1 = ui["box"]
+        bx = (max(x0, box[0]), max(y0, box[1]), min(x1, box[2]), min(y1, box[3]))
+        if bx[2] > bx[0] and bx[3] > bx[1]:
+            ctx.scissor = (bx[0], size[1] - bx[3], bx[2] - bx[0], bx[3] - bx[1])
+            ctx.clear(0.9, 0.1, 0.1)
+
+    def near(px: np.ndarray, rgb: tuple[int, int, int]) -> bool:
+        return bool(np.abs(px[:3].astype(int) - np.array(rgb)).max() <= 1)
+
+    try:
+        fbo = ctx.simple_framebuffer(size)
+        fbo.use()
+        comp.update(cam, [], (80, 60), ui["hash"], ui["box"], scene, panel)
+        assert comp.pixels_redrawn == size[0] * size[1]  # the first frame: everything
+        colour["c"] = (0.9, 0.9, 0.2)  # the scene changes everywhere, only cells are damaged
+        comp.update(cam, [(10, 20, 10, 20)], (80, 60), ui["hash"], ui["box"], scene, panel)
+        assert 0 < comp.pixels_redrawn < size[0] * size[1] // 4
+        img = np.frombuffer(comp.texture.read(), np.uint8).reshape(size[1], size[0], 4)
+        box = canvas_box(cam, (10, 20, 10, 20), 80, 60)
+        assert box is not None
+        # inside the damage: the new scene; far outside it: the old one, untouched
+        yy = size[1] - (box[1] + box[3]) // 2 - 1
+        xx = (box[0] + box[2]) // 2
+        assert near(img[yy, xx], (230, 230, 51))
+        assert near(img[2, 150], (51, 102, 153))
+        ui["hash"], ui["box"] = 2, (0, 0, 60, 120)  # the panel grows over the scene
+        comp.update(cam, [], (80, 60), ui["hash"], ui["box"], scene, panel)
+        img = np.frombuffer(comp.texture.read(), np.uint8).reshape(size[1], size[0], 4)
+        assert near(img[60, 50], (230, 26, 26))
+        ui["hash"], ui["box"] = 3, (0, 0, 40, 120)  # and shrinks: the scene comes back
+        comp.update(cam, [], (80, 60), ui["hash"], ui["box"], scene, panel)
+        img = np.frombuffer(comp.texture.read(), np.uint8).reshape(size[1], size[0], 4)
+        assert near(img[60, 50], (230, 230, 51))
+    finally:
+        comp.release()
+        ctx.release()
+
+
+# -- the bench -------------------------------------------------------------------------
+def test_latency_bench_reports_goals_prediction_and_load(tmp_path: Path) -> None:
+    from tests.kiosk_harness import station, xvfb
+
+    with xvfb() as display:
+        proc = station("bench", "latency", "--json", "--seconds", "1.5", "--size", "160x120",
+                       "--predict-ms", "12", display=display)
+        out, err = proc.communicate(timeout=240)
+    assert proc.returncode == 0, err[-2000:]
+    r = json.loads(out)
+    assert r["latency"]["n"] > 10 and r["latency"]["p99_ms"] > 0
+    assert r["frames"]["fps"] > 0 and r["frames"]["sim_steps_per_s"] > 5
+    assert set(r["frames"]["share"]) == {"wait", "input", "sim", "render", "ui", "present"}
+    assert 0 < r["frames"]["sim_busy_share"] <= 1.0 and r["sim"] == "thread"
+    assert r["prediction"]["horizon_ms"] == 12.0
+    assert r["prediction"]["error_px_at_horizon"]["n"] > 10
+    assert r["prediction"]["shadow_lag_ms"]["with"]["n"] > 0
+    assert len(r["load_avg"]) == 3
+    for goal in r["goals"].values():
+        assert goal["flag"] in ("PASS", "MISS")
+        ok = (goal["measured"] <= goal["goal"]) if goal is r["goals"]["latency_p99_ms"] \
+            else (goal["measured"] >= goal["goal"])
+        assert (goal["flag"] == "PASS") == ok
+
+
+def test_the_display_spreads_a_whole_canvas_over_frames_within_its_budget(
+        tmp_path: Path) -> None:
+    from station.kiosk.display import CpuDisplay
+
+    try:
+        import moderngl
+
+        ctx = moderngl.create_context(standalone=True, backend="egl")  # type: ignore[arg-type]
+    except Exception as exc:  # no EGL here
+        pytest.skip(f"no EGL context: {exc}")
+    s = _session(tmp_path)
+    try:
+        s.command("brush", size=12, water=1.0, pigment={"Hansa Yellow": 0.6})
+        for i in range(8):
+            s.handle("pen", _pen(i, 0.2 + 0.08 * i))
+        for _ in range(4):
+            s.step()
+        budget = 1500
+        disp = CpuDisplay(ctx, s, max_cells=budget)
+        s.mark_all_dirty()
+        frames = 0
+        ts = int(s.canvas.params.tile_size)
+        while True:
+            cells = disp.update()
+            frames += 1
+            assert cells <= budget + W * ts  # a run of tiles may end past the budget
+            if not disp.behind():
+                break
+            assert frames < 50
+        assert frames >= (W * H) // (budget + W * ts)  # spread over several frames
+        tex = np.frombuffer(disp.texture.read(), np.float32).reshape(H, W, 3)
+        assert np.abs(tex - s.canvas.render()).max() < 2e-6  # every tile got there
+    finally:
+        s.shutdown()
+        ctx.release()
+
+
+def test_a_frame_handles_the_bus_for_a_bounded_time_and_loses_nothing(tmp_path: Path) -> None:
+    from station.bus import Message
+    from station.kiosk import session as session_mod
+
+    s = _session(tmp_path)
+    real_sub = s.sub
+    queue = [Message(topic="pen.p", kind="pen", value=_pen(i, 0.2 + 0.001 * i), publisher=1,
+                     seq=i, replay=False) for i in range(400)]
+
+    class Queue:
+        def recv(self, timeout_ms: int | None = 0) -> Message | None:
+            return queue.pop(0) if queue else None
+
+    slow = s.handle
+
+    def handle(*a: Any, **kw: Any) -> None:
+        time.sleep(0.001)  # a slow machine: a millisecond a message
+        slow(*a, **kw)
+
+    s.sub = Queue()  # type: ignore[assignment]
+    s.handle = handle  # type: ignore[method-assign]
+    try:
+        s.command("brush", size=8, water=1.0, pigment={"French Ultramarine": 0.5})
+        t0 = time.perf_counter()
+        s.drain(0)
+        took = time.perf_counter() - t0
+        first = s.counters.samples
+        # one frame's worth, not the whole queue: the window draws, then goes on
+        assert 1 <= first <= 1 + session_mod.DRAIN_BUDGET_S / 0.001 + 2
+        assert took < session_mod.DRAIN_BUDGET_S + 0.05
+        frames = 1
+        while queue:
+            s.drain(0)
+            frames += 1
+        assert s.counters.samples == 400 and frames > 10  # every sample, over many frames
+    finally:
+        s.sub = real_sub
+        s.shutdown()
