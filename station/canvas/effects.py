@@ -22,6 +22,7 @@ from station.canvas.measure import edge_band, edge_roughness, spread
 from station.canvas.numpy_backend import NumpyCanvas
 from station.canvas.palette import Palette, Pigment, default_palette
 from station.canvas.params import SimParams
+from station.canvas.render import linear_to_srgb
 from station.canvas.scenarios import disc, distance_inside, paint, rect, run_until_dry
 from station.canvas.tools import HairDryer, blow, pickup
 
@@ -75,8 +76,11 @@ def hue_deg(rgb: np.ndarray) -> float:
 def _twin(a: str, b: str, **diff: tuple[float, float]) -> Palette:
     base = {"beta": 2.0, "gamma": 0.0, "delta": 0.5}
     hg = default_palette().get("French Ultramarine")
-    return Palette([Pigment(a, hg.K, hg.S, **{**base, **{k: v[0] for k, v in diff.items()}}),
-                    Pigment(b, hg.K, hg.S, **{**base, **{k: v[1] for k, v in diff.items()}})])
+    spec = {"K_spec": hg.K_spec, "S_spec": hg.S_spec}
+    return Palette([Pigment(a, hg.K, hg.S, **{**base, **{k: v[0] for k, v in diff.items()}},
+                            **spec),
+                    Pigment(b, hg.K, hg.S, **{**base, **{k: v[1] for k, v in diff.items()}},
+                            **spec)])
 
 
 def _layer(c: NumpyCanvas, fp: np.ndarray, pigs: dict[str, float], water: float = 0.5) -> None:
@@ -152,20 +156,32 @@ def granulation() -> Effect:
                   {"pigment in the valleys": r < -0.5}, c.render())
 
 
-def glazing() -> Effect:
+def lab_hue_deg(rgb: np.ndarray) -> float:
+    """CIELAB hue angle h_ab (degrees) of a linear sRGB colour (yellow ~ 100, green ~ 136)."""
+    c = lab(rgb)
+    return float(np.degrees(np.arctan2(c[2], c[1])) % 360.0)
+
+
+def glazing(render_bands: int = 12) -> Effect:
+    """Hansa Yellow (0.4 load) glazed over a dried mid-value French Ultramarine wash (0.5)
+    against both mixed in one layer; ``render_bands`` 3 renders with Curtis's RGB K, S."""
     fp = rect(40, 40, 6, 34, 6, 34)
     inner = distance_inside(fp) >= 4
-    glaze = NumpyCanvas(40, 40, seed=6, paper="hot-press")
-    _layer(glaze, fp, {"French Ultramarine": 0.25})
+    prm = SimParams(render_bands=render_bands)
+    glaze = NumpyCanvas(40, 40, seed=6, paper="hot-press", params=prm)
+    _layer(glaze, fp, {"French Ultramarine": 0.5})
     glaze.new_layer()
-    _layer(glaze, fp, {"Hansa Yellow": 0.25})
-    mixed = NumpyCanvas(40, 40, seed=6, paper="hot-press")
-    _layer(mixed, fp, {"French Ultramarine": 0.25, "Hansa Yellow": 0.25})
+    _layer(glaze, fp, {"Hansa Yellow": 0.4})
+    mixed = NumpyCanvas(40, 40, seed=6, paper="hot-press", params=prm)
+    _layer(mixed, fp, {"French Ultramarine": 0.5, "Hansa Yellow": 0.4})
     g = glaze.render()
     m = mixed.render()
-    de = delta_e76(g[inner].mean(axis=0), m[inner].mean(axis=0))
-    hue = hue_deg(g[inner].mean(axis=0))
-    return Effect("glazing", {"delta_e76_glaze_vs_mix": de, "glaze_hue_deg": hue},
+    gm = g[inner].mean(axis=0)
+    de = delta_e76(gm, m[inner].mean(axis=0))
+    hue = hue_deg(gm)
+    return Effect("glazing", {"delta_e76_glaze_vs_mix": de, "glaze_hue_deg": hue,
+                              "glaze_hue_srgb_deg": hue_deg(linear_to_srgb(gm)),
+                              "glaze_hue_lab_deg": lab_hue_deg(gm)},
                   {"dE76 >= 5": de >= 5.0, "reads green (90-160)": 90.0 <= hue <= 160.0},
                   np.concatenate([g, m], axis=1))
 
