@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from station.canvas.palette import N_BANDS, Pigment, spectral_table, upsample_rgb
+from station.canvas.palette import N_BANDS, Palette, Pigment, spectral_table, upsample_rgb
 from station.canvas.state import CanvasState
 
 F32 = np.float32
@@ -136,10 +136,15 @@ def gouache_layer(amount: np.ndarray, pigments: list[Pigment], r_prev: np.ndarra
 
 
 def gouache_white_ks(state: CanvasState) -> tuple[tuple[float, ...], tuple[float, ...]]:
-    """K and S of the gouache's white filler in the state's bands (the palette's
-    Titanium White, else the packaged values)."""
-    white = state.palette.get("Titanium White") if "Titanium White" in state.palette else None
-    if state.r_composed.shape[-1] == 3:
+    """K and S of the gouache's white filler in the state's render bands."""
+    return white_filler(state.palette, state.r_composed.shape[-1])
+
+
+def white_filler(palette: Palette, bands: int) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """K and S of the gouache's white filler per band (3 or 12): the palette's Titanium
+    White, else the packaged values."""
+    white = palette.get("Titanium White") if "Titanium White" in palette else None
+    if bands == 3:
         return (white.K, white.S) if white is not None else (WHITE_K, WHITE_S)
     k, s = white.spectra() if white is not None else (upsample_rgb(WHITE_K),
                                                       upsample_rgb(WHITE_S))
