@@ -33,6 +33,7 @@ def _km(amount: np.ndarray, kk: np.ndarray, ss: np.ndarray, r_prev: np.ndarray,
     identity = nb == 3
     for y in numba.prange(h):
         band = np.empty(nb, np.float32)
+        conc = np.empty(n, np.float32)
         for x in range(w):
             d = zero
             for k in range(n):
@@ -41,13 +42,14 @@ def _km(amount: np.ndarray, kk: np.ndarray, ss: np.ndarray, r_prev: np.ndarray,
                 for c in range(nb):
                     band[c] = r_prev[y, x, c]
             else:
+                for k in range(n):
+                    conc[k] = amount[k, y, x] / d
                 for c in range(nb):
                     km = zero
                     sm = zero
                     for k in range(n):
-                        s_k = amount[k, y, x] / d
-                        km += s_k * kk[k, c]
-                        sm += s_k * ss[k, c]
+                        km += conc[k] * kk[k, c]
+                        sm += conc[k] * ss[k, c]
                     sm = max(sm, np.float32(1e-12))
                     a = (sm + km) / sm
                     b = np.float32(math.sqrt(max(a * a - one, zero)))
@@ -58,8 +60,11 @@ def _km(amount: np.ndarray, kk: np.ndarray, ss: np.ndarray, r_prev: np.ndarray,
                         tr = one / (one + sd)
                     else:
                         t = min(b * sm * d, np.float32(30.0))
-                        sh = np.float32(math.sinh(t))
-                        ch = np.float32(math.cosh(t))
+                        # one exp for both (float64: no cancellation for small t)
+                        e = math.exp(np.float64(t))
+                        ei = 1.0 / e
+                        sh = np.float32(0.5 * (e - ei))
+                        ch = np.float32(0.5 * (e + ei))
                         den = a * sh + b * ch
                         r = sh / den
                         tr = b / den
