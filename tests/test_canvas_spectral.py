@@ -200,3 +200,17 @@ def test_spectral_table_is_what_the_generator_writes() -> None:
     out = subprocess.run([sys.executable, str(ROOT / "tools" / "gen_spectral_palette.py"),
                           "--check"], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stdout + out.stderr
+
+
+def test_a_profile_selects_the_rgb_renderer() -> None:
+    from importlib import resources
+
+    from station.canvas.profiles import parse_profile
+
+    text = resources.files("station").joinpath("data", "profiles", "watercolor.xml").read_text()
+    rgb = text.replace('gouache_white="0.25"/>', 'gouache_white="0.25" render_bands="3"/>')
+    assert rgb != text
+    assert parse_profile(rgb.encode(), "rgb.xml").params.render_bands == 3
+    assert parse_profile(text.encode(), "w.xml").params.render_bands == N_BANDS
+    with pytest.raises(CanvasInputError):
+        parse_profile(rgb.replace('render_bands="3"', 'render_bands="5"').encode(), "bad.xml")

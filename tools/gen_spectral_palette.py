@@ -71,7 +71,8 @@ MODELS: dict[str, tuple[str, list[tuple[str, tuple[float, float], tuple[float, f
     "Brilliant Orange": ("PO43", [("edge", (530, 580), (5, 40)), ("edge", (420, 500), (5, 40))]),
     # arylide yellow: a sharp edge near 480-500 nm
     "Hansa Yellow": ("PY3", [("edge", (470, 495), (4, 10))]),
-    # copper phthalocyanine, chlorinated: Q band in the red (max ~ 640-660), Soret edge in the violet
+    # chlorinated copper phthalocyanine: Q band in the red (max ~ 640-660 nm), Soret edge
+    # in the violet
     "Phthalo Green": ("PG7", [("band", (620, 680), (25, 60)), ("edge", (420, 470), (5, 20))]),
     # sodium aluminosilicate with S3- radicals: one band at ~ 600 nm (FWHM <= 130 nm),
     # window 400-500 nm
@@ -165,13 +166,13 @@ class Model:
         for _, c, w in self.feats:
             lo += [-6.0, c[0], w[0]]
             hi += [3.0, c[1], w[1]]
-        return lo + [-12.0, -6.0, -6.0], hi + [3.0, 6.0, 6.0]
+        return [*lo, -12.0, -6.0, -6.0], [*hi, 3.0, 6.0, 6.0]
 
     def start(self, kk: np.ndarray, ss: np.ndarray) -> np.ndarray:
         x = [float(np.log(max(kk.min(), 1e-4)))]
         for _, c, w in self.feats:
             x += [float(np.log(max(kk.max(), 1e-3))), 0.5 * sum(c), 0.5 * sum(w)]
-        return np.array(x + [float(np.log(ss.mean())), 0.0, 0.0])
+        return np.array([*x, float(np.log(ss.mean())), 0.0, 0.0])
 
     def spectra(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         k = np.full(NB, np.exp(x[0]))
@@ -245,7 +246,7 @@ def _close(a: object, b: object) -> bool:
     if isinstance(a, dict) and isinstance(b, dict):
         return a.keys() == b.keys() and all(_close(a[k], b[k]) for k in a)
     if isinstance(a, list) and isinstance(b, list):
-        return len(a) == len(b) and all(_close(x, y) for x, y in zip(a, b))
+        return len(a) == len(b) and all(_close(x, y) for x, y in zip(a, b, strict=True))
     if isinstance(a, (int, float)) and isinstance(b, (int, float)):
         return bool(np.isclose(a, b, rtol=1e-3, atol=1e-6))
     return a == b

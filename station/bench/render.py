@@ -15,6 +15,7 @@ import json
 import os
 import time
 from collections.abc import Callable
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -77,10 +78,10 @@ def run(args: argparse.Namespace) -> int:
     for bands, name in ((3, "rgb"), (12, "spectral")):
         st = _state(w, h, bands)
         amount, pigs = region_amount(st, slice(0, h), slice(0, w))
-        out[f"numpy_{name}_ms"] = round(_best_ms(lambda st=st: render_state(st, "km"),
+        out[f"numpy_{name}_ms"] = round(_best_ms(partial(render_state, st, "km"),
                                                  args.repeat), 2)
         out[f"cpu_{name}_ms"] = round(_best_ms(
-            lambda st=st, a=amount, p=pigs: km_layer_fast(a, p, st.r_composed), args.repeat), 2)
+            partial(km_layer_fast, amount, pigs, st.r_composed), args.repeat), 2)
     out["numpy_ratio_spectral_over_rgb"] = round(out["numpy_spectral_ms"] / out["numpy_rgb_ms"], 3)
     out["cpu_ratio_spectral_over_rgb"] = round(out["cpu_spectral_ms"] / out["cpu_rgb_ms"], 3)
     print(json.dumps(out, indent=1))

@@ -12,6 +12,7 @@ false): the sheet reports, it does not pretend.
 from __future__ import annotations
 
 import colorsys
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -74,13 +75,14 @@ def hue_deg(rgb: np.ndarray) -> float:
 
 # ------------------------------------------------------------------ tiles
 def _twin(a: str, b: str, **diff: tuple[float, float]) -> Palette:
-    base = {"beta": 2.0, "gamma": 0.0, "delta": 0.5}
-    hg = default_palette().get("French Ultramarine")
-    spec = {"K_spec": hg.K_spec, "S_spec": hg.S_spec}
-    return Palette([Pigment(a, hg.K, hg.S, **{**base, **{k: v[0] for k, v in diff.items()}},
-                            **spec),
-                    Pigment(b, hg.K, hg.S, **{**base, **{k: v[1] for k, v in diff.items()}},
-                            **spec)])
+    hg = default_palette().get("French Ultramarine")  # its colour, RGB and spectral
+
+    def one(name: str, i: int) -> Pigment:
+        pr = {"beta": 2.0, "gamma": 0.0, "delta": 0.5, **{k: v[i] for k, v in diff.items()}}
+        return dataclasses.replace(hg, name=name, beta=pr["beta"], gamma=pr["gamma"],
+                                   delta=pr["delta"])
+
+    return Palette([one(a, 0), one(b, 1)])
 
 
 def _layer(c: NumpyCanvas, fp: np.ndarray, pigs: dict[str, float], water: float = 0.5) -> None:

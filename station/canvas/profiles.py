@@ -41,7 +41,7 @@ GROUPS: dict[str, tuple[str, ...]] = {
               "w_dry_eps", "temperature", "humidity", "airflow", "tilt", "tilt_direction",
               "gravity"),
     "numerics": ("dt", "jacobi_iters", "tile_size", "tile_check"),
-    "render": ("gouache_opaque", "gouache_white"),
+    "render": ("gouache_opaque", "gouache_white", "render_bands"),
 }
 """Which element carries each :class:`SimParams` field."""
 _INT_FIELDS = {f.name for f in dataclasses.fields(SimParams) if f.type in ("int", int)}
