@@ -151,6 +151,13 @@ def white_filler(palette: Palette, bands: int) -> tuple[tuple[float, ...], tuple
     return tuple(map(float, k)), tuple(map(float, s))
 
 
+def on_white(amount: np.ndarray, pigments: list[Pigment], bands: int = N_BANDS) -> np.ndarray:
+    """Linear sRGB (..., 3) of ``amount`` (N, h, w) of ``pigments`` as a KM layer over white
+    paper, in ``bands`` render bands (a swatch: the colour the canvas would show)."""
+    white = np.ones((*amount.shape[1:], bands), F32)
+    return to_linear_rgb(km_layer(amount, pigments, white))
+
+
 def render_bands(state: CanvasState, renderer: str) -> np.ndarray:
     """Reflectance of the canvas per band, float32 (H, W, B) in [0, 1] (what
     ``new_layer`` stores in ``r_composed``)."""
