@@ -2,7 +2,7 @@
 """Generate ``station/data/spectral-palette.json``: K(λ), S(λ) of every palette pigment in
 12 bands of 25 nm over 400–700 nm, and the band → linear sRGB matrix.
 
-    pip install colour-science   # generation time only; the station needs NumPy alone
+    pip install ".[tools]"   # colour-science, generation time only; the station needs NumPy
     python tools/gen_spectral_palette.py [--check]
 
 **Colour matching.** CIE 1931 2° colour-matching functions times CIE D65, both at 1 nm
