@@ -28,7 +28,10 @@ def test_effects_json_and_sheet(tmp_path: Path, capsys: pytest.CaptureFixture[st
     with Image.open(out) as im:
         assert im.mode == "RGB" and im.size[0] > 2 * 64 and im.size[1] > 2 * 48
     assert data["ink bleed"]["ok"] and "missed: ink bleed" not in cap.err
-    assert "missed: glazing" in cap.err  # the sheet reports what misses its threshold
+    glaze = data["glazing"]  # the spectral render: green, and unlike the mix
+    assert glaze["ok"] and "missed: glazing" not in cap.err, glaze
+    assert glaze["numbers"]["delta_e76_glaze_vs_mix"] >= 5.0
+    assert 90.0 <= glaze["numbers"]["glaze_hue_deg"] <= 160.0
 
 
 @pytest.mark.parametrize("flags", [["--only", "sparkle"], ["--only", ","],

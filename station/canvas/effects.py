@@ -12,6 +12,7 @@ false): the sheet reports, it does not pretend.
 from __future__ import annotations
 
 import colorsys
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -22,6 +23,7 @@ from station.canvas.measure import bare_share, edge_band, edge_roughness, edge_w
 from station.canvas.numpy_backend import NumpyCanvas
 from station.canvas.palette import Palette, Pigment, default_palette
 from station.canvas.params import SimParams, get_profile
+from station.canvas.render import linear_to_srgb
 from station.canvas.scenarios import disc, distance_inside, paint, rect, run_until_dry
 from station.canvas.tools import HairDryer, blow, pickup
 from station.canvas.upscale import render_scaled
@@ -88,10 +90,14 @@ def hue_deg(rgb: np.ndarray) -> float:
 
 # ------------------------------------------------------------------ tiles
 def _twin(a: str, b: str, **diff: tuple[float, float]) -> Palette:
-    base = {"beta": 2.0, "gamma": 0.0, "delta": 0.5}
-    hg = default_palette().get("French Ultramarine")
-    return Palette([Pigment(a, hg.K, hg.S, **{**base, **{k: v[0] for k, v in diff.items()}}),
-                    Pigment(b, hg.K, hg.S, **{**base, **{k: v[1] for k, v in diff.items()}})])
+    hg = default_palette().get("French Ultramarine")  # its colour, RGB and spectral
+
+    def one(name: str, i: int) -> Pigment:
+        pr = {"beta": 2.0, "gamma": 0.0, "delta": 0.5, **{k: v[i] for k, v in diff.items()}}
+        return dataclasses.replace(hg, name=name, beta=pr["beta"], gamma=pr["gamma"],
+                                   delta=pr["delta"])
+
+    return Palette([one(a, 0), one(b, 1)])
 
 
 def _layer(c: NumpyCanvas, fp: np.ndarray, pigs: dict[str, float], water: float = 0.5) -> None:
@@ -167,20 +173,32 @@ def granulation() -> Effect:
                   {"pigment in the valleys": r < -0.5}, c.render(), (c,))
 
 
-def glazing() -> Effect:
+def lab_hue_deg(rgb: np.ndarray) -> float:
+    """CIELAB hue angle h_ab (degrees) of a linear sRGB colour (yellow ~ 100, green ~ 136)."""
+    c = lab(rgb)
+    return float(np.degrees(np.arctan2(c[2], c[1])) % 360.0)
+
+
+def glazing(render_bands: int = 12) -> Effect:
+    """Hansa Yellow (0.4 load) glazed over a dried mid-value French Ultramarine wash (0.5)
+    against both mixed in one layer; ``render_bands`` 3 renders with Curtis's RGB K, S."""
     fp = rect(40, 40, 6, 34, 6, 34)
     inner = distance_inside(fp) >= 4
-    glaze = NumpyCanvas(40, 40, seed=6, paper="hot-press")
-    _layer(glaze, fp, {"French Ultramarine": 0.25})
+    prm = SimParams(render_bands=render_bands)
+    glaze = NumpyCanvas(40, 40, seed=6, paper="hot-press", params=prm)
+    _layer(glaze, fp, {"French Ultramarine": 0.5})
     glaze.new_layer()
-    _layer(glaze, fp, {"Hansa Yellow": 0.25})
-    mixed = NumpyCanvas(40, 40, seed=6, paper="hot-press")
-    _layer(mixed, fp, {"French Ultramarine": 0.25, "Hansa Yellow": 0.25})
+    _layer(glaze, fp, {"Hansa Yellow": 0.4})
+    mixed = NumpyCanvas(40, 40, seed=6, paper="hot-press", params=prm)
+    _layer(mixed, fp, {"French Ultramarine": 0.5, "Hansa Yellow": 0.4})
     g = glaze.render()
     m = mixed.render()
-    de = delta_e76(g[inner].mean(axis=0), m[inner].mean(axis=0))
-    hue = hue_deg(g[inner].mean(axis=0))
-    return Effect("glazing", {"delta_e76_glaze_vs_mix": de, "glaze_hue_deg": hue},
+    gm = g[inner].mean(axis=0)
+    de = delta_e76(gm, m[inner].mean(axis=0))
+    hue = hue_deg(gm)
+    return Effect("glazing", {"delta_e76_glaze_vs_mix": de, "glaze_hue_deg": hue,
+                              "glaze_hue_srgb_deg": hue_deg(linear_to_srgb(gm)),
+                              "glaze_hue_lab_deg": lab_hue_deg(gm)},
                   {"dE76 >= 5": de >= 5.0, "reads green (90-160)": 90.0 <= hue <= 160.0},
                   np.concatenate([g, m], axis=1), (glaze, mixed))
 

@@ -11,7 +11,7 @@ from station.canvas import operations, reference, tiles
 from station.canvas.palette import Palette
 from station.canvas.params import SimParams
 from station.canvas.profiles import get_profile, profile_palette
-from station.canvas.render import render_state
+from station.canvas.render import render_bands, render_state
 from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
 from station.canvas.stats import canvas_stats
 
@@ -114,7 +114,7 @@ class NumpyCanvas:
 
     def new_layer(self) -> None:
         operations.dry(self._state)
-        composed = render_state(self._state, self._renderer_kind)
+        composed = render_bands(self._state, self._renderer_kind)
         operations.new_layer(self._state, composed)
 
     def clear(self) -> None:

@@ -205,7 +205,8 @@ def set_profile(state: CanvasState, name: str) -> None:
     prof = get_profile(name)
     if prof.params.tile_size != state.params.tile_size:
         raise CanvasInputError("profiles must share the tile size", "profile")
-    state.params = prof.params
+    # the render bands are the sheet's (r_composed holds them), not the medium's
+    state.params = prof.params.replace(render_bands=state.r_composed.shape[-1])
     state.profile = prof.name
     state.palette = profile_palette(prof, state.palette)
 

@@ -95,6 +95,8 @@ class SimParams:
         paper_shade: darkening of paper valleys in the blank paper reflectance [1].
         gouache_opaque: pigment thickness at which a gouache layer hides what is below [1].
         gouache_white: share of the implicit white filler in a gouache body colour [1].
+        render_bands: Kubelka-Munk bands of the render [count]: 12 (spectral, 400-700 nm,
+            to colour through the CIE 1931 observer) or 3 (Curtis's RGB channels).
         tilt: angle of the canvas from the horizontal [degrees], 0 ... 90 (0: flat).
         tilt_direction: downhill direction on the canvas [degrees from +x towards +y]
             (90: the top edge is raised, paint runs towards the bottom row).
@@ -139,6 +141,7 @@ class SimParams:
     paper_shade: float = 0.05
     gouache_opaque: float = 0.6
     gouache_white: float = 0.25
+    render_bands: int = 12
     tilt: float = 0.0
     tilt_direction: float = 90.0
     gravity: float = 100.0
@@ -172,6 +175,8 @@ class SimParams:
             raise CanvasInputError("jacobi_iters must be an integer >= 1", "params")
         if not 0 <= self.gouache_white <= 1:
             raise CanvasInputError("gouache_white must lie in [0, 1]", "params")
+        if self.render_bands not in (3, 12):
+            raise CanvasInputError("render_bands must be 3 (RGB) or 12 (spectral)", "params")
         if self.wet_blur > 4:
             raise CanvasInputError("wet_blur must be <= 4 cells", "params")
         if not -10 <= self.temperature <= 60:

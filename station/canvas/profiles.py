@@ -41,7 +41,7 @@ GROUPS: dict[str, tuple[str, ...]] = {
               "w_dry_eps", "temperature", "humidity", "airflow", "tilt", "tilt_direction",
               "gravity"),
     "numerics": ("dt", "jacobi_iters", "tile_size", "tile_check"),
-    "render": ("gouache_opaque", "gouache_white"),
+    "render": ("gouache_opaque", "gouache_white", "render_bands"),
 }
 """Which element carries each :class:`SimParams` field."""
 _INT_FIELDS = {f.name for f in dataclasses.fields(SimParams) if f.type in ("int", int)}
@@ -120,8 +120,13 @@ def parse_profile(data: bytes, where: str) -> Profile:
             if el.get("K") is None or el.get("S") is None:
                 packaged = known.get(name)  # unknown name: "unknown pigment" error
                 K, S = packaged.K, packaged.S
+                spec = (packaged.K_spec, packaged.S_spec)
             else:
                 K, S = _rgb(el, "K", where), _rgb(el, "S", where)
+                # the packaged pigment's spectra while its RGB K, S are repeated; other
+                # coefficients are a new pigment, which the spectral render upsamples
+                same = base is not None and (base.K, base.S) == (K, S)
+                spec = (base.K_spec, base.S_spec) if same and base is not None else ((), ())
             props = []
             for key, attr in (("staining", "beta"), ("granulation", "gamma"),
                               ("density", "delta")):
@@ -129,7 +134,7 @@ def parse_profile(data: bytes, where: str) -> Profile:
                 if v is None and base is None:
                     raise _err(where, el, f"pigment {name!r} needs {key}")
                 props.append(float(v) if v is not None else getattr(base, attr))
-            defs.append(Pigment(name, K, S, props[0], props[1], props[2]))
+            defs.append(Pigment(name, K, S, props[0], props[1], props[2], *spec))
         except CanvasInputError as exc:
             if exc.where and exc.where.startswith(where):
                 raise

@@ -1,4 +1,12 @@
-"""Rendering the canvas: Kubelka-Munk per RGB channel (seed 6.2.3) and a gouache blend.
+"""Rendering the canvas: Kubelka-Munk per band (seed 6.2.3) and a gouache blend.
+
+The KM formulas below run per *band*: the 3 RGB channels of Curtis's table, or (the
+default, ``SimParams.render_bands = 12``) twelve 25 nm bands over 400-700 nm with each
+pigment's K(λ), S(λ) from ``station/data/spectral-palette.json``. ``r_composed`` holds the
+dried layers per band, so a glaze composes with the spectrum below, not with its RGB
+summary; :func:`to_linear_rgb` turns bands into linear sRGB at the very end (a fixed
+(3, 12) matrix from the CIE 1931 observer under D65, rows summing to 1, so the paper's
+flat grey stays grey).
 
 Kubelka-Munk (spec formulas): per cell, thickness ``d = sum_k (p[k] + q[k])``; if
 ``d == 0`` the cell shows ``R_composed``; otherwise concentration-weighted
@@ -26,29 +34,50 @@ from __future__ import annotations
 
 import numpy as np
 
-from station.canvas.palette import Pigment
+from station.canvas.palette import N_BANDS, Palette, Pigment, spectral_table, upsample_rgb
 from station.canvas.state import CanvasState
 
 F32 = np.float32
 RENDERERS = ("km", "gouache")
 
 
-def _coefficients(pigments: list[Pigment]) -> tuple[np.ndarray, np.ndarray]:
-    k = np.array([p.K for p in pigments], F32).reshape(len(pigments), 3)
-    s = np.array([p.S for p in pigments], F32).reshape(len(pigments), 3)
-    return k, s
+def _coefficients(pigments: list[Pigment], bands: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """K and S of the pigments per band, float32 (n, bands): RGB (3) or spectral."""
+    if bands == 3:
+        k = np.array([p.K for p in pigments], F32).reshape(len(pigments), 3)
+        s = np.array([p.S for p in pigments], F32).reshape(len(pigments), 3)
+        return k, s
+    if bands != N_BANDS:
+        raise ValueError(f"render bands {bands}: 3 or {N_BANDS}")
+    spec = [p.spectra() for p in pigments]
+    return (np.array([k for k, _ in spec], F32).reshape(len(pigments), bands),
+            np.array([s for _, s in spec], F32).reshape(len(pigments), bands))
+
+
+def band_matrix(bands: int) -> np.ndarray:
+    """(3, bands) float32: band reflectance -> linear sRGB (the identity for RGB)."""
+    return np.eye(3, dtype=F32) if bands == 3 else spectral_table().to_rgb
+
+
+def to_linear_rgb(r: np.ndarray) -> np.ndarray:
+    """Band reflectance (..., bands) -> linear sRGB (..., 3) float32 in [0, 1]."""
+    if r.shape[-1] == 3:
+        return r.astype(F32, copy=False)
+    out = np.einsum("...b,cb->...c", r, band_matrix(r.shape[-1]))
+    return np.clip(out, 0.0, 1.0).astype(F32)
 
 
 def km_layer(amount: np.ndarray, pigments: list[Pigment], r_prev: np.ndarray) -> np.ndarray:
     """Compose one KM layer over ``r_prev``.
 
     ``amount`` float32 (N, H, W) pigment thickness per pigment (p + q), ``r_prev``
-    float32 (H, W, 3). Returns float32 (H, W, 3) in [0, 1].
+    float32 (H, W, B) per band (B = 3 RGB or 12 spectral). Returns float32 (H, W, B) in
+    [0, 1].
     """
     if not pigments:
         return r_prev.astype(F32, copy=True)
     amount = amount[: len(pigments)]
-    kk, ss = _coefficients(pigments)
+    kk, ss = _coefficients(pigments, r_prev.shape[-1])
     d = amount.sum(axis=0)
     has = d > 0
     safe_d = np.where(has, d, F32(1.0))
@@ -83,12 +112,16 @@ def gouache_layer(amount: np.ndarray, pigments: list[Pigment], r_prev: np.ndarra
     """Compose one gouache layer (opaque concentration blend) over ``r_prev``.
 
     ``opaque``: thickness that hides what is below; ``white``: share of the implicit
-    white filler in the body colour; ``white_ks``: its K and S.
+    white filler in the body colour; ``white_ks``: its K and S per band (RGB values are
+    upsampled when ``r_prev`` is spectral).
     """
     if not pigments:
         return r_prev.astype(F32, copy=True)
     amount = amount[: len(pigments)]
-    kk, ss = _coefficients(pigments)
+    bands = r_prev.shape[-1]
+    kk, ss = _coefficients(pigments, bands)
+    if bands != 3 and len(white_ks[0]) == 3:
+        white_ks = (tuple(upsample_rgb(white_ks[0])), tuple(upsample_rgb(white_ks[1])))
     d = amount.sum(axis=0)
     safe_d = np.where(d > 0, d, F32(1.0))
     conc = amount / safe_d
@@ -102,17 +135,44 @@ def gouache_layer(amount: np.ndarray, pigments: list[Pigment], r_prev: np.ndarra
     return np.clip(out, 0.0, 1.0).astype(F32)
 
 
-def render_state(state: CanvasState, renderer: str) -> np.ndarray:
-    """Linear reflectance of the canvas, float32 (H, W, 3) in [0, 1]."""
+def gouache_white_ks(state: CanvasState) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """K and S of the gouache's white filler in the state's render bands."""
+    return white_filler(state.palette, state.r_composed.shape[-1])
+
+
+def white_filler(palette: Palette, bands: int) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """K and S of the gouache's white filler per band (3 or 12): the palette's Titanium
+    White, else the packaged values."""
+    white = palette.get("Titanium White") if "Titanium White" in palette else None
+    if bands == 3:
+        return (white.K, white.S) if white is not None else (WHITE_K, WHITE_S)
+    k, s = white.spectra() if white is not None else (upsample_rgb(WHITE_K),
+                                                      upsample_rgb(WHITE_S))
+    return tuple(map(float, k)), tuple(map(float, s))
+
+
+def on_white(amount: np.ndarray, pigments: list[Pigment], bands: int = N_BANDS) -> np.ndarray:
+    """Linear sRGB (..., 3) of ``amount`` (N, h, w) of ``pigments`` as a KM layer over white
+    paper, in ``bands`` render bands (a swatch: the colour the canvas would show)."""
+    white = np.ones((*amount.shape[1:], bands), F32)
+    return to_linear_rgb(km_layer(amount, pigments, white))
+
+
+def render_bands(state: CanvasState, renderer: str) -> np.ndarray:
+    """Reflectance of the canvas per band, float32 (H, W, B) in [0, 1] (what
+    ``new_layer`` stores in ``r_composed``)."""
     pigments = state.slot_pigments()
     n = len(pigments)
     amount = state.p[:n] + state.q[:n]
     if renderer == "gouache":
-        white = state.palette.get("Titanium White") if "Titanium White" in state.palette else None
-        ks = (white.K, white.S) if white is not None else (WHITE_K, WHITE_S)
         return gouache_layer(amount, pigments, state.r_composed, state.params.gouache_opaque,
-                             state.params.gouache_white, ks)
+                             state.params.gouache_white, gouache_white_ks(state))
     return km_layer(amount, pigments, state.r_composed)
+
+
+def render_state(state: CanvasState, renderer: str) -> np.ndarray:
+    """Linear reflectance of the canvas, float32 (H, W, 3) in [0, 1]."""
+    return to_linear_rgb(render_bands(state, renderer))
 
 
 def region_amount(state: CanvasState, ys: slice, xs: slice,
@@ -150,11 +210,10 @@ def render_region(state: CanvasState, renderer: str, ys: slice, xs: slice,
     amount, pigments = region_amount(state, ys, xs, extra)
     r_prev = state.r_composed[ys, xs]
     if renderer == "gouache":
-        white = state.palette.get("Titanium White") if "Titanium White" in state.palette else None
-        ks = (white.K, white.S) if white is not None else (WHITE_K, WHITE_S)
-        return gouache_layer(amount, pigments, r_prev, state.params.gouache_opaque,
-                             state.params.gouache_white, ks)
-    return km_layer(amount, pigments, r_prev)
+        return to_linear_rgb(gouache_layer(amount, pigments, r_prev,
+                                           state.params.gouache_opaque,
+                                           state.params.gouache_white, gouache_white_ks(state)))
+    return to_linear_rgb(km_layer(amount, pigments, r_prev))
 
 
 def to_srgb8(rgb: np.ndarray) -> np.ndarray:

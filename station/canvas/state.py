@@ -13,7 +13,8 @@ Array fields (float32, shape (H, W) unless noted):
   simulated time [s] at which the pattern was written (its age is ``sim_time -
   block_time``; storing the write time instead of an age keeps the field static
   outside active tiles, so tiling cannot change the result);
-- passive: ``r_composed`` (H, W, 3), the reflectance of all dried layers below;
+- passive: ``r_composed`` (H, W, B), the reflectance of all dried layers below per render
+  band (B = ``params.render_bands``: 12 spectral bands, or 3 RGB channels);
 - bookkeeping accumulators, updated inside the passes: ``evaporated`` (water that
   left by evaporation, fluid and capillary; backends fold it into the float64 total
   ``evaporated_folded`` every ``FOLD_EVERY`` steps so float32 per-cell sums stay small
@@ -129,7 +130,7 @@ class CanvasState:
             block=np.ones_like(z), block_time=z.copy(),
             p=np.zeros((n_slots, height, width), np.float32),
             q=np.zeros((n_slots, height, width), np.float32),
-            r_composed=np.zeros((height, width, 3), np.float32),
+            r_composed=np.zeros((height, width, int(params.render_bands)), np.float32),
             evaporated=z.copy(), removed_w=z.copy(),
             removed_p=np.zeros((n_slots, height, width), np.float32),
             tile_ttl=np.zeros((ty, tx), np.int32), tiling=tiling,
@@ -258,7 +259,10 @@ class CanvasState:
             if len(slots) > ns:
                 raise CanvasInputError("more slots than pigment planes", where)
             shapes.update({n: (len(slots), height, width) for n in _STACK_FIELDS})
-            shapes["r_composed"] = (height, width, 3)
+            rc = files.get("r_composed")
+            if rc is not None and rc.ndim == 3 and rc.shape[2] == 3 != params.render_bands:
+                params = params.replace(render_bands=3)  # a state from the RGB renderer
+            shapes["r_composed"] = (height, width, int(params.render_bands))
             shapes["tile_ttl"] = (-(-height // ts), -(-width // ts))
             arrays: dict[str, np.ndarray] = {}
             for name, shape in shapes.items():

@@ -32,7 +32,7 @@ from scipy import ndimage
 
 from station.canvas.paper import make_paper
 from station.canvas.params import CanvasInputError
-from station.canvas.render import WHITE_K, WHITE_S, gouache_layer, km_layer
+from station.canvas.render import gouache_layer, gouache_white_ks, km_layer, to_linear_rgb
 from station.canvas.render import render_state as render_cells
 from station.canvas.state import CanvasState
 
@@ -110,7 +110,7 @@ def render_scaled(state: CanvasState, renderer: str, k: int) -> np.ndarray:
     dcover = edge_coverage(dried, k)
     base = _resample(paper, k)
     r_prev = np.stack([base + dcover * _resample_signed(_extended(diff[..., c], dried), k)
-                       for c in range(3)], axis=-1)
+                       for c in range(diff.shape[-1])], axis=-1)
     r_prev = np.clip(r_prev * (F32(1.0) + shade * hp)[..., None], 0.0, 1.0).astype(F32)
     pigments = state.slot_pigments()
     n = len(pigments)
@@ -130,10 +130,7 @@ def render_scaled(state: CanvasState, renderer: str, k: int) -> np.ndarray:
     amount = (np.stack(amounts) if amounts
               else np.zeros((0, state.height * k, state.width * k), F32)).astype(F32)
     if renderer == "gouache":
-        ks = (WHITE_K, WHITE_S)
-        if "Titanium White" in state.palette:
-            white = state.palette.get("Titanium White")
-            ks = (white.K, white.S)
-        return gouache_layer(amount, pigments, r_prev, state.params.gouache_opaque,
-                             state.params.gouache_white, ks)
-    return km_layer(amount, pigments, r_prev)
+        return to_linear_rgb(gouache_layer(amount, pigments, r_prev,
+                                           state.params.gouache_opaque,
+                                           state.params.gouache_white, gouache_white_ks(state)))
+    return to_linear_rgb(km_layer(amount, pigments, r_prev))

@@ -40,7 +40,7 @@ from station.canvas import operations, reference, tiles
 from station.canvas.palette import Palette
 from station.canvas.paper import make_paper
 from station.canvas.params import CanvasInputError, SimParams, get_profile
-from station.canvas.render import render_state
+from station.canvas.render import render_bands, render_state
 from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
 from station.canvas.stats import canvas_stats
 from station.distributed import decomp, exchange
@@ -61,7 +61,7 @@ def _empty_shell(st: CanvasState) -> CanvasState:
             v = v.copy()
         elif isinstance(v, np.ndarray):
             v = np.zeros((st.n_slots, 0, 0) if name in exchange.STACKS else
-                         (0, 0, 3) if name == "r_composed" else (0, 0), v.dtype)
+                         (0, 0, v.shape[-1]) if name == "r_composed" else (0, 0), v.dtype)
         elif isinstance(v, (list, dict)):
             v = _deep(v)
         kw[name] = v
@@ -78,7 +78,7 @@ def _local_from_shell(shell: CanvasState, rows: int, zeroed: bool = True) -> Can
     loc = shell.copy()
     loc.height = rows
     for n in exchange.ALL_FIELDS:
-        shape = ((rows, shell.width, 3) if n == "r_composed" else
+        shape = ((rows, shell.width, shell.r_composed.shape[-1]) if n == "r_composed" else
                  (shell.n_slots, rows, shell.width) if n in exchange.STACKS else
                  (rows, shell.width))
         # free pigment slots are never moved: stacks always start as zeros
@@ -416,7 +416,7 @@ class DistributedCanvas:
         """``NumpyCanvas.new_layer`` with the layer's float64 totals summed globally."""
         sh, loc = self._shell, self._local
         self.dry()
-        loc.r_composed[...] = render_state(loc, self._renderer_kind)
+        loc.r_composed[...] = render_bands(loc, self._renderer_kind)
         layer = {name: self._global_sum(loc.q[k]) for k, name in enumerate(sh.slots)}
         sh.layers.append(layer)
         for k, name in enumerate(sh.slots):
@@ -529,7 +529,7 @@ class DistributedCanvas:
                 for k, pl in enumerate(planes):
                     full[k] = pl
                 arrays[n] = full
-        arrays["r_composed"] = self._gather_plane(loc.r_composed, (3,))
+        arrays["r_composed"] = self._gather_plane(loc.r_composed, (loc.r_composed.shape[-1],))
         if not self.is_root:
             return None
         st = sh.copy()

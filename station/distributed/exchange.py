@@ -70,15 +70,15 @@ def _views(st: CanvasState, off: int, rect: Rect, names: Sequence[str],
         arr = getattr(st, n)
         if n in STACKS:
             out.append(arr[:slots, a:b, c0:c1])
-        else:  # planes (H, W) and r_composed (H, W, 3)
+        else:  # planes (H, W) and r_composed (H, W, bands)
             out.append(arr[a:b, c0:c1])
     return out
 
 
-def rect_size(rect: Rect, names: Sequence[str], slots: int) -> int:
-    """float32 values of ``names`` in ``rect``."""
+def rect_size(rect: Rect, names: Sequence[str], slots: int, bands: int = 3) -> int:
+    """float32 values of ``names`` in ``rect`` (``bands``: r_composed's render bands)."""
     cells = (rect[1] - rect[0]) * (rect[3] - rect[2])
-    per = sum(slots if n in STACKS else 3 if n == "r_composed" else 1 for n in names)
+    per = sum(slots if n in STACKS else bands if n == "r_composed" else 1 for n in names)
     return cells * per
 
 
@@ -115,7 +115,8 @@ def move(comm: MPI.Comm, src: CanvasState | None, src_off: int, dst: CanvasState
     incoming: list[tuple[np.ndarray, Sequence[Rect]]] = []
     for (a, b), rects in plan.items():
         if b == me and a != me:
-            buf = np.empty(sum(rect_size(r, names, slots) for r in rects), np.float32)
+            bands = dst.r_composed.shape[-1]
+            buf = np.empty(sum(rect_size(r, names, slots, bands) for r in rects), np.float32)
             reqs.append(comm.Irecv(buf, source=a, tag=tag))
             incoming.append((buf, rects))
     sent = 0

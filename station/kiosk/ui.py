@@ -22,7 +22,7 @@ import numpy as np
 
 from station.brush.stamp import brush_kinds
 from station.canvas.palette import Palette
-from station.canvas.render import km_layer, linear_to_srgb
+from station.canvas.render import linear_to_srgb, on_white
 from station.kiosk.views import VIEWS
 
 MAX_MIX = 4  # pigments in one mix (a layer holds 8; a mix of more is mud anyway)
@@ -38,7 +38,7 @@ def swatch(palette: Palette, mix: dict[str, float], thickness: float = 0.35
         return (1.0, 1.0, 1.0)
     pigs = [palette.get(n) for n in mix]
     amount = np.array([[[thickness * v / total]] for v in mix.values()], np.float32)
-    rgb = km_layer(amount, pigs, np.ones((1, 1, 3), np.float32))[0, 0]
+    rgb = on_white(amount, pigs)[0, 0]
     srgb = linear_to_srgb(rgb)
     return (float(srgb[0]), float(srgb[1]), float(srgb[2]))
 

@@ -20,7 +20,7 @@ from station.canvas import reference
 from station.canvas.errors import CanvasInputError
 from station.canvas.operations import add_sources
 from station.canvas.params import SimParams
-from station.canvas.render import km_layer
+from station.canvas.render import on_white
 from station.canvas.state import CanvasState
 from station.tools.footprint import F32, check
 
@@ -80,7 +80,7 @@ class MixingWell:
             return (1.0, 1.0, 1.0)
         pigs = [st.palette.get(n) for n in mix]
         amount = np.array([[[v * self.pigment_load]] for v in mix.values()], F32)
-        rgb = km_layer(amount, pigs, np.ones((1, 1, 3), F32))
+        rgb = on_white(amount, pigs, self.state.r_composed.shape[-1])
         return float(rgb[0, 0, 0]), float(rgb[0, 0, 1]), float(rgb[0, 0, 2])
 
     def clear(self) -> None:

@@ -38,7 +38,7 @@ from station.canvas import operations, reference
 from station.canvas.palette import Palette
 from station.canvas.params import CanvasInputError, SimParams
 from station.canvas.profiles import get_profile, profile_palette
-from station.canvas.render import WHITE_K, WHITE_S, _coefficients
+from station.canvas.render import _coefficients, band_matrix, render_bands, white_filler
 from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
 from station.canvas.stats import canvas_stats
 
@@ -102,12 +102,13 @@ class GLCanvas:
         self.ctx = create_context(gl_backend) if ctx is None else ctx
         self.limits = query_limits(self.ctx)
         self.renderer = self.limits.renderer
-        self._shape: tuple[int, int, int, int] | None = None
+        self._shape: tuple[int, int, int, int, int] | None = None
         self._programs: dict[str, Any] = {}
         self.load_state(blank)
 
     # ------------------------------------------------------------ allocation
-    def _allocate(self, width: int, height: int, n_slots: int, tile: int) -> None:
+    def _allocate(self, width: int, height: int, n_slots: int, tile: int,
+                  bands: int = 3) -> None:
         """(Re)create textures, buffers and programs for this canvas geometry."""
         if max(width, height) > self.limits.max_texture_size:
             raise CanvasInputError(
@@ -129,7 +130,9 @@ class GLCanvas:
         self.groups = (-(-tile // lx), -(-tile // ly))
         if self.ntiles > self.limits.max_work_group_count[2]:
             raise CanvasInputError(f"too many tiles ({self.ntiles}) for this GPU", "--size")
-        self.f = tx.allocate(ctx, width, height, self.npl)
+        self.bands = int(bands)
+        self.nrl = -(-self.bands // 4)
+        self.f = tx.allocate(ctx, width, height, self.npl, self.nrl)
         # scratch: aux = (v1, w) right-hand sides; jv = (xv, xw, wb) iterate, then limiters;
         # jd = pigment iterate, then pigment limiters
         self.aux = ctx.texture((width, height), 4, dtype="f4")
@@ -153,7 +156,7 @@ class GLCanvas:
         self.b_added = ctx.buffer(reserve=8 * self.nacc * self.src_groups[0]
                                   * self.src_groups[1])
         self.b_folded = ctx.buffer(reserve=8 * self.src_groups[0] * self.src_groups[1])
-        defines = {"NPL": self.npl, "TILE": tile, "LX": lx, "LY": ly}
+        defines = {"NPL": self.npl, "TILE": tile, "LX": lx, "LY": ly, "NBANDS": self.bands}
         self._programs = {name: compile_compute(ctx, fname, {**defines, **extra})
                           for name, (fname, extra) in _PROGRAMS.items()}
         for prog in self._programs.values():
@@ -162,7 +165,7 @@ class GLCanvas:
             _set(prog, "u_tiles_y", self.tiles_y)
             _set(prog, "u_tiles", (self.tiles_x, self.tiles_y))
             _set(prog, "u_ntiles", n)
-        self._shape = (width, height, n_slots, tile)
+        self._shape = (width, height, n_slots, tile, self.bands)
 
     def _release_resources(self) -> None:
         for name in ("aux", "pr", "srcw", "srcp", "rgb", "b_list", "b_alive", "b_ttl", "b_prev",
@@ -192,7 +195,8 @@ class GLCanvas:
     def load_state(self, state: CanvasState) -> None:
         """Upload ``state`` completely (both textures of every ping-pong pair)."""
         st = state
-        shape = (st.width, st.height, st.n_slots, int(st.params.tile_size))
+        shape = (st.width, st.height, st.n_slots, int(st.params.tile_size),
+                 st.r_composed.shape[-1])
         if shape != self._shape:
             self._allocate(*shape)
         f = self.f
@@ -207,8 +211,8 @@ class GLCanvas:
             t.write(tx.pack_stack(st.p, self.npl).tobytes())
         f["dep"].src.write(tx.pack_stack(st.q, self.npl).tobytes())
         f["rem"].src.write(tx.pack_stack(st.removed_p, self.npl).tobytes())
-        rc = np.concatenate([st.r_composed, np.ones((*st.r_composed.shape[:2], 1), F32)], -1)
-        f["rcomp"].src.write(np.ascontiguousarray(rc, F32).tobytes())
+        rc = tx.pack_stack(np.moveaxis(st.r_composed, -1, 0), self.nrl)
+        f["rcomp"].src.write(rc.tobytes())
         for fld in f.values():
             fld.cur = 0
         self.b_ttl.write(np.ascontiguousarray(st.tile_ttl, np.int32).tobytes())
@@ -251,7 +255,8 @@ class GLCanvas:
         p = tx.unpack_stack(self._read(f["pig"].src), self.n_slots, npl, hh, ww)
         q = tx.unpack_stack(self._read(f["dep"].src), self.n_slots, npl, hh, ww)
         rp = tx.unpack_stack(self._read(f["rem"].src), self.n_slots, npl, hh, ww)
-        rc = np.frombuffer(self._read(f["rcomp"].src), F32).reshape(hh, ww, 4)[..., :3]
+        rc = np.moveaxis(tx.unpack_stack(self._read(f["rcomp"].src), self.bands, self.nrl,
+                                         hh, ww), 0, -1)
         ttl = np.frombuffer(self.b_ttl.read(), np.int32).reshape(self.tiles_y, self.tiles_x)
         added = np.frombuffer(self.b_added.read(), np.float64).reshape(-1, self.nacc).sum(0)
         pig_added = dict(self.pigment_added_base)
@@ -647,8 +652,10 @@ class GLCanvas:
 
     def new_layer(self) -> None:
         self.dry()
-        composed = self.render()
-        self._via_state(lambda st: operations.new_layer(st, composed))
+        # the dried canvas per render band (r_composed), from the read-back state by the
+        # reference: the GPU render keeps only RGB, and a layer change is rare
+        kind = self._renderer_kind
+        self._via_state(lambda st: operations.new_layer(st, render_bands(st, kind)))
 
     def clear(self) -> None:
         self._via_state(operations.clear)
@@ -690,21 +697,22 @@ class GLCanvas:
         kind = self._renderer_kind
         prog = self._programs["render_gouache" if kind == "gouache" else "render_km"]
         n = 4 * self.npl
+        nb = self.bands
         pigs = [self.palette.get(s) for s in self.slots]
-        kk = np.zeros((n, 3), F32)
-        ss = np.ones((n, 3), F32)
+        kk = np.zeros((n, nb), F32)
+        ss = np.ones((n, nb), F32)
         if pigs:
-            k_used, s_used = _coefficients(pigs)
+            k_used, s_used = _coefficients(pigs, nb)
             kk[:len(pigs)], ss[:len(pigs)] = k_used, s_used
-        white = (self.palette.get("Titanium White") if "Titanium White" in self.palette
-                 else None)
-        white_k, white_s = (white.K, white.S) if white is not None else (WHITE_K, WHITE_S)
+        # the filler as the reference takes it (the palette's Titanium White, per band)
+        white_k, white_s = white_filler(self.palette, nb)
         _set(prog, "u_white", self.params.gouache_white)
-        _set(prog, "u_white_K", tuple(map(float, white_k)))
-        _set(prog, "u_white_S", tuple(map(float, white_s)))
+        _set(prog, "u_white_K", [float(v) for v in white_k])
+        _set(prog, "u_white_S", [float(v) for v in white_s])
         _set(prog, "u_used", len(pigs))
-        _set(prog, "u_K", [tuple(map(float, r)) for r in kk])
-        _set(prog, "u_S", [tuple(map(float, r)) for r in ss])
+        _set(prog, "u_K", [float(v) for v in kk.ravel()])
+        _set(prog, "u_S", [float(v) for v in ss.ravel()])
+        _set(prog, "u_to_rgb", [float(v) for v in band_matrix(nb).ravel()])
         _set(prog, "u_opaque", max(self.params.gouache_opaque, 1e-6))
         f = self.f
         self._bind(1, f["pig"].src, True, False)

@@ -13,7 +13,8 @@ texture     format      pp     channels
 ``pig``     RGBA32F[L]  yes    suspended pigment p, 4 slots per layer (L = S/4)
 ``dep``     RGBA32F[L]  no     deposited pigment q, 4 slots per layer
 ``rem``     RGBA32F[L]  no     removed pigment (tool accumulator)
-``rcomp``   RGBA32F     no     r_composed RGB, 1
+``rcomp``   RGBA32F[R]  no     r_composed per render band, 4 bands per layer (R = 1 for
+                               RGB, 3 for the 12 spectral bands)
 ``fibre``   RG32F       no     the paper's fibre texture: along x, along y (static)
 ==========  ==========  =====  ===========================================
 
@@ -62,8 +63,10 @@ class Field:
         return width * height * self.components * max(self.layers, 1) * 4
 
 
-def allocate(ctx: Any, width: int, height: int, n_layers: int) -> dict[str, Field]:
-    """Create every state texture of a ``width`` x ``height`` canvas (zeros)."""
+def allocate(ctx: Any, width: int, height: int, n_layers: int,
+             rcomp_layers: int = 1) -> dict[str, Field]:
+    """Create every state texture of a ``width`` x ``height`` canvas (zeros);
+    ``rcomp_layers``: layers of 4 render bands for ``r_composed``."""
     specs = [
         Field("vel", 2, 0, True),
         Field("water", 4, 0, True),
@@ -71,7 +74,7 @@ def allocate(ctx: Any, width: int, height: int, n_layers: int) -> dict[str, Fiel
         Field("pig", 4, n_layers, True),
         Field("dep", 4, n_layers, False),
         Field("rem", 4, n_layers, False),
-        Field("rcomp", 4, 0, False),
+        Field("rcomp", 4, rcomp_layers, False),
         Field("fibre", 2, 0, False),
     ]
     out: dict[str, Field] = {}
