@@ -81,7 +81,8 @@ C_RELIEF = 26     # paper_relief
 C_WICK = 27       # fibre_wick
 C_TILTX = 28      # tilt kick x: float32(ax * dt)
 C_TILTY = 29      # tilt kick y
-N_CONST = 30
+C_DISP = 30       # fibre_dispersivity / nu_p (SimParams.fibre_dispersion_gain)
+N_CONST = 31
 
 # the sweeps: rows in parallel; IEEE float32 maths exactly as written (no fastmath, no FMA
 # contraction), numpy's error model (division without ZeroDivision checks: every division
@@ -115,6 +116,19 @@ def zero_ring3(a: np.ndarray, ns: int, bh: int, bw: int) -> None:
 
 
 # ------------------------------------------------------------------ prep
+@_inline
+def _fibre_dispersion(fibre: np.ndarray, vx: np.ndarray, vy: np.ndarray, y: int,
+                      x: np.uint64, gd: np.float32) -> np.float32:
+    """``1 + gd * (max(fibre[0], fibre[1]) * |v|)``: the factor on beta_c of a cell whose
+    fibre channels disperse the pigment moving water carries (reference ``blocking``,
+    ``water_speed``; v at the start of the step)."""
+    f0 = fibre[0, y, x]
+    f1 = fibre[1, y, x]
+    u = vx[y, x]
+    v = vy[y, x]
+    return ONE + gd * ((f0 if f0 > f1 else f1) * np.sqrt(u * u + v * v))
+
+
 @_parallel
 def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np.ndarray,
          p: np.ndarray, h: np.ndarray, block: np.ndarray, block_time: np.ndarray,
@@ -125,8 +139,8 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
     """Wet mask (once per step; own water, or the advancing contact line: a neighbour's
     w above ``advance_height (1.5 - h)``, lowered along the paper's fibres by
     ``1 - fibre_wick * fibre[axis]`` for the neighbours on that axis; cells outside the box
-    count as w = 0), the own wet area, copies, beta_c (diffusion controller), capacity,
-    open."""
+    count as w = 0), the own wet area, copies, beta_c (diffusion controller, times the
+    fibre dispersion), capacity, open."""
     moist = cst[C_MOIST]
     adv = cst[C_ADV]
     wick = cst[C_WICK]
@@ -136,6 +150,7 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
     bpaper = cst[C_BPAPER]
     cmin = cst[C_CMIN]
     cspan = cst[C_CSPAN]
+    disp = cst[C_DISP]
     for j in prange(1, bh + 1):
         y = y0 + j - 1
         for i in range(1, bw + 1):
@@ -177,7 +192,10 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                 age = ONE
             eff = b + (ONE - b) * age
             paper = ONE - bpaper * (ONE - hv)
-            bc_o[j, i] = paper if paper < eff else eff
+            bcv = paper if paper < eff else eff
+            if disp > ZERO:
+                bcv = bcv * _fibre_dispersion(fibre, vx, vy, y, x, disp)
+            bc_o[j, i] = bcv
             c_o[j, i] = cmin + hv * cspan
             opn_o[j, i] = ONE if un else ZERO
         for k in range(ns):
