@@ -23,6 +23,7 @@ uniform float u_block_paper;  // share of paper height in the blocking value
 uniform float u_advance;      // advance_height [height] (0: contact line pinned)
 uniform float u_wick;         // fibre_wick: a fibre along the axis lowers the advancing height
 uniform float u_disperse;     // fibre_dispersivity / nu_p [s/cell]: dispersion along fibre channels
+uniform float u_fibre_flow_max;  // [cell/s] water moves through the fibre channels no faster
 
 bool wet_at(ivec2 c) {
     vec4 wa = imageLoad(water_in, c);
@@ -59,11 +60,12 @@ void main() {
     float eff = pa.z + (1.0 - pa.z) * age;
     float beta_c = min(1.0 - u_block_paper * (1.0 - pa.x), eff);
     if (u_disperse > 0.0) {
-        // times 1 + gd * (max(fibre along x, along y) * |v|), v at the start of the step:
-        // moving water disperses its pigment along the fibre channels (D = alpha |v|)
+        // times 1 + gd * (max(fibre along x, along y) * min(|v|, fibre_flow_max)), v at the
+        // start of the step: moving water disperses its pigment along the fibre channels
         vec2 fd = imageLoad(fibre_in, c).xy;
         vec2 v0 = imageLoad(vel_in, c).xy;
-        beta_c = beta_c * (1.0 + u_disperse * (max(fd.x, fd.y) * sqrt(v0.x * v0.x + v0.y * v0.y)));
+        float s = min(sqrt(v0.x * v0.x + v0.y * v0.y), u_fibre_flow_max);
+        beta_c = beta_c * (1.0 + u_disperse * (max(fd.x, fd.y) * s));
     }
     vec2 v1 = vec2(0.0);
     if (wet) {

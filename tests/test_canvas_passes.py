@@ -122,7 +122,7 @@ def test_fibre_dispersion_follows_moving_water_along_fibres() -> None:
     fibre = np.zeros((2, 2, 3), np.float32)
     fibre[0, :, 1] = 0.5  # a fibre along x through column 1
     fibre[1, :, 2] = 1.0  # one along y through column 2
-    speed = np.array([[3.0, 3.0, 3.0], [0.0, 0.0, 0.0]], np.float32)
+    speed = np.array([[3.0, 3.0, 3.0], [0.0, 0.0, 0.0]], np.float32)  # already capped
     prm = PRM.replace(fibre_dispersivity=4.5, nu_p=0.3)
     beta = ref.blocking(h, block, t0, 5.0, prm, fibre, speed)
     gd = np.float32(4.5 / 0.3)
@@ -131,7 +131,11 @@ def test_fibre_dispersion_follows_moving_water_along_fibres() -> None:
     assert beta[0, 2] == np.float32(1) + gd * np.float32(3)
     off = ref.blocking(h, block, t0, 5.0, PRM, fibre, speed)
     assert (off == 1.0).all()  # fibre_dispersivity 0: the plain controller
-    assert ref.water_speed(np.float32([[3.0]]), np.float32([[4.0]]))[0, 0] == 5.0
+    assert ref.water_speed(np.float32([[3.0]]), np.float32([[4.0]]), PRM.replace(
+        fibre_flow_max=9.0))[0, 0] == 5.0
+    # a film the brush drives fast moves over the paper, not faster through its channels
+    assert ref.water_speed(np.float32([[30.0]]), np.float32([[0.0]]), PRM)[0, 0] == np.float32(
+        PRM.fibre_flow_max)
     assert prm.fibre_dispersion_gain() == 4.5 / 0.3
     assert PRM.replace(fibre_dispersivity=4.5, nu_p=0.0).fibre_dispersion_gain() == 0.0
 

@@ -145,7 +145,7 @@ def test_prep_fibre_dispersion(ctx) -> None:
     c._pass_prep()
     wet = ref.wet_mask(st.w, st.wc, st.mask, st.params, st.h, st.fibre)
     beta_c = ref.blocking(st.h, st.block, st.block_time, st.sim_time, st.params, st.fibre,
-                          ref.water_speed(st.vx, st.vy))
+                          ref.water_speed(st.vx, st.vy, st.params))
     jv = read_rgba(c, c.jv[0])
     close("beta_c", jv[..., 3][wet], beta_c[wet])
     assert (beta_c[wet] > 2).sum() > 50  # the fibres' dispersion is in play

@@ -72,6 +72,10 @@ class SimParams:
             the diffusion-controller value is multiplied by
             ``1 + (alpha / nu_p) * max(fibre) * |v|``; the pigment the brush's water pushes
             into a wet wash feathers along the fibres, a calm wash is untouched. 0: off.
+        fibre_flow_max: the fastest water moves through the paper's fibre channels
+            [cell/s] (capillary/Darcy flow in paper is about a millimetre per second); the
+            fibre dispersion uses ``min(|v|, fibre_flow_max)``: a film the brush drives
+            faster moves over the paper, not faster through it.
         paper_relief: relief of the paper under the water [height per unit of ``h``]: the
             water-height term levels the free surface ``w + paper_relief * h``, so water
             runs off the paper's hills into its valleys (Curtis 1997's flow down the paper
@@ -130,6 +134,7 @@ class SimParams:
     cap_diffusion: float = 1.5
     fibre_wick: float = 0.0
     fibre_dispersivity: float = 0.0
+    fibre_flow_max: float = 2.0
     eps_cap: float = 0.004
     temperature: float = 20.0
     humidity: float = 0.5

@@ -43,7 +43,8 @@ CHANGED: pass 3 adds the tilt's gravity ``(ax dt, ay dt)`` after the blend, befo
   boundary (new SimParams ``tilt``, ``tilt_direction``, ``gravity``; flat by default).
 CHANGED: pass 5's beta_c is multiplied by ``1 + gd * (max(fibre[0], fibre[1]) * |v0|)``,
   ``gd = float32(SimParams.fibre_dispersion_gain()) = fibre_dispersivity / nu_p``, ``|v0| =
-  sqrt(vx*vx + vy*vy)`` of the velocity at the START of the step (before pass 1): hydrodynamic
+  min(sqrt(vx*vx + vy*vy), fibre_flow_max)`` of the velocity at the START of the step
+  (before pass 1; new SimParams ``fibre_flow_max``, 2 cell/s): hydrodynamic
   dispersion ``D = alpha |v|`` along the paper's fibre channels (new SimParams
   ``fibre_dispersivity``, 0 = off; the watercolor profile sets it, and cold-press paper now
   has a fibre texture). Face conductances may exceed 1.
@@ -104,7 +105,7 @@ the same float32 value on both sides).
 
 5. ``diffuse_pigment``: the same with ``k = nu_p*dt`` and the diffusion controller:
    cell value ``beta_c = min(1 - block_paper*(1 - h), block_eff)``, times
-   ``(1 + gd * (max(fibre[0], fibre[1]) * sqrt(vx0*vx0 + vy0*vy0)))`` when
+   ``(1 + gd * (max(fibre[0], fibre[1]) * min(sqrt(vx0*vx0 + vy0*vy0), fibre_flow_max)))`` when
    ``gd = fibre_dispersivity / nu_p > 0`` (v0: the velocity at the start of the step;
    hydrodynamic dispersion along the paper's fibre channels),
    ``block_eff = block + (1 - block) * clamp((sim_time - block_time)/block_fade, 0, 1)``
@@ -222,9 +223,10 @@ def wet_mask(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams,
     return own
 
 
-def water_speed(vx: np.ndarray, vy: np.ndarray) -> np.ndarray:
-    """``sqrt(vx*vx + vy*vy)`` [cell/s], float32 (the fibre dispersion's speed)."""
-    return np.sqrt(vx * vx + vy * vy).astype(F32)
+def water_speed(vx: np.ndarray, vy: np.ndarray, prm: SimParams) -> np.ndarray:
+    """The fibre dispersion's water speed ``min(sqrt(vx*vx + vy*vy), fibre_flow_max)``
+    [cell/s], float32: water moves through the paper's channels no faster than that."""
+    return np.minimum(np.sqrt(vx * vx + vy * vy), F32(prm.fibre_flow_max)).astype(F32)
 
 
 def open_faces(wet: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -675,7 +677,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     qq = q[:n_used]
 
     fib = state.fibre[:, ys, xs]
-    speed0 = water_speed(vx, vy) if prm.fibre_dispersion_gain() > 0 else None
+    speed0 = water_speed(vx, vy, prm) if prm.fibre_dispersion_gain() > 0 else None
     wet = wet_mask(w, wc, mask, prm, h, fib)
     for name in PASS_ORDER:
         if name == "advect_velocity":
