@@ -1,7 +1,7 @@
 #version 430
 // prep.comp: once per step, after the sources.  Reference: wet_mask (own water, or the
 // advancing contact line), blocking (diffusion
-// controller beta_c) and pass 1 advect_velocity (semi-Lagrangian back-trace, bilinear).
+// controller beta_c, times the fibre dispersion) and pass 1 advect_velocity (semi-Lagrangian back-trace, bilinear).
 // Writes aux = (v1, w) (the right-hand sides of the velocity and water diffusions, read
 // by every Jacobi iteration in one load) and the first Jacobi
 // iterate jv = (v1x, v1y, w, wb), wb = beta_c on wet cells, -1 elsewhere.
@@ -22,6 +22,8 @@ uniform float u_block_fade;   // [s]
 uniform float u_block_paper;  // share of paper height in the blocking value
 uniform float u_advance;      // advance_height [height] (0: contact line pinned)
 uniform float u_wick;         // fibre_wick: a fibre along the axis lowers the advancing height
+uniform float u_disperse;     // fibre_dispersivity / nu_p [s/cell]: dispersion along fibre channels
+uniform float u_fibre_flow_max;  // [cell/s] water moves through the fibre channels no faster
 
 bool wet_at(ivec2 c) {
     vec4 wa = imageLoad(water_in, c);
@@ -57,6 +59,14 @@ void main() {
     float age = u_block_fade > 0.0 ? clamp((u_sim_time - pa.w) / u_block_fade, 0.0, 1.0) : 1.0;
     float eff = pa.z + (1.0 - pa.z) * age;
     float beta_c = min(1.0 - u_block_paper * (1.0 - pa.x), eff);
+    if (u_disperse > 0.0) {
+        // times 1 + gd * (max(fibre along x, along y) * min(|v|, fibre_flow_max)), v at the
+        // start of the step: moving water disperses its pigment along the fibre channels
+        vec2 fd = imageLoad(fibre_in, c).xy;
+        vec2 v0 = imageLoad(vel_in, c).xy;
+        float s = min(sqrt(v0.x * v0.x + v0.y * v0.y), u_fibre_flow_max);
+        beta_c = beta_c * (1.0 + u_disperse * (max(fd.x, fd.y) * s));
+    }
     vec2 v1 = vec2(0.0);
     if (wet) {
         // back-trace X = i - v dt, bilinear; the weight comes from the displacement

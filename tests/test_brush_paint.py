@@ -200,10 +200,14 @@ def test_dirty_brush_carries_blue_into_a_yellow_stroke() -> None:
     s.brush(size=12, water=0.9, pigment={"Hansa Yellow": 0.8}, kind="round3d")
     s.line((0.1, 0.5), (0.9, 0.5), 0.5, pressure=0.7)
     s.wait(0.2)
-    be = create_backend("numpy", W, H, "watercolor", 4)
+    # the brush's transport alone: the canvas's wet-in-wet dispersion along the paper's
+    # fibres (fibre_dispersivity) bleeds the two fresh strokes into each other both ways
+    prm = get_profile("watercolor").params.replace(fibre_dispersivity=0.0)
+    be = create_backend("numpy", W, H, "watercolor", 4, params=prm)
     player = SessionPlayer(be, W, H, "watercolor")
     player.play(s.records)
     st = be.live_state
+    assert st.params.fibre_dispersivity == 0.0
     blue = st.slots.index("French Ultramarine")
     amount = st.p[blue] + st.q[blue]
     # blue beyond the blue stripe, along the yellow stroke's path after it

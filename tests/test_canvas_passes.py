@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from station.canvas import reference as ref
-from station.canvas.params import SimParams
+from station.canvas.params import CanvasInputError, SimParams
 
 PRM = SimParams()
 DT = PRM.dt
@@ -111,6 +111,42 @@ def test_blocking_fades_with_age() -> None:
     paper = ref.blocking(np.zeros((2, 2), np.float32), np.ones((2, 2), np.float32), written, 0,
                          PRM.replace(block_paper=0.7))
     assert np.allclose(paper, 0.3)
+
+
+def test_fibre_dispersion_follows_moving_water_along_fibres() -> None:
+    """beta_c times 1 + (alpha / nu_p) max(fibre) |v|: only where water moves through a
+    cell crossed by fibres; still water and fibre-free cells keep the plain value."""
+    h = np.full((2, 3), 0.5, np.float32)
+    block = np.ones((2, 3), np.float32)
+    t0 = np.zeros((2, 3), np.float32)
+    fibre = np.zeros((2, 2, 3), np.float32)
+    fibre[0, :, 1] = 0.5  # a fibre along x through column 1
+    fibre[1, :, 2] = 1.0  # one along y through column 2
+    speed = np.array([[3.0, 3.0, 3.0], [0.0, 0.0, 0.0]], np.float32)  # already capped
+    prm = PRM.replace(fibre_dispersivity=4.5, nu_p=0.3)
+    beta = ref.blocking(h, block, t0, 5.0, prm, fibre, speed)
+    gd = np.float32(4.5 / 0.3)
+    assert beta[0, 0] == 1.0 and (beta[1] == 1.0).all()  # no fibre / still water
+    assert beta[0, 1] == np.float32(1) + gd * (np.float32(0.5) * np.float32(3))
+    assert beta[0, 2] == np.float32(1) + gd * np.float32(3)
+    off = ref.blocking(h, block, t0, 5.0, PRM, fibre, speed)
+    assert (off == 1.0).all()  # fibre_dispersivity 0: the plain controller
+    assert ref.water_speed(np.float32([[3.0]]), np.float32([[4.0]]), PRM.replace(
+        fibre_flow_max=9.0))[0, 0] == 5.0
+    # a film the brush drives fast moves over the paper, not faster through its channels
+    assert ref.water_speed(np.float32([[30.0]]), np.float32([[0.0]]), PRM)[0, 0] == np.float32(
+        PRM.fibre_flow_max)
+    assert prm.fibre_dispersion_gain() == 4.5 / 0.3
+    assert PRM.replace(fibre_dispersivity=4.5, nu_p=0.0).fibre_dispersion_gain() == 0.0
+
+
+def test_fibre_dispersivity_is_validated() -> None:
+    for bad in (-1.0, 101.0, float("nan")):
+        try:
+            PRM.replace(fibre_dispersivity=bad)
+        except CanvasInputError:
+            continue
+        raise AssertionError(f"fibre_dispersivity={bad} accepted")
 
 
 def test_evaporation_is_faster_at_stroke_edges_and_booked() -> None:

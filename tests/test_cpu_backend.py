@@ -288,3 +288,20 @@ def test_fibre_wick_on_rough_paper_is_bitwise_equal() -> None:
     for f in FIELDS:
         assert np.array_equal(getattr(a.live_state, f), getattr(b.live_state, f)), f
     assert not np.array_equal(a.live_state.w, flat.live_state.w)
+
+
+def test_fibre_dispersion_on_cold_press_is_bitwise_equal() -> None:
+    """The watercolor profile's dispersion along the paper's fibre channels (pass 5's
+    beta_c times 1 + gd max(fibre) |v|) agrees bit for bit, and it changes the painting."""
+    a = _random_canvas(NumpyCanvas, 6)
+    b = _random_canvas(CpuCanvas, 6)
+    prm = a.live_state.params
+    assert prm.fibre_dispersivity > 0 and a.live_state.fibre.any()
+    plain = _random_canvas(NumpyCanvas, 6,
+                           params=dataclasses.replace(prm, fibre_dispersivity=0.0))
+    for _ in range(30):
+        for c in (a, b, plain):
+            c.step()
+    for f in FIELDS:
+        assert np.array_equal(getattr(a.live_state, f), getattr(b.live_state, f)), f
+    assert not np.array_equal(a.live_state.p, plain.live_state.p)

@@ -137,6 +137,37 @@ def test_prep_front_runs_along_fibres(ctx) -> None:
     assert (wet & ~plain).sum() >= 5  # the fibres carried the front on
 
 
+def test_prep_fibre_dispersion(ctx) -> None:
+    """fibre_dispersivity: beta_c times 1 + gd max(fibre) |v| (v at the step's start)."""
+    st = random_state(3, params=SimParams(fibre_dispersivity=4.5))
+    st.fibre = make_fibres("cold-press", H, W, 3)
+    c = gl_canvas(ctx, st)
+    c._pass_prep()
+    wet = ref.wet_mask(st.w, st.wc, st.mask, st.params, st.h, st.fibre)
+    beta_c = ref.blocking(st.h, st.block, st.block_time, st.sim_time, st.params, st.fibre,
+                          ref.water_speed(st.vx, st.vy, st.params))
+    jv = read_rgba(c, c.jv[0])
+    close("beta_c", jv[..., 3][wet], beta_c[wet])
+    assert (beta_c[wet] > 2).sum() > 50  # the fibres' dispersion is in play
+
+
+def test_full_step_with_fibre_dispersion_matches_reference(ctx) -> None:
+    st = random_state(4, params=SimParams(fibre_dispersivity=4.5))
+    st.fibre = make_fibres("cold-press", H, W, 4)
+    c = gl.GLCanvas(W, H, ctx=ctx, tiling=False)
+    c.load_state(st)
+    c.step()
+    got = c.state()
+    want = st.copy()
+    ref.step(want)
+    for name in ("vx", "vy", "w", "wc", "p", "q", "evaporated"):
+        close(name, getattr(got, name), getattr(want, name))
+    plain = st.copy()
+    plain.params = SimParams()
+    ref.step(plain)
+    assert not np.array_equal(plain.p, want.p)  # the dispersion changed the step
+
+
 @pytest.mark.parametrize("iters", [1, 4])
 def test_velocity_water_pigment_diffusion(ctx, iters: int) -> None:
     # paper relief on for odd counts: pass 3 then levels (w + relief h) - eta (1 - M')

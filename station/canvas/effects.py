@@ -131,9 +131,10 @@ def _drop(wait_s: float, wash: float) -> tuple[NumpyCanvas, np.ndarray]:
     return c, fp
 
 
-def wet_in_wet() -> Effect:
-    """A stroke (an r = 5 stamp moving one cell per step, 40 steps) into a 2 s old wash."""
-    c = NumpyCanvas(96, 64, seed=2)
+def wet_in_wet(params: SimParams | None = None) -> Effect:
+    """A stroke (an r = 5 stamp moving one cell per step, 40 steps) into a 2 s old wash
+    (``params`` replace the watercolor profile's, for comparisons)."""
+    c = NumpyCanvas(96, 64, seed=2, params=params)
     paint(c, rect(64, 96, 2, 62, 2, 94), 0.6)
     for _ in range(60):
         c.step()

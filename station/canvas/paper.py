@@ -40,8 +40,10 @@ class PaperPreset:
 PAPER_PRESETS: dict[str, PaperPreset] = {
     # smooth hot-pressed paper: large soft cells, narrow height range
     "hot-press": PaperPreset("hot-press", ((12.0, 1.0), (5.0, 0.3)), 0.3, 0.7),
-    # the watercolourist's cold-pressed paper: medium tooth, full range
-    "cold-press": PaperPreset("cold-press", ((7.0, 1.0), (3.0, 0.5)), 0.0, 1.0),
+    # the watercolourist's cold-pressed paper: medium tooth, full range, and a felt of
+    # cotton fibres (channels along which moving water disperses its pigment: wet-in-wet)
+    "cold-press": PaperPreset("cold-press", ((7.0, 1.0), (3.0, 0.5)), 0.0, 1.0,
+                              fibres=(0.5, 12.0)),
     # rough / absorbent paper for ink (xuan-like): small cells plus fine fibre noise, and a
     # felt of long fibres the ink wicks along
     "rough": PaperPreset("rough", ((4.0, 1.0), (2.0, 0.7), (1.3, 0.4)), 0.0, 1.0,

@@ -65,6 +65,17 @@ class SimParams:
             water runs freely along a whole fibre, the ink bleed of absorbent paper) [1];
             0: the fibre texture is not used.
             the contact line creeps on where the paper lets it, so edges follow the grain.
+        fibre_dispersivity: longitudinal dispersivity of the paper's fibre channels [cells]
+            (hydrodynamic dispersion in a porous medium, Bear 1972: ``D = alpha |v|``):
+            where water moves at speed ``|v|`` through a cell crossed by fibres, suspended
+            pigment disperses with ``nu_p + alpha * max(fibre[0], fibre[1]) * |v|``, i.e.
+            the diffusion-controller value is multiplied by
+            ``1 + (alpha / nu_p) * max(fibre) * |v|``; the pigment the brush's water pushes
+            into a wet wash feathers along the fibres, a calm wash is untouched. 0: off.
+        fibre_flow_max: the fastest water moves through the paper's fibre channels
+            [cell/s] (capillary/Darcy flow in paper is about a millimetre per second); the
+            fibre dispersion uses ``min(|v|, fibre_flow_max)``: a film the brush drives
+            faster moves over the paper, not faster through it.
         paper_relief: relief of the paper under the water [height per unit of ``h``]: the
             water-height term levels the free surface ``w + paper_relief * h``, so water
             runs off the paper's hills into its valleys (Curtis 1997's flow down the paper
@@ -124,6 +135,8 @@ class SimParams:
     alpha: float = 0.03
     cap_diffusion: float = 1.5
     fibre_wick: float = 0.0
+    fibre_dispersivity: float = 0.0
+    fibre_flow_max: float = 2.0
     eps_cap: float = 0.004
     temperature: float = 20.0
     humidity: float = 0.5
@@ -185,6 +198,8 @@ class SimParams:
             raise CanvasInputError("humidity must lie in [0, 0.99]", "params")
         if not 0 <= self.fibre_wick <= 1:
             raise CanvasInputError("fibre_wick must be in [0, 1]", "params")
+        if self.fibre_dispersivity > 100:
+            raise CanvasInputError("fibre_dispersivity must be <= 100 cells", "params")
         if not 0 <= self.block_paper <= 1:
             raise CanvasInputError("block_paper must lie in [0, 1]", "params")
         if not 0 <= self.tilt <= 90:
@@ -219,6 +234,13 @@ class SimParams:
     def evap_cap(self) -> float:
         """Capillary-layer evaporation rate in this air [height/s]."""
         return self.eps_cap * self.drying_power()
+
+    def fibre_dispersion_gain(self) -> float:
+        """``fibre_dispersivity / nu_p`` [s/cell]: the factor on ``max(fibre) * |v|`` in
+        beta_c (0 when either is 0)."""
+        if self.fibre_dispersivity <= 0 or self.nu_p <= 0:
+            return 0.0
+        return self.fibre_dispersivity / self.nu_p
 
     def replace(self, **changes: Any) -> SimParams:
         """A copy with ``changes`` applied (validated)."""

@@ -41,6 +41,13 @@ NOTE (API): ``stencil_radius(params) = jacobi_iters + STENCIL_RADIUS_EXTRA`` bou
   ``STENCIL_RADIUS_EXTRA`` (``tests/test_stencil_radius.py`` measures it).
 CHANGED: pass 3 adds the tilt's gravity ``(ax dt, ay dt)`` after the blend, before the
   boundary (new SimParams ``tilt``, ``tilt_direction``, ``gravity``; flat by default).
+CHANGED: pass 5's beta_c is multiplied by ``1 + gd * (max(fibre[0], fibre[1]) * |v0|)``,
+  ``gd = float32(SimParams.fibre_dispersion_gain()) = fibre_dispersivity / nu_p``, ``|v0| =
+  min(sqrt(vx*vx + vy*vy), fibre_flow_max)`` of the velocity at the START of the step
+  (before pass 1; new SimParams ``fibre_flow_max``, 2 cell/s): hydrodynamic
+  dispersion ``D = alpha |v|`` along the paper's fibre channels (new SimParams
+  ``fibre_dispersivity``, 0 = off; the watercolor profile sets it, and cold-press paper now
+  has a fibre texture). Face conductances may exceed 1.
 NOTE (API): ``PASS_ORDER`` names the passes; ``step_region(state, box, dt, stop_after=name)``
   writes the fields back right after pass ``name`` (pass-by-pass comparisons).
 NOTE (no maths change): pass 1 computes the bilinear weight from the displacement,
@@ -97,7 +104,10 @@ the same float32 value on both sides).
    ``b = 1`` on open faces, 0 on closed): see ``implicit_diffusion`` below.
 
 5. ``diffuse_pigment``: the same with ``k = nu_p*dt`` and the diffusion controller:
-   cell value ``beta_c = min(1 - block_paper*(1 - h), block_eff)``,
+   cell value ``beta_c = min(1 - block_paper*(1 - h), block_eff)``, times
+   ``(1 + gd * (max(fibre[0], fibre[1]) * min(sqrt(vx0*vx0 + vy0*vy0), fibre_flow_max)))`` when
+   ``gd = fibre_dispersivity / nu_p > 0`` (v0: the velocity at the start of the step;
+   hydrodynamic dispersion along the paper's fibre channels),
    ``block_eff = block + (1 - block) * clamp((sim_time - block_time)/block_fade, 0, 1)``
    (``block_fade == 0`` -> 1), face conductance ``b = min(beta_c[i], beta_c[j])`` on
    open faces. All slots at once.
@@ -211,6 +221,12 @@ def wet_mask(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams,
         nb[1:, :] = np.maximum(nb[1:, :], w[:-1, :])
         own = own | ((nb > thr) & (mask == 0))
     return own
+
+
+def water_speed(vx: np.ndarray, vy: np.ndarray, prm: SimParams) -> np.ndarray:
+    """The fibre dispersion's water speed ``min(sqrt(vx*vx + vy*vy), fibre_flow_max)``
+    [cell/s], float32: water moves through the paper's channels no faster than that."""
+    return np.minimum(np.sqrt(vx * vx + vy * vy), F32(prm.fibre_flow_max)).astype(F32)
 
 
 def open_faces(wet: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -438,15 +454,25 @@ def diffuse_water(w: np.ndarray, wet: np.ndarray, prm: SimParams, dt: float) -> 
 
 
 def blocking(h: np.ndarray, block: np.ndarray, block_time: np.ndarray, sim_time: float,
-             prm: SimParams) -> np.ndarray:
-    """Diffusion-controller cell value beta_c in [0, 1] (1 free, 0 blocked)."""
+             prm: SimParams, fibre: np.ndarray | None = None,
+             speed: np.ndarray | None = None) -> np.ndarray:
+    """Diffusion-controller cell value beta_c (1 free, 0 blocked), in [0, 1] without
+    fibre dispersion. With ``fibre_dispersivity > 0``, the fibre texture ``fibre`` (2, H, W)
+    and the water's speed ``speed`` (H, W) [cell/s] it is multiplied by
+    ``1 + gd * (max(fibre[0], fibre[1]) * speed)``, ``gd = fibre_dispersivity / nu_p``:
+    where water moves through fibre channels the pigment it carries disperses along them
+    (``D = alpha |v|``, Bear's hydrodynamic dispersion); still water is untouched."""
     if prm.block_fade > 0:
         age = np.clip((F32(sim_time) - block_time) / F32(prm.block_fade), _ZERO, _ONE)
     else:
         age = np.ones_like(block)
     eff = block + (_ONE - block) * age
     paper = _ONE - F32(prm.block_paper) * (_ONE - h)
-    return np.minimum(paper, eff).astype(F32)
+    beta = np.minimum(paper, eff).astype(F32)
+    gd = F32(prm.fibre_dispersion_gain())
+    if gd > 0 and fibre is not None and speed is not None:
+        beta = beta * (_ONE + gd * (np.maximum(fibre[0], fibre[1]) * speed))
+    return beta.astype(F32)
 
 
 def diffuse_pigment(p: np.ndarray, wet: np.ndarray, beta_c: np.ndarray, prm: SimParams,
@@ -651,6 +677,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     qq = q[:n_used]
 
     fib = state.fibre[:, ys, xs]
+    speed0 = water_speed(vx, vy, prm) if prm.fibre_dispersion_gain() > 0 else None
     wet = wet_mask(w, wc, mask, prm, h, fib)
     for name in PASS_ORDER:
         if name == "advect_velocity":
@@ -664,7 +691,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
             w = diffuse_water(w, wet, prm, dt)
         elif name == "diffuse_pigment":
             beta_c = blocking(h, state.block[ys, xs], state.block_time[ys, xs],
-                              state.sim_time, prm)
+                              state.sim_time, prm, fib, speed0)
             pp = diffuse_pigment(pp, wet, beta_c, prm, dt)
         elif name == "advect_water_and_pigment":
             w, pp = advect_water_and_pigment(w, pp, vx, vy, wet, prm, dt)

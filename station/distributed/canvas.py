@@ -38,7 +38,7 @@ from mpi4py import MPI
 
 from station.canvas import operations, reference, tiles
 from station.canvas.palette import Palette
-from station.canvas.paper import make_paper
+from station.canvas.paper import make_fibres, make_paper
 from station.canvas.params import CanvasInputError, SimParams, get_profile
 from station.canvas.render import render_bands, render_state
 from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
@@ -145,6 +145,8 @@ class DistributedCanvas:
         full_ttl = np.zeros((-(-height // ts), -(-width // ts)), np.int32)
         self._shell = _empty_shell(dataclasses.replace(self._local, tile_ttl=full_ttl))
         self._shell.width, self._shell.height = width, height
+        self._fibre_full: np.ndarray | None = None
+        self._local.fibre = self._fibre_rows(s)
         self._renderer_kind = prof.renderer
         self._scratch: Any = None
         self._image: np.ndarray | None = None
@@ -155,6 +157,14 @@ class DistributedCanvas:
         self.comm_seconds = 0.0  # halo exchange + tile reduction, waiting included [s]
         self.cells_last = 0
         self.rebalances = 0
+
+    def _fibre_rows(self, s: decomp.Strip) -> np.ndarray:
+        """The paper's fibre texture on the rows ``s`` holds: static like ``h``, sliced
+        from the whole sheet's texture (made once per sheet), never sent."""
+        if self._fibre_full is None:
+            sh = self._shell
+            self._fibre_full = make_fibres(sh.paper_preset, sh.height, sh.width, sh.seed)
+        return np.ascontiguousarray(self._fibre_full[:, s.pad_lo:s.pad_hi])
 
     # ------------------------------------------------------------------ geometry
     @property
@@ -504,6 +514,7 @@ class DistributedCanvas:
         plan.pop((self.rank, self.rank), None)
         exchange.move(self.comm, loc, s_old.pad_lo, fresh, s_new.pad_lo, plan,
                       exchange.ALL_FIELDS, max(self._slots_used(), 1), exchange.TAG_MOVE)
+        fresh.fibre = self._fibre_rows(s_new)
         self._local = fresh
         self._bounds = list(bounds)
         self._strips = new
@@ -558,6 +569,8 @@ class DistributedCanvas:
                 for r, st in enumerate(self._strips)}
         exchange.move(self.comm, state if self.is_root else None, 0, loc, s.pad_lo, plan,
                       exchange.ALL_FIELDS, max(len(shell.slots), 1), exchange.TAG_MOVE)
+        self._fibre_full = None  # another sheet, perhaps
+        loc.fibre = self._fibre_rows(s)
         self._local = loc
         self._renderer_kind = get_profile(shell.profile).renderer
         self._scratch = None

@@ -81,7 +81,9 @@ C_RELIEF = 26     # paper_relief
 C_WICK = 27       # fibre_wick
 C_TILTX = 28      # tilt kick x: float32(ax * dt)
 C_TILTY = 29      # tilt kick y
-N_CONST = 30
+C_DISP = 30       # fibre_dispersivity / nu_p (SimParams.fibre_dispersion_gain)
+C_VFIB = 31       # fibre_flow_max
+N_CONST = 32
 
 # the sweeps: rows in parallel; IEEE float32 maths exactly as written (no fastmath, no FMA
 # contraction), numpy's error model (division without ZeroDivision checks: every division
@@ -116,6 +118,21 @@ def zero_ring3(a: np.ndarray, ns: int, bh: int, bw: int) -> None:
 
 
 # ------------------------------------------------------------------ prep
+@_inline
+def _fibre_dispersion(fibre: np.ndarray, vx: np.ndarray, vy: np.ndarray, y: int,
+                      x: np.uint64, gd: np.float32, vfib: np.float32) -> np.float32:
+    """``1 + gd * (max(fibre[0], fibre[1]) * min(|v|, fibre_flow_max))``: the factor on
+    beta_c of a cell whose fibre channels disperse the pigment moving water carries
+    (reference ``blocking``, ``water_speed``; v at the start of the step)."""
+    f0 = fibre[0, y, x]
+    f1 = fibre[1, y, x]
+    u = vx[y, x]
+    v = vy[y, x]
+    s = np.sqrt(u * u + v * v)
+    s = s if s < vfib else vfib
+    return ONE + gd * ((f0 if f0 > f1 else f1) * s)
+
+
 @_parallel
 def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np.ndarray,
          p: np.ndarray, h: np.ndarray, block: np.ndarray, block_time: np.ndarray,
@@ -126,8 +143,8 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
     """Wet mask (once per step; own water, or the advancing contact line: a neighbour's
     w above ``advance_height (1.5 - h)``, lowered along the paper's fibres by
     ``1 - fibre_wick * fibre[axis]`` for the neighbours on that axis; cells outside the box
-    count as w = 0), the own wet area, copies, beta_c (diffusion controller), capacity,
-    open."""
+    count as w = 0), the own wet area, copies, beta_c (diffusion controller, times the
+    fibre dispersion), capacity, open."""
     moist = cst[C_MOIST]
     adv = cst[C_ADV]
     wick = cst[C_WICK]
@@ -137,6 +154,8 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
     bpaper = cst[C_BPAPER]
     cmin = cst[C_CMIN]
     cspan = cst[C_CSPAN]
+    disp = cst[C_DISP]
+    vfib = cst[C_VFIB]
     for j in prange(1, bh + 1):
         y = y0 + j - 1
         for i in range(1, bw + 1):
@@ -178,7 +197,10 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                 age = ONE
             eff = b + (ONE - b) * age
             paper = ONE - bpaper * (ONE - hv)
-            bc_o[j, i] = paper if paper < eff else eff
+            bcv = paper if paper < eff else eff
+            if disp > ZERO:
+                bcv = bcv * _fibre_dispersion(fibre, vx, vy, y, x, disp, vfib)
+            bc_o[j, i] = bcv
             c_o[j, i] = cmin + hv * cspan
             opn_o[j, i] = ONE if un else ZERO
         for k in range(ns):

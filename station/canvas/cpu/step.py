@@ -55,6 +55,8 @@ def constants(prm: SimParams, dt: float, sim_time: float) -> np.ndarray:
     c[K.C_ETA] = F32(prm.flow_outward)
     c[K.C_RELIEF] = F32(prm.paper_relief)
     c[K.C_WICK] = F32(prm.fibre_wick)
+    c[K.C_DISP] = F32(prm.fibre_dispersion_gain())
+    c[K.C_VFIB] = F32(prm.fibre_flow_max)
     c[K.C_TILTX], c[K.C_TILTY] = reference.tilt_kick(prm, dt)
     return c
 

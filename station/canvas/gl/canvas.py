@@ -439,6 +439,8 @@ class GLCanvas:
         _set(p["prep"], "u_block_paper", prm.block_paper)
         _set(p["prep"], "u_advance", prm.advance_height)
         _set(p["prep"], "u_wick", prm.fibre_wick)
+        _set(p["prep"], "u_disperse", float(F32(prm.fibre_dispersion_gain())))
+        _set(p["prep"], "u_fibre_flow_max", prm.fibre_flow_max)
         taps = reference.gaussian_taps(prm.wet_blur) if prm.flow_outward > 0 else np.zeros(0, F32)
         if len(taps) > 17:
             raise CanvasInputError("wet_blur too large for the GL backend (at most 4)", "params")
