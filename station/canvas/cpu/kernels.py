@@ -118,15 +118,21 @@ def zero_ring3(a: np.ndarray, ns: int, bh: int, bw: int) -> None:
 @_parallel
 def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np.ndarray,
          p: np.ndarray, h: np.ndarray, block: np.ndarray, block_time: np.ndarray,
-         fibre: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int, cst: np.ndarray,
+         fibre: np.ndarray, taps: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int,
+         cst: np.ndarray, outward: bool,
          wet_o: np.ndarray, w0_o: np.ndarray, p0_o: np.ndarray, bc_o: np.ndarray,
          vsx_o: np.ndarray, vsy_o: np.ndarray, c_o: np.ndarray, opn_o: np.ndarray,
-         own_o: np.ndarray) -> None:
+         mbx_o: np.ndarray) -> None:
     """Wet mask (once per step; own water, or the advancing contact line: a neighbour's
     w above ``advance_height (1.5 - h)``, lowered along the paper's fibres by
     ``1 - fibre_wick * fibre[axis]`` for the neighbours on that axis; cells outside the box
-    count as w = 0), the own wet area, copies, beta_c (diffusion controller), capacity,
-    open."""
+    count as w = 0), copies, beta_c (diffusion controller), capacity, open, and with
+    ``outward`` the own wet area blurred along x (``mbx``, the first half of
+    :func:`flow_pressure`'s blur).
+
+    Two sweeps: the copy of w (and p) into the padded ``w0`` first, so the contact line
+    reads its neighbours from ``w0`` (whose zero ring is "outside the box") without a
+    bounds test, in branch-free rows that vectorise."""
     moist = cst[C_MOIST]
     adv = cst[C_ADV]
     wick = cst[C_WICK]
@@ -136,168 +142,200 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
     bpaper = cst[C_BPAPER]
     cmin = cst[C_CMIN]
     cspan = cst[C_CSPAN]
+    advancing = adv > ZERO
+    nt = taps.shape[0]
+    r = (nt - 1) // 2
     for j in prange(1, bh + 1):
         y = y0 + j - 1
         for i in range(1, bw + 1):
-            x = np.uint64(x0 + i - 1)
-            wv = w[y, x]
-            un = mask[y, x] == ZERO
-            own = ((wv > ZERO) | (wc[y, x] > moist)) & un
-            own_o[j, i] = ONE if own else ZERO
-            wet = own
-            if adv > ZERO and un and not own:
-                thr = adv * (one5 - h[y, x])
-                nb = w[y, np.uint64(x0 + i)] if i < bw else ZERO
-                t = w[y, np.uint64(x0 + i - 2)] if i > 1 else ZERO
-                nb = nb if nb > t else t
-                if wick > ZERO:
-                    ny = w[y + 1, x] if j < bh else ZERO
-                    t = w[y - 1, x] if j > 1 else ZERO
-                    ny = ny if ny > t else t
-                    wet = (nb > thr * (ONE - wick * fibre[0, y, x])) | \
-                        (ny > thr * (ONE - wick * fibre[1, y, x]))
-                else:
-                    t = w[y + 1, x] if j < bh else ZERO
-                    nb = nb if nb > t else t
-                    t = w[y - 1, x] if j > 1 else ZERO
-                    nb = nb if nb > t else t
-                    wet = nb > thr
-            wf = ONE if wet else ZERO
-            wet_o[j, i] = wf
-            w0_o[j, i] = wv
-            vsx_o[j, i] = vx[y, x] if wet else ZERO
-            vsy_o[j, i] = vy[y, x] if wet else ZERO
-            hv = h[y, x]
-            b = block[y, x]
-            if fade > ZERO:
-                age = (t_now - block_time[y, x]) / fade
-                age = ZERO if age < ZERO else age
-                age = ONE if age > ONE else age
-            else:
-                age = ONE
-            eff = b + (ONE - b) * age
-            paper = ONE - bpaper * (ONE - hv)
-            bc_o[j, i] = paper if paper < eff else eff
-            c_o[j, i] = cmin + hv * cspan
-            opn_o[j, i] = ONE if un else ZERO
+            w0_o[j, i] = w[y, np.uint64(x0 + i - 1)]
         for k in range(ns):
             for i in range(1, bw + 1):
                 p0_o[k, j, i] = p[k, y, np.uint64(x0 + i - 1)]
-
-
-# ------------------------------------------------------------------ flow outward
-@_parallel
-def flow_pressure(own: np.ndarray, wet: np.ndarray, w0: np.ndarray, h: np.ndarray,
-                  taps: np.ndarray, y0: int, x0: int, bh: int, bw: int, cst: np.ndarray,
-                  outward: bool, mbx: np.ndarray, pr_o: np.ndarray) -> None:
-    """Pass 3's levelled height ``P = (w + relief h) - eta (1 - M')`` on wet cells (``w``
-    elsewhere; a term whose parameter is 0 is left out), ``M'`` the own wet area blurred
-    with ``taps`` along x then y (the reference's order: offset -R first; cells outside
-    the box are 0 and add nothing)."""
-    eta = cst[C_ETA]
-    relief = cst[C_RELIEF]
-    nt = taps.shape[0]
-    r = (nt - 1) // 2
     nch = min(bh, N_CHUNKS)
-    # tap-outer, column-inner loops (vectorised); per cell the taps still add in order,
-    # and a tap falling outside the box is skipped where the reference adds 0
-    if outward:
-        for ch in prange(nch):
-            j0, j1 = _chunk(ch, nch, bh)
-            acc = np.empty(bw + 2, F32)
-            for j in range(j0, j1):
-                for i in range(1, bw + 1):
-                    acc[i] = ZERO
-                for k in range(nt):
-                    d = k - r
-                    lo = 1 - d if d < 0 else 1
-                    hi = bw - d if d > 0 else bw
-                    g = taps[k]
-                    for i in range(lo, hi + 1):
-                        acc[i] = acc[i] + g * own[j, i + d]
-                for i in range(1, bw + 1):
-                    mbx[j, i] = acc[i]
     for ch in prange(nch):
         j0, j1 = _chunk(ch, nch, bh)
+        # own wet area of a row with r zero columns each side (a tap outside the box adds
+        # +0 there, which leaves the sum exactly as the reference's skipped term)
+        own = np.zeros(bw + 2 + 2 * r, F32)
         acc = np.empty(bw + 2, F32)
         for j in range(j0, j1):
             y = y0 + j - 1
+            wr, wn, ws = w0_o[j], w0_o[j - 1], w0_o[j + 1]
+            if advancing and wick > ZERO:
+                for i in range(1, bw + 1):
+                    x = np.uint64(x0 + i - 1)
+                    wv = wr[i]
+                    un = mask[y, x] == ZERO
+                    ow = ((wv > ZERO) | (wc[y, x] > moist)) & un
+                    own[i + r] = ONE if ow else ZERO
+                    thr = adv * (one5 - h[y, x])
+                    nb = wr[i + 1]
+                    t = wr[i - 1]
+                    nb = nb if nb > t else t
+                    ny = ws[i]
+                    t = wn[i]
+                    ny = ny if ny > t else t
+                    line = (nb > thr * (ONE - wick * fibre[0, y, x])) | \
+                        (ny > thr * (ONE - wick * fibre[1, y, x]))
+                    wet = ow | (un & line)
+                    wet_o[j, i] = ONE if wet else ZERO
+                    vsx_o[j, i] = vx[y, x] if wet else ZERO
+                    vsy_o[j, i] = vy[y, x] if wet else ZERO
+                    opn_o[j, i] = ONE if un else ZERO
+            else:
+                for i in range(1, bw + 1):
+                    x = np.uint64(x0 + i - 1)
+                    wv = wr[i]
+                    un = mask[y, x] == ZERO
+                    ow = ((wv > ZERO) | (wc[y, x] > moist)) & un
+                    own[i + r] = ONE if ow else ZERO
+                    thr = adv * (one5 - h[y, x])
+                    nb = wr[i + 1]
+                    t = wr[i - 1]
+                    nb = nb if nb > t else t
+                    t = ws[i]
+                    nb = nb if nb > t else t
+                    t = wn[i]
+                    nb = nb if nb > t else t
+                    wet = ow | (un & advancing & (nb > thr))
+                    wet_o[j, i] = ONE if wet else ZERO
+                    vsx_o[j, i] = vx[y, x] if wet else ZERO
+                    vsy_o[j, i] = vy[y, x] if wet else ZERO
+                    opn_o[j, i] = ONE if un else ZERO
+            if fade > ZERO:
+                for i in range(1, bw + 1):
+                    x = np.uint64(x0 + i - 1)
+                    hv = h[y, x]
+                    b = block[y, x]
+                    age = (t_now - block_time[y, x]) / fade
+                    age = ZERO if age < ZERO else age
+                    age = ONE if age > ONE else age
+                    eff = b + (ONE - b) * age
+                    paper = ONE - bpaper * (ONE - hv)
+                    bc_o[j, i] = paper if paper < eff else eff
+                    c_o[j, i] = cmin + hv * cspan
+            else:
+                for i in range(1, bw + 1):
+                    x = np.uint64(x0 + i - 1)
+                    hv = h[y, x]
+                    b = block[y, x]
+                    eff = b + (ONE - b) * ONE
+                    paper = ONE - bpaper * (ONE - hv)
+                    bc_o[j, i] = paper if paper < eff else eff
+                    c_o[j, i] = cmin + hv * cspan
             if outward:
+                # x half of the blur: tap-outer, column-inner; per cell the taps add in
+                # order, offset -R first
                 for i in range(1, bw + 1):
                     acc[i] = ZERO
                 for k in range(nt):
-                    jj = j + k - r
-                    if jj >= 1 and jj <= bh:
-                        g = taps[k]
-                        for i in range(1, bw + 1):
-                            acc[i] = acc[i] + g * mbx[jj, i]
-            for i in range(1, bw + 1):
-                wv = w0[j, i]
-                pv = wv
-                if relief > ZERO:
-                    pv = wv + relief * h[y, np.uint64(x0 + i - 1)]
-                if outward:
-                    pv = pv - eta * (ONE - acc[i])
-                pr_o[j, i] = pv if wet[j, i] != ZERO else wv
+                    g = taps[k]
+                    for i in range(1, bw + 1):
+                        acc[i] = acc[i] + g * own[i + k]
+                for i in range(1, bw + 1):
+                    mbx_o[j, i] = acc[i]
+
+
+# ------------------------------------------------------------------ flow outward
+@_inline
+def _pressure_row(mbx: np.ndarray, wet: np.ndarray, w0: np.ndarray, h: np.ndarray,
+                  taps: np.ndarray, j: int, y: int, x0: int, bh: int, bw: int,
+                  eta: np.float32, relief: np.float32, outward: bool, acc: np.ndarray,
+                  pr_o: np.ndarray) -> None:
+    """Pass 3's levelled height ``P = (w + relief h) - eta (1 - M')`` on wet cells of row
+    j (``w`` elsewhere; a term whose parameter is 0 is left out), ``M'`` the y half of the
+    blur of ``mbx`` (taps in order, offset -R first; rows outside the box are skipped where
+    the reference adds 0)."""
+    nt = taps.shape[0]
+    r = (nt - 1) // 2
+    if outward:
+        for i in range(1, bw + 1):
+            acc[i] = ZERO
+        for k in range(nt):
+            jj = j + k - r
+            if jj >= 1 and jj <= bh:
+                g = taps[k]
+                for i in range(1, bw + 1):
+                    acc[i] = acc[i] + g * mbx[jj, i]
+    for i in range(1, bw + 1):
+        wv = w0[j, i]
+        pv = wv
+        if relief > ZERO:
+            pv = wv + relief * h[y, np.uint64(x0 + i - 1)]
+        if outward:
+            pv = pv - eta * (ONE - acc[i])
+        pr_o[j, i] = pv if wet[j, i] != ZERO else wv
 
 
 # ------------------------------------------------------------------ pass 1 + Jacobi 1
 @_parallel
 def advect_jacobi1(wet: np.ndarray, vsx: np.ndarray, vsy: np.ndarray, bc: np.ndarray,
-                   w0: np.ndarray, p0: np.ndarray, bh: int, bw: int, ns: int,
-                   cst: np.ndarray, do_w: bool, do_p: bool,
+                   w0: np.ndarray, p0: np.ndarray, mbx: np.ndarray, h: np.ndarray,
+                   taps: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int,
+                   cst: np.ndarray, do_w: bool, do_p: bool, do_pr: bool, outward: bool,
                    v1x_o: np.ndarray, v1y_o: np.ndarray, xw_o: np.ndarray,
-                   xp_o: np.ndarray) -> None:
-    """Pass 1 (bilinear back-trace of the masked velocity, box-relative clamps) and
-    the first Jacobi iteration of the water and pigment solves (from x0 = u)."""
+                   xp_o: np.ndarray, pr_o: np.ndarray) -> None:
+    """Pass 1 (bilinear back-trace of the masked velocity, box-relative clamps), with
+    ``do_pr`` pass 3's levelled height (:func:`_pressure_row`), and the first Jacobi
+    iteration of the water and pigment solves (from x0 = u)."""
     fdt = cst[C_DT]
     kw = cst[C_KW]
     kp = cst[C_KP]
+    eta = cst[C_ETA]
+    relief = cst[C_RELIEF]
     dx = 1 if bw > 1 else 0
     dy = 1 if bh > 1 else 0
-    for j in prange(1, bh + 1):
-        for i in range(1, bw + 1):
-            if wet[j, i] != ZERO:
-                # x axis (box-relative index i - 1, n = bw)
-                if bw < 2:
-                    ix, fx = 0, ZERO
-                else:
-                    off = -(vsx[j, i] * fdt)
-                    fl = np.floor(off)
-                    fx = off - fl
-                    ix = (i - 1) + int(fl)
-                    if ix < 0:
+    nch = min(bh, N_CHUNKS)
+    for ch in prange(nch):
+        j0, j1 = _chunk(ch, nch, bh)
+        acc = np.empty(bw + 2, F32)
+        for j in range(j0, j1):
+            if do_pr:
+                _pressure_row(mbx, wet, w0, h, taps, j, y0 + j - 1, x0, bh, bw, eta, relief,
+                              outward, acc, pr_o)
+            for i in range(1, bw + 1):
+                if wet[j, i] != ZERO:
+                    # x axis (box-relative index i - 1, n = bw)
+                    if bw < 2:
                         ix, fx = 0, ZERO
-                    elif ix >= bw - 1:
-                        ix, fx = bw - 2, ONE
-                if bh < 2:
-                    iy, fy = 0, ZERO
-                else:
-                    off = -(vsy[j, i] * fdt)
-                    fl = np.floor(off)
-                    fy = off - fl
-                    iy = (j - 1) + int(fl)
-                    if iy < 0:
+                    else:
+                        off = -(vsx[j, i] * fdt)
+                        fl = np.floor(off)
+                        fx = off - fl
+                        ix = (i - 1) + int(fl)
+                        if ix < 0:
+                            ix, fx = 0, ZERO
+                        elif ix >= bw - 1:
+                            ix, fx = bw - 2, ONE
+                    if bh < 2:
                         iy, fy = 0, ZERO
-                    elif iy >= bh - 1:
-                        iy, fy = bh - 2, ONE
-                gx = ONE - fx
-                gy = ONE - fy
-                a0, a1 = iy + 1, iy + 1 + dy
-                b0, b1 = ix + 1, ix + 1 + dx
-                top = gx * vsx[a0, b0] + fx * vsx[a0, b1]
-                bot = gx * vsx[a1, b0] + fx * vsx[a1, b1]
-                v1x_o[j, i] = gy * top + fy * bot
-                top = gx * vsy[a0, b0] + fx * vsy[a0, b1]
-                bot = gx * vsy[a1, b0] + fx * vsy[a1, b1]
-                v1y_o[j, i] = gy * top + fy * bot
-            else:
-                v1x_o[j, i] = ZERO
-                v1y_o[j, i] = ZERO
-        if do_w:
-            _jacobi_w_row(wet, w0, w0, xw_o, j, bw, kw)
-        if do_p:
-            _jacobi_p_row(wet, bc, p0, p0, xp_o, j, bw, ns, kp)
+                    else:
+                        off = -(vsy[j, i] * fdt)
+                        fl = np.floor(off)
+                        fy = off - fl
+                        iy = (j - 1) + int(fl)
+                        if iy < 0:
+                            iy, fy = 0, ZERO
+                        elif iy >= bh - 1:
+                            iy, fy = bh - 2, ONE
+                    gx = ONE - fx
+                    gy = ONE - fy
+                    a0, a1 = iy + 1, iy + 1 + dy
+                    b0, b1 = ix + 1, ix + 1 + dx
+                    top = gx * vsx[a0, b0] + fx * vsx[a0, b1]
+                    bot = gx * vsx[a1, b0] + fx * vsx[a1, b1]
+                    v1x_o[j, i] = gy * top + fy * bot
+                    top = gx * vsy[a0, b0] + fx * vsy[a0, b1]
+                    bot = gx * vsy[a1, b0] + fx * vsy[a1, b1]
+                    v1y_o[j, i] = gy * top + fy * bot
+                else:
+                    v1x_o[j, i] = ZERO
+                    v1y_o[j, i] = ZERO
+            if do_w:
+                _jacobi_w_row(wet, w0, w0, xw_o, j, bw, kw)
+            if do_p:
+                _jacobi_p_row(wet, bc, p0, p0, xp_o, j, bw, ns, kp)
 
 
 @_inline

@@ -20,7 +20,7 @@ F32 = np.float32
 
 _FIELDS_2D = ("wet", "w0", "bc", "vsx", "vsy", "c", "opn", "v1x", "v1y", "xvax", "xvay",
               "xwa", "xwb", "v3x", "v3y", "sw", "w2", "sout", "sin", "w3",
-              "sat", "own", "mbx", "pr")
+              "sat", "mbx", "pr")
 _FIELDS_3D = ("p0", "xpa", "xpb", "sp", "p2")
 
 
@@ -113,25 +113,24 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     do_w = prm.nu_w * dt > 0 and runs("diffuse_water")
     do_p = prm.nu_p * dt > 0 and runs("diffuse_pigment")
 
-    K.prep(state.w, state.wc, state.mask, state.vx, state.vy, state.p, state.h,
-           state.block, state.block_time, state.fibre, y0, x0, bh, bw, ns, cst,
-           s2["wet"], s2["w0"], s3["p0"], s2["bc"], s2["vsx"], s2["vsy"], s2["c"], s2["opn"],
-           s2["own"])
-    wet, bc, w0, p0 = s2["wet"], s2["bc"], s2["w0"], s3["p0"]
     taps = reference.gaussian_taps(prm.wet_blur)
     outward = prm.flow_outward > 0 and len(taps) > 0
-    pr = w0  # pass 3 levels w itself unless the flow-outward or the relief term is on
-    if (outward or prm.paper_relief > 0) and runs("water_height_and_boundary"):
-        K.flow_pressure(s2["own"], wet, w0, state.h, taps, y0, x0, bh, bw, cst, outward,
-                        s2["mbx"], s2["pr"])
-        pr = s2["pr"]
-    # pass 1 + iteration 1 of the water/pigment solves (x0 = u)
+    do_pr = (outward or prm.paper_relief > 0) and runs("water_height_and_boundary")
+    K.prep(state.w, state.wc, state.mask, state.vx, state.vy, state.p, state.h,
+           state.block, state.block_time, state.fibre, taps, y0, x0, bh, bw, ns, cst,
+           outward and do_pr, s2["wet"], s2["w0"], s3["p0"], s2["bc"], s2["vsx"], s2["vsy"],
+           s2["c"], s2["opn"], s2["mbx"])
+    wet, bc, w0, p0 = s2["wet"], s2["bc"], s2["w0"], s3["p0"]
+    # pass 3 levels w itself unless the flow-outward or the relief term is on
+    pr = s2["pr"] if do_pr else w0
+    # pass 1 (+ pass 3's levelled height) + iteration 1 of the water/pigment solves (x0 = u)
     jw = do_w and n_it >= 1
     jp = do_p and n_it >= 1
     xw, xw_next = (s2["xwa"], s2["xwb"])
     xp, xp_next = (s3["xpa"], s3["xpb"])
-    K.advect_jacobi1(wet, s2["vsx"], s2["vsy"], bc, w0, p0, bh, bw, ns, cst, jw, jp,
-                     s2["v1x"], s2["v1y"], xw, xp)
+    K.advect_jacobi1(wet, s2["vsx"], s2["vsy"], bc, w0, p0, s2["mbx"], state.h, taps, y0, x0,
+                     bh, bw, ns, cst, jw, jp, do_pr, outward, s2["v1x"], s2["v1y"], xw, xp,
+                     s2["pr"])
     if not jw:
         xw = w0
     if not jp:
