@@ -1131,3 +1131,49 @@ def capillary_dry(sat: np.ndarray, c: np.ndarray, opn: np.ndarray, v3x: np.ndarr
                             t = t if w[y, x] == ZERO else ZERO
                             p[kk, y, x] = pv - t
                             q[kk, y, x] = qv + t
+
+
+# ------------------------------------------------------------------ tile bookkeeping
+@_serial
+def update_tiles(ttl: np.ndarray, active: np.ndarray, boxes: np.ndarray, w: np.ndarray,
+                 wc: np.ndarray, ts: int, renew: int) -> None:
+    """``tiles.update_tiles`` for the boxes ``(y0, y1, x0, x1)`` just simulated: count the
+    active TTLs down, renew a tile of a box whose TTL is out and that holds water
+    (``w > 0`` or ``wc > 0`` in any of its cells).
+
+    Only tiles next to (or among) the tiles active before the step are looked at: the
+    others were at rest and out of reach of the step (``tiles.HALO`` < a tile), so they
+    hold no water and the reference would not renew them either."""
+    nty, ntx = ttl.shape
+    height, width = w.shape
+    for ty in range(nty):
+        for tx in range(ntx):
+            if ttl[ty, tx] > 0:
+                ttl[ty, tx] -= 1
+    for b in range(boxes.shape[0]):
+        ty0 = boxes[b, 0] // ts
+        ty1 = (boxes[b, 1] + ts - 1) // ts
+        tx0 = boxes[b, 2] // ts
+        tx1 = (boxes[b, 3] + ts - 1) // ts
+        for ty in range(ty0, ty1):
+            for tx in range(tx0, tx1):
+                if ttl[ty, tx] > 0:
+                    continue
+                near = False
+                for dy in range(-1, 2):
+                    for dx in range(-1, 2):
+                        yy, xx = ty + dy, tx + dx
+                        if 0 <= yy < nty and 0 <= xx < ntx and active[yy, xx] != 0:
+                            near = True
+                if not near:
+                    continue
+                alive = False
+                for y in range(ty * ts, min((ty + 1) * ts, height)):
+                    for x in range(tx * ts, min((tx + 1) * ts, width)):
+                        if w[y, x] > ZERO or wc[y, x] > ZERO:
+                            alive = True
+                            break
+                    if alive:
+                        break
+                if alive:
+                    ttl[ty, tx] = renew

@@ -90,6 +90,7 @@ class Scratch:
         self.pspans = np.zeros((height + 2, most, 2), np.int32)
         self.pnsp = np.zeros(height + 2, np.int32)
         self._jbuf = np.zeros((0, 0, 0, 0, 0), F32)
+        self._regions: tuple[tuple[tuple[int, ...], bytes], list[tuple[slice, slice]]] | None = None
 
     def fits(self, height: int, width: int, slots: int) -> bool:
         return self.height == height and self.width == width and self.slots >= slots
@@ -101,6 +102,14 @@ class Scratch:
         if self._jbuf.shape != shape:
             self._jbuf = np.zeros(shape, F32)
         return self._jbuf
+
+    def regions(self, state: CanvasState, active: np.ndarray) -> list[tuple[slice, slice]]:
+        """``tiles.active_regions(state)``, recomputed only when the active tiles change
+        (``active``: ``tile_ttl > 0`` as uint8)."""
+        key = active.shape, active.tobytes()
+        if self._regions is None or self._regions[0] != key:
+            self._regions = (key, tiles.active_regions(state))
+        return self._regions[1]
 
     def select(self, y0: int, x0: int, bh: int, bw: int, active: np.ndarray | None,
                ts: int, grow: int) -> None:
@@ -231,11 +240,14 @@ def step(state: CanvasState, scratch: Scratch, dt: float | None = None) -> int:
     if not dt > 0 or dt * state.params.v_max > 1.0 + 1e-9:
         raise CanvasInputError("dt must be > 0 and move at most one cell per step", "step")
     if state.tiling:
-        regions = tiles.active_regions(state)
         active = (state.tile_ttl > 0).astype(np.uint8)
+        regions = scratch.regions(state, active)
         for region in regions:
             step_region(state, region, dt, scratch, active=active)
-        tiles.update_tiles(state, regions)
+        boxes = np.array([(r[0].start, r[0].stop, r[1].start, r[1].stop) for r in regions],
+                         np.int64).reshape(-1, 4)
+        K.update_tiles(state.tile_ttl, active, boxes, state.w, state.wc,
+                       int(state.params.tile_size), int(state.params.tile_ttl_steps()))
         cells = sum((r[0].stop - r[0].start) * (r[1].stop - r[1].start) for r in regions)
     else:
         step_region(state, (slice(0, state.height), slice(0, state.width)), dt, scratch)
