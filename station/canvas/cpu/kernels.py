@@ -1169,10 +1169,8 @@ def update_tiles(ttl: np.ndarray, active: np.ndarray, boxes: np.ndarray, w: np.n
                     continue
                 alive = False
                 for y in range(ty * ts, min((ty + 1) * ts, height)):
-                    for x in range(tx * ts, min((tx + 1) * ts, width)):
-                        if w[y, x] > ZERO or wc[y, x] > ZERO:
-                            alive = True
-                            break
+                    for x in range(tx * ts, min((tx + 1) * ts, width)):  # vectorises
+                        alive |= (w[y, x] > ZERO) | (wc[y, x] > ZERO)
                     if alive:
                         break
                 if alive:
