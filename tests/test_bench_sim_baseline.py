@@ -47,7 +47,7 @@ def test_the_baseline_child_imports_the_extracted_commit(tmp_path: Path,
                                                          monkeypatch) -> None:
     _git_head()
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
-    sha, folder = sb.extract("HEAD")
+    _, folder = sb.extract("HEAD")
     child = sb.Child("baseline", folder)  # refuses a child that imported another tree
     try:
         r = child.run("numpy", 32, 24, "stroke", 1, 3)
