@@ -9,7 +9,8 @@ compares the simulations only.
 Child protocol (one JSON object per line): the child prints ``{"ready": true,
 "station": <path of the station package it imported>}``, then answers each request
 ``{"scenario": "wash" | "stroke", "width": W, "height": H, "backend": B, "warmup": N,
-"steps": M}`` with ``{"steps": M, "seconds": S, "cells_per_step": C}`` (a fresh canvas
+"steps": M}`` with ``{"steps": M, "seconds": S, "cpu_seconds": T, "cells_per_step": C}`` (``T``: the
+process's CPU time, all threads) (a fresh canvas
 per request, ``N`` untimed steps, then ``M`` timed steps), until stdin closes.
 """
 
@@ -92,7 +93,7 @@ def run_fixed(backend: str, width: int, height: int, scenario: str, warmup: int,
             stroke.advance()
         canvas.step()
     cells = 0
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     for _ in range(steps):
         if stroke:
             stroke.advance()
@@ -101,9 +102,11 @@ def run_fixed(backend: str, width: int, height: int, scenario: str, warmup: int,
     if hasattr(canvas, "sync"):
         canvas.sync()
     seconds = time.perf_counter() - t0
+    cpu_seconds = max(time.process_time() - c0, 1e-9)
     if hasattr(canvas, "close"):
         canvas.close()
-    return {"steps": steps, "seconds": seconds, "cells_per_step": cells / max(steps, 1)}
+    return {"steps": steps, "seconds": seconds, "cpu_seconds": cpu_seconds,
+            "cells_per_step": cells / max(steps, 1)}
 
 
 def child_main() -> None:

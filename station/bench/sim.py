@@ -199,7 +199,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="instead: compare this tree with git commit REV in one run (one "
                         "backend, default cpu; one size, default 800x600): alternating "
                         "fixed-step runs, steps/s and the wash's cost ratio (issue 10)")
-    p.add_argument("--rounds", type=int, default=3,
+    p.add_argument("--rounds", type=int, default=5,
                    help="--baseline: alternating rounds per scenario (default %(default)s)")
     p.set_defaults(func=run)
 
