@@ -23,12 +23,15 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import time
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from station.bench import _sim_baseline as sim_baseline
+from station.bench import _sim_driver as sim_driver
 from station.canvas.backend import available_backends, create_backend, resolve_auto
 from station.errors import BadInput, StationError
 from station.progress import Progress
@@ -136,47 +139,9 @@ class _Probe:
             self.canvas.close()
 
 
-def _pigments() -> list[str]:
-    return ["French Ultramarine", "Burnt Umber"]
-
-
-def _wash(canvas: Any, width: int, height: int) -> None:
-    """Wet the whole canvas: water, two pigments and a slow swirl of velocity."""
-    rng = np.random.default_rng(7)
-    dw = (0.6 + 0.2 * rng.random((height, width))).astype(np.float32)
-    names = _pigments()
-    dp = {names[0]: (0.05 * rng.random((height, width))).astype(np.float32),
-          names[1]: (0.05 * rng.random((height, width))).astype(np.float32)}
-    yy, xx = np.mgrid[0:height, 0:width].astype(np.float32)
-    dvx = (6.0 * np.sin(yy * 2 * np.pi / height)).astype(np.float32)
-    dvy = (6.0 * np.cos(xx * 2 * np.pi / width)).astype(np.float32)
-    canvas.add_sources(dw=dw, dp=dp, dvx=dvx, dvy=dvy)
-
-
-class _StrokePath:
-    """One live stroke: a round footprint (radius 12 cells) moving 3 cells per step
-    along a gentle wave, adding water and one pigment each step."""
-
-    def __init__(self, canvas: Any, width: int, height: int, radius: float = 12.0,
-                 speed: float = 3.0) -> None:
-        self.canvas, self.width, self.height = canvas, width, height
-        self.radius, self.speed = radius, speed
-        self.x = 2.0 * radius
-        self.pigment = _pigments()[0]
-
-    def advance(self) -> None:
-        r = self.radius
-        self.x += self.speed
-        if self.x > self.width - 2 * r:
-            self.x = 2 * r
-        cy = self.height / 2 + self.height / 6 * math.sin(self.x / 60.0)
-        x_lo, x_hi = int(max(0, self.x - r - 1)), int(min(self.width, self.x + r + 2))
-        y_lo, y_hi = int(max(0, cy - r - 1)), int(min(self.height, cy + r + 2))
-        yy, xx = np.mgrid[y_lo:y_hi, x_lo:x_hi]
-        disc = ((xx + 0.5 - self.x) ** 2 + (yy + 0.5 - cy) ** 2 <= r * r).astype(np.float32)
-        self.canvas.add_sources(dw=0.3 * disc, dp={self.pigment: 0.02 * disc},
-                                dvx=(self.speed * 4.0) * disc, dvy=0.0 * disc,
-                                y0=y_lo, x0=x_lo)
+_pigments = sim_driver.pigments
+_wash = sim_driver.wash
+_StrokePath = sim_driver.StrokePath
 
 
 def measure(backend: str, width: int, height: int, scenario: str, seconds: float,
@@ -230,10 +195,53 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="measuring time per configuration (default %(default)s s)")
     p.add_argument("--quick", action="store_true",
                    help="800x600 only, 1 s per configuration")
+    p.add_argument("--baseline", metavar="REV", default=None,
+                   help="instead: compare this tree with git commit REV in one run (one "
+                        "backend, default cpu; one size, default 800x600): alternating "
+                        "fixed-step runs, steps/s and the wash's cost ratio (issue 10)")
+    p.add_argument("--rounds", type=int, default=5,
+                   help="--baseline: alternating rounds per scenario (default %(default)s)")
     p.set_defaults(func=run)
 
 
+def run_baseline(args: argparse.Namespace) -> int:
+    """``--baseline REV``: :func:`station.bench._sim_baseline.compare`, printed as JSON."""
+    backends = [b for b in (args.backends or "cpu").split(",") if b]
+    sizes = [s for s in args.sizes.split(",") if s]
+    if args.sizes == ",".join(DEFAULT_SIZES) or args.quick:
+        sizes = ["800x600"]
+    if len(backends) != 1 or backends[0] not in BACKENDS:
+        raise BadInput(f"{args.backends!r}: --baseline compares one backend (gl, numpy, cpu)",
+                       "--backends")
+    if len(sizes) != 1:
+        raise BadInput(f"{args.sizes!r}: --baseline compares one size", "--sizes")
+    w, h = parse_size(sizes[0])
+    scenarios = [s for s in args.scenarios.split(",") if s]
+    for s in scenarios:
+        if s not in SCENARIOS:
+            raise BadInput(f"unknown scenario {s!r} (wash, stroke)", "--scenarios")
+    if not 1 <= args.rounds <= 50:
+        raise BadInput(f"{args.rounds} outside [1, 50]", "--rounds")
+    load_before = [round(x, 2) for x in os.getloadavg()]
+    bar = Progress(len(scenarios) * args.rounds * 2, "bench sim --baseline", unit="run")
+
+    def note(text: str) -> None:
+        bar.note(text)
+        bar.update()
+
+    try:
+        out = sim_baseline.compare(args.baseline, backends[0], w, h, scenarios, args.rounds,
+                                   note)
+    finally:
+        bar.close()
+    out["load_average_before"] = load_before
+    print(json.dumps(out, indent=2))
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
+    if args.baseline is not None:
+        return run_baseline(args)
     sizes = ["800x600"] if args.quick else [s for s in args.sizes.split(",") if s]
     seconds = 1.0 if args.quick else args.seconds
     if not seconds > 0:

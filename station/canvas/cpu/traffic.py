@@ -16,13 +16,13 @@ def floats_per_cell_step(slots: int, jacobi_iters: int) -> dict[str, int]:
     s = int(slots)
     n = max(int(jacobi_iters), 1)
     return {
-        # read w, wc, mask, vx, vy, h, block, block_time, p(S);
-        # write wet, own, w0, bc, vsx, vsy, c, opn, p0(S)
-        "prep (wet mask, copies, diffusion controller, capacity)": (8 + s) + (8 + s),
-        # read own, wet, w0, h, the row blur mbx; write mbx, pr (flow outward / relief)
-        "flow_pressure (pass 3's levelled height)": 5 + 2,
-        # read vsx, vsy, wet, w0, bc, p0(S); write v1(2), xw, xp(S)
-        "advect_jacobi1 (pass 1, water/pigment Jacobi iteration 1)": (5 + s) + (3 + s),
+        # read w, wc, mask, vx, vy, h, block, block_time, p(S), w0 again (second sweep);
+        # write wet, w0, bc, vsx, vsy, c, opn, mbx (the x half of the wet-area blur), p0(S)
+        "prep (wet mask, copies, diffusion controller, capacity, row blur)":
+            (9 + s) + (8 + s),
+        # read vsx, vsy, wet, w0, bc, mbx, h, p0(S); write v1(2), pr, xw, xp(S)
+        "advect_jacobi1 (pass 1, pass 3's levelled height, water/pigment Jacobi 1)":
+            (7 + s) + (4 + s),
         # one temporally blocked sweep for all remaining iterations (the intermediate
         # iterates live in per-chunk buffers in cache): read wet, bc, v1(2), xv(2), w0, xw,
         # p0(S), xp(S) once; write the last xv(2), xw, xp(S) once
