@@ -230,8 +230,8 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
     w above ``advance_height (1.5 - h)``, lowered along the paper's fibres by
     ``1 - fibre_wick * fibre[axis]`` for the neighbours on that axis; cells outside the box
     count as w = 0), copies, beta_c (diffusion controller, times the fibre dispersion),
-    capacity, open, and with ``outward`` the own wet area blurred along x (``mbx``, the first half of
-    :func:`flow_pressure`'s blur).
+    capacity, open, and with ``outward`` the own wet area blurred along x (``mbx``, the
+    first half of :func:`flow_pressure`'s blur).
 
     Two sweeps: the copy of w (and p) into the padded ``w0`` first, so the contact line
     reads its neighbours from ``w0`` (whose zero ring is "outside the box") without a
