@@ -76,14 +76,16 @@ void main() {
     nv = wet ? clamp(nv, -u_vmax, u_vmax) : vec2(0.0);
     imageStore(vel_out, c, vec4(nv, 0.0, 0.0));
     // donor limiters
-    float sw = outw > w ? w / outw : 1.0;
+    // a cell a rounding error left below 0 holds nothing (no division by a zero outflow)
+    float wh = max(w, 0.0);
+    float sw = outw > wh ? wh / outw : 1.0;
     imageStore(js_out, c, vec4(j.z, 0.0, sw, j.w));
     for (int l = 0; l < NPL; ++l) {
         if (l >= u_layers) continue;
         vec4 u = imageLoad(pig_in, ivec3(c, l));
         vec4 s = vec4(1.0);
         for (int k = 0; k < 4; ++k)
-            if (outp[l][k] > u[k]) s[k] = u[k] / outp[l][k];
+            if (outp[l][k] > max(u[k], 0.0)) s[k] = max(u[k], 0.0) / outp[l][k];
         imageStore(jd_out, ivec3(c, l), s);
     }
 }

@@ -282,9 +282,13 @@ def implicit_diffusion(u: np.ndarray, bx: np.ndarray, by: np.ndarray, k: float,
     out[..., :, 1:] -= fxn
     out[..., :-1, :] += fyp
     out[..., 1:, :] -= fyn
-    short = out > u
-    if short.any():  # donor limiter: never move more than a cell holds
-        s = np.where(short, u / np.where(short, out, _ONE), _ONE).astype(F32)
+    # donor limiter: never move more than a cell holds. A cell the limiter itself left a
+    # rounding error below zero holds nothing: clamped to 0 it gives nothing (s = 0)
+    # instead of a division by a zero outflow (-inf, then NaN fluxes that wipe a wash).
+    held = np.maximum(u, _ZERO)
+    short = out > held
+    if short.any():
+        s = np.where(short, held / np.where(short, out, _ONE), _ONE).astype(F32)
         fx = fxp * s[..., :, :-1] + fxn * s[..., :, 1:]
         fy = fyp * s[..., :-1, :] + fyn * s[..., 1:, :]
     return apply_fluxes(u, fx, fy)

@@ -756,6 +756,7 @@ def height_limit(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: np.ndarr
                     out = (((fe if fe > ZERO else ZERO) - (fw if fw < ZERO else ZERO))
                            + (fs if fs > ZERO else ZERO)) - (fn if fn < ZERO else ZERO)
                     uv = w0[j, i]
+                    uv = uv if uv > ZERO else ZERO  # a rounding error below 0 holds nothing
                     sw_o[j, i] = uv / out if out > uv else ONE
             if do_p:
                 br, bnr, bsr = bc[j], bc[j - 1], bc[j + 1]
@@ -777,6 +778,7 @@ def height_limit(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: np.ndarr
                         out = (((fe if fe > ZERO else ZERO) - (fw if fw < ZERO else ZERO))
                                + (fs if fs > ZERO else ZERO)) - (fn if fn < ZERO else ZERO)
                         uv = p0[kk, j, i]
+                        uv = uv if uv > ZERO else ZERO
                         sp_o[kk, j, i] = uv / out if out > uv else ONE
 
 
