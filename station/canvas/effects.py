@@ -55,9 +55,11 @@ class Effect:
         tile keeps no canvas."""
         if k == 1 or not self.canvases:
             return np.repeat(np.repeat(self.image, k, 0), k, 1)
-        return np.concatenate(
-            [render_scaled(c.state(), get_profile(c.state().profile).renderer, k)
-             for c in self.canvases], axis=1)
+        pics = [render_scaled(c.state(), get_profile(c.state().profile).renderer, k)
+                for c in self.canvases]
+        # long strips one above the other, the rest side by side: the sheet stays compact
+        wide = pics[0].shape[1] >= 2 * pics[0].shape[0]
+        return np.concatenate(pics, axis=0 if wide else 1)
 
     def to_json(self) -> dict[str, Any]:
         return {"numbers": {k: round(v, 4) for k, v in self.numbers.items()},

@@ -44,7 +44,6 @@ def _sheet(effects: list, scale: int) -> np.ndarray:
     from station.canvas.render import to_srgb8
     from station.canvas.upscale import MAX_SCALE
 
-    cols = 4
     pad = 8
     cap = 14 * 4
     # the sub-cell renderer draws up to MAX_SCALE pixels per cell; larger scales enlarge
@@ -53,14 +52,22 @@ def _sheet(effects: list, scale: int) -> np.ndarray:
     extra = scale // k
     tiles = [np.repeat(np.repeat(to_srgb8(np.clip(e.picture(k), 0.0, 1.0)), extra, 0), extra, 1)
              for e in effects]
-    cw = max(t.shape[1] for t in tiles) + pad
-    ch = max(t.shape[0] for t in tiles) + cap + pad
-    rows = -(-len(tiles) // cols)
-    sheet = Image.new("RGB", (cols * cw + pad, rows * ch + pad), (255, 255, 255))
+    # rows filled left to right up to about four typical tiles' width
+    limit = max(max(t.shape[1] for t in tiles), 4 * int(np.median([t.shape[1] for t in tiles])))
+    places: list[tuple[int, int]] = []
+    x = y = row_h = 0
+    for t in tiles:
+        if x and x + t.shape[1] > limit:
+            x, y, row_h = 0, y + row_h + cap + pad, 0
+        places.append((x, y))
+        x += t.shape[1] + pad
+        row_h = max(row_h, t.shape[0])
+    width = max(px + t.shape[1] for (px, _), t in zip(places, tiles, strict=True)) + 2 * pad
+    height = y + row_h + cap + 2 * pad
+    sheet = Image.new("RGB", (width, height), (255, 255, 255))
     draw = ImageDraw.Draw(sheet)
-    for i, (e, t) in enumerate(zip(effects, tiles, strict=True)):
-        x = pad + (i % cols) * cw
-        y = pad + (i // cols) * ch
+    for (px, py), e, t in zip(places, effects, tiles, strict=True):
+        x, y = pad + px, pad + py
         sheet.paste(Image.fromarray(t), (x, y))
         lines = [f"{e.name}: {'ok' if e.ok else 'MISSED'}"]
         lines += [f"{k} {v:.3g}" for k, v in e.numbers.items()]
