@@ -135,17 +135,22 @@ def main(argv: list[str]) -> int:
 
     out, base = argv[0], argv[1]
     script = argv[2] if len(argv) > 2 else "full"
+    # SCRIPT:blocking: wait for the halo before stepping (no overlap with interior work)
+    script, _, schedule = script.partition(":")
     die = json.loads(argv[3]) if len(argv) > 3 else None
     canvas = DistributedCanvas(WIDTH, HEIGHT, seed=3, base=base, params=PARAMS,
-                               rebalance_every=0)
+                               rebalance_every=0, overlap=schedule != "blocking")
     die_at = die["step"] if die is not None and die["rank"] == canvas.rank else 0
     if script == "render-delta":
         return render_delta(canvas, out)
     play(canvas, SESSIONS[script], str(Path(out).parent), die_at)
     rgb = canvas.render()
     stats = canvas.stats()
+    sched = {"bands": canvas.comm.allreduce(canvas.band_steps),
+             "late": canvas.comm.allreduce(canvas.late_steps)}
     full = canvas.gather_state()
     if full is not None:
+        Path(out + ".sched.json").write_text(json.dumps(sched))
         full.save(out)
         np.save(out + ".rgb.npy", rgb)
         Path(out + ".stats.json").write_text(json.dumps(stats))

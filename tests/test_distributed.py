@@ -21,10 +21,11 @@ import numpy as np
 import pytest
 
 from station.bus import Publisher
+from station.canvas import tiles
 from station.canvas.cpu import CpuCanvas
 from station.canvas.numpy_backend import NumpyCanvas
 from station.canvas.state import CanvasState
-from station.distributed import decomp
+from station.distributed import boxes, decomp
 from station.events import Command, PenSample
 from station.sessionlog import read_session
 from station.sim.script import Script
@@ -104,6 +105,24 @@ def test_rebalancing_in_the_middle_of_a_wet_stroke_changes_nothing(tmp_path: Pat
     assert_same_state(single("stroke", tmp_path).state(), CanvasState.load(out))
 
 
+@pytest.mark.parametrize("n", [2, 4])
+def test_overlapped_halo_schedule_equals_blocking_and_one_process(tmp_path: Path,
+                                                                  n: int) -> None:
+    # overlapped: border bands stepped on copies after the exchange, the interior
+    # while the halo travels; blocking: every box waits for its halo first
+    one = single("stroke", tmp_path).state()
+    scheds = {}
+    for name in ("stroke", "stroke:blocking"):
+        out = run_session(tmp_path, n, "numpy", name)
+        assert_same_state(one, CanvasState.load(out))
+        scheds[name] = json.loads(Path(str(out) + ".sched.json").read_text())
+    # both schedules really ran: bands only when overlapped (a box owning fewer than
+    # 2 radius rows next to a border still waits), every box waits when blocking
+    assert scheds["stroke"]["bands"] >= 10
+    assert scheds["stroke"]["late"] < scheds["stroke"]["bands"] / 4
+    assert scheds["stroke:blocking"]["bands"] == 0 and scheds["stroke:blocking"]["late"] >= 10
+
+
 def test_cpu_base_is_bitwise_the_cpu_backend(tmp_path: Path) -> None:
     # numba compiles per process (cached on disk after the first run): longer timeout
     out = run_session(tmp_path, 2, "cpu", "stroke", timeout=280.0)
@@ -175,6 +194,23 @@ def test_balanced_split_follows_the_painted_corner() -> None:
     assert all(b % ts == 0 for b in bal)
     four = decomp.balanced_split(work, height, ts, 4)
     assert len(four) == 5 and four == sorted(four) and len(set(four)) == 5
+
+
+def test_fast_boxes_are_the_tiles_boxes() -> None:
+    # the replicated per-step box finding is scipy's labelling, the same boxes as tiles'
+    st = NumpyCanvas(1024, 768, params=ms.PARAMS).state()
+    rng = np.random.default_rng(5)
+    for _ in range(150):
+        density = rng.choice([0.005, 0.03, 0.1, 0.3, 0.6])
+        st.tile_ttl[...] = (rng.random(st.tile_ttl.shape) < density) * rng.integers(
+            1, 4, st.tile_ttl.shape)
+        assert boxes.active_regions(st) == tiles.active_regions(st)
+    st.tile_ttl[...] = 0
+    assert boxes.active_regions(st) == []
+    st.tile_ttl[2:5, 40:48] = 1
+    st.tile_ttl[30:32, 0:2] = 1
+    assert boxes.active_regions(st) == [(slice(30, 82), slice(638, 770)),
+                                        (slice(478, 514), slice(0, 34))]
 
 
 # -- station sim --distributed: rank 0 on the bus, the others follow ----------------------

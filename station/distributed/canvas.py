@@ -43,7 +43,7 @@ from station.canvas.params import CanvasInputError, SimParams, get_profile
 from station.canvas.render import render_state
 from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
 from station.canvas.stats import canvas_stats
-from station.distributed import decomp, exchange
+from station.distributed import boxes, decomp, exchange
 from station.distributed.exchange import Rect
 
 F32 = np.float32
@@ -97,6 +97,57 @@ def _deep(v: Any) -> Any:
     return v
 
 
+BAND_FIELDS = (*(n for n in exchange.ALL_FIELDS if n != "r_composed"), "fibre")
+"""Per-cell fields a step reads or writes (a border band copies these)."""
+
+
+class _Band:
+    """A copy of canvas rows ``[r0, r1)`` x ``xs`` around a strip border, stepped once
+    the halo is in; its rows ``[out0, out1)`` (the owned rows next to the border, at
+    least one radius from the band's cut edges) are then right and are written back.
+
+    The owned rows are copied when the band is made (before the interior step changes
+    them); the halo rows ``[h0, h1)`` are copied again after the exchange.
+    """
+
+    def __init__(self, loc: CanvasState, off: int, r0: int, r1: int, xs: slice,
+                 out: tuple[int, int], halo: tuple[int, int]) -> None:
+        self.r0, self.r1, self.xs = r0, r1, xs
+        self.out0, self.out1 = out
+        self.halo = halo
+        rows = slice(r0 - off, r1 - off)
+        kw: dict[str, Any] = {}
+        for n in BAND_FIELDS:
+            arr = getattr(loc, n)
+            kw[n] = (arr[:, rows, xs] if arr.ndim == 3 else arr[rows, xs]).copy()
+        self.state = dataclasses.replace(loc, height=r1 - r0, width=xs.stop - xs.start,
+                                         r_composed=np.zeros((0, 0, 3), F32), **kw)
+
+    @property
+    def rows(self) -> int:
+        return self.r1 - self.r0
+
+    def step(self, loc: CanvasState, off: int, stepper: Any, dt: float) -> None:
+        """Refresh the halo rows from ``loc``, step the band, write the border rows back."""
+        bs = self.state
+        a, b = self.halo
+        for n in exchange.DYNAMIC_FIELDS:  # only these travel in the halo
+            src, dst = getattr(loc, n), getattr(bs, n)
+            if n in exchange.STACKS:
+                dst[:, a - self.r0:b - self.r0] = src[:, a - off:b - off, self.xs]
+            else:
+                dst[a - self.r0:b - self.r0] = src[a - off:b - off, self.xs]
+        stepper(bs, dt)
+        o0, o1 = self.out0 - self.r0, self.out1 - self.r0
+        for n in BAND_FIELDS[:-1]:
+            src, dst = getattr(bs, n), getattr(loc, n)
+            if n in exchange.STACKS:
+                dst[:, self.out0 - off:self.out1 - off, self.xs] = src[:, o0:o1]
+            else:
+                dst[self.out0 - off:self.out1 - off, self.xs] = src[o0:o1]
+
+
+
 class DistributedCanvas:
     """The canvas backend protocol over MPI ranks (see the module docstring).
 
@@ -106,6 +157,8 @@ class DistributedCanvas:
         base: the backend whose step runs on each strip: ``numpy`` or ``cpu``.
         comm: the communicator (default ``MPI.COMM_WORLD``).
         rebalance_every: steps between load-balance checks (0: never).
+        overlap: step each box's interior while its halo travels (default); False:
+            wait for the halo first (the blocking schedule, for comparisons).
         root: the rank that gathers pictures, states and statistics.
     """
 
@@ -114,7 +167,7 @@ class DistributedCanvas:
                  tiles: bool | None = None, n_slots: int = DEFAULT_SLOTS,
                  params: SimParams | None = None, paper: str | None = None,
                  palette: Palette | None = None, rebalance_every: int = 64,
-                 root: int = 0) -> None:
+                 root: int = 0, overlap: bool = True) -> None:
         if base not in BASES:
             raise CanvasInputError(f"distributed base backend {base!r} (known: "
                                    f"{', '.join(BASES)})", "--backend")
@@ -127,6 +180,7 @@ class DistributedCanvas:
         self.root = root
         self.base = base
         self.rebalance_every = int(rebalance_every)
+        self.overlap = bool(overlap)
         prof = get_profile(profile)
         prm = params if params is not None else prof.params
         preset = paper if paper is not None else prof.paper
@@ -147,12 +201,17 @@ class DistributedCanvas:
         self._shell.width, self._shell.height = width, height
         self._renderer_kind = prof.renderer
         self._scratch: Any = None
+        self._band_scratch: Any = None
         self._image: np.ndarray | None = None
         self._dirty = np.ones(full_ttl.shape, bool)
         self._shown = False  # no picture sent to the root yet (same on every rank)
         self.halo_bytes_last = 0
         self.render_cells_last = 0  # cells this rank sent for the last picture
         self.comm_seconds = 0.0  # halo exchange + tile reduction, waiting included [s]
+        self.halo_wait_seconds = 0.0  # waiting for the halo after the interior work [s]
+        self.halo_hidden_seconds = 0.0  # interior work done while the halo travels [s]
+        self.band_steps = 0  # border bands stepped after an overlapped exchange
+        self.late_steps = 0  # boxes stepped only after waiting for their halo
         self.cells_last = 0
         self.rebalances = 0
 
@@ -304,29 +363,75 @@ class DistributedCanvas:
     def _regions(self) -> list[tuple[slice, slice]]:
         sh = self._shell
         if sh.tiling:
-            return tiles.active_regions(sh)
+            return boxes.active_regions(sh)
         return [(slice(0, sh.height), slice(0, sh.width))]
 
     def step(self, dt: float | None = None) -> None:
+        """One step of the whole canvas; the halo exchange overlaps the interior work.
+
+        Per dirty-tile box: the halo rows are posted (non-blocking), the rows of the
+        box this rank owns are stepped in place (all but the ``radius`` rows next to a
+        border come out right: they do not reach the halo), and, once the halo is in,
+        each border's last ``radius`` owned rows are stepped on a copy of the
+        ``3 x radius`` rows around the border (``_Band``) and written back. Boxes whose
+        owned part is shorter than ``2 x radius`` rows (and every box with
+        ``overlap=False``) wait for the halo and are stepped with it in place.
+        """
         sh, s = self._shell, self.strip
         dt = sh.params.dt if dt is None else float(dt)
         if not dt > 0 or dt * sh.params.v_max > 1.0 + 1e-9:
             raise CanvasInputError("dt must be > 0 and move at most one cell per step", "step")
         self._sync_local()
         regions = self._regions()
+        t0 = time.perf_counter()
+        pending = exchange.start(self.comm, self._local, s.pad_lo, self._local, s.pad_lo,
+                                 self._halo_plan(regions), exchange.DYNAMIC_FIELDS,
+                                 max(self._slots_used(), 1), exchange.TAG_HALO)
+        t1 = time.perf_counter()
+        rad, off = self._radius, s.pad_lo
+        late: list[tuple[slice, slice]] = []
+        bands: list[_Band] = []
         cells = 0
         for ys, xs in regions:
-            lo, hi = max(ys.start, s.pad_lo), min(ys.stop, s.pad_hi)
-            if min(hi, s.hi) <= max(lo, s.lo):
+            a, b = max(ys.start, s.pad_lo), min(ys.stop, s.pad_hi)
+            oa, ob = max(ys.start, s.lo), min(ys.stop, s.hi)
+            if ob <= oa:
                 continue  # nothing of this box is ours
-            self._step_region((slice(lo - s.pad_lo, hi - s.pad_lo), xs), dt)
-            cells += (hi - lo) * (xs.stop - xs.start)
+            top, bottom = ys.start < s.lo, ys.stop > s.hi
+            cols = xs.stop - xs.start
+            if not (top or bottom):
+                self._step_region((slice(oa - off, ob - off), xs), dt)
+                cells += (ob - oa) * cols
+            elif not self.overlap or ob - oa < 2 * rad:
+                late.append((slice(a - off, b - off), xs))
+                cells += (b - a) * cols
+            else:  # snapshot the border rows before the interior step overwrites them
+                loc = self._local
+                if top:
+                    bands.append(_Band(loc, off, a, oa + 2 * rad, xs, (oa, oa + rad), (a, oa)))
+                    cells += (oa + 2 * rad - a) * cols
+                if bottom:
+                    bands.append(_Band(loc, off, ob - 2 * rad, b, xs, (ob - rad, ob), (ob, b)))
+                    cells += (b - ob + 2 * rad) * cols
+                self._step_region((slice(oa - off, ob - off), xs), dt)
+                cells += (ob - oa) * cols
+        t2 = time.perf_counter()
+        self.halo_bytes_last = exchange.finish(pending)
+        t3 = time.perf_counter()
+        for bd in bands:
+            bd.step(self._local, off, self._band_step, dt)
+        for sl in late:
+            self._step_region(sl, dt)
+        self.band_steps += len(bands)
+        self.late_steps += len(late)
         self.cells_last = cells
-        t0 = time.perf_counter()
-        self.halo_bytes_last = self._exchange_halo(regions)
+        t4 = time.perf_counter()
         if sh.tiling:
             self._update_tiles(regions)
-        self.comm_seconds += time.perf_counter() - t0
+        t5 = time.perf_counter()
+        self.comm_seconds += (t1 - t0) + (t3 - t2) + (t5 - t4)
+        self.halo_wait_seconds += t3 - t2
+        self.halo_hidden_seconds += t2 - t1
         ts = int(sh.params.tile_size)
         for ys, xs in regions:
             self._dirty[ys.start // ts:-(-ys.stop // ts), xs.start // ts:-(-xs.stop // ts)] = True
@@ -338,8 +443,23 @@ class DistributedCanvas:
         if self.rebalance_every > 0 and sh.step_count % self.rebalance_every == 0:
             self.rebalance()
 
-    def _exchange_halo(self, regions: list[tuple[slice, slice]]) -> int:
-        """Refresh every rank's halo cells inside the boxes from their owners."""
+    def _band_step(self, band: CanvasState, dt: float) -> None:
+        """Step all of a border band (its own scratch: bands are at most 3 radius rows)."""
+        sl = (slice(0, band.height), slice(0, band.width))
+        if self.base == "numpy":
+            reference.step_region(band, sl, dt)
+            return
+        from station.canvas.cpu import step as cpu_step  # numba only for the cpu base
+
+        slots = max(len(band.slots), 2)
+        sc = self._band_scratch
+        if sc is None or sc.height < band.height or sc.width < band.width or sc.slots < slots:
+            sc = self._band_scratch = cpu_step.Scratch(
+                max(3 * self._radius, band.height), self.width, slots)
+        cpu_step.step_region(band, sl, dt, sc)
+
+    def _halo_plan(self, regions: list[tuple[slice, slice]]) -> dict[tuple[int, int], list[Rect]]:
+        """Who sends whom which halo cells inside the boxes (same on every rank)."""
         plan: dict[tuple[int, int], list[Rect]] = {}
         for r, sr in enumerate(self._strips):
             for h0, h1 in ((sr.pad_lo, sr.lo), (sr.hi, sr.pad_hi)):
@@ -349,10 +469,7 @@ class DistributedCanvas:
                         b0, b1 = max(a0, so.lo), min(a1, so.hi)
                         if b0 < b1 and o != r:
                             plan.setdefault((o, r), []).append((b0, b1, xs.start, xs.stop))
-        s = self.strip
-        return exchange.move(self.comm, self._local, s.pad_lo, self._local, s.pad_lo, plan,
-                             exchange.DYNAMIC_FIELDS, max(self._slots_used(), 1),
-                             exchange.TAG_HALO)
+        return plan
 
     def _update_tiles(self, regions: list[tuple[slice, slice]]) -> None:
         """``tiles.update_tiles`` with the "still holds water" test reduced over owners."""
