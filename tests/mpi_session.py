@@ -49,7 +49,7 @@ SESSIONS: dict[str, list[tuple[Any, ...]]] = {
         *[op for i in range(12) for op in (("src", 8 + 10 * i, 20 + 5 * i, 7,
                                            "French Ultramarine", 0.5), ("step", 2),
                                           *((("bounds", [0, 16, 32, 48, 128]),) if i == 3 else
-                                            (("bounds", [0, 80, 96, 112, 128]),) if i == 7 else
+                                            (("bounds", [0, 72, 88, 104, 128]),) if i == 7 else
                                             (("rebalance",),) if i == 9 else ()))],
         ("step", 10),
     ],
