@@ -135,11 +135,12 @@ def main(argv: list[str]) -> int:
 
     out, base = argv[0], argv[1]
     script = argv[2] if len(argv) > 2 else "full"
-    # SCRIPT:blocking: wait for the halo before stepping (no overlap with interior work)
+    # SCRIPT:blocking / SCRIPT:auto: the halo schedule (default: overlap, so that every
+    # session exercises the border bands; auto is blocking on one machine)
     script, _, schedule = script.partition(":")
     die = json.loads(argv[3]) if len(argv) > 3 else None
     canvas = DistributedCanvas(WIDTH, HEIGHT, seed=3, base=base, params=PARAMS,
-                               rebalance_every=0, overlap=schedule != "blocking")
+                               rebalance_every=0, schedule=schedule or "overlap")
     die_at = die["step"] if die is not None and die["rank"] == canvas.rank else 0
     if script == "render-delta":
         return render_delta(canvas, out)

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import os
 import time
 from collections.abc import Mapping
 from typing import Any
@@ -48,6 +49,7 @@ from station.distributed.exchange import Rect
 
 F32 = np.float32
 BASES = ("numpy", "cpu")
+SCHEDULES = ("auto", "overlap", "blocking")
 REBALANCE_THRESHOLD = 1.04
 """Rebalance only when the busiest rank has this much more work than the mean (a move
 copies the strips once: cheap next to 64 steps at 4 % imbalance)."""
@@ -158,8 +160,12 @@ class DistributedCanvas:
         base: the backend whose step runs on each strip: ``numpy`` or ``cpu``.
         comm: the communicator (default ``MPI.COMM_WORLD``).
         rebalance_every: steps between load-balance checks (0: never).
-        overlap: step each box's interior while its halo travels (default); False:
-            wait for the halo first (the blocking schedule, for comparisons).
+        schedule: the halo schedule (:data:`SCHEDULES`): ``overlap`` steps each box's
+            interior while its halo travels and the border bands after (2 radius rows of
+            extra work per border); ``blocking`` waits for the halo first; ``auto`` (the
+            default, or ``$STATION_HALO_SCHEDULE``) overlaps a box only where a neighbour
+            across its borders is on another machine (MPI's shared-memory split): over
+            shared memory the halo arrives faster than the bands' extra work.
         root: the rank that gathers pictures, states and statistics.
     """
 
@@ -168,7 +174,7 @@ class DistributedCanvas:
                  tiles: bool | None = None, n_slots: int = DEFAULT_SLOTS,
                  params: SimParams | None = None, paper: str | None = None,
                  palette: Palette | None = None, rebalance_every: int = 64,
-                 root: int = 0, overlap: bool = True) -> None:
+                 root: int = 0, schedule: str | None = None) -> None:
         if base not in BASES:
             raise CanvasInputError(f"distributed base backend {base!r} (known: "
                                    f"{', '.join(BASES)})", "--backend")
@@ -178,10 +184,17 @@ class DistributedCanvas:
         self.comm = comm if comm is not None else MPI.COMM_WORLD
         self.rank = self.comm.Get_rank()
         self.size = self.comm.Get_size()
+        node = self.comm.Split_type(MPI.COMM_TYPE_SHARED)
+        self._node_of = self.comm.allgather(node.allreduce(self.rank, op=MPI.MIN))
+        node.Free()
         self.root = root
         self.base = base
         self.rebalance_every = int(rebalance_every)
-        self.overlap = bool(overlap)
+        schedule = schedule or os.environ.get("STATION_HALO_SCHEDULE", "") or "auto"
+        if schedule not in SCHEDULES:
+            raise CanvasInputError(f"halo schedule {schedule!r} (known: "
+                                   f"{', '.join(SCHEDULES)})", "STATION_HALO_SCHEDULE")
+        self.schedule = schedule
         prof = get_profile(profile)
         prm = params if params is not None else prof.params
         preset = paper if paper is not None else prof.paper
@@ -376,7 +389,8 @@ class DistributedCanvas:
         each border's last ``radius`` owned rows are stepped on a copy of the
         ``3 x radius`` rows around the border (``_Band``) and written back. Boxes whose
         owned part is shorter than ``2 x radius`` rows (and every box with
-        ``overlap=False``) wait for the halo and are stepped with it in place.
+        every box under the ``blocking`` schedule, and under ``auto`` every box whose
+        neighbours share this machine) wait for the halo and are stepped with it in place.
         """
         sh, s = self._shell, self.strip
         dt = sh.params.dt if dt is None else float(dt)
@@ -403,7 +417,7 @@ class DistributedCanvas:
             if not (top or bottom):
                 self._step_region((slice(oa - off, ob - off), xs), dt)
                 cells += (ob - oa) * cols
-            elif not self.overlap or ob - oa < 2 * rad:
+            elif not self._overlaps(top, bottom) or ob - oa < 2 * rad:
                 late.append((slice(a - off, b - off), xs))
                 cells += (b - a) * cols
             else:  # snapshot the border rows before the interior step overwrites them
@@ -443,6 +457,14 @@ class DistributedCanvas:
             self._local.evaporated[...] = 0
         if self.rebalance_every > 0 and sh.step_count % self.rebalance_every == 0:
             self.rebalance()
+
+    def _overlaps(self, top: bool, bottom: bool) -> bool:
+        """Whether a box crossing the top/bottom border is stepped overlapped."""
+        if self.schedule != "auto":
+            return self.schedule == "overlap"
+        me = self._node_of[self.rank]
+        return ((top and self._node_of[self.rank - 1] != me)
+                or (bottom and self._node_of[self.rank + 1] != me))
 
     def _band_step(self, band: CanvasState, dt: float) -> None:
         """Step all of a border band (its own scratch: bands are at most 3 radius rows)."""
