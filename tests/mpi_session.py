@@ -22,6 +22,8 @@ from station.canvas.state import CanvasState
 
 WIDTH, HEIGHT = 96, 128
 PARAMS = dataclasses.replace(get_profile("watercolor").params, tile_size=16)
+INK_PARAMS = dataclasses.replace(get_profile("ink").params, tile_size=16)
+"""The ink profile paints on rough paper whose fibres steer the wet front (fibre_wick 1)."""
 
 # rows 32, 64, 96 are the strip borders of 4 ranks (16-row tiles); 64 of 2 ranks
 SESSIONS: dict[str, list[tuple[Any, ...]]] = {
@@ -139,7 +141,10 @@ def main(argv: list[str]) -> int:
     # session exercises the border bands; auto is blocking on one machine)
     script, _, schedule = script.partition(":")
     die = json.loads(argv[3]) if len(argv) > 3 else None
-    canvas = DistributedCanvas(WIDTH, HEIGHT, seed=3, base=base, params=PARAMS,
+    ink = script.endswith("-ink")  # SCRIPT-ink: the same session on the ink profile
+    script = script.removesuffix("-ink")
+    canvas = DistributedCanvas(WIDTH, HEIGHT, "ink" if ink else "watercolor", seed=3,
+                               base=base, params=INK_PARAMS if ink else PARAMS,
                                rebalance_every=0, schedule=schedule or "overlap")
     die_at = die["step"] if die is not None and die["rank"] == canvas.rank else 0
     if script == "render-delta":

@@ -147,6 +147,17 @@ def test_two_hosts_over_tcp_overlap_across_the_host_border(tmp_path: Path) -> No
     assert sched["bands"] >= 5 and sched["late"] >= 5
 
 
+def test_ink_on_fibred_paper_is_bitwise_one_process(tmp_path: Path) -> None:
+    # each strip holds its rows of the whole sheet's fibres (not a strip-sized sheet's),
+    # and they travel with the rows when the bounds move
+    out = run_session(tmp_path, 4, "numpy", "wet-rebalance-ink")
+    one = NumpyCanvas(ms.WIDTH, ms.HEIGHT, "ink", seed=3, params=ms.INK_PARAMS)
+    ms.play(one, ms.SESSIONS["stroke"], str(tmp_path))
+    got = CanvasState.load(out)
+    assert_same_state(one.state(), got)
+    assert got.fibre.any() and np.array_equal(got.fibre, one.state().fibre)
+
+
 def test_cpu_base_is_bitwise_the_cpu_backend(tmp_path: Path) -> None:
     # numba compiles per process (cached on disk after the first run): longer timeout
     out = run_session(tmp_path, 2, "cpu", "stroke", timeout=280.0)

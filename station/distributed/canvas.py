@@ -39,7 +39,7 @@ from mpi4py import MPI
 
 from station.canvas import operations, reference, tiles
 from station.canvas.palette import Palette
-from station.canvas.paper import make_paper
+from station.canvas.paper import make_fibres, make_paper
 from station.canvas.params import CanvasInputError, SimParams, get_profile
 from station.canvas.render import render_state
 from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
@@ -55,6 +55,12 @@ REBALANCE_THRESHOLD = 1.04
 copies the strips once: cheap next to 64 steps at 4 % imbalance)."""
 
 
+def _zero_fibre(height: int, width: int) -> np.ndarray:
+    """A (2, H, W) view of one zero: the shell's ``fibre`` has the canvas's shape (so
+    ``CanvasState`` does not make the sheet's fibres again) and holds no memory."""
+    return np.broadcast_to(np.zeros((1, 1, 1), F32), (2, height, width))
+
+
 def _empty_shell(st: CanvasState) -> CanvasState:
     """``st``'s metadata and tiles with empty per-cell arrays (the replicated part)."""
     kw: dict[str, Any] = {}
@@ -62,6 +68,8 @@ def _empty_shell(st: CanvasState) -> CanvasState:
         v = getattr(st, name)
         if name == "tile_ttl":
             v = v.copy()
+        elif name == "fibre":
+            v = _zero_fibre(st.height, st.width)
         elif isinstance(v, np.ndarray):
             v = np.zeros((st.n_slots, 0, 0) if name in exchange.STACKS else
                          (0, 0, 3) if name == "r_composed" else (0, 0), v.dtype)
@@ -78,18 +86,18 @@ def _local_from_shell(shell: CanvasState, rows: int, zeroed: bool = True) -> Can
     Its ``tile_ttl`` is private (``operations`` mark it in strip coordinates; nothing
     reads it): the canvas's tiles are the shell's.
     """
-    loc = shell.copy()
-    loc.height = rows
+    kw: dict[str, Any] = {n: _deep(getattr(shell, n)) for n in shell.__dataclass_fields__}
+    kw["height"] = rows
     for n in exchange.ALL_FIELDS:
         shape = ((rows, shell.width, 3) if n == "r_composed" else
                  (shell.n_slots, rows, shell.width) if n in exchange.STACKS else
-                 (rows, shell.width))
+                 (2, rows, shell.width) if n == "fibre" else (rows, shell.width))
         # free pigment slots are never moved: stacks always start as zeros
         fill = zeroed or n in exchange.STACKS
-        setattr(loc, n, np.zeros(shape, F32) if fill else np.empty(shape, F32))
+        kw[n] = np.zeros(shape, F32) if fill else np.empty(shape, F32)
     ts = int(shell.params.tile_size)
-    loc.tile_ttl = np.zeros((-(-rows // ts), -(-shell.width // ts)), np.int32)
-    return loc
+    kw["tile_ttl"] = np.zeros((-(-rows // ts), -(-shell.width // ts)), np.int32)
+    return CanvasState(**kw)
 
 
 def _deep(v: Any) -> Any:
@@ -100,7 +108,7 @@ def _deep(v: Any) -> Any:
     return v
 
 
-BAND_FIELDS = (*(n for n in exchange.ALL_FIELDS if n != "r_composed"), "fibre")
+BAND_FIELDS = tuple(n for n in exchange.ALL_FIELDS if n != "r_composed")
 """Per-cell fields a step reads or writes (a border band copies these)."""
 
 
@@ -142,7 +150,9 @@ class _Band:
                 dst[a - self.r0:b - self.r0] = src[a - off:b - off, self.xs]
         stepper(bs, dt)
         o0, o1 = self.out0 - self.r0, self.out1 - self.r0
-        for n in BAND_FIELDS[:-1]:
+        for n in BAND_FIELDS:
+            if n == "fibre":
+                continue  # static
             src, dst = getattr(bs, n), getattr(loc, n)
             if n in exchange.STACKS:
                 dst[:, self.out0 - off:self.out1 - off, self.xs] = src[:, o0:o1]
@@ -210,9 +220,13 @@ class DistributedCanvas:
         self._local = CanvasState.blank(width, s.rows, prm, h, profile=prof.name,
                                         paper_preset=preset, seed=seed, palette=palette,
                                         n_slots=n_slots, tiling=tiling)
+        # the strip's rows of the whole sheet's fibres (a strip-sized sheet has others)
+        self._local.fibre = np.ascontiguousarray(
+            make_fibres(preset, height, width, seed)[:, s.pad_lo:s.pad_hi])
         full_ttl = np.zeros((-(-height // ts), -(-width // ts)), np.int32)
         self._shell = _empty_shell(dataclasses.replace(self._local, tile_ttl=full_ttl))
         self._shell.width, self._shell.height = width, height
+        self._shell.fibre = _zero_fibre(height, width)
         self._renderer_kind = prof.renderer
         self._scratch: Any = None
         self._band_scratch: Any = None
@@ -636,7 +650,7 @@ class DistributedCanvas:
         if a < b:
             for n in exchange.ALL_FIELDS:
                 src, dst = getattr(loc, n), getattr(fresh, n)
-                if n in exchange.STACKS:
+                if n in exchange.STACKS or n == "fibre":
                     dst[:, a - s_new.pad_lo:b - s_new.pad_lo] = src[:, a - s_old.pad_lo:
                                                                      b - s_old.pad_lo]
                 else:
@@ -671,6 +685,9 @@ class DistributedCanvas:
                     full[k] = pl
                 arrays[n] = full
         arrays["r_composed"] = self._gather_plane(loc.r_composed, (3,))
+        fibres = [self._gather_plane(loc.fibre[k]) for k in range(2)]
+        if self.is_root:
+            arrays["fibre"] = np.stack([f for f in fibres if f is not None])
         if not self.is_root:
             return None
         st = sh.copy()
@@ -682,9 +699,12 @@ class DistributedCanvas:
         """Continue from ``state``, given on the root (other ranks may pass None):
         metadata is broadcast, each rank receives its rows (collective)."""
         shell = _empty_shell(state) if self.is_root and state is not None else None
+        if shell is not None:
+            shell.fibre = np.zeros((2, 0, 0), F32)  # not pickled whole: set again below
         shell = self.comm.bcast(shell, root=self.root)
         if shell is None:
             raise CanvasInputError("load_state needs a state on the root rank", "load_state")
+        shell.fibre = _zero_fibre(shell.height, shell.width)
         ts = int(shell.params.tile_size)
         if shell.height < ts * self.size:
             raise CanvasInputError(f"canvas of {shell.height} rows cannot give {self.size} "

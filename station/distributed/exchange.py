@@ -23,8 +23,9 @@ Rect = tuple[int, int, int, int]
 PLANES = ("vx", "vy", "w", "wc", "h", "mask", "block", "block_time", "evaporated",
           "removed_w")
 STACKS = ("p", "q", "removed_p")
-ALL_FIELDS = (*PLANES, *STACKS, "r_composed")
-"""Every per-cell field of :class:`CanvasState` (rebalancing and scattering move these)."""
+ALL_FIELDS = (*PLANES, *STACKS, "r_composed", "fibre")
+"""Every per-cell field of :class:`CanvasState` (rebalancing and scattering move these;
+the paper's ``fibre`` texture (2, H, W) is static but belongs to its rows)."""
 DYNAMIC_FIELDS = ("vx", "vy", "w", "wc", "p", "q")
 """The fields a step changes and its neighbours read (the halo exchange moves these;
 ``evaporated`` also changes but is never read across cells)."""
@@ -71,6 +72,8 @@ def _views(st: CanvasState, off: int, rect: Rect, names: Sequence[str],
         arr = getattr(st, n)
         if n in STACKS:
             out.append(arr[:slots, a:b, c0:c1])
+        elif n == "fibre":
+            out.append(arr[:, a:b, c0:c1])
         else:  # planes (H, W) and r_composed (H, W, 3)
             out.append(arr[a:b, c0:c1])
     return out
@@ -79,7 +82,8 @@ def _views(st: CanvasState, off: int, rect: Rect, names: Sequence[str],
 def rect_size(rect: Rect, names: Sequence[str], slots: int) -> int:
     """float32 values of ``names`` in ``rect``."""
     cells = (rect[1] - rect[0]) * (rect[3] - rect[2])
-    per = sum(slots if n in STACKS else 3 if n == "r_composed" else 1 for n in names)
+    per = sum(slots if n in STACKS else 3 if n == "r_composed" else 2 if n == "fibre" else 1
+              for n in names)
     return cells * per
 
 
