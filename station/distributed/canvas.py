@@ -51,8 +51,10 @@ F32 = np.float32
 BASES = ("numpy", "cpu")
 SCHEDULES = ("auto", "overlap", "blocking")
 REBALANCE_THRESHOLD = 1.04
-"""Rebalance only when the busiest rank has this much more work than the mean (a move
-copies the strips once: cheap next to 64 steps at 4 % imbalance)."""
+"""Rebalance only when the busiest rank has this much more work than the mean (and the
+move pays for itself: :meth:`DistributedCanvas.rebalance`)."""
+STEP_TIME_WEIGHT = 0.1
+"""Weight of the newest step in the running mean of the step time (``step_seconds``)."""
 
 
 def _zero_fibre(height: int, width: int) -> np.ndarray:
@@ -238,6 +240,8 @@ class DistributedCanvas:
         self.comm_seconds = 0.0  # halo exchange + tile reduction, waiting included [s]
         self.halo_wait_seconds = 0.0  # waiting for the halo after the interior work [s]
         self.halo_hidden_seconds = 0.0  # interior work done while the halo travels [s]
+        self.step_seconds = 0.0  # running mean of this rank's step time [s]
+        self.move_seconds = 0.0  # time of the last strip move [s]
         self.band_steps = 0  # border bands stepped after an overlapped exchange
         self.late_steps = 0  # boxes stepped only after waiting for their halo
         self.cells_last = 0
@@ -384,7 +388,10 @@ class DistributedCanvas:
         from station.canvas.cpu import step as cpu_step  # numba only for the cpu base
 
         slots = max(len(loc.slots), 1)
-        if self._scratch is None or not self._scratch.fits(loc.height, loc.width, slots):
+        sc = self._scratch
+        # a box window only needs a scratch at least its size: keep it when bounds move
+        # (a new one is page-faulted in again, ~1 GB for a 3500-row strip at 4096 wide)
+        if sc is None or sc.height < loc.height or sc.width < loc.width or sc.slots < slots:
             self._scratch = cpu_step.Scratch(loc.height, loc.width, max(slots, 2))
         cpu_step.step_region(loc, sl, dt, self._scratch)
 
@@ -410,6 +417,7 @@ class DistributedCanvas:
         dt = sh.params.dt if dt is None else float(dt)
         if not dt > 0 or dt * sh.params.v_max > 1.0 + 1e-9:
             raise CanvasInputError("dt must be > 0 and move at most one cell per step", "step")
+        t_begin = time.perf_counter()
         self._sync_local()
         regions = self._regions()
         t0 = time.perf_counter()
@@ -459,6 +467,9 @@ class DistributedCanvas:
             self._update_tiles(regions)
         t5 = time.perf_counter()
         self.comm_seconds += (t1 - t0) + (t3 - t2) + (t5 - t4)
+        took = t5 - t_begin
+        self.step_seconds = (took if self.step_seconds == 0.0 else
+                             self.step_seconds + STEP_TIME_WEIGHT * (took - self.step_seconds))
         self.halo_wait_seconds += t3 - t2
         self.halo_hidden_seconds += t2 - t1
         ts = int(sh.params.tile_size)
@@ -603,8 +614,14 @@ class DistributedCanvas:
 
     # ------------------------------------------------------------------ balance
     def rebalance(self, force: bool = False) -> bool:
-        """Move strip bounds to share the dirty-tile work; True when rows moved.
+        """Move strip bounds to share the dirty-tile work; True when rows moved
+        (collective).
 
+        Rows move when the busiest rank has :data:`REBALANCE_THRESHOLD` times the mean
+        work and the time the balanced split would save until the next check (the
+        slowest rank's mean step time x ``rebalance_every`` x ``1 - 1/imbalance``)
+        exceeds the last move's time: a move copies whole strips (~0.5 s for a
+        3500-row strip at 4096 wide), which a 4 % imbalance does not repay in 64 steps.
         ``force``: move to the balanced split even when the imbalance is small.
         """
         sh = self._shell
@@ -613,7 +630,13 @@ class DistributedCanvas:
         new = decomp.balanced_split(work, sh.height, g, self.size)
         if new == self._bounds:
             return False
-        if not force and decomp.imbalance(work, self._bounds, g) < REBALANCE_THRESHOLD:
+        imb = decomp.imbalance(work, self._bounds, g)
+        # every rank must decide alike: the slowest rank's step and move times
+        times = np.array([self.step_seconds, self.move_seconds])
+        exchange.wait_all([self.comm.Iallreduce(MPI.IN_PLACE, times, op=MPI.MAX)])
+        # moving pays when the steps until the next check save more than a move costs
+        saving = self.rebalance_every * times[0] * (1.0 - 1.0 / imb)
+        if not force and (imb < REBALANCE_THRESHOLD or saving < times[1]):
             return False
         self._redistribute(new)
         self.rebalances += 1
@@ -632,6 +655,7 @@ class DistributedCanvas:
 
     def _redistribute(self, bounds: list[int]) -> None:
         """Every rank gets the rows of its new strip (owned and halo) from their owners."""
+        t0 = time.perf_counter()
         old = self._strips
         new = decomp.strips(bounds, self.height, self._radius)
         plan: dict[tuple[int, int], list[Rect]] = {}
@@ -662,7 +686,7 @@ class DistributedCanvas:
         self._local = fresh
         self._bounds = list(bounds)
         self._strips = new
-        self._scratch = None
+        self.move_seconds = time.perf_counter() - t0
 
     # ------------------------------------------------------------------ state
     def state(self) -> CanvasState:
