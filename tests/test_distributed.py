@@ -350,3 +350,27 @@ def test_render_gathers_only_the_changed_tiles(tmp_path: Path) -> None:
     assert sent[0] == ms.WIDTH * ms.HEIGHT  # the first picture: everything
     # the dab's tiles (and their neighbours reached by the step's boxes) only
     assert 0 < sent[1] <= 3 * 16 * 3 * 16
+
+
+# -- station bench distributed ------------------------------------------------------------
+def test_bench_reports_both_schedules_per_rank(tmp_path: Path) -> None:
+    res = subprocess.run([str(BIN / "station"), "bench", "distributed", "--quick",
+                          "--scenarios", "wash", "--schedules", "overlap,blocking"],
+                         capture_output=True, text=True, timeout=240)
+    assert res.returncode == 0, res.stderr
+    runs = {(r["ranks"], r["schedule"]): r for r in json.loads(res.stdout)["runs"]}
+    assert set(runs) == {(n, k) for n in (1, 2) for k in ("overlap", "blocking")}
+    for (n, _k), r in runs.items():
+        assert len(r["comm_share_per_rank"]) == n and len(r["halo_wait_share_per_rank"]) == n
+        assert r["speedup"] > 0 and r["steps"] >= 3
+    # two ranks move halos; only the overlapped schedule steps interiors meanwhile
+    assert runs[(2, "overlap")]["halo_bytes_per_step"] > 0
+    assert min(runs[(2, "overlap")]["overlapped_work_share_per_rank"]) > 0
+    assert max(runs[(2, "blocking")]["overlapped_work_share_per_rank"]) == 0
+    # the overlapped wash simulates the border bands too: 2 x 2 radius rows more
+    extra = sum(runs[(2, "overlap")]["cells_per_rank_step"]) - sum(
+        runs[(2, "blocking")]["cells_per_rank_step"])
+    assert extra == 2 * 2 * 10 * 512
+    bad = subprocess.run([str(BIN / "station"), "bench", "distributed", "--schedules", "fast"],
+                         capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 2 and "--schedules" in bad.stderr
