@@ -196,9 +196,9 @@ class DistributedCanvas:
         self.comm = comm if comm is not None else MPI.COMM_WORLD
         self.rank = self.comm.Get_rank()
         self.size = self.comm.Get_size()
-        node = self.comm.Split_type(MPI.COMM_TYPE_SHARED)
-        self._node_of = self.comm.allgather(node.allreduce(self.rank, op=MPI.MIN))
-        node.Free()
+        # which machine each rank runs on: found at the first step, because making a
+        # canvas must not be collective (station sim's rank 0 makes it before the others)
+        self._node_of: list[int] | None = None
         self.root = root
         self.base = base
         self.rebalance_every = int(rebalance_every)
@@ -232,6 +232,8 @@ class DistributedCanvas:
         self._renderer_kind = prof.renderer
         self._scratch: Any = None
         self._band_scratch: Any = None
+        self._boxes_of: tuple[tuple[int, int, int], np.ndarray,
+                              list[tuple[slice, slice]]] | None = None
         self._image: np.ndarray | None = None
         self._dirty = np.ones(full_ttl.shape, bool)
         self._shown = False  # no picture sent to the root yet (same on every rank)
@@ -397,9 +399,15 @@ class DistributedCanvas:
 
     def _regions(self) -> list[tuple[slice, slice]]:
         sh = self._shell
-        if sh.tiling:
-            return boxes.active_regions(sh)
-        return [(slice(0, sh.height), slice(0, sh.width))]
+        if not sh.tiling:
+            return [(slice(0, sh.height), slice(0, sh.width))]
+        active = sh.tile_ttl > 0
+        key = (sh.height, sh.width, int(sh.params.tile_size))
+        # the active tiles change far less often than every step: find boxes only then
+        if (self._boxes_of is None or self._boxes_of[0] != key
+                or not np.array_equal(active, self._boxes_of[1])):
+            self._boxes_of = (key, active, boxes.active_regions(sh))
+        return list(self._boxes_of[2])
 
     def step(self, dt: float | None = None) -> None:
         """One step of the whole canvas; the halo exchange overlaps the interior work.
@@ -418,6 +426,10 @@ class DistributedCanvas:
         if not dt > 0 or dt * sh.params.v_max > 1.0 + 1e-9:
             raise CanvasInputError("dt must be > 0 and move at most one cell per step", "step")
         t_begin = time.perf_counter()
+        if self._node_of is None:
+            node = self.comm.Split_type(MPI.COMM_TYPE_SHARED)
+            self._node_of = self.comm.allgather(node.allreduce(self.rank, op=MPI.MIN))
+            node.Free()
         self._sync_local()
         regions = self._regions()
         t0 = time.perf_counter()
@@ -487,9 +499,10 @@ class DistributedCanvas:
         """Whether a box crossing the top/bottom border is stepped overlapped."""
         if self.schedule != "auto":
             return self.schedule == "overlap"
-        me = self._node_of[self.rank]
-        return ((top and self._node_of[self.rank - 1] != me)
-                or (bottom and self._node_of[self.rank + 1] != me))
+        nodes = self._node_of or []
+        me = nodes[self.rank]
+        return ((top and nodes[self.rank - 1] != me)
+                or (bottom and nodes[self.rank + 1] != me))
 
     def _band_step(self, band: CanvasState, dt: float) -> None:
         """Step all of a border band (its own scratch: bands are at most 3 radius rows)."""
