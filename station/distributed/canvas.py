@@ -416,10 +416,10 @@ class DistributedCanvas:
         box this rank owns are stepped in place (all but the ``radius`` rows next to a
         border come out right: they do not reach the halo), and, once the halo is in,
         each border's last ``radius`` owned rows are stepped on a copy of the
-        ``3 x radius`` rows around the border (``_Band``) and written back. Boxes whose
-        owned part is shorter than ``2 x radius`` rows (and every box with
-        every box under the ``blocking`` schedule, and under ``auto`` every box whose
-        neighbours share this machine) wait for the halo and are stepped with it in place.
+        ``3 x radius`` rows around the border (``_Band``) and written back. A box whose
+        owned part is shorter than ``2 x radius`` rows, every box under the ``blocking``
+        schedule, and under ``auto`` every box whose neighbours run on this machine, wait
+        for the halo and are stepped with it in place.
         """
         sh, s = self._shell, self.strip
         dt = sh.params.dt if dt is None else float(dt)
