@@ -22,6 +22,8 @@ from station.canvas.state import CanvasState
 
 WIDTH, HEIGHT = 96, 128
 PARAMS = dataclasses.replace(get_profile("watercolor").params, tile_size=16)
+INK_PARAMS = dataclasses.replace(get_profile("ink").params, tile_size=16)
+"""The ink profile paints on rough paper whose fibres steer the wet front (fibre_wick 1)."""
 
 # rows 32, 64, 96 are the strip borders of 4 ranks (16-row tiles); 64 of 2 ranks
 SESSIONS: dict[str, list[tuple[Any, ...]]] = {
@@ -49,7 +51,7 @@ SESSIONS: dict[str, list[tuple[Any, ...]]] = {
         *[op for i in range(12) for op in (("src", 8 + 10 * i, 20 + 5 * i, 7,
                                            "French Ultramarine", 0.5), ("step", 2),
                                           *((("bounds", [0, 16, 32, 48, 128]),) if i == 3 else
-                                            (("bounds", [0, 80, 96, 112, 128]),) if i == 7 else
+                                            (("bounds", [0, 72, 88, 104, 128]),) if i == 7 else
                                             (("rebalance",),) if i == 9 else ()))],
         ("step", 10),
     ],
@@ -135,17 +137,26 @@ def main(argv: list[str]) -> int:
 
     out, base = argv[0], argv[1]
     script = argv[2] if len(argv) > 2 else "full"
+    # SCRIPT:blocking / SCRIPT:auto: the halo schedule (default: overlap, so that every
+    # session exercises the border bands; auto is blocking on one machine)
+    script, _, schedule = script.partition(":")
     die = json.loads(argv[3]) if len(argv) > 3 else None
-    canvas = DistributedCanvas(WIDTH, HEIGHT, seed=3, base=base, params=PARAMS,
-                               rebalance_every=0)
+    ink = script.endswith("-ink")  # SCRIPT-ink: the same session on the ink profile
+    script = script.removesuffix("-ink")
+    canvas = DistributedCanvas(WIDTH, HEIGHT, "ink" if ink else "watercolor", seed=3,
+                               base=base, params=INK_PARAMS if ink else PARAMS,
+                               rebalance_every=0, schedule=schedule or "overlap")
     die_at = die["step"] if die is not None and die["rank"] == canvas.rank else 0
     if script == "render-delta":
         return render_delta(canvas, out)
     play(canvas, SESSIONS[script], str(Path(out).parent), die_at)
     rgb = canvas.render()
     stats = canvas.stats()
+    sched = {"bands": canvas.comm.allreduce(canvas.band_steps),
+             "late": canvas.comm.allreduce(canvas.late_steps)}
     full = canvas.gather_state()
     if full is not None:
+        Path(out + ".sched.json").write_text(json.dumps(sched))
         full.save(out)
         np.save(out + ".rgb.npy", rgb)
         Path(out + ".stats.json").write_text(json.dumps(stats))

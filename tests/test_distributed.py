@@ -21,10 +21,11 @@ import numpy as np
 import pytest
 
 from station.bus import Publisher
+from station.canvas import tiles
 from station.canvas.cpu import CpuCanvas
 from station.canvas.numpy_backend import NumpyCanvas
 from station.canvas.state import CanvasState
-from station.distributed import decomp
+from station.distributed import boxes, decomp
 from station.events import Command, PenSample
 from station.sessionlog import read_session
 from station.sim.script import Script
@@ -104,6 +105,59 @@ def test_rebalancing_in_the_middle_of_a_wet_stroke_changes_nothing(tmp_path: Pat
     assert_same_state(single("stroke", tmp_path).state(), CanvasState.load(out))
 
 
+@pytest.mark.parametrize("n", [2, 4])
+def test_overlapped_halo_schedule_equals_blocking_and_one_process(tmp_path: Path,
+                                                                  n: int) -> None:
+    # overlapped: border bands stepped on copies after the exchange, the interior
+    # while the halo travels; blocking: every box waits for its halo first
+    one = single("stroke", tmp_path).state()
+    scheds = {}
+    for name in ("stroke", "stroke:blocking", "stroke:auto"):
+        out = run_session(tmp_path, n, "numpy", name)
+        assert_same_state(one, CanvasState.load(out))
+        scheds[name] = json.loads(Path(str(out) + ".sched.json").read_text())
+    # both schedules really ran: bands only when overlapped (a box owning fewer than
+    # 2 radius rows next to a border still waits), every box waits when blocking
+    assert scheds["stroke"]["bands"] >= 10
+    assert scheds["stroke"]["late"] < scheds["stroke"]["bands"] / 4
+    assert scheds["stroke:blocking"]["bands"] == 0 and scheds["stroke:blocking"]["late"] >= 10
+    # auto: all ranks share this machine, so nothing is worth the bands' extra work
+    assert scheds["stroke:auto"] == scheds["stroke:blocking"]
+
+
+TCP_ENV = {"MPIR_CVAR_NOLOCAL": "1", "MPIR_CVAR_CH4_NETMOD": "ofi", "FI_PROVIDER": "tcp",
+           "MPIR_CVAR_DEBUG_SUMMARY": "1"}
+"""MPICH over libfabric's tcp provider with shared memory off: the cross-machine path."""
+
+
+def test_two_hosts_over_tcp_overlap_across_the_host_border(tmp_path: Path) -> None:
+    # hydra's fork launcher, two "hosts" (localhost and 127.0.0.1, two ranks each) and
+    # TCP sockets between every pair of ranks: the cluster set-up of docs/distributed.md
+    # minus ssh. auto overlaps only the border between ranks 1 and 2 (other hosts).
+    assert MPIEXEC is not None
+    out = tmp_path / "tcp.npz"
+    res = subprocess.run([MPIEXEC, "-launcher", "fork", "-hosts", "localhost:2,127.0.0.1:2",
+                          "-n", "4", sys.executable, str(DRIVER), str(out), "numpy",
+                          "stroke:auto"], capture_output=True, text=True, timeout=120,
+                         env={**os.environ, **TCP_ENV})
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert "libfabric provider: tcp" in res.stdout + res.stderr  # MPICH's own summary
+    assert_same_state(single("stroke", tmp_path).state(), CanvasState.load(out))
+    sched = json.loads(Path(str(out) + ".sched.json").read_text())
+    assert sched["bands"] >= 5 and sched["late"] >= 5
+
+
+def test_ink_on_fibred_paper_is_bitwise_one_process(tmp_path: Path) -> None:
+    # each strip holds its rows of the whole sheet's fibres (not a strip-sized sheet's),
+    # and they travel with the rows when the bounds move
+    out = run_session(tmp_path, 4, "numpy", "wet-rebalance-ink")
+    one = NumpyCanvas(ms.WIDTH, ms.HEIGHT, "ink", seed=3, params=ms.INK_PARAMS)
+    ms.play(one, ms.SESSIONS["stroke"], str(tmp_path))
+    got = CanvasState.load(out)
+    assert_same_state(one.state(), got)
+    assert got.fibre.any() and np.array_equal(got.fibre, one.state().fibre)
+
+
 def test_cpu_base_is_bitwise_the_cpu_backend(tmp_path: Path) -> None:
     # numba compiles per process (cached on disk after the first run): longer timeout
     out = run_session(tmp_path, 2, "cpu", "stroke", timeout=280.0)
@@ -175,6 +229,23 @@ def test_balanced_split_follows_the_painted_corner() -> None:
     assert all(b % ts == 0 for b in bal)
     four = decomp.balanced_split(work, height, ts, 4)
     assert len(four) == 5 and four == sorted(four) and len(set(four)) == 5
+
+
+def test_fast_boxes_are_the_tiles_boxes() -> None:
+    # the replicated per-step box finding is scipy's labelling, the same boxes as tiles'
+    st = NumpyCanvas(1024, 768, params=ms.PARAMS).state()
+    rng = np.random.default_rng(5)
+    for _ in range(150):
+        density = rng.choice([0.005, 0.03, 0.1, 0.3, 0.6])
+        st.tile_ttl[...] = (rng.random(st.tile_ttl.shape) < density) * rng.integers(
+            1, 4, st.tile_ttl.shape)
+        assert boxes.active_regions(st) == tiles.active_regions(st)
+    st.tile_ttl[...] = 0
+    assert boxes.active_regions(st) == []
+    st.tile_ttl[2:5, 40:48] = 1
+    st.tile_ttl[30:32, 0:2] = 1
+    assert boxes.active_regions(st) == [(slice(30, 82), slice(638, 770)),
+                                        (slice(478, 514), slice(0, 34))]
 
 
 # -- station sim --distributed: rank 0 on the bus, the others follow ----------------------
@@ -279,3 +350,27 @@ def test_render_gathers_only_the_changed_tiles(tmp_path: Path) -> None:
     assert sent[0] == ms.WIDTH * ms.HEIGHT  # the first picture: everything
     # the dab's tiles (and their neighbours reached by the step's boxes) only
     assert 0 < sent[1] <= 3 * 16 * 3 * 16
+
+
+# -- station bench distributed ------------------------------------------------------------
+def test_bench_reports_both_schedules_per_rank(tmp_path: Path) -> None:
+    res = subprocess.run([str(BIN / "station"), "bench", "distributed", "--quick",
+                          "--scenarios", "wash", "--schedules", "overlap,blocking"],
+                         capture_output=True, text=True, timeout=240)
+    assert res.returncode == 0, res.stderr
+    runs = {(r["ranks"], r["schedule"]): r for r in json.loads(res.stdout)["runs"]}
+    assert set(runs) == {(n, k) for n in (1, 2) for k in ("overlap", "blocking")}
+    for (n, _k), r in runs.items():
+        assert len(r["comm_share_per_rank"]) == n and len(r["halo_wait_share_per_rank"]) == n
+        assert r["speedup"] > 0 and r["steps"] >= 3 and r["cpu_speedup"] > 0
+    # two ranks move halos; only the overlapped schedule steps interiors meanwhile
+    assert runs[(2, "overlap")]["halo_bytes_per_step"] > 0
+    assert min(runs[(2, "overlap")]["overlapped_work_share_per_rank"]) > 0
+    assert max(runs[(2, "blocking")]["overlapped_work_share_per_rank"]) == 0
+    # the overlapped wash simulates the border bands too: 2 x 2 radius rows more
+    extra = sum(runs[(2, "overlap")]["cells_per_rank_step"]) - sum(
+        runs[(2, "blocking")]["cells_per_rank_step"])
+    assert extra == 2 * 2 * 10 * 512
+    bad = subprocess.run([str(BIN / "station"), "bench", "distributed", "--schedules", "fast"],
+                         capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 2 and "--schedules" in bad.stderr

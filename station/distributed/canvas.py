@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import os
 import time
 from collections.abc import Mapping
 from typing import Any
@@ -43,13 +44,23 @@ from station.canvas.params import CanvasInputError, SimParams, get_profile
 from station.canvas.render import render_bands, render_state
 from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
 from station.canvas.stats import canvas_stats
-from station.distributed import decomp, exchange
+from station.distributed import boxes, decomp, exchange
 from station.distributed.exchange import Rect
 
 F32 = np.float32
 BASES = ("numpy", "cpu")
-REBALANCE_THRESHOLD = 1.25
-"""Rebalance only when the busiest rank has this much more work than the mean."""
+SCHEDULES = ("auto", "overlap", "blocking")
+REBALANCE_THRESHOLD = 1.04
+"""Rebalance only when the busiest rank has this much more work than the mean (and the
+move pays for itself: :meth:`DistributedCanvas.rebalance`)."""
+STEP_TIME_WEIGHT = 0.1
+"""Weight of the newest step in the running mean of the step time (``step_seconds``)."""
+
+
+def _zero_fibre(height: int, width: int) -> np.ndarray:
+    """A (2, H, W) view of one zero: the shell's ``fibre`` has the canvas's shape (so
+    ``CanvasState`` does not make the sheet's fibres again) and holds no memory."""
+    return np.broadcast_to(np.zeros((1, 1, 1), F32), (2, height, width))
 
 
 def _empty_shell(st: CanvasState) -> CanvasState:
@@ -59,6 +70,8 @@ def _empty_shell(st: CanvasState) -> CanvasState:
         v = getattr(st, name)
         if name == "tile_ttl":
             v = v.copy()
+        elif name == "fibre":
+            v = _zero_fibre(st.height, st.width)
         elif isinstance(v, np.ndarray):
             v = np.zeros((st.n_slots, 0, 0) if name in exchange.STACKS else
                          (0, 0, v.shape[-1]) if name == "r_composed" else (0, 0), v.dtype)
@@ -75,18 +88,18 @@ def _local_from_shell(shell: CanvasState, rows: int, zeroed: bool = True) -> Can
     Its ``tile_ttl`` is private (``operations`` mark it in strip coordinates; nothing
     reads it): the canvas's tiles are the shell's.
     """
-    loc = shell.copy()
-    loc.height = rows
+    kw: dict[str, Any] = {n: _deep(getattr(shell, n)) for n in shell.__dataclass_fields__}
+    kw["height"] = rows
     for n in exchange.ALL_FIELDS:
         shape = ((rows, shell.width, shell.r_composed.shape[-1]) if n == "r_composed" else
                  (shell.n_slots, rows, shell.width) if n in exchange.STACKS else
-                 (rows, shell.width))
+                 (2, rows, shell.width) if n == "fibre" else (rows, shell.width))
         # free pigment slots are never moved: stacks always start as zeros
         fill = zeroed or n in exchange.STACKS
-        setattr(loc, n, np.zeros(shape, F32) if fill else np.empty(shape, F32))
+        kw[n] = np.zeros(shape, F32) if fill else np.empty(shape, F32)
     ts = int(shell.params.tile_size)
-    loc.tile_ttl = np.zeros((-(-rows // ts), -(-shell.width // ts)), np.int32)
-    return loc
+    kw["tile_ttl"] = np.zeros((-(-rows // ts), -(-shell.width // ts)), np.int32)
+    return CanvasState(**kw)
 
 
 def _deep(v: Any) -> Any:
@@ -95,6 +108,59 @@ def _deep(v: Any) -> Any:
     if isinstance(v, dict):
         return {k: _deep(x) for k, x in v.items()}
     return v
+
+
+BAND_FIELDS = tuple(n for n in exchange.ALL_FIELDS if n != "r_composed")
+"""Per-cell fields a step reads or writes (a border band copies these)."""
+
+
+class _Band:
+    """A copy of canvas rows ``[r0, r1)`` x ``xs`` around a strip border, stepped once
+    the halo is in; its rows ``[out0, out1)`` (the owned rows next to the border, at
+    least one radius from the band's cut edges) are then right and are written back.
+
+    The owned rows are copied when the band is made (before the interior step changes
+    them); the halo rows ``[h0, h1)`` are copied again after the exchange.
+    """
+
+    def __init__(self, loc: CanvasState, off: int, r0: int, r1: int, xs: slice,
+                 out: tuple[int, int], halo: tuple[int, int]) -> None:
+        self.r0, self.r1, self.xs = r0, r1, xs
+        self.out0, self.out1 = out
+        self.halo = halo
+        rows = slice(r0 - off, r1 - off)
+        kw: dict[str, Any] = {}
+        for n in BAND_FIELDS:
+            arr = getattr(loc, n)
+            kw[n] = (arr[:, rows, xs] if arr.ndim == 3 else arr[rows, xs]).copy()
+        self.state = dataclasses.replace(loc, height=r1 - r0, width=xs.stop - xs.start,
+                                         r_composed=np.zeros((0, 0, 3), F32), **kw)
+
+    @property
+    def rows(self) -> int:
+        return self.r1 - self.r0
+
+    def step(self, loc: CanvasState, off: int, stepper: Any, dt: float) -> None:
+        """Refresh the halo rows from ``loc``, step the band, write the border rows back."""
+        bs = self.state
+        a, b = self.halo
+        for n in exchange.DYNAMIC_FIELDS:  # only these travel in the halo
+            src, dst = getattr(loc, n), getattr(bs, n)
+            if n in exchange.STACKS:
+                dst[:, a - self.r0:b - self.r0] = src[:, a - off:b - off, self.xs]
+            else:
+                dst[a - self.r0:b - self.r0] = src[a - off:b - off, self.xs]
+        stepper(bs, dt)
+        o0, o1 = self.out0 - self.r0, self.out1 - self.r0
+        for n in BAND_FIELDS:
+            if n == "fibre":
+                continue  # static
+            src, dst = getattr(bs, n), getattr(loc, n)
+            if n in exchange.STACKS:
+                dst[:, self.out0 - off:self.out1 - off, self.xs] = src[:, o0:o1]
+            else:
+                dst[self.out0 - off:self.out1 - off, self.xs] = src[o0:o1]
+
 
 
 class DistributedCanvas:
@@ -106,6 +172,12 @@ class DistributedCanvas:
         base: the backend whose step runs on each strip: ``numpy`` or ``cpu``.
         comm: the communicator (default ``MPI.COMM_WORLD``).
         rebalance_every: steps between load-balance checks (0: never).
+        schedule: the halo schedule (:data:`SCHEDULES`): ``overlap`` steps each box's
+            interior while its halo travels and the border bands after (2 radius rows of
+            extra work per border); ``blocking`` waits for the halo first; ``auto`` (the
+            default, or ``$STATION_HALO_SCHEDULE``) overlaps a box only where a neighbour
+            across its borders is on another machine (MPI's shared-memory split): over
+            shared memory the halo arrives faster than the bands' extra work.
         root: the rank that gathers pictures, states and statistics.
     """
 
@@ -114,7 +186,7 @@ class DistributedCanvas:
                  tiles: bool | None = None, n_slots: int = DEFAULT_SLOTS,
                  params: SimParams | None = None, paper: str | None = None,
                  palette: Palette | None = None, rebalance_every: int = 64,
-                 root: int = 0) -> None:
+                 root: int = 0, schedule: str | None = None) -> None:
         if base not in BASES:
             raise CanvasInputError(f"distributed base backend {base!r} (known: "
                                    f"{', '.join(BASES)})", "--backend")
@@ -124,9 +196,17 @@ class DistributedCanvas:
         self.comm = comm if comm is not None else MPI.COMM_WORLD
         self.rank = self.comm.Get_rank()
         self.size = self.comm.Get_size()
+        # which machine each rank runs on: found at the first step, because making a
+        # canvas must not be collective (station sim's rank 0 makes it before the others)
+        self._node_of: list[int] | None = None
         self.root = root
         self.base = base
         self.rebalance_every = int(rebalance_every)
+        schedule = schedule or os.environ.get("STATION_HALO_SCHEDULE", "") or "auto"
+        if schedule not in SCHEDULES:
+            raise CanvasInputError(f"halo schedule {schedule!r} (known: "
+                                   f"{', '.join(SCHEDULES)})", "STATION_HALO_SCHEDULE")
+        self.schedule = schedule
         prof = get_profile(profile)
         prm = params if params is not None else prof.params
         preset = paper if paper is not None else prof.paper
@@ -142,29 +222,32 @@ class DistributedCanvas:
         self._local = CanvasState.blank(width, s.rows, prm, h, profile=prof.name,
                                         paper_preset=preset, seed=seed, palette=palette,
                                         n_slots=n_slots, tiling=tiling)
+        # the strip's rows of the whole sheet's fibres (a strip-sized sheet has others)
+        self._local.fibre = np.ascontiguousarray(
+            make_fibres(preset, height, width, seed)[:, s.pad_lo:s.pad_hi])
         full_ttl = np.zeros((-(-height // ts), -(-width // ts)), np.int32)
         self._shell = _empty_shell(dataclasses.replace(self._local, tile_ttl=full_ttl))
         self._shell.width, self._shell.height = width, height
-        self._fibre_full: np.ndarray | None = None
-        self._local.fibre = self._fibre_rows(s)
+        self._shell.fibre = _zero_fibre(height, width)
         self._renderer_kind = prof.renderer
         self._scratch: Any = None
+        self._band_scratch: Any = None
+        self._boxes_of: tuple[tuple[int, int, int], np.ndarray,
+                              list[tuple[slice, slice]]] | None = None
         self._image: np.ndarray | None = None
         self._dirty = np.ones(full_ttl.shape, bool)
         self._shown = False  # no picture sent to the root yet (same on every rank)
         self.halo_bytes_last = 0
         self.render_cells_last = 0  # cells this rank sent for the last picture
         self.comm_seconds = 0.0  # halo exchange + tile reduction, waiting included [s]
+        self.halo_wait_seconds = 0.0  # waiting for the halo after the interior work [s]
+        self.halo_hidden_seconds = 0.0  # interior work done while the halo travels [s]
+        self.step_seconds = 0.0  # running mean of this rank's step time [s]
+        self.move_seconds = 0.0  # time of the last strip move [s]
+        self.band_steps = 0  # border bands stepped after an overlapped exchange
+        self.late_steps = 0  # boxes stepped only after waiting for their halo
         self.cells_last = 0
         self.rebalances = 0
-
-    def _fibre_rows(self, s: decomp.Strip) -> np.ndarray:
-        """The paper's fibre texture on the rows ``s`` holds: static like ``h``, sliced
-        from the whole sheet's texture (made once per sheet), never sent."""
-        if self._fibre_full is None:
-            sh = self._shell
-            self._fibre_full = make_fibres(sh.paper_preset, sh.height, sh.width, sh.seed)
-        return np.ascontiguousarray(self._fibre_full[:, s.pad_lo:s.pad_hi])
 
     # ------------------------------------------------------------------ geometry
     @property
@@ -307,36 +390,100 @@ class DistributedCanvas:
         from station.canvas.cpu import step as cpu_step  # numba only for the cpu base
 
         slots = max(len(loc.slots), 1)
-        if self._scratch is None or not self._scratch.fits(loc.height, loc.width, slots):
+        sc = self._scratch
+        # a box window only needs a scratch at least its size: keep it when bounds move
+        # (a new one is page-faulted in again, ~1 GB for a 3500-row strip at 4096 wide)
+        if sc is None or sc.height < loc.height or sc.width < loc.width or sc.slots < slots:
             self._scratch = cpu_step.Scratch(loc.height, loc.width, max(slots, 2))
         cpu_step.step_region(loc, sl, dt, self._scratch)
 
     def _regions(self) -> list[tuple[slice, slice]]:
         sh = self._shell
-        if sh.tiling:
-            return tiles.active_regions(sh)
-        return [(slice(0, sh.height), slice(0, sh.width))]
+        if not sh.tiling:
+            return [(slice(0, sh.height), slice(0, sh.width))]
+        active = sh.tile_ttl > 0
+        key = (sh.height, sh.width, int(sh.params.tile_size))
+        # the active tiles change far less often than every step: find boxes only then
+        if (self._boxes_of is None or self._boxes_of[0] != key
+                or not np.array_equal(active, self._boxes_of[1])):
+            self._boxes_of = (key, active, boxes.active_regions(sh))
+        return list(self._boxes_of[2])
 
     def step(self, dt: float | None = None) -> None:
+        """One step of the whole canvas; the halo exchange overlaps the interior work.
+
+        Per dirty-tile box: the halo rows are posted (non-blocking), the rows of the
+        box this rank owns are stepped in place (all but the ``radius`` rows next to a
+        border come out right: they do not reach the halo), and, once the halo is in,
+        each border's last ``radius`` owned rows are stepped on a copy of the
+        ``3 x radius`` rows around the border (``_Band``) and written back. A box whose
+        owned part is shorter than ``2 x radius`` rows, every box under the ``blocking``
+        schedule, and under ``auto`` every box whose neighbours run on this machine, wait
+        for the halo and are stepped with it in place.
+        """
         sh, s = self._shell, self.strip
         dt = sh.params.dt if dt is None else float(dt)
         if not dt > 0 or dt * sh.params.v_max > 1.0 + 1e-9:
             raise CanvasInputError("dt must be > 0 and move at most one cell per step", "step")
+        t_begin = time.perf_counter()
+        if self._node_of is None:
+            node = self.comm.Split_type(MPI.COMM_TYPE_SHARED)
+            self._node_of = self.comm.allgather(node.allreduce(self.rank, op=MPI.MIN))
+            node.Free()
         self._sync_local()
         regions = self._regions()
+        t0 = time.perf_counter()
+        pending = exchange.start(self.comm, self._local, s.pad_lo, self._local, s.pad_lo,
+                                 self._halo_plan(regions), exchange.DYNAMIC_FIELDS,
+                                 max(self._slots_used(), 1), exchange.TAG_HALO)
+        t1 = time.perf_counter()
+        rad, off = self._radius, s.pad_lo
+        late: list[tuple[slice, slice]] = []
+        bands: list[_Band] = []
         cells = 0
         for ys, xs in regions:
-            lo, hi = max(ys.start, s.pad_lo), min(ys.stop, s.pad_hi)
-            if min(hi, s.hi) <= max(lo, s.lo):
+            a, b = max(ys.start, s.pad_lo), min(ys.stop, s.pad_hi)
+            oa, ob = max(ys.start, s.lo), min(ys.stop, s.hi)
+            if ob <= oa:
                 continue  # nothing of this box is ours
-            self._step_region((slice(lo - s.pad_lo, hi - s.pad_lo), xs), dt)
-            cells += (hi - lo) * (xs.stop - xs.start)
+            top, bottom = ys.start < s.lo, ys.stop > s.hi
+            cols = xs.stop - xs.start
+            if not (top or bottom):
+                self._step_region((slice(oa - off, ob - off), xs), dt)
+                cells += (ob - oa) * cols
+            elif not self._overlaps(top, bottom) or ob - oa < 2 * rad:
+                late.append((slice(a - off, b - off), xs))
+                cells += (b - a) * cols
+            else:  # snapshot the border rows before the interior step overwrites them
+                loc = self._local
+                if top:
+                    bands.append(_Band(loc, off, a, oa + 2 * rad, xs, (oa, oa + rad), (a, oa)))
+                    cells += (oa + 2 * rad - a) * cols
+                if bottom:
+                    bands.append(_Band(loc, off, ob - 2 * rad, b, xs, (ob - rad, ob), (ob, b)))
+                    cells += (b - ob + 2 * rad) * cols
+                self._step_region((slice(oa - off, ob - off), xs), dt)
+                cells += (ob - oa) * cols
+        t2 = time.perf_counter()
+        self.halo_bytes_last = exchange.finish(pending)
+        t3 = time.perf_counter()
+        for bd in bands:
+            bd.step(self._local, off, self._band_step, dt)
+        for sl in late:
+            self._step_region(sl, dt)
+        self.band_steps += len(bands)
+        self.late_steps += len(late)
         self.cells_last = cells
-        t0 = time.perf_counter()
-        self.halo_bytes_last = self._exchange_halo(regions)
+        t4 = time.perf_counter()
         if sh.tiling:
             self._update_tiles(regions)
-        self.comm_seconds += time.perf_counter() - t0
+        t5 = time.perf_counter()
+        self.comm_seconds += (t1 - t0) + (t3 - t2) + (t5 - t4)
+        took = t5 - t_begin
+        self.step_seconds = (took if self.step_seconds == 0.0 else
+                             self.step_seconds + STEP_TIME_WEIGHT * (took - self.step_seconds))
+        self.halo_wait_seconds += t3 - t2
+        self.halo_hidden_seconds += t2 - t1
         ts = int(sh.params.tile_size)
         for ys, xs in regions:
             self._dirty[ys.start // ts:-(-ys.stop // ts), xs.start // ts:-(-xs.stop // ts)] = True
@@ -348,8 +495,32 @@ class DistributedCanvas:
         if self.rebalance_every > 0 and sh.step_count % self.rebalance_every == 0:
             self.rebalance()
 
-    def _exchange_halo(self, regions: list[tuple[slice, slice]]) -> int:
-        """Refresh every rank's halo cells inside the boxes from their owners."""
+    def _overlaps(self, top: bool, bottom: bool) -> bool:
+        """Whether a box crossing the top/bottom border is stepped overlapped."""
+        if self.schedule != "auto":
+            return self.schedule == "overlap"
+        nodes = self._node_of or []
+        me = nodes[self.rank]
+        return ((top and nodes[self.rank - 1] != me)
+                or (bottom and nodes[self.rank + 1] != me))
+
+    def _band_step(self, band: CanvasState, dt: float) -> None:
+        """Step all of a border band (its own scratch: bands are at most 3 radius rows)."""
+        sl = (slice(0, band.height), slice(0, band.width))
+        if self.base == "numpy":
+            reference.step_region(band, sl, dt)
+            return
+        from station.canvas.cpu import step as cpu_step  # numba only for the cpu base
+
+        slots = max(len(band.slots), 2)
+        sc = self._band_scratch
+        if sc is None or sc.height < band.height or sc.width < band.width or sc.slots < slots:
+            sc = self._band_scratch = cpu_step.Scratch(
+                max(3 * self._radius, band.height), self.width, slots)
+        cpu_step.step_region(band, sl, dt, sc)
+
+    def _halo_plan(self, regions: list[tuple[slice, slice]]) -> dict[tuple[int, int], list[Rect]]:
+        """Who sends whom which halo cells inside the boxes (same on every rank)."""
         plan: dict[tuple[int, int], list[Rect]] = {}
         for r, sr in enumerate(self._strips):
             for h0, h1 in ((sr.pad_lo, sr.lo), (sr.hi, sr.pad_hi)):
@@ -359,10 +530,7 @@ class DistributedCanvas:
                         b0, b1 = max(a0, so.lo), min(a1, so.hi)
                         if b0 < b1 and o != r:
                             plan.setdefault((o, r), []).append((b0, b1, xs.start, xs.stop))
-        s = self.strip
-        return exchange.move(self.comm, self._local, s.pad_lo, self._local, s.pad_lo, plan,
-                             exchange.DYNAMIC_FIELDS, max(self._slots_used(), 1),
-                             exchange.TAG_HALO)
+        return plan
 
     def _update_tiles(self, regions: list[tuple[slice, slice]]) -> None:
         """``tiles.update_tiles`` with the "still holds water" test reduced over owners."""
@@ -459,34 +627,48 @@ class DistributedCanvas:
 
     # ------------------------------------------------------------------ balance
     def rebalance(self, force: bool = False) -> bool:
-        """Move strip bounds to share the dirty-tile work; True when rows moved.
+        """Move strip bounds to share the dirty-tile work; True when rows moved
+        (collective).
 
+        Rows move when the busiest rank has :data:`REBALANCE_THRESHOLD` times the mean
+        work and the time the balanced split would save until the next check (the
+        slowest rank's mean step time x ``rebalance_every`` x ``1 - 1/imbalance``)
+        exceeds the last move's time: a move copies whole strips (~0.5 s for a
+        3500-row strip at 4096 wide), which a 4 % imbalance does not repay in 64 steps.
         ``force``: move to the balanced split even when the imbalance is small.
         """
         sh = self._shell
-        ts = int(sh.params.tile_size)
-        work = decomp.row_work(self._regions(), sh.height, sh.width, ts)
-        new = decomp.balanced_split(work, sh.height, ts, self.size)
+        g = decomp.GRANULE
+        work = decomp.row_work(self._regions(), sh.height, sh.width, g)
+        new = decomp.balanced_split(work, sh.height, g, self.size)
         if new == self._bounds:
             return False
-        if not force and decomp.imbalance(work, self._bounds, ts) < REBALANCE_THRESHOLD:
+        imb = decomp.imbalance(work, self._bounds, g)
+        # every rank must decide alike: the slowest rank's step and move times
+        times = np.array([self.step_seconds, self.move_seconds])
+        exchange.wait_all([self.comm.Iallreduce(MPI.IN_PLACE, times, op=MPI.MAX)])
+        # moving pays when the steps until the next check save more than a move costs
+        saving = self.rebalance_every * times[0] * (1.0 - 1.0 / imb)
+        if not force and (imb < REBALANCE_THRESHOLD or saving < times[1]):
             return False
         self._redistribute(new)
         self.rebalances += 1
         return True
 
     def set_bounds(self, bounds: list[int]) -> None:
-        """Move to the given owned-row bounds (tile-aligned; tests, tools)."""
-        ts = int(self._shell.params.tile_size)
+        """Move to the given owned-row bounds (multiples of ``decomp.GRANULE``; tests,
+        tools)."""
+        g = decomp.GRANULE
         if (len(bounds) != self.size + 1 or bounds[0] != 0 or bounds[-1] != self.height
-                or any(b % ts and b != self.height for b in bounds)
+                or any(b % g and b != self.height for b in bounds)
                 or any(a >= b for a, b in itertools.pairwise(bounds))):
-            raise CanvasInputError(f"bounds {bounds} are not {self.size} tile-aligned strips",
-                                   "bounds")
+            raise CanvasInputError(f"bounds {bounds} are not {self.size} strips cut at "
+                                   f"multiples of {g} rows", "bounds")
         self._redistribute(list(bounds))
 
     def _redistribute(self, bounds: list[int]) -> None:
         """Every rank gets the rows of its new strip (owned and halo) from their owners."""
+        t0 = time.perf_counter()
         old = self._strips
         new = decomp.strips(bounds, self.height, self._radius)
         plan: dict[tuple[int, int], list[Rect]] = {}
@@ -505,7 +687,7 @@ class DistributedCanvas:
         if a < b:
             for n in exchange.ALL_FIELDS:
                 src, dst = getattr(loc, n), getattr(fresh, n)
-                if n in exchange.STACKS:
+                if n in exchange.STACKS or n == "fibre":
                     dst[:, a - s_new.pad_lo:b - s_new.pad_lo] = src[:, a - s_old.pad_lo:
                                                                      b - s_old.pad_lo]
                 else:
@@ -514,11 +696,10 @@ class DistributedCanvas:
         plan.pop((self.rank, self.rank), None)
         exchange.move(self.comm, loc, s_old.pad_lo, fresh, s_new.pad_lo, plan,
                       exchange.ALL_FIELDS, max(self._slots_used(), 1), exchange.TAG_MOVE)
-        fresh.fibre = self._fibre_rows(s_new)
         self._local = fresh
         self._bounds = list(bounds)
         self._strips = new
-        self._scratch = None
+        self.move_seconds = time.perf_counter() - t0
 
     # ------------------------------------------------------------------ state
     def state(self) -> CanvasState:
@@ -541,6 +722,9 @@ class DistributedCanvas:
                     full[k] = pl
                 arrays[n] = full
         arrays["r_composed"] = self._gather_plane(loc.r_composed, (loc.r_composed.shape[-1],))
+        fibres = [self._gather_plane(loc.fibre[k]) for k in range(2)]
+        if self.is_root:
+            arrays["fibre"] = np.stack([f for f in fibres if f is not None])
         if not self.is_root:
             return None
         st = sh.copy()
@@ -552,9 +736,12 @@ class DistributedCanvas:
         """Continue from ``state``, given on the root (other ranks may pass None):
         metadata is broadcast, each rank receives its rows (collective)."""
         shell = _empty_shell(state) if self.is_root and state is not None else None
+        if shell is not None:
+            shell.fibre = np.zeros((2, 0, 0), F32)  # not pickled whole: set again below
         shell = self.comm.bcast(shell, root=self.root)
         if shell is None:
             raise CanvasInputError("load_state needs a state on the root rank", "load_state")
+        shell.fibre = _zero_fibre(shell.height, shell.width)
         ts = int(shell.params.tile_size)
         if shell.height < ts * self.size:
             raise CanvasInputError(f"canvas of {shell.height} rows cannot give {self.size} "
@@ -569,8 +756,6 @@ class DistributedCanvas:
                 for r, st in enumerate(self._strips)}
         exchange.move(self.comm, state if self.is_root else None, 0, loc, s.pad_lo, plan,
                       exchange.ALL_FIELDS, max(len(shell.slots), 1), exchange.TAG_MOVE)
-        self._fibre_full = None  # another sheet, perhaps
-        loc.fibre = self._fibre_rows(s)
         self._local = loc
         self._renderer_kind = get_profile(shell.profile).renderer
         self._scratch = None

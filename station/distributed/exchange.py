@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -22,8 +23,9 @@ Rect = tuple[int, int, int, int]
 PLANES = ("vx", "vy", "w", "wc", "h", "mask", "block", "block_time", "evaporated",
           "removed_w")
 STACKS = ("p", "q", "removed_p")
-ALL_FIELDS = (*PLANES, *STACKS, "r_composed")
-"""Every per-cell field of :class:`CanvasState` (rebalancing and scattering move these)."""
+ALL_FIELDS = (*PLANES, *STACKS, "r_composed", "fibre")
+"""Every per-cell field of :class:`CanvasState` (rebalancing and scattering move these;
+the paper's ``fibre`` texture (2, H, W) is static but belongs to its rows)."""
 DYNAMIC_FIELDS = ("vx", "vy", "w", "wc", "p", "q")
 """The fields a step changes and its neighbours read (the halo exchange moves these;
 ``evaporated`` also changes but is never read across cells)."""
@@ -70,6 +72,8 @@ def _views(st: CanvasState, off: int, rect: Rect, names: Sequence[str],
         arr = getattr(st, n)
         if n in STACKS:
             out.append(arr[:slots, a:b, c0:c1])
+        elif n == "fibre":
+            out.append(arr[:, a:b, c0:c1])
         else:  # planes (H, W) and r_composed (H, W, bands)
             out.append(arr[a:b, c0:c1])
     return out
@@ -78,7 +82,8 @@ def _views(st: CanvasState, off: int, rect: Rect, names: Sequence[str],
 def rect_size(rect: Rect, names: Sequence[str], slots: int, bands: int = 3) -> int:
     """float32 values of ``names`` in ``rect`` (``bands``: r_composed's render bands)."""
     cells = (rect[1] - rect[0]) * (rect[3] - rect[2])
-    per = sum(slots if n in STACKS else bands if n == "r_composed" else 1 for n in names)
+    per = sum(slots if n in STACKS else bands if n == "r_composed" else 2 if n == "fibre"
+              else 1 for n in names)
     return cells * per
 
 
@@ -102,35 +107,62 @@ def unpack(buf: np.ndarray, st: CanvasState, off: int, rects: Sequence[Rect],
             pos += n
 
 
-def move(comm: MPI.Comm, src: CanvasState | None, src_off: int, dst: CanvasState,
-         dst_off: int, plan: Mapping[tuple[int, int], Sequence[Rect]],
-         names: Sequence[str], slots: int, tag: int) -> int:
-    """Carry out ``plan`` (``(from_rank, to_rank) -> rects``); returns bytes sent.
+@dataclass
+class Pending:
+    """Messages of one :func:`start`, not yet waited for (see :func:`finish`)."""
 
-    Receives are posted first, then sends; rects a rank moves to itself are copied.
-    ``src`` may be ``None`` on a rank that sends nothing.
+    reqs: list[MPI.Request]
+    incoming: list[tuple[np.ndarray, Sequence[Rect]]]
+    outgoing: list[np.ndarray]  # send buffers, kept alive until the sends complete
+    dst: CanvasState
+    dst_off: int
+    names: Sequence[str]
+    slots: int
+    sent: int
+
+
+def start(comm: MPI.Comm, src: CanvasState | None, src_off: int, dst: CanvasState,
+          dst_off: int, plan: Mapping[tuple[int, int], Sequence[Rect]],
+          names: Sequence[str], slots: int, tag: int) -> Pending:
+    """Post ``plan`` (``(from_rank, to_rank) -> rects``) and return at once.
+
+    Receives are posted first, then the sends (their rects are packed now, so ``src``
+    may change right after); rects a rank moves to itself are copied now. The
+    received rects are written into ``dst`` by :func:`finish`, and nothing in them
+    may be read before. ``src`` may be ``None`` on a rank that sends nothing.
     """
     me = comm.Get_rank()
-    reqs = []
-    incoming: list[tuple[np.ndarray, Sequence[Rect]]] = []
+    pend = Pending([], [], [], dst, dst_off, names, slots, 0)
     for (a, b), rects in plan.items():
         if b == me and a != me:
             bands = dst.r_composed.shape[-1]
             buf = np.empty(sum(rect_size(r, names, slots, bands) for r in rects), np.float32)
-            reqs.append(comm.Irecv(buf, source=a, tag=tag))
-            incoming.append((buf, rects))
-    sent = 0
-    outgoing = []
+            pend.reqs.append(comm.Irecv(buf, source=a, tag=tag))
+            pend.incoming.append((buf, rects))
     for (a, b), rects in plan.items():
         if a == me and b != me and src is not None:
             buf = pack(src, src_off, rects, names, slots)
-            outgoing.append(buf)  # kept alive until Waitall
-            reqs.append(comm.Isend(buf, dest=b, tag=tag))
-            sent += buf.nbytes
+            pend.outgoing.append(buf)
+            pend.reqs.append(comm.Isend(buf, dest=b, tag=tag))
+            pend.sent += buf.nbytes
     own = plan.get((me, me))
     if own and src is not None:
         unpack(pack(src, src_off, own, names, slots), dst, dst_off, own, names, slots)
-    wait_all(reqs)
-    for buf, rects in incoming:
-        unpack(buf, dst, dst_off, rects, names, slots)
-    return sent
+    return pend
+
+
+def finish(pend: Pending) -> int:
+    """Wait for the messages of :func:`start` and unpack them; returns bytes sent."""
+    wait_all(pend.reqs)
+    for buf, rects in pend.incoming:
+        unpack(buf, pend.dst, pend.dst_off, rects, pend.names, pend.slots)
+    pend.reqs, pend.incoming, pend.outgoing = [], [], []
+    return pend.sent
+
+
+def move(comm: MPI.Comm, src: CanvasState | None, src_off: int, dst: CanvasState,
+         dst_off: int, plan: Mapping[tuple[int, int], Sequence[Rect]],
+         names: Sequence[str], slots: int, tag: int) -> int:
+    """Carry out ``plan`` and wait for it (:func:`start` then :func:`finish`);
+    returns bytes sent."""
+    return finish(start(comm, src, src_off, dst, dst_off, plan, names, slots, tag))
