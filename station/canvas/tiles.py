@@ -113,8 +113,14 @@ def active_regions(state: CanvasState) -> list[tuple[slice, slice]]:
                       min((int(ty.max()) + 1) * ts + HALO, state.height),
                       max(int(tx.min()) * ts - HALO, 0),
                       min((int(tx.max()) + 1) * ts + HALO, state.width)))
+    return [(slice(b[0], b[1]), slice(b[2], b[3])) for b in sorted(merge_boxes(boxes))]
+
+
+def merge_boxes(boxes: list[tuple[int, int, int, int]]) -> list[tuple[int, int, int, int]]:
+    """Overlapping ``(y0, y1, x0, x1)`` boxes merged in place, pairwise, first pair first
+    (few boxes: a plain pairwise merge; the distributed canvas finds the same boxes)."""
     merged = True
-    while merged:  # few boxes: a plain pairwise merge
+    while merged:
         merged = False
         for i in range(len(boxes)):
             for j in range(i + 1, len(boxes)):
@@ -127,7 +133,7 @@ def active_regions(state: CanvasState) -> list[tuple[slice, slice]]:
                     break
             if merged:
                 break
-    return [(slice(b[0], b[1]), slice(b[2], b[3])) for b in sorted(boxes)]
+    return boxes
 
 
 def tile_alive(state: CanvasState, ys: slice, xs: slice) -> np.ndarray:

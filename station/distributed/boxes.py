@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from station.canvas.state import CanvasState
-from station.canvas.tiles import HALO
+from station.canvas.tiles import HALO, merge_boxes
 
 
 def labels(active: np.ndarray) -> np.ndarray:
@@ -64,27 +64,4 @@ def active_regions(state: CanvasState) -> list[tuple[slice, slice]]:
     boxes = [(max(int(a) * ts - HALO, 0), min((int(b) + 1) * ts + HALO, state.height),
               max(int(c) * ts - HALO, 0), min((int(d) + 1) * ts + HALO, state.width))
              for a, b, c, d in zip(y0, y1, x0, x1, strict=True)]
-    return [(slice(b[0], b[1]), slice(b[2], b[3])) for b in sorted(_merge(boxes))]
-
-
-def _overlap(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> bool:
-    return a[0] < b[1] and b[0] < a[1] and a[2] < b[3] and b[2] < a[3]
-
-
-def _merge(boxes: list[tuple[int, int, int, int]]) -> list[tuple[int, int, int, int]]:
-    """Overlapping boxes merged pairwise, first pair first (``tiles.active_regions``)."""
-    merged = True
-    while merged:
-        merged = False
-        for i in range(len(boxes)):
-            for j in range(i + 1, len(boxes)):
-                if _overlap(boxes[i], boxes[j]):
-                    a, b = boxes[i], boxes[j]
-                    boxes[i] = (min(a[0], b[0]), max(a[1], b[1]),
-                                min(a[2], b[2]), max(a[3], b[3]))
-                    del boxes[j]
-                    merged = True
-                    break
-            if merged:
-                break
-    return boxes
+    return [(slice(b[0], b[1]), slice(b[2], b[3])) for b in sorted(merge_boxes(boxes))]
