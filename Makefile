@@ -6,10 +6,12 @@ PYTHON  ?= python3
 PY      := $(VENV)/bin/python
 STATION := $(VENV)/bin/station
 # Mesa headless GL (EGL + llvmpipe), Xvfb for the interactive-calibration tests,
-# libusb for pyusb.  No compiler or headers: every Python dependency installs from a
-# binary wheel (python-evdev as evdev-binary).
+# libusb for pyusb; libgomp1 gives numba its thread-safe OpenMP layer (the kiosk steps
+# the canvas in a thread of its own; numba's fallback layer is not thread-safe).
+# No compiler or headers: every Python dependency installs from a binary wheel
+# (python-evdev as evdev-binary).
 SYS_PKGS := libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libgles2 xvfb xauth libusb-1.0-0 \
-            python3-venv
+            libgomp1 python3-venv
 # Chromium for the kiosk's gallery-page test (skipped where it cannot be installed).
 TEST_PKGS := chromium
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)

@@ -76,7 +76,17 @@ def extract(rev: str) -> tuple[str, Path]:
                                f"{res.stderr.decode().strip()}", "--baseline")
             tar.seek(0)
             with tarfile.open(fileobj=tar) as tf:
-                tf.extractall(tmp, filter="data")
+                if hasattr(tarfile, "data_filter"):
+                    tf.extractall(tmp, filter="data")
+                else:  # Python before 3.11.4 (Debian 12's 3.11.2): no extraction filters;
+                    # the archive is git's own output of a tracked folder, so refuse only
+                    # what a filter would: absolute paths, "..", links
+                    for m in tf.getmembers():
+                        if (m.name.startswith("/") or ".." in Path(m.name).parts
+                                or m.issym() or m.islnk()):
+                            raise BadInput(f"git archive {sha[:12]}: unsafe member "
+                                           f"{m.name!r}", "--baseline")
+                    tf.extractall(tmp)
         tmp.rename(dest)  # atomic: a half-extracted copy is never used
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
