@@ -395,8 +395,6 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         eff = b + (ONE - b) * age
                         paper = ONE - bpaper * (ONE - hv)
                         bcv = paper if paper < eff else eff
-                        if disp > ZERO:
-                            bcv = bcv * _fibre_dispersion(fibre, vx, vy, y, x, disp, vfib)
                         bc_o[j, i] = bcv
                         c_o[j, i] = cmin + hv * cspan
                 else:
@@ -407,10 +405,13 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         eff = b + (ONE - b) * ONE
                         paper = ONE - bpaper * (ONE - hv)
                         bcv = paper if paper < eff else eff
-                        if disp > ZERO:
-                            bcv = bcv * _fibre_dispersion(fibre, vx, vy, y, x, disp, vfib)
                         bc_o[j, i] = bcv
                         c_o[j, i] = cmin + hv * cspan
+                if disp > ZERO:  # a loop of its own: no test inside the column loops
+                    for i in range(slo, shi + 1):
+                        x = np.uint64(x0 + i - 1)
+                        bc_o[j, i] = bc_o[j, i] * _fibre_dispersion(fibre, vx, vy, y, x, disp,
+                                                                    vfib)
             if outward:
                 # x half of the blur: tap-outer, column-inner; per cell the taps add in
                 # order, offset -R first
