@@ -356,3 +356,35 @@ def test_a_cell_rounded_below_zero_gives_nothing_and_breaks_nothing() -> None:
     for f in FIELDS:
         assert np.isfinite(getattr(a.live_state, f)).all(), f
         assert np.array_equal(getattr(a.live_state, f), getattr(b.live_state, f)), f
+
+
+def test_drying_trail_on_tiles_is_bitwise_equal() -> None:
+    """A stroke, then fast drying without painting: inside the still active tiles more and
+    more cells come to rest (the cpu step computes only the cells near live cells, and
+    looks for water only in the halo strips of tiles next to active ones); every field
+    and the tile TTLs stay bit for bit the reference's while tiles leave the active set."""
+    from station.bench.sim import _StrokePath
+
+    prm = dataclasses.replace(get_profile("watercolor").params, airflow=5.0,
+                              temperature=35.0, humidity=0.0)
+    a = NumpyCanvas(192, 160, seed=5, tiling=True, params=prm)
+    b = CpuCanvas(192, 160, seed=5, tiling=True, params=prm)
+    sa, sb = _StrokePath(a, 192, 160, radius=5.0), _StrokePath(b, 192, 160, radius=5.0)
+    for _ in range(40):
+        for c, s in ((a, sa), (b, sb)):
+            s.advance()
+            c.step()
+    peak = int((b.live_state.tile_ttl > 0).sum())
+    resting = 0
+    for _ in range(160):
+        a.step()
+        b.step()
+        st = b.live_state
+        live = (st.w != 0) | (st.wc != 0) | (st.vx != 0) | (st.p != 0).any(0)
+        tile_cells = int((st.tile_ttl > 0).sum()) * st.params.tile_size ** 2
+        resting += int(tile_cells > 2 * int(live.sum()))
+    assert resting > 80, resting  # many active-tile cells at rest: live spans exercised
+    assert int((b.live_state.tile_ttl > 0).sum()) < peak  # tiles dried out and left
+    for f in (*FIELDS, "tile_ttl"):
+        assert np.array_equal(getattr(a.live_state, f), getattr(b.live_state, f)), f
+    assert a.live_state.q.sum() > 0

@@ -19,6 +19,7 @@ whose neighbours are inactive, so tiling on/off gives the same result (see
 from __future__ import annotations
 
 import numpy as np
+from scipy import ndimage
 
 from station.canvas.state import CanvasState
 
@@ -74,19 +75,18 @@ def active_region(state: CanvasState) -> tuple[slice, slice] | None:
 
 
 def _components(active: np.ndarray) -> np.ndarray:
-    """Labels (1..n, 0 = inactive) of the 8-connected groups of active tiles."""
+    """Labels (0 = inactive) of the 8-connected groups of active tiles: each group is
+    labelled with 1 + the largest flat (row-major) index of its tiles, so the groups come
+    in the same order for any labelling routine (``np.unique`` of the labels)."""
     ny, nx = active.shape
-    labels = np.where(active, np.arange(1, ny * nx + 1).reshape(ny, nx), 0)
-    while True:  # propagate the largest label through each group (vectorised per sweep)
-        pad = np.pad(labels, 1)
-        best = labels.copy()
-        for dy in (0, 1, 2):
-            for dx in (0, 1, 2):
-                np.maximum(best, pad[dy:dy + ny, dx:dx + nx], out=best)
-        best = np.where(active, best, 0)
-        if np.array_equal(best, labels):
-            return labels
-        labels = best
+    lab, n = ndimage.label(active, structure=np.ones((3, 3), bool))
+    if n == 0:
+        return np.zeros((ny, nx), np.int64)
+    flat = lab.ravel()
+    top = np.zeros(n + 1, np.int64)
+    np.maximum.at(top, flat, np.arange(1, ny * nx + 1))
+    top[0] = 0
+    return top[lab]
 
 
 def _overlap(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> bool:

@@ -167,14 +167,84 @@ def work_spans(active: np.ndarray, ts: int, grow: int, y0: int, x0: int, bh: int
         nsp[j] = n
 
 
-@_parallel
+@_serial
+def live_spans(active: np.ndarray, ts: int, grow: int, y0: int, x0: int, bh: int, bw: int,
+               w: np.ndarray, wc: np.ndarray, vx: np.ndarray, vy: np.ndarray, p: np.ndarray,
+               ns: int, hsp: np.ndarray, hn: np.ndarray, spans: np.ndarray,
+               nsp: np.ndarray) -> None:
+    """The cells of the box within ``grow`` cells (chessboard) of a live cell, as sorted
+    disjoint column spans like :func:`work_spans`. A cell is live if its water, capillary
+    water, velocity or surface pigment (slots ``< ns``) is not zero; live cells lie in
+    active tiles (the tiles' invariant), so only those are scanned. ``hsp``/``hn``: work
+    arrays shaped like ``spans``/``nsp`` (each row's live runs grown along x)."""
+    work_spans(active, ts, 0, y0, x0, bh, bw, spans, nsp)  # the active tiles' cells
+    flag = np.zeros(bw + 2, np.uint8)
+    for j in range(1, bh + 1):  # each active tile's row segment: first to last live cell,
+        y = y0 + j - 1  # grown by ``grow`` along x (a superset of the cells needed is exact)
+        wy = w[y, x0:]
+        cy = wc[y, x0:]
+        uy = vx[y, x0:]
+        vy_ = vy[y, x0:]
+        n = 0
+        for si in range(nsp[j]):
+            a, b = _span(spans, j, si)
+            for i in range(a, b + 1):  # branch-free, vectorises
+                flag[i] = (wy[i - 1] != 0) | (cy[i - 1] != 0) | (uy[i - 1] != 0) | (
+                    vy_[i - 1] != 0)
+            for k in range(ns):
+                pk = p[k, y, x0:]
+                for i in range(a, b + 1):
+                    flag[i] |= pk[i - 1] != 0
+            while a <= b and flag[a] == 0:
+                a += 1
+            if a > b:
+                continue
+            while flag[b] == 0:
+                b -= 1
+            lo = max(a - grow, 1)
+            up = min(b + grow, bw)
+            if n > 0 and lo <= hsp[j, n - 1, 1] + 1:
+                hsp[j, n - 1, 1] = max(up, hsp[j, n - 1, 1])
+            else:
+                hsp[j, n, 0] = lo
+                hsp[j, n, 1] = up
+                n += 1
+        hn[j] = n
+    # the rows within ``grow``: each run lies inside one span of the active tiles grown by
+    # ``grow`` (those are disjoint); keep, per such span, first start to last end
+    work_spans(active, ts, grow, y0, x0, bh, bw, spans, nsp)
+    lo_k = np.empty(spans.shape[1], np.int64)
+    hi_k = np.empty(spans.shape[1], np.int64)
+    for j in range(1, bh + 1):
+        m = nsp[j]
+        for k in range(m):
+            lo_k[k] = bw + 1
+            hi_k[k] = 0
+        for r in range(max(j - grow, 1), min(j + grow, bh) + 1):
+            k = 0
+            for q in range(hn[r]):
+                a = hsp[r, q, 0]
+                while k < m - 1 and spans[j, k, 1] < a:
+                    k += 1
+                lo_k[k] = min(lo_k[k], a)
+                hi_k[k] = max(hi_k[k], hsp[r, q, 1])
+        n = 0
+        for k in range(m):
+            if hi_k[k] > 0:
+                spans[j, n, 0] = lo_k[k]
+                spans[j, n, 1] = hi_k[k]
+                n += 1
+        nsp[j] = n
+
+
+@_serial
 def clear_stale(pspans: np.ndarray, pnsp: np.ndarray, spans: np.ndarray, nsp: np.ndarray,
                 f2: tuple[np.ndarray, ...], f3: tuple[np.ndarray, ...]) -> None:
     """Zero the scratch cells the last box computed (``pspans``) that this box does not
     (``spans``), in every field, and remember this box's spans: outside its spans the
     scratch is then zero, which stands for the reference's quiet cells and the ring
     "outside the box" alike (see :mod:`station.canvas.cpu.step`)."""
-    for r in prange(pnsp.shape[0]):
+    for r in range(pnsp.shape[0]):  # serial: a parallel region costs more here
         k = 0
         ncur = nsp[r]
         for q in range(pnsp[r]):
@@ -325,8 +395,6 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         eff = b + (ONE - b) * age
                         paper = ONE - bpaper * (ONE - hv)
                         bcv = paper if paper < eff else eff
-                        if disp > ZERO:
-                            bcv = bcv * _fibre_dispersion(fibre, vx, vy, y, x, disp, vfib)
                         bc_o[j, i] = bcv
                         c_o[j, i] = cmin + hv * cspan
                 else:
@@ -337,10 +405,13 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         eff = b + (ONE - b) * ONE
                         paper = ONE - bpaper * (ONE - hv)
                         bcv = paper if paper < eff else eff
-                        if disp > ZERO:
-                            bcv = bcv * _fibre_dispersion(fibre, vx, vy, y, x, disp, vfib)
                         bc_o[j, i] = bcv
                         c_o[j, i] = cmin + hv * cspan
+                if disp > ZERO:  # a loop of its own: no test inside the column loops
+                    for i in range(slo, shi + 1):
+                        x = np.uint64(x0 + i - 1)
+                        bc_o[j, i] = bc_o[j, i] * _fibre_dispersion(fibre, vx, vy, y, x, disp,
+                                                                    vfib)
             if outward:
                 # x half of the blur: tap-outer, column-inner; per cell the taps add in
                 # order, offset -R first
@@ -1164,14 +1235,16 @@ def capillary_dry(sat: np.ndarray, c: np.ndarray, opn: np.ndarray, v3x: np.ndarr
 # ------------------------------------------------------------------ tile bookkeeping
 @_serial
 def update_tiles(ttl: np.ndarray, active: np.ndarray, boxes: np.ndarray, w: np.ndarray,
-                 wc: np.ndarray, ts: int, renew: int) -> None:
+                 wc: np.ndarray, ts: int, renew: int, halo: int) -> None:
     """``tiles.update_tiles`` for the boxes ``(y0, y1, x0, x1)`` just simulated: count the
     active TTLs down, renew a tile of a box whose TTL is out and that holds water
     (``w > 0`` or ``wc > 0`` in any of its cells).
 
     Only tiles next to (or among) the tiles active before the step are looked at: the
     others were at rest and out of reach of the step (``tiles.HALO`` < a tile), so they
-    hold no water and the reference would not renew them either."""
+    hold no water and the reference would not renew them either. Of a tile that was not
+    active, only the strips within ``halo`` (``tiles.HALO``) cells of an active neighbour
+    are looked at, for the same reason."""
     nty, ntx = ttl.shape
     height, width = w.shape
     for ty in range(nty):
@@ -1187,19 +1260,36 @@ def update_tiles(ttl: np.ndarray, active: np.ndarray, boxes: np.ndarray, w: np.n
             for tx in range(tx0, tx1):
                 if ttl[ty, tx] > 0:
                     continue
-                near = False
-                for dy in range(-1, 2):
-                    for dx in range(-1, 2):
-                        yy, xx = ty + dy, tx + dx
-                        if 0 <= yy < nty and 0 <= xx < ntx and active[yy, xx] != 0:
-                            near = True
-                if not near:
-                    continue
+                ya, yb = ty * ts, min((ty + 1) * ts, height)
+                xa, xb = tx * ts, min((tx + 1) * ts, width)
                 alive = False
-                for y in range(ty * ts, min((ty + 1) * ts, height)):
-                    for x in range(tx * ts, min((tx + 1) * ts, width)):  # vectorises
-                        alive |= (w[y, x] > ZERO) | (wc[y, x] > ZERO)
-                    if alive:
-                        break
+                if active[ty, tx] != 0:  # its TTL ran out in this step: any cell
+                    alive = _water_in(w, wc, ya, yb, xa, xb)
+                else:  # at rest before the step: only cells within HALO of an active
+                    for dy in range(-1, 2):  # tile can have changed
+                        for dx in range(-1, 2):
+                            yy, xx = ty + dy, tx + dx
+                            if alive or not (0 <= yy < nty and 0 <= xx < ntx):
+                                continue
+                            if active[yy, xx] == 0:
+                                continue
+                            y_lo = yb - halo if dy > 0 else ya
+                            y_hi = ya + halo if dy < 0 else yb
+                            x_lo = xb - halo if dx > 0 else xa
+                            x_hi = xa + halo if dx < 0 else xb
+                            alive = _water_in(w, wc, max(y_lo, ya), min(y_hi, yb),
+                                              max(x_lo, xa), min(x_hi, xb))
                 if alive:
                     ttl[ty, tx] = renew
+
+
+@_inline
+def _water_in(w: np.ndarray, wc: np.ndarray, ya: int, yb: int, xa: int, xb: int) -> bool:
+    """Whether any cell of rows ``ya..yb-1``, columns ``xa..xb-1`` holds water."""
+    alive = False
+    for y in range(ya, yb):
+        for x in range(xa, xb):  # vectorises
+            alive |= (w[y, x] > ZERO) | (wc[y, x] > ZERO)
+        if alive:
+            break
+    return alive

@@ -91,6 +91,8 @@ class Scratch:
         self.nsp = np.zeros(height + 2, np.int32)
         self.pspans = np.zeros((height + 2, most, 2), np.int32)
         self.pnsp = np.zeros(height + 2, np.int32)
+        self.hsp = np.zeros((height + 2, most, 2), np.int32)
+        self.hn = np.zeros(height + 2, np.int32)
         self._jbuf = np.zeros((0, 0, 0, 0, 0), F32)
         self._regions: tuple[tuple[tuple[int, ...], bytes], list[tuple[slice, slice]]] | None = None
 
@@ -114,11 +116,15 @@ class Scratch:
         return self._regions[1]
 
     def select(self, y0: int, x0: int, bh: int, bw: int, active: np.ndarray | None,
-               ts: int, grow: int) -> None:
-        """Set the work spans of a box (every cell, or the cells within ``grow`` of an
-        active tile) and zero what the last box computed outside them."""
+               ts: int, grow: int, state: CanvasState | None = None, ns: int = 1) -> None:
+        """Set the work spans of a box (every cell; the cells within ``grow`` of a live
+        cell of ``state``, see :func:`K.live_spans`; without ``state`` the cells within
+        ``grow`` of an active tile) and zero what the last box computed outside them."""
         if active is None:
             K.full_spans(bh, bw, self.spans, self.nsp)
+        elif state is not None:
+            K.live_spans(active, ts, grow, y0, x0, bh, bw, state.w, state.wc, state.vx,
+                         state.vy, state.p, ns, self.hsp, self.hn, self.spans, self.nsp)
         else:
             K.work_spans(active, ts, grow, y0, x0, bh, bw, self.spans, self.nsp)
         K.clear_stale(self.pspans, self.pnsp, self.spans, self.nsp, self.f2, self.f3)
@@ -160,7 +166,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     taps = reference.gaussian_taps(prm.wet_blur)
     outward = prm.flow_outward > 0 and len(taps) > 0
     scratch.select(y0, x0, bh, bw, None if stop_after is not None else active,
-                   int(prm.tile_size), work_grow(len(taps)))
+                   int(prm.tile_size), work_grow(len(taps)), state, ns)
     spans, nsp = scratch.spans, scratch.nsp
     do_pr = (outward or prm.paper_relief > 0) and runs("water_height_and_boundary")
     K.prep(state.w, state.wc, state.mask, state.vx, state.vy, state.p, state.h,
@@ -249,7 +255,8 @@ def step(state: CanvasState, scratch: Scratch, dt: float | None = None) -> int:
         boxes = np.array([(r[0].start, r[0].stop, r[1].start, r[1].stop) for r in regions],
                          np.int64).reshape(-1, 4)
         K.update_tiles(state.tile_ttl, active, boxes, state.w, state.wc,
-                       int(state.params.tile_size), int(state.params.tile_ttl_steps()))
+                       int(state.params.tile_size), int(state.params.tile_ttl_steps()),
+                       tiles.HALO)
         cells = sum((r[0].stop - r[0].start) * (r[1].stop - r[1].start) for r in regions)
     else:
         step_region(state, (slice(0, state.height), slice(0, state.width)), dt, scratch)
