@@ -5,16 +5,15 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
 from conftest import needs_pty
+from haptic_fixtures import _limits_never_exceeded, realtime_host  # noqa: F401 - fixtures
 from station.drivers.haptic import source as haptic_source
 from station.drivers.haptic.contact import BrushState
 from station.drivers.haptic.deformable import DeformableBrushContact, height_pressure
-from station.drivers.haptic.safety import ForceLimits
 from station.drivers.normalise import NormaliserConfig
 from station.drivers.pipeline import DeviceSpec, PenDriver, open_device
 from station.drivers.transport.base import DeviceSpecError, EndOfStream
@@ -27,38 +26,6 @@ from station.errors import WireError
 from station.events import Command, PenSample, Tool
 from station.sessionlog import read_session
 from station.sim.live import LiveConfig, LiveCore
-
-
-@pytest.fixture(autouse=True)
-def _limits_never_exceeded() -> Iterator[None]:
-    yield
-    for spec_text, mock in list(haptic_source._MOCKS.items()):
-        spec = DeviceSpec.parse(spec_text)
-        configured = spec.options.get("max_force")
-        limits = ForceLimits.from_device(mock.hello.max_force,
-                                         float(configured) if configured else None)
-        try:
-            assert mock.violations == 0
-            for r in mock.received:
-                assert limits.within(r.force.vector), (spec_text, r)
-        finally:
-            haptic_source.forget_mock(spec_text)
-
-
-@pytest.fixture
-def realtime_host() -> None:
-    """Skip when this host cannot run a 1 kHz loop now (see tests/test_haptic_device.py)."""
-    periods = []
-    last = time.perf_counter()
-    for _ in range(300):
-        time.sleep(0.001)
-        now = time.perf_counter()
-        periods.append(now - last)
-        last = now
-    p99 = float(np.percentile(periods, 99))
-    if p99 > 0.010:
-        pytest.skip(f"host too loaded for a 1 kHz loop: p99 period {p99 * 1e3:.1f} ms")
-
 
 # -- the wire ----------------------------------------------------------------------------
 
