@@ -54,6 +54,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="pen prediction horizon of the shadow (16 ms; 0: none)")
     p.add_argument("--inline-sim", action="store_true",
                    help="run the steps in the frame loop, not in a thread of their own")
+    p.add_argument("--present", default="auto", choices=("auto", "swap", "partial"),
+                   help="how frames reach the screen (auto: only the changed rectangles on "
+                        "a software rasteriser, station.kiosk.present)")
     p.add_argument("--compare", action="store_true",
                    help="also measure the peer (steps in the frame loop) in the same run, "
                         "each for --seconds, and report the ratios")
@@ -117,11 +120,11 @@ def run(args: argparse.Namespace) -> int:
     try:
         result = measure(width, height, args.backend, args.seconds, args.rate, args.model,
                          args.script, sim_thread=not args.inline_sim,
-                         predict_ms=args.predict_ms)
+                         predict_ms=args.predict_ms, present=args.present)
         if args.compare:
             peer = measure(width, height, args.backend, args.seconds, args.rate, args.model,
                            args.script, sim_thread=args.inline_sim,
-                           predict_ms=args.predict_ms)
+                           predict_ms=args.predict_ms, present=args.present)
             result["peer"] = {k: peer[k] for k in ("sim", "latency", "frames", "load_avg")}
             result["ratios"] = _ratios(result, peer)
     finally:
@@ -146,7 +149,7 @@ def _ratios(a: dict[str, Any], b: dict[str, Any]) -> dict[str, Any]:
 
 def measure(width: int, height: int, backend: str, seconds: float, rate: int,
             model: str, script: str = "arc", sim_thread: bool = True,
-            predict_ms: float = 16.0) -> dict[str, Any]:
+            predict_ms: float = 16.0, present: str = "auto") -> dict[str, Any]:
     from station.calibration.area import AreaSettings, Rect
     from station.calibration.files import write_file
     from station.calibration.model import Calibration, DeviceId
@@ -160,7 +163,7 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
         cfg = KioskConfig(bus=f">ipc:{bus}", width=width, height=height, backend=backend,
                           fullscreen=False, gallery=Path(tmp) / "gallery", serve=None,
                           status="none", vsync=False, cmd="none", sim_thread=sim_thread,
-                          predict_ms=predict_ms,
+                          predict_ms=predict_ms, present=present,
                           idle=IdleConfig(attract_after=3600, finish_after=7200))
         app = KioskApp(cfg)
         spec = f"mock:{model}?script={script}&repeat=0&reports={rate * 2}&rate={rate}"
@@ -254,12 +257,16 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
                     app.ctx.info.get("GL_RENDERER", ""), "window": list(app.size),
                 "cpus": os.cpu_count(), "load_avg": load,
                 "sim": "thread" if st.threaded else "frame loop",
+                "present": {"mode": app.presenter.mode, "asked": present,
+                            "partial_frames": app.presenter.partial_frames,
+                            "whole_frames": app.presenter.whole_frames},
                 "tablet": {"model": model, "script": script, "reports_per_s": rate,
                            "samples": st.counters.samples - samples0,
                            "stamps": st.painted_stamps - stamps0},
                 "latency": {**lat, "goal_p99_ms": GOAL_P99_MS,
                             "from": "driver read (time.monotonic)",
-                            "to": "end of glFinish + swap of the first frame showing its paint",
+                            "to": "end of the present (swap, or copy of the changed "
+                                  "rectangles) + glFinish of the first frame showing its paint",
                             "read_to_handled": _percentiles(st.queue_log or [])},
                 "frames": {"fps": fps, "frames": app.frames,
                            "seconds": round(wall, 2), "goal_fps": GOAL_FPS,

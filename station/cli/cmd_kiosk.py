@@ -50,6 +50,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--autosave", type=float, default=30.0, metavar="SECONDS",
                    help="seconds between autosaves of the painting in <gallery>/.live (0: off)")
     p.add_argument("--no-vsync", action="store_true", help="do not wait for vertical blank")
+    p.add_argument("--present", choices=("auto", "swap", "partial"), default="auto",
+                   help="present whole frames (swap) or only the changed rectangles "
+                        "(partial, GLX_MESA_copy_sub_buffer; auto: partial on a software "
+                        "rasteriser, swap on a GPU)")
     p.add_argument("--predict-ms", type=float, default=16.0, metavar="MS",
                    help="draw the brush's shadow this far ahead along the pen's motion "
                         "(16; 0: off)")
@@ -98,7 +102,8 @@ def run(args: argparse.Namespace) -> int:
         status=args.status, duration=args.duration,
         screenshot_dir=Path(args.screenshot_dir) if args.screenshot_dir else None,
         view=args.view, vsync=not args.no_vsync, cmd=args.cmd, autosave=args.autosave,
-        sim_thread=not args.inline_sim, predict_ms=args.predict_ms)
+        sim_thread=not args.inline_sim, predict_ms=args.predict_ms,
+        present=args.present)
     app = KioskApp(cfg)
     app.install_signal_handlers()
     sys.stderr.write(f"station kiosk: {width}x{height} {cfg.profile} on "

@@ -40,20 +40,23 @@ import numpy as np
 
 from station.errors import BadInput, StationError
 from station.events import Command, PenSample, Tool
-from station.kiosk.compose import Box, Compositor
+from station.kiosk.compose import Box, Compositor, screen_box
 from station.kiosk.display import CpuDisplay, GpuDisplay, make_display
 from station.kiosk.gallery import Gallery, GalleryServer, new_id, painting_url, qr_matrix
 from station.kiosk.idle import IdleClock, IdleConfig
 from station.kiosk.predict import PenPredictor, PredictConfig
+from station.kiosk.present import PRESENT_MODES, Presenter
 from station.kiosk.session import KioskSession
 from station.kiosk.views import VIEWS, Camera, Viewport, input_camera, make_camera
 from station.sim.live import DEFAULT_CMD_ENDPOINT, LiveConfig
 
 log = logging.getLogger(__name__)
+DEBUG: list | None = [] if os.environ.get("KDEBUG") else None
 
 DRIVER_SILENT_S = 5.0  # a driver that said nothing this long is taken as gone
 STATUS_EVERY_S = 0.5
 REDRAW_EVERY_S = 0.25  # a quiet kiosk still redraws this often (status line, banners)
+LATCH_BUDGET_S = 0.002  # the late latch handles pen samples for at most this long
 THREAD_POLL_S = 0.004  # a wet canvas: how often the window looks for the thread's steps
 SCREENSHOT_NAME = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 
@@ -123,6 +126,7 @@ class KioskConfig:
     autosave: float = 30.0  # seconds between autosaves of the painting (0: off)
     sim_thread: bool = True  # steps in a thread of their own (False: in the frame loop)
     predict_ms: float = 16.0  # the pen shadow drawn this far ahead of the last sample (0: off)
+    present: str = "auto"  # auto, swap, partial (station.kiosk.present)
 
 
 def numba_threadsafe() -> bool:
@@ -161,8 +165,15 @@ class KioskApp:
         except ImportError as exc:
             raise StationError(f"the kiosk needs glfw and moderngl ({exc}); "
                                "pip install 'painting-station[kiosk]'") from None
+        if cfg.present not in PRESENT_MODES:
+            raise BadInput(f"unknown present mode {cfg.present!r} (one of "
+                           f"{', '.join(PRESENT_MODES)})", "--present")
         if cfg.view not in VIEWS:
             raise BadInput(f"unknown view {cfg.view!r} (one of {', '.join(VIEWS)})", "--view")
+        # the simulation's OpenMP workers sleep as soon as a parallel loop ends instead
+        # of spinning for the next: spinning, they take the cores the window's thread
+        # needs to show the pen (read when OpenMP starts, so before the first kernel)
+        os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
         if cfg.sim_thread and not numba_threadsafe():
             log.warning("numba's threading layer is not thread-safe here (install tbb): "
                         "the simulation steps in the frame loop")
@@ -294,6 +305,11 @@ class KioskApp:
         self.session: KioskSession = self._new_session()
         self.display: CpuDisplay | GpuDisplay = make_display(self.ctx, self.session)
         self.compositor = Compositor(self.ctx, (w, h))
+        self.presenter = Presenter(glfw, self.window, str(self.ctx.info.get("GL_RENDERER", "")),
+                                   (w, h), cfg.present, cfg.vsync)
+        self._present_rects: list[Box] | None = None  # this frame's partial present
+        self._shadow_box: Box | None = None  # where the last frame drew the shadow
+        self._last_whole = 0.0  # monotonic time of the last whole present
 
     # -- GL programs -------------------------------------------------------------
     def _programs(self) -> None:
@@ -564,14 +580,6 @@ class KioskApp:
         self.flat_prog["color"].value = color
         self.flat_vao.render(mode, vertices=len(pts))
 
-    def _disc(self, cam: Camera, u: float, v: float, r: float, color: tuple[float, ...]
-              ) -> None:
-        c = cam.canvas_to_world(u, v)
-        ang = np.linspace(0, 2 * math.pi, 41)
-        ring = np.column_stack([c[0] + r * np.cos(ang), c[1] + r * np.sin(ang),
-                                np.full(ang.size, 1e-4)])
-        self._flat(cam, np.vstack([[c[0], c[1], 1e-4], ring]), color, self.ctx.TRIANGLE_FAN)
-
     def draw_scene(self, cam: Camera, clip: Box | None = None) -> None:
         """The view of the canvas (background, table, canvas) into the bound framebuffer;
         ``clip``: only inside these window pixels (x0, y0, x1, y1)."""
@@ -615,21 +623,31 @@ class KioskApp:
         self._cursor_drawn = ((last[1], last[2]), p)
         return uv
 
-    def draw_cursor(self, cam: Camera) -> None:
-        """The brush's shadow over the presented picture: its footprint at full pressure,
-        light from the top left, where the pen is predicted to be when this frame shows."""
+    def cursor_shape(self, cam: Camera) -> tuple[np.ndarray, tuple[float, ...]] | None:
+        """The brush's shadow: a disc (world points, a triangle fan) the size of its
+        footprint at full pressure, offset as if lit from the top left, where the pen is
+        predicted to be when this frame shows; with its colour.  ``None``: no pen."""
         shown = self.predicted_hover()
         if shown is None:
-            return
+            return None
+        r = self.session.player.brush.settings.size / 2 / self.cfg.height
+        u, v = shown
+        off = 0.0 if self.touching else 0.006
+        c = cam.canvas_to_world(u + off, v + off)
+        ang = np.linspace(0, 2 * math.pi, 41)
+        ring = np.column_stack([c[0] + r * np.cos(ang), c[1] + r * np.sin(ang),
+                                np.full(ang.size, 1e-4)])
+        return (np.vstack([[c[0], c[1], 1e-4], ring]),
+                CURSOR_TOUCH if self.touching else SHADOW)
+
+    def draw_cursor(self, cam: Camera, shape: tuple[np.ndarray, tuple[float, ...]]) -> None:
+        """The shadow (:meth:`cursor_shape`) over the presented picture."""
         ctx = self.ctx
         w, h = self.size
         ctx.viewport = cam.viewport.gl(h)
         ctx.enable(ctx.BLEND)
         ctx.blend_func = ctx.SRC_ALPHA, ctx.ONE_MINUS_SRC_ALPHA
-        r = self.session.player.brush.settings.size / 2 / self.cfg.height
-        u, v = shown
-        off = 0.0 if self.touching else 0.006
-        self._disc(cam, u + off, v + off, r, CURSOR_TOUCH if self.touching else SHADOW)
+        self._flat(cam, shape[0], shape[1], ctx.TRIANGLE_FAN)
         ctx.disable(ctx.BLEND)
         ctx.viewport = (0, 0, w, h)
 
@@ -694,10 +712,9 @@ class KioskApp:
             self._status_cache = self.status_line()
         return self._status_cache
 
-    def compose(self, dt: float) -> Camera:
-        """Build the UI and redraw the damaged parts of the picture (see compose.py);
-        then the picture into the back buffer and the shadow over it."""
-        cam = self.camera()
+    def build_ui_if_changed(self, dt: float) -> None:
+        """Build the UI when what it shows may have changed (else ImGui's last draw data
+        stays valid: no new frame)."""
         now = time.monotonic()
         key = self._ui_key(now)
         if (key != self._ui_last_key or key[-1] or bool(self.screenshots)
@@ -705,13 +722,33 @@ class KioskApp:
             self._ui_hash = self.build_ui(now - self._ui_built if self._ui_built else dt)
             self._ui_bounds = self.gui.bounds()
             self._ui_last_key, self._ui_built = key, now
-        # else: the panel looks as it did; ImGui's last draw data stays valid (no new frame)
-        self.compositor.update(cam, self.display.damage, (self.cfg.width, self.cfg.height),
-                               self._ui_hash, self._ui_bounds,
-                               lambda box: self.draw_scene(cam, box), self.gui.draw)
+
+    def compose(self) -> Camera:
+        """Redraw the damaged parts of the picture (see compose.py), then fill the back
+        buffer — all of it, or only where the window changes when the presenter copies
+        rectangles — and draw the shadow over it."""
+        cam = self.camera()
+        boxes = self.compositor.update(cam, self.display.damage,
+                                       (self.cfg.width, self.cfg.height), self._ui_hash,
+                                       self._ui_bounds, lambda box: self.draw_scene(cam, box),
+                                       self.gui.draw)
         self.display.damage = []
-        self.compositor.present()
-        self.draw_cursor(cam)
+        shadow = self.cursor_shape(cam)
+        shadow_box = None if shadow is None else screen_box(cam, shadow[0],
+                                                              (self.size[0], self.size[1]))
+        now = time.monotonic()
+        if (self.screenshots or self.compositor.full_last
+                or self.presenter.needs_whole(now, self._last_whole)):
+            self.compositor.present()
+            self._present_rects = None
+            self._last_whole = now
+        else:
+            rects = [b for b in (*boxes, self._shadow_box, shadow_box) if b is not None]
+            self.compositor.present(rects)
+            self._present_rects = rects
+        self._shadow_box = shadow_box
+        if shadow is not None:
+            self.draw_cursor(cam, shadow)
         return cam
 
     def _screenshot(self, path: Path) -> None:
@@ -773,22 +810,44 @@ class KioskApp:
         draw = (self._need_draw or got_input or bool(self.screenshots) or s.whole_dirty
                 or bool(s.dirty.any()) or self.display.behind()
                 or now - self._last_draw >= REDRAW_EVERY_S)
-        t1 = t2 = t3 = t4 = time.perf_counter()
+        t1 = time.perf_counter()
+        t_tiles = t_ui = t_drained = t_preview = t_present = t_shown = t1
         if draw:
             with s.lock:  # not while a step hands its sources over (the kernel may run)
-                self.display.update()
-            t2 = time.perf_counter()
-            self.compose(now - self._last_draw if self._last_draw else dt)
+                self.display.update_tiles()
+            t_tiles = time.perf_counter()
+            self.build_ui_if_changed(now - self._last_draw if self._last_draw else dt)
+            # the late latch: what the pen sent while the tiles and the UI were drawn is
+            # shown in this frame, not the next (what stands between a sample and the
+            # screen is only its stamps' preview, the composition and the present)
+            t_ui = time.perf_counter()
+            n_early = len(s.awaiting_paint)
+            received = s.sub.stats.received
+            s.drain(0, LATCH_BUDGET_S)
+            got_input = got_input or s.sub.stats.received != received
+            t_drained = time.perf_counter()
+            with s.lock:
+                self.display.update_preview()
+            t_preview = time.perf_counter()
+            self.compose()
             for path in self.screenshots:
                 self._screenshot(path)
             self.screenshots.clear()
-            t3 = time.perf_counter()
-            self._gl_finish()
-            self.glfw.swap_buffers(self.window)
+            t_present = time.perf_counter()
+            if self._present_rects is None:
+                self._gl_finish()
+                self.presenter.present_whole()
+            else:
+                self.presenter.present_rects(self._present_rects)
+                self._gl_finish()
             shown = time.monotonic()
-            t4 = time.perf_counter()
+            t_shown = time.perf_counter()
             for t_read in s.awaiting_paint:
                 self.latencies.append(shown - t_read)
+            if DEBUG is not None:
+                DEBUG.append((t_tiles - t1, t_ui - t_tiles, t_drained - t_ui, t_preview - t_drained,
+                              t_present - t_preview, t_shown - t_present, n_early,
+                              len(s.awaiting_paint), [shown - t for t in s.awaiting_paint]))
             if self.cursor_log is not None and self._cursor_drawn is not None:
                 (rx, ry), (qx, qy) = self._cursor_drawn
                 self.cursor_log.append((shown, rx, ry, qx, qy))
@@ -802,16 +861,17 @@ class KioskApp:
             s.housekeeping()
         else:  # the steps in this loop (after presenting: a step delays the next frame)
             s.run_due_steps(max_steps=2)  # what they change: dirty tiles
-        t5 = time.perf_counter()
+        t_end = time.perf_counter()
         if busy:  # a pass that did not wait for the bus
-            self._last_pass_s = t5 - t0
+            self._last_pass_s = t_end - t0
         ph = self.phase
         ph["wait"] += tw - t0
-        ph["input"] += t1 - tw
-        ph["render"] += t2 - t1
-        ph["ui"] += t3 - t2
-        ph["present"] += t4 - t3
-        ph["sim"] += t5 - t4
+        ph["input"] += (t1 - tw) + (t_drained - t_ui)
+        ph["render"] += (t_tiles - t1) + (t_preview - t_drained)
+        ph["ui"] += (t_ui - t_tiles) + (t_present - t_preview)
+        ph["present"] += t_shown - t_present
+        ph["sim"] += t_end - t_shown
+        ph["sim"] += t_end - t_shown
         self.maybe_publish_status()
 
     def run(self) -> dict[str, Any]:

@@ -45,6 +45,9 @@ void main() { frag = texelFetch(picture, ivec2(gl_FragCoord.xy), 0); }
 #: beyond a cell, and rounding of the projection.
 MARGIN_PX = 3
 
+#: Damaged rectangles closer than this (window pixels) are redrawn as one.
+MERGE_GAP_PX = 24
+
 
 def union(a: Box | None, b: Box | None) -> Box | None:
     if a is None:
@@ -57,21 +60,50 @@ def union(a: Box | None, b: Box | None) -> Box | None:
 def canvas_box(cam: Camera, cells: tuple[int, int, int, int], width: int, height: int
                ) -> Box | None:
     """Window pixels covering the canvas cells ``(y0, y1, x0, x1)`` in view ``cam``
-    (``None``: a corner lies behind the camera — redraw it all)."""
-    y0, y1, x0, x1 = cells
-    pts = []
-    for u, v in ((x0 / width, y0 / height), (x1 / width, y0 / height),
-                 (x0 / width, y1 / height), (x1 / width, y1 / height)):
-        p = cam.world_to_screen(cam.canvas_to_world(u, v))
-        if p is None:
-            return None
-        pts.append(p)
-    xs = [p[0] for p in pts]
-    ys = [p[1] for p in pts]
+    (``None``: a corner lies behind the camera — redraw it all — or it is off screen)."""
+    boxes = canvas_boxes(cam, [cells], width, height)
+    return boxes[0] if boxes else None
+
+
+def canvas_boxes(cam: Camera, cells: list[tuple[int, int, int, int]], width: int,
+                 height: int) -> list[Box] | None:
+    """:func:`canvas_box` of many cell rectangles in one projection (``None``: one has a
+    corner behind the camera — redraw it all)."""
+    if not cells:
+        return []
+    c = np.asarray(cells, float)  # y0, y1, x0, x1
+    u = np.stack([c[:, 2], c[:, 3], c[:, 2], c[:, 3]], axis=1) / width
+    v = np.stack([c[:, 0], c[:, 0], c[:, 1], c[:, 1]], axis=1) / height
+    world = np.stack([(u - 0.5) * cam.aspect, 0.5 - v, np.zeros_like(u), np.ones_like(u)],
+                     axis=-1)  # Camera.canvas_to_world, homogeneous
+    clip = world @ cam.vp.T
+    if not (clip[..., 3] > 1e-9).all():
+        return None
     vp = cam.viewport
-    box = (max(int(min(xs)) - MARGIN_PX, vp.x), max(int(min(ys)) - MARGIN_PX, vp.y),
-           min(int(max(xs)) + 1 + MARGIN_PX, vp.x + vp.w),
-           min(int(max(ys)) + 1 + MARGIN_PX, vp.y + vp.h))
+    xs = vp.x + (clip[..., 0] / clip[..., 3] + 1) / 2 * vp.w
+    ys = vp.y + (1 - clip[..., 1] / clip[..., 3]) / 2 * vp.h
+    x0 = np.maximum(np.floor(xs.min(axis=1)).astype(int) - MARGIN_PX, vp.x)
+    y0 = np.maximum(np.floor(ys.min(axis=1)).astype(int) - MARGIN_PX, vp.y)
+    x1 = np.minimum(np.floor(xs.max(axis=1)).astype(int) + 1 + MARGIN_PX, vp.x + vp.w)
+    y1 = np.minimum(np.floor(ys.max(axis=1)).astype(int) + 1 + MARGIN_PX, vp.y + vp.h)
+    return [(int(a), int(b), int(c_), int(d)) for a, b, c_, d in zip(x0, y0, x1, y1, strict=True)
+            if c_ > a and d > b]
+
+
+def screen_box(cam: Camera, pts: np.ndarray, size: tuple[int, int]) -> Box | None:
+    """Window pixels covering the world points ``pts`` (N×3) in view ``cam``, clipped to
+    the window of ``size``; ``None`` if none is in front of the camera or on screen."""
+    c = np.column_stack([pts, np.ones(len(pts))]) @ cam.vp.T
+    front = c[:, 3] > 1e-9
+    if not front.all():
+        return None if not front.any() else (0, 0, size[0], size[1])
+    ndc = c[:, :2] / c[:, 3:4]
+    vp = cam.viewport
+    xs = vp.x + (ndc[:, 0] + 1) / 2 * vp.w
+    ys = vp.y + (1 - ndc[:, 1]) / 2 * vp.h
+    box = (max(int(xs.min()) - MARGIN_PX, 0), max(int(ys.min()) - MARGIN_PX, 0),
+           min(int(xs.max()) + 1 + MARGIN_PX, size[0]),
+           min(int(ys.max()) + 1 + MARGIN_PX, size[1]))
     return box if box[2] > box[0] and box[3] > box[1] else None
 
 
@@ -92,6 +124,7 @@ class Compositor:
         self._ui_box: Box | None = None
         self.pixels_redrawn = 0  # window pixels redrawn in the picture by the last frame
         self.full_redraws = 0
+        self.full_last = True  # the last update redrew everything (a new camera)
 
     def invalidate(self) -> None:
         """Redraw everything next frame (a fresh canvas, a screenshot's exact picture)."""
@@ -99,8 +132,9 @@ class Compositor:
 
     def update(self, cam: Camera, canvas_cells: list[tuple[int, int, int, int]],
                canvas_size: tuple[int, int], ui_hash: int, ui_box: Box | None,
-               draw_scene: Callable[[Box], None], draw_ui: Callable[[Box], None]) -> int:
-        """Redraw the damaged parts of the picture; returns the pixels redrawn.
+               draw_scene: Callable[[Box], None], draw_ui: Callable[[Box], None]
+               ) -> list[Box]:
+        """Redraw the damaged parts of the picture; returns the boxes redrawn.
 
         ``canvas_cells``: canvas rectangles ``(y0, y1, x0, x1)`` re-rendered since the
         last frame; ``ui_hash``/``ui_box``: the UI's drawing this frame and its extent;
@@ -110,20 +144,14 @@ class Compositor:
         w, h = self.size
         key = cam.vp.astype("f4").tobytes() + repr(cam.viewport).encode()
         boxes: list[Box] = []
-        if key != self._camera_key:
+        self.full_last = key != self._camera_key
+        if self.full_last:
             boxes = [(0, 0, w, h)]
             self.full_redraws += 1
         else:
             cw, ch = canvas_size
-            damage: Box | None = None
-            for cells in canvas_cells:
-                b = canvas_box(cam, cells, cw, ch)
-                if b is None:
-                    damage = (0, 0, w, h)
-                    break
-                damage = union(damage, b)
-            if damage is not None:
-                boxes.append(damage)
+            canvas = canvas_boxes(cam, canvas_cells, cw, ch)
+            boxes = [(0, 0, w, h)] if canvas is None else canvas
             if ui_hash != self._ui_hash:
                 ui_damage = union(self._ui_box, ui_box)
                 if ui_damage is not None:
@@ -131,12 +159,11 @@ class Compositor:
         self._camera_key = key
         self._ui_hash = ui_hash
         self._ui_box = ui_box
-        if len(boxes) == 2 and _overlap(boxes[0], boxes[1]):
-            merged = union(boxes[0], boxes[1])
-            boxes = [merged] if merged is not None else []
+        boxes = merge_rects(boxes, MERGE_GAP_PX)
         ctx = self.ctx
         self.fbo.use()
         pixels = 0
+        drawn: list[Box] = []
         for x0, y0, x1, y1 in boxes:
             x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w), min(y1, h)
             if x1 <= x0 or y1 <= y0:
@@ -144,21 +171,31 @@ class Compositor:
             draw_scene((x0, y0, x1, y1))
             draw_ui((x0, y0, x1, y1))
             pixels += (x1 - x0) * (y1 - y0)
+            drawn.append((x0, y0, x1, y1))
         ctx.scissor = None
         self.pixels_redrawn = pixels
-        return pixels
+        return drawn
 
-    def present(self) -> None:
-        """Copy the picture into the window's back buffer (bound after the call)."""
+    def present(self, rects: list[Box] | None = None) -> None:
+        """Copy the picture into the window's back buffer (bound after the call): all of
+        it, or only inside ``rects`` (what a partial present shows)."""
         ctx = self.ctx
         ctx.screen.use()
         w, h = self.size
         ctx.viewport = (0, 0, w, h)
-        ctx.scissor = None
         ctx.disable(ctx.BLEND)
         self.texture.use(0)
         self.prog["picture"].value = 0
-        self.vao.render(ctx.TRIANGLE_STRIP)
+        if rects is None:
+            ctx.scissor = None
+            self.vao.render(ctx.TRIANGLE_STRIP)
+            return
+        for x0, y0, x1, y1 in rects:
+            x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, w), min(y1, h)
+            if x1 > x0 and y1 > y0:
+                ctx.scissor = (x0, h - y1, x1 - x0, y1 - y0)
+                self.vao.render(ctx.TRIANGLE_STRIP)
+        ctx.scissor = None
 
     def release(self) -> None:
         self.vao.release()
@@ -168,5 +205,24 @@ class Compositor:
         self.texture.release()
 
 
-def _overlap(a: Box, b: Box) -> bool:
-    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+def merge_rects(rects: list[Box], gap: int = 0) -> list[Box]:
+    """Rectangles closer than ``gap`` pixels (or overlapping) merged into their bounding
+    box, until none are: each rectangle is a few draw calls, and overlapping ones would
+    draw pixels twice."""
+    out = [r for r in rects if r[2] > r[0] and r[3] > r[1]]
+    merged = True
+    while merged and len(out) > 1:
+        merged = False
+        for i in range(len(out)):
+            for j in range(i + 1, len(out)):
+                a, b = out[i], out[j]
+                if (a[0] < b[2] + gap and b[0] < a[2] + gap and a[1] < b[3] + gap
+                        and b[1] < a[3] + gap):
+                    out[i] = (min(a[0], b[0]), min(a[1], b[1]), max(a[2], b[2]),
+                              max(a[3], b[3]))
+                    del out[j]
+                    merged = True
+                    break
+            if merged:
+                break
+    return out

@@ -36,24 +36,40 @@ F32 = np.float32
 #: few frames instead of stalling one (800×600 is 480 000 cells, about 5 ms here).
 MAX_CELLS_PER_FRAME = 120_000
 
+#: Seconds of dirty-tile rendering in one frame at most (checked after each run of
+#: tiles).  Every millisecond spent here is a millisecond a pen sample arriving now
+#: waits before the window takes it (:meth:`CpuDisplay.update_tiles` comes before the
+#: late latch): so a step's changes are shown over a few short frames — the wet paint
+#: moves on screen a few milliseconds later — and the pen is never held up by them.
+TILE_BUDGET_S = 0.0015
 
-def tile_runs(dirty: np.ndarray) -> list[tuple[int, int, int]]:
-    """Runs of dirty tiles per tile row: ``(row, first column, end column)``."""
+#: Tiles in one run at most (a run is rendered and uploaded in one call): the budget
+#: is checked this often.
+RUN_TILES = 4
+
+
+def tile_runs(dirty: np.ndarray, most: int | None = None) -> list[tuple[int, int, int]]:
+    """Runs of dirty tiles per tile row: ``(row, first column, end column)``, each at
+    most ``most`` tiles long."""
     runs = []
     for ty in np.nonzero(dirty.any(axis=1))[0]:
         row = np.concatenate(([False], dirty[ty], [False]))
         edges = np.flatnonzero(row[1:] != row[:-1])
         for a, b in zip(edges[0::2], edges[1::2], strict=True):
-            runs.append((int(ty), int(a), int(b)))
+            step = int(b - a) if most is None else most
+            for c in range(int(a), int(b), step):
+                runs.append((int(ty), c, min(c + step, int(b))))
     return runs
 
 
 class CpuDisplay:
     """Dirty-tile rendering of a CPU canvas into a float texture (see module docstring)."""
 
-    def __init__(self, ctx: Any, session: Any, max_cells: int = MAX_CELLS_PER_FRAME) -> None:
+    def __init__(self, ctx: Any, session: Any, max_cells: int = MAX_CELLS_PER_FRAME,
+                 budget_s: float = TILE_BUDGET_S) -> None:
         self.ctx = ctx
         self.max_cells = max_cells
+        self.budget_s = budget_s
         self.bind(session)
 
     def bind(self, session: Any) -> None:
@@ -79,6 +95,13 @@ class CpuDisplay:
 
     def update(self) -> int:
         """Re-render what changed; returns the number of cells rendered."""
+        return self.update_tiles() + self.update_preview()
+
+    def update_tiles(self) -> int:
+        """Re-render the dirty tiles (what the steps changed), up to the frame's budget;
+        returns the cells rendered.  The window does this before it takes the latest
+        pen samples (:meth:`update_preview` shows those), so its cost does not delay
+        them."""
         t0 = time.perf_counter()
         st = self.session.cpu_state
         kind = self._renderer_kind()
@@ -94,8 +117,8 @@ class CpuDisplay:
         self.damage = []
         left = np.zeros_like(dirty)
         # tiles left over from the last frame first, then the new ones, up to the budget
-        for ty, a, b in tile_runs(carried) + tile_runs(dirty & ~carried):
-            if cells >= self.max_cells:
+        for ty, a, b in tile_runs(carried, RUN_TILES) + tile_runs(dirty & ~carried, RUN_TILES):
+            if cells >= self.max_cells or (cells and time.perf_counter() - t0 >= self.budget_s):
                 left[ty, a:b] = True
                 continue
             ys = slice(ty * ts, min((ty + 1) * ts, st.height))
@@ -103,23 +126,46 @@ class CpuDisplay:
             self._upload(self._render(st, kind, ys, xs), ys, xs)
             cells += (ys.stop - ys.start) * (xs.stop - xs.start)
         self._carry = left if left.any() else None
+        self.cells_rendered = cells
+        self.render_seconds = time.perf_counter() - t0
+        return cells
+
+    def update_preview(self) -> int:
+        """Render the brush stamps made since the last step over the state (their
+        region only); returns the cells rendered."""
+        t0 = time.perf_counter()
+        st = self.session.cpu_state
         peek = getattr(self.session.player.brush, "peek", None)  # the stamp brush has it
         src = peek() if peek is not None else None
+        cells = 0
         if src is not None:
             ys, xs = src.region
             ys = slice(max(ys.start, 0), min(ys.stop, st.height))
             xs = slice(max(xs.start, 0), min(xs.stop, st.width))
             if ys.stop > ys.start and xs.stop > xs.start:
+                if self.preview_box is not None:  # drawn over by a later latch this frame
+                    self._restore_preview()
                 oy, ox = ys.start - src.y0, xs.start - src.x0
                 h, w = ys.stop - ys.start, xs.stop - xs.start
                 extra = {name: a[oy:oy + h, ox:ox + w].astype(F32) * (st.mask[ys, xs] == 0)
                          for name, a in src.dp.items()}
-                self._upload(self._render(st, kind, ys, xs, extra), ys, xs)
+                self._upload(self._render(st, self._renderer_kind(), ys, xs, extra), ys, xs)
                 self.preview_box = (ys, xs)
-                cells += h * w
-        self.cells_rendered = cells
-        self.render_seconds = time.perf_counter() - t0
+                cells = h * w
+        self.cells_rendered += cells
+        self.render_seconds += time.perf_counter() - t0
         return cells
+
+    def _restore_preview(self) -> None:
+        """Mark the last preview's tiles dirty again (the next :meth:`update_tiles`
+        renders the state there)."""
+        if self.preview_box is None:
+            return
+        ts = int(self.session.cpu_state.params.tile_size)
+        ys, xs = self.preview_box
+        dirty = self.session.dirty
+        dirty[ys.start // ts:-(-ys.stop // ts), xs.start // ts:-(-xs.stop // ts)] = True
+        self.preview_box = None
 
     def behind(self) -> bool:
         """Whether dirty tiles wait for the next frame (over this frame's budget)."""
@@ -163,6 +209,17 @@ class GpuDisplay:
         return False
 
     def update(self) -> int:
+        return self.update_tiles() + self.update_preview()
+
+    def update_tiles(self) -> int:
+        """Nothing before the pen's latest samples: the GPU renders the whole canvas."""
+        self.damage = []
+        self.cells_rendered = 0
+        self.render_seconds = 0.0
+        return 0
+
+    def update_preview(self) -> int:
+        """The pending stamps into the canvas and the canvas's render pass."""
         t0 = time.perf_counter()
         # pending stamps go in now: on the GPU the sources pass is cheap and the preview
         # would need the state on the CPU

@@ -1,0 +1,138 @@
+"""Putting a frame on the screen: the whole back buffer swapped, or only its damaged
+rectangles copied to the window.
+
+``swap_buffers`` presents every pixel of the window.  On a GPU that is a page
+flip or a blit the GPU does, synchronised with the vertical blank.  On a
+software rasteriser (Mesa's llvmpipe, what a machine without a GPU runs), it
+is the CPU copying the whole window to the X server — 1–2 ms at 1024×768 on
+the 2-core development machine, and as much again to fill the back buffer
+first — every frame, while a visitor's stroke changes a brush-sized part of it.
+There is no vertical blank to wait for there either.
+
+So where the GLX extension ``GLX_MESA_copy_sub_buffer`` exists (Mesa's GLX,
+software or not), the kiosk can present a frame by copying only the damaged
+rectangles of the back buffer to the window (``glXCopySubBufferMESA``): the
+back buffer needs to be right only inside them.  ``auto`` does this on a
+software rasteriser and swaps on a GPU (tear-free, vsync); ``partial`` and
+``swap`` force one or the other.  A partial present does not wait for the
+vertical blank, so on a GPU with vsync it can tear — hence not the default
+there.
+
+The X server keeps the window's pixels between copies.  Where it may have
+lost them (an expose: the window was covered, mapped again, resized), and
+anyway once a second, the next frame is presented whole.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import logging
+from typing import Any
+
+from station.kiosk.compose import merge_rects
+
+log = logging.getLogger(__name__)
+
+PRESENT_MODES = ("auto", "swap", "partial")
+
+#: A partial present is followed by a whole one at least this often (seconds): the
+#: window is right even if the X server lost pixels without telling.
+FULL_EVERY_S = 1.0
+
+#: Renderers that rasterise on the CPU (no vertical blank, swap copies the window).
+SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swrast", "lavapipe", "swr")
+
+Rect = tuple[int, int, int, int]  # window pixels x0, y0, x1, y1 (origin top-left, exclusive)
+
+
+class Presenter:
+    """Presents frames of one glfw window (see the module docstring)."""
+
+    def __init__(self, glfw: Any, window: Any, renderer: str, size: tuple[int, int],
+                 mode: str = "auto", vsync: bool = True) -> None:
+        if mode not in PRESENT_MODES:
+            raise ValueError(f"present mode {mode!r} (one of {', '.join(PRESENT_MODES)})")
+        self.glfw = glfw
+        self.window = window
+        self.size = size
+        self.whole_next = True  # the first frame is presented whole
+        self.partial_frames = 0
+        self.whole_frames = 0
+        self._copy_sub: Any = None
+        self._dpy: Any = None
+        self._drawable = 0
+        software = any(name in renderer.lower() for name in SOFTWARE_RENDERERS)
+        want = mode == "partial" or (mode == "auto" and (software or not vsync))
+        if want:
+            self._copy_sub = self._find_copy_sub_buffer()
+            if self._copy_sub is None and mode == "partial":
+                log.warning("partial present asked for, but GLX_MESA_copy_sub_buffer is "
+                            "not there: every frame is swapped whole")
+        self.mode = "partial" if self._copy_sub is not None else "swap"
+        # an expose (the window covered and shown again): the next frame goes whole
+        glfw.set_window_refresh_callback(window, lambda w: self.lost())
+
+    def _find_copy_sub_buffer(self) -> Any:
+        """``glXCopySubBufferMESA`` for this window, or ``None`` (not GLX, no extension)."""
+        glfw = self.glfw
+        try:
+            dpy = glfw.get_x11_display()
+            drawable = glfw.get_glx_window(self.window)
+        except Exception:  # glfw on Wayland, or an EGL context: no GLX here
+            return None
+        if not dpy or not drawable:
+            return None
+        try:
+            x11 = ctypes.CDLL("libX11.so.6")
+            glx = ctypes.CDLL("libGL.so.1")
+        except OSError:
+            return None
+        x11.XDefaultScreen.restype = ctypes.c_int
+        x11.XDefaultScreen.argtypes = [ctypes.c_void_p]
+        glx.glXQueryExtensionsString.restype = ctypes.c_char_p
+        glx.glXQueryExtensionsString.argtypes = [ctypes.c_void_p, ctypes.c_int]
+        extensions = (glx.glXQueryExtensionsString(dpy, x11.XDefaultScreen(dpy)) or b"").split()
+        if b"GLX_MESA_copy_sub_buffer" not in extensions:
+            return None
+        addr = glfw.get_proc_address("glXCopySubBufferMESA")
+        if not addr:
+            return None
+        proto = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_ulong, ctypes.c_int,
+                                 ctypes.c_int, ctypes.c_int, ctypes.c_int)
+        self._dpy = ctypes.c_void_p(dpy)
+        self._drawable = int(drawable)
+        return proto(addr)
+
+    def lost(self) -> None:
+        """The window's pixels may be gone: present the next frame whole."""
+        self.whole_next = True
+
+    def resized(self, size: tuple[int, int]) -> None:
+        self.size = size
+        self.whole_next = True
+
+    def needs_whole(self, now: float, last_whole: float) -> bool:
+        """Whether the next frame must fill and present the whole window."""
+        return self._copy_sub is None or self.whole_next or now - last_whole >= FULL_EVERY_S
+
+    def present_whole(self) -> None:
+        self.glfw.swap_buffers(self.window)
+        self.whole_next = False
+        self.whole_frames += 1
+
+    def present_rects(self, rects: list[Rect]) -> int:
+        """Copy ``rects`` of the back buffer to the window; returns the pixels copied.
+        Each is clipped to the window first: a rectangle reaching outside it is an X
+        protocol error, which ends the process."""
+        w, h = self.size
+        pixels = 0
+        for x0, y0, x1, y1 in merge_rects(rects):
+            x0, y0, x1, y1 = max(int(x0), 0), max(int(y0), 0), min(int(x1), w), min(int(y1), h)
+            if x1 <= x0 or y1 <= y0:
+                continue
+            # GLX counts y from the bottom of the window
+            self._copy_sub(self._dpy, self._drawable, x0, h - y1, x1 - x0, y1 - y0)
+            pixels += (x1 - x0) * (y1 - y0)
+        self.partial_frames += 1
+        return pixels
+

@@ -1,0 +1,210 @@
+"""The kiosk's frame: the late latch (a sample that arrives while the tiles are drawn is
+shown in the same frame), the time budget of the tile rendering, and the partial present
+(only the changed rectangles copied to the window) against the whole one."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from station.bus import Message, SubscriberStats
+from station.events import PenSample, Tool
+from station.kiosk.compose import canvas_box, canvas_boxes, merge_rects
+from station.kiosk.views import Viewport, make_camera
+from tests.kiosk_harness import xvfb
+
+W, H = 160, 120
+WINDOW = (480, 360)
+
+
+class _Queue:
+    """The session's bus subscription, fed by the test."""
+
+    def __init__(self) -> None:
+        self.items: list[Message] = []
+        self.stats = SubscriberStats()
+        self.seq = 0
+
+    def push(self, sample: PenSample) -> None:
+        self.seq += 1
+        self.items.append(Message(topic="pen.p", kind="pen", value=sample, publisher=1,
+                                  seq=self.seq, replay=False))
+
+    def recv(self, timeout_ms: int | None = 0) -> Message | None:
+        if not self.items:
+            return None
+        self.stats.received += 1
+        return self.items.pop(0)
+
+    def close(self) -> None:
+        pass
+
+
+@pytest.fixture(scope="module")
+def display() -> Iterator[str]:
+    with xvfb() as d:
+        yield d
+
+
+def _app(display: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, present: str) -> Any:
+    pytest.importorskip("glfw")
+    from station.kiosk.app import KioskApp, KioskConfig
+    from station.kiosk.idle import IdleConfig
+
+    monkeypatch.setenv("DISPLAY", display)
+    cfg = KioskConfig(bus=f">ipc://{tmp_path}/bus", width=W, height=H, backend="cpu",
+                      fullscreen=False, window=WINDOW, gallery=tmp_path / "gallery",
+                      serve=None, status="none", cmd="none", vsync=False, autosave=0,
+                      sim_thread=False, present=present, predict_ms=0,
+                      idle=IdleConfig(attract_after=3600, finish_after=7200))
+    app = KioskApp(cfg)
+    app.display_name = display
+    real = app.session.sub
+    app.session.sub = _Queue()
+    real.close()
+    return app
+
+
+def _pen(app: Any, i: int, u: float, v: float, touching: bool = True) -> PenSample:
+    """A screen-space sample over canvas point (u, v), read "now"."""
+    x, y, w, h = app.canvas_rect()
+    sw, sh = app.size
+    return PenSample(t=app.session.now() + 0.001 * i, device="p", tool=Tool.PEN,
+                     x=(x + u * w) / sw, y=(y + v * h) / sh, pressure=0.9,
+                     touching=touching, proximity=True, t_mono=time.monotonic())
+
+
+def _front(app: Any) -> np.ndarray:
+    """The window's pixels as the X server shows them (a grab of the screen)."""
+    from PIL import ImageGrab
+
+    app._gl_finish()
+    x, y = app.glfw.get_window_pos(app.window)
+    w, h = app.size
+    shot = ImageGrab.grab(bbox=(x, y, x + w, y + h), xdisplay=app.display_name)
+    return np.asarray(shot.convert("RGB"))
+
+
+def _picture(app: Any) -> np.ndarray:
+    w, h = app.size
+    img = np.frombuffer(app.compositor.texture.read(), np.uint8).reshape(h, w, 4)
+    return img[::-1, :, :3]
+
+
+def test_a_sample_arriving_while_the_tiles_are_drawn_is_shown_in_that_frame(
+        display: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    app = _app(display, tmp_path, monkeypatch, "auto")
+    try:
+        q = app.session.sub
+        for i in range(3):  # a stroke already under way, drawn
+            q.push(_pen(app, i, 0.3 + 0.02 * i, 0.5))
+            app.frame(0.016)
+        shown, frames = len(app.latencies), app.frames
+        real = app.display.update_tiles
+        late = _pen(app, 3, 0.5, 0.5)
+
+        def tiles_then_the_pen() -> int:
+            n = real()
+            q.push(late)  # the pen reports while the window renders the tiles
+            return n
+
+        app.display.update_tiles = tiles_then_the_pen
+        before = app.session.painted_stamps
+        app.frame(0.016)
+        assert app.frames == frames + 1  # one frame ...
+        assert app.session.painted_stamps > before  # ... took the late sample ...
+        assert len(app.latencies) == shown + 1  # ... and showed its paint
+        assert app.latencies[-1] < 5.0
+        # its stamps are in the preview this frame: the picture changed there
+        x, y, w, h = app.canvas_rect()
+        px, py = int(x + 0.5 * w), int(y + 0.5 * h)
+        pic = _picture(app)
+        assert pic[py, px].astype(int).sum() < 3 * 250  # paint, not white paper
+    finally:
+        app.close()
+
+
+def test_tile_rendering_stops_at_its_time_budget(display: str, tmp_path: Path,
+                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    from station.kiosk.display import RUN_TILES
+
+    app = _app(display, tmp_path, monkeypatch, "auto")
+    try:
+        disp = app.display
+        disp.budget_s = 0.0  # one run of tiles a frame
+        app.session.mark_all_dirty()
+        ts = int(app.session.cpu_state.params.tile_size)
+        rounds = 0
+        while True:
+            cells = disp.update_tiles()
+            rounds += 1
+            assert 0 < cells <= RUN_TILES * ts * ts
+            if not disp.behind():
+                break
+            assert rounds < 100
+        tiles = -(-W // ts) * -(-H // ts)
+        assert rounds >= tiles / RUN_TILES  # the whole canvas, a run at a time
+        tex = np.frombuffer(disp.texture.read(), np.float32).reshape(H, W, 3)
+        assert np.abs(tex - app.session.canvas.render()).max() < 2e-6
+    finally:
+        app.close()
+
+
+@pytest.mark.parametrize("mode", ["partial", "swap"])
+def test_the_window_shows_the_picture_whichever_way_frames_are_presented(
+        display: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, mode: str) -> None:
+    app = _app(display, tmp_path, monkeypatch, mode)
+    try:
+        if mode == "partial" and app.presenter.mode != "partial":
+            pytest.skip("no GLX_MESA_copy_sub_buffer here")
+        assert app.presenter.mode == mode
+        q = app.session.sub
+        app.frame(0.016)  # the first frame: whole
+        wholes = app.presenter.whole_frames
+        for i in range(12):  # a stroke; the shadow moves with it
+            q.push(_pen(app, i, 0.2 + 0.05 * i, 0.4 + 0.02 * i))
+            app.frame(0.016)
+            app.session.step()
+        q.push(_pen(app, 13, 0.8, 0.7, touching=False))
+        app.frame(0.016)
+        if mode == "partial":
+            assert app.presenter.partial_frames >= 10
+            assert app.presenter.whole_frames - wholes <= 1  # the once-a-second one at most
+        else:
+            assert app.presenter.partial_frames == 0
+        front, pic = _front(app), _picture(app)
+        differ = np.abs(front.astype(int) - pic.astype(int)).max(axis=2) > 2
+        # the window is the picture everywhere but under the pen's shadow
+        box = app._shadow_box
+        assert box is not None
+        x0, y0, x1, y1 = box
+        assert differ[y0:y1, x0:x1].any()  # the shadow is drawn ...
+        differ[y0:y1, x0:x1] = False
+        assert not differ.any(), f"{int(differ.sum())} pixels differ"  # ... nothing else
+        # and the stroke is there, where the pen went
+        x, y, w, h = app.canvas_rect()
+        px, py = int(x + 0.4 * w), int(y + 0.44 * h)
+        assert front[py, px].astype(int).sum() < 3 * 250
+    finally:
+        app.close()
+
+
+def test_damage_boxes_are_projected_together_and_merged_when_close() -> None:
+    cam = make_camera("2d", Viewport(100, 0, 400, 300), 4 / 3)
+    cells = [(0, 32, 0, 32), (0, 32, 32, 64), (200, 232, 300, 332)]
+    boxes = canvas_boxes(cam, cells, 400, 300)
+    assert boxes == [canvas_box(cam, c, 400, 300) for c in cells]
+    merged = merge_rects(list(boxes or []), 24)
+    assert len(merged) == 2  # the neighbours are one, the far tile another
+    a, b = merged
+    assert a[0] == boxes[0][0] and a[2] == boxes[1][2]
+    assert b == boxes[2]
+    assert merge_rects([(0, 0, 10, 10), (30, 0, 40, 10)], 24) == [(0, 0, 40, 10)]
+    assert merge_rects([(0, 0, 10, 10), (40, 0, 50, 10)], 24) == [(0, 0, 10, 10),
+                                                                  (40, 0, 50, 10)]
+    assert merge_rects([(0, 0, 0, 10)]) == []  # empty ones go
