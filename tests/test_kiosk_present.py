@@ -1,11 +1,19 @@
 """The kiosk's frame: the late latch (a sample that arrives while the tiles are drawn is
-shown in the same frame), the time budget of the tile rendering, and the partial present
-(only the changed rectangles copied to the window) against the whole one."""
+shown in the same frame), the time budget of the tile rendering, the preview, and the
+partial present (only the changed rectangles copied to the window) against the whole one.
+
+Each test with a window runs in a pytest process of its own: a GLX context made in a
+process that has had an EGL one (the other kiosk tests' standalone contexts) is refused
+by the X server (BadAccess), and Xlib ends the process on that."""
 
 from __future__ import annotations
 
+import functools
+import os
+import subprocess
+import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -45,8 +53,33 @@ class _Queue:
         pass
 
 
+CHILD = "STATION_TEST_CHILD"
+
+
+def in_own_process(test: Callable[..., None]) -> Callable[..., None]:
+    """Run ``test`` in a fresh pytest process (see the module docstring)."""
+    @functools.wraps(test)
+    def run(*args: Any, **kw: Any) -> None:
+        if os.environ.get(CHILD):
+            test(*args, **kw)
+            return
+        node = f"{__file__}::{test.__name__}"
+        if "mode" in kw:
+            node += f"[{kw['mode']}]"
+        proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
+                               node], env={**os.environ, CHILD: "1"}, capture_output=True,
+                              text=True, timeout=240)
+        if "skipped" in proc.stdout and " passed" not in proc.stdout:
+            pytest.skip(proc.stdout.strip().splitlines()[-1])
+        assert proc.returncode == 0, (proc.stdout + proc.stderr)[-3000:]
+    return run
+
+
 @pytest.fixture(scope="module")
 def display() -> Iterator[str]:
+    if not os.environ.get(CHILD):
+        yield ""  # the test runs in a child, which starts its own Xvfb
+        return
     with xvfb() as d:
         yield d
 
@@ -96,6 +129,7 @@ def _picture(app: Any) -> np.ndarray:
     return img[::-1, :, :3]
 
 
+@in_own_process
 def test_a_sample_arriving_while_the_tiles_are_drawn_is_shown_in_that_frame(
         display: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     app = _app(display, tmp_path, monkeypatch, "auto")
@@ -129,6 +163,7 @@ def test_a_sample_arriving_while_the_tiles_are_drawn_is_shown_in_that_frame(
         app.close()
 
 
+@in_own_process
 def test_tile_rendering_stops_at_its_time_budget(display: str, tmp_path: Path,
                                                  monkeypatch: pytest.MonkeyPatch) -> None:
     from station.kiosk.display import RUN_TILES
@@ -156,6 +191,7 @@ def test_tile_rendering_stops_at_its_time_budget(display: str, tmp_path: Path,
 
 
 @pytest.mark.parametrize("mode", ["partial", "swap"])
+@in_own_process
 def test_the_window_shows_the_picture_whichever_way_frames_are_presented(
         display: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, mode: str) -> None:
     app = _app(display, tmp_path, monkeypatch, mode)
@@ -208,3 +244,42 @@ def test_damage_boxes_are_projected_together_and_merged_when_close() -> None:
     assert merge_rects([(0, 0, 10, 10), (40, 0, 50, 10)], 24) == [(0, 0, 10, 10),
                                                                   (40, 0, 50, 10)]
     assert merge_rects([(0, 0, 0, 10)]) == []  # empty ones go
+
+
+@in_own_process
+def test_the_preview_grows_with_the_stroke_and_matches_a_whole_render(
+        display: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from station.canvas.render import render_region
+
+    app = _app(display, tmp_path, monkeypatch, "auto")
+    try:
+        s, disp = app.session, app.display
+        while disp.update_tiles() or disp.behind():
+            pass
+        q = s.sub
+        rendered = []
+        for i in range(9):  # a stroke, no step: every stamp is pending
+            q.push(_pen(app, i, 0.15 + 0.06 * i, 0.5))
+            s.drain(0)
+            disp.update_tiles()
+            rendered.append(disp.update_preview())
+        brush = s.player.brush
+        assert brush.pending > 5 and s.player.counters.steps == 0
+        src = brush.peek()
+        ys, xs = src.region
+        whole = (ys.stop - ys.start) * (xs.stop - xs.start)
+        # later frames render the new stamps' cells, not the whole stroke again
+        assert max(rendered[3:]) < whole / 2
+        st = s.cpu_state
+        extra = {k: v.astype(np.float32) * (st.mask[ys, xs] == 0) for k, v in src.dp.items()}
+        ref = render_region(st, "km", ys, xs, extra)
+        tex = np.frombuffer(disp.texture.read(), np.float32).reshape(H, W, 3)[ys, xs]
+        assert np.abs(tex - ref).max() < 2e-5  # as one render of all the pending stamps
+        s.step()  # the step takes the stamps: the state is shown there again
+        while disp.update_tiles() or disp.behind():
+            pass
+        assert disp.update_preview() == 0 and disp.preview_box is None
+        tex = np.frombuffer(disp.texture.read(), np.float32).reshape(H, W, 3)
+        assert np.abs(tex - s.canvas.render()).max() < 2e-6
+    finally:
+        app.close()

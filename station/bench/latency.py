@@ -201,6 +201,7 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
             for k in app.phase:
                 app.phase[k] = 0.0
             app.pen_log, app.cursor_log, st.queue_log = [], [], []
+            app.tail_log = []
             samples0, stamps0 = st.counters.samples, st.painted_stamps
             steps0, during0 = st.player.counters.steps, st.samples_during_steps
             pauses: list[tuple[int, float]] = []  # (generation, seconds) of each collection
@@ -267,7 +268,10 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
                             "from": "driver read (time.monotonic)",
                             "to": "end of the present (swap, or copy of the changed "
                                   "rectangles) + glFinish of the first frame showing its paint",
-                            "read_to_handled": _percentiles(st.queue_log or [])},
+                            "read_to_handled": _percentiles(st.queue_log or []),
+                            "latch_to_shown": _percentiles([t for t, _ in app.tail_log]),
+                            "latched_late_share": round(sum(k for _, k in app.tail_log) / max(
+                                len(app.latencies), 1), 3)},
                 "frames": {"fps": fps, "frames": app.frames,
                            "seconds": round(wall, 2), "goal_fps": GOAL_FPS,
                            "frame_time": _percentiles(frame_ms),

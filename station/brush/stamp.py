@@ -518,6 +518,16 @@ class RoundBrush:
     def pending(self) -> int:
         return len(self._pending)
 
+    def pending_box(self, since: int = 0) -> tuple[slice, slice] | None:
+        """Canvas cells (rows, columns) covered by the pending stamps from the
+        ``since``-th on (what a live preview must redraw since it last showed ``since``
+        of them); ``None`` if there are none."""
+        stamps = [s for s in self._pending[since:] if s.cells.mask.size]
+        if not stamps:
+            return None
+        return (slice(min(s.cells.y0 for s in stamps), max(s.cells.y1 for s in stamps)),
+                slice(min(s.cells.x0 for s in stamps), max(s.cells.x1 for s in stamps)))
+
     @property
     def drawing(self) -> bool:
         """A stroke is in progress (some device's pen is down)."""

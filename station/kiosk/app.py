@@ -51,7 +51,6 @@ from station.kiosk.views import VIEWS, Camera, Viewport, input_camera, make_came
 from station.sim.live import DEFAULT_CMD_ENDPOINT, LiveConfig
 
 log = logging.getLogger(__name__)
-DEBUG: list | None = [] if os.environ.get("KDEBUG") else None
 
 DRIVER_SILENT_S = 5.0  # a driver that said nothing this long is taken as gone
 STATUS_EVERY_S = 0.5
@@ -284,6 +283,9 @@ class KioskApp:
         self._fresh_requested = False  # an operator's "fresh" command
         self._brush_key: tuple[Any, ...] | None = None
         self._glfinish = _gl_function("glFinish")
+        self._glflush = _gl_function("glFlush")
+        self._frame_boxes: list[Box] = []  # what this frame redrew in the picture
+        self._frame_full = False  # ... everything (a new camera)
         self.predictor = PenPredictor(PredictConfig(horizon_s=max(cfg.predict_ms, 0.0) / 1000))
         self._pen_received = 0.0  # monotonic time the last pen sample came
         # the latency bench's records: pen samples (read time, device time, x, y,
@@ -291,6 +293,8 @@ class KioskApp:
         # shadow's predicted x, y)
         self.pen_log: list[tuple[float, float, float, float, bool]] | None = None
         self.cursor_log: list[tuple[float, float, float, float, float]] | None = None
+        # per frame: seconds from the late latch to shown, samples that made paint in it
+        self.tail_log: list[tuple[float, int]] | None = None
         self._cursor_drawn: tuple[tuple[float, float], tuple[float, float]] | None = None
         self.frame_errors = 0
         self._next_status = 0.0
@@ -723,33 +727,43 @@ class KioskApp:
             self._ui_bounds = self.gui.bounds()
             self._ui_last_key, self._ui_built = key, now
 
-    def compose(self) -> Camera:
-        """Redraw the damaged parts of the picture (see compose.py), then fill the back
-        buffer — all of it, or only where the window changes when the presenter copies
-        rectangles — and draw the shadow over it."""
-        cam = self.camera()
+    def compose_changes(self, cam: Camera) -> None:
+        """Redraw the parts of the picture that the display re-rendered since the last
+        call and where the UI changed (see compose.py); called before the late latch (the
+        tiles) and after it (the pen's preview).  The GL work is flushed at once, so the
+        rasteriser draws the first part while the window takes the pen."""
         boxes = self.compositor.update(cam, self.display.damage,
                                        (self.cfg.width, self.cfg.height), self._ui_hash,
                                        self._ui_bounds, lambda box: self.draw_scene(cam, box),
                                        self.gui.draw)
         self.display.damage = []
+        self._frame_full = self._frame_full or self.compositor.full_last
+        self._frame_boxes.extend(boxes)
+        if self._glflush is not None:
+            self._glflush()
+
+    def fill_back_buffer(self, cam: Camera) -> None:
+        """The picture into the back buffer — all of it, or only where the window changes
+        when the presenter copies rectangles — and the shadow over it."""
         shadow = self.cursor_shape(cam)
         shadow_box = None if shadow is None else screen_box(cam, shadow[0],
                                                               (self.size[0], self.size[1]))
         now = time.monotonic()
-        if (self.screenshots or self.compositor.full_last
+        if (self.screenshots or self._frame_full
                 or self.presenter.needs_whole(now, self._last_whole)):
             self.compositor.present()
             self._present_rects = None
             self._last_whole = now
         else:
-            rects = [b for b in (*boxes, self._shadow_box, shadow_box) if b is not None]
+            rects = [b for b in (*self._frame_boxes, self._shadow_box, shadow_box)
+                     if b is not None]
             self.compositor.present(rects)
             self._present_rects = rects
+        self._frame_boxes = []
+        self._frame_full = False
         self._shadow_box = shadow_box
         if shadow is not None:
             self.draw_cursor(cam, shadow)
-        return cam
 
     def _screenshot(self, path: Path) -> None:
         from PIL import Image
@@ -764,14 +778,18 @@ class KioskApp:
 
     # -- the loop --------------------------------------------------------------------------
     def _quiet_wait_ms(self) -> int:
-        """How long a quiet kiosk may wait for the pen: until the next step is due (with
-        the simulation thread, a few ms while paint is wet: its steps end any time)."""
-        p = self.session.player
-        t_next = (p.counters.steps + 1) / p.rate - p.waited
-        wait = min(max(t_next - self.session.now(), 0.0), REDRAW_EVERY_S)
-        if self.session.threaded and self.session.active_tiles():
-            wait = min(wait, THREAD_POLL_S)
-        return int(wait * 1000)
+        """How long a quiet kiosk may wait for the pen: until the next step is due; with
+        the simulation thread (which steps on its own), a few ms while paint is wet (its
+        steps end any time).  At least a millisecond: a loop that does not wait spins,
+        and a spinning loop takes the interpreter lock and a core from the steps."""
+        s = self.session
+        if s.threaded:
+            wait = THREAD_POLL_S if s.active_tiles() else REDRAW_EVERY_S
+        else:
+            p = s.player
+            t_next = (p.counters.steps + 1) / p.rate - p.waited
+            wait = min(max(t_next - s.now(), 0.0), REDRAW_EVERY_S)
+        return max(1, math.ceil(wait * 1000))
 
     def frame(self, dt: float) -> None:
         """One pass of the loop: input, then (if anything changed) a frame, then steps.
@@ -817,9 +835,11 @@ class KioskApp:
                 self.display.update_tiles()
             t_tiles = time.perf_counter()
             self.build_ui_if_changed(now - self._last_draw if self._last_draw else dt)
+            cam = self.camera()
+            self.compose_changes(cam)
             # the late latch: what the pen sent while the tiles and the UI were drawn is
             # shown in this frame, not the next (what stands between a sample and the
-            # screen is only its stamps' preview, the composition and the present)
+            # screen is only its stamps' preview, their composition and the present)
             t_ui = time.perf_counter()
             n_early = len(s.awaiting_paint)
             received = s.sub.stats.received
@@ -829,7 +849,8 @@ class KioskApp:
             with s.lock:
                 self.display.update_preview()
             t_preview = time.perf_counter()
-            self.compose()
+            self.compose_changes(cam)
+            self.fill_back_buffer(cam)
             for path in self.screenshots:
                 self._screenshot(path)
             self.screenshots.clear()
@@ -844,10 +865,8 @@ class KioskApp:
             t_shown = time.perf_counter()
             for t_read in s.awaiting_paint:
                 self.latencies.append(shown - t_read)
-            if DEBUG is not None:
-                DEBUG.append((t_tiles - t1, t_ui - t_tiles, t_drained - t_ui, t_preview - t_drained,
-                              t_present - t_preview, t_shown - t_present, n_early,
-                              len(s.awaiting_paint), [shown - t for t in s.awaiting_paint]))
+            if self.tail_log is not None:
+                self.tail_log.append((t_shown - t_ui, len(s.awaiting_paint) - n_early))
             if self.cursor_log is not None and self._cursor_drawn is not None:
                 (rx, ry), (qx, qy) = self._cursor_drawn
                 self.cursor_log.append((shown, rx, ry, qx, qy))

@@ -23,6 +23,7 @@ from __future__ import annotations
 import time
 from typing import Any
 
+import numba
 import numpy as np
 
 from station.canvas.params import get_profile
@@ -43,6 +44,9 @@ MAX_CELLS_PER_FRAME = 120_000
 #: moves on screen a few milliseconds later — and the pen is never held up by them.
 TILE_BUDGET_S = 0.0015
 
+#: Regions smaller than this (cells) are rendered by one thread.
+SERIAL_CELLS = 2048
+
 #: Tiles in one run at most (a run is rendered and uploaded in one call): the budget
 #: is checked this often.
 RUN_TILES = 4
@@ -62,6 +66,11 @@ def tile_runs(dirty: np.ndarray, most: int | None = None) -> list[tuple[int, int
     return runs
 
 
+def _overlap(a: tuple[slice, slice], b: tuple[slice, slice]) -> bool:
+    return (a[0].start < b[0].stop and b[0].start < a[0].stop and a[1].start < b[1].stop
+            and b[1].start < a[1].stop)
+
+
 class CpuDisplay:
     """Dirty-tile rendering of a CPU canvas into a float texture (see module docstring)."""
 
@@ -70,6 +79,7 @@ class CpuDisplay:
         self.ctx = ctx
         self.max_cells = max_cells
         self.budget_s = budget_s
+        self._threads = numba.get_num_threads()
         self.bind(session)
 
     def bind(self, session: Any) -> None:
@@ -82,7 +92,10 @@ class CpuDisplay:
                 old.release()
             self.texture = self.ctx.texture((w, h), 3, dtype="f4")
             self.texture.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
-        self.preview_box: tuple[slice, slice] | None = None
+        self.preview_box: tuple[slice, slice] | None = None  # cells showing stamps
+        self._preview_steps = -1  # the step count when the preview was started
+        self._previewed = 0  # pending stamps the preview shows
+        self._preview_whole = False  # the state was drawn over part of it: redo it all
         self.damage: list[tuple[int, int, int, int]] = []  # cells (y0, y1, x0, x1) uploaded
         self._carry: np.ndarray | None = None  # dirty tiles over last frame's budget
         self.cells_rendered = 0
@@ -107,7 +120,9 @@ class CpuDisplay:
         kind = self._renderer_kind()
         ts = int(st.params.tile_size)
         dirty = self.session.take_dirty()
-        if self.preview_box is not None:  # last frame's preview: replace it with the state
+        if self.preview_box is not None and \
+                self.session.player.counters.steps != self._preview_steps:
+            # a step took the previewed stamps: the state has them now, show it there
             ys, xs = self.preview_box
             dirty[ys.start // ts:-(-ys.stop // ts), xs.start // ts:-(-xs.stop // ts)] = True
             self.preview_box = None
@@ -125,40 +140,59 @@ class CpuDisplay:
             xs = slice(a * ts, min(b * ts, st.width))
             self._upload(self._render(st, kind, ys, xs), ys, xs)
             cells += (ys.stop - ys.start) * (xs.stop - xs.start)
+            pb = self.preview_box
+            if pb is not None and _overlap(pb, (ys, xs)):
+                self._preview_whole = True  # the state drawn over the preview: redo it
         self._carry = left if left.any() else None
         self.cells_rendered = cells
         self.render_seconds = time.perf_counter() - t0
         return cells
 
     def update_preview(self) -> int:
-        """Render the brush stamps made since the last step over the state (their
-        region only); returns the cells rendered."""
+        """Show the brush stamps made since the last step over the state; returns the
+        cells rendered.  The preview stays on screen until a step takes its stamps, so
+        a frame renders only where the stamps that came since the last frame lie."""
         t0 = time.perf_counter()
         st = self.session.cpu_state
-        peek = getattr(self.session.player.brush, "peek", None)  # the stamp brush has it
-        src = peek() if peek is not None else None
+        brush = self.session.player.brush
+        peek = getattr(brush, "peek", None)  # the stamp brush has these
+        since = getattr(brush, "pending_box", None)
+        if peek is None or since is None:
+            return 0
+        steps, n = self.session.player.counters.steps, int(brush.pending)
+        if steps != self._preview_steps or n < self._previewed:  # a step took them
+            self._preview_steps, self._previewed = steps, 0
+            self._restore_preview()
+        if n == 0 or (n == self._previewed and not self._preview_whole):
+            return 0
+        src = peek()
+        if src is None:
+            return 0
+        box = src.region if (self._preview_whole or not self._previewed) else \
+            since(self._previewed) or src.region
+        sy, sx = src.region
+        ys = slice(max(box[0].start, sy.start, 0), min(box[0].stop, sy.stop, st.height))
+        xs = slice(max(box[1].start, sx.start, 0), min(box[1].stop, sx.stop, st.width))
+        self._previewed, self._preview_whole = n, False
         cells = 0
-        if src is not None:
-            ys, xs = src.region
-            ys = slice(max(ys.start, 0), min(ys.stop, st.height))
-            xs = slice(max(xs.start, 0), min(xs.stop, st.width))
-            if ys.stop > ys.start and xs.stop > xs.start:
-                if self.preview_box is not None:  # drawn over by a later latch this frame
-                    self._restore_preview()
-                oy, ox = ys.start - src.y0, xs.start - src.x0
-                h, w = ys.stop - ys.start, xs.stop - xs.start
-                extra = {name: a[oy:oy + h, ox:ox + w].astype(F32) * (st.mask[ys, xs] == 0)
-                         for name, a in src.dp.items()}
-                self._upload(self._render(st, self._renderer_kind(), ys, xs, extra), ys, xs)
-                self.preview_box = (ys, xs)
-                cells = h * w
+        if ys.stop > ys.start and xs.stop > xs.start:
+            oy, ox = ys.start - src.y0, xs.start - src.x0
+            h, w = ys.stop - ys.start, xs.stop - xs.start
+            extra = {name: a[oy:oy + h, ox:ox + w].astype(F32) * (st.mask[ys, xs] == 0)
+                     for name, a in src.dp.items()}
+            self._upload(self._render(st, self._renderer_kind(), ys, xs, extra), ys, xs)
+            pb = self.preview_box
+            self.preview_box = (ys, xs) if pb is None else (
+                slice(min(pb[0].start, ys.start), max(pb[0].stop, ys.stop)),
+                slice(min(pb[1].start, xs.start), max(pb[1].stop, xs.stop)))
+            cells = h * w
         self.cells_rendered += cells
         self.render_seconds += time.perf_counter() - t0
         return cells
 
     def _restore_preview(self) -> None:
-        """Mark the last preview's tiles dirty again (the next :meth:`update_tiles`
-        renders the state there)."""
+        """Mark the preview's tiles dirty (the next :meth:`update_tiles` renders the state
+        there)."""
         if self.preview_box is None:
             return
         ts = int(self.session.cpu_state.params.tile_size)
@@ -171,9 +205,13 @@ class CpuDisplay:
         """Whether dirty tiles wait for the next frame (over this frame's budget)."""
         return self._carry is not None
 
-    @staticmethod
-    def _render(st: Any, kind: str, ys: slice, xs: slice,
+    def _render(self, st: Any, kind: str, ys: slice, xs: slice,
                 extra: dict[str, np.ndarray] | None = None) -> np.ndarray:
+        # a parallel loop waits for its slowest thread: while a step's kernel holds a
+        # core, or for a brush-sized region, one thread is faster than all of them
+        cells = (ys.stop - ys.start) * (xs.stop - xs.start)
+        numba.set_num_threads(1 if self.session.inflight or cells < SERIAL_CELLS
+                              else self._threads)
         if kind == "km":  # the compiled twin of the reference (held together by tests)
             amount, pigments = region_amount(st, ys, xs, extra)
             return km_layer_fast(amount, pigments, st.r_composed[ys, xs])

@@ -58,6 +58,7 @@ from collections import deque
 from collections.abc import Callable
 from typing import Any
 
+import numba
 import numpy as np
 
 from station.brush.stamp import RoundBrush
@@ -282,6 +283,11 @@ class KioskSession(LiveSim):
             raise err
 
     def _work(self) -> None:
+        # the window's thread needs a core of its own to show the pen: the simulation's
+        # parallel loops take the others (numba's count is per launching thread).  On
+        # the 2-core development machine one thread even steps faster than two that
+        # fight the window for the cores (bench latency: 8 against 11 ms a step).
+        numba.set_num_threads(max(1, numba.get_num_threads() - 1))
         try:
             while not self._halt.is_set():
                 with self.lock:
