@@ -275,11 +275,38 @@ def test_the_preview_grows_with_the_stroke_and_matches_a_whole_render(
         ref = render_region(st, "km", ys, xs, extra)
         tex = np.frombuffer(disp.texture.read(), np.float32).reshape(H, W, 3)[ys, xs]
         assert np.abs(tex - ref).max() < 2e-5  # as one render of all the pending stamps
+        s.mark_all_dirty()  # the state redrawn everywhere (a command): the stamps stay
+        while disp.update_tiles() or disp.behind():
+            pass
+        assert disp.update_preview() == 0  # nothing new to preview ...
+        tex = np.frombuffer(disp.texture.read(), np.float32).reshape(H, W, 3)[ys, xs]
+        assert np.abs(tex - ref).max() < 2e-5  # ... and the tiles drew them too
         s.step()  # the step takes the stamps: the state is shown there again
         while disp.update_tiles() or disp.behind():
             pass
         assert disp.update_preview() == 0 and disp.preview_box is None
         tex = np.frombuffer(disp.texture.read(), np.float32).reshape(H, W, 3)
         assert np.abs(tex - s.canvas.render()).max() < 2e-6
+    finally:
+        app.close()
+
+
+@in_own_process
+def test_the_ui_damage_is_where_the_ui_draws(display: str, tmp_path: Path,
+                                             monkeypatch: pytest.MonkeyPatch) -> None:
+    from station.kiosk.ui import draw_banner
+
+    app = _app(display, tmp_path, monkeypatch, "auto")
+    try:
+        app.build_ui(0.016)
+        x0, y0, x1, y1 = app.gui.bounds()
+        assert x0 <= 2 and x1 <= app.panel_w + 2  # the panel, not the whole window
+        assert y0 <= 2 and y1 <= app.size[1] + 1
+        app.gui.new_frame(0.016)
+        draw_banner("hello", 300, 100, 120, 60, "test-banner")
+        app.gui.end_frame()
+        bx = app.gui.bounds()
+        assert bx is not None and bx[0] >= 298 and bx[2] <= 300 + 120 + 2
+        assert bx[1] >= 98 and bx[3] <= 100 + 60 + 2
     finally:
         app.close()

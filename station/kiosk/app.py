@@ -55,6 +55,7 @@ log = logging.getLogger(__name__)
 DRIVER_SILENT_S = 5.0  # a driver that said nothing this long is taken as gone
 STATUS_EVERY_S = 0.5
 REDRAW_EVERY_S = 0.25  # a quiet kiosk still redraws this often (status line, banners)
+TILE_FRAME_S = 1 / 120  # frames that show only the steps' tiles come at most this often
 LATCH_BUDGET_S = 0.002  # the late latch handles pen samples for at most this long
 THREAD_POLL_S = 0.004  # a wet canvas: how often the window looks for the thread's steps
 SCREENSHOT_NAME = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
@@ -801,12 +802,21 @@ class KioskApp:
         t0 = time.perf_counter()
         self.glfw.poll_events()
         s = self.session
-        busy = (self._need_draw or s.whole_dirty or bool(s.dirty.any())
-                or self.display.behind() or bool(self.screenshots))
+        urgent = self._need_draw or bool(self.screenshots)
+        busy = (urgent or s.whole_dirty or bool(s.dirty.any()) or self.display.behind())
         received = s.sub.stats.received
+        if not busy:
+            wait_ms = self._quiet_wait_ms()
+        elif urgent:
+            wait_ms = 0
+        else:  # only the steps' tiles to show: not sooner than TILE_FRAME_S after the last
+            # frame, waiting on the bus meanwhile (the pen is shown at once), so the other
+            # processes a frame needs (the X server, the driver) get the cores
+            wait_ms = max(0, math.ceil(1000 * (TILE_FRAME_S - (time.monotonic()
+                                                                - self._last_draw))))
         # handling may take half as long as the last pass took: it keeps up with the pen
         # on a slow pass, and a queue that grew cannot hold the frames back
-        s.drain(0 if busy else self._quiet_wait_ms(), 0.5 * self._last_pass_s)
+        s.drain(wait_ms, 0.5 * self._last_pass_s)
         tw = time.perf_counter()
         got_input = s.sub.stats.received != received
         self._commands()

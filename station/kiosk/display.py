@@ -71,6 +71,24 @@ def _overlap(a: tuple[slice, slice], b: tuple[slice, slice]) -> bool:
             and b[1].start < a[1].stop)
 
 
+def _pending_in(src: Any, st: Any, ys: slice, xs: slice) -> dict[str, np.ndarray]:
+    """The pending stamps' pigment (``src``: the brush's summed sources) on the cells
+    ``[ys, xs]``, region-shaped, nothing on masked cells."""
+    sy, sx = src.region
+    h, w = ys.stop - ys.start, xs.stop - xs.start
+    y0, y1 = max(ys.start, sy.start), min(ys.stop, sy.stop)
+    x0, x1 = max(xs.start, sx.start), min(xs.stop, sx.stop)
+    keep = st.mask[ys, xs] == 0
+    out = {}
+    for name, a in src.dp.items():
+        e = np.zeros((h, w), F32)
+        if y1 > y0 and x1 > x0:
+            e[y0 - ys.start:y1 - ys.start, x0 - xs.start:x1 - xs.start] = \
+                a[y0 - src.y0:y1 - src.y0, x0 - src.x0:x1 - src.x0]
+        out[name] = e * keep
+    return out
+
+
 class CpuDisplay:
     """Dirty-tile rendering of a CPU canvas into a float texture (see module docstring)."""
 
@@ -95,7 +113,6 @@ class CpuDisplay:
         self.preview_box: tuple[slice, slice] | None = None  # cells showing stamps
         self._preview_steps = -1  # the step count when the preview was started
         self._previewed = 0  # pending stamps the preview shows
-        self._preview_whole = False  # the state was drawn over part of it: redo it all
         self.damage: list[tuple[int, int, int, int]] = []  # cells (y0, y1, x0, x1) uploaded
         self._carry: np.ndarray | None = None  # dirty tiles over last frame's budget
         self.cells_rendered = 0
@@ -128,6 +145,8 @@ class CpuDisplay:
             self.preview_box = None
         carried = self._carry if self._carry is not None and \
             self._carry.shape == dirty.shape else np.zeros_like(dirty)
+        peek = getattr(self.session.player.brush, "peek", None)
+        src = peek() if peek is not None and dirty.any() | carried.any() else None
         cells = 0
         self.damage = []
         left = np.zeros_like(dirty)
@@ -138,11 +157,14 @@ class CpuDisplay:
                 continue
             ys = slice(ty * ts, min((ty + 1) * ts, st.height))
             xs = slice(a * ts, min(b * ts, st.width))
-            self._upload(self._render(st, kind, ys, xs), ys, xs)
+            extra = None
+            if src is not None and _overlap(src.region, (ys, xs)):
+                # stamps not yet simulated lie here: drawn with them, as the preview
+                # draws them (else the state would hide the preview until it is redone)
+                extra = _pending_in(src, st, ys, xs)
+                self._grow_preview(ys, xs)
+            self._upload(self._render(st, kind, ys, xs, extra), ys, xs)
             cells += (ys.stop - ys.start) * (xs.stop - xs.start)
-            pb = self.preview_box
-            if pb is not None and _overlap(pb, (ys, xs)):
-                self._preview_whole = True  # the state drawn over the preview: redo it
         self._carry = left if left.any() else None
         self.cells_rendered = cells
         self.render_seconds = time.perf_counter() - t0
@@ -163,32 +185,33 @@ class CpuDisplay:
         if steps != self._preview_steps or n < self._previewed:  # a step took them
             self._preview_steps, self._previewed = steps, 0
             self._restore_preview()
-        if n == 0 or (n == self._previewed and not self._preview_whole):
+        if n == 0 or n == self._previewed:
             return 0
         src = peek()
         if src is None:
             return 0
-        box = src.region if (self._preview_whole or not self._previewed) else \
-            since(self._previewed) or src.region
+        box = since(self._previewed) if self._previewed else src.region
+        self._previewed = n
+        if box is None:  # the new stamps are all masked
+            return 0
         sy, sx = src.region
         ys = slice(max(box[0].start, sy.start, 0), min(box[0].stop, sy.stop, st.height))
         xs = slice(max(box[1].start, sx.start, 0), min(box[1].stop, sx.stop, st.width))
-        self._previewed, self._preview_whole = n, False
         cells = 0
         if ys.stop > ys.start and xs.stop > xs.start:
-            oy, ox = ys.start - src.y0, xs.start - src.x0
-            h, w = ys.stop - ys.start, xs.stop - xs.start
-            extra = {name: a[oy:oy + h, ox:ox + w].astype(F32) * (st.mask[ys, xs] == 0)
-                     for name, a in src.dp.items()}
+            extra = _pending_in(src, st, ys, xs)
             self._upload(self._render(st, self._renderer_kind(), ys, xs, extra), ys, xs)
-            pb = self.preview_box
-            self.preview_box = (ys, xs) if pb is None else (
-                slice(min(pb[0].start, ys.start), max(pb[0].stop, ys.stop)),
-                slice(min(pb[1].start, xs.start), max(pb[1].stop, xs.stop)))
-            cells = h * w
+            self._grow_preview(ys, xs)
+            cells = (ys.stop - ys.start) * (xs.stop - xs.start)
         self.cells_rendered += cells
         self.render_seconds += time.perf_counter() - t0
         return cells
+
+    def _grow_preview(self, ys: slice, xs: slice) -> None:
+        pb = self.preview_box
+        self.preview_box = (ys, xs) if pb is None else (
+            slice(min(pb[0].start, ys.start), max(pb[0].stop, ys.stop)),
+            slice(min(pb[1].start, xs.start), max(pb[1].stop, xs.stop)))
 
     def _restore_preview(self) -> None:
         """Mark the preview's tiles dirty (the next :meth:`update_tiles` renders the state

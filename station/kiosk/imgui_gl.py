@@ -141,14 +141,31 @@ class ImGuiLayer:
         return h
 
     def bounds(self) -> tuple[int, int, int, int] | None:
-        """Window pixels (x0, y0, x1, y1) that the last ended frame draws on, or ``None``."""
+        """Window pixels (x0, y0, x1, y1) that the last ended frame draws on, or ``None``:
+        per draw list, its vertices' extent within its clip rectangles (a clip rectangle
+        alone can be the whole display, as for a banner's full-screen host window)."""
         box = None
         for cmds in imgui.get_draw_data().cmd_lists:
+            n = cmds.vtx_buffer.size()
+            if n == 0 or cmds.cmd_buffer.size() == 0:
+                continue
+            raw = ctypes.string_at(cmds.vtx_buffer.data_address(), n * imgui.VERTEX_SIZE)
+            pos = np.frombuffer(raw, np.float32).reshape(n, -1)[:, :2]
+            lo, hi = pos.min(axis=0), pos.max(axis=0)
+            clip = None
             for cmd in cmds.cmd_buffer:
                 r = cmd.clip_rect
-                b = (int(r.x), int(r.y), int(math.ceil(r.z)), int(math.ceil(r.w)))
-                box = b if box is None else (min(box[0], b[0]), min(box[1], b[1]),
-                                             max(box[2], b[2]), max(box[3], b[3]))
+                c = (r.x, r.y, r.z, r.w)
+                clip = c if clip is None else (min(clip[0], c[0]), min(clip[1], c[1]),
+                                               max(clip[2], c[2]), max(clip[3], c[3]))
+            if clip is None:
+                continue
+            b = (int(max(lo[0], clip[0])) - 1, int(max(lo[1], clip[1])) - 1,
+                 int(math.ceil(min(hi[0], clip[2]))) + 1, int(math.ceil(min(hi[1], clip[3]))) + 1)
+            if b[2] <= b[0] or b[3] <= b[1]:
+                continue
+            box = b if box is None else (min(box[0], b[0]), min(box[1], b[1]),
+                                         max(box[2], b[2]), max(box[3], b[3]))
         return box
 
     def draw(self, clip: tuple[int, int, int, int] | None = None) -> None:
