@@ -310,3 +310,30 @@ def test_the_ui_damage_is_where_the_ui_draws(display: str, tmp_path: Path,
         assert bx[1] >= 98 and bx[3] <= 100 + 60 + 2
     finally:
         app.close()
+
+
+@in_own_process
+def test_a_deformable_brush_is_previewed_before_the_step(display: str, tmp_path: Path,
+                                                       monkeypatch: pytest.MonkeyPatch) -> None:
+    app = _app(display, tmp_path, monkeypatch, "auto")
+    try:
+        s, disp = app.session, app.display
+        s.command("brush", kind="round3d", size=10, water=0.8,
+                  pigment={"French Ultramarine": 0.6})
+        while disp.update_tiles() or disp.behind():
+            pass
+        white = np.frombuffer(disp.texture.read(), np.float32).reshape(H, W, 3).copy()
+        q = s.sub
+        rendered = []
+        for i in range(8):
+            q.push(_pen(app, i, 0.2 + 0.06 * i, 0.5))
+            s.drain(0)
+            disp.update_tiles()
+            rendered.append(disp.update_preview())
+        assert s.player.counters.steps == 0 and s.player.brush.pending > 0
+        assert sum(rendered) > 0 and max(rendered[3:]) < W * H / 4  # the new cells only
+        tex = np.frombuffer(disp.texture.read(), np.float32).reshape(H, W, 3)
+        changed = np.abs(tex - white).max(axis=2) > 0.02
+        assert changed[H // 2 - 2:H // 2 + 3, int(0.3 * W):int(0.55 * W)].mean() > 0.5
+    finally:
+        app.close()

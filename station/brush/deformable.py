@@ -50,6 +50,7 @@ from station.brush.stamp import (
     Sources,
     Stamp,
     accumulate,
+    stamps_box,
 )
 from station.errors import BadInput
 from station.events import PenSample, Tool
@@ -376,3 +377,7 @@ class DeformableBrush:
     @property
     def pending(self) -> int:
         return len(self._pending)
+
+    def pending_box(self, since: int = 0) -> tuple[slice, slice] | None:
+        """As :meth:`RoundBrush.pending_box` (the live preview's new cells)."""
+        return stamps_box(self._pending[since:])

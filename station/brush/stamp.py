@@ -327,6 +327,15 @@ class Sources:
                        grow(self.dvx), grow(self.dvy))
 
 
+def stamps_box(stamps: Iterable[Stamp]) -> tuple[slice, slice] | None:
+    """Canvas cells (rows, columns) the stamps cover together; ``None`` if none."""
+    used = [s for s in stamps if s.cells.mask.size]
+    if not used:
+        return None
+    return (slice(min(s.cells.y0 for s in used), max(s.cells.y1 for s in used)),
+            slice(min(s.cells.x0 for s in used), max(s.cells.x1 for s in used)))
+
+
 def accumulate(stamps: Iterable[Stamp]) -> Sources | None:
     """Sum stamps into one bounding-box :class:`Sources` (``None`` if nothing).
 
@@ -522,11 +531,7 @@ class RoundBrush:
         """Canvas cells (rows, columns) covered by the pending stamps from the
         ``since``-th on (what a live preview must redraw since it last showed ``since``
         of them); ``None`` if there are none."""
-        stamps = [s for s in self._pending[since:] if s.cells.mask.size]
-        if not stamps:
-            return None
-        return (slice(min(s.cells.y0 for s in stamps), max(s.cells.y1 for s in stamps)),
-                slice(min(s.cells.x0 for s in stamps), max(s.cells.x1 for s in stamps)))
+        return stamps_box(self._pending[since:])
 
     @property
     def drawing(self) -> bool:

@@ -179,7 +179,7 @@ class CpuDisplay:
         brush = self.session.player.brush
         peek = getattr(brush, "peek", None)  # the stamp brush has these
         since = getattr(brush, "pending_box", None)
-        if peek is None or since is None:
+        if peek is None:
             return 0
         steps, n = self.session.player.counters.steps, int(brush.pending)
         if steps != self._preview_steps or n < self._previewed:  # a step took them
@@ -190,7 +190,7 @@ class CpuDisplay:
         src = peek()
         if src is None:
             return 0
-        box = since(self._previewed) if self._previewed else src.region
+        box = since(self._previewed) if self._previewed and since is not None else src.region
         self._previewed = n
         if box is None:  # the new stamps are all masked
             return 0
