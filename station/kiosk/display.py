@@ -233,12 +233,16 @@ class CpuDisplay:
         # a parallel loop waits for its slowest thread: while a step's kernel holds a
         # core, or for a brush-sized region, one thread is faster than all of them
         cells = (ys.stop - ys.start) * (xs.stop - xs.start)
+        before = numba.get_num_threads()  # the thread's own count (steps in the loop use it)
         numba.set_num_threads(1 if self.session.inflight or cells < SERIAL_CELLS
                               else self._threads)
-        if kind == "km":  # the compiled twin of the reference (held together by tests)
-            amount, pigments = region_amount(st, ys, xs, extra)
-            return km_layer_fast(amount, pigments, st.r_composed[ys, xs])
-        return render_region(st, kind, ys, xs, extra)
+        try:
+            if kind == "km":  # the compiled twin of the reference (held together by tests)
+                amount, pigments = region_amount(st, ys, xs, extra)
+                return km_layer_fast(amount, pigments, st.r_composed[ys, xs])
+            return render_region(st, kind, ys, xs, extra)
+        finally:
+            numba.set_num_threads(before)
 
     def _upload(self, rgb: np.ndarray, ys: slice, xs: slice) -> None:
         self.damage.append((ys.start, ys.stop, xs.start, xs.stop))
