@@ -153,3 +153,61 @@ def test_gallery_page_in_headless_chromium(tmp_path: Path) -> None:
             assert exc.value.code == 404, bad
     finally:
         server.stop()
+
+
+def test_gallery_make_writes_the_replay_and_a_print_in_a_low_priority_process(
+        tmp_path: Path) -> None:
+    import json
+    import sys
+
+    from station.kiosk.gallery import MAKE_LOG, PRINT, REPLAY
+
+    log = tmp_path / "s.jsonl"
+    write_log(log)
+    painting = painted_image(log)
+    g = Gallery(tmp_path / "gallery")
+    pid = new_id()
+    g.save(pid, painting, log, {"width": W, "height": H, "profile": "watercolor"})
+    proc = g.prepare(pid)  # what the kiosk starts when it saves
+    assert proc.wait(180) == 0, g.path(pid, MAKE_LOG).read_text()[-2000:]
+    assert g.path(pid, REPLAY).exists()
+    big = np.asarray(Image.open(g.path(pid, PRINT)).convert("RGB"))
+    assert big.shape == (2 * H, 2 * W, 3)
+    # the print is the painting at 2 px a cell: halved, it is the painting to a few levels
+    small = big.reshape(H, 2, W, 2, 3).astype(float).mean(axis=(1, 3))
+    assert np.abs(small - painting).mean() < 3.0
+    assert green(big).sum() > 3.5 * green(painting).sum()
+    # its priority: the command lowers its own
+    niced = subprocess.run([sys.executable, "-c", (
+        "import os, sys; from station.cli import main; "
+        "os.nice = lambda n: print('nice', n) or 0; sys.exit(main(sys.argv[1:]))"),
+        "gallery", "make", "--root", str(g.root), pid], capture_output=True, text=True,
+        timeout=180)
+    assert niced.returncode == 0 and "nice 19" in niced.stdout, niced.stderr[-2000:]
+    # the page offers the print once it is there; a re-save makes them stale
+    server = GalleryServer(g, "127.0.0.1", 0).start()
+    try:
+        def page() -> str:
+            with urllib.request.urlopen(f"http://127.0.0.1:{server.port}/p/{pid}",
+                                        timeout=30) as r:
+                return str(r.read().decode())
+
+        assert f"/p/{pid}/{PRINT}" in page() and f"{2 * W}×{2 * H}" in page()
+        g.save(pid, painting, log, json.loads(g.path(pid, "meta.json").read_text()))
+        assert not g.path(pid, PRINT).exists() and not g.path(pid, REPLAY).exists()
+        assert f"/p/{pid}/{PRINT}" not in page()
+    finally:
+        server.stop()
+
+
+def test_gallery_command_refuses_bad_input(tmp_path: Path) -> None:
+    import sys
+
+    for argv, where in ((["make", "not-an-id"], "not-an-id"),
+                        (["make", "--root", str(tmp_path), "20261124-101500-a1b2c3"], "ID"),
+                        (["make", "--nice", "40", "20261124-101500-a1b2c3"], "--nice"),
+                        (["serve", "--serve", "nowhere"], "--serve")):
+        p = subprocess.run([sys.executable, "-m", "station", "gallery", *argv],
+                           capture_output=True, text=True, timeout=60)
+        assert p.returncode == 2, (argv, p.stderr)
+        assert len(p.stderr.strip().splitlines()) == 1 and where in p.stderr, p.stderr

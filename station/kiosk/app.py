@@ -30,6 +30,7 @@ import logging
 import math
 import os
 import re
+import subprocess
 import sys
 import time
 from dataclasses import dataclass, field
@@ -271,6 +272,7 @@ class KioskApp:
         self.driver_seen = 0.0
         self.driver_events: list[str] = []
         self.saved: list[str] = []
+        self.makers: list[subprocess.Popen[bytes]] = []  # replays and prints being made
         self.qr: tuple[int, tuple[int, int]] | None = None  # ImGui texture id, size
         self.qr_url: str | None = None
         self.qr_texture: Any = None
@@ -395,6 +397,7 @@ class KioskApp:
             self.panel.message = "Sorry, the painting could not be saved just now."
             return pid
         self.saved.append(pid)
+        self._make_extras(pid)
         self._set_qr(painting_url(self.base_url, pid))
         return pid
 
@@ -411,6 +414,7 @@ class KioskApp:
             try:
                 self.gallery.save(pid, self._render_srgb8(), s.log_path, meta)
                 self.saved.append(pid)
+                self._make_extras(pid)
             except (OSError, StationError) as exc:
                 # the session log stays in <gallery>/.live: `station paint` repaints it
                 log.error("cannot save painting %s to the gallery (%s); its log is kept in %s",
@@ -423,6 +427,15 @@ class KioskApp:
             Path(s.log_path).unlink(missing_ok=True)
             Path(s.autosave_path).unlink(missing_ok=True)
         return pid if painted and stored else None
+
+    def _make_extras(self, pid: str) -> None:
+        """Start the replay and print of ``pid`` in a low-priority process of its own
+        (:meth:`Gallery.prepare`); finished ones are reaped here too."""
+        self.makers = [p for p in self.makers if p.poll() is None]
+        try:
+            self.makers.append(self.gallery.prepare(pid))
+        except OSError as exc:  # the page makes the replay when asked; no print then
+            log.warning("cannot start the replay of painting %s: %s", pid, exc)
 
     def fresh_canvas(self, reason: str) -> str | None:
         pid = self.finish_painting(reason)

@@ -5,7 +5,17 @@ On disk, one directory per painting under the gallery root::
     <root>/<id>/painting.png    the canvas (sRGB PNG)
     <root>/<id>/session.jsonl   the session log (replays the painting exactly)
     <root>/<id>/meta.json       id, times, size, profile, backend, counts, why saved
-    <root>/<id>/replay.webp     the creation replayed from the log (made on demand)
+    <root>/<id>/replay.webp     the creation replayed from the log
+    <root>/<id>/painting-2x.png the painting at 2 px per cell (sub-cell render: a print)
+    <root>/<id>/make.log        what the process making those two said
+
+The replay and the print come from one replay of the session log, made by
+``station gallery make`` in a process of its own at the lowest CPU priority
+(:meth:`Gallery.prepare`, started by the kiosk when it saves a painting): the
+replay simulates the whole painting again, which inside the kiosk's process
+would take the cores and the interpreter lock from the next visitor's
+strokes.  A replay asked for before it is made is made then, by the same
+command.
 
 The web stack is Bottle (one-module WSGI framework: routing, escaping
 templates, static files with ETag/Range) served by Waitress (a pure-Python
@@ -24,9 +34,11 @@ import os
 import re
 import secrets
 import socket
+import subprocess
+import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -37,6 +49,10 @@ from station.errors import BadInput, StationError
 
 ID_RE = re.compile(r"^[0-9]{8}-[0-9]{6}-[0-9a-f]{6}$")
 PNG, LOG, META, REPLAY = "painting.png", "session.jsonl", "meta.json", "replay.webp"
+PRINT = "painting-2x.png"
+MAKE_LOG = "make.log"  # what `station gallery make` said (empty when all went well)
+PRINT_SCALE = 2
+MAKE_TIMEOUT_S = 600.0  # a replay asked for by the web page waits at most this long
 
 
 class GalleryError(StationError):
@@ -87,6 +103,7 @@ class Gallery:
             (d / (LOG + ".tmp")).write_bytes(data)
             os.replace(d / (LOG + ".tmp"), d / LOG)
         (d / REPLAY).unlink(missing_ok=True)  # stale once the painting changed
+        (d / PRINT).unlink(missing_ok=True)
         meta = {**meta, "id": pid, "saved": time.time()}
         (d / (META + ".tmp")).write_text(json.dumps(meta, indent=1, sort_keys=True))
         os.replace(d / (META + ".tmp"), d / META)
@@ -105,17 +122,62 @@ class Gallery:
                (p / PNG).exists()]
         return sorted(out, reverse=True)
 
-    def replay(self, pid: str, frames: int = 48, width: int = 400) -> Path:
-        """The replay animation of ``pid`` (made from its session log on first use)."""
+    def replay(self, pid: str) -> Path:
+        """The replay animation of ``pid`` (made from its session log on first use, by
+        ``station gallery make`` at the lowest priority; see the module docstring)."""
         out = self.path(pid, REPLAY)
         if not out.exists():
-            log = self.path(pid, LOG)
-            if not log.exists():
+            if not self.path(pid, LOG).exists():
                 raise GalleryError(f"painting {pid} has no session log to replay")
             with _replay_lock:
                 if not out.exists():
-                    export_replay(log, out, frames=frames, width=width)
+                    proc = self.prepare(pid)
+                    try:
+                        proc.wait(MAKE_TIMEOUT_S)
+                    except subprocess.TimeoutExpired:
+                        proc.kill()
+                        raise GalleryError(f"the replay of painting {pid} took over "
+                                           f"{MAKE_TIMEOUT_S:.0f} s") from None
+                    if not out.exists():
+                        try:
+                            err = self.path(pid, MAKE_LOG).read_text(errors="replace").strip()
+                        except OSError:
+                            err = ""
+                        raise GalleryError(f"cannot replay painting {pid}: "
+                                           f"{err.splitlines()[-1] if err else 'failed'}")
         return out
+
+    def prepare(self, pid: str) -> subprocess.Popen[bytes]:
+        """Start ``station gallery make`` for ``pid`` (the replay and the print) in a
+        process of its own; it lowers its own priority.  Not waited for."""
+        d = self.path(pid)  # a bad id raises here, before any process starts
+        with open(d / MAKE_LOG, "wb") as err:  # what went wrong, for the page and people
+            return subprocess.Popen(
+                [sys.executable, "-m", "station", "gallery", "make", "--root",
+                 str(self.root), pid], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                stderr=err, start_new_session=True)
+
+    def make(self, pid: str, frames: int = 48, width: int = 400) -> list[Path]:
+        """Replay ``pid``'s log once: write its replay animation and its print; returns
+        the files written."""
+        log = self.path(pid, LOG)
+        if not log.exists():
+            raise GalleryError(f"painting {pid} has no session log to replay")
+        d = self.path(pid)
+
+        def print_png(canvas: Any, renderer: str) -> None:
+            from PIL import Image
+
+            from station.canvas.render import to_srgb8
+            from station.canvas.upscale import render_scaled
+
+            img = to_srgb8(render_scaled(canvas.state(), renderer, PRINT_SCALE))
+            tmp = d / (PRINT + ".tmp")
+            Image.fromarray(img).save(tmp, format="PNG")
+            os.replace(tmp, d / PRINT)
+
+        export_replay(log, d / REPLAY, frames=frames, width=width, final=print_png)
+        return [d / REPLAY, d / PRINT]
 
 
 _replay_lock = threading.Lock()
@@ -123,9 +185,11 @@ _replay_lock = threading.Lock()
 
 # -- replay animation ------------------------------------------------------------
 def replay_frames(log_path: str | os.PathLike[str], frames: int = 48, width: int = 400,
-                  backend: str = "auto") -> Iterator[np.ndarray]:
+                  backend: str = "auto",
+                  final: Callable[[Any, str], None] | None = None) -> Iterator[np.ndarray]:
     """sRGB8 frames of a session log replayed on a canvas backend: about ``frames``
-    evenly spaced in painting time, then the final canvas; scaled to ``width`` px."""
+    evenly spaced in painting time, then the final canvas; scaled to ``width`` px.
+    ``final(canvas, renderer)`` is called with the finished canvas (a print of it)."""
     from PIL import Image
 
     from station.canvas.palette import default_palette
@@ -161,6 +225,10 @@ def replay_frames(log_path: str | os.PathLike[str], frames: int = 48, width: int
     shots.append(shot())
     player.play(records, on_step=on_step)
     shots.append(shot())
+    if final is not None:
+        from station.canvas.params import get_profile
+
+        final(canvas, get_profile(player.profile).renderer)
     close = getattr(canvas, "close", None)
     if close is not None:
         close()
@@ -169,14 +237,16 @@ def replay_frames(log_path: str | os.PathLike[str], frames: int = 48, width: int
 
 def export_replay(log_path: str | os.PathLike[str], out: str | os.PathLike[str],
                   frames: int = 48, width: int = 400, frame_ms: int = 80,
-                  hold_ms: int = 2000) -> int:
+                  hold_ms: int = 2000, final: Callable[[Any, str], None] | None = None
+                  ) -> int:
     """Write the replay of a session log as an animated WebP or GIF (by suffix);
-    returns the number of frames.  The last frame (the painting) is held."""
+    returns the number of frames.  The last frame (the painting) is held.  ``final``:
+    see :func:`replay_frames`."""
     from PIL import Image
 
     arrays: list[np.ndarray] = []
     durations: list[int] = []
-    for f in replay_frames(log_path, frames, width):
+    for f in replay_frames(log_path, frames, width, final=final):
         if arrays and np.array_equal(arrays[-1], f):  # nothing changed: show it longer
             durations[-1] += frame_ms
         else:
@@ -256,6 +326,10 @@ PAINTING = """<h1>Your painting</h1>
 <div>
 <div class="qr" id="qr">{{!svg}}</div>
 <p><a href="{{png}}" download="painting-{{pid}}.png">Download the painting (PNG)</a></p>
+% if print_png:
+<p><a href="{{print_png}}" download="painting-{{pid}}-print.png" id="print">Download a print
+({{2 * w}}×{{2 * h}} px)</a></p>
+% end
 <p><a href="{{replay}}">Watch it being painted</a> ·
 <a href="{{log}}">session log</a></p>
 <p class="meta">{{when}} · {{w}}×{{h}} · {{profile}}</p>
@@ -303,6 +377,7 @@ def make_app(gallery: Gallery, base_url: str | None = None) -> Any:
         when = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime(float(meta.get("saved", 0))))
         body = bottle.template(
             PAINTING, pid=pid, png=f"/p/{pid}/{PNG}", replay=f"/p/{pid}/{REPLAY}",
+            print_png=f"/p/{pid}/{PRINT}" if gallery.path(pid, PRINT).exists() else "",
             log=f"/p/{pid}/{LOG}", svg=qr_svg(url), w=int(meta.get("width", 0)) or "",
             h=int(meta.get("height", 0)) or "", when=when, profile=meta.get("profile", ""),
             index="/")
@@ -316,10 +391,10 @@ def make_app(gallery: Gallery, base_url: str | None = None) -> Any:
                 gallery.replay(pid)
             except (GalleryError, BadInput) as exc:
                 bottle.abort(404, str(exc))
-        if name not in (PNG, LOG, REPLAY, META):
+        if name not in (PNG, LOG, REPLAY, META, PRINT):
             bottle.abort(404, "no such file")
         mime = {PNG: "image/png", LOG: "application/x-ndjson", REPLAY: "image/webp",
-                META: "application/json"}[name]
+                META: "application/json", PRINT: "image/png"}[name]
         return bottle.static_file(name, root=str(gallery.path(pid)), mimetype=mime)
 
     return app
