@@ -333,6 +333,13 @@ def test_latency_bench_reports_goals_prediction_and_load(tmp_path: Path) -> None
     assert r["latency"]["n"] > 10 and r["latency"]["p99_ms"] > 0
     assert r["frames"]["fps"] > 0 and r["frames"]["sim_steps_per_s"] > 5
     assert set(r["frames"]["share"]) == {"wait", "input", "sim", "render", "ui", "present"}
+    pr = r["present"]
+    assert pr["asked"] == "auto" and pr["mode"] in ("partial", "swap")
+    assert pr["partial_frames"] + pr["whole_frames"] >= r["frames"]["frames"] > 0
+    lat = r["latency"]
+    assert 0 < lat["latch_to_shown"]["p50_ms"] <= lat["latch_to_shown"]["max_ms"]
+    assert lat["latch_to_shown"]["p50_ms"] <= lat["max_ms"]
+    assert 0.0 <= lat["latched_late_share"] <= 1.0
     # the simulation thread needs a thread-safe numba layer (omp, tbb; `make` installs
     # libgomp1); without one the kiosk steps in its frame loop, and says so
     from station.kiosk.app import numba_threadsafe
