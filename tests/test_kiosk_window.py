@@ -256,7 +256,8 @@ def test_idle_timeout_saves_to_the_gallery_and_unplug_is_survived(display: str,
     assert (d / "session.jsonl").read_text().count('"type": "pen"') == meta["samples"]
     # the kiosk started the replay and the print in a process of their own
     deadline = time.monotonic() + 120
-    while not (d / "painting-2x.png").exists() and time.monotonic() < deadline:
+    while not ((d / "painting-2x.png").exists() and (d / "replay.webp").exists()) \
+            and time.monotonic() < deadline:
         time.sleep(0.2)
     big = rgb(d / "painting-2x.png")
     assert big.shape == (2 * png.shape[0], 2 * png.shape[1], 3)
