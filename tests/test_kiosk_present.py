@@ -56,22 +56,31 @@ class _Queue:
 CHILD = "STATION_TEST_CHILD"
 
 
+@functools.cache
+def _child_run() -> str:
+    """Every window test of this module, run once in one fresh pytest process."""
+    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-rA", "-p",
+                           "no:cacheprovider", __file__], env={**os.environ, CHILD: "1"},
+                          capture_output=True, text=True, timeout=600)
+    return proc.stdout + proc.stderr
+
+
 def in_own_process(test: Callable[..., None]) -> Callable[..., None]:
-    """Run ``test`` in a fresh pytest process (see the module docstring)."""
+    """Run ``test`` in a fresh pytest process (see the module docstring): all of this
+    module's window tests in one, each test here reading its own outcome."""
     @functools.wraps(test)
     def run(*args: Any, **kw: Any) -> None:
         if os.environ.get(CHILD):
             test(*args, **kw)
             return
-        node = f"{__file__}::{test.__name__}"
-        if "mode" in kw:
-            node += f"[{kw['mode']}]"
-        proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
-                               node], env={**os.environ, CHILD: "1"}, capture_output=True,
-                              text=True, timeout=240)
-        if "skipped" in proc.stdout and " passed" not in proc.stdout:
-            pytest.skip(proc.stdout.strip().splitlines()[-1])
-        assert proc.returncode == 0, (proc.stdout + proc.stderr)[-3000:]
+        node = f"{test.__name__}" + (f"[{kw['mode']}]" if "mode" in kw else "")
+        out = _child_run()
+        lines = out.splitlines()
+        if any(ln.startswith("PASSED ") and ln.endswith("::" + node) for ln in lines):
+            return
+        if any(ln.startswith(("FAILED ", "ERROR ")) and "::" + node in ln for ln in lines):
+            pytest.fail(f"{node} failed in its process:\n{out[-4000:]}")
+        pytest.skip(f"{node} did not run in its process: {lines[-1] if lines else ''}")
     return run
 
 
