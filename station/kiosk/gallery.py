@@ -415,11 +415,23 @@ class GalleryServer:
             raise GalleryError(f"cannot serve the gallery on {host}:{port}: "
                                f"{exc.strerror}") from None
         self.port = int(self.server.effective_port)
-        self.thread = threading.Thread(target=self.server.run, name="gallery", daemon=True)
+        self._stopping = False
+        self.thread = threading.Thread(target=self._run, name="gallery", daemon=True)
+
+    def _run(self) -> None:
+        try:
+            self.server.run()
+        except (OSError, ValueError):
+            # stop() closed the socket under the loop's select (EBADF): waitress has no
+            # other way to end a loop run in a thread
+            if not self._stopping:
+                raise
 
     def start(self) -> GalleryServer:
         self.thread.start()
         return self
 
     def stop(self) -> None:
+        self._stopping = True
         self.server.close()
+        self.thread.join(5.0)
