@@ -330,3 +330,35 @@ def test_blueprint_still_refuses_what_cannot_work(tmp_path: Path) -> None:
     (tmp_path / "bp.xml").write_text(text)
     with pytest.raises(BlueprintError, match="7101"):
         resolve(load(str(tmp_path / "bp.xml")), Path("/r"), tmp_path)
+
+
+def test_systemd_units_refuse_a_tcp_bus_whose_keys_are_hidden(tmp_path: Path) -> None:
+    """The units run with ProtectHome=yes: the default ~/.config/station/keys is not there
+    for them, so a tcp <bus> needs keys= outside the home directories."""
+    from station.blueprint.systemd import units
+
+    with pytest.raises(BlueprintError, match=r"bp.xml:3: .*needs keys=DIR"):
+        units(load(str(tcp_blueprint(tmp_path, keys=None))))
+    with pytest.raises(BlueprintError, match="hidden from the units"):
+        units(load(str(tcp_blueprint(tmp_path, keys="/home/station/keys"))))
+    made = units(load(str(tcp_blueprint(tmp_path))))
+    text = made["station-t.service"]
+    assert "ProtectHome=yes" in text and " run /etc/station/t.xml " in text
+
+
+def test_doctor_checks_the_keys_of_a_tcp_bus(tmp_path: Path) -> None:
+    from station.blueprint import doctor
+
+    def keys_checks() -> list[doctor.Check]:
+        plan = resolve(load(str(tcp_blueprint(tmp_path))), Path("/r"), tmp_path)
+        return doctor.check_keys(plan)
+
+    (missing,) = keys_checks()
+    assert missing.status == "fail" and str(tmp_path / "keys") in missing.detail
+    assert "station keys --dir" in missing.fix
+    generate_keys(tmp_path / "keys")
+    (ok,) = keys_checks()
+    assert ok.status == "ok" and "1 authorised client key(s)" in ok.detail
+    (tmp_path / "keys" / "authorized" / "client.key").unlink()
+    (nobody,) = keys_checks()
+    assert nobody.status == "fail" and "every client is refused" in nobody.detail
