@@ -12,16 +12,23 @@ import socket
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+import zmq
+from kiosk_harness import SCREEN, xvfb
+from kiosk_harness import station as kstation
 from station.drivers import synth
 from station.drivers.mock.tablet import MockTablet, find_model
 
+from station.blueprint import doctor
 from station.blueprint.load import load
 from station.blueprint.model import BlueprintError
 from station.blueprint.plan import resolve
+from station.blueprint.systemd import units
 from station.bus import Publisher, Subscriber, add_client_key, generate_keys
+from station.cli import build_parser
 from station.events import PenSample, Tool
 
 STATION = [sys.executable, "-m", "station"]
@@ -197,8 +204,6 @@ def test_keys_without_the_client_pair_and_a_missing_client_key_are_exit_2(
 def test_a_client_needs_only_the_servers_public_key(tmp_path: Path) -> None:
     """The machine a kiosk runs on holds server.key, client.key, client.key_secret:
     enough to connect (the server's secret never leaves the server)."""
-    import zmq
-
     keys = tmp_path / "keys"
     generate_keys(keys)
     remote = tmp_path / "remote"
@@ -227,8 +232,6 @@ def test_two_key_directories_in_one_process_each_check_their_own_clients(
         tmp_path: Path) -> None:
     """One ZAP handler per context, one ZAP domain per key directory: a client of
     directory A is refused by the endpoint bound with B's keys and counted there."""
-    import zmq
-
     a, b = tmp_path / "a", tmp_path / "b"
     generate_keys(a)
     generate_keys(b)
@@ -302,8 +305,6 @@ def test_blueprint_gives_tcp_consumers_and_replay_the_bus_keys(tmp_path: Path) -
     assert recover is not None and flag(recover, "--keys") == keys
     assert flag(recover, "--bus") == "tcp://127.0.0.1:7102"
     # every argv parses: the flags exist on the commands they are given to
-    from station.cli import build_parser
-
     parser = build_parser()
     for q in plan.processes:
         assert parser.parse_args(q.argv).func is not None
@@ -335,8 +336,6 @@ def test_blueprint_still_refuses_what_cannot_work(tmp_path: Path) -> None:
 def test_systemd_units_refuse_a_tcp_bus_whose_keys_are_hidden(tmp_path: Path) -> None:
     """The units run with ProtectHome=yes: the default ~/.config/station/keys is not there
     for them, so a tcp <bus> needs keys= outside the home directories."""
-    from station.blueprint.systemd import units
-
     with pytest.raises(BlueprintError, match=r"bp.xml:3: .*needs keys=DIR"):
         units(load(str(tcp_blueprint(tmp_path, keys=None))))
     with pytest.raises(BlueprintError, match="hidden from the units"):
@@ -347,8 +346,6 @@ def test_systemd_units_refuse_a_tcp_bus_whose_keys_are_hidden(tmp_path: Path) ->
 
 
 def test_doctor_checks_the_keys_of_a_tcp_bus(tmp_path: Path) -> None:
-    from station.blueprint import doctor
-
     def keys_checks() -> list[doctor.Check]:
         plan = resolve(load(str(tcp_blueprint(tmp_path))), Path("/r"), tmp_path)
         return doctor.check_keys(plan)
@@ -362,3 +359,57 @@ def test_doctor_checks_the_keys_of_a_tcp_bus(tmp_path: Path) -> None:
     (tmp_path / "keys" / "authorized" / "client.key").unlink()
     (nobody,) = keys_checks()
     assert nobody.status == "fail" and "every client is refused" in nobody.detail
+
+
+def test_kiosk_on_a_tcp_bus_with_keys_paints_the_pen(tmp_path: Path) -> None:
+    """The kiosk on another machine than its drivers: `station bus` serves the pens on a
+    tcp sub side (CURVE server), `station kiosk --bus tcp://… --keys K` connects with
+    the client pair only (no server secret on its side) and takes every sample."""
+    keys = tmp_path / "keys"
+    generate_keys(keys)
+    remote = tmp_path / "remote"  # what the kiosk's machine holds
+    remote.mkdir(mode=0o700)
+    for name in ("server.key", "client.key", "client.key_secret"):
+        (remote / name).write_bytes((keys / name).read_bytes())
+    port = free_port()
+    with xvfb() as display:
+        bus = kstation("bus", "--pub", "ipc:pub", "--sub", f"tcp://127.0.0.1:{port}",
+                       "--keys", str(keys))
+        kiosk = kstation("kiosk", "--windowed", "--bus", f"tcp://127.0.0.1:{port}",
+                         "--keys", str(remote), "--gallery", str(tmp_path / "gallery"),
+                         "--serve", "none", "--no-vsync", "--size", "64x48",
+                         "--status", "@ipc:kiosk-status", "--cmd", "none",
+                         "--backend", "numpy", display=display)
+        status = Subscriber("ipc:kiosk-status", topics=("status",))
+        pub = Publisher(">ipc:pub")
+        last: dict = {}
+        try:
+            def wait(cond: Callable[[dict], bool], timeout: float) -> bool:
+                deadline = time.monotonic() + timeout
+                while time.monotonic() < deadline and kiosk.poll() is None:
+                    m = status.recv(100)
+                    if m is not None and m.value.get("process") == "kiosk":
+                        last.update(m.value)
+                        if cond(m.value):
+                            return True
+                    pub.poll_subscriptions()
+                return False
+
+            assert wait(lambda s: s.get("frames", 0) > 2, 90), last
+            assert pub.wait_for_subscribers(1, 30)
+            x0, y0 = SCREEN[0] * 0.6, SCREEN[1] * 0.5  # on the canvas, right of the panel
+            for i in range(60):
+                pub.publish_pen(PenSample(
+                    t=0.005 * (i + 1), device="far", tool=Tool.PEN,
+                    x=(x0 + 2 * i) / SCREEN[0], y=y0 / SCREEN[1], pressure=0.6,
+                    touching=0 < i < 59, seq=i + 1, t_mono=time.monotonic()))
+                time.sleep(0.005)
+            assert wait(lambda s: s.get("samples", 0) >= 60, 30), last
+        finally:
+            pub.close()
+            status.close()
+            code, err = finish(kiosk, 60)
+            finish(bus)
+    assert code == 0, err
+    assert last["samples"] == 60 and last["bus"]["lost"] == 0
+    assert last["bus"]["curve_rejected"] == 0
