@@ -9,7 +9,10 @@ endpoint, port, device or output file; rules naming what is not there.
 
 Endpoints: every ipc socket the station makes lives in the run directory
 (``ipc:///RUN/ID.pen`` …), and children get ``STATION_RUNTIME_DIR=RUN`` so an
-``ipc:NAME`` written in the blueprint lands there too.
+``ipc:NAME`` written in the blueprint lands there too.  A ``<bus>`` bound on tcp
+is CURVE-authenticated: every process reaching it over tcp (sources on its ``pub``
+side, sims, kiosks and recorders on its ``sub`` side) gets its ``keys=`` directory
+as ``--keys``.
 """
 
 from __future__ import annotations
