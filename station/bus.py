@@ -594,6 +594,13 @@ class SubscriberStats:
     foreign: int = 0
     version_mismatch: int = 0
     started_at: dict[str, int] = field(default_factory=dict)  # "topic@publisher" -> first seq
+    # the ZAP checks of the tcp endpoints this subscriber binds (CURVE server)
+    key_checks: list[KeyCheck] = field(default_factory=list, repr=False)
+
+    @property
+    def curve_rejected(self) -> int:
+        """Connections refused for a client key not authorised (0 unless bound on tcp)."""
+        return _rejected(self.key_checks)
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -601,6 +608,7 @@ class SubscriberStats:
             "duplicates": self.duplicates,
             "malformed": self.malformed, "foreign": self.foreign,
             "version_mismatch": self.version_mismatch, "started_at": dict(self.started_at),
+            "curve_rejected": self.curve_rejected,
         }  # fmt: skip
 
 
@@ -645,7 +653,7 @@ class Subscriber:
         except BaseException:
             self.sock.close(linger=0)
             raise
-        self.stats = SubscriberStats()
+        self.stats = SubscriberStats(key_checks=self._key_checks)
         self._last: dict[tuple[int, str], int] = {}
         self._pending: collections.deque[Message] = collections.deque()
         self._last_warning = 0.0
@@ -654,7 +662,7 @@ class Subscriber:
     def curve_rejected(self) -> int:
         """Connections refused because the client's key is not authorised (0 unless
         this subscriber binds tcp; see :attr:`Publisher.curve_rejected`)."""
-        return _rejected(self._key_checks)
+        return self.stats.curve_rejected
 
     def _drop(self, exc: WireError) -> None:
         text = str(exc)

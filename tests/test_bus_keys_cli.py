@@ -254,6 +254,24 @@ def test_two_key_directories_in_one_process_each_check_their_own_clients(
             time.sleep(0.05)
         assert pub_a.curve_rejected >= 1 and pub_b.curve_rejected == 0
         assert pub_a.subscriptions == 1
+        # a subscriber that binds (a sim on @tcp://): the count is in its stats (status)
+        ep_c = f"tcp://127.0.0.1:{free_port()}"
+        subs.append(Subscriber("@" + ep_c, topics=("pen.",), keys=b, context=ctx))
+        a_to_b = tmp_path / "a-to-b"  # A's client pair, B's server public key
+        a_to_b.mkdir(mode=0o700)
+        (a_to_b / "server.key").write_bytes((b / "server.key").read_bytes())
+        for name in ("client.key", "client.key_secret"):
+            (a_to_b / name).write_bytes((a / name).read_bytes())
+        stranger = Publisher(">" + ep_c, keys=a_to_b, context=ctx)
+        try:
+            assert not stranger.wait_for_subscribers(1, 1.0)
+            deadline = time.monotonic() + 10
+            while subs[-1].curve_rejected == 0 and time.monotonic() < deadline:
+                time.sleep(0.05)
+            assert subs[-1].stats.as_dict()["curve_rejected"] >= 1
+            assert subs[0].stats.as_dict()["curve_rejected"] == 0  # a connecting one
+        finally:
+            stranger.close()
     finally:
         for s in subs:
             s.close()

@@ -671,8 +671,6 @@ class LiveSim(LiveCore):
             self._fps_mark = (now, p.counters.steps)
         st = {"process": "sim", "pid": os.getpid(), **super().status(), "fps": self.fps,
               "bus": self.sub.stats.as_dict(), "haptic": self.haptics.as_dict()}
-        # clients turned away from a tcp endpoint we bind (a key not authorised)
-        st["bus"]["curve_rejected"] = self.sub.curve_rejected
         # samples lost on the bus, and those sent while no sim listened (recovery)
         st["lost_samples"] = self.sub.stats.lost + self.counters.missed_while_down
         return st
