@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import collections
 import errno
+import hashlib
 import logging
 import os
 import random
@@ -222,16 +223,20 @@ def add_client_key(name: str, directory: Path | None = None, force: bool = False
 
 def load_keys(directory: Path | None = None, role: str = "server",
               client: str | None = None) -> CurveKeys:
-    """Keys for a CURVE server, or for a client: ``client.key_secret`` or, with
-    ``client=NAME``, that driver's own ``client-NAME.key_secret``."""
+    """Keys for a CURVE server (``server.key_secret``), or for a client: the server's
+    public ``server.key`` and ``client.key_secret`` or, with ``client=NAME``, that
+    client's own ``client-NAME.key_secret``."""
     import zmq.auth
 
     directory = directory or keys_dir()
     try:
-        server_pub, server_sec = zmq.auth.load_certificate(str(directory / "server.key_secret"))
         if role == "server":
-            pub, sec = server_pub, server_sec
+            server_pub, sec = zmq.auth.load_certificate(str(directory / "server.key_secret"))
+            pub = server_pub
         else:
+            # A client needs the server's public key only: the machine a kiosk or a
+            # remote driver runs on never holds the server's secret.
+            server_pub, _ = zmq.auth.load_certificate(str(directory / "server.key"))
             base = f"client-{client_key_name(client)}" if client else "client"
             pub, sec = zmq.auth.load_certificate(str(directory / f"{base}.key_secret"))
     except (OSError, ValueError) as exc:
@@ -245,6 +250,7 @@ def load_keys(directory: Path | None = None, role: str = "server",
 
 _auth_lock = threading.Lock()
 _authenticators: dict[int, Any] = {}
+_key_checks: dict[tuple[int, str], KeyCheck] = {}  # (context, ZAP domain) -> its check
 
 
 class KeyCheck:
@@ -255,6 +261,7 @@ class KeyCheck:
     def __init__(self, authorized_dir: Path) -> None:
         self.authorized_dir = authorized_dir
         self.rejected: dict[str, int] = {}  # z85 public key -> connection attempts
+        self.refused = 0  # all of them (read from other threads: one int, no iteration)
 
     def allowed_keys(self) -> set[bytes]:
         import zmq.auth
@@ -270,6 +277,7 @@ class KeyCheck:
             return True
         text = key.decode("ascii", "replace")
         self.rejected[text] = self.rejected.get(text, 0) + 1
+        self.refused += 1
         if self.rejected[text] == 1:
             log.warning("rejected a CURVE peer with public key %s (not in %s)", text,
                         self.authorized_dir)
@@ -277,30 +285,40 @@ class KeyCheck:
 
 
 def _secure(sock: zmq.Socket, endpoint: Endpoint, keys_directory: Path | None,
-            client: str | None = None) -> None:
-    """CURVE on tcp: the binding side is the server and checks client keys."""
+            client: str | None = None) -> KeyCheck | None:
+    """CURVE on tcp: the binding side is the server and checks client keys (the
+    :class:`KeyCheck` it returns counts the peers it turned away)."""
     if not endpoint.is_tcp:
-        return
+        return None
     if endpoint.bind:
         keys = load_keys(keys_directory, "server")
         ctx = sock.context
+        # One ZAP handler per context; each key directory is a ZAP domain of its own,
+        # so two endpoints bound with different --keys each check their own clients.
+        domain = "station-" + hashlib.sha256(str(keys.authorized_dir).encode()).hexdigest()[:16]
         with _auth_lock:
-            if id(ctx) not in _authenticators:
+            auth = _authenticators.get(id(ctx))
+            if auth is None:
                 from zmq.auth.thread import ThreadAuthenticator
 
                 auth = ThreadAuthenticator(ctx, log=logging.getLogger("station.bus.zap"))
                 auth.start()
-                auth.configure_curve_callback(domain="*",
-                                              credentials_provider=KeyCheck(keys.authorized_dir))
                 _authenticators[id(ctx)] = auth
+            check = _key_checks.get((id(ctx), domain))
+            if check is None:
+                check = _key_checks[(id(ctx), domain)] = KeyCheck(keys.authorized_dir)
+                auth.configure_curve_callback(domain=domain, credentials_provider=check)
+        sock.zap_domain = domain.encode()
         sock.curve_secretkey = keys.secret
         sock.curve_publickey = keys.public
         sock.curve_server = True
+        return check
     else:
         keys = load_keys(keys_directory, "client", client)
         sock.curve_secretkey = keys.secret
         sock.curve_publickey = keys.public
         sock.curve_serverkey = keys.server_public
+        return None
 
 
 def ipc_in_use(path: Path) -> bool:
@@ -331,8 +349,8 @@ def ipc_in_use(path: Path) -> bool:
 
 
 def _attach(sock: zmq.Socket, endpoint: Endpoint, keys_directory: Path | None,
-            client: str | None = None) -> None:
-    _secure(sock, endpoint, keys_directory, client)
+            client: str | None = None) -> KeyCheck | None:
+    check = _secure(sock, endpoint, keys_directory, client)
     try:
         if endpoint.bind:
             if endpoint.url.startswith("ipc://"):
@@ -355,6 +373,11 @@ def _attach(sock: zmq.Socket, endpoint: Endpoint, keys_directory: Path | None,
             raise EndpointInUse(f"{endpoint.url} is in use by another process") from None
         verb = "bind" if endpoint.bind else "connect"
         raise BusError(f"cannot {verb} {endpoint.url}: {exc}") from None
+    return check
+
+
+def _rejected(checks: list[KeyCheck]) -> int:
+    return sum(c.refused for c in checks)
 
 
 # -- publisher ------------------------------------------------------------------
@@ -378,10 +401,11 @@ class Publisher:
         self.sock.setsockopt(zmq.XPUB_VERBOSE, 1)  # see every subscription: late-joiner replay
         self.sock.setsockopt(zmq.LINGER, 1000)
         try:
-            _attach(self.sock, self.endpoint, keys, client_key)
+            check = _attach(self.sock, self.endpoint, keys, client_key)
         except BaseException:
             self.sock.close(linger=0)
             raise
+        self._key_checks = [check] if check is not None else []
         self.publisher_id = random.SystemRandom().getrandbits(32)
         if heartbeat is not None and not 0.0 < heartbeat <= wire.MAX_HEARTBEAT_INTERVAL:
             raise BusConfigError(f"heartbeat interval {heartbeat!r} s outside (0, "
@@ -399,6 +423,13 @@ class Publisher:
     @property
     def url(self) -> str:
         return self.endpoint.url
+
+    @property
+    def curve_rejected(self) -> int:
+        """Connections refused because the client's key is not authorised (0 unless
+        this publisher binds tcp; shared by the process's endpoints bound with the
+        same key directory)."""
+        return _rejected(self._key_checks)
 
     def _send(self, topic: str, value: Any) -> int:
         # Reading ZMQ_EVENTS makes libzmq apply pending subscriptions now, so a new
@@ -563,6 +594,13 @@ class SubscriberStats:
     foreign: int = 0
     version_mismatch: int = 0
     started_at: dict[str, int] = field(default_factory=dict)  # "topic@publisher" -> first seq
+    # the ZAP checks of the tcp endpoints this subscriber binds (CURVE server)
+    key_checks: list[KeyCheck] = field(default_factory=list, repr=False)
+
+    @property
+    def curve_rejected(self) -> int:
+        """Connections refused for a client key not authorised (0 unless bound on tcp)."""
+        return _rejected(self.key_checks)
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -570,6 +608,7 @@ class SubscriberStats:
             "duplicates": self.duplicates,
             "malformed": self.malformed, "foreign": self.foreign,
             "version_mismatch": self.version_mismatch, "started_at": dict(self.started_at),
+            "curve_rejected": self.curve_rejected,
         }  # fmt: skip
 
 
@@ -605,16 +644,25 @@ class Subscriber:
         self.sock.setsockopt(zmq.LINGER, 0)
         for t in topics:
             self.sock.setsockopt(zmq.SUBSCRIBE, t.encode())
+        self._key_checks: list[KeyCheck] = []
         try:
             for ep in self.endpoints:
-                _attach(self.sock, ep, keys, client_key)
+                check = _attach(self.sock, ep, keys, client_key)
+                if check is not None and check not in self._key_checks:
+                    self._key_checks.append(check)
         except BaseException:
             self.sock.close(linger=0)
             raise
-        self.stats = SubscriberStats()
+        self.stats = SubscriberStats(key_checks=self._key_checks)
         self._last: dict[tuple[int, str], int] = {}
         self._pending: collections.deque[Message] = collections.deque()
         self._last_warning = 0.0
+
+    @property
+    def curve_rejected(self) -> int:
+        """Connections refused because the client's key is not authorised (0 unless
+        this subscriber binds tcp; see :attr:`Publisher.curve_rejected`)."""
+        return self.stats.curve_rejected
 
     def _drop(self, exc: WireError) -> None:
         text = str(exc)
@@ -699,12 +747,13 @@ def run_proxy(
     keys: Path | None = None,
     context: zmq.Context | None = None,
     stop: threading.Event | None = None,
-) -> None:
+) -> int:
     """Forward every publisher (connecting to ``pub_side``) to every subscriber
     (connecting to ``sub_side``) until ``stop`` is set or the context ends.
 
     Subscriptions travel upstream verbosely, so publishers still see each late
-    joiner and replay for it.
+    joiner and replay for it.  Returns how many connections CURVE refused (a
+    client key not authorised; 0 on ipc).
     """
     ctx = context or zmq.Context.instance()
     frontend = ctx.socket(zmq.XSUB)
@@ -714,8 +763,9 @@ def run_proxy(
         s.setsockopt(zmq.RCVHWM, HWM)
         s.setsockopt(zmq.LINGER, 0)
     backend.setsockopt(zmq.XPUB_VERBOSE, 1)
-    _attach(frontend, resolve_endpoint(pub_side, True), keys)
-    _attach(backend, resolve_endpoint(sub_side, True), keys)
+    checks = [c for c in (_attach(frontend, resolve_endpoint(pub_side, True), keys),
+                          _attach(backend, resolve_endpoint(sub_side, True), keys))
+              if c is not None]
     poller = zmq.Poller()
     poller.register(frontend, zmq.POLLIN)
     poller.register(backend, zmq.POLLIN)
@@ -737,3 +787,4 @@ def run_proxy(
     finally:
         frontend.close()
         backend.close()
+    return _rejected(list({id(c): c for c in checks}.values()))

@@ -23,6 +23,7 @@ import atexit
 import logging
 import os
 import threading
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from station.drivers.haptic.contact import BrushState, RoundBrushContact, Surface
@@ -246,12 +247,15 @@ class HapticPenSource:
             "haptic": self.session.status(),
         }
 
-    def attach_bus(self, endpoint: str | list[str] | None) -> None:
+    def attach_bus(self, endpoint: str | list[str] | None, keys: Path | None = None,
+                   client_key: str | None = None) -> None:
         """Subscribe to ``haptic.<name>`` at ``endpoint`` (or several): forces and
-        vibrations from the station."""
+        vibrations from the station (``keys``, ``client_key``: CURVE on tcp, as the
+        driver's own bus)."""
         from station.bus import Subscriber
 
-        sub = Subscriber(endpoint, topics=(f"haptic.{self.name}",))
+        sub = Subscriber(endpoint, topics=(f"haptic.{self.name}",), keys=keys,
+                         client_key=client_key)
 
         def listen() -> None:
             try:

@@ -234,6 +234,40 @@ def check_bus(plan: Plan | None) -> list[Check]:
     return checks
 
 
+def check_keys(plan: Plan | None) -> list[Check]:
+    """The CURVE keys of each tcp ``<bus>``: the server pair ``station bus`` binds with,
+    the client pair its sources and consumers connect with, at least one authorised
+    client key."""
+    from station.bus import keys_dir, load_keys
+    from station.errors import BusConfigError
+
+    checks: list[Check] = []
+    if plan is None:
+        return checks
+    for c in plan.blueprint.components:
+        if c.kind != "bus" or not any((c.get(a) or "").startswith("tcp://")
+                                      for a in ("pub", "sub")):
+            continue
+        argv = plan.process(c.id).argv
+        directory = Path(argv[argv.index("--keys") + 1]) if "--keys" in argv else keys_dir()
+        fix = (f"station keys --dir {directory} (on the other machine: copy server.key, "
+               "client.key and client.key_secret there)")
+        try:
+            load_keys(directory, "server")
+            load_keys(directory, "client")
+        except BusConfigError as exc:
+            checks.append(Check("keys", "fail", f"{c.id}: {exc}", fix))
+            continue
+        allowed = sorted((directory / "authorized").glob("*.key"))
+        if not allowed:
+            checks.append(Check("keys", "fail", f"{c.id}: no authorised client key in "
+                                f"{directory / 'authorized'}: every client is refused", fix))
+        else:
+            checks.append(Check("keys", "ok", f"{c.id}: CURVE keys in {directory}, "
+                                f"{len(allowed)} authorised client key(s)"))
+    return checks
+
+
 def _parse_size(text: str) -> int:
     units = {"": 1, "B": 1, "K": 1 << 10, "KiB": 1 << 10, "M": 1 << 20, "MiB": 1 << 20,
              "G": 1 << 30, "GiB": 1 << 30, "T": 1 << 40, "TiB": 1 << 40}
@@ -284,6 +318,7 @@ def run_checks(plan: Plan | None, gl: bool = True) -> list[Check]:
     checks.append(check_udev())
     checks += check_calibration(plan)
     checks += check_bus(plan)
+    checks += check_keys(plan)
     checks += check_disk(plan)
     return checks
 

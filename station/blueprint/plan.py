@@ -9,7 +9,10 @@ endpoint, port, device or output file; rules naming what is not there.
 
 Endpoints: every ipc socket the station makes lives in the run directory
 (``ipc:///RUN/ID.pen`` …), and children get ``STATION_RUNTIME_DIR=RUN`` so an
-``ipc:NAME`` written in the blueprint lands there too.
+``ipc:NAME`` written in the blueprint lands there too.  A ``<bus>`` bound on tcp
+is CURVE-authenticated: every process reaching it over tcp (sources on its ``pub``
+side, sims, kiosks and recorders on its ``sub`` side) gets its ``keys=`` directory
+as ``--keys``.
 """
 
 from __future__ import annotations
@@ -279,8 +282,6 @@ def resolve(bp: Blueprint, run_dir: Path, workdir: Path, stamp: str | None = Non
             if via_bus:
                 bus = by_id[via_bus[0].id]
                 target = ">" + (bus.get("pub") or ipc(f"{bus.id}.pub"))
-                if target.startswith(">tcp://") and c.kind != "replay" and bus.get("keys"):
-                    keys = str(in_path(bus.attrs["keys"]))
                 binds: list[str] = []
                 waits = 1
             else:
@@ -293,19 +294,9 @@ def resolve(bp: Blueprint, run_dir: Path, workdir: Path, stamp: str | None = Non
                 for r in readers:
                     if r.kind in ("sim", "kiosk"):
                         procs[c.id].argv += ["--haptic-bus", ">" + ipc(f"{r.id}.status")]
-            if via_bus and target.startswith(">tcp://"):
-                if c.kind == "replay":
-                    raise BlueprintError("station replay takes no CURVE keys: a <replay> "
-                                         "publishes to an ipc bus only", str(c.where))
-                if bus.get("keys"):
-                    procs[c.id].argv += ["--keys", keys]
+            if via_bus:  # a tcp pub side: the bus's key directory (else the default one)
+                procs[c.id].argv += _keys_argv(by_id[via_bus[0].id], target, in_path)
     for c in bp.components:
-        provider = by_id[c.requires[0].provider] if c.kind in ("sim", "kiosk", "recorder") \
-            else None
-        if provider is not None and pen_out[provider.id].startswith("tcp://"):
-            raise BlueprintError(f"station {c.kind} takes no CURVE keys: subscribe to an ipc "
-                                 "bus (a tcp bus serves remote drivers on its pub side)",
-                                 str(c.where))
         if c.kind == "sim":
             procs[c.id] = _sim(c, pen_out[c.requires[0].provider], ipc, out_path, in_path,
                                bp.name, stamp, run_dir)
@@ -318,10 +309,27 @@ def resolve(bp: Blueprint, run_dir: Path, workdir: Path, stamp: str | None = Non
             if c.get("duration"):
                 argv += ["--duration", _secs(c.attrs["duration"])]
             procs[c.id] = _proc(c, argv, outputs=[out])
+        if c.kind in ("sim", "kiosk", "recorder"):  # a tcp sub side: the bus's keys
+            provider = by_id[c.requires[0].provider]
+            extra = _keys_argv(provider, pen_out[provider.id], in_path)
+            proc = procs[c.id]
+            proc.argv += extra
+            if proc.recover_argv is not None:  # a crashed sim restarts on the same bus
+                proc.recover_argv += extra
     _check_clashes(bp, procs, run_dir)
     order = _start_order(bp, procs)
     edges = [Edge(w.provider, c.id, w.interface) for c in bp.components for w in c.requires]
     return Plan(bp, run_dir, workdir, [procs[i] for i in order], edges, galleries, calibrations)
+
+
+def _keys_argv(bus: Component, endpoint: str, in_path: object) -> list[str]:
+    """``--keys DIR`` for a process that reaches ``bus`` over tcp (CURVE) when the
+    ``<bus>`` names its key directory; without ``keys=`` the process uses the default
+    directory (~/.config/station/keys), as ``station bus`` does."""
+    if bus.kind != "bus" or not endpoint.lstrip("@>").startswith("tcp://") \
+            or not bus.get("keys"):
+        return []
+    return ["--keys", str(in_path(bus.attrs["keys"]))]  # type: ignore[operator]
 
 
 def _secs(text: str) -> str:

@@ -16,7 +16,7 @@ import shutil
 import sys
 from pathlib import Path
 
-from station.blueprint.model import Blueprint, SupervisorError
+from station.blueprint.model import Blueprint, BlueprintError, SupervisorError
 from station.blueprint.plan import Plan, Process, resolve
 
 GROUP = "station"
@@ -78,6 +78,25 @@ def _sandbox(plan: Plan, procs: list[Process], runtime: str, state: str) -> list
     return lines
 
 
+def _check_keys(bp: Blueprint) -> None:
+    """A tcp ``<bus>`` needs ``keys=`` outside the home directories: the units run with
+    ``ProtectHome=yes``, which hides the default ``~/.config/station/keys``."""
+    for c in bp.components:
+        if c.kind != "bus":
+            continue
+        tcp = [e for e in (c.get("pub"), c.get("sub")) if e and e.startswith("tcp://")]
+        if not tcp:
+            continue
+        keys = c.get("keys")
+        if not keys:
+            raise BlueprintError("a tcp <bus> under systemd needs keys=DIR (ProtectHome=yes "
+                                 "hides ~/.config/station/keys); keys=\"keys\" is the keys "
+                                 "directory beside the installed blueprint", str(c.where))
+        if keys.startswith(("/home/", "/root/", "/run/user/", "~")):
+            raise BlueprintError(f"keys={keys!r} is hidden from the units (ProtectHome=yes); "
+                                 "put the keys beside the installed blueprint", str(c.where))
+
+
 def units(bp: Blueprint, per_component: bool = False, install_path: str | None = None,
           user: str | None = None, station: str | None = None,
           overrides: list[str] | None = None) -> dict[str, str]:
@@ -87,6 +106,7 @@ def units(bp: Blueprint, per_component: bool = False, install_path: str | None =
     install = install_path or f"/etc/station/{name}.xml"
     # Paths as they will be on the target: the runtime and state directories.
     plan = resolve(bp, Path(f"/run/{runtime}"), Path(f"/var/lib/{state}"), stamp="")
+    _check_keys(bp)
     exe = _station_exe(station)
     sets = [a for o in overrides or [] for a in ("--set", o)]
     who = user or bp.user or DEFAULT_USER

@@ -10,6 +10,7 @@ from pathlib import Path
 from types import FrameType
 
 from station.bus import resolve_endpoint, run_proxy
+from station.cli.buskeys import check_keys
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -21,11 +22,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--pub", default="ipc:pub", help="endpoint publishers connect to (ipc:pub)")
     p.add_argument("--sub", default="ipc:sub", help="endpoint subscribers connect to (ipc:sub)")
-    p.add_argument("--keys", type=Path, default=None, help="CURVE key directory (tcp only)")
+    p.add_argument("--keys", type=Path, default=None, metavar="DIR",
+                   help="CURVE key directory for tcp endpoints (default "
+                        "~/.config/station/keys; not used on ipc)")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    check_keys(args.keys, None, (("--pub", args.pub, True), ("--sub", args.sub, True)))
     pub_url = resolve_endpoint(args.pub, True).url
     sub_url = resolve_endpoint(args.sub, True).url
     stop = threading.Event()
@@ -37,5 +41,8 @@ def run(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGINT, _stop)
     sys.stderr.write(f"station bus: publishers -> {pub_url}, subscribers <- {sub_url}\n")
     sys.stderr.flush()
-    run_proxy(args.pub, args.sub, keys=args.keys, stop=stop)
+    rejected = run_proxy(args.pub, args.sub, keys=args.keys, stop=stop)
+    if rejected:
+        sys.stderr.write(f"station bus: stopped; refused {rejected} connection(s) with a "
+                         "client key not authorised\n")
     return 0

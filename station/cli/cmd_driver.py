@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from station.cli.buskeys import check_keys
 from station.errors import BadInput
 
 
@@ -106,6 +107,9 @@ def normaliser_config(args: argparse.Namespace) -> Any:
 
 def run(args: argparse.Namespace) -> int:
     config = normaliser_config(args)
+    check_keys(args.keys, args.client_key,
+               [("--bus", args.bus, True)] + [("--haptic-bus", ep, False)
+                                               for ep in args.haptic_bus or ()])
     if args.status_interval <= 0:
         raise BadInput("must be > 0 seconds", "--status-interval")
     stop = threading.Event()
@@ -139,6 +143,8 @@ def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
                                **totals, **extra}
         if driver is not None:
             rec.update(driver.status())
+        if publisher.endpoint.is_tcp and publisher.endpoint.bind:
+            rec["curve_rejected"] = publisher.curve_rejected  # clients with a key not authorised
         last = rec
         publisher.publish_status(rec)
 
@@ -164,7 +170,8 @@ def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
         while not stop.is_set():
             attach_bus = getattr(source, "attach_bus", None)
             if attach_bus is not None:  # a haptic device: forces from haptic.<device>
-                attach_bus(args.haptic_bus or args.bus)
+                attach_bus(args.haptic_bus or args.bus, keys=args.keys,
+                           client_key=args.client_key)
             ident = source.describe()
             calibration = choose_calibration(args.calibration, int(ident.get("vid") or 0),
                                              int(ident.get("pid") or 0))
@@ -214,7 +221,8 @@ def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
             if w is not None:
                 w.close()
         publisher.close()
-    keys = ("state", "total_samples", "reports", "bad_reports", "skipped_reports", "reconnects")
+    keys = ("state", "total_samples", "reports", "bad_reports", "skipped_reports", "reconnects",
+            *(("curve_rejected",) if "curve_rejected" in last else ()))
     sys.stderr.write("station driver: " + json.dumps({k: last.get(k) for k in keys}) + "\n")
     return 0
 

@@ -7,6 +7,7 @@ import json
 import sys
 from pathlib import Path
 
+from station.cli.buskeys import add_key_flags, check_keys
 from station.errors import BadInput
 
 
@@ -62,6 +63,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=float, metavar="SECONDS", help="stop after this long")
     p.add_argument("--screenshot-dir", metavar="DIR",
                    help="directory for 'screenshot {\"name\": N}' commands from the bus")
+    add_key_flags(p)
     p.set_defaults(func=run)
 
 
@@ -84,6 +86,9 @@ def run(args: argparse.Namespace) -> int:
     if args.bus and args.bus.startswith("@"):
         raise BadInput("the kiosk connects to the bus (a driver or 'station bus' binds it); "
                        "drop the '@'", "--bus")
+    check_keys(args.keys, args.client_key,
+               (("--bus", args.bus, False), ("--status", args.status, True),
+                ("--cmd", args.cmd, True)))
     if not (0 <= args.autosave <= 3600):
         raise BadInput("must be 0 (off) to 3600 seconds", "--autosave")
     if not (0 <= args.predict_ms <= 200):
@@ -103,7 +108,7 @@ def run(args: argparse.Namespace) -> int:
         screenshot_dir=Path(args.screenshot_dir) if args.screenshot_dir else None,
         view=args.view, vsync=not args.no_vsync, cmd=args.cmd, autosave=args.autosave,
         sim_thread=not args.inline_sim, predict_ms=args.predict_ms,
-        present=args.present)
+        present=args.present, keys=args.keys, client_key=args.client_key)
     app = KioskApp(cfg)
     app.install_signal_handlers()
     sys.stderr.write(f"station kiosk: {width}x{height} {cfg.profile} on "

@@ -19,6 +19,7 @@ import time
 from typing import IO, Any
 
 from station.cli.argtypes import positive_seconds
+from station.cli.buskeys import add_key_flags, check_keys
 from station.errors import BadInput
 
 
@@ -35,6 +36,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="stop after S seconds")
     p.add_argument("--no-init", action="store_true",
                    help="do not send the init feature reports (records mouse mode on a Wacom)")
+    add_key_flags(p)
     p.set_defaults(func=run)
 
 
@@ -152,12 +154,14 @@ def _record_bus(args: argparse.Namespace) -> int:
     if args.bus.startswith("@"):
         raise BadInput("the recorder connects to the bus (a driver or 'station bus' binds it); "
                        "drop the '@'", "--bus")
+    check_keys(args.keys, args.client_key, (("--bus", args.bus, False),))
     stop = threading.Event()
     old = {sig: signal.signal(sig, lambda *_: stop.set())
            for sig in (signal.SIGINT, signal.SIGTERM)}
     deadline = time.monotonic() + args.duration if args.duration else None
     counts = {"samples": 0, "commands": 0, "retimed": 0}
-    sub = Subscriber(args.bus, topics=("pen.", "cmd"))
+    sub = Subscriber(args.bus, topics=("pen.", "cmd"), keys=args.keys,
+                     client_key=args.client_key)
     try:
         header = SessionHeader(extra={"source": sub.endpoints[0].url,
                                       "recorded_by": "station record"})

@@ -15,6 +15,7 @@ import sys
 import threading
 from typing import Any
 
+from station.cli.buskeys import add_key_flags, check_keys
 from station.errors import BadInput
 from station.progress import Progress
 
@@ -34,6 +35,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="with --bus: seconds between heartbeats on hb.<device> (default "
                         "0.2, as `station driver`: the sim notices a replay that stopped)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    add_key_flags(p)
     p.set_defaults(func=run)
 
 
@@ -56,6 +58,7 @@ def run(args: argparse.Namespace) -> int:
     from station.sessionlog import SessionHeader, SessionLogWriter
 
     speed = parse_speed(args.speed)
+    check_keys(args.keys, args.client_key, (("--bus", args.bus, True),))
     trace = read_trace(args.trace)
     replay = TraceReplay(trace, device_name=args.name)
     if not replay.pen_devices:  # one line: the skipped devices are in the message
@@ -72,7 +75,8 @@ def run(args: argparse.Namespace) -> int:
     if args.bus:
         from station.bus import HEARTBEAT_S, Publisher
 
-        publisher = Publisher(args.bus, heartbeat=args.heartbeat or HEARTBEAT_S)
+        publisher = Publisher(args.bus, heartbeat=args.heartbeat or HEARTBEAT_S,
+                              keys=args.keys, client_key=args.client_key)
         if args.wait_subscribers:
             publisher.wait_for_subscribers(args.wait_subscribers, timeout=5.0)
     stop = threading.Event()

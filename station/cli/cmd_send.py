@@ -16,6 +16,7 @@ import math
 import sys
 from typing import Any
 
+from station.cli.buskeys import add_key_flags, check_keys
 from station.errors import BadInput, StationError
 from station.events import Command
 
@@ -35,6 +36,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "sim --cmd` binds by default)")
     p.add_argument("--timeout", type=float, default=DEFAULT_TIMEOUT_S, metavar="S",
                    help="how long to wait for the sim to be there (default 3 s)")
+    add_key_flags(p)
     p.set_defaults(func=run)
 
 
@@ -77,7 +79,9 @@ def run(args: argparse.Namespace) -> int:
     command = Command(t=0.0, cmd=args.cmd, args=parse_args(args.args), where="CMD")
     check_command(command, default_palette(), where=f"command {command.cmd!r}")
     target = args.to or ">" + DEFAULT_CMD_ENDPOINT
-    with Publisher(target, bind=False, replay=False) as pub:
+    check_keys(args.keys, args.client_key, (("--to", target, False),))
+    with Publisher(target, bind=False, replay=False, keys=args.keys,
+                   client_key=args.client_key) as pub:
         if not pub.wait_for_subscribers(1, timeout=args.timeout):
             raise StationError(f"no station sim listens on {pub.url} (is it running? "
                                "its --cmd endpoint?)")

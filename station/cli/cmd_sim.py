@@ -9,6 +9,7 @@ import sys
 from typing import TYPE_CHECKING
 
 from station.cli.argtypes import seconds_or_zero
+from station.cli.buskeys import add_key_flags, check_keys
 from station.cli.cmd_paint import BACKEND_HELP, BACKENDS
 from station.errors import BadInput, StationError
 from station.sim.paint import check_outputs, load_resume_state, parse_size
@@ -57,6 +58,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--cmd", metavar="ENDPOINT",
                    help="where `station send` reaches this sim (default @ipc:sim-cmd; "
                         "'none' to disable)")
+    add_key_flags(p)
     p.add_argument("--distributed", action="store_true",
                    help="one canvas over all ranks of an MPI job: mpiexec -n N station sim "
                         "... --distributed; rank 0 reads the bus and writes log, state and "
@@ -68,6 +70,9 @@ def run(args: argparse.Namespace) -> int:
     from station.canvas.profiles import get_profile
     from station.sim.live import LiveConfig, LiveSim
 
+    check_keys(args.keys, args.client_key,
+               (("--bus", args.bus, False), ("--status", args.status, True),
+                ("--cmd", args.cmd, True)))
     size = parse_size(args.size) if args.size else None
     if args.profile:
         get_profile(args.profile)
@@ -88,7 +93,8 @@ def run(args: argparse.Namespace) -> int:
                      backend=args.backend, seed=args.seed, rate=args.rate,
                      log_path=args.log, state_path=args.state, png_path=args.png,
                      status=args.status, duration=args.duration, resume=args.resume,
-                     autosave=args.autosave, recover=args.recover, cmd=args.cmd)
+                     autosave=args.autosave, recover=args.recover, cmd=args.cmd,
+                     keys=args.keys, client_key=args.client_key)
     if args.distributed:
         from station.distributed.guard import abort_job_on_error
 

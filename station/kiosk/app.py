@@ -128,6 +128,8 @@ class KioskConfig:
     sim_thread: bool = True  # steps in a thread of their own (False: in the frame loop)
     predict_ms: float = 16.0  # the pen shadow drawn this far ahead of the last sample (0: off)
     present: str = "auto"  # auto, swap, partial (station.kiosk.present)
+    keys: Path | None = None  # CURVE key directory for tcp endpoints (None: the default)
+    client_key: str | None = None  # a client key pair of its own for connecting over tcp
 
 
 def numba_threadsafe() -> bool:
@@ -249,12 +251,16 @@ class KioskApp:
         from station.sim.live import default_status_endpoint
 
         status_ep = cfg.status or default_status_endpoint(cfg.bus)
-        self.pub = None if status_ep == "none" else Publisher(status_ep)
-        self.driver_sub = Subscriber(cfg.bus, topics=("status",))
+        keys, client_key = cfg.keys, cfg.client_key  # CURVE, used on tcp only
+        self.pub = None if status_ep == "none" else Publisher(status_ep, keys=keys,
+                                                              client_key=client_key)
+        self.driver_sub = Subscriber(cfg.bus, topics=("status",), keys=keys,
+                                     client_key=client_key)
         # `station send` reaches the kiosk here (the sessions come and go; this stays)
         cmd_ep = cfg.cmd or "@" + DEFAULT_CMD_ENDPOINT
         self.cmd_sub = None if cmd_ep == "none" else Subscriber(
-            cmd_ep if cmd_ep[0] in "@>" else "@" + cmd_ep, topics=("cmd",))
+            cmd_ep if cmd_ep[0] in "@>" else "@" + cmd_ep, topics=("cmd",), keys=keys,
+            client_key=client_key)
         from station.canvas.params import get_profile
 
         brush = get_profile(cfg.profile).brush
@@ -340,7 +346,8 @@ class KioskApp:
         live = LiveConfig(bus=cfg.bus, width=cfg.width, height=cfg.height, profile=cfg.profile,
                           backend=cfg.backend, seed=cfg.seed, rate=cfg.rate,
                           log_path=str(self.live_dir / f"{pid}.jsonl"), status="none",
-                          cmd="none", autosave=cfg.autosave, backend_opts=opts)
+                          cmd="none", autosave=cfg.autosave, backend_opts=opts,
+                          keys=cfg.keys, client_key=cfg.client_key)
         session = KioskSession(live, map_pen=self._map_pen, kiosk_command=self._kiosk_command)
         pub = self.pub
         if pub is not None:  # the deformable brush's reaction to haptic devices

@@ -110,6 +110,8 @@ class LiveConfig:
     cmd: str | None = None  # command endpoint for `station send`; "none" disables
     backend_opts: dict[str, Any] = field(default_factory=dict)  # e.g. ctx= of a kiosk window
     distributed: bool = False  # rank 0 of an MPI job: the canvas spans every rank
+    keys: Path | None = None  # CURVE key directory for tcp endpoints (None: the default)
+    client_key: str | None = None  # a client key pair of its own for connecting over tcp
 
 
 def default_status_endpoint(bus: str | None) -> str:
@@ -626,10 +628,12 @@ class LiveSim(LiveCore):
         cmd_ep = cfg.cmd or "@" + DEFAULT_CMD_ENDPOINT
         if cmd_ep != "none":
             endpoints.append(cmd_ep if cmd_ep[0] in "@>" else "@" + cmd_ep)
-        self.sub = Subscriber(endpoints, topics=("pen.", "cmd", "hb."))  # type: ignore[arg-type]
+        self.sub = Subscriber(endpoints, topics=("pen.", "cmd", "hb."),  # type: ignore[arg-type]
+                              keys=cfg.keys, client_key=cfg.client_key)
         status_ep = cfg.status or default_status_endpoint(cfg.bus)
         try:
-            self.pub = None if status_ep == "none" else Publisher(status_ep)
+            self.pub = None if status_ep == "none" else Publisher(
+                status_ep, keys=cfg.keys, client_key=cfg.client_key)
             super().__init__(cfg)
         except BaseException:
             self.sub.close()
