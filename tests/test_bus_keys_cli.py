@@ -142,10 +142,9 @@ def test_recorder_with_a_key_not_authorised_gets_nothing_and_the_driver_counts_i
                       "--jsonl", str(drv_out), "--status-interval", "0.2")
         assert drv.returncode == 0, drv.stderr
         sent = len(pen_records(drv_out))
-        deadline = time.monotonic() + 20
-        while time.monotonic() < deadline and (not good_out.exists()
-                                               or len(pen_records(good_out)) < sent):
-            time.sleep(0.1)
+        # the recorder writes its log as it goes but flushes on exit: give the last
+        # messages time to arrive, then stop it (its summary says what it got)
+        time.sleep(1.0)
     finally:
         good_code, good_err = finish(good)
         bad_code, bad_err = finish(bad)
