@@ -73,6 +73,25 @@ class TuftModel:
             ``dry_lift · (1 - fill)² · depth_max``: a drying brush gives paint only
             where its bristles press deepest into the paper, so the stroke breaks
             up along the paper's hills.
+        ink_reach: how far the ink a loaded tuft holds hangs below its bristles
+            (cells); the bead is ``ink_reach · min(1, fill / tip_hold)`` deep.
+            Where the liquid touches the paper its capillaries draw the ink in, so
+            a loaded tuft wets the
+            tooth's valleys between the hills its bristles rest on.  A property of
+            the ink and the gaps between bristles, not of the tuft's size: without
+            it a tuft of a few cells, whose bristle tubes reach only ~0.4 cells below
+            the plane, touches nothing but the hills of a 1.5-cell tooth and leaves
+            a dotted line (docs/brush.md, "Thin strokes").
+        tip_hold: the fill below which the bead shrinks: the gaps between bristles
+            are finest at the tip, so capillarity keeps the tip saturated, drawing
+            on the belly, until the belly is nearly drained; then the tip dries and
+            the stroke breaks up (dry-brush, flying white).
+        frame_interval: session seconds between two spine solves while the pen
+            moves less than ``frame_reach`` tuft lengths: the samples in between
+            (a 1 kHz pen) stamp the last solved tuft along their own path.  Pens at
+            ≤ 250 Hz get a solve for every sample.
+        frame_reach: how far (tuft lengths) the pen may move from the last solved
+            pose before a sample gets its own solve whatever the clock says.
     """
 
     tooth: float = 1.5
@@ -80,6 +99,10 @@ class TuftModel:
     min_bristle_radius: float = 0.35
     spacing: float = 0.25
     dry_lift: float = 0.9
+    ink_reach: float = 1.0
+    tip_hold: float = 0.25
+    frame_interval: float = 0.004
+    frame_reach: float = 0.5
 
 
 @dataclass(slots=True)
@@ -100,6 +123,13 @@ class _Stroke:
     vy: float = 0.0
     to_next: float = 0.0
     previous: Footprint | None = None
+    # the last solved frame: where the pen was, when, the bristles (cells) and,
+    # once a stamp needed them, their maps
+    fx: float = 0.0
+    fy: float = 0.0
+    ft: float = 0.0
+    bristles: np.ndarray | None = None
+    maps: FootprintMaps | None = None
 
 
 class DeformableBrush:
@@ -289,17 +319,21 @@ class DeformableBrush:
         if p == 0.0 and sample.tool in NO_PRESSURE_TOOLS:
             p = self.model.default_pressure
         x, y = sample.x * self.width, sample.y * self.height
-        maps = self.footprint(self.frame(x, y, p, sample.tilt_x, sample.tilt_y,
-                                         sample.rotation or 0.0))
-        self.last_maps = maps
         stroke = self._strokes.get(key)
         if stroke is None:
             self.strokes += 1
             stroke = _Stroke(x, y, sample.t)
             self._strokes[key] = stroke
+            self._solve(stroke, x, y, p, sample)
+            maps = self._maps(stroke)
             self._stamp(stroke, maps, 0, 0)
             stroke.to_next = self._spacing(maps)
             return 1
+        if self._due(stroke, x, y, sample.t):
+            self._solve(stroke, x, y, p, sample)
+        # the footprint belongs to the last solved frame, at (fx, fy): a stamp at
+        # (sx, sy) shifts it by whole cells (ex, ey = where the pen is now, seen from there)
+        ex, ey = x - stroke.fx, y - stroke.fy
         dx, dy = x - stroke.x, y - stroke.y
         dist = math.hypot(dx, dy)
         dt = sample.t - stroke.t
@@ -309,17 +343,43 @@ class DeformableBrush:
             stroke.vx = stroke.vy = 0.0
         made = 0
         pos = stroke.to_next
-        step = self._spacing(maps)
+        step = 0.0
         while pos <= dist and dist > 0.0:
-            back = dist - pos  # the footprint belongs to the frame's end point
-            self._stamp(stroke, maps, -int(round(dy * back / dist)),
-                        -int(round(dx * back / dist)))
+            back = dist - pos  # along the path back from the sample's point
+            maps = self._maps(stroke)
+            self._stamp(stroke, maps, -int(round(dy * back / dist - ey)),
+                        -int(round(dx * back / dist - ex)))
             made += 1
+            step = step or self._spacing(maps)
             pos += step
         if dist > 0.0:
             stroke.to_next = pos - dist
         stroke.x, stroke.y, stroke.t = x, y, sample.t
         return made
+
+    def _due(self, s: _Stroke, x: float, y: float, t: float) -> bool:
+        """Does this sample need its own spine solve?  Yes when ``frame_interval`` has
+        passed since the last one (every sample of a pen at ≤ 250 Hz), when the clock
+        went back, or when the pen left the last solved pose by ``frame_reach`` tuft
+        lengths; a 1 kHz pen's samples in between move the last tuft along their path."""
+        tm = self.tuft_model
+        dt = t - s.ft
+        if dt >= tm.frame_interval - 1e-9 or dt < 0.0:
+            return True
+        return math.hypot(x - s.fx, y - s.fy) >= tm.frame_reach * self.tuft_length
+
+    def _solve(self, s: _Stroke, x: float, y: float, p: float, sample: PenSample) -> None:
+        s.bristles = self.frame(x, y, p, sample.tilt_x, sample.tilt_y, sample.rotation or 0.0)
+        s.fx, s.fy, s.ft = x, y, sample.t
+        s.maps = None
+
+    def _maps(self, s: _Stroke) -> FootprintMaps:
+        """The last solved frame's footprint, rasterised when a stamp first needs it."""
+        if s.maps is None:
+            assert s.bristles is not None  # every stroke starts with a solve
+            s.maps = self.footprint(s.bristles)
+            self.last_maps = s.maps
+        return s.maps
 
     def _spacing(self, maps: FootprintMaps) -> float:
         h, w = maps.cover.shape
@@ -327,8 +387,12 @@ class DeformableBrush:
 
     def _stamp(self, s: _Stroke, maps: FootprintMaps, dy: int, dx: int) -> None:
         tm = self.tuft_model
-        dry = 1.0 - self.reservoir.fill
-        lift = tm.dry_lift * dry * dry * max(0.0, float(maps.depth.max(initial=0.0)))
+        fill = self.reservoir.fill
+        dry = 1.0 - fill
+        # the bristles lifted as the tuft dries, lowered by the ink bead a loaded tuft
+        # holds below them (both cells; negative = reaching below the bristles)
+        lift = (tm.dry_lift * dry * dry * max(0.0, float(maps.depth.max(initial=0.0)))
+                - tm.ink_reach * min(1.0, fill / tm.tip_hold))
         y0, x0, wt = weight(maps, self.paper, tm.tooth, tm.ramp, dy, dx, lift)
         self.stamps += 1
         if wt.size == 0:
