@@ -23,6 +23,10 @@ def thin_stroke(kind: str, size: float, rate: float, tuft: TuftModel | None = No
     paper = make_paper(get_profile("ink").paper, H, W, seed)
     settings = BrushSettings(kind=kind, size=size, water=0.5, pigment={"Sumi Ink": 0.5})
     b = DeformableBrush(W, H, settings, BrushModel(), paper, tuft=tuft)
+    # a tuft of 3 cells holds paint for ~15 of its widths: this is about the contact,
+    # not the depletion, so the brush holds enough to stay about half-loaded
+    b.reservoir.capacity *= 4
+    b.reservoir.load(0.5, {"Sumi Ink": 0.5}, b.model.water_scale, b.model.pigment_scale)
     n = int(rate * 0.25)
     for i in range(n + 1):
         b.feed(PenSample(t=i / rate, device="d", tool="pen", x=0.1 + 0.5 * i / n, y=0.5,  # type: ignore[arg-type]
@@ -46,8 +50,8 @@ def centreline(dp: np.ndarray) -> tuple[float, float]:
 def test_half_loaded_thin_stroke_is_continuous(kind: str, size: float, rate: float) -> None:
     dp, b = thin_stroke(kind, size, rate)
     covered, cv = centreline(dp)
-    assert covered >= 0.95 and cv < 0.6, (covered, cv)
-    assert b.reservoir.fill > 0.1  # not yet run dry: the line must hold
+    assert covered >= 0.95 and cv < 0.5, (covered, cv)
+    assert b.reservoir.fill > 0.3  # still about half-loaded
     # the tuft's bristles alone reach ~0.4 cells below the plane: on a 1.5-cell tooth
     # they touch only the hills, and the same stroke is a row of dots
     dots, _ = thin_stroke(kind, size, rate, TuftModel(ink_reach=0.0))
@@ -58,6 +62,8 @@ def test_a_thin_stroke_breaks_up_only_when_the_brush_runs_dry() -> None:
     paper = make_paper(get_profile("ink").paper, H, 4 * W, 5)
     settings = BrushSettings(kind="round3d", size=3, water=0.5, pigment={"Sumi Ink": 0.5})
     b = DeformableBrush(4 * W, H, settings, BrushModel(), paper)
+    b.reservoir.capacity *= 3  # a longer wet stretch to measure
+    b.reservoir.load(0.5, {"Sumi Ink": 0.5}, b.model.water_scale, b.model.pigment_scale)
     fills, n = [], 480
     for i in range(n + 1):
         b.feed(PenSample(t=i / 120, device="d", tool="pen", x=0.05 + 0.9 * i / n, y=0.5,  # type: ignore[arg-type]
@@ -70,16 +76,18 @@ def test_a_thin_stroke_breaks_up_only_when_the_brush_runs_dry() -> None:
     xs = 0.05 * 4 * W + 0.9 * 4 * W * np.arange(n + 1) / n
     fill_at = np.interp(np.arange(4 * W) + 0.5, xs, fills)
     along = (np.arange(4 * W) > xs[0] + 4) & (np.arange(4 * W) < xs[-1] - 4)
-    wet, dry = along & (fill_at > 0.3), along & (fill_at < 0.07)
-    assert wet.sum() >= 10 and dry.sum() > 60
+    # connected ink down to the tip (fill above film_fill 0.4 at the start) vs the
+    # pendular tuft that has painted itself down to near pendular_fill 0.2
+    wet, dry = along & (fill_at > 0.36), along & (fill_at < 0.24)
+    assert wet.sum() >= 30 and dry.sum() > 100
 
     def covered(cells: np.ndarray) -> float:  # above a tenth of the local mean, 20 cells
         idx = np.flatnonzero(cells)
         parts = [row[idx[k:k + 20]] for k in range(0, idx.size - 9, 20)]
         return float(np.mean([(p > 0.1 * p.mean()).mean() for p in parts]))
 
-    assert covered(wet) >= 0.95
-    assert covered(dry) < 0.6  # run dry: broken
+    assert covered(wet) >= 0.9
+    assert covered(dry) < 0.5  # run dry: broken
 
 
 def test_a_1khz_pen_solves_every_fourth_sample() -> None:

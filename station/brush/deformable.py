@@ -74,18 +74,22 @@ class TuftModel:
             where its bristles press deepest into the paper, so the stroke breaks
             up along the paper's hills.
         ink_reach: how far the ink a loaded tuft holds hangs below its bristles
-            (cells); the bead is ``ink_reach · min(1, fill / tip_hold)`` deep.
+            (cells) while its liquid is connected (``fill ≥ film_fill``).
             Where the liquid touches the paper its capillaries draw the ink in, so
-            a loaded tuft wets the
-            tooth's valleys between the hills its bristles rest on.  A property of
-            the ink and the gaps between bristles, not of the tuft's size: without
-            it a tuft of a few cells, whose bristle tubes reach only ~0.4 cells below
-            the plane, touches nothing but the hills of a 1.5-cell tooth and leaves
-            a dotted line (docs/brush.md, "Thin strokes").
-        tip_hold: the fill below which the bead shrinks: the gaps between bristles
-            are finest at the tip, so capillarity keeps the tip saturated, drawing
-            on the belly, until the belly is nearly drained; then the tip dries and
-            the stroke breaks up (dry-brush, flying white).
+            a loaded tuft wets the tooth's valleys between the hills its bristles
+            rest on.  A property of the ink and the gaps between bristles, not of
+            the tuft's size: without it a tuft of a few cells, whose bristle tubes
+            reach only ~0.4 cells below the plane, touches nothing but the hills of
+            a 1.5-cell tooth and leaves a dotted line (docs/brush.md, "Thin
+            strokes").
+        film_fill, pendular_fill: the tuft is a porous body: above ``film_fill``
+            its ink is one connected liquid that wets the tip (the funicular
+            regime); below ``pendular_fill`` only isolated rings of liquid remain
+            where bristles cross (the pendular regime) and nothing hangs below the
+            bristles: the bead is ``ink_reach · clip((fill - pendular_fill) /
+            (film_fill - pendular_fill), 0, 1)`` deep.  A brush dipped in little
+            water, or one that has painted itself below ``pendular_fill``, gives
+            paint only where its bristles touch: dry-brush, flying white.
         frame_interval: session seconds between two spine solves while the pen
             moves less than ``frame_reach`` tuft lengths: the samples in between
             (a 1 kHz pen) stamp the last solved tuft along their own path.  Pens at
@@ -100,7 +104,8 @@ class TuftModel:
     spacing: float = 0.25
     dry_lift: float = 0.9
     ink_reach: float = 1.0
-    tip_hold: float = 0.25
+    film_fill: float = 0.4
+    pendular_fill: float = 0.2
     frame_interval: float = 0.004
     frame_reach: float = 0.5
 
@@ -381,6 +386,14 @@ class DeformableBrush:
             self.last_maps = s.maps
         return s.maps
 
+    def _wetness(self, fill: float) -> float:
+        """How connected the tuft's ink is, 0 (pendular) to 1 (a film down to the tip)."""
+        tm = self.tuft_model
+        span = tm.film_fill - tm.pendular_fill
+        if span <= 0.0:
+            return 1.0 if fill >= tm.film_fill else 0.0
+        return min(1.0, max(0.0, (fill - tm.pendular_fill) / span))
+
     def _spacing(self, maps: FootprintMaps) -> float:
         h, w = maps.cover.shape
         return max(1.0, self.tuft_model.spacing * 0.5 * max(h, w, 1))
@@ -392,7 +405,7 @@ class DeformableBrush:
         # the bristles lifted as the tuft dries, lowered by the ink bead a loaded tuft
         # holds below them (both cells; negative = reaching below the bristles)
         lift = (tm.dry_lift * dry * dry * max(0.0, float(maps.depth.max(initial=0.0)))
-                - tm.ink_reach * min(1.0, fill / tm.tip_hold))
+                - tm.ink_reach * self._wetness(fill))
         y0, x0, wt = weight(maps, self.paper, tm.tooth, tm.ramp, dy, dx, lift)
         self.stamps += 1
         if wt.size == 0:
