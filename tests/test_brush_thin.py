@@ -4,6 +4,8 @@ while its stroke keeps the pen's path."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -11,6 +13,7 @@ from station.brush.deformable import DeformableBrush, TuftModel
 from station.brush.stamp import BrushModel, BrushSettings
 from station.canvas.paper import make_paper
 from station.canvas.params import get_profile
+from station.cli import main
 from station.events import PenSample
 
 W, H = 96, 48
@@ -135,3 +138,16 @@ def test_coalesced_frames_match_a_solve_per_sample() -> None:
     assert abs(coalesced.sum() - every.sum()) <= 0.05 * every.sum()
     a, b = coalesced > 0, every > 0
     assert (a & b).sum() / (a | b).sum() > 0.85  # the same trail
+
+
+def test_bench_brush_reports_the_1khz_pen(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["bench", "brush", "--json", "--kinds", "round3d", "--frames", "10",
+                 "--sim-seconds", "0", "--pen-samples", "200"]) == 0
+    pen = json.loads(capsys.readouterr().out)["pen_1khz"]
+    assert {(r["kind"], r["size"]) for r in pen} >= {("round3d", 3.0), ("flat", 4.0)}
+    for r in pen:
+        assert r["solves_per_sample"] <= 0.27 and r["samples"] == 200
+        for key in ("samples_per_s", "samples_per_cpu_s", "peer_round_samples_per_cpu_s",
+                    "ratio_to_peer_cpu", "solve_each_sample_per_cpu_s", "goal_samples_per_s"):
+            assert r[key] > 0
+    assert main(["bench", "brush", "--pen-samples", "-1", "--sim-seconds", "0"]) == 2

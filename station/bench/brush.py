@@ -15,7 +15,7 @@ Measures, on this machine and in this process:
   the same process; ``*_per_cpu_s`` divide by the process's CPU time instead
   of the wall clock.
 
-* ``pen_1khz``: a 1000 Hz pen (a steady wavy stroke, 2-4 cell tufts and a
+* ``pen_1khz``: a 1000 Hz pen (a steady wavy stroke at 160 cells/s, 3-4 cell tufts and a
   16-cell one, half-loaded) fed to the deformable brush, the sources taken
   every 10 samples as a 100 Hz simulation would: samples per second (wall and
   CPU) beside the peer, the round stamp brush fed the same samples in the
@@ -90,7 +90,8 @@ def _pen_samples(n: int, rate: float) -> list[Any]:
     from station.events import PenSample
 
     return [PenSample(t=i / rate, device="bench", tool="pen",  # type: ignore[arg-type]
-                      x=0.1 + 0.8 * i / n, y=0.5 + 0.1 * math.sin(i / 300.0),
+                      x=0.1 + 0.8 * ((0.5 * i / rate) % 1.0),  # 160 cells/s
+                      y=0.5 + 0.1 * math.sin(i / 300.0),
                       pressure=0.5 + 0.2 * math.sin(i / 200.0), touching=True)
             for i in range(n)]
 

@@ -11,11 +11,15 @@ Pen mapping (§7):
 * rotation (Art Pen) → twist of the handle about its axis (a flat brush's
   width turns with it).
 
-Every pen sample is a *frame*: the spines find their equilibrium (warm
-started), the tuft is deformed and its footprint rasterised.  Between two
-frames the footprint is stamped along the path at a spacing of a fraction of
-its size (shifted by whole cells), each stamp giving only what the previous
-one did not cover, so the bristle marks run along the stroke.  The paint
+A pen sample is a *frame* when it is due (``TuftModel.frame_interval``: every
+sample of a pen at ≤ 250 Hz, every fourth of a 1 kHz one): the spines find
+their equilibrium (warm started) and the tuft is deformed; its footprint is
+rasterised when a stamp first needs it.  Along the path of the samples the
+last frame's footprint is stamped at a spacing of a fraction of its size
+(shifted by whole cells), each stamp giving only what the previous one did not
+cover, so the bristle marks run along the stroke.  The contact reaches below
+the bristles by the ink bead a loaded tuft holds (``TuftModel.ink_reach``):
+without it a tuft of a few cells touches only the hills of the paper's tooth.  The paint
 comes from the :class:`~station.brush.reservoir.Reservoir`; where the
 footprint passes over wet paint, pick-up requests are queued for the player,
 which applies them to the canvas arrays before the next step.

@@ -131,7 +131,8 @@ def weight(maps: FootprintMaps, paper: np.ndarray, tooth: float, ramp: float,
     where they stay half a ramp above it.  Returns ``(y0, x0, weight)``
     clipped to the canvas (an empty array when outside).  ``lift`` (cells)
     raises the bristles: a drying brush gives paint only where it presses
-    deepest into the paper.
+    deepest into the paper; negative, the contact reaches below them (the ink
+    bead of a loaded tuft, :class:`~station.brush.deformable.TuftModel`).
     """
     hh, ww = paper.shape
     y0, x0 = maps.y0 + dy, maps.x0 + dx
