@@ -77,8 +77,11 @@ class TuftModel:
             ``dry_lift · (1 - fill)² · depth_max``: a drying brush gives paint only
             where its bristles press deepest into the paper, so the stroke breaks
             up along the paper's hills.
-        ink_reach: how far the ink a loaded tuft holds hangs below its bristles
-            (cells) while its liquid is connected (``fill ≥ film_fill``).
+        ink_reach: how far below the plane the ink a loaded tuft holds wets the
+            paper's tooth (cells; the whole tooth by default) under the pressed
+            body of the tuft (:func:`~station.brush.footprint.weight`) while its
+            liquid is connected (``fill ≥ film_fill``); the contact reaches the
+            deeper of bristles and ink.
             Where the liquid touches the paper its capillaries draw the ink in, so
             a loaded tuft wets the tooth's valleys between the hills its bristles
             rest on.  A property of the ink and the gaps between bristles, not of
@@ -107,7 +110,7 @@ class TuftModel:
     min_bristle_radius: float = 0.35
     spacing: float = 0.25
     dry_lift: float = 0.9
-    ink_reach: float = 1.0
+    ink_reach: float = 1.5
     film_fill: float = 0.4
     pendular_fill: float = 0.2
     frame_interval: float = 0.004
@@ -406,11 +409,11 @@ class DeformableBrush:
         tm = self.tuft_model
         fill = self.reservoir.fill
         dry = 1.0 - fill
-        # the bristles lifted as the tuft dries, lowered by the ink bead a loaded tuft
-        # holds below them (both cells; negative = reaching below the bristles)
-        lift = (tm.dry_lift * dry * dry * max(0.0, float(maps.depth.max(initial=0.0)))
-                - tm.ink_reach * self._wetness(fill))
-        y0, x0, wt = weight(maps, self.paper, tm.tooth, tm.ramp, dy, dx, lift)
+        # the bristles lifted as the tuft dries; the ink bead a loaded tuft holds
+        # reaches below them (cells)
+        lift = tm.dry_lift * dry * dry * max(0.0, float(maps.depth.max(initial=0.0)))
+        bead = tm.ink_reach * self._wetness(fill)
+        y0, x0, wt = weight(maps, self.paper, tm.tooth, tm.ramp, dy, dx, lift, bead)
         self.stamps += 1
         if wt.size == 0:
             s.previous = None
