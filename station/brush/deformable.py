@@ -17,9 +17,9 @@ their equilibrium (warm started) and the tuft is deformed; its footprint is
 rasterised when a stamp first needs it.  Along the path of the samples the
 last frame's footprint is stamped at a spacing of a fraction of its size
 (shifted by whole cells), each stamp giving only what the previous one did not
-cover, so the bristle marks run along the stroke.  The contact reaches below
-the bristles by the ink bead a loaded tuft holds (``TuftModel.ink_reach``):
-without it a tuft of a few cells touches only the hills of the paper's tooth.  The paint
+cover, so the bristle marks run along the stroke.  Where the tuft presses, the
+ink a loaded tuft holds wets the paper's tooth (``TuftModel.ink_reach``):
+without it a tuft of a few cells touches only the tooth's hills.  The paint
 comes from the :class:`~station.brush.reservoir.Reservoir`; where the
 footprint passes over wet paint, pick-up requests are queued for the player,
 which applies them to the canvas arrays before the next step.
@@ -79,22 +79,21 @@ class TuftModel:
             up along the paper's hills.
         ink_reach: how far below the plane the ink a loaded tuft holds wets the
             paper's tooth (cells; the whole tooth by default) under the pressed
-            body of the tuft (:func:`~station.brush.footprint.weight`) while its
-            liquid is connected (``fill ≥ film_fill``); the contact reaches the
-            deeper of bristles and ink.
-            Where the liquid touches the paper its capillaries draw the ink in, so
-            a loaded tuft wets the tooth's valleys between the hills its bristles
-            rest on.  A property of the ink and the gaps between bristles, not of
-            the tuft's size: without it a tuft of a few cells, whose bristle tubes
-            reach only ~0.4 cells below the plane, touches nothing but the hills of
-            a 1.5-cell tooth and leaves a dotted line (docs/brush.md, "Thin
+            body of the tuft (:func:`~station.brush.footprint.weight`), times
+            the wetness below; the contact reaches the deeper of bristles and
+            ink.  Where the liquid touches the paper its capillaries draw the ink
+            in, so a loaded tuft wets the valleys between the hills its bristles
+            rest on.  A property of the ink and the paper, not of the tuft's
+            size: without it a tuft of a few cells, whose bristle tubes reach only
+            ~0.4 cells below the plane, touches nothing but the hills of a
+            1.5-cell tooth and leaves a dotted line (docs/brush.md, "Thin
             strokes").
         film_fill, pendular_fill: the tuft is a porous body: above ``film_fill``
             its ink is one connected liquid that wets the tip (the funicular
             regime); below ``pendular_fill`` only isolated rings of liquid remain
-            where bristles cross (the pendular regime) and nothing hangs below the
-            bristles: the bead is ``ink_reach · clip((fill - pendular_fill) /
-            (film_fill - pendular_fill), 0, 1)`` deep.  A brush dipped in little
+            where bristles cross (the pendular regime) and nothing reaches past the
+            bristles: the wetness is ``clip((fill - pendular_fill) / (film_fill -
+            pendular_fill), 0, 1)``.  A brush dipped in little
             water, or one that has painted itself below ``pendular_fill``, gives
             paint only where its bristles touch: dry-brush, flying white.
         frame_interval: session seconds between two spine solves while the pen
@@ -343,8 +342,8 @@ class DeformableBrush:
             return 1
         if self._due(stroke, x, y, sample.t):
             self._solve(stroke, x, y, p, sample)
-        # the footprint belongs to the last solved frame, at (fx, fy): a stamp at
-        # (sx, sy) shifts it by whole cells (ex, ey = where the pen is now, seen from there)
+        # the footprint belongs to the last solved frame, solved at (fx, fy); a stamp
+        # on the path shifts it by whole cells ((ex, ey): the pen now, seen from there)
         ex, ey = x - stroke.fx, y - stroke.fy
         dx, dy = x - stroke.x, y - stroke.y
         dist = math.hypot(dx, dy)
@@ -409,8 +408,8 @@ class DeformableBrush:
         tm = self.tuft_model
         fill = self.reservoir.fill
         dry = 1.0 - fill
-        # the bristles lifted as the tuft dries; the ink bead a loaded tuft holds
-        # reaches below them (cells)
+        # the bristles lifted as the tuft dries; the ink a loaded tuft holds wets the
+        # tooth below them (cells)
         lift = tm.dry_lift * dry * dry * max(0.0, float(maps.depth.max(initial=0.0)))
         bead = tm.ink_reach * self._wetness(fill)
         y0, x0, wt = weight(maps, self.paper, tm.tooth, tm.ramp, dy, dx, lift, bead)
