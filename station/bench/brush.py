@@ -20,7 +20,9 @@ Measures, on this machine and in this process:
   every 10 samples as a 100 Hz simulation would: samples per second (wall and
   CPU) beside the peer, the round stamp brush fed the same samples in the
   same run, and beside the same deformable brush solving every sample
-  (``frame_interval`` 0, the rule before session 3); goal ≥ 1000 samples/s.
+  (``frame_interval`` 0, the rule before session 3); goal ≥ 1000 samples/s;
+* ``sim.pen_1khz_*``: the 800x600 stroke again with ten samples of a 1 kHz pen
+  per simulation step: steps/s ≥ 100 is a 1 kHz pen kept up with.
 
 The goal for the solve is ≤ 1 ms per spine per frame (Baxter et al. 2004:
 about 0.1 ms per 3-joint spine in C at 1 GHz): NLopt's SLSQP calls back into
@@ -184,6 +186,27 @@ def measure_sim(kind: str, width: int, height: int, seconds: float) -> dict[str,
         k += 1
 
     steps, wall, cpu, brush_s = run(advance, canvas)
+
+    # a 1 kHz pen beside a 100 Hz simulation: ten samples per step, 0.3 cells apart
+    fast: Any = create_backend("cpu", width, height, "watercolor", 1, tiling=True)
+    fb = _stroke_brush(kind, width, height, 24.0, fast.live_state.h)
+    fb.model = b.model
+    fb.set(BrushSettings(kind=kind, size=24.0, water=1.0, pigment={"French Ultramarine": 0.5}))
+    n = 0
+
+    def advance_1khz() -> None:
+        nonlocal n
+        for _ in range(10):
+            x = 0.05 + 0.9 * ((n * 0.3 / width) % 1.0)
+            y = 0.5 + 0.15 * math.sin(n / 200.0)
+            fb.feed(PenSample(t=n / 1000.0, device="bench", tool="pen", x=x, y=y,  # type: ignore[arg-type]
+                              pressure=0.6, touching=True))
+            n += 1
+        src = fb.take()
+        if src is not None:
+            add_sources(fast, src)
+
+    f_steps, f_wall, f_cpu, f_brush = run(advance_1khz, fast)
     return {"backend": "cpu", "size": f"{width}x{height}", "kind": kind, "steps": steps,
             "sim_steps_per_s": round(steps / wall, 2),
             "sim_steps_per_cpu_s": round(steps / cpu, 2),
@@ -191,7 +214,12 @@ def measure_sim(kind: str, width: int, height: int, seconds: float) -> dict[str,
             "peer_round_disc_steps_per_s": round(p_steps / p_wall, 2),
             "peer_round_disc_steps_per_cpu_s": round(p_steps / p_cpu, 2),
             "ratio_to_peer_cpu": round((steps / cpu) / (p_steps / p_cpu), 3),
-            "goal_steps_per_s": 100}
+            "goal_steps_per_s": 100,
+            "pen_1khz_steps_per_s": round(f_steps / f_wall, 2),
+            "pen_1khz_steps_per_cpu_s": round(f_steps / f_cpu, 2),
+            "pen_1khz_samples_per_s": round(10 * f_steps / f_wall, 1),
+            "pen_1khz_brush_cpu_ms_per_sample": round(1e3 * f_brush / (10 * f_steps), 4),
+            "pen_1khz_ratio_to_peer_cpu": round((f_steps / f_cpu) / (p_steps / p_cpu), 3)}
 
 
 def register(sub: argparse._SubParsersAction) -> None:
