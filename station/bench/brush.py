@@ -15,6 +15,15 @@ Measures, on this machine and in this process:
   the same process; ``*_per_cpu_s`` divide by the process's CPU time instead
   of the wall clock.
 
+* ``pen_1khz``: a 1000 Hz pen (a steady wavy stroke at 160 cells/s, 3-4 cell tufts and a
+  16-cell one, half-loaded) fed to the deformable brush, the sources taken
+  every 10 samples as a 100 Hz simulation would: samples per second (wall and
+  CPU) beside the peer, the round stamp brush fed the same samples in the
+  same run, and beside the same deformable brush solving every sample
+  (``frame_interval`` 0, the rule before session 3); goal ≥ 1000 samples/s;
+* ``sim.pen_1khz_*``: the 800x600 stroke again with ten samples of a 1 kHz pen
+  per simulation step: steps/s ≥ 100 is a 1 kHz pen kept up with.
+
 The goal for the solve is ≤ 1 ms per spine per frame (Baxter et al. 2004:
 about 0.1 ms per 3-joint spine in C at 1 GHz): NLopt's SLSQP calls back into
 Python for every evaluation (~10 µs each with the numba kernels), and a
@@ -76,6 +85,59 @@ def measure_solver(kind: str, frames: int) -> dict[str, Any]:
     }
 
 
+PEN_GOAL = 1000.0
+
+
+def _pen_samples(n: int, rate: float) -> list[Any]:
+    from station.events import PenSample
+
+    return [PenSample(t=i / rate, device="bench", tool="pen",  # type: ignore[arg-type]
+                      x=0.1 + 0.8 * ((0.5 * i / rate) % 1.0),  # 160 cells/s
+                      y=0.5 + 0.1 * math.sin(i / 300.0),
+                      pressure=0.5 + 0.2 * math.sin(i / 200.0), touching=True)
+            for i in range(n)]
+
+
+def measure_pen(kind: str, size: float, samples: int, rate: float = 1000.0) -> dict[str, Any]:
+    """Samples per second a ``rate`` Hz pen gets through the deformable brush, the round
+    stamp brush (the peer) and the deformable brush with a solve for every sample."""
+    from station.brush.deformable import DeformableBrush, TuftModel
+    from station.brush.stamp import BrushModel, BrushSettings, RoundBrush
+
+    width, height = 400, 200
+    paper = np.ones((height, width), np.float32)
+    settings = BrushSettings(kind=kind, size=size, water=0.5, pigment={"Sumi Ink": 0.5})
+    pen = _pen_samples(samples, rate)
+
+    def timed(make: Any) -> tuple[float, float, Any]:
+        make_b = make()
+        for s in _pen_samples(20, rate):  # warm up (numba, NLopt)
+            make_b.feed(s)
+        b = make()
+        t0, c0 = time.perf_counter(), time.thread_time()
+        for i, s in enumerate(pen):
+            b.feed(s)
+            if i % 10 == 9:
+                b.take()
+        return time.perf_counter() - t0, time.thread_time() - c0, b
+
+    wall, cpu, b = timed(lambda: DeformableBrush(width, height, settings, BrushModel(), paper))
+    p_wall, p_cpu, _ = timed(lambda: RoundBrush(width, height, settings, BrushModel()))
+    e_wall, e_cpu, _ = timed(lambda: DeformableBrush(width, height, settings, BrushModel(),
+                                                     paper, tuft=TuftModel(frame_interval=0.0)))
+    n = len(pen)
+    return {"kind": kind, "size": size, "pen_hz": rate, "samples": n,
+            "solves_per_sample": round(b.frames / n, 3),
+            "samples_per_s": round(n / wall, 1), "samples_per_cpu_s": round(n / cpu, 1),
+            "peer_round_samples_per_s": round(n / p_wall, 1),
+            "peer_round_samples_per_cpu_s": round(n / p_cpu, 1),
+            "ratio_to_peer_cpu": round(p_cpu / cpu, 4),
+            "solve_each_sample_per_s": round(n / e_wall, 1),
+            "solve_each_sample_per_cpu_s": round(n / e_cpu, 1),
+            "speedup_cpu": round(e_cpu / cpu, 2),
+            "goal_samples_per_s": PEN_GOAL}
+
+
 def measure_sim(kind: str, width: int, height: int, seconds: float) -> dict[str, Any]:
     """cpu backend steps/s with one live stroke: ``station bench sim``'s stroke (a
     round disc source per step) and the deformable brush (one pen frame per step),
@@ -124,6 +186,27 @@ def measure_sim(kind: str, width: int, height: int, seconds: float) -> dict[str,
         k += 1
 
     steps, wall, cpu, brush_s = run(advance, canvas)
+
+    # a 1 kHz pen beside a 100 Hz simulation: ten samples per step, 0.3 cells apart
+    fast: Any = create_backend("cpu", width, height, "watercolor", 1, tiling=True)
+    fb = _stroke_brush(kind, width, height, 24.0, fast.live_state.h)
+    fb.model = b.model
+    fb.set(BrushSettings(kind=kind, size=24.0, water=1.0, pigment={"French Ultramarine": 0.5}))
+    n = 0
+
+    def advance_1khz() -> None:
+        nonlocal n
+        for _ in range(10):
+            x = 0.05 + 0.9 * ((n * 0.3 / width) % 1.0)
+            y = 0.5 + 0.15 * math.sin(n / 200.0)
+            fb.feed(PenSample(t=n / 1000.0, device="bench", tool="pen", x=x, y=y,  # type: ignore[arg-type]
+                              pressure=0.6, touching=True))
+            n += 1
+        src = fb.take()
+        if src is not None:
+            add_sources(fast, src)
+
+    f_steps, f_wall, f_cpu, f_brush = run(advance_1khz, fast)
     return {"backend": "cpu", "size": f"{width}x{height}", "kind": kind, "steps": steps,
             "sim_steps_per_s": round(steps / wall, 2),
             "sim_steps_per_cpu_s": round(steps / cpu, 2),
@@ -131,7 +214,12 @@ def measure_sim(kind: str, width: int, height: int, seconds: float) -> dict[str,
             "peer_round_disc_steps_per_s": round(p_steps / p_wall, 2),
             "peer_round_disc_steps_per_cpu_s": round(p_steps / p_cpu, 2),
             "ratio_to_peer_cpu": round((steps / cpu) / (p_steps / p_cpu), 3),
-            "goal_steps_per_s": 100}
+            "goal_steps_per_s": 100,
+            "pen_1khz_steps_per_s": round(f_steps / f_wall, 2),
+            "pen_1khz_steps_per_cpu_s": round(f_steps / f_cpu, 2),
+            "pen_1khz_samples_per_s": round(10 * f_steps / f_wall, 1),
+            "pen_1khz_brush_cpu_ms_per_sample": round(1e3 * f_brush / (10 * f_steps), 4),
+            "pen_1khz_ratio_to_peer_cpu": round((f_steps / f_cpu) / (p_steps / p_cpu), 3)}
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -139,6 +227,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="print JSON (the default output too)")
     p.add_argument("--kinds", default="round3d,flat", help="brush kinds (default %(default)s)")
     p.add_argument("--frames", type=int, default=300, help="frames per kind")
+    p.add_argument("--pen-samples", type=int, default=2000,
+                   help="samples of the 1 kHz pen measurement per brush (0: skip)")
     p.add_argument("--sim-seconds", type=float, default=3.0,
                    help="seconds of the 800x600 cpu stroke measurement (0: skip)")
     p.set_defaults(func=run)
@@ -159,6 +249,12 @@ def run(args: argparse.Namespace) -> int:
         print(f"bench brush: {r['kind']}: {r['solve_ms_per_spine']} ms per spine per frame",
               file=sys.stderr)
     out: dict[str, Any] = {"solver": results}
+    if not 0 <= args.pen_samples <= 100000:
+        raise BadInput(f"pen samples {args.pen_samples} outside [0, 100000]", "--pen-samples")
+    if args.pen_samples:
+        out["pen_1khz"] = [measure_pen(k, s, args.pen_samples)
+                           for k, s in (("round3d", 3.0), ("flat", 4.0), ("calligraphy", 3.0),
+                                        ("round3d", 16.0))]
     if args.sim_seconds > 0:
         out["sim"] = measure_sim(kinds[0], 800, 600, args.sim_seconds)
     print(json.dumps(out, indent=2))

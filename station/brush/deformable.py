@@ -11,11 +11,15 @@ Pen mapping (§7):
 * rotation (Art Pen) → twist of the handle about its axis (a flat brush's
   width turns with it).
 
-Every pen sample is a *frame*: the spines find their equilibrium (warm
-started), the tuft is deformed and its footprint rasterised.  Between two
-frames the footprint is stamped along the path at a spacing of a fraction of
-its size (shifted by whole cells), each stamp giving only what the previous
-one did not cover, so the bristle marks run along the stroke.  The paint
+A pen sample is a *frame* when it is due (``TuftModel.frame_interval``: every
+sample of a pen at ≤ 250 Hz, every fourth of a 1 kHz one): the spines find
+their equilibrium (warm started) and the tuft is deformed; its footprint is
+rasterised when a stamp first needs it.  Along the path of the samples the
+last frame's footprint is stamped at a spacing of a fraction of its size
+(shifted by whole cells), each stamp giving only what the previous one did not
+cover, so the bristle marks run along the stroke.  Where the tuft presses, the
+ink a loaded tuft holds wets the paper's tooth (``TuftModel.ink_reach``):
+without it a tuft of a few cells touches only the tooth's hills.  The paint
 comes from the :class:`~station.brush.reservoir.Reservoir`; where the
 footprint passes over wet paint, pick-up requests are queued for the player,
 which applies them to the canvas arrays before the next step.
@@ -74,6 +78,31 @@ class TuftModel:
             ``dry_lift · (1 - fill)² · depth_max``: a drying brush gives paint only
             where its bristles press deepest into the paper, so the stroke breaks
             up along the paper's hills.
+        ink_reach: how far below the plane the ink a loaded tuft holds wets the
+            paper's tooth (cells; the whole tooth by default) under the pressed
+            body of the tuft (:func:`~station.brush.footprint.weight`), times
+            the wetness below; the contact reaches the deeper of bristles and
+            ink.  Where the liquid touches the paper its capillaries draw the ink
+            in, so a loaded tuft wets the valleys between the hills its bristles
+            rest on.  A property of the ink and the paper, not of the tuft's
+            size: without it a tuft of a few cells, whose bristle tubes reach only
+            ~0.4 cells below the plane, touches nothing but the hills of a
+            1.5-cell tooth and leaves a dotted line (docs/brush.md, "Thin
+            strokes").
+        film_fill, pendular_fill: the tuft is a porous body: above ``film_fill``
+            its ink is one connected liquid that wets the tip (the funicular
+            regime); below ``pendular_fill`` only isolated rings of liquid remain
+            where bristles cross (the pendular regime) and nothing reaches past the
+            bristles: the wetness is ``clip((fill - pendular_fill) / (film_fill -
+            pendular_fill), 0, 1)``.  A brush dipped in little
+            water, or one that has painted itself below ``pendular_fill``, gives
+            paint only where its bristles touch: dry-brush, flying white.
+        frame_interval: session seconds between two spine solves while the pen
+            moves less than ``frame_reach`` tuft lengths: the samples in between
+            (a 1 kHz pen) stamp the last solved tuft along their own path.  Pens at
+            ≤ 250 Hz get a solve for every sample.
+        frame_reach: how far (tuft lengths) the pen may move from the last solved
+            pose before a sample gets its own solve whatever the clock says.
     """
 
     tooth: float = 1.5
@@ -81,6 +110,11 @@ class TuftModel:
     min_bristle_radius: float = 0.35
     spacing: float = 0.25
     dry_lift: float = 0.9
+    ink_reach: float = 1.5
+    film_fill: float = 0.4
+    pendular_fill: float = 0.2
+    frame_interval: float = 0.004
+    frame_reach: float = 0.5
 
 
 @dataclass(slots=True)
@@ -101,6 +135,13 @@ class _Stroke:
     vy: float = 0.0
     to_next: float = 0.0
     previous: Footprint | None = None
+    # the last solved frame: where the pen was, when, the bristles (cells) and,
+    # once a stamp needed them, their maps
+    fx: float = 0.0
+    fy: float = 0.0
+    ft: float = 0.0
+    bristles: np.ndarray | None = None
+    maps: FootprintMaps | None = None
 
 
 class DeformableBrush:
@@ -290,17 +331,21 @@ class DeformableBrush:
         if p == 0.0 and sample.tool in NO_PRESSURE_TOOLS:
             p = self.model.default_pressure
         x, y = sample.x * self.width, sample.y * self.height
-        maps = self.footprint(self.frame(x, y, p, sample.tilt_x, sample.tilt_y,
-                                         sample.rotation or 0.0))
-        self.last_maps = maps
         stroke = self._strokes.get(key)
         if stroke is None:
             self.strokes += 1
             stroke = _Stroke(x, y, sample.t)
             self._strokes[key] = stroke
+            self._solve(stroke, x, y, p, sample)
+            maps = self._maps(stroke)
             self._stamp(stroke, maps, 0, 0)
             stroke.to_next = self._spacing(maps)
             return 1
+        if self._due(stroke, x, y, sample.t):
+            self._solve(stroke, x, y, p, sample)
+        # the footprint belongs to the last solved frame, solved at (fx, fy); a stamp
+        # on the path shifts it by whole cells ((ex, ey): the pen now, seen from there)
+        ex, ey = x - stroke.fx, y - stroke.fy
         dx, dy = x - stroke.x, y - stroke.y
         dist = math.hypot(dx, dy)
         dt = sample.t - stroke.t
@@ -310,17 +355,51 @@ class DeformableBrush:
             stroke.vx = stroke.vy = 0.0
         made = 0
         pos = stroke.to_next
-        step = self._spacing(maps)
+        step = 0.0
         while pos <= dist and dist > 0.0:
-            back = dist - pos  # the footprint belongs to the frame's end point
-            self._stamp(stroke, maps, -int(round(dy * back / dist)),
-                        -int(round(dx * back / dist)))
+            back = dist - pos  # along the path back from the sample's point
+            maps = self._maps(stroke)
+            self._stamp(stroke, maps, -int(round(dy * back / dist - ey)),
+                        -int(round(dx * back / dist - ex)))
             made += 1
+            step = step or self._spacing(maps)
             pos += step
         if dist > 0.0:
             stroke.to_next = pos - dist
         stroke.x, stroke.y, stroke.t = x, y, sample.t
         return made
+
+    def _due(self, s: _Stroke, x: float, y: float, t: float) -> bool:
+        """Does this sample need its own spine solve?  Yes when ``frame_interval`` has
+        passed since the last one (every sample of a pen at ≤ 250 Hz), when the clock
+        went back, or when the pen left the last solved pose by ``frame_reach`` tuft
+        lengths; a 1 kHz pen's samples in between move the last tuft along their path."""
+        tm = self.tuft_model
+        dt = t - s.ft
+        if dt >= tm.frame_interval - 1e-9 or dt < 0.0:
+            return True
+        return math.hypot(x - s.fx, y - s.fy) >= tm.frame_reach * self.tuft_length
+
+    def _solve(self, s: _Stroke, x: float, y: float, p: float, sample: PenSample) -> None:
+        s.bristles = self.frame(x, y, p, sample.tilt_x, sample.tilt_y, sample.rotation or 0.0)
+        s.fx, s.fy, s.ft = x, y, sample.t
+        s.maps = None
+
+    def _maps(self, s: _Stroke) -> FootprintMaps:
+        """The last solved frame's footprint, rasterised when a stamp first needs it."""
+        if s.maps is None:
+            assert s.bristles is not None  # every stroke starts with a solve
+            s.maps = self.footprint(s.bristles)
+            self.last_maps = s.maps
+        return s.maps
+
+    def _wetness(self, fill: float) -> float:
+        """How connected the tuft's ink is, 0 (pendular) to 1 (a film down to the tip)."""
+        tm = self.tuft_model
+        span = tm.film_fill - tm.pendular_fill
+        if span <= 0.0:
+            return 1.0 if fill >= tm.film_fill else 0.0
+        return min(1.0, max(0.0, (fill - tm.pendular_fill) / span))
 
     def _spacing(self, maps: FootprintMaps) -> float:
         h, w = maps.cover.shape
@@ -328,9 +407,13 @@ class DeformableBrush:
 
     def _stamp(self, s: _Stroke, maps: FootprintMaps, dy: int, dx: int) -> None:
         tm = self.tuft_model
-        dry = 1.0 - self.reservoir.fill
+        fill = self.reservoir.fill
+        dry = 1.0 - fill
+        # the bristles lifted as the tuft dries; the ink a loaded tuft holds wets the
+        # tooth below them (cells)
         lift = tm.dry_lift * dry * dry * max(0.0, float(maps.depth.max(initial=0.0)))
-        y0, x0, wt = weight(maps, self.paper, tm.tooth, tm.ramp, dy, dx, lift)
+        bead = tm.ink_reach * self._wetness(fill)
+        y0, x0, wt = weight(maps, self.paper, tm.tooth, tm.ramp, dy, dx, lift, bead)
         self.stamps += 1
         if wt.size == 0:
             s.previous = None

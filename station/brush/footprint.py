@@ -123,7 +123,8 @@ def rasterise(segs: np.ndarray, radius: float,
 
 
 def weight(maps: FootprintMaps, paper: np.ndarray, tooth: float, ramp: float,
-           dy: int = 0, dx: int = 0, lift: float = 0.0) -> tuple[int, int, np.ndarray]:
+           dy: int = 0, dx: int = 0, lift: float = 0.0,
+           bead: float = 0.0) -> tuple[int, int, np.ndarray]:
     """Contact weight in [0, 1] of ``maps`` shifted by ``(dy, dx)`` cells on paper ``h``.
 
     ``weight = cover · clip((depth - tooth·(1-h)) / ramp + 1/2, 0, 1)``: full
@@ -131,7 +132,13 @@ def weight(maps: FootprintMaps, paper: np.ndarray, tooth: float, ramp: float,
     where they stay half a ramp above it.  Returns ``(y0, x0, weight)``
     clipped to the canvas (an empty array when outside).  ``lift`` (cells)
     raises the bristles: a drying brush gives paint only where it presses
-    deepest into the paper.
+    deepest into the paper.  ``bead`` (cells): the ink a loaded tuft holds
+    wets the tooth down to that depth below the plane where the tuft presses at
+    least half as deep as its deepest, ``bead · depth / (½ depth_max)``
+    shallower (the liquid is held under the pressed body of the tuft, not under
+    a lone splayed hair that grazes the plane); the contact reaches the deeper
+    of the bristles and the liquid
+    (:class:`~station.brush.deformable.TuftModel`).
     """
     hh, ww = paper.shape
     y0, x0 = maps.y0 + dy, maps.x0 + dx
@@ -143,5 +150,10 @@ def weight(maps: FootprintMaps, paper: np.ndarray, tooth: float, ramp: float,
     cov = maps.cover[ya - y0:yb - y0, xa - x0:xb - x0]
     dep = maps.depth[ya - y0:yb - y0, xa - x0:xb - x0]
     below = np.float32(tooth) * (np.float32(1.0) - paper[ya:yb, xa:xb])
+    if bead > 0.0:
+        deepest = float(maps.depth.max(initial=0.0))
+        if deepest > 0.0:
+            film = np.float32(bead) * np.clip(dep / np.float32(0.5 * deepest), 0.0, 1.0)
+            dep = np.maximum(dep, film)
     reach = np.clip((dep - np.float32(lift) - below) / np.float32(ramp) + np.float32(0.5), 0.0, 1.0)
     return ya, xa, (cov * reach).astype(np.float32)
