@@ -432,3 +432,17 @@ def test_a_frame_handles_the_bus_for_a_bounded_time_and_loses_nothing(tmp_path: 
     finally:
         s.sub = real_sub
         s.shutdown()
+
+
+def test_the_auto_horizon_follows_the_measured_lag() -> None:
+    from station.kiosk.predict import LagEstimate
+
+    est = LagEstimate(initial=0.008)
+    for _ in range(60):
+        est.add(0.004)
+    assert abs(est.value - 0.004) < 2e-4 and est.frames == 60
+    est.add(10.0)  # a frame that stalled: clamped, and moves the estimate a little
+    assert est.value < 0.004 + 0.1 * 0.05 + 1e-9
+    for _ in range(60):
+        est.add(-1.0)  # a clock oddity never makes a negative horizon
+    assert 0.0 <= est.value < 1e-3

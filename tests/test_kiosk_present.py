@@ -93,7 +93,8 @@ def display() -> Iterator[str]:
         yield d
 
 
-def _app(display: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, present: str) -> Any:
+def _app(display: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, present: str,
+         predict_ms: float | None = 0) -> Any:
     pytest.importorskip("glfw")
     from station.kiosk.app import KioskApp, KioskConfig
     from station.kiosk.idle import IdleConfig
@@ -102,7 +103,7 @@ def _app(display: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, present:
     cfg = KioskConfig(bus=f">ipc://{tmp_path}/bus", width=W, height=H, backend="cpu",
                       fullscreen=False, window=WINDOW, gallery=tmp_path / "gallery",
                       serve=None, status="none", cmd="none", vsync=False, autosave=0,
-                      sim_thread=False, present=present, predict_ms=0,
+                      sim_thread=False, present=present, predict_ms=predict_ms,
                       idle=IdleConfig(attract_after=3600, finish_after=7200))
     app = KioskApp(cfg)
     app.display_name = display
@@ -344,5 +345,25 @@ def test_a_deformable_brush_is_previewed_before_the_step(display: str, tmp_path:
         tex = np.frombuffer(disp.texture.read(), np.float32).reshape(H, W, 3)
         changed = np.abs(tex - white).max(axis=2) > 0.02
         assert changed[H // 2 - 2:H // 2 + 3, int(0.3 * W):int(0.55 * W)].mean() > 0.5
+    finally:
+        app.close()
+
+
+@in_own_process
+def test_the_auto_prediction_horizon_is_the_windows_measured_lag(
+        display: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    app = _app(display, tmp_path, monkeypatch, "auto", predict_ms=None)
+    try:
+        q = app.session.sub
+        lags = []
+        for i in range(20):
+            sample = _pen(app, i, 0.2 + 0.02 * i, 0.5, touching=False)
+            q.push(sample.with_(t_mono=time.monotonic() - 0.010))  # read 10 ms ago
+            app.frame(0.016)
+            lags.append(app.lag.value)
+        assert app.lag.frames >= 18  # every frame with a shadow from a moving pen
+        # from its start towards the lag each frame had: 10 ms plus the frame's own time
+        assert 0.010 < app.lag.value < 0.05 and lags[-1] > lags[0]
+        assert app.predictor.cfg.horizon_s == app.lag.value
     finally:
         app.close()

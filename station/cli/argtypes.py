@@ -26,3 +26,16 @@ def seconds_or_zero(text: str) -> float:
     if not (math.isfinite(value) and value >= 0):
         raise argparse.ArgumentTypeError(f"{text!r} must be a finite number of seconds >= 0")
     return value
+
+
+def auto_or_ms(text: str) -> float | None:
+    """``auto`` (``None``) or a finite number of milliseconds 0..200 (``--predict-ms``)."""
+    if text == "auto":
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of ms or 'auto'") from None
+    if not (math.isfinite(value) and 0 <= value <= 200):
+        raise argparse.ArgumentTypeError(f"{text!r} must be auto, or 0 (off) to 200 ms")
+    return value

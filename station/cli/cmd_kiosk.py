@@ -7,6 +7,7 @@ import json
 import sys
 from pathlib import Path
 
+from station.cli.argtypes import auto_or_ms
 from station.cli.buskeys import add_key_flags, check_keys
 from station.errors import BadInput
 
@@ -55,9 +56,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="present whole frames (swap) or only the changed rectangles "
                         "(partial, GLX_MESA_copy_sub_buffer; auto: partial on a software "
                         "rasteriser, swap on a GPU)")
-    p.add_argument("--predict-ms", type=float, default=16.0, metavar="MS",
+    p.add_argument("--predict-ms", type=auto_or_ms, default=None, metavar="MS|auto",
                    help="draw the brush's shadow this far ahead along the pen's motion "
-                        "(16; 0: off)")
+                        "(auto: the window's own measured pen-to-screen lag, the default; "
+                        "0: off)")
     p.add_argument("--inline-sim", action="store_true",
                    help="run the simulation steps in the frame loop, not in a thread")
     p.add_argument("--duration", type=float, metavar="SECONDS", help="stop after this long")
@@ -91,8 +93,6 @@ def run(args: argparse.Namespace) -> int:
                 ("--cmd", args.cmd, True)))
     if not (0 <= args.autosave <= 3600):
         raise BadInput("must be 0 (off) to 3600 seconds", "--autosave")
-    if not (0 <= args.predict_ms <= 200):
-        raise BadInput("must be 0 (off) to 200 ms", "--predict-ms")
     serve = None if args.serve == "none" else args.serve
     if serve is not None:
         _host, sep, port = serve.rpartition(":")

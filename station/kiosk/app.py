@@ -45,7 +45,7 @@ from station.kiosk.compose import Box, Compositor, screen_box
 from station.kiosk.display import CpuDisplay, GpuDisplay, make_display
 from station.kiosk.gallery import Gallery, GalleryServer, new_id, painting_url, qr_matrix
 from station.kiosk.idle import IdleClock, IdleConfig
-from station.kiosk.predict import PenPredictor, PredictConfig
+from station.kiosk.predict import LagEstimate, PenPredictor, PredictConfig
 from station.kiosk.present import PRESENT_MODES, Presenter
 from station.kiosk.session import KioskSession
 from station.kiosk.views import VIEWS, Camera, Viewport, input_camera, make_camera
@@ -56,6 +56,7 @@ log = logging.getLogger(__name__)
 DRIVER_SILENT_S = 5.0  # a driver that said nothing this long is taken as gone
 STATUS_EVERY_S = 0.5
 REDRAW_EVERY_S = 0.25  # a quiet kiosk still redraws this often (status line, banners)
+AUTO_HORIZON_START_S = 0.008  # the auto prediction's horizon until frames measured it
 TILE_FRAME_S = 1 / 120  # frames that show only the steps' tiles come at most this often
 LATCH_BUDGET_S = 0.002  # the late latch handles pen samples for at most this long
 THREAD_POLL_S = 0.004  # a wet canvas: how often the window looks for the thread's steps
@@ -126,7 +127,9 @@ class KioskConfig:
     cmd: str | None = None  # where `station send` reaches the kiosk; "none" disables
     autosave: float = 30.0  # seconds between autosaves of the painting (0: off)
     sim_thread: bool = True  # steps in a thread of their own (False: in the frame loop)
-    predict_ms: float = 16.0  # the pen shadow drawn this far ahead of the last sample (0: off)
+    # the pen shadow drawn this far ahead of the last sample (0: off; None: auto, the
+    # window's own measured pen-to-screen lag, station.kiosk.predict.LagEstimate)
+    predict_ms: float | None = None
     present: str = "auto"  # auto, swap, partial (station.kiosk.present)
     keys: Path | None = None  # CURVE key directory for tcp endpoints (None: the default)
     client_key: str | None = None  # a client key pair of its own for connecting over tcp
@@ -295,8 +298,13 @@ class KioskApp:
         self._glflush = _gl_function("glFlush")
         self._frame_boxes: list[Box] = []  # what this frame redrew in the picture
         self._frame_full = False  # ... everything (a new camera)
-        self.predictor = PenPredictor(PredictConfig(horizon_s=max(cfg.predict_ms, 0.0) / 1000))
+        self.lag = LagEstimate(initial=AUTO_HORIZON_START_S)
+        self.predictor = PenPredictor(PredictConfig(
+            horizon_s=self.lag.value if cfg.predict_ms is None else max(cfg.predict_ms, 0.0)
+            / 1000))
         self._pen_received = 0.0  # monotonic time the last pen sample came
+        self._pen_read = 0.0  # ... and when its driver read it (monotonic)
+        self._shadow_read = 0.0  # the read time of the sample this frame's shadow is from
         # the latency bench's records: pen samples (read time, device time, x, y,
         # touching) in window pixels, and per frame (shown, last sample's x, y, the
         # shadow's predicted x, y)
@@ -472,6 +480,7 @@ class KioskApp:
         w, h = self.size
         px, py = s.x * w, s.y * h
         self._pen_received = now
+        self._pen_read = s.t_mono if s.t_mono > 0.0 else now
         self.predictor.add(s.t, px, py, s.proximity, s.touching and s.proximity)
         if self.pen_log is not None:
             self.pen_log.append((s.t_mono if s.t_mono > 0.0 else now, s.t, px, py,
@@ -646,6 +655,7 @@ class KioskApp:
         if uv is None or not (0.0 <= uv[0] <= 1.0 and 0.0 <= uv[1] <= 1.0):
             uv = self.hover
         self._cursor_drawn = ((last[1], last[2]), p)
+        self._shadow_read = self._pen_read
         return uv
 
     def cursor_shape(self, cam: Camera) -> tuple[np.ndarray, tuple[float, ...]] | None:
@@ -897,6 +907,12 @@ class KioskApp:
                 self.latencies.append(shown - t_read)
             if self.tail_log is not None:
                 self.tail_log.append((t_shown - t_ui, len(s.awaiting_paint) - n_early))
+            if self._cursor_drawn is not None and self.cfg.predict_ms is None:
+                lag = shown - self._shadow_read
+                if lag <= self.predictor.cfg.stale_s:  # a moving pen (a still one is not
+                    # predicted, and its lag is only the time it stood still)
+                    self.predictor.cfg = dataclasses.replace(self.predictor.cfg,
+                                                             horizon_s=self.lag.add(lag))
             if self.cursor_log is not None and self._cursor_drawn is not None:
                 (rx, ry), (qx, qy) = self._cursor_drawn
                 self.cursor_log.append((shown, rx, ry, qx, qy))

@@ -3,7 +3,8 @@
 A frame shows the pen where it was when its last sample was read; by the
 time the frame is on the screen the pen has moved on (at 0.5 m/s, 8 mm per
 16 ms).  Drawing the brush's shadow a little ahead along the pen's motion hides
-part of that lag, as the better drawing tools and tablet drivers do.
+part of that lag, as the better drawing tools and tablet drivers do.  How far
+ahead: by default the lag itself, as the window measures it (:class:`LagEstimate`).
 
 :class:`PenPredictor` is a constant-velocity extrapolation: the velocity is
 the least-squares slope of position over time of the samples of the last
@@ -41,6 +42,25 @@ class PredictConfig:
     min_samples: int = 3
     max_speed: float = 4000.0  # clamp of the fitted speed [pixels/s]
     stale_s: float = 0.05  # a sample older than this is not extrapolated [s]
+
+
+class LagEstimate:
+    """The window's own pen-to-screen lag, measured frame by frame: how long before a
+    frame was shown its last pen sample was read [s].  An exponential average (a frame
+    that was slow for once moves it a little), clamped to ``[0, most]``; what an ``auto``
+    prediction horizon uses — the lag of this display on this machine, not a guess."""
+
+    def __init__(self, initial: float = 0.016, weight: float = 0.1, most: float = 0.05) -> None:
+        self.value = initial
+        self.weight = weight
+        self.most = most
+        self.frames = 0
+
+    def add(self, lag: float) -> float:
+        lag = min(max(lag, 0.0), self.most)
+        self.value += self.weight * (lag - self.value)
+        self.frames += 1
+        return self.value
 
 
 class PenPredictor:
