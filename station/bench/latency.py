@@ -226,7 +226,7 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
                 app.frame(now - last)
                 if app.frames > drawn:  # a pass that drew nothing rendered nothing
                     cells += app.display.cells_rendered
-                    pixels += app.compositor.pixels_redrawn
+                    pixels += app.frame_pixels
                     frame_ms.append(time.monotonic() - now)
                 last = now
             wall = time.monotonic() - t0

@@ -297,6 +297,7 @@ class KioskApp:
         self._glfinish = _gl_function("glFinish")
         self._glflush = _gl_function("glFlush")
         self._frame_boxes: list[Box] = []  # what this frame redrew in the picture
+        self.frame_pixels = 0  # ... in pixels (both compositions of the frame)
         self._frame_full = False  # ... everything (a new camera)
         self.lag = LagEstimate(initial=AUTO_HORIZON_START_S)
         self.predictor = PenPredictor(PredictConfig(
@@ -768,6 +769,7 @@ class KioskApp:
                                        self._ui_bounds, lambda box: self.draw_scene(cam, box),
                                        self.gui.draw)
         self.display.damage = []
+        self.frame_pixels += self.compositor.pixels_redrawn
         self._frame_full = self._frame_full or self.compositor.full_last
         self._frame_boxes.extend(boxes)
         if self._glflush is not None:
@@ -871,6 +873,7 @@ class KioskApp:
         t1 = time.perf_counter()
         t_tiles = t_ui = t_drained = t_preview = t_present = t_shown = t1
         if draw:
+            self.frame_pixels = 0
             with s.lock:  # not while a step hands its sources over (the kernel may run)
                 self.display.update_tiles()
             t_tiles = time.perf_counter()
