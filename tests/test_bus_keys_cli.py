@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import json
 import os
-import signal
 import socket
 import subprocess
 import sys
@@ -19,6 +18,7 @@ import pytest
 import zmq
 from kiosk_harness import SCREEN, xvfb
 from kiosk_harness import station as kstation
+from livesim import stop as finish
 from station.drivers import synth
 from station.drivers.mock.tablet import MockTablet, find_model
 
@@ -47,17 +47,6 @@ def station(*args: str, timeout: float = 60) -> subprocess.CompletedProcess[str]
 def start(*args: str) -> subprocess.Popen[str]:
     return subprocess.Popen([*STATION, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True)
-
-
-def finish(proc: subprocess.Popen[str], timeout: float = 30) -> tuple[int, str]:
-    if proc.poll() is None:
-        proc.send_signal(signal.SIGTERM)
-    try:
-        _out, err = proc.communicate(timeout=timeout)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        _out, err = proc.communicate()
-    return proc.returncode, err
 
 
 def recording(tmp_path: Path) -> Path:

@@ -55,6 +55,17 @@ def painted_image(log: Path) -> np.ndarray:
     return to_srgb8(canvas.render())
 
 
+def saved_painting(tmp_path: Path) -> tuple[Gallery, str, Path, np.ndarray]:
+    """A gallery holding the test log's painting: the gallery, its id, the log, the image."""
+    log = tmp_path / "s.jsonl"
+    write_log(log)
+    painting = painted_image(log)
+    g = Gallery(tmp_path / "gallery")
+    pid = new_id()
+    g.save(pid, painting, log, {"width": W, "height": H, "profile": "watercolor"})
+    return g, pid, log, painting
+
+
 def green(img: np.ndarray) -> np.ndarray:
     img = img.astype(int)
     return (img[..., 1] - img[..., 0] > 20) & (img[..., 2] - img[..., 0] > 10)
@@ -113,12 +124,7 @@ def chromium() -> str | None:
 def test_gallery_page_in_headless_chromium(tmp_path: Path) -> None:
     import zxingcpp
 
-    log = tmp_path / "s.jsonl"
-    write_log(log)
-    painting = painted_image(log)
-    g = Gallery(tmp_path / "gallery")
-    pid = new_id()
-    g.save(pid, painting, log, {"width": W, "height": H, "profile": "watercolor"})
+    g, pid, log, painting = saved_painting(tmp_path)
     server = GalleryServer(g, "127.0.0.1", 0).start()
     try:
         base = f"http://127.0.0.1:{server.port}"
@@ -162,12 +168,7 @@ def test_gallery_make_writes_the_replay_and_a_print_in_a_low_priority_process(
 
     from station.kiosk.gallery import MAKE_LOG, PRINT, REPLAY
 
-    log = tmp_path / "s.jsonl"
-    write_log(log)
-    painting = painted_image(log)
-    g = Gallery(tmp_path / "gallery")
-    pid = new_id()
-    g.save(pid, painting, log, {"width": W, "height": H, "profile": "watercolor"})
+    g, pid, log, painting = saved_painting(tmp_path)
     proc = g.prepare(pid)  # what the kiosk starts when it saves
     assert proc.wait(180) == 0, g.path(pid, MAKE_LOG).read_text()[-2000:]
     assert g.path(pid, REPLAY).exists()
