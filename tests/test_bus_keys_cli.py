@@ -155,16 +155,19 @@ def test_recorder_with_a_key_not_authorised_gets_nothing_and_the_driver_counts_i
     ["kiosk", "--bus", "tcp://127.0.0.1:9", "--serve", "none"],
     ["bus", "--pub", "ipc:p", "--sub", "tcp://127.0.0.1:9"],
 ], ids=lambda a: a[0])
-def test_a_tcp_endpoint_without_keys_is_exit_2_with_one_line(tmp_path: Path,
-                                                             argv: list[str]) -> None:
+def test_a_tcp_endpoint_without_keys_is_exit_2_with_one_line(
+        tmp_path: Path, argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
     """No --keys and none in the (private, empty) default directory: refused before
     anything starts (no log, no output file, no window), naming the flag and the
-    directory."""
+    directory.  In this process: the refusal comes before anything is opened."""
+    from station.cli import main
+
     argv = [str(tmp_path / "out.jsonl") if a == "OUT" else a for a in argv]
     argv = [str(recording(tmp_path)) if a == "TRACE" else a for a in argv]
-    r = station(*argv)
-    lines = r.stderr.strip().splitlines()
-    assert r.returncode == 2 and len(lines) == 1, r.stderr
+    code = main(argv)
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert code == 2 and len(lines) == 1, err
     flag = "--to" if argv[0] == "send" else "--sub" if argv[0] == "bus" else "--bus"
     assert lines[0].startswith(f"station {argv[0]}: {flag}: ")
     assert "CURVE keys" in lines[0] and os.environ["STATION_CONFIG_DIR"] in lines[0]
