@@ -8,12 +8,16 @@ of the window's loop:
 1. take the messages waiting on the bus, for a bounded time (pen samples are
    mapped through the view: over the panel they go to ImGui, over the canvas
    to the brush);
-2. if anything changed: re-render the changed tiles and the stamps not yet
-   simulated, redraw the damaged parts of the picture
-   (:mod:`station.kiosk.compose`), the brush's shadow where the pen is
-   predicted to be (:mod:`station.kiosk.predict`), present — the driver read
-   time of every sample that made paint is now shown (latency);
-3. housekeeping (or, with ``sim_thread=False``, the due steps: after
+2. if anything changed: re-render changed tiles (for at most a time budget),
+   build the UI if it changed, and compose those changes
+   (:mod:`station.kiosk.compose`);
+3. the late latch: take the pen samples that came meanwhile, render the
+   preview of the stamps not yet simulated, compose it, draw the brush's shadow
+   where the pen is predicted to be (:mod:`station.kiosk.predict`) and present
+   (:mod:`station.kiosk.present`: the whole window, or only the changed
+   rectangles) — the driver read time of every sample that made paint is now
+   shown (latency);
+4. housekeeping (or, with ``sim_thread=False``, the due steps: after
    presenting, so a step's cost delays the next frame, not the paint that just
    arrived).
 
@@ -825,7 +829,8 @@ class KioskApp:
         return max(1, math.ceil(wait * 1000))
 
     def frame(self, dt: float) -> None:
-        """One pass of the loop: input, then (if anything changed) a frame, then steps.
+        """One pass of the loop: input, then (if anything changed) a frame with its late
+        latch, then steps (see the module docstring).
 
         A quiet kiosk (no pen, nothing wet) does not redraw 60 times a second: it waits
         on the bus until the next step is due, so a pen sample is handled the moment it
@@ -886,7 +891,7 @@ class KioskApp:
             t_ui = time.perf_counter()
             n_early = len(s.awaiting_paint)
             received = s.sub.stats.received
-            s.drain(0, LATCH_BUDGET_S)
+            s.drain(0, LATCH_BUDGET_S, floor_s=0.0)
             got_input = got_input or s.sub.stats.received != received
             t_drained = time.perf_counter()
             with s.lock:
@@ -938,7 +943,6 @@ class KioskApp:
         ph["render"] += (t_tiles - t1) + (t_preview - t_drained)
         ph["ui"] += (t_ui - t_tiles) + (t_present - t_preview)
         ph["present"] += t_shown - t_present
-        ph["sim"] += t_end - t_shown
         ph["sim"] += t_end - t_shown
         self.maybe_publish_status()
 

@@ -4,15 +4,16 @@ Both displays give a texture of *linear* reflectance (the window's shader
 applies the sRGB transfer), row 0 = the canvas's top row.
 
 * :class:`CpuDisplay` (numpy and cpu backends): Kubelka–Munk render of the
-  dirty tiles only (per run of dirty tiles in a tile row; the numba twin of the
-  reference KM in :mod:`station.kiosk.km_fast`, gouache by the reference),
-  uploaded with ``texture.write(viewport=…)``, at most :data:`MAX_CELLS_PER_FRAME`
-  a frame (the rest in the next frames).  A full 800×600 render costs about
-  21 ms on the 2-core development machine, one stroke's wet tiles a few.
-  Brush stamps made since the last simulation step are shown at once as a
-  preview (the same KM render of the state plus those stamps' pigment, capped
-  as ``add_sources`` caps it), so a pen stroke appears in the next frame and
-  not only after the next step (up to 1/30 s later).
+  dirty tiles only (runs of at most :data:`RUN_TILES` tiles in a tile row; the
+  numba twin of the reference KM in :mod:`station.kiosk.km_fast`, gouache by
+  the reference), uploaded with ``texture.write(viewport=…)``, for at most
+  :data:`TILE_BUDGET_S` a frame (the rest in the next frames).  Brush stamps
+  made since the last simulation step are shown at once as a preview (the same
+  KM render of the state plus those stamps' pigment, capped as ``add_sources``
+  caps it), rendered after the window's late latch, so a pen stroke appears in
+  the frame that takes it and not only after the next step; the preview stays
+  until a step takes its stamps, and each frame renders only the new stamps'
+  cells.
 * :class:`GpuDisplay` (gl backend): the canvas's render pass writes its own
   RGBA32F texture in the window's GL context; the window samples it with no
   read-back.

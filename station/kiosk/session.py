@@ -368,13 +368,15 @@ class KioskSession(LiveSim):
         """Handle the messages waiting on the bus (no blocking)."""
         self.drain(0)
 
-    def drain(self, timeout_ms: int, budget_s: float = DRAIN_BUDGET_S) -> None:
-        """Handle waiting messages for at most ``budget_s`` (after waiting up to
-        ``timeout_ms`` for the first): a window that fell behind draws what it has
-        handled and takes the rest in the next frames, instead of handling a growing
-        queue before it draws again (each frame longer, the queue longer)."""
+    def drain(self, timeout_ms: int, budget_s: float = DRAIN_BUDGET_S,
+              floor_s: float = DRAIN_BUDGET_S) -> None:
+        """Handle waiting messages for at most ``budget_s``, but at least ``floor_s``
+        (after waiting up to ``timeout_ms`` for the first): a window that fell behind
+        draws what it has handled and takes the rest in the next frames, instead of
+        handling a growing queue before it draws again (each frame longer, the queue
+        longer).  At least one message is handled when one is there."""
         msg = self.sub.recv(timeout_ms)
-        deadline = time.perf_counter() + max(budget_s, DRAIN_BUDGET_S)
+        deadline = time.perf_counter() + max(budget_s, floor_s)
         while msg is not None:
             self.handle(msg.kind, msg.value, msg.topic, msg.replay)
             if self.stop_requested or time.perf_counter() > deadline:
