@@ -137,13 +137,8 @@ class CpuDisplay:
         st = self.session.cpu_state
         kind = self._renderer_kind()
         ts = int(st.params.tile_size)
+        self._retire_preview()
         dirty = self.session.take_dirty()
-        if self.preview_box is not None and \
-                self.session.player.counters.steps != self._preview_steps:
-            # a step took the previewed stamps: the state has them now, show it there
-            ys, xs = self.preview_box
-            dirty[ys.start // ts:-(-ys.stop // ts), xs.start // ts:-(-xs.stop // ts)] = True
-            self.preview_box = None
         carried = self._carry if self._carry is not None and \
             self._carry.shape == dirty.shape else np.zeros_like(dirty)
         peek = getattr(self.session.player.brush, "peek", None)
@@ -182,10 +177,8 @@ class CpuDisplay:
         since = getattr(brush, "pending_box", None)
         if peek is None:
             return 0
-        steps, n = self.session.player.counters.steps, int(brush.pending)
-        if steps != self._preview_steps or n < self._previewed:  # a step took them
-            self._preview_steps, self._previewed = steps, 0
-            self._restore_preview()
+        self._retire_preview()
+        n = int(brush.pending)
         if n == 0 or n == self._previewed:
             return 0
         src = peek()
@@ -214,9 +207,14 @@ class CpuDisplay:
             slice(min(pb[0].start, ys.start), max(pb[0].stop, ys.stop)),
             slice(min(pb[1].start, xs.start), max(pb[1].stop, xs.stop)))
 
-    def _restore_preview(self) -> None:
-        """Mark the preview's tiles dirty (the next :meth:`update_tiles` renders the state
-        there)."""
+    def _retire_preview(self) -> None:
+        """When a step has taken the previewed stamps (the state has them now), mark the
+        preview's tiles dirty: the state is rendered there and a new preview begins."""
+        steps = self.session.player.counters.steps
+        n = int(getattr(self.session.player.brush, "pending", 0))
+        if steps == self._preview_steps and n >= self._previewed:
+            return
+        self._preview_steps, self._previewed = steps, 0
         if self.preview_box is None:
             return
         ts = int(self.session.cpu_state.params.tile_size)
