@@ -45,7 +45,7 @@ import numpy as np
 
 from station.errors import BadInput, StationError
 from station.events import Command, PenSample, Tool
-from station.kiosk.compose import Box, Compositor, screen_box
+from station.kiosk.compose import Box, Compositor, merge_rects, screen_box
 from station.kiosk.display import CpuDisplay, GpuDisplay, make_display
 from station.kiosk.gallery import Gallery, GalleryServer, new_id, painting_url, qr_matrix
 from station.kiosk.idle import IdleClock, IdleConfig
@@ -792,8 +792,9 @@ class KioskApp:
             self._present_rects = None
             self._last_whole = now
         else:
-            rects = [b for b in (*self._frame_boxes, self._shadow_box, shadow_box)
-                     if b is not None]
+            # merged once: overlapping rectangles would be copied twice, here and to X
+            rects = merge_rects([b for b in (*self._frame_boxes, self._shadow_box,
+                                             shadow_box) if b is not None])
             self.compositor.present(rects)
             self._present_rects = rects
         self._frame_boxes = []
