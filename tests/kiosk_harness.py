@@ -30,7 +30,7 @@ def xvfb() -> Iterator[str]:
                 f"/tmp/.X{number}-lock").exists():
             break
     proc = subprocess.Popen([exe, f":{number}", "-screen", "0", f"{SCREEN[0]}x{SCREEN[1]}x24",
-                             "-nolisten", "tcp"], stdout=subprocess.DEVNULL,
+                             "-nolisten", "tcp", "-noreset"], stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
     sock = Path(f"/tmp/.X11-unix/X{number}")
     deadline = time.monotonic() + 10
