@@ -244,7 +244,7 @@ def test_kiosk_blueprint_under_xvfb(tmp_path: Path) -> None:
     run = tmp_path / "r"
     proc = subprocess.run(
         ["xvfb-run", "-a", "-s", "-screen 0 1024x768x24", sys.executable, "-m", "station",
-         "run", "kiosk", "--duration", "25", "--run-dir", str(run),
+         "run", "kiosk", "--duration", "12", "--run-dir", str(run),
          "--set", "tablet.vid=", "--set", "tablet.pid=", "--set", "tablet.calibration=none",
          "--set", "tablet.device=mock:intuos-pro-m?script=spiral",
          "--set", "kiosk.windowed=800x600", "--set", "kiosk.width=64",

@@ -43,7 +43,8 @@ def display() -> Iterator[str]:
                 f"/tmp/.X{number}-lock").exists():
             break
     proc = subprocess.Popen([xvfb, f":{number}", "-screen", "0", "1024x768x24", "-nolisten",
-                             "tcp", "-noreset"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                             "tcp", "-noreset"], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
     sock = Path(f"/tmp/.X11-unix/X{number}")
     deadline = time.monotonic() + 10
     while not sock.exists() and time.monotonic() < deadline and proc.poll() is None:

@@ -96,7 +96,8 @@ def _start_xvfb() -> tuple[subprocess.Popen[bytes], str]:
                 not Path(f"/tmp/.X{number}-lock").exists():
             break
     proc = subprocess.Popen([exe, f":{number}", "-screen", "0", "1024x768x24", "-nolisten",
-                             "tcp", "-noreset"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                             "tcp", "-noreset"], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
     deadline = time.monotonic() + 10
     while not Path(f"/tmp/.X11-unix/X{number}").exists():
         if time.monotonic() > deadline or proc.poll() is not None:

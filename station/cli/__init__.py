@@ -37,7 +37,21 @@ def _command_modules() -> list[str]:
     )
 
 
-def build_parser() -> argparse.ArgumentParser:
+def _modules_for(argv: Sequence[str] | None) -> list[str]:
+    """The command modules a command line needs: only its command's own when the first
+    word that is not a global flag names one (``station driver …`` need not import the
+    simulation, about 0.5 s of a driver's start), else every one (``--help``, a typo)."""
+    names = _command_modules()
+    for word in argv or ():
+        if word.startswith("-"):
+            continue  # the global flags (-v, -q, --version, -h) take no value
+        wanted = "cmd_" + word.replace("-", "_")
+        return [wanted] if wanted in names else names
+    return names
+
+
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The parser with every command, or with only the one ``argv`` runs."""
     parser = OneLineParser(
         prog="station",
         description="The painting station: pen input, watery-paint simulation, tools.",
@@ -46,7 +60,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
     parser.add_argument("-q", "--quiet", action="store_true", help="only errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=OneLineParser)
-    for name in _command_modules():
+    for name in _modules_for(argv):
         module = importlib.import_module(f"station.cli.{name}")
         module.register(sub)
     return parser
@@ -64,8 +78,9 @@ def one_line(exc: BaseException) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    words = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(words)
+    args = parser.parse_args(words)
     level = logging.ERROR if args.quiet else (logging.DEBUG if args.verbose > 1 else
                                               logging.INFO if args.verbose else logging.WARNING)
     logging.basicConfig(level=level, format="station: %(levelname)s: %(message)s")
