@@ -96,3 +96,31 @@ def test_help_lists_only_working_commands() -> None:
     assert r.returncode == 0
     for name in ("bus", "keys", "log", "bench"):
         assert name in r.stdout
+
+
+def test_a_command_line_imports_only_its_own_command() -> None:
+    """``station driver …`` builds only the driver's parser (its start skips the
+    simulation's imports); every command's name leads to the module that registers it,
+    so no command is missed that way; help and unknown words build every command."""
+    import argparse
+
+    from station.cli import _command_modules, _modules_for, build_parser
+
+    everything = _command_modules()
+    assert len(everything) > 15
+    assert _modules_for(["driver", "--device", "mock:intuos-pro-m"]) == ["cmd_driver"]
+    assert _modules_for(["-v", "-q", "brush-sheet"]) == ["cmd_brush_sheet"]
+    assert _modules_for(["--help"]) == everything == _modules_for([])
+    assert _modules_for(["no-such-command"]) == everything
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    for name in sub.choices:
+        assert _modules_for([name]) == ["cmd_" + name.replace("-", "_")], name
+        alone = next(a for a in build_parser([name])._actions
+                     if isinstance(a, argparse._SubParsersAction))
+        assert list(alone.choices) == [name]
+    # the driver's process no longer imports the simulation
+    probe = subprocess.run(
+        [sys.executable, "-c", "import sys\nfrom station.cli import build_parser\n"
+         "build_parser(['driver'])\nprint('station.sim.player' in sys.modules)"],
+        capture_output=True, text=True, timeout=60)
+    assert probe.stdout.strip() == "False", probe.stderr
