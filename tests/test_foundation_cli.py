@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import subprocess
@@ -11,6 +12,7 @@ from pathlib import Path
 import pytest
 
 import station
+from station.cli import _command_modules, _modules_for, build_parser
 
 HEADER = ('{"format": "station-session", "version": 1, "canvas": {"width": 64, "height": 48},'
           ' "profile": "watercolor", "seed": 7}')
@@ -102,10 +104,6 @@ def test_a_command_line_imports_only_its_own_command() -> None:
     """``station driver …`` builds only the driver's parser (its start skips the
     simulation's imports); every command's name leads to the module that registers it,
     so no command is missed that way; help and unknown words build every command."""
-    import argparse
-
-    from station.cli import _command_modules, _modules_for, build_parser
-
     everything = _command_modules()
     assert len(everything) > 15
     assert _modules_for(["driver", "--device", "mock:intuos-pro-m"]) == ["cmd_driver"]
