@@ -243,7 +243,7 @@ def test_kiosk_blueprint_under_xvfb(tmp_path: Path) -> None:
     panel, and the kiosk stops cleanly under the supervisor, saving the painting."""
     run = tmp_path / "r"
     proc = subprocess.run(
-        ["xvfb-run", "-a", "-s", "-screen 0 1024x768x24", sys.executable, "-m", "station",
+        ["xvfb-run", "-a", "-s", "-screen 0 1024x768x24 -noreset", sys.executable, "-m", "station",
          "run", "kiosk", "--duration", "12", "--run-dir", str(run),
          "--set", "tablet.vid=", "--set", "tablet.pid=", "--set", "tablet.calibration=none",
          "--set", "tablet.device=mock:intuos-pro-m?script=spiral",
