@@ -95,10 +95,10 @@ def test_samples_applied_while_a_step_runs_replay_exactly(tmp_path: Path) -> Non
         s.command("brush", size=8, water=1.0, pigment={"French Ultramarine": 0.5})
         k = 0
         for stroke in range(3):
-            for _ in range(4):  # between steps: the lock is free
+            for _ in range(4 if stroke < 2 else 0):  # between steps: the lock is free
                 s.handle("pen", _pen(k, 0.2 + 0.01 * k))
                 k += 1
-            th = _step_in_thread(s, gate)
+            th = _step_in_thread(s, gate)  # the last stroke starts during the kernel
             assert s.inflight
             before = s.samples_during_steps
             for _ in range(5):  # during the kernel: brush samples go straight on
@@ -113,19 +113,20 @@ def test_samples_applied_while_a_step_runs_replay_exactly(tmp_path: Path) -> Non
                 done.set()
 
             waiter = threading.Thread(target=dry)
-            if stroke == 1:
+            if stroke == 0:  # (then wet paint again, under the last stroke)
                 waiter.start()
                 assert not done.wait(0.3)  # held while the kernel runs
             gate.open.set()
             th.join(20)
-            if stroke == 1:
+            if stroke == 0:  # (then wet paint again, under the last stroke)
                 assert done.wait(20)
                 waiter.join()
             s.handle("pen", _pen(k, 0.2 + 0.01 * k, touching=False))  # the stroke ends
             k += 1
             with s.lock:  # a step between strokes (the gate is open)
                 s.step()
-        s.command("undo")  # undoes the last stroke, from its deferred checkpoint
+        # undoes the last stroke, from the checkpoint finished after the kernel it began in
+        s.command("undo")
         gate.open.set()
         for _ in range(3):
             s.step()
@@ -144,7 +145,7 @@ def test_samples_applied_while_a_step_runs_replay_exactly(tmp_path: Path) -> Non
     assert float(live.p.sum() + live.q.sum()) > 0.0  # two strokes are left on the canvas
 
 
-def test_stroke_start_waits_for_the_kernel_and_the_checkpoint_is_copied_later(
+def test_a_stroke_starting_during_the_kernel_does_not_wait_and_its_checkpoint_is_after_the_step(
         tmp_path: Path) -> None:
     s = _session(tmp_path)
     real = s.player.backend
@@ -162,26 +163,103 @@ def test_stroke_start_waits_for_the_kernel_and_the_checkpoint_is_copied_later(
         assert not s._lazy and not np.shares_memory(cp.state.w, live.w)
         assert np.array_equal(cp.state.w, w_before)
         s.handle("pen", _pen(1, 0.31, touching=False))
-        started = threading.Event()
-        applied = threading.Event()
+        steps = s.player.counters.steps
+        # a new stroke while the kernel runs: taken at once, no wait for the kernel
+        s.handle("pen", _pen(2, 0.5))
+        assert s.inflight and len(s._lazy) == 1 and len(s._mid_step) == 1
+        mid = s._lazy[0]
+        assert s.player.brush.pending > 0  # its stamps wait for the next step
+        # an eraser sample (a canvas read) waits for the kernel
+        started, applied = threading.Event(), threading.Event()
 
-        def new_stroke() -> None:
+        def erase() -> None:
             started.set()
-            s.handle("pen", _pen(2, 0.5))
+            s.handle("pen", PenSample(t=0.011, device="e", tool=Tool.ERASER, x=0.9, y=0.9,
+                                      pressure=0.0, touching=False, t_mono=5.0))
             applied.set()
 
-        t2 = threading.Thread(target=new_stroke)
+        t2 = threading.Thread(target=erase)
         t2.start()
-        assert started.wait(5) and not applied.wait(0.3)  # a stroke start waits
+        assert started.wait(5) and not applied.wait(0.3)
         gate.open.set()
         th.join(20)
         assert applied.wait(20)
         t2.join()
-        assert len(s._lazy) == 1  # the new stroke's checkpoint, not copied yet
+        # the step is over: the checkpoint is the canvas as the step left it
+        assert not s._mid_step and s.player.counters.steps == steps + 1
+        assert mid.player["counters"].steps == steps + 1
+        assert mid.state.step_count == live.step_count == steps + 1
+        assert mid.state.sim_time == live.sim_time
+        # the eraser's sample copied it (a tool may change the canvas): the step's numbers
+        assert not s._lazy and not np.shares_memory(mid.state.w, live.w)
+        w_after = live.w.copy()
+        assert np.array_equal(mid.state.w, w_after)
+        with s.lock:
+            s._step_unlocked()
+        assert np.array_equal(mid.state.w, w_after)
+        assert not np.array_equal(live.w, w_after)  # (the stroke's stamps went in)
     finally:
         gate.open.set()
         s.player.backend = real
         s.shutdown()
+
+
+def test_samples_during_the_checkpoint_copy_paint_in_that_step_and_replay_exactly(
+        tmp_path: Path) -> None:
+    s = _session(tmp_path)
+    copying, go = threading.Event(), threading.Event()
+    real_copy = s.materialize_checkpoints
+
+    def slow_copy() -> None:  # hold the step's copy (lock released) until the test says
+        if s._copying:
+            copying.set()
+            assert go.wait(20)
+        real_copy()
+
+    def one_step() -> None:
+        with s.lock:
+            s._step_unlocked()
+
+    s.materialize_checkpoints = slow_copy  # type: ignore[method-assign]
+    try:
+        s.command("brush", size=8, water=1.0, pigment={"French Ultramarine": 0.5})
+        k = 0
+        for _ in range(3):
+            s.handle("pen", _pen(k, 0.2 + 0.02 * k))  # a stroke starts: a lazy checkpoint
+            k += 1
+            copying.clear()
+            go.clear()
+            th = threading.Thread(target=one_step)
+            s._worker = th  # the copy is made with the lock released in the sim thread only
+            th.start()
+            assert copying.wait(20)
+            steps = s.player.counters.steps
+            for _ in range(4):  # during the copy: straight on, into this step
+                s.handle("pen", _pen(k, 0.2 + 0.02 * k))
+                k += 1
+            go.set()
+            th.join(20)
+            s._worker = None
+            assert s.player.counters.steps == steps + 1
+            assert s.player.brush.pending == 0  # the step took the copy-time stamps
+            s.handle("pen", _pen(k, 0.2 + 0.02 * k, touching=False))
+            k += 1
+            with s.lock:
+                s.step()
+        s.command("undo")
+        for _ in range(2):
+            s.step()
+        assert s.history.undone == 1
+        live = s.canvas.state()
+    finally:
+        go.set()
+        s.shutdown()
+    replay = _replay(tmp_path / "s.jsonl").state()
+    assert replay.step_count == live.step_count
+    for name, v in vars(live).items():
+        if isinstance(v, np.ndarray):
+            assert np.array_equal(getattr(replay, name), v), name
+    assert float(live.p.sum() + live.q.sum()) > 0.0
 
 
 def test_the_simulation_thread_keeps_time_and_stops(tmp_path: Path) -> None:

@@ -21,9 +21,9 @@ steps run in a thread of their own, and a lock (:attr:`KioskSession.lock`)
 keeps the window's thread and the steps apart — except during the canvas
 kernel itself (``backend.step()``, most of a step), when the lock is
 released: then the window applies the pen samples that only feed the round
-brush (its stamps wait for the next step, as they would anyway) and renders
-the tiles it needs.  Everything else (commands, tools, a stroke's first sample,
-which takes the undo checkpoint) waits for the step to end.  A sample applied
+brush (its stamps wait for the next step, as they would anyway), a stroke's
+first sample included, and renders the tiles it needs.  Everything else
+(commands, tools, the eraser) waits for the step to end.  A sample applied
 during step *k* is logged in the time slot of step *k + 1*, where its stamps
 go, so a replay of the log (``station paint``) gives the same pixels.  The
 display may read a tile while the kernel writes it; the tile is marked dirty
@@ -37,7 +37,12 @@ arrays by reference (the player is copied at once, as before), and the copy is
 made before anything next changes the canvas: at the start of the next step
 (in the simulation thread, lock released as for the kernel), or before a
 command or a tool's sample.  Nothing changes the canvas in between, so the
-checkpoint holds the same numbers as one copied at once.
+checkpoint holds the same numbers as one copied at once.  A stroke that starts
+while step *k*'s kernel runs is logged after step *k*, so its checkpoint must be
+the canvas as step *k* leaves it: the arrays are shared anyway, and the small
+fields and the step count are taken when the step is over
+(:meth:`KioskSession.finish_mid_step`).  Samples applied while the step copies
+checkpoints (before it takes the stamps) are logged before it, as they paint.
 
 Why in-process and not a separate ``station sim`` feeding the window over the
 bus: the window needs the canvas every frame (60 per second); across a
@@ -101,6 +106,7 @@ class KioskSession(LiveSim):
         # the simulation thread (start_worker) and what it shares with the window
         self.lock = threading.Condition()
         self.inflight = False  # the canvas kernel of a step runs now, the lock released
+        self._copying = False  # (with inflight) the step copies undo checkpoints first
         self.sim_seconds = 0.0  # wall time spent in steps (either thread)
         # (start, end) perf_counter times of the recent steps, for a bench's window
         self.step_times: deque[tuple[float, float]] = deque(maxlen=4096)
@@ -112,6 +118,7 @@ class KioskSession(LiveSim):
         self._window_waits = 0  # the window's thread waits for the step to end
         # undo checkpoints still holding the live canvas arrays (see the module docstring)
         self._lazy: list[Any] = []
+        self._mid_step: list[Any] = []  # ... taken while a step's kernel ran (finish_mid_step)
         self._checkpoint_now = self.history._checkpoint
         self.history._checkpoint = self._checkpoint_deferred  # type: ignore[method-assign]
 
@@ -137,12 +144,11 @@ class KioskSession(LiveSim):
                 return
             self.last_canvas_pen = sample
             with self.lock:
-                if self.inflight:
-                    if self._brush_only(sample):
+                if self._brush_only(sample):
+                    if self.inflight:
                         self.samples_during_steps += 1
-                    else:
-                        self._wait_step()
-                if not self._paints_only(sample):
+                else:
+                    self._wait_step()
                     self.materialize_checkpoints()  # a tool's dab changes the canvas
                 before = self.player.brush.stamps
                 super().handle(kind, sample, topic, replay)
@@ -165,20 +171,10 @@ class KioskSession(LiveSim):
 
     def _brush_only(self, s: PenSample) -> bool:
         """Whether applying ``s`` touches nothing but the round brush's own state (no
-        canvas read or write): no tool in hand, no diffusion controller, no stroke
-        start (its undo checkpoint copies the canvas)."""
-        p = self.player
-        if (type(p.brush) is not RoundBrush or p.tool is not None or p.controller is not None
-                or s.tool is Tool.ERASER):
-            return False
-        if not (s.touching and s.proximity):
-            return True
-        dev = self.devices.get(s.device)
-        return dev is not None and dev.touching
-
-    def _paints_only(self, s: PenSample) -> bool:
-        """Whether ``s`` goes to the round brush alone (its stamps reach the canvas only
-        in the next step), a stroke's first sample included."""
+        canvas read or write; its stamps reach the canvas in the next step): no tool in
+        hand, no diffusion controller, no eraser.  A stroke's first sample is one: its
+        undo checkpoint shares the canvas and is finished after the step (see
+        :meth:`finish_mid_step`)."""
         p = self.player
         return (type(p.brush) is RoundBrush and p.tool is None and p.controller is None
                 and s.tool is not Tool.ERASER)
@@ -198,13 +194,37 @@ class KioskSession(LiveSim):
         finally:
             p.backend = real
         self._lazy.append(cp)
+        if self.inflight and not self._copying:
+            self._mid_step.append(cp)
         return cp
+
+    def finish_mid_step(self) -> None:
+        """Finish the checkpoints taken while a step's kernel ran (lock held, the step
+        over).  Such a stroke's records belong after that step (:meth:`_in_this_step`),
+        so its checkpoint is the canvas as the step left it: the arrays are shared and
+        were written by the kernel, the small fields are taken now, and the player's
+        step count is the step's.  The player's other fields were taken when the stroke
+        started; a step changes none of them after its kernel."""
+        if not self._mid_step:
+            return
+        p = self.player
+        real = p.backend
+        p.backend = _SharedState(real, self.cpu_state)
+        try:
+            for cp in self._mid_step:
+                now = self._checkpoint_now()
+                cp.state, cp.n_slots, cp.nbytes = now.state, now.n_slots, now.nbytes
+                cp.player["counters"].steps = p.counters.steps
+        finally:
+            p.backend = real
+        self._mid_step.clear()
 
     def materialize_checkpoints(self) -> None:
         """Copy the canvas into the checkpoints that still share it (before it changes)."""
-        for cp in self._lazy:
+        # taken from the list first: the window may add one meanwhile (_copy_unlocked)
+        lazy, self._lazy = self._lazy, []
+        for cp in lazy:
             cp.state = cp.state.copy()
-        self._lazy.clear()
 
     def _wait_step(self) -> None:
         """Wait (lock held) until no canvas kernel runs.  The thread lets a waiting
@@ -219,7 +239,7 @@ class KioskSession(LiveSim):
     def _in_this_step(self, t: float) -> float:
         """As :meth:`LiveCore._in_this_step`, but while step *k*'s kernel runs a record
         belongs to step *k + 1* (its stamps were not in step *k*)."""
-        if not self.inflight:
+        if not self.inflight or self._copying:  # copying: the step has not taken stamps
             return super()._in_this_step(t)
         p = self.player
         k = p.counters.steps + 1
@@ -317,14 +337,17 @@ class KioskSession(LiveSim):
         if threading.current_thread() is not self._worker:
             self.materialize_checkpoints()
             return
-        self.inflight = True
+        self.inflight = self._copying = True
         self.lock.release()
         try:
             self.materialize_checkpoints()
         finally:
             self.lock.acquire()
-            self.inflight = False
+            self.inflight = self._copying = False
             self.lock.notify_all()
+        # a stroke that started during the copy: its checkpoint (the canvas before this
+        # step, as its records are) is copied now, before the kernel writes the canvas
+        self.materialize_checkpoints()
 
     def _step_unlocked(self) -> None:
         """One step (lock held), its canvas kernel run with the lock released."""
@@ -335,6 +358,7 @@ class KioskSession(LiveSim):
             self.step()
         finally:
             p.backend = real
+        self.finish_mid_step()
 
     def run_due_steps(self, max_steps: int = 2) -> int:
         """Run the steps due by the session clock: one, or up to ``max_steps`` when more
