@@ -86,13 +86,15 @@ def _replay(log: Path) -> Any:
     return canvas
 
 
-def test_samples_applied_while_a_step_runs_replay_exactly(tmp_path: Path) -> None:
+@pytest.mark.parametrize("kind", ["round", "round3d"])
+def test_samples_applied_while_a_step_runs_replay_exactly(tmp_path: Path, kind: str) -> None:
     s = _session(tmp_path)
     real = s.player.backend
     gate = _Gate(real)
     s.player.backend = gate
     try:
-        s.command("brush", size=8, water=1.0, pigment={"French Ultramarine": 0.5})
+        s.command("brush", kind=kind, size=8, water=1.0,
+                  pigment={"French Ultramarine": 0.5})
         k = 0
         for stroke in range(3):
             for _ in range(4 if stroke < 2 else 0):  # between steps: the lock is free

@@ -20,8 +20,8 @@ arriving as a step starts waits for the step and then for a frame.  So the
 steps run in a thread of their own, and a lock (:attr:`KioskSession.lock`)
 keeps the window's thread and the steps apart — except during the canvas
 kernel itself (``backend.step()``, most of a step), when the lock is
-released: then the window applies the pen samples that only feed the round
-brush (its stamps wait for the next step, as they would anyway), a stroke's
+released: then the window applies the pen samples that only feed the brush
+(its stamps wait for the next step, as they would anyway), a stroke's
 first sample included, and renders the tiles it needs.  Everything else
 (commands, tools, the eraser) waits for the step to end.  A sample applied
 during step *k* is logged in the time slot of step *k + 1*, where its stamps
@@ -66,6 +66,7 @@ from typing import Any
 import numba
 import numpy as np
 
+from station.brush.deformable import DeformableBrush
 from station.brush.stamp import RoundBrush
 from station.canvas.state import CanvasState
 from station.events import Command, PenSample, Tool
@@ -172,12 +173,13 @@ class KioskSession(LiveSim):
     def _brush_only(self, s: PenSample) -> bool:
         """Whether applying ``s`` touches nothing but the round brush's own state (no
         canvas read or write; its stamps reach the canvas in the next step): no tool in
-        hand, no diffusion controller, no eraser.  A stroke's first sample is one: its
-        undo checkpoint shares the canvas and is finished after the step (see
-        :meth:`finish_mid_step`)."""
+        hand, no diffusion controller, no eraser.  Both brushes qualify: the deformable
+        one reads only the paper's height, which no step changes, and queues its
+        pick-ups for the next step.  A stroke's first sample is one: its undo checkpoint shares the
+        canvas and is finished after the step (see :meth:`finish_mid_step`)."""
         p = self.player
-        return (type(p.brush) is RoundBrush and p.tool is None and p.controller is None
-                and s.tool is not Tool.ERASER)
+        return (isinstance(p.brush, RoundBrush | DeformableBrush) and p.tool is None
+                and p.controller is None and s.tool is not Tool.ERASER)
 
     # -- undo checkpoints, copied when the canvas is next changed ---------------------
     def _checkpoint_deferred(self) -> Any:
