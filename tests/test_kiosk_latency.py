@@ -406,11 +406,13 @@ def test_latency_bench_reports_goals_prediction_and_load(tmp_path: Path) -> None
 
     with xvfb() as display:
         proc = station("bench", "latency", "--json", "--seconds", "1.5", "--size", "160x120",
-                       "--predict-ms", "12", display=display)
+                       "--predict-ms", "12", "--brush", "round3d", display=display)
         out, err = proc.communicate(timeout=240)
     assert proc.returncode == 0, err[-2000:]
     r = json.loads(out)
     assert r["latency"]["n"] > 10 and r["latency"]["p99_ms"] > 0
+    # the deformable brush painted (its samples go on while a step's kernel runs too)
+    assert r["tablet"]["brush"] == "round3d" and r["tablet"]["stamps"] > 10
     assert r["frames"]["fps"] > 0 and r["frames"]["sim_steps_per_s"] > 5
     assert set(r["frames"]["share"]) == {"wait", "input", "sim", "render", "ui", "present"}
     pr = r["present"]

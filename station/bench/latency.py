@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from station.brush.stamp import brush_kinds
 from station.cli.argtypes import auto_or_ms
 from station.errors import BadInput, StationError
 
@@ -59,10 +60,20 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--present", default="auto", choices=("auto", "swap", "partial"),
                    help="how frames reach the screen (auto: only the changed rectangles on "
                         "a software rasteriser, station.kiosk.present)")
+    p.add_argument("--brush", default="round", type=_brush_kind, metavar="KIND",
+                   help="the brush the pen paints with: round (default) or a deformable "
+                        "kind (round3d, flat, …), whose samples cost a spine solve each")
     p.add_argument("--compare", action="store_true",
                    help="also measure the peer (steps in the frame loop) in the same run, "
                         "each for --seconds, and report the ratios")
     p.set_defaults(func=run)
+
+
+def _brush_kind(text: str) -> str:
+    kinds = brush_kinds()
+    if text not in kinds:
+        raise argparse.ArgumentTypeError(f"unknown brush {text!r}; one of {', '.join(kinds)}")
+    return text
 
 
 def _percentiles(xs: list[float] | np.ndarray) -> dict[str, float | int | None]:
@@ -121,11 +132,12 @@ def run(args: argparse.Namespace) -> int:
     try:
         result = measure(width, height, args.backend, args.seconds, args.rate, args.model,
                          args.script, sim_thread=not args.inline_sim,
-                         predict_ms=args.predict_ms, present=args.present)
+                         predict_ms=args.predict_ms, present=args.present, brush=args.brush)
         if args.compare:
             peer = measure(width, height, args.backend, args.seconds, args.rate, args.model,
                            args.script, sim_thread=args.inline_sim,
-                           predict_ms=args.predict_ms, present=args.present)
+                           predict_ms=args.predict_ms, present=args.present,
+                           brush=args.brush)
             result["peer"] = {k: peer[k] for k in ("sim", "latency", "frames", "load_avg")}
             result["ratios"] = _ratios(result, peer)
     finally:
@@ -150,7 +162,8 @@ def _ratios(a: dict[str, Any], b: dict[str, Any]) -> dict[str, Any]:
 
 def measure(width: int, height: int, backend: str, seconds: float, rate: int,
             model: str, script: str = "arc", sim_thread: bool = True,
-            predict_ms: float | None = None, present: str = "auto") -> dict[str, Any]:
+            predict_ms: float | None = None, present: str = "auto",
+            brush: str = "round") -> dict[str, Any]:
     from station.calibration.area import AreaSettings, Rect
     from station.calibration.files import write_file
     from station.calibration.model import Calibration, DeviceId
@@ -167,6 +180,8 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
                           predict_ms=predict_ms, present=present,
                           idle=IdleConfig(attract_after=3600, finish_after=7200))
         app = KioskApp(cfg)
+        if brush != "round":
+            app.session.command("brush", kind=brush)
         spec = f"mock:{model}?script={script}&repeat=0&reports={rate * 2}&rate={rate}"
         probe = open_device(spec)
         ident = probe.describe()
@@ -265,7 +280,8 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
                             "whole_frames": app.presenter.whole_frames},
                 "tablet": {"model": model, "script": script, "reports_per_s": rate,
                            "samples": st.counters.samples - samples0,
-                           "stamps": st.painted_stamps - stamps0},
+                           "stamps": st.painted_stamps - stamps0,
+                           "brush": st.player.brush.settings.kind},
                 "latency": {**lat, "goal_p99_ms": GOAL_P99_MS,
                             "from": "driver read (time.monotonic)",
                             "to": "end of the present (swap, or copy of the changed "
