@@ -43,6 +43,7 @@ from pathlib import Path
 from typing import Any
 
 import zmq
+from zmq.utils.monitor import recv_monitor_message
 
 from station import wire
 from station.errors import BusConfigError, BusError, WireError
@@ -380,6 +381,12 @@ def _rejected(checks: list[KeyCheck]) -> int:
     return sum(c.refused for c in checks)
 
 
+#: A connecting CURVE client learns only through its socket's events that the server
+#: refused its key (ZAP status 400 arrives as a failed handshake).
+HANDSHAKE_FAILED = (zmq.EVENT_HANDSHAKE_FAILED_AUTH | zmq.EVENT_HANDSHAKE_FAILED_PROTOCOL
+                    | zmq.EVENT_HANDSHAKE_FAILED_NO_DETAIL)
+
+
 # -- publisher ------------------------------------------------------------------
 class Publisher:
     """Publishes on the bus.  Thread-compatible, not thread-safe (one per thread)."""
@@ -406,6 +413,11 @@ class Publisher:
             self.sock.close(linger=0)
             raise
         self._key_checks = [check] if check is not None else []
+        # a tcp client (CURVE) watches its handshakes: a refused key is said as such
+        self.refusals = 0
+        self._monitor = (self.sock.get_monitor_socket(HANDSHAKE_FAILED)
+                         if not self.endpoint.bind and self.endpoint.url.startswith("tcp://")
+                         else None)
         self.publisher_id = random.SystemRandom().getrandbits(32)
         if heartbeat is not None and not 0.0 < heartbeat <= wire.MAX_HEARTBEAT_INTERVAL:
             raise BusConfigError(f"heartbeat interval {heartbeat!r} s outside (0, "
@@ -562,16 +574,32 @@ class Publisher:
         self._serve_subscriptions()
 
     def wait_for_subscribers(self, count: int = 1, timeout: float = 5.0) -> bool:
-        """Block until ``count`` subscriptions arrived (a connection handshake)."""
+        """Block until ``count`` subscriptions arrived (a connection handshake);
+        ``False`` after ``timeout`` or as soon as the peer refuses this client's key
+        (:attr:`refusals`)."""
         deadline = time.monotonic() + timeout
         while self.subscriptions < count:
             if time.monotonic() > deadline:
                 return False
             if self.sock.poll(20, zmq.POLLIN):
                 self._serve_subscriptions()
+            if self._refused():
+                return False
         return True
 
+    def _refused(self) -> bool:
+        """Whether a handshake failed since the last call (counted in :attr:`refusals`)."""
+        refused = False
+        while self._monitor is not None and self._monitor.poll(0, zmq.POLLIN):
+            if recv_monitor_message(self._monitor)["event"] & HANDSHAKE_FAILED:
+                self.refusals += 1
+                refused = True
+        return refused
+
     def close(self) -> None:
+        if self._monitor is not None:
+            self.sock.disable_monitor()
+            self._monitor.close(linger=0)
         self.sock.close()
 
     def __enter__(self) -> Publisher:

@@ -147,6 +147,44 @@ def test_recorder_with_a_key_not_authorised_gets_nothing_and_the_driver_counts_i
     assert summary["curve_rejected"] >= 1 and summary["total_samples"] == sent
 
 
+def test_send_over_tcp_reaches_a_keyed_live_sim_and_a_refused_key_is_said(
+        tmp_path: Path) -> None:
+    """`station send --to tcp://… --keys K` drives a live `station sim --cmd @tcp://…`;
+    a client key the sim does not authorise is refused at the handshake, and send says
+    so at once (exit 1) instead of waiting out its timeout as if no sim listened."""
+    keys = tmp_path / "keys"
+    generate_keys(keys)
+    add_client_key("intruder", keys)
+    (keys / "authorized" / "client-intruder.key").unlink()
+    port = free_port()
+    log = tmp_path / "s.jsonl"
+    sim = start("sim", "--bus", f"ipc://{tmp_path}/bus", "--cmd", f"@tcp://127.0.0.1:{port}",
+                "--keys", str(keys), "--size", "32x32", "--backend", "numpy", "--log",
+                str(log), "--status", "none", "--autosave", "0")
+    try:
+        sent = station("send", "brush", "size=9", "--to", f"tcp://127.0.0.1:{port}",
+                       "--keys", str(keys), "--timeout", "20")
+        t0 = time.monotonic()
+        refused = station("send", "clear", "--to", f"tcp://127.0.0.1:{port}", "--keys",
+                          str(keys), "--client-key", "intruder", "--timeout", "20")
+        took = time.monotonic() - t0
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline and '"brush"' not in (
+                log.read_text() if log.exists() else ""):
+            time.sleep(0.1)
+    finally:
+        code, err = finish(sim)
+    assert sent.returncode == 0, sent.stderr
+    assert refused.returncode == 1 and len(refused.stderr.strip().splitlines()) == 1
+    assert "refused this client's CURVE key (client-intruder.key)" in refused.stderr
+    assert took < 10  # not the 20 s timeout
+    assert code == 0, err
+    cmds = [json.loads(ln) for ln in log.read_text().splitlines() if '"cmd"' in ln]
+    painted = [(c["cmd"], c["args"]) for c in cmds if c["cmd"] != "wait"]  # (the stop's)
+    assert painted == [("brush", {"size": 9})]  # and no clear
+    assert "rejected a CURVE peer" in err
+
+
 @pytest.mark.parametrize("argv", [
     ["sim", "--bus", "tcp://127.0.0.1:9"],
     ["record", "--bus", "tcp://127.0.0.1:9", "-o", "OUT"],

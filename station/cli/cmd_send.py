@@ -83,6 +83,11 @@ def run(args: argparse.Namespace) -> int:
     with Publisher(target, bind=False, replay=False, keys=args.keys,
                    client_key=args.client_key) as pub:
         if not pub.wait_for_subscribers(1, timeout=args.timeout):
+            if pub.refusals:
+                key = f"client-{args.client_key}.key" if args.client_key else "client.key"
+                raise StationError(f"the station sim on {pub.url} refused this client's "
+                                   f"CURVE key ({key}): it is not in that sim's "
+                                   "authorized/ directory")
             raise StationError(f"no station sim listens on {pub.url} (is it running? "
                                "its --cmd endpoint?)")
         pub.publish_cmd(command)
