@@ -387,6 +387,34 @@ HANDSHAKE_FAILED = (zmq.EVENT_HANDSHAKE_FAILED_AUTH | zmq.EVENT_HANDSHAKE_FAILED
                     | zmq.EVENT_HANDSHAKE_FAILED_NO_DETAIL)
 
 
+class HandshakeWatch:
+    """The handshakes of a socket's connecting tcp endpoints: a CURVE server that
+    refuses this client's key says so only by failing the handshake, and the socket
+    would otherwise wait for a peer forever as if none listened."""
+
+    def __init__(self, sock: zmq.Socket, endpoints: list[Endpoint]) -> None:
+        self._sock = sock
+        self.refusals = 0
+        self._monitor = (sock.get_monitor_socket(HANDSHAKE_FAILED)
+                         if any(not e.bind and e.url.startswith("tcp://") for e in endpoints)
+                         else None)
+
+    def refused(self) -> bool:
+        """Whether a handshake failed since the last call (counted in :attr:`refusals`)."""
+        refused = False
+        while self._monitor is not None and self._monitor.poll(0, zmq.POLLIN):
+            if recv_monitor_message(self._monitor)["event"] & HANDSHAKE_FAILED:
+                self.refusals += 1
+                refused = True
+        return refused
+
+    def close(self) -> None:
+        if self._monitor is not None:
+            self._sock.disable_monitor()
+            self._monitor.close(linger=0)
+            self._monitor = None
+
+
 # -- publisher ------------------------------------------------------------------
 class Publisher:
     """Publishes on the bus.  Thread-compatible, not thread-safe (one per thread)."""
@@ -407,17 +435,15 @@ class Publisher:
         self.sock.setsockopt(zmq.SNDHWM, HWM)
         self.sock.setsockopt(zmq.XPUB_VERBOSE, 1)  # see every subscription: late-joiner replay
         self.sock.setsockopt(zmq.LINGER, 1000)
+        # watched before it connects: libzmq does not retry a refused handshake
+        self._handshakes = HandshakeWatch(self.sock, [self.endpoint])
         try:
             check = _attach(self.sock, self.endpoint, keys, client_key)
         except BaseException:
+            self._handshakes.close()
             self.sock.close(linger=0)
             raise
         self._key_checks = [check] if check is not None else []
-        # a tcp client (CURVE) watches its handshakes: a refused key is said as such
-        self.refusals = 0
-        self._monitor = (self.sock.get_monitor_socket(HANDSHAKE_FAILED)
-                         if not self.endpoint.bind and self.endpoint.url.startswith("tcp://")
-                         else None)
         self.publisher_id = random.SystemRandom().getrandbits(32)
         if heartbeat is not None and not 0.0 < heartbeat <= wire.MAX_HEARTBEAT_INTERVAL:
             raise BusConfigError(f"heartbeat interval {heartbeat!r} s outside (0, "
@@ -583,23 +609,17 @@ class Publisher:
                 return False
             if self.sock.poll(20, zmq.POLLIN):
                 self._serve_subscriptions()
-            if self._refused():
+            if self._handshakes.refused():
                 return False
         return True
 
-    def _refused(self) -> bool:
-        """Whether a handshake failed since the last call (counted in :attr:`refusals`)."""
-        refused = False
-        while self._monitor is not None and self._monitor.poll(0, zmq.POLLIN):
-            if recv_monitor_message(self._monitor)["event"] & HANDSHAKE_FAILED:
-                self.refusals += 1
-                refused = True
-        return refused
+    @property
+    def refusals(self) -> int:
+        """Handshakes the peer refused (a tcp client whose CURVE key it does not know)."""
+        return self._handshakes.refusals
 
     def close(self) -> None:
-        if self._monitor is not None:
-            self.sock.disable_monitor()
-            self._monitor.close(linger=0)
+        self._handshakes.close()
         self.sock.close()
 
     def __enter__(self) -> Publisher:
@@ -622,6 +642,7 @@ class SubscriberStats:
     foreign: int = 0
     version_mismatch: int = 0
     started_at: dict[str, int] = field(default_factory=dict)  # "topic@publisher" -> first seq
+    refused_by_peer: int = 0  # handshakes a publisher refused (our CURVE key, connecting)
     # the ZAP checks of the tcp endpoints this subscriber binds (CURVE server)
     key_checks: list[KeyCheck] = field(default_factory=list, repr=False)
 
@@ -636,7 +657,7 @@ class SubscriberStats:
             "duplicates": self.duplicates,
             "malformed": self.malformed, "foreign": self.foreign,
             "version_mismatch": self.version_mismatch, "started_at": dict(self.started_at),
-            "curve_rejected": self.curve_rejected,
+            "curve_rejected": self.curve_rejected, "refused_by_peer": self.refused_by_peer,
         }  # fmt: skip
 
 
@@ -673,12 +694,14 @@ class Subscriber:
         for t in topics:
             self.sock.setsockopt(zmq.SUBSCRIBE, t.encode())
         self._key_checks: list[KeyCheck] = []
+        self._handshakes = HandshakeWatch(self.sock, self.endpoints)  # before connecting
         try:
             for ep in self.endpoints:
                 check = _attach(self.sock, ep, keys, client_key)
                 if check is not None and check not in self._key_checks:
                     self._key_checks.append(check)
         except BaseException:
+            self._handshakes.close()
             self.sock.close(linger=0)
             raise
         self.stats = SubscriberStats(key_checks=self._key_checks)
@@ -691,6 +714,16 @@ class Subscriber:
         """Connections refused because the client's key is not authorised (0 unless
         this subscriber binds tcp; see :attr:`Publisher.curve_rejected`)."""
         return self.stats.curve_rejected
+
+    def _check_handshakes(self) -> None:
+        """Count and say (once) that a publisher refused this client's key: nothing
+        would ever arrive from it, and a quiet bus looks like an idle one."""
+        if self._handshakes.refused():
+            if self.stats.refused_by_peer == 0:
+                urls = ", ".join(e.url for e in self.endpoints if e.url.startswith("tcp://"))
+                log.warning("the publisher on %s refused this client's CURVE key: nothing "
+                            "will arrive from it (authorise the key there)", urls)
+            self.stats.refused_by_peer = self._handshakes.refusals
 
     def _drop(self, exc: WireError) -> None:
         text = str(exc)
@@ -717,6 +750,7 @@ class Subscriber:
                 wait = (None if deadline is None
                         else max(0, int((deadline - time.monotonic()) * 1000)))
                 if not self.sock.poll(wait, zmq.POLLIN):
+                    self._check_handshakes()
                     return None
                 continue
             try:
@@ -759,6 +793,7 @@ class Subscriber:
         return Message(env.topic, "heartbeat", env.value, env.publisher, env.seq, env.replay)
 
     def close(self) -> None:
+        self._handshakes.close()
         self.sock.close()
 
     def __enter__(self) -> Subscriber:

@@ -141,6 +141,9 @@ def test_recorder_with_a_key_not_authorised_gets_nothing_and_the_driver_counts_i
     assert sent > 50
     assert len(pen_records(good_out)) == sent and "lost on the bus 0" in good_err
     assert pen_records(bad_out) == [] and "0 samples" in bad_err
+    # the refused recorder says why nothing arrives, once
+    assert bad_err.count("refused this client's CURVE key") == 1, bad_err
+    assert "refused this client's CURVE key" not in good_err
     warnings = [ln for ln in drv.stderr.splitlines() if "rejected a CURVE peer" in ln]
     assert len(warnings) == 1 and intruder_public in warnings[0]
     summary = json.loads(drv.stderr.strip().splitlines()[-1].split("station driver: ", 1)[1])
@@ -251,6 +254,36 @@ def test_a_client_needs_only_the_servers_public_key(tmp_path: Path) -> None:
         got = list(iter(lambda: sub.recv(1000), None))
         assert [m.value.seq for m in got] == list(range(1, 11))
         assert pub.curve_rejected == 0
+        assert sub.stats.refused_by_peer == 0
+    finally:
+        sub.close()
+        pub.close()
+        ctx.destroy(linger=0)
+
+
+def test_a_subscriber_whose_key_is_refused_counts_it_and_warns_once(
+        tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    keys = tmp_path / "keys"
+    generate_keys(keys)
+    add_client_key("intruder", keys)
+    (keys / "authorized" / "client-intruder.key").unlink()
+    ctx = zmq.Context()
+    endpoint = f"tcp://127.0.0.1:{free_port()}"
+    pub = Publisher(endpoint, keys=keys, context=ctx)
+    sub = Subscriber(endpoint, topics=("pen.",), keys=keys, client_key="intruder",
+                     context=ctx)
+    try:
+        deadline = time.monotonic() + 10
+        while sub.stats.refused_by_peer < 1 and time.monotonic() < deadline:
+            pub.publish_pen(PenSample(t=0.0, device="d", tool=Tool.PEN, x=0.5, y=0.5))
+            assert sub.recv(50) is None
+        for _ in range(5):  # said once, however long it stays quiet
+            assert sub.recv(20) is None
+        assert sub.stats.refused_by_peer == 1  # (libzmq does not retry a refused handshake)
+        assert sub.stats.as_dict()["refused_by_peer"] == sub.stats.refused_by_peer
+        said = [r for r in caplog.records if "refused this client's CURVE key" in r.message]
+        assert len(said) == 1 and endpoint in said[0].message
+        assert pub.curve_rejected >= 1 and pub.subscriptions == 0
     finally:
         sub.close()
         pub.close()
