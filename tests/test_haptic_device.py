@@ -295,15 +295,18 @@ def test_bus_forces_are_rendered_and_stop_with_the_bus(tmp_path: Path) -> None:
 
 
 def test_bad_device_specs_and_flags_exit_2(tmp_path: Path, capsys) -> None:
-    bus = f"ipc://{tmp_path}/bus"  # its own endpoint: no other test's driver can hold it
-    for spec, needle in (("serial-mock:?script=nope", "script"),
+    for i, (spec, needle) in enumerate((("serial-mock:?script=nope", "script"),
                          ("serial-mock:?max_force=abc", "max_force"),
                          ("serial-mock:?bogus=1", "bogus"),
                          ("serial-mock:?input=0&force=0", "nothing to do"),
                          ("serial:usb:zz", "VID:PID"),
-                         ("serial:/dev/null?rate=5", "rate")):
+                         ("serial:/dev/null?rate=5", "rate"))):
+        # an endpoint of its own each time: the last run's socket (same process) may
+        # still be closing in zmq's I/O thread, and would answer as a live driver
+        bus = f"ipc://{tmp_path}/bus{i}"
         assert main(["driver", "--bus", bus, "--device", spec]) == 2, spec
         err = capsys.readouterr().err.strip()
         assert needle in err and "\n" not in err
-    assert main(["driver", "--bus", bus, "--device", "serial:/nonexistent/ttyACM9"]) == 1
+    assert main(["driver", "--bus", f"ipc://{tmp_path}/last", "--device",
+                 "serial:/nonexistent/ttyACM9"]) == 1
     assert "no such serial device" in capsys.readouterr().err
