@@ -45,6 +45,11 @@ from station.errors import BadInput
 
 SAMPLES = 8
 """Points per bristle polyline (root to tip)."""
+RETENTION_SPREAD = 0.3
+"""Log-normal spread of the bristles' ink retention (their clumping)."""
+RETENTION_RIM = 0.4
+"""How much sooner the rim's bristles lose their ink than the core's (the ferrule packs
+the core: finer pores hold the liquid longer)."""
 
 
 class BrushShapeError(BadInput):
@@ -248,9 +253,19 @@ class Tuft:
             s0, t0 = r * np.cos(a), r * np.sin(a)  # unit disc
             s = 0.5 + 0.5 * s0[:, None] * prof
             t = 0.5 + 0.5 * t0[:, None] * prof
+            rim = r
         else:
             s = np.broadcast_to(rng.random(nb)[:, None], u.shape)
-            t = 0.5 + 0.5 * (2.0 * rng.random(nb) - 1.0)[:, None] * prof
+            t0 = 2.0 * rng.random(nb) - 1.0
+            t = 0.5 + 0.5 * t0[:, None] * prof
+            rim = np.abs(t0)
+        # How long each bristle keeps its ink connected as the tuft drains: the liquid
+        # retreats into the tightest pores, the core the ferrule packs, and the bristles'
+        # clumping varies (a draw of its own, so the geometry above keeps its seed).
+        # A bristle's own fill is the tuft's fill × retention (TuftModel.film_fill).
+        clump = np.random.default_rng([shape.seed, 17]).normal(0.0, 1.0, nb)
+        self.retention = np.exp(RETENTION_SPREAD * np.clip(clump, -2.0, 2.0)) * (
+            1.0 - RETENTION_RIM * (rim - rim.mean()))
         self.lattice_shape = (2 if shape.spines == 1 else shape.spines, 2, shape.segments + 1)
         na, nt, nu = self.lattice_shape
         bs = _bernstein(na - 1, s.ravel())
