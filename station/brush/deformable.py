@@ -124,8 +124,8 @@ class TuftModel:
     frame_interval: float = 0.004
     frame_reach: float = 0.5
     contact_time: float = 0.02
-    skim: int = 6
-    sink: float = 0.25
+    skim: int = 8
+    sink: float = 0.1
 
 
 @dataclass(slots=True)
