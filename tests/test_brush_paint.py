@@ -215,7 +215,7 @@ def test_dirty_brush_carries_blue_into_a_yellow_stroke() -> None:
     # blue beyond the blue stripe, along the yellow stroke's path after it
     after, before = float(amount[28:36, 56:80].sum()), float(amount[28:36, 5:35].sum())
     # (the tuft holds by its volume since session 4: the blue it picks up is diluted in
-    # 12× more yellow than before, when this asked for 0.05)
+    # 15× more yellow than before, when this asked for 0.05)
     assert after > 0.03
     # before the stripe only what wet-in-wet flow spreads back through the joined wet
     # areas (the flow-outward canvas keeps strokes wet longer): a tenth of what the brush carried
@@ -373,8 +373,8 @@ def test_a_drying_stroke_breaks_up_along_the_paper() -> None:
     paper = make_paper(get_profile("watercolor").paper, H, W, 5)
     b = brush("round3d", size=12, paper=paper)
     # a brush that runs dry within the stroke: a sixth of what a size-12 tuft held by its
-    # footprint's area before session 4 (it now holds by its volume, 12× that)
-    b.reservoir.capacity /= 6 * 12.0
+    # footprint's area before session 4 (it now holds by its volume, 15× that)
+    b.reservoir.capacity /= 6 * 15.0
     b.reservoir.load(1.0, {"Sumi Ink": 0.5}, b.model.water_scale, b.model.pigment_scale)
     for i in range(60):
         b.feed(PenSample(t=i / 60, device="d", tool="pen", x=0.08 + 0.84 * i / 59, y=0.5,  # type: ignore[arg-type]

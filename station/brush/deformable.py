@@ -420,6 +420,15 @@ class DeformableBrush:
             return 1.0 if fill >= tm.film_fill else 0.0
         return min(1.0, max(0.0, (fill - tm.pendular_fill) / span))
 
+    def _split(self, fill: float) -> float:
+        """How far the tuft's ink has split into locks: 0 at ``film_fill`` and above
+        (one body), 1 at ``pendular_fill`` and below."""
+        tm = self.tuft_model
+        span = tm.film_fill - tm.pendular_fill
+        if span <= 0.0:
+            return 0.0 if fill >= tm.film_fill else 1.0
+        return min(1.0, max(0.0, (tm.film_fill - fill) / span))
+
     def _wetness_map(self, fill: np.ndarray) -> np.ndarray:
         """:meth:`_wetness` per cell."""
         tm = self.tuft_model
@@ -458,11 +467,13 @@ class DeformableBrush:
             lift = tm.dry_lift * (1.0 - fill) ** 2 * deepest
             bead = tm.ink_reach * self._wetness(fill)
         else:
-            # the same per bristle, from its own fill: the bristle touching each cell
-            # (the lowest) holds ``retention`` times the tuft's share, so as the tuft
-            # drains its bristles lose their ink one by one and each leaves a streak
-            # along the stroke where it stops giving paint
-            own = np.minimum(1.0, fill * np.nan_to_num(maps.tag, nan=1.0))
+            # the same per bristle, from its own fill: above film_fill the tuft's ink
+            # is one body and every bristle has the same share; as it drains below,
+            # the liquid splits into locks and the bristle touching each cell (the
+            # lowest) keeps ``retention`` times the tuft's share at pendular_fill, so
+            # the bristles lose their ink lock by lock and each leaves a streak along
+            # the stroke where it stops giving paint
+            own = np.minimum(1.0, fill * np.nan_to_num(maps.tag, nan=1.0) ** self._split(fill))
             lift = tm.dry_lift * (1.0 - own) ** 2 * deepest
             bead = tm.ink_reach * self._wetness_map(own)
         speed = math.hypot(s.vx, s.vy)

@@ -46,12 +46,11 @@ from station.errors import BadInput
 SAMPLES = 8
 """Points per bristle polyline (root to tip)."""
 RETENTION_SPREAD = 0.3
-"""Log-normal spread of the locks' ink retention (≥ 1; a third of it per bristle)."""
+"""Log-normal spread of the locks' ink retention (and 0.3 of it per bristle)."""
 BRISTLES_PER_LOCK = 12
 """Bristles a drying tuft draws into one lock (its clumps)."""
 RETENTION_RIM = 0.4
-"""How much longer the core's bristles keep their ink than the rim's (the ferrule packs
-the core: finer pores hold the liquid longer)."""
+"""How much more of its ink the core keeps than the rim (per unit of radius)."""
 
 
 class BrushShapeError(BadInput):
@@ -263,22 +262,18 @@ class Tuft:
             t0 = 2.0 * rng.random(nb) - 1.0
             t = 0.5 + 0.5 * t0[:, None] * prof
             rim = np.abs(t0)
-        # How long each bristle keeps its ink connected as the tuft drains: the liquid
-        # retreats into the tightest pores, toward the core the ferrule packs and into
-        # clumps of bristles (a draw of its own, so the geometry above keeps its seed).
-        # A bristle's own fill is the tuft's fill × retention (TuftModel.film_fill): a
-        # loose rim bristle (retention 1) loses its ink as the tuft does, the others
-        # later, so the stroke thins out bristle by bristle.
-        # As it drains, the liquid draws neighbouring bristles into locks that hold
-        # their ink together: a lock's bristles run dry together and leave a band of
-        # paper between the locks still inked (the split tuft of dry-brush).
+        # How each bristle keeps its ink once the tuft's liquid stops being one body
+        # (below TuftModel.film_fill): the liquid draws neighbouring bristles into locks
+        # that keep their share together, and retreats toward the core the ferrule
+        # packs (finer pores hold it longer).  A draw of its own, so the geometry above
+        # keeps its seed.  Retention 1 is the tuft's average share.
         draw = np.random.default_rng([shape.seed, 17])
         locks = max(3, nb // BRISTLES_PER_LOCK)
         lock = np.minimum((around * locks).astype(int), locks - 1)
-        held = np.abs(np.clip(draw.normal(0.0, 1.0, locks), -2.0, 2.0))[lock]
-        own = np.abs(np.clip(draw.normal(0.0, 1.0, nb), -2.0, 2.0))
-        self.retention = np.exp(RETENTION_SPREAD * held + 0.3 * RETENTION_SPREAD * own) * (
-            1.0 + RETENTION_RIM * (1.0 - rim))
+        held = np.clip(draw.normal(0.0, 1.0, locks), -2.0, 2.0)[lock]
+        own = np.clip(draw.normal(0.0, 1.0, nb), -2.0, 2.0)
+        self.retention = np.exp(RETENTION_SPREAD * (held + 0.3 * own)) * (
+            1.0 - RETENTION_RIM * (rim - rim.mean()))
         self.lattice_shape = (2 if shape.spines == 1 else shape.spines, 2, shape.segments + 1)
         na, nt, nu = self.lattice_shape
         bs = _bernstein(na - 1, s.ravel())
