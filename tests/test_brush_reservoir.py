@@ -8,6 +8,7 @@ import pytest
 from scipy.ndimage import uniform_filter1d
 
 from station.brush.deformable import DeformableBrush, TuftModel
+from station.brush.footprint import rasterise, weight
 from station.brush.stamp import BrushModel, BrushSettings
 from station.canvas.paper import make_paper
 from station.canvas.params import get_profile
@@ -133,3 +134,57 @@ def test_the_running_dry_end_breaks_into_streaks_along_the_stroke() -> None:
     # high (skim 0), the marks are the tooth's own round dots (0.99 along, 0.77 across)
     _, along0, across0 = dry_end(TuftModel(skim=0))
     assert along0 < 0.7 * along and along0 < 1.5 * across0, (along0, across0)
+
+
+def test_the_tuft_holds_by_its_volume() -> None:
+    paper = np.ones((64, 64), np.float32)
+    held = []
+    for size in (4.0, 8.0):
+        b = DeformableBrush(64, 64, BrushSettings(kind="round3d", size=size), BrushModel(), paper)
+        held.append(b.reservoir.capacity)
+        assert b.reservoir.capacity == pytest.approx(
+            b.shape.capacity * b.model.water_scale * np.pi * (size / 2) ** 2 * b.tuft_length)
+    assert held[1] == pytest.approx(8.0 * held[0])
+
+
+def test_each_cell_knows_the_bristle_that_touches_it() -> None:
+    # two crossing bristles; the lower one's tag wins where both cover a cell
+    segs = np.array([[[4.0, 8.0, -0.2], [14.0, 8.0, -0.2]],
+                     [[9.0, 3.0, 0.0], [9.0, 13.0, 0.0]]])
+    maps = rasterise(segs, 0.6, tags=np.array([2.0, 0.5]))
+    assert maps.tag is not None and maps.tag.shape == maps.cover.shape
+    at = (8 - maps.y0, 9 - maps.x0)  # the crossing
+    assert maps.tag[at] == pytest.approx(2.0)
+    assert maps.tag[(4 - maps.y0, 9 - maps.x0)] == pytest.approx(0.5)
+    assert np.isnan(maps.tag[maps.cover == 0]).all()
+    assert rasterise(segs, 0.6).tag is None
+    # per-cell lift: raising the contact where the tag is low takes its paint away
+    paper = np.full((24, 24), 0.5, np.float32)
+    _, _, flat = weight(maps, paper, 1.5, 0.6)
+    lift = np.where(np.nan_to_num(maps.tag) < 1.0, 5.0, 0.0).astype(np.float32)
+    _, _, lifted = weight(maps, paper, 1.5, 0.6, lift=lift)
+    low = np.nan_to_num(maps.tag) < 1.0
+    assert lifted[low & (maps.cover > 0)].max() == 0.0
+    assert np.array_equal(lifted[~low], flat[~low])
+
+
+def test_a_flick_lays_a_thinner_film_than_a_slow_stroke() -> None:
+    """Transfer ∝ √(contact time) up to ``contact_time``: a stroke 4× faster than the
+    tuft's length per ``contact_time`` lays about half the water per cell."""
+    paper = np.ones((40, 400), np.float32)
+    per_cell = []
+    for speed in (100.0, 3000.0):  # cells per session second
+        b = DeformableBrush(400, 40, BrushSettings(kind="round3d", size=6, water=1.0,
+                                                   pigment={INK: 0.5}), BrushModel(), paper)
+        b.reservoir.capacity *= 100  # the transfer, not the depletion
+        b.reservoir.load(1.0, {INK: 0.5}, b.model.water_scale, b.model.pigment_scale)
+        n = 60
+        for i in range(n + 1):
+            b.feed(PenSample(t=i * 300.0 / n / speed, device="d", tool="pen",  # type: ignore[arg-type]
+                             x=(50 + 300.0 * i / n) / 400, y=0.5, pressure=0.6, touching=True))
+        src = b.take()
+        assert src is not None
+        dw = src.full(400, 40).dw[:, 100:300]
+        per_cell.append(float(dw.sum()) / float((dw > 0).sum()))
+    slow, fast = per_cell
+    assert 0.3 * slow < fast < 0.7 * slow, (slow, fast)
