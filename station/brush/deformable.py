@@ -24,6 +24,12 @@ comes from the :class:`~station.brush.reservoir.Reservoir`; where the
 footprint passes over wet paint, pick-up requests are queued for the player,
 which applies them to the canvas arrays before the next step.
 
+Running dry (docs/brush.md): the tuft holds ink by its volume; the paper draws
+it in ``∝ √(contact time)``; below ``film_fill`` the ink splits into locks of
+bristles with their own shares (the rasteriser tells each cell which bristle
+touches it), and the dry bristles skim the tooth from hill to hill along the
+motion, so a draining stroke breaks into streaks along itself.
+
 Plasticity: while the brush is wet and touching, each spine's rest angles
 drift toward its current angles (``plasticity · fill`` per frame); lifted,
 they relax back to the shape's rest (``recovery`` per frame).
