@@ -26,8 +26,8 @@ def thin_stroke(kind: str, size: float, rate: float, tuft: TuftModel | None = No
     paper = make_paper(get_profile("ink").paper, H, W, seed)
     settings = BrushSettings(kind=kind, size=size, water=0.5, pigment={"Sumi Ink": 0.5})
     b = DeformableBrush(W, H, settings, BrushModel(), paper, tuft=tuft)
-    # a tuft of 3 cells holds paint for ~15 of its widths: this is about the contact,
-    # not the depletion, so the brush holds enough to stay about half-loaded
+    # this is about the contact, not the depletion (a half-loaded 3-cell tuft lays ~30
+    # widths before it breaks up): the brush holds enough to stay about half-loaded
     b.reservoir.capacity *= 4
     b.reservoir.load(0.5, {"Sumi Ink": 0.5}, b.model.water_scale, b.model.pigment_scale)
     n = int(rate * 0.25)
@@ -65,7 +65,7 @@ def test_a_thin_stroke_breaks_up_only_when_the_brush_runs_dry() -> None:
     paper = make_paper(get_profile("ink").paper, H, 4 * W, 5)
     settings = BrushSettings(kind="round3d", size=3, water=0.5, pigment={"Sumi Ink": 0.5})
     b = DeformableBrush(4 * W, H, settings, BrushModel(), paper)
-    b.reservoir.capacity *= 3  # a longer wet stretch to measure
+    b.reservoir.capacity *= 0.75  # run dry within the canvas' 120 widths
     b.reservoir.load(0.5, {"Sumi Ink": 0.5}, b.model.water_scale, b.model.pigment_scale)
     fills, n = [], 480
     for i in range(n + 1):

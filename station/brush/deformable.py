@@ -24,6 +24,12 @@ comes from the :class:`~station.brush.reservoir.Reservoir`; where the
 footprint passes over wet paint, pick-up requests are queued for the player,
 which applies them to the canvas arrays before the next step.
 
+Running dry (docs/brush.md): the tuft holds ink by its volume; the paper draws
+it in ``∝ √(contact time)``; below ``film_fill`` the ink splits into locks of
+bristles with their own shares (the rasteriser tells each cell which bristle
+touches it), and the dry bristles skim the tooth from hill to hill along the
+motion, so a draining stroke breaks into streaks along itself.
+
 Plasticity: while the brush is wet and touching, each spine's rest angles
 drift toward its current angles (``plasticity · fill`` per frame); lifted,
 they relax back to the shape's rest (``recovery`` per frame).
@@ -103,6 +109,14 @@ class TuftModel:
             ≤ 250 Hz get a solve for every sample.
         frame_reach: how far (tuft lengths) the pen may move from the last solved
             pose before a sample gets its own solve whatever the clock says.
+        contact_time: session seconds of contact after which the paper under the
+            tuft has drunk the whole film (the transfer grows as ``√t`` up to it): a
+            flick that passes a cell faster lays a thinner film and goes further.
+        skim, sink: a bristle dragged over the tooth skims from hill to hill: leaving
+            one it sinks ``sink`` cells per cell travelled, looked at over ``skim``
+            cells behind (:func:`~station.brush.footprint.weight`).  So a dry tuft's
+            contact trails along the stroke behind the hills: dry-brush streaks, not
+            dots.  0 turns it off (contact only where the paper itself is high).
     """
 
     tooth: float = 1.5
@@ -115,6 +129,9 @@ class TuftModel:
     pendular_fill: float = 0.2
     frame_interval: float = 0.004
     frame_reach: float = 0.5
+    contact_time: float = 0.02
+    skim: int = 8
+    sink: float = 0.1
 
 
 @dataclass(slots=True)
@@ -202,8 +219,12 @@ class DeformableBrush:
         return self.settings.size * self.shape.length
 
     def _capacity(self) -> float:
+        """The liquid the tuft's body holds: ``capacity`` full-stamp water layers
+        (``water_scale``) per cell³ of a body as wide as the footprint and as long as
+        the tuft.  A volume: a brush twice the size lays a stroke twice as many of its
+        widths long (docs/brush.md, "Running dry")."""
         r = 0.5 * self.settings.size
-        return self.shape.capacity * math.pi * r * r * self.model.water_scale
+        return self.shape.capacity * math.pi * r * r * self.tuft_length * self.model.water_scale
 
     def set(self, settings: BrushSettings) -> None:
         """A ``brush`` command: dip the brush (refill) and take the new shape or size."""
@@ -293,7 +314,11 @@ class DeformableBrush:
         """Rasterise deformed bristles (cells) into cover and depth maps."""
         L = self.tuft_length
         radius = max(self.tuft_model.min_bristle_radius, 0.5 * self.shape.bristle_width * L)
-        return self.rasterise(segments(bristles), radius)
+        segs = segments(bristles)
+        if self.rasterise is rasterise:  # each cell learns which bristle touches it
+            tags = np.repeat(self.tuft.retention, bristles.shape[1] - 1)
+            return rasterise(segs, radius, tags=tags)
+        return self.rasterise(segs, radius)
 
     def _plasticity(self) -> None:
         shape = self.shape
@@ -401,6 +426,37 @@ class DeformableBrush:
             return 1.0 if fill >= tm.film_fill else 0.0
         return min(1.0, max(0.0, (fill - tm.pendular_fill) / span))
 
+    def _split(self, fill: float) -> float:
+        """How far the tuft's ink has split into locks: 0 at ``film_fill`` and above
+        (one body), 1 at ``pendular_fill`` and below."""
+        tm = self.tuft_model
+        span = tm.film_fill - tm.pendular_fill
+        if span <= 0.0:
+            return 0.0 if fill >= tm.film_fill else 1.0
+        return min(1.0, max(0.0, (tm.film_fill - fill) / span))
+
+    def _wetness_map(self, fill: np.ndarray) -> np.ndarray:
+        """:meth:`_wetness` per cell."""
+        tm = self.tuft_model
+        span = tm.film_fill - tm.pendular_fill
+        if span <= 0.0:
+            return (fill >= tm.film_fill).astype(np.float32)
+        return np.clip((fill - tm.pendular_fill) / span, 0.0, 1.0).astype(np.float32)
+
+    def _contact(self, s: _Stroke, maps: FootprintMaps) -> float:
+        """Share of a saturating transfer a cell gets while the tuft passes over it.
+
+        The paper drinks from the touching tuft like a capillary, ``∝ √t``
+        (Lucas-Washburn); by ``contact_time`` the fibres under the tuft are soaked to
+        the film a loaded brush lays.  A cell is under the tuft for the footprint's
+        length along the motion over the speed (session seconds)."""
+        speed = math.hypot(s.vx, s.vy)
+        h, w = maps.cover.shape
+        if speed <= 0.0 or self.tuft_model.contact_time <= 0.0:
+            return 1.0
+        along = (abs(s.vx) * w + abs(s.vy) * h) / speed
+        return min(1.0, math.sqrt(along / speed / self.tuft_model.contact_time))
+
     def _spacing(self, maps: FootprintMaps) -> float:
         h, w = maps.cover.shape
         return max(1.0, self.tuft_model.spacing * 0.5 * max(h, w, 1))
@@ -408,12 +464,28 @@ class DeformableBrush:
     def _stamp(self, s: _Stroke, maps: FootprintMaps, dy: int, dx: int) -> None:
         tm = self.tuft_model
         fill = self.reservoir.fill
-        dry = 1.0 - fill
-        # the bristles lifted as the tuft dries; the ink a loaded tuft holds wets the
-        # tooth below them (cells)
-        lift = tm.dry_lift * dry * dry * max(0.0, float(maps.depth.max(initial=0.0)))
-        bead = tm.ink_reach * self._wetness(fill)
-        y0, x0, wt = weight(maps, self.paper, tm.tooth, tm.ramp, dy, dx, lift, bead)
+        deepest = max(0.0, float(maps.depth.max(initial=0.0)))
+        lift: float | np.ndarray
+        bead: float | np.ndarray
+        if maps.tag is None:
+            # the bristles lifted as the tuft dries; the ink a loaded tuft holds wets
+            # the tooth below them (cells)
+            lift = tm.dry_lift * (1.0 - fill) ** 2 * deepest
+            bead = tm.ink_reach * self._wetness(fill)
+        else:
+            # the same per bristle, from its own fill: above film_fill the tuft's ink
+            # is one body and every bristle has the same share; as it drains below,
+            # the liquid splits into locks and the bristle touching each cell (the
+            # lowest) keeps ``retention`` times the tuft's share at pendular_fill, so
+            # the bristles lose their ink lock by lock and each leaves a streak along
+            # the stroke where it stops giving paint
+            own = np.minimum(1.0, fill * np.nan_to_num(maps.tag, nan=1.0) ** self._split(fill))
+            lift = tm.dry_lift * (1.0 - own) ** 2 * deepest
+            bead = tm.ink_reach * self._wetness_map(own)
+        speed = math.hypot(s.vx, s.vy)
+        drag = (s.vx / speed, s.vy / speed) if speed > 0.0 else None
+        y0, x0, wt = weight(maps, self.paper, tm.tooth, tm.ramp, dy, dx, lift, bead,
+                            drag=drag, sink=tm.sink, skim=tm.skim)
         self.stamps += 1
         if wt.size == 0:
             s.previous = None
@@ -422,7 +494,8 @@ class DeformableBrush:
         fp = Footprint(y0, x0, eff)
         fresh = fp.without(s.previous)
         s.previous = fp
-        dw, dp = self.reservoir.deposit(fresh.cover, self.model.water_scale)
+        dw, dp = self.reservoir.deposit(fresh.cover * self._contact(s, maps),
+                                        self.model.water_scale)
         if self.shape.pickup > 0.0 and fresh.cover.any():
             # like the deposit, only the cells the footprint newly covers: a brush
             # sliding over its own wet trail would otherwise soak it back up at

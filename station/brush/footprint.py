@@ -10,7 +10,11 @@ The rasteriser writes two maps over a window of cells:
 
 * ``cover``: the anti-aliased coverage of the bristles (max over bristles);
 * ``depth``: how far the lowest bristle reaches below the plane, ``-z_low``
-  (max over bristles; ``-inf`` where none).
+  (max over bristles; ``-inf`` where none);
+* ``tag`` (optional): a per-bristle value of the lowest bristle, the one that
+  touches the paper there (the deformable brush passes each bristle's ink
+  retention, so a drying tuft gives up its ink bristle by bristle and the
+  stroke breaks into streaks that follow the bristles).
 
 The weight the paint sees is computed per cell *where the stamp lands*, from
 the paper's height: the plane is the top of the paper's tooth and a cell's
@@ -45,6 +49,7 @@ class FootprintMaps:
     x0: int
     cover: np.ndarray  # float32 (h, w)
     depth: np.ndarray  # float32 (h, w), cells below the plane
+    tag: np.ndarray | None = None  # float32 (h, w), the lowest bristle's tag (NaN: none)
 
     @property
     def area(self) -> float:
@@ -73,7 +78,8 @@ def window(segs: np.ndarray, radius: float) -> tuple[int, int, int, int]:
 
 @numba.njit(cache=True)
 def _raster(segs: np.ndarray, radius: float, y0: int, x0: int, cover: np.ndarray,
-            depth: np.ndarray) -> None:  # pragma: no cover - compiled
+            depth: np.ndarray, tags: np.ndarray, tag: np.ndarray
+            ) -> None:  # pragma: no cover - compiled
     h, w = cover.shape
     r2 = radius * radius
     for k in range(segs.shape[0]):
@@ -108,23 +114,32 @@ def _raster(segs: np.ndarray, radius: float, y0: int, x0: int, cover: np.ndarray
                     cover[i, j] = c
                 if -zl > depth[i, j]:
                     depth[i, j] = -zl
+                    if tags.shape[0]:
+                        tag[i, j] = tags[k]
 
 
 def rasterise(segs: np.ndarray, radius: float,
-              win: tuple[int, int, int, int] | None = None) -> FootprintMaps:
-    """Cover and depth maps of tube segments (cells; see the module docstring)."""
+              win: tuple[int, int, int, int] | None = None,
+              tags: np.ndarray | None = None) -> FootprintMaps:
+    """Cover and depth maps of tube segments (cells; see the module docstring); with
+    ``tags`` (one value per segment) also the tag of the lowest segment per cell."""
     segs = np.ascontiguousarray(segs, np.float64)
     y0, x0, h, w = win if win is not None else window(segs, radius)
     cover = np.zeros((max(h, 0), max(w, 0)), np.float32)
     depth = np.full((max(h, 0), max(w, 0)), NO_DEPTH, np.float32)
+    t_in = np.zeros(0, np.float64) if tags is None else np.ascontiguousarray(tags, np.float64)
+    if t_in.shape[0] not in (0, segs.shape[0]):
+        raise ValueError(f"{t_in.shape[0]} tags for {segs.shape[0]} segments")
+    tag = np.full(cover.shape if tags is not None else (0, 0), np.nan, np.float32)
     if h > 0 and w > 0 and segs.shape[0]:
-        _raster(segs, float(radius), y0, x0, cover, depth)
-    return FootprintMaps(y0, x0, cover, depth)
+        _raster(segs, float(radius), y0, x0, cover, depth, t_in, tag)
+    return FootprintMaps(y0, x0, cover, depth, tag if tags is not None else None)
 
 
 def weight(maps: FootprintMaps, paper: np.ndarray, tooth: float, ramp: float,
-           dy: int = 0, dx: int = 0, lift: float = 0.0,
-           bead: float = 0.0) -> tuple[int, int, np.ndarray]:
+           dy: int = 0, dx: int = 0, lift: float | np.ndarray = 0.0,
+           bead: float | np.ndarray = 0.0, drag: tuple[float, float] | None = None,
+           sink: float = 0.25, skim: int = 0) -> tuple[int, int, np.ndarray]:
     """Contact weight in [0, 1] of ``maps`` shifted by ``(dy, dx)`` cells on paper ``h``.
 
     ``weight = cover · clip((depth - tooth·(1-h)) / ramp + 1/2, 0, 1)``: full
@@ -138,7 +153,15 @@ def weight(maps: FootprintMaps, paper: np.ndarray, tooth: float, ramp: float,
     shallower (the liquid is held under the pressed body of the tuft, not under
     a lone splayed hair that grazes the plane); the contact reaches the deeper
     of the bristles and the liquid
-    (:class:`~station.brush.deformable.TuftModel`).
+    (:class:`~station.brush.deformable.TuftModel`).  ``lift`` and ``bead`` may be
+    maps of the footprint's window (per bristle: each holds its own ink).
+
+    ``drag`` (a unit vector of the motion, x then y) with ``skim`` cells: a hair dragged
+    over the tooth does not drop into every valley; leaving a hill it sinks ``sink``
+    cells per cell travelled, so the surface its bristles reach is ``min over k ≤ skim
+    of tooth·(1 - h(x - k·u)) + k·sink``: the contact trails behind each hill, along
+    the stroke.  The ink under the tuft moves with it: its meniscus, pinned on a hill,
+    is drawn out behind it the same way.
     """
     hh, ww = paper.shape
     y0, x0 = maps.y0 + dy, maps.x0 + dx
@@ -147,13 +170,26 @@ def weight(maps: FootprintMaps, paper: np.ndarray, tooth: float, ramp: float,
     xa, xb = max(x0, 0), min(x0 + w, ww)
     if ya >= yb or xa >= xb:
         return 0, 0, np.zeros((0, 0), np.float32)
-    cov = maps.cover[ya - y0:yb - y0, xa - x0:xb - x0]
-    dep = maps.depth[ya - y0:yb - y0, xa - x0:xb - x0]
+    win = (slice(ya - y0, yb - y0), slice(xa - x0, xb - x0))
+    cov = maps.cover[win]
+    dep = maps.depth[win]
     below = np.float32(tooth) * (np.float32(1.0) - paper[ya:yb, xa:xb])
-    if bead > 0.0:
+    bead_w = bead[win].astype(np.float32) if isinstance(bead, np.ndarray) else np.float32(bead)
+    lift_w = lift[win].astype(np.float32) if isinstance(lift, np.ndarray) else np.float32(lift)
+    hairs = below
+    if drag is not None and skim > 0:
+        rows = np.arange(ya, yb)[:, None]
+        cols = np.arange(xa, xb)[None, :]
+        for k in range(1, skim + 1):
+            ys = np.clip(rows - int(round(k * drag[1])), 0, hh - 1)
+            xs = np.clip(cols - int(round(k * drag[0])), 0, ww - 1)
+            back = np.float32(tooth) * (np.float32(1.0) - paper[ys, xs]) + np.float32(k * sink)
+            hairs = np.minimum(hairs, back)
+    reach = (dep - lift_w - hairs) / np.float32(ramp)
+    if np.any(bead_w > 0.0):
         deepest = float(maps.depth.max(initial=0.0))
         if deepest > 0.0:
-            film = np.float32(bead) * np.clip(dep / np.float32(0.5 * deepest), 0.0, 1.0)
-            dep = np.maximum(dep, film)
-    reach = np.clip((dep - np.float32(lift) - below) / np.float32(ramp) + np.float32(0.5), 0.0, 1.0)
+            film = bead_w * np.clip(dep / np.float32(0.5 * deepest), 0.0, 1.0)
+            reach = np.maximum(reach, (film - lift_w - hairs) / np.float32(ramp))
+    reach = np.clip(reach + np.float32(0.5), 0.0, 1.0)
     return ya, xa, (cov * reach).astype(np.float32)

@@ -45,6 +45,12 @@ from station.errors import BadInput
 
 SAMPLES = 8
 """Points per bristle polyline (root to tip)."""
+RETENTION_SPREAD = 0.3
+"""Log-normal spread of the locks' ink retention (and 0.3 of it per bristle)."""
+BRISTLES_PER_LOCK = 12
+"""Bristles a drying tuft draws into one lock (its clumps)."""
+RETENTION_RIM = 0.4
+"""How much more of its ink the core keeps than the rim (per unit of radius)."""
 
 
 class BrushShapeError(BadInput):
@@ -248,9 +254,26 @@ class Tuft:
             s0, t0 = r * np.cos(a), r * np.sin(a)  # unit disc
             s = 0.5 + 0.5 * s0[:, None] * prof
             t = 0.5 + 0.5 * t0[:, None] * prof
+            rim = r
+            around = a / (2.0 * math.pi)  # pressed, the tuft fans out: wedges → bands
         else:
-            s = np.broadcast_to(rng.random(nb)[:, None], u.shape)
-            t = 0.5 + 0.5 * (2.0 * rng.random(nb) - 1.0)[:, None] * prof
+            around = rng.random(nb)
+            s = np.broadcast_to(around[:, None], u.shape)
+            t0 = 2.0 * rng.random(nb) - 1.0
+            t = 0.5 + 0.5 * t0[:, None] * prof
+            rim = np.abs(t0)
+        # How each bristle keeps its ink once the tuft's liquid stops being one body
+        # (below TuftModel.film_fill): the liquid draws neighbouring bristles into locks
+        # that keep their share together, and retreats toward the core the ferrule
+        # packs (finer pores hold it longer).  A draw of its own, so the geometry above
+        # keeps its seed.  Retention 1 is the tuft's average share.
+        draw = np.random.default_rng([shape.seed, 17])
+        locks = max(3, nb // BRISTLES_PER_LOCK)
+        lock = np.minimum((around * locks).astype(int), locks - 1)
+        held = np.clip(draw.normal(0.0, 1.0, locks), -2.0, 2.0)[lock]
+        own = np.clip(draw.normal(0.0, 1.0, nb), -2.0, 2.0)
+        self.retention = np.exp(RETENTION_SPREAD * (held + 0.3 * own)) * (
+            1.0 - RETENTION_RIM * (rim - rim.mean()))
         self.lattice_shape = (2 if shape.spines == 1 else shape.spines, 2, shape.segments + 1)
         na, nt, nu = self.lattice_shape
         bs = _bernstein(na - 1, s.ravel())

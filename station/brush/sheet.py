@@ -28,6 +28,8 @@ from station.sim.script import Script, swell, taper
 
 COLUMNS = ("press-and-lift", "S-curve", "side-pressure", "dry-brush", "running dry")
 INK = "Sumi Ink"
+RUN_DRY_WATER = 0.3
+"""The running-dry column's water load (a full brush is 1)."""
 TWIST = (90.0, 0.0, 0.0, 90.0, 90.0)
 """Barrel rotation per column (Art Pen): a flat brush is held with its width
 across the main direction of the stroke; round brushes do not care."""
@@ -65,7 +67,10 @@ def strokes_script(width: int, height: int, kinds: Sequence[str], size: float) -
         s.line((x[3] + 0.03, yc + dy * 0.3), (x[3] + cw - 0.03, yc - dy * 0.3), 0.15,
                pressure=0.55, tilt=(35.0, 0.0))
         _twist(s, at, TWIST[3])
-        s.brush(size=size, water=1.0, pigment={INK: 0.6}, kind=kind)
+        # a tuft holds ink by its volume: a loaded 22-cell brush lays a stroke of ~200
+        # widths, so the zigzag starts where the tuft's ink has split into locks
+        # (below film_fill) and runs through the break-up
+        s.brush(size=size, water=RUN_DRY_WATER, pigment={INK: 0.6}, kind=kind)
         at = len(s.records)
         s.curve([(x[4] + 0.03, yc - dy * 1.2), (x[4] + cw - 0.03, yc - dy * 1.2),
                  (x[4] + 0.03, yc - dy * 0.4), (x[4] + cw - 0.03, yc + dy * 0.4),
