@@ -171,7 +171,7 @@ class KioskSession(LiveSim):
                 self.mark_all_dirty()
 
     def _brush_only(self, s: PenSample) -> bool:
-        """Whether applying ``s`` touches nothing but the round brush's own state (no
+        """Whether applying ``s`` touches nothing but the brush's own state (no
         canvas read or write; its stamps reach the canvas in the next step): no tool in
         hand, no diffusion controller, no eraser.  Both brushes qualify: the deformable
         one reads only the paper's height, which no step changes, and queues its
