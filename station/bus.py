@@ -377,6 +377,28 @@ def _attach(sock: zmq.Socket, endpoint: Endpoint, keys_directory: Path | None,
     return check
 
 
+#: How long a close waits for zmq's I/O thread to let go of a bound ipc socket file.
+RELEASE_WAIT_S = 1.0
+
+
+def _wait_released(endpoints: list[Endpoint]) -> None:
+    """Wait until nobody answers on the ipc socket files these bound endpoints made.
+    zmq closes a listener in its I/O thread, after ``close`` returned: meanwhile the
+    file still answers, so the next bind in this process (a restarted component, a
+    second run of a command) would take it for another live process
+    (:func:`ipc_in_use`)."""
+    deadline = time.monotonic() + RELEASE_WAIT_S
+    for ep in endpoints:
+        if not (ep.bind and ep.url.startswith("ipc://")):
+            continue
+        path = Path(ep.url[6:])
+        try:
+            while ipc_in_use(path) and time.monotonic() < deadline:
+                time.sleep(0.002)
+        except (BusError, BusConfigError):  # replaced meanwhile: not ours to wait for
+            continue
+
+
 def _rejected(checks: list[KeyCheck]) -> int:
     return sum(c.refused for c in checks)
 
@@ -621,6 +643,7 @@ class Publisher:
     def close(self) -> None:
         self._handshakes.close()
         self.sock.close()
+        _wait_released([self.endpoint])
 
     def __enter__(self) -> Publisher:
         return self
@@ -795,6 +818,7 @@ class Subscriber:
     def close(self) -> None:
         self._handshakes.close()
         self.sock.close()
+        _wait_released(self.endpoints)
 
     def __enter__(self) -> Subscriber:
         return self

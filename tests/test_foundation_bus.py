@@ -314,3 +314,17 @@ def test_batches_count_losses_and_dedupe_like_single_samples() -> None:
         got = drain(sub, 2)
         assert [g.seq for g in got] == [610, 611] and sub.stats.lost == 7
     ctx.destroy(linger=0)
+
+
+def test_a_closed_ipc_endpoint_can_be_bound_again_at_once_in_the_same_process(
+        tmp_path: Path) -> None:
+    """zmq lets go of a bound ipc socket in its I/O thread after ``close`` returned; close
+    waits for that, so a component restarted in-process (or a command's second run) does
+    not find its own last socket still answering, as if another process held it."""
+    from station.bus import Publisher, Subscriber, ipc_in_use
+
+    url = f"ipc://{tmp_path}/again"
+    for i in range(30):
+        end = Publisher(url) if i % 2 else Subscriber(url, bind=True)
+        end.close()
+        assert not ipc_in_use(tmp_path / "again"), i
