@@ -69,6 +69,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from station.canvas.profiles import get_profile
     from station.sim.live import LiveConfig, LiveSim
+    from station.sim.recovery import resolve_log
 
     check_keys(args.keys, args.client_key,
                (("--bus", args.bus, False), ("--status", args.status, True),
@@ -85,6 +86,8 @@ def run(args: argparse.Namespace) -> int:
             if value:
                 raise BadInput(f"{flag} cannot be used with --recover (the log says it)",
                                flag)
+        # which log, before anything is bound or opened (a wrong one is bad input)
+        args.recover = str(resolve_log(args.recover))
     if args.resume:  # the state's size and profile; flags must agree
         load_resume_state(args.resume, size, args.profile)
     width, height = size or (800, 600)
