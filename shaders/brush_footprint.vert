@@ -15,10 +15,12 @@ uniform float radius;  // tube radius, cells
 
 flat out vec3 a;
 flat out vec3 b;
+flat out float seg;   // the instance's number (the tag pass)
 
 void main() {
     a = seg_a;
     b = seg_b;
+    seg = float(gl_InstanceID);
     vec2 lo = min(seg_a.xy, seg_b.xy) - vec2(radius + 1.0);
     vec2 hi = max(seg_a.xy, seg_b.xy) + vec2(radius + 1.0);
     vec2 p = mix(lo, hi, corner);

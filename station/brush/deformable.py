@@ -26,8 +26,9 @@ which applies them to the canvas arrays before the next step.
 
 Running dry (docs/brush.md): the tuft holds ink by its volume; the paper draws
 it in ``∝ √(contact time)``; below ``film_fill`` the ink splits into locks of
-bristles with their own shares (the rasteriser tells each cell which bristle
-touches it), and the dry bristles skim the tooth from hill to hill along the
+bristles with their own shares (the rasteriser, numba or GL, tells each cell
+which bristle touches it; one without a ``tags`` argument leaves the tuft one
+body), and the dry bristles skim the tooth from hill to hill along the
 motion, so a draining stroke breaks into streaks along itself.
 
 Plasticity: while the brush is wet and touching, each spine's rest angles
@@ -40,6 +41,7 @@ replays to the same pixels.
 
 from __future__ import annotations
 
+import inspect
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -161,6 +163,15 @@ class _Stroke:
     maps: FootprintMaps | None = None
 
 
+def _takes_tags(fn: Callable[..., FootprintMaps]) -> bool:
+    """Whether a rasteriser accepts per-segment ``tags`` (the numba and GL ones do; a
+    host's own may not, and then the tuft dries as one body)."""
+    try:
+        return "tags" in inspect.signature(fn).parameters
+    except (TypeError, ValueError):  # a builtin without a signature
+        return False
+
+
 class DeformableBrush:
     """Spine-driven brush of one :class:`BrushShape` (same interface as ``RoundBrush``).
 
@@ -170,7 +181,7 @@ class DeformableBrush:
     def __init__(self, width: int, height: int, settings: BrushSettings, model: BrushModel,
                  paper: np.ndarray, time_scale: float = 1.0, tuft: TuftModel | None = None,
                  time_budget_s: float | None = None,
-                 rasteriser: Callable[[np.ndarray, float], FootprintMaps] | None = None,
+                 rasteriser: Callable[..., FootprintMaps] | None = None,
                  counters: SolverCounters | None = None,
                  shape: BrushShape | None = None) -> None:
         if width < 1 or height < 1:
@@ -185,7 +196,7 @@ class DeformableBrush:
         self.solver_budget = time_budget_s
         # numba by default: the same bytes on every machine (replays); a live station
         # with a GL context may pass ``GLFootprint().rasterise`` (same maps to 1e-5)
-        self.rasterise = rasteriser or rasterise
+        self.rasterise: Callable[..., FootprintMaps] = rasteriser or rasterise
         self.solver_counters = counters if counters is not None else SolverCounters()
         self.settings = settings
         self.shape: BrushShape = shape if shape is not None else get_shape(settings.kind)
@@ -315,9 +326,9 @@ class DeformableBrush:
         L = self.tuft_length
         radius = max(self.tuft_model.min_bristle_radius, 0.5 * self.shape.bristle_width * L)
         segs = segments(bristles)
-        if self.rasterise is rasterise:  # each cell learns which bristle touches it
+        if _takes_tags(self.rasterise):  # each cell learns which bristle touches it
             tags = np.repeat(self.tuft.retention, bristles.shape[1] - 1)
-            return rasterise(segs, radius, tags=tags)
+            return self.rasterise(segs, radius, tags=tags)
         return self.rasterise(segs, radius)
 
     def _plasticity(self) -> None:

@@ -24,8 +24,9 @@ only reaches the hills: dry-brush.  Pressing harder pushes more of the tuft
 below the plane and fills the valleys.
 
 :func:`rasterise` is the numba path for headless CPUs;
-:mod:`station.brush.footprint_gl` draws the same tubes with OpenGL and the
-tests hold the two together.
+:mod:`station.brush.footprint_gl` draws the same tubes, and the same tags,
+with OpenGL and the tests hold the two together
+(``tests/test_brush_footprint_gl.py``).
 """
 
 from __future__ import annotations
