@@ -23,8 +23,14 @@ from station.drivers.mock.hidraw import MockHidrawNode
 from station.drivers.mock.script import report_times
 from station.drivers.mock.tablet import MockTablet, find_model
 from station.drivers.mock.usb import RecordedUsbBackend, RecordedUsbDevice
-from station.drivers.pipeline import DeviceSpec, HidPenSource, PenDriver, open_device
-from station.drivers.traces import iter_trace_samples, read_trace
+from station.drivers.pipeline import (
+    DeviceSpec,
+    HidPenSource,
+    PenDriver,
+    iter_trace_samples,
+    open_device,
+)
+from station.drivers.traces import read_trace
 from station.drivers.transport.base import (
     DeviceSpecError,
     EndOfStream,

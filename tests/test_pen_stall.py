@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 from station.drivers import synth
 from station.drivers.normalise import Normaliser, NormaliserConfig
+from station.drivers.pipeline import iter_trace_samples
 from station.drivers.raw import Axis, AxisRanges, RawSample
-from station.drivers.traces import iter_trace_samples
 
 from station.cli import main
 from station.events import Button, PenSample

@@ -44,7 +44,7 @@ from station.drivers.transport.base import (
 
 if TYPE_CHECKING:
     from station.drivers.mock.haptic import MockHapticDevice
-    from station.drivers.pipeline import DeviceSpec
+    from station.drivers.pipeline.spec import DeviceSpec
 
 log = logging.getLogger(__name__)
 

@@ -38,7 +38,7 @@ from station.drivers.wacom.modes import PEN_MODE_FEATURE
 from station.events import Tool
 
 if TYPE_CHECKING:
-    from station.drivers.pipeline import DeviceSpec
+    from station.drivers.pipeline.spec import DeviceSpec
 
 GENERIC_MODELS: dict[str, dict[str, Any]] = {
     "huion-like": {"id": "huion-like", "name": "Mock Huion-like pen", "vendor_id": "256c",

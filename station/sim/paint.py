@@ -132,10 +132,10 @@ def open_input(path: str, canvas: tuple[int, int] = (800, 600), mapping: str = "
 
 
 def _open_trace(path: str, canvas: tuple[int, int], mapping: str) -> _Source:
-    """A device trace through ``station.drivers.traces`` (issue 4), if it is there."""
+    """A device trace through the drivers' pipeline (issue 4), if it is there."""
     suffix = Path(path).suffix.lower()
     try:
-        traces = importlib.import_module("station.drivers.traces")
+        traces = importlib.import_module("station.drivers.pipeline")
     except ImportError:
         raise PaintInputError(
             f"device traces ({suffix}) are not supported yet by this station; "
@@ -144,7 +144,7 @@ def _open_trace(path: str, canvas: tuple[int, int], mapping: str) -> _Source:
     if not callable(reader):
         raise PaintInputError(
             f"device traces ({suffix}) are not supported yet by this station "
-            "(station.drivers.traces has no reader); give a session log (.jsonl)", path)
+            "(station.drivers.pipeline has no reader); give a session log (.jsonl)", path)
     if not os.path.exists(path):
         raise PaintInputError("no such file", path)
     from station.drivers.normalise import NormaliserConfig
