@@ -37,6 +37,7 @@ from station.drivers.hid.descriptor import (
     ReportType,
     parse_descriptor,
 )
+from station.drivers.traces.hidrecorder import HidRecorderWriter
 
 from station.events import Button
 
@@ -577,11 +578,6 @@ class RecordedDevice:
     phys: str = ""
 
 
-def _hex(data: bytes, upper: bool, pad: bool) -> str:
-    fmt = ("{:02X}" if pad else "{:X}") if upper else ("{:02x}" if pad else "{:x}")
-    return " ".join(fmt.format(b) for b in data)
-
-
 def write_hid_recorder(devices: list[RecordedDevice], out: TextIO | str | Path | None = None,
                        *, upper: bool = False, pad: bool = True, start: float = 0.0,
                        comments: bool = True, always_device_lines: bool = False) -> str:
@@ -591,38 +587,22 @@ def write_hid_recorder(devices: list[RecordedDevice], out: TextIO | str | Path |
     and seconds, ``start`` shifts every timestamp (recordings may start at
     any time), ``comments`` adds ``#`` lines.  Events of all devices are
     merged in time order with a ``D:`` line whenever the device changes
-    (always, when more than one device, or ``always_device_lines``).
+    (always, when more than one device, or ``always_device_lines``).  The text
+    comes from the station's one hid-recorder writer
+    (:class:`~station.drivers.traces.hidrecorder.HidRecorderWriter`).
     """
     buf = io.StringIO()
-    w = buf.write
-    multi = len(devices) > 1 or always_device_lines
-    if comments:
-        w("# synthetic recording written by station.drivers.synth\n")
-    for i, dev in enumerate(devices):
-        if multi:
-            w(f"D: {i}\n")
-        if comments:
-            w(f"# {dev.name}\n")
-        w(f"R: {len(dev.descriptor)} {_hex(dev.descriptor, upper, pad)}\n")
-        w(f"N: {dev.name}\n")
-        w(f"P: {dev.phys}\n")
-        ids = f"{dev.bus:x} {dev.vid:04x} {dev.pid:04x}" if pad else \
-            f"{dev.bus:x} {dev.vid:x} {dev.pid:x}"
-        w(f"I: {ids.upper() if upper else ids}\n")
+    writer = HidRecorderWriter(
+        buf, upper=upper, pad=pad, pad_seconds=pad, origin=-start,
+        device_lines=len(devices) > 1 or always_device_lines,
+        comment="synthetic recording written by station.drivers.synth" if comments else None)
+    for dev in devices:
+        writer.add_device(dev.name, dev.vid, dev.pid, dev.bus, dev.descriptor, dev.phys,
+                          comment=dev.name if comments else None)
     merged = sorted(((t, i, data) for i, dev in enumerate(devices) for t, data in dev.events),
                     key=lambda e: (e[0], e[1]))  # fmt: skip
-    current = -1
     for t, i, data in merged:
-        if multi and i != current:
-            w(f"D: {i}\n")
-            current = i
-        ts = t + start
-        sec = int(ts)
-        usec = int(round((ts - sec) * 1e6))
-        if usec >= 1_000_000:
-            sec, usec = sec + 1, usec - 1_000_000
-        stamp = f"{sec:06d}.{usec:06d}" if pad else f"{sec}.{usec:06d}"
-        w(f"E: {stamp} {len(data)} {_hex(data, upper, pad)}\n")
+        writer.write_report(t, data, device=i)
     text = buf.getvalue()
     if isinstance(out, (str, Path)):
         Path(out).write_text(text, encoding="utf-8")

@@ -1,4 +1,4 @@
-"""hid-recorder (hid-tools) traces: reader and streaming writer.
+"""hid-recorder (hid-tools) traces: reader and writer.
 
 Format (every recorder version seen): ``#`` comments; ``D: n`` selects the
 device the following lines belong to (no ``D:`` = device 0); ``R: len hex…``
@@ -167,40 +167,80 @@ def read_hid_recorder(path: str | os.PathLike[str]) -> Trace:
 
 
 class HidRecorderWriter:
-    """Writes a hid-recorder trace as reports arrive (``station record``).
+    """The station's one writer of hid-recorder text: ``station record`` streams
+    reports through it as they arrive; :func:`station.drivers.synth.write_hid_recorder`
+    writes whole synthetic recordings, in the variants other recorders write.
 
-    Times are written relative to the first report (``0.000000``), as
-    hid-recorder does; the file is flushed after each report so Ctrl-C loses nothing.
+    The file is flushed after each line group, so Ctrl-C loses nothing.  Spelling:
+
+    - ``upper``: upper-case hex; ``pad``: zero-padded hex bytes and ids (``0a``,
+      ``056a``), else bare (``a``, ``56a``); ``pad_seconds``: ``000001.500000``, else
+      ``1.500000``.
+    - ``origin``: the time written as zero (seconds, on the reports' clock); ``None``
+      takes the first report's time, as hid-recorder does.
+    - ``device_lines``: ``None`` writes ``D: n`` before each device and, with more
+      than one device, whenever the reporting device changes (hid-recorder's way);
+      ``True`` also before the first report; ``False`` never (a one-device file).
+    - ``comment``: a ``#`` line at the top.
     """
 
-    def __init__(self, out: IO[str]) -> None:
+    def __init__(self, out: IO[str], *, upper: bool = False, pad: bool = True,
+                 pad_seconds: bool = False, origin: float | None = None,
+                 device_lines: bool | None = None, comment: str | None = None) -> None:
         self._out = out
+        self._upper = upper
+        self._pad = pad
+        self._pad_seconds = pad_seconds
+        self._t0 = origin
+        self._device_lines = device_lines
         self._devices = 0
-        self._t0: float | None = None
+        self._current = -1  # the device of the last D: line (or header)
+        self._last_report_device = -1
         self.reports = 0
+        if comment is not None:
+            out.write(f"# {comment}\n")
+
+    def _hex(self, data: bytes) -> str:
+        if self._pad:  # the common spelling, at the speed of a 1 kHz device
+            text = data.hex(" ")
+            return text.upper() if self._upper else text
+        return " ".join(("{:X}" if self._upper else "{:x}").format(b) for b in data)
 
     def add_device(self, name: str, vid: int, pid: int, bus: int, descriptor: bytes | None,
-                   phys: str = "") -> int:
+                   phys: str = "", comment: str | None = None) -> int:
+        """Write one device's header lines; returns its index (``D: n``)."""
         index = self._devices
         self._devices += 1
         w = self._out.write
-        w(f"D: {index}\n")
+        if self._device_lines is not False:
+            w(f"D: {index}\n")
+        if comment is not None:
+            w(f"# {comment}\n")
         if descriptor:
-            w(f"R: {len(descriptor)} {descriptor.hex(' ')}\n")
+            w(f"R: {len(descriptor)} {self._hex(descriptor)}\n")
         w(f"N: {name}\n")
         w(f"P: {phys}\n")
-        w(f"I: {bus:x} {vid:04x} {pid:04x}\n")
+        ids = f"{bus:x} {vid:04x} {pid:04x}" if self._pad else f"{bus:x} {vid:x} {pid:x}"
+        w(f"I: {ids.upper() if self._upper else ids}\n")
         self._out.flush()
         self._current = index
         return index
 
     def write_report(self, time: float, data: bytes, device: int = 0) -> None:
+        """One input report of ``device``, ``time`` seconds on the reports' clock."""
         if self._t0 is None:
             self._t0 = time
-        if self._devices > 1 and device != self._current:
+        if self._device_lines is True:
+            new_device = device != self._last_report_device
+        else:
+            new_device = self._device_lines is None and self._devices > 1 and \
+                device != self._current
+        if new_device:
             self._out.write(f"D: {device}\n")
             self._current = device
+        self._last_report_device = device
         t = max(0.0, time - self._t0)
-        self._out.write(f"E: {t:.6f} {len(data)} {data.hex(' ')}\n")
+        stamp = f"{t:013.6f}" if self._pad_seconds else f"{t:.6f}"
+        self._out.write(f"E: {stamp} {len(data)} {self._hex(data)}\n")
         self._out.flush()
         self.reports += 1
