@@ -20,6 +20,7 @@ import datetime as _dt
 import json
 import os
 import threading
+from collections.abc import Sequence
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
@@ -29,7 +30,7 @@ import jsonschema
 from station.calibration.area import AreaSettings, DeviceGeometry
 from station.calibration.errors import CalibrationError, CalibrationFileError, DeviceMismatch
 from station.calibration.model import Calibration, DeviceId, FitInfo
-from station.calibration.pressure import PressureSettings, TiltSettings
+from station.calibration.pressure import PressureSettings, TiltSettings, check_curve
 
 from station.events import PenSample
 
@@ -244,6 +245,8 @@ class CalibrationStore:
         self._lock = threading.Lock()
         self.last_error: CalibrationError | None = None
         self.loads = 0
+        self._curve: tuple[float, float, float, float] | None = None
+        self._shaped: tuple[Calibration, Calibration] | None = None  # (loaded, with _curve)
 
     @property
     def current(self) -> Calibration | None:
@@ -278,8 +281,26 @@ class CalibrationStore:
         with self._lock:
             self._current = cal
 
-    def apply(self, sample: PenSample) -> PenSample:
+    def set_curve(self, curve: Sequence[float] | None) -> None:
+        """Shape pressure with ``curve`` instead of the file's curve (its threshold and
+        maximum stay): a curve the driver was given replaces the file's, so a device
+        gets one curve, never two in a row.  ``None`` goes back to the file's."""
+        self._curve = None if curve is None else check_curve(curve)
+        self._shaped = None
+
+    def _calibration(self) -> Calibration | None:
         cal = self._current
+        if cal is None or self._curve is None:
+            return cal
+        shaped = self._shaped
+        if shaped is None or shaped[0] is not cal:  # built once per loaded calibration
+            pressure = PressureSettings(cal.pressure.threshold, cal.pressure.maximum,
+                                        self._curve)
+            shaped = self._shaped = (cal, cal.with_(pressure=pressure))
+        return shaped[1]
+
+    def apply(self, sample: PenSample) -> PenSample:
+        cal = self._calibration()
         return sample if cal is None else cal.apply(sample)
 
     __call__ = apply

@@ -151,13 +151,7 @@ class Calibration:
         canvas, inside = self.map_points(np.array([[sample.x, sample.y]]), np.array([[tx, ty]]))
         if not inside[0] and self.area.outside == "drop":
             raise OutsideArea(f"({sample.x:.4f}, {sample.y:.4f}) outside the active area")
-        touching = sample.touching
-        pressure = sample.pressure
-        p = self.pressure
-        if p.threshold > 0.0 or p.maximum < 1.0 or p.curve != (0.0, 0.0, 1.0, 1.0):
-            if touching and pressure < p.threshold:
-                touching = False
-            pressure = p.map_one(pressure) if touching else 0.0
+        pressure, touching = self.pressure.shape(sample.pressure, sample.touching)
         return sample.with_(
             x=float(canvas[0, 0]), y=float(canvas[0, 1]), tilt_x=tx, tilt_y=ty,
             pressure=pressure, touching=touching,

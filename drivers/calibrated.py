@@ -7,13 +7,27 @@ samples; a path loads that file.  The returned :class:`CalibrationStore` is
 the normaliser's ``transform`` hook: a bad file never replaces a good
 calibration, and with ``auto`` a corrupt or mismatched file is reported and
 the driver runs uncalibrated rather than painting with a wrong mapping.
+
+:func:`settle_pressure` gives a device one pressure curve and one threshold,
+shaped in one place (:meth:`station.calibration.pressure.PressureSettings.shape`)
+by one stage: the calibration when one is in force, else the normaliser.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
+
+from station.calibration.errors import CalibrationError
+from station.calibration.files import CalibrationStore, find_for_device
+from station.calibration.model import DeviceId
+from station.calibration.pressure import PressureSettings
+from station.drivers.normalise import NormaliserConfig
+
+from station.events import PenSample
 
 log = logging.getLogger(__name__)
 
@@ -22,11 +36,11 @@ log = logging.getLogger(__name__)
 class CalibrationChoice:
     """The hook to apply (``None``: device-normalised) and a line saying what it is."""
 
-    store: Any  # station.calibration.files.CalibrationStore | None
+    store: CalibrationStore | None
     description: str
 
     @property
-    def transform(self) -> Any:
+    def transform(self) -> Callable[[PenSample], PenSample] | None:
         return None if self.store is None else self.store.apply
 
 
@@ -38,10 +52,6 @@ def choose_calibration(spec: str, vid: int, pid: int) -> CalibrationChoice:
     """
     if spec == "none":
         return CalibrationChoice(None, "none (device-normalised)")
-    from station.calibration.errors import CalibrationError
-    from station.calibration.files import CalibrationStore, find_for_device
-    from station.calibration.model import DeviceId
-
     store = CalibrationStore(DeviceId(vid, pid))
     if spec != "auto":
         store.load(spec)
@@ -55,3 +65,58 @@ def choose_calibration(spec: str, vid: int, pid: int) -> CalibrationChoice:
         log.error("calibration refused, publishing device-normalised samples: %s", exc)
         return CalibrationChoice(None, f"refused: {exc}")
     return CalibrationChoice(store, f"file {path}")
+
+
+@dataclass(frozen=True)
+class PressureInForce:
+    """The pressure shaping a device's samples get, and where it came from.
+
+    Attributes:
+        settings: threshold, maximum and curve (pressure fractions).
+        applied_by: ``"calibration"`` (the transform), ``"normaliser"`` (a curve
+            given to the driver, no calibration) or ``"none"`` (samples keep the
+            device-normalised pressure).
+        source: where the settings come from, in words.
+    """
+
+    settings: PressureSettings
+    applied_by: str
+    source: str
+
+    def record(self) -> dict[str, Any]:
+        """As JSON: the session-log header's and the status's ``pressure``."""
+        return {**self.settings.record(), "applied_by": self.applied_by, "from": self.source}
+
+    def before_transform(self) -> PressureInForce:
+        """What samples get before the calibration (``--raw-jsonl``): only a curve
+        the normaliser applies."""
+        if self.applied_by == "normaliser":
+            return self
+        return PressureInForce(PressureSettings(), "none", "none (device-normalised)")
+
+
+def settle_pressure(choice: CalibrationChoice,
+                    config: NormaliserConfig) -> tuple[NormaliserConfig, PressureInForce]:
+    """One curve and one threshold for the device: the calibration's, with the
+    driver's own curve (``config.pressure_curve``, ``--pressure-curve``) in place of
+    the file's curve when it has one; without a calibration the normaliser shapes
+    with the driver's curve.  Returns the normaliser config to use (its curve
+    removed where the calibration applies it) and what is in force."""
+    curve = config.pressure_curve
+    store = choice.store
+    current = None if store is None else store.current
+    if store is None or current is None:
+        if curve is None:
+            return config, PressureInForce(PressureSettings(), "none", "none (linear)")
+        return config, PressureInForce(PressureSettings(curve=curve), "normaliser",
+                                       "--pressure-curve")
+    store.set_curve(curve)
+    settings = current.pressure
+    source = f"calibration {choice.description}"
+    if curve is not None:
+        settings = PressureSettings(settings.threshold, settings.maximum, curve)
+        source += ", curve from --pressure-curve"
+        log.info("pressure curve %s replaces the calibration's %s", list(curve),
+                 list(current.pressure.curve))
+    return dataclasses.replace(config, pressure_curve=None), PressureInForce(
+        settings, "calibration", source)

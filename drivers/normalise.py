@@ -23,8 +23,10 @@ What it does, in order, for each raw sample:
   worn nib in contact), else hysteresis (down at 5 %, up at 1 % of the range
   above the offset); the pressure is renormalised so the contact threshold
   (the offset for a tip switch, the down threshold otherwise) maps to 0 and
-  grows continuously from there, then the cubic-Bézier pressure curve; 0 and
-  ``touching=False`` out of contact;
+  grows continuously from there, then the cubic-Bézier pressure curve, if the
+  config names one (shaped by :class:`station.calibration.pressure.PressureSettings`,
+  the same code a calibration's curve goes through); 0 and ``touching=False`` out
+  of contact;
 * **tilt** in degrees (resolution in units per degree; without one the range
   maps to ±64°), rotation in degrees (without resolution the range maps to
   ±180°), distance and wheel to ``[0, 1]``;
@@ -46,13 +48,13 @@ never published.
 
 from __future__ import annotations
 
-import bisect
 import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from station.calibration.pressure import PressureSettings
 from station.drivers.raw import Axis, AxisRanges, RawSample
 
 from station.errors import BadInput, EventError
@@ -132,37 +134,6 @@ class NormaliserConfig:
             raise NormaliserConfigError(f"canvas {self.canvas} needs a positive width, height")
 
 
-class BezierCurve:
-    """Pressure curve: cubic Bézier (0,0), (x1,y1), (x2,y2), (1,1) as y = f(x).
-
-    With x1, x2 in [0, 1] x(s) is monotonic, so the curve is tabulated once
-    (1025 points) and evaluated by binary search and linear interpolation.
-    """
-
-    def __init__(self, x1: float, y1: float, x2: float, y2: float, points: int = 1025) -> None:
-        self.control = (x1, y1, x2, y2)
-        xs, ys = [], []
-        for i in range(points):
-            s = i / (points - 1)
-            a, b, c = 3 * (1 - s) ** 2 * s, 3 * (1 - s) * s * s, s**3
-            xs.append(a * x1 + b * x2 + c)
-            ys.append(a * y1 + b * y2 + c)
-        for i in range(1, points):  # guard against rounding making x non-monotonic
-            xs[i] = max(xs[i], xs[i - 1])
-        self._xs, self._ys = xs, ys
-
-    def __call__(self, p: float) -> float:
-        if p <= 0.0:
-            return 0.0
-        if p >= 1.0:
-            return 1.0
-        xs, ys = self._xs, self._ys
-        i = bisect.bisect_left(xs, p)
-        x0, x1 = xs[i - 1], xs[i]
-        f = 0.0 if x1 == x0 else (p - x0) / (x1 - x0)
-        return min(1.0, max(0.0, ys[i - 1] + f * (ys[i] - ys[i - 1])))
-
-
 ToolKey = tuple[Tool, int | None, int | None]
 
 
@@ -236,7 +207,10 @@ class Normaliser:
         self.stats = NormaliserStats()
         self.tools: dict[ToolKey, ToolState] = {}
         cfg = self.config
-        self._curve = BezierCurve(*cfg.pressure_curve) if cfg.pressure_curve else None
+        # The curve is shaped where a calibration's is (one implementation, one place):
+        # station.calibration.pressure; station driver gives a device one curve, never two.
+        self.pressure = PressureSettings(curve=cfg.pressure_curve) if cfg.pressure_curve \
+            else None
         if cfg.area is not None:
             x0, y0, x1, y1 = cfg.area
             self._area = (float(x0), float(y0), float(x1), float(y1))
@@ -479,8 +453,8 @@ class Normaliser:
         if not touching:
             return 0.0, False
         value = min(1.0, max(0.0, (p - zero) / max(full - zero, 1e-9)))
-        if self._curve is not None:
-            value = self._curve(value)
+        if self.pressure is not None:
+            value, _ = self.pressure.shape(value, True)
         return value, True
 
     def _tilt(self, value: int | None, axis: Axis | None) -> float:

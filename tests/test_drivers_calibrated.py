@@ -11,6 +11,7 @@ import pytest
 from station.calibration.area import AreaSettings
 from station.calibration.files import default_path, write_file
 from station.calibration.model import Calibration, DeviceId
+from station.calibration.pressure import PressureSettings
 from station.drivers.calibrated import choose_calibration
 
 from station.events import PenSample
@@ -89,3 +90,47 @@ def test_auto_with_a_corrupt_file_runs_uncalibrated_and_says_why(tmp_path: Path)
     band = (4 / 3) / (44704 / 27940)  # uncalibrated: the tablet fitted to the canvas
     assert [v for s in out for v in (s.x, 0.5 + (s.y - 0.5) / band)] == pytest.approx(
         [v for s in raw for v in (s.x, s.y)], abs=1e-12)
+
+
+FILE_CURVE = (0.0, 0.6, 0.4, 1.0)  # the calibration file's: soft
+DRIVER_CURVE = (0.6, 0.0, 1.0, 0.4)  # the driver's --pressure-curve: hard
+
+
+def test_a_device_gets_one_curve_and_the_session_log_names_it(tmp_path: Path) -> None:
+    # A calibration with threshold, maximum and curve, and a curve on the command line:
+    # the driver's curve replaces the file's (not applied on top of it), the file's
+    # threshold and maximum stay, and both session logs say what shaped their samples.
+    pressure = PressureSettings(0.1, 0.9, FILE_CURVE)
+    write_file(Calibration(DeviceId(*INTUOS_PRO_M), pressure=pressure),
+               default_path(DeviceId(*INTUOS_PRO_M)))
+    r = run_driver(tmp_path, "--pressure-curve", ",".join(map(str, DRIVER_CURVE)))
+    assert r.returncode == 0, r.stderr
+    (header, _), (raw_header, _) = (read_session(tmp_path / n) for n in ("out.jsonl",
+                                                                         "raw.jsonl"))
+    assert header.extra["pressure"]["curve"] == list(DRIVER_CURVE)
+    assert (header.extra["pressure"]["threshold"], header.extra["pressure"]["maximum"],
+            header.extra["pressure"]["applied_by"]) == (0.1, 0.9, "calibration")
+    assert "curve from --pressure-curve" in header.extra["pressure"]["from"]
+    assert raw_header.extra["pressure"]["applied_by"] == "none"
+    out, raw = pens(tmp_path / "out.jsonl"), pens(tmp_path / "raw.jsonl")
+    assert len(out) == len(raw) > 20
+    one = PressureSettings(0.1, 0.9, DRIVER_CURVE)
+    touching = [(o, w) for o, w in zip(out, raw, strict=True) if w.touching]
+    assert len(touching) > 10 and any(0.1 < w.pressure < 0.9 for _, w in touching)
+    for o, w in touching:
+        pressure, contact = one.shape(w.pressure, True)
+        assert o.touching is contact and o.pressure == pytest.approx(pressure, abs=1e-12)
+
+
+def test_without_calibration_the_normaliser_applies_the_drivers_curve(tmp_path: Path) -> None:
+    r = run_driver(tmp_path, "--calibration", "none",
+                   "--pressure-curve", ",".join(map(str, DRIVER_CURVE)))
+    assert r.returncode == 0, r.stderr
+    header = read_session(tmp_path / "out.jsonl")[0]
+    assert header.extra["pressure"] == {"threshold": 0.0, "maximum": 1.0,
+                                        "curve": list(DRIVER_CURVE),
+                                        "applied_by": "normaliser", "from": "--pressure-curve"}
+    # the raw samples come after the normaliser: the same curve shaped them
+    assert read_session(tmp_path / "raw.jsonl")[0].extra["pressure"] == header.extra["pressure"]
+    out, raw = pens(tmp_path / "out.jsonl"), pens(tmp_path / "raw.jsonl")
+    assert [s.pressure for s in out] == [s.pressure for s in raw]

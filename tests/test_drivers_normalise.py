@@ -5,8 +5,8 @@ from __future__ import annotations
 import math
 
 import pytest
+from station.calibration.pressure import BezierCurve
 from station.drivers.normalise import (
-    BezierCurve,
     Normaliser,
     NormaliserConfig,
     NormaliserConfigError,
