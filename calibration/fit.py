@@ -21,8 +21,9 @@ Robust fitting (misclicks): least trimmed squares over minimal subsets
 every point by its leverage-corrected studentised residual against the 99.9 %
 quantile of ``2·F(2, dof)`` (chi-square when the noise is known); see
 :func:`fit_points`.  Point sets and their validation live in
-:mod:`station.calibration.pointset`; the non-linear refinement is SciPy's
-Levenberg–Marquardt (``least_squares(method="lm")``, MINPACK).
+:mod:`station.calibration.pointset`; fitting one model to one point set in
+:mod:`station.calibration.solve` (the non-linear refinement is SciPy's
+Levenberg–Marquardt, ``least_squares(method="lm")``, MINPACK).
 """
 
 from __future__ import annotations
@@ -34,17 +35,12 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy.optimize import least_squares
 from station.calibration.errors import DegeneratePoints
 from station.calibration.geometry import (
     CHI2_2_0999,
     Array,
-    hartley,
-    homogeneous,
     jacobian,
     normalise_matrix,
-    planarity,
-    project,
     spread,
 )
 from station.calibration.pointset import (
@@ -58,7 +54,15 @@ from station.calibration.pointset import (
     Mapping,
     PointSet,
     check_points,
-    dlt_matrix,
+)
+from station.calibration.solve import (
+    Normalised,
+    fit_affine,
+    fit_homography,
+    fit_mapping,
+    pack,
+    quiet_fit,
+    residuals_jac,
 )
 
 __all__ = [
@@ -149,209 +153,6 @@ def _clean(matrix: list[list[float]]) -> list[list[float]]:
     return [[0.0 if v == 0 else float(v) for v in row] for row in matrix]
 
 
-# ---------------------------------------------------------------------------
-# Core fits in normalised coordinates
-
-
-@dataclass(frozen=True)
-class _Normalised:
-    td: Array
-    tc: Array
-    dn: Array
-    cn: Array
-    tn: Array
-
-    @classmethod
-    def of(cls, points: PointSet) -> _Normalised:
-        td, tc = hartley(points.device), hartley(points.canvas)
-        dn = (homogeneous(points.device) @ td.T)[:, :2]
-        cn = (homogeneous(points.canvas) @ tc.T)[:, :2]
-        return cls(td, tc, dn, cn, points.tan_tilt)
-
-
-def _affine_ls(dn: Array, cn: Array) -> tuple[Array, float]:
-    """Least-squares affine in normalised coordinates; (3×3, condition number)."""
-    design = homogeneous(dn)
-    sol, _res, _rank, sv = np.linalg.lstsq(design, cn, rcond=None)
-    cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
-    m = np.eye(3)
-    m[:2, :] = sol.T
-    return m, cond
-
-
-def _dlt(dn: Array, cn: Array) -> tuple[Array, float]:
-    a = dlt_matrix(dn, cn)
-    _u, s, vt = np.linalg.svd(a)
-    h = vt[-1].reshape(3, 3)
-    cond = float(s[0] / s[-2]) if s[-2] > 0 else math.inf
-    if abs(h[2, 2]) < 1e-8 * float(np.abs(h).max()):
-        raise DegeneratePoints("the homography sends the centre of the points to infinity")
-    return h / h[2, 2], cond
-
-
-def _unpack(model: str, theta: Array) -> tuple[Array, Array]:
-    m = np.eye(3)
-    if model == "affine":
-        m[:2, :] = theta[:6].reshape(2, 3)
-        rest = theta[6:]
-    else:
-        m.flat[:8] = theta[:8]
-        rest = theta[8:]
-    par = rest[:2] if len(rest) else np.zeros(2)
-    return m, par
-
-
-def _pack(model: str, m: Array, par: Array | None) -> Array:
-    core = m[:2, :].ravel() if model == "affine" else (m / m[2, 2]).flat[:8]
-    return np.concatenate([core, par]) if par is not None else np.array(core)
-
-
-def _residuals_jac(
-    model: str, theta: Array, dn: Array, cn: Array, tn: Array, parallax: bool
-) -> tuple[Array, Array]:
-    """Residuals ``(2n,)`` = mapped - target and their Jacobian ``(2n, p)``."""
-    m, par = _unpack(model, theta)
-    pts = dn + par * tn if parallax else dn
-    x, y = pts[:, 0], pts[:, 1]
-    h = homogeneous(pts) @ m.T
-    w = h[:, 2]
-    u, v = h[:, 0] / w, h[:, 1] / w
-    n = len(dn)
-    iw = 1.0 / w
-    # d/d(m11, m12, m13, m21, m22, m23)
-    du = [x * iw, y * iw, iw, 0 * x, 0 * x, 0 * x]
-    dv = [0 * x, 0 * x, 0 * x, x * iw, y * iw, iw]
-    if model == "homography":
-        du += [-u * x * iw, -u * y * iw]
-        dv += [-v * x * iw, -v * y * iw]
-    if parallax:
-        # chain rule through the corrected point: d(u,v)/d(x,y) · d(x,y)/d(hx,hy)
-        dux = (m[0, 0] - u * m[2, 0]) * iw
-        duy = (m[0, 1] - u * m[2, 1]) * iw
-        dvx = (m[1, 0] - v * m[2, 0]) * iw
-        dvy = (m[1, 1] - v * m[2, 1]) * iw
-        du += [dux * tn[:, 0], duy * tn[:, 1]]
-        dv += [dvx * tn[:, 0], dvy * tn[:, 1]]
-    jac = np.empty((2 * n, len(du)))
-    for k, (a, b) in enumerate(zip(du, dv, strict=True)):
-        jac[0::2, k] = a
-        jac[1::2, k] = b
-    res = np.empty(2 * n)
-    res[0::2] = u - cn[:, 0]
-    res[1::2] = v - cn[:, 1]
-    return res, jac
-
-
-def _parallax_init(model: str, m: Array, nz: _Normalised) -> Array:
-    """Linear estimate of (hx, hy) with the plain mapping held fixed."""
-    jac = jacobian(m, nz.dn)  # (n, 2, 2)
-    resid = nz.cn - project(m, nz.dn)
-    design = np.zeros((2 * len(nz.dn), 2))
-    design[0::2, 0] = jac[:, 0, 0] * nz.tn[:, 0]
-    design[0::2, 1] = jac[:, 0, 1] * nz.tn[:, 1]
-    design[1::2, 0] = jac[:, 1, 0] * nz.tn[:, 0]
-    design[1::2, 1] = jac[:, 1, 1] * nz.tn[:, 1]
-    sol, *_ = np.linalg.lstsq(design, resid.ravel(), rcond=None)
-    return np.asarray(sol, dtype=np.float64)
-
-
-def _fit_normalised(
-    model: str, nz: _Normalised, parallax: bool, refine: bool = True
-) -> tuple[Array, Array, float]:
-    """(matrix_n, parallax_n, condition) fitted in normalised coordinates."""
-    if model == "affine":
-        m, cond = _affine_ls(nz.dn, nz.cn)
-    else:
-        m, cond = _dlt(nz.dn, nz.cn)
-    if cond > COND_MAX:
-        raise DegeneratePoints(
-            f"the point set is ill-conditioned for a {model} fit (condition {cond:.2e})"
-        )
-    par = np.zeros(2)
-    if parallax:
-        par = _parallax_init(model, m, nz)
-    if (model == "homography" and refine) or parallax:
-        theta = _refine(model, nz, parallax, _pack(model, m, par if parallax else None))
-        m, p2 = _unpack(model, theta)
-        if parallax:
-            par = p2
-            _check_parallax_conditioning(model, theta, nz)
-    return m, par, cond
-
-
-def _refine(model: str, nz: _Normalised, parallax: bool, theta0: Array) -> Array:
-    """Minimise the canvas-space error from ``theta0`` (Levenberg–Marquardt, MINPACK)."""
-
-    def fun(th: Array) -> Array:
-        return _residuals_jac(model, th, nz.dn, nz.cn, nz.tn, parallax)[0]
-
-    def jac(th: Array) -> Array:
-        return _residuals_jac(model, th, nz.dn, nz.cn, nz.tn, parallax)[1]
-
-    # A start that sends a point to infinity (a degenerate minimal subset of the
-    # robust search) has nothing to refine; the caller judges the mapping.  A trial
-    # step reaching w = 0 gives MINPACK a non-finite cost: rejected, step shortened.
-    with np.errstate(all="ignore"):
-        if not np.isfinite(fun(theta0)).all():
-            return np.asarray(theta0, dtype=np.float64)
-        sol = least_squares(fun, theta0, jac=jac, method="lm", xtol=1e-14, ftol=1e-14,
-                            gtol=1e-14)
-    return np.asarray(sol.x, dtype=np.float64)
-
-
-def _check_parallax_conditioning(model: str, theta: Array, nz: _Normalised) -> None:
-    _r, j = _residuals_jac(model, theta, nz.dn, nz.cn, nz.tn, True)
-    s = np.linalg.svd(j / np.maximum(np.linalg.norm(j, axis=0), 1e-300), compute_uv=False)
-    if s[-1] < 1e-6 * s[0]:
-        raise DegeneratePoints(
-            "parallax and mapping cannot be told apart with these taps (tilt is tied to "
-            "position); tap the same targets with the pen leaning different ways"
-        )
-
-
-def _denormalise(model: str, nz: _Normalised, m: Array, par: Array) -> Mapping:
-    matrix = normalise_matrix(np.linalg.inv(nz.tc) @ m @ nz.td)
-    if model == "affine":
-        matrix[2, :] = (0.0, 0.0, 1.0)  # exactly affine, not 1e-17 off
-    scale = nz.td[0, 0]
-    return Mapping(model, matrix, (float(par[0] / scale), float(par[1] / scale)))
-
-
-def fit_mapping(
-    points: PointSet, model: str = "affine", parallax: bool = False, refine: bool = True
-) -> tuple[Mapping, float]:
-    """Least-squares fit of ``model`` to all points; ``(mapping, condition)``."""
-    check_points(points, model, parallax)
-    nz = _Normalised.of(points)
-    m, par, cond = _fit_normalised(model, nz, parallax, refine)
-    return _denormalise(model, nz, m, par), cond
-
-
-def fit_affine(points: PointSet) -> Mapping:
-    """Affine least squares (≥ 3 non-collinear points)."""
-    return fit_mapping(points, "affine")[0]
-
-
-def fit_homography(points: PointSet, refine: bool = True) -> Mapping:
-    """Normalised DLT (≥ 4 points, no three collinear), refined by LM when ``refine``."""
-    return fit_mapping(points, "homography", refine=refine)[0]
-
-
-def _quiet_fit(points: PointSet, model: str, parallax: bool) -> Mapping | None:
-    """Fit without raising on degeneracy (subsets of a valid set may be degenerate)."""
-    try:
-        with np.errstate(all="ignore"):
-            nz = _Normalised.of(points)
-            if min(planarity(points.device), planarity(points.canvas)) < COLLINEAR_TOL:
-                return None
-            m, par, _cond = _fit_normalised(model, nz, parallax)
-            mapping = _denormalise(model, nz, m, par)
-    except (DegeneratePoints, np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError):
-        return None
-    if not np.isfinite(mapping.matrix).all():
-        return None
-    return mapping
-
 
 # ---------------------------------------------------------------------------
 # Residuals, leave-one-out, robust fitting, model choice
@@ -392,7 +193,7 @@ def leave_one_out(
         return out
     for i in rows:
         others = [k for k in rows if k != i]
-        mapping = _quiet_fit(points.subset(others), model, parallax)
+        mapping = quiet_fit(points.subset(others), model, parallax)
         if mapping is None:
             continue
         err = residuals(mapping, points.subset([i]))[0]
@@ -422,7 +223,7 @@ def _lts_start(
         )
     best: tuple[float, list[int]] | None = None
     for sub in subsets:
-        mapping = _quiet_fit(points.subset(list(sub)), model, parallax)
+        mapping = quiet_fit(points.subset(list(sub)), model, parallax)
         if mapping is None:
             continue
         with np.errstate(all="ignore"):  # a subset's map may send a far point to infinity
@@ -453,11 +254,11 @@ def _studentised(
     canvas units, distances, their outlier limit).
     """
     model = mapping.model
-    nz = _Normalised.of(points)
+    nz = Normalised.of(points)
     m_n = normalise_matrix(nz.tc @ mapping.matrix @ np.linalg.inv(nz.td))
     par_n = np.asarray(mapping.parallax) * nz.td[0, 0]
-    theta = _pack(model, m_n, par_n if parallax else None)
-    r, j = _residuals_jac(model, theta, nz.dn, nz.cn, nz.tn, parallax)
+    theta = pack(model, m_n, par_n if parallax else None)
+    r, j = residuals_jac(model, theta, nz.dn, nz.cn, nz.tn, parallax)
     r2, j3 = r.reshape(-1, 2), j.reshape(len(points), 2, -1)
     scale = nz.tc[0, 0]
     j_in = j3[inliers].reshape(-1, j.shape[1])
@@ -523,8 +324,28 @@ def fit_points(
     if model == "auto":
         return _fit_auto(points, parallax, robust, min_sigma, units_per_mm, seed, noise)
     check_points(points, model, parallax)
-    n = len(points)
     floor = min_sigma if min_sigma is not None else 1e-4 * spread(points.canvas)
+    fit = _classify(points, model, parallax, robust, floor, noise, seed)
+    return _report(points, model, parallax, fit, floor, noise, units_per_mm)
+
+
+@dataclass
+class _Classified:
+    """Where the misclick search ended: the inliers, their fit and the noise."""
+
+    inliers: list[int]
+    mapping: Mapping
+    condition: float
+    sigma: float  # per-axis noise, canvas units
+    limit: float  # outlier limit of the squared studentised distance
+    notes: list[str]
+
+
+def _classify(points: PointSet, model: str, parallax: bool, robust: bool, floor: float,
+              noise: float | None, seed: int) -> _Classified:
+    """The inliers (all points unless ``robust``): the LTS start, then re-classified
+    by studentised residual until the set no longer changes (see :func:`fit_points`)."""
+    n = len(points)
     notes: list[str] = []
     inliers = list(range(n))
     if robust:
@@ -554,6 +375,15 @@ def fit_points(
             break
         inliers = new
         sigma, dist2, limit = _studentised(points, mapping, parallax, inliers, floor, noise)
+    return _Classified(inliers, mapping, cond, sigma, limit, notes)
+
+
+def _report(points: PointSet, model: str, parallax: bool, fit: _Classified, floor: float,
+            noise: float | None, units_per_mm: tuple[float, float] | None) -> FitReport:
+    """Residuals, misclicks that cannot be told apart, leave-one-out error (and mm)."""
+    n = len(points)
+    inliers, mapping, limit, sigma = fit.inliers, fit.mapping, fit.limit, fit.sigma
+    notes = list(fit.notes)
     threshold = math.sqrt(limit) * sigma
     res = residuals(mapping, points)
     e = np.hypot(res[:, 0], res[:, 1])
@@ -580,7 +410,7 @@ def fit_points(
         loo_rms=float(np.sqrt(np.mean(np.square(loo_vals)))) if loo_vals else None,
         loo_max=float(max(loo_vals)) if loo_vals else None,
         loo_errors=loo,
-        condition=cond,
+        condition=fit.condition,
         notes=notes,
         ambiguous={i: list(v) for i, v in ambiguous.items()},
     )
@@ -610,7 +440,7 @@ def _ambiguous_outliers(
     for i in outliers:
         for j in inliers:
             swap = sorted([k for k in inliers if k != j] + [i])
-            alt = _quiet_fit(points.subset(swap), model, parallax)
+            alt = quiet_fit(points.subset(swap), model, parallax)
             if alt is None:
                 continue
             with np.errstate(all="ignore"):
@@ -674,3 +504,4 @@ def _fit_auto(
     chosen.candidates = candidates
     chosen.notes = [*chosen.notes, f"auto chose {reason}"]
     return chosen
+
