@@ -52,6 +52,36 @@ def _length(tok: str, where: str, what: str, limit: int) -> int:
     return n
 
 
+def _ids(tokens: list[str], rest: str, where: str) -> tuple[int, int, int]:
+    """An ``I: bus vid pid`` line (hex)."""
+    if len(tokens) < 3:
+        raise TraceError(f"'I:' needs bus vid pid, got {rest.strip()!r}", where)
+    try:
+        bus, vid, pid = (int(t, 16) for t in tokens[:3])
+    except ValueError:
+        raise TraceError(f"'I:' ids {rest.strip()!r} are not hex", where) from None
+    if not (0 <= vid <= 0xFFFF and 0 <= pid <= 0xFFFF):
+        raise TraceError(f"'I:' ids {rest.strip()!r} out of range", where)
+    return bus, vid, pid
+
+
+def _event(tokens: list[str], where: str) -> tuple[float, bytes]:
+    """An ``E: sec.usec len hex…`` line: the report's time and bytes."""
+    if len(tokens) < 2:
+        raise TraceError("'E:' needs a time, a length and the bytes", where)
+    try:
+        t = float(tokens[0])
+    except ValueError:
+        raise TraceError(f"'E:' time {tokens[0]!r} is not sec.usec", where) from None
+    if not (t == t and 0 <= t < 1e12):
+        raise TraceError(f"'E:' time {tokens[0]!r} out of range", where)
+    n = _length(tokens[1], where, "report", MAX_REPORT)
+    data = _hex_bytes(tokens[2:], where, "report")
+    if len(data) != n:
+        raise TraceError(f"report says {n} bytes but has {len(data)} (truncated?)", where)
+    return t, data
+
+
 def parse_hid_recorder(lines: Iterable[str], name: str) -> Trace:
     """Parse hid-recorder text; ``name`` is used in ``file:line`` messages.
 
@@ -119,27 +149,9 @@ def _parse_hid_recorder(lines: Iterable[str], name: str) -> Trace:
         elif tag == "P":
             dev.phys = rest.strip()
         elif tag == "I":
-            if len(tokens) < 3:
-                raise TraceError(f"'I:' needs bus vid pid, got {rest.strip()!r}", where)
-            try:
-                dev.bus, dev.vid, dev.pid = (int(t, 16) for t in tokens[:3])
-            except ValueError:
-                raise TraceError(f"'I:' ids {rest.strip()!r} are not hex", where) from None
-            if not (0 <= dev.vid <= 0xFFFF and 0 <= dev.pid <= 0xFFFF):
-                raise TraceError(f"'I:' ids {rest.strip()!r} out of range", where)
+            dev.bus, dev.vid, dev.pid = _ids(tokens, rest, where)
         elif tag == "E":
-            if len(tokens) < 2:
-                raise TraceError("'E:' needs a time, a length and the bytes", where)
-            try:
-                t = float(tokens[0])
-            except ValueError:
-                raise TraceError(f"'E:' time {tokens[0]!r} is not sec.usec", where) from None
-            if not (t == t and 0 <= t < 1e12):
-                raise TraceError(f"'E:' time {tokens[0]!r} out of range", where)
-            n = _length(tokens[1], where, "report", MAX_REPORT)
-            data = _hex_bytes(tokens[2:], where, "report")
-            if len(data) != n:
-                raise TraceError(f"report says {n} bytes but has {len(data)} (truncated?)", where)
+            t, data = _event(tokens, where)
             index = dev.index
             if t + 1e-6 < last_time.get(index, t):
                 raise TraceError(f"time {t} goes back (previous {last_time[index]})", where)
