@@ -15,6 +15,7 @@ from typing import Any
 from station.drivers.haptic.source import open_haptic
 from station.drivers.mock.evdev import MockEvdevNode
 from station.drivers.mock.hidraw import MockHidrawNode
+from station.drivers.mock.script import SCRIPTS
 from station.drivers.mock.tablet import mock_tablet_from_spec
 from station.drivers.pipeline.replay import TraceReplay
 from station.drivers.pipeline.sources import EvdevPenSource, HidPenSource, PenSource
@@ -139,7 +140,6 @@ def _open_mock_evdev(spec: DeviceSpec, dev: TraceDevice, speed: float | None) ->
 def _open_mock_uclogic(spec: DeviceSpec) -> OpenedTransport:
     """``mock-uclogic:v1|v2|ugee-v2?script=…&reports=…&speed=…``: the UC-Logic mock over pyusb."""
     # optional extra: the UC-Logic mock is a mock USB device, built on pyusb (the "usb" extra)
-    from station.drivers.mock.script import SCRIPTS
     from station.drivers.mock.uclogic import TABLETS, MockUclogicTablet
     from station.drivers.mock.usb import RecordedUsbBackend
 
