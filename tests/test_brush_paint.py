@@ -10,14 +10,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from station.backends.factory import create_backend
+from station.backends.gl.context import GLUnavailable
 from station.brush.deformable import DeformableBrush
 from station.brush.footprint import rasterise, weight
 from station.brush.footprint_gl import GLFootprint
 from station.brush.geometry import BrushShape, BrushShapeError, builtin_shapes
 from station.brush.reservoir import Reservoir, pickup
 from station.brush.stamp import BrushError, BrushModel, BrushSettings
-from station.canvas.backend import create_backend
-from station.canvas.gl.context import GLUnavailable
 from station.canvas.paper import make_paper
 from station.canvas.params import get_profile
 from station.cli import main

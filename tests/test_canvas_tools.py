@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from station.canvas.cpu import CpuCanvas
-from station.canvas.numpy_backend import NumpyCanvas
+from station.backends.cpu import CpuCanvas
+from station.backends.numpy_canvas import NumpyCanvas
 from station.canvas.params import CanvasInputError, SimParams
-from station.canvas.scenarios import disc, paint, rect, run_until_dry
-from station.canvas.tools import HairDryer, blow, on_state, pickup
+from station.canvas.removal import HairDryer, blow, on_state, pickup
+from station.pictures.scenarios import disc, paint, rect, run_until_dry
 
 
 def _lifted_share(pigment: str) -> tuple[float, float]:

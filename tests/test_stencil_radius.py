@@ -14,8 +14,8 @@ import dataclasses
 import numpy as np
 import pytest
 
+from station.backends.numpy_canvas import NumpyCanvas
 from station.canvas import reference
-from station.canvas.numpy_backend import NumpyCanvas
 from station.canvas.params import SimParams, get_profile
 
 N = 72

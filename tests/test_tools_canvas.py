@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from station.canvas.backend import create_backend, numba_available
+from station.backends.factory import create_backend, numba_available
 from station.canvas.stats import canvas_stats
 from station.errors import BadInput
 from station.events import Command, PenSample
@@ -182,7 +182,7 @@ def test_bad_tool_arguments_are_bad_input_naming_the_line(cmd: str, args: dict, 
 
 
 def test_tool_session_on_the_gl_backend_agrees_with_the_reference() -> None:
-    gl = pytest.importorskip("station.canvas.gl")
+    gl = pytest.importorskip("station.backends.gl")
     try:
         gl.create_context().release()
     except gl.GLUnavailable as exc:

@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from station.backends.factory import create_backend, numba_available
 from station.canvas import reference as ref
-from station.canvas.backend import create_backend, numba_available
 from station.canvas.params import SimParams
 from station.canvas.stats import canvas_stats
 from station.events import Command, PenSample

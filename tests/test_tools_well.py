@@ -6,7 +6,7 @@ import colorsys
 
 import pytest
 
-from station.canvas.backend import create_backend
+from station.backends.factory import create_backend
 from station.canvas.params import SimParams
 from station.errors import BadInput
 from station.events import Command, PenSample

@@ -142,9 +142,9 @@ def measure_sim(kind: str, width: int, height: int, seconds: float) -> dict[str,
     """cpu backend steps/s with one live stroke: ``station bench sim``'s stroke (a
     round disc source per step) and the deformable brush (one pen frame per step),
     measured one after the other in this process: their ratio is the brush's cost."""
+    from station.backends.factory import create_backend
     from station.bench.sim import _StrokePath
     from station.brush.stamp import BrushSettings
-    from station.canvas.backend import create_backend
     from station.canvas.profiles import get_profile
     from station.events import PenSample
     from station.sim.player import add_sources, brush_model

@@ -86,8 +86,8 @@ def measure(width: int, height: int, scenario: str, seconds: float, base: str,
     """One configuration on all ranks of COMM_WORLD; the result on rank 0."""
     from mpi4py import MPI
 
-    from station.distributed import exchange
-    from station.distributed.canvas import DistributedCanvas
+    from station.backends.distributed import exchange
+    from station.backends.distributed.canvas import DistributedCanvas
 
     comm = MPI.COMM_WORLD
     canvas = DistributedCanvas(width, height, "watercolor", 1, base=base, n_slots=2,

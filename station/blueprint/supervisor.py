@@ -363,8 +363,8 @@ class Supervisor:
     def _save_to_gallery(self, target: str, gallery_id: str | None) -> None:
         """Checkpoint the sim (``save``), then render its checkpoint into the gallery."""
         from station.canvas.params import get_profile
-        from station.canvas.render import render_state
         from station.canvas.state import CanvasState
+        from station.render.km import render_state
         from station.sim.paint import write_image
 
         child = self.by_id[target]

@@ -18,7 +18,7 @@ arrays is exactly what the brush gains: reservoir + canvas is conserved.
   ``removed_p`` / ``removed_w`` fields like every tool that takes paint.
 
 :func:`pickup` moves what the canvas-side interface
-:func:`station.canvas.tools.pickup` takes off the canvas into the reservoir.
+:func:`station.canvas.removal.pickup` takes off the canvas into the reservoir.
 """
 
 from __future__ import annotations
@@ -28,8 +28,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from station.canvas.removal import pickup as canvas_pickup
 from station.canvas.state import CanvasState
-from station.canvas.tools import pickup as canvas_pickup
 
 W_WET = 0.1
 """Fluid water height at which a cell's paint comes along fully."""
@@ -106,7 +106,7 @@ def pickup(state: CanvasState, res: Reservoir, weight: np.ndarray, y0: int, x0: 
            rate: float) -> dict[str, float]:
     """Lift wet paint under ``weight`` (placed at ``y0, x0``) into ``res``.
 
-    The canvas side is :func:`station.canvas.tools.pickup` (no scrubbing: a loaded brush
+    The canvas side is :func:`station.canvas.removal.pickup` (no scrubbing: a loaded brush
     gliding over paint lifts the suspended pigment only, deposited pigment ``q`` stays;
     the drink follows the standing water up to ``W_WET`` and stops when the brush is
     full).  Returns the pigment lifted per name.

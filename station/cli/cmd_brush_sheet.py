@@ -28,8 +28,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from station.brush.geometry import BrushShape, get_shape, register_shape
-    from station.brush.sheet import brush_sheet
-    from station.canvas.png import encode_png
+    from station.pictures.brush_sheet import brush_sheet
+    from station.render.png import encode_png
 
     kinds = [k for k in args.kinds.split(",") if k]
     for path in args.shape:

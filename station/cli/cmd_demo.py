@@ -31,7 +31,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.sim.demo import DEMO_FILE
+    from station.pictures.demo import DEMO_FILE
     from station.sim.paint import paint
 
     if args.session:

@@ -41,8 +41,8 @@ def _sheet(effects: list, scale: int) -> np.ndarray:
     """The tiles side by side in rows, each over a caption (8-bit sRGB, (H, W, 3))."""
     from PIL import Image, ImageDraw
 
-    from station.canvas.render import to_srgb8
-    from station.canvas.upscale import MAX_SCALE
+    from station.render.km import to_srgb8
+    from station.render.upscale import MAX_SCALE
 
     pad = 8
     cap = 14 * 4
@@ -77,8 +77,8 @@ def _sheet(effects: list, scale: int) -> np.ndarray:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.canvas import effects as fx
-    from station.canvas.png import write_png
+    from station.pictures import effects as fx
+    from station.render.png import write_png
 
     names = None
     if args.only:

@@ -63,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
     size = parse_size(args.size) if args.size else None
     guard: Any = contextlib.nullcontext()
     if args.distributed:
-        from station.distributed.guard import abort_job_on_error
+        from station.backends.distributed.guard import abort_job_on_error
 
         guard = abort_job_on_error()
     with guard:

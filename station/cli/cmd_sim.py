@@ -99,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
                      autosave=args.autosave, recover=args.recover, cmd=args.cmd,
                      keys=args.keys, client_key=args.client_key)
     if args.distributed:
-        from station.distributed.guard import abort_job_on_error
+        from station.backends.distributed.guard import abort_job_on_error
 
         with abort_job_on_error():
             if _follower(cfg):
@@ -136,7 +136,7 @@ def _follower(cfg: LiveConfig) -> bool:
                            f"'painting-station[mpi]'): {exc}") from None
     if MPI.COMM_WORLD.Get_rank() == 0:
         return False
-    from station.distributed.relay import follow
+    from station.backends.distributed.relay import follow
 
     canvas, _name = make_distributed(cfg.backend, cfg.width, cfg.height, cfg.profile, cfg.seed)
     # Ctrl-C reaches every rank; rank 0 alone decides when to stop (then tells the others)

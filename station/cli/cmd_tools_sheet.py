@@ -22,9 +22,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.canvas.png import encode_png
     from station.durable import atomic_write
-    from station.tools.sheet import paint_sheet, session_lines
+    from station.pictures.tools_sheet import paint_sheet, session_lines
+    from station.render.png import encode_png
 
     if args.write_session:
         atomic_write(args.write_session, ("\n".join(session_lines()) + "\n").encode())

@@ -390,7 +390,7 @@ class KioskApp:
                 "painting_seconds": st["painting_time"]}
 
     def _render_srgb8(self) -> np.ndarray:
-        from station.canvas.render import to_srgb8
+        from station.render.km import to_srgb8
 
         with self.session.lock:
             self.session._wait_step()

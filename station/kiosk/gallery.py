@@ -168,8 +168,8 @@ class Gallery:
         def print_png(canvas: Any, renderer: str) -> None:
             from PIL import Image
 
-            from station.canvas.render import to_srgb8
-            from station.canvas.upscale import render_scaled
+            from station.render.km import to_srgb8
+            from station.render.upscale import render_scaled
 
             img = to_srgb8(render_scaled(canvas.state(), renderer, PRINT_SCALE))
             tmp = d / (PRINT + ".tmp")
@@ -193,8 +193,8 @@ def replay_frames(log_path: str | os.PathLike[str], frames: int = 48, width: int
     from PIL import Image
 
     from station.canvas.palette import default_palette
-    from station.canvas.render import to_srgb8
     from station.events import Command
+    from station.render.km import to_srgb8
     from station.sessionlog import read_session
     from station.sim.paint import make_backend
     from station.sim.player import SessionPlayer

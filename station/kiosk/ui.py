@@ -22,8 +22,8 @@ import numpy as np
 
 from station.brush.stamp import brush_kinds
 from station.canvas.palette import Palette
-from station.canvas.render import linear_to_srgb, on_white
 from station.kiosk.views import VIEWS
+from station.render.km import linear_to_srgb, on_white
 
 MAX_MIX = 4  # pigments in one mix (a layer holds 8; a mix of more is mud anyway)
 VIEW_LABELS = {"2d": "Top", "3d": "Table", "follow": "Brush"}

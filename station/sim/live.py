@@ -184,8 +184,8 @@ class LiveCore:
             cfg.width, cfg.height = start.width, start.height
             cfg.profile, cfg.seed = start.profile, start.seed
         self.canvas: Any
-        if cfg.distributed:  # this is rank 0; the others follow (station.distributed.relay)
-            from station.distributed.relay import Leader
+        if cfg.distributed:  # this is rank 0; the others follow (backends.distributed.relay)
+            from station.backends.distributed.relay import Leader
             from station.sim.paint import make_distributed
 
             dist, self.backend_name = make_distributed(cfg.backend, cfg.width, cfg.height,

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from station.canvas.backend import make_backend  # auto: resolve_auto decides, once
+from station.backends.factory import make_backend  # auto: resolve_auto decides, once
 from station.errors import BadInput, StationError
 from station.events import Command, PenSample
 from station.progress import Progress
@@ -330,9 +330,9 @@ def paint(
 
 def make_distributed(name: str, width: int, height: int, profile: str, seed: int,
                      **opts: Any) -> tuple[Any, str]:
-    """A :class:`~station.distributed.canvas.DistributedCanvas` stepping ``name``
+    """A :class:`~station.backends.distributed.canvas.DistributedCanvas` stepping ``name``
     (``auto``: cpu when numba is installed, else numpy) on every rank's strip."""
-    from station.canvas.backend import fastest_cpu_backend
+    from station.backends.factory import fastest_cpu_backend
 
     if name == "auto":
         name = fastest_cpu_backend()
@@ -340,7 +340,7 @@ def make_distributed(name: str, width: int, height: int, profile: str, seed: int
         raise PaintInputError(f"--distributed steps the numpy or cpu backend, not {name!r}",
                               "--backend")
     try:
-        dist = importlib.import_module("station.distributed.canvas")
+        dist = importlib.import_module("station.backends.distributed.canvas")
     except ImportError as exc:
         raise StationError(f"--distributed needs mpi4py and an MPI library (pip install "
                            f"'painting-station[mpi]'): {exc}") from None
@@ -357,7 +357,7 @@ def write_outputs(canvas: Any, result: PaintResult, out_png: str | None,
     A distributed canvas gathers on every rank (collective calls) and its root writes.
     """
     from station.canvas.profiles import get_profile
-    from station.canvas.upscale import render_scaled
+    from station.render.upscale import render_scaled
 
     root = bool(getattr(canvas, "is_root", True))
     try:
@@ -391,7 +391,7 @@ def write_outputs(canvas: Any, result: PaintResult, out_png: str | None,
 
 def write_image(path: str, rgb: Any, bits: int = 8) -> None:
     """Write linear reflectance ``rgb`` (H, W, 3) as an sRGB PNG of ``bits`` per channel."""
-    from station.canvas.png import write_png
-    from station.canvas.render import to_srgb8, to_srgb16
+    from station.render.km import to_srgb8, to_srgb16
+    from station.render.png import write_png
 
     write_png(path, to_srgb16(rgb) if bits == 16 else to_srgb8(rgb))

@@ -32,15 +32,15 @@ from collections.abc import Callable, Container, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from station.backends.numpy_canvas import NumpyCanvas
 from station.brush.deformable import DeformableBrush
 from station.brush.reservoir import pickup
 from station.brush.solver import SolverCounters
 from station.brush.stamp import STAMP_KIND, BrushModel, BrushSettings, RoundBrush
-from station.canvas.numpy_backend import NumpyCanvas
 from station.canvas.params import Profile
 from station.canvas.profiles import get_profile, profile_names
+from station.canvas.removal import HairDryer, blow, on_state
 from station.canvas.state import DEFAULT_SLOTS
-from station.canvas.tools import HairDryer, blow, on_state
 from station.errors import BadInput
 from station.events import Command, PenSample, Tool
 from station.tools import diffusion as diffusion_tool
@@ -83,7 +83,7 @@ class SessionPlayer:
     """Plays pen samples and commands into a canvas backend.
 
     Args:
-        backend: a canvas backend (``station.canvas.backend`` protocol), already
+        backend: a canvas backend (``station.backends.factory`` protocol), already
             set to ``profile``.
         width, height: canvas size in cells.
         profile: the starting paint profile (brush model, defaults and ``dt``).

@@ -20,8 +20,8 @@ from station.canvas import reference
 from station.canvas.errors import CanvasInputError
 from station.canvas.operations import add_sources
 from station.canvas.params import SimParams
-from station.canvas.render import on_white
 from station.canvas.state import CanvasState
+from station.render.km import on_white
 from station.tools.footprint import F32, check
 
 SIZE = 24

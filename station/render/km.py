@@ -41,7 +41,7 @@ F32 = np.float32
 RENDERERS = ("km", "gouache")
 
 
-def _coefficients(pigments: list[Pigment], bands: int = 3) -> tuple[np.ndarray, np.ndarray]:
+def km_coefficients(pigments: list[Pigment], bands: int = 3) -> tuple[np.ndarray, np.ndarray]:
     """K and S of the pigments per band, float32 (n, bands): RGB (3) or spectral."""
     if bands == 3:
         k = np.array([p.K for p in pigments], F32).reshape(len(pigments), 3)
@@ -77,7 +77,7 @@ def km_layer(amount: np.ndarray, pigments: list[Pigment], r_prev: np.ndarray) ->
     if not pigments:
         return r_prev.astype(F32, copy=True)
     amount = amount[: len(pigments)]
-    kk, ss = _coefficients(pigments, r_prev.shape[-1])
+    kk, ss = km_coefficients(pigments, r_prev.shape[-1])
     d = amount.sum(axis=0)
     has = d > 0
     safe_d = np.where(has, d, F32(1.0))
@@ -119,7 +119,7 @@ def gouache_layer(amount: np.ndarray, pigments: list[Pigment], r_prev: np.ndarra
         return r_prev.astype(F32, copy=True)
     amount = amount[: len(pigments)]
     bands = r_prev.shape[-1]
-    kk, ss = _coefficients(pigments, bands)
+    kk, ss = km_coefficients(pigments, bands)
     if bands != 3 and len(white_ks[0]) == 3:
         white_ks = (tuple(upsample_rgb(white_ks[0])), tuple(upsample_rgb(white_ks[1])))
     d = amount.sum(axis=0)

@@ -17,12 +17,12 @@ from dataclasses import replace
 
 import numpy as np
 
+from station.backends.factory import create_backend
 from station.brush.deformable import DeformableBrush
 from station.brush.footprint import rasterise
 from station.brush.stamp import BrushModel, BrushSettings
-from station.canvas.backend import create_backend
-from station.canvas.render import to_srgb8
 from station.events import PenSample
+from station.render.km import to_srgb8
 from station.sim.player import SessionPlayer
 from station.sim.script import Script, swell, taper
 

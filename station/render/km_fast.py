@@ -1,8 +1,8 @@
 """Kubelka–Munk of a canvas region, compiled with numba (the display's hot loop).
 
 The same formulas, constants and float32 arithmetic as
-:func:`station.canvas.render.km_layer` followed by
-:func:`station.canvas.render.to_linear_rgb` (the NumPy reference, which tests hold
+:func:`station.render.km.km_layer` followed by
+:func:`station.render.km.to_linear_rgb` (the NumPy reference, which tests hold
 this to), fused into one pass per cell instead of a dozen array temporaries: on the
 2-core development machine about five times faster, which is what lets the kiosk
 re-render a wet stroke's tiles every simulation step. The bands are the canvas's
@@ -18,7 +18,7 @@ import numba
 import numpy as np
 
 from station.canvas.palette import Pigment
-from station.canvas.render import _coefficients, band_matrix
+from station.render.km import band_matrix, km_coefficients
 
 F32 = np.float32
 
@@ -89,7 +89,7 @@ def km_layer_fast(amount: np.ndarray, pigments: list[Pigment], r_prev: np.ndarra
     bands = r_prev.shape[-1]
     out = np.empty((*r_prev.shape[:2], 3), F32)
     if pigments:
-        kk, ss = _coefficients(pigments, bands)
+        kk, ss = km_coefficients(pigments, bands)
         use = np.ascontiguousarray(amount[:len(pigments)], F32)
     else:  # nothing painted: the layers below, through the same band reduction
         kk = ss = np.ones((0, bands), F32)

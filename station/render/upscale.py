@@ -32,9 +32,9 @@ from scipy import ndimage
 
 from station.canvas.paper import make_paper
 from station.canvas.params import CanvasInputError
-from station.canvas.render import gouache_layer, gouache_white_ks, km_layer, to_linear_rgb
-from station.canvas.render import render_state as render_cells
 from station.canvas.state import CanvasState
+from station.render.km import gouache_layer, gouache_white_ks, km_layer, to_linear_rgb
+from station.render.km import render_state as render_cells
 
 F32 = np.float32
 MAX_SCALE = 4

@@ -1,6 +1,6 @@
 """The ``cpu`` canvas backend: the reference model compiled with numba, fused and parallel.
 
-Importing this package needs numba (:func:`station.canvas.backend.numba_available`
+Importing this package needs numba (:func:`station.backends.factory.numba_available`
 says whether it is installed).
 """
 
@@ -11,6 +11,6 @@ import os
 # waiting costs ~3 % on a quiet machine. Read once, when the OpenMP runtime loads.
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
-from station.canvas.cpu.canvas import CpuCanvas
+from station.backends.cpu.canvas import CpuCanvas
 
 __all__ = ["CpuCanvas"]

@@ -1,18 +1,18 @@
 """``CpuCanvas``: the reference model in fused, parallel numba sweeps.
 
 State handling, operations, rendering, stats and tiles are the reference backend's
-(:class:`~station.canvas.numpy_backend.NumpyCanvas`); only the step is new
-(:mod:`station.canvas.cpu.step`).
+(:class:`~station.backends.numpy_canvas.NumpyCanvas`); only the step is new
+(:mod:`station.backends.cpu.step`).
 """
 
 from __future__ import annotations
 
 import numba
 
+from station.backends.cpu import step as cpu_step
+from station.backends.cpu import traffic
+from station.backends.numpy_canvas import NumpyCanvas
 from station.canvas import operations
-from station.canvas.cpu import step as cpu_step
-from station.canvas.cpu import traffic
-from station.canvas.numpy_backend import NumpyCanvas
 
 _THREADS = int(getattr(numba.config, "NUMBA_NUM_THREADS", 1))
 

@@ -38,9 +38,9 @@ from station.canvas import operations, reference
 from station.canvas.palette import Palette
 from station.canvas.params import CanvasInputError, SimParams
 from station.canvas.profiles import get_profile, profile_palette
-from station.canvas.render import _coefficients, band_matrix, render_bands, white_filler
 from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
 from station.canvas.stats import canvas_stats
+from station.render.km import band_matrix, km_coefficients, render_bands, white_filler
 
 from . import textures as tx
 from .context import GLUnavailable, create_context, query_limits
@@ -76,7 +76,7 @@ _B_LIST, _B_ALIVE, _B_TTL, _B_PREV, _B_ARGS, _B_ADDED, _B_MARK, _B_FOLDED = 0, 1
 class GLCanvas:
     """The canvas backend on OpenGL 4.3+ compute shaders (see module docstring).
 
-    Args mirror :class:`~station.canvas.numpy_backend.NumpyCanvas`; in addition
+    Args mirror :class:`~station.backends.numpy_canvas.NumpyCanvas`; in addition
     ``ctx`` (an existing moderngl context) and ``gl_backend`` (moderngl's
     context backend, ``"egl"`` by default).  Raises :class:`GLUnavailable` when
     no OpenGL 4.3 context can be made.
@@ -704,7 +704,7 @@ class GLCanvas:
         kk = np.zeros((n, nb), F32)
         ss = np.ones((n, nb), F32)
         if pigs:
-            k_used, s_used = _coefficients(pigs, nb)
+            k_used, s_used = km_coefficients(pigs, nb)
             kk[:len(pigs)], ss[:len(pigs)] = k_used, s_used
         # the filler as the reference takes it (the palette's Titanium White, per band)
         white_k, white_s = white_filler(self.palette, nb)

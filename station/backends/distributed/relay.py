@@ -5,7 +5,7 @@ and the output files on rank 0 (a live station cannot be SPMD: only one process 
 read the bus). Rank 0 talks to a :class:`Leader`, which broadcasts every canvas
 call (name and arguments, brush stamps included) before making it; the other
 ranks run :func:`follow`, which makes the same calls on their
-:class:`~station.distributed.canvas.DistributedCanvas`, so the collective
+:class:`~station.backends.distributed.canvas.DistributedCanvas`, so the collective
 operations meet.
 """
 
@@ -16,9 +16,9 @@ from typing import Any
 
 import numpy as np
 
+from station.backends.distributed import exchange
+from station.backends.distributed.canvas import DistributedCanvas
 from station.canvas.state import CanvasState
-from station.distributed import exchange
-from station.distributed.canvas import DistributedCanvas
 from station.errors import BadInput
 
 STOP = "__stop__"

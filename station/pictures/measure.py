@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from station.canvas.scenarios import distance_inside
+from station.pictures.scenarios import distance_inside
 
 
 @dataclass(frozen=True)

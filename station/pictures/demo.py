@@ -20,7 +20,7 @@
 6. **ink** — a profile switch to ``ink`` for a tree, grass and birds in Sumi Ink.
 
 The committed ``station/data/demo/landscape.jsonl`` is exactly
-``landscape().text()``; regenerate it with ``python -m station.sim.demo``
+``landscape().text()``; regenerate it with ``python -m station.pictures.demo``
 (a test checks the two are equal).
 """
 

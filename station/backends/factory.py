@@ -45,7 +45,7 @@ SOFTWARE_GL = ("llvmpipe", "softpipe", "swrast", "lavapipe", "software rasterize
 
 def _gl_renderer() -> str:
     """GL_RENDERER of a fresh context; :class:`StationError` or ImportError if none."""
-    from station.canvas.gl.context import create_context  # lazy: moderngl only when probed
+    from station.backends.gl.context import create_context  # lazy: moderngl only when probed
 
     ctx = create_context()
     try:
@@ -192,15 +192,15 @@ def create_backend(name: str, width: int, height: int, profile: str = "watercolo
     if name == "auto":
         return make_backend("auto", width, height, profile, seed, **opts)[0]
     if name == "cpu":
-        cpu = importlib.import_module("station.canvas.cpu")  # lazy: numba only when asked
+        cpu = importlib.import_module("station.backends.cpu")  # lazy: numba only when asked
         made: CanvasBackend = cpu.CpuCanvas(width, height, profile=profile, seed=seed, **opts)
         return made
     if name == "numpy":
-        from station.canvas.numpy_backend import NumpyCanvas
+        from station.backends.numpy_canvas import NumpyCanvas
 
         return NumpyCanvas(width, height, profile=profile, seed=seed, **opts)
     if name == "gl":
-        gl = importlib.import_module("station.canvas.gl")  # lazy: moderngl only when asked
+        gl = importlib.import_module("station.backends.gl")  # lazy: moderngl only when asked
         backend: CanvasBackend = gl.GLCanvas(width, height, profile=profile, seed=seed, **opts)
         return backend
     raise CanvasInputError(

@@ -11,7 +11,7 @@ cell itself, so updating them in place is race-free.
 
 The maths is the reference's to the float32 operation: same operands, same order of
 every sum (E, W, S, N faces; ``u - F_E + F_W - F_S + F_N``), same clamps and limiters,
-the same float32 constants (built in :mod:`station.canvas.cpu.step`). A face flux is
+the same float32 constants (built in :mod:`station.backends.cpu.step`). A face flux is
 computed by both of its cells from the same operands in the same order, so both see the
 same float32 value: mass is conserved exactly as in the reference.
 
@@ -243,7 +243,7 @@ def clear_stale(pspans: np.ndarray, pnsp: np.ndarray, spans: np.ndarray, nsp: np
     """Zero the scratch cells the last box computed (``pspans``) that this box does not
     (``spans``), in every field, and remember this box's spans: outside its spans the
     scratch is then zero, which stands for the reference's quiet cells and the ring
-    "outside the box" alike (see :mod:`station.canvas.cpu.step`)."""
+    "outside the box" alike (see :mod:`station.backends.cpu.step`)."""
     for r in range(pnsp.shape[0]):  # serial: a parallel region costs more here
         k = 0
         ncur = nsp[r]

@@ -3,7 +3,7 @@ measure it, and compare the number with the issue's threshold.
 
 Every tile only adds water/pigment sources, steps the simulation and applies the canvas
 tools (dry, new layer, pickup, hair dryer); the numbers come from
-:mod:`station.canvas.measure` and from colour science on the rendered reflectance.
+:mod:`station.pictures.measure` and from colour science on the rendered reflectance.
 :func:`run_effects` returns one :class:`Effect` per tile; ``station effects`` prints them
 as JSON and draws the sheet. A tile whose number misses its threshold says so (``ok``
 false): the sheet reports, it does not pretend.
@@ -19,14 +19,14 @@ from typing import Any
 
 import numpy as np
 
-from station.canvas.measure import bare_share, edge_band, edge_roughness, edge_width, spread
-from station.canvas.numpy_backend import NumpyCanvas
+from station.backends.numpy_canvas import NumpyCanvas
 from station.canvas.palette import Palette, Pigment, default_palette
 from station.canvas.params import SimParams, get_profile
-from station.canvas.render import linear_to_srgb
-from station.canvas.scenarios import disc, distance_inside, paint, rect, run_until_dry
-from station.canvas.tools import HairDryer, blow, pickup
-from station.canvas.upscale import render_scaled
+from station.canvas.removal import HairDryer, blow, pickup
+from station.pictures.measure import bare_share, edge_band, edge_roughness, edge_width, spread
+from station.pictures.scenarios import disc, distance_inside, paint, rect, run_until_dry
+from station.render.km import linear_to_srgb
+from station.render.upscale import render_scaled
 from station.sim.player import SessionPlayer
 from station.sim.script import Script
 

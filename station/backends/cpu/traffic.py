@@ -1,6 +1,6 @@
 """Honest memory traffic of one cell-step of the ``cpu`` backend, per fused sweep.
 
-Counted like ``station/canvas/gl/traffic.py``: float32 values each sweep must read and
+Counted like ``station/backends/gl/traffic.py``: float32 values each sweep must read and
 write per cell (x 4 bytes), each field once per sweep (a stencil's neighbours come from
 cache), for a wet cell (the cell of a wash); ``slots`` = pigment slots in use (the
 sweeps process only those), ``jacobi_iters`` = n >= 1. The scratch copies the sweeps

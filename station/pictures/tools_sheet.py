@@ -21,8 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from station.canvas.backend import create_backend
-from station.canvas.render import to_srgb8
+from station.backends.factory import create_backend
+from station.render.km import to_srgb8
 from station.sessionlog import read_session
 from station.sim.player import SessionPlayer
 

@@ -12,8 +12,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from station.backends.cpu import kernels as K
 from station.canvas import reference, tiles
-from station.canvas.cpu import kernels as K
 from station.canvas.params import CanvasInputError, SimParams
 from station.canvas.state import CanvasState
 

@@ -11,9 +11,9 @@ from station.canvas import operations, reference, tiles
 from station.canvas.palette import Palette
 from station.canvas.params import SimParams
 from station.canvas.profiles import get_profile, profile_palette
-from station.canvas.render import render_bands, render_state
 from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
 from station.canvas.stats import canvas_stats
+from station.render.km import render_bands, render_state
 
 
 def floats_per_cell_step(slots: int, jacobi_iters: int) -> dict[str, int]:

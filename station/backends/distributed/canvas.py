@@ -37,15 +37,15 @@ from typing import Any
 import numpy as np
 from mpi4py import MPI
 
+from station.backends.distributed import boxes, decomp, exchange
+from station.backends.distributed.exchange import Rect
 from station.canvas import operations, reference, tiles
 from station.canvas.palette import Palette
 from station.canvas.paper import make_fibres, make_paper
 from station.canvas.params import CanvasInputError, SimParams, get_profile
-from station.canvas.render import render_bands, render_state
 from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
 from station.canvas.stats import canvas_stats
-from station.distributed import boxes, decomp, exchange
-from station.distributed.exchange import Rect
+from station.render.km import render_bands, render_state
 
 F32 = np.float32
 BASES = ("numpy", "cpu")
@@ -168,7 +168,7 @@ class DistributedCanvas:
 
     Args:
         width, height, profile, seed, tiling, n_slots, params, paper, palette: as
-            :class:`~station.canvas.numpy_backend.NumpyCanvas`.
+            :class:`~station.backends.numpy_canvas.NumpyCanvas`.
         base: the backend whose step runs on each strip: ``numpy`` or ``cpu``.
         comm: the communicator (default ``MPI.COMM_WORLD``).
         rebalance_every: steps between load-balance checks (0: never).
@@ -387,7 +387,7 @@ class DistributedCanvas:
         if self.base == "numpy":
             reference.step_region(loc, sl, dt)
             return
-        from station.canvas.cpu import step as cpu_step  # numba only for the cpu base
+        from station.backends.cpu import step as cpu_step  # numba only for the cpu base
 
         slots = max(len(loc.slots), 1)
         sc = self._scratch
@@ -517,7 +517,7 @@ class DistributedCanvas:
         if self.base == "numpy":
             reference.step_region(band, sl, dt)
             return
-        from station.canvas.cpu import step as cpu_step  # numba only for the cpu base
+        from station.backends.cpu import step as cpu_step  # numba only for the cpu base
 
         slots = max(len(band.slots), 2)
         sc = self._band_scratch

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from station.canvas.backend import CanvasBackend
+from station.backends.factory import CanvasBackend
 
 F32 = np.float32
 
