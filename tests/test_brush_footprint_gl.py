@@ -9,7 +9,6 @@ from collections.abc import Callable, Iterator
 import numpy as np
 import pytest
 
-from station.backends.gl.context import GLUnavailable
 from station.brush.deformable import DeformableBrush
 from station.brush.footprint import FootprintMaps, rasterise, segments
 from station.brush.footprint_gl import GLFootprint
@@ -17,6 +16,7 @@ from station.brush.stamp import BrushModel, BrushSettings
 from station.canvas.paper import make_paper
 from station.canvas.params import get_profile
 from station.events import PenSample
+from station.glkit.context import GLUnavailable
 
 INK = "Sumi Ink"
 

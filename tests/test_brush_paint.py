@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 
 from station.backends.factory import create_backend
-from station.backends.gl.context import GLUnavailable
 from station.brush.deformable import DeformableBrush
 from station.brush.footprint import rasterise, weight
 from station.brush.footprint_gl import GLFootprint
@@ -22,6 +21,7 @@ from station.canvas.paper import make_paper
 from station.canvas.params import get_profile
 from station.cli import main
 from station.events import PenSample
+from station.glkit.context import GLUnavailable
 from station.sim.player import SessionPlayer
 from station.sim.script import Script, taper
 

@@ -8,7 +8,7 @@ from importlib import resources
 
 import pytest
 
-from station.backends.gl.shaderlib import ShaderError, compile_compute, map_log, preprocess
+from station.glkit.shaderlib import ShaderError, compile_compute, map_log, preprocess
 
 FILES = {
     "main.comp": '#version 430\nlayout(local_size_x = 1) in;\n#include "a.glsl"\n'

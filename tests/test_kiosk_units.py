@@ -156,7 +156,7 @@ def test_the_screen_is_mapped_and_window_commands_stay_out_of_the_canvas(tmp_pat
 
 
 def test_cpu_display_texture_equals_a_full_render(tmp_path) -> None:  # type: ignore[no-untyped-def]
-    from station.backends.gl.context import GLUnavailable, create_context
+    from station.glkit.context import GLUnavailable, create_context
     from station.kiosk.display import CpuDisplay
 
     try:

@@ -406,10 +406,10 @@ def test_paint_a_device_trace(tmp_path: Path, capsys: pytest.CaptureFixture[str]
 def test_auto_backend_choice_and_fallback(monkeypatch: pytest.MonkeyPatch,
                                           caplog: pytest.LogCaptureFixture) -> None:
     import station.backends.factory as backend_mod
-    import station.backends.gl.context as context_mod
+    import station.glkit.context as context_mod
     import station.sim.paint as paint_mod
-    from station.backends.gl.context import GLUnavailable
     from station.errors import StationError
+    from station.glkit.context import GLUnavailable
 
     class FakeCtx:
         def __init__(self, renderer: str) -> None:

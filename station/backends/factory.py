@@ -45,7 +45,7 @@ SOFTWARE_GL = ("llvmpipe", "softpipe", "swrast", "lavapipe", "software rasterize
 
 def _gl_renderer() -> str:
     """GL_RENDERER of a fresh context; :class:`StationError` or ImportError if none."""
-    from station.backends.gl.context import create_context  # lazy: moderngl only when probed
+    from station.glkit.context import create_context  # lazy: moderngl only when probed
 
     ctx = create_context()
     try:

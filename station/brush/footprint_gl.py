@@ -19,9 +19,9 @@ from typing import Any
 
 import numpy as np
 
-from station.backends.gl.context import create_context
-from station.backends.gl.shaderlib import compile_program
 from station.brush.footprint import CLIP_ABOVE, NO_DEPTH, FootprintMaps, window
+from station.glkit.context import create_context
+from station.glkit.shaderlib import compile_program
 
 _CORNERS = np.array([0, 0, 1, 0, 0, 1, 1, 1], np.float32)
 

@@ -7,7 +7,7 @@ folder) and share code through ``#include`` (see :mod:`.shaderlib`).
 
 from station.backends.gl import traffic
 from station.backends.gl.canvas import GLCanvas
-from station.backends.gl.context import GLUnavailable, create_context
-from station.backends.gl.shaderlib import ShaderError
+from station.glkit.context import GLUnavailable, create_context
+from station.glkit.shaderlib import ShaderError
 
 __all__ = ["GLCanvas", "GLUnavailable", "ShaderError", "create_context", "traffic"]

@@ -40,11 +40,11 @@ from station.canvas.params import CanvasInputError, SimParams
 from station.canvas.profiles import get_profile, profile_palette
 from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
 from station.canvas.stats import canvas_stats
+from station.glkit.context import GLUnavailable, create_context, query_limits
+from station.glkit.shaderlib import compile_compute
 from station.render.km import band_matrix, km_coefficients, render_bands, white_filler
 
 from . import textures as tx
-from .context import GLUnavailable, create_context, query_limits
-from .shaderlib import compile_compute
 from .traffic import bytes_per_cell_step
 
 F32 = np.float32
