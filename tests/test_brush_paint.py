@@ -19,6 +19,7 @@ from station.brush.reservoir import Reservoir, pickup
 from station.brush.stamp import BrushError, BrushModel, BrushSettings
 from station.canvas.paper import make_paper
 from station.canvas.params import get_profile
+from station.canvas.removal import StateSurface
 from station.cli import main
 from station.events import PenSample
 from station.glkit.context import GLUnavailable
@@ -180,7 +181,7 @@ def test_pickup_moves_pigment_both_ways_with_mass_conserved() -> None:
         return out
 
     before = total()
-    lifted = pickup(state, res, np.ones((30, 40), np.float32), 15, 25, 0.3)
+    lifted = pickup(StateSurface(state), res, np.ones((30, 40), np.float32), 15, 25, 0.3)
     assert lifted["Cerulean Blue"] > 0.0 and res.mass["Cerulean Blue"] > 0.0
     after = total()
     for name, v in before.items():

@@ -282,7 +282,7 @@ def test_masking_fluid_protects_cells_and_bookkeeping_closes() -> None:
 
 
 def test_numpy_backend_satisfies_the_protocol() -> None:
-    from station.backends.factory import CanvasBackend
+    from station.backends.protocol import CanvasBackend
 
     c = create_backend("numpy", 20, 16, "ink", 4, tiles=False)
     assert isinstance(c, CanvasBackend)

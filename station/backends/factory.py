@@ -1,6 +1,7 @@
-"""The canvas backend protocol and the factory that picks an implementation.
+"""The factory that picks a canvas backend (:mod:`station.backends.protocol` is what
+every one offers).
 
-Every backend simulates the same three-layer model (``reference.py`` is the
+Every backend simulates the same three-layer model (``canvas/reference.py`` is the
 contract) and offers the same operations. Sources are given as float32 arrays of
 any shape ``(h, w)`` placed with their top-left cell at row ``y0``, column ``x0``
 of the canvas (clipped to the canvas): ``dw`` water height, ``dp`` pigment area
@@ -11,16 +12,13 @@ receive nothing. Unknown pigments, or a ninth pigment in one layer, raise
 
 from __future__ import annotations
 
-import importlib
 import importlib.util
 import logging
-from collections.abc import Mapping
-from typing import Any, Protocol, runtime_checkable
+from typing import Any
 
-import numpy as np
-
+from station.backends.numpy_canvas import NumpyCanvas
+from station.backends.protocol import CanvasBackend
 from station.canvas.params import CanvasInputError
-from station.canvas.state import CanvasState
 from station.errors import BadInput, StationError
 
 log = logging.getLogger(__name__)
@@ -45,7 +43,8 @@ SOFTWARE_GL = ("llvmpipe", "softpipe", "swrast", "lavapipe", "software rasterize
 
 def _gl_renderer() -> str:
     """GL_RENDERER of a fresh context; :class:`StationError` or ImportError if none."""
-    from station.glkit.context import create_context  # lazy: moderngl only when probed
+    # in the function: moderngl only when a GL context is probed
+    from station.glkit.context import create_context
 
     ctx = create_context()
     try:
@@ -119,67 +118,6 @@ def make_backend(name: str, width: int, height: int, profile: str = "watercolor"
         raise StationError(f"backend {name!r} cannot be loaded: {exc}") from None
 
 
-@runtime_checkable
-class CanvasBackend(Protocol):
-    """What the session player, the live simulation and the benchmark drive."""
-
-    @property
-    def renderer(self) -> str:
-        """"numpy", or the GL_RENDERER string of the GL backend."""
-        ...
-
-    @property
-    def width(self) -> int:
-        ...
-
-    @property
-    def height(self) -> int:
-        ...
-
-    def add_sources(self, dw: np.ndarray | None = None,
-                    dp: Mapping[str, np.ndarray] | None = None,
-                    dvx: np.ndarray | None = None, dvy: np.ndarray | None = None,
-                    *, y0: int = 0, x0: int = 0) -> None:
-        """Add brush/tool sources (spec step 1) at ``(y0, x0)``."""
-        ...
-
-    def step(self, dt: float | None = None) -> None:
-        """One simulation step (``params.dt`` when ``dt`` is None)."""
-        ...
-
-    def dry(self) -> None:
-        """Dry the active layer: suspended pigment settles, all water goes."""
-        ...
-
-    def new_layer(self) -> None:
-        """Dry, fold the active layer into the composed reflectance, start a new one."""
-        ...
-
-    def clear(self) -> None:
-        """Back to blank paper (same paper, same profile), bookkeeping reset."""
-        ...
-
-    def set_profile(self, name: str) -> None:
-        """Switch paint profile (parameters, renderer, palette defaults) mid-painting."""
-        ...
-
-    def render(self) -> np.ndarray:
-        """Linear reflectance, float32 (H, W, 3) in [0, 1]."""
-        ...
-
-    def state(self) -> CanvasState:
-        """A copy of the complete state (GPU backends read their textures back)."""
-        ...
-
-    def load_state(self, state: CanvasState) -> None:
-        """Continue from ``state`` exactly."""
-        ...
-
-    def stats(self) -> dict[str, Any]:
-        """The ``--stats`` JSON of interfaces.md."""
-        ...
-
-
 def create_backend(name: str, width: int, height: int, profile: str = "watercolor",
                    seed: int = 0, **opts: Any) -> CanvasBackend:
     """Make a backend: ``"numpy"`` (reference), ``"gl"`` (moderngl, imported lazily),
@@ -192,16 +130,37 @@ def create_backend(name: str, width: int, height: int, profile: str = "watercolo
     if name == "auto":
         return make_backend("auto", width, height, profile, seed, **opts)[0]
     if name == "cpu":
-        cpu = importlib.import_module("station.backends.cpu")  # lazy: numba only when asked
-        made: CanvasBackend = cpu.CpuCanvas(width, height, profile=profile, seed=seed, **opts)
-        return made
-    if name == "numpy":
-        from station.backends.numpy_canvas import NumpyCanvas
+        # in the function: numba (about half a second to import) only when asked
+        from station.backends.cpu import CpuCanvas
 
+        return CpuCanvas(width, height, profile=profile, seed=seed, **opts)
+    if name == "numpy":
         return NumpyCanvas(width, height, profile=profile, seed=seed, **opts)
     if name == "gl":
-        gl = importlib.import_module("station.backends.gl")  # lazy: moderngl only when asked
-        backend: CanvasBackend = gl.GLCanvas(width, height, profile=profile, seed=seed, **opts)
-        return backend
+        # in the function: moderngl and a GL context only when asked (optional on a
+        # headless machine without EGL)
+        from station.backends.gl import GLCanvas
+
+        return GLCanvas(width, height, profile=profile, seed=seed, **opts)
     raise CanvasInputError(
         f"unknown canvas backend {name!r} (known: {', '.join(BACKENDS)})", "--backend")
+
+
+def create_distributed(name: str, width: int, height: int, profile: str, seed: int,
+                       **opts: Any) -> tuple[CanvasBackend, str]:
+    """A :class:`~station.backends.distributed.canvas.DistributedCanvas` stepping ``name``
+    (``auto``: cpu when numba is installed, else numpy) on every rank's strip; returns it
+    and its name (``distributed-<name>``)."""
+    if name == "auto":
+        name = fastest_cpu_backend()
+    if name not in ("numpy", "cpu"):
+        raise CanvasInputError(f"--distributed steps the numpy or cpu backend, not {name!r}",
+                               "--backend")
+    try:
+        # in the function: mpi4py and an MPI library are the optional ``mpi`` extra
+        from station.backends.distributed.canvas import DistributedCanvas
+    except ImportError as exc:
+        raise StationError(f"--distributed needs mpi4py and an MPI library (pip install "
+                           f"'painting-station[mpi]'): {exc}") from None
+    canvas = DistributedCanvas(width, height, profile, seed, base=name, **opts)
+    return canvas, f"distributed-{name}"

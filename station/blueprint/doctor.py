@@ -69,7 +69,7 @@ def check_gl() -> Check:
 
 
 def check_devices(plan: Plan | None) -> list[Check]:
-    from station.cli.cmd_devices import scan
+    from station.drivers.scan import scan
 
     found = scan()
     checks = []

@@ -2,9 +2,9 @@
 
 Both act on a :class:`CanvasState` between simulation steps and book everything they
 remove (``evaporated`` for the dryer, ``removed_w`` / ``removed_p`` for the pickup),
-so the balance in the stats still closes. :func:`on_state` runs one of them on any
-backend: in place on the NumPy and cpu backends (``live_state``), through a state
-round trip elsewhere (GL).
+so the balance in the stats still closes. The caller runs one of them on any backend
+with :func:`station.backends.protocol.edit_state` (in place on the NumPy and cpu
+backends, through a state round trip elsewhere).
 
 Hair dryer: hot moving air raises the local drying power of the air exactly as the
 canvas's ``temperature`` / ``airflow`` settings do (``SimParams.drying_power``), on a
@@ -17,10 +17,9 @@ carries.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Any, TypeVar
+from typing import TypeVar
 
 import numpy as np
 
@@ -30,17 +29,6 @@ from station.canvas.state import CanvasState
 
 F32 = np.float32
 T = TypeVar("T")
-
-
-def on_state(backend: Any, fn: Callable[[CanvasState], T]) -> T:
-    """Run ``fn`` on the backend's canvas state and keep what it changed."""
-    live = getattr(backend, "live_state", None)
-    if isinstance(live, CanvasState):
-        return fn(live)
-    st = backend.state()
-    out = fn(st)
-    backend.load_state(st)
-    return out
 
 
 @lru_cache(maxsize=8)
@@ -209,3 +197,16 @@ def pickup(state: CanvasState, weight: np.ndarray, *, y0: int = 0, x0: int = 0,
     taken = {pig.name: float(tp[k].sum(dtype=np.float64)) for k, pig in enumerate(names)
              if k < ns}
     return Pickup(float(tw.sum(dtype=np.float64)), taken)
+
+
+@dataclass(frozen=True, slots=True)
+class StateSurface:
+    """A canvas state as the brush's reservoir sees it (``station.brush.reservoir.WetSurface``):
+    a loaded brush gliding over paint lifts the suspended pigment only (no scrubbing)."""
+
+    state: CanvasState
+
+    def lift(self, weight: np.ndarray, y0: int, x0: int, thirst: float, wet_depth: float,
+             room: float) -> Pickup:
+        return pickup(self.state, weight, y0=y0, x0=x0, thirst=thirst, scrub=0.0,
+                      wet_depth=wet_depth, room=room)

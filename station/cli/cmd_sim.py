@@ -127,7 +127,7 @@ def _follower(cfg: LiveConfig) -> bool:
     """On ranks other than 0 of an MPI job: follow rank 0's canvas calls; True when done."""
     import signal
 
-    from station.sim.paint import make_distributed
+    from station.backends.factory import create_distributed
 
     try:
         from mpi4py import MPI
@@ -138,7 +138,7 @@ def _follower(cfg: LiveConfig) -> bool:
         return False
     from station.backends.distributed.relay import follow
 
-    canvas, _name = make_distributed(cfg.backend, cfg.width, cfg.height, cfg.profile, cfg.seed)
+    canvas, _name = create_distributed(cfg.backend, cfg.width, cfg.height, cfg.profile, cfg.seed)
     # Ctrl-C reaches every rank; rank 0 alone decides when to stop (then tells the others)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     follow(canvas)

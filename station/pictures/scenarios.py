@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from station.backends.factory import CanvasBackend
+from station.backends.protocol import CanvasBackend
 
 F32 = np.float32
 

@@ -186,9 +186,9 @@ class LiveCore:
         self.canvas: Any
         if cfg.distributed:  # this is rank 0; the others follow (backends.distributed.relay)
             from station.backends.distributed.relay import Leader
-            from station.sim.paint import make_distributed
+            from station.backends.factory import create_distributed
 
-            dist, self.backend_name = make_distributed(cfg.backend, cfg.width, cfg.height,
+            dist, self.backend_name = create_distributed(cfg.backend, cfg.width, cfg.height,
                                                        cfg.profile, cfg.seed)
             self.canvas = Leader(dist)
         else:

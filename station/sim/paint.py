@@ -15,7 +15,6 @@ What happens on bad input (interfaces.md: exit 2, one line, nothing painted lost
 
 from __future__ import annotations
 
-import importlib
 import itertools
 import json
 import logging
@@ -28,7 +27,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from station.backends.factory import make_backend  # auto: resolve_auto decides, once
+from station.backends.factory import (  # auto: resolve_auto decides, once
+    create_distributed,
+    make_backend,
+)
 from station.errors import BadInput, StationError
 from station.events import Command, PenSample
 from station.progress import Progress
@@ -132,22 +134,13 @@ def open_input(path: str, canvas: tuple[int, int] = (800, 600), mapping: str = "
 
 
 def _open_trace(path: str, canvas: tuple[int, int], mapping: str) -> _Source:
-    """A device trace through ``station.drivers.traces`` (issue 4), if it is there."""
-    suffix = Path(path).suffix.lower()
-    try:
-        traces = importlib.import_module("station.drivers.traces")
-    except ImportError:
-        raise PaintInputError(
-            f"device traces ({suffix}) are not supported yet by this station; "
-            "give a session log (.jsonl)", path) from None
-    reader = getattr(traces, "iter_trace_samples", None)
-    if not callable(reader):
-        raise PaintInputError(
-            f"device traces ({suffix}) are not supported yet by this station "
-            "(station.drivers.traces has no reader); give a session log (.jsonl)", path)
+    """A device trace through ``station.drivers.traces`` (issue 4)."""
     if not os.path.exists(path):
         raise PaintInputError("no such file", path)
+    # in the function: a trace pulls in the driver pipeline and its transports, which a
+    # session log (the common input) never needs
     from station.drivers.normalise import NormaliserConfig
+    from station.drivers.traces import iter_trace_samples as reader
 
     samples = iter(reader(path, config=NormaliserConfig(mapping=mapping, canvas=canvas)))
     # The drivers read the whole trace on the first sample: a trace that does not
@@ -275,7 +268,7 @@ def paint(
             rate = float(logged_rate)  # the rate the session was recorded at
         seed = start.seed if start is not None else header.seed
         if distributed:
-            canvas, backend = make_distributed(backend, width, height, prof.name, seed,
+            canvas, backend = create_distributed(backend, width, height, prof.name, seed,
                                                **(backend_opts or {}))
         else:
             canvas, backend = make_backend(backend, width, height, prof.name, seed,
@@ -326,26 +319,6 @@ def paint(
         failure.result = result
         raise failure from None
     return result
-
-
-def make_distributed(name: str, width: int, height: int, profile: str, seed: int,
-                     **opts: Any) -> tuple[Any, str]:
-    """A :class:`~station.backends.distributed.canvas.DistributedCanvas` stepping ``name``
-    (``auto``: cpu when numba is installed, else numpy) on every rank's strip."""
-    from station.backends.factory import fastest_cpu_backend
-
-    if name == "auto":
-        name = fastest_cpu_backend()
-    if name not in ("numpy", "cpu"):
-        raise PaintInputError(f"--distributed steps the numpy or cpu backend, not {name!r}",
-                              "--backend")
-    try:
-        dist = importlib.import_module("station.backends.distributed.canvas")
-    except ImportError as exc:
-        raise StationError(f"--distributed needs mpi4py and an MPI library (pip install "
-                           f"'painting-station[mpi]'): {exc}") from None
-    canvas = dist.DistributedCanvas(width, height, profile, seed, base=name, **opts)
-    return canvas, f"distributed-{name}"
 
 
 def write_outputs(canvas: Any, result: PaintResult, out_png: str | None,

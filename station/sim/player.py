@@ -33,13 +33,14 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from station.backends.numpy_canvas import NumpyCanvas
+from station.backends.protocol import edit_state
 from station.brush.deformable import DeformableBrush
 from station.brush.reservoir import pickup
 from station.brush.solver import SolverCounters
 from station.brush.stamp import STAMP_KIND, BrushModel, BrushSettings, RoundBrush
 from station.canvas.params import Profile
 from station.canvas.profiles import get_profile, profile_names
-from station.canvas.removal import HairDryer, blow, on_state
+from station.canvas.removal import HairDryer, StateSurface, blow
 from station.canvas.state import DEFAULT_SLOTS
 from station.errors import BadInput
 from station.events import Command, PenSample, Tool
@@ -163,7 +164,7 @@ class SessionPlayer:
         dryer = self.dryer
         if dryer is not None:
             if self.counters.steps < self.dryer_until:
-                on_state(self.backend, lambda st: blow(st, dryer, self.dt))
+                edit_state(self.backend, lambda st: blow(st, dryer, self.dt))
             else:
                 self.dryer = None
         self.backend.step()
@@ -191,7 +192,7 @@ class SessionPlayer:
                 self.pickups_skipped += len(requests)
             elif requests and state is not None:
                 for r in requests:
-                    pickup(state, self.brush.reservoir, r.weight, r.y0, r.x0,
+                    pickup(StateSurface(state), self.brush.reservoir, r.weight, r.y0, r.x0,
                            self.brush.shape.pickup)
         src = self.brush.take()
         if src is not None:
@@ -232,7 +233,7 @@ class SessionPlayer:
         field = self._controller_field
         cx, cy = rec.x * self.width, rec.y * self.height
         radius = max(self.brush.settings.size / 2.0, 0.5)
-        on_state(self.backend, lambda st: diffusion_tool.write(st, field, ctrl.strength, cx, cy,
+        edit_state(self.backend, lambda st: diffusion_tool.write(st, field, ctrl.strength, cx, cy,
                                                                radius))
 
     def _tool_sample(self, tool: str, rec: PenSample, where: str | None) -> None:
@@ -263,9 +264,9 @@ class SessionPlayer:
     def _dab_at(self, tool: str, cx: float, cy: float, pressure: float) -> None:
         prev = self._dab
         if tool == "mask":
-            on_state(self.backend, lambda st: mask_tool.paint(st, cx, cy, self.mask_radius))
+            edit_state(self.backend, lambda st: mask_tool.paint(st, cx, cy, self.mask_radius))
         elif tool == "eraser":
-            self._dab = on_state(self.backend, lambda st: eraser_tool.erase(
+            self._dab = edit_state(self.backend, lambda st: eraser_tool.erase(
                 st, self.eraser, cx, cy, pressure, prev))
         else:  # tissue
             if self._tissue_tex is None:
@@ -273,7 +274,7 @@ class SessionPlayer:
                 self._tissue_tex = tissue_tool.texture(t.kind, self.height, self.width,
                                                        t.scale, t.seed, t.image)
             tex = self._tissue_tex
-            self._dab = on_state(self.backend, lambda st: tissue_tool.blot(
+            self._dab = edit_state(self.backend, lambda st: tissue_tool.blot(
                 st, self.tissue, tex, cx, cy, pressure, prev))[1]
 
     def _check_layer(self, where: str | None) -> None:
@@ -579,7 +580,7 @@ def _mask(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
 def _mask_remove(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
     _check_keys("mask_remove", args, set(), where)
     p.flush_sources()
-    on_state(p.backend, mask_tool.rub_off)
+    edit_state(p.backend, mask_tool.rub_off)
 
 
 def _eraser(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
@@ -640,7 +641,7 @@ def _apply_tilt(p: SessionPlayer) -> None:
     def put(st: Any) -> None:
         st.params = st.params.replace(tilt=angle, tilt_direction=direction)
 
-    on_state(p.backend, put)
+    edit_state(p.backend, put)
 
 
 def _diffusion(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
@@ -656,7 +657,7 @@ def _diffusion(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> 
         def put(st: Any) -> None:
             st.params = st.params.replace(block_fade=fade)
 
-        on_state(p.backend, put)
+        edit_state(p.backend, put)
     pattern = args.get("pattern", "stripes")
     if pattern == "off":
         p.controller = None
