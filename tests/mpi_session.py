@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from station.canvas.params import get_profile
+from station.canvas.profiles import get_profile
 from station.canvas.state import CanvasState
 
 WIDTH, HEIGHT = 96, 128

@@ -14,7 +14,7 @@ from station.brush.footprint import FootprintMaps, rasterise, segments
 from station.brush.footprint_gl import GLFootprint
 from station.brush.stamp import BrushModel, BrushSettings
 from station.canvas.paper import make_paper
-from station.canvas.params import get_profile
+from station.canvas.profiles import get_profile
 from station.events import PenSample
 from station.glkit.context import GLUnavailable
 

@@ -18,7 +18,7 @@ from station.brush.geometry import BrushShape, BrushShapeError, builtin_shapes
 from station.brush.reservoir import Reservoir, pickup
 from station.brush.stamp import BrushError, BrushModel, BrushSettings
 from station.canvas.paper import make_paper
-from station.canvas.params import get_profile
+from station.canvas.profiles import get_profile
 from station.canvas.removal import StateSurface
 from station.cli import main
 from station.events import PenSample

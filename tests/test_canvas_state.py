@@ -13,7 +13,8 @@ from station.backends.factory import create_backend
 from station.backends.numpy_canvas import NumpyCanvas
 from station.canvas.palette import default_palette
 from station.canvas.paper import PAPER_PRESETS, make_paper
-from station.canvas.params import PROFILES, SimParams, get_profile
+from station.canvas.params import SimParams
+from station.canvas.profiles import PROFILES, get_profile
 from station.canvas.state import CanvasState
 from station.errors import BadInput
 from station.pictures.scenarios import disc, paint, rect

@@ -23,7 +23,8 @@ from station.backends.cpu import step as cpu_step
 from station.backends.factory import create_backend, fastest_cpu_backend, resolve_auto
 from station.backends.numpy_canvas import NumpyCanvas
 from station.canvas import reference as ref
-from station.canvas.params import SimParams, get_profile
+from station.canvas.params import SimParams
+from station.canvas.profiles import get_profile
 from station.canvas.state import CanvasState
 
 TOL = 1e-5

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import pytest
 from station.drivers.mock.tablet import MockTablet, find_model
-from station.drivers.traces import iter_trace_samples, write_session_log
+from station.drivers.traces import write_session_log
+from station.drivers.traces.replay import iter_trace_samples
 
 from station.bus import Subscriber
 from station.cli import main

@@ -19,9 +19,10 @@ from station.drivers.evdev.frames import (
 from station.drivers.mock.evdev import states_to_events, touchpad_caps, wacom_like_caps
 from station.drivers.mock.script import timed_states
 from station.drivers.pipeline import TraceReplay, open_device
-from station.drivers.traces import TraceError, iter_trace_samples, read_trace
+from station.drivers.traces import TraceError, read_trace
 from station.drivers.traces.evemu import format_evemu
 from station.drivers.traces.libinput_record import format_libinput_record
+from station.drivers.traces.replay import iter_trace_samples
 
 from station.events import Button, PenSample, Tool
 

@@ -24,7 +24,8 @@ from station.drivers.mock.script import report_times
 from station.drivers.mock.tablet import MockTablet, find_model
 from station.drivers.mock.usb import RecordedUsbBackend, RecordedUsbDevice
 from station.drivers.pipeline import DeviceSpec, HidPenSource, PenDriver, open_device
-from station.drivers.traces import iter_trace_samples, read_trace
+from station.drivers.traces import read_trace
+from station.drivers.traces.replay import iter_trace_samples
 from station.drivers.transport.base import (
     DeviceSpecError,
     EndOfStream,

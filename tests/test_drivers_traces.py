@@ -18,8 +18,9 @@ import pytest
 from station.drivers import synth
 from station.drivers.mock.tablet import MockTablet, find_model
 from station.drivers.pipeline import TraceReplay
-from station.drivers.traces import TraceError, iter_trace_samples, read_trace
+from station.drivers.traces import TraceError, read_trace
 from station.drivers.traces.hidrecorder import HidRecorderWriter, parse_hid_recorder
+from station.drivers.traces.replay import iter_trace_samples
 
 from station.cli import main
 from station.events import Button, PenSample, Tool

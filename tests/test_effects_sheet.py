@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 from PIL import Image
 
-from station.canvas.params import get_profile
+from station.canvas.profiles import get_profile
 from station.cli import main
 from station.pictures import effects as fx
 

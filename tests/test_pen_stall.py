@@ -21,7 +21,7 @@ import pytest
 from station.drivers import synth
 from station.drivers.normalise import Normaliser, NormaliserConfig
 from station.drivers.raw import Axis, AxisRanges, RawSample
-from station.drivers.traces import iter_trace_samples
+from station.drivers.traces.replay import iter_trace_samples
 
 from station.cli import main
 from station.events import Button, PenSample

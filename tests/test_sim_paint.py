@@ -148,7 +148,7 @@ def test_bad_command_arguments_raise_with_place() -> None:
 
 
 def test_brush_model_follows_profile() -> None:
-    from station.canvas.params import get_profile
+    from station.canvas.profiles import get_profile
 
     for name in ("watercolor", "gouache", "ink"):
         prof = get_profile(name)

@@ -2,7 +2,8 @@
 
 :func:`read_trace` picks the reader by extension (``.hid``/``.hidrec``,
 ``.evemu``/``.evm``, ``.yaml``/``.yml``) or, failing that, by content, and
-returns a :class:`Trace`.  :func:`iter_trace_samples` plays a trace through
+returns a :class:`Trace`.  :func:`station.drivers.traces.replay.iter_trace_samples`
+plays a trace through
 the same parser and normaliser as a live device and yields the
 device-normalised pen samples (``station paint`` and ``station replay`` use it).
 """
@@ -10,7 +11,7 @@ device-normalised pen samples (``station paint`` and ``station replay`` use it).
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable
 from pathlib import Path
 from typing import IO, TYPE_CHECKING
 
@@ -24,11 +25,9 @@ from station.drivers.traces.hidrecorder import (
 from station.drivers.traces.libinput_record import parse_libinput_record, read_libinput_record
 from station.drivers.traces.model import Trace, TraceDevice, TraceError
 
-from station.errors import BadInput
+from station.sessionlog import SessionHeader, SessionLogWriter
 
 if TYPE_CHECKING:
-    from station.drivers.normalise import NormaliserConfig
-
     from station.events import PenSample
 
 __all__ = [
@@ -37,7 +36,6 @@ __all__ = [
     "TraceDevice",
     "TraceError",
     "is_trace_path",
-    "iter_trace_samples",
     "parse_evemu",
     "parse_hid_recorder",
     "parse_libinput_record",
@@ -105,26 +103,9 @@ def read_trace(path: str | os.PathLike[str]) -> Trace:
     return read_hid_recorder(path)
 
 
-def iter_trace_samples(path: str | os.PathLike[str], device: str | None = None,
-                       config: NormaliserConfig | None = None) -> Iterator[PenSample]:
-    """Pen samples of every pen device in the trace, in time order.
-
-    Device-normalised unless ``config`` names a canvas to map them onto.  A
-    trace without a pen device raises :class:`~station.errors.BadInput`.
-    """
-    from station.drivers.pipeline import TraceReplay
-
-    replay = TraceReplay(read_trace(path), config=config, device_name=device)
-    if not replay.pen_devices:
-        raise BadInput(f"no pen device in this trace ({replay.skipped_text()})", str(path))
-    yield from replay.samples()
-
-
 def write_session_log(samples: Iterable[PenSample], path: str | os.PathLike[str] | IO[str],
                       source: str = "", width: int = 800, height: int = 600) -> int:
     """Write pen samples as a session log (header first); returns the records written."""
-    from station.sessionlog import SessionHeader, SessionLogWriter
-
     header = SessionHeader(width=width, height=height,
                            extra={"source": source, "coordinates": "device"} if source else {})
     with SessionLogWriter(path, header) as writer:

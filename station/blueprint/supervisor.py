@@ -362,7 +362,7 @@ class Supervisor:
 
     def _save_to_gallery(self, target: str, gallery_id: str | None) -> None:
         """Checkpoint the sim (``save``), then render its checkpoint into the gallery."""
-        from station.canvas.params import get_profile
+        from station.canvas.profiles import get_profile
         from station.canvas.state import CanvasState
         from station.render.km import render_state
         from station.sim.paint import write_image

@@ -7,7 +7,7 @@ import os
 from collections.abc import Iterator
 from pathlib import Path
 
-from station.drivers.traces import iter_trace_samples
+from station.drivers.traces.replay import iter_trace_samples
 from station.events import PenSample
 from station.sessionlog import SessionLogReader
 

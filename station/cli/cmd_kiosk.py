@@ -70,7 +70,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.canvas.params import get_profile
+    from station.canvas.profiles import get_profile
     from station.kiosk.app import KioskApp, KioskConfig
     from station.kiosk.idle import IdleConfig
     from station.sim.paint import parse_size

@@ -27,7 +27,7 @@ from typing import Any
 import numba
 import numpy as np
 
-from station.canvas.params import get_profile
+from station.canvas.profiles import get_profile
 from station.render.km import region_amount, render_region
 from station.render.km_fast import km_layer_fast
 

@@ -226,7 +226,7 @@ def replay_frames(log_path: str | os.PathLike[str], frames: int = 48, width: int
     player.play(records, on_step=on_step)
     shots.append(shot())
     if final is not None:
-        from station.canvas.params import get_profile
+        from station.canvas.profiles import get_profile
 
         final(canvas, get_profile(player.profile).renderer)
     close = getattr(canvas, "close", None)

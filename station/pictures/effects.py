@@ -21,7 +21,8 @@ import numpy as np
 
 from station.backends.numpy_canvas import NumpyCanvas
 from station.canvas.palette import Palette, Pigment, default_palette
-from station.canvas.params import SimParams, get_profile
+from station.canvas.params import SimParams
+from station.canvas.profiles import get_profile
 from station.canvas.removal import HairDryer, blow, pickup
 from station.pictures.measure import bare_share, edge_band, edge_roughness, edge_width, spread
 from station.pictures.scenarios import disc, distance_inside, paint, rect, run_until_dry

@@ -140,7 +140,7 @@ def _open_trace(path: str, canvas: tuple[int, int], mapping: str) -> _Source:
     # in the function: a trace pulls in the driver pipeline and its transports, which a
     # session log (the common input) never needs
     from station.drivers.normalise import NormaliserConfig
-    from station.drivers.traces import iter_trace_samples as reader
+    from station.drivers.traces.replay import iter_trace_samples as reader
 
     samples = iter(reader(path, config=NormaliserConfig(mapping=mapping, canvas=canvas)))
     # The drivers read the whole trace on the first sample: a trace that does not

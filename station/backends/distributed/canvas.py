@@ -42,7 +42,8 @@ from station.backends.distributed.exchange import Rect
 from station.canvas import operations, reference, tiles
 from station.canvas.palette import Palette
 from station.canvas.paper import make_fibres, make_paper
-from station.canvas.params import CanvasInputError, SimParams, get_profile
+from station.canvas.params import CanvasInputError, SimParams
+from station.canvas.profiles import get_profile
 from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
 from station.canvas.stats import canvas_stats
 from station.render.km import render_bands, render_state
