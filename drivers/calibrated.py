@@ -15,6 +15,10 @@ import logging
 from dataclasses import dataclass
 from typing import Any
 
+from station.calibration.errors import CalibrationError
+from station.calibration.files import CalibrationStore, find_for_device
+from station.calibration.model import DeviceId
+
 log = logging.getLogger(__name__)
 
 
@@ -38,10 +42,6 @@ def choose_calibration(spec: str, vid: int, pid: int) -> CalibrationChoice:
     """
     if spec == "none":
         return CalibrationChoice(None, "none (device-normalised)")
-    from station.calibration.errors import CalibrationError
-    from station.calibration.files import CalibrationStore, find_for_device
-    from station.calibration.model import DeviceId
-
     store = CalibrationStore(DeviceId(vid, pid))
     if spec != "auto":
         store.load(spec)

@@ -33,6 +33,11 @@ LAZY_LIMIT = 0.10
 IMPORTLIB_ALLOWED = ("station.cli",)
 """Rooms that may name internal modules by string: the CLI's command registry."""
 
+UNCOMMENTED_PENDING = {"drivers/pipeline.py", "station/kiosk/app.py"}
+"""Files whose in-function imports are not yet commented: both are being split by
+other work of issue 23 (pipeline by job, the kiosk app into named parts), which moves
+or comments them; the rule applies to them when that lands."""
+
 # The rooms, lowest first. A module may import its own room and any room listed in
 # its entry of UPHILL_FREE (what lies below it); anything else is an upward or
 # sideways arrow. Longest prefix wins.
@@ -271,12 +276,28 @@ def _is_package_init(src: str, dst: str, known: dict[str, Path]) -> bool:
     return _under(src, (dst,)) and known[dst].name == "__init__.py"
 
 
+def _has_reason(lines: list[str], i: int) -> bool:
+    """A comment on the import's line, or above it through the import block it is in."""
+    if "#" in lines[i]:
+        return True
+    for j in range(i - 1, -1, -1):
+        text = lines[j].strip()
+        if text.startswith("#"):
+            return True
+        if not (text.startswith(("from ", "import ")) or text == ")" or text.endswith(",")):
+            return False
+        if "#" in text:
+            return True
+    return False
+
+
 def problems(root: Path = ROOT) -> dict[str, list[str]]:
     """Every way the house at ``root`` breaks its rules, by rule."""
     known = modules(root)
     all_edges = edges(root)
     out: dict[str, list[str]] = {"upward": [], "never": [], "importlib": [], "circles": [],
-                                 "lazy share": []}
+                                 "lazy share": [], "lazy without a reason": []}
+    texts: dict[str, list[str]] = {}
     for e in all_edges:
         where = f"{e.path}:{e.line}: {e.src} -> {e.dst}"
         a, b = room_of(e.src), room_of(e.dst)
@@ -289,10 +310,20 @@ def problems(root: Path = ROOT) -> dict[str, list[str]]:
                     out["never"].append(f"{where} (never {rule})")
         if e.by_string and not _under(e.src, IMPORTLIB_ALLOWED):
             out["importlib"].append(f"{where} (importlib outside the CLI registry)")
+        if e.lazy and e.path not in UNCOMMENTED_PENDING:
+            lines = texts.setdefault(e.path, (root / e.path).read_text("utf-8").splitlines())
+            if not _has_reason(lines, e.line - 1):
+                out["lazy without a reason"].append(
+                    f"{where} (an import in a function says why in a comment)")
     graph: dict[str, set[str]] = {}
     for e in all_edges:
         if not _is_package_init(e.src, e.dst, known):
             graph.setdefault(e.src, set()).add(e.dst)
+        # importing a.b.c runs the __init__ of a.b first (unless e.src is inside it)
+        parent = e.dst.rpartition(".")[0]
+        while parent and parent in known and not _under(e.src, (parent,)):
+            graph.setdefault(e.src, set()).add(parent)
+            parent = parent.rpartition(".")[0]
     out["circles"] = [" <-> ".join(c) for c in _cycles(graph)]
     for rule, srcs, dsts in NEVER_REACH:
         for mod in sorted(m for m in known if _under(m, srcs)):
@@ -339,7 +370,8 @@ def found() -> dict[str, list[str]]:
     return problems()
 
 
-@pytest.mark.parametrize("rule", ["upward", "never", "importlib", "circles", "lazy share"])
+@pytest.mark.parametrize("rule", ["upward", "never", "importlib", "circles", "lazy share",
+                                  "lazy without a reason"])
 def test_the_house_keeps_its_rule(found: dict[str, list[str]], rule: str) -> None:
     assert not found[rule], f"{len(found[rule])} breaks of '{rule}':\n" + "\n".join(found[rule])
 

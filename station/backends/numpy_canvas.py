@@ -9,6 +9,7 @@ import numpy as np
 
 from station.canvas import operations, reference, tiles
 from station.canvas.palette import Palette
+from station.canvas.paper import make_paper
 from station.canvas.params import SimParams
 from station.canvas.profiles import get_profile, profile_palette
 from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
@@ -70,7 +71,6 @@ class NumpyCanvas:
         prof = get_profile(profile)
         prm = params if params is not None else prof.params
         preset = paper if paper is not None else prof.paper
-        from station.canvas.paper import make_paper
 
         h = make_paper(preset, height, width, seed)
         self._state = CanvasState.blank(width, height, prm, h, profile=prof.name,

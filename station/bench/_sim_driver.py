@@ -82,7 +82,7 @@ def run_fixed(backend: str, width: int, height: int, scenario: str, warmup: int,
     # in the function: this source also runs against older checkouts (``--baseline``),
     # whose factory lived in ``station.canvas.backend``
     try:
-        from station.backends.factory import create_backend
+        from station.backends.factory import create_backend  # this tree's
     except ImportError:
         from station.canvas.backend import create_backend  # type: ignore[no-redef]
 
@@ -116,7 +116,7 @@ def run_fixed(backend: str, width: int, height: int, scenario: str, warmup: int,
 
 def child_main() -> None:
     """Serve requests on stdin/stdout (see the module docstring)."""
-    import station
+    import station  # in the function: the PYTHONPATH of the child picks which station
 
     print(json.dumps({"ready": True, "station": str(station.__file__)}), flush=True)
     for line in sys.stdin:

@@ -20,6 +20,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+from station.bus import Publisher, Subscriber, generate_keys, secure_dir
+from station.errors import BadInput
 from station.events import PenSample, Tool
 from station.progress import Progress
 
@@ -39,8 +41,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _subscriber(endpoint: str, keys: str | None, expected: int, conn: Any) -> None:
-    from station.bus import Subscriber
-
     sub = Subscriber(endpoint, topics=("pen.",), keys=Path(keys) if keys else None)
     conn.send("ready")
     latencies: list[float] = []
@@ -69,8 +69,6 @@ def _sample(seq: int) -> Any:
 
 def _one_run(endpoint: str, keys: str | None, count: int, period: float,
              batch: int = 1) -> dict[str, Any]:
-    from station.bus import Publisher
-
     ctx = mp.get_context("spawn")
     parent, child = ctx.Pipe()
     proc = ctx.Process(target=_subscriber, args=(endpoint, keys, count, child), daemon=True)
@@ -128,9 +126,6 @@ def _free_port() -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.bus import generate_keys, secure_dir
-    from station.errors import BadInput
-
     transports = [t.strip() for t in args.transports.split(",") if t.strip()]
     if not 1 <= args.batch <= 512:
         raise BadInput(f"{args.batch} outside 1..512", "--batch")

@@ -84,10 +84,12 @@ class _CornerStroke:
 def measure(width: int, height: int, scenario: str, seconds: float, base: str,
             warmup: int = 70, schedule: str = "auto") -> dict[str, Any] | None:
     """One configuration on all ranks of COMM_WORLD; the result on rank 0."""
+    # in the function: mpi4py is the optional ``mpi`` extra (this module registers the
+    # bench command without it)
     from mpi4py import MPI
 
-    from station.backends.distributed import exchange
-    from station.backends.distributed.canvas import DistributedCanvas
+    from station.backends.distributed import exchange  # mpi4py too
+    from station.backends.distributed.canvas import DistributedCanvas  # mpi4py too
 
     comm = MPI.COMM_WORLD
     canvas = DistributedCanvas(width, height, "watercolor", 1, base=base, n_slots=2,

@@ -20,7 +20,11 @@ from typing import Any
 
 import numpy as np
 
+from station.backends.numpy_canvas import NumpyCanvas
+from station.canvas.params import SimParams
 from station.errors import BadInput
+from station.render.km import region_amount, render_bands, render_state
+from station.render.km_fast import km_layer_fast
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -32,10 +36,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _state(width: int, height: int, bands: int) -> Any:
-    from station.backends.numpy_canvas import NumpyCanvas
-    from station.canvas.params import SimParams
-    from station.render.km import render_bands
-
     c = NumpyCanvas(width, height, seed=1, params=SimParams(render_bands=bands), tiling=False)
     st = c.live_state
     rng = np.random.default_rng(0)
@@ -62,9 +62,6 @@ def _best_ms(fn: Callable[[], object], repeat: int) -> float:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.render.km import region_amount, render_state
-    from station.render.km_fast import km_layer_fast
-
     try:
         w, h = (int(v) for v in args.size.lower().split("x"))
     except ValueError:

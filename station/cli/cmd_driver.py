@@ -20,8 +20,16 @@ import time
 from pathlib import Path
 from typing import Any
 
+from station.bus import HEARTBEAT_S, Publisher
 from station.cli.buskeys import check_keys
+from station.drivers.calibrated import choose_calibration
+from station.drivers.normalise import NormaliserConfig
+from station.drivers.pipeline import PenDriver, open_device
+from station.drivers.transport.base import DeviceGone, EndOfStream, TransportError
+from station.drivers.transport.evdev import find_evdev_node
 from station.errors import BadInput
+from station.sessionlog import SessionHeader, SessionLogWriter
+from station.sim.paint import parse_size
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -78,8 +86,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def normaliser_config(args: argparse.Namespace) -> Any:
-    from station.drivers.normalise import NormaliserConfig
-
     curve = None
     if args.pressure_curve:
         try:
@@ -97,7 +103,6 @@ def normaliser_config(args: argparse.Namespace) -> Any:
             raise BadInput("needs four numbers x0,y0,x1,y1", "--area") from None
         if len(area) != 4:
             raise BadInput("needs four numbers x0,y0,x1,y1", "--area")
-    from station.sim.paint import parse_size
 
     return NormaliserConfig(area=area, tip_down=args.tip_down, tip_up=args.tip_up,
                             smoothing_ms=args.smoothing, pressure_curve=curve,
@@ -123,12 +128,6 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
-    from station.bus import HEARTBEAT_S, Publisher
-    from station.drivers.calibrated import choose_calibration
-    from station.drivers.pipeline import PenDriver, open_device
-    from station.drivers.transport.base import DeviceGone, EndOfStream, TransportError
-    from station.sessionlog import SessionHeader, SessionLogWriter
-
     publisher = Publisher(args.bus, keys=args.keys, client_key=args.client_key,
                           heartbeat=args.heartbeat or HEARTBEAT_S)
     writer = None
@@ -237,8 +236,6 @@ def _flush(driver: Any, publisher: Any, writer: Any, totals: dict[str, int]) -> 
 
 def _replugged_spec(spec: str, identity: dict[str, Any] | None) -> str:
     """An evdev device that came back on another ``eventN``: the SPEC of its new node."""
-    from station.drivers.transport.evdev import find_evdev_node
-
     if identity is None or not spec.startswith("evdev:"):
         return spec
     target, sep, query = spec[len("evdev:"):].partition("?")
@@ -258,9 +255,6 @@ def _wait_for_device(args: argparse.Namespace, stop: threading.Event, status: An
 
     An evdev device is also looked for by name and ids, as a replug may give it
     another event node."""
-    from station.drivers.pipeline import open_device
-    from station.drivers.transport.base import EndOfStream, TransportError
-
     next_note = 0.0
     while not stop.is_set():
         try:

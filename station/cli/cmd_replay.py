@@ -15,9 +15,14 @@ import sys
 import threading
 from typing import Any
 
+from station.bus import HEARTBEAT_S, Publisher
 from station.cli.buskeys import add_key_flags, check_keys
+from station.drivers.pipeline import TraceReplay, run_paced
+from station.drivers.traces import read_trace
 from station.errors import BadInput
+from station.events import PenSample
 from station.progress import Progress
+from station.sessionlog import SessionHeader, SessionLogWriter
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -52,11 +57,6 @@ def parse_speed(text: str) -> float | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.drivers.pipeline import TraceReplay, run_paced
-    from station.drivers.traces import read_trace
-    from station.events import PenSample
-    from station.sessionlog import SessionHeader, SessionLogWriter
-
     speed = parse_speed(args.speed)
     check_keys(args.keys, args.client_key, (("--bus", args.bus, True),))
     trace = read_trace(args.trace)
@@ -73,8 +73,6 @@ def run(args: argparse.Namespace) -> int:
         target: Any = sys.stdout if args.jsonl == "-" else args.jsonl
         writer = SessionLogWriter(target, header)
     if args.bus:
-        from station.bus import HEARTBEAT_S, Publisher
-
         publisher = Publisher(args.bus, heartbeat=args.heartbeat or HEARTBEAT_S,
                               keys=args.keys, client_key=args.client_key)
         if args.wait_subscribers:

@@ -31,9 +31,15 @@ from station.backends.factory import (  # auto: resolve_auto decides, once
     create_distributed,
     make_backend,
 )
+from station.canvas.palette import default_palette
+from station.canvas.profiles import get_profile
+from station.canvas.state import CanvasState
 from station.errors import BadInput, StationError
 from station.events import Command, PenSample
 from station.progress import Progress
+from station.render.km import to_srgb8, to_srgb16
+from station.render.png import write_png
+from station.render.upscale import render_scaled
 from station.sessionlog import SessionHeader, SessionLogReader
 from station.sim.player import MAX_PAINTING_SECONDS, MAX_RATE, SessionPlayer
 from station.sim.undo import UndoHistory, log_mentions_undo
@@ -183,8 +189,6 @@ def _session_length(path: str) -> float:
 def load_resume_state(path: str, size: tuple[int, int] | None, profile: str | None,
                       flag: str = "--resume") -> Any:
     """The canvas state to continue from; ``--size``/``--profile`` must agree with it."""
-    from station.canvas.state import CanvasState
-
     state = CanvasState.load(path)  # missing or corrupt file → BadInput
     if size is not None and size != (state.width, state.height):
         raise PaintInputError(f"--size {size[0]}x{size[1]} differs from the resumed canvas "
@@ -228,9 +232,6 @@ def paint(
     outputs are written (``result.error`` is set on the exception as
     ``exc.result``).
     """
-    from station.canvas.palette import default_palette
-    from station.canvas.profiles import get_profile
-
     if bits not in (8, 16):
         raise PaintInputError(f"--bits {bits} must be 8 or 16", "--bits")
     if isinstance(render_scale, bool) or not isinstance(render_scale, int) \
@@ -329,9 +330,6 @@ def write_outputs(canvas: Any, result: PaintResult, out_png: str | None,
 
     A distributed canvas gathers on every rank (collective calls) and its root writes.
     """
-    from station.canvas.profiles import get_profile
-    from station.render.upscale import render_scaled
-
     root = bool(getattr(canvas, "is_root", True))
     try:
         if out_png:
@@ -364,7 +362,4 @@ def write_outputs(canvas: Any, result: PaintResult, out_png: str | None,
 
 def write_image(path: str, rgb: Any, bits: int = 8) -> None:
     """Write linear reflectance ``rgb`` (H, W, 3) as an sRGB PNG of ``bits`` per channel."""
-    from station.render.km import to_srgb8, to_srgb16
-    from station.render.png import write_png
-
     write_png(path, to_srgb16(rgb) if bits == 16 else to_srgb8(rgb))

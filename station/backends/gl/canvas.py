@@ -34,8 +34,9 @@ from typing import Any
 
 import numpy as np
 
-from station.canvas import operations, reference
+from station.canvas import operations, reference, tiles
 from station.canvas.palette import Palette
+from station.canvas.paper import make_paper
 from station.canvas.params import CanvasInputError, SimParams
 from station.canvas.profiles import get_profile, profile_palette
 from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
@@ -91,7 +92,6 @@ class GLCanvas:
         prof = get_profile(profile)
         prm = params if params is not None else prof.params
         preset = paper if paper is not None else prof.paper
-        from station.canvas.paper import make_paper
 
         h = make_paper(preset, height, width, seed)
         blank = CanvasState.blank(width, height, prm, h, profile=prof.name,
@@ -667,8 +667,6 @@ class GLCanvas:
 
     def set_tiling(self, on: bool) -> None:
         """Switch dirty tiles on or off (the result does not change)."""
-        from station.canvas import tiles
-
         def switch(st: CanvasState) -> None:
             st.tiling = bool(on)
             if on:
