@@ -14,12 +14,15 @@ from __future__ import annotations
 
 import importlib.util
 import logging
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from station.backends.numpy_canvas import NumpyCanvas
 from station.backends.protocol import CanvasBackend
 from station.canvas.params import CanvasInputError
 from station.errors import BadInput, StationError
+
+if TYPE_CHECKING:
+    from station.backends.distributed.canvas import DistributedCanvas
 
 log = logging.getLogger(__name__)
 
@@ -147,7 +150,7 @@ def create_backend(name: str, width: int, height: int, profile: str = "watercolo
 
 
 def create_distributed(name: str, width: int, height: int, profile: str, seed: int,
-                       **opts: Any) -> tuple[CanvasBackend, str]:
+                       **opts: Any) -> tuple[DistributedCanvas, str]:
     """A :class:`~station.backends.distributed.canvas.DistributedCanvas` stepping ``name``
     (``auto``: cpu when numba is installed, else numpy) on every rank's strip; returns it
     and its name (``distributed-<name>``)."""

@@ -43,7 +43,8 @@ def gaussian_footprint(radius: float) -> np.ndarray:
     wgt[d2 > radius * radius] = 0.0
     out = wgt.astype(F32)
     out.flags.writeable = False  # cached and shared between calls
-    return out
+    result: np.ndarray = out
+    return result
 
 
 def _window(state: CanvasState, shape: tuple[int, int], y0: int, x0: int

@@ -193,6 +193,7 @@ def edge_width(profile: np.ndarray, low: float = 0.1, high: float = 0.9) -> floa
         i = int(np.argmax(v >= level))
         if i == 0:
             return 0.0
-        return (i - 1) + (level - v[i - 1]) / max(v[i] - v[i - 1], 1e-12)
+        out: float = (i - 1) + (level - v[i - 1]) / max(v[i] - v[i - 1], 1e-12)
+        return out
 
     return crossing(high) - crossing(low)

@@ -17,7 +17,8 @@ F32 = np.float32
 def disc(height: int, width: int, cy: float, cx: float, radius: float) -> np.ndarray:
     """Cells whose centre lies within ``radius`` of (cy, cx) (cell-index coordinates)."""
     yy, xx = np.mgrid[0:height, 0:width]
-    return (((yy - cy) ** 2 + (xx - cx) ** 2) <= radius * radius).astype(F32)
+    out: np.ndarray = (((yy - cy) ** 2 + (xx - cx) ** 2) <= radius * radius).astype(F32)
+    return out
 
 
 def rect(height: int, width: int, y0: int, y1: int, x0: int, x1: int) -> np.ndarray:

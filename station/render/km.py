@@ -64,7 +64,8 @@ def to_linear_rgb(r: np.ndarray) -> np.ndarray:
     if r.shape[-1] == 3:
         return r.astype(F32, copy=False)
     out = np.einsum("...b,cb->...c", r, band_matrix(r.shape[-1]))
-    return np.clip(out, 0.0, 1.0).astype(F32)
+    result: np.ndarray = np.clip(out, 0.0, 1.0).astype(F32)
+    return result
 
 
 def km_layer(amount: np.ndarray, pigments: list[Pigment], r_prev: np.ndarray) -> np.ndarray:
@@ -132,7 +133,8 @@ def gouache_layer(amount: np.ndarray, pigments: list[Pigment], r_prev: np.ndarra
     colour = (a - np.sqrt(np.maximum(a * a - F32(1.0), F32(0.0)))).astype(F32)  # R_inf
     o = np.clip(d / F32(max(opaque, 1e-6)), 0.0, 1.0)[..., None]
     out = o * colour + (F32(1.0) - o) * r_prev
-    return np.clip(out, 0.0, 1.0).astype(F32)
+    result: np.ndarray = np.clip(out, 0.0, 1.0).astype(F32)
+    return result
 
 
 def gouache_white_ks(state: CanvasState) -> tuple[tuple[float, ...], tuple[float, ...]]:

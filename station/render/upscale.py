@@ -57,14 +57,16 @@ def _resample_signed(a: np.ndarray, k: int) -> np.ndarray:
 
 def _cell_mean(a: np.ndarray, k: int) -> np.ndarray:
     hh, ww = a.shape[0] // k, a.shape[1] // k
-    return a.reshape(hh, k, ww, k).mean(axis=(1, 3))
+    out: np.ndarray = a.reshape(hh, k, ww, k).mean(axis=(1, 3))
+    return out
 
 
 def paper_detail(state: CanvasState, k: int) -> np.ndarray:
     """Zero-mean-per-cell paper height detail at ``k`` pixels per cell (float32, [-1, 1])."""
     fine = make_paper(state.paper_preset, state.height * k, state.width * k, state.seed + 7919)
     hp = fine - np.repeat(np.repeat(_cell_mean(fine, k), k, 0), k, 1)
-    return hp.astype(F32)
+    out: np.ndarray = hp.astype(F32)
+    return out
 
 
 EDGE_SIGMA = 0.8  # [cells] blur of the painted-cell indicator that rounds the staircase
@@ -81,7 +83,8 @@ def edge_coverage(painted: np.ndarray, k: int) -> np.ndarray:
     up = _resample(lvl, k)
     gy, gx = np.gradient(up)
     slope = np.maximum(np.hypot(gx, gy), F32(1e-6))
-    return np.clip((up - F32(0.5)) / slope + F32(0.5), 0.0, 1.0).astype(F32)
+    out: np.ndarray = np.clip((up - F32(0.5)) / slope + F32(0.5), 0.0, 1.0).astype(F32)
+    return out
 
 
 def _extended(a: np.ndarray, painted: np.ndarray) -> np.ndarray:

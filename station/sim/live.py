@@ -58,7 +58,7 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
-from station.backends.factory import create_distributed
+from station.backends.factory import create_distributed, make_backend
 from station.brush.deformable import DeformableBrush
 from station.brush.stamp import BrushSettings
 from station.bus import Publisher, Subscriber
@@ -78,7 +78,7 @@ from station.sim.journal import (
     free_path,
     record_line,
 )
-from station.sim.paint import make_backend, write_image
+from station.sim.paint import write_image
 from station.sim.player import SessionPlayer
 from station.sim.undo import UndoHistory
 from station.wire import HapticForce, Heartbeat

@@ -65,7 +65,8 @@ class Controller:
             line = (np.floor(v) % round(per) == 0) | (np.floor(u) % round(per) == 0)
         else:  # dots: blocked islands the paint flows around
             line = (np.hypot((u % per) - per / 2, (v % per) - per / 2) < per / 4)
-        return line.astype(F32)
+        out: np.ndarray = line.astype(F32)
+        return out
 
 
 def write(state: CanvasState, pattern: np.ndarray, strength: float, cx: float, cy: float,

@@ -39,11 +39,13 @@ def texture(kind: str, height: int, width: int, scale: float = 4.0, seed: int = 
         a = np.sin(np.pi * xx / scale) ** 2
         b = np.sin(np.pi * yy / scale) ** 2
         over = ((np.floor(xx / scale) + np.floor(yy / scale)) % 2) == 0
-        return np.where(over, a, b).astype(F32)
+        out: np.ndarray = np.where(over, a, b).astype(F32)
+        return out
     if kind == "crepe":
         f1 = worley_f1(height, width, scale, np.random.default_rng(seed))
         t = 1.0 - np.clip(f1 / scale, 0.0, 1.0)
-        return ((t - t.min()) / max(float(t.max() - t.min()), 1e-6)).astype(F32)
+        out = ((t - t.min()) / max(float(t.max() - t.min()), 1e-6)).astype(F32)
+        return out
     raise CanvasInputError(f"tissue kind {kind!r} must be one of {', '.join(KINDS)}", "tissue")
 
 

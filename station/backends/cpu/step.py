@@ -263,4 +263,5 @@ def step(state: CanvasState, scratch: Scratch, dt: float | None = None) -> int:
         cells = state.height * state.width
     state.sim_time += dt
     state.step_count += 1
-    return cells
+    out: int = cells
+    return out

@@ -73,7 +73,8 @@ def row_work(regions: Sequence[tuple[slice, slice]], height: int, width: int,
     per_row[height:] = 0.0
     for ys, xs in regions:
         per_row[ys.start:ys.stop] += xs.stop - xs.start
-    return per_row.reshape(n_tiles, tile_size).sum(axis=1)
+    out: np.ndarray = per_row.reshape(n_tiles, tile_size).sum(axis=1)
+    return out
 
 
 def balanced_split(work: np.ndarray, height: int, tile_size: int, n: int) -> list[int]:
