@@ -58,7 +58,7 @@ ROOMS: dict[str, str] = {
     "station.glkit": "glkit",
     "station.canvas": "canvas",
     "station.brush": "brush",
-    "station.tools": "tools",
+    "station.arttools": "tools",  # the artistic tools (seed ch. 8)
     "station.render": "render",
     "station.backends": "backends",
     "station.sim": "sim",

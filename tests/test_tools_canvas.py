@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from station.arttools import eraser, mask, tissue
 from station.backends.factory import create_backend, numba_available
 from station.canvas.stats import canvas_stats
 from station.errors import BadInput
 from station.events import Command, PenSample
 from station.sim.player import SessionPlayer
-from station.tools import eraser, mask, tissue
 
 W, H = 48, 32
 BLUE, YELLOW = "French Ultramarine", "Hansa Yellow"

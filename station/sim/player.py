@@ -32,6 +32,11 @@ from collections.abc import Callable, Container, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from station.arttools import diffusion as diffusion_tool
+from station.arttools import eraser as eraser_tool
+from station.arttools import mask as mask_tool
+from station.arttools import tissue as tissue_tool
+from station.arttools import well as well_tool
 from station.backends.numpy_canvas import NumpyCanvas
 from station.backends.protocol import edit_state
 from station.brush.deformable import DeformableBrush
@@ -44,11 +49,6 @@ from station.canvas.removal import HairDryer, StateSurface, blow
 from station.canvas.state import DEFAULT_SLOTS
 from station.errors import BadInput
 from station.events import Command, PenSample, Tool
-from station.tools import diffusion as diffusion_tool
-from station.tools import eraser as eraser_tool
-from station.tools import mask as mask_tool
-from station.tools import tissue as tissue_tool
-from station.tools import well as well_tool
 
 log = logging.getLogger(__name__)
 

@@ -19,10 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
+from station.arttools.footprint import F32, check, window
 from station.canvas.errors import CanvasInputError
 from station.canvas.paper import worley_f1
 from station.canvas.state import CanvasState
-from station.tools.footprint import F32, check, window
 
 KINDS = ("crepe", "weave", "flat")
 

@@ -20,10 +20,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from station.arttools.footprint import F32, check, window
 from station.canvas.errors import CanvasInputError
 from station.canvas.reference import blocking
 from station.canvas.state import CanvasState
-from station.tools.footprint import F32, check, window
 
 PATTERNS = ("stripes", "rings", "dots", "checks")
 

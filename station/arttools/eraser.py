@@ -14,9 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from station.arttools.footprint import F32, check, soft, window
 from station.canvas.errors import CanvasInputError
 from station.canvas.state import CanvasState
-from station.tools.footprint import F32, check, soft, window
 
 FIELDS = ("w", "wc", "p", "q")
 

@@ -16,13 +16,13 @@ import math
 
 import numpy as np
 
+from station.arttools.footprint import F32, check
 from station.canvas import reference
 from station.canvas.errors import CanvasInputError
 from station.canvas.operations import add_sources
 from station.canvas.params import SimParams
 from station.canvas.state import CanvasState
 from station.render.km import on_white
-from station.tools.footprint import F32, check
 
 SIZE = 24
 """Side of the well [cells]."""

@@ -13,9 +13,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from station.arttools.footprint import F32, window
 from station.canvas import operations
 from station.canvas.state import CanvasState
-from station.tools.footprint import F32, window
 
 
 def paint(state: CanvasState, cx: float, cy: float, radius: float) -> int:
