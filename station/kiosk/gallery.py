@@ -45,6 +45,7 @@ from typing import Any
 
 import numpy as np
 
+from station.backends.factory import make_backend
 from station.canvas.palette import default_palette
 from station.canvas.profiles import get_profile
 from station.errors import BadInput, StationError
@@ -52,7 +53,6 @@ from station.events import Command
 from station.render.km import to_srgb8
 from station.render.upscale import render_scaled
 from station.sessionlog import read_session
-from station.sim.paint import make_backend
 from station.sim.player import SessionPlayer
 
 ID_RE = re.compile(r"^[0-9]{8}-[0-9]{6}-[0-9a-f]{6}$")

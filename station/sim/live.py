@@ -59,6 +59,7 @@ from types import FrameType
 from typing import Any
 
 from station.backends.factory import create_distributed, make_backend
+from station.backends.protocol import CanvasBackend
 from station.brush.deformable import DeformableBrush
 from station.brush.stamp import BrushSettings
 from station.bus import Publisher, Subscriber
@@ -183,7 +184,7 @@ class LiveCore:
             start = CanvasState.load(cfg.resume)
             cfg.width, cfg.height = start.width, start.height
             cfg.profile, cfg.seed = start.profile, start.seed
-        self.canvas: Any
+        self.canvas: CanvasBackend
         if cfg.distributed:  # this is rank 0; the others follow (backends.distributed.relay)
             # in the function: mpi4py is the optional ``mpi`` extra
             from station.backends.distributed.relay import Leader
@@ -272,7 +273,7 @@ class LiveCore:
         return s.with_(t=self._in_this_step(min(now, s.t + off)), t_mono=0.0)
 
     # -- input -----------------------------------------------------------------
-    def handle(self, kind: str, value: Any, topic: str = "", replay: bool = False) -> None:
+    def handle(self, kind: str, value: object, topic: str = "", replay: bool = False) -> None:
         """One bus message (``Message.kind``/``value``/``topic``/``replay``)."""
         if kind == "pen" and isinstance(value, PenSample):
             self.feed_sample(value, replay=replay)

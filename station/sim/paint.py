@@ -22,15 +22,18 @@ import math
 import os
 import re
 import time
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from station.backends.factory import (  # auto: resolve_auto decides, once
     create_distributed,
     make_backend,
 )
+from station.backends.protocol import CanvasBackend
 from station.canvas.palette import default_palette
 from station.canvas.profiles import get_profile
 from station.canvas.state import CanvasState
@@ -114,7 +117,7 @@ class _Source:
     """A header and a stream of records with a ``where`` for messages."""
 
     def __init__(self, header: SessionHeader | None, records: Iterable[PenSample | Command],
-                 where: Any, close: Any = None) -> None:
+                 where: Callable[[], str], close: Callable[[], None] | None = None) -> None:
         self.header = header or SessionHeader()
         self.has_header = header is not None
         self.records = records
@@ -187,7 +190,7 @@ def _session_length(path: str) -> float:
 
 # -- painting ------------------------------------------------------------------------
 def load_resume_state(path: str, size: tuple[int, int] | None, profile: str | None,
-                      flag: str = "--resume") -> Any:
+                      flag: str = "--resume") -> CanvasState:
     """The canvas state to continue from; ``--size``/``--profile`` must agree with it."""
     state = CanvasState.load(path)  # missing or corrupt file → BadInput
     if size is not None and size != (state.width, state.height):
@@ -268,6 +271,7 @@ def paint(
                 and not isinstance(logged_rate, bool):
             rate = float(logged_rate)  # the rate the session was recorded at
         seed = start.seed if start is not None else header.seed
+        canvas: CanvasBackend
         if distributed:
             canvas, backend = create_distributed(backend, width, height, prof.name, seed,
                                                **(backend_opts or {}))
@@ -322,7 +326,7 @@ def paint(
     return result
 
 
-def write_outputs(canvas: Any, result: PaintResult, out_png: str | None,
+def write_outputs(canvas: CanvasBackend, result: PaintResult, out_png: str | None,
                   state_path: str | None, stats_path: str | None, bits: int,
                   render_scale: int = 1) -> None:
     """Render and write the PNG (at ``render_scale`` pixels per cell), the state and the
@@ -339,7 +343,7 @@ def write_outputs(canvas: Any, result: PaintResult, out_png: str | None,
                     if root else None
             else:
                 rgb = canvas.render()
-            if root:
+            if root and rgb is not None:  # rgb is None on the other ranks only
                 write_image(out_png, rgb, bits)
             result.written.append(out_png)
         if state_path:
@@ -360,6 +364,6 @@ def write_outputs(canvas: Any, result: PaintResult, out_png: str | None,
         raise StationError(f"cannot write output: {exc}") from None
 
 
-def write_image(path: str, rgb: Any, bits: int = 8) -> None:
+def write_image(path: str, rgb: np.ndarray, bits: int = 8) -> None:
     """Write linear reflectance ``rgb`` (H, W, 3) as an sRGB PNG of ``bits`` per channel."""
     write_png(path, to_srgb16(rgb) if bits == 16 else to_srgb8(rgb))

@@ -32,23 +32,26 @@ from collections.abc import Callable, Container, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from station.arttools import diffusion as diffusion_tool
 from station.arttools import eraser as eraser_tool
 from station.arttools import mask as mask_tool
 from station.arttools import tissue as tissue_tool
 from station.arttools import well as well_tool
 from station.backends.numpy_canvas import NumpyCanvas
-from station.backends.protocol import edit_state
+from station.backends.protocol import CanvasBackend, edit_state
 from station.brush.deformable import DeformableBrush
 from station.brush.reservoir import pickup
 from station.brush.solver import SolverCounters
-from station.brush.stamp import STAMP_KIND, BrushModel, BrushSettings, RoundBrush
+from station.brush.stamp import STAMP_KIND, BrushModel, BrushSettings, RoundBrush, Sources
 from station.canvas.params import Profile
 from station.canvas.profiles import get_profile, profile_names
 from station.canvas.removal import HairDryer, StateSurface, blow
-from station.canvas.state import DEFAULT_SLOTS
+from station.canvas.state import DEFAULT_SLOTS, CanvasState
 from station.errors import BadInput
 from station.events import Command, PenSample, Tool
+from station.sim.undo import UndoHistory
 
 log = logging.getLogger(__name__)
 
@@ -98,7 +101,7 @@ class SessionPlayer:
 
     def __init__(
         self,
-        backend: Any,
+        backend: CanvasBackend,
         width: int,
         height: int,
         profile: str = "watercolor",
@@ -136,16 +139,16 @@ class SessionPlayer:
         # the tool in the painter's hand instead of the brush (None: the brush)
         self.tool: str | None = None
         self.controller: diffusion_tool.Controller | None = None  # the brush writes it
-        self._controller_field: Any = None
+        self._controller_field: np.ndarray | None = None
         self._controller_count = 0
-        self.history: Any = None  # an undo.UndoHistory when undo is wanted
+        self.history: UndoHistory | None = None  # when undo is wanted
         self.well: well_tool.MixingWell | None = None  # the palette's mixing well
         self.tilt = (0.0, 90.0)  # canvas tilt (angle, direction) [deg]; kept across profiles
         self.mask_radius = 6.0
         self.eraser = eraser_tool.Eraser()
         self.tissue = tissue_tool.Tissue()
-        self._tissue_tex: Any = None
-        self._dab: Any = None  # cells the previous dab / this press hit
+        self._tissue_tex: np.ndarray | None = None
+        self._dab: np.ndarray | None = None  # cells the previous dab / this press hit
         self._tool_last: tuple[float, float] | None = None  # the tool's last dab [cells]
 
     # -- time ------------------------------------------------------------------
@@ -352,7 +355,7 @@ class SessionPlayer:
             out["brush_reservoir"] = b.reservoir.ledger()
         return out
 
-    def _paper(self) -> Any:
+    def _paper(self) -> np.ndarray:
         """The paper height of the backend (read back once from a GPU backend)."""
         state = getattr(self.backend, "live_state", None)
         if state is None:
@@ -638,7 +641,7 @@ def _tilt(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
 def _apply_tilt(p: SessionPlayer) -> None:
     angle, direction = p.tilt
 
-    def put(st: Any) -> None:
+    def put(st: CanvasState) -> None:
         st.params = st.params.replace(tilt=angle, tilt_direction=direction)
 
     edit_state(p.backend, put)
@@ -654,7 +657,7 @@ def _diffusion(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> 
         fade = _tool_number("diffusion", args, "fade", 2.0, 0.0, 3600.0, where)
         p.flush_sources()
 
-        def put(st: Any) -> None:
+        def put(st: CanvasState) -> None:
             st.params = st.params.replace(block_fade=fade)
 
         edit_state(p.backend, put)
@@ -765,6 +768,6 @@ def brush_defaults(profile: Profile) -> BrushSettings:
     return BrushSettings(size=2.0 * b.radius, water=1.0, pigment={b.pigment: b.amount})
 
 
-def add_sources(backend: Any, src: Any) -> None:
+def add_sources(backend: CanvasBackend, src: Sources) -> None:
     """Give brush sources to a backend (region arrays; see ``brush.Sources``)."""
     backend.add_sources(src.dw, src.dp, src.dvx, src.dvy, y0=src.y0, x0=src.x0)

@@ -31,8 +31,8 @@ import dataclasses
 import itertools
 import os
 import time
-from collections.abc import Mapping
-from typing import Any
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from mpi4py import MPI
@@ -47,6 +47,9 @@ from station.canvas.profiles import get_profile
 from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
 from station.canvas.stats import canvas_stats
 from station.render.km import render_bands, render_state
+
+if TYPE_CHECKING:
+    from station.backends.cpu import step as cpu_step
 
 F32 = np.float32
 BASES = ("numpy", "cpu")
@@ -141,7 +144,8 @@ class _Band:
     def rows(self) -> int:
         return self.r1 - self.r0
 
-    def step(self, loc: CanvasState, off: int, stepper: Any, dt: float) -> None:
+    def step(self, loc: CanvasState, off: int, stepper: Callable[[CanvasState, float], None],
+             dt: float) -> None:
         """Refresh the halo rows from ``loc``, step the band, write the border rows back."""
         bs = self.state
         a, b = self.halo
@@ -231,8 +235,8 @@ class DistributedCanvas:
         self._shell.width, self._shell.height = width, height
         self._shell.fibre = _zero_fibre(height, width)
         self._renderer_kind = prof.renderer
-        self._scratch: Any = None
-        self._band_scratch: Any = None
+        self._scratch: cpu_step.Scratch | None = None
+        self._band_scratch: cpu_step.Scratch | None = None
         self._boxes_of: tuple[tuple[int, int, int], np.ndarray,
                               list[tuple[slice, slice]]] | None = None
         self._image: np.ndarray | None = None
@@ -395,8 +399,8 @@ class DistributedCanvas:
         # a box window only needs a scratch at least its size: keep it when bounds move
         # (a new one is page-faulted in again, ~1 GB for a 3500-row strip at 4096 wide)
         if sc is None or sc.height < loc.height or sc.width < loc.width or sc.slots < slots:
-            self._scratch = cpu_step.Scratch(loc.height, loc.width, max(slots, 2))
-        cpu_step.step_region(loc, sl, dt, self._scratch)
+            sc = self._scratch = cpu_step.Scratch(loc.height, loc.width, max(slots, 2))
+        cpu_step.step_region(loc, sl, dt, sc)
 
     def _regions(self) -> list[tuple[slice, slice]]:
         sh = self._shell
