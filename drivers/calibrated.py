@@ -12,12 +12,14 @@ the driver runs uncalibrated rather than painting with a wrong mapping.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
 
 from station.calibration.errors import CalibrationError
 from station.calibration.files import CalibrationStore, find_for_device
 from station.calibration.model import DeviceId
+
+from station.events import PenSample
 
 log = logging.getLogger(__name__)
 
@@ -26,11 +28,11 @@ log = logging.getLogger(__name__)
 class CalibrationChoice:
     """The hook to apply (``None``: device-normalised) and a line saying what it is."""
 
-    store: Any  # station.calibration.files.CalibrationStore | None
+    store: CalibrationStore | None
     description: str
 
     @property
-    def transform(self) -> Any:
+    def transform(self) -> Callable[[PenSample], PenSample] | None:
         return None if self.store is None else self.store.apply
 
 

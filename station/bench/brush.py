@@ -55,7 +55,7 @@ GOAL_MS = 1.0
 
 
 def _stroke_brush(kind: str, width: int, height: int, size: float, paper: np.ndarray
-                  ) -> Any:
+                  ) -> DeformableBrush:
     return DeformableBrush(width, height, BrushSettings(kind=kind, size=size, water=1.0,
                                                         pigment={"French Ultramarine": 0.5}),
                            BrushModel(), paper)

@@ -22,6 +22,7 @@ import numpy as np
 
 from station.backends.numpy_canvas import NumpyCanvas
 from station.canvas.params import SimParams
+from station.canvas.state import CanvasState
 from station.errors import BadInput
 from station.render.km import region_amount, render_bands, render_state
 from station.render.km_fast import km_layer_fast
@@ -35,7 +36,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _state(width: int, height: int, bands: int) -> Any:
+def _state(width: int, height: int, bands: int) -> CanvasState:
     c = NumpyCanvas(width, height, seed=1, params=SimParams(render_bands=bands), tiling=False)
     st = c.live_state
     rng = np.random.default_rng(0)

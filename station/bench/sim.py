@@ -107,7 +107,7 @@ class _Probe:
     GL: ``take_cells()`` (the GPU tile list's running count of simulated cells, read
     once per measurement) and ``sync()``; NumPy: ``cells_last_step()`` after every
     step.  Both report their own honest ``bytes_per_cell_step()`` (see
-    ``station/backends/gl/traffic.py``, ``numpy_backend.floats_per_cell_step`` and
+    ``station/backends/gl/traffic.py``, ``numpy_canvas.floats_per_cell_step`` and
     ``station/backends/cpu/traffic.py``).  The ``cpu`` backend is stepped like NumPy.
     """
 

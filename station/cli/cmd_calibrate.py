@@ -32,7 +32,7 @@ from station.calibration.area import Area, DeviceGeometry, Rect
 from station.calibration.errors import CalibrationError
 from station.calibration.export import libinput_line, parse_libinput, parse_tslib, tslib_line
 from station.calibration.files import dumps, read_file, write_file
-from station.calibration.fit import MIN_TILT_SPREAD, PointSet, fit_points
+from station.calibration.fit import MIN_TILT_SPREAD, FitReport, PointSet, fit_points
 from station.calibration.geometry import scaling
 from station.calibration.model import Calibration, DeviceId, FitInfo
 from station.calibration.points import read_points
@@ -128,7 +128,7 @@ def _pair(text: str | None, flag: str) -> tuple[float, float] | None:
     return (vals[0], vals[1])
 
 
-def parse_device_id(text: str | None) -> Any:
+def parse_device_id(text: str | None) -> DeviceId | None:
     if text is None:
         return None
     parts = text.split(":", 2)
@@ -141,7 +141,7 @@ def parse_device_id(text: str | None) -> Any:
     return DeviceId(vid, pid, parts[2] if len(parts) == 3 and parts[2] else None)
 
 
-def _parallax_choice(args: argparse.Namespace, points: Any) -> bool:
+def _parallax_choice(args: argparse.Namespace, points: PointSet) -> bool:
     if args.parallax == "on":
         return True
     if args.parallax == "off" or points.tilt is None:
@@ -150,7 +150,7 @@ def _parallax_choice(args: argparse.Namespace, points: Any) -> bool:
     return bool((np.ptp(tt, axis=0) >= MIN_TILT_SPREAD).all())
 
 
-def _report_text(rep: Any, labels: tuple[str, ...]) -> str:
+def _report_text(rep: FitReport, labels: tuple[str, ...]) -> str:
     lines = [f"model: {rep.model}"]
     m = rep.mapping.matrix
     lines += ["matrix:"] + [f"  {r[0]: .9g} {r[1]: .9g} {r[2]: .9g}" for r in m]
@@ -185,7 +185,7 @@ def _units_per_mm(args: argparse.Namespace) -> tuple[float, float] | None:
     return (span[0] / size[0], span[1] / size[1])
 
 
-def _fit_and_print(args: argparse.Namespace, points: Any, extra: dict[str, Any]) -> int:
+def _fit_and_print(args: argparse.Namespace, points: PointSet, extra: dict[str, Any]) -> int:
     model = args.model or "affine"
     parallax = _parallax_choice(args, points)
     upm = _units_per_mm(args)
@@ -207,7 +207,7 @@ def _fit_and_print(args: argparse.Namespace, points: Any, extra: dict[str, Any])
     return 0
 
 
-def _write_fit_file(args: argparse.Namespace, rep: Any, points: Any) -> None:
+def _write_fit_file(args: argparse.Namespace, rep: FitReport, points: PointSet) -> None:
     dev = parse_device_id(args.device_id)
     if dev is None:
         raise BadInput("writing a calibration file needs the device id", "--id")

@@ -17,6 +17,7 @@ import signal
 import sys
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +25,7 @@ from station.bus import HEARTBEAT_S, Publisher
 from station.cli.buskeys import check_keys
 from station.drivers.calibrated import choose_calibration
 from station.drivers.normalise import NormaliserConfig
-from station.drivers.pipeline import PenDriver, open_device
+from station.drivers.pipeline import PenDriver, PenSource, open_device
 from station.drivers.transport.base import DeviceGone, EndOfStream, TransportError
 from station.drivers.transport.evdev import find_evdev_node
 from station.errors import BadInput
@@ -85,7 +86,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def normaliser_config(args: argparse.Namespace) -> Any:
+def normaliser_config(args: argparse.Namespace) -> NormaliserConfig:
     curve = None
     if args.pressure_curve:
         try:
@@ -127,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
             signal.signal(sig, handler)
 
 
-def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
+def _serve(args: argparse.Namespace, config: NormaliserConfig, stop: threading.Event) -> int:
     publisher = Publisher(args.bus, keys=args.keys, client_key=args.client_key,
                           heartbeat=args.heartbeat or HEARTBEAT_S)
     writer = None
@@ -226,7 +227,8 @@ def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
     return 0
 
 
-def _flush(driver: Any, publisher: Any, writer: Any, totals: dict[str, int]) -> None:
+def _flush(driver: PenDriver, publisher: Publisher, writer: SessionLogWriter | None,
+           totals: dict[str, int]) -> None:
     for sample in driver.normaliser.flush():
         publisher.publish_pen(sample)
         if writer is not None:
@@ -248,8 +250,9 @@ def _replugged_spec(spec: str, identity: dict[str, Any] | None) -> str:
     return f"evdev:{found}{sep}{query}" if found else spec
 
 
-def _wait_for_device(args: argparse.Namespace, stop: threading.Event, status: Any,
-                     identity: dict[str, Any] | None = None) -> Any:
+def _wait_for_device(args: argparse.Namespace, stop: threading.Event,
+                     status: Callable[..., None],
+                     identity: dict[str, Any] | None = None) -> PenSource | None:
     """Try to reopen the device every 0.5 s until it is back (or we are stopped, or it has
     ended: a finite source that reports EndOfStream; None then).
 

@@ -16,7 +16,7 @@ import signal
 import sys
 import threading
 import time
-from typing import IO, Any
+from typing import IO
 
 from station.bus import Subscriber
 from station.cli.argtypes import positive_seconds
@@ -27,7 +27,13 @@ from station.drivers.registry import parser_for
 from station.drivers.traces.evemu import format_evemu
 from station.drivers.traces.hidrecorder import HidRecorderWriter
 from station.drivers.traces.libinput_record import format_libinput_record
-from station.drivers.transport.base import DeviceGone, EndOfStream
+from station.drivers.transport.base import (
+    DeviceGone,
+    EndOfStream,
+    EvdevTransport,
+    HidDeviceInfo,
+    HidTransport,
+)
 from station.errors import BadInput
 from station.sessionlog import SessionHeader, SessionLogWriter
 
@@ -81,14 +87,14 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _init_features(info: Any) -> list[bytes]:
+def _init_features(info: HidDeviceInfo) -> list[bytes]:
     try:
         return list(parser_for(info.vid, info.pid, info.descriptor, info.bus).init_features)
     except BadInput:
         return []
 
 
-def _record_hid(transport: Any, fh: IO[str], stop: threading.Event, deadline: float | None,
+def _record_hid(transport: HidTransport, fh: IO[str], stop: threading.Event, deadline: float | None,
                 duration: float | None, send_init: bool) -> int:
     info = transport.info
     fh.write(f"# recorded by station record from {info.path}\n")
@@ -114,7 +120,7 @@ def _record_hid(transport: Any, fh: IO[str], stop: threading.Event, deadline: fl
     return writer.reports
 
 
-def _record_evdev(transport: Any, fh: IO[str], path: str, stop: threading.Event,
+def _record_evdev(transport: EvdevTransport, fh: IO[str], path: str, stop: threading.Event,
                   deadline: float | None, duration: float | None) -> int:
     events: list[InputEvent] = []
     try:

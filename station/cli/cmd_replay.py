@@ -13,7 +13,7 @@ import json
 import signal
 import sys
 import threading
-from typing import Any
+from typing import IO, Any
 
 from station.bus import HEARTBEAT_S, Publisher
 from station.cli.buskeys import add_key_flags, check_keys
@@ -67,10 +67,10 @@ def run(args: argparse.Namespace) -> int:
         sys.stderr.write(f"station replay: skipped device {s['device']} {s['name']!r}: "
                          f"{s['reason']} ({s['reports']} reports)\n")
     writer = None
-    publisher: Any = None
+    publisher: Publisher | None = None
     if args.jsonl:
         header = SessionHeader(extra={"source": str(args.trace), "coordinates": "device"})
-        target: Any = sys.stdout if args.jsonl == "-" else args.jsonl
+        target: str | IO[str] = sys.stdout if args.jsonl == "-" else args.jsonl
         writer = SessionLogWriter(target, header)
     if args.bus:
         publisher = Publisher(args.bus, heartbeat=args.heartbeat or HEARTBEAT_S,
