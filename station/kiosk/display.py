@@ -68,8 +68,8 @@ def tile_runs(dirty: np.ndarray, most: int | None = None) -> list[tuple[int, int
 
 
 def _overlap(a: tuple[slice, slice], b: tuple[slice, slice]) -> bool:
-    return (a[0].start < b[0].stop and b[0].start < a[0].stop and a[1].start < b[1].stop
-            and b[1].start < a[1].stop)
+    return bool(a[0].start < b[0].stop and b[0].start < a[0].stop
+                and a[1].start < b[1].stop and b[1].start < a[1].stop)
 
 
 def _pending_in(src: Any, st: Any, ys: slice, xs: slice) -> dict[str, np.ndarray]:

@@ -350,11 +350,13 @@ def make_app(gallery: Gallery, base_url: str | None = None) -> Any:
     app = bottle.Bottle()
 
     def base() -> str:
-        return (base_url or bottle.request.urlparts.scheme + "://" +
-                bottle.request.urlparts.netloc).rstrip("/")
+        url: str = (base_url or bottle.request.urlparts.scheme + "://" +
+                    bottle.request.urlparts.netloc).rstrip("/")
+        return url
 
     def page(title: str, body: str) -> str:
-        return bottle.template(PAGE, title=title, body=body)
+        html: str = bottle.template(PAGE, title=title, body=body)
+        return html
 
     def checked(pid: str) -> str:
         if not ID_RE.match(pid) or not gallery.path(pid, PNG).exists():
