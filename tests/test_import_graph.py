@@ -48,6 +48,7 @@ ROOMS: dict[str, str] = {
     "station.durable": "floor",
     "station.progress": "floor",
     "station.sessionlog": "floor",
+    "station.sizes": "floor",
     "station.wire": "floor",
     "station.shaders": "floor",
     "station.udev": "udev",
@@ -98,8 +99,9 @@ BELOW: dict[str, set[str]] = {
 BELOW["cli"] = set(BELOW) - {"cli"}
 
 # The Never rules of docs/architecture.md: (name, importer prefixes, imported prefixes).
-# They hold transitively for the drivers (a driver process must not reach the canvas or
-# the sim through anything it imports) and directly for the others.
+# They hold transitively for the drivers and for the ``station driver`` command (a driver
+# process must not load the canvas or the sim through anything it imports) and directly
+# for the others.
 PARSERS = ("station.drivers.wacom", "station.drivers.hid", "station.drivers.uclogic",
            "station.drivers.evdev", "station.drivers.serial.protocol")
 TRANSPORTS = ("station.drivers.transport", "station.drivers.serial.transport")
@@ -113,7 +115,7 @@ NEVER: list[tuple[str, tuple[str, ...], tuple[str, ...]]] = [
     ("calibration -> transports or bus", ("station.calibration",), TRANSPORTS + BUS),
     ("model -> anything of the station", MODEL, ("station",)),
 ]
-NEVER_REACH = [("drivers -> canvas or sim", ("station.drivers",),
+NEVER_REACH = [("drivers -> canvas or sim", ("station.drivers", "station.cli.cmd_driver"),
                 ("station.canvas", "station.render", "station.backends", "station.sim"))]
 MODEL_MAY = {"station.events": {"station.errors"}, "station.errors": set()}
 """The event model may import only itself (events raise the errors of station.errors)."""

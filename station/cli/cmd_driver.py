@@ -30,7 +30,7 @@ from station.drivers.transport.base import DeviceGone, EndOfStream, TransportErr
 from station.drivers.transport.evdev import find_evdev_node
 from station.errors import BadInput
 from station.sessionlog import SessionHeader, SessionLogWriter
-from station.sim.paint import parse_size
+from station.sizes import parse_size
 
 
 def register(sub: argparse._SubParsersAction) -> None:

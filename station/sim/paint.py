@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from station import sizes
 from station.backends.factory import (  # auto: resolve_auto decides, once
     create_distributed,
     make_backend,
@@ -50,8 +51,7 @@ from station.sim.undo import UndoHistory, log_mentions_undo
 log = logging.getLogger(__name__)
 
 TRACE_SUFFIXES = (".hid", ".hidrec", ".evemu", ".evm", ".yaml", ".yml")
-MAX_CELLS = 4096 * 4096
-"""Largest canvas accepted (cells): ~16.8 M cells, a few GiB of state."""
+MAX_CELLS = sizes.MAX_CELLS
 
 
 class PaintInputError(BadInput):
@@ -65,21 +65,11 @@ class PaintInputError(BadInput):
 
 def parse_size(text: str, where: str = "--size") -> tuple[int, int]:
     """``"WxH"`` → ``(W, H)``; anything impossible raises :class:`PaintInputError`."""
-    m = re.fullmatch(r"\s*(\d{1,6})\s*[xX×]\s*(\d{1,6})\s*", text or "")
-    if not m:
-        raise PaintInputError(f"canvas size {text!r} is not WIDTHxHEIGHT (e.g. 800x600)", where)
-    w, h = int(m.group(1)), int(m.group(2))
-    check_size(w, h, where)
-    return w, h
+    return sizes.parse_size(text, where, PaintInputError)
 
 
 def check_size(w: int, h: int, where: str) -> None:
-    if w < 8 or h < 8:
-        raise PaintInputError(f"canvas size {w}x{h} is too small (at least 8x8 cells)", where)
-    if w > 16384 or h > 16384 or w * h > MAX_CELLS:
-        raise PaintInputError(
-            f"canvas size {w}x{h} is too large (at most 16384 a side and {MAX_CELLS} cells)",
-            where)
+    sizes.check_size(w, h, where, PaintInputError)
 
 
 def check_outputs(targets: Iterable[tuple[str | None, str]]) -> None:
