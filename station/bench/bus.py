@@ -17,6 +17,7 @@ import socket
 import sys
 import tempfile
 import time
+from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
 
@@ -40,7 +41,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _subscriber(endpoint: str, keys: str | None, expected: int, conn: Any) -> None:
+def _subscriber(endpoint: str, keys: str | None, expected: int, conn: Connection) -> None:
     sub = Subscriber(endpoint, topics=("pen.",), keys=Path(keys) if keys else None)
     conn.send("ready")
     latencies: list[float] = []

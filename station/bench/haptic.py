@@ -29,6 +29,7 @@ import multiprocessing as mp
 import os
 import sys
 import time
+from multiprocessing.connection import Connection
 from typing import Any
 
 from station.drivers.haptic.deformable import DeformableBrushContact
@@ -49,7 +50,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _device(conn: Any) -> None:
+def _device(conn: Connection) -> None:
     mock = MockHapticDevice("rest").start()
     conn.send(mock.path)
     conn.recv()  # "stop"

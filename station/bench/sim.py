@@ -111,7 +111,7 @@ class _Probe:
     ``station/backends/cpu/traffic.py``).  The ``cpu`` backend is stepped like NumPy.
     """
 
-    def __init__(self, canvas: Any) -> None:
+    def __init__(self, canvas: Any) -> None:  # reads each backend's own counters
         self.canvas = canvas
         self.is_gl = hasattr(canvas, "take_cells")
 

@@ -24,11 +24,11 @@ import os
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 import numpy as np
 
-from station.calibrate.sources import open_source
+from station.calibrate.sources import CalibrationSource, open_source
 from station.calibration.area import AreaSettings
 from station.calibration.errors import CalibrationError
 from station.calibration.files import default_path, write_file
@@ -245,8 +245,8 @@ def _describe(result: TapResult, session: CalibrationSession, prov: Mapping | No
 class _Loop:
     """The frame loop state shared by the passes of one calibration."""
 
-    def __init__(self, session: CalibrationSession, source: Any, window: CalibrationWindow,
-                 timeout: float, out: Any) -> None:
+    def __init__(self, session: CalibrationSession, source: CalibrationSource,
+                 window: CalibrationWindow, timeout: float, out: IO[str]) -> None:
         self.session = session
         self.source = source
         self.window = window

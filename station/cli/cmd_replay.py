@@ -109,7 +109,7 @@ def run(args: argparse.Namespace) -> int:
                         publisher.tick()  # parsing a long trace: still alive
                 if stop.is_set():
                     break
-            if batch:
+            if batch and publisher is not None:  # a batch only fills with a publisher
                 publisher.publish_pens(batch)
         else:
             drivers = replay.open_drivers(speed)
