@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
 
 import numpy as np
 
@@ -13,7 +12,7 @@ from station.canvas.paper import make_paper
 from station.canvas.params import SimParams
 from station.canvas.profiles import get_profile, profile_palette
 from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
-from station.canvas.stats import canvas_stats
+from station.canvas.stats import CanvasStats, canvas_stats
 from station.render.km import render_bands, render_state
 
 
@@ -134,7 +133,7 @@ class NumpyCanvas:
         self._state = state.copy()
         self._renderer_kind = get_profile(state.profile).renderer
 
-    def stats(self) -> dict[str, Any]:
+    def stats(self) -> CanvasStats:
         return canvas_stats(self._state, self.renderer)
 
     # ------------------------------------------------------------------ extras

@@ -16,11 +16,12 @@ the canvas model never calls up into the rooms that hold the tools.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import Any, Protocol, TypeVar, runtime_checkable
+from typing import Protocol, TypeVar, runtime_checkable
 
 import numpy as np
 
 from station.canvas.state import CanvasState
+from station.canvas.stats import CanvasStats
 
 T = TypeVar("T")
 
@@ -85,7 +86,7 @@ class CanvasBackend(Protocol):
         """Continue from ``state`` exactly."""
         ...
 
-    def stats(self) -> dict[str, Any]:
+    def stats(self) -> CanvasStats:
         """The ``--stats`` JSON of interfaces.md."""
         ...
 

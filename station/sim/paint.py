@@ -345,9 +345,9 @@ def write_outputs(canvas: CanvasBackend, result: PaintResult, out_png: str | Non
             stats = canvas.stats()
             if not root:
                 return
-            stats["player"] = result.counters
+            out = {**stats, "player": result.counters}  # the canvas's books, then ours
             with open(stats_path, "w", encoding="utf-8") as fh:
-                json.dump(stats, fh, indent=2)
+                json.dump(out, fh, indent=2)
                 fh.write("\n")
             result.written.append(stats_path)
     except OSError as exc:

@@ -45,7 +45,7 @@ from station.canvas.paper import make_fibres, make_paper
 from station.canvas.params import CanvasInputError, SimParams
 from station.canvas.profiles import get_profile
 from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
-from station.canvas.stats import canvas_stats
+from station.canvas.stats import CanvasStats, canvas_stats
 from station.render.km import render_bands, render_state
 
 if TYPE_CHECKING:
@@ -777,11 +777,11 @@ class DistributedCanvas:
         self._image = None
         self._shown = False
 
-    def stats(self) -> dict[str, Any]:
+    def stats(self) -> CanvasStats:
         """``--stats`` of the whole canvas (computed on the root, sent to all)."""
         full = self.gather_state()
         st = canvas_stats(full, self.renderer) if full is not None else None
-        out: dict[str, Any] = self.comm.bcast(st, root=self.root)
+        out: CanvasStats = self.comm.bcast(st, root=self.root)
         return out
 
     # ------------------------------------------------------------------ display

@@ -19,6 +19,7 @@ import numpy as np
 from station.backends.distributed import exchange
 from station.backends.distributed.canvas import DistributedCanvas
 from station.canvas.state import CanvasState
+from station.canvas.stats import CanvasStats
 from station.errors import BadInput
 
 STOP = "__stop__"
@@ -86,8 +87,8 @@ class Leader:
         out: CanvasState = self._relay("state")
         return out
 
-    def stats(self) -> dict[str, Any]:
-        out: dict[str, Any] = self._relay("stats")
+    def stats(self) -> CanvasStats:
+        out: CanvasStats = self._relay("stats")
         return out
 
     def load_state(self, state: CanvasState) -> None:

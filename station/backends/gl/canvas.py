@@ -40,7 +40,7 @@ from station.canvas.paper import make_paper
 from station.canvas.params import CanvasInputError, SimParams
 from station.canvas.profiles import get_profile, profile_palette
 from station.canvas.state import DEFAULT_SLOTS, CanvasState, check_size
-from station.canvas.stats import canvas_stats
+from station.canvas.stats import CanvasStats, canvas_stats
 from station.glkit.context import GLUnavailable, create_context, query_limits
 from station.glkit.shaderlib import compile_compute
 from station.render.km import band_matrix, km_coefficients, render_bands, white_filler
@@ -674,7 +674,7 @@ class GLCanvas:
 
         self._via_state(switch)
 
-    def stats(self) -> dict[str, Any]:
+    def stats(self) -> CanvasStats:
         return canvas_stats(self.state(), self.renderer)
 
     def save(self, path: str) -> None:
