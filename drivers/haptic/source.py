@@ -47,7 +47,6 @@ from station.brush.geometry import BrushShapeError, get_shape
 from station.bus import Subscriber
 
 if TYPE_CHECKING:
-    from station.drivers.mock.haptic import MockHapticDevice
     from station.drivers.pipeline import DeviceSpec
 
 log = logging.getLogger(__name__)
@@ -209,7 +208,7 @@ class HapticPenSource:
     """The pipeline's view of a haptic session (a :class:`PenSource`)."""
 
     def __init__(self, session: HapticSession, spec: DeviceSpec, name: str | None = None,
-                 mock: Any = None) -> None:
+                 mock: MockHapticDevice | None = None) -> None:
         self.session = session
         self.spec = spec
         hello = session.hello
