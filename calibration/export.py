@@ -30,7 +30,7 @@ import math
 import re
 
 import numpy as np
-from station.calibration.area import DeviceGeometry
+from station.calibration.area import AreaSettings, DeviceGeometry
 from station.calibration.errors import CalibrationFileError, ExportError
 from station.calibration.model import Calibration, DeviceId, FitInfo
 
@@ -178,7 +178,6 @@ def parse_tslib(
         fit = FitInfo(model="affine", matrix=(rows[0], rows[1], (0.0, 0.0, 1.0)))
     except Exception as exc:
         raise CalibrationFileError(str(exc), where) from None
-    from station.calibration.area import AreaSettings
 
     return Calibration(
         device=device, geometry=geometry, fit=fit,

@@ -19,7 +19,12 @@ import dataclasses
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+
+from station.calibration.errors import CalibrationError
+from station.calibration.files import CalibrationStore, find_for_device
+from station.calibration.model import DeviceId
+
+from station.events import PenSample
 
 from station.calibration.errors import CalibrationError
 from station.calibration.files import CalibrationStore, find_for_device

@@ -28,7 +28,7 @@ from station.drivers.hid import usages as U
 from station.drivers.hid.base import IgnoredInterface, ReportParser
 from station.drivers.hid.descriptor import Descriptor, ReportType, parse_descriptor
 from station.drivers.hid.errors import DescriptorError, ReportError
-from station.drivers.hid.pen import GenericPenParser
+from station.drivers.hid.pen import GenericPenParser, classify_reports
 from station.drivers.hid.quirks import pen_usage_quirks
 from station.drivers.raw import Axis, AxisRanges
 from station.drivers.uclogic.parser import UclogicPenParser
@@ -266,8 +266,6 @@ def _non_pen_interface(desc: Descriptor, model: dict[str, Any],
     by number (``ignore_interfaces``, matched through the ``P:`` path) are
     handled before this.
     """
-    from station.drivers.hid.pen import classify_reports
-
     kinds = set(classify_reports(desc).values())
     ranges = _model_ranges(model)
     if "touch" in kinds and "pen" not in kinds:

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from station.canvas.params import get_profile
+from station.canvas.profiles import get_profile
 from station.canvas.state import CanvasState
 
 WIDTH, HEIGHT = 96, 128
@@ -133,7 +133,7 @@ def delta_ops() -> tuple[list[tuple[Any, ...]], list[tuple[Any, ...]]]:
 
 
 def main(argv: list[str]) -> int:
-    from station.distributed.canvas import DistributedCanvas
+    from station.backends.distributed.canvas import DistributedCanvas
 
     out, base = argv[0], argv[1]
     script = argv[2] if len(argv) > 2 else "full"
@@ -164,7 +164,7 @@ def main(argv: list[str]) -> int:
 
 
 if __name__ == "__main__":
-    from station.distributed.guard import abort_job_on_error
+    from station.backends.distributed.guard import abort_job_on_error
 
     with abort_job_on_error():
         sys.exit(main(sys.argv[1:]))

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-import station.canvas.backend as backend_mod
+import station.backends.factory as backend_mod
 from station.cli import main
 from station.sim.paint import make_backend, paint
 from station.sim.script import Script

@@ -13,10 +13,10 @@ from station.brush.deformable import DeformableBrush
 from station.brush.footprint import FootprintMaps, rasterise, segments
 from station.brush.footprint_gl import GLFootprint
 from station.brush.stamp import BrushModel, BrushSettings
-from station.canvas.gl.context import GLUnavailable
 from station.canvas.paper import make_paper
-from station.canvas.params import get_profile
+from station.canvas.profiles import get_profile
 from station.events import PenSample
+from station.glkit.context import GLUnavailable
 
 INK = "Sumi Ink"
 

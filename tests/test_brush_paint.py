@@ -10,18 +10,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from station.backends.factory import create_backend
 from station.brush.deformable import DeformableBrush
 from station.brush.footprint import rasterise, weight
 from station.brush.footprint_gl import GLFootprint
 from station.brush.geometry import BrushShape, BrushShapeError, builtin_shapes
 from station.brush.reservoir import Reservoir, pickup
 from station.brush.stamp import BrushError, BrushModel, BrushSettings
-from station.canvas.backend import create_backend
-from station.canvas.gl.context import GLUnavailable
 from station.canvas.paper import make_paper
-from station.canvas.params import get_profile
+from station.canvas.profiles import get_profile
+from station.canvas.removal import StateSurface
 from station.cli import main
 from station.events import PenSample
+from station.glkit.context import GLUnavailable
 from station.sim.player import SessionPlayer
 from station.sim.script import Script, taper
 
@@ -180,7 +181,7 @@ def test_pickup_moves_pigment_both_ways_with_mass_conserved() -> None:
         return out
 
     before = total()
-    lifted = pickup(state, res, np.ones((30, 40), np.float32), 15, 25, 0.3)
+    lifted = pickup(StateSurface(state), res, np.ones((30, 40), np.float32), 15, 25, 0.3)
     assert lifted["Cerulean Blue"] > 0.0 and res.mass["Cerulean Blue"] > 0.0
     after = total()
     for name, v in before.items():

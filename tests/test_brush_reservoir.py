@@ -11,7 +11,7 @@ from station.brush.deformable import DeformableBrush, TuftModel
 from station.brush.footprint import rasterise, weight
 from station.brush.stamp import BrushModel, BrushSettings
 from station.canvas.paper import make_paper
-from station.canvas.params import get_profile
+from station.canvas.profiles import get_profile
 from station.events import PenSample
 
 INK = "Sumi Ink"

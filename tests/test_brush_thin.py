@@ -12,7 +12,7 @@ import pytest
 from station.brush.deformable import DeformableBrush, TuftModel
 from station.brush.stamp import BrushModel, BrushSettings
 from station.canvas.paper import make_paper
-from station.canvas.params import get_profile
+from station.canvas.profiles import get_profile
 from station.cli import main
 from station.events import PenSample
 

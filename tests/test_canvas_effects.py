@@ -11,12 +11,12 @@ import colorsys
 import numpy as np
 import pytest
 
-from station.canvas.measure import edge_band, edge_roughness, paper_following, spread
-from station.canvas.numpy_backend import NumpyCanvas
+from station.backends.numpy_canvas import NumpyCanvas
 from station.canvas.palette import Palette, Pigment, default_palette
 from station.canvas.params import SimParams
 from station.canvas.reference import wet_mask
-from station.canvas.scenarios import disc, distance_inside, paint, rect, run_until_dry
+from station.pictures.measure import edge_band, edge_roughness, paper_following, spread
+from station.pictures.scenarios import disc, distance_inside, paint, rect, run_until_dry
 
 
 def twin_palette(a: str, b: str, **diff: tuple[float, float]) -> Palette:

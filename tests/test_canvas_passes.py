@@ -250,9 +250,9 @@ def test_dry_cells_deposit_and_book_tiny_water() -> None:
 def test_step_region_can_stop_after_any_pass() -> None:
     import pytest
 
-    from station.canvas.numpy_backend import NumpyCanvas
-    from station.canvas.scenarios import disc, paint
+    from station.backends.numpy_canvas import NumpyCanvas
     from station.errors import BadInput
+    from station.pictures.scenarios import disc, paint
 
     base = NumpyCanvas(40, 32, seed=2)
     paint(base, disc(32, 40, 16, 20, 7), 0.6, {"Burnt Umber": 0.2}, vx=20.0)

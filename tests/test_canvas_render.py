@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from station.canvas.numpy_backend import NumpyCanvas
+from station.backends.numpy_canvas import NumpyCanvas
 from station.canvas.palette import default_palette
-from station.canvas.png import encode_png, write_png
-from station.canvas.render import gouache_layer, km_layer, to_srgb8, to_srgb16
-from station.canvas.scenarios import disc, paint, rect, run_until_dry
 from station.errors import StationError
+from station.pictures.scenarios import disc, paint, rect, run_until_dry
+from station.render.km import gouache_layer, km_layer, to_srgb8, to_srgb16
+from station.render.png import encode_png, write_png
 
 
 def _km_scalar(k: float, s: float, d: float, r_prev: float) -> float:

@@ -11,12 +11,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from station.canvas import effects as fx
+from station.backends.numpy_canvas import NumpyCanvas
 from station.canvas.errors import CanvasInputError
-from station.canvas.numpy_backend import NumpyCanvas
 from station.canvas.palette import N_BANDS, Palette, Pigment, default_palette, spectral_table
 from station.canvas.params import SimParams
-from station.canvas.render import (
+from station.canvas.state import CanvasState
+from station.pictures import effects as fx
+from station.pictures.scenarios import distance_inside, paint, rect, run_until_dry
+from station.render.km import (
     band_matrix,
     gouache_layer,
     km_layer,
@@ -24,9 +26,7 @@ from station.canvas.render import (
     render_state,
     to_linear_rgb,
 )
-from station.canvas.scenarios import distance_inside, paint, rect, run_until_dry
-from station.canvas.state import CanvasState
-from station.kiosk.km_fast import km_layer_fast
+from station.render.km_fast import km_layer_fast
 
 ROOT = Path(__file__).resolve().parents[1]
 F32 = np.float32

@@ -9,14 +9,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from station.canvas import create_backend
-from station.canvas.numpy_backend import NumpyCanvas
+from station.backends.factory import create_backend
+from station.backends.numpy_canvas import NumpyCanvas
 from station.canvas.palette import default_palette
 from station.canvas.paper import PAPER_PRESETS, make_paper
-from station.canvas.params import PROFILES, SimParams, get_profile
-from station.canvas.scenarios import disc, paint, rect
+from station.canvas.params import SimParams
+from station.canvas.profiles import PROFILES, get_profile
 from station.canvas.state import CanvasState
 from station.errors import BadInput
+from station.pictures.scenarios import disc, paint, rect
 
 FIELDS = ("vx", "vy", "w", "wc", "p", "q", "evaporated", "r_composed", "tile_ttl")
 
@@ -282,7 +283,7 @@ def test_masking_fluid_protects_cells_and_bookkeeping_closes() -> None:
 
 
 def test_numpy_backend_satisfies_the_protocol() -> None:
-    from station.canvas.backend import CanvasBackend
+    from station.backends.protocol import CanvasBackend
 
     c = create_backend("numpy", 20, 16, "ink", 4, tiles=False)
     assert isinstance(c, CanvasBackend)
@@ -361,7 +362,7 @@ def test_separate_tile_groups_are_simulated_as_separate_boxes() -> None:
 
 
 def test_benchmark_hooks_count_cells_and_traffic() -> None:
-    from station.canvas.numpy_backend import floats_per_cell_step
+    from station.backends.numpy_canvas import floats_per_cell_step
 
     on = NumpyCanvas(128, 96, seed=1, tiles=True)
     off = NumpyCanvas(128, 96, seed=1, tiles=False)

@@ -5,11 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from station.canvas.cpu import CpuCanvas
-from station.canvas.numpy_backend import NumpyCanvas
+from station.backends.cpu import CpuCanvas
+from station.backends.numpy_canvas import NumpyCanvas
+from station.backends.protocol import edit_state
 from station.canvas.params import CanvasInputError, SimParams
-from station.canvas.scenarios import disc, paint, rect, run_until_dry
-from station.canvas.tools import HairDryer, blow, on_state, pickup
+from station.canvas.removal import HairDryer, blow, pickup
+from station.pictures.scenarios import disc, paint, rect, run_until_dry
 
 
 def _lifted_share(pigment: str) -> tuple[float, float]:
@@ -29,7 +30,7 @@ def _lifted_share(pigment: str) -> tuple[float, float]:
         paint(c, brush, 0.3)  # the damp brush gives a little water
         for _ in range(15):  # half a second in contact
             c.step()
-        got = on_state(c, lambda s: pickup(s, brush))  # the default brush: thirst 0.8
+        got = edit_state(c, lambda s: pickup(s, brush))  # the default brush: thirst 0.8
         taken += got.pigment.get(pigment, 0.0)
     removed = float(st.removed_p[0].sum(dtype=np.float64))
     assert removed == pytest.approx(taken, rel=1e-5)  # all lifted paint went into the brush
@@ -50,7 +51,7 @@ def test_pickup_on_dry_paint_takes_nothing_and_is_validated() -> None:
     c = NumpyCanvas(24, 24, seed=1)
     paint(c, rect(24, 24, 4, 20, 4, 20), 0.5, {"Cerulean Blue": 0.1})
     c.dry()
-    got = on_state(c, lambda s: pickup(s, np.ones((8, 8), np.float32), y0=8, x0=8))
+    got = edit_state(c, lambda s: pickup(s, np.ones((8, 8), np.float32), y0=8, x0=8))
     assert got.water == 0.0 and sum(got.pigment.values()) == 0.0
     for bad in (np.full((3, 3), 2.0, np.float32), np.full((3, 3), np.nan, np.float32),
                 np.ones(3, np.float32)):
@@ -95,7 +96,7 @@ def test_hair_dryer_books_what_it_evaporates_on_every_backend() -> None:
         paint(c, disc(32, 32, 16, 16, 9), 0.6, {"Hansa Yellow": 0.1})
         d = HairDryer(cx=16, cy=16, radius=10)
         for _ in range(30):
-            got = on_state(c, lambda s, d=d: blow(s, d, s.params.dt))
+            got = edit_state(c, lambda s, d=d: blow(s, d, s.params.dt))
             c.step()
         assert got > 0
         s = c.stats()

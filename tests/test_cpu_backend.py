@@ -18,12 +18,13 @@ import pytest
 
 pytest.importorskip("numba", reason="numba is not installed: the cpu backend needs it")
 
+from station.backends.cpu import CpuCanvas, traffic
+from station.backends.cpu import step as cpu_step
+from station.backends.factory import create_backend, fastest_cpu_backend, resolve_auto
+from station.backends.numpy_canvas import NumpyCanvas
 from station.canvas import reference as ref
-from station.canvas.backend import create_backend, fastest_cpu_backend, resolve_auto
-from station.canvas.cpu import CpuCanvas, traffic
-from station.canvas.cpu import step as cpu_step
-from station.canvas.numpy_backend import NumpyCanvas
-from station.canvas.params import SimParams, get_profile
+from station.canvas.params import SimParams
+from station.canvas.profiles import get_profile
 from station.canvas.state import CanvasState
 
 TOL = 1e-5

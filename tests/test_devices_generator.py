@@ -11,9 +11,9 @@ from pathlib import Path
 import pytest
 from station.drivers import registry
 from station.drivers import synth as S
+from station.drivers.scan import _parser_name
 
 from station.cli import main
-from station.cli.cmd_devices import _parser_name
 
 ROOT = Path(__file__).resolve().parent.parent
 GEN = ROOT / "tools/gen_wacom_devices.py"

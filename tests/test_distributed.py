@@ -20,12 +20,12 @@ import mpi_session as ms
 import numpy as np
 import pytest
 
+from station.backends.cpu import CpuCanvas
+from station.backends.distributed import boxes, decomp
+from station.backends.numpy_canvas import NumpyCanvas
 from station.bus import Publisher
 from station.canvas import tiles
-from station.canvas.cpu import CpuCanvas
-from station.canvas.numpy_backend import NumpyCanvas
 from station.canvas.state import CanvasState
-from station.distributed import boxes, decomp
 from station.events import Command, PenSample
 from station.sessionlog import read_session
 from station.sim.script import Script

@@ -9,9 +9,9 @@ from pathlib import Path
 import pytest
 from PIL import Image
 
-from station.canvas import effects as fx
-from station.canvas.params import get_profile
+from station.canvas.profiles import get_profile
 from station.cli import main
+from station.pictures import effects as fx
 
 
 def test_effects_json_and_sheet(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -80,11 +80,11 @@ def test_ink_bleeds_along_fibres() -> None:
 def test_render_scale_smooths_edges_and_keeps_cell_means(tmp_path: Path) -> None:
     import numpy as np
 
-    from station.canvas.measure import _contour_segments
-    from station.canvas.numpy_backend import NumpyCanvas
+    from station.backends.numpy_canvas import NumpyCanvas
     from station.canvas.params import CanvasInputError
-    from station.canvas.scenarios import disc, paint, run_until_dry
-    from station.canvas.upscale import render_scaled
+    from station.pictures.measure import _contour_segments
+    from station.pictures.scenarios import disc, paint, run_until_dry
+    from station.render.upscale import render_scaled
 
     c = NumpyCanvas(40, 40, seed=3)
     paint(c, disc(40, 40, 20, 20, 12), 0.5, {"French Ultramarine": 0.3})
@@ -164,7 +164,7 @@ def test_flow_patterns_run_downhill_on_a_tilted_sheet() -> None:
 def test_measures_bare_share_and_edge_width() -> None:
     import numpy as np
 
-    from station.canvas.measure import bare_share, edge_width
+    from station.pictures.measure import bare_share, edge_width
 
     solid = np.zeros((20, 40), bool)
     solid[8:12, 5:35] = True

@@ -12,7 +12,7 @@ from station.errors import BadInput
 
 
 def test_bench_sim_json_shape(capsys) -> None:
-    gl = pytest.importorskip("station.canvas.gl")
+    gl = pytest.importorskip("station.backends.gl")
     try:
         gl.create_context().release()
     except gl.GLUnavailable as exc:

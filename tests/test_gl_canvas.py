@@ -11,12 +11,12 @@ import math
 import numpy as np
 import pytest
 
-from station.canvas.numpy_backend import NumpyCanvas
+from station.backends.numpy_canvas import NumpyCanvas
 from station.canvas.params import CanvasInputError
 from station.canvas.state import CanvasState
 from station.errors import BadInput
 
-gl = pytest.importorskip("station.canvas.gl")
+gl = pytest.importorskip("station.backends.gl")
 
 FIELDS = ("vx", "vy", "w", "wc", "p", "q", "evaporated", "removed_p", "r_composed")
 REL_TOL = 1e-5

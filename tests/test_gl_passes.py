@@ -18,10 +18,10 @@ from station.canvas import reference as ref
 from station.canvas.palette import default_palette
 from station.canvas.paper import make_fibres
 from station.canvas.params import SimParams
-from station.canvas.render import render_state, to_linear_rgb
 from station.canvas.state import CanvasState
+from station.render.km import render_state, to_linear_rgb
 
-gl = pytest.importorskip("station.canvas.gl")
+gl = pytest.importorskip("station.backends.gl")
 
 W, H = 48, 40
 SLOTS6 = ["French Ultramarine", "Cerulean Blue", "Hansa Yellow", "Burnt Umber",

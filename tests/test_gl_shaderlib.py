@@ -8,7 +8,7 @@ from importlib import resources
 
 import pytest
 
-from station.canvas.gl.shaderlib import ShaderError, compile_compute, map_log, preprocess
+from station.glkit.shaderlib import ShaderError, compile_compute, map_log, preprocess
 
 FILES = {
     "main.comp": '#version 430\nlayout(local_size_x = 1) in;\n#include "a.glsl"\n'
@@ -90,7 +90,7 @@ def test_packaged_shaders_are_plain_files_with_version_and_includes() -> None:
 
 
 def test_compile_error_is_reported_at_the_included_file_and_line() -> None:
-    gl = pytest.importorskip("station.canvas.gl")
+    gl = pytest.importorskip("station.backends.gl")
     try:
         ctx = gl.create_context()
     except gl.GLUnavailable as exc:

@@ -14,7 +14,6 @@ import pytest
 from PIL import Image
 
 from station.canvas.palette import default_palette
-from station.canvas.render import to_srgb8
 from station.events import Command, PenSample, Tool
 from station.kiosk.gallery import (
     Gallery,
@@ -24,6 +23,7 @@ from station.kiosk.gallery import (
     painting_url,
     qr_matrix,
 )
+from station.render.km import to_srgb8
 from station.sessionlog import SessionHeader, SessionLogWriter
 from station.sim.paint import make_backend
 from station.sim.player import SessionPlayer

@@ -259,7 +259,7 @@ def test_damage_boxes_are_projected_together_and_merged_when_close() -> None:
 @in_own_process
 def test_the_preview_grows_with_the_stroke_and_matches_a_whole_render(
         display: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    from station.canvas.render import render_region
+    from station.render.km import render_region
 
     app = _app(display, tmp_path, monkeypatch, "auto")
     try:

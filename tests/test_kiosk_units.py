@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from station.canvas.backend import create_backend
-from station.canvas.render import render_region, render_state
+from station.backends.factory import create_backend
 from station.events import Command, PenSample, Tool
 from station.kiosk.display import tile_runs
 from station.kiosk.idle import IdleClock, IdleConfig
 from station.kiosk.views import VIEWS, Viewport, input_camera, make_camera
+from station.render.km import render_region, render_state
 from station.sim.live import LiveConfig
 
 AREA = Viewport(300, 0, 724, 768)
@@ -156,7 +156,7 @@ def test_the_screen_is_mapped_and_window_commands_stay_out_of_the_canvas(tmp_pat
 
 
 def test_cpu_display_texture_equals_a_full_render(tmp_path) -> None:  # type: ignore[no-untyped-def]
-    from station.canvas.gl.context import GLUnavailable, create_context
+    from station.glkit.context import GLUnavailable, create_context
     from station.kiosk.display import CpuDisplay
 
     try:
@@ -233,8 +233,8 @@ def test_panel_controls_send_commands() -> None:
 
 def test_compiled_km_matches_the_reference() -> None:
     from station.canvas.palette import default_palette
-    from station.canvas.render import km_layer
-    from station.kiosk.km_fast import km_layer_fast
+    from station.render.km import km_layer
+    from station.render.km_fast import km_layer_fast
 
     pal = default_palette()
     pigs = [pal.get(n) for n in ("French Ultramarine", "Hansa Yellow", "Burnt Umber", "Black")]

@@ -22,7 +22,7 @@ from station.calibration.pointset import PointSet
 from station.drivers.evdev import codes as c
 from station.drivers.hid import usages as U
 
-from station.canvas.png import encode_png, write_png
+from station.render.png import encode_png, write_png
 
 
 def _gradient(h: int = 240, w: int = 320) -> np.ndarray:

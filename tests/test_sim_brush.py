@@ -256,7 +256,7 @@ def test_brush_settings_validation() -> None:
 def test_brush_velocity_pushes_the_paint_along_the_stroke() -> None:
     """On the canvas (numpy backend): with the velocity source the pigment of a
     fast stroke ends up further along the stroke's direction than without."""
-    from station.canvas.backend import create_backend
+    from station.backends.factory import create_backend
     from station.sim.player import add_sources
 
     def centroid(gain: float, direction: int) -> float:

@@ -37,7 +37,7 @@ def read_png(path: Path) -> np.ndarray:
 
 def _gl_available() -> bool:
     try:
-        from station.canvas.gl.context import create_context
+        from station.glkit.context import create_context
 
         create_context().release()
         return True

@@ -234,8 +234,8 @@ def test_sim_bad_flags_exit_2_in_one_line(tmp_path: Path, capsys: Any) -> None:
 
 def test_sim_resumes_a_saved_canvas(tmp_path: Path) -> None:
     """``--resume`` continues a state: size and profile from it, paint kept, steps go on."""
+    from station.backends.factory import create_backend
     from station.brush.stamp import BrushSettings, RoundBrush
-    from station.canvas.backend import create_backend
     from station.sim.player import add_sources
 
     canvas = create_backend("numpy", 40, 30, "ink", 3)

@@ -148,7 +148,7 @@ def test_bad_command_arguments_raise_with_place() -> None:
 
 
 def test_brush_model_follows_profile() -> None:
-    from station.canvas.params import get_profile
+    from station.canvas.profiles import get_profile
 
     for name in ("watercolor", "gouache", "ink"):
         prof = get_profile(name)
@@ -311,14 +311,14 @@ def test_trace_input_goes_through_the_drivers(tmp_path: Path,
 
 # -- the bundled demo ------------------------------------------------------------------------
 def test_demo_file_is_the_generators_output() -> None:
-    from station.sim.demo import DEMO_FILE, landscape
+    from station.pictures.demo import DEMO_FILE, landscape
 
     assert DEMO_FILE.read_text(encoding="utf-8") == landscape().text()
 
 
 def test_demo_session_shows_every_effect_in_its_commands() -> None:
+    from station.pictures.demo import DEMO_FILE
     from station.sessionlog import read_session
-    from station.sim.demo import DEMO_FILE
 
     _header, records = read_session(DEMO_FILE)
     cmds = [r for r in records if isinstance(r, Command)]
@@ -405,11 +405,11 @@ def test_paint_a_device_trace(tmp_path: Path, capsys: pytest.CaptureFixture[str]
 
 def test_auto_backend_choice_and_fallback(monkeypatch: pytest.MonkeyPatch,
                                           caplog: pytest.LogCaptureFixture) -> None:
-    import station.canvas.backend as backend_mod
-    import station.canvas.gl.context as context_mod
+    import station.backends.factory as backend_mod
+    import station.glkit.context as context_mod
     import station.sim.paint as paint_mod
-    from station.canvas.gl.context import GLUnavailable
     from station.errors import StationError
+    from station.glkit.context import GLUnavailable
 
     class FakeCtx:
         def __init__(self, renderer: str) -> None:

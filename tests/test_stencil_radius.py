@@ -14,9 +14,10 @@ import dataclasses
 import numpy as np
 import pytest
 
+from station.backends.numpy_canvas import NumpyCanvas
 from station.canvas import reference
-from station.canvas.numpy_backend import NumpyCanvas
-from station.canvas.params import SimParams, get_profile
+from station.canvas.params import SimParams
+from station.canvas.profiles import get_profile
 
 N = 72
 C = N // 2

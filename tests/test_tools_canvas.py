@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from station.canvas.backend import create_backend, numba_available
+from station.arttools import eraser, mask, tissue
+from station.backends.factory import create_backend, numba_available
 from station.canvas.stats import canvas_stats
 from station.errors import BadInput
 from station.events import Command, PenSample
 from station.sim.player import SessionPlayer
-from station.tools import eraser, mask, tissue
 
 W, H = 48, 32
 BLUE, YELLOW = "French Ultramarine", "Hansa Yellow"
@@ -182,7 +182,7 @@ def test_bad_tool_arguments_are_bad_input_naming_the_line(cmd: str, args: dict, 
 
 
 def test_tool_session_on_the_gl_backend_agrees_with_the_reference() -> None:
-    gl = pytest.importorskip("station.canvas.gl")
+    gl = pytest.importorskip("station.backends.gl")
     try:
         gl.create_context().release()
     except gl.GLUnavailable as exc:

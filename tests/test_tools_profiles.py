@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from station.canvas.backend import create_backend
+from station.backends.factory import create_backend
 from station.canvas.errors import CanvasInputError
 from station.canvas.palette import default_palette
 from station.canvas.params import SimParams

@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 from station.events import Command
+from station.pictures.tools_sheet import bundled_session, session_lines
 from station.sessionlog import read_session
 from station.sim.player import check_command
-from station.tools.sheet import bundled_session, session_lines
 
 
 def test_bundled_session_is_the_generated_one_and_fully_executed() -> None:

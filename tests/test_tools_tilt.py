@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from station.backends.factory import create_backend, numba_available
 from station.canvas import reference as ref
-from station.canvas.backend import create_backend, numba_available
 from station.canvas.params import SimParams
 from station.canvas.stats import canvas_stats
 
@@ -84,7 +84,7 @@ def test_cpu_backend_is_bit_identical_with_tilt() -> None:
 
 
 def test_gl_step_with_tilt_matches_reference() -> None:
-    gl = pytest.importorskip("station.canvas.gl")
+    gl = pytest.importorskip("station.backends.gl")
     try:
         ctx = gl.create_context()
     except gl.GLUnavailable as exc:

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from station.canvas.backend import create_backend, numba_available
+from station.backends.factory import create_backend, numba_available
 from station.canvas.state import CanvasState
 from station.cli import main
 from station.events import Command, PenSample

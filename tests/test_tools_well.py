@@ -6,12 +6,12 @@ import colorsys
 
 import pytest
 
-from station.canvas.backend import create_backend
+from station.arttools.well import MixingWell
+from station.backends.factory import create_backend
 from station.canvas.params import SimParams
 from station.errors import BadInput
 from station.events import Command, PenSample
 from station.sim.player import SessionPlayer
-from station.tools.well import MixingWell
 
 BLUE, YELLOW = "Cerulean Blue", "Hansa Yellow"
 

@@ -24,6 +24,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from station.drivers.registry import load_devices
+
 RULES_NAME = "70-painting-station.rules"
 RULES_PATH = Path(__file__).resolve().parent / RULES_NAME
 GROUP = "station"
@@ -67,8 +69,6 @@ def rules_for(model: dict[str, Any]) -> list[str]:
 def generate(models: list[dict[str, Any]] | None = None) -> str:
     """The whole rules file for ``models`` (default: every model in the device data)."""
     if models is None:
-        from station.drivers.registry import load_devices
-
         models = load_devices()
     out = [
         f"# {RULES_NAME}: pen tablets for the painting station.",

@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 from station.drivers.haptic.contact import BrushState, RoundBrushContact, Surface
 from station.drivers.haptic.loop import HapticConfig, HapticSession, zero_all
+from station.drivers.mock.haptic import SCRIPTS, MockHapticDevice, default_hello
 from station.drivers.raw import AxisRanges, RawSample
 from station.drivers.serial.transport import (
     DEFAULT_BAUD,
@@ -42,8 +43,10 @@ from station.drivers.transport.base import (
     TransportError,
 )
 
+from station.brush.geometry import BrushShapeError, get_shape
+from station.bus import Subscriber
+
 if TYPE_CHECKING:
-    from station.drivers.mock.haptic import MockHapticDevice
     from station.drivers.pipeline.spec import DeviceSpec
 
 log = logging.getLogger(__name__)
@@ -104,8 +107,6 @@ def haptic_config(spec: DeviceSpec) -> HapticConfig:
         # the spine solver (numba, NLopt) only for a deformable brush: a round one starts fast
         from station.drivers.haptic.deformable import DeformableBrushContact, height_pressure
 
-        from station.brush.geometry import BrushShapeError, get_shape
-
         for opt in ("hair", "stiffness"):
             if opt in spec.options:
                 raise DeviceSpecError(f"{opt}= is for contact=round (the deformable brush's "
@@ -145,8 +146,6 @@ def haptic_config(spec: DeviceSpec) -> HapticConfig:
 
 def mock_device(spec: DeviceSpec) -> MockHapticDevice:
     """The mock device of a ``serial-mock:`` SPEC (created and started on first use)."""
-    from station.drivers.mock.haptic import SCRIPTS, MockHapticDevice, default_hello
-
     with _MOCKS_LOCK:
         mock = _MOCKS.get(spec.text)
         if mock is not None:
@@ -209,7 +208,7 @@ class HapticPenSource:
     """The pipeline's view of a haptic session (a :class:`PenSource`)."""
 
     def __init__(self, session: HapticSession, spec: DeviceSpec, name: str | None = None,
-                 mock: Any = None) -> None:
+                 mock: MockHapticDevice | None = None) -> None:
         self.session = session
         self.spec = spec
         hello = session.hello
@@ -252,8 +251,6 @@ class HapticPenSource:
         """Subscribe to ``haptic.<name>`` at ``endpoint`` (or several): forces and
         vibrations from the station (``keys``, ``client_key``: CURVE on tcp, as the
         driver's own bus)."""
-        from station.bus import Subscriber
-
         sub = Subscriber(endpoint, topics=(f"haptic.{self.name}",), keys=keys,
                          client_key=client_key)
 

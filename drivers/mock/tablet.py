@@ -30,8 +30,10 @@ from typing import TYPE_CHECKING, Any
 from station.drivers import synth
 from station.drivers.hid import usages as U
 from station.drivers.hid.descriptor import parse_descriptor
+from station.drivers.hid.pen import GenericPenParser
 from station.drivers.mock.script import SCRIPTS, PenState, timed_states
 from station.drivers.raw import Axis, AxisRanges
+from station.drivers.registry import load_devices
 from station.drivers.transport.base import DeviceSpecError, HidDeviceInfo, TimedReport
 from station.drivers.wacom.modes import PEN_MODE_FEATURE
 
@@ -61,8 +63,6 @@ MOCK_PROTOCOLS = frozenset({"wacom-intuos", "wacom-bamboo", "wacom-graphire", "w
 
 def find_model(name: str) -> dict[str, Any]:
     """Device data of a mock MODEL name (``intuos-pro-m``, ``wacom-intuos-pro-m`` …)."""
-    from station.drivers.registry import load_devices
-
     if name in GENERIC_MODELS:
         return dict(GENERIC_MODELS[name])
     models = load_devices()
@@ -112,8 +112,6 @@ class MockTablet:
         self.descriptor = self._descriptor()
         self.generic = None
         if self.protocol == "hid-generic":
-            from station.drivers.hid.pen import GenericPenParser
-
             self.generic = GenericPenParser(parse_descriptor(self.descriptor), model)
             if self.generic.primary is None:
                 raise DeviceSpecError(f"mock {model['id']}: descriptor has no pen report")

@@ -157,7 +157,7 @@ class LegacyPenParser(ReportParser):
         self.x = self.y = 0
 
     @classmethod
-    def for_protocol(cls, protocol: str) -> Any:
+    def for_protocol(cls, protocol: str) -> Callable[..., LegacyPenParser]:
         """A constructor with the protocol bound (what the registry's factories call)."""
 
         def make(params: WacomParams, model: dict[str, Any] | None = None,

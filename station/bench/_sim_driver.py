@@ -79,7 +79,12 @@ def run_fixed(backend: str, width: int, height: int, scenario: str, warmup: int,
               steps: int) -> dict[str, Any]:
     """A fresh canvas, ``warmup`` untimed steps, then ``steps`` timed ones (the stroke
     paints before every step, timed too: it is part of a live stroke's cost)."""
-    from station.canvas.backend import create_backend
+    # in the function: this source also runs against older checkouts (``--baseline``),
+    # whose factory lived in ``station.canvas.backend``
+    try:
+        from station.backends.factory import create_backend  # this tree's
+    except ImportError:
+        from station.canvas.backend import create_backend  # type: ignore[no-redef]
 
     canvas = create_backend(backend, width, height, "watercolor", 1,
                             tiling=(scenario == "stroke"))
@@ -111,7 +116,7 @@ def run_fixed(backend: str, width: int, height: int, scenario: str, warmup: int,
 
 def child_main() -> None:
     """Serve requests on stdin/stdout (see the module docstring)."""
-    import station
+    import station  # in the function: the PYTHONPATH of the child picks which station
 
     print(json.dumps({"ready": True, "station": str(station.__file__)}), flush=True)
     for line in sys.stdin:

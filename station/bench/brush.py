@@ -41,16 +41,21 @@ from typing import Any
 
 import numpy as np
 
+from station.backends.factory import create_backend
+from station.bench.sim import _StrokePath
+from station.brush.deformable import DeformableBrush, TuftModel
+from station.brush.geometry import get_shape
+from station.brush.stamp import BrushModel, BrushSettings, RoundBrush
+from station.canvas.profiles import get_profile
 from station.errors import BadInput
+from station.events import PenSample
+from station.sim.player import add_sources, brush_model
 
 GOAL_MS = 1.0
 
 
 def _stroke_brush(kind: str, width: int, height: int, size: float, paper: np.ndarray
-                  ) -> Any:
-    from station.brush.deformable import DeformableBrush
-    from station.brush.stamp import BrushModel, BrushSettings
-
+                  ) -> DeformableBrush:
     return DeformableBrush(width, height, BrushSettings(kind=kind, size=size, water=1.0,
                                                         pigment={"French Ultramarine": 0.5}),
                            BrushModel(), paper)
@@ -89,8 +94,6 @@ PEN_GOAL = 1000.0
 
 
 def _pen_samples(n: int, rate: float) -> list[Any]:
-    from station.events import PenSample
-
     return [PenSample(t=i / rate, device="bench", tool="pen",  # type: ignore[arg-type]
                       x=0.1 + 0.8 * ((0.5 * i / rate) % 1.0),  # 160 cells/s
                       y=0.5 + 0.1 * math.sin(i / 300.0),
@@ -101,9 +104,6 @@ def _pen_samples(n: int, rate: float) -> list[Any]:
 def measure_pen(kind: str, size: float, samples: int, rate: float = 1000.0) -> dict[str, Any]:
     """Samples per second a ``rate`` Hz pen gets through the deformable brush, the round
     stamp brush (the peer) and the deformable brush with a solve for every sample."""
-    from station.brush.deformable import DeformableBrush, TuftModel
-    from station.brush.stamp import BrushModel, BrushSettings, RoundBrush
-
     width, height = 400, 200
     paper = np.ones((height, width), np.float32)
     settings = BrushSettings(kind=kind, size=size, water=0.5, pigment={"Sumi Ink": 0.5})
@@ -142,13 +142,6 @@ def measure_sim(kind: str, width: int, height: int, seconds: float) -> dict[str,
     """cpu backend steps/s with one live stroke: ``station bench sim``'s stroke (a
     round disc source per step) and the deformable brush (one pen frame per step),
     measured one after the other in this process: their ratio is the brush's cost."""
-    from station.bench.sim import _StrokePath
-    from station.brush.stamp import BrushSettings
-    from station.canvas.backend import create_backend
-    from station.canvas.profiles import get_profile
-    from station.events import PenSample
-    from station.sim.player import add_sources, brush_model
-
     def run(advance: Any, canvas: Any) -> tuple[int, float, float, float]:
         """Steps, wall seconds, process CPU seconds, CPU seconds in ``advance``."""
         for _ in range(10):
@@ -235,8 +228,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.brush.geometry import get_shape
-
     kinds = [k for k in args.kinds.split(",") if k]
     for k in kinds:
         get_shape(k, "--kinds")

@@ -17,9 +17,12 @@ import socket
 import sys
 import tempfile
 import time
+from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
 
+from station.bus import Publisher, Subscriber, generate_keys, secure_dir
+from station.errors import BadInput
 from station.events import PenSample, Tool
 from station.progress import Progress
 
@@ -38,9 +41,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _subscriber(endpoint: str, keys: str | None, expected: int, conn: Any) -> None:
-    from station.bus import Subscriber
-
+def _subscriber(endpoint: str, keys: str | None, expected: int, conn: Connection) -> None:
     sub = Subscriber(endpoint, topics=("pen.",), keys=Path(keys) if keys else None)
     conn.send("ready")
     latencies: list[float] = []
@@ -69,8 +70,6 @@ def _sample(seq: int) -> Any:
 
 def _one_run(endpoint: str, keys: str | None, count: int, period: float,
              batch: int = 1) -> dict[str, Any]:
-    from station.bus import Publisher
-
     ctx = mp.get_context("spawn")
     parent, child = ctx.Pipe()
     proc = ctx.Process(target=_subscriber, args=(endpoint, keys, count, child), daemon=True)
@@ -128,9 +127,6 @@ def _free_port() -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.bus import generate_keys, secure_dir
-    from station.errors import BadInput
-
     transports = [t.strip() for t in args.transports.split(",") if t.strip()]
     if not 1 <= args.batch <= 512:
         raise BadInput(f"{args.batch} outside 1..512", "--batch")

@@ -27,11 +27,14 @@ import shutil
 import subprocess
 import sys
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from station.errors import BadInput, StationError
+
+if TYPE_CHECKING:
+    from station.backends.distributed.canvas import DistributedCanvas
 
 SCENARIOS = ("wash", "corner", "corner-even")
 SCHEDULES = ("auto", "overlap", "blocking")
@@ -50,7 +53,7 @@ def _parse_size(text: str) -> tuple[int, int]:
     return w, h
 
 
-def _wash(canvas: Any, width: int, height: int) -> None:
+def _wash(canvas: DistributedCanvas, width: int, height: int) -> None:
     rng = np.random.default_rng(7)
     dw = (0.6 + 0.2 * rng.random((height, width))).astype(np.float32)
     dp = {"French Ultramarine": (0.05 * rng.random((height, width))).astype(np.float32),
@@ -64,7 +67,7 @@ def _wash(canvas: Any, width: int, height: int) -> None:
 class _CornerStroke:
     """A round footprint (radius 12) circling in the top-left quarter-by-quarter corner."""
 
-    def __init__(self, canvas: Any, width: int, height: int) -> None:
+    def __init__(self, canvas: DistributedCanvas, width: int, height: int) -> None:
         self.canvas, self.t = canvas, 0
         self.cx, self.cy = width / 8, height / 8
         self.ax, self.ay = width / 8 - 16, height / 8 - 16
@@ -84,10 +87,12 @@ class _CornerStroke:
 def measure(width: int, height: int, scenario: str, seconds: float, base: str,
             warmup: int = 70, schedule: str = "auto") -> dict[str, Any] | None:
     """One configuration on all ranks of COMM_WORLD; the result on rank 0."""
+    # in the function: mpi4py is the optional ``mpi`` extra (this module registers the
+    # bench command without it)
     from mpi4py import MPI
 
-    from station.distributed import exchange
-    from station.distributed.canvas import DistributedCanvas
+    from station.backends.distributed import exchange  # mpi4py too
+    from station.backends.distributed.canvas import DistributedCanvas  # mpi4py too
 
     comm = MPI.COMM_WORLD
     canvas = DistributedCanvas(width, height, "watercolor", 1, base=base, n_slots=2,

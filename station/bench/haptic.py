@@ -29,8 +29,13 @@ import multiprocessing as mp
 import os
 import sys
 import time
+from multiprocessing.connection import Connection
 from typing import Any
 
+from station.drivers.haptic.deformable import DeformableBrushContact
+from station.drivers.haptic.loop import HapticConfig, HapticSession
+from station.drivers.mock.haptic import MockHapticDevice
+from station.drivers.serial.transport import SerialTransport
 from station.errors import BadInput
 
 TARGET_RATE_HZ = 1000.0
@@ -45,9 +50,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _device(conn: Any) -> None:
-    from station.drivers.mock.haptic import MockHapticDevice
-
+def _device(conn: Connection) -> None:
     mock = MockHapticDevice("rest").start()
     conn.send(mock.path)
     conn.recv()  # "stop"
@@ -64,13 +67,8 @@ def _pct(values: list[float], q: float) -> float:
 
 def _one(path: str, rate: float, seconds: float, spin_s: float, rt: int = 0,
          deformable: bool = False) -> dict[str, Any]:
-    from station.drivers.haptic.loop import HapticConfig, HapticSession
-    from station.drivers.serial.transport import SerialTransport
-
     config = HapticConfig(rate_hz=rate, spin_s=spin_s, input=False, realtime=rt)
     if deformable:
-        from station.drivers.haptic.deformable import DeformableBrushContact
-
         model = DeformableBrushContact()
         config.contact, config.reaction, config.surface = None, model, model.surface
     session = HapticSession(SerialTransport(path), config)

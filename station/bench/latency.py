@@ -34,8 +34,16 @@ from typing import Any
 import numpy as np
 
 from station.brush.stamp import brush_kinds
+from station.calibration.area import AreaSettings, Rect
+from station.calibration.files import write_file
+from station.calibration.model import Calibration, DeviceId
 from station.cli.argtypes import auto_or_ms
+from station.drivers.pipeline import open_device
 from station.errors import BadInput, StationError
+from station.kiosk.app import KioskApp, KioskConfig
+from station.kiosk.idle import IdleConfig
+from station.kiosk.predict import PredictConfig, perceived_lag, prediction_errors
+from station.sim.paint import parse_size
 
 GOAL_P99_MS = 16.0
 GOAL_FPS = 60.0
@@ -119,8 +127,6 @@ def _start_xvfb() -> tuple[subprocess.Popen[bytes], str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.sim.paint import parse_size
-
     width, height = parse_size(args.size)
     if not args.seconds > 0:
         raise BadInput("must be > 0", "--seconds")
@@ -164,14 +170,6 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
             model: str, script: str = "arc", sim_thread: bool = True,
             predict_ms: float | None = None, present: str = "auto",
             brush: str = "round") -> dict[str, Any]:
-    from station.calibration.area import AreaSettings, Rect
-    from station.calibration.files import write_file
-    from station.calibration.model import Calibration, DeviceId
-    from station.drivers.pipeline import open_device
-    from station.kiosk.app import KioskApp, KioskConfig
-    from station.kiosk.idle import IdleConfig
-    from station.kiosk.predict import PredictConfig, perceived_lag, prediction_errors
-
     bus = f"bench-latency-{os.getpid()}-{int(sim_thread)}"
     with tempfile.TemporaryDirectory(prefix="station-latency-") as tmp:
         cfg = KioskConfig(bus=f">ipc:{bus}", width=width, height=height, backend=backend,

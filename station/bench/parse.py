@@ -21,6 +21,13 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from station.drivers import synth as S
+from station.drivers.hid import usages as U
+from station.drivers.hid.descriptor import parse_descriptor
+from station.drivers.hid.pen import GenericPenParser
+from station.drivers.normalise import Normaliser
+from station.drivers.registry import parser_for
+from station.drivers.uclogic.params import UclogicParams
 from station.progress import Progress
 
 # Reports per second a parser keeps on one idle core (issue 9: >= 300 000).  A report is
@@ -76,12 +83,6 @@ def _stroke(n: int) -> list[tuple[float, float, float, float, float]]:
 
 def _workloads(n: int) -> dict[str, tuple[Any, list[bytes]]]:
     """name -> (parser, reports)."""
-    from station.drivers import synth as S
-    from station.drivers.hid import usages as U
-    from station.drivers.hid.descriptor import parse_descriptor
-    from station.drivers.hid.pen import GenericPenParser
-    from station.drivers.registry import parser_for
-
     stroke = _stroke(n)
     work: dict[str, tuple[Any, list[bytes]]] = {}
     intuos = parser_for(0x056A, 0x0315, None)
@@ -120,10 +121,6 @@ def _workloads(n: int) -> dict[str, tuple[Any, list[bytes]]]:
 def _more_workloads(work: dict[str, tuple[Any, list[bytes]]],
                     stroke: list[tuple[float, float, float, float, float]]) -> None:
     """The protocol families read from the kernel's table (one representative each)."""
-    from station.drivers import synth as S
-    from station.drivers.registry import parser_for
-    from station.drivers.uclogic.params import UclogicParams
-
     n = len(stroke)
     # Intuos2 12x12 (original protocol: coordinates without the low bit, encoded doubled)
     i1 = parser_for(0x056A, 0x0044, None)
@@ -232,28 +229,24 @@ def measure(n: int, repeat: int) -> dict[str, Any]:
     parser.reset()
     intuos_samples = [s for i, r in enumerate(reports) for s in parser.parse(r, i * 0.005)]
     intuos_ranges = parser.ranges
-    try:
-        from station.drivers.normalise import Normaliser
-    except ImportError:
-        results["normaliser"] = {"skipped": "station.drivers.normalise is not installed"}
-    else:
-        def norm_loop() -> int:
-            norm = Normaliser(intuos_ranges, device="bench-0")
-            got = 0
-            for s in intuos_samples:
-                got += len(norm.feed(s))
-            return got
 
-        seconds, samples = _time_it(norm_loop, repeat)
-        results["normaliser"] = {
-            "raw_samples": len(intuos_samples),
-            "samples": samples,
-            "seconds": round(seconds, 6),
-            "reports_per_s": round(len(intuos_samples) / seconds),
-            "us_per_report": round(seconds / len(intuos_samples) * 1e6, 3),
-            "target_reports_per_s": NORMALISER_TARGET,
-            "meets_target": len(intuos_samples) / seconds >= NORMALISER_TARGET,
-        }
+    def norm_loop() -> int:
+        norm = Normaliser(intuos_ranges, device="bench-0")
+        got = 0
+        for s in intuos_samples:
+            got += len(norm.feed(s))
+        return got
+
+    seconds, samples = _time_it(norm_loop, repeat)
+    results["normaliser"] = {
+        "raw_samples": len(intuos_samples),
+        "samples": samples,
+        "seconds": round(seconds, 6),
+        "reports_per_s": round(len(intuos_samples) / seconds),
+        "us_per_report": round(seconds / len(intuos_samples) * 1e6, 3),
+        "target_reports_per_s": NORMALISER_TARGET,
+        "meets_target": len(intuos_samples) / seconds >= NORMALISER_TARGET,
+    }
     bar.update()
     bar.close()
     return results

@@ -4,7 +4,7 @@ One painted canvas (default 800×600: a dried French Ultramarine layer under a w
 of three pigments over the whole sheet, so every cell runs the full formulas) rendered
 with 12 spectral bands and with Curtis's 3 RGB channels, by the NumPy reference
 (``render.render_state``) and by the compiled cpu path the kiosk uses for dirty tiles
-(``kiosk.km_fast.km_layer_fast``). Each figure is the best of ``--repeat`` runs; the
+(``render.km_fast.km_layer_fast``). Each figure is the best of ``--repeat`` runs; the
 ratios spectral / RGB are measured in the same run, so they compare under the same load.
 """
 
@@ -20,7 +20,12 @@ from typing import Any
 
 import numpy as np
 
+from station.backends.numpy_canvas import NumpyCanvas
+from station.canvas.params import SimParams
+from station.canvas.state import CanvasState
 from station.errors import BadInput
+from station.render.km import region_amount, render_bands, render_state
+from station.render.km_fast import km_layer_fast
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -31,11 +36,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _state(width: int, height: int, bands: int) -> Any:
-    from station.canvas.numpy_backend import NumpyCanvas
-    from station.canvas.params import SimParams
-    from station.canvas.render import render_bands
-
+def _state(width: int, height: int, bands: int) -> CanvasState:
     c = NumpyCanvas(width, height, seed=1, params=SimParams(render_bands=bands), tiling=False)
     st = c.live_state
     rng = np.random.default_rng(0)
@@ -62,9 +63,6 @@ def _best_ms(fn: Callable[[], object], repeat: int) -> float:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.canvas.render import region_amount, render_state
-    from station.kiosk.km_fast import km_layer_fast
-
     try:
         w, h = (int(v) for v in args.size.lower().split("x"))
     except ValueError:

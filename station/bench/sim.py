@@ -30,9 +30,9 @@ from typing import Any
 
 import numpy as np
 
+from station.backends.factory import available_backends, create_backend, resolve_auto
 from station.bench import _sim_baseline as sim_baseline
 from station.bench import _sim_driver as sim_driver
-from station.canvas.backend import available_backends, create_backend, resolve_auto
 from station.errors import BadInput, StationError
 from station.progress import Progress
 
@@ -40,7 +40,7 @@ DEFAULT_SIZES = ("512x512", "800x600", "1024x1024", "2048x2048")
 SCENARIOS = ("wash", "stroke")
 BACKENDS = ("gl", "numpy", "cpu")
 """Without ``--backends`` every one available here is measured
-(:func:`station.canvas.backend.available_backends`), the one ``auto`` picks included."""
+(:func:`station.backends.factory.available_backends`), the one ``auto`` picks included."""
 
 
 def parse_size(text: str) -> tuple[int, int]:
@@ -107,11 +107,11 @@ class _Probe:
     GL: ``take_cells()`` (the GPU tile list's running count of simulated cells, read
     once per measurement) and ``sync()``; NumPy: ``cells_last_step()`` after every
     step.  Both report their own honest ``bytes_per_cell_step()`` (see
-    ``station/canvas/gl/traffic.py``, ``numpy_backend.floats_per_cell_step`` and
-    ``station/canvas/cpu/traffic.py``).  The ``cpu`` backend is stepped like NumPy.
+    ``station/backends/gl/traffic.py``, ``numpy_canvas.floats_per_cell_step`` and
+    ``station/backends/cpu/traffic.py``).  The ``cpu`` backend is stepped like NumPy.
     """
 
-    def __init__(self, canvas: Any) -> None:
+    def __init__(self, canvas: Any) -> None:  # reads each backend's own counters
         self.canvas = canvas
         self.is_gl = hasattr(canvas, "take_cells")
 

@@ -18,6 +18,12 @@ from typing import Any
 
 from station.blueprint.model import BlueprintError
 from station.blueprint.plan import Plan
+from station.blueprint.supervisor import running_pid
+from station.bus import Publisher, Subscriber, keys_dir, load_keys, runtime_dir
+from station.calibration.files import config_dir, find_for_device, read_file
+from station.drivers.scan import scan
+from station.errors import BusConfigError, StationError
+from station.udev.generate import RULES_NAME, generate
 
 UDEV_DIRS = (Path("/etc/udev/rules.d"), Path("/run/udev/rules.d"), Path("/lib/udev/rules.d"),
              Path("/usr/lib/udev/rules.d"))
@@ -69,8 +75,6 @@ def check_gl() -> Check:
 
 
 def check_devices(plan: Plan | None) -> list[Check]:
-    from station.cli.cmd_devices import scan
-
     found = scan()
     checks = []
     for problem in found["problems"]:
@@ -128,8 +132,6 @@ def _wanted_devices(plan: Plan | None) -> list[tuple[str, str | None, str | None
 
 
 def check_udev(dirs: tuple[Path, ...] | None = None) -> Check:
-    from station.udev.generate import RULES_NAME, generate
-
     dirs = dirs if dirs is not None else UDEV_DIRS
     for d in dirs:
         path = d / RULES_NAME
@@ -152,8 +154,6 @@ def check_udev(dirs: tuple[Path, ...] | None = None) -> Check:
 
 
 def check_calibration(plan: Plan | None) -> list[Check]:
-    from station.calibration.files import config_dir, find_for_device, read_file
-
     checks = []
     if plan is not None:
         for ident, path in plan.calibrations.items():
@@ -193,9 +193,6 @@ def check_calibration(plan: Plan | None) -> list[Check]:
 
 
 def check_bus(plan: Plan | None) -> list[Check]:
-    from station.bus import Publisher, Subscriber, runtime_dir
-    from station.errors import StationError
-
     checks = []
     try:
         rdir = runtime_dir()
@@ -207,8 +204,6 @@ def check_bus(plan: Plan | None) -> list[Check]:
                             "set STATION_RUNTIME_DIR to a directory of your own (0700), or "
                             "fix XDG_RUNTIME_DIR"))
     if plan is not None:
-        from station.blueprint.supervisor import running_pid
-
         pid = running_pid(plan.run_dir)
         if pid is None:
             checks.append(Check("bus", "ok", f"station {plan.blueprint.name!r} is not "
@@ -238,9 +233,6 @@ def check_keys(plan: Plan | None) -> list[Check]:
     """The CURVE keys of each tcp ``<bus>``: the server pair ``station bus`` binds with,
     the client pair its sources and consumers connect with, at least one authorised
     client key."""
-    from station.bus import keys_dir, load_keys
-    from station.errors import BusConfigError
-
     checks: list[Check] = []
     if plan is None:
         return checks

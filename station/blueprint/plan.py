@@ -29,6 +29,7 @@ from station.blueprint.model import (
     Where,
     parse_duration,
 )
+from station.drivers.pipeline import DeviceSpec
 
 DEFAULT_RESTART = "on-failure"
 DEFAULT_RESTART_DELAY_S = 0.5
@@ -158,8 +159,6 @@ def _check_cycles(bp: Blueprint) -> None:
 
 
 def _check_attrs(c: Component) -> None:
-    from station.drivers.pipeline import DeviceSpec
-
     where = str(c.where)
     if c.kind in ("driver", "haptic"):
         device, vid = c.get("device"), c.get("vid")

@@ -33,6 +33,12 @@ from typing import IO, Any
 from station.blueprint.model import SupervisorError
 from station.blueprint.plan import Plan, Process
 from station.blueprint.rules import Fired, RuleEngine
+from station.bus import Publisher, Subscriber
+from station.canvas.profiles import get_profile
+from station.canvas.state import CanvasState
+from station.events import Command
+from station.render.km import render_state
+from station.sim.paint import write_image
 
 MAX_BACKOFF_S = 30.0
 STABLE_S = 10.0  # a component that ran this long starts its back-off afresh
@@ -275,8 +281,6 @@ class Supervisor:
 
     # -- status and rules -------------------------------------------------------
     def _subscribe(self, proc: Process) -> None:
-        from station.bus import Subscriber
-
         if proc.status is not None:
             self.subs[proc.id] = Subscriber(proc.status, topics=("status",))
 
@@ -308,9 +312,6 @@ class Supervisor:
             proc.recover_argv[-1] = log
 
     def _command(self, target: str, name: str, args: dict[str, Any] | None = None) -> bool:
-        from station.bus import Publisher
-        from station.events import Command
-
         proc = self.plan.process(target)
         if proc.cmd is None:
             self.log(f"{target} takes no commands; {name} skipped")
@@ -362,11 +363,6 @@ class Supervisor:
 
     def _save_to_gallery(self, target: str, gallery_id: str | None) -> None:
         """Checkpoint the sim (``save``), then render its checkpoint into the gallery."""
-        from station.canvas.params import get_profile
-        from station.canvas.render import render_state
-        from station.canvas.state import CanvasState
-        from station.sim.paint import write_image
-
         child = self.by_id[target]
         before = int(child.status.get("autosaves", 0))
         if not self._command(target, "save"):

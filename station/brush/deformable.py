@@ -470,7 +470,8 @@ class DeformableBrush:
 
     def _spacing(self, maps: FootprintMaps) -> float:
         h, w = maps.cover.shape
-        return max(1.0, self.tuft_model.spacing * 0.5 * max(h, w, 1))
+        out: float = max(1.0, self.tuft_model.spacing * 0.5 * max(h, w, 1))
+        return out
 
     def _stamp(self, s: _Stroke, maps: FootprintMaps, dy: int, dx: int) -> None:
         tm = self.tuft_model

@@ -20,8 +20,8 @@ from typing import Any
 import numpy as np
 
 from station.brush.footprint import CLIP_ABOVE, NO_DEPTH, FootprintMaps, window
-from station.canvas.gl.context import create_context
-from station.canvas.gl.shaderlib import compile_program
+from station.glkit.context import create_context
+from station.glkit.shaderlib import compile_program
 
 _CORNERS = np.array([0, 0, 1, 0, 0, 1, 1, 1], np.float32)
 

@@ -309,4 +309,5 @@ class Tuft:
     def deform(self, lattice: np.ndarray) -> np.ndarray:
         """Bristle points (B, SAMPLES, 3) for control points ``lattice``."""
         pts = self.weights @ lattice.reshape(-1, 3)
-        return pts.reshape(self.n_bristles, SAMPLES, 3)
+        out: np.ndarray = pts.reshape(self.n_bristles, SAMPLES, 3)
+        return out

@@ -17,22 +17,45 @@ arrays is exactly what the brush gains: reservoir + canvas is conserved.
   paint comes along).  The canvas books the pigment and water it loses in its
   ``removed_p`` / ``removed_w`` fields like every tool that takes paint.
 
-:func:`pickup` moves what the canvas-side interface
-:func:`station.canvas.tools.pickup` takes off the canvas into the reservoir.
+:func:`pickup` moves what a :class:`WetSurface` gives up into the reservoir.  The
+brush does not know the canvas: the session player hands it the surface (over the
+canvas state: :class:`station.canvas.removal.StateSurface`), so the brush's mechanics
+(which the haptic driver uses for its force) carry no canvas state with them.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
-from station.canvas.state import CanvasState
-from station.canvas.tools import pickup as canvas_pickup
-
 W_WET = 0.1
 """Fluid water height at which a cell's paint comes along fully."""
+
+
+class Lifted(Protocol):
+    """What a surface gave up: water [height * cells], pigment per name
+    [area fraction * cells]."""
+
+    @property
+    def water(self) -> float: ...
+
+    @property
+    def pigment(self) -> Mapping[str, float]: ...
+
+
+class WetSurface(Protocol):
+    """The wet paint a loaded brush glides over, as the reservoir sees it."""
+
+    def lift(self, weight: np.ndarray, y0: int, x0: int, thirst: float, wet_depth: float,
+             room: float) -> Lifted:
+        """Take the fluid water and suspended pigment under ``weight`` (contact in
+        [0, 1], top-left at row ``y0``, column ``x0``): a share ``thirst`` in [0, 1],
+        following the standing water up to ``wet_depth`` [height], at most ``room``
+        [height * cells] of water in all; book it as removed and return it."""
+        ...
 
 
 def _book(ledger: dict[str, float], name: str, amount: float) -> None:
@@ -102,20 +125,20 @@ class Reservoir:
         return dw, dp
 
 
-def pickup(state: CanvasState, res: Reservoir, weight: np.ndarray, y0: int, x0: int,
+def pickup(surface: WetSurface, res: Reservoir, weight: np.ndarray, y0: int, x0: int,
            rate: float) -> dict[str, float]:
     """Lift wet paint under ``weight`` (placed at ``y0, x0``) into ``res``.
 
-    The canvas side is :func:`station.canvas.tools.pickup` (no scrubbing: a loaded brush
+    The canvas side is ``surface`` (over a canvas state :func:`station.canvas.removal.pickup`
+    with no scrubbing: a loaded brush
     gliding over paint lifts the suspended pigment only, deposited pigment ``q`` stays;
     the drink follows the standing water up to ``W_WET`` and stops when the brush is
     full).  Returns the pigment lifted per name.
     """
     if rate <= 0.0:
         return {}
-    got = canvas_pickup(state, weight, y0=y0, x0=x0, thirst=min(float(rate), 1.0),
-                        scrub=0.0, wet_depth=W_WET,
-                        room=max(0.0, res.capacity - res.volume))
+    got = surface.lift(weight, y0, x0, thirst=min(float(rate), 1.0), wet_depth=W_WET,
+                       room=max(0.0, res.capacity - res.volume))
     res.volume += got.water
     out: dict[str, float] = {}
     for name, m in got.pigment.items():

@@ -180,7 +180,8 @@ class BrushModel:
     def radius(self, size: float, pressure: float) -> float:
         """Footprint radius in cells for a brush of diameter ``size`` at ``pressure``."""
         frac = self.r_min + (1.0 - self.r_min) * pressure**self.radius_gamma
-        return max(0.5, 0.5 * size * frac)
+        out: float = max(0.5, 0.5 * size * frac)
+        return out
 
     def load(self, pressure: float) -> float:
         return self.load_min + (1.0 - self.load_min) * pressure
@@ -200,11 +201,13 @@ class Footprint:
 
     @property
     def y1(self) -> int:
-        return self.y0 + self.cover.shape[0]
+        out: int = self.y0 + self.cover.shape[0]
+        return out
 
     @property
     def x1(self) -> int:
-        return self.x0 + self.cover.shape[1]
+        out: int = self.x0 + self.cover.shape[1]
+        return out
 
     @property
     def mask(self) -> np.ndarray:

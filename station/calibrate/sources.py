@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Protocol
 
 import numpy as np
 
@@ -37,7 +37,7 @@ from station.calibration.area import DeviceGeometry
 from station.calibration.errors import CalibrationError
 from station.calibration.geometry import Array, project, rotation, scaling, translation
 from station.calibration.model import DeviceId
-from station.drivers.pipeline import PenDriver, open_device
+from station.drivers.pipeline import PenDriver, PenSource, open_device
 from station.drivers.transport.base import DeviceGone
 from station.events import PenSample, Tool
 
@@ -284,7 +284,7 @@ class DriverSource:
     """A real (or drivers-mock) device through the drivers' pipeline, device-normalised."""
 
     def __init__(self, spec: str) -> None:
-        self._source: Any = open_device(spec)
+        self._source: PenSource = open_device(spec)
         self._driver = PenDriver(self._source, live=True)
         self.name = self._source.name
         desc = self._source.describe()

@@ -24,12 +24,16 @@ import os
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 import numpy as np
 
+from station.calibrate.sources import CalibrationSource, open_source
+from station.calibration.area import AreaSettings
 from station.calibration.errors import CalibrationError
-from station.calibration.fit import Mapping, fit_mapping
+from station.calibration.files import default_path, write_file
+from station.calibration.fit import Mapping, PointSet, fit_mapping
+from station.calibration.model import Calibration, FitInfo
 from station.calibration.session import STEP_TEXT, CalibrationSession, TapResult
 from station.errors import StationError
 from station.events import PenSample
@@ -217,7 +221,6 @@ def _provisional(session: CalibrationSession) -> Mapping | None:
     acc = [r for r in session.position_taps if session.hints[r.target] is None]
     if len(acc) < 3:
         return None
-    from station.calibration.fit import PointSet
 
     pts = PointSet(np.array([(r.tap.x, r.tap.y) for r in acc]), np.array([r.xy for r in acc]))
     try:
@@ -242,8 +245,8 @@ def _describe(result: TapResult, session: CalibrationSession, prov: Mapping | No
 class _Loop:
     """The frame loop state shared by the passes of one calibration."""
 
-    def __init__(self, session: CalibrationSession, source: Any, window: CalibrationWindow,
-                 timeout: float, out: Any) -> None:
+    def __init__(self, session: CalibrationSession, source: CalibrationSource,
+                 window: CalibrationWindow, timeout: float, out: IO[str]) -> None:
         self.session = session
         self.source = source
         self.window = window
@@ -303,11 +306,6 @@ class _Loop:
 
 def run_interactive(args: argparse.Namespace) -> int:
     """The ``--device`` mode of ``station calibrate``."""
-    from station.calibrate.sources import open_source
-    from station.calibration.area import AreaSettings
-    from station.calibration.files import default_path, write_file
-    from station.calibration.model import Calibration, FitInfo
-
     source = open_source(args.device)
     window = CalibrationWindow(fullscreen=not args.windowed)
     out = sys.stdout

@@ -1,9 +1,9 @@
-"""The three-layer watery-paint canvas (WaterVerve, seed chapters 4 and 6).
+"""The canvas model: the three-layer watery-paint state and its physics (WaterVerve,
+seed chapters 4 and 6).
 
-``create_backend(name, width, height, profile, seed)`` gives a backend ("numpy"
-reference or "gl"); ``reference.py`` holds the pass list that both implement.
+``state`` (the arrays), ``params`` / ``profiles`` / ``palette`` / ``paper`` (what a
+painting is made of), ``tiles`` (the active-tile bookkeeping), ``reference`` (the
+numpy pass list every backend implements), ``operations`` and ``removal`` (what
+sources, the hair dryer and the brush's pick-up do to a state). Backends live in
+:mod:`station.backends`, rendering in :mod:`station.render`.
 """
-
-from station.canvas.backend import BACKENDS, CanvasBackend, create_backend
-
-__all__ = ["BACKENDS", "CanvasBackend", "create_backend"]

@@ -95,7 +95,8 @@ def make_paper(preset: str, height: int, width: int, seed: int) -> np.ndarray:
     lo, hi = float(total.min()), float(total.max())
     norm = (total - lo) / (hi - lo) if hi > lo else np.zeros_like(total)
     h = np.float32(p.low) + norm * np.float32(p.high - p.low)
-    return np.clip(h, 0.0, 1.0).astype(np.float32)
+    out: np.ndarray = np.clip(h, 0.0, 1.0).astype(np.float32)
+    return out
 
 
 def make_fibres(preset: str, height: int, width: int, seed: int) -> np.ndarray:

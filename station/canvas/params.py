@@ -15,7 +15,6 @@ are the station's decisions (see ``docs/canvas-model.md``): the seed gives only
 from __future__ import annotations
 
 import dataclasses
-import importlib
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -309,12 +308,3 @@ class Profile:
     description: str = ""
     pigment_defs: tuple[Pigment, ...] = ()
     source: str = ""  # the file it was read from
-
-
-def __getattr__(name: str) -> Any:
-    """``PROFILES`` and ``get_profile`` live in :mod:`station.canvas.profiles` (profiles
-    are data files read with lxml); the old names stay importable from here."""
-    if name in ("PROFILES", "get_profile"):
-        profiles = importlib.import_module("station.canvas.profiles")
-        return getattr(profiles, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -10,20 +10,64 @@ by pigment.
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Mapping
+from typing import TypedDict
 
 import numpy as np
 
 from station.canvas.state import CanvasState
 
 
+class WaterBooks(TypedDict):
+    """Water [cell water-height x cells]: what came in and where it is or went."""
+
+    added: float
+    fluid: float
+    capillary: float
+    evaporated: float
+    removed: float
+
+
+class PigmentBooks(TypedDict):
+    """One pigment [area fraction x cells]."""
+
+    added: float
+    fluid: float
+    surface: float
+    removed: float
+    surface_active_layer: float
+
+
+class Balance(TypedDict):
+    """Relative bookkeeping errors (0 when nothing was added)."""
+
+    water_rel_error: float
+    pigment_rel_error: float
+
+
+class CanvasStats(TypedDict):
+    """The ``--stats`` JSON object of interfaces.md."""
+
+    width: int
+    height: int
+    steps: int
+    sim_seconds: float
+    renderer: str
+    profile: str
+    layers: int
+    dried_layers: list[dict[str, float]]
+    water: WaterBooks
+    pigments: dict[str, PigmentBooks]
+    balance: Balance
+
+
 def _sum(a: np.ndarray) -> float:
     return float(a.sum(dtype=np.float64))
 
 
-def canvas_stats(state: CanvasState, renderer: str) -> dict[str, Any]:
+def canvas_stats(state: CanvasState, renderer: str) -> CanvasStats:
     """Bookkeeping of ``state`` as the interfaces.md JSON object."""
-    water = {
+    water: WaterBooks = {
         "added": state.water_added,
         "fluid": _sum(state.w),
         "capillary": _sum(state.wc),
@@ -34,7 +78,7 @@ def canvas_stats(state: CanvasState, renderer: str) -> dict[str, Any]:
     for n in (*state.pigment_added, *state.slots, *state.pigment_dried):
         if n not in names:
             names.append(n)
-    pigments: dict[str, dict[str, float]] = {}
+    pigments: dict[str, PigmentBooks] = {}
     for n in names:
         k = state.slots.index(n) if n in state.slots else None
         fluid = _sum(state.p[k]) if k is not None else 0.0
@@ -57,7 +101,7 @@ def canvas_stats(state: CanvasState, renderer: str) -> dict[str, Any]:
     }
 
 
-def balance(water: dict[str, float], pigments: dict[str, dict[str, float]]) -> dict[str, float]:
+def balance(water: WaterBooks, pigments: Mapping[str, PigmentBooks]) -> Balance:
     """Relative bookkeeping errors: water and the worst pigment (0 when nothing added)."""
     def rel(lhs: float, rhs: float, scale: float) -> float:
         return abs(lhs - rhs) / scale if scale > 0 else 0.0

@@ -86,7 +86,8 @@ def _components(active: np.ndarray) -> np.ndarray:
     top = np.zeros(n + 1, np.int64)
     np.maximum.at(top, flat, np.arange(1, ny * nx + 1))
     top[0] = 0
-    return top[lab]
+    out: np.ndarray = top[lab]
+    return out
 
 
 def _overlap(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> bool:

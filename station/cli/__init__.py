@@ -30,10 +30,8 @@ class OneLineParser(argparse.ArgumentParser):
 
 
 def _command_modules() -> list[str]:
-    import station.cli as pkg
-
     return sorted(
-        m.name for m in pkgutil.iter_modules(pkg.__path__) if m.name.startswith("cmd_")
+        m.name for m in pkgutil.iter_modules(__path__) if m.name.startswith("cmd_")
     )
 
 

@@ -10,6 +10,12 @@ import argparse
 import sys
 from pathlib import Path
 
+from station.blueprint import diagram
+from station.blueprint.load import bundled, bundled_names, load
+from station.blueprint.plan import resolve
+from station.blueprint.systemd import write_units
+from station.bus import runtime_dir
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("blueprint", help="check, show or turn into systemd units a station "
@@ -50,8 +56,6 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 
 def run_list(args: argparse.Namespace) -> int:
-    from station.blueprint.load import bundled, bundled_names, load
-
     for name in bundled_names():
         bp = load(str(bundled(name)))
         print(f"{name:<16} {bp.description}")
@@ -59,9 +63,6 @@ def run_list(args: argparse.Namespace) -> int:
 
 
 def run_check(args: argparse.Namespace) -> int:
-    from station.blueprint.load import load
-    from station.blueprint.plan import resolve
-
     bp = load(args.file, args.overrides)
     plan = resolve(bp, Path("/nonexistent-run"), Path.cwd())
     sys.stderr.write(f"station blueprint: {bp.file}: ok ({len(plan.processes)} processes, "
@@ -70,11 +71,6 @@ def run_check(args: argparse.Namespace) -> int:
 
 
 def run_show(args: argparse.Namespace) -> int:
-    from station.blueprint import diagram
-    from station.blueprint.load import load
-    from station.blueprint.plan import resolve
-    from station.bus import runtime_dir
-
     bp = load(args.file, args.overrides)
     plan = resolve(bp, runtime_dir() / f"run-{bp.name}", Path.cwd())
     sys.stdout.write(diagram.dot(plan) if args.dot else diagram.text(plan))
@@ -82,9 +78,6 @@ def run_show(args: argparse.Namespace) -> int:
 
 
 def run_systemd(args: argparse.Namespace) -> int:
-    from station.blueprint.load import load
-    from station.blueprint.systemd import write_units
-
     bp = load(args.file, args.overrides)
     written = write_units(bp, args.output, per_component=args.per_component,
                           install_path=args.install_path, user=args.user,

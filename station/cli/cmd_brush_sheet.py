@@ -6,7 +6,10 @@ import argparse
 import sys
 from pathlib import Path
 
+from station.brush.geometry import BrushShape, get_shape, register_shape
 from station.errors import BadInput
+from station.pictures.brush_sheet import brush_sheet
+from station.render.png import encode_png
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -27,10 +30,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.brush.geometry import BrushShape, get_shape, register_shape
-    from station.brush.sheet import brush_sheet
-    from station.canvas.png import encode_png
-
     kinds = [k for k in args.kinds.split(",") if k]
     for path in args.shape:
         shape = BrushShape.load(path)

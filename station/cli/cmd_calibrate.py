@@ -26,6 +26,18 @@ from typing import Any
 
 import numpy as np
 
+from station.calibrate.samples import iter_samples
+from station.calibrate.window import run_interactive
+from station.calibration.area import Area, DeviceGeometry, Rect
+from station.calibration.errors import CalibrationError
+from station.calibration.export import libinput_line, parse_libinput, parse_tslib, tslib_line
+from station.calibration.files import dumps, read_file, write_file
+from station.calibration.fit import MIN_TILT_SPREAD, FitReport, PointSet, fit_points
+from station.calibration.geometry import scaling
+from station.calibration.model import Calibration, DeviceId, FitInfo
+from station.calibration.points import read_points
+from station.calibration.pressure import PressureSettings, TiltSettings, fit_curve
+from station.calibration.taps import detect_taps, match_taps, read_targets
 from station.errors import BadInput
 
 
@@ -116,9 +128,7 @@ def _pair(text: str | None, flag: str) -> tuple[float, float] | None:
     return (vals[0], vals[1])
 
 
-def parse_device_id(text: str | None) -> Any:
-    from station.calibration.model import DeviceId
-
+def parse_device_id(text: str | None) -> DeviceId | None:
     if text is None:
         return None
     parts = text.split(":", 2)
@@ -131,9 +141,7 @@ def parse_device_id(text: str | None) -> Any:
     return DeviceId(vid, pid, parts[2] if len(parts) == 3 and parts[2] else None)
 
 
-def _parallax_choice(args: argparse.Namespace, points: Any) -> bool:
-    from station.calibration.fit import MIN_TILT_SPREAD
-
+def _parallax_choice(args: argparse.Namespace, points: PointSet) -> bool:
     if args.parallax == "on":
         return True
     if args.parallax == "off" or points.tilt is None:
@@ -142,7 +150,7 @@ def _parallax_choice(args: argparse.Namespace, points: Any) -> bool:
     return bool((np.ptp(tt, axis=0) >= MIN_TILT_SPREAD).all())
 
 
-def _report_text(rep: Any, labels: tuple[str, ...]) -> str:
+def _report_text(rep: FitReport, labels: tuple[str, ...]) -> str:
     lines = [f"model: {rep.model}"]
     m = rep.mapping.matrix
     lines += ["matrix:"] + [f"  {r[0]: .9g} {r[1]: .9g} {r[2]: .9g}" for r in m]
@@ -177,9 +185,7 @@ def _units_per_mm(args: argparse.Namespace) -> tuple[float, float] | None:
     return (span[0] / size[0], span[1] / size[1])
 
 
-def _fit_and_print(args: argparse.Namespace, points: Any, extra: dict[str, Any]) -> int:
-    from station.calibration.fit import fit_points
-
+def _fit_and_print(args: argparse.Namespace, points: PointSet, extra: dict[str, Any]) -> int:
     model = args.model or "affine"
     parallax = _parallax_choice(args, points)
     upm = _units_per_mm(args)
@@ -201,12 +207,7 @@ def _fit_and_print(args: argparse.Namespace, points: Any, extra: dict[str, Any])
     return 0
 
 
-def _write_fit_file(args: argparse.Namespace, rep: Any, points: Any) -> None:
-    from station.calibration.area import DeviceGeometry
-    from station.calibration.files import write_file
-    from station.calibration.geometry import scaling
-    from station.calibration.model import Calibration, FitInfo
-
+def _write_fit_file(args: argparse.Namespace, rep: FitReport, points: PointSet) -> None:
     dev = parse_device_id(args.device_id)
     if dev is None:
         raise BadInput("writing a calibration file needs the device id", "--id")
@@ -227,15 +228,10 @@ def _write_fit_file(args: argparse.Namespace, rep: Any, points: Any) -> None:
 
 
 def run_fit(args: argparse.Namespace) -> int:
-    from station.calibration.points import read_points
-
     return _fit_and_print(args, read_points(args.fit), {})
 
 
 def run_from_trace(args: argparse.Namespace) -> int:
-    from station.calibrate.samples import iter_samples
-    from station.calibration.taps import detect_taps, match_taps, read_targets
-
     if not args.targets:
         raise BadInput("--from-trace needs --targets TARGETS.csv", "--targets")
     targets = read_targets(args.targets)
@@ -243,7 +239,6 @@ def run_from_trace(args: argparse.Namespace) -> int:
     points, used = match_taps(taps, targets, args.model or "affine")
     skipped = [i for i in range(len(taps)) if i not in used]
     labels = tuple(f"tap {i} (t={taps[i].t0:.3f}s)" for i in used)
-    from station.calibration.fit import PointSet
 
     points = PointSet(points.device, points.canvas, points.tilt, labels)
     extra = {"taps": len(taps), "strokes_skipped": strokes, "taps_unmatched": skipped}
@@ -251,9 +246,6 @@ def run_from_trace(args: argparse.Namespace) -> int:
 
 
 def run_export(args: argparse.Namespace) -> int:
-    from station.calibration.export import libinput_line, tslib_line
-    from station.calibration.files import read_file
-
     if not args.calibration:
         raise BadInput("--export needs --calibration FILE", "--calibration")
     cal = read_file(args.calibration)
@@ -270,10 +262,6 @@ def run_export(args: argparse.Namespace) -> int:
 
 
 def run_import(args: argparse.Namespace) -> int:
-    from station.calibration.area import DeviceGeometry
-    from station.calibration.export import parse_libinput, parse_tslib
-    from station.calibration.files import dumps, write_file
-
     if not args.input:
         raise BadInput("--import needs --input FILE (the line to import)", "--input")
     dev = parse_device_id(args.device_id)
@@ -305,8 +293,6 @@ def run_import(args: argparse.Namespace) -> int:
 
 
 def run_check(args: argparse.Namespace) -> int:
-    from station.calibration.files import read_file
-
     cal = read_file(args.check, parse_device_id(args.device_id))
     f = cal.fit
     sys.stdout.write(
@@ -328,11 +314,6 @@ def _numbers(text: str, n: int | tuple[int, ...], flag: str) -> list[float]:
 
 
 def run_edit(args: argparse.Namespace) -> int:
-    from station.calibration.area import Area, Rect
-    from station.calibration.errors import CalibrationError
-    from station.calibration.files import read_file, write_file
-    from station.calibration.pressure import PressureSettings, TiltSettings, fit_curve
-
     cal = read_file(args.edit, parse_device_id(args.device_id))
     area = cal.area
     try:
@@ -398,6 +379,5 @@ def run(args: argparse.Namespace) -> int:
         return run_check(args)
     if args.edit:
         return run_edit(args)
-    from station.calibrate.window import run_interactive
 
     return run_interactive(args)

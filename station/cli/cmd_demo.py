@@ -6,7 +6,8 @@ import argparse
 import sys
 
 from station.cli.cmd_paint import BACKEND_HELP, BACKENDS
-from station.sim.paint import parse_size
+from station.pictures.demo import DEMO_FILE
+from station.sim.paint import paint, parse_size
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -31,9 +32,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.sim.demo import DEMO_FILE
-    from station.sim.paint import paint
-
     if args.session:
         sys.stdout.write(DEMO_FILE.read_text(encoding="utf-8"))
         return 0

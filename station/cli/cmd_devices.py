@@ -1,9 +1,7 @@
 """``station devices [--json] [--list]``: what pen devices this machine has, and who serves them.
 
-Looks at evdev nodes, hidraw nodes, USB (pyusb) and hidapi, and lists the
-mock models.  For each real device: what it is, which device-data file and
-protocol serve it and, when none does or it cannot be opened, exactly why and
-how to fix it.  A machine with no tablet says so plainly.  ``--list`` prints
+The scan itself is :mod:`station.drivers.scan` (the blueprint doctor runs it too); this
+command prints it.  A machine with no tablet says so plainly.  ``--list`` prints
 every model in the device data with its protocol instead.
 """
 
@@ -11,10 +9,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
-from pathlib import Path
 from typing import Any
+
+from station.drivers.scan import model_list, scan
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -23,205 +21,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--list", action="store_true",
                    help="list every supported pen model (device data) with its protocol")
     p.set_defaults(func=run)
-
-
-def _data_file(model: dict[str, Any] | None) -> str | None:
-    if model is None:
-        return None
-    path = Path(model["_path"])
-    return f"{path.parent.name}/{path.name}"
-
-
-def _parser_name(vid: int, pid: int, descriptor: bytes | None, bus: int,
-                 interface: int | None = None) -> dict[str, Any]:
-    """Which data file and protocol serve this node, or exactly why none does."""
-    from station.drivers.registry import find_device, parser_for
-    from station.errors import BadInput
-
-    model = find_device(vid, pid, bus)
-    base = {"model": model.get("id") if model else None, "data_file": _data_file(model),
-            "family": model.get("family") if model else None}
-    try:
-        parser = parser_for(vid, pid, descriptor, bus, interface=interface)
-    except BadInput as exc:
-        return {**base, "parser": None, "note": f"no parser: {exc}"}
-    out = {**base, "parser": parser.name, "generic": bool(parser.generic),
-           "is_pen": bool(parser.is_pen), "kind": getattr(parser, "kind", "pen")}
-    if parser.warning:
-        out["note"] = parser.warning
-    elif not parser.is_pen:
-        why = getattr(parser, "why", "")
-        out["note"] = f"not a pen: {out['kind']} interface" + (f" ({why})" if why else "")
-    elif model is None:
-        out["note"] = "not in the device data: served from its report descriptor"
-    return out
-
-
-def scan_evdev() -> tuple[list[dict[str, Any]], list[str]]:
-    from station.drivers.evdev.frames import is_pen_device, ranges_from_caps
-    from station.drivers.registry import find_device
-    from station.drivers.transport.base import TransportError
-    from station.drivers.transport.evdev import list_evdev
-
-    out: list[dict[str, Any]] = []
-    notes: list[str] = []
-    if not os.path.isdir("/dev/input"):
-        return out, ["no /dev/input on this machine (no evdev devices, or a container)"]
-    try:
-        nodes = list_evdev()
-    except TransportError as exc:
-        return out, [str(exc)]
-    for entry in nodes:
-        if "error" in entry:
-            out.append({"spec": f"evdev:{entry['path']}", "path": entry["path"],
-                        "problem": entry["error"]})
-            continue
-        caps = entry["caps"]
-        if not is_pen_device(caps):
-            continue
-        ranges = ranges_from_caps(caps)
-        model = find_device(caps.vid, caps.pid, getattr(caps, "bus", None))
-        item = {"spec": f"evdev:{entry['path']}", "path": entry["path"], "name": caps.name,
-                "vid": f"{caps.vid:04x}", "pid": f"{caps.pid:04x}", "parser": "evdev",
-                "resolution": ranges.has_resolution, "model": model["id"] if model else None,
-                "data_file": _data_file(model)}
-        notes = []
-        if model is not None:
-            notes.append(f"kernel driver; the station's own protocol for it: {model['parser']}")
-        if not ranges.has_resolution:
-            notes.append("no resolution: normalised units only, cannot map millimetres")
-        if notes:
-            item["note"] = "; ".join(notes)
-        out.append(item)
-    unreadable = [d for d in out if "problem" in d]
-    if unreadable:
-        notes.append(f"{len(unreadable)} event node(s) not readable: install the udev rules "
-                     "(docs/drivers.md, 'Permissions')")
-    return out, notes
-
-
-def scan_hidraw() -> tuple[list[dict[str, Any]], list[str]]:
-    from station.drivers.transport.base import TransportError
-    from station.drivers.transport.hidraw import HidrawTransport, OsHidrawNode, list_hidraw
-
-    out: list[dict[str, Any]] = []
-    entries = list_hidraw()
-    if not entries:
-        return out, ["no hidraw nodes (/sys/class/hidraw is empty or missing)"]
-    for e in entries:
-        vid, pid, bus = int(e["vid"]), int(e["pid"]), int(e["bus"])
-        item: dict[str, Any] = {"spec": f"hidraw:{e['path']}", "path": e["path"],
-                                "name": e["name"], "vid": f"{vid:04x}", "pid": f"{pid:04x}",
-                                "bus": bus}
-        descriptor = None
-        if e["readable"]:
-            try:
-                t = HidrawTransport(OsHidrawNode(str(e["path"])))
-                descriptor = t.info.descriptor
-                t.close()
-            except (TransportError, OSError) as exc:
-                item["problem"] = str(exc)
-        else:
-            item["problem"] = (f"no permission to open {e['path']}: install the station udev "
-                               "rules (uaccess) or join the 'station' group")
-        from station.drivers.registry import WACOM_VID, interface_from_phys
-
-        item.update(_parser_name(vid, pid, descriptor, bus,
-                                 interface_from_phys(str(e.get("phys", "")))))
-        # Every node a data file names, every pen, and every unknown Wacom (with the reason).
-        if item.get("parser") or item.get("model") or vid == WACOM_VID or "problem" in item:
-            out.append(item)
-    return out, []
-
-
-def scan_usb() -> tuple[list[dict[str, Any]], list[str]]:
-    from station.drivers.registry import find_device
-
-    try:
-        import usb.core
-    except ImportError:
-        return [], ["pyusb is not installed"]
-    try:
-        devices = list(usb.core.find(find_all=True) or [])
-    except usb.core.NoBackendError:
-        return [], ["pyusb has no backend (libusb-1.0 missing): USB devices not listed"]
-    except Exception as exc:  # pyusb surfaces libusb errors untyped
-        return [], [f"USB scan failed: {exc}"]
-    out = []
-    for d in devices:
-        model = find_device(d.idVendor, d.idProduct, 3)
-        if model is None:
-            continue
-        out.append({"spec": f"usb:{d.idVendor:04x}:{d.idProduct:04x}", "name": model["name"],
-                    "vid": f"{d.idVendor:04x}", "pid": f"{d.idProduct:04x}",
-                    "model": model["id"], "parser": model["parser"],
-                    "data_file": _data_file(model), "family": model.get("family"),
-                    "note": "claimed by the kernel? use hidraw:/evdev:, or usb:…?detach=1"})
-    return out, []
-
-
-def scan_hidapi() -> tuple[list[dict[str, Any]], list[str]]:
-    from station.drivers.transport.hidapi import enumerate_hidapi
-
-    out = []
-    for e in enumerate_hidapi():
-        vid, pid = int(e.get("vendor_id", 0)), int(e.get("product_id", 0))
-        item = {"spec": f"hidapi:{vid:04x}:{pid:04x}", "name": e.get("product_string", ""),
-                "vid": f"{vid:04x}", "pid": f"{pid:04x}",
-                "usage_page": e.get("usage_page"), "interface": e.get("interface_number")}
-        info = _parser_name(vid, pid, None, 3)
-        if info.get("model") or e.get("usage_page") == 0x0D:
-            item.update(info)
-            out.append(item)
-    return out, []
-
-
-def mock_models() -> list[dict[str, Any]]:
-    """The curated models (hand-written data, encoded by the mock tablet) and generic pens."""
-    from station.drivers.mock.tablet import GENERIC_MODELS
-    from station.drivers.registry import load_devices
-
-    out = []
-    curated = [m for m in load_devices() if "provenance" not in m]
-    for m in [*curated, *GENERIC_MODELS.values()]:
-        mid = str(m.get("id"))
-        out.append({"spec": f"mock:{mid.removeprefix('wacom-')}", "name": m.get("name"),
-                    "vid": m.get("vendor_id"), "pid": m.get("product_id"),
-                    "parser": m.get("parser"), "bus": m.get("bus")})
-    return out
-
-
-def scan() -> dict[str, Any]:
-    result: dict[str, Any] = {}
-    notes: list[str] = []
-    for key, fn in (("evdev", scan_evdev), ("hidraw", scan_hidraw), ("usb", scan_usb),
-                    ("hidapi", scan_hidapi)):
-        found, more = fn()
-        result[key] = found
-        notes.extend(more)
-    real = sum(1 for k in ("evdev", "hidraw", "usb", "hidapi") for d in result[k]
-               if "problem" not in d)
-    problems = [d for k in ("evdev", "hidraw") for d in result[k] if "problem" in d]
-    result["mock"] = mock_models()
-    result["found"] = real
-    result["problems"] = [f"{d['path']}: {d['problem']}" for d in problems]
-    result["notes"] = notes
-    return result
-
-
-def model_list() -> dict[str, Any]:
-    """Every model of the device data: id, ids, protocol, family, name, file."""
-    from station.drivers.registry import load_devices
-
-    rows = []
-    for m in sorted(load_devices(), key=lambda m: (m["vendor_id"], m["product_id"], m["bus"])):
-        rows.append({"id": m["id"], "vid": m["vendor_id"], "pid": m["product_id"],
-                     "bus": m["bus"], "protocol": m["parser"], "family": m.get("family", ""),
-                     "name": m["name"], "models": len(m.get("models", [])) or 1,
-                     "screen_tablet": bool(m.get("screen_tablet")), "file": _data_file(m),
-                     "source": "generated" if "provenance" in m else "curated"})
-    pen_models = sum(r["models"] for r in rows)
-    return {"models": rows, "device_ids": len(rows), "pen_models": pen_models}
 
 
 def print_list(data: dict[str, Any]) -> None:

@@ -8,6 +8,11 @@ import json
 import sys
 from pathlib import Path
 
+from station.blueprint.doctor import as_json, report, run_checks
+from station.blueprint.load import load
+from station.blueprint.plan import resolve
+from station.bus import runtime_dir
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("doctor", help="check this machine can run a station, and say what "
@@ -25,11 +30,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.blueprint.doctor import as_json, report, run_checks
-    from station.blueprint.load import load
-    from station.blueprint.plan import resolve
-    from station.bus import runtime_dir
-
     plan = None
     if args.file:
         bp = load(args.file, args.overrides)

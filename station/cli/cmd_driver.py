@@ -17,11 +17,20 @@ import signal
 import sys
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from station.bus import HEARTBEAT_S, Publisher
 from station.cli.buskeys import check_keys
+from station.drivers.calibrated import choose_calibration
+from station.drivers.normalise import NormaliserConfig
+from station.drivers.pipeline import PenDriver, PenSource, open_device
+from station.drivers.transport.base import DeviceGone, EndOfStream, TransportError
+from station.drivers.transport.evdev import find_evdev_node
 from station.errors import BadInput
+from station.sessionlog import SessionHeader, SessionLogWriter
+from station.sizes import parse_size
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -77,9 +86,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def normaliser_config(args: argparse.Namespace) -> Any:
-    from station.drivers.normalise import NormaliserConfig
-
+def normaliser_config(args: argparse.Namespace) -> NormaliserConfig:
     curve = None
     if args.pressure_curve:
         try:
@@ -97,7 +104,6 @@ def normaliser_config(args: argparse.Namespace) -> Any:
             raise BadInput("needs four numbers x0,y0,x1,y1", "--area") from None
         if len(area) != 4:
             raise BadInput("needs four numbers x0,y0,x1,y1", "--area")
-    from station.sim.paint import parse_size
 
     return NormaliserConfig(area=area, tip_down=args.tip_down, tip_up=args.tip_up,
                             smoothing_ms=args.smoothing, pressure_curve=curve,
@@ -122,13 +128,7 @@ def run(args: argparse.Namespace) -> int:
             signal.signal(sig, handler)
 
 
-def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
-    from station.bus import HEARTBEAT_S, Publisher
-    from station.drivers.calibrated import choose_calibration, settle_pressure
-    from station.drivers.pipeline import PenDriver, open_device
-    from station.drivers.transport.base import DeviceGone, EndOfStream, TransportError
-    from station.sessionlog import SessionHeader, SessionLogWriter
-
+def _serve(args: argparse.Namespace, config: NormaliserConfig, stop: threading.Event) -> int:
     publisher = Publisher(args.bus, keys=args.keys, client_key=args.client_key,
                           heartbeat=args.heartbeat or HEARTBEAT_S)
     writer = None
@@ -136,12 +136,11 @@ def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
     reconnects = 0
     totals = {"total_samples": 0, "reconnects": 0}
     last: dict[str, Any] = {}
-    in_force: dict[str, Any] = {}  # the calibration and pressure shaping of this connection
 
     def status(state: str, driver: PenDriver | None = None, **extra: Any) -> None:
         nonlocal last
         rec: dict[str, Any] = {"kind": "driver", "state": state, "device_spec": args.device,
-                               **totals, **in_force, **extra}
+                               **totals, **extra}
         if driver is not None:
             rec.update(driver.status())
         if publisher.endpoint.is_tcp and publisher.endpoint.bind:
@@ -161,6 +160,12 @@ def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
             source = _wait_for_device(args, stop, status)
             if source is None:  # stopped while waiting, or a finite source ended meanwhile
                 return 0
+        if args.jsonl:
+            writer = SessionLogWriter(args.jsonl, SessionHeader(extra={"source": args.device}))
+        if args.raw_jsonl:
+            raw_writer = SessionLogWriter(args.raw_jsonl,
+                                          SessionHeader(extra={"source": args.device,
+                                                               "calibrated": False}))
         t_offset = 0.0
         while not stop.is_set():
             attach_bus = getattr(source, "attach_bus", None)
@@ -170,20 +175,11 @@ def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
             ident = source.describe()
             calibration = choose_calibration(args.calibration, int(ident.get("vid") or 0),
                                              int(ident.get("pid") or 0))
-            norm_config, pressure = settle_pressure(calibration, config)
-            if args.jsonl and writer is None:  # the header names the curve in force
-                writer = SessionLogWriter(args.jsonl, SessionHeader(
-                    extra={"source": args.device, "pressure": pressure.record()}))
-            if args.raw_jsonl and raw_writer is None:
-                raw_writer = SessionLogWriter(args.raw_jsonl, SessionHeader(
-                    extra={"source": args.device, "calibrated": False,
-                           "pressure": pressure.before_transform().record()}))
             # After a reconnection the session time goes on from where it was.
-            driver = PenDriver(source, norm_config, live=True, t_offset=t_offset,
+            driver = PenDriver(source, config, live=True, t_offset=t_offset,
                                transform=calibration.transform,
                                on_device_sample=raw_writer.write if raw_writer else None)
-            in_force.update(calibration=calibration.description, pressure=pressure.record())
-            status("running", driver)
+            status("running", driver, calibration=calibration.description)
             next_status = time.monotonic() + args.status_interval
             gone = False
             try:
@@ -231,7 +227,8 @@ def _serve(args: argparse.Namespace, config: Any, stop: threading.Event) -> int:
     return 0
 
 
-def _flush(driver: Any, publisher: Any, writer: Any, totals: dict[str, int]) -> None:
+def _flush(driver: PenDriver, publisher: Publisher, writer: SessionLogWriter | None,
+           totals: dict[str, int]) -> None:
     for sample in driver.normaliser.flush():
         publisher.publish_pen(sample)
         if writer is not None:
@@ -241,8 +238,6 @@ def _flush(driver: Any, publisher: Any, writer: Any, totals: dict[str, int]) -> 
 
 def _replugged_spec(spec: str, identity: dict[str, Any] | None) -> str:
     """An evdev device that came back on another ``eventN``: the SPEC of its new node."""
-    from station.drivers.transport.evdev import find_evdev_node
-
     if identity is None or not spec.startswith("evdev:"):
         return spec
     target, sep, query = spec[len("evdev:"):].partition("?")
@@ -255,16 +250,14 @@ def _replugged_spec(spec: str, identity: dict[str, Any] | None) -> str:
     return f"evdev:{found}{sep}{query}" if found else spec
 
 
-def _wait_for_device(args: argparse.Namespace, stop: threading.Event, status: Any,
-                     identity: dict[str, Any] | None = None) -> Any:
+def _wait_for_device(args: argparse.Namespace, stop: threading.Event,
+                     status: Callable[..., None],
+                     identity: dict[str, Any] | None = None) -> PenSource | None:
     """Try to reopen the device every 0.5 s until it is back (or we are stopped, or it has
     ended: a finite source that reports EndOfStream; None then).
 
     An evdev device is also looked for by name and ids, as a replug may give it
     another event node."""
-    from station.drivers.pipeline import open_device
-    from station.drivers.transport.base import EndOfStream, TransportError
-
     next_note = 0.0
     while not stop.is_set():
         try:

@@ -16,6 +16,10 @@ from pathlib import Path
 import numpy as np
 
 from station.errors import BadInput
+from station.pictures import effects as fx
+from station.render.km import to_srgb8
+from station.render.png import write_png
+from station.render.upscale import MAX_SCALE
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -40,9 +44,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 def _sheet(effects: list, scale: int) -> np.ndarray:
     """The tiles side by side in rows, each over a caption (8-bit sRGB, (H, W, 3))."""
     from PIL import Image, ImageDraw
-
-    from station.canvas.render import to_srgb8
-    from station.canvas.upscale import MAX_SCALE
 
     pad = 8
     cap = 14 * 4
@@ -77,9 +78,6 @@ def _sheet(effects: list, scale: int) -> np.ndarray:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.canvas import effects as fx
-    from station.canvas.png import write_png
-
     names = None
     if args.only:
         names = [n.strip() for n in args.only.split(",") if n.strip()]

@@ -17,6 +17,7 @@ import threading
 from pathlib import Path
 
 from station.errors import BadInput
+from station.kiosk.gallery import Gallery, GalleryServer, check_id
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -43,8 +44,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run_make(args: argparse.Namespace) -> int:
-    from station.kiosk.gallery import Gallery, check_id
-
     check_id(args.id)
     if not 0 <= args.nice <= 19:
         raise BadInput("must be 0..19", "--nice")
@@ -59,8 +58,6 @@ def run_make(args: argparse.Namespace) -> int:
 
 
 def run_serve(args: argparse.Namespace) -> int:
-    from station.kiosk.gallery import Gallery, GalleryServer
-
     host, sep, port = args.serve.rpartition(":")
     if not sep or not port.isdigit() or not 0 <= int(port) < 65536:
         raise BadInput(f"{args.serve!r} is not HOST:PORT", "--serve")

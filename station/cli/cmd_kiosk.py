@@ -7,9 +7,13 @@ import json
 import sys
 from pathlib import Path
 
+from station.canvas.profiles import get_profile
 from station.cli.argtypes import auto_or_ms
 from station.cli.buskeys import add_key_flags, check_keys
 from station.errors import BadInput
+from station.kiosk.app import KioskApp, KioskConfig
+from station.kiosk.idle import IdleConfig
+from station.sim.paint import parse_size
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -70,11 +74,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.canvas.params import get_profile
-    from station.kiosk.app import KioskApp, KioskConfig
-    from station.kiosk.idle import IdleConfig
-    from station.sim.paint import parse_size
-
     width, height = parse_size(args.size) if args.size else (800, 600)
     if args.profile:
         get_profile(args.profile)

@@ -8,7 +8,8 @@ import json
 import sys
 from typing import Any
 
-from station.sim.paint import parse_size
+from station.backends.distributed.guard import abort_job_on_error
+from station.sim.paint import paint, parse_size
 
 BACKENDS = ("auto", "cpu", "numpy", "gl")
 BACKEND_HELP = ("canvas backend: numpy (reference), cpu (numba), gl (moderngl/EGL), or auto "
@@ -58,13 +59,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.sim.paint import paint
-
     size = parse_size(args.size) if args.size else None
     guard: Any = contextlib.nullcontext()
     if args.distributed:
-        from station.distributed.guard import abort_job_on_error
-
         guard = abort_job_on_error()
     with guard:
         result = paint(args.input, args.output, size=size, profile=args.profile,

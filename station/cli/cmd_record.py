@@ -16,11 +16,26 @@ import signal
 import sys
 import threading
 import time
-from typing import IO, Any
+from typing import IO
 
+from station.bus import Subscriber
 from station.cli.argtypes import positive_seconds
 from station.cli.buskeys import add_key_flags, check_keys
+from station.drivers.evdev.frames import InputEvent
+from station.drivers.pipeline import open_transport
+from station.drivers.registry import parser_for
+from station.drivers.traces.evemu import format_evemu
+from station.drivers.traces.hidrecorder import HidRecorderWriter
+from station.drivers.traces.libinput_record import format_libinput_record
+from station.drivers.transport.base import (
+    DeviceGone,
+    EndOfStream,
+    EvdevTransport,
+    HidDeviceInfo,
+    HidTransport,
+)
 from station.errors import BadInput
+from station.sessionlog import SessionHeader, SessionLogWriter
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -41,9 +56,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.drivers.pipeline import open_transport
-    from station.drivers.transport.base import DeviceGone
-
     if args.bus is not None:
         return _record_bus(args)
     opened = open_transport(args.device)
@@ -75,20 +87,15 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _init_features(info: Any) -> list[bytes]:
-    from station.drivers.registry import parser_for
-
+def _init_features(info: HidDeviceInfo) -> list[bytes]:
     try:
         return list(parser_for(info.vid, info.pid, info.descriptor, info.bus).init_features)
     except BadInput:
         return []
 
 
-def _record_hid(transport: Any, fh: IO[str], stop: threading.Event, deadline: float | None,
+def _record_hid(transport: HidTransport, fh: IO[str], stop: threading.Event, deadline: float | None,
                 duration: float | None, send_init: bool) -> int:
-    from station.drivers.traces.hidrecorder import HidRecorderWriter
-    from station.drivers.transport.base import EndOfStream
-
     info = transport.info
     fh.write(f"# recorded by station record from {info.path}\n")
     writer = HidRecorderWriter(fh)
@@ -113,13 +120,8 @@ def _record_hid(transport: Any, fh: IO[str], stop: threading.Event, deadline: fl
     return writer.reports
 
 
-def _record_evdev(transport: Any, fh: IO[str], path: str, stop: threading.Event,
+def _record_evdev(transport: EvdevTransport, fh: IO[str], path: str, stop: threading.Event,
                   deadline: float | None, duration: float | None) -> int:
-    from station.drivers.evdev.frames import InputEvent
-    from station.drivers.traces.evemu import format_evemu
-    from station.drivers.traces.libinput_record import format_libinput_record
-    from station.drivers.transport.base import EndOfStream
-
     events: list[InputEvent] = []
     try:
         while not stop.is_set():
@@ -147,9 +149,6 @@ def _record_bus(args: argparse.Namespace) -> int:
     Samples keep their driver time; one that would go back in time (two devices with
     their own clocks) is written at the last time and counted as ``retimed``."""
     import dataclasses
-
-    from station.bus import Subscriber
-    from station.sessionlog import SessionHeader, SessionLogWriter
 
     if args.bus.startswith("@"):
         raise BadInput("the recorder connects to the bus (a driver or 'station bus' binds it); "

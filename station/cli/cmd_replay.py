@@ -13,11 +13,16 @@ import json
 import signal
 import sys
 import threading
-from typing import Any
+from typing import IO, Any
 
+from station.bus import HEARTBEAT_S, Publisher
 from station.cli.buskeys import add_key_flags, check_keys
+from station.drivers.pipeline import TraceReplay, run_paced
+from station.drivers.traces import read_trace
 from station.errors import BadInput
+from station.events import PenSample
 from station.progress import Progress
+from station.sessionlog import SessionHeader, SessionLogWriter
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -52,11 +57,6 @@ def parse_speed(text: str) -> float | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.drivers.pipeline import TraceReplay, run_paced
-    from station.drivers.traces import read_trace
-    from station.events import PenSample
-    from station.sessionlog import SessionHeader, SessionLogWriter
-
     speed = parse_speed(args.speed)
     check_keys(args.keys, args.client_key, (("--bus", args.bus, True),))
     trace = read_trace(args.trace)
@@ -67,14 +67,12 @@ def run(args: argparse.Namespace) -> int:
         sys.stderr.write(f"station replay: skipped device {s['device']} {s['name']!r}: "
                          f"{s['reason']} ({s['reports']} reports)\n")
     writer = None
-    publisher: Any = None
+    publisher: Publisher | None = None
     if args.jsonl:
         header = SessionHeader(extra={"source": str(args.trace), "coordinates": "device"})
-        target: Any = sys.stdout if args.jsonl == "-" else args.jsonl
+        target: str | IO[str] = sys.stdout if args.jsonl == "-" else args.jsonl
         writer = SessionLogWriter(target, header)
     if args.bus:
-        from station.bus import HEARTBEAT_S, Publisher
-
         publisher = Publisher(args.bus, heartbeat=args.heartbeat or HEARTBEAT_S,
                               keys=args.keys, client_key=args.client_key)
         if args.wait_subscribers:
@@ -111,7 +109,7 @@ def run(args: argparse.Namespace) -> int:
                         publisher.tick()  # parsing a long trace: still alive
                 if stop.is_set():
                     break
-            if batch:
+            if batch and publisher is not None:  # a batch only fills with a publisher
                 publisher.publish_pens(batch)
         else:
             drivers = replay.open_drivers(speed)

@@ -12,6 +12,17 @@ import os
 import sys
 from pathlib import Path
 
+from station.blueprint.load import load
+from station.blueprint.model import SupervisorError
+from station.blueprint.plan import resolve
+from station.blueprint.supervisor import (
+    Supervisor,
+    argv_for,
+    child_env,
+    prepare_run_dir,
+    running_pid,
+)
+from station.bus import runtime_dir
 from station.errors import BadInput
 
 
@@ -43,17 +54,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.blueprint.load import load
-    from station.blueprint.model import SupervisorError
-    from station.blueprint.plan import resolve
-    from station.blueprint.supervisor import (
-        Supervisor,
-        argv_for,
-        child_env,
-        prepare_run_dir,
-        running_pid,
-    )
-    from station.bus import runtime_dir
 
     if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
         raise BadInput("must be > 0 seconds", "--duration")

@@ -16,9 +16,13 @@ import math
 import sys
 from typing import Any
 
+from station.bus import Publisher
+from station.canvas.palette import default_palette
 from station.cli.buskeys import add_key_flags, check_keys
 from station.errors import BadInput, StationError
 from station.events import Command
+from station.sim.live import DEFAULT_CMD_ENDPOINT
+from station.sim.player import check_command
 
 DEFAULT_TIMEOUT_S = 3.0
 
@@ -69,11 +73,6 @@ def _no_constant(name: str) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.bus import Publisher
-    from station.canvas.palette import default_palette
-    from station.sim.live import DEFAULT_CMD_ENDPOINT
-    from station.sim.player import check_command
-
     if not (math.isfinite(args.timeout) and 0 < args.timeout <= 60):
         raise BadInput("must be in (0, 60] seconds", "--timeout")
     command = Command(t=0.0, cmd=args.cmd, args=parse_args(args.args), where="CMD")

@@ -8,11 +8,16 @@ import math
 import sys
 from typing import TYPE_CHECKING
 
+from station.backends.distributed.guard import abort_job_on_error
+from station.backends.factory import create_distributed
+from station.canvas.profiles import get_profile
 from station.cli.argtypes import seconds_or_zero
 from station.cli.buskeys import add_key_flags, check_keys
 from station.cli.cmd_paint import BACKEND_HELP, BACKENDS
 from station.errors import BadInput, StationError
+from station.sim.live import LiveConfig, LiveSim
 from station.sim.paint import check_outputs, load_resume_state, parse_size
+from station.sim.recovery import resolve_log
 
 if TYPE_CHECKING:
     from station.sim.live import LiveConfig, LiveSim
@@ -67,10 +72,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.canvas.profiles import get_profile
-    from station.sim.live import LiveConfig, LiveSim
-    from station.sim.recovery import resolve_log
-
     check_keys(args.keys, args.client_key,
                (("--bus", args.bus, False), ("--status", args.status, True),
                 ("--cmd", args.cmd, True)))
@@ -99,8 +100,6 @@ def run(args: argparse.Namespace) -> int:
                      autosave=args.autosave, recover=args.recover, cmd=args.cmd,
                      keys=args.keys, client_key=args.client_key)
     if args.distributed:
-        from station.distributed.guard import abort_job_on_error
-
         with abort_job_on_error():
             if _follower(cfg):
                 return 0
@@ -127,8 +126,6 @@ def _follower(cfg: LiveConfig) -> bool:
     """On ranks other than 0 of an MPI job: follow rank 0's canvas calls; True when done."""
     import signal
 
-    from station.sim.paint import make_distributed
-
     try:
         from mpi4py import MPI
     except ImportError as exc:
@@ -136,9 +133,10 @@ def _follower(cfg: LiveConfig) -> bool:
                            f"'painting-station[mpi]'): {exc}") from None
     if MPI.COMM_WORLD.Get_rank() == 0:
         return False
-    from station.distributed.relay import follow
+    # in the function: mpi4py (the optional ``mpi`` extra) is there, checked above
+    from station.backends.distributed.relay import follow
 
-    canvas, _name = make_distributed(cfg.backend, cfg.width, cfg.height, cfg.profile, cfg.seed)
+    canvas, _name = create_distributed(cfg.backend, cfg.width, cfg.height, cfg.profile, cfg.seed)
     # Ctrl-C reaches every rank; rank 0 alone decides when to stop (then tells the others)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     follow(canvas)

@@ -5,6 +5,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from station.durable import atomic_write
+from station.pictures.tools_sheet import paint_sheet, session_lines
+from station.render.png import encode_png
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("tools-sheet", help="paint the sheet of artistic tools",
@@ -22,10 +26,6 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.canvas.png import encode_png
-    from station.durable import atomic_write
-    from station.tools.sheet import paint_sheet, session_lines
-
     if args.write_session:
         atomic_write(args.write_session, ("\n".join(session_lines()) + "\n").encode())
         return 0

@@ -11,7 +11,9 @@ import argparse
 import sys
 from pathlib import Path
 
+from station.drivers.serial.transport import UsbSerialId
 from station.errors import StationError
+from station.udev.generate import RULES_PATH, check, generate
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -27,11 +29,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from station.udev.generate import RULES_PATH, check, generate
-
     if args.haptic:
-        from station.drivers.serial.transport import UsbSerialId
-
         text = UsbSerialId.parse(args.haptic, "--haptic").udev_rule()
     elif args.check:
         ok, message = check(args.output or RULES_PATH)

@@ -268,7 +268,7 @@ class KioskApp:
         self.cmd_sub = None if cmd_ep == "none" else Subscriber(
             cmd_ep if cmd_ep[0] in "@>" else "@" + cmd_ep, topics=("cmd",), keys=keys,
             client_key=client_key)
-        from station.canvas.params import get_profile
+        from station.canvas.profiles import get_profile
 
         brush = get_profile(cfg.profile).brush
         self.panel = PanelState(default_palette(), self._send, self.save_now, view=cfg.view,
@@ -390,7 +390,7 @@ class KioskApp:
                 "painting_seconds": st["painting_time"]}
 
     def _render_srgb8(self) -> np.ndarray:
-        from station.canvas.render import to_srgb8
+        from station.render.km import to_srgb8
 
         with self.session.lock:
             self.session._wait_step()

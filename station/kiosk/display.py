@@ -5,7 +5,7 @@ applies the sRGB transfer), row 0 = the canvas's top row.
 
 * :class:`CpuDisplay` (numpy and cpu backends): Kubelka–Munk render of the
   dirty tiles only (runs of at most :data:`RUN_TILES` tiles in a tile row; the
-  numba twin of the reference KM in :mod:`station.kiosk.km_fast`, gouache by
+  numba twin of the reference KM in :mod:`station.render.km_fast`, gouache by
   the reference), uploaded with ``texture.write(viewport=…)``, for at most
   :data:`TILE_BUDGET_S` a frame (the rest in the next frames).  Brush stamps
   made since the last simulation step are shown at once as a preview (the same
@@ -27,9 +27,9 @@ from typing import Any
 import numba
 import numpy as np
 
-from station.canvas.params import get_profile
-from station.canvas.render import region_amount, render_region
-from station.kiosk.km_fast import km_layer_fast
+from station.canvas.profiles import get_profile
+from station.render.km import region_amount, render_region
+from station.render.km_fast import km_layer_fast
 
 F32 = np.float32
 
@@ -68,8 +68,8 @@ def tile_runs(dirty: np.ndarray, most: int | None = None) -> list[tuple[int, int
 
 
 def _overlap(a: tuple[slice, slice], b: tuple[slice, slice]) -> bool:
-    return (a[0].start < b[0].stop and b[0].start < a[0].stop and a[1].start < b[1].stop
-            and b[1].start < a[1].stop)
+    return bool(a[0].start < b[0].stop and b[0].start < a[0].stop
+                and a[1].start < b[1].stop and b[1].start < a[1].stop)
 
 
 def _pending_in(src: Any, st: Any, ys: slice, xs: slice) -> dict[str, np.ndarray]:

@@ -45,7 +45,15 @@ from typing import Any
 
 import numpy as np
 
+from station.backends.factory import make_backend
+from station.canvas.palette import default_palette
+from station.canvas.profiles import get_profile
 from station.errors import BadInput, StationError
+from station.events import Command
+from station.render.km import to_srgb8
+from station.render.upscale import render_scaled
+from station.sessionlog import read_session
+from station.sim.player import SessionPlayer
 
 ID_RE = re.compile(r"^[0-9]{8}-[0-9]{6}-[0-9a-f]{6}$")
 PNG, LOG, META, REPLAY = "painting.png", "session.jsonl", "meta.json", "replay.webp"
@@ -168,9 +176,6 @@ class Gallery:
         def print_png(canvas: Any, renderer: str) -> None:
             from PIL import Image
 
-            from station.canvas.render import to_srgb8
-            from station.canvas.upscale import render_scaled
-
             img = to_srgb8(render_scaled(canvas.state(), renderer, PRINT_SCALE))
             tmp = d / (PRINT + ".tmp")
             Image.fromarray(img).save(tmp, format="PNG")
@@ -191,13 +196,6 @@ def replay_frames(log_path: str | os.PathLike[str], frames: int = 48, width: int
     evenly spaced in painting time, then the final canvas; scaled to ``width`` px.
     ``final(canvas, renderer)`` is called with the finished canvas (a print of it)."""
     from PIL import Image
-
-    from station.canvas.palette import default_palette
-    from station.canvas.render import to_srgb8
-    from station.events import Command
-    from station.sessionlog import read_session
-    from station.sim.paint import make_backend
-    from station.sim.player import SessionPlayer
 
     header, records = read_session(log_path)
     canvas, _ = make_backend(backend, header.width, header.height, header.profile, header.seed)
@@ -226,8 +224,6 @@ def replay_frames(log_path: str | os.PathLike[str], frames: int = 48, width: int
     player.play(records, on_step=on_step)
     shots.append(shot())
     if final is not None:
-        from station.canvas.params import get_profile
-
         final(canvas, get_profile(player.profile).renderer)
     close = getattr(canvas, "close", None)
     if close is not None:
@@ -354,11 +350,13 @@ def make_app(gallery: Gallery, base_url: str | None = None) -> Any:
     app = bottle.Bottle()
 
     def base() -> str:
-        return (base_url or bottle.request.urlparts.scheme + "://" +
-                bottle.request.urlparts.netloc).rstrip("/")
+        url: str = (base_url or bottle.request.urlparts.scheme + "://" +
+                    bottle.request.urlparts.netloc).rstrip("/")
+        return url
 
     def page(title: str, body: str) -> str:
-        return bottle.template(PAGE, title=title, body=body)
+        html: str = bottle.template(PAGE, title=title, body=body)
+        return html
 
     def checked(pid: str) -> str:
         if not ID_RE.match(pid) or not gallery.path(pid, PNG).exists():

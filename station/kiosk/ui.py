@@ -22,8 +22,9 @@ import numpy as np
 
 from station.brush.stamp import brush_kinds
 from station.canvas.palette import Palette
-from station.canvas.render import linear_to_srgb, on_white
 from station.kiosk.views import VIEWS
+from station.render.km import linear_to_srgb, on_white
+from station.sim import player
 
 MAX_MIX = 4  # pigments in one mix (a layer holds 8; a mix of more is mud anyway)
 VIEW_LABELS = {"2d": "Top", "3d": "Table", "follow": "Brush"}
@@ -45,8 +46,6 @@ def swatch(palette: Palette, mix: dict[str, float], thickness: float = 0.35
 
 def undo_available() -> bool:
     """Whether the session player executes ``undo`` (issue 14's tools)."""
-    from station.sim import player
-
     return "undo" in getattr(player, "_HANDLERS", {})
 
 

@@ -105,7 +105,8 @@ class Camera:
         s = -a[2] / dz
         if s < 0:
             return None
-        return a + s * (b - a)
+        out: np.ndarray = a + s * (b - a)
+        return out
 
     def screen_to_canvas(self, x: float, y: float) -> tuple[float, float] | None:
         """Canvas (u, v) under window pixel (x, y) (may lie outside [0, 1])."""

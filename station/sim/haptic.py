@@ -26,9 +26,9 @@ import logging
 import math
 import time
 from collections.abc import Callable
-from typing import Any
 
 from station.brush.deformable import DeformableBrush
+from station.brush.stamp import RoundBrush
 from station.drivers.haptic.deformable import SimReaction
 from station.events import PenSample
 from station.wire import HapticForce
@@ -59,7 +59,8 @@ class HapticFeedback:
         self.seconds = 0.0
         self._next: dict[str, float] = {}
 
-    def on_sample(self, brush: Any, sample: PenSample, t: float) -> bool:
+    def on_sample(self, brush: RoundBrush | DeformableBrush, sample: PenSample,
+                  t: float) -> bool:
         """A sample was painted: send its device's frame if due (deformable brush, in
         proximity, someone renders it); ``t``: the session time stamped on it."""
         if not isinstance(brush, DeformableBrush) or not sample.proximity:

@@ -58,8 +58,13 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
+from station.backends.factory import create_distributed, make_backend
+from station.backends.protocol import CanvasBackend
 from station.brush.deformable import DeformableBrush
 from station.brush.stamp import BrushSettings
+from station.bus import Publisher, Subscriber
+from station.canvas.palette import default_palette
+from station.canvas.state import CanvasState
 from station.durable import atomic_write
 from station.errors import BadInput
 from station.events import Command, PenSample
@@ -74,6 +79,7 @@ from station.sim.journal import (
     free_path,
     record_line,
 )
+from station.sim.paint import write_image
 from station.sim.player import SessionPlayer
 from station.sim.undo import UndoHistory
 from station.wire import HapticForce, Heartbeat
@@ -160,9 +166,6 @@ class LiveCore:
     """The live simulation without a bus (see the module docstring)."""
 
     def __init__(self, cfg: LiveConfig) -> None:
-        from station.canvas.palette import default_palette
-        from station.sim.paint import make_backend
-
         self.cfg = cfg
         self.report = StorageReport()
         self.counters = Counters()
@@ -178,17 +181,15 @@ class LiveCore:
             cfg.rate = plan.rate
             start = plan.state
         elif cfg.resume:
-            from station.canvas.state import CanvasState
-
             start = CanvasState.load(cfg.resume)
             cfg.width, cfg.height = start.width, start.height
             cfg.profile, cfg.seed = start.profile, start.seed
-        self.canvas: Any
-        if cfg.distributed:  # this is rank 0; the others follow (station.distributed.relay)
-            from station.distributed.relay import Leader
-            from station.sim.paint import make_distributed
+        self.canvas: CanvasBackend
+        if cfg.distributed:  # this is rank 0; the others follow (backends.distributed.relay)
+            # in the function: mpi4py is the optional ``mpi`` extra
+            from station.backends.distributed.relay import Leader
 
-            dist, self.backend_name = make_distributed(cfg.backend, cfg.width, cfg.height,
+            dist, self.backend_name = create_distributed(cfg.backend, cfg.width, cfg.height,
                                                        cfg.profile, cfg.seed)
             self.canvas = Leader(dist)
         else:
@@ -272,7 +273,7 @@ class LiveCore:
         return s.with_(t=self._in_this_step(min(now, s.t + off)), t_mono=0.0)
 
     # -- input -----------------------------------------------------------------
-    def handle(self, kind: str, value: Any, topic: str = "", replay: bool = False) -> None:
+    def handle(self, kind: str, value: object, topic: str = "", replay: bool = False) -> None:
         """One bus message (``Message.kind``/``value``/``topic``/``replay``)."""
         if kind == "pen" and isinstance(value, PenSample):
             self.feed_sample(value, replay=replay)
@@ -579,8 +580,6 @@ class LiveCore:
             except OSError as exc:
                 self.report.failed(f"state {self.cfg.state_path}", exc)
         if self.cfg.png_path:
-            from station.sim.paint import write_image
-
             png = Path(self.cfg.png_path)
             tmp = png.with_name(f".{png.name}.tmp-{os.getpid()}")
             try:  # all or nothing, like the state: a full disk keeps the old image
@@ -621,8 +620,6 @@ class LiveSim(LiveCore):
     """The running simulation process: :class:`LiveCore` on the bus."""
 
     def __init__(self, cfg: LiveConfig) -> None:
-        from station.bus import Publisher, Subscriber
-
         # The bus first: an endpoint in use ends the run before any file is made.
         endpoints = [cfg.bus]
         cmd_ep = cfg.cmd or "@" + DEFAULT_CMD_ENDPOINT

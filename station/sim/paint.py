@@ -15,7 +15,6 @@ What happens on bad input (interfaces.md: exit 2, one line, nothing painted lost
 
 from __future__ import annotations
 
-import importlib
 import itertools
 import json
 import logging
@@ -23,15 +22,28 @@ import math
 import os
 import re
 import time
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from station.canvas.backend import make_backend  # auto: resolve_auto decides, once
+import numpy as np
+
+from station import sizes
+from station.backends.factory import (  # auto: resolve_auto decides, once
+    create_distributed,
+    make_backend,
+)
+from station.backends.protocol import CanvasBackend
+from station.canvas.palette import default_palette
+from station.canvas.profiles import get_profile
+from station.canvas.state import CanvasState
 from station.errors import BadInput, StationError
 from station.events import Command, PenSample
 from station.progress import Progress
+from station.render.km import to_srgb8, to_srgb16
+from station.render.png import write_png
+from station.render.upscale import render_scaled
 from station.sessionlog import SessionHeader, SessionLogReader
 from station.sim.player import MAX_PAINTING_SECONDS, MAX_RATE, SessionPlayer
 from station.sim.undo import UndoHistory, log_mentions_undo
@@ -39,8 +51,7 @@ from station.sim.undo import UndoHistory, log_mentions_undo
 log = logging.getLogger(__name__)
 
 TRACE_SUFFIXES = (".hid", ".hidrec", ".evemu", ".evm", ".yaml", ".yml")
-MAX_CELLS = 4096 * 4096
-"""Largest canvas accepted (cells): ~16.8 M cells, a few GiB of state."""
+MAX_CELLS = sizes.MAX_CELLS
 
 
 class PaintInputError(BadInput):
@@ -54,21 +65,11 @@ class PaintInputError(BadInput):
 
 def parse_size(text: str, where: str = "--size") -> tuple[int, int]:
     """``"WxH"`` → ``(W, H)``; anything impossible raises :class:`PaintInputError`."""
-    m = re.fullmatch(r"\s*(\d{1,6})\s*[xX×]\s*(\d{1,6})\s*", text or "")
-    if not m:
-        raise PaintInputError(f"canvas size {text!r} is not WIDTHxHEIGHT (e.g. 800x600)", where)
-    w, h = int(m.group(1)), int(m.group(2))
-    check_size(w, h, where)
-    return w, h
+    return sizes.parse_size(text, where, PaintInputError)
 
 
 def check_size(w: int, h: int, where: str) -> None:
-    if w < 8 or h < 8:
-        raise PaintInputError(f"canvas size {w}x{h} is too small (at least 8x8 cells)", where)
-    if w > 16384 or h > 16384 or w * h > MAX_CELLS:
-        raise PaintInputError(
-            f"canvas size {w}x{h} is too large (at most 16384 a side and {MAX_CELLS} cells)",
-            where)
+    sizes.check_size(w, h, where, PaintInputError)
 
 
 def check_outputs(targets: Iterable[tuple[str | None, str]]) -> None:
@@ -106,7 +107,7 @@ class _Source:
     """A header and a stream of records with a ``where`` for messages."""
 
     def __init__(self, header: SessionHeader | None, records: Iterable[PenSample | Command],
-                 where: Any, close: Any = None) -> None:
+                 where: Callable[[], str], close: Callable[[], None] | None = None) -> None:
         self.header = header or SessionHeader()
         self.has_header = header is not None
         self.records = records
@@ -132,22 +133,13 @@ def open_input(path: str, canvas: tuple[int, int] = (800, 600), mapping: str = "
 
 
 def _open_trace(path: str, canvas: tuple[int, int], mapping: str) -> _Source:
-    """A device trace through the drivers' pipeline (issue 4), if it is there."""
-    suffix = Path(path).suffix.lower()
-    try:
-        traces = importlib.import_module("station.drivers.pipeline")
-    except ImportError:
-        raise PaintInputError(
-            f"device traces ({suffix}) are not supported yet by this station; "
-            "give a session log (.jsonl)", path) from None
-    reader = getattr(traces, "iter_trace_samples", None)
-    if not callable(reader):
-        raise PaintInputError(
-            f"device traces ({suffix}) are not supported yet by this station "
-            "(station.drivers.pipeline has no reader); give a session log (.jsonl)", path)
+    """A device trace through ``station.drivers.traces`` (issue 4)."""
     if not os.path.exists(path):
         raise PaintInputError("no such file", path)
+    # in the function: a trace pulls in the driver pipeline and its transports, which a
+    # session log (the common input) never needs
     from station.drivers.normalise import NormaliserConfig
+    from station.drivers.pipeline import iter_trace_samples as reader
 
     samples = iter(reader(path, config=NormaliserConfig(mapping=mapping, canvas=canvas)))
     # The drivers read the whole trace on the first sample: a trace that does not
@@ -188,10 +180,8 @@ def _session_length(path: str) -> float:
 
 # -- painting ------------------------------------------------------------------------
 def load_resume_state(path: str, size: tuple[int, int] | None, profile: str | None,
-                      flag: str = "--resume") -> Any:
+                      flag: str = "--resume") -> CanvasState:
     """The canvas state to continue from; ``--size``/``--profile`` must agree with it."""
-    from station.canvas.state import CanvasState
-
     state = CanvasState.load(path)  # missing or corrupt file → BadInput
     if size is not None and size != (state.width, state.height):
         raise PaintInputError(f"--size {size[0]}x{size[1]} differs from the resumed canvas "
@@ -235,9 +225,6 @@ def paint(
     outputs are written (``result.error`` is set on the exception as
     ``exc.result``).
     """
-    from station.canvas.palette import default_palette
-    from station.canvas.profiles import get_profile
-
     if bits not in (8, 16):
         raise PaintInputError(f"--bits {bits} must be 8 or 16", "--bits")
     if isinstance(render_scale, bool) or not isinstance(render_scale, int) \
@@ -274,8 +261,9 @@ def paint(
                 and not isinstance(logged_rate, bool):
             rate = float(logged_rate)  # the rate the session was recorded at
         seed = start.seed if start is not None else header.seed
+        canvas: CanvasBackend
         if distributed:
-            canvas, backend = make_distributed(backend, width, height, prof.name, seed,
+            canvas, backend = create_distributed(backend, width, height, prof.name, seed,
                                                **(backend_opts or {}))
         else:
             canvas, backend = make_backend(backend, width, height, prof.name, seed,
@@ -328,27 +316,7 @@ def paint(
     return result
 
 
-def make_distributed(name: str, width: int, height: int, profile: str, seed: int,
-                     **opts: Any) -> tuple[Any, str]:
-    """A :class:`~station.distributed.canvas.DistributedCanvas` stepping ``name``
-    (``auto``: cpu when numba is installed, else numpy) on every rank's strip."""
-    from station.canvas.backend import fastest_cpu_backend
-
-    if name == "auto":
-        name = fastest_cpu_backend()
-    if name not in ("numpy", "cpu"):
-        raise PaintInputError(f"--distributed steps the numpy or cpu backend, not {name!r}",
-                              "--backend")
-    try:
-        dist = importlib.import_module("station.distributed.canvas")
-    except ImportError as exc:
-        raise StationError(f"--distributed needs mpi4py and an MPI library (pip install "
-                           f"'painting-station[mpi]'): {exc}") from None
-    canvas = dist.DistributedCanvas(width, height, profile, seed, base=name, **opts)
-    return canvas, f"distributed-{name}"
-
-
-def write_outputs(canvas: Any, result: PaintResult, out_png: str | None,
+def write_outputs(canvas: CanvasBackend, result: PaintResult, out_png: str | None,
                   state_path: str | None, stats_path: str | None, bits: int,
                   render_scale: int = 1) -> None:
     """Render and write the PNG (at ``render_scale`` pixels per cell), the state and the
@@ -356,9 +324,6 @@ def write_outputs(canvas: Any, result: PaintResult, out_png: str | None,
 
     A distributed canvas gathers on every rank (collective calls) and its root writes.
     """
-    from station.canvas.profiles import get_profile
-    from station.canvas.upscale import render_scaled
-
     root = bool(getattr(canvas, "is_root", True))
     try:
         if out_png:
@@ -368,7 +333,7 @@ def write_outputs(canvas: Any, result: PaintResult, out_png: str | None,
                     if root else None
             else:
                 rgb = canvas.render()
-            if root:
+            if root and rgb is not None:  # rgb is None on the other ranks only
                 write_image(out_png, rgb, bits)
             result.written.append(out_png)
         if state_path:
@@ -380,18 +345,15 @@ def write_outputs(canvas: Any, result: PaintResult, out_png: str | None,
             stats = canvas.stats()
             if not root:
                 return
-            stats["player"] = result.counters
+            out = {**stats, "player": result.counters}  # the canvas's books, then ours
             with open(stats_path, "w", encoding="utf-8") as fh:
-                json.dump(stats, fh, indent=2)
+                json.dump(out, fh, indent=2)
                 fh.write("\n")
             result.written.append(stats_path)
     except OSError as exc:
         raise StationError(f"cannot write output: {exc}") from None
 
 
-def write_image(path: str, rgb: Any, bits: int = 8) -> None:
+def write_image(path: str, rgb: np.ndarray, bits: int = 8) -> None:
     """Write linear reflectance ``rgb`` (H, W, 3) as an sRGB PNG of ``bits`` per channel."""
-    from station.canvas.png import write_png
-    from station.canvas.render import to_srgb8, to_srgb16
-
     write_png(path, to_srgb16(rgb) if bits == 16 else to_srgb8(rgb))

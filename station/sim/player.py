@@ -32,22 +32,26 @@ from collections.abc import Callable, Container, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
+from station.arttools import diffusion as diffusion_tool
+from station.arttools import eraser as eraser_tool
+from station.arttools import mask as mask_tool
+from station.arttools import tissue as tissue_tool
+from station.arttools import well as well_tool
+from station.backends.numpy_canvas import NumpyCanvas
+from station.backends.protocol import CanvasBackend, edit_state
 from station.brush.deformable import DeformableBrush
 from station.brush.reservoir import pickup
 from station.brush.solver import SolverCounters
-from station.brush.stamp import STAMP_KIND, BrushModel, BrushSettings, RoundBrush
-from station.canvas.numpy_backend import NumpyCanvas
+from station.brush.stamp import STAMP_KIND, BrushModel, BrushSettings, RoundBrush, Sources
 from station.canvas.params import Profile
 from station.canvas.profiles import get_profile, profile_names
-from station.canvas.state import DEFAULT_SLOTS
-from station.canvas.tools import HairDryer, blow, on_state
+from station.canvas.removal import HairDryer, StateSurface, blow
+from station.canvas.state import DEFAULT_SLOTS, CanvasState
 from station.errors import BadInput
 from station.events import Command, PenSample, Tool
-from station.tools import diffusion as diffusion_tool
-from station.tools import eraser as eraser_tool
-from station.tools import mask as mask_tool
-from station.tools import tissue as tissue_tool
-from station.tools import well as well_tool
+from station.sim.undo import UndoHistory
 
 log = logging.getLogger(__name__)
 
@@ -83,7 +87,7 @@ class SessionPlayer:
     """Plays pen samples and commands into a canvas backend.
 
     Args:
-        backend: a canvas backend (``station.canvas.backend`` protocol), already
+        backend: a canvas backend (``station.backends.factory`` protocol), already
             set to ``profile``.
         width, height: canvas size in cells.
         profile: the starting paint profile (brush model, defaults and ``dt``).
@@ -97,7 +101,7 @@ class SessionPlayer:
 
     def __init__(
         self,
-        backend: Any,
+        backend: CanvasBackend,
         width: int,
         height: int,
         profile: str = "watercolor",
@@ -135,16 +139,16 @@ class SessionPlayer:
         # the tool in the painter's hand instead of the brush (None: the brush)
         self.tool: str | None = None
         self.controller: diffusion_tool.Controller | None = None  # the brush writes it
-        self._controller_field: Any = None
+        self._controller_field: np.ndarray | None = None
         self._controller_count = 0
-        self.history: Any = None  # an undo.UndoHistory when undo is wanted
+        self.history: UndoHistory | None = None  # when undo is wanted
         self.well: well_tool.MixingWell | None = None  # the palette's mixing well
         self.tilt = (0.0, 90.0)  # canvas tilt (angle, direction) [deg]; kept across profiles
         self.mask_radius = 6.0
         self.eraser = eraser_tool.Eraser()
         self.tissue = tissue_tool.Tissue()
-        self._tissue_tex: Any = None
-        self._dab: Any = None  # cells the previous dab / this press hit
+        self._tissue_tex: np.ndarray | None = None
+        self._dab: np.ndarray | None = None  # cells the previous dab / this press hit
         self._tool_last: tuple[float, float] | None = None  # the tool's last dab [cells]
 
     # -- time ------------------------------------------------------------------
@@ -163,7 +167,7 @@ class SessionPlayer:
         dryer = self.dryer
         if dryer is not None:
             if self.counters.steps < self.dryer_until:
-                on_state(self.backend, lambda st: blow(st, dryer, self.dt))
+                edit_state(self.backend, lambda st: blow(st, dryer, self.dt))
             else:
                 self.dryer = None
         self.backend.step()
@@ -191,7 +195,7 @@ class SessionPlayer:
                 self.pickups_skipped += len(requests)
             elif requests and state is not None:
                 for r in requests:
-                    pickup(state, self.brush.reservoir, r.weight, r.y0, r.x0,
+                    pickup(StateSurface(state), self.brush.reservoir, r.weight, r.y0, r.x0,
                            self.brush.shape.pickup)
         src = self.brush.take()
         if src is not None:
@@ -232,7 +236,7 @@ class SessionPlayer:
         field = self._controller_field
         cx, cy = rec.x * self.width, rec.y * self.height
         radius = max(self.brush.settings.size / 2.0, 0.5)
-        on_state(self.backend, lambda st: diffusion_tool.write(st, field, ctrl.strength, cx, cy,
+        edit_state(self.backend, lambda st: diffusion_tool.write(st, field, ctrl.strength, cx, cy,
                                                                radius))
 
     def _tool_sample(self, tool: str, rec: PenSample, where: str | None) -> None:
@@ -263,9 +267,9 @@ class SessionPlayer:
     def _dab_at(self, tool: str, cx: float, cy: float, pressure: float) -> None:
         prev = self._dab
         if tool == "mask":
-            on_state(self.backend, lambda st: mask_tool.paint(st, cx, cy, self.mask_radius))
+            edit_state(self.backend, lambda st: mask_tool.paint(st, cx, cy, self.mask_radius))
         elif tool == "eraser":
-            self._dab = on_state(self.backend, lambda st: eraser_tool.erase(
+            self._dab = edit_state(self.backend, lambda st: eraser_tool.erase(
                 st, self.eraser, cx, cy, pressure, prev))
         else:  # tissue
             if self._tissue_tex is None:
@@ -273,7 +277,7 @@ class SessionPlayer:
                 self._tissue_tex = tissue_tool.texture(t.kind, self.height, self.width,
                                                        t.scale, t.seed, t.image)
             tex = self._tissue_tex
-            self._dab = on_state(self.backend, lambda st: tissue_tool.blot(
+            self._dab = edit_state(self.backend, lambda st: tissue_tool.blot(
                 st, self.tissue, tex, cx, cy, pressure, prev))[1]
 
     def _check_layer(self, where: str | None) -> None:
@@ -351,7 +355,7 @@ class SessionPlayer:
             out["brush_reservoir"] = b.reservoir.ledger()
         return out
 
-    def _paper(self) -> Any:
+    def _paper(self) -> np.ndarray:
         """The paper height of the backend (read back once from a GPU backend)."""
         state = getattr(self.backend, "live_state", None)
         if state is None:
@@ -579,7 +583,7 @@ def _mask(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
 def _mask_remove(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
     _check_keys("mask_remove", args, set(), where)
     p.flush_sources()
-    on_state(p.backend, mask_tool.rub_off)
+    edit_state(p.backend, mask_tool.rub_off)
 
 
 def _eraser(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
@@ -637,10 +641,10 @@ def _tilt(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
 def _apply_tilt(p: SessionPlayer) -> None:
     angle, direction = p.tilt
 
-    def put(st: Any) -> None:
+    def put(st: CanvasState) -> None:
         st.params = st.params.replace(tilt=angle, tilt_direction=direction)
 
-    on_state(p.backend, put)
+    edit_state(p.backend, put)
 
 
 def _diffusion(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
@@ -653,10 +657,10 @@ def _diffusion(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> 
         fade = _tool_number("diffusion", args, "fade", 2.0, 0.0, 3600.0, where)
         p.flush_sources()
 
-        def put(st: Any) -> None:
+        def put(st: CanvasState) -> None:
             st.params = st.params.replace(block_fade=fade)
 
-        on_state(p.backend, put)
+        edit_state(p.backend, put)
     pattern = args.get("pattern", "stripes")
     if pattern == "off":
         p.controller = None
@@ -764,6 +768,6 @@ def brush_defaults(profile: Profile) -> BrushSettings:
     return BrushSettings(size=2.0 * b.radius, water=1.0, pigment={b.pigment: b.amount})
 
 
-def add_sources(backend: Any, src: Any) -> None:
+def add_sources(backend: CanvasBackend, src: Sources) -> None:
     """Give brush sources to a backend (region arrays; see ``brush.Sources``)."""
     backend.add_sources(src.dw, src.dp, src.dvx, src.dvy, y0=src.y0, x0=src.x0)

@@ -1,0 +1,46 @@
+"""``CpuCanvas``: the reference model in fused, parallel numba sweeps.
+
+State handling, operations, rendering, stats and tiles are the reference backend's
+(:class:`~station.backends.numpy_canvas.NumpyCanvas`); only the step is new
+(:mod:`station.backends.cpu.step`).
+"""
+
+from __future__ import annotations
+
+import numba
+
+from station.backends.cpu import step as cpu_step
+from station.backends.cpu import traffic
+from station.backends.numpy_canvas import NumpyCanvas
+from station.canvas import operations
+
+_THREADS = int(getattr(numba.config, "NUMBA_NUM_THREADS", 1))
+
+
+class CpuCanvas(NumpyCanvas):
+    """The three-layer model on the CPU: same passes and maths as the reference, fused
+    into ten sweeps, rows in parallel on all cores (numba ``prange``).
+
+    Same arguments as :class:`NumpyCanvas`.
+    """
+
+    renderer = f"cpu (numba {numba.__version__}, {_THREADS} threads)"
+
+    def _scratch(self) -> cpu_step.Scratch:
+        st = self._state
+        slots = max(len(st.slots), 1)
+        sc: cpu_step.Scratch | None = getattr(self, "_scratch_fields", None)
+        if sc is None or not sc.fits(st.height, st.width, slots):
+            sc = cpu_step.Scratch(st.height, st.width, max(slots, 2))
+            self._scratch_fields = sc
+        return sc
+
+    def step(self, dt: float | None = None) -> None:
+        self._cells_last = cpu_step.step(self._state, self._scratch(), dt)
+        if self._state.step_count % operations.FOLD_EVERY == 0:
+            operations.fold_accumulators(self._state)
+
+    def bytes_per_cell_step(self) -> int:
+        """Honest bytes per simulated cell and step of the fused sweeps (see traffic.py)."""
+        slots = max(len(self._state.slots), 1)
+        return traffic.bytes_per_cell_step(slots, self._state.params.jacobi_iters)

@@ -1,0 +1,267 @@
+"""One canvas step with the fused numba sweeps (same passes and maths as ``reference``).
+
+:func:`step` mirrors ``reference.step``: the dirty tiles decide the boxes (the same
+``tiles.active_regions``), each box is simulated on its own (cells outside it are
+non-wet zeros), then ``tiles.update_tiles``, ``sim_time`` and ``step_count`` advance.
+:func:`step_region` takes ``stop_after`` (a name of ``reference.PASS_ORDER``) and
+writes the fields back right after that pass, for pass-by-pass comparisons.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from station.backends.cpu import kernels as K
+from station.canvas import reference, tiles
+from station.canvas.params import CanvasInputError, SimParams
+from station.canvas.state import CanvasState
+
+F32 = np.float32
+_THREADS = int(getattr(numba.config, "NUMBA_NUM_THREADS", 1))
+
+
+def work_grow(n_taps: int) -> int:
+    """Cells around the active tiles that a tiled step computes: the reference changes
+    cells up to ``tiles.HALO`` away; a wet cell (at most one cell off an active tile) reads
+    the x-blurred wet area up to R = n_taps // 2 rows away; one more cell beyond both, so
+    every cell at the edge of the computed area is at rest and reads only cells at rest
+    (zero in the scratch, as the reference's quiet values act on it)."""
+    return max(tiles.HALO, 1 + n_taps // 2) + 1
+
+_FIELDS_2D = ("wet", "w0", "bc", "vsx", "vsy", "c", "opn", "v1x", "v1y", "xvax", "xvay",
+              "xwa", "xwb", "v3x", "v3y", "sw", "w2", "sout", "sin", "w3",
+              "sat", "mbx", "pr")
+_FIELDS_3D = ("p0", "xpa", "xpb", "sp", "p2")
+
+
+def constants(prm: SimParams, dt: float, sim_time: float) -> np.ndarray:
+    """The float32 constant vector of the kernels, rounded exactly like the reference's."""
+    c = np.zeros(K.N_CONST, F32)
+    c[K.C_DT] = F32(dt)
+    c[K.C_KV] = F32(prm.viscosity * dt)
+    c[K.C_KW] = F32(prm.nu_w * dt)
+    c[K.C_KP] = F32(prm.nu_p * dt)
+    c[K.C_G] = F32(-0.5 * prm.height_gain)
+    c[K.C_OH] = F32(prm.omega_h)
+    c[K.C_OI] = F32(1.0 - prm.omega_h)
+    c[K.C_VMAX] = F32(prm.v_max)
+    c[K.C_Q4] = F32(0.25 * dt)
+    c[K.C_WMIN] = F32(prm.w_min)
+    c[K.C_WMAX] = F32(prm.w_max)
+    c[K.C_EVAP] = F32(prm.evap_shallow() * dt)
+    c[K.C_EDGE] = F32(prm.edge_evap)
+    c[K.C_RATE] = F32(prm.surface_rate * dt)
+    c[K.C_CMIN] = F32(prm.c_min)
+    c[K.C_CSPAN] = F32(prm.c_max - prm.c_min)
+    c[K.C_ALPHA] = F32(prm.alpha * dt)
+    c[K.C_KC] = F32(prm.cap_diffusion * dt)
+    c[K.C_ECAP] = F32(prm.evap_cap() * dt)
+    c[K.C_WDRY] = F32(prm.w_dry_eps)
+    c[K.C_MOIST] = F32(prm.moist_threshold)
+    c[K.C_TIME] = F32(sim_time)
+    c[K.C_FADE] = F32(prm.block_fade)
+    c[K.C_BPAPER] = F32(prm.block_paper)
+    c[K.C_ADV] = F32(prm.advance_height)
+    c[K.C_ETA] = F32(prm.flow_outward)
+    c[K.C_RELIEF] = F32(prm.paper_relief)
+    c[K.C_WICK] = F32(prm.fibre_wick)
+    c[K.C_DISP] = F32(prm.fibre_dispersion_gain())
+    c[K.C_VFIB] = F32(prm.fibre_flow_max)
+    c[K.C_TILTX], c[K.C_TILTY] = reference.tilt_kick(prm, dt)
+    return c
+
+
+class Scratch:
+    """Padded float32 scratch fields ``(H + 2, W + 2)`` (pigment: ``(S, H + 2, W + 2)``),
+    allocated once per canvas size and slot count and reused every step, with the work
+    spans of the box being simulated and those of the last one (:func:`K.clear_stale`
+    keeps every cell outside the current spans at zero), and the per-thread buffers of the
+    temporally blocked Jacobi sweep."""
+
+    def __init__(self, height: int, width: int, slots: int) -> None:
+        self.height, self.width, self.slots = height, width, slots
+        shape = (height + 2, width + 2)
+        self.a2 = {name: np.zeros(shape, F32) for name in _FIELDS_2D}
+        self.a3 = {name: np.zeros((slots, *shape), F32) for name in _FIELDS_3D}
+        self.f2 = tuple(self.a2.values())
+        self.f3 = tuple(self.a3.values())
+        most = width // 2 + 2  # spans per row: tiles are >= 4 cells, a gap >= 1
+        self.spans = np.zeros((height + 2, most, 2), np.int32)
+        self.nsp = np.zeros(height + 2, np.int32)
+        self.pspans = np.zeros((height + 2, most, 2), np.int32)
+        self.pnsp = np.zeros(height + 2, np.int32)
+        self.hsp = np.zeros((height + 2, most, 2), np.int32)
+        self.hn = np.zeros(height + 2, np.int32)
+        self._jbuf = np.zeros((0, 0, 0, 0, 0), F32)
+        self._regions: tuple[tuple[tuple[int, ...], bytes], list[tuple[slice, slice]]] | None = None
+
+    def fits(self, height: int, width: int, slots: int) -> bool:
+        return self.height == height and self.width == width and self.slots >= slots
+
+    def jbuf(self, levels: int) -> np.ndarray:
+        """Zeroed (threads, 3 + slots, 2, rows, W + 2) buffers of :func:`K.jacobi_blocked`."""
+        rows = K.BLOCK_ROWS + 2 * levels
+        shape = (_THREADS, 3 + self.slots, 2, rows, self.width + 2)
+        if self._jbuf.shape != shape:
+            self._jbuf = np.zeros(shape, F32)
+        return self._jbuf
+
+    def regions(self, state: CanvasState, active: np.ndarray) -> list[tuple[slice, slice]]:
+        """``tiles.active_regions(state)``, recomputed only when the active tiles change
+        (``active``: ``tile_ttl > 0`` as uint8)."""
+        key = active.shape, active.tobytes()
+        if self._regions is None or self._regions[0] != key:
+            self._regions = (key, tiles.active_regions(state))
+        return self._regions[1]
+
+    def select(self, y0: int, x0: int, bh: int, bw: int, active: np.ndarray | None,
+               ts: int, grow: int, state: CanvasState | None = None, ns: int = 1) -> None:
+        """Set the work spans of a box (every cell; the cells within ``grow`` of a live
+        cell of ``state``, see :func:`K.live_spans`; without ``state`` the cells within
+        ``grow`` of an active tile) and zero what the last box computed outside them."""
+        if active is None:
+            K.full_spans(bh, bw, self.spans, self.nsp)
+        elif state is not None:
+            K.live_spans(active, ts, grow, y0, x0, bh, bw, state.w, state.wc, state.vx,
+                         state.vy, state.p, ns, self.hsp, self.hn, self.spans, self.nsp)
+        else:
+            K.work_spans(active, ts, grow, y0, x0, bh, bw, self.spans, self.nsp)
+        K.clear_stale(self.pspans, self.pnsp, self.spans, self.nsp, self.f2, self.f3)
+
+
+def _win(a: np.ndarray, bh: int, bw: int) -> np.ndarray:
+    """Interior of the box window of a padded scratch field (a view)."""
+    return a[..., 1:bh + 1, 1:bw + 1]
+
+
+def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
+                scratch: Scratch, stop_after: str | None = None,
+                active: np.ndarray | None = None) -> None:
+    """Passes 1-10 on the cells ``sl`` of ``state`` in place (see ``reference.step_region``).
+
+    ``active`` (uint8 per tile, ``tile_ttl > 0``): compute only the box's cells within
+    ``grow`` cells of an active tile (:func:`work_grow`); the others are at rest and the
+    reference's passes leave them as they are. None: every cell of the box."""
+    if stop_after is not None and stop_after not in reference.PASS_ORDER:
+        raise CanvasInputError(f"unknown pass {stop_after!r}", "step_region")
+    last = reference.PASS_ORDER.index(stop_after) if stop_after else len(reference.PASS_ORDER)
+
+    def runs(name: str) -> bool:
+        return reference.PASS_ORDER.index(name) <= last
+
+    prm = state.params
+    ys, xs = sl
+    y0, x0 = int(ys.start), int(xs.start)
+    bh, bw = int(ys.stop) - y0, int(xs.stop) - x0
+    ns = max(len(state.slots), 1)
+    cst = constants(prm, dt, state.sim_time)
+    beta, gamma, delta = (a[:ns].copy() for a in reference.slot_properties(state))
+    s2, s3 = scratch.a2, scratch.a3
+    n_it = int(prm.jacobi_iters)
+    do_v = prm.viscosity * dt > 0 and n_it >= 1 and runs("diffuse_velocity")
+    do_w = prm.nu_w * dt > 0 and runs("diffuse_water")
+    do_p = prm.nu_p * dt > 0 and runs("diffuse_pigment")
+
+    taps = reference.gaussian_taps(prm.wet_blur)
+    outward = prm.flow_outward > 0 and len(taps) > 0
+    scratch.select(y0, x0, bh, bw, None if stop_after is not None else active,
+                   int(prm.tile_size), work_grow(len(taps)), state, ns)
+    spans, nsp = scratch.spans, scratch.nsp
+    do_pr = (outward or prm.paper_relief > 0) and runs("water_height_and_boundary")
+    K.prep(state.w, state.wc, state.mask, state.vx, state.vy, state.p, state.h,
+           state.block, state.block_time, state.fibre, taps, y0, x0, bh, bw, ns, cst,
+           outward and do_pr, spans, nsp, s2["wet"], s2["w0"], s3["p0"], s2["bc"], s2["vsx"],
+           s2["vsy"], s2["c"], s2["opn"], s2["mbx"])
+    wet, bc, w0, p0 = s2["wet"], s2["bc"], s2["w0"], s3["p0"]
+    # pass 3 levels w itself unless the flow-outward or the relief term is on
+    pr = s2["pr"] if do_pr else w0
+    # pass 1 (+ pass 3's levelled height) + iteration 1 of the water/pigment solves (x0 = u)
+    jw = do_w and n_it >= 1
+    jp = do_p and n_it >= 1
+    xw, xw_next = (s2["xwa"], s2["xwb"])
+    xp, xp_next = (s3["xpa"], s3["xpb"])
+    K.advect_jacobi1(wet, s2["vsx"], s2["vsy"], bc, w0, p0, s2["mbx"], state.h, taps, y0, x0,
+                     bh, bw, ns, cst, jw, jp, do_pr, outward, spans, nsp, s2["v1x"], s2["v1y"],
+                     xw, xp, s2["pr"])
+    if not jw:
+        xw = w0
+    if not jp:
+        xp = p0
+    if stop_after == "advect_velocity":
+        state.vx[ys, xs] = _win(s2["v1x"], bh, bw)
+        state.vy[ys, xs] = _win(s2["v1y"], bh, bw)
+        return
+    # iterations 2..n of water/pigment, 1..n-1 of velocity (one iteration behind)
+    xvx, xvy = s2["v1x"], s2["v1y"]
+    pong = ((s2["xvax"], s2["xvay"]),)
+    if n_it >= 2:  # all of them in one temporally blocked sweep
+        ovx, ovy = pong[0]
+        K.jacobi_blocked(wet, bc, s2["v1x"], s2["v1y"], xvx, xvy, ovx, ovy, w0, xw, xw_next,
+                         p0, xp, xp_next, bh, bw, ns, cst, do_v, jw, jp, n_it - 1, spans, nsp,
+                         scratch.jbuf(n_it - 1))
+        if do_v:
+            xvx, xvy = ovx, ovy
+        if jw:
+            xw, xw_next = xw_next, xw
+        if jp:
+            xp, xp_next = xp_next, xp
+    # last velocity iteration, pass 3, donor limiters of passes 4/5
+    K.height_limit(wet, bc, s2["v1x"], s2["v1y"], xvx, xvy, w0, xw, p0, xp, pr, bh, bw, ns,
+                   cst, do_v, runs("water_height_and_boundary"), do_w, do_p,
+                   s2["v3x"], s2["v3y"], s2["sw"], s3["sp"], spans, nsp)
+    v3x, v3y = s2["v3x"], s2["v3y"]
+    if last <= reference.PASS_ORDER.index("water_height_and_boundary"):
+        state.vx[ys, xs] = _win(v3x, bh, bw)
+        state.vy[ys, xs] = _win(v3y, bh, bw)
+        return
+    K.diffuse_apply(wet, bc, w0, xw, s2["sw"], p0, xp, s3["sp"], bh, bw, ns, cst, do_w,
+                    do_p, s2["w2"], s3["p2"], spans, nsp)
+    if last <= reference.PASS_ORDER.index("diffuse_pigment"):
+        state.vx[ys, xs] = _win(v3x, bh, bw)
+        state.vy[ys, xs] = _win(v3y, bh, bw)
+        state.w[ys, xs] = _win(s2["w2"], bh, bw)
+        state.p[:ns, ys, xs] = _win(s3["p2"][:ns], bh, bw)
+        return
+    do_adv = runs("advect_water_and_pigment")
+    if do_adv:
+        K.advect_limit(wet, v3x, v3y, s2["w2"], s3["p2"], bh, bw, ns, cst, s2["sout"],
+                       s2["sin"], spans, nsp)
+    K.advect_apply(wet, v3x, v3y, s2["sout"], s2["sin"], s2["w2"], s3["p2"], y0, x0, bh, bw,
+                   ns, cst, do_adv, s2["w3"], state.p, spans, nsp)
+    K.evap_surface_absorb(wet, s2["w3"], s2["c"], s2["opn"], state.h, state.wc,
+                          state.evaporated, state.w, state.p, state.q, beta, gamma, delta,
+                          y0, x0, bh, bw, ns, cst, runs("evaporate"), runs("surface_exchange"),
+                          runs("capillary"), s2["sat"], spans, nsp)
+    if runs("capillary"):
+        K.capillary_dry(s2["sat"], s2["c"], s2["opn"], v3x, v3y, state.w, state.wc,
+                        state.evaporated, state.p, state.q, state.vx, state.vy, y0, x0, bh, bw,
+                        ns, cst, prm.cap_diffusion * dt > 0, runs("dry_cells"), spans, nsp)
+    if not runs("dry_cells"):
+        state.vx[ys, xs] = _win(v3x, bh, bw)
+        state.vy[ys, xs] = _win(v3y, bh, bw)
+
+
+def step(state: CanvasState, scratch: Scratch, dt: float | None = None) -> int:
+    """One simulation step of ``state`` in place; returns the number of cells simulated."""
+    dt = state.params.dt if dt is None else float(dt)
+    if not dt > 0 or dt * state.params.v_max > 1.0 + 1e-9:
+        raise CanvasInputError("dt must be > 0 and move at most one cell per step", "step")
+    if state.tiling:
+        active = (state.tile_ttl > 0).astype(np.uint8)
+        regions = scratch.regions(state, active)
+        for region in regions:
+            step_region(state, region, dt, scratch, active=active)
+        boxes = np.array([(r[0].start, r[0].stop, r[1].start, r[1].stop) for r in regions],
+                         np.int64).reshape(-1, 4)
+        K.update_tiles(state.tile_ttl, active, boxes, state.w, state.wc,
+                       int(state.params.tile_size), int(state.params.tile_ttl_steps()),
+                       tiles.HALO)
+        cells = sum((r[0].stop - r[0].start) * (r[1].stop - r[1].start) for r in regions)
+    else:
+        step_region(state, (slice(0, state.height), slice(0, state.width)), dt, scratch)
+        cells = state.height * state.width
+    state.sim_time += dt
+    state.step_count += 1
+    out: int = cells
+    return out
