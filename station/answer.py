@@ -161,4 +161,4 @@ class ReadKeys(dict[str, Any]):
         return super().items()
 
     def unread(self) -> list[str]:
-        return sorted(k for k in super().keys() if k not in self.read)
+        return sorted(k for k in dict.keys(self) if k not in self.read)

@@ -12,8 +12,8 @@ import zmq
 
 from station.answer import ReadKeys, ReplyRequest, parse_request
 from station.bus import runtime_dir
-from station.events import Command
 from station.cli import main
+from station.events import Command
 from station.sim.live import LiveConfig, LiveSim
 
 

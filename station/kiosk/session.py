@@ -68,8 +68,8 @@ import numpy as np
 
 from station.answer import parse_request
 from station.brush.deformable import DeformableBrush
-from station.bus import runtime_dir
 from station.brush.stamp import RoundBrush
+from station.bus import runtime_dir
 from station.canvas.state import CanvasState
 from station.events import Command, PenSample, Tool
 from station.sim.live import SYNC_EVERY_S, LiveConfig, LiveSim

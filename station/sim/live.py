@@ -59,9 +59,9 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
+from station.answer import Answerer, ReadKeys, ReplyRequest, parse_request
 from station.brush.deformable import DeformableBrush
 from station.brush.stamp import BrushSettings
-from station.answer import Answerer, ReadKeys, ReplyRequest, parse_request
 from station.bus import runtime_dir
 from station.durable import atomic_write
 from station.errors import BadInput
