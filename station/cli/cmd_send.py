@@ -55,7 +55,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        epilog="examples:\n"
                               "  station send brush size=12 'pigment={\"Burnt Umber\": 0.7}'\n"
                               "  station send profile name=ink\n"
-                              "  station send --to kiosk view name=paper\n"
+                              "  station send --to kiosk view name=3d\n"
                               "  station send stop --to ipc:///run/station/sim-a.cmd --json",
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("cmd", metavar="CMD", help="command name")
