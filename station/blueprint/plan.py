@@ -17,6 +17,7 @@ as ``--keys``.
 
 from __future__ import annotations
 
+import json
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,6 +30,7 @@ from station.blueprint.model import (
     Where,
     parse_duration,
 )
+from station.canvas.palette import default_palette
 
 DEFAULT_RESTART = "on-failure"
 DEFAULT_RESTART_DELAY_S = 0.5
@@ -195,6 +197,8 @@ def _check_attrs(c: Component) -> None:
     if c.kind == "sim" and c.get("resume") and (c.get("width") or c.get("height")):
         raise BlueprintError("resume= takes the size of the saved state; drop width/height",
                              where)
+    if c.kind == "sim" and c.get("pigment") and c.attrs["pigment"] not in default_palette():
+        raise BlueprintError(f"pigment={c.attrs['pigment']!r} is not in the palette", where)
 
 
 def _check_rules(bp: Blueprint, by_id: dict[str, Component]) -> None:
@@ -419,11 +423,25 @@ def _sim(c: Component, bus: str, ipc: object, out_path: object, in_path: object,
     for attr in ("profile", "seed", "rate"):
         if c.get(attr):
             argv += [f"--{attr}", c.attrs[attr]]
+    brush = _start_brush(c)
+    if brush:
+        argv += ["--brush", brush]
     if c.get("resume"):
         argv += ["--resume", str(in_path(c.attrs["resume"]))]  # type: ignore[operator]
     recover = ["sim", *common, "--recover", str(log)]
     return _proc(c, argv, recover_argv=recover, binds=[_norm(status, run_dir),
                  _norm(cmd, run_dir)], status=status, cmd=cmd, log=log, outputs=outputs)
+
+
+def _start_brush(c: Component) -> str | None:
+    """A sim's brush-size=, brush-water=, pigment= and pigment-amount= as ``--brush``."""
+    args: dict[str, object] = {}
+    for attr, key in (("brush-size", "size"), ("brush-water", "water")):
+        if c.get(attr):
+            args[key] = float(c.attrs[attr])
+    if c.get("pigment"):
+        args["pigment"] = {c.attrs["pigment"]: float(c.get("pigment-amount") or 1.0)}
+    return json.dumps(args) if args else None
 
 
 def _kiosk(c: Component, bus: str, ipc: object, out_path: object,

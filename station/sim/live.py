@@ -115,6 +115,7 @@ class LiveConfig:
     distributed: bool = False  # rank 0 of an MPI job: the canvas spans every rank
     keys: Path | None = None  # CURVE key directory for tcp endpoints (None: the default)
     client_key: str | None = None  # a client key pair of its own for connecting over tcp
+    brush: dict[str, Any] | None = None  # a brush command's args, run (and logged) at start
 
 
 def default_status_endpoint(bus: str | None) -> str:
@@ -244,6 +245,9 @@ class LiveCore:
         self.start = time.monotonic()
         if plan is not None:
             self._replay(plan)
+        elif cfg.brush:  # --brush: the first command of a new session (a recovery has it)
+            self.player.command(Command(t=0.0, cmd="brush", args=cfg.brush))
+            self.journal.write(Command(t=0.0, cmd="brush", args=cfg.brush))
         self.journal.flush()
         self._next_autosave = time.monotonic() + (cfg.autosave or math.inf)
         self._save_requested = False
