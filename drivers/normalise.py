@@ -29,8 +29,8 @@ What it does, in order, for each raw sample:
   maps to ±64°); a tilt axis that has never left its minimum is taken as absent
   (0°, said once in the log and in ``stats.absent_axes``): a pen that sends zero
   tilt bytes (the DTK-2241's) otherwise reads as fully tilted, and a brush that
-  follows tilt paints with a phantom slant; rotation in degrees (without resolution the range maps to
-  ±180°), distance and wheel to ``[0, 1]``;
+  follows tilt paints with a phantom slant; rotation in degrees (without
+  resolution the range maps to ±180°), distance and wheel to ``[0, 1]``;
 * optional **smoothing** as an exponential filter with a time constant given
   in milliseconds of latency (off by default);
 * sequence numbers and timestamps from the transport (``t`` counts from the
