@@ -26,6 +26,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
+from station.drivers.autodetect import WHAT, first_pen_spec
 from station.drivers.evdev.frames import FrameAssembler, is_pen_device, ranges_from_caps
 from station.drivers.normalise import Normaliser, NormaliserConfig
 from station.drivers.raw import AxisRanges, RawSample
@@ -227,7 +228,7 @@ class EvdevPenSource:
 
 # -- device SPEC strings ---------------------------------------------------------
 SCHEMES = ("mock", "mock-hidraw", "mock-usb", "mock-evdev", "mock-uclogic", "trace", "evdev",
-           "hidraw", "hidapi", "usb", "serial", "serial-mock")
+           "hidraw", "hidapi", "usb", "serial", "serial-mock", "auto")
 HAPTIC_SCHEMES = ("serial", "serial-mock")  # drivers/haptic/source.py (docs/haptic-protocol.md)
 
 
@@ -326,6 +327,11 @@ class OpenedTransport:
 def open_transport(spec_text: str) -> OpenedTransport:
     """Open the transport a SPEC string names (live, mock or recorded)."""
     spec = DeviceSpec.parse(spec_text)
+    if spec.scheme == "auto":  # the first pen tablet plugged in (drivers/autodetect.py)
+        if spec.target != WHAT:
+            raise DeviceSpecError(f"device {spec_text!r}: auto: takes 'pen' (auto:pen)",
+                                  "--device")
+        spec = DeviceSpec.parse(first_pen_spec())
     s = spec.scheme
     if s in HAPTIC_SCHEMES:
         raise DeviceSpecError(f"{s}: devices are haptic sessions, not report streams "

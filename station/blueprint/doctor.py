@@ -16,6 +16,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+from station import paths
 from station.blueprint.model import BlueprintError
 from station.blueprint.plan import Plan
 
@@ -82,7 +83,15 @@ def check_devices(plan: Plan | None) -> list[Check]:
             if "problem" not in d]
     wanted = _wanted_devices(plan)
     for ident, spec, vid, pid in wanted:
-        if spec is not None and not spec.startswith(("mock", "trace:", "serial-mock")):
+        if spec is not None and spec.startswith("auto:"):
+            if real:
+                checks.append(Check("devices", "ok", f"{ident}: {spec}: will take "
+                                    f"{real[0].get('name', '')} ({real[0]['spec']})"))
+            else:
+                checks.append(Check("devices", "fail", f"{ident}: {spec}: no pen tablet found",
+                                    "plug the tablet in; `station devices` lists what is "
+                                    "here and why a device cannot be opened"))
+        elif spec is not None and not spec.startswith(("mock", "trace:", "serial-mock")):
             node = spec.split(":", 1)[1].split("?", 1)[0]
             if node.startswith("/dev/") and not os.path.exists(node):
                 checks.append(Check("devices", "fail", f"{ident}: {node} does not exist",
@@ -299,8 +308,7 @@ def check_disk(plan: Plan | None, data_dir: Path | None = None) -> list[Check]:
                                          str(c.where)) from None
                 targets.append((c.id, plan.galleries[c.id], need))
     if not targets:
-        base = data_dir or Path(os.environ.get("STATION_DATA_DIR") or Path(
-            os.environ.get("XDG_DATA_HOME") or Path.home() / ".local" / "share") / "station")
+        base = data_dir or paths.data_dir()
         targets.append(("data", base, DEFAULT_MIN_FREE))
     checks = []
     for ident, path, need in targets:

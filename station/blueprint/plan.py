@@ -370,7 +370,7 @@ def _device_nodes(spec: str) -> list[str]:
     if scheme == "serial":
         return [target] if target.startswith("/dev/") else ["char-ttyACM", "char-ttyUSB"]
     return {"hidraw": ["char-hidraw"], "hidapi": ["char-hidraw"], "usb": ["char-usb_device"],
-            "evdev": ["char-input"]}.get(scheme, [])
+            "evdev": ["char-input"], "auto": ["char-input", "char-hidraw"]}.get(scheme, [])
 
 
 def _source(c: Component, target: str, binds: list[str], waits: int,

@@ -205,13 +205,17 @@ def scan() -> dict[str, Any]:
     result["mock"] = mock_models()
     result["found"] = real
     result["problems"] = [f"{d['path']}: {d['problem']}" for d in problems]
+    from station.drivers.registry import bad_device_files
+
+    notes.extend(f"your device data was skipped: {bad}" for bad in bad_device_files())
     result["notes"] = notes
     return result
 
 
 def model_list() -> dict[str, Any]:
     """Every model of the device data: id, ids, protocol, family, name, file."""
-    from station.drivers.registry import load_devices
+    from station.drivers.registry import bad_device_files, load_devices
+    from station.paths import device_data_dirs
 
     rows = []
     for m in sorted(load_devices(), key=lambda m: (m["vendor_id"], m["product_id"], m["bus"])):
@@ -219,20 +223,31 @@ def model_list() -> dict[str, Any]:
                      "bus": m["bus"], "protocol": m["parser"], "family": m.get("family", ""),
                      "name": m["name"], "models": len(m.get("models", [])) or 1,
                      "screen_tablet": bool(m.get("screen_tablet")), "file": _data_file(m),
-                     "source": "generated" if "provenance" in m else "curated"})
+                     "source": "generated" if "provenance" in m else "curated",
+                     "from": m.get("_source", "bundled"), "path": m["_path"],
+                     **({"overrides": m["_overrides"]} if "_overrides" in m else {})})
     pen_models = sum(r["models"] for r in rows)
-    return {"models": rows, "device_ids": len(rows), "pen_models": pen_models}
+    return {"models": rows, "device_ids": len(rows), "pen_models": pen_models,
+            "directories": {name: str(d) for name, d in device_data_dirs()},
+            "bad_files": bad_device_files()}
 
 
 def print_list(data: dict[str, Any]) -> None:
     w = sys.stdout.write
     w(f"{data['device_ids']} device ids, {data['pen_models']} pen models "
       "(ids shared by several products count each product):\n")
-    w(f"{'vid:pid':<10}{'bus':<10}{'protocol':<18}{'family':<34}name\n")
+    w(f"{'vid:pid':<10}{'bus':<10}{'protocol':<18}{'from':<9}{'family':<34}name\n")
     for r in data["models"]:
         more = f" [{r['models']} models]" if r["models"] > 1 else ""
-        w(f"{r['vid']}:{r['pid']} {r['bus']:<9} {r['protocol']:<17} {r['family'][:33]:<33} "
-          f"{r['name']}{more}\n")
+        own = f" ({r['path']}" + (", replaces the bundled data)" if "overrides" in r
+                                   else ")") if r["from"] != "bundled" else ""
+        w(f"{r['vid']}:{r['pid']} {r['bus']:<9} {r['protocol']:<17} {r['from']:<8} "
+          f"{r['family'][:33]:<33} {r['name']}{more}{own}\n")
+    dirs = data["directories"]
+    w(f"Your own device data: {dirs['user']}/*.json (for everyone: {dirs['system']}/*.json); "
+      "see docs/devices.md.\n")
+    for bad in data["bad_files"]:
+        w(f"skipped: {bad}\n")
 
 
 def run(args: argparse.Namespace) -> int:
