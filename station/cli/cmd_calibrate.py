@@ -97,6 +97,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--misclick-px", type=float, default=15.0,
                    help="interactive: misclick threshold in screen pixels (xinput_calibrator: 15)")
     p.add_argument("--screenshot", metavar="PNG", help="interactive: save the last frame")
+    p.add_argument("--result-seconds", type=float, default=8.0, metavar="S",
+                   help="interactive: how long the result stays on screen (Esc ends it)")
     p.add_argument("--timeout", type=float, default=120.0,
                    help="interactive: give up after this many seconds")
     p.add_argument("--windowed", action="store_true", help="interactive: not fullscreen")
