@@ -77,6 +77,8 @@ EXAMPLES: dict[str, list[str]] = {
                "station replay pen.hid --speed 1.0"],
     "run": ["station run headless-demo --once", "station run kiosk"],
     "send": ["station send brush size=12", "station send --to kiosk stop"],
+    "tablet-test": ["station tablet-test --device auto:pen",
+                    "station tablet-test --device mock:intuos-pro-m --terminal"],
     "sim": ["station sim", "station sim --size 640x480 --backend cpu --png live.png"],
     "tools-sheet": ["station tools-sheet -o tools-sheet.png"],
     "udev": ["station udev -o 70-painting-station.rules", "station udev --check"],
