@@ -9,6 +9,7 @@ the sliders; the pen being tested never drives the UI (it is what is measured).
 
 from __future__ import annotations
 
+import itertools
 import time
 from pathlib import Path
 from typing import Any
@@ -147,7 +148,7 @@ class TesterWindow:
 
         dl.add_rect(at(0, 1), at(1, 0), FRAME)
         pts = t.curve_points(48)
-        for (ax, ay), (bx, by) in zip(pts, pts[1:], strict=False):
+        for (ax, ay), (bx, by) in itertools.pairwise(pts):
             dl.add_line(at(ax, ay), at(bx, by), CURVE, 2.0)
         dl.add_line(at(self.threshold, 0), at(self.threshold, 1), THRESHOLD, 2.5)
         live = t.live_point()
