@@ -30,6 +30,12 @@ def config_dir() -> Path:
     return Path(base) if base else Path(platformdirs.user_config_dir(APP, appauthor=False))
 
 
+def xdg_config_dir() -> Path:
+    """platformdirs' user config dir (``$XDG_CONFIG_HOME/station``), not moved by
+    ``$STATION_CONFIG_DIR``: a painter's own profiles live there (docs/brush.md)."""
+    return Path(platformdirs.user_config_dir(APP, appauthor=False))
+
+
 def system_config_dir() -> Path:
     base = os.environ.get("STATION_SYSTEM_CONFIG_DIR")
     return Path(base) if base else SYSTEM_CONFIG

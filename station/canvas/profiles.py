@@ -59,8 +59,8 @@ def schema() -> etree.XMLSchema:
 
 def user_dir() -> Path:
     """Where a painter's own profiles live: ``$XDG_CONFIG_HOME/station/profiles``
-    (:func:`station.paths.config_dir`)."""
-    return paths.config_dir() / "profiles"
+    (:func:`station.paths.xdg_config_dir`)."""
+    return paths.xdg_config_dir() / "profiles"
 
 
 def _err(where: str, el: Any, msg: str) -> CanvasInputError:
