@@ -21,6 +21,7 @@ from station.drivers.registry import parser_for
 
 from station.errors import BadInput
 
+_ecodes: Any
 try:  # event code names; without python-evdev the numbers are printed
     from evdev import ecodes as _ecodes
 except ImportError:  # pragma: no cover - python-evdev is a Linux dependency

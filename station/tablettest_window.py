@@ -51,7 +51,8 @@ class TesterWindow:
         glfw.make_context_current(self.window)
         glfw.swap_interval(1)
         self.ctx: Any = moderngl.create_context()
-        self.size = tuple(glfw.get_framebuffer_size(self.window))
+        fw, fh = glfw.get_framebuffer_size(self.window)
+        self.size: tuple[int, int] = (int(fw), int(fh))
         self.gui = ImGuiLayer(self.ctx, self.size, scale=1.15)
         self.tester = tester
         s = tester.settings

@@ -209,7 +209,7 @@ def _uhid(trace: Any, speed: float | None) -> int:
     try:
         for d in hid:
             u = UHIDDevice()
-            u.name, u.info, u.rdesc = d.name, (d.bus, d.vid, d.pid), list(d.descriptor)
+            u.name, u.info, u.rdesc = d.name, (d.bus, d.vid, d.pid), bytes(d.descriptor)
             u.phys = d.phys or "station-replay"
             u.create_kernel_device()
             devices.append((u, d))

@@ -116,7 +116,7 @@ def run(args: argparse.Namespace) -> int:
     check_keys(args.keys, args.client_key, (("--to", target, False),))
     deadline = time.monotonic() + args.timeout
     over_ipc = "tcp://" not in target
-    ctx = zmq.Context.instance()
+    ctx: zmq.Context[zmq.Socket[bytes]] = zmq.Context.instance()
     inbox = None
     if not over_ipc:
         _check_here(command)

@@ -64,7 +64,7 @@ def _curve(text: str | None) -> tuple[float, float, float, float]:
         raise BadInput(f"{text!r}: needs four numbers x1,y1,x2,y2", "--pressure-curve") from None
     if len(vals) != 4:
         raise BadInput(f"{text!r}: needs four numbers x1,y1,x2,y2", "--pressure-curve")
-    return vals  # type: ignore[return-value]
+    return (vals[0], vals[1], vals[2], vals[3])
 
 
 def run(args: argparse.Namespace) -> int:
