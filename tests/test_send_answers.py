@@ -118,3 +118,10 @@ def test_read_keys_names_what_nothing_read() -> None:
     assert args.unread() == ["sizee"]
     dict(args)
     assert args.unread() == []
+
+
+def test_bench_send_prints_its_figures(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["bench", "send", "--calls", "1"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["calls"] == 1 and out["target_ms"] == 300.0
+    assert 0 < out["in_process_ms"]["median"] <= out["process_ms"]["median"]

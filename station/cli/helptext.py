@@ -43,6 +43,7 @@ EXAMPLES: dict[str, list[str]] = {
     "bench parse": ["station bench parse"],
     "bench render": ["station bench render"],
     "bench sim": ["station bench sim --json"],
+    "bench send": ["station bench send --calls 20"],
     "blueprint": ["station blueprint list", "station blueprint check kiosk"],
     "blueprint list": ["station blueprint list"],
     "blueprint check": ["station blueprint check my-station.xml"],
