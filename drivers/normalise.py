@@ -26,10 +26,11 @@ What it does, in order, for each raw sample:
   grows continuously from there, then the cubic-Bézier pressure curve; 0 and
   ``touching=False`` out of contact;
 * **tilt** in degrees (resolution in units per degree; without one the range
-  maps to ±64°); a tilt axis that has never left its minimum is taken as absent
-  (0°, said once in the log and in ``stats.absent_axes``): a pen that sends zero
-  tilt bytes (the DTK-2241's) otherwise reads as fully tilted, and a brush that
-  follows tilt paints with a phantom slant; rotation in degrees (without
+  maps to ±64°); a tilt or rotation axis that has never left its minimum is taken
+  as absent (0° tilt, no rotation; said once in the log and in
+  ``stats.absent_axes``): a pen that sends zero tilt bytes (the DTK-2241's)
+  otherwise reads as fully tilted, and a brush that follows tilt paints with a
+  phantom slant; rotation in degrees (without
   resolution the range maps to ±180°), distance and wheel to ``[0, 1]``;
 * optional **smoothing** as an exponential filter with a time constant given
   in milliseconds of latency (off by default);
@@ -491,20 +492,26 @@ class Normaliser:
             value = self._curve(value)
         return value, True
 
+    def _stuck(self, value: int, axis: Axis, name: str) -> bool:
+        """Whether ``name`` has never left its minimum (then it is taken as absent,
+        said once); the first other value makes it a real axis for good."""
+        if name in self._alive:
+            return False
+        if value == axis.minimum:  # never moved: a pen without this axis, not a slant
+            if name not in self.stats.absent_axes:
+                self.stats.absent_axes.append(name)
+                log.warning("%s: %s stays at its minimum (%d): taken as absent until it "
+                            "moves", self.device, name, value)
+            return True
+        self._alive.add(name)
+        if name in self.stats.absent_axes:
+            self.stats.absent_axes.remove(name)
+            log.warning("%s: %s moved after all: reported from now on", self.device, name)
+        return False
+
     def _tilt(self, value: int | None, axis: Axis | None, name: str) -> float:
-        if value is None or axis is None:
+        if value is None or axis is None or self._stuck(value, axis, name):
             return 0.0
-        if name not in self._alive:
-            if value == axis.minimum:  # never moved: a pen without this axis, not a slant
-                if name not in self.stats.absent_axes:
-                    self.stats.absent_axes.append(name)
-                    log.warning("%s: %s stays at its minimum (%d): taken as absent (0 "
-                                "degrees) until it moves", self.device, name, value)
-                return 0.0
-            self._alive.add(name)
-            if name in self.stats.absent_axes:
-                self.stats.absent_axes.remove(name)
-                log.warning("%s: %s moved after all: reported from now on", self.device, name)
         if axis.resolution:
             deg = value / axis.resolution
         else:
@@ -514,7 +521,7 @@ class Normaliser:
 
     def _rotation(self, value: int | None) -> float | None:
         axis = self.ranges.rotation
-        if value is None or axis is None:
+        if value is None or axis is None or self._stuck(value, axis, "rotation"):
             return None
         if axis.resolution:
             deg = value / axis.resolution

@@ -258,3 +258,7 @@ def test_a_tilt_axis_stuck_at_its_minimum_is_absent_not_a_full_slant(
     assert n.stats.absent_axes == ["tilt_y"]
     (s,) = n.feed(raw(0.255, tilt_x=-64))
     assert s.tilt_x == -64.0  # once alive, the minimum is a real value
+    # an Art Pen barrel that never turned: no rotation, not -180 degrees
+    r = Normaliser(RANGES)
+    assert [r.feed(raw(i * 0.005, rotation=-900))[0].rotation for i in range(3)] == [None] * 3
+    assert r.feed(raw(0.02, rotation=0))[0].rotation == pytest.approx(900 / 1799 * 360 - 180)
