@@ -50,9 +50,40 @@ def _exportable_matrix(cal: Calibration, target: str) -> np.ndarray:
     return m
 
 
+MIN_SPAN = 0.05  # of the screen: a tablet mapped to less is a matrix in device units
+NORMALISED_REACH = (-1.0, 2.0)
+"""Where a normalised matrix may send the tablet's corners: the screen is [0, 1]; a
+tablet area larger than the screen reaches a little past it, never to 815.7."""
+
+
+def check_normalised(m: np.ndarray, target: str) -> None:
+    """Refuse a matrix that is not device-normalised → screen-normalised (what libinput
+    and tslib take): one whose corners land far off the screen was fitted to pixels."""
+    lo, hi = NORMALISED_REACH
+    xs, ys = [], []
+    for cx, cy in ((0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)):
+        x = m[0, 0] * cx + m[0, 1] * cy + m[0, 2]
+        y = m[1, 0] * cx + m[1, 1] * cy + m[1, 2]
+        xs.append(x)
+        ys.append(y)
+        if not (lo <= x <= hi and lo <= y <= hi):
+            raise ExportError(
+                f"{target} expects a normalised 3x3 matrix (the tablet's corners land in "
+                f"about [0, 1]); this one sends corner ({cx:g}, {cy:g}) to ({x:.4g}, "
+                f"{y:.4g}): were the fit's canvas coordinates pixels? (refit with --units "
+                "px --canvas WxH)")
+    span = min(max(xs) - min(xs), max(ys) - min(ys))
+    if span < MIN_SPAN:
+        raise ExportError(
+            f"{target} expects a normalised 3x3 matrix; this one sends the whole tablet to "
+            f"a spot {span:.3g} wide: were the fit's device coordinates in device units? "
+            "(refit with --device-max XMAX,YMAX)")
+
+
 def to_libinput(cal: Calibration) -> tuple[float, float, float, float, float, float]:
     """The six numbers of ``LIBINPUT_CALIBRATION_MATRIX`` (device-normalised → canvas)."""
     m = _exportable_matrix(cal, "libinput")
+    check_normalised(m, "libinput")
     return tuple(float(v) for v in m[:2, :].ravel())  # type: ignore[return-value]
 
 

@@ -19,12 +19,7 @@ import dataclasses
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass
-
-from station.calibration.errors import CalibrationError
-from station.calibration.files import CalibrationStore, find_for_device
-from station.calibration.model import DeviceId
-
-from station.events import PenSample
+from typing import Any
 
 from station.calibration.errors import CalibrationError
 from station.calibration.files import CalibrationStore, find_for_device

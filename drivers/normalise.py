@@ -28,8 +28,12 @@ What it does, in order, for each raw sample:
   the same code a calibration's curve goes through); 0 and ``touching=False`` out
   of contact;
 * **tilt** in degrees (resolution in units per degree; without one the range
-  maps to ±64°), rotation in degrees (without resolution the range maps to
-  ±180°), distance and wheel to ``[0, 1]``;
+  maps to ±64°); a tilt or rotation axis that has never left its minimum is taken
+  as absent (0° tilt, no rotation; said once in the log and in
+  ``stats.absent_axes``): a pen that sends zero tilt bytes (the DTK-2241's)
+  otherwise reads as fully tilted, and a brush that follows tilt paints with a
+  phantom slant; rotation in degrees (without
+  resolution the range maps to ±180°), distance and wheel to ``[0, 1]``;
 * optional **smoothing** as an exponential filter with a time constant given
   in milliseconds of latency (off by default);
 * sequence numbers and timestamps from the transport (``t`` counts from the
@@ -49,6 +53,7 @@ never published.
 from __future__ import annotations
 
 import dataclasses
+import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -59,6 +64,8 @@ from station.drivers.raw import Axis, AxisRanges, RawSample
 
 from station.errors import BadInput, EventError
 from station.events import PenSample, Tool
+
+log = logging.getLogger(__name__)
 
 
 class NormaliserConfigError(BadInput):
@@ -156,6 +163,7 @@ class NormaliserStats:
     time_backwards: int = 0
     tool_changes: int = 0  # tools replaced while in proximity (old one left first)
     reasons: dict[str, int] = field(default_factory=dict)
+    absent_axes: list[str] = field(default_factory=list)  # stuck at their minimum so far
 
 
 def _other_tool(before: ToolKey, after: ToolKey) -> bool:
@@ -231,6 +239,7 @@ class Normaliser:
         self._tool_id: int | None = None
         self._pressure: int | None = None
         self._smooth: tuple[float, float, float] | None = None  # (x, y, time)
+        self._alive: set[str] = set()  # axes seen away from their minimum
 
     def _fit_scale(self) -> tuple[float, float] | None:
         """Factors that letterbox the area into the canvas (``fit``), or None."""
@@ -457,8 +466,25 @@ class Normaliser:
             value, _ = self.pressure.shape(value, True)
         return value, True
 
-    def _tilt(self, value: int | None, axis: Axis | None) -> float:
-        if value is None or axis is None:
+    def _stuck(self, value: int, axis: Axis, name: str) -> bool:
+        """Whether ``name`` has never left its minimum (then it is taken as absent,
+        said once); the first other value makes it a real axis for good."""
+        if name in self._alive:
+            return False
+        if value == axis.minimum:  # never moved: a pen without this axis, not a slant
+            if name not in self.stats.absent_axes:
+                self.stats.absent_axes.append(name)
+                log.warning("%s: %s stays at its minimum (%d): taken as absent until it "
+                            "moves", self.device, name, value)
+            return True
+        self._alive.add(name)
+        if name in self.stats.absent_axes:
+            self.stats.absent_axes.remove(name)
+            log.warning("%s: %s moved after all: reported from now on", self.device, name)
+        return False
+
+    def _tilt(self, value: int | None, axis: Axis | None, name: str) -> float:
+        if value is None or axis is None or self._stuck(value, axis, name):
             return 0.0
         if axis.resolution:
             deg = value / axis.resolution
@@ -469,7 +495,7 @@ class Normaliser:
 
     def _rotation(self, value: int | None) -> float | None:
         axis = self.ranges.rotation
-        if value is None or axis is None:
+        if value is None or axis is None or self._stuck(value, axis, "rotation"):
             return None
         if axis.resolution:
             deg = value / axis.resolution
@@ -507,8 +533,8 @@ class Normaliser:
                 "x": x,
                 "y": y,
                 "pressure": pressure,
-                "tilt_x": self._tilt(raw.tilt_x, r.tilt_x),
-                "tilt_y": self._tilt(raw.tilt_y, r.tilt_y),
+                "tilt_x": self._tilt(raw.tilt_x, r.tilt_x, "tilt_x"),
+                "tilt_y": self._tilt(raw.tilt_y, r.tilt_y, "tilt_y"),
                 "proximity": True,
                 "touching": touching,
                 "buttons": raw.buttons & 0xFFFF,

@@ -40,6 +40,7 @@ from station.drivers.wacom.intuos import IntuosParser
 from station.drivers.wacom.legacy import PROTOCOLS as LEGACY
 from station.drivers.wacom.legacy import LegacyPenParser
 
+from station import paths
 from station.errors import BadInput
 
 log = logging.getLogger(__name__)
@@ -132,19 +133,81 @@ def parse_device_data(text: str, where: str) -> dict[str, Any]:
 
 
 @lru_cache(maxsize=1)
-def _load() -> tuple[dict[str, Any], ...]:
+def _bundled() -> tuple[dict[str, Any], ...]:
+    """The package's own models (validated once per process: 560 files, ~1 s)."""
     models = []
     for path in sorted(DEVICES_DIR.glob("*.json")):
         if path.name.endswith(".schema.json"):
             continue
         model = parse_device_data(path.read_text(encoding="utf-8"), str(path))
-        model["_path"] = str(path)
+        model["_path"], model["_source"] = str(path), "bundled"
         models.append(model)
     return tuple(models)
 
 
+@lru_cache(maxsize=1)
+def _load() -> tuple[dict[str, Any], ...]:
+    """The bundled models, then the system's and the user's device data
+    (:func:`station.paths.device_data_dirs`), a later file replacing an earlier model
+    with the same id or the same vendor, product and bus.  A bad file of the system or
+    the user is said in one line (file and field) and skipped: the rest still works."""
+    models = {m["id"]: m for m in _bundled()}
+    _BAD_FILES.clear()
+    for source, directory in paths.device_data_dirs():
+        try:
+            files = sorted(directory.glob("*.json"))
+        except OSError:
+            continue
+        for path in files:
+            try:
+                model = parse_device_data(_read_small(path), str(path))
+            except BadInput as exc:
+                _BAD_FILES.append(str(exc))  # names the file and the field
+                log.warning("device data skipped (the bundled data still works): %s", exc)
+                continue
+            model["_path"], model["_source"] = str(path), source
+            ids = device_ids(model)
+            for key in [k for k, m in models.items() if device_ids(m) == ids]:
+                model["_overrides"] = models.pop(key)["_path"]
+            if model["id"] in models:
+                model["_overrides"] = models.pop(model["id"])["_path"]
+            models[model["id"]] = model
+    return tuple(models.values())
+
+
+_BAD_FILES: list[str] = []
+MAX_DEVICE_FILE = 1 << 20  # device data is a few kB: a bigger file is not one
+
+
+def _read_small(path: Path) -> str:
+    try:
+        with path.open("rb") as f:
+            data = f.read(MAX_DEVICE_FILE + 1)
+    except OSError as exc:
+        raise BadInput(f"cannot read it ({exc.strerror})", str(path)) from None
+    if len(data) > MAX_DEVICE_FILE:
+        raise BadInput(f"over {MAX_DEVICE_FILE} bytes: not device data", str(path))
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise BadInput("not UTF-8 text", str(path)) from None
+
+
+def bad_device_files() -> list[str]:
+    """The user's and the system's device files that were skipped, each with why."""
+    _load()
+    return list(_BAD_FILES)
+
+
+def reload_devices() -> None:
+    """Read the device data again (after a file was added or changed)."""
+    _load.cache_clear()
+    _by_ids.cache_clear()
+
+
 def load_devices() -> list[dict[str, Any]]:
-    """Every device model (dicts as in the JSON files, plus ``_path``)."""
+    """Every device model (dicts as in the JSON files, plus ``_path`` and ``_source``:
+    ``bundled``, ``system`` or ``user``; ``_overrides``: the file it replaces)."""
     return [copy.deepcopy(m) for m in _load()]
 
 

@@ -18,6 +18,7 @@ from station.drivers.evdev.frames import is_pen_device, ranges_from_caps
 from station.drivers.mock.tablet import GENERIC_MODELS
 from station.drivers.registry import (
     WACOM_VID,
+    bad_device_files,
     find_device,
     interface_from_phys,
     load_devices,
@@ -29,6 +30,7 @@ from station.drivers.transport.hidapi import enumerate_hidapi
 from station.drivers.transport.hidraw import HidrawTransport, OsHidrawNode, list_hidraw
 
 from station.errors import BadInput
+from station.paths import device_data_dirs
 
 
 def _data_file(model: dict[str, Any] | None) -> str | None:
@@ -191,6 +193,7 @@ def scan() -> dict[str, Any]:
     result["mock"] = mock_models()
     result["found"] = real
     result["problems"] = [f"{d['path']}: {d['problem']}" for d in problems]
+    notes.extend(f"your device data was skipped: {bad}" for bad in bad_device_files())
     result["notes"] = notes
     return result
 
@@ -203,6 +206,10 @@ def model_list() -> dict[str, Any]:
                      "bus": m["bus"], "protocol": m["parser"], "family": m.get("family", ""),
                      "name": m["name"], "models": len(m.get("models", [])) or 1,
                      "screen_tablet": bool(m.get("screen_tablet")), "file": _data_file(m),
-                     "source": "generated" if "provenance" in m else "curated"})
+                     "source": "generated" if "provenance" in m else "curated",
+                     "from": m.get("_source", "bundled"), "path": m["_path"],
+                     **({"overrides": m["_overrides"]} if "_overrides" in m else {})})
     pen_models = sum(r["models"] for r in rows)
-    return {"models": rows, "device_ids": len(rows), "pen_models": pen_models}
+    return {"models": rows, "device_ids": len(rows), "pen_models": pen_models,
+            "directories": {name: str(d) for name, d in device_data_dirs()},
+            "bad_files": bad_device_files()}

@@ -290,6 +290,8 @@ class Command:
     cmd: str
     args: dict[str, Any] = field(default_factory=dict)
     where: str | None = field(default=None, compare=False, repr=False)
+    # on the bus only: where the taking process answers (station.answer); never logged
+    reply: dict[str, Any] | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         w = self.where
@@ -305,10 +307,15 @@ class Command:
         return self.cmd in KNOWN_COMMANDS
 
     def to_record(self) -> dict[str, Any]:
-        return {"type": "cmd", "t": self.t, "cmd": self.cmd, "args": self.args}
+        rec = {"type": "cmd", "t": self.t, "cmd": self.cmd, "args": self.args}
+        if self.reply is not None:
+            rec["reply"] = self.reply
+        return rec
 
     @classmethod
     def from_record(cls, rec: dict[str, Any], where: str | None = None) -> Command:
         if "t" not in rec or "cmd" not in rec:
             raise EventError("cmd record needs 't' and 'cmd'", where)
-        return cls(t=rec["t"], cmd=rec["cmd"], args=rec.get("args", {}) or {}, where=where)
+        reply = rec.get("reply")
+        return cls(t=rec["t"], cmd=rec["cmd"], args=rec.get("args", {}) or {}, where=where,
+                   reply=reply if isinstance(reply, dict) else None)

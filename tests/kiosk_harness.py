@@ -123,7 +123,7 @@ class Kiosk:
         """Stop the kiosk: a ``stop`` on the bus, or ``station send stop`` (its own
         command endpoint, as an operator would)."""
         if send:
-            sender = station("send", "stop")
+            sender = station("send", "stop", "--to", "kiosk")
             _, err = sender.communicate(timeout=60)
             assert sender.returncode == 0, err
         else:

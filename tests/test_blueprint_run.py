@@ -97,6 +97,7 @@ def test_headless_demo_paints(tmp_path: Path) -> None:
     assert proc.returncode == 0, proc.stderr
     assert "--once: the sources are done" in proc.stderr
     png = tmp_path / "painting.png"
+    assert f"station run: sim: picture: {png.resolve()}" in proc.stderr
     assert pixels(png).shape[:2] == (48, 64)
     assert painted(png) > 40  # the stroke is there
     log = Path(state(run)["components"]["sim"]["log"])

@@ -148,7 +148,9 @@ def test_libinput_round_trips_exactly() -> None:
     rng = np.random.default_rng(2)
     for _ in range(50):
         m = np.eye(3)
-        m[:2, :] = rng.normal(size=(2, 3))
+        # normalised matrices (issue 24.5: exports refuse one that sends the tablet off
+        # the screen): near the identity, any bits
+        m[:2, :] += rng.normal(scale=0.15, size=(2, 3))
         cal = affine_only(tuple(map(tuple, m)))
         line = libinput_line(cal)
         assert line.startswith('ENV{LIBINPUT_CALIBRATION_MATRIX}="')

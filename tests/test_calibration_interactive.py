@@ -61,7 +61,8 @@ def display() -> Iterator[str]:
 
 def calibrate(display: str, *argv: str) -> subprocess.CompletedProcess[str]:
     env = {**os.environ, "DISPLAY": display}
-    return subprocess.run([sys.executable, "-m", "station", "calibrate", *argv], env=env,
+    return subprocess.run([sys.executable, "-m", "station", "calibrate", *argv,
+                           "--result-seconds", "0"], env=env,
                           capture_output=True, text=True, timeout=60)
 
 
@@ -96,7 +97,10 @@ def test_interactive_with_mock_user_recovers_the_distortion(display: str, tmp_pa
                  int(round(x * SCREEN[0])) - 4:int(round(x * SCREEN[0])) + 5]
         assert (np.abs(px - GREEN).sum(axis=2) < 30).mean() > 0.5, (x, y)
     assert (np.abs(img - RED).sum(axis=2) < 30).sum() > 20  # the rejected misclick's cross
-    assert (np.abs(img - BACKGROUND).sum(axis=2) < 6).mean() > 0.95  # the rest is background
+    # the rest is background (the words' panel top left aside)
+    rest = img.copy()
+    rest[110:300, :1000] = BACKGROUND
+    assert (np.abs(rest - BACKGROUND).sum(axis=2) < 6).mean() > 0.95
 
 
 def test_interactive_with_recorded_taps(display: str, tmp_path: Path) -> None:
@@ -237,3 +241,53 @@ def test_session_asks_again_for_taps_the_final_fit_excludes() -> None:
     probe = np.random.default_rng(1).uniform(0.1, 0.9, (50, 2))
     assert np.abs(project(session.report.mapping.matrix, project(inverse, probe)) - probe).max() \
         < 0.0015
+
+
+def test_the_window_says_what_to_do_and_the_result_in_words(display: str,
+                                                            tmp_path: Path) -> None:
+    """Issue 24.5: an installer at the kiosk screen sees the instructions, a rejected
+    tap's reason and the final residuals on screen, not only in the terminal."""
+    from PIL import Image, ImageFont
+
+    from station.calibrate.window import (
+        PANEL_ALPHA,
+        TEXT_PX,
+        WHITE,
+        panel_origin,
+        render_words,
+    )
+
+    out, shot = tmp_path / "cal.json", tmp_path / "shot.png"
+    proc = calibrate(display, "--device", f"mock-user:{DISTORTION},misclick=2,seed=3",
+                     "--points", "5", "--model", "affine", "-o", str(out), "--screenshot",
+                     str(shot), "--timeout", "45")
+    assert proc.returncode == 0, proc.stderr + proc.stdout
+    assert "REJECTED (misclick" in proc.stdout
+    cal = read_file(out)
+    rejected = proc.stdout.count("REJECTED")
+    px = max(SCREEN)
+    lines = [line for line in proc.stdout.splitlines() if line.startswith("fit: ")]
+    excluded = int(lines[0].rsplit("excluded by the fit: ", 1)[1].split(";")[0])
+    words = (
+        (f"calibration done: affine fit of {cal.fit.points} taps", WHITE),
+        (f"residuals: rms {cal.fit.rms * px:.2f} px, max {cal.fit.max * px:.2f} px, "
+         f"leave-one-out rms {(cal.fit.loo_rms or 0) * px:.2f} px", None),
+        (f"misclicks rejected on the spot: {rejected}, excluded by the fit: {excluded}",
+         WHITE),
+    )
+    img = np.asarray(Image.open(shot).convert("RGB")).astype(float)
+    font = ImageFont.load_default(size=TEXT_PX)
+    best = None
+    for colour in ((0.1, 0.85, 0.2, 1.0), (1.0, 0.85, 0.1, 1.0)):  # a good or a large max
+        for last in ("saved; Esc closes this window",
+                     "saved; the max residual is large: calibrate again if the pen feels off"):
+            want = (*((t, c or colour) for t, c in words), (last, WHITE))
+            panel = np.asarray(render_words(want, font, SCREEN[0] - 40)).astype(float)
+            h, w = panel.shape[:2]
+            a = panel[..., 3:] / 255.0
+            expect = panel[..., :3] * a + BACKGROUND * (1 - a)
+            x0, y0 = (int(v) for v in panel_origin(SCREEN))
+            diff = np.abs(img[y0:y0 + h, x0:x0 + w] - expect).mean()
+            best = diff if best is None else min(best, diff)
+    assert best is not None and best < 2.0  # the words drawn, pixel for pixel (± blending)
+    assert PANEL_ALPHA > 128

@@ -95,6 +95,7 @@ def test_worn_nib_not_taken_while_tip_down() -> None:
 
 def test_tilt_rotation_distance_wheel() -> None:
     n = Normaliser(RANGES)
+    n.feed(raw(0.0, tilt_x=-63))  # the axis moves: its minimum is a real value from now
     (s,) = n.feed(raw(0.0, tilt_x=-64, tilt_y=-30, rotation=0, distance=63, wheel=1023))
     assert s.tilt_x == -64.0  # no resolution: range → ±64°
     assert s.tilt_y == -30.0  # resolution 1 unit per degree
@@ -240,3 +241,24 @@ def test_fast_path_still_refuses_bad_values() -> None:
             _checked_sample({**values, name: bad})
     with pytest.raises(EventError):
         _checked_sample({**values, "proximity": False, "touching": True})
+
+
+def test_a_tilt_axis_stuck_at_its_minimum_is_absent_not_a_full_slant(
+        caplog: pytest.LogCaptureFixture) -> None:
+    """The DTK-2241's pen sends tilt bytes of 0 = the axis minimum: the kernel and the
+    station used to say -64 degrees, and a brush following tilt painted fully slanted."""
+    n = Normaliser(RANGES)
+    got = [n.feed(raw(i * 0.005, tilt_x=-64, tilt_y=-64))[0] for i in range(50)]
+    assert all(s.tilt_x == 0.0 and s.tilt_y == 0.0 for s in got)
+    assert n.stats.absent_axes == ["tilt_x", "tilt_y"]
+    said = [r for r in caplog.records if "stays at its minimum" in r.getMessage()]
+    assert len(said) == 2  # once per axis, not once per sample
+    (s,) = n.feed(raw(0.25, tilt_x=-40, tilt_y=-64))  # it moves after all: a real axis
+    assert s.tilt_x == pytest.approx(-40 / 63.5 * 64, abs=1.5) and s.tilt_y == 0.0
+    assert n.stats.absent_axes == ["tilt_y"]
+    (s,) = n.feed(raw(0.255, tilt_x=-64))
+    assert s.tilt_x == -64.0  # once alive, the minimum is a real value
+    # an Art Pen barrel that never turned: no rotation, not -180 degrees
+    r = Normaliser(RANGES)
+    assert [r.feed(raw(i * 0.005, rotation=-900))[0].rotation for i in range(3)] == [None] * 3
+    assert r.feed(raw(0.02, rotation=0))[0].rotation == pytest.approx(900 / 1799 * 360 - 180)

@@ -103,6 +103,17 @@ TYPE_PROTOCOL: dict[str, tuple[str, str, list[str]]] = {
     "MTTPC_B": ("wacom-tpc", "ISDv4 Tablet PC", []),
     "HID_GENERIC": ("hid-generic", "Wacom generic HID", []),
 }
+# Measured corrections: what a device's pen really sends, where recordings of it show the
+# kernel table (which gives every pen of a kernel type the type's axes) and libwacom claim
+# more.  Each one names its evidence; the model gets the quirk and its provenance says why.
+MEASURED: dict[tuple[str, int, int], dict[str, Any]] = {
+    ("usb", 0x056A, 0x0057): {
+        "quirks": ["no-tilt"],
+        "evidence": "DTK-2241 recordings (issue 24): the pen's tilt bytes are 0 in every "
+                    "report, so the kernel reports tilt -64,-64 (its minimum) throughout; "
+                    "the DTK-2241 pen has no tilt sensor",
+    },
+}
 # Types with no pen: touch-only halves of pen displays, pads, receivers, remotes.
 NOT_PEN_TYPES = {"BAMBOO_TOUCH", "BAMBOO_PAD", "WIRELESS", "REMOTE", "WACOM_24HDT",
                  "WACOM_27QHDT", "BOOTLOADER"}  # fmt: skip
@@ -410,6 +421,9 @@ def kernel_model(e: KernelEntry, src: Source, tablets: dict[tuple[str, int, int]
     if ktype in NOT_PEN_TYPES or not isinstance(f.get("x_max"), int) or not f.get("pressure_max"):
         return None
     parser, family, quirks = TYPE_PROTOCOL[ktype]
+    measured = MEASURED.get((e.bus, e.vid, e.pid))
+    if measured:
+        quirks = [*quirks, *(q for q in measured["quirks"] if q not in quirks)]
     tab = tablets.get((e.bus, e.vid, e.pid))
     name = tab.name if tab else str(f["name"])
     if tab and tab.model_name:
@@ -462,10 +476,16 @@ def kernel_model(e: KernelEntry, src: Source, tablets: dict[tuple[str, int, int]
         model["pad_buttons"] = f["numbered_buttons"]
     if tab is not None:
         _libwacom_facts(model, tab, styli, groups)
+    if not model["tilt"]:  # libwacom's styli are generic: a pen here sends no tilt
+        for stylus in model.get("styli", []):
+            if "tilt" in stylus.get("axes", []):
+                stylus["axes"] = [a for a in stylus["axes"] if a != "tilt"]
     prov = [src.ref(f"wacom_features_{e.macro_arg}")]
     if tab is not None:
         prov.append(lw_src.ref(tab.file))
     model["provenance"] = {"generator": GENERATOR, "sources": prov}
+    if measured:
+        model["provenance"]["measured"] = measured["evidence"]
     return model
 
 

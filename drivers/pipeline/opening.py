@@ -12,6 +12,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from station.drivers.autodetect import WHAT, first_pen_spec
 from station.drivers.haptic.source import open_haptic
 from station.drivers.mock.evdev import MockEvdevNode
 from station.drivers.mock.hidraw import MockHidrawNode
@@ -52,6 +53,11 @@ class OpenedTransport:
 def open_transport(spec_text: str) -> OpenedTransport:
     """Open the transport a SPEC string names (live, mock or recorded)."""
     spec = DeviceSpec.parse(spec_text)
+    if spec.scheme == "auto":  # the first pen tablet plugged in (drivers/autodetect.py)
+        if spec.target != WHAT:
+            raise DeviceSpecError(f"device {spec_text!r}: auto: takes 'pen' (auto:pen)",
+                                  "--device")
+        spec = DeviceSpec.parse(first_pen_spec())
     s = spec.scheme
     if s in HAPTIC_SCHEMES:
         raise DeviceSpecError(f"{s}: devices are haptic sessions, not report streams "

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from station.drivers.transport.base import DeviceSpecError, parse_query
 
 SCHEMES = ("mock", "mock-hidraw", "mock-usb", "mock-evdev", "mock-uclogic", "trace", "evdev",
-           "hidraw", "hidapi", "usb", "serial", "serial-mock")
+           "hidraw", "hidapi", "usb", "serial", "serial-mock", "auto")
 HAPTIC_SCHEMES = ("serial", "serial-mock")  # drivers/haptic/source.py (docs/haptic-protocol.md)
 
 

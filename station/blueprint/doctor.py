@@ -16,6 +16,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+from station import paths
 from station.blueprint.model import BlueprintError
 from station.blueprint.plan import Plan
 from station.blueprint.supervisor import running_pid
@@ -86,7 +87,15 @@ def check_devices(plan: Plan | None) -> list[Check]:
             if "problem" not in d]
     wanted = _wanted_devices(plan)
     for ident, spec, vid, pid in wanted:
-        if spec is not None and not spec.startswith(("mock", "trace:", "serial-mock")):
+        if spec is not None and spec.startswith("auto:"):
+            if real:
+                checks.append(Check("devices", "ok", f"{ident}: {spec}: will take "
+                                    f"{real[0].get('name', '')} ({real[0]['spec']})"))
+            else:
+                checks.append(Check("devices", "fail", f"{ident}: {spec}: no pen tablet found",
+                                    "plug the tablet in; `station devices` lists what is "
+                                    "here and why a device cannot be opened"))
+        elif spec is not None and not spec.startswith(("mock", "trace:", "serial-mock")):
             node = spec.split(":", 1)[1].split("?", 1)[0]
             if node.startswith("/dev/") and not os.path.exists(node):
                 checks.append(Check("devices", "fail", f"{ident}: {node} does not exist",
@@ -131,7 +140,9 @@ def _wanted_devices(plan: Plan | None) -> list[tuple[str, str | None, str | None
     return out
 
 
-def check_udev(dirs: tuple[Path, ...] | None = None) -> Check:
+def check_udev(dirs: tuple[Path, ...] | None = None, needed: bool = True) -> Check:
+    """The udev rules: missing is a failure where a tablet is here (or a blueprint
+    names one), only a warning on a machine with none (mocks and traces need none)."""
     dirs = dirs if dirs is not None else UDEV_DIRS
     for d in dirs:
         path = d / RULES_NAME
@@ -147,7 +158,14 @@ def check_udev(dirs: tuple[Path, ...] | None = None) -> Check:
                              f"station udev -o {RULES_NAME} && sudo install -m 0644 "
                              f"{RULES_NAME} {path}")
             return Check("udev", "ok", f"{path}: up to date")
-    return Check("udev", "fail", f"no {RULES_NAME} in {', '.join(str(d) for d in dirs)}",
+    where = ", ".join(str(d) for d in dirs)
+    if not needed:
+        return Check("udev", "warn", f"no {RULES_NAME} in {where} (not needed until a "
+                     "pen tablet is plugged in)",
+                     f"before plugging one in: station udev -o {RULES_NAME} && sudo "
+                     f"install -m 0644 {RULES_NAME} /etc/udev/rules.d/ && sudo udevadm "
+                     "control --reload && sudo udevadm trigger")
+    return Check("udev", "fail", f"no {RULES_NAME} in {where}",
                  f"station udev -o {RULES_NAME} && sudo install -m 0644 {RULES_NAME} "
                  f"/etc/udev/rules.d/ && sudo udevadm control --reload && sudo udevadm "
                  "trigger")
@@ -282,8 +300,7 @@ def check_disk(plan: Plan | None, data_dir: Path | None = None) -> list[Check]:
                                          str(c.where)) from None
                 targets.append((c.id, plan.galleries[c.id], need))
     if not targets:
-        base = data_dir or Path(os.environ.get("STATION_DATA_DIR") or Path(
-            os.environ.get("XDG_DATA_HOME") or Path.home() / ".local" / "share") / "station")
+        base = data_dir or paths.data_dir()
         targets.append(("data", base, DEFAULT_MIN_FREE))
     checks = []
     for ident, path, need in targets:
@@ -306,8 +323,13 @@ def run_checks(plan: Plan | None, gl: bool = True) -> list[Check]:
     checks: list[Check] = []
     if gl:
         checks.append(check_gl())
-    checks += check_devices(plan)
-    checks.append(check_udev())
+    devices = check_devices(plan)
+    checks += devices
+    # "no pen tablet found" and nothing named: the station runs (mocks, traces, the
+    # demo) and the rules matter only once a tablet comes
+    no_tablet = all(c.status == "warn" for c in devices) or all(
+        "no hardware needed" in c.detail for c in devices)
+    checks.append(check_udev(needed=not no_tablet))
     checks += check_calibration(plan)
     checks += check_bus(plan)
     checks += check_keys(plan)
@@ -322,7 +344,9 @@ def report(checks: list[Check]) -> str:
         if c.fix and c.status != "ok":
             lines.append(f"      fix: {c.fix}")
     bad = sum(c.status == "fail" for c in checks)
-    lines.append(f"{bad} problem(s)" if bad else "all good")
+    warned = sum(c.status == "warn" for c in checks)
+    lines.append(f"{bad} problem(s)" if bad else "all good" if not warned else
+                 f"all good: this machine can run a station ({warned} warning(s) above)")
     return "\n".join(lines) + "\n"
 
 

@@ -17,6 +17,7 @@ as ``--keys``.
 
 from __future__ import annotations
 
+import json
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,6 +30,7 @@ from station.blueprint.model import (
     Where,
     parse_duration,
 )
+from station.canvas.palette import default_palette
 from station.drivers.pipeline import DeviceSpec
 
 DEFAULT_RESTART = "on-failure"
@@ -194,6 +196,8 @@ def _check_attrs(c: Component) -> None:
     if c.kind == "sim" and c.get("resume") and (c.get("width") or c.get("height")):
         raise BlueprintError("resume= takes the size of the saved state; drop width/height",
                              where)
+    if c.kind == "sim" and c.get("pigment") and c.attrs["pigment"] not in default_palette():
+        raise BlueprintError(f"pigment={c.attrs['pigment']!r} is not in the palette", where)
 
 
 def _check_rules(bp: Blueprint, by_id: dict[str, Component]) -> None:
@@ -365,7 +369,7 @@ def _device_nodes(spec: str) -> list[str]:
     if scheme == "serial":
         return [target] if target.startswith("/dev/") else ["char-ttyACM", "char-ttyUSB"]
     return {"hidraw": ["char-hidraw"], "hidapi": ["char-hidraw"], "usb": ["char-usb_device"],
-            "evdev": ["char-input"]}.get(scheme, [])
+            "evdev": ["char-input"], "auto": ["char-input", "char-hidraw"]}.get(scheme, [])
 
 
 def _source(c: Component, target: str, binds: list[str], waits: int,
@@ -418,11 +422,25 @@ def _sim(c: Component, bus: str, ipc: object, out_path: object, in_path: object,
     for attr in ("profile", "seed", "rate"):
         if c.get(attr):
             argv += [f"--{attr}", c.attrs[attr]]
+    brush = _start_brush(c)
+    if brush:
+        argv += ["--brush", brush]
     if c.get("resume"):
         argv += ["--resume", str(in_path(c.attrs["resume"]))]  # type: ignore[operator]
     recover = ["sim", *common, "--recover", str(log)]
     return _proc(c, argv, recover_argv=recover, binds=[_norm(status, run_dir),
                  _norm(cmd, run_dir)], status=status, cmd=cmd, log=log, outputs=outputs)
+
+
+def _start_brush(c: Component) -> str | None:
+    """A sim's brush-size=, brush-water=, pigment= and pigment-amount= as ``--brush``."""
+    args: dict[str, object] = {}
+    for attr, key in (("brush-size", "size"), ("brush-water", "water")):
+        if c.get(attr):
+            args[key] = float(c.attrs[attr])
+    if c.get("pigment"):
+        args["pigment"] = {c.attrs["pigment"]: float(c.get("pigment-amount") or 1.0)}
+    return json.dumps(args) if args else None
 
 
 def _kiosk(c: Component, bus: str, ipc: object, out_path: object,

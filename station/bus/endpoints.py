@@ -16,6 +16,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from station import paths
 from station.errors import BusConfigError, BusError
 
 DEFAULT_NAME = "bus"
@@ -34,14 +35,7 @@ def runtime_dir() -> Path:
     ``/tmp/station-<uid>``.  Refuses a directory another user owns or others
     can enter.
     """
-    base = os.environ.get("STATION_RUNTIME_DIR")
-    if base:
-        path = Path(base)
-    elif os.environ.get("XDG_RUNTIME_DIR") and Path(os.environ["XDG_RUNTIME_DIR"]).is_dir():
-        path = Path(os.environ["XDG_RUNTIME_DIR"]) / "station"
-    else:
-        path = Path(f"/tmp/station-{os.getuid()}")
-    return secure_dir(path)
+    return secure_dir(paths.runtime_base())
 
 
 def secure_dir(path: Path, repair: bool = True) -> Path:
@@ -69,11 +63,7 @@ def secure_dir(path: Path, repair: bool = True) -> Path:
 
 
 def config_dir() -> Path:
-    base = os.environ.get("STATION_CONFIG_DIR")
-    if base:
-        return Path(base)
-    xdg = os.environ.get("XDG_CONFIG_HOME") or str(Path.home() / ".config")
-    return Path(xdg) / "station"
+    return paths.config_dir()
 
 
 def keys_dir() -> Path:

@@ -11,8 +11,14 @@ moderngl context made from it.  Drawn each frame, in screen pixels:
 * the live pen cursor (through the provisional fit, or device-normalised
   until three taps are in): cyan while hovering, magenta while touching.
 
-Text is not drawn; progress and each tap's residual go to the window title
-and to stdout.  GLFW needs an X display (Xvfb in tests); the GL context comes
+* words, top left, for an installer who does not see the terminal: what to do at
+  the current target ("target 4/9: tap the centre of the cross"), the last tap's
+  result with the reason of a rejection ("target 4/9: REJECTED (…); tap it
+  again") and, at the end, the fit's residuals in pixels; they go to the window
+  title and to stdout too.  The result stays on screen ``--result-seconds`` (a
+  recording or mock that has no more taps ends it at once).
+
+GLFW needs an X display (Xvfb in tests); the GL context comes
 from the glfw window (``moderngl.create_context()``).
 """
 
@@ -117,6 +123,90 @@ class Renderer:
         self.lines([(x - r, y - r, x + r, y + r), (x - r, y + r, x + r, y - r)], color, 3)
 
 
+TEXT_VERTEX = """
+#version 330
+uniform vec2 screen;
+in vec2 pos;
+in vec2 uv;
+out vec2 v_uv;
+void main() {
+    v_uv = uv;
+    gl_Position = vec4(pos.x / screen.x * 2.0 - 1.0, 1.0 - pos.y / screen.y * 2.0, 0.0, 1.0);
+}
+"""
+TEXT_FRAGMENT = """
+#version 330
+uniform sampler2D image;
+in vec2 v_uv;
+out vec4 frag;
+void main() { frag = texture(image, v_uv); }
+"""
+TEXT_PX = 22
+WORDS = tuple[str, tuple[float, ...]]
+
+
+PANEL_ALPHA = 190
+
+
+def panel_origin(size: tuple[int, int]) -> tuple[float, float]:
+    """Where the words go: left, in the band between the top targets (y = 0.1) and the
+    centre ones (y = 0.5), so they never cover a target."""
+    return 20.0, float(int(0.1 * size[1]) + 45)
+
+
+def render_words(lines: tuple[WORDS, ...], font: Any, max_w: int) -> Any:
+    """The panel as an RGBA Pillow image: light words on translucent black."""
+    from PIL import Image, ImageDraw
+
+    pad, step = 12, TEXT_PX + 8
+    width = min(max_w, pad * 2 + max(int(font.getlength(t)) for t, _ in lines))
+    img = Image.new("RGBA", (max(width, 1), pad * 2 + step * len(lines)),
+                    (0, 0, 0, PANEL_ALPHA))
+    draw = ImageDraw.Draw(img)
+    for i, (text, color) in enumerate(lines):
+        rgba = (*(int(255 * c) for c in color[:3]), 255)
+        draw.text((pad, pad + i * step), text, font=font, fill=rgba)
+    return img
+
+
+class TextPanel:
+    """Lines of words on a dark panel (Pillow draws them, one texture per change)."""
+
+    def __init__(self, ctx: Any, size: tuple[int, int]) -> None:
+        from PIL import ImageFont
+
+        self.ctx = ctx
+        self.prog = ctx.program(vertex_shader=TEXT_VERTEX, fragment_shader=TEXT_FRAGMENT)
+        self.prog["screen"].value = (float(size[0]), float(size[1]))
+        self.vbo = ctx.buffer(reserve=6 * 4 * 4, dynamic=True)
+        self.vao = ctx.vertex_array(self.prog, [(self.vbo, "2f 2f", "pos", "uv")])
+        self.font = ImageFont.load_default(size=TEXT_PX)
+        self.max_w = size[0] - 40
+        self._key: tuple[WORDS, ...] | None = None
+        self._tex: Any = None
+        self._wh = (0, 0)
+
+    def draw(self, lines: list[WORDS], x: float = 20, y: float = 20) -> None:
+        key = tuple(lines)
+        if not key:
+            return
+        if key != self._key:
+            img = render_words(key, self.font, self.max_w)
+            if self._tex is not None:
+                self._tex.release()
+            self._tex = self.ctx.texture(img.size, 4, img.tobytes())
+            self._wh, self._key = img.size, key
+        w, h = self._wh
+        quad = np.array([x, y, 0, 0, x + w, y, 1, 0, x, y + h, 0, 1,
+                         x + w, y, 1, 0, x + w, y + h, 1, 1, x, y + h, 0, 1], dtype="f4")
+        self.vbo.write(quad.tobytes())
+        self.ctx.enable(self.ctx.BLEND)
+        self.ctx.blend_func = self.ctx.SRC_ALPHA, self.ctx.ONE_MINUS_SRC_ALPHA
+        self._tex.use(0)
+        self.vao.render(self.ctx.TRIANGLES, vertices=6)
+        self.ctx.disable(self.ctx.BLEND)
+
+
 class CalibrationWindow:
     """The glfw window, its GL context and the frame drawing."""
 
@@ -150,6 +240,8 @@ class CalibrationWindow:
         self.ctx = moderngl.create_context()
         self.size = glfw.get_framebuffer_size(self.window)
         self.renderer = Renderer(self.ctx, self.size)
+        self.text = TextPanel(self.ctx, self.size)
+        self.words: list[WORDS] = []  # what the panel says (the instruction, the last tap)
         self.escape = False
 
     def poll(self) -> bool:
@@ -202,6 +294,7 @@ class CalibrationWindow:
         if cursor is not None:
             cx, cy, touching = cursor
             r.cross(cx * sx, cy * sy, 12, MAGENTA if touching else CYAN, 2)
+        self.text.draw(self.words, *panel_origin(self.size))
 
     def read_pixels(self) -> np.ndarray:
         """The framebuffer as an (h, w, 3) uint8 image, top row first."""
@@ -272,8 +365,10 @@ class _Loop:
                 self.shown = len(session.results)
                 source.show_target(session.current, session.targets[session.current],
                                    session.hints[session.current], session.step)
-                window.title(f"target {session.current + 1}/{len(session.targets)}: "
-                             f"{STEP_TEXT[session.step]}")
+                todo = (f"target {session.current + 1}/{len(session.targets)}: "
+                        f"{STEP_TEXT[session.step]}")
+                window.title(todo)
+                window.words = [(todo, WHITE), *window.words[1:2]]
             sample: PenSample
             for sample in source.poll(now):
                 self._cursor(sample)
@@ -283,6 +378,8 @@ class _Loop:
                     line = _describe(result, session, self.prov)
                     self.out.write(line + "\n")
                     window.title(line)
+                    window.words = [*window.words[:1], (line, GREEN if result.accepted
+                                                        else RED)]
                 if session.done:
                     break
             if source.exhausted and not session.done:
@@ -302,6 +399,32 @@ class _Loop:
             m = self.prov.map(np.array([pos]))[0]
             pos = (float(m[0]), float(m[1]))
         self.cursor = (pos[0], pos[1], sample.touching)
+
+
+def _result_words(report: Any, session: CalibrationSession, w: int, h: int) -> list[WORDS]:
+    """The fit in words for the screen: done, residuals in pixels, what was left out."""
+    px = max(w, h)
+    good = report.max * px <= max(2.0, session.misclick_px / 4)
+    return [
+        (f"calibration done: {report.model} fit of {len(report.inliers)} taps", WHITE),
+        (f"residuals: rms {report.rms * px:.2f} px, max {report.max * px:.2f} px, "
+         f"leave-one-out rms {(report.loo_rms or 0) * px:.2f} px", GREEN if good else YELLOW),
+        (f"misclicks rejected on the spot: {len(session.rejected)}, excluded by the fit: "
+         f"{len(report.outliers)}", WHITE),
+        ("saved; Esc closes this window" if good else
+         "saved; the max residual is large: calibrate again if the pen feels off", WHITE),
+    ]
+
+
+def _hold(window: CalibrationWindow, source: Any, session: CalibrationSession, report: Any,
+          seconds: float) -> None:
+    """Keep the result on screen for an installer to read (Esc ends it; so does a
+    recorded or mock source that has nothing more to give)."""
+    end = time.monotonic() + seconds
+    while time.monotonic() < end and not source.exhausted and window.poll():
+        window.draw(session, None, report.mapping)
+        window.swap()
+        time.sleep(0.05)
 
 
 def run_interactive(args: argparse.Namespace) -> int:
@@ -330,6 +453,9 @@ def run_interactive(args: argparse.Namespace) -> int:
         report = session.report
         if report is None:  # finish() always fits; keeps mypy and readers sure
             raise StationError("no fit")
+        w, h = session.screen
+        window.words = _result_words(report, session, w, h)
+        window.title(window.words[0][0])
         window.draw(session, None, report.mapping)
         pixels = window.read_pixels()
         window.swap()
@@ -337,7 +463,6 @@ def run_interactive(args: argparse.Namespace) -> int:
             from PIL import Image
 
             Image.fromarray(pixels).save(args.screenshot)
-        w, h = session.screen
         out.write(
             f"fit: {report.model}, rms {report.rms * max(w, h):.2f} px, max "
             f"{report.max * max(w, h):.2f} px, leave-one-out rms "
@@ -371,6 +496,9 @@ def run_interactive(args: argparse.Namespace) -> int:
         path = Path(args.output) if args.output else default_path(source.device)
         write_file(cal, path)
         out.write(f"wrote {path}\n")
+        window.words[-1] = (window.words[-1][0].replace("saved", f"saved to {path}"),
+                            window.words[-1][1])
+        _hold(window, source, session, report, args.result_seconds)
         return 0
     finally:
         window.close()

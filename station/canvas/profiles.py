@@ -18,7 +18,6 @@ A file that is not well-formed, breaks the schema or holds an unusable value rai
 from __future__ import annotations
 
 import dataclasses
-import os
 import re
 from functools import lru_cache
 from importlib import resources
@@ -27,6 +26,7 @@ from typing import Any
 
 from lxml import etree
 
+from station import paths
 from station.canvas.errors import CanvasInputError
 from station.canvas.palette import Palette, Pigment, default_palette
 from station.canvas.params import BrushDefaults, Profile, SimParams
@@ -58,9 +58,9 @@ def schema() -> etree.XMLSchema:
 
 
 def user_dir() -> Path:
-    """Where a painter's own profiles live: ``$XDG_CONFIG_HOME/station/profiles``."""
-    base = os.environ.get("XDG_CONFIG_HOME") or str(Path.home() / ".config")
-    return Path(base) / "station" / "profiles"
+    """Where a painter's own profiles live: ``$XDG_CONFIG_HOME/station/profiles``
+    (:func:`station.paths.xdg_config_dir`)."""
+    return paths.xdg_config_dir() / "profiles"
 
 
 def _err(where: str, el: Any, msg: str) -> CanvasInputError:

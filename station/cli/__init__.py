@@ -16,6 +16,7 @@ import sys
 from collections.abc import Sequence
 
 from station import __version__
+from station.cli import helptext
 from station.errors import BadInput, StationError
 
 EXIT_OK, EXIT_FAIL, EXIT_BAD_INPUT = 0, 1, 2
@@ -61,6 +62,8 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     for name in _modules_for(argv):
         module = importlib.import_module(f"station.cli.{name}")
         module.register(sub)
+    for name, command in sub.choices.items():
+        helptext.finish(command, name)
     return parser
 
 

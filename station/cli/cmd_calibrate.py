@@ -90,6 +90,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--json", action="store_true", help="machine output")
     p.add_argument("--targets", metavar="TARGETS.csv", help="targets for --from-trace")
     p.add_argument("--calibration", metavar="FILE", help="calibration file for --export")
+    p.add_argument("--units", choices=("normalised", "px"), default="normalised",
+                   help="--fit: the points' canvas coordinates are canvas-normalised [0, 1] "
+                        "(the default; anything outside is refused) or pixels of --canvas")
+    p.add_argument("--canvas", metavar="WxH",
+                   help="--fit --units px: the canvas (screen) size the pixels are of")
     p.add_argument("--input", metavar="FILE", help="file holding the line for --import")
     p.add_argument("--screen", metavar="WxH", help="screen pixels for tslib")
     p.add_argument("--id", dest="device_id", metavar="VID:PID[:SERIAL]",
@@ -104,6 +109,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--misclick-px", type=float, default=15.0,
                    help="interactive: misclick threshold in screen pixels (xinput_calibrator: 15)")
     p.add_argument("--screenshot", metavar="PNG", help="interactive: save the last frame")
+    p.add_argument("--result-seconds", type=float, default=8.0, metavar="S",
+                   help="interactive: how long the result stays on screen (Esc ends it)")
     p.add_argument("--timeout", type=float, default=120.0,
                    help="interactive: give up after this many seconds")
     p.add_argument("--windowed", action="store_true", help="interactive: not fullscreen")
@@ -228,7 +235,33 @@ def _write_fit_file(args: argparse.Namespace, rep: FitReport, points: PointSet) 
 
 
 def run_fit(args: argparse.Namespace) -> int:
-    return _fit_and_print(args, read_points(args.fit), {})
+    return _fit_and_print(args, _canvas_normalised(args, read_points(args.fit)), {})
+
+
+def _canvas_normalised(args: argparse.Namespace, points: PointSet) -> PointSet:
+    """The points with canvas coordinates in [0, 1]: pixels of ``--canvas`` divided
+    out (``--units px``), else checked (the docs say 0-1; pixels taken silently made
+    a libinput matrix with 815.7 in it)."""
+    canvas = points.canvas
+    if args.units == "px":
+        if not args.canvas:
+            raise BadInput("--units px needs --canvas WxH (the size the pixels are of)",
+                           "--canvas")
+        w, h = _pair(args.canvas, "--canvas") or (0.0, 0.0)
+        if not (w >= 1 and h >= 1):
+            raise BadInput(f"{args.canvas}: width and height must be at least 1 pixel",
+                           "--canvas")
+        canvas = canvas / np.array([w, h])
+    elif args.canvas:
+        raise BadInput("--canvas goes with --units px", "--canvas")
+    for i, (u, v) in enumerate(canvas):
+        for name, value in (("canvas_x", u), ("canvas_y", v)):
+            if not 0.0 <= value <= 1.0:
+                hint = ("outside the --canvas" if args.units == "px" else
+                        "canvas-normalised [0, 1]; pixels? give --units px --canvas WxH")
+                raise BadInput(f"{name} {points.canvas[i][0 if name == 'canvas_x' else 1]:g}"
+                               f" is outside [0, 1] ({hint})", points.labels[i])
+    return PointSet(points.device, canvas, points.tilt, points.labels)
 
 
 def run_from_trace(args: argparse.Namespace) -> int:

@@ -18,7 +18,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    "ink) headless and writes a PNG.")
     p.add_argument("-o", "--output", default="painting.png", metavar="OUT.png",
                    help="PNG to write (default painting.png)")
-    p.add_argument("--size", metavar="WxH", help="canvas size (default: the demo's, 320x240)")
+    p.add_argument("--size", metavar="WxH", help="canvas size (default: the demo's, 400x300)")
     p.add_argument("--backend", choices=BACKENDS, default="auto", help=BACKEND_HELP)
     p.add_argument("--bits", type=int, choices=(8, 16), default=8, help="PNG bit depth")
     p.add_argument("--scale", type=int, default=1, metavar="K",

@@ -27,11 +27,18 @@ def print_list(data: dict[str, Any]) -> None:
     w = sys.stdout.write
     w(f"{data['device_ids']} device ids, {data['pen_models']} pen models "
       "(ids shared by several products count each product):\n")
-    w(f"{'vid:pid':<10}{'bus':<10}{'protocol':<18}{'family':<34}name\n")
+    w(f"{'vid:pid':<10}{'bus':<10}{'protocol':<18}{'from':<9}{'family':<34}name\n")
     for r in data["models"]:
         more = f" [{r['models']} models]" if r["models"] > 1 else ""
-        w(f"{r['vid']}:{r['pid']} {r['bus']:<9} {r['protocol']:<17} {r['family'][:33]:<33} "
-          f"{r['name']}{more}\n")
+        own = f" ({r['path']}" + (", replaces the bundled data)" if "overrides" in r
+                                   else ")") if r["from"] != "bundled" else ""
+        w(f"{r['vid']}:{r['pid']} {r['bus']:<9} {r['protocol']:<17} {r['from']:<8} "
+          f"{r['family'][:33]:<33} {r['name']}{more}{own}\n")
+    dirs = data["directories"]
+    w(f"Your own device data: {dirs['user']}/*.json (for everyone: {dirs['system']}/*.json); "
+      "see docs/devices.md.\n")
+    for bad in data["bad_files"]:
+        w(f"skipped: {bad}\n")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -51,7 +51,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--status", metavar="ENDPOINT",
                    help="where to publish status ('none' to disable; default as station sim)")
     p.add_argument("--cmd", metavar="ENDPOINT",
-                   help="where `station send` reaches the kiosk (default @ipc:sim-cmd; 'none' "
+                   help="where `station send` reaches the kiosk (default @ipc:kiosk-cmd; 'none' "
                         "to disable)")
     p.add_argument("--autosave", type=float, default=30.0, metavar="SECONDS",
                    help="seconds between autosaves of the painting in <gallery>/.live (0: off)")

@@ -21,6 +21,7 @@ from typing import IO
 from station.bus import Subscriber
 from station.cli.argtypes import positive_seconds
 from station.cli.buskeys import add_key_flags, check_keys
+from station.drivers.decode import ReportDecoder, event_line
 from station.drivers.evdev.frames import InputEvent
 from station.drivers.pipeline import open_transport
 from station.drivers.registry import parser_for
@@ -51,6 +52,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="stop after S seconds")
     p.add_argument("--no-init", action="store_true",
                    help="do not send the init feature reports (records mouse mode on a Wacom)")
+    p.add_argument("-q", "--quiet", dest="quiet_events", action="store_true",
+                   help="do not print each report or event as it arrives (on stdout)")
     add_key_flags(p)
     p.set_defaults(func=run)
 
@@ -71,12 +74,13 @@ def run(args: argparse.Namespace) -> int:
     count = 0
     try:
         with out:
+            show = None if args.quiet_events else sys.stdout
             if opened.kind == "evdev":
                 count = _record_evdev(opened.transport, out, args.output, stop, deadline,
-                                      args.duration)
+                                      args.duration, show)
             else:
                 count = _record_hid(opened.transport, out, stop, deadline, args.duration,
-                                    not args.no_init)
+                                    not args.no_init, show)
     except DeviceGone as exc:
         sys.stderr.write(f"station record: {exc}\n")
     finally:
@@ -94,9 +98,15 @@ def _init_features(info: HidDeviceInfo) -> list[bytes]:
         return []
 
 
-def _record_hid(transport: HidTransport, fh: IO[str], stop: threading.Event, deadline: float | None,
-                duration: float | None, send_init: bool) -> int:
+def _record_hid(transport: HidTransport, fh: IO[str], stop: threading.Event,
+                deadline: float | None, duration: float | None, send_init: bool,
+                show: IO[str] | None) -> int:
     info = transport.info
+    decoder = ReportDecoder(info.descriptor, info.vid, info.pid, info.bus) if show else None
+    if show is not None:
+        show.write(f"# {info.name} ({info.vid:04x}:{info.pid:04x}) -> {fh.name}: each "
+                   "report as it arrives (-q: quiet)\n")
+        show.flush()
     fh.write(f"# recorded by station record from {info.path}\n")
     writer = HidRecorderWriter(fh)
     writer.add_device(info.name, info.vid, info.pid, info.bus, info.descriptor, info.phys)
@@ -115,19 +125,29 @@ def _record_hid(transport: HidTransport, fh: IO[str], stop: threading.Event, dea
             if duration is not None and report.time - first > duration:
                 break  # recording clock (a fast replayed mock) past the duration
             writer.write_report(report.time, report.data)
+            if show is not None and decoder is not None:
+                show.write(decoder.line(report.time - first, report.data) + "\n")
+                show.flush()  # live, also into a pipe
     except EndOfStream:
         pass
     return writer.reports
 
 
 def _record_evdev(transport: EvdevTransport, fh: IO[str], path: str, stop: threading.Event,
-                  deadline: float | None, duration: float | None) -> int:
+                  deadline: float | None, duration: float | None,
+                  show: IO[str] | None) -> int:
     events: list[InputEvent] = []
     try:
         while not stop.is_set():
             if deadline is not None and time.monotonic() >= deadline:
                 break
-            events.extend(transport.read(0.05))
+            new = transport.read(0.05)
+            events.extend(new)
+            if show is not None and new:
+                t0 = events[0].time
+                show.write("".join(event_line(e.time - t0, e.type, e.code, e.value) + "\n"
+                                   for e in new))
+                show.flush()
             if duration is not None and events and events[-1].time - events[0].time > duration:
                 break
     except EndOfStream:

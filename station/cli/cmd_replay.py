@@ -10,16 +10,19 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import signal
 import sys
 import threading
+import time
 from typing import IO, Any
 
 from station.bus import HEARTBEAT_S, Publisher
 from station.cli.buskeys import add_key_flags, check_keys
+from station.drivers.decode import ReportDecoder, event_line
 from station.drivers.pipeline import TraceReplay, run_paced
 from station.drivers.traces import read_trace
-from station.errors import BadInput
+from station.errors import BadInput, StationError
 from station.events import PenSample
 from station.progress import Progress
 from station.sessionlog import SessionHeader, SessionLogWriter
@@ -40,6 +43,12 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="with --bus: seconds between heartbeats on hb.<device> (default "
                         "0.2, as `station driver`: the sim notices a replay that stopped)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.add_argument("--decode", action="store_true",
+                   help="print each report's fields by name (as hid-decode; evdev events by "
+                        "name) and stop: nothing is replayed")
+    p.add_argument("--uhid", action="store_true",
+                   help="play the HID devices of the trace into the kernel through /dev/uhid "
+                        "(hid-tools), so other programs see a tablet; needs /dev/uhid")
     add_key_flags(p)
     p.set_defaults(func=run)
 
@@ -58,6 +67,10 @@ def parse_speed(text: str) -> float | None:
 
 def run(args: argparse.Namespace) -> int:
     speed = parse_speed(args.speed)
+    if args.decode:
+        return _decode(read_trace(args.trace))
+    if args.uhid:
+        return _uhid(read_trace(args.trace), speed)
     check_keys(args.keys, args.client_key, (("--bus", args.bus, True),))
     trace = read_trace(args.trace)
     replay = TraceReplay(trace, device_name=args.name)
@@ -149,3 +162,69 @@ def _by_id(device: dict[str, Any]) -> str:
     """The skipped reports by ID, e.g. " (ID 99: 117)"."""
     ids = device.get("skipped_by_id") or {}
     return f" (ID {', ID '.join(f'{k}: {v}' for k, v in ids.items())})" if ids else ""
+
+
+def _decode(trace: Any) -> int:
+    """``--decode``: every report (or event) of every device, one line each."""
+
+    w = sys.stdout.write
+    for dev in trace.devices:
+        w(f"# device {dev.index}: {dev.name} ({dev.vid:04x}:{dev.pid:04x}), "
+          f"{len(dev.reports)} reports, {len(dev.events)} events ({dev.where})\n")
+        if dev.reports:
+            decoder = ReportDecoder(dev.descriptor, dev.vid, dev.pid, dev.bus)
+            if decoder.note:
+                w(f"# {decoder.note}\n")
+            t0 = dev.reports[0].time
+            for r in dev.reports:
+                w(decoder.line(r.time - t0, r.data) + "\n")
+        if dev.events:
+            t0 = dev.events[0].time
+            for e in dev.events:
+                w(event_line(e.time - t0, e.type, e.code, e.value) + "\n")
+    return 0
+
+
+UHID = "/dev/uhid"
+
+
+def _uhid(trace: Any, speed: float | None) -> int:
+    """``--uhid``: the trace's HID devices become kernel devices (hid-tools' UHIDDevice)
+    and their reports are played at ``speed`` (as recorded by default)."""
+    if not os.path.exists(UHID):
+        raise StationError(f"no {UHID} on this machine (a container, or the uhid module is "
+                           "not loaded: sudo modprobe uhid); nothing was played")
+    if not os.access(UHID, os.R_OK | os.W_OK):
+        raise StationError(f"{UHID} is not readable and writable for this user (root, or a "
+                           "udev rule giving it to your group)")
+    from hidtools.uhid import UHIDDevice  # optional at run time: only this mode needs it
+
+    hid = [d for d in trace.devices if d.reports and d.descriptor]
+    if not hid:
+        raise BadInput("no HID device with a report descriptor in this trace (evdev traces "
+                       "cannot go through uhid)", trace.path)
+    devices = []
+    try:
+        for d in hid:
+            u = UHIDDevice()
+            u.name, u.info, u.rdesc = d.name, (d.bus, d.vid, d.pid), bytes(d.descriptor)
+            u.phys = d.phys or "station-replay"
+            u.create_kernel_device()
+            devices.append((u, d))
+        for u, _ in devices:
+            u.dispatch(1000)  # until the kernel has started it
+        events = sorted((r.time, i, r.data) for i, (_, d) in enumerate(devices)
+                        for r in d.reports)
+        start, t0 = time.monotonic(), events[0][0] if events else 0.0
+        for t, i, data in events:
+            if speed is not None:
+                wait = start + (t - t0) / speed - time.monotonic()
+                if wait > 0:
+                    time.sleep(wait)
+            devices[i][0].call_input_event(list(data))
+        sys.stderr.write(f"station replay: {len(events)} reports played through {UHID} "
+                         f"into {len(devices)} device(s)\n")
+    finally:
+        for u, _ in devices:
+            u.destroy()
+    return 0

@@ -11,6 +11,7 @@ import math
 import os
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from station.blueprint.load import load
 from station.blueprint.model import SupervisorError
@@ -24,6 +25,9 @@ from station.blueprint.supervisor import (
 )
 from station.bus import runtime_dir
 from station.errors import BadInput
+
+if TYPE_CHECKING:
+    from station.blueprint.plan import Plan
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -82,4 +86,16 @@ def run(args: argparse.Namespace) -> int:
         raise SupervisorError(f"{plan.run_dir}: station {bp.name!r} already runs there "
                               f"(pid {other}); use another --run-dir")
     sup = Supervisor(plan, once=args.once, duration=args.duration)
-    return sup.run()
+    code = sup.run()
+    _say_outputs(plan)
+    return code
+
+
+def _say_outputs(plan: Plan) -> None:
+    """Where the pictures went: the one thing a person wants to know when it stops."""
+    for proc in plan.processes:
+        for path in proc.outputs:
+            if path.suffix in (".png", ".npz", ".jsonl") and path.is_file():
+                what = {".png": "picture", ".npz": "canvas state",
+                        ".jsonl": "session log"}[path.suffix]
+                sys.stderr.write(f"station run: {proc.id}: {what}: {path.resolve()}\n")

@@ -6,17 +6,20 @@ import argparse
 import json
 import math
 import sys
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from station.backends.distributed.guard import abort_job_on_error
 from station.backends.factory import create_distributed
+from station.canvas.palette import default_palette
 from station.canvas.profiles import get_profile
 from station.cli.argtypes import seconds_or_zero
 from station.cli.buskeys import add_key_flags, check_keys
 from station.cli.cmd_paint import BACKEND_HELP, BACKENDS
 from station.errors import BadInput, StationError
+from station.events import Command
 from station.sim.live import LiveConfig, LiveSim
 from station.sim.paint import check_outputs, load_resume_state, parse_size
+from station.sim.player import check_command
 from station.sim.recovery import resolve_log
 
 if TYPE_CHECKING:
@@ -63,6 +66,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--cmd", metavar="ENDPOINT",
                    help="where `station send` reaches this sim (default @ipc:sim-cmd; "
                         "'none' to disable)")
+    p.add_argument("--brush", metavar="JSON",
+                   help="the brush to start with, as a brush command's arguments: "
+                        "'{\"size\": 14, \"pigment\": {\"Indanthrone Blue\": 0.9}}' "
+                        "(logged as the session's first command)")
     add_key_flags(p)
     p.add_argument("--distributed", action="store_true",
                    help="one canvas over all ranks of an MPI job: mpiexec -n N station sim "
@@ -89,6 +96,7 @@ def run(args: argparse.Namespace) -> int:
                                flag)
         # which log, before anything is bound or opened (a wrong one is bad input)
         args.recover = str(resolve_log(args.recover))
+    brush = _start_brush(args.brush)
     if args.resume:  # the state's size and profile; flags must agree
         load_resume_state(args.resume, size, args.profile)
     width, height = size or (800, 600)
@@ -98,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
                      log_path=args.log, state_path=args.state, png_path=args.png,
                      status=args.status, duration=args.duration, resume=args.resume,
                      autosave=args.autosave, recover=args.recover, cmd=args.cmd,
-                     keys=args.keys, client_key=args.client_key)
+                     keys=args.keys, client_key=args.client_key, brush=brush)
     if args.distributed:
         with abort_job_on_error():
             if _follower(cfg):
@@ -106,6 +114,20 @@ def run(args: argparse.Namespace) -> int:
             cfg.distributed = True
             return _lead(LiveSim(cfg))
     return _lead(LiveSim(cfg))
+
+
+def _start_brush(text: str | None) -> dict[str, Any] | None:
+    """``--brush JSON`` → the brush command's arguments, checked as the sim will run them."""
+    if text is None:
+        return None
+    try:
+        args = json.loads(text)
+    except ValueError as exc:
+        raise BadInput(f"not JSON ({exc})", "--brush") from None
+    if not isinstance(args, dict):
+        raise BadInput("must be a JSON object of brush arguments", "--brush")
+    check_command(Command(t=0.0, cmd="brush", args=args), default_palette(), where="--brush")
+    return args
 
 
 def _lead(sim: LiveSim) -> int:

@@ -53,7 +53,7 @@ from station.kiosk.predict import LagEstimate, PenPredictor, PredictConfig
 from station.kiosk.present import PRESENT_MODES, Presenter
 from station.kiosk.session import KioskSession
 from station.kiosk.views import VIEWS, Camera, Viewport, input_camera, make_camera
-from station.sim.live import DEFAULT_CMD_ENDPOINT, LiveConfig
+from station.sim.live import KIOSK_CMD_ENDPOINT, LiveConfig
 
 log = logging.getLogger(__name__)
 
@@ -233,7 +233,7 @@ class KioskApp:
         self.area = Viewport(self.panel_w, 0, w - self.panel_w, h)
         self.aspect = cfg.width / cfg.height
 
-        from station.kiosk.imgui_gl import ImGuiLayer
+        from station.glkit.imgui_gl import ImGuiLayer
 
         self.gui = ImGuiLayer(self.ctx, (w, h), scale=max(1.5, h / 480))
         self._programs()
@@ -264,7 +264,7 @@ class KioskApp:
         self.driver_sub = Subscriber(cfg.bus, topics=("status",), keys=keys,
                                      client_key=client_key)
         # `station send` reaches the kiosk here (the sessions come and go; this stays)
-        cmd_ep = cfg.cmd or "@" + DEFAULT_CMD_ENDPOINT
+        cmd_ep = cfg.cmd or "@" + KIOSK_CMD_ENDPOINT  # never the sim's: see station.answer
         self.cmd_sub = None if cmd_ep == "none" else Subscriber(
             cmd_ep if cmd_ep[0] in "@>" else "@" + cmd_ep, topics=("cmd",), keys=keys,
             client_key=client_key)

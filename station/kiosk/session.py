@@ -66,8 +66,10 @@ from typing import Any
 import numba
 import numpy as np
 
+from station.answer import parse_request
 from station.brush.deformable import DeformableBrush
 from station.brush.stamp import RoundBrush
+from station.bus import runtime_dir
 from station.canvas.state import CanvasState
 from station.events import Command, PenSample, Tool
 from station.sim.live import SYNC_EVERY_S, LiveConfig, LiveSim
@@ -89,6 +91,8 @@ class KioskSession(LiveSim):
     ``map_pen`` turns a screen-space sample into the canvas-space sample to
     paint, or ``None`` when the canvas must not see it (the pen is over the UI).
     """
+
+    process_kind = "kiosk"
 
     def __init__(self, cfg: LiveConfig, map_pen: PenMapper | None = None,
                  kiosk_command: KioskCommands | None = None) -> None:
@@ -159,9 +163,16 @@ class KioskSession(LiveSim):
                 if value.t_mono > 0.0:
                     self.awaiting_paint.append(value.t_mono)
             return
-        if (kind == "cmd" and isinstance(value, Command) and self.kiosk_command is not None
-                and self.kiosk_command(value)):
-            return  # the window's own command (view, save, screenshot): not the canvas's
+        if kind == "cmd" and isinstance(value, Command) and self.kiosk_command is not None:
+            req = parse_request(value.reply, runtime_dir()) if value.reply else None
+            if req is not None and req.expect not in (None, self.process_kind):
+                self.counters.bad_commands += 1  # a `station send --to sim` that found us
+                self._answer(req, value.cmd, False, f"this is a kiosk, not a {req.expect}")
+                return
+            if self.kiosk_command(value):
+                # the window's own command (view, save, screenshot): not the canvas's
+                self._answer(req, value.cmd, True, f"the kiosk window took {value.cmd}")
+                return
         with self.lock:
             if kind == "cmd":  # a command may change the canvas (heartbeats do not)
                 self._wait_step()

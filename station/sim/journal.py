@@ -30,6 +30,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from station import paths
 from station.durable import PartialWrite, write_all
 from station.events import Command, PenSample
 from station.sessionlog import SessionHeader
@@ -42,11 +43,7 @@ RETRY_S = 2.0  # how often a failing log is retried
 
 def data_dir() -> Path:
     """The user's station data directory (sessions live in ``sessions/`` under it)."""
-    base = os.environ.get("STATION_DATA_DIR")
-    if base:
-        return Path(base)
-    xdg = os.environ.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
-    return Path(xdg) / "station"
+    return paths.data_dir()
 
 
 def sessions_dir() -> Path:

@@ -48,6 +48,7 @@ warned about once and not logged.  The process never crashes on input.
 
 from __future__ import annotations
 
+import json
 import logging
 import math
 import os
@@ -58,11 +59,12 @@ from pathlib import Path
 from types import FrameType
 from typing import Any
 
+from station.answer import Answerer, ReadKeys, ReplyRequest, parse_request
 from station.backends.factory import create_distributed, make_backend
 from station.backends.protocol import CanvasBackend
 from station.brush.deformable import DeformableBrush
 from station.brush.stamp import BrushSettings
-from station.bus import Publisher, Subscriber
+from station.bus import Publisher, Subscriber, runtime_dir
 from station.canvas.palette import default_palette
 from station.canvas.state import CanvasState
 from station.durable import atomic_write
@@ -80,7 +82,7 @@ from station.sim.journal import (
     record_line,
 )
 from station.sim.paint import write_image
-from station.sim.player import SessionPlayer
+from station.sim.player import LIVE_COMMANDS, SessionPlayer, check_command
 from station.sim.undo import UndoHistory
 from station.wire import HapticForce, Heartbeat
 
@@ -118,6 +120,7 @@ class LiveConfig:
     distributed: bool = False  # rank 0 of an MPI job: the canvas spans every rank
     keys: Path | None = None  # CURVE key directory for tcp endpoints (None: the default)
     client_key: str | None = None  # a client key pair of its own for connecting over tcp
+    brush: dict[str, Any] | None = None  # a brush command's args, run (and logged) at start
 
 
 def default_status_endpoint(bus: str | None) -> str:
@@ -129,6 +132,7 @@ def default_status_endpoint(bus: str | None) -> str:
 
 
 DEFAULT_CMD_ENDPOINT = "ipc:sim-cmd"
+KIOSK_CMD_ENDPOINT = "ipc:kiosk-cmd"  # a kiosk's own: a `stop` for a sim never reaches it
 
 
 @dataclass
@@ -165,12 +169,15 @@ class Counters:
 class LiveCore:
     """The live simulation without a bus (see the module docstring)."""
 
+    process_kind = "sim"  # what answers to `station send` call this process
+
     def __init__(self, cfg: LiveConfig) -> None:
         self.cfg = cfg
         self.report = StorageReport()
         self.counters = Counters()
         self.devices: dict[str, DeviceState] = {}
         self._warned: set[str] = set()
+        self.answerer = Answerer(self.process_kind)
         self._last_t = 0.0
         self._offsets: dict[str, float] = {}
         plan = recovery.plan(cfg.recover) if cfg.recover else None
@@ -238,6 +245,9 @@ class LiveCore:
         self.start = time.monotonic()
         if plan is not None:
             self._replay(plan)
+        elif cfg.brush:  # --brush: the first command of a new session (a recovery has it)
+            self.player.command(Command(t=0.0, cmd="brush", args=cfg.brush))
+            self.journal.write(Command(t=0.0, cmd="brush", args=cfg.brush))
         self.journal.flush()
         self._next_autosave = time.monotonic() + (cfg.autosave or math.inf)
         self._save_requested = False
@@ -328,29 +338,72 @@ class LiveCore:
         return True
 
     def feed_command(self, command: Command) -> bool:
-        """Apply a command now; ``False`` if it was rejected (counted)."""
+        """Apply a command now; ``False`` if it was rejected (counted).  A command
+        that asks for an answer (``station send``, see :mod:`station.answer`) gets one,
+        and is held to stricter rules: a key its command does not read and a command
+        meant for another kind of process are refused, not ignored."""
+        req = parse_request(command.reply, runtime_dir()) if command.reply else None
+        if req is not None:
+            why = self._refusal(command, req)
+            if why is not None:
+                self.counters.bad_commands += 1
+                self._warn(f"rejected command {command.cmd!r}: {why}")
+                self._answer(req, command.cmd, False, why)
+                return False
         cmd = Command(t=self._in_this_step(self.now()), cmd=command.cmd, args=command.args)
         if cmd.cmd == "stop":
             self.stop_requested = True
+            self._answer(req, cmd.cmd, True, "stopping (the log and outputs are written "
+                         "on the way out)")
             return True
         if cmd.cmd == "save":
             self._save_requested = True
             self.write_outputs()
+            self._answer(req, cmd.cmd, True, "saved " + ", ".join(
+                str(p) for p in (self.cfg.png_path, self.cfg.state_path) if p) or
+                "saved (this process writes no picture or state file)")
             return True
         try:
             self.player.command(cmd)
         except BadInput as exc:
             self.counters.bad_commands += 1
             self._warn(f"rejected command {cmd.cmd!r}: {exc}")
+            self._answer(req, cmd.cmd, False, str(exc))
             return False
         self.counters.commands += 1
         self.journal.write(cmd)
+        self._answer(req, cmd.cmd, True, f"{_did(cmd)} at session time {cmd.t:.2f} s "
+                     f"(step {self.player.counters.steps})")
         if cmd.cmd == "wait":  # its painting time runs now, as in a replay
             while (self.player.counters.steps < self.player.steps_due(cmd.t)
                    and not self.stop_requested):  # SIGTERM cuts a long wait short
                 self.step()
                 self.on_wait_step()
         return True
+
+    def _refusal(self, command: Command, req: ReplyRequest) -> str | None:
+        """Why an answered command is refused before it runs, or ``None``."""
+        if req.expect is not None and req.expect != self.process_kind:
+            return (f"this is a {self.process_kind}, not a {req.expect} (send it with "
+                    f"--to {self.process_kind}, or to the {req.expect}'s own endpoint)")
+        if command.cmd in LIVE_COMMANDS:
+            unread = sorted(command.args)
+        else:
+            args = ReadKeys(command.args)
+            try:
+                check_command(Command(t=0.0, cmd=command.cmd, args=args),
+                              self.player.pigments)
+            except BadInput as exc:
+                return str(exc)
+            unread = args.unread()
+        if unread:
+            return (f"{command.cmd} takes no key {', '.join(map(repr, unread))}"
+                    f" (nothing would read it)")
+        return None
+
+    def _answer(self, req: ReplyRequest | None, cmd: str, ok: bool, text: str) -> None:
+        if req is not None:
+            self.answerer.answer(req, cmd, ok, text, self.log_path.stem)
 
     def on_wait_step(self) -> None:
         """Called between the steps of a long ``wait`` (LiveSim publishes status)."""
@@ -614,6 +667,14 @@ class LiveCore:
         self.journal.close()
         if self.cfg.distributed and hasattr(self.canvas, "close"):
             self.canvas.close()  # the follower ranks return
+
+
+def _did(cmd: Command) -> str:
+    """A command in words, for its answer: ``brush set (size 12, water 0.8)``."""
+    if not cmd.args:
+        return f"{cmd.cmd} done"
+    parts = ", ".join(f"{k} {json.dumps(v)}" for k, v in sorted(cmd.args.items()))
+    return f"{cmd.cmd} set ({parts[:200]})"
 
 
 class LiveSim(LiveCore):

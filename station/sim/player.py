@@ -457,7 +457,8 @@ def _wait_seconds(args: Mapping[str, Any], where: str | None) -> float:
 
 
 _SCRATCH_CHECKED = frozenset({"mask", "mask_remove", "eraser", "tissue", "tilt", "diffusion",
-                              "well", "undo", "redo"})
+                              "well", "undo", "redo", "hairdryer", "dry", "new_layer",
+                              "clear"})
 LIVE_COMMANDS = frozenset({"save", "stop"})
 """Commands only a running simulation executes (``station sim``; never logged)."""
 
