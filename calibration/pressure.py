@@ -132,11 +132,6 @@ class PressureSettings:
         object.__setattr__(self, "_shaping",
                            PressureShaping(self.threshold, self.maximum, self.curve))
 
-    @property
-    def shaping(self) -> PressureShaping:
-        """These settings as the station's one pressure shaping (:mod:`station.pressure`)."""
-        return self._shaping
-
     def shape(self, pressure: float, touching: bool) -> tuple[float, bool]:
         """One sample's pressure and contact, shaped (:class:`station.pressure.PressureShaping`)."""
         return self._shaping(pressure, touching)
