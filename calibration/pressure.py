@@ -1,4 +1,4 @@
-"""Pressure and tilt calibration, and the station's one pressure shaping.
+"""Pressure and tilt calibration.
 
 * Tip threshold and maximum from two short recordings: the user presses as
   lightly as they still want to paint, then as hard as they comfortably will.
@@ -7,12 +7,12 @@
   monotonic so the curve is a function), fitted to target responses.
 * Tilt offset: the mean tilt reported while the pen is held upright.
 
-:class:`PressureSettings` (threshold, maximum, curve) is the one shaping a
-device's pressure gets, and :meth:`PressureSettings.shape` the one place it is
-applied: a calibration applies its settings through it, and the drivers'
-normaliser, given a curve of its own (``station driver --pressure-curve``
-without a calibration), delegates to it as well.  ``station driver`` settles
-on one set per device (:func:`station.drivers.calibrated.settle_pressure`).
+:class:`PressureSettings` (threshold, maximum, curve) is what a calibration
+file holds; it shapes samples through :class:`station.pressure.PressureShaping`,
+the station's one pressure shaping, which the drivers' normaliser uses for a
+curve of its own too (``station driver --pressure-curve`` without a
+calibration).  ``station driver`` gives a device one shaping
+(:func:`station.drivers.calibrated.settle_pressure`).
 
 Pressures here are device-normalised fractions ``[0, 1]`` (what the
 normaliser publishes); tilts are degrees.
@@ -20,18 +20,16 @@ normaliser publishes); tilts are degrees.
 
 from __future__ import annotations
 
-import bisect
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares
 from station.calibration.errors import CalibrationError
 from station.calibration.geometry import Array
 
-LINEAR = (0.0, 0.0, 1.0, 1.0)
+from station.pressure import LINEAR, PressureShaping
 
 
 def _bezier(t: Array, a: float, b: float) -> Array:
@@ -56,39 +54,6 @@ def bezier_eval(curve: Sequence[float], x: Array | float) -> Array:
         lo = np.where(below, mid, lo)
         hi = np.where(below, hi, mid)
     return np.clip(_bezier(0.5 * (lo + hi), y1, y2), 0.0, 1.0)
-
-
-class BezierCurve:
-    """The pressure curve for one sample at a time: cubic Bézier (0,0), (x1,y1),
-    (x2,y2), (1,1) as y = f(x), tabulated once (1025 points) and evaluated by binary
-    search and linear interpolation (within ~1e-6 of :func:`bezier_eval`, at a
-    microsecond a sample).
-
-    With x1, x2 in [0, 1] x(s) is monotonic, so the table is a function.
-    """
-
-    def __init__(self, x1: float, y1: float, x2: float, y2: float, points: int = 1025) -> None:
-        self.control = (x1, y1, x2, y2)
-        xs, ys = [], []
-        for i in range(points):
-            s = i / (points - 1)
-            a, b, c = 3 * (1 - s) ** 2 * s, 3 * (1 - s) * s * s, s**3
-            xs.append(a * x1 + b * x2 + c)
-            ys.append(a * y1 + b * y2 + c)
-        for i in range(1, points):  # guard against rounding making x non-monotonic
-            xs[i] = max(xs[i], xs[i - 1])
-        self._xs, self._ys = xs, ys
-
-    def __call__(self, p: float) -> float:
-        if p <= 0.0:
-            return 0.0
-        if p >= 1.0:
-            return 1.0
-        xs, ys = self._xs, self._ys
-        i = bisect.bisect_left(xs, p)
-        x0, x1 = xs[i - 1], xs[i]
-        f = 0.0 if x1 == x0 else (p - x0) / (x1 - x0)
-        return min(1.0, max(0.0, ys[i - 1] + f * (ys[i] - ys[i - 1])))
 
 
 def check_curve(curve: Sequence[float]) -> tuple[float, float, float, float]:
@@ -154,7 +119,8 @@ class PressureSettings:
     threshold: float = 0.0
     maximum: float = 1.0
     curve: tuple[float, float, float, float] = LINEAR
-    _table: BezierCurve | None = field(default=None, init=False, repr=False, compare=False)
+    _shaping: PressureShaping = field(default_factory=PressureShaping, init=False, repr=False,
+                                      compare=False)
 
     def __post_init__(self) -> None:
         if not (0.0 <= self.threshold < self.maximum <= 1.0):
@@ -163,30 +129,12 @@ class PressureSettings:
                 "0 <= threshold < maximum <= 1"
             )
         object.__setattr__(self, "curve", check_curve(self.curve))
-        if self.curve != LINEAR:
-            object.__setattr__(self, "_table", BezierCurve(*self.curve))
-
-    @property
-    def is_identity(self) -> bool:
-        """Whether shaping leaves every pressure as it is (no threshold, no curve)."""
-        return self.threshold == 0.0 and self.maximum == 1.0 and self.curve == LINEAR
+        object.__setattr__(self, "_shaping",
+                           PressureShaping(self.threshold, self.maximum, self.curve))
 
     def shape(self, pressure: float, touching: bool) -> tuple[float, bool]:
-        """One sample's pressure and contact, shaped: below the threshold the pen does
-        not touch (pressure 0); from threshold to maximum the pressure is rescaled to
-        [0, 1], then passed through the curve.  The identity leaves both as they are."""
-        if self.is_identity:
-            return pressure, touching
-        if touching and pressure < self.threshold:
-            touching = False
-        if not touching:
-            return 0.0, False
-        p = min(1.0, max(0.0, (pressure - self.threshold) / (self.maximum - self.threshold)))
-        return (p if self._table is None else self._table(p)), True
-
-    def record(self) -> dict[str, Any]:
-        """The settings as JSON (status messages, session-log headers)."""
-        return {"threshold": self.threshold, "maximum": self.maximum, "curve": list(self.curve)}
+        """One sample's pressure and contact, shaped (:class:`station.pressure.PressureShaping`)."""
+        return self._shaping(pressure, touching)
 
     def map(self, raw: Array | float) -> Array:
         """Calibrated pressure of raw fractions (0 below the threshold)."""

@@ -9,8 +9,8 @@ calibration, and with ``auto`` a corrupt or mismatched file is reported and
 the driver runs uncalibrated rather than painting with a wrong mapping.
 
 :func:`settle_pressure` gives a device one pressure curve and one threshold,
-shaped in one place (:meth:`station.calibration.pressure.PressureSettings.shape`)
-by one stage: the calibration when one is in force, else the normaliser.
+shaped by one piece of code (:class:`station.pressure.PressureShaping`) in one
+stage: the calibration when one is in force, else the normaliser.
 """
 
 from __future__ import annotations
@@ -19,15 +19,15 @@ import dataclasses
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from station.calibration.errors import CalibrationError
-from station.calibration.files import CalibrationStore, find_for_device
-from station.calibration.model import DeviceId
-from station.calibration.pressure import PressureSettings
 from station.drivers.normalise import NormaliserConfig
 
 from station.events import PenSample
+from station.pressure import PressureShaping
+
+if TYPE_CHECKING:
+    from station.calibration.files import CalibrationStore
 
 log = logging.getLogger(__name__)
 
@@ -52,6 +52,12 @@ def choose_calibration(spec: str, vid: int, pid: int) -> CalibrationChoice:
     """
     if spec == "none":
         return CalibrationChoice(None, "none (device-normalised)")
+    # Per-command start-up: the calibration package loads SciPy (~0.4 s of CPU), which a
+    # driver run with --calibration none never needs.
+    from station.calibration.errors import CalibrationError
+    from station.calibration.files import CalibrationStore, find_for_device
+    from station.calibration.model import DeviceId
+
     store = CalibrationStore(DeviceId(vid, pid))
     if spec != "auto":
         store.load(spec)
@@ -72,27 +78,27 @@ class PressureInForce:
     """The pressure shaping a device's samples get, and where it came from.
 
     Attributes:
-        settings: threshold, maximum and curve (pressure fractions).
+        shaping: threshold, maximum and curve (pressure fractions).
         applied_by: ``"calibration"`` (the transform), ``"normaliser"`` (a curve
             given to the driver, no calibration) or ``"none"`` (samples keep the
             device-normalised pressure).
         source: where the settings come from, in words.
     """
 
-    settings: PressureSettings
+    shaping: PressureShaping
     applied_by: str
     source: str
 
     def record(self) -> dict[str, Any]:
         """As JSON: the session-log header's and the status's ``pressure``."""
-        return {**self.settings.record(), "applied_by": self.applied_by, "from": self.source}
+        return {**self.shaping.record(), "applied_by": self.applied_by, "from": self.source}
 
     def before_transform(self) -> PressureInForce:
         """What samples get before the calibration (``--raw-jsonl``): only a curve
         the normaliser applies."""
         if self.applied_by == "normaliser":
             return self
-        return PressureInForce(PressureSettings(), "none", "none (device-normalised)")
+        return PressureInForce(PressureShaping(), "none", "none (device-normalised)")
 
 
 def settle_pressure(choice: CalibrationChoice,
@@ -107,16 +113,17 @@ def settle_pressure(choice: CalibrationChoice,
     current = None if store is None else store.current
     if store is None or current is None:
         if curve is None:
-            return config, PressureInForce(PressureSettings(), "none", "none (linear)")
-        return config, PressureInForce(PressureSettings(curve=curve), "normaliser",
+            return config, PressureInForce(PressureShaping(), "none", "none (linear)")
+        return config, PressureInForce(PressureShaping(curve=curve), "normaliser",
                                        "--pressure-curve")
     store.set_curve(curve)
     settings = current.pressure
     source = f"calibration {choice.description}"
     if curve is not None:
-        settings = PressureSettings(settings.threshold, settings.maximum, curve)
         source += ", curve from --pressure-curve"
         log.info("pressure curve %s replaces the calibration's %s", list(curve),
-                 list(current.pressure.curve))
+                 list(settings.curve))
+    shaping = PressureShaping(settings.threshold, settings.maximum,
+                              settings.curve if curve is None else curve)
     return dataclasses.replace(config, pressure_curve=None), PressureInForce(
-        settings, "calibration", source)
+        shaping, "calibration", source)

@@ -24,9 +24,8 @@ What it does, in order, for each raw sample:
   above the offset); the pressure is renormalised so the contact threshold
   (the offset for a tip switch, the down threshold otherwise) maps to 0 and
   grows continuously from there, then the cubic-Bézier pressure curve, if the
-  config names one (shaped by :class:`station.calibration.pressure.PressureSettings`,
-  the same code a calibration's curve goes through); 0 and ``touching=False`` out
-  of contact;
+  config names one (:class:`station.pressure.PressureShaping`, the code a
+  calibration's curve goes through too); 0 and ``touching=False`` out of contact;
 * **tilt** in degrees (resolution in units per degree; without one the range
   maps to ±64°); a tilt or rotation axis that has never left its minimum is taken
   as absent (0° tilt, no rotation; said once in the log and in
@@ -59,11 +58,11 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from station.calibration.pressure import PressureSettings
 from station.drivers.raw import Axis, AxisRanges, RawSample
 
 from station.errors import BadInput, EventError
 from station.events import PenSample, Tool
+from station.pressure import PressureShaping
 
 log = logging.getLogger(__name__)
 
@@ -215,9 +214,9 @@ class Normaliser:
         self.stats = NormaliserStats()
         self.tools: dict[ToolKey, ToolState] = {}
         cfg = self.config
-        # The curve is shaped where a calibration's is (one implementation, one place):
-        # station.calibration.pressure; station driver gives a device one curve, never two.
-        self.pressure = PressureSettings(curve=cfg.pressure_curve) if cfg.pressure_curve \
+        # Shaped by the code a calibration's curve goes through (station.pressure);
+        # station driver gives a device one curve, never this one and a calibration's.
+        self.pressure = PressureShaping(curve=cfg.pressure_curve) if cfg.pressure_curve \
             else None
         if cfg.area is not None:
             x0, y0, x1, y1 = cfg.area
@@ -463,7 +462,7 @@ class Normaliser:
             return 0.0, False
         value = min(1.0, max(0.0, (p - zero) / max(full - zero, 1e-9)))
         if self.pressure is not None:
-            value, _ = self.pressure.shape(value, True)
+            value, _ = self.pressure(value, True)
         return value, True
 
     def _stuck(self, value: int, axis: Axis, name: str) -> bool:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 
 import pytest
-from station.calibration.pressure import BezierCurve
 from station.drivers.normalise import (
     Normaliser,
     NormaliserConfig,
@@ -15,6 +14,7 @@ from station.drivers.raw import Axis, AxisRanges, RawSample
 
 from station.errors import EventError
 from station.events import Tool
+from station.pressure import BezierCurve
 
 RANGES = AxisRanges(
     x=Axis(0, 1000, 100.0), y=Axis(0, 500, 100.0), pressure=Axis(0, 1000),
