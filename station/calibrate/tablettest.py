@@ -19,12 +19,13 @@ from pathlib import Path
 from station.calibration.errors import CalibrationError
 from station.calibration.files import default_path, find_for_device, read_file, write_file
 from station.calibration.model import Calibration, DeviceId
-from station.calibration.pressure import LINEAR, BezierCurve, PressureSettings
+from station.calibration.pressure import LINEAR, PressureSettings
 from station.drivers.normalise import Normaliser, NormaliserConfig
 from station.drivers.pipeline import PenSource
 from station.drivers.raw import Axis, RawSample
 from station.errors import BadInput
 from station.events import PenSample
+from station.pressure import BezierCurve
 
 TRAIL = 4000  # samples of the pen's trail kept (20 s at 200 Hz)
 RAW_AXES = ("x", "y", "pressure", "tilt_x", "tilt_y", "distance", "rotation", "wheel")
