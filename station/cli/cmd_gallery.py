@@ -15,8 +15,12 @@ import signal
 import sys
 import threading
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from station.errors import BadInput
+
+if TYPE_CHECKING:
+    from station.kiosk.gallery import WebOptions
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -35,11 +39,42 @@ def register(sub: argparse._SubParsersAction) -> None:
     m.set_defaults(func=run_make)
     s = gsub.add_parser("serve", help="serve the gallery's web pages until stopped")
     s.add_argument("--root", default="gallery", help="gallery directory (gallery)")
-    s.add_argument("--serve", default="0.0.0.0:8080", metavar="HOST:PORT",
-                   help="where to serve (0.0.0.0:8080)")
+    s.add_argument("--serve", default="127.0.0.1:8080", metavar="HOST:PORT",
+                   help="where to serve (127.0.0.1:8080: this machine only; name the "
+                        "kiosk's address, or 0.0.0.0, for phones on its network)")
     s.add_argument("--base-url", metavar="URL",
                    help="the address the QR codes point to (default: the address asked)")
+    add_web_flags(s)
     s.set_defaults(func=run_serve)
+    e = gsub.add_parser("expire", help="delete the paintings older than N days")
+    e.add_argument("--root", default="gallery", help="gallery directory (gallery)")
+    e.add_argument("--keep-days", type=float, required=True, metavar="N",
+                   help="delete paintings saved more than N days ago")
+    e.set_defaults(func=run_expire)
+
+
+def add_web_flags(p: argparse.ArgumentParser) -> None:
+    """The gallery web page's options (``gallery serve`` and the kiosk)."""
+    p.add_argument("--gallery-index", action="store_true",
+                   help="list every painting at / (off: each only through its own link)")
+    p.add_argument("--gallery-logs", action="store_true",
+                   help="serve each painting's session log and metadata (off)")
+    p.add_argument("--keep-days", type=float, metavar="N",
+                   help="delete paintings saved more than N days ago (checked hourly; "
+                        "default: keep them)")
+    p.add_argument("--per-client", type=int, default=8, metavar="N",
+                   help="connections one client address may hold (8)")
+
+
+def web_options(args: argparse.Namespace) -> WebOptions:
+    from station.kiosk.gallery import WebOptions  # the CLI's per-command start-up
+
+    if args.keep_days is not None and not (0 < args.keep_days < 1e6):
+        raise BadInput(f"must be a number of days > 0, not {args.keep_days}", "--keep-days")
+    if not 1 <= args.per_client <= 1000:
+        raise BadInput("must be 1..1000", "--per-client")
+    return WebOptions(index=args.gallery_index, session_logs=args.gallery_logs,
+                      keep_days=args.keep_days, per_client=args.per_client)
 
 
 def run_make(args: argparse.Namespace) -> int:
@@ -53,8 +88,28 @@ def run_make(args: argparse.Namespace) -> int:
         raise BadInput(f"no painting {args.id} in {root}", "ID")
     if args.nice:
         os.nice(args.nice)
-    for path in Gallery(root).make(args.id):
+    gallery = Gallery(root)
+    try:
+        made = gallery.make(args.id)
+    except BaseException as exc:
+        # the negative cache: no web request starts this replay again
+        gallery.mark_failed(args.id, f"{type(exc).__name__}: {exc}")
+        raise
+    for path in made:
         sys.stdout.write(f"{path}\n")
+    return 0
+
+
+def run_expire(args: argparse.Namespace) -> int:
+    from station.kiosk.gallery import Gallery
+
+    if not (0 < args.keep_days < 1e6):
+        raise BadInput(f"must be a number of days > 0, not {args.keep_days}", "--keep-days")
+    root = Path(args.root)
+    if not root.is_dir():
+        raise BadInput(f"no gallery directory {root}", "--root")
+    for pid in Gallery(root).expire(args.keep_days):
+        sys.stdout.write(f"deleted {pid}\n")
     return 0
 
 
@@ -64,12 +119,12 @@ def run_serve(args: argparse.Namespace) -> int:
     host, sep, port = args.serve.rpartition(":")
     if not sep or not port.isdigit() or not 0 <= int(port) < 65536:
         raise BadInput(f"{args.serve!r} is not HOST:PORT", "--serve")
-    server = GalleryServer(Gallery(Path(args.root)), host or "0.0.0.0", int(port),
-                           args.base_url).start()
+    server = GalleryServer(Gallery(Path(args.root)), host or "127.0.0.1", int(port),
+                           args.base_url, web_options(args)).start()
     stop = threading.Event()
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: stop.set())
-    sys.stderr.write(f"station gallery: serving {args.root} on {host or '0.0.0.0'}:"
+    sys.stderr.write(f"station gallery: serving {args.root} on {host or '127.0.0.1'}:"
                      f"{server.port}\n")
     while not stop.wait(0.5):  # a timed wait: the signal handlers run meanwhile
         pass
