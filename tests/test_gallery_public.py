@@ -197,7 +197,7 @@ def test_odd_urls_are_plain_404s(tmp_path: Path) -> None:
     try:
         for path in ("/p/%00", "/p/" + "a" * 5000, "/%2e%2e/%2e%2e/etc/passwd",
                      "/p/20261124-101500-a1b2c3/painting.png/..", "/p//", "/?x=1"):
-            status, headers, _ = get(f"http://127.0.0.1:{server.port}{path}")
+            status, _h, _ = get(f"http://127.0.0.1:{server.port}{path}")
             assert status in (404, 400, 431), (path, status)
     finally:
         server.stop()

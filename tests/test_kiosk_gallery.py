@@ -172,7 +172,6 @@ def test_gallery_page_in_headless_chromium(tmp_path: Path) -> None:
             xs.min() - np.nonzero(green(painting))[1].min()
         assert np.abs(page[top:top + H, left:left + W].astype(int) - painting).max() <= 2
         # nothing outside the painting's own files
-        url = painting_url(base, pid)
         for bad in ("/p/../../etc/passwd", "/p/20261124-000000-abcdef", f"/p/{pid}/meta.py",
                     f"/p/{pid}/..%2f..%2fs.jsonl", f"/p/{pid}/session.jsonl", "/"):
             with pytest.raises(urllib.error.HTTPError) as exc:
