@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
+from station import sdnotify
 from station.blueprint.model import SupervisorError
 from station.blueprint.plan import Plan, Process
 from station.blueprint.rules import Fired, RuleEngine
@@ -106,7 +107,7 @@ def running_pid(run_dir: Path) -> int | None:
 
 
 def child_env(plan: Plan) -> dict[str, str]:
-    env = dict(os.environ)
+    env = sdnotify.child_environ(dict(os.environ))  # only the supervisor tells systemd
     env["STATION_RUNTIME_DIR"] = str(plan.run_dir)
     env["PYTHONUNBUFFERED"] = "1"
     return env
@@ -426,6 +427,8 @@ class Supervisor:
 
         old = {s: signal.signal(s, on_signal) for s in (signal.SIGTERM, signal.SIGINT)}
         t0 = time.monotonic()
+        notify = sdnotify.notifier()
+        notify.auto_ready = False  # ready once every component is up, not at its first read
         self.write_state()
         try:
             for child in self.children:
@@ -436,9 +439,11 @@ class Supervisor:
                 self._wait_ready(child)
             if not self.stop_requested.is_set():
                 self.log(f"{self.plan.blueprint.name}: {len(self.children)} components up")
+                notify.ready(f"{len(self.children)} components up")
                 for fired in self.rules.on_event("started"):
                     self._act(fired)
             while not self.stop_requested.is_set():
+                notify.alive()  # this loop turning is what the watchdog watches
                 now = time.monotonic()
                 if self.duration is not None and now - t0 >= self.duration:
                     self.log(f"--duration {self.duration:g} s reached")
@@ -461,6 +466,7 @@ class Supervisor:
                     break
                 self.stop_requested.wait(0.05)
         finally:
+            notify.stopping()
             code = self.shutdown()
             for s, handler in old.items():
                 signal.signal(s, handler)
