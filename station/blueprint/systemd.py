@@ -273,6 +273,7 @@ def units(bp: Blueprint, per_component: bool = False, install_path: str | None =
             "Type=notify",
             "NotifyAccess=main",
             f"WatchdogSec={WATCHDOG_S}s",
+            "TimeoutStartSec=300",  # a first start compiles the numba kernels
             f"ExecStart={exe} run {_quote([install, *sets])} --run-dir %t/{runtime} "
             f"--workdir %S/{state}",
             *ident,
@@ -308,6 +309,7 @@ def units(bp: Blueprint, per_component: bool = False, install_path: str | None =
             "Type=notify",
             "NotifyAccess=main",
             f"WatchdogSec={WATCHDOG_S}s",
+            "TimeoutStartSec=300",  # a first start compiles the numba kernels
             f"ExecStart={exe} run {_quote([install, *sets])} --component {p.id} "
             f"--run-dir %t/{runtime} --workdir %S/{state}",
             *ident,

@@ -437,7 +437,8 @@ class LiveCore:
             return False
         data = self.canvas.state().npz_bytes(extra={"session": self.checkpoint_session()})
         try:
-            atomic_write(self.autosave_path, data)
+            # the painting is private like its log (0600)
+            atomic_write(self.autosave_path, data, mode=0o600)
         except OSError as exc:
             self.report.failed(f"autosave {self.autosave_path}", exc)
             return False
