@@ -16,6 +16,8 @@ from station.drivers.evdev import codes as c
 from station.drivers.evdev.frames import AbsInfo, EvdevCaps, InputEvent
 from station.drivers.traces.model import Trace, TraceDevice, TraceError, tolerate_cut
 
+from station import boundedio
+
 
 def _ints(tokens: list[str], base: int, where: str, what: str) -> list[int]:
     try:
@@ -109,6 +111,7 @@ def _parse_evemu(lines: Iterable[str], name: str) -> Trace:
 def read_evemu(path: str | os.PathLike[str]) -> Trace:
     name = str(path)
     try:
+        boundedio.check_regular(path, str(path))
         with open(path, encoding="utf-8-sig") as fh:  # a BOM from Windows editors is dropped
             return parse_evemu(fh, name)
     except UnicodeDecodeError:

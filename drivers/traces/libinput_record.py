@@ -18,6 +18,8 @@ from station.drivers.evdev.frames import AbsInfo, EvdevCaps, InputEvent
 from station.drivers.traces.model import Trace, TraceDevice, TraceError
 from yaml.composer import ComposerError
 
+from station import boundedio
+
 
 def _int(value: Any, where: str, what: str) -> int:
     if isinstance(value, bool) or not isinstance(value, int):
@@ -120,6 +122,7 @@ def parse_libinput_record(text: str, name: str) -> Trace:
 def read_libinput_record(path: str | os.PathLike[str]) -> Trace:
     name = str(path)
     try:
+        boundedio.check_regular(path, str(path))
         with open(path, encoding="utf-8-sig") as fh:  # a BOM from Windows editors is dropped
             text = fh.read()
     except UnicodeDecodeError:

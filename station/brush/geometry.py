@@ -39,6 +39,7 @@ import jsonschema
 import numba
 import numpy as np
 
+from station import boundedio
 from station.brush.solver import Friction, SpineState
 from station.brush.spine import SpineSpec, chain
 from station.errors import BadInput
@@ -130,7 +131,7 @@ class BrushShape:
     def load(cls, path: str | Path) -> BrushShape:
         where = str(path)
         try:
-            data = json.loads(Path(path).read_text())
+            data = json.loads(boundedio.read_text(path, boundedio.CAP_CONFIG, where))
         except FileNotFoundError:
             raise BrushShapeError("no such brush shape file", where) from None
         except (OSError, UnicodeDecodeError) as exc:

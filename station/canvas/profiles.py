@@ -27,6 +27,7 @@ from typing import Any
 
 from lxml import etree
 
+from station import boundedio
 from station.canvas.errors import CanvasInputError
 from station.canvas.palette import Palette, Pigment, default_palette
 from station.canvas.params import BrushDefaults, Profile, SimParams
@@ -164,7 +165,7 @@ def load_profile_file(path: str | Path) -> Profile:
     """Read and check one profile file."""
     where = str(path)
     try:
-        data = Path(path).read_bytes()
+        data = boundedio.read_bytes(path, boundedio.CAP_CONFIG, where)
     except OSError as exc:
         raise CanvasInputError(f"cannot read profile ({exc.strerror})", where) from None
     return parse_profile(data, where)

@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from station import boundedio
 from station.canvas.backend import make_backend  # auto: resolve_auto decides, once
 from station.errors import BadInput, StationError
 from station.events import Command, PenSample
@@ -171,6 +172,7 @@ def _session_length(path: str) -> float:
     """Session time plus waits of a log, from a quick scan (for progress only)."""
     last = waited = 0.0
     try:
+        boundedio.check_regular(path, path)
         with open(path, encoding="utf-8") as fh:
             next(fh, None)
             for line in fh:
