@@ -139,6 +139,8 @@ class BrushShape:
                                   where) from None
         except json.JSONDecodeError as exc:
             raise BrushShapeError(f"not JSON (line {exc.lineno}: {exc.msg})", where) from None
+        except RecursionError:  # "[[[[…": the decoder recurses per level
+            raise BrushShapeError("not JSON (nested too deeply)", where) from None
         return cls.from_dict(data, where)
 
     def spine_specs(self) -> list[SpineSpec]:
