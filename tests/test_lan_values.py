@@ -11,13 +11,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from station.calibration.errors import CalibrationError
 from station.calibration.model import Calibration, DeviceId, FitInfo
+from station.drivers.registry import DEVICES_DIR, parse_device_data, read_device_dir
+
 from station.canvas.errors import CanvasInputError
 from station.canvas.profiles import load_profile_file
 from station.cli import main
-from station.drivers.registry import DEVICES_DIR, parse_device_data, read_device_dir
 from station.errors import BadInput
 
 WATERCOLOR = Path(__file__).parents[1] / "station/data/profiles/watercolor.xml"
