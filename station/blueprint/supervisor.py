@@ -32,7 +32,7 @@ from typing import IO, Any
 
 from station import sdnotify
 from station.blueprint.model import SupervisorError
-from station.blueprint.plan import Plan, Process
+from station.blueprint.plan import MIN_RESTART_DELAY_S, Plan, Process
 from station.blueprint.rules import Fired, RuleEngine
 
 MAX_BACKOFF_S = 30.0
@@ -240,7 +240,15 @@ class Supervisor:
         else:
             if ran >= STABLE_S:
                 child.backoff_n = 0
-            delay = min(proc.restart_delay_s * (2 ** child.backoff_n), MAX_BACKOFF_S)
+            if child.backoff_n >= proc.restart_limit:
+                child.state = "failed"
+                self.log(f"{proc.id} died ({_signal_name(code)}) after {ran:.1f} s, "
+                         f"{child.backoff_n + 1} times in a row: giving up on it "
+                         f"(restart-limit={proc.restart_limit})")
+                self.write_state()
+                return
+            delay = min(max(proc.restart_delay_s, MIN_RESTART_DELAY_S) * (2 ** child.backoff_n),
+                        MAX_BACKOFF_S)
             child.backoff_n += 1
             child.state, child.next_start = "backoff", now + delay
             self.log(f"{proc.id} died ({_signal_name(code)}) after {ran:.1f} s; "

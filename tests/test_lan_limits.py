@@ -1,0 +1,61 @@
+"""Bounded everything (issue 25 item 3): the supervisor's back-off has a floor and a
+give-up limit."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from station.cli import main
+
+
+def test_restart_delay_below_the_floor_is_refused(tmp_path: Path,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    bp = tmp_path / "bp.xml"
+    bp.write_text('<station name="crash" version="1">\n'
+                  '<driver id="pen" device="mock:intuos-pro-m" restart-delay="0ms"/>\n'
+                  '<recorder id="rec" output="rec.jsonl"><requires interface="pen" '
+                  'from="pen"/></recorder></station>\n')
+    assert main(["blueprint", "check", str(bp)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "100ms floor" in err[0], err
+
+
+def test_a_component_crashing_in_a_row_is_given_up(tmp_path: Path) -> None:
+    (tmp_path / "bp.xml").write_text(
+        '<station name="crash" version="1">\n'
+        '<driver id="pen" device="hidraw:/dev/hidraw-not-here" restart-delay="100ms" '
+        'restart-limit="2"/>\n'
+        '<recorder id="rec" output="rec.jsonl"><requires interface="pen" from="pen"/>'
+        '</recorder></station>\n')
+    run = tmp_path / "r"
+    sup = subprocess.Popen([sys.executable, "-m", "station", "run", "bp.xml", "--run-dir",
+                            str(run)], cwd=tmp_path, stdout=subprocess.DEVNULL,
+                           stderr=subprocess.PIPE, text=True)
+    pen: dict = {}
+    try:
+        deadline = time.monotonic() + 90
+        while time.monotonic() < deadline:
+            try:
+                pen = json.loads((run / "supervisor.json").read_text())["components"]["pen"]
+            except (OSError, ValueError, KeyError):
+                pen = {}
+            if pen.get("state") == "failed":
+                break
+            time.sleep(0.2)
+        time.sleep(0.5)  # no further start after giving up
+        after = json.loads((run / "supervisor.json").read_text())["components"]["pen"]
+    finally:
+        sup.terminate()
+        _out, err = sup.communicate(timeout=60)
+    assert pen.get("state") == "failed" and pen.get("restarts") == 2, pen
+    assert after.get("restarts") == 2
+    assert "3 times in a row: giving up on it (restart-limit=2)" in err, err[-2000:]
+    delays = [float(ln.rsplit(" in ", 1)[1].split()[0]) for ln in err.splitlines()
+              if ln.startswith("station run: pen died (exit 1)") and " restart " in ln]
+    assert delays == [0.1, 0.2], err[-2000:]
