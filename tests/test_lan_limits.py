@@ -59,3 +59,17 @@ def test_a_component_crashing_in_a_row_is_given_up(tmp_path: Path) -> None:
     delays = [float(ln.rsplit(" in ", 1)[1].split()[0]) for ln in err.splitlines()
               if ln.startswith("station run: pen died (exit 1)") and " restart " in ln]
     assert delays == [0.1, 0.2], err[-2000:]
+
+
+def test_a_canvas_larger_than_memory_allows_is_refused_up_front(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    from station.sim import paint
+
+    monkeypatch.setattr(paint, "available_memory", lambda: 8_000_000_000)
+    code = main(["demo", "--size", "4096x4096", "-o", str(tmp_path / "x.png")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1, err
+    assert "4096x4096 needs about 15.1 GB" in err[0] and "8.0 GB available" in err[0], err
+    assert not (tmp_path / "x.png").exists()
+    paint.check_size(2048, 2048, "--size")  # 3.8 GB of 8: fine
