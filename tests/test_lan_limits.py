@@ -73,3 +73,30 @@ def test_a_canvas_larger_than_memory_allows_is_refused_up_front(
     assert "4096x4096 needs about 15.1 GB" in err[0] and "8.0 GB available" in err[0], err
     assert not (tmp_path / "x.png").exists()
     paint.check_size(2048, 2048, "--size")  # 3.8 GB of 8: fine
+
+
+def test_a_bus_flood_is_dropped_and_counted(tmp_path: Path) -> None:
+    from station.events import PenSample, Tool
+    from station.sim import live
+    from station.sim.live import LiveConfig, LiveCore
+
+    core = LiveCore(LiveConfig(bus=None, width=24, height=16, backend="numpy", rate=40.0,
+                               log_path=str(tmp_path / "s.jsonl"), autosave=0.0))
+    # the gate at a rate this loop outruns in process (the real one: 4000/s, 8000 burst)
+    core.flood_rate, core.flood_burst = 200.0, 500.0
+    n = 6000
+    t0 = time.monotonic()
+    for i in range(n):
+        core.handle("pen", PenSample(t=i * 1e-5, device="flood", tool=Tool.PEN, x=0.5, y=0.5,
+                                     proximity=True, touching=False, seq=i + 1))
+    elapsed = time.monotonic() - t0
+    c = core.counters
+    assert c.samples <= 500 + 200 * elapsed + 1, (c, elapsed)
+    assert c.samples + c.flood_dropped == n and c.flood_dropped > n // 2
+    assert core.status()["flood_dropped"] == c.flood_dropped
+    log_lines = (tmp_path / "s.jsonl").read_text().count("\n") if core.journal.sync() else 0
+    assert log_lines <= c.samples + 5  # the log grows only by what was painted
+    for k in range(200):  # a flood of device names: state for at most MAX_DEVICES
+        core.handle("pen", PenSample(t=1.0, device=f"d{k}", tool=Tool.PEN, x=0.5, y=0.5,
+                                     proximity=True, touching=False, seq=1))
+    assert len(core.devices) <= live.MAX_DEVICES
