@@ -92,3 +92,16 @@ def test_hidraw_transport_refuses_other_nodes(tmp_path: Path,
         code = main(["driver", "--device", f"hidraw:{node}", "--bus", "@ipc:lan-hidraw"])
         err = capsys.readouterr().err.strip().splitlines()
         assert code == 2 and len(err) == 1 and says in err[0], (node, err)
+
+
+def test_trace_axis_ranges_must_fit_32_bits() -> None:
+    """Found by `station bench fuzz` at 100,000 inputs: an absinfo maximum of 2**70 went
+    through to the normaliser's float() (OverflowError)."""
+    from station.bench.fuzz import evdev_seeds, read_evemu, read_libinput
+
+    evemu, yaml_ = evdev_seeds()
+    assert "44704" in yaml_[0] and "44704" in evemu[0]
+    with pytest.raises(BadInput, match="32 bits"):
+        read_libinput(yaml_[0].replace("44704", str(2 ** 70), 1))
+    with pytest.raises(BadInput, match="32 bits"):
+        read_evemu(evemu[0].replace("44704", str(2 ** 70), 1))

@@ -70,6 +70,8 @@ def _parse_evemu(lines: Iterable[str], name: str) -> Trace:
             values = _ints(tokens[1:], 10, where, "'A:' axis")
             lo, hi, fuzz, flat = values[:4]
             res = values[4] if len(values) > 4 else 0
+            if any(not -(1 << 31) <= v < 1 << 31 for v in values):  # input_absinfo: s32
+                raise TraceError(f"axis {code:#x}: a value does not fit 32 bits", where)
             if hi < lo:
                 raise TraceError(f"axis {code:#x}: max {hi} < min {lo}", where)
             absinfo[code] = AbsInfo(lo, hi, fuzz, flat, res, min(max(0, lo), hi))

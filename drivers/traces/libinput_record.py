@@ -74,6 +74,10 @@ def parse_libinput_record(text: str, name: str) -> Trace:
                 raise TraceError(f"absinfo {code}: {values!r} needs min max fuzz flat [res]",
                                  where)
             vals = [_int(v, where, f"absinfo {code}") for v in values]
+            if any(not -(1 << 31) <= v < 1 << 31 for v in vals):  # struct input_absinfo: s32
+                raise TraceError(f"absinfo {code}: {values!r:.80} does not fit 32 bits", where)
+            if vals[1] < vals[0]:
+                raise TraceError(f"absinfo {code}: max {vals[1]} < min {vals[0]}", where)
             res = vals[4] if len(vals) > 4 else 0
             rest = min(max(0, vals[0]), vals[1])  # value at rest: not recorded
             absinfo[_int(code, where, "abs code")] = AbsInfo(vals[0], vals[1], vals[2], vals[3],
