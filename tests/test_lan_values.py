@@ -84,14 +84,17 @@ def test_send_checks_ranges_before_sending(capsys: pytest.CaptureFixture[str]) -
         assert len(err) == 1 and says in err[0], err
 
 
-def test_hidraw_transport_refuses_other_nodes(tmp_path: Path,
+def test_transports_refuse_nodes_of_another_kind(tmp_path: Path,
                                               capsys: pytest.CaptureFixture[str]) -> None:
     plain = tmp_path / "plain"
     plain.write_text("x")
-    for node, says in (("/dev/null", "not hidraw"), (str(plain), "not a character device")):
-        code = main(["driver", "--device", f"hidraw:{node}", "--bus", "@ipc:lan-hidraw"])
+    for spec, says in (("hidraw:/dev/null", "not hidraw"),
+                       (f"hidraw:{plain}", "not a character device"),
+                       ("evdev:/dev/null", "not an evdev node"),
+                       (f"evdev:{plain}", "not an evdev node")):
+        code = main(["driver", "--device", spec, "--bus", "@ipc:lan-hidraw"])
         err = capsys.readouterr().err.strip().splitlines()
-        assert code == 2 and len(err) == 1 and says in err[0], (node, err)
+        assert code == 2 and len(err) == 1 and says in err[0], (spec, err)
 
 
 def test_trace_axis_ranges_must_fit_32_bits() -> None:

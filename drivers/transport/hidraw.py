@@ -28,9 +28,8 @@ from station.drivers.transport.base import (
     PermissionProblem,
     TimedReport,
     TransportError,
+    WrongNodeKind,
 )
-
-from station.errors import BadInput
 
 _IOC_WRITE, _IOC_READ = 1, 2
 HID_MAX_DESCRIPTOR_SIZE = 4096
@@ -86,10 +85,6 @@ def permission_hint(path: str) -> str:
         "(station/udev, see docs/drivers.md) so the seat user gets access via uaccess, "
         "or add yourself to the 'station' group and log in again"
     )
-
-
-class WrongNodeKind(TransportError, BadInput):
-    """A path given to a transport is not the kind of node it opens (exit 2)."""
 
 
 def check_hidraw_node(path: str, st: os.stat_result) -> None:
