@@ -108,3 +108,21 @@ def test_trace_axis_ranges_must_fit_32_bits() -> None:
         read_libinput(yaml_[0].replace("44704", str(2 ** 70), 1))
     with pytest.raises(BadInput, match="32 bits"):
         read_evemu(evemu[0].replace("44704", str(2 ** 70), 1))
+
+
+def test_deep_yaml_is_refused_before_the_parser() -> None:
+    """Found by `station bench fuzz` at 100,000 inputs on a loaded machine: 50,000 levels
+    of flow nesting kept the pure-Python YAML parser busy past the fuzzer's 10 s alarm."""
+    import random
+
+    from station.bench.fuzz import Tally, evdev_seeds, mutate_text, read_libinput
+
+    _evemu, yaml_ = evdev_seeds()
+    tally = Tally()
+    for k in (245, 1544):  # the two seeds that hung
+        rng = random.Random(f"benchlibinput-record-{k}")
+        tally.run("libinput-record", read_libinput, mutate_text(rng, rng.choice(yaml_), yaml_), k)
+    assert tally.kinds == {} and tally.counts["libinput-record"]["bad_input"] == 2
+    for deep in ("[" * 50_000, "- " * 50_000, "{a: " * 50_000):
+        with pytest.raises(BadInput, match="nested more than 64"):
+            read_libinput("devices:\n  - " + deep)

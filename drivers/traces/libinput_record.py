@@ -10,6 +10,7 @@ line; structural errors name the device and event index.
 from __future__ import annotations
 
 import os
+import re
 from typing import Any
 
 import yaml
@@ -41,7 +42,26 @@ class _Loader(yaml.SafeLoader):
 MAX_SECONDS = 1e9  # event times beyond this (31 years) are not a recording
 
 
+MAX_NESTING = 64  # libinput record nests 4-5 levels; pure-Python YAML slows per level
+_BRACKETS = re.compile(r"[\[\]{}]")
+_DEEP_BLOCK = re.compile(rf"(?:-[ \t]+){{{MAX_NESTING},}}")
+
+
+def _too_deep(text: str) -> bool:
+    """Flow (``[[[…``) or block (``- - - …``) nesting past :data:`MAX_NESTING`: refused
+    before the parser, which takes seconds per 50,000 levels on a loaded machine."""
+    depth = 0
+    for m in _BRACKETS.finditer(text):
+        depth += 1 if m.group() in "[{" else -1
+        if depth > MAX_NESTING:
+            return True
+        depth = max(depth, 0)
+    return _DEEP_BLOCK.search(text) is not None
+
+
 def parse_libinput_record(text: str, name: str) -> Trace:
+    if _too_deep(text):
+        raise TraceError(f"not valid YAML (nested more than {MAX_NESTING} levels)", f"{name}:1")
     try:
         doc = yaml.load(text, Loader=_Loader)  # a SafeLoader without aliases
     except yaml.YAMLError as exc:
