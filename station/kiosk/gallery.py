@@ -505,8 +505,11 @@ PAINTING = """<h1>Your painting</h1>
 <img class="canvas" id="painting" src="{{png}}" width="{{w}}" height="{{h}}"
  style="aspect-ratio: {{w}} / {{h}}" alt="the painting">
 </figure>
-<p><a class="button" id="print" href="{{print_png}}" download="painting-{{stamp}}-2x.png">Download
+<p>
+% if print_png:
+<a class="button" id="print" href="{{print_png}}" download="painting-{{stamp}}-2x.png">Download
  the painting ({{2 * w}}×{{2 * h}} px)</a>
+% end
 <a class="button" href="{{png}}" download="painting-{{stamp}}.png">Screen size
  ({{w}}×{{h}} px)</a></p>
 % if replay:
@@ -586,9 +589,14 @@ def make_app(gallery: Gallery, base_url: str | None = None,
         saved = meta.get("saved")
         saved = float(saved) if isinstance(saved, (int, float)) and np.isfinite(saved) else 0.0
         when = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime(saved))
+        # the replay and the print exist, or can still be made from the session log
+        makeable = gallery.path(pid, LOG).exists() and gallery.failed(pid) is None
         body = bottle.template(
-            PAINTING, png=f"/p/{pid}/{PNG}", print_png=f"/p/{pid}/{PRINT}",
-            replay="" if gallery.failed(pid) else f"/p/{pid}/{REPLAY}",
+            PAINTING, png=f"/p/{pid}/{PNG}",
+            print_png=f"/p/{pid}/{PRINT}" if makeable or gallery.path(pid, PRINT).exists()
+            else "",
+            replay=f"/p/{pid}/{REPLAY}" if makeable or gallery.path(pid, REPLAY).exists()
+            else "",
             log=f"/p/{pid}/{LOG}" if opts.session_logs else "", w=w, h=h,
             stamp=pid[:15], when=when, profile=str(meta.get("profile", ""))[:40],
             index=opts.index)
