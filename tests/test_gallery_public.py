@@ -201,3 +201,21 @@ def test_odd_urls_are_plain_404s(tmp_path: Path) -> None:
             assert status in (404, 400, 431), (path, status)
     finally:
         server.stop()
+
+
+def test_a_replay_past_its_memory_budget_fails_once_with_one_line(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import subprocess
+    import sys
+
+    g, pid = painting(tmp_path, log=b"{}\n")
+    proc = subprocess.run([sys.executable, "-m", "station", "gallery", "make", "--root",
+                           str(g.root), pid, "--max-memory", "100", "--nice", "0"],
+                          capture_output=True, text=True, timeout=120)
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode == 1 and len(lines) == 1, proc.stderr[-2000:]
+    assert "memory budget 100 MB" in lines[0]
+    assert "memory budget 100 MB" in (g.failed(pid) or "")  # the negative cache
+    assert not g.path(pid, "replay.webp").exists()
+    assert main(["gallery", "make", "--root", str(g.root), pid, "--max-memory", "8"]) == 2
+    assert "--max-memory" in capsys.readouterr().err

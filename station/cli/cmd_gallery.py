@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import signal
 import sys
 import threading
@@ -36,6 +37,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     m.add_argument("--root", default="gallery", help="gallery directory (gallery)")
     m.add_argument("--nice", type=int, default=19, metavar="N",
                    help="lower this process's CPU priority by N first (19; 0: not)")
+    m.add_argument("--max-memory", type=int, default=None, metavar="MB",
+                   help="the replay's memory budget (default: 768 MB plus 1.5x what the "
+                        "painting's canvas needs); past it the replay fails and is not "
+                        "tried again")
     m.set_defaults(func=run_make)
     s = gsub.add_parser("serve", help="serve the gallery's web pages until stopped")
     s.add_argument("--root", default="gallery", help="gallery directory (gallery)")
@@ -78,7 +83,7 @@ def web_options(args: argparse.Namespace) -> WebOptions:
 
 
 def run_make(args: argparse.Namespace) -> int:
-    from station.kiosk.gallery import Gallery, check_id
+    from station.kiosk.gallery import Gallery, GalleryError, check_id
 
     check_id(args.id)
     if not 0 <= args.nice <= 19:
@@ -86,11 +91,21 @@ def run_make(args: argparse.Namespace) -> int:
     root = Path(args.root)
     if not (root / args.id).is_dir():
         raise BadInput(f"no painting {args.id} in {root}", "ID")
+    if args.max_memory is not None and not 64 <= args.max_memory <= 1 << 20:
+        raise BadInput("must be 64..1048576 MB", "--max-memory")
     if args.nice:
         os.nice(args.nice)
     gallery = Gallery(root)
+    budget = args.max_memory or _default_budget_mb(gallery.meta(args.id) or {})
+    # a hostile or huge log must not take the kiosk's memory: the data segment (heap
+    # and anonymous maps) is capped; a MemoryError past it is this painting's failure
+    resource.setrlimit(resource.RLIMIT_DATA, (budget << 20, budget << 20))
     try:
         made = gallery.make(args.id)
+    except (MemoryError, OSError) as exc:  # out of budget (a library's mmap fails: OSError)
+        why = f"{type(exc).__name__}: {str(exc)[:120]} (memory budget {budget} MB)"
+        gallery.mark_failed(args.id, why)
+        raise GalleryError(f"painting {args.id}: the replay failed: {why}") from None
     except BaseException as exc:
         # the negative cache: no web request starts this replay again
         gallery.mark_failed(args.id, f"{type(exc).__name__}: {exc}")
@@ -98,6 +113,15 @@ def run_make(args: argparse.Namespace) -> int:
     for path in made:
         sys.stdout.write(f"{path}\n")
     return 0
+
+
+def _default_budget_mb(meta: dict[str, object]) -> int:
+    from station.sim.paint import BYTES_PER_CELL  # the CLI's per-command start-up
+
+    w, h = meta.get("width"), meta.get("height")
+    cells = w * h if isinstance(w, int) and isinstance(h, int) and 0 < w * h < 1 << 26 \
+        else 800 * 600
+    return 768 + int(1.5 * cells * BYTES_PER_CELL) // (1 << 20)
 
 
 def run_expire(args: argparse.Namespace) -> int:
