@@ -32,6 +32,7 @@ from station.calibration.errors import CalibrationError, CalibrationFileError, D
 from station.calibration.model import Calibration, DeviceId, FitInfo
 from station.calibration.pressure import PressureSettings, TiltSettings, check_curve
 
+from station import boundedio
 from station.events import PenSample
 
 FORMAT = "station-calibration"
@@ -171,7 +172,7 @@ def read_file(path: str | os.PathLike[str], expect: DeviceId | None = None) -> C
     try:
         if p.stat().st_size > MAX_FILE_BYTES:
             raise CalibrationFileError("larger than 1 MiB: not a calibration file", str(p))
-        text = p.read_text(encoding="utf-8")
+        text = boundedio.read_text(p, MAX_FILE_BYTES, str(p))
     except OSError as exc:
         raise CalibrationFileError(f"cannot read ({exc.strerror})", str(p)) from None
     except UnicodeDecodeError:

@@ -23,6 +23,9 @@ from station.calibration.pressure import PressureSettings, TiltSettings
 
 from station.events import PenSample
 
+MAX_MATRIX_ENTRY = 1e3
+MIN_MATRIX_DET = 1e-9
+
 
 @dataclass(frozen=True)
 class DeviceId:
@@ -83,8 +86,16 @@ class FitInfo:
         m = np.asarray(self.matrix, dtype=np.float64)
         if m.shape != (3, 3) or not np.isfinite(m).all():
             raise CalibrationError("a calibration matrix must be 3×3 finite numbers")
-        if abs(float(np.linalg.det(m))) < 1e-300:
-            raise CalibrationError("the calibration matrix is singular")
+        # Area-normalised: a real calibration maps the unit square to about the unit
+        # square (entries near 0..1, its area within a few times).  Beyond these bounds
+        # every sample lands on the canvas's edge (1e308 puts them all at (1, 1)).
+        if np.abs(m).max() > MAX_MATRIX_ENTRY:
+            raise CalibrationError(f"a calibration matrix entry is {np.abs(m).max():.3g}: "
+                                   f"absurd (at most {MAX_MATRIX_ENTRY:g} in size)")
+        det = float(np.linalg.det(m))
+        if abs(det) < MIN_MATRIX_DET:
+            raise CalibrationError(f"the calibration matrix is singular (determinant "
+                                   f"{det:.3g}: it squeezes the tablet to nothing)")
         object.__setattr__(self, "matrix", tuple(tuple(float(v) for v in row) for row in m))
         if not all(math.isfinite(v) for v in self.parallax):
             raise CalibrationError("parallax must be finite")

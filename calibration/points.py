@@ -20,6 +20,8 @@ import numpy as np
 from station.calibration.errors import CalibrationError, DegeneratePoints
 from station.calibration.fit import PointSet
 
+from station import boundedio
+
 REQUIRED = ("device_x", "device_y", "canvas_x", "canvas_y")
 TILT = ("tilt_x", "tilt_y")
 MAX_ABS = 1e9
@@ -94,7 +96,7 @@ def read_points(path: str | os.PathLike[str]) -> PointSet:
     """Read a points CSV file (errors name ``file:line``)."""
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        text = boundedio.read_text(p, boundedio.CAP_POINTS, str(p))
     except OSError as exc:
         raise CalibrationError(f"cannot read ({exc.strerror})", str(p)) from None
     except UnicodeDecodeError:

@@ -26,6 +26,7 @@ from station.calibration.errors import CalibrationError, DegeneratePoints
 from station.calibration.fit import PointSet, fit_points
 from station.calibration.geometry import Array
 
+from station import boundedio
 from station.events import PenSample
 
 
@@ -99,7 +100,7 @@ def read_targets(path: str | os.PathLike[str]) -> Array:
     """Targets CSV: header with ``canvas_x,canvas_y`` (other columns ignored)."""
     p = Path(path)
     try:
-        lines = p.read_text(encoding="utf-8").splitlines()
+        lines = boundedio.read_text(p, boundedio.CAP_POINTS, str(p)).splitlines()
     except (OSError, UnicodeDecodeError) as exc:
         raise CalibrationError(f"cannot read targets ({exc})", str(p)) from None
     rows = [(i, ln) for i, ln in enumerate(lines, 1) if ln.strip() and not ln.startswith("#")]

@@ -40,13 +40,16 @@ from station.drivers.wacom.intuos import IntuosParser
 from station.drivers.wacom.legacy import PROTOCOLS as LEGACY
 from station.drivers.wacom.legacy import LegacyPenParser
 
-from station import paths
+from station import boundedio, paths
 from station.errors import BadInput
 
 log = logging.getLogger(__name__)
 _eq_usage = U.equivalent_usage
 
 DEVICES_DIR = Path(__file__).resolve().parent / "devices"
+MAX_DEVICE_DATA = 256 * 1024  # characters of one model's JSON (the largest shipped: 21 KiB)
+MAX_STRING = 4096  # one string in it (names, notes)
+MAX_FEATURE_REPORT = 64  # bytes of one init feature report (shipped ones: 2)
 SCHEMA_PATH = DEVICES_DIR / "devices.schema.json"
 
 BUS_USB, BUS_BLUETOOTH, BUS_I2C = 0x03, 0x05, 0x18
@@ -111,7 +114,13 @@ def _validator() -> Any:
 
 def parse_device_data(text: str, where: str) -> dict[str, Any]:
     """One device model from its JSON text, checked against ``devices.schema.json``
-    and for a parser this station has; anything else is :class:`BadInput` at ``where``."""
+    and for a parser this station has; anything else is :class:`BadInput` at ``where``.
+    Sizes are capped (:data:`MAX_DEVICE_DATA`, :data:`MAX_STRING`,
+    :data:`MAX_FEATURE_REPORT`): a real model is a few KiB, a feature report a few
+    bytes, and the driver sends those reports to the device."""
+    if len(text) > MAX_DEVICE_DATA:
+        raise BadInput(f"device data is {len(text)} characters, more than "
+                       f"{MAX_DEVICE_DATA}", where)
     try:
         model = json.loads(text)
     except ValueError as exc:
@@ -126,6 +135,17 @@ def parse_device_data(text: str, where: str) -> dict[str, Any]:
         at = "/".join(str(p) for p in error.absolute_path) or "the top level"
         raise BadInput(f"device data does not fit devices.schema.json at {at}: "
                        f"{error.message[:200]}", where)
+    for key, value in model.items():
+        strings = [value] if isinstance(value, str) else \
+            [v for v in value if isinstance(v, str)] if isinstance(value, list) else []
+        for v in strings:
+            if len(v) > MAX_STRING:
+                raise BadInput(f"device data {key!r} holds a string of {len(v)} characters "
+                               f"(at most {MAX_STRING})", where)
+    for report in model["init_feature_reports"]:
+        if not isinstance(report, str) or len(report) > 2 * MAX_FEATURE_REPORT:
+            raise BadInput(f"device data init_feature_reports: a report longer than "
+                           f"{MAX_FEATURE_REPORT} bytes", where)
     if model["parser"] not in parser_names():
         raise BadInput(f"device data names unknown parser {model['parser']!r} "
                        f"(one of {', '.join(parser_names())})", where)
@@ -135,14 +155,29 @@ def parse_device_data(text: str, where: str) -> dict[str, Any]:
 @lru_cache(maxsize=1)
 def _bundled() -> tuple[dict[str, Any], ...]:
     """The package's own models (validated once per process: 560 files, ~1 s)."""
+    models = read_device_dir(DEVICES_DIR)
+    for model in models:
+        model["_source"] = "bundled"
+    return tuple(models)
+
+
+def read_device_dir(directory: Path) -> list[dict[str, Any]]:
+    """Every model in ``directory`` (``*.json``), each checked; two with one id are
+    refused (the second would shadow the first depending on file order)."""
     models = []
-    for path in sorted(DEVICES_DIR.glob("*.json")):
+    seen: dict[str, str] = {}
+    for path in sorted(directory.glob("*.json")):
         if path.name.endswith(".schema.json"):
             continue
-        model = parse_device_data(path.read_text(encoding="utf-8"), str(path))
-        model["_path"], model["_source"] = str(path), "bundled"
+        model = parse_device_data(
+            boundedio.read_text(path, MAX_DEVICE_DATA * 4, str(path)), str(path))
+        if model["id"] in seen:
+            raise BadInput(f"device id {model['id']!r} is also in {seen[model['id']]}",
+                           str(path))
+        seen[model["id"]] = str(path)
+        model["_path"] = str(path)
         models.append(model)
-    return tuple(models)
+    return models
 
 
 @lru_cache(maxsize=1)

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
+from station import boundedio
 from station.errors import EventError, SessionLogError
 from station.events import Command, PenSample
 
@@ -144,6 +145,7 @@ class SessionLogReader:
         if isinstance(source, (str, os.PathLike)):
             self.name = name or str(source)
             try:
+                boundedio.check_regular(source, self.name)  # not /dev/zero, not a FIFO
                 self._fh: IO[str] = open(source, encoding="utf-8", newline="")  # noqa: SIM115
             except OSError as exc:
                 raise SessionLogError(f"cannot open ({exc.strerror})", self.name) from None

@@ -242,6 +242,7 @@ def test_a_client_needs_only_the_servers_public_key(tmp_path: Path) -> None:
     remote.mkdir(mode=0o700)
     for name in ("server.key", "client.key", "client.key_secret"):
         (remote / name).write_bytes((keys / name).read_bytes())
+    (remote / "client.key_secret").chmod(0o600)  # a secret others can read is refused
     ctx = zmq.Context()
     endpoint = f"tcp://127.0.0.1:{free_port()}"
     pub = Publisher(endpoint, keys=keys, context=ctx)
@@ -302,6 +303,7 @@ def test_two_key_directories_in_one_process_each_check_their_own_clients(
     (mixed / "server.key").write_bytes((a / "server.key").read_bytes())
     for name in ("client.key", "client.key_secret"):
         (mixed / name).write_bytes((b / name).read_bytes())
+    (mixed / "client.key_secret").chmod(0o600)  # a secret others can read is refused
     ctx = zmq.Context()
     ep_a, ep_b = (f"tcp://127.0.0.1:{free_port()}" for _ in range(2))
     pub_a = Publisher(ep_a, keys=a, context=ctx)
@@ -324,6 +326,7 @@ def test_two_key_directories_in_one_process_each_check_their_own_clients(
         (a_to_b / "server.key").write_bytes((b / "server.key").read_bytes())
         for name in ("client.key", "client.key_secret"):
             (a_to_b / name).write_bytes((a / name).read_bytes())
+        (a_to_b / "client.key_secret").chmod(0o600)
         stranger = Publisher(">" + ep_c, keys=a_to_b, context=ctx)
         try:
             assert not stranger.wait_for_subscribers(1, 1.0)
@@ -451,6 +454,7 @@ def test_kiosk_on_a_tcp_bus_with_keys_paints_the_pen(tmp_path: Path) -> None:
     remote.mkdir(mode=0o700)
     for name in ("server.key", "client.key", "client.key_secret"):
         (remote / name).write_bytes((keys / name).read_bytes())
+    (remote / "client.key_secret").chmod(0o600)  # a secret others can read is refused
     port = free_port()
     with xvfb() as display:
         bus = kstation("bus", "--pub", "ipc:pub", "--sub", f"tcp://127.0.0.1:{port}",

@@ -122,38 +122,58 @@ def chromium() -> str | None:
 
 @pytest.mark.skipif(chromium() is None, reason="no Chromium (apt-get install chromium)")
 def test_gallery_page_in_headless_chromium(tmp_path: Path) -> None:
+    """The take-home page on a phone, a tablet and a laptop: the painting at its own
+    aspect (within 1 %) at 390, 768 and 1280 px wide, never wider than the screen,
+    and no QR code on the page the kiosk's QR code points to."""
     import zxingcpp
 
     g, pid, log, painting = saved_painting(tmp_path)
+    # an 800x600 painting (the kiosk's canvas): a red field in a dark frame
+    big = np.zeros((600, 800, 3), np.uint8)
+    big[...] = (30, 30, 30)
+    big[4:-4, 4:-4] = (220, 40, 30)
+    big_id = new_id()
+    g.save(big_id, big, log, {"width": 800, "height": 600, "profile": "watercolor"})
     server = GalleryServer(g, "127.0.0.1", 0).start()
     try:
         base = f"http://127.0.0.1:{server.port}"
-        url = painting_url(base, pid)
+        for width in (390, 768, 1280):
+            shot = tmp_path / f"page-{width}.png"
+            proc = subprocess.run(
+                [str(chromium()), "--headless=new", "--no-sandbox", "--disable-gpu",
+                 "--hide-scrollbars", "--force-device-scale-factor=1",
+                 f"--window-size={width},1100", f"--screenshot={shot}",
+                 painting_url(base, big_id)],
+                capture_output=True, text=True, timeout=90)
+            assert shot.exists(), proc.stderr[-2000:]
+            page = np.asarray(Image.open(shot).convert("RGB")).astype(int)
+            assert page.shape[1] == width
+            red = (page[..., 0] > 180) & (page[..., 1] < 90) & (page[..., 2] < 90)
+            ys, xs = np.nonzero(red)
+            # the red field is 792x592 of the 800x600 painting: its aspect, within 1 %
+            shown = (np.ptp(xs) + 1) / (np.ptp(ys) + 1)
+            assert abs(shown / (792 / 592) - 1) < 0.01, (width, shown)
+            assert xs.max() < width  # never wider than the screen
+            assert np.ptp(xs) + 1 >= min(792, 0.8 * width)  # and not a thumbnail
+            assert zxingcpp.read_barcodes(Image.fromarray(page.astype(np.uint8))) == []
+        # the small painting at its own size, pixel for pixel, at a laptop's width
         shot = tmp_path / "page.png"
-        proc = subprocess.run(
+        subprocess.run(
             [str(chromium()), "--headless=new", "--no-sandbox", "--disable-gpu",
              "--hide-scrollbars", "--force-device-scale-factor=1", "--window-size=800,600",
-             f"--screenshot={shot}", url],
+             f"--screenshot={shot}", painting_url(base, pid)],
             capture_output=True, text=True, timeout=90)
-        assert shot.exists(), proc.stderr[-2000:]
         page = np.asarray(Image.open(shot).convert("RGB"))
-        # the QR code on the page decodes to the painting's own address
-        assert [r.text for r in zxingcpp.read_barcodes(Image.fromarray(page))] == [url]
-        # the painting is shown at its size: its green stroke is on the page, pixel for pixel
+        button = np.nonzero((np.abs(page.astype(int) - (45, 93, 138)).sum(-1) < 6).any(1))[0]
+        page = page[:button.min()]  # the painting, above the (blue) download buttons
         assert abs(int(green(page).sum()) - int(green(painting).sum())) <= 5
         ys, xs = np.nonzero(green(page))
         top, left = ys.min() - np.nonzero(green(painting))[0].min(), \
             xs.min() - np.nonzero(green(painting))[1].min()
         assert np.abs(page[top:top + H, left:left + W].astype(int) - painting).max() <= 2
-        # the other files, and nothing outside the gallery
-        with urllib.request.urlopen(f"{url}/replay.webp", timeout=60) as r:
-            assert r.headers["Content-Type"] == "image/webp" and r.read(12)[8:12] == b"WEBP"
-        with urllib.request.urlopen(f"{url}/session.jsonl", timeout=10) as r:
-            assert r.read() == log.read_bytes()
-        with urllib.request.urlopen(f"{base}/", timeout=10) as r:
-            assert pid in r.read().decode()
+        # nothing outside the painting's own files
         for bad in ("/p/../../etc/passwd", "/p/20261124-000000-abcdef", f"/p/{pid}/meta.py",
-                    f"/p/{pid}/..%2f..%2fs.jsonl"):
+                    f"/p/{pid}/..%2f..%2fs.jsonl", f"/p/{pid}/session.jsonl", "/"):
             with pytest.raises(urllib.error.HTTPError) as exc:
                 urllib.request.urlopen(base + bad, timeout=10)
             assert exc.value.code == 404, bad
@@ -189,18 +209,21 @@ def test_gallery_make_writes_the_replay_and_a_print_in_a_low_priority_process(
     assert main(["gallery", "make", "--root", str(g.root), pid]) == 0
     assert calls == ["nice 19", f"make {pid}"]
     monkeypatch.undo()
-    # the page offers the print once it is there; a re-save makes them stale
+    # the page offers the print as a download at 2x; a re-save makes it stale, and the
+    # server's worker makes it again when it is asked for (503 meanwhile, never a wait)
     server = GalleryServer(g, "127.0.0.1", 0).start()
     try:
-        def page() -> str:
-            with urllib.request.urlopen(f"http://127.0.0.1:{server.port}/p/{pid}",
-                                        timeout=30) as r:
-                return str(r.read().decode())
-
-        assert f"/p/{pid}/{PRINT}" in page() and f"{2 * W}×{2 * H}" in page()
+        base = f"http://127.0.0.1:{server.port}/p/{pid}"
+        with urllib.request.urlopen(base, timeout=30) as r:
+            page = r.read().decode()
+        assert f'href="/p/{pid}/{PRINT}" download=' in page and f"{2 * W}×{2 * H}" in page
+        with urllib.request.urlopen(f"{base}/{PRINT}", timeout=30) as r:
+            assert r.read() == g.path(pid, PRINT).read_bytes()
         g.save(pid, painting, log, json.loads(g.path(pid, "meta.json").read_text()))
         assert not g.path(pid, PRINT).exists() and not g.path(pid, REPLAY).exists()
-        assert f"/p/{pid}/{PRINT}" not in page()
+        with pytest.raises(urllib.error.HTTPError) as exc:
+            urllib.request.urlopen(f"{base}/{PRINT}", timeout=30)
+        assert exc.value.code == 503 and exc.value.headers["Retry-After"]
     finally:
         server.stop()
 

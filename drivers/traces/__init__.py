@@ -24,6 +24,7 @@ from station.drivers.traces.hidrecorder import (
 from station.drivers.traces.libinput_record import parse_libinput_record, read_libinput_record
 from station.drivers.traces.model import Trace, TraceDevice, TraceError
 
+from station import boundedio
 from station.events import PenSample
 from station.sessionlog import SessionHeader, SessionLogWriter
 
@@ -64,6 +65,7 @@ def trace_format(path: str | os.PathLike[str]) -> str:
     head: list[str] = []
     comments: list[str] = []
     try:
+        boundedio.check_regular(path, str(path))
         with open(path, encoding="utf-8-sig", errors="replace") as fh:
             for n, line in enumerate(fh):
                 if n >= 20000 or len(head) >= 50:

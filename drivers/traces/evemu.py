@@ -16,6 +16,8 @@ from station.drivers.evdev import codes as c
 from station.drivers.evdev.frames import AbsInfo, EvdevCaps, InputEvent
 from station.drivers.traces.model import Trace, TraceDevice, TraceError, tolerate_cut
 
+from station import boundedio
+
 
 def _ints(tokens: list[str], base: int, where: str, what: str) -> list[int]:
     try:
@@ -68,6 +70,8 @@ def _parse_evemu(lines: Iterable[str], name: str) -> Trace:
             values = _ints(tokens[1:], 10, where, "'A:' axis")
             lo, hi, fuzz, flat = values[:4]
             res = values[4] if len(values) > 4 else 0
+            if any(not -(1 << 31) <= v < 1 << 31 for v in values):  # input_absinfo: s32
+                raise TraceError(f"axis {code:#x}: a value does not fit 32 bits", where)
             if hi < lo:
                 raise TraceError(f"axis {code:#x}: max {hi} < min {lo}", where)
             absinfo[code] = AbsInfo(lo, hi, fuzz, flat, res, min(max(0, lo), hi))
@@ -109,6 +113,7 @@ def _parse_evemu(lines: Iterable[str], name: str) -> Trace:
 def read_evemu(path: str | os.PathLike[str]) -> Trace:
     name = str(path)
     try:
+        boundedio.check_regular(path, str(path))
         with open(path, encoding="utf-8-sig") as fh:  # a BOM from Windows editors is dropped
             return parse_evemu(fh, name)
     except UnicodeDecodeError:

@@ -22,6 +22,8 @@ from typing import IO
 from station.drivers.traces.model import Trace, TraceDevice, TraceError, tolerate_cut
 from station.drivers.transport.base import TimedReport
 
+from station import boundedio
+
 log = logging.getLogger(__name__)
 # ANSI colour sequences: the Rust hid-recorder colours its output by whether *stdout*
 # is a terminal, also when it writes to --output-file.
@@ -170,6 +172,7 @@ def _parse_hid_recorder(lines: Iterable[str], name: str) -> Trace:
 def read_hid_recorder(path: str | os.PathLike[str]) -> Trace:
     name = str(path)
     try:
+        boundedio.check_regular(path, str(path))
         with open(path, encoding="utf-8-sig", errors="strict") as fh:  # BOM: Windows editors
             return parse_hid_recorder(fh, name)
     except UnicodeDecodeError:

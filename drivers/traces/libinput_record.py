@@ -10,6 +10,7 @@ line; structural errors name the device and event index.
 from __future__ import annotations
 
 import os
+import re
 from typing import Any
 
 import yaml
@@ -17,6 +18,8 @@ from station.drivers.evdev import codes as c
 from station.drivers.evdev.frames import AbsInfo, EvdevCaps, InputEvent
 from station.drivers.traces.model import Trace, TraceDevice, TraceError
 from yaml.composer import ComposerError
+
+from station import boundedio
 
 
 def _int(value: Any, where: str, what: str) -> int:
@@ -39,7 +42,26 @@ class _Loader(yaml.SafeLoader):
 MAX_SECONDS = 1e9  # event times beyond this (31 years) are not a recording
 
 
+MAX_NESTING = 64  # libinput record nests 4-5 levels; pure-Python YAML slows per level
+_BRACKETS = re.compile(r"[\[\]{}]")
+_DEEP_BLOCK = re.compile(rf"(?:-[ \t]+){{{MAX_NESTING},}}")
+
+
+def _too_deep(text: str) -> bool:
+    """Flow (``[[[…``) or block (``- - - …``) nesting past :data:`MAX_NESTING`: refused
+    before the parser, which takes seconds per 50,000 levels on a loaded machine."""
+    depth = 0
+    for m in _BRACKETS.finditer(text):
+        depth += 1 if m.group() in "[{" else -1
+        if depth > MAX_NESTING:
+            return True
+        depth = max(depth, 0)
+    return _DEEP_BLOCK.search(text) is not None
+
+
 def parse_libinput_record(text: str, name: str) -> Trace:
+    if _too_deep(text):
+        raise TraceError(f"not valid YAML (nested more than {MAX_NESTING} levels)", f"{name}:1")
     try:
         doc = yaml.load(text, Loader=_Loader)  # a SafeLoader without aliases
     except yaml.YAMLError as exc:
@@ -72,6 +94,10 @@ def parse_libinput_record(text: str, name: str) -> Trace:
                 raise TraceError(f"absinfo {code}: {values!r} needs min max fuzz flat [res]",
                                  where)
             vals = [_int(v, where, f"absinfo {code}") for v in values]
+            if any(not -(1 << 31) <= v < 1 << 31 for v in vals):  # struct input_absinfo: s32
+                raise TraceError(f"absinfo {code}: {values!r:.80} does not fit 32 bits", where)
+            if vals[1] < vals[0]:
+                raise TraceError(f"absinfo {code}: max {vals[1]} < min {vals[0]}", where)
             res = vals[4] if len(vals) > 4 else 0
             rest = min(max(0, vals[0]), vals[1])  # value at rest: not recorded
             absinfo[_int(code, where, "abs code")] = AbsInfo(vals[0], vals[1], vals[2], vals[3],
@@ -120,6 +146,7 @@ def parse_libinput_record(text: str, name: str) -> Trace:
 def read_libinput_record(path: str | os.PathLike[str]) -> Trace:
     name = str(path)
     try:
+        boundedio.check_regular(path, str(path))
         with open(path, encoding="utf-8-sig") as fh:  # a BOM from Windows editors is dropped
             text = fh.read()
     except UnicodeDecodeError:

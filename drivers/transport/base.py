@@ -37,6 +37,10 @@ class DeviceSpecError(BadInput):
     """A device SPEC string is malformed or names no device (exit 2)."""
 
 
+class WrongNodeKind(TransportError, BadInput):
+    """A path given to a transport is not the kind of node it opens (exit 2)."""
+
+
 @dataclass(frozen=True, slots=True)
 class TimedReport:
     """One HID input report; ``time`` in seconds from the transport's clock."""

@@ -21,6 +21,7 @@ from station.drivers.transport.base import (
     EndOfStream,
     PermissionProblem,
     TransportError,
+    WrongNodeKind,
 )
 
 
@@ -68,6 +69,10 @@ def open_error(path: str, exc: OSError) -> TransportError:
             "seat user) or join the 'input'/'station' group; see docs/drivers.md")
     if exc.errno in (errno.ENOENT, errno.ENODEV):
         return DeviceGone(f"{path}: no such device")
+    if exc.errno in (errno.ENOTTY, errno.EINVAL):  # a file, /dev/null, a hidraw node …
+        return WrongNodeKind(f"{path} is not an evdev node (it does not answer the evdev "
+                             "ioctls): evdev: needs /dev/input/eventN (hidraw: takes "
+                             "/dev/hidrawN)")
     return TransportError(f"{path}: cannot open ({exc.strerror})")
 
 

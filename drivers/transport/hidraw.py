@@ -15,6 +15,7 @@ import errno
 import fcntl
 import os
 import select
+import stat
 import struct
 import time
 from pathlib import Path
@@ -27,6 +28,7 @@ from station.drivers.transport.base import (
     PermissionProblem,
     TimedReport,
     TransportError,
+    WrongNodeKind,
 )
 
 _IOC_WRITE, _IOC_READ = 1, 2
@@ -85,6 +87,23 @@ def permission_hint(path: str) -> str:
     )
 
 
+def check_hidraw_node(path: str, st: os.stat_result) -> None:
+    """Refuse (one line) a path that is not a hidraw character device: a file, a FIFO,
+    /dev/null or an evdev node would answer the hidraw ioctls with ENOTTY (or
+    nothing) deep inside the driver."""
+    if not stat.S_ISCHR(st.st_mode):
+        raise WrongNodeKind(f"{path} is not a character device: hidraw: needs a "
+                            "/dev/hidrawN node")
+    sysfs = Path(f"/sys/dev/char/{os.major(st.st_rdev)}:{os.minor(st.st_rdev)}/subsystem")
+    try:
+        subsystem = os.path.basename(os.readlink(sysfs))
+    except OSError:
+        return  # no sysfs here (a sandbox): the ioctls below say it instead
+    if subsystem != "hidraw":
+        raise WrongNodeKind(f"{path} is a {subsystem} device, not hidraw: hidraw: needs a "
+                            "/dev/hidrawN node (evdev: takes /dev/input/eventN)")
+
+
 class OsHidrawNode:
     """The kernel's hidraw character device."""
 
@@ -98,6 +117,11 @@ class OsHidrawNode:
             raise TransportError(f"{path}: no such hidraw node (unplugged?)") from None
         except OSError as exc:
             raise TransportError(f"{path}: cannot open ({exc.strerror})") from None
+        try:
+            check_hidraw_node(path, os.fstat(self._fd))
+        except BaseException:
+            os.close(self._fd)
+            raise
 
     def fileno(self) -> int:
         return self._fd
@@ -111,7 +135,13 @@ class OsHidrawNode:
 
     def raw_info(self) -> tuple[int, int, int]:
         buf = bytearray(8)
-        fcntl.ioctl(self._fd, HIDIOCGRAWINFO, buf, True)
+        try:
+            fcntl.ioctl(self._fd, HIDIOCGRAWINFO, buf, True)
+        except OSError as exc:
+            if exc.errno in (errno.ENOTTY, errno.EINVAL):
+                raise WrongNodeKind(f"{self.path} is not a hidraw node (it does not answer "
+                                    "HIDIOCGRAWINFO)") from None
+            raise
         bus, vid, pid = struct.unpack("IHH", buf)
         return bus, vid, pid
 

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from lxml import etree
 
+from station import boundedio
 from station.blueprint.model import (
     Action,
     Blueprint,
@@ -66,7 +67,7 @@ def load(text_or_path: str, overrides: list[str] | None = None) -> Blueprint:
     """Read, validate and override a blueprint (see the module docstring)."""
     path = resolve_path(text_or_path)
     try:
-        data = path.read_bytes()
+        data = boundedio.read_bytes(path, MAX_FILE_BYTES, str(path))
     except OSError as exc:
         raise BlueprintError(f"cannot read ({exc.strerror})", str(path)) from None
     if len(data) > MAX_FILE_BYTES:

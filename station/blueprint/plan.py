@@ -35,6 +35,11 @@ from station.drivers.pipeline import DeviceSpec
 
 DEFAULT_RESTART = "on-failure"
 DEFAULT_RESTART_DELAY_S = 0.5
+# The back-off's floor: below it a crashing component is a busy loop of process starts
+MIN_RESTART_DELAY_S = 0.1
+# Crashes in a row (each within the supervisor's STABLE_S of its start) before the
+# supervisor gives up on a component: 0.1 s doubling to 30 s is about two minutes
+DEFAULT_RESTART_LIMIT = 10
 SOURCE_KINDS = ("driver", "haptic", "replay")
 
 
@@ -49,6 +54,7 @@ class Process:
     recover_argv: list[str] | None = None  # the sim after a crash (--recover LOG)
     restart: str = DEFAULT_RESTART
     restart_delay_s: float = DEFAULT_RESTART_DELAY_S
+    restart_limit: int = DEFAULT_RESTART_LIMIT
     binds: list[str] = field(default_factory=list)
     status: str | None = None  # endpoint the supervisor subscribes to for status
     cmd: str | None = None  # endpoint the supervisor sends commands to
@@ -184,6 +190,11 @@ def _check_attrs(c: Component) -> None:
                  "heartbeat"):
         if c.get(attr) is not None:
             parse_duration(c.attrs[attr], f"{where} {attr}=")
+    if c.get("restart-delay") is not None and \
+            parse_duration(c.attrs["restart-delay"], str(where)) < MIN_RESTART_DELAY_S:
+        raise BlueprintError(f"restart-delay={c.attrs['restart-delay']!r} is below the "
+                             f"{MIN_RESTART_DELAY_S * 1000:.0f}ms floor (a crashing component "
+                             "would restart in a busy loop)", where)
     if c.kind == "replay":
         speed = c.get("speed", "max") or "max"
         if speed != "max":
@@ -356,8 +367,10 @@ def _proc(c: Component, argv: list[str], **kw: object) -> Process:
     restart = c.get("restart") or DEFAULT_RESTART
     delay = parse_duration(c.attrs["restart-delay"], str(c.where)) if c.get("restart-delay") \
         else DEFAULT_RESTART_DELAY_S
+    limit = int(c.attrs["restart-limit"]) if c.get("restart-limit") else DEFAULT_RESTART_LIMIT
     return Process(id=c.id, kind=c.kind, argv=argv, where=c.where, restart=restart,
-                   restart_delay_s=delay, **kw)  # type: ignore[arg-type]
+                   restart_delay_s=max(delay, MIN_RESTART_DELAY_S), restart_limit=limit,
+                   **kw)  # type: ignore[arg-type]
 
 
 def _device_nodes(spec: str) -> list[str]:

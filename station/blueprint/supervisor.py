@@ -30,8 +30,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
 
+from station import sdnotify
 from station.blueprint.model import SupervisorError
-from station.blueprint.plan import Plan, Process
+from station.blueprint.plan import MIN_RESTART_DELAY_S, Plan, Process
 from station.blueprint.rules import Fired, RuleEngine
 from station.bus import Publisher, Subscriber
 from station.canvas.profiles import get_profile
@@ -112,7 +113,7 @@ def running_pid(run_dir: Path) -> int | None:
 
 
 def child_env(plan: Plan) -> dict[str, str]:
-    env = dict(os.environ)
+    env = sdnotify.child_environ(dict(os.environ))  # only the supervisor tells systemd
     env["STATION_RUNTIME_DIR"] = str(plan.run_dir)
     env["PYTHONUNBUFFERED"] = "1"
     return env
@@ -245,7 +246,15 @@ class Supervisor:
         else:
             if ran >= STABLE_S:
                 child.backoff_n = 0
-            delay = min(proc.restart_delay_s * (2 ** child.backoff_n), MAX_BACKOFF_S)
+            if child.backoff_n >= proc.restart_limit:
+                child.state = "failed"
+                self.log(f"{proc.id} died ({_signal_name(code)}) after {ran:.1f} s, "
+                         f"{child.backoff_n + 1} times in a row: giving up on it "
+                         f"(restart-limit={proc.restart_limit})")
+                self.write_state()
+                return
+            delay = min(max(proc.restart_delay_s, MIN_RESTART_DELAY_S) * (2 ** child.backoff_n),
+                        MAX_BACKOFF_S)
             child.backoff_n += 1
             child.state, child.next_start = "backoff", now + delay
             self.log(f"{proc.id} died ({_signal_name(code)}) after {ran:.1f} s; "
@@ -422,6 +431,8 @@ class Supervisor:
 
         old = {s: signal.signal(s, on_signal) for s in (signal.SIGTERM, signal.SIGINT)}
         t0 = time.monotonic()
+        notify = sdnotify.notifier()
+        notify.auto_ready = False  # ready once every component is up, not at its first read
         self.write_state()
         try:
             for child in self.children:
@@ -432,9 +443,11 @@ class Supervisor:
                 self._wait_ready(child)
             if not self.stop_requested.is_set():
                 self.log(f"{self.plan.blueprint.name}: {len(self.children)} components up")
+                notify.ready(f"{len(self.children)} components up")
                 for fired in self.rules.on_event("started"):
                     self._act(fired)
             while not self.stop_requested.is_set():
+                notify.alive()  # this loop turning is what the watchdog watches
                 now = time.monotonic()
                 if self.duration is not None and now - t0 >= self.duration:
                     self.log(f"--duration {self.duration:g} s reached")
@@ -457,6 +470,7 @@ class Supervisor:
                     break
                 self.stop_requested.wait(0.05)
         finally:
+            notify.stopping()
             code = self.shutdown()
             for s, handler in old.items():
                 signal.signal(s, handler)

@@ -39,6 +39,7 @@ import jsonschema
 import numba
 import numpy as np
 
+from station import boundedio
 from station.brush.solver import Friction, SpineState
 from station.brush.spine import SpineSpec, chain
 from station.errors import BadInput
@@ -61,6 +62,10 @@ class BrushShapeError(BadInput):
 def _schema() -> dict[str, Any]:
     text = resources.files("station.data").joinpath("brushes/schema.json").read_text()
     return dict(json.loads(text))
+
+
+def _no_constant(name: str) -> Any:
+    raise ValueError(f"{name} is not a JSON number")
 
 
 @dataclass(frozen=True, slots=True)
@@ -130,14 +135,25 @@ class BrushShape:
     def load(cls, path: str | Path) -> BrushShape:
         where = str(path)
         try:
-            data = json.loads(Path(path).read_text())
+            text = boundedio.read_text(path, boundedio.CAP_CONFIG, where)
         except FileNotFoundError:
             raise BrushShapeError("no such brush shape file", where) from None
         except (OSError, UnicodeDecodeError) as exc:
             raise BrushShapeError(f"cannot read brush shape ({exc.__class__.__name__})",
                                   where) from None
+        return cls.loads(text, where)
+
+    @classmethod
+    def loads(cls, text: str, where: str) -> BrushShape:
+        """A brush shape from its JSON text (NaN and Infinity are not JSON numbers)."""
+        try:
+            data = json.loads(text, parse_constant=_no_constant)
         except json.JSONDecodeError as exc:
             raise BrushShapeError(f"not JSON (line {exc.lineno}: {exc.msg})", where) from None
+        except ValueError as exc:
+            raise BrushShapeError(f"not JSON ({exc})", where) from None
+        except RecursionError:  # "[[[[…": the decoder recurses per level
+            raise BrushShapeError("not JSON (nested too deeply)", where) from None
         return cls.from_dict(data, where)
 
     def spine_specs(self) -> list[SpineSpec]:

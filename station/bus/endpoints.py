@@ -35,6 +35,9 @@ def runtime_dir() -> Path:
     ``/tmp/station-<uid>``.  Refuses a directory another user owns or others
     can enter.
     """
+    if os.environ.get("STATION_RUNTIME_DIR"):
+        # the user named it: checked, refused if unsafe, never chmod-ed
+        return secure_dir(paths.runtime_base(), repair=False)
     return secure_dir(paths.runtime_base())
 
 

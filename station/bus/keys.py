@@ -12,6 +12,7 @@ from __future__ import annotations
 import hashlib
 import logging
 import os
+import stat
 import threading
 from dataclasses import dataclass
 from pathlib import Path
@@ -87,12 +88,36 @@ def add_client_key(name: str, directory: Path | None = None, force: bool = False
     return Path(pub)
 
 
+def check_private(directory: Path, secret: Path) -> None:
+    """Refuse (one line saying what to chmod) a secret key others can read, or a
+    keys directory others can enter or write: either lets another user on the
+    machine take the key and join the bus as the station."""
+    for path, want, is_dir in ((directory, 0o700, True), (secret, 0o600, False)):
+        try:
+            st = path.lstat()
+        except FileNotFoundError:
+            return  # missing keys: load_keys says so
+        except OSError as exc:
+            raise BusConfigError(f"cannot read {path}: {exc.strerror}") from None
+        kind_ok = stat.S_ISDIR(st.st_mode) if is_dir else stat.S_ISREG(st.st_mode)
+        if not kind_ok:
+            raise BusConfigError(f"{path} is not a {'directory' if is_dir else 'file'}: "
+                                 "refusing it as a CURVE key")
+        if st.st_mode & 0o077:
+            raise BusConfigError(
+                f"{path} is open to other users (mode {stat.S_IMODE(st.st_mode):o}): "
+                f"chmod {want:o} {path}")
+
+
 def load_keys(directory: Path | None = None, role: str = "server",
               client: str | None = None) -> CurveKeys:
     """Keys for a CURVE server (``server.key_secret``), or for a client: the server's
     public ``server.key`` and ``client.key_secret`` or, with ``client=NAME``, that
     client's own ``client-NAME.key_secret``."""
     directory = directory or keys_dir()
+    secret_name = "server.key_secret" if role == "server" else \
+        f"client-{client_key_name(client)}.key_secret" if client else "client.key_secret"
+    check_private(directory, directory / secret_name)
     try:
         if role == "server":
             server_pub, sec = zmq.auth.load_certificate(str(directory / "server.key_secret"))

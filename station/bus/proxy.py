@@ -7,6 +7,7 @@ from pathlib import Path
 
 import zmq
 
+from station import sdnotify
 from station.bus.endpoints import resolve_endpoint
 from station.bus.keys import refused_count
 from station.bus.sockets import HWM, attach
@@ -42,6 +43,7 @@ def run_proxy(
     poller.register(backend, zmq.POLLIN)
     try:
         while stop is None or not stop.is_set():
+            sdnotify.alive()
             events = dict(poller.poll(100))
             if frontend in events:
                 for _ in range(1000):

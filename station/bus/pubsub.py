@@ -13,7 +13,7 @@ from typing import Any
 
 import zmq
 
-from station import wire
+from station import sdnotify, wire
 from station.bus.endpoints import resolve_endpoint, wait_released
 from station.bus.keys import HandshakeWatch, KeyCheck, refused_count
 from station.bus.sockets import HWM, attach
@@ -81,6 +81,7 @@ class Publisher:
         return refused_count(self._key_checks)
 
     def _send(self, topic: str, value: Any) -> int:
+        sdnotify.alive()  # a publishing loop that runs feeds systemd's watchdog
         # Reading ZMQ_EVENTS makes libzmq apply pending subscriptions now, so a new
         # subscriber gets its replay before this sample, never after it.
         if self.sock.get(zmq.EVENTS) & zmq.POLLIN:
@@ -166,6 +167,7 @@ class Publisher:
         """Send the heartbeats that are due; call it from the publishing loop, idle
         or not (a heartbeat says the process is alive, so no thread sends it).
         ``force`` sends them now (a stream's end: the last ``pen_seq`` goes out)."""
+        sdnotify.alive()
         if self.heartbeat_interval is None or not self._hb_devices:
             return
         now = time.monotonic()
@@ -353,6 +355,7 @@ class Subscriber:
 
     def recv(self, timeout_ms: int | None = 100) -> Message | None:
         """The next valid, new message, or ``None`` after ``timeout_ms``."""
+        sdnotify.alive()
         if self._pending:
             return self._pending.popleft()
         deadline = None if timeout_ms is None else time.monotonic() + timeout_ms / 1000

@@ -33,6 +33,7 @@ from typing import Protocol
 
 import numpy as np
 
+from station import boundedio
 from station.calibration.area import DeviceGeometry
 from station.calibration.errors import CalibrationError
 from station.calibration.geometry import Array, project, rotation, scaling, translation
@@ -231,7 +232,7 @@ class MockTapsSource:
     def __init__(self, path: str) -> None:
         p = Path(path)
         try:
-            lines = p.read_text(encoding="utf-8").splitlines()
+            lines = boundedio.read_text(p, boundedio.CAP_POINTS, str(p)).splitlines()
         except (OSError, UnicodeDecodeError) as exc:
             raise CalibrationError(f"cannot read taps ({exc})", str(p)) from None
         rows = [(i, ln) for i, ln in enumerate(lines, 1) if ln.strip() and not ln.startswith("#")]

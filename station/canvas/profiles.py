@@ -18,6 +18,7 @@ A file that is not well-formed, breaks the schema or holds an unusable value rai
 from __future__ import annotations
 
 import dataclasses
+import math
 import re
 from functools import lru_cache
 from importlib import resources
@@ -26,7 +27,7 @@ from typing import Any
 
 from lxml import etree
 
-from station import paths
+from station import boundedio, paths
 from station.canvas.errors import CanvasInputError
 from station.canvas.palette import Palette, Pigment, default_palette
 from station.canvas.params import BrushDefaults, Profile, SimParams
@@ -47,6 +48,9 @@ GROUPS: dict[str, tuple[str, ...]] = {
 """Which element carries each :class:`SimParams` field."""
 _INT_FIELDS = {f.name for f in dataclasses.fields(SimParams) if f.type in ("int", int)}
 MAX_FILE_BYTES = 1 << 20
+# No profile number is anywhere near this (the largest bundled ones are tens); beyond
+# it a value is a typo or an attack, and float32 fields would overflow in the sim.
+MAX_VALUE = 1e6
 _SCHEMA_MSG = re.compile(r"Element '([^']+)'(?:, attribute '([^']+)')?: (.*)", re.S)
 
 
@@ -69,8 +73,23 @@ def _err(where: str, el: Any, msg: str) -> CanvasInputError:
     return CanvasInputError(f"element <{tag}>: {msg}", f"{where}:{line}" if line else where)
 
 
+def _finite(text: str, key: str, el: Any, where: str) -> float:
+    """A finite number or an error naming the attribute (``float`` takes inf and nan,
+    which the simulation would carry into every cell)."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise _err(where, el, f"attribute {key}={text[:40]!r} is not a number") from None
+    if not math.isfinite(v):
+        raise _err(where, el, f"attribute {key}={text[:40]!r} is not a finite number")
+    if abs(v) > MAX_VALUE:
+        raise _err(where, el, f"attribute {key}={text[:40]!r} is out of range "
+                              f"(at most {MAX_VALUE:g} in size)")
+    return v
+
+
 def _rgb(el: Any, key: str, where: str) -> tuple[float, float, float]:
-    vals = [float(x) for x in el.get(key).split()]
+    vals = [_finite(x, key, el, where) for x in el.get(key).split()]
     if len(vals) != 3:
         raise _err(where, el, f"{key} needs 3 numbers")
     return vals[0], vals[1], vals[2]
@@ -80,7 +99,13 @@ def parse_profile(data: bytes, where: str) -> Profile:
     """The profile in the XML ``data`` (``where`` names it in error messages)."""
     if len(data) > MAX_FILE_BYTES:
         raise CanvasInputError(f"profile file larger than {MAX_FILE_BYTES} bytes", where)
-    parser = etree.XMLParser(resolve_entities=False, no_network=True, huge_tree=False)
+    if re.search(rb"<!\s*(DOCTYPE|ENTITY)", data, re.IGNORECASE):
+        # a DTD can define entities (billion laughs) and external references: a profile
+        # never needs one
+        raise CanvasInputError("a profile may not have a DOCTYPE or ENTITY declaration",
+                               where)
+    parser = etree.XMLParser(resolve_entities=False, no_network=True, huge_tree=False,
+                             load_dtd=False)
     try:
         root = etree.fromstring(data, parser)
     except etree.XMLSyntaxError as exc:
@@ -104,7 +129,12 @@ def parse_profile(data: bytes, where: str) -> Profile:
         for key, text in el.attrib.items():
             if key == "preset":
                 continue
-            values[key] = int(text) if key in _INT_FIELDS else float(text)
+            v = _finite(text, key, el, where)
+            if key in _INT_FIELDS:
+                if v != int(v) or abs(v) > 1 << 31:
+                    raise _err(where, el, f"attribute {key}={text[:40]!r} is not a whole number")
+                v = int(v)
+            values[key] = v
             owner[key] = el
     try:
         params = SimParams(**values)
@@ -134,7 +164,7 @@ def parse_profile(data: bytes, where: str) -> Profile:
                 v = el.get(key)
                 if v is None and base is None:
                     raise _err(where, el, f"pigment {name!r} needs {key}")
-                props.append(float(v) if v is not None else getattr(base, attr))
+                props.append(_finite(v, key, el, where) if v is not None else getattr(base, attr))
             defs.append(Pigment(name, K, S, props[0], props[1], props[2], *spec))
         except CanvasInputError as exc:
             if exc.where and exc.where.startswith(where):
@@ -146,7 +176,8 @@ def parse_profile(data: bytes, where: str) -> Profile:
     bel = root.find("brush")
     battrs: dict[str, Any] = {}
     if bel is not None:
-        battrs = {k: (v if k == "pigment" else float(v)) for k, v in bel.attrib.items()}
+        battrs = {k: (v if k == "pigment" else _finite(v, k, bel, where))
+                  for k, v in bel.attrib.items()}
         if "pigment" in battrs and battrs["pigment"].casefold() not in {
                 n.casefold() for n in names}:
             raise _err(where, bel, f"brush pigment {battrs['pigment']!r} is not in the palette")
@@ -164,7 +195,7 @@ def load_profile_file(path: str | Path) -> Profile:
     """Read and check one profile file."""
     where = str(path)
     try:
-        data = Path(path).read_bytes()
+        data = boundedio.read_bytes(path, boundedio.CAP_CONFIG, where)
     except OSError as exc:
         raise CanvasInputError(f"cannot read profile ({exc.strerror})", where) from None
     return parse_profile(data, where)

@@ -21,11 +21,11 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from station import boundedio
 from station.calibrate.samples import iter_samples
 from station.calibrate.window import run_interactive
 from station.calibration.area import Area, DeviceGeometry, Rect
@@ -301,7 +301,7 @@ def run_import(args: argparse.Namespace) -> int:
     if dev is None:
         raise BadInput("--import needs the device id", "--id")
     try:
-        text = Path(args.input).read_text(encoding="utf-8")
+        text = boundedio.read_text(args.input, boundedio.CAP_POINTS, "--input")
     except (OSError, UnicodeDecodeError) as exc:
         raise BadInput(f"cannot read ({exc})", args.input) from None
     if args.import_ == "libinput":

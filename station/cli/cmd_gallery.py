@@ -11,13 +11,15 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import signal
 import sys
 import threading
 from pathlib import Path
 
 from station.errors import BadInput
-from station.kiosk.gallery import Gallery, GalleryServer, check_id
+from station.kiosk.gallery import Gallery, GalleryError, GalleryServer, WebOptions, check_id
+from station.sim.paint import BYTES_PER_CELL
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -33,14 +35,49 @@ def register(sub: argparse._SubParsersAction) -> None:
     m.add_argument("--root", default="gallery", help="gallery directory (gallery)")
     m.add_argument("--nice", type=int, default=19, metavar="N",
                    help="lower this process's CPU priority by N first (19; 0: not)")
+    m.add_argument("--max-memory", type=int, default=None, metavar="MB",
+                   help="the replay's memory budget (default: 768 MB plus 1.5x what the "
+                        "painting's canvas needs); past it the replay fails and is not "
+                        "tried again")
     m.set_defaults(func=run_make)
     s = gsub.add_parser("serve", help="serve the gallery's web pages until stopped")
     s.add_argument("--root", default="gallery", help="gallery directory (gallery)")
-    s.add_argument("--serve", default="0.0.0.0:8080", metavar="HOST:PORT",
-                   help="where to serve (0.0.0.0:8080)")
+    s.add_argument("--serve", default="127.0.0.1:8080", metavar="HOST:PORT",
+                   help="where to serve (127.0.0.1:8080: this machine only; name the "
+                        "kiosk's address, or 0.0.0.0, for phones on its network)")
     s.add_argument("--base-url", metavar="URL",
                    help="the address the QR codes point to (default: the address asked)")
+    add_web_flags(s)
     s.set_defaults(func=run_serve)
+    e = gsub.add_parser("expire", help="delete the paintings older than N days")
+    e.add_argument("--root", default="gallery", help="gallery directory (gallery)")
+    e.add_argument("--keep-days", type=float, required=True, metavar="N",
+                   help="delete paintings saved more than N days ago")
+    e.set_defaults(func=run_expire)
+
+
+def add_web_flags(p: argparse.ArgumentParser) -> None:
+    """The gallery web page's options (``gallery serve`` and the kiosk)."""
+    p.add_argument("--gallery-index", action="store_true",
+                   help="list every painting at / (off: each only through its own link)")
+    p.add_argument("--gallery-logs", action="store_true",
+                   help="serve each painting's session log and metadata (off)")
+    p.add_argument("--keep-days", type=float, metavar="N",
+                   help="delete paintings saved more than N days ago (checked hourly; "
+                        "default: keep them)")
+    p.add_argument("--per-client", type=int, default=8, metavar="N",
+                   help="connections one client address may hold (8)")
+
+
+def web_options(args: argparse.Namespace) -> WebOptions:
+    from station.kiosk.gallery import WebOptions  # the CLI's per-command start-up
+
+    if args.keep_days is not None and not (0 < args.keep_days < 1e6):
+        raise BadInput(f"must be a number of days > 0, not {args.keep_days}", "--keep-days")
+    if not 1 <= args.per_client <= 1000:
+        raise BadInput("must be 1..1000", "--per-client")
+    return WebOptions(index=args.gallery_index, session_logs=args.gallery_logs,
+                      keep_days=args.keep_days, per_client=args.per_client)
 
 
 def run_make(args: argparse.Namespace) -> int:
@@ -50,10 +87,45 @@ def run_make(args: argparse.Namespace) -> int:
     root = Path(args.root)
     if not (root / args.id).is_dir():
         raise BadInput(f"no painting {args.id} in {root}", "ID")
+    if args.max_memory is not None and not 64 <= args.max_memory <= 1 << 20:
+        raise BadInput("must be 64..1048576 MB", "--max-memory")
     if args.nice:
         os.nice(args.nice)
-    for path in Gallery(root).make(args.id):
+    gallery = Gallery(root)
+    budget = args.max_memory or _default_budget_mb(gallery.meta(args.id) or {})
+    # a hostile or huge log must not take the kiosk's memory: the data segment (heap
+    # and anonymous maps) is capped; a MemoryError past it is this painting's failure
+    resource.setrlimit(resource.RLIMIT_DATA, (budget << 20, budget << 20))
+    try:
+        made = gallery.make(args.id)
+    except (MemoryError, OSError) as exc:  # out of budget (a library's mmap fails: OSError)
+        why = f"{type(exc).__name__}: {str(exc)[:120]} (memory budget {budget} MB)"
+        gallery.mark_failed(args.id, why)
+        raise GalleryError(f"painting {args.id}: the replay failed: {why}") from None
+    except BaseException as exc:
+        # the negative cache: no web request starts this replay again
+        gallery.mark_failed(args.id, f"{type(exc).__name__}: {exc}")
+        raise
+    for path in made:
         sys.stdout.write(f"{path}\n")
+    return 0
+
+
+def _default_budget_mb(meta: dict[str, object]) -> int:
+    w, h = meta.get("width"), meta.get("height")
+    cells = w * h if isinstance(w, int) and isinstance(h, int) and 0 < w * h < 1 << 26 \
+        else 800 * 600
+    return 768 + int(1.5 * cells * BYTES_PER_CELL) // (1 << 20)
+
+
+def run_expire(args: argparse.Namespace) -> int:
+    if not (0 < args.keep_days < 1e6):
+        raise BadInput(f"must be a number of days > 0, not {args.keep_days}", "--keep-days")
+    root = Path(args.root)
+    if not root.is_dir():
+        raise BadInput(f"no gallery directory {root}", "--root")
+    for pid in Gallery(root).expire(args.keep_days):
+        sys.stdout.write(f"deleted {pid}\n")
     return 0
 
 
@@ -61,12 +133,12 @@ def run_serve(args: argparse.Namespace) -> int:
     host, sep, port = args.serve.rpartition(":")
     if not sep or not port.isdigit() or not 0 <= int(port) < 65536:
         raise BadInput(f"{args.serve!r} is not HOST:PORT", "--serve")
-    server = GalleryServer(Gallery(Path(args.root)), host or "0.0.0.0", int(port),
-                           args.base_url).start()
+    server = GalleryServer(Gallery(Path(args.root)), host or "127.0.0.1", int(port),
+                           args.base_url, web_options(args)).start()
     stop = threading.Event()
     for sig in (signal.SIGTERM, signal.SIGINT):
         signal.signal(sig, lambda *_: stop.set())
-    sys.stderr.write(f"station gallery: serving {args.root} on {host or '0.0.0.0'}:"
+    sys.stderr.write(f"station gallery: serving {args.root} on {host or '127.0.0.1'}:"
                      f"{server.port}\n")
     while not stop.wait(0.5):  # a timed wait: the signal handlers run meanwhile
         pass

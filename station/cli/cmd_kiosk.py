@@ -10,6 +10,7 @@ from pathlib import Path
 from station.canvas.profiles import get_profile
 from station.cli.argtypes import auto_or_ms
 from station.cli.buskeys import add_key_flags, check_keys
+from station.cli.cmd_gallery import add_web_flags, web_options
 from station.errors import BadInput
 from station.kiosk.app import KioskApp, KioskConfig
 from station.kiosk.idle import IdleConfig
@@ -38,8 +39,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--monitor", type=int, default=0, help="fullscreen on this monitor (0)")
     p.add_argument("--gallery", default="gallery", metavar="DIR",
                    help="where finished paintings go (created)")
-    p.add_argument("--serve", default="0.0.0.0:8080", metavar="HOST:PORT",
-                   help="serve the gallery web page here ('none': do not serve)")
+    p.add_argument("--serve", default="127.0.0.1:8080", metavar="HOST:PORT",
+                   help="serve the gallery web page here (127.0.0.1:8080: this machine "
+                        "only; name the kiosk's address for visitors' phones; 'none': do "
+                        "not serve)")
+    add_web_flags(p)
     p.add_argument("--base-url", metavar="URL",
                    help="address the QR codes point to (default http://<this machine>:PORT)")
     p.add_argument("--attract-after", type=float, default=45.0, metavar="S",
@@ -101,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
         bus=args.bus, width=width, height=height, profile=args.profile or "watercolor",
         backend=args.backend, seed=args.seed, rate=args.rate, fullscreen=not args.windowed,
         monitor=args.monitor, window=window, gallery=Path(args.gallery), serve=serve,
-        base_url=args.base_url,
+        base_url=args.base_url, web=web_options(args),
         idle=IdleConfig(attract_after=args.attract_after, finish_after=args.idle_minutes * 60),
         status=args.status, duration=args.duration,
         screenshot_dir=Path(args.screenshot_dir) if args.screenshot_dir else None,

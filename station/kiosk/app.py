@@ -47,7 +47,15 @@ from station.errors import BadInput, StationError
 from station.events import Command, PenSample, Tool
 from station.kiosk.compose import Box, Compositor, merge_rects, screen_box
 from station.kiosk.display import CpuDisplay, GpuDisplay, make_display
-from station.kiosk.gallery import Gallery, GalleryServer, new_id, painting_url, qr_matrix
+from station.kiosk.gallery import (
+    Gallery,
+    GalleryServer,
+    WebOptions,
+    default_base_url,
+    new_id,
+    painting_url,
+    qr_matrix,
+)
 from station.kiosk.idle import IdleClock, IdleConfig
 from station.kiosk.predict import LagEstimate, PenPredictor, PredictConfig
 from station.kiosk.present import PRESENT_MODES, Presenter
@@ -119,7 +127,10 @@ class KioskConfig:
     monitor: int = 0
     window: tuple[int, int] = (1024, 768)
     gallery: Path = Path("gallery")
-    serve: str | None = "0.0.0.0:8080"  # HOST:PORT of the gallery web page; None: no server
+    # HOST:PORT of the gallery web page (loopback unless the operator names the kiosk's
+    # address); None: no server.  web: what it serves and its limits.
+    serve: str | None = "127.0.0.1:8080"
+    web: WebOptions = field(default_factory=WebOptions)
     base_url: str | None = None  # what QR codes point to (default: this machine's address)
     idle: IdleConfig = field(default_factory=IdleConfig)
     status: str | None = None  # status endpoint; "none" disables
@@ -244,12 +255,10 @@ class KioskApp:
         base_url = cfg.base_url
         if cfg.serve:
             host, _, port = cfg.serve.rpartition(":")
-            self.server = GalleryServer(self.gallery, host or "0.0.0.0", int(port),
-                                        base_url).start()
+            self.server = GalleryServer(self.gallery, host or "127.0.0.1", int(port),
+                                        base_url, cfg.web).start()
             if base_url is None:
-                from station.kiosk.gallery import default_base_url
-
-                base_url = default_base_url(self.server.port)
+                base_url = default_base_url(self.server.port, host or "127.0.0.1")
         self.base_url = base_url or "http://127.0.0.1:8080"
 
         from station.bus import Publisher, Subscriber

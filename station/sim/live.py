@@ -91,6 +91,14 @@ log = logging.getLogger(__name__)
 RESYNC_S = 1.0
 STATUS_EVERY_S = 0.5
 DRAIN_MAX = 2000  # messages handled between two steps at most (steps must go on)
+# A bus flood (a broken or hostile publisher) is dropped and counted, so the sim's memory
+# and its log grow at most at these rates: a tablet sends 100-233 samples/s, a gaming
+# mouse 1000; beyond FLOOD_RATE per device (after a burst) samples are dropped.  Past
+# MAX_DEVICES device names, samples of new names are dropped (each name costs state).
+FLOOD_RATE = 4000.0
+FLOOD_BURST = 8000.0
+MAX_DEVICES = 64
+MAX_WARNINGS = 256  # distinct warnings logged; beyond, they are only counted
 SYNC_EVERY_S = 1.0  # fsync of the log (it reaches the kernel before every step)
 SILENCE_INTERVALS = 3.0  # heartbeat intervals without a message: the device is silent
 RECOVERED_STROKE_GRACE_S = 1.0  # a stroke open at a crash ends if its device stays quiet
@@ -163,6 +171,8 @@ class Counters:
     recovered_duplicates: int = 0  # replayed samples the log already had (dropped)
     missed_while_down: int = 0  # device samples sent while no sim was listening
     autosaves: int = 0
+    flood_dropped: int = 0  # pen samples dropped beyond FLOOD_RATE or MAX_DEVICES
+    warnings_suppressed: int = 0  # warnings past MAX_WARNINGS (counted, not logged)
     extra: dict[str, int] = field(default_factory=dict)
 
 
@@ -178,6 +188,9 @@ class LiveCore:
         self.devices: dict[str, DeviceState] = {}
         self._warned: set[str] = set()
         self.answerer = Answerer(self.process_kind)
+        self._buckets: dict[str, list[float]] = {}  # device -> [tokens, last refill]
+        self.flood_rate, self.flood_burst = FLOOD_RATE, FLOOD_BURST
+        self._flood_logged = -math.inf
         self._last_t = 0.0
         self._offsets: dict[str, float] = {}
         plan = recovery.plan(cfg.recover) if cfg.recover else None
@@ -286,11 +299,39 @@ class LiveCore:
     def handle(self, kind: str, value: object, topic: str = "", replay: bool = False) -> None:
         """One bus message (``Message.kind``/``value``/``topic``/``replay``)."""
         if kind == "pen" and isinstance(value, PenSample):
-            self.feed_sample(value, replay=replay)
+            if self._admit(value.device):
+                self.feed_sample(value, replay=replay)
         elif kind == "cmd" and isinstance(value, Command):
             self.feed_command(value)
         elif kind == "heartbeat" and isinstance(value, Heartbeat):
-            self._seen(topic.partition(".")[2], value.interval_s)
+            name = topic.partition(".")[2]
+            if name in self.devices or len(self.devices) < MAX_DEVICES:
+                self._seen(name, value.interval_s)
+
+    def _admit(self, device: str) -> bool:
+        """The flood gate: a token bucket per device (see :data:`FLOOD_RATE`)."""
+        now = time.monotonic()
+        bucket = self._buckets.get(device)
+        if bucket is None:
+            if len(self._buckets) >= MAX_DEVICES:
+                return self._flooded(f"more than {MAX_DEVICES} devices on the bus")
+            bucket = self._buckets[device] = [self.flood_burst, now]
+        bucket[0] = min(self.flood_burst, bucket[0] + (now - bucket[1]) * self.flood_rate)
+        bucket[1] = now
+        if bucket[0] < 1.0:
+            return self._flooded(f"device {device[:40]} sends more than "
+                                 f"{self.flood_rate:g} samples/s")
+        bucket[0] -= 1.0
+        return True
+
+    def _flooded(self, why: str) -> bool:
+        self.counters.flood_dropped += 1
+        now = time.monotonic()
+        if now >= self._flood_logged + 10.0:  # one line per 10 s, with the count
+            self._flood_logged = now
+            log.warning("bus flood: %s; dropping (%d dropped so far)", why,
+                        self.counters.flood_dropped)
+        return False
 
     def _seen(self, device: str, heartbeat_s: float | None = None) -> DeviceState:
         dev = self.devices.get(device)
@@ -411,6 +452,9 @@ class LiveCore:
     def _warn(self, text: str) -> None:
         """Warn once per distinct message (a bad stroke must not flood the log)."""
         if text not in self._warned:
+            if len(self._warned) >= MAX_WARNINGS:
+                self.counters.warnings_suppressed += 1
+                return
             self._warned.add(text)
             log.warning("%s", text)
 
@@ -491,7 +535,8 @@ class LiveCore:
             return False
         data = self.canvas.state().npz_bytes(extra={"session": self.checkpoint_session()})
         try:
-            atomic_write(self.autosave_path, data)
+            # the painting is private like its log (0600)
+            atomic_write(self.autosave_path, data, mode=0o600)
         except OSError as exc:
             self.report.failed(f"autosave {self.autosave_path}", exc)
             return False
@@ -606,7 +651,7 @@ class LiveCore:
             "samples": c.samples, "commands": c.commands,
             "bad_commands": c.bad_commands, "bad_samples": c.bad_samples,
             "dropped_sources": c.dropped_sources, "synthetic_pen_ups": c.synthetic_pen_ups,
-            "recovered_duplicates": c.recovered_duplicates,
+            "recovered_duplicates": c.recovered_duplicates, "flood_dropped": c.flood_dropped,
             "missed_while_down": c.missed_while_down,
             "stamps": p.brush.stamps, "eraser_samples": p.brush.eraser_samples,
             "devices": {n: {"state": "silent" if d.silent else "live",

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from station import sizes
+from station import boundedio, sizes
 from station.backends.factory import (  # auto: resolve_auto decides, once
     create_distributed,
     make_backend,
@@ -68,8 +68,14 @@ def parse_size(text: str, where: str = "--size") -> tuple[int, int]:
     return sizes.parse_size(text, where, PaintInputError)
 
 
-def check_size(w: int, h: int, where: str) -> None:
+BYTES_PER_CELL = sizes.BYTES_PER_CELL
+
+
+def check_size(w: int, h: int, where: str, available: int | None = None) -> None:
+    """Refuse a canvas too small, too large for the format, or larger than the memory
+    here allows (one line giving the size and the memory), before anything is made."""
     sizes.check_size(w, h, where, PaintInputError)
+    sizes.check_memory(w, h, where, PaintInputError, available)
 
 
 def check_outputs(targets: Iterable[tuple[str | None, str]]) -> None:
@@ -163,6 +169,7 @@ def _session_length(path: str) -> float:
     """Session time plus waits of a log, from a quick scan (for progress only)."""
     last = waited = 0.0
     try:
+        boundedio.check_regular(path, path)
         with open(path, encoding="utf-8") as fh:
             next(fh, None)
             for line in fh:

@@ -456,6 +456,8 @@ def _wait_seconds(args: Mapping[str, Any], where: str | None) -> float:
     return float(seconds)
 
 
+# every other handler: `station send` checks its arguments (ranges included) on a scratch
+# canvas before it goes on the bus, so it exits 2 exactly where the sim would refuse it
 _SCRATCH_CHECKED = frozenset({"mask", "mask_remove", "eraser", "tissue", "tilt", "diffusion",
                               "well", "undo", "redo", "hairdryer", "dry", "new_layer",
                               "clear"})
