@@ -93,7 +93,7 @@ BELOW: dict[str, set[str]] = {
     "blueprint": {"floor", "drivers", "calibration", "bus", "glkit", "canvas", "brush", "tools",
                   "render", "backends", "sim", "udev"},
     "bench": {"floor", "drivers", "calibration", "bus", "glkit", "canvas", "brush", "tools",
-              "render", "backends", "sim", "pictures", "kiosk", "udev"},
+              "render", "backends", "sim", "pictures", "kiosk", "udev", "blueprint"},
     "cli": set(),  # the top: everything below it (filled in below)
 }
 BELOW["cli"] = set(BELOW) - {"cli"}

@@ -56,13 +56,20 @@ from station.calibration.model import Calibration, DeviceId, FitInfo
 from station.calibration.points import format_points, parse_points
 from station.calibration.pointset import PointSet
 from station.calibration.pressure import PressureSettings
+from station.canvas.palette import default_palette
 from station.canvas.profiles import parse_profile
 from station.drivers import synth
 from station.drivers.mock.evdev import states_to_events, wacom_like_caps
 from station.drivers.mock.script import timed_states
 from station.drivers.mock.tablet import MockTablet, find_model
 from station.drivers.pipeline import TraceReplay
-from station.drivers.registry import DEVICES_DIR, parse_device_data
+from station.drivers.registry import (
+    DEVICES_DIR,
+    PARSERS,
+    _model_ranges,
+    device_ids,
+    parse_device_data,
+)
 from station.drivers.serial import protocol as serial_proto
 from station.drivers.traces.evemu import format_evemu, parse_evemu
 from station.drivers.traces.hidrecorder import parse_hid_recorder
@@ -71,6 +78,7 @@ from station.errors import BadInput
 from station.events import Command, PenSample, Tool
 from station.kiosk.gallery import Gallery, make_app, new_id
 from station.sessionlog import SessionHeader, SessionLogReader, SessionLogWriter, summarise
+from station.sim.player import SessionPlayer
 
 INTERESTING = [
     "0", "-0", "-1", "1", "2", "255", "256", "65535", "65536", "4294967296",
@@ -272,9 +280,6 @@ class CountingBackend:
 
 
 def play_session(text: str) -> Any:
-    from station.canvas.palette import default_palette
-    from station.sim.player import SessionPlayer
-
     with SessionLogReader(io.StringIO(text), name="fuzz.jsonl") as r:
         player = SessionPlayer(CountingBackend(), 32, 24, r.header.profile
                                if r.header.profile in ("watercolor", "gouache", "ink")
@@ -300,8 +305,6 @@ def read_libinput(text: str) -> int:
 
 
 def read_device_data(text: str) -> Any:
-    from station.drivers.registry import PARSERS, _model_ranges, device_ids
-
     model = parse_device_data(text, "fuzz.json")
     device_ids(model)
     _model_ranges(model)
