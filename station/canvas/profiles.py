@@ -63,7 +63,7 @@ def user_dir() -> Path:
     return Path(base) / "station" / "profiles"
 
 
-def _err(where: str, el: Any, msg: str) -> CanvasInputError:
+def _err(where: str, el: object, msg: str) -> CanvasInputError:
     line = getattr(el, "sourceline", None)
     tag = getattr(el, "tag", "profile")
     return CanvasInputError(f"element <{tag}>: {msg}", f"{where}:{line}" if line else where)
