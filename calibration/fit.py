@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -215,7 +215,7 @@ def _lts_start(
         )
     total = math.comb(n, k)
     if total <= MAX_SUBSETS:
-        subsets: Any = itertools.combinations(range(n), k)
+        subsets: Iterable[Sequence[int]] = itertools.combinations(range(n), k)
     else:
         rng = np.random.default_rng(seed)
         subsets = (

@@ -29,7 +29,7 @@ class Tool(str, enum.Enum):
     FINGER = "finger"
 
     @classmethod
-    def parse(cls, value: Any, where: str | None = None) -> Tool:
+    def parse(cls, value: object, where: str | None = None) -> Tool:
         if isinstance(value, Tool):
             return value
         try:
@@ -55,7 +55,7 @@ class Button(enum.IntFlag):
 BUTTON_MASK = 0xFFFF
 
 
-def _check_finite(name: str, value: Any, lo: float, hi: float, where: str | None) -> float:
+def _check_finite(name: str, value: object, lo: float, hi: float, where: str | None) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise EventError(f"{name} must be a number, got {value!r}", where)
     try:

@@ -61,7 +61,7 @@ class SessionHeader:
         return rec
 
     @classmethod
-    def from_record(cls, rec: Any, where: str) -> SessionHeader:
+    def from_record(cls, rec: object, where: str) -> SessionHeader:
         if not isinstance(rec, dict) or rec.get("format") != FORMAT_NAME:
             raise SessionLogError(
                 f"first line is not a session header (needs \"format\": \"{FORMAT_NAME}\")", where

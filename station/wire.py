@@ -262,7 +262,7 @@ def _no_constant(name: str) -> Any:
     raise ValueError(f"{name} is not allowed")
 
 
-def encode(topic: str, value: Any, publisher: int, seq: int, flags: int = 0) -> list[bytes]:
+def encode(topic: str, value: object, publisher: int, seq: int, flags: int = 0) -> list[bytes]:
     """Both frames of a message carrying ``value`` on ``topic``."""
     if isinstance(value, PenSample):
         kind, body = KIND_PEN, encode_pen(value)

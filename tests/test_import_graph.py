@@ -33,10 +33,10 @@ LAZY_LIMIT = 0.10
 IMPORTLIB_ALLOWED = ("station.cli",)
 """Rooms that may name internal modules by string: the CLI's command registry."""
 
-UNCOMMENTED_PENDING = {"station/kiosk/app.py"}
-"""Files whose in-function imports are not yet commented: both are being split by
-other work of issue 23 (pipeline by job, the kiosk app into named parts), which moves
-or comments them; the rule applies to them when that lands."""
+UNCOMMENTED_PENDING = ("station/kiosk/app",)
+"""Files (path prefixes: a module, or the package it is split into) whose in-function
+imports are not yet commented: the kiosk app is being split into named parts by other
+work of issue 23, which moves or comments them; the rule applies to it when that lands."""
 
 # The rooms, lowest first. A module may import its own room and any room listed in
 # its entry of UPHILL_FREE (what lies below it); anything else is an upward or
@@ -312,7 +312,7 @@ def problems(root: Path = ROOT) -> dict[str, list[str]]:
                     out["never"].append(f"{where} (never {rule})")
         if e.by_string and not _under(e.src, IMPORTLIB_ALLOWED):
             out["importlib"].append(f"{where} (importlib outside the CLI registry)")
-        if e.lazy and e.path not in UNCOMMENTED_PENDING:
+        if e.lazy and not e.path.startswith(UNCOMMENTED_PENDING):
             lines = texts.setdefault(e.path, (root / e.path).read_text("utf-8").splitlines())
             if not _has_reason(lines, e.line - 1):
                 out["lazy without a reason"].append(

@@ -40,7 +40,7 @@ from array import array
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 from station.drivers.haptic.contact import (
     BrushState,
@@ -179,10 +179,26 @@ def zero_all() -> None:
         session.stop()
 
 
+class ByteLink(Protocol):
+    """The byte stream to the device (a :class:`~station.drivers.serial.transport.
+    SerialTransport`, or a test's line)."""
+
+    def read(self, timeout: float | None = 0.0) -> bytes:
+        """What arrived, waiting up to ``timeout`` s for the first byte."""
+        ...
+
+    def write(self, data: bytes) -> None:
+        """Send one frame whole."""
+        ...
+
+    def close(self) -> None:
+        ...
+
+
 class HapticSession:
     """One protocol session with one device; see the module docstring."""
 
-    def __init__(self, transport: Any, config: HapticConfig | None = None,
+    def __init__(self, transport: ByteLink, config: HapticConfig | None = None,
                  clock: Callable[[], float] = time.monotonic) -> None:
         self.transport = transport
         self.config = config or HapticConfig()

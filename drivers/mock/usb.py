@@ -16,7 +16,7 @@ from __future__ import annotations
 import errno
 import logging
 import time
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from types import SimpleNamespace
 from typing import Any
@@ -61,8 +61,8 @@ class RecordedUsbDevice:
     # index above 2), an interrupt OUT endpoint, and hooks the device reacts with.
     strings: dict[int, bytes] = field(default_factory=dict)
     out_endpoint: int | None = None
-    on_string: Any = None  # callable(index) after a string descriptor was read
-    on_out: Any = None  # callable(endpoint, data) after an interrupt OUT transfer
+    on_string: Callable[[int], None] | None = None  # after a string descriptor was read
+    on_out: Callable[[int, bytes], None] | None = None  # after an interrupt OUT transfer
     _iter: Iterator[TimedReport] | None = None
     _origin: tuple[float, float] | None = None
     _pending: TimedReport | None = None

@@ -22,7 +22,7 @@ from yaml.composer import ComposerError
 from station import boundedio
 
 
-def _int(value: Any, where: str, what: str) -> int:
+def _int(value: object, where: str, what: str) -> int:
     if isinstance(value, bool) or not isinstance(value, int):
         raise TraceError(f"{what} {value!r} is not an integer", where)
     return value

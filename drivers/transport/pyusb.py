@@ -43,7 +43,7 @@ def _usb() -> Any:
     return usb
 
 
-def list_usb(backend: Any = None) -> list[dict[str, Any]]:
+def list_usb(backend: object = None) -> list[dict[str, Any]]:
     """USB devices pyusb can see (empty when there is no libusb or no device)."""
     usb = _usb()
     try:
@@ -214,7 +214,7 @@ def _configured(dev: Any) -> bool:
     return True
 
 
-def _string(dev: Any, field: str) -> str:
+def _string(dev: object, field: str) -> str:
     index = getattr(dev, field, 0)
     if not index:
         return ""

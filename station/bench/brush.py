@@ -37,11 +37,13 @@ import json
 import math
 import sys
 import time
-from typing import Any
+from collections.abc import Callable
+from typing import Any, TypeVar
 
 import numpy as np
 
 from station.backends.factory import create_backend
+from station.backends.protocol import CanvasBackend
 from station.bench.sim import _StrokePath
 from station.brush.deformable import DeformableBrush, TuftModel
 from station.brush.geometry import get_shape
@@ -52,6 +54,7 @@ from station.events import PenSample
 from station.sim.player import add_sources, brush_model
 
 GOAL_MS = 1.0
+B = TypeVar("B", RoundBrush, DeformableBrush)
 
 
 def _stroke_brush(kind: str, width: int, height: int, size: float, paper: np.ndarray
@@ -93,7 +96,7 @@ def measure_solver(kind: str, frames: int) -> dict[str, Any]:
 PEN_GOAL = 1000.0
 
 
-def _pen_samples(n: int, rate: float) -> list[Any]:
+def _pen_samples(n: int, rate: float) -> list[PenSample]:
     return [PenSample(t=i / rate, device="bench", tool="pen",  # type: ignore[arg-type]
                       x=0.1 + 0.8 * ((0.5 * i / rate) % 1.0),  # 160 cells/s
                       y=0.5 + 0.1 * math.sin(i / 300.0),
@@ -109,7 +112,7 @@ def measure_pen(kind: str, size: float, samples: int, rate: float = 1000.0) -> d
     settings = BrushSettings(kind=kind, size=size, water=0.5, pigment={"Sumi Ink": 0.5})
     pen = _pen_samples(samples, rate)
 
-    def timed(make: Any) -> tuple[float, float, Any]:
+    def timed(make: Callable[[], B]) -> tuple[float, float, B]:
         make_b = make()
         for s in _pen_samples(20, rate):  # warm up (numba, NLopt)
             make_b.feed(s)
@@ -142,7 +145,7 @@ def measure_sim(kind: str, width: int, height: int, seconds: float) -> dict[str,
     """cpu backend steps/s with one live stroke: ``station bench sim``'s stroke (a
     round disc source per step) and the deformable brush (one pen frame per step),
     measured one after the other in this process: their ratio is the brush's cost."""
-    def run(advance: Any, canvas: Any) -> tuple[int, float, float, float]:
+    def run(advance: Callable[[], None], canvas: CanvasBackend) -> tuple[int, float, float, float]:
         """Steps, wall seconds, process CPU seconds, CPU seconds in ``advance``."""
         for _ in range(10):
             advance()

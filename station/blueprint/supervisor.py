@@ -142,8 +142,8 @@ class Supervisor:
         self.env = child_env(plan)
         painters = [p.id for p in plan.processes if p.kind in ("sim", "kiosk")]
         self.rules = RuleEngine(plan.blueprint.rules, painters)
-        self.subs: dict[str, Any] = {}
-        self.pubs: dict[str, Any] = {}
+        self.subs: dict[str, Subscriber] = {}
+        self.pubs: dict[str, Publisher] = {}
         self.saved: list[Path] = []
         self.messages: list[str] = []
         self._lock = threading.Lock()
@@ -487,8 +487,10 @@ class Supervisor:
         self.write_state()
         for child in reversed(self.children):
             self._stop_child(child)
-        for obj in (*self.subs.values(), *self.pubs.values()):
-            obj.close()
+        for sub in self.subs.values():
+            sub.close()
+        for pub in self.pubs.values():
+            pub.close()
         self.subs.clear()
         self.pubs.clear()
         self.write_state()

@@ -97,7 +97,7 @@ class BrushSettings:
     @classmethod
     def from_args(
         cls,
-        args: Mapping[str, Any],
+        args: Mapping[str, object],
         where: str | None = None,
         pigments: Container[str] | None = None,
         base: BrushSettings | None = None,
@@ -132,7 +132,7 @@ class BrushSettings:
         return cls(kind=kind, size=size, water=water, pigment=pig)
 
 
-def _number(value: Any, name: str, lo: float, hi: float, where: str | None) -> float:
+def _number(value: object, name: str, lo: float, hi: float, where: str | None) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise BrushError(f"{name} must be a number, got {value!r}", where)
     try:

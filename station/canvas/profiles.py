@@ -67,7 +67,7 @@ def user_dir() -> Path:
     return paths.xdg_config_dir() / "profiles"
 
 
-def _err(where: str, el: Any, msg: str) -> CanvasInputError:
+def _err(where: str, el: object, msg: str) -> CanvasInputError:
     line = getattr(el, "sourceline", None)
     tag = getattr(el, "tag", "profile")
     return CanvasInputError(f"element <{tag}>: {msg}", f"{where}:{line}" if line else where)

@@ -311,7 +311,7 @@ class SessionPlayer:
         handler(self, cmd.args, where)
         self.counters.commands[name] = self.counters.commands.get(name, 0) + 1
 
-    def _brush(self, args: Mapping[str, Any], where: str | None) -> None:
+    def _brush(self, args: Mapping[str, object], where: str | None) -> None:
         self.tool = None  # the brush back in hand
         base = self.brush.settings
         unscaled = BrushSettings(base.kind, base.size / self.brush_scale, base.water,
@@ -362,7 +362,7 @@ class SessionPlayer:
             state = self.backend.state()
         return state.h
 
-    def _profile(self, args: Mapping[str, Any], where: str | None) -> None:
+    def _profile(self, args: Mapping[str, object], where: str | None) -> None:
         name = _profile_name(args, where)
         self.flush_sources()
         try:
@@ -380,7 +380,7 @@ class SessionPlayer:
         self.brush.model = brush_model(prof)
         self._use(brush_defaults(prof).scaled(self.brush_scale))
 
-    def _wait(self, args: Mapping[str, Any], where: str | None) -> None:
+    def _wait(self, args: Mapping[str, object], where: str | None) -> None:
         seconds = _wait_seconds(args, where)
         self.waited += float(seconds)
         self.counters.waited_s += float(seconds)
@@ -435,7 +435,7 @@ class SessionPlayer:
         self.flush_sources()
 
 
-def _profile_name(args: Mapping[str, Any], where: str | None) -> str:
+def _profile_name(args: Mapping[str, object], where: str | None) -> str:
     name = args.get("name")
     if not isinstance(name, str):
         raise PlayerError(f"profile name {name!r} must be a string (one of "
@@ -447,7 +447,7 @@ def _profile_name(args: Mapping[str, Any], where: str | None) -> str:
     return name
 
 
-def _wait_seconds(args: Mapping[str, Any], where: str | None) -> float:
+def _wait_seconds(args: Mapping[str, object], where: str | None) -> float:
     seconds = args.get("seconds", 0.0)
     if (isinstance(seconds, bool) or not isinstance(seconds, (int, float))
             or not 0.0 <= seconds <= MAX_WAIT_SECONDS):  # NaN fails the comparison
@@ -490,12 +490,12 @@ def check_command(cmd: Command, pigments: Container[str] | None = None,
         _HANDLERS[name](scratch, cmd.args, where)
 
 
-def _dry(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+def _dry(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
     p.flush_sources()
     p.backend.dry()
 
 
-def _number(args: Mapping[str, Any], key: str, default: float, lo: float, hi: float,
+def _number(args: Mapping[str, object], key: str, default: float, lo: float, hi: float,
             where: str | None) -> float:
     v = args.get(key, default)
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
@@ -504,7 +504,7 @@ def _number(args: Mapping[str, Any], key: str, default: float, lo: float, hi: fl
     return float(v)
 
 
-def _hairdryer(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+def _hairdryer(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
     """Hold a hair dryer over (x, y) (canvas-normalised) for ``seconds`` of painting time
     from now (0 switches it off): ``radius`` [cells of the session's canvas],
     ``temperature`` [C] and ``airflow`` [1] of its air at the sheet."""
@@ -522,7 +522,7 @@ def _hairdryer(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> 
         p.dryer = None
 
 
-def _new_layer(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+def _new_layer(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
     p.flush_sources()
     try:
         p.backend.new_layer()
@@ -531,13 +531,13 @@ def _new_layer(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> 
     p.layer_pigments.clear()
 
 
-def _clear(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+def _clear(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
     p.brush.take()  # stamps not yet simulated are cleared with the rest
     p.backend.clear()
     p.layer_pigments.clear()
 
 
-def _tool_number(tool: str, args: Mapping[str, Any], key: str, default: float, lo: float,
+def _tool_number(tool: str, args: Mapping[str, object], key: str, default: float, lo: float,
                  hi: float, where: str | None) -> float:
     v = args.get(key, default)
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
@@ -547,7 +547,7 @@ def _tool_number(tool: str, args: Mapping[str, Any], key: str, default: float, l
     return float(v)
 
 
-def _check_keys(tool: str, args: Mapping[str, Any], known: set[str], where: str | None) -> None:
+def _check_keys(tool: str, args: Mapping[str, object], known: set[str], where: str | None) -> None:
     extra = sorted(set(args) - known)
     if extra:
         raise PlayerError(f"{tool}: unknown argument {extra[0]!r} (known: "
@@ -557,7 +557,7 @@ def _check_keys(tool: str, args: Mapping[str, Any], known: set[str], where: str 
 _AT = {"x", "y", "pressure"}
 
 
-def _pick_up(p: SessionPlayer, tool: str, args: Mapping[str, Any], where: str | None) -> None:
+def _pick_up(p: SessionPlayer, tool: str, args: Mapping[str, object], where: str | None) -> None:
     """Take ``tool`` in hand; with ``x``/``y`` (canvas-normalised) also dab once there."""
     p.flush_sources()
     p.tool = tool
@@ -574,7 +574,7 @@ def _pick_up(p: SessionPlayer, tool: str, args: Mapping[str, Any], where: str | 
         p._dab = None
 
 
-def _mask(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+def _mask(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
     """Masking fluid: ``size`` (diameter, cells of the session's canvas)."""
     _check_keys("mask", args, {"size"} | _AT, where)
     if "size" in args:
@@ -583,13 +583,13 @@ def _mask(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
     _pick_up(p, "mask", args, where)
 
 
-def _mask_remove(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+def _mask_remove(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
     _check_keys("mask_remove", args, set(), where)
     p.flush_sources()
     edit_state(p.backend, mask_tool.rub_off)
 
 
-def _eraser(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+def _eraser(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
     """The selective eraser: ``fields`` (list), ``fraction``, ``size`` (diameter)."""
     _check_keys("eraser", args, {"fields", "fraction", "size"} | _AT, where)
     e = p.eraser
@@ -605,7 +605,7 @@ def _eraser(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> Non
     _pick_up(p, "eraser", args, where)
 
 
-def _tissue(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+def _tissue(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
     """The textured tissue: ``kind`` (crepe, weave, flat), ``scale`` cells, ``seed``,
     ``size`` (diameter), ``absorb``."""
     _check_keys("tissue", args, {"kind", "scale", "seed", "size", "absorb"} | _AT, where)
@@ -630,7 +630,7 @@ def _tissue(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> Non
     _pick_up(p, "tissue", args, where)
 
 
-def _tilt(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+def _tilt(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
     """Tilt the canvas: ``angle`` from the horizontal [deg, 0 ... 90], ``direction`` of
     the downhill slope on the canvas [deg from +x towards +y; 90 = towards the bottom]."""
     _check_keys("tilt", args, {"angle", "direction"}, where)
@@ -650,7 +650,7 @@ def _apply_tilt(p: SessionPlayer) -> None:
     edit_state(p.backend, put)
 
 
-def _diffusion(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+def _diffusion(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
     """The diffusion controller: while on, the brush writes ``pattern`` (``stripes``,
     ``rings``, ``dots``, ``checks``; ``off`` stops it) of ``period`` cells at ``angle``
     degrees with ``strength`` every ``interval`` touching samples along its strokes."""
@@ -683,20 +683,20 @@ def _diffusion(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> 
     p._controller_count = 0
 
 
-def _undo(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+def _undo(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
     """Undo the newest stroke or dab (``station.sim.undo``); nothing to undo: counted."""
     _check_keys("undo", args, set(), where)
     if p.history is None or not p.history.undo():
         p.counters.skipped_commands["undo"] = p.counters.skipped_commands.get("undo", 0) + 1
 
 
-def _redo(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+def _redo(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
     _check_keys("redo", args, set(), where)
     if p.history is None or not p.history.redo():
         p.counters.skipped_commands["redo"] = p.counters.skipped_commands.get("redo", 0) + 1
 
 
-def _well(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
+def _well(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
     """The palette's mixing well: ``add`` a pigment (``amount`` of tube strength, ``water``,
     ``settle`` seconds of mixing), ``pick`` the mix up with the brush, or ``clear`` it."""
     _check_keys("well", args, {"add", "amount", "water", "settle", "pick", "clear"}, where)
@@ -733,7 +733,7 @@ def _well(p: SessionPlayer, args: Mapping[str, Any], where: str | None) -> None:
         p.tool = None
 
 
-_HANDLERS: dict[str, Callable[[SessionPlayer, Mapping[str, Any], str | None], None]] = {
+_HANDLERS: dict[str, Callable[[SessionPlayer, Mapping[str, object], str | None], None]] = {
     "well": _well,
     "undo": _undo,
     "redo": _redo,

@@ -110,7 +110,7 @@ def _count_records(path: Path) -> tuple[str, int]:
     return header or "", count
 
 
-def _check_session(s: Any) -> dict[str, Any]:
+def _check_session(s: object) -> dict[str, Any]:
     """The autosave's session entry, every field read once (ValueError if malformed)."""
     if not isinstance(s, dict) or s.get("version") != CHECKPOINT_VERSION:
         raise ValueError("unknown checkpoint version")

@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 from station.events import Command, PenSample
 from station.sessionlog import SessionHeader, SessionLogWriter
@@ -31,6 +31,17 @@ from station.sessionlog import SessionHeader, SessionLogWriter
 Point = tuple[float, float]
 Profile = Callable[[float], float]
 TiltProfile = Callable[[float], tuple[float, float]]
+
+if TYPE_CHECKING:
+    from typing import Unpack  # Python 3.11; annotations only (3.10 runs this module)
+
+
+class StrokeStyle(TypedDict, total=False):
+    """How a stroke is drawn, as :meth:`Script.stroke` takes it."""
+
+    pressure: Profile | float
+    tilt: TiltProfile | tuple[float, float]
+    gap: float
 
 
 def constant(value: float) -> Profile:
@@ -195,12 +206,12 @@ class Script:
         self._sample(x1, y1, 0.0, tf(1.0), touching=False)
         self.t += gap
 
-    def line(self, a: Point, b: Point, duration: float, **kw: Any) -> None:
+    def line(self, a: Point, b: Point, duration: float, **kw: Unpack[StrokeStyle]) -> None:
         self.stroke(lambda u: (a[0] + (b[0] - a[0]) * u, a[1] + (b[1] - a[1]) * u),
                     duration, **kw)
 
     def arc(self, center: Point, radius: tuple[float, float], start_deg: float,
-            end_deg: float, duration: float, **kw: Any) -> None:
+            end_deg: float, duration: float, **kw: Unpack[StrokeStyle]) -> None:
         """An elliptical arc (radii ``(rx, ry)`` in canvas-normalised units)."""
         a0, a1 = math.radians(start_deg), math.radians(end_deg)
 
@@ -210,11 +221,12 @@ class Script:
 
         self.stroke(path, duration, **kw)
 
-    def curve(self, points: Sequence[Point], duration: float, **kw: Any) -> None:
+    def curve(self, points: Sequence[Point], duration: float,
+              **kw: Unpack[StrokeStyle]) -> None:
         """A smooth stroke through ``points``."""
         self.stroke(catmull_rom(points), duration, **kw)
 
-    def dab(self, at: Point, duration: float = 0.05, **kw: Any) -> None:
+    def dab(self, at: Point, duration: float = 0.05, **kw: Unpack[StrokeStyle]) -> None:
         """Touch the paper at one point."""
         self.stroke(lambda u: at, duration, **kw)
 

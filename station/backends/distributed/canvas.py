@@ -106,7 +106,7 @@ def _local_from_shell(shell: CanvasState, rows: int, zeroed: bool = True) -> Can
     return CanvasState(**kw)
 
 
-def _deep(v: Any) -> Any:
+def _deep(v: object) -> Any:
     if isinstance(v, list):
         return [_deep(x) for x in v]
     if isinstance(v, dict):

@@ -746,7 +746,7 @@ class GLCanvas:
         return bytes_per_cell_step(4 * layers, int(self.params.jacobi_iters))
 
 
-def _set(prog: Any, name: str, value: Any) -> None:
+def _set(prog: Any, name: str, value: object) -> None:
     """Set uniform ``name`` when the program uses it (drivers drop unused ones)."""
     try:
         u = prog[name]
