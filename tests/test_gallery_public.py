@@ -28,6 +28,7 @@ from station.kiosk.gallery import (
     WebOptions,
     new_id,
 )
+from station.sessionlog import SessionHeader
 
 
 def painting(tmp_path: Path, log: bytes | None = None) -> tuple[Gallery, str]:
@@ -208,7 +209,9 @@ def test_a_replay_past_its_memory_budget_fails_once_with_one_line(
     import subprocess
     import sys
 
-    g, pid = painting(tmp_path, log=b"{}\n")
+    # a real log whose canvas (2048x2048, about 3.8 GB) cannot be made in 100 MB
+    header = SessionHeader(width=2048, height=2048).to_record()
+    g, pid = painting(tmp_path, log=(json.dumps(header) + "\n").encode())
     proc = subprocess.run([sys.executable, "-m", "station", "gallery", "make", "--root",
                            str(g.root), pid, "--max-memory", "100", "--nice", "0"],
                           capture_output=True, text=True, timeout=120)
