@@ -413,3 +413,254 @@ ink's flying white are painted by the deformable brush through the session playe
 def run_effects(names: list[str] | None = None) -> list[Effect]:
     """Paint and measure the tiles (all, or those whose function names are given)."""
     return [t() for t in TILES if names is None or t.__name__ in names]
+
+
+# ------------------------------------------------------------------ through the brush
+# Issue 21: every number below comes from pen samples played through the brush by the
+# session player, at a painter's speed (a wash stroke crosses the sheet in about half a
+# second), pressure (0.6-0.8) and waits (the paper dries on its own before a second pass).
+# No rectangle or mask is written into a canvas.
+
+PEN_HZ = 120.0
+"""Pen report rate of the scripted painter [samples/s] (a tablet reports 100-200)."""
+
+LUMA = np.array([0.2126, 0.7152, 0.0722])
+"""Rec. 709 weights, applied to sRGB-encoded values (as the issue measured the scans)."""
+
+DARK_PIGMENTS = ("French Ultramarine", "Burnt Umber", "Sepia", "Sumi Ink")
+PALE_PIGMENTS = ("Hansa Yellow", "Cadmium Yellow", "Titanium White", "Interference Lilac")
+"""Whites, yellows and the interference white: no full-strength value floor."""
+
+REAL_MASSTONE_HUE = {
+    # HSV hue [deg] of the displayed sRGB of each pigment's full-strength watercolour
+    # stroke, read off manufacturers' painted swatches (docs/canvas-model.md, "masstone
+    # hues"); French Ultramarine's from the issue: a violet-leaning blue, 240-250.
+    "French Ultramarine": 245.0, "Cerulean Blue": 195.0, "Phthalo Green": 165.0,
+    "Hookers Green": 110.0, "Quinacridone Rose": 335.0, "Cadmium Red": 8.0,
+    "Indian Red": 12.0, "Burnt Umber": 25.0, "Sepia": 28.0, "Brilliant Orange": 28.0,
+    "Hansa Yellow": 55.0, "Cadmium Yellow": 48.0,
+}
+
+
+def luma(rgb_linear: np.ndarray) -> np.ndarray:
+    """Rec. 709 luma of the sRGB-encoded colour, in [0, 1]."""
+    return np.asarray(linear_to_srgb(rgb_linear) @ LUMA)
+
+
+def darkness_map(c: NumpyCanvas) -> np.ndarray:
+    """1 - luma/luma_paper per cell; the paper's luma is the mean over unpainted cells."""
+    st = c.live_state
+    lum = luma(c.render())
+    bare = (st.q.sum(axis=0) + st.p.sum(axis=0)) <= 1e-5
+    paper = float(lum[bare].mean()) if bare.any() else float(luma(st.r_composed).max())
+    return 1.0 - lum / paper
+
+
+def _played(script: Script, paper: str | None = None, seed: int = 7) -> NumpyCanvas:
+    """Play ``script`` through the brush on a fresh canvas, let it dry on its own, then fix
+    the layer (the paper is dry: ``dry`` only deposits what is left)."""
+    h = script.header
+    c = (NumpyCanvas(h.width, h.height, profile=h.profile, seed=seed) if paper is None
+         else NumpyCanvas(h.width, h.height, profile=h.profile, seed=seed, paper=paper))
+    SessionPlayer(c, h.width, h.height, h.profile).play(script.records)
+    run_until_dry(c, 6000)
+    c.dry()
+    return c
+
+
+def _row_mask(c: NumpyCanvas, y: int, half: int, x0: int, x1: int) -> np.ndarray:
+    """Cells of the stroke along row ``y``: within ``half`` rows of its path, between the
+    columns ``x0:x1`` (the caps left out), where the stroke left pigment."""
+    st = c.live_state
+    dep = st.q.sum(axis=0) + st.p.sum(axis=0)
+    m = np.zeros(dep.shape, bool)
+    m[max(0, y - half):y + half + 1, x0:x1] = True
+    inside = dep[m]
+    return m & (dep > 0.05 * float(np.percentile(inside, 90))) if inside.size else m
+
+
+VALUE_W, VALUE_H = 72, 60
+TINT_AMOUNT = 0.03
+"""The control's pale end: a brush amount of 3 % of tube strength."""
+
+
+def _value_canvas(pigment: str, profile: str = "watercolor") -> NumpyCanvas:
+    """Three strokes of one pigment, each 50 cells long in 0.45 s (110 cells/s) at
+    pressure 0.7 with a size-12 round brush: a tint (amount 0.03), a full-strength pass
+    (amount 1), and a full-strength pass laid again over itself once it has dried."""
+    s = Script(VALUE_W, VALUE_H, profile=profile, seed=11, rate_hz=PEN_HZ)
+    rows = (0.2, 0.5, 0.8)
+    for row, amount in zip(rows, (TINT_AMOUNT, 1.0, 1.0), strict=True):
+        s.brush(size=12, water=0.8, pigment={pigment: amount})
+        s.line((0.15, row), (0.85, row), 0.45, pressure=0.7)
+        s.wait(0.3)
+    s.wait(45.0)  # the paper dries before the second pass
+    s.dry()
+    s.line((0.15, rows[2]), (0.85, rows[2]), 0.45, pressure=0.7)
+    return _played(s)
+
+
+def value_stats(c: NumpyCanvas) -> tuple[float, float, float, float]:
+    """Mean darkness of the tint, the full pass and the double pass of
+    :func:`_value_canvas`, and the HSV hue [deg] of the full pass's mean sRGB colour."""
+    d = darkness_map(c)
+    x0, x1 = int(0.25 * VALUE_W), int(0.75 * VALUE_W)
+    rgb = c.render()
+    out = []
+    for row in (0.2, 0.5, 0.8):
+        m = _row_mask(c, int(row * VALUE_H), 4, x0, x1)
+        out.append(float(d[m].mean()))
+    full = _row_mask(c, int(0.5 * VALUE_H), 4, x0, x1)
+    hue = colorsys.rgb_to_hsv(*(float(v) for v in linear_to_srgb(rgb[full].mean(axis=0))))[0]
+    return out[0], out[1], out[2], 360.0 * hue
+
+
+def _hue_off(a: float, b: float) -> float:
+    return abs((a - b + 180.0) % 360.0 - 180.0)
+
+
+def value_range(pigments: tuple[str, ...] = (
+        "French Ultramarine", "Burnt Umber", "Sepia", "Quinacridone Rose", "Cerulean Blue",
+        "Phthalo Green", "Hookers Green", "Indian Red", "Cadmium Red", "Brilliant Orange",
+        "Hansa Yellow")) -> Effect:
+    """Item 2: a pale tint to a full-strength pass per pigment, two passes darker than one;
+    item 6: the full-strength pass's hue against the real pigment's masstone."""
+    numbers: dict[str, float] = {}
+    checks: dict[str, bool] = {}
+    canvases = []
+    for name in (*pigments, "Sumi Ink"):
+        c = _value_canvas(name, "ink" if name == "Sumi Ink" else "watercolor")
+        canvases.append(c)
+        tint, full, two, hue = value_stats(c)
+        key = name.lower().replace(" ", "_")
+        numbers.update({f"{key}_tint": tint, f"{key}_full": full, f"{key}_two_passes": two})
+        floor = 0.35 if name in DARK_PIGMENTS else 0.0 if name in PALE_PIGMENTS else 0.20
+        checks[f"{name} tint <= 0.08"] = tint <= 0.08
+        if floor:
+            checks[f"{name} full >= {floor:.2f}"] = full >= floor
+        checks[f"{name} two passes darker"] = two >= full + 0.03
+        if name in REAL_MASSTONE_HUE:
+            numbers[f"{key}_hue_deg"] = hue
+            checks[f"{name} hue within 10 deg"] = _hue_off(hue, REAL_MASSTONE_HUE[name]) <= 10
+    return Effect("value range (brush)", numbers, checks,
+                  np.concatenate([c.render() for c in canvases], axis=1), tuple(canvases))
+
+
+def brush_glazing() -> Effect:
+    """Item 6 through the brush: a mid Ultramarine stroke, left to dry, a new layer, then a
+    Hansa Yellow stroke over it; against one stroke of the two pigments mixed on the brush
+    (the same amounts). Each stroke 50 cells long in 0.45 s, size 16, pressure 0.7."""
+    blue, yellow = 0.45, 0.2
+
+    def canvas(mixed: bool) -> NumpyCanvas:
+        s = Script(VALUE_W, 36, seed=12, rate_hz=PEN_HZ)
+        if mixed:
+            s.brush(size=16, water=0.8, pigment={"French Ultramarine": blue,
+                                                 "Hansa Yellow": yellow})
+            s.line((0.15, 0.5), (0.85, 0.5), 0.45, pressure=0.7)
+        else:
+            s.brush(size=16, water=0.8, pigment={"French Ultramarine": blue})
+            s.line((0.15, 0.5), (0.85, 0.5), 0.45, pressure=0.7)
+            s.wait(45.0)
+            s.dry()
+            s.new_layer()
+            s.brush(size=16, water=0.8, pigment={"Hansa Yellow": yellow})
+            s.line((0.15, 0.5), (0.85, 0.5), 0.45, pressure=0.7)
+        return _played(s, paper="hot-press")
+
+    glaze, mixed = canvas(False), canvas(True)
+    x0, x1 = int(0.3 * VALUE_W), int(0.7 * VALUE_W)
+    g = glaze.render()[_row_mask(glaze, 18, 3, x0, x1)].mean(axis=0)
+    m = mixed.render()[_row_mask(mixed, 18, 3, x0, x1)].mean(axis=0)
+    de = delta_e76(g, m)
+    hue = hue_deg(linear_to_srgb(g))
+    return Effect("glazing (brush)", {"delta_e76_glaze_vs_mix": de, "glaze_hue_srgb_deg": hue,
+                                      "glaze_hue_lab_deg": lab_hue_deg(g),
+                                      "mix_hue_srgb_deg": hue_deg(linear_to_srgb(m))},
+                  {"dE76 >= 5": de >= 5.0, "glaze reads green (90-160)": 90 <= hue <= 160},
+                  np.concatenate([glaze.render(), mixed.render()], axis=0), (glaze, mixed))
+
+
+WASH = 96
+
+
+def flat_wash(pigment: str, amount: float, paper: str | None = None,
+              seed: int = 13) -> NumpyCanvas:
+    """A flat wash as a painter lays one: a size-24 brush, loaded (water 1), pulled across
+    the sheet in 0.5 s, row under row 10 cells apart so each stroke takes up the bead the
+    last one left, then the sheet dries on its own."""
+    s = Script(WASH, WASH, seed=seed, rate_hz=PEN_HZ)
+    s.brush(size=24, water=1.0, pigment={pigment: amount})
+    for k in range(9):
+        y = (8 + 10 * k) / WASH
+        a, b = ((0.05, y), (0.95, y)) if k % 2 == 0 else ((0.95, y), (0.05, y))
+        s.line(a, b, 0.5, pressure=0.7)
+        s.wait(0.2)
+    return _played(s, paper=paper, seed=seed)
+
+
+def radial_spectrum(img: np.ndarray, tile: int = 48, per_octave: int = 4
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Radially averaged power spectrum of ``img`` (Welch: Hann-windowed ``tile``-square
+    patches overlapping by half, averaged): band centres [cycles/cell] and mean power,
+    ``per_octave`` bands per octave from 4 cycles per tile to the Nyquist frequency."""
+    a = np.asarray(img, np.float64)
+    win = np.outer(np.hanning(tile), np.hanning(tile))
+    acc = np.zeros((tile, tile))
+    n = 0
+    for y in range(0, a.shape[0] - tile + 1, tile // 2):
+        for x in range(0, a.shape[1] - tile + 1, tile // 2):
+            t = a[y:y + tile, x:x + tile]
+            acc += np.abs(np.fft.fft2((t - t.mean()) * win)) ** 2
+            n += 1
+    p = acc / max(n, 1)
+    f = np.hypot(np.fft.fftfreq(tile)[:, None], np.fft.fftfreq(tile)[None, :])
+    edges = 2.0 ** np.arange(np.log2(4.0 / tile), np.log2(0.5) + 1e-9, 1.0 / per_octave)
+    centres = np.sqrt(edges[:-1] * edges[1:])
+    power = np.array([p[(f >= lo) & (f < hi)].mean() for lo, hi in zip(edges[:-1], edges[1:])])
+    return centres, power
+
+
+def spectral_peak(img: np.ndarray) -> tuple[float, float]:
+    """The strongest peak of the radial power spectrum: its power over the larger of its
+    neighbours half an octave away on either side (a broadband texture: <= 1), and its
+    wavelength [cells]."""
+    f, p = radial_spectrum(img)
+    r = p[2:-2] / np.maximum(p[:-4], p[4:])
+    i = int(np.argmax(r))
+    return float(r[i]), float(1.0 / f[2 + i])
+
+
+def paper_texture() -> Effect:
+    """Item 7: a flat wash of a granulating pigment (French Ultramarine) and of a staining,
+    non-granulating one (Quinacridone Rose), both brushed on cold-press: the texture's
+    spectrum (no peak), the granulating wash's luminance spread at 1:1; the same Ultramarine
+    wash on hot-press and on rough paper (papers are data, chosen per canvas)."""
+    numbers: dict[str, float] = {}
+    checks: dict[str, bool] = {}
+    canvases = []
+    inner = (slice(16, WASH - 16), slice(12, WASH - 12))
+    for key, pig, amount, paper in (("ultramarine", "French Ultramarine", 0.7, None),
+                                    ("rose", "Quinacridone Rose", 0.5, None),
+                                    ("ultramarine_hot_press", "French Ultramarine", 0.7,
+                                     "hot-press"),
+                                    ("ultramarine_rough", "French Ultramarine", 0.7, "rough")):
+        c = flat_wash(pig, amount, paper)
+        canvases.append(c)
+        lum = luma(c.render())[inner]
+        dark = float(darkness_map(c)[inner].mean())
+        peak, wavelength = spectral_peak(lum)
+        numbers.update({f"{key}_darkness": dark, f"{key}_luma_std_8bit": float(lum.std()) * 255,
+                        f"{key}_spectrum_peak": peak, f"{key}_peak_wavelength_cells": wavelength})
+    checks["granulating wash dark (>= 0.3)"] = numbers["ultramarine_darkness"] >= 0.3
+    checks["granulation visible (std >= 8/255)"] = numbers["ultramarine_luma_std_8bit"] >= 8.0
+    checks["broadband (peak <= 1.5x)"] = max(numbers["ultramarine_spectrum_peak"],
+                                             numbers["rose_spectrum_peak"]) <= 1.5
+    checks["papers differ (rough > hot-press)"] = (numbers["ultramarine_rough_luma_std_8bit"]
+                                                   > numbers["ultramarine_hot_press_luma_std_8bit"])
+    return Effect("paper (brush)", numbers, checks,
+                  np.concatenate([c.render() for c in canvases], axis=1), tuple(canvases))
+
+
+BRUSH_TILES: tuple[Callable[[], Effect], ...] = (value_range, brush_glazing, paper_texture)
+"""The tiles painted through the brush (issue 21): the measure."""
