@@ -23,7 +23,7 @@ from station.canvas.measure import bare_share, edge_band, edge_roughness, edge_w
 from station.canvas.numpy_backend import NumpyCanvas
 from station.canvas.palette import Palette, Pigment, default_palette
 from station.canvas.params import SimParams, get_profile
-from station.canvas.render import linear_to_srgb
+from station.canvas.render import km_layer, linear_to_srgb, to_linear_rgb
 from station.canvas.scenarios import disc, distance_inside, paint, rect, run_until_dry
 from station.canvas.tools import HairDryer, blow, pickup
 from station.canvas.upscale import render_scaled
@@ -44,6 +44,10 @@ class Effect:
     image: np.ndarray = field(repr=False)
     canvases: tuple[NumpyCanvas, ...] = field(default=(), repr=False)
     """The painted canvases behind ``image`` (left to right), for :meth:`picture`."""
+    row: str = "brush"
+    """``brush``: painted by pen samples through a brush (the measure, issue 21);
+    ``physics``: water and pigment written into the canvas as rectangles (the model's
+    physics alone, never the measure)."""
 
     @property
     def ok(self) -> bool:
@@ -62,7 +66,7 @@ class Effect:
         return np.concatenate(pics, axis=0 if wide else 1)
 
     def to_json(self) -> dict[str, Any]:
-        return {"numbers": {k: round(v, 4) for k, v in self.numbers.items()},
+        return {"row": self.row, "numbers": {k: round(v, 4) for k, v in self.numbers.items()},
                 "checks": {k: bool(v) for k, v in self.checks.items()}, "ok": self.ok}
 
 
@@ -183,17 +187,18 @@ def lab_hue_deg(rgb: np.ndarray) -> float:
 
 
 def glazing(render_bands: int = 12) -> Effect:
-    """Hansa Yellow (0.4 load) glazed over a dried mid-value French Ultramarine wash (0.5)
-    against both mixed in one layer; ``render_bands`` 3 renders with Curtis's RGB K, S."""
+    """Hansa Yellow (0.3 load) glazed over a dried Cerulean Blue wash (0.7) against both
+    mixed in one layer; ``render_bands`` 3 renders with Curtis's RGB K, S. (French
+    Ultramarine, fitted to PB29's violet-leaning hue, glazes olive: see brush_glazing.)"""
     fp = rect(40, 40, 6, 34, 6, 34)
     inner = distance_inside(fp) >= 4
     prm = SimParams(render_bands=render_bands)
     glaze = NumpyCanvas(40, 40, seed=6, paper="hot-press", params=prm)
-    _layer(glaze, fp, {"French Ultramarine": 0.5})
+    _layer(glaze, fp, {"Cerulean Blue": 0.7})
     glaze.new_layer()
-    _layer(glaze, fp, {"Hansa Yellow": 0.4})
+    _layer(glaze, fp, {"Hansa Yellow": 0.3})
     mixed = NumpyCanvas(40, 40, seed=6, paper="hot-press", params=prm)
-    _layer(mixed, fp, {"French Ultramarine": 0.5, "Hansa Yellow": 0.4})
+    _layer(mixed, fp, {"Cerulean Blue": 0.7, "Hansa Yellow": 0.3})
     g = glaze.render()
     m = mixed.render()
     gm = g[inner].mean(axis=0)
@@ -402,19 +407,6 @@ def flow_patterns() -> Effect:
                   np.concatenate([c.render() for c in canvases], axis=1), tuple(canvases))
 
 
-TILES: tuple[Callable[[], Effect], ...] = (
-    edge_darkening, wet_in_wet, backrun, granulation, glazing, staining_lifting, density,
-    wet_window, gouache_over_dark, ink_bleed, dry_brush, ink_flying_white, wet_on_dry_edge,
-    flow_patterns)
-"""The tiles of the sheet, in order (the dissertation's figure 6.1 list; dry-brush and the
-ink's flying white are painted by the deformable brush through the session player)."""
-
-
-def run_effects(names: list[str] | None = None) -> list[Effect]:
-    """Paint and measure the tiles (all, or those whose function names are given)."""
-    return [t() for t in TILES if names is None or t.__name__ in names]
-
-
 # ------------------------------------------------------------------ through the brush
 # Issue 21: every number below comes from pen samples played through the brush by the
 # session player, at a painter's speed (a wash stroke crosses the sheet in about half a
@@ -452,14 +444,17 @@ def darkness_map(c: NumpyCanvas) -> np.ndarray:
     st = c.live_state
     lum = luma(c.render())
     bare = (st.q.sum(axis=0) + st.p.sum(axis=0)) <= 1e-5
-    paper = float(lum[bare].mean()) if bare.any() else float(luma(st.r_composed).max())
+    paper = (float(lum[bare].mean()) if bare.any()
+             else float(luma(to_linear_rgb(st.r_composed)).max()))
     return 1.0 - lum / paper
 
 
 def _played(script: Script, paper: str | None = None, seed: int = 7) -> NumpyCanvas:
-    """Play ``script`` through the brush on a fresh canvas, let it dry on its own, then fix
-    the layer (the paper is dry: ``dry`` only deposits what is left)."""
+    """Play ``script`` through the brush on a fresh canvas (on the paper its header chose,
+    as ``station paint`` does, else ``paper``, else the profile's), let it dry on its own,
+    then fix the layer (the paper is dry: ``dry`` only deposits what is left)."""
     h = script.header
+    paper = h.extra.get("paper", paper)
     c = (NumpyCanvas(h.width, h.height, profile=h.profile, seed=seed) if paper is None
          else NumpyCanvas(h.width, h.height, profile=h.profile, seed=seed, paper=paper))
     SessionPlayer(c, h.width, h.height, h.profile).play(script.records)
@@ -547,19 +542,22 @@ def value_range(pigments: tuple[str, ...] = (
 
 
 def brush_glazing() -> Effect:
-    """Item 6 through the brush: a mid Ultramarine stroke, left to dry, a new layer, then a
+    """Item 6 through the brush: a Cerulean Blue stroke, left to dry, a new layer, then a
     Hansa Yellow stroke over it; against one stroke of the two pigments mixed on the brush
-    (the same amounts). Each stroke 50 cells long in 0.45 s, size 16, pressure 0.7."""
-    blue, yellow = 0.45, 0.2
+    (the same amounts). Each stroke 50 cells long in 0.45 s, size 16, pressure 0.7.
 
-    def canvas(mixed: bool) -> NumpyCanvas:
+    Cerulean, not Ultramarine: PB29's absorption band takes the 500-550 nm window a glaze
+    needs, so Hansa Yellow over real French Ultramarine reads olive (its hue is reported,
+    ``ultramarine_glaze_hue_srgb_deg``); cerulean over a yellow is the painter's green."""
+    blue, yellow = 0.8, 0.5
+
+    def canvas(mixed: bool, name: str = "Cerulean Blue") -> NumpyCanvas:
         s = Script(VALUE_W, 36, seed=12, rate_hz=PEN_HZ)
         if mixed:
-            s.brush(size=16, water=0.8, pigment={"French Ultramarine": blue,
-                                                 "Hansa Yellow": yellow})
+            s.brush(size=16, water=0.8, pigment={name: blue, "Hansa Yellow": yellow})
             s.line((0.15, 0.5), (0.85, 0.5), 0.45, pressure=0.7)
         else:
-            s.brush(size=16, water=0.8, pigment={"French Ultramarine": blue})
+            s.brush(size=16, water=0.8, pigment={name: blue})
             s.line((0.15, 0.5), (0.85, 0.5), 0.45, pressure=0.7)
             s.wait(45.0)
             s.dry()
@@ -574,8 +572,12 @@ def brush_glazing() -> Effect:
     m = mixed.render()[_row_mask(mixed, 18, 3, x0, x1)].mean(axis=0)
     de = delta_e76(g, m)
     hue = hue_deg(linear_to_srgb(g))
+    ug = canvas(False, "French Ultramarine")
+    u = ug.render()[_row_mask(ug, 18, 3, x0, x1)].mean(axis=0)
     return Effect("glazing (brush)", {"delta_e76_glaze_vs_mix": de, "glaze_hue_srgb_deg": hue,
                                       "glaze_hue_lab_deg": lab_hue_deg(g),
+                                      "ultramarine_glaze_hue_srgb_deg":
+                                          hue_deg(linear_to_srgb(u)),
                                       "mix_hue_srgb_deg": hue_deg(linear_to_srgb(m))},
                   {"dE76 >= 5": de >= 5.0, "glaze reads green (90-160)": 90 <= hue <= 160},
                   np.concatenate([glaze.render(), mixed.render()], axis=0), (glaze, mixed))
@@ -589,14 +591,15 @@ def flat_wash(pigment: str, amount: float, paper: str | None = None,
     """A flat wash as a painter lays one: a size-24 brush, loaded (water 1), pulled across
     the sheet in 0.5 s, row under row 10 cells apart so each stroke takes up the bead the
     last one left, then the sheet dries on its own."""
-    s = Script(WASH, WASH, seed=seed, rate_hz=PEN_HZ)
+    s = Script(WASH, WASH, seed=seed, rate_hz=PEN_HZ,
+               extra={"paper": paper} if paper is not None else None)
     s.brush(size=24, water=1.0, pigment={pigment: amount})
     for k in range(9):
         y = (8 + 10 * k) / WASH
         a, b = ((0.05, y), (0.95, y)) if k % 2 == 0 else ((0.95, y), (0.05, y))
         s.line(a, b, 0.5, pressure=0.7)
         s.wait(0.2)
-    return _played(s, paper=paper, seed=seed)
+    return _played(s, seed=seed)
 
 
 def radial_spectrum(img: np.ndarray, tile: int = 48, per_octave: int = 4
@@ -664,3 +667,29 @@ def paper_texture() -> Effect:
 
 BRUSH_TILES: tuple[Callable[[], Effect], ...] = (value_range, brush_glazing, paper_texture)
 """The tiles painted through the brush (issue 21): the measure."""
+
+
+PHYSICS_TILES: tuple[Callable[[], Effect], ...] = (
+    edge_darkening, wet_in_wet, backrun, granulation, glazing, staining_lifting, density,
+    wet_window, gouache_over_dark, ink_bleed, wet_on_dry_edge, flow_patterns)
+"""Tiles that write rectangles of water and pigment into the canvas (the dissertation's
+figure 6.1 list): the "physics" row, kept to show the model's physics alone."""
+
+TILES: tuple[Callable[[], Effect], ...] = (*BRUSH_TILES, dry_brush, ink_flying_white,
+                                           *PHYSICS_TILES)
+"""The tiles of the sheet, in order: through the brush first (dry-brush and the ink's flying
+white by the deformable brush), then the physics row."""
+
+
+def run_effects(names: list[str] | None = None) -> list[Effect]:
+    """Paint and measure the tiles (all, or those whose function names are given)."""
+    out = []
+    for t in TILES:
+        if names is not None and t.__name__ not in names:
+            continue
+        e = t()
+        if t in PHYSICS_TILES:
+            e.row = "physics"
+            e.name = f"physics: {e.name}"
+        out.append(e)
+    return out

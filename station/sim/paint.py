@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from station.canvas.backend import make_backend  # auto: resolve_auto decides, once
+from station.canvas.paper import PAPER_PRESETS
 from station.errors import BadInput, StationError
 from station.events import Command, PenSample
 from station.progress import Progress
@@ -274,6 +275,7 @@ def paint(
                 and not isinstance(logged_rate, bool):
             rate = float(logged_rate)  # the rate the session was recorded at
         seed = start.seed if start is not None else header.seed
+        backend_opts = {**session_paper(header, f"{input_path}:1"), **(backend_opts or {})}
         if distributed:
             canvas, backend = make_distributed(backend, width, height, prof.name, seed,
                                                **(backend_opts or {}))
@@ -395,3 +397,16 @@ def write_image(path: str, rgb: Any, bits: int = 8) -> None:
     from station.canvas.render import to_srgb8, to_srgb16
 
     write_png(path, to_srgb16(rgb) if bits == 16 else to_srgb8(rgb))
+
+
+def session_paper(header: SessionHeader, where: str) -> dict[str, str]:
+    """The paper a session chose (header key ``paper``: a name of
+    ``station/data/papers.json``) as a backend option; {} for the profile's own paper.
+    An unknown name is bad input (exit 2)."""
+    paper = header.extra.get("paper")
+    if paper is None:
+        return {}
+    if not isinstance(paper, str) or paper not in PAPER_PRESETS:
+        raise PaintInputError(f"header paper {paper!r:.40} is not a known paper "
+                              f"({', '.join(PAPER_PRESETS)})", where)
+    return {"paper": paper}
