@@ -97,15 +97,17 @@ def test_glaze_is_green_and_unlike_the_mix() -> None:
 
 def test_blue_and_yellow_overlap_to_green_on_one_canvas() -> None:
     c = NumpyCanvas(48, 24, seed=2, paper="hot-press")
-    paint(c, rect(24, 48, 4, 20, 4, 30), 0.5, {"French Ultramarine": 0.5})
+    # Cerulean: Hansa Yellow over French Ultramarine (PB29, fitted to its real violet-leaning
+    # hue) reads olive, as it does on paper
+    paint(c, rect(24, 48, 4, 20, 4, 30), 0.5, {"Cerulean Blue": 0.7})
     run_until_dry(c, 6000)
     c.new_layer()
-    paint(c, rect(24, 48, 4, 20, 18, 44), 0.5, {"Hansa Yellow": 0.4})
+    paint(c, rect(24, 48, 4, 20, 18, 44), 0.5, {"Hansa Yellow": 0.3})
     run_until_dry(c, 6000)
     img = c.render()
     blue, both, yellow = img[8:16, 8:14].mean((0, 1)), img[8:16, 22:27].mean((0, 1)), \
         img[8:16, 34:40].mean((0, 1))
-    assert 190 < fx.hue_deg(blue) < 250 and 40 < fx.hue_deg(yellow) < 70
+    assert 180 < fx.hue_deg(blue) < 250 and 40 < fx.hue_deg(yellow) < 70
     assert 90 <= fx.hue_deg(both) <= 160, both
 
 
