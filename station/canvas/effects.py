@@ -12,23 +12,26 @@ false): the sheet reports, it does not pretend.
 from __future__ import annotations
 
 import colorsys
+import itertools
 import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from scipy import ndimage
 
+from station.brush.stamp import BrushModel
 from station.canvas.measure import bare_share, edge_band, edge_roughness, edge_width, spread
 from station.canvas.numpy_backend import NumpyCanvas
 from station.canvas.palette import Palette, Pigment, default_palette
 from station.canvas.params import SimParams, get_profile
-from station.canvas.render import km_layer, linear_to_srgb, to_linear_rgb
+from station.canvas.render import linear_to_srgb, to_linear_rgb
 from station.canvas.scenarios import disc, distance_inside, paint, rect, run_until_dry
 from station.canvas.tools import HairDryer, blow, pickup
 from station.canvas.upscale import render_scaled
 from station.sim.player import SessionPlayer
-from station.sim.script import Script
+from station.sim.script import Script, taper
 
 F32 = np.float32
 
@@ -620,16 +623,16 @@ def radial_spectrum(img: np.ndarray, tile: int = 48, per_octave: int = 4
     f = np.hypot(np.fft.fftfreq(tile)[:, None], np.fft.fftfreq(tile)[None, :])
     edges = 2.0 ** np.arange(np.log2(4.0 / tile), np.log2(0.5) + 1e-9, 1.0 / per_octave)
     centres = np.sqrt(edges[:-1] * edges[1:])
-    power = np.array([p[(f >= lo) & (f < hi)].mean() for lo, hi in zip(edges[:-1], edges[1:])])
+    power = np.array([p[(f >= lo) & (f < hi)].mean() for lo, hi in itertools.pairwise(edges)])
     return centres, power
 
 
 def spectral_peak(img: np.ndarray) -> tuple[float, float]:
-    """The strongest peak of the radial power spectrum: its power over the larger of its
-    neighbours half an octave away on either side (a broadband texture: <= 1), and its
-    wavelength [cells]."""
+    """The strongest peak of the radial power spectrum: its power over the geometric mean
+    of its neighbours half an octave away on either side (a bump above the local power-law
+    trend; white or 1/f noise ~ 1.1), and its wavelength [cells]."""
     f, p = radial_spectrum(img)
-    r = p[2:-2] / np.maximum(p[:-4], p[4:])
+    r = p[2:-2] / np.sqrt(p[:-4] * p[4:])
     i = int(np.argmax(r))
     return float(r[i]), float(1.0 / f[2 + i])
 
@@ -657,15 +660,248 @@ def paper_texture() -> Effect:
                         f"{key}_spectrum_peak": peak, f"{key}_peak_wavelength_cells": wavelength})
     checks["granulating wash dark (>= 0.3)"] = numbers["ultramarine_darkness"] >= 0.3
     checks["granulation visible (std >= 8/255)"] = numbers["ultramarine_luma_std_8bit"] >= 8.0
-    checks["broadband (peak <= 1.5x)"] = max(numbers["ultramarine_spectrum_peak"],
-                                             numbers["rose_spectrum_peak"]) <= 1.5
+    checks["broadband on cold-press (peak <= 1.5x)"] = max(
+        numbers["ultramarine_spectrum_peak"], numbers["rose_spectrum_peak"]) <= 1.5
+    checks["broadband on hot-press and rough"] = max(
+        numbers["ultramarine_hot_press_spectrum_peak"],
+        numbers["ultramarine_rough_spectrum_peak"]) <= 1.5
     checks["papers differ (rough > hot-press)"] = (numbers["ultramarine_rough_luma_std_8bit"]
                                                    > numbers["ultramarine_hot_press_luma_std_8bit"])
     return Effect("paper (brush)", numbers, checks,
                   np.concatenate([c.render() for c in canvases], axis=1), tuple(canvases))
 
 
-BRUSH_TILES: tuple[Callable[[], Effect], ...] = (value_range, brush_glazing, paper_texture)
+# ------------------------------------------------------------------ look-b's effects, measured
+# through the brush (issue 21 items 3, 4, 5, 8): the sheet measures, the physics is look-b's.
+
+def _envelope(shape: tuple[int, int], a: tuple[float, float], b: tuple[float, float],
+              radius: float) -> np.ndarray:
+    """Cells within ``radius`` of the pen path from ``a`` to ``b`` (cell coordinates)."""
+    y, x = np.mgrid[0:shape[0], 0:shape[1]] + 0.5
+    ax, ay, bx, by = a[0], a[1], b[0], b[1]
+    dx, dy = bx - ax, by - ay
+    t = np.clip(((x - ax) * dx + (y - ay) * dy) / max(dx * dx + dy * dy, 1e-9), 0.0, 1.0)
+    return np.asarray(np.hypot(x - ax - t * dx, y - ay - t * dy) <= radius)
+
+
+def edge_position_std(dark: np.ndarray, cols: slice, top: bool = True) -> float:
+    """Standard deviation [cells] of a horizontal stroke's edge along ``cols``: per column
+    the sub-cell row where darkness first crosses half the stroke's median (linear
+    interpolation between cells), a linear trend removed. A ruler edge gives ~0."""
+    d = dark[:, cols] if top else dark[::-1, cols]
+    level = 0.5 * float(np.median(d[d > 0.02])) if (d > 0.02).any() else 0.01
+    rows = []
+    for j in range(d.shape[1]):
+        col = d[:, j]
+        k = int(np.argmax(col >= level))
+        if col[k] < level or k == 0:
+            continue
+        rows.append(k - 1 + (level - col[k - 1]) / max(col[k] - col[k - 1], 1e-9))
+    if len(rows) < 8:
+        return 0.0
+    r = np.array(rows)
+    xs = np.arange(len(r))
+    return float((r - np.polyval(np.polyfit(xs, r, 1), xs)).std())
+
+
+def brush_edges() -> Effect:
+    """Item 3: one wet-on-dry stroke of a size-32 round brush (Ultramarine 0.6, water 0.8),
+    92 cells in 0.7 s, pressure tapering off as the pen lifts while moving; dried on its own.
+    Numbers: the rim (rings from the deposit's edge over the interior), the edge position's
+    std along the stroke (sub-cell), and the end's length over the stroke's half-width (a
+    semicircle: 1)."""
+    w, h = 120, 56
+    s = Script(w, h, seed=21, rate_hz=PEN_HZ)
+    s.brush(size=32, water=0.8, pigment={"French Ultramarine": 0.6})
+    s.line((0.12, 0.5), (0.88, 0.5), 0.7, pressure=taper(0.75, start=0.4, end=0.05))
+    c = _played(s)
+    q = c.live_state.q.sum(axis=0)
+    band = edge_band(q, threshold=1.4, interior_from=6)
+    dark = darkness_map(c)
+    std = 0.5 * (edge_position_std(dark, slice(35, 85)) +
+                 edge_position_std(dark, slice(35, 85), top=False))
+    painted = dark > 0.03
+    widths = painted.sum(axis=0)
+    half = 0.5 * float(np.median(widths[35:85]))
+    cols = np.nonzero(widths)[0]
+    tip = int(cols.max()) if cols.size else 0
+    full = int(np.nonzero(widths >= 0.9 * 2 * half)[0].max()) if (widths >= 1.8 * half).any() \
+        else tip
+    cap = (tip - full) / max(half, 1e-6)
+    return Effect("edges (brush)", {"rim_width_cells": band.width, "rim_ratio": band.ratio,
+                                    "rim_ring1": band.ring_ratio[0] if band.ring_ratio else 0.0,
+                                    "edge_position_std_cells": std,
+                                    "end_length_over_half_width": cap},
+                  {"rim 2-5 cells": 2 <= band.width <= 5, "rim >= 1.4x": band.ratio >= 1.4,
+                   "edge follows the tooth (std >= 0.3)": std >= 0.3,
+                   "tapered end (> 1.5 half-widths)": cap > 1.5},
+                  c.render(), (c,))
+
+
+def _wash_then(first: Script, seed: int, until_damp: bool
+               ) -> tuple[NumpyCanvas, SessionPlayer]:
+    h = first.header
+    c = NumpyCanvas(h.width, h.height, profile=h.profile, seed=seed)
+    p = SessionPlayer(c, h.width, h.height, h.profile)
+    p.play(first.records)
+    st = c.live_state
+    inner = (slice(h.height // 4, 3 * h.height // 4), slice(h.width // 4, 3 * h.width // 4))
+    n = 0
+    while until_damp and (st.w[inner] > 0).any() and n < 6000:
+        c.step()
+        n += 1
+    return c, p
+
+
+def _later(p: SessionPlayer, w: int, h: int, seed: int) -> Script:
+    s = Script(w, h, seed=seed, rate_hz=PEN_HZ)
+    s.t = p.painting_time + 0.05
+    return s
+
+
+def _radius_cv(region: np.ndarray, cy: float, cx: float, n: int = 64) -> tuple[float, float]:
+    """Mean radius [cells] and coefficient of variation of ``region``'s outline seen from
+    (cy, cx): along each of ``n`` rays the last cell still inside."""
+    radii = []
+    for a in np.linspace(0, 2 * np.pi, n, endpoint=False):
+        r = 0.0
+        for t in np.arange(0.5, max(region.shape), 0.5):
+            y, x = int(cy + t * np.sin(a)), int(cx + t * np.cos(a))
+            if not (0 <= y < region.shape[0] and 0 <= x < region.shape[1]) or not region[y, x]:
+                break
+            r = t
+        radii.append(r)
+    rr = np.array(radii)
+    return float(rr.mean()), float(rr.std() / max(rr.mean(), 1e-9))
+
+
+def blooms() -> Effect:
+    """Item 4: (a) clear water dabbed (size 12, 0.3 s) into a brushed Ultramarine wash once
+    its standing water is gone but the paper is still wet: the bloom's front over the wash's
+    darkness, its radius CV; (b) a dab of Ultramarine (amount 1) into a fully wet clear
+    wash: its spread over the brush radius, its peak darkness over the same dab on dry
+    paper."""
+    n = 80
+    wash = Script(n, n, seed=22, rate_hz=PEN_HZ)
+    wash.brush(size=24, water=1.0, pigment={"French Ultramarine": 0.4})
+    for k in range(7):
+        y = (8 + 11 * k) / n
+        a, b = ((0.05, y), (0.95, y)) if k % 2 == 0 else ((0.95, y), (0.05, y))
+        wash.line(a, b, 0.45, pressure=0.7)
+        wash.wait(0.2)
+    c1, p1 = _wash_then(wash, 22, until_damp=True)
+    drop = _later(p1, n, n, 22)
+    drop.brush(size=12, water=1.0, pigment={})
+    drop.dab((0.5, 0.5), 0.3, pressure=0.7)
+    p1.play(drop.records)
+    run_until_dry(c1, 6000)
+    c1.dry()
+    d1 = darkness_map(c1)
+    wash_dark = float(np.median(d1[8:n - 8, 8:n - 8]))
+    pale = ndimage.binary_fill_holes(d1 < 0.85 * wash_dark)
+    lab_, _ = ndimage.label(pale)
+    centre = lab_[n // 2, n // 2]
+    bloom = lab_ == centre if centre else np.zeros_like(pale)
+    rim = ndimage.binary_dilation(bloom, iterations=3) & ~bloom
+    front = float(np.percentile(d1[rim], 75)) / max(wash_dark, 1e-6) if rim.any() else 0.0
+    radius, cv = _radius_cv(bloom, n / 2, n / 2) if bloom.any() else (0.0, 0.0)
+
+    def dab(wet: bool) -> NumpyCanvas:
+        s = Script(n, n, seed=23, rate_hz=PEN_HZ)
+        if wet:
+            s.brush(size=24, water=1.0, pigment={})
+            for k in range(7):
+                y = (8 + 11 * k) / n
+                a, b = ((0.05, y), (0.95, y)) if k % 2 == 0 else ((0.95, y), (0.05, y))
+                s.line(a, b, 0.45, pressure=0.7)
+        s.brush(size=12, water=0.8, pigment={"French Ultramarine": 1.0})
+        s.dab((0.5, 0.5), 0.3, pressure=0.7)
+        return _played(s, seed=23)
+
+    wet, dry = dab(True), dab(False)
+    dw, dd = darkness_map(wet), darkness_map(dry)
+    r_brush = BrushModel().radius(12, 0.7)
+    spread_r = float(np.sqrt((dw > 0.25 * dw.max()).sum() / np.pi)) if dw.max() > 0 else 0.0
+    peak_share = float(np.percentile(dw, 99.5) / max(np.percentile(dd, 99.5), 1e-6))
+    return Effect("blooms (brush)", {"bloom_front_ratio": front, "bloom_radius_cells": radius,
+                                     "bloom_radius_cv": cv,
+                                     "drop_spread_over_brush_radius": spread_r / r_brush,
+                                     "drop_peak_over_dry": peak_share},
+                  {"bloom front >= 1.3x": front >= 1.3, "irregular (CV >= 0.15)": cv >= 0.15,
+                   "drop spreads >= 2.5 r": spread_r >= 2.5 * r_brush,
+                   "drop stays visible (>= 0.5x dry)": peak_share >= 0.5},
+                  np.concatenate([c1.render(), wet.render(), dry.render()], axis=1),
+                  (c1, wet, dry))
+
+
+def round_dry_brush() -> Effect:
+    """Item 5: the ordinary round brush (size 20) with little water (0.1), Ultramarine 1,
+    dragged 100 cells in 0.15 s at pressure 0.5 over rough paper: bare paper inside the
+    stroke's envelope, the painted cells' darkness, streaks (correlation length along the
+    stroke over across it)."""
+    w, h = 128, 40
+    s = Script(w, h, seed=24, rate_hz=PEN_HZ, extra={"paper": "rough"})
+    s.brush(size=20, water=0.1, pigment={"French Ultramarine": 1.0})
+    s.line((0.1, 0.5), (0.9, 0.5), 0.15, pressure=0.5)
+    c = _played(s, seed=24)
+    r = BrushModel().radius(20, 0.5)
+    env = _envelope((h, w), (0.2 * w, 0.5 * h), (0.8 * w, 0.5 * h), 0.8 * r)
+    dark = darkness_map(c)
+    painted = dark > 0.03
+    bare = float(1.0 - painted[env].mean())
+    mean_dark = float(dark[env & painted].mean()) if (env & painted).any() else 0.0
+    sub = painted[int(0.5 * h - 0.6 * r):int(0.5 * h + 0.6 * r) + 1, int(0.2 * w):int(0.8 * w)]
+    ratio = _corr_length(sub.astype(np.float64), 1) / max(_corr_length(sub.astype(np.float64),
+                                                                         0), 1e-6)
+    return Effect("round dry-brush (brush)", {"bare_share": bare, "painted_darkness": mean_dark,
+                                              "streak_along_over_across": ratio},
+                  {"bare >= 25 %": bare >= 0.25, "painted visible (>= 0.20)": mean_dark >= 0.2,
+                   "streaks (along >= 2x across)": ratio >= 2.0},
+                  c.render(), (c,))
+
+
+def _corr_length(a: np.ndarray, axis: int) -> float:
+    """Lag [cells] at which the autocorrelation of ``a`` along ``axis`` falls below 1/e."""
+    a = a - a.mean()
+    var = float((a * a).mean())
+    if var <= 0:
+        return 0.0
+    for lag in range(1, a.shape[axis] // 2):
+        x = np.take(a, range(a.shape[axis] - lag), axis=axis)
+        y = np.take(a, range(lag, a.shape[axis]), axis=axis)
+        if float((x * y).mean()) / var < np.exp(-1.0):
+            return float(lag)
+    return float(a.shape[axis] // 2)
+
+
+def step_artefacts() -> Effect:
+    """Item 8: a wide (size 40) stroke pulled fast, 20 cells of pen travel per simulation
+    step (600 cells/s at 30 steps/s), wet (water 0.9) and dry (0.15): the deposit summed
+    across the stroke, per column; the share of its along-stroke variation at the step
+    length (Fourier amplitude at 1/20 cycles per cell over the mean)."""
+    w, h = 240, 56
+    out = {}
+    canvases = []
+    for key, water in (("wet", 0.9), ("dry", 0.15)):
+        s = Script(w, h, seed=25, rate_hz=PEN_HZ)
+        s.brush(size=40, water=water, pigment={"Burnt Umber": 0.6})
+        s.line((0.05, 0.5), (0.95, 0.5), 0.9 * w / 600.0, pressure=0.7)
+        c = _played(s, seed=25)
+        canvases.append(c)
+        st = c.live_state
+        prof = (st.q.sum(axis=0) + st.p.sum(axis=0)).sum(axis=0)[40:200].astype(np.float64)
+        spec = np.abs(np.fft.rfft(prof - prof.mean())) / len(prof) * 2
+        k = int(round(len(prof) / 20.0))
+        out[f"step_component_{key}"] = float(spec[k - 1:k + 2].max() / max(prof.mean(), 1e-9))
+    return Effect("step artefacts (brush)", out,
+                  {"wet <= 1 %": out["step_component_wet"] <= 0.01,
+                   "dry <= 1 %": out["step_component_dry"] <= 0.01},
+                  np.concatenate([c.render() for c in canvases], axis=0), tuple(canvases))
+
+
+BRUSH_TILES: tuple[Callable[[], Effect], ...] = (
+    value_range, brush_glazing, paper_texture, brush_edges, blooms, round_dry_brush,
+    step_artefacts)
 """The tiles painted through the brush (issue 21): the measure."""
 
 
