@@ -12,8 +12,8 @@ false): the sheet reports, it does not pretend.
 from __future__ import annotations
 
 import colorsys
-import itertools
 import dataclasses
+import itertools
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
