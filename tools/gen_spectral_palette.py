@@ -203,8 +203,11 @@ def appearances(k: np.ndarray, s: np.ndarray, m: np.ndarray | None) -> np.ndarra
 # chroma but aims at the real pigment's masstone hue (HSV of the displayed sRGB, degrees).
 # French Ultramarine PB29: Curtis's K_r = K_g makes it azure (HSV ~ 214); the pigment is a
 # violet-leaning deep blue, HSV ~ 240-250 with CIELAB a* > 0 (issue 21 item 6; the S3-
-# chromophore's band near 600 nm, see docs/canvas-model.md for the sources).
-HUE_TARGETS: dict[str, float] = {"French Ultramarine": 245.0}
+# chromophore's band near 600 nm, see docs/canvas-model.md for the sources). Quinacridone
+# Rose PV19 (a cool rose, HSV ~ 336; Curtis's K, S: 320, magenta) and Cerulean Blue PB35 (a
+# sky blue, HSV ~ 196; Curtis's: 185, turquoise): approximate painted-swatch hues.
+HUE_TARGETS: dict[str, float] = {"French Ultramarine": 245.0, "Quinacridone Rose": 336.0,
+                                 "Cerulean Blue": 196.0}
 
 
 def _hsv_hue(rgb: np.ndarray) -> float:

@@ -428,10 +428,10 @@ PALE_PIGMENTS = ("Hansa Yellow", "Cadmium Yellow", "Titanium White", "Interferen
 
 REAL_MASSTONE_HUE = {
     # HSV hue [deg] of the displayed sRGB of each pigment's full-strength watercolour
-    # stroke, read off manufacturers' painted swatches (docs/canvas-model.md, "masstone
-    # hues"); French Ultramarine's from the issue: a violet-leaning blue, 240-250.
-    "French Ultramarine": 245.0, "Cerulean Blue": 195.0, "Phthalo Green": 165.0,
-    "Hookers Green": 110.0, "Quinacridone Rose": 335.0, "Cadmium Red": 8.0,
+    # stroke: French Ultramarine's from the issue (a violet-leaning blue, 240-250); the
+    # others approximate painted-swatch hues, not measurements (docs/canvas-model.md).
+    "French Ultramarine": 245.0, "Cerulean Blue": 196.0, "Phthalo Green": 165.0,
+    "Hookers Green": 110.0, "Quinacridone Rose": 336.0, "Cadmium Red": 8.0,
     "Indian Red": 12.0, "Burnt Umber": 25.0, "Sepia": 28.0, "Brilliant Orange": 28.0,
     "Hansa Yellow": 55.0, "Cadmium Yellow": 48.0,
 }
