@@ -63,8 +63,9 @@ def reach(dp: np.ndarray, x0: float, size: float) -> float:
 @pytest.mark.parametrize("size", [3, 6])
 def test_a_half_loaded_tuft_paints_dozens_of_widths(size: float) -> None:
     # before session 4 (a reservoir of ten footprints' worth, the ink's connection to
-    # the tip lost at 0.4 of a full load by every bristle at once) this was 6-9 widths
-    assert reach(*straight(size, 0.5, 90), size) >= 25
+    # the tip lost at 0.4 of a full load by every bristle at once) this was 6-9 widths;
+    # 25 on the first two-octave rough paper, 21 on the broadband one (issue 21 item 7)
+    assert reach(*straight(size, 0.5, 90), size) >= 20
 
 
 def test_a_bigger_tuft_paints_more_of_its_widths() -> None:
@@ -119,7 +120,8 @@ def dry_end(tuft: TuftModel | None = None) -> tuple[np.ndarray, float, float]:
     z = int(x0) + int(np.flatnonzero(along[int(x0):] < 0.2)[0])
     rows = np.flatnonzero(cov[:, a:z].mean(axis=1) > 0.3)
     band = cov[rows.min():rows.max() + 1, a:z]
-    assert band.shape[1] > 10 * size and 0.3 < band.mean() < 0.7, (band.shape, band.mean())
+    # (0.70 on the broadband rough paper of issue 21 item 7, 0.6 on the first one)
+    assert band.shape[1] > 10 * size and 0.3 < band.mean() < 0.75, (band.shape, band.mean())
     return band, correlation_length(band, 1), correlation_length(band, 0)
 
 

@@ -113,7 +113,10 @@ def _height_correlation(gamma: float) -> float:
 def test_granulation_anticorrelates_with_paper_height() -> None:
     r_gran = _height_correlation(0.9)
     r_none = _height_correlation(0.0)
-    assert r_gran < -0.5, r_gran
+    # -0.51 on the first two-octave paper; the broadband cold-press (issue 21 item 7) puts
+    # relief at scales a wash's deposit does not follow cell by cell (-0.33); what a
+    # painter sees at 1:1 is asserted in test_effects_brush (luma std >= 8 of 255)
+    assert r_gran < -0.3, r_gran
     # gamma = 0: the paper height does not enter the surface exchange; what is left is
     # the chance alignment of a smooth deposit with the noise (|r| < 0.15 over seeds 0-5)
     assert abs(r_none) < 0.2, r_none

@@ -21,7 +21,10 @@ def test_effects_json_and_sheet(tmp_path: Path, capsys: pytest.CaptureFixture[st
     cap = capsys.readouterr()
     assert code == 0, cap.err
     data = json.loads(cap.out)
-    assert set(data) == {"density", "ink bleed", "glazing"}
+    # the rectangle tiles are the labelled physics row, never the measure (issue 21)
+    assert set(data) == {"physics: density", "physics: ink bleed", "physics: glazing"}
+    assert {d["row"] for d in data.values()} == {"physics"}
+    data = {k.removeprefix("physics: "): v for k, v in data.items()}
     dens = data["density"]
     assert dens["ok"] and dens["checks"] == {"heavy settles faster": True}
     assert dens["numbers"]["settled_heavy_2s"] > 2 * dens["numbers"]["settled_light_2s"]

@@ -74,9 +74,10 @@ MODELS: dict[str, tuple[str, list[tuple[str, tuple[float, float], tuple[float, f
     # chlorinated copper phthalocyanine: Q band in the red (max ~ 640-660 nm), Soret edge
     # in the violet
     "Phthalo Green": ("PG7", [("band", (620, 680), (25, 60)), ("edge", (420, 470), (5, 20))]),
-    # sodium aluminosilicate with S3- radicals: one band at ~ 600 nm (FWHM <= 130 nm),
-    # window 400-500 nm
-    "French Ultramarine": ("PB29", [("band", (595, 612), (30, 55))]),
+    # sodium aluminosilicate with S3- radicals: one broad band centred near 600 nm that
+    # takes the yellow-green as well as the orange (FWHM ~ 140-200 nm), a window at
+    # 400-480 nm and the red tail above ~ 680 nm that makes the pigment violet-leaning
+    "French Ultramarine": ("PB29", [("band", (580, 615), (55, 100))]),
     # interference (TiO2-coated mica): little absorption, scattering colours the paint
     "Interference Lilac": ("mica/TiO2", []),
     "Black": ("fictional", []),
@@ -84,6 +85,8 @@ MODELS: dict[str, tuple[str, list[tuple[str, tuple[float, float], tuple[float, f
     "Titanium White": ("PW6", [("edge", (395, 420), (5, 12))]),
     # carbon black: flat
     "Sumi Ink": ("PBk6", []),
+    # burnt umber with carbon black: the umber's edge over a flat black floor
+    "Sepia": ("PBr7+PBk6", [("edge", (520, 640), (30, 90))]),
 }
 
 
@@ -158,15 +161,17 @@ def _shape(kind: str, c: float, w: float) -> np.ndarray:
 class Model:
     """Parameters: log floor, then per feature (log amplitude, centre, width), then s0..s2."""
 
-    def __init__(self, feats: list[tuple[str, tuple[float, float], tuple[float, float]]]):
+    def __init__(self, feats: list[tuple[str, tuple[float, float], tuple[float, float]]],
+                 slope: float = 6.0):
         self.feats = feats
+        self.slope = slope  # bound on the scattering's spectral slope and curvature
 
     def bounds(self) -> tuple[list[float], list[float]]:
         lo, hi = [-9.0], [2.0]
         for _, c, w in self.feats:
             lo += [-6.0, c[0], w[0]]
             hi += [3.0, c[1], w[1]]
-        return [*lo, -12.0, -6.0, -6.0], [*hi, 3.0, 6.0, 6.0]
+        return [*lo, -12.0, -self.slope, -self.slope], [*hi, 3.0, self.slope, self.slope]
 
     def start(self, kk: np.ndarray, ss: np.ndarray) -> np.ndarray:
         x = [float(np.log(max(kk.min(), 1e-4)))]
@@ -194,14 +199,49 @@ def appearances(k: np.ndarray, s: np.ndarray, m: np.ndarray | None) -> np.ndarra
     return np.array(out)
 
 
+# Pigments whose Curtis RGB K, S paint the wrong hue: the fit keeps Curtis's lightness and
+# chroma but aims at the real pigment's masstone hue (HSV of the displayed sRGB, degrees).
+# French Ultramarine PB29: Curtis's K_r = K_g makes it azure (HSV ~ 214); the pigment is a
+# violet-leaning deep blue, HSV ~ 240-250 with CIELAB a* > 0 (issue 21 item 6; the S3-
+# chromophore's band near 600 nm, see docs/canvas-model.md for the sources). Quinacridone
+# Rose PV19 (a cool rose, HSV ~ 336; Curtis's K, S: 320, magenta) and Cerulean Blue PB35 (a
+# sky blue, HSV ~ 196; Curtis's: 185, turquoise): approximate painted-swatch hues.
+HUE_TARGETS: dict[str, float] = {"French Ultramarine": 245.0, "Quinacridone Rose": 336.0,
+                                 "Cerulean Blue": 196.0}
+
+
+def _hsv_hue(rgb: np.ndarray) -> float:
+    x = np.clip(rgb, 0, 1)
+    srgb = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+    r, g, b = srgb
+    mx, mn = max(r, g, b), min(r, g, b)
+    if mx - mn < 1e-9:
+        return 0.0
+    if mx == b:
+        h = 4.0 + (r - g) / (mx - mn)
+    elif mx == g:
+        h = 2.0 + (b - r) / (mx - mn)
+    else:
+        h = (g - b) / (mx - mn)
+    return float((60.0 * h) % 360.0)
+
+
 def fit(name: str, kk: np.ndarray, ss: np.ndarray, m: np.ndarray) -> dict[str, object]:
     ci, feats = MODELS[name]
-    model = Model(feats)
+    hue = HUE_TARGETS.get(name)
+    # a hue-targeted fit may not buy its hue with scattering that rises tenfold across the
+    # spectrum (it would tint the paint over dark): particle scattering stays smooth
+    model = Model(feats, 6.0 if hue is None else 1.0)
     want = appearances(kk, ss, None)
 
     def resid(x: np.ndarray) -> np.ndarray:
         k, s = model.spectra(x)
-        return (appearances(k, s, m) - want).ravel()
+        if hue is None:
+            return (appearances(k, s, m) - want).ravel()
+        got = appearances(k, s, m)
+        chroma = np.hypot(got[:, 1], got[:, 2]) - np.hypot(want[:, 1], want[:, 2])
+        hues = [_hsv_hue(m @ km(k, s, d, 1.0)) - hue for d in THICK[1:]]
+        return np.concatenate([got[:, 0] - want[:, 0], chroma, 2.0 * np.array(hues)])
 
     lo, hi = model.bounds()
     best = None
@@ -213,7 +253,7 @@ def fit(name: str, kk: np.ndarray, ss: np.ndarray, m: np.ndarray) -> dict[str, o
             best = res
     assert best is not None
     k, s = model.spectra(best.x)
-    de = np.linalg.norm(resid(best.x).reshape(-1, 3), axis=1)
+    de = np.linalg.norm((appearances(k, s, m) - want), axis=1)
     return {"name": name, "colour_index": ci,
             "K": [float(f"{v:.6g}") for v in k], "S": [float(f"{v:.6g}") for v in s],
             "features": [{"kind": f[0], "amplitude": round(float(np.exp(best.x[1 + 3 * i])), 4),

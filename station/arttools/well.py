@@ -34,7 +34,7 @@ class MixingWell:
     """A small mixing canvas; ``pigment_load``: area fraction of tube-strength paint (the
     profile's ``brush.pigment_load``), the unit of the brush amounts."""
 
-    def __init__(self, params: SimParams, pigment_load: float = 0.32, slots: int = 8) -> None:
+    def __init__(self, params: SimParams, pigment_load: float = 1.0, slots: int = 8) -> None:
         self.params = params.replace(alpha=0.0, eps_shallow=0.0, eps_cap=0.0,
                                      flow_outward=0.0, paper_relief=0.0, tilt=0.0,
                                      block_paper=0.0, advance_height=0.0)

@@ -17,7 +17,9 @@ out along the fibres.
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
+from importlib import resources
 
 import numpy as np
 
@@ -37,18 +39,23 @@ class PaperPreset:
     fibres: tuple[float, float] = (0.0, 0.0)
 
 
-PAPER_PRESETS: dict[str, PaperPreset] = {
-    # smooth hot-pressed paper: large soft cells, narrow height range
-    "hot-press": PaperPreset("hot-press", ((12.0, 1.0), (5.0, 0.3)), 0.3, 0.7),
-    # the watercolourist's cold-pressed paper: medium tooth, full range, and a felt of
-    # cotton fibres (channels along which moving water disperses its pigment: wet-in-wet)
-    "cold-press": PaperPreset("cold-press", ((7.0, 1.0), (3.0, 0.5)), 0.0, 1.0,
-                              fibres=(0.5, 12.0)),
-    # rough / absorbent paper for ink (xuan-like): small cells plus fine fibre noise, and a
-    # felt of long fibres the ink wicks along
-    "rough": PaperPreset("rough", ((4.0, 1.0), (2.0, 0.7), (1.3, 0.4)), 0.0, 1.0,
-                         fibres=(0.35, 14.0)),
-}
+def _load_presets() -> dict[str, PaperPreset]:
+    """The packaged papers (``station/data/papers.json``), validated."""
+    data = json.loads(resources.files("station").joinpath("data", "papers.json")
+                      .read_text(encoding="utf-8"))
+    out = {}
+    for d in data["papers"]:
+        octaves = tuple((float(a), float(b)) for a, b in d["octaves"])
+        fib = (float(d["fibres"][0]), float(d["fibres"][1]))
+        low, high = float(d["low"]), float(d["high"])
+        if not octaves or any(a <= 0 or b < 0 for a, b in octaves) or not 0 <= low < high <= 1:
+            raise CanvasInputError(f"papers.json: malformed paper {d.get('name')!r}")
+        out[str(d["name"])] = PaperPreset(str(d["name"]), octaves, low, high, fib)
+    return out
+
+
+PAPER_PRESETS: dict[str, PaperPreset] = _load_presets()
+"""Papers by name: hot-press, cold-press, rough (data: ``station/data/papers.json``)."""
 
 
 def worley_f1(height: int, width: int, spacing: float, rng: np.random.Generator) -> np.ndarray:

@@ -278,15 +278,20 @@ class BrushDefaults:
     """Defaults the round brush of a profile starts from.
 
     radius [cells] at full pressure; water [height] deposited per stamp at full pressure;
-    pigment_load [area fraction]: pigment of a full stamp of tube-strength paint (brush
-    amount 1): a paint film about a third pigment by area, as tube watercolour is before
-    it is thinned; amount: the brush amount the profile starts with (a mid wash, 1/4 of
-    tube strength) [1]; pigment: the default pigment name.
+    pigment_load [KM thickness per cell]: pigment a full-pressure stamp of tube-strength
+    paint (brush amount 1) lays in one pass, in the units of the palette's K and S (K d is
+    the layer's optical depth). 1.0 is calibrated on appearance (issue 21): one
+    full-strength pass of a dark pigment then measures 0.4-0.6 darkness, as real strokes do
+    on Curtis et al.'s scans (0.20-0.62), and amount 0.03 a tint below 0.08. The brush
+    amount is the paint's concentration relative to tube strength: pigment per unit of
+    water = amount x pigment_load / water, so thinning is linear in it. amount: the brush
+    amount the profile starts with (a mid wash, 1/4 of tube strength) [1]; pigment: the
+    default pigment name.
     """
 
     radius: float = 6.0
     water: float = 0.5
-    pigment_load: float = 0.32
+    pigment_load: float = 1.0
     pigment: str = "French Ultramarine"
     amount: float = 0.25
 

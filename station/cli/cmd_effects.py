@@ -24,13 +24,14 @@ from station.render.upscale import MAX_SCALE
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("effects", help="paint and measure the watercolour effects sheet",
-                       description="Paints edge darkening, wet-in-wet, backrun, "
-                                   "granulation, glazing, staining vs lifting, density, "
-                                   "the wet window, gouache over dark, ink bleed, dry-brush, "
-                                   "the ink's flying white, the wet-on-dry edge and flow "
-                                   "patterns on small canvases, measures each and writes a "
+                       description="Paints through the brush, from pen samples at a "
+                                   "painter's speed, pressure and waits (the measure): the "
+                                   "value range and masstone hues, glazing vs a wet mix, "
+                                   "flat washes on three papers, edges, blooms, dry-brush "
+                                   "and step artefacts; then the rectangle tiles as a "
+                                   "labelled physics row. Measures each and writes a "
                                    "labelled sheet drawn at --scale pixels per cell (about "
-                                   "two minutes on one core).")
+                                   "five minutes on one core).")
     p.add_argument("-o", "--output", default="effects.png", metavar="OUT.png",
                    help="sheet to write (default effects.png)")
     p.add_argument("--json", action="store_true", help="print the numbers as JSON on stdout")

@@ -94,8 +94,12 @@ def run_make(args: argparse.Namespace) -> int:
     gallery = Gallery(root)
     budget = args.max_memory or _default_budget_mb(gallery.meta(args.id) or {})
     # a hostile or huge log must not take the kiosk's memory: the data segment (heap
-    # and anonymous maps) is capped; a MemoryError past it is this painting's failure
-    resource.setrlimit(resource.RLIMIT_DATA, (budget << 20, budget << 20))
+    # and anonymous maps) is capped; a MemoryError past it is this painting's failure.
+    # Only the soft limit, given back after: `gallery make` may run inside a longer-lived
+    # process (a test, a script), which must not keep the budget.
+    soft, hard = resource.getrlimit(resource.RLIMIT_DATA)
+    cap = budget << 20 if hard == resource.RLIM_INFINITY else min(budget << 20, hard)
+    resource.setrlimit(resource.RLIMIT_DATA, (cap, hard))
     try:
         made = gallery.make(args.id)
     except (MemoryError, OSError) as exc:  # out of budget (a library's mmap fails: OSError)
@@ -106,6 +110,8 @@ def run_make(args: argparse.Namespace) -> int:
         # the negative cache: no web request starts this replay again
         gallery.mark_failed(args.id, f"{type(exc).__name__}: {exc}")
         raise
+    finally:
+        resource.setrlimit(resource.RLIMIT_DATA, (soft, hard))
     for path in made:
         sys.stdout.write(f"{path}\n")
     return 0

@@ -139,6 +139,10 @@ def run(args: argparse.Namespace) -> int:
                     raise StationError(f"the station process on {pub.url} refused this "
                                        f"client's CURVE key ({key}): it is not in its "
                                        "authorized/ directory")
+                if expect != "kiosk":
+                    # nobody to answer: a command the sim would refuse is still bad
+                    # input (exit 2), said as the sim would say it
+                    _check_here(command)
                 raise StationError(f"no station {expect or 'process'} listens on {pub.url} "
                                    "(is it running? its --cmd endpoint?)")
             pub.publish_cmd(command)

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from station.brush.stamp import brush_kinds
+from station.brush.stamp import BrushModel, brush_kinds
 from station.canvas.palette import Palette
 from station.kiosk.views import VIEWS
 from station.render.km import linear_to_srgb, on_white
@@ -28,6 +28,12 @@ from station.sim import player
 
 MAX_MIX = 4  # pigments in one mix (a layer holds 8; a mix of more is mud anyway)
 VIEW_LABELS = {"2d": "Top", "3d": "Table", "follow": "Brush"}
+
+
+PASS_THICKNESS = 1.0 * BrushModel().load(0.7)
+"""Pigment thickness one pass of tube-strength paint lays at a painter's pressure (0.7):
+the profiles' ``pigment_load`` (1.0) times the brush's load at that pressure. Swatches are
+drawn at it, so they show what the brush paints (issue 21 item 6)."""
 
 
 def swatch(palette: Palette, mix: dict[str, float], thickness: float = 0.35
@@ -181,11 +187,11 @@ def draw_panel(st: PanelState, width: float, height: float, status: str,
             imgui.same_line()
         imgui.push_id(name)
         if _button(imgui, "##p", sw, sw * 0.8, rects, f"pigment:{name}",
-                   color=swatch(st.palette, {name: 1.0}, 1.5)):
+                   color=swatch(st.palette, {name: 1.0}, PASS_THICKNESS)):
             st.add_pigment(name)
         imgui.pop_id()
     # current mix
-    mix_rgb = swatch(st.palette, st.mix)
+    mix_rgb = swatch(st.palette, st.mix, st.strength * PASS_THICKNESS)
     _button(imgui, "mix" if st.mix else "water", avail * 0.55, row_h, rects, "mix",
             color=mix_rgb)
     imgui.same_line()

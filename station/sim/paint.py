@@ -36,6 +36,7 @@ from station.backends.factory import (  # auto: resolve_auto decides, once
 )
 from station.backends.protocol import CanvasBackend
 from station.canvas.palette import default_palette
+from station.canvas.paper import PAPER_PRESETS
 from station.canvas.profiles import get_profile
 from station.canvas.state import CanvasState
 from station.errors import BadInput, StationError
@@ -65,7 +66,9 @@ class PaintInputError(BadInput):
 
 def parse_size(text: str, where: str = "--size") -> tuple[int, int]:
     """``"WxH"`` → ``(W, H)``; anything impossible raises :class:`PaintInputError`."""
-    return sizes.parse_size(text, where, PaintInputError)
+    w, h = sizes.parse_size(text, where, PaintInputError)
+    sizes.check_memory(w, h, where, PaintInputError)
+    return w, h
 
 
 BYTES_PER_CELL = sizes.BYTES_PER_CELL
@@ -269,6 +272,7 @@ def paint(
             rate = float(logged_rate)  # the rate the session was recorded at
         seed = start.seed if start is not None else header.seed
         canvas: CanvasBackend
+        backend_opts = {**session_paper(header, f"{input_path}:1"), **(backend_opts or {})}
         if distributed:
             canvas, backend = create_distributed(backend, width, height, prof.name, seed,
                                                **(backend_opts or {}))
@@ -364,3 +368,16 @@ def write_outputs(canvas: CanvasBackend, result: PaintResult, out_png: str | Non
 def write_image(path: str, rgb: np.ndarray, bits: int = 8) -> None:
     """Write linear reflectance ``rgb`` (H, W, 3) as an sRGB PNG of ``bits`` per channel."""
     write_png(path, to_srgb16(rgb) if bits == 16 else to_srgb8(rgb))
+
+
+def session_paper(header: SessionHeader, where: str) -> dict[str, str]:
+    """The paper a session chose (header key ``paper``: a name of
+    ``station/data/papers.json``) as a backend option; {} for the profile's own paper.
+    An unknown name is bad input (exit 2)."""
+    paper = header.extra.get("paper")
+    if paper is None:
+        return {}
+    if not isinstance(paper, str) or paper not in PAPER_PRESETS:
+        raise PaintInputError(f"header paper {paper!r:.40} is not a known paper "
+                              f"({', '.join(PAPER_PRESETS)})", where)
+    return {"paper": paper}

@@ -1,0 +1,71 @@
+"""Issue 21 (look-a's part): the effects measured on strokes painted through the brush, as
+a person paints (pen samples played by the session player; no rectangles)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from station.canvas.palette import default_palette
+from station.canvas.paper import PAPER_PRESETS, make_paper
+from station.errors import BadInput
+from station.kiosk.ui import PASS_THICKNESS, swatch
+from station.pictures import effects as fx
+from station.sessionlog import SessionHeader
+from station.sim.paint import session_paper
+
+
+@pytest.mark.parametrize("pigment", ["French Ultramarine", "Burnt Umber"])
+def test_a_painters_value_range_through_the_brush(pigment: str) -> None:
+    """Item 2: tint <= 0.08 darkness, one full-strength pass >= 0.35 (a dark pigment), two
+    passes darker than one; item 6: the pass's hue within 10 deg of the real pigment."""
+    c = fx._value_canvas(pigment)
+    tint, full, two, hue = fx.value_stats(c)
+    assert tint <= 0.08, tint
+    assert full >= 0.35, full
+    assert two >= full + 0.03, (full, two)
+    assert fx._hue_off(hue, fx.REAL_MASSTONE_HUE[pigment]) <= 10.0, hue
+    # the kiosk's palette swatch shows what that pass paints (it drew 1.8x thicker: dE ~ 30)
+    m = fx._row_mask(c, fx.VALUE_H // 2, 4, 18, 54)
+    stroke = c.render()[m].mean(axis=0)
+    sw = np.array(swatch(default_palette(), {pigment: 1.0}, PASS_THICKNESS))
+    sw_linear = np.where(sw <= 0.04045, sw / 12.92, ((sw + 0.055) / 1.055) ** 2.4)
+    assert fx.delta_e76(sw_linear, stroke) <= 8.0
+
+
+def test_glaze_through_the_brush_reads_green_and_unlike_the_wet_mix() -> None:
+    e = fx.brush_glazing()
+    assert e.numbers["delta_e76_glaze_vs_mix"] >= 5.0, e.numbers
+    assert 90.0 <= e.numbers["glaze_hue_srgb_deg"] <= 160.0, e.numbers
+
+
+def test_a_brushed_granulating_wash_is_visible_and_broadband() -> None:
+    """Item 7: a flat Ultramarine wash laid by the brush, darkness >= 0.3, shows its
+    granulation at 1:1 (luma std >= 8 of 255) without a dominant texture scale."""
+    c = fx.flat_wash("French Ultramarine", 0.7)
+    inner = (slice(16, fx.WASH - 16), slice(12, fx.WASH - 12))
+    lum = fx.luma(c.render())[inner]
+    assert float(fx.darkness_map(c)[inner].mean()) >= 0.3
+    assert float(lum.std()) * 255 >= 8.0
+    peak, _ = fx.spectral_peak(lum)
+    assert peak <= 1.5, peak
+
+
+def test_spectral_peak_finds_a_single_scale_and_passes_broadband_noise() -> None:
+    rng = np.random.default_rng(0)
+    _, x = np.mgrid[0:96, 0:96]
+    ripple = np.sin(2 * np.pi * x / 8.0) + 0.3 * rng.standard_normal((96, 96))
+    peak, wavelength = fx.spectral_peak(ripple)
+    assert peak > 3.0 and 7.0 <= wavelength <= 9.5
+    assert fx.spectral_peak(rng.standard_normal((96, 96)))[0] <= 1.5
+
+
+def test_papers_are_data_and_chosen_per_session() -> None:
+    assert {"hot-press", "cold-press", "rough"} <= set(PAPER_PRESETS)
+    for name in PAPER_PRESETS:
+        assert fx.spectral_peak(make_paper(name, 96, 96, 3))[0] <= 1.5, name
+    hdr = SessionHeader(64, 64, extra={"paper": "rough"})
+    assert session_paper(hdr, "x:1") == {"paper": "rough"}
+    assert session_paper(SessionHeader(64, 64), "x:1") == {}
+    with pytest.raises(BadInput):
+        session_paper(SessionHeader(64, 64, extra={"paper": "../etc"}), "x:1")
