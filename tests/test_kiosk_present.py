@@ -107,8 +107,8 @@ def _app(display: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, present:
                       idle=IdleConfig(attract_after=3600, finish_after=7200))
     app = KioskApp(cfg)
     app.display_name = display
-    real = app.session.sub
-    app.session.sub = _Queue()
+    real = app.session.sim.sub
+    app.session.sim.sub = _Queue()
     real.close()
     return app
 

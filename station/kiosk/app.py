@@ -43,17 +43,29 @@ from typing import Any
 
 import numpy as np
 
+from station.bus import Publisher, Subscriber
+from station.canvas.palette import default_palette
+from station.canvas.params import get_profile
+from station.canvas.render import to_srgb8
 from station.errors import BadInput, StationError
 from station.events import Command, PenSample, Tool
 from station.kiosk.compose import Box, Compositor, merge_rects, screen_box
 from station.kiosk.display import CpuDisplay, GpuDisplay, make_display
-from station.kiosk.gallery import Gallery, GalleryServer, new_id, painting_url, qr_matrix
+from station.kiosk.gallery import (
+    Gallery,
+    GalleryServer,
+    default_base_url,
+    new_id,
+    painting_url,
+    qr_matrix,
+)
 from station.kiosk.idle import IdleClock, IdleConfig
 from station.kiosk.predict import LagEstimate, PenPredictor, PredictConfig
 from station.kiosk.present import PRESENT_MODES, Presenter
 from station.kiosk.session import KioskSession
+from station.kiosk.ui import PanelState, draw_banner, draw_panel, draw_qr
 from station.kiosk.views import VIEWS, Camera, Viewport, input_camera, make_camera
-from station.sim.live import DEFAULT_CMD_ENDPOINT, LiveConfig
+from station.sim.live import DEFAULT_CMD_ENDPOINT, LiveConfig, default_status_endpoint
 
 log = logging.getLogger(__name__)
 
@@ -165,16 +177,60 @@ def _gl_function(name: str) -> Any:
     return None
 
 
+@dataclass
+class _FrameTimes:
+    """``perf_counter`` marks of one frame's parts (all equal to the start when no frame
+    is drawn): tiles rendered, UI composed, late latch drained, preview rendered, the
+    back buffer filled, shown."""
+
+    start: float
+    tiles: float = 0.0
+    ui: float = 0.0
+    drained: float = 0.0
+    preview: float = 0.0
+    present: float = 0.0
+    shown: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("tiles", "ui", "drained", "preview", "present", "shown"):
+            setattr(self, name, self.start)
+
+
 class KioskApp:
     """The window, the current painting, the panel, the gallery (see module docstring)."""
 
     def __init__(self, cfg: KioskConfig) -> None:
         try:
-            import glfw
-            import moderngl
+            import glfw  # optional extra (painting-station[kiosk])
+            import moderngl  # optional extra
         except ImportError as exc:
             raise StationError(f"the kiosk needs glfw and moderngl ({exc}); "
                                "pip install 'painting-station[kiosk]'") from None
+        self.cfg = self._checked_config(cfg)
+        self.glfw = glfw
+        # the window's thread gets the interpreter back from the simulation thread's
+        # Python within half a millisecond (the default 5 ms would be a third of a 60 Hz
+        # frame, and every bus read gives it up)
+        sys.setswitchinterval(0.0005)
+        self.window = self._open_window(glfw, self.cfg)
+        self.ctx: Any = moderngl.create_context()
+        self._lay_out()
+        self._programs()
+        self._open_gallery()
+        self._open_endpoints()
+        self._make_panel()
+        self._init_frame_state()
+        self.session: KioskSession = self._new_session()
+        self.display: CpuDisplay | GpuDisplay = make_display(self.ctx, self.session)
+        self.compositor = Compositor(self.ctx, self.size)
+        self.presenter = Presenter(glfw, self.window, str(self.ctx.info.get("GL_RENDERER", "")),
+                                   self.size, self.cfg.present, self.cfg.vsync)
+
+    # -- start-up, in parts -----------------------------------------------------------
+    @staticmethod
+    def _checked_config(cfg: KioskConfig) -> KioskConfig:
+        """``cfg`` checked (bad input: :class:`BadInput`), with the simulation in the
+        frame loop where numba's threading layer cannot run two threads' kernels."""
         if cfg.present not in PRESENT_MODES:
             raise BadInput(f"unknown present mode {cfg.present!r} (one of "
                            f"{', '.join(PRESENT_MODES)})", "--present")
@@ -188,12 +244,12 @@ class KioskApp:
             log.warning("numba's threading layer is not thread-safe here (install tbb): "
                         "the simulation steps in the frame loop")
             cfg = dataclasses.replace(cfg, sim_thread=False)
-        self.cfg = cfg
-        self.glfw = glfw
-        # the window's thread gets the interpreter back from the simulation thread's
-        # Python within half a millisecond (the default 5 ms would be a third of a 60 Hz
-        # frame, and every bus read gives it up)
-        sys.setswitchinterval(0.0005)
+        return cfg
+
+    @staticmethod
+    def _open_window(glfw: Any, cfg: KioskConfig) -> Any:
+        """The window (fullscreen on ``cfg.monitor``, or ``cfg.window``) with its GL
+        context current; a visitor cannot close it."""
         if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
             raise StationError("no display: the kiosk needs X or Wayland (try Xvfb)")
         if not glfw.init():
@@ -214,29 +270,36 @@ class KioskApp:
             monitor = monitors[cfg.monitor]
             mode = glfw.get_video_mode(monitor)
             width, height = mode.size.width, mode.size.height
-        self.window = glfw.create_window(width, height, "station kiosk", monitor, None)
-        if not self.window:
+        window = glfw.create_window(width, height, "station kiosk", monitor, None)
+        if not window:
             glfw.terminate()
             raise StationError("glfw could not open a window"
                                + (" with OpenGL 4.3 (the gl backend needs it)" if gl43 else ""))
-        glfw.make_context_current(self.window)
+        glfw.make_context_current(window)
         glfw.swap_interval(1 if cfg.vsync else 0)
         # a visitor cannot close the kiosk: refuse every close request
-        glfw.set_window_close_callback(self.window,
-                                       lambda w: glfw.set_window_should_close(w, False))
+        glfw.set_window_close_callback(window, lambda w: glfw.set_window_should_close(w, False))
         if cfg.fullscreen:
-            glfw.set_input_mode(self.window, glfw.CURSOR, glfw.CURSOR_HIDDEN)
-        self.ctx: Any = moderngl.create_context()
-        self.size = tuple(glfw.get_framebuffer_size(self.window))
-        w, h = self.size
-        self.panel_w = int(max(300, w * cfg.panel_fraction))
-        self.area = Viewport(self.panel_w, 0, w - self.panel_w, h)
-        self.aspect = cfg.width / cfg.height
+            glfw.set_input_mode(window, glfw.CURSOR, glfw.CURSOR_HIDDEN)
+        return window
 
+    def _lay_out(self) -> None:
+        """The window's size, the panel's width, the canvas's area, the ImGui layer."""
+        fb = self.glfw.get_framebuffer_size(self.window)
+        self.size: tuple[int, int] = (int(fb[0]), int(fb[1]))
+        w, h = self.size
+        self.panel_w = int(max(300, w * self.cfg.panel_fraction))
+        self.area = Viewport(self.panel_w, 0, w - self.panel_w, h)
+        self.aspect = self.cfg.width / self.cfg.height
+        # imgui-bundle is an optional extra (painting-station[kiosk]), like glfw
         from station.kiosk.imgui_gl import ImGuiLayer
 
         self.gui = ImGuiLayer(self.ctx, (w, h), scale=max(1.5, h / 480))
-        self._programs()
+
+    def _open_gallery(self) -> None:
+        """The gallery, its live directory (logs and autosaves of paintings in progress)
+        and its web page's server."""
+        cfg = self.cfg
         self.gallery = Gallery(cfg.gallery)
         self.live_dir = self.gallery.root / ".live"
         self.live_dir.mkdir(exist_ok=True)
@@ -247,40 +310,52 @@ class KioskApp:
             self.server = GalleryServer(self.gallery, host or "0.0.0.0", int(port),
                                         base_url).start()
             if base_url is None:
-                from station.kiosk.gallery import default_base_url
-
                 base_url = default_base_url(self.server.port)
         self.base_url = base_url or "http://127.0.0.1:8080"
 
-        from station.bus import Publisher, Subscriber
-        from station.canvas.palette import default_palette
-        from station.kiosk.ui import PanelState
-        from station.sim.live import default_status_endpoint
-
+    def _open_endpoints(self) -> None:
+        """The status publisher, the drivers' status, ``station send``'s endpoint (the
+        paintings' sessions come and go; these stay)."""
+        cfg = self.cfg
         status_ep = cfg.status or default_status_endpoint(cfg.bus)
         keys, client_key = cfg.keys, cfg.client_key  # CURVE, used on tcp only
         self.pub = None if status_ep == "none" else Publisher(status_ep, keys=keys,
                                                               client_key=client_key)
         self.driver_sub = Subscriber(cfg.bus, topics=("status",), keys=keys,
                                      client_key=client_key)
-        # `station send` reaches the kiosk here (the sessions come and go; this stays)
         cmd_ep = cfg.cmd or "@" + DEFAULT_CMD_ENDPOINT
         self.cmd_sub = None if cmd_ep == "none" else Subscriber(
             cmd_ep if cmd_ep[0] in "@>" else "@" + cmd_ep, topics=("cmd",), keys=keys,
             client_key=client_key)
-        from station.canvas.params import get_profile
 
-        brush = get_profile(cfg.profile).brush
-        self.panel = PanelState(default_palette(), self._send, self.save_now, view=cfg.view,
-                                mix={brush.pigment: 1.0}, size=2.0 * brush.radius,
+    def _make_panel(self) -> None:
+        """The panel, with the profile's brush, and the idle clock."""
+        brush = get_profile(self.cfg.profile).brush
+        self.panel = PanelState(default_palette(), self._send, self.save_now,
+                                view=self.cfg.view, mix={brush.pigment: 1.0},
+                                size=2.0 * brush.radius,
                                 can_undo=lambda: self.session.history.can_undo())
         self.rects: dict[str, Any] = {}
-        self.idle = IdleClock(cfg.idle, time.monotonic())
+        self.idle = IdleClock(self.cfg.idle, time.monotonic())
+
+    def _init_frame_state(self) -> None:
+        """What the loop keeps between frames: the pen, the driver, the gallery's
+        saves, the bench's records, the caches of the UI, compositing and presenting."""
+        # the pen and what it holds
         self.stop_requested = False
         self.capture: str | None = None  # "ui" or "canvas" while the tip is down
         self.hover: tuple[float, float] | None = None  # canvas (u, v) of the pen
         self.touching = False
         self.follow_at = (0.5, 0.5)
+        self.lag = LagEstimate(initial=AUTO_HORIZON_START_S)
+        cfg = self.cfg
+        self.predictor = PenPredictor(PredictConfig(
+            horizon_s=self.lag.value if cfg.predict_ms is None else max(cfg.predict_ms, 0.0)
+            / 1000))
+        self._pen_received = 0.0  # monotonic time the last pen sample came
+        self._pen_read = 0.0  # ... and when its driver read it (monotonic)
+        self._shadow_read = 0.0  # the read time of the sample this frame's shadow is from
+        # the driver, the gallery, the operator
         self.driver_state = "unknown"
         self.driver_seen = 0.0
         self.driver_events: list[str] = []
@@ -290,49 +365,39 @@ class KioskApp:
         self.qr_url: str | None = None
         self.qr_texture: Any = None
         self.screenshots: list[Path] = []
+        self._fresh_requested = False  # an operator's "fresh" command
+        # counts and the latency bench's records: pen samples (read time, device time, x,
+        # y, touching) in window pixels, and per frame (shown, last sample's x, y, the
+        # shadow's predicted x, y); per frame: seconds from the late latch to shown,
+        # samples that made paint in it
         self.frames = 0
+        self.frame_errors = 0
         self.latencies: list[float] = []
         self.phase = {"wait": 0.0, "input": 0.0, "sim": 0.0, "render": 0.0, "ui": 0.0,
                       "present": 0.0}
-        self._need_draw = True
-        self._last_draw = 0.0
-        self._fresh_requested = False  # an operator's "fresh" command
-        self._brush_key: tuple[Any, ...] | None = None
-        self._glfinish = _gl_function("glFinish")
-        self._glflush = _gl_function("glFlush")
-        self._frame_boxes: list[Box] = []  # what this frame redrew in the picture
-        self.frame_pixels = 0  # ... in pixels (both compositions of the frame)
-        self._frame_full = False  # ... everything (a new camera)
-        self.lag = LagEstimate(initial=AUTO_HORIZON_START_S)
-        self.predictor = PenPredictor(PredictConfig(
-            horizon_s=self.lag.value if cfg.predict_ms is None else max(cfg.predict_ms, 0.0)
-            / 1000))
-        self._pen_received = 0.0  # monotonic time the last pen sample came
-        self._pen_read = 0.0  # ... and when its driver read it (monotonic)
-        self._shadow_read = 0.0  # the read time of the sample this frame's shadow is from
-        # the latency bench's records: pen samples (read time, device time, x, y,
-        # touching) in window pixels, and per frame (shown, last sample's x, y, the
-        # shadow's predicted x, y)
         self.pen_log: list[tuple[float, float, float, float, bool]] | None = None
         self.cursor_log: list[tuple[float, float, float, float, float]] | None = None
-        # per frame: seconds from the late latch to shown, samples that made paint in it
         self.tail_log: list[tuple[float, int]] | None = None
         self._cursor_drawn: tuple[tuple[float, float], tuple[float, float]] | None = None
-        self.frame_errors = 0
+        # the loop's pace
+        self._need_draw = True
+        self._last_draw = 0.0
+        self._last_pass_s = 0.0  # wall time of the last pass of the loop
         self._next_status = 0.0
         self._status_due = 0.0
         self._status_cache = ""
+        self._brush_key: tuple[Any, ...] | None = None
+        self._glfinish = _gl_function("glFinish")
+        self._glflush = _gl_function("glFlush")
         # the UI is built only when what it shows may have changed (compose)
         self._ui_last_key: tuple[Any, ...] | None = None
         self._ui_built = 0.0
-        self._last_pass_s = 0.0  # wall time of the last pass of the loop
         self._ui_hash = 0
         self._ui_bounds: Box | None = None
-        self.session: KioskSession = self._new_session()
-        self.display: CpuDisplay | GpuDisplay = make_display(self.ctx, self.session)
-        self.compositor = Compositor(self.ctx, (w, h))
-        self.presenter = Presenter(glfw, self.window, str(self.ctx.info.get("GL_RENDERER", "")),
-                                   (w, h), cfg.present, cfg.vsync)
+        # compositing and presenting
+        self._frame_boxes: list[Box] = []  # what this frame redrew in the picture
+        self.frame_pixels = 0  # ... in pixels (both compositions of the frame)
+        self._frame_full = False  # ... everything (a new camera)
         self._present_rects: list[Box] | None = None  # this frame's partial present
         self._shadow_box: Box | None = None  # where the last frame drew the shadow
         self._last_whole = 0.0  # monotonic time of the last whole present
@@ -390,11 +455,7 @@ class KioskApp:
                 "painting_seconds": st["painting_time"]}
 
     def _render_srgb8(self) -> np.ndarray:
-        from station.canvas.render import to_srgb8
-
-        with self.session.lock:
-            self.session._wait_step()
-            return to_srgb8(self.session.canvas.render())
+        return to_srgb8(self.session.render_between_steps())
 
     def _gl_finish(self) -> None:
         """``glFinish`` through ctypes, which lets the simulation thread run while the GL
@@ -712,8 +773,6 @@ class KioskApp:
 
     def build_ui(self, dt: float) -> int:
         """One ImGui frame (panel, QR, banners), not drawn yet; returns its hash."""
-        from station.kiosk.ui import draw_banner, draw_panel, draw_qr
-
         self.gui.new_frame(dt)
         w, h = self.size
         self.rects = {}
@@ -839,6 +898,27 @@ class KioskApp:
         """
         t0 = time.perf_counter()
         self.glfw.poll_events()
+        busy, got_input = self._take_input()
+        tw = time.perf_counter()
+        now = time.monotonic()
+        got_input = self._operator_and_idle(now) or got_input
+        t1 = time.perf_counter()
+        times = _FrameTimes(t1)
+        if self._frame_due(now, got_input):
+            got_input = self._draw_frame(now, dt, times) or got_input
+        # ImGui spreads pen events queued together over the next frames: draw one more
+        self._need_draw = got_input
+        self._steps_or_housekeeping()
+        t_end = time.perf_counter()
+        if busy:  # a pass that did not wait for the bus
+            self._last_pass_s = t_end - t0
+        self._account(t0, tw, t1, times, t_end)
+        self.maybe_publish_status()
+
+    # -- the parts of a pass ------------------------------------------------------------
+    def _take_input(self) -> tuple[bool, bool]:
+        """Wait for the bus as long as the kiosk may (not at all when a frame is due),
+        then handle what came; returns (the pass is busy, input came)."""
         s = self.session
         urgent = self._need_draw or bool(self.screenshots)
         busy = (urgent or s.whole_dirty or bool(s.dirty.any()) or self.display.behind())
@@ -855,97 +935,117 @@ class KioskApp:
         # handling may take half as long as the last pass took: it keeps up with the pen
         # on a slow pass, and a queue that grew cannot hold the frames back
         s.drain(wait_ms, 0.5 * self._last_pass_s)
-        tw = time.perf_counter()
-        got_input = s.sub.stats.received != received
+        return busy, s.sub.stats.received != received
+
+    def _operator_and_idle(self, now: float) -> bool:
+        """``station send``'s commands, the drivers' status, a fresh canvas when asked
+        for or idle, the panel following the painting's brush; ``True``: the picture
+        changed (a fresh canvas)."""
         self._commands()
         self._driver_status()
         if self._fresh_requested:
             self._fresh_requested = False
             self.fresh_canvas("operator")
-        now = time.monotonic()
         if self.session.painted_stamps > 0:
             self.idle.painted = True
         self._sync_panel()
         if self.idle.should_finish(now):
             pid = self.fresh_canvas("idle")
             log.info("idle: painting %s saved to the gallery, fresh canvas", pid)
-            got_input = True
+            return True
+        return False
+
+    def _frame_due(self, now: float, got_input: bool) -> bool:
+        """Whether to draw: new stamps come with input (their preview is drawn then); a
+        step's changes come as dirty tiles; a quiet kiosk every REDRAW_EVERY_S."""
         s = self.session
-        # new stamps come with input (their preview is drawn then); a step's changes
-        # come as dirty tiles
-        draw = (self._need_draw or got_input or bool(self.screenshots) or s.whole_dirty
+        return (self._need_draw or got_input or bool(self.screenshots) or s.whole_dirty
                 or bool(s.dirty.any()) or self.display.behind()
                 or now - self._last_draw >= REDRAW_EVERY_S)
-        t1 = time.perf_counter()
-        t_tiles = t_ui = t_drained = t_preview = t_present = t_shown = t1
-        if draw:
-            self.frame_pixels = 0
-            with s.lock:  # not while a step hands its sources over (the kernel may run)
-                self.display.update_tiles()
-            t_tiles = time.perf_counter()
-            self.build_ui_if_changed(now - self._last_draw if self._last_draw else dt)
-            cam = self.camera()
-            self.compose_changes(cam)
-            # the late latch: what the pen sent while the tiles and the UI were drawn is
-            # shown in this frame, not the next (what stands between a sample and the
-            # screen is only its stamps' preview, their composition and the present)
-            t_ui = time.perf_counter()
-            n_early = len(s.awaiting_paint)
-            received = s.sub.stats.received
-            s.drain(0, LATCH_BUDGET_S, floor_s=0.0)
-            got_input = got_input or s.sub.stats.received != received
-            t_drained = time.perf_counter()
-            with s.lock:
-                self.display.update_preview()
-            t_preview = time.perf_counter()
-            self.compose_changes(cam)
-            self.fill_back_buffer(cam)
-            for path in self.screenshots:
-                self._screenshot(path)
-            self.screenshots.clear()
-            t_present = time.perf_counter()
-            if self._present_rects is None:
-                self._gl_finish()
-                self.presenter.present_whole()
-            else:
-                self.presenter.present_rects(self._present_rects)
-                self._gl_finish()
-            shown = time.monotonic()
-            t_shown = time.perf_counter()
-            for t_read in s.awaiting_paint:
-                self.latencies.append(shown - t_read)
-            if self.tail_log is not None:
-                self.tail_log.append((t_shown - t_ui, len(s.awaiting_paint) - n_early))
-            if self._cursor_drawn is not None and self.cfg.predict_ms is None:
-                lag = shown - self._shadow_read
-                if lag <= self.predictor.cfg.stale_s:  # a moving pen (a still one is not
-                    # predicted, and its lag is only the time it stood still)
-                    self.predictor.cfg = dataclasses.replace(self.predictor.cfg,
-                                                             horizon_s=self.lag.add(lag))
-            if self.cursor_log is not None and self._cursor_drawn is not None:
-                (rx, ry), (qx, qy) = self._cursor_drawn
-                self.cursor_log.append((shown, rx, ry, qx, qy))
-            s.awaiting_paint.clear()
-            self._last_draw = shown
-            self.frames += 1
-        # ImGui spreads pen events queued together over the next frames: draw one more
-        self._need_draw = got_input
+
+    def _draw_frame(self, now: float, dt: float, times: _FrameTimes) -> bool:
+        """Tiles, UI, their composition, the late latch, the preview, present; returns
+        whether the late latch took input."""
+        s = self.session
+        self.frame_pixels = 0
+        with s.lock:  # not while a step hands its sources over (the kernel may run)
+            self.display.update_tiles()
+        times.tiles = time.perf_counter()
+        self.build_ui_if_changed(now - self._last_draw if self._last_draw else dt)
+        cam = self.camera()
+        self.compose_changes(cam)
+        # the late latch: what the pen sent while the tiles and the UI were drawn is
+        # shown in this frame, not the next (what stands between a sample and the
+        # screen is only its stamps' preview, their composition and the present)
+        times.ui = time.perf_counter()
+        n_early = len(s.awaiting_paint)
+        received = s.sub.stats.received
+        s.drain(0, LATCH_BUDGET_S, floor_s=0.0)
+        latched = s.sub.stats.received != received
+        times.drained = time.perf_counter()
+        with s.lock:
+            self.display.update_preview()
+        times.preview = time.perf_counter()
+        self.compose_changes(cam)
+        self.fill_back_buffer(cam)
+        for path in self.screenshots:
+            self._screenshot(path)
+        self.screenshots.clear()
+        times.present = time.perf_counter()
+        shown = self._present()
+        times.shown = time.perf_counter()
+        self._record_shown(shown, times, n_early)
+        return latched
+
+    def _present(self) -> float:
+        """The back buffer to the screen, whole or by rectangles; when it was shown."""
+        if self._present_rects is None:
+            self._gl_finish()
+            self.presenter.present_whole()
+        else:
+            self.presenter.present_rects(self._present_rects)
+            self._gl_finish()
+        return time.monotonic()
+
+    def _record_shown(self, shown: float, times: _FrameTimes, n_early: int) -> None:
+        """A frame is on screen: the latency of the paint it shows, the prediction's
+        horizon from its measured lag, the bench's records."""
+        s = self.session
+        for t_read in s.awaiting_paint:
+            self.latencies.append(shown - t_read)
+        if self.tail_log is not None:
+            self.tail_log.append((times.shown - times.ui, len(s.awaiting_paint) - n_early))
+        if self._cursor_drawn is not None and self.cfg.predict_ms is None:
+            lag = shown - self._shadow_read
+            if lag <= self.predictor.cfg.stale_s:  # a moving pen (a still one is not
+                # predicted, and its lag is only the time it stood still)
+                self.predictor.cfg = dataclasses.replace(self.predictor.cfg,
+                                                         horizon_s=self.lag.add(lag))
+        if self.cursor_log is not None and self._cursor_drawn is not None:
+            (rx, ry), (qx, qy) = self._cursor_drawn
+            self.cursor_log.append((shown, rx, ry, qx, qy))
+        s.awaiting_paint.clear()
+        self._last_draw = shown
+        self.frames += 1
+
+    def _steps_or_housekeeping(self) -> None:
+        s = self.session
         if s.threaded:
             s.check_worker()
             s.housekeeping()
         else:  # the steps in this loop (after presenting: a step delays the next frame)
             s.run_due_steps(max_steps=2)  # what they change: dirty tiles
-        t_end = time.perf_counter()
-        if busy:  # a pass that did not wait for the bus
-            self._last_pass_s = t_end - t0
+
+    def _account(self, t0: float, tw: float, t1: float, times: _FrameTimes,
+                 t_end: float) -> None:
+        """The pass's wall time into the phases (the bench's share per phase)."""
         ph = self.phase
         ph["wait"] += tw - t0
-        ph["input"] += (t1 - tw) + (t_drained - t_ui)
-        ph["render"] += (t_tiles - t1) + (t_preview - t_drained)
-        ph["ui"] += (t_ui - t_tiles) + (t_present - t_preview)
-        ph["present"] += t_shown - t_present
-        ph["sim"] += t_end - t_shown
-        self.maybe_publish_status()
+        ph["input"] += (t1 - tw) + (times.drained - times.ui)
+        ph["render"] += (times.tiles - t1) + (times.preview - times.drained)
+        ph["ui"] += (times.ui - times.tiles) + (times.present - times.preview)
+        ph["present"] += times.shown - times.present
+        ph["sim"] += t_end - times.shown
 
     def run(self) -> dict[str, Any]:
         """Frames until stopped (signal, ``stop`` command, ``duration``)."""

@@ -22,11 +22,12 @@ applies the sRGB transfer), row 0 = the canvas's top row.
 from __future__ import annotations
 
 import time
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 import numba
 import numpy as np
 
+from station.brush.stamp import Sources, StampPreview
 from station.canvas.params import get_profile
 from station.canvas.render import region_amount, render_region
 from station.kiosk.km_fast import km_layer_fast
@@ -67,12 +68,33 @@ def tile_runs(dirty: np.ndarray, most: int | None = None) -> list[tuple[int, int
     return runs
 
 
+@runtime_checkable
+class PreviewingBrush(Protocol):
+    """A brush whose stamps wait for the next step (both of the station's brushes): the
+    display shows them at once through :meth:`preview`."""
+
+    @property
+    def pending(self) -> int: ...  # stamps waiting for the next step (cheap to ask)
+
+    def preview(self, since: int = 0) -> StampPreview | None: ...
+
+
+def brush_preview(brush: object, since: int = 0) -> StampPreview | None:
+    """The brush's preview, or ``None`` for a brush that has none."""
+    return brush.preview(since) if isinstance(brush, PreviewingBrush) else None
+
+
+def pending_stamps(brush: object) -> int:
+    """Stamps the brush holds for the next step (0 for a brush without a preview)."""
+    return brush.pending if isinstance(brush, PreviewingBrush) else 0
+
+
 def _overlap(a: tuple[slice, slice], b: tuple[slice, slice]) -> bool:
     return (a[0].start < b[0].stop and b[0].start < a[0].stop and a[1].start < b[1].stop
             and b[1].start < a[1].stop)
 
 
-def _pending_in(src: Any, st: Any, ys: slice, xs: slice) -> dict[str, np.ndarray]:
+def _pending_in(src: Sources, st: Any, ys: slice, xs: slice) -> dict[str, np.ndarray]:
     """The pending stamps' pigment (``src``: the brush's summed sources) on the cells
     ``[ys, xs]``, region-shaped, nothing on masked cells."""
     sy, sx = src.region
@@ -141,8 +163,9 @@ class CpuDisplay:
         dirty = self.session.take_dirty()
         carried = self._carry if self._carry is not None and \
             self._carry.shape == dirty.shape else np.zeros_like(dirty)
-        peek = getattr(self.session.player.brush, "peek", None)
-        src = peek() if peek is not None and dirty.any() | carried.any() else None
+        pv = brush_preview(self.session.player.brush) if dirty.any() | carried.any() \
+            else None
+        src = None if pv is None else pv.sources
         cells = 0
         self.damage = []
         left = np.zeros_like(dirty)
@@ -172,20 +195,16 @@ class CpuDisplay:
         a frame renders only where the stamps that came since the last frame lie."""
         t0 = time.perf_counter()
         st = self.session.cpu_state
-        brush = self.session.player.brush
-        peek = getattr(brush, "peek", None)  # the stamp brush has these
-        since = getattr(brush, "pending_box", None)
-        if peek is None:
-            return 0
         self._retire_preview()
-        n = int(brush.pending)
-        if n == 0 or n == self._previewed:
+        brush = self.session.player.brush
+        if pending_stamps(brush) in (0, self._previewed):
             return 0
-        src = peek()
-        if src is None:
+        pv = brush_preview(brush, self._previewed)
+        if pv is None:
             return 0
-        box = since(self._previewed) if self._previewed and since is not None else src.region
-        self._previewed = n
+        src = pv.sources
+        box = pv.new_cells if self._previewed else src.region
+        self._previewed = pv.count
         if box is None:  # the new stamps are all masked
             return 0
         sy, sx = src.region
@@ -211,7 +230,7 @@ class CpuDisplay:
         """When a step has taken the previewed stamps (the state has them now), mark the
         preview's tiles dirty: the state is rendered there and a new preview begins."""
         steps = self.session.player.counters.steps
-        n = int(getattr(self.session.player.brush, "pending", 0))
+        n = pending_stamps(self.session.player.brush)
         if steps == self._preview_steps and n >= self._previewed:
             return
         self._preview_steps, self._previewed = steps, 0
