@@ -49,6 +49,7 @@ from station.canvas.params import get_profile
 from station.canvas.render import to_srgb8
 from station.errors import BadInput, StationError
 from station.events import Command, PenSample, Tool
+from station.kiosk import subcell
 from station.kiosk.compose import Box, Compositor, merge_rects, screen_box
 from station.kiosk.display import CpuDisplay, GpuDisplay, make_display
 from station.kiosk.gallery import (
@@ -78,25 +79,6 @@ LATCH_BUDGET_S = 0.002  # the late latch handles pen samples for at most this lo
 THREAD_POLL_S = 0.004  # a wet canvas: how often the window looks for the thread's steps
 SCREENSHOT_NAME = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 
-CANVAS_VERT = """
-#version 330
-uniform mat4 vp;
-in vec3 pos;
-in vec2 uv;
-out vec2 f_uv;
-void main() { f_uv = uv; gl_Position = vp * vec4(pos, 1.0); }
-"""
-CANVAS_FRAG = """
-#version 330
-uniform sampler2D canvas;
-in vec2 f_uv;
-out vec4 frag;
-vec3 srgb(vec3 x) {  // the sRGB transfer function (render.linear_to_srgb)
-    x = clamp(x, 0.0, 1.0);
-    return mix(12.92 * x, 1.055 * pow(x, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, x));
-}
-void main() { frag = vec4(srgb(texture(canvas, f_uv).rgb), 1.0); }
-"""
 FLAT_VERT = """
 #version 330
 uniform mat4 vp;
@@ -405,7 +387,8 @@ class KioskApp:
     # -- GL programs -------------------------------------------------------------
     def _programs(self) -> None:
         ctx = self.ctx
-        self.canvas_prog = ctx.program(vertex_shader=CANVAS_VERT, fragment_shader=CANVAS_FRAG)
+        self.canvas_prog = ctx.program(vertex_shader=subcell.CANVAS_VERT,
+                                       fragment_shader=subcell.CANVAS_FRAG)
         self.flat_prog = ctx.program(vertex_shader=FLAT_VERT, fragment_shader=FLAT_FRAG)
         a = self.aspect / 2
         quad = np.array([[-a, 0.5, 0, 0, 0], [a, 0.5, 0, 1, 0], [-a, -0.5, 0, 0, 1],
@@ -698,13 +681,45 @@ class KioskApp:
             t = 3.0
             self._flat(cam, np.array([[-t, t, -1e-3], [t, t, -1e-3], [-t, -t, -1e-3],
                                       [t, -t, -1e-3]]), TABLE, ctx.TRIANGLE_STRIP)
-        self.display.texture.use(0)
-        self.canvas_prog["canvas"].value = 0
-        self.canvas_prog["vp"].write(cam.vp.T.astype("f4").tobytes())
-        self.canvas_vao.render(ctx.TRIANGLE_STRIP)
+        self.draw_canvas(cam, self.display.texture)
         ctx.disable(ctx.BLEND)
         ctx.viewport = (0, 0, w, h)
         ctx.scissor = None
+
+    def draw_canvas(self, cam: Camera, texture: Any) -> None:
+        """The canvas quad at the screen's resolution (:mod:`station.kiosk.subcell`)."""
+        prog = self.canvas_prog
+        texture.use(0)
+        prog["canvas"].value = 0
+        self.display.surface.use(prog, 1)
+        prog["cells"].value = (float(self.cfg.width), float(self.cfg.height))
+        prog["vp"].write(cam.vp.T.astype("f4").tobytes())
+        self.canvas_vao.render(self.ctx.TRIANGLE_STRIP)
+
+    def reference_picture(self) -> np.ndarray:
+        """The window's picture drawn from scratch (sRGB8, H×W×3, row 0 on top): the whole
+        canvas rendered afresh (:meth:`CpuDisplay.full_texture`), the whole scene and UI,
+        no shadow — what the screen must show outside the shadow, however it got there."""
+        ctx = self.ctx
+        w, h = self.size
+        tex = ctx.texture((w, h), 4)
+        fbo = ctx.framebuffer([tex])
+        full = self.display.full_texture()
+        real = self.display.texture
+        try:
+            fbo.use()
+            self.display.texture = full
+            self.draw_scene(self.camera())
+            self.gui.draw((0, 0, w, h))
+            data = fbo.read(viewport=(0, 0, w, h), components=3, alignment=1)
+        finally:
+            self.display.texture = real
+            if full is not real:
+                full.release()
+            fbo.release()
+            tex.release()
+            ctx.screen.use()
+        return np.frombuffer(data, np.uint8).reshape(h, w, 3)[::-1]
 
     def predicted_hover(self) -> tuple[float, float] | None:
         """Canvas (u, v) of the pen's shadow: the pen as predicted for when this frame is

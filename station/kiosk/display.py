@@ -30,6 +30,7 @@ import numpy as np
 from station.brush.stamp import Sources, StampPreview
 from station.canvas.params import get_profile
 from station.canvas.render import region_amount, render_region
+from station.kiosk import subcell
 from station.kiosk.km_fast import km_layer_fast
 
 F32 = np.float32
@@ -131,8 +132,16 @@ class CpuDisplay:
         if old is None or old.size != (w, h):
             if old is not None:
                 old.release()
-            self.texture = self.ctx.texture((w, h), 3, dtype="f4")
+            # rgb: the cells' reflectance extended into blank cells by the paint; a: the
+            # contour level (station.kiosk.subcell)
+            self.texture = self.ctx.texture((w, h), 4, dtype="f4")
             self.texture.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+            self.texture.repeat_x = self.texture.repeat_y = False
+        st = session.cpu_state
+        self.paper_cells = st.paper_reflectance()
+        self.surface = CanvasSurface.make(self.ctx, self.paper_cells, st.paper_preset, st.seed,
+                                          float(st.params.paper_shade), contours=True,
+                                          old=getattr(self, "surface", None))
         self.preview_box: tuple[slice, slice] | None = None  # cells showing stamps
         self._preview_steps = -1  # the step count when the preview was started
         self._previewed = 0  # pending stamps the preview shows
@@ -176,14 +185,15 @@ class CpuDisplay:
                 continue
             ys = slice(ty * ts, min((ty + 1) * ts, st.height))
             xs = slice(a * ts, min(b * ts, st.width))
-            extra = None
-            if src is not None and _overlap(src.region, (ys, xs)):
-                # stamps not yet simulated lie here: drawn with them, as the preview
-                # draws them (else the state would hide the preview until it is redone)
-                extra = _pending_in(src, st, ys, xs)
-                self._grow_preview(ys, xs)
-            self._upload(self._render(st, kind, ys, xs, extra), ys, xs)
-            cells += (ys.stop - ys.start) * (xs.stop - xs.start)
+            # stamps not yet simulated lie here: drawn with them, as the preview draws
+            # them (else the state would hide the preview until it is redone)
+            pending = src if src is not None and _overlap(
+                src.region, subcell.grow(ys, xs, 2 * subcell.LEVEL_REACH, st.height,
+                                         st.width)) else None
+            uy, ux = self._render_cells(st, kind, ys, xs, pending)
+            if pending is not None:
+                self._grow_preview(uy, ux)
+            cells += (uy.stop - uy.start) * (ux.stop - ux.start)
         self._carry = left if left.any() else None
         self.cells_rendered = cells
         self.render_seconds = time.perf_counter() - t0
@@ -212,10 +222,9 @@ class CpuDisplay:
         xs = slice(max(box[1].start, sx.start, 0), min(box[1].stop, sx.stop, st.width))
         cells = 0
         if ys.stop > ys.start and xs.stop > xs.start:
-            extra = _pending_in(src, st, ys, xs)
-            self._upload(self._render(st, self._renderer_kind(), ys, xs, extra), ys, xs)
-            self._grow_preview(ys, xs)
-            cells = (ys.stop - ys.start) * (xs.stop - xs.start)
+            uy, ux = self._render_cells(st, self._renderer_kind(), ys, xs, src)
+            self._grow_preview(uy, ux)
+            cells = (uy.stop - uy.start) * (ux.stop - ux.start)
         self.cells_rendered += cells
         self.render_seconds += time.perf_counter() - t0
         return cells
@@ -246,6 +255,29 @@ class CpuDisplay:
         """Whether dirty tiles wait for the next frame (over this frame's budget)."""
         return self._carry is not None
 
+    def _render_cells(self, st: Any, kind: str, ys: slice, xs: slice,
+                      pending: Sources | None) -> tuple[slice, slice]:
+        """Render the cells ``[ys, xs]`` that changed (with the ``pending`` stamps'
+        pigment over them) and upload what that changes in the texture: those cells
+        grown by the contour level's reach (:mod:`station.kiosk.subcell`); returns the
+        uploaded cells."""
+        h, w = st.height, st.width
+        uy, ux = subcell.grow(ys, xs, subcell.LEVEL_REACH, h, w)
+        ry, rx = subcell.grow(uy, ux, subcell.INDICATOR_HALO, h, w)
+        ky, kx = subcell.grow(uy, ux, subcell.COLOUR_HALO, h, w)
+        extra = None if pending is None else _pending_in(pending, st, ry, rx)
+        amount, _pigments = region_amount(st, ry, rx, extra)
+        painted = subcell.painted_cells(amount, st.r_composed[ry, rx], self.paper_cells[ry, rx])
+        rgb = np.zeros((ry.stop - ry.start, rx.stop - rx.start, 3), F32)
+        kin = (slice(ky.start - ry.start, ky.stop - ry.start),
+               slice(kx.start - rx.start, kx.stop - rx.start))
+        k_extra = None if extra is None else {n: a[kin] for n, a in extra.items()}
+        rgb[kin] = self._render(st, kind, ky, kx, k_extra)
+        inner = (slice(uy.start - ry.start, uy.stop - ry.start),
+                 slice(ux.start - rx.start, ux.stop - rx.start))
+        self._upload(subcell.fields(rgb, painted, inner), uy, ux)
+        return uy, ux
+
     def _render(self, st: Any, kind: str, ys: slice, xs: slice,
                 extra: dict[str, np.ndarray] | None = None) -> np.ndarray:
         # a parallel loop waits for its slowest thread: while a step's kernel holds a
@@ -263,13 +295,34 @@ class CpuDisplay:
             numba.set_num_threads(before)
 
     def _upload(self, rgb: np.ndarray, ys: slice, xs: slice) -> None:
-        self.damage.append((ys.start, ys.stop, xs.start, xs.stop))
+        # the screen changes wherever the shader's bicubic reads these texels: up to
+        # two cells around them, however many pixels a cell covers in the view (a damage
+        # margin in pixels left stale strips where the table view magnifies the cells)
+        h, w = self.session.cfg.height, self.session.cfg.width
+        dy, dx = subcell.grow(ys, xs, subcell.BICUBIC_REACH, h, w)
+        self.damage.append((dy.start, dy.stop, dx.start, dx.stop))
         data = np.ascontiguousarray(rgb, dtype=F32)
         self.texture.write(data.tobytes(), viewport=(xs.start, ys.start, xs.stop - xs.start,
                                                      ys.stop - ys.start))
 
+    def full_texture(self) -> Any:
+        """A texture of the whole canvas made from scratch (the reference a test holds
+        the incremental one to): the state's reference render, no pending stamps."""
+        st = self.session.cpu_state
+        rgb = np.asarray(self.session.canvas.render(), F32)
+        pigments = st.slot_pigments()
+        amount = st.p[:len(pigments)] + st.q[:len(pigments)]
+        painted = subcell.painted_cells(amount, st.r_composed, self.paper_cells)
+        rgba = subcell.fields(rgb, painted, (slice(0, st.height), slice(0, st.width)))
+        tex = self.ctx.texture((st.width, st.height), 4, np.ascontiguousarray(rgba).tobytes(),
+                               dtype="f4")
+        tex.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+        tex.repeat_x = tex.repeat_y = False
+        return tex
+
     def release(self) -> None:
         self.texture.release()
+        self.surface.release()
 
 
 class GpuDisplay:
@@ -286,6 +339,14 @@ class GpuDisplay:
         self.render_seconds = 0.0
         self.texture = session.canvas.render_texture()
         self.texture.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+        st = session.canvas.state()  # once per painting: the paper and its grain
+        self.surface = CanvasSurface.make(self.ctx, st.paper_reflectance(), st.paper_preset,
+                                          st.seed, float(st.params.paper_shade),
+                                          contours=False, old=getattr(self, "surface", None))
+
+    def full_texture(self) -> Any:
+        """The canvas's own render texture (the GPU renders it whole every frame)."""
+        return self.texture
 
     def behind(self) -> bool:
         """The GPU renders the whole canvas every frame: never behind."""
@@ -317,7 +378,58 @@ class GpuDisplay:
         return self.cells_rendered
 
     def release(self) -> None:
-        """The texture belongs to the canvas."""
+        """The texture belongs to the canvas; the paper's are ours."""
+        self.surface.release()
+
+
+class CanvasSurface:
+    """The paper under the paint, as textures for the window's shader: the cells' bare
+    reflectance and the sub-cell grain (:mod:`station.kiosk.subcell`)."""
+
+    def __init__(self, paper: Any, grain: Any, shade: float, contours: bool,
+                 key: tuple[str, int, int, int]) -> None:
+        self.paper = paper
+        self.grain = grain
+        self.shade = shade
+        self.contours = contours
+        self.key = key
+
+    @classmethod
+    def make(cls, ctx: Any, paper_cells: np.ndarray, preset: str, seed: int, shade: float,
+             contours: bool, old: CanvasSurface | None = None) -> CanvasSurface:
+        """The surface of a painting (``old``'s textures kept when the paper is the same:
+        a fresh canvas of the same size and seed)."""
+        h, w = paper_cells.shape
+        key = (preset, seed, w, h)
+        if old is not None and old.key == key:
+            old.contours, old.shade = contours, shade
+            return old
+        if old is not None:
+            old.release()
+        paper = ctx.texture((w, h), 1, np.ascontiguousarray(paper_cells, F32).tobytes(),
+                            dtype="f4")
+        paper.filter = (ctx.LINEAR, ctx.LINEAR)
+        paper.repeat_x = paper.repeat_y = False
+        patch = subcell.grain_patch(preset, seed)
+        grain = ctx.texture((patch.shape[1], patch.shape[0]), 1, patch.tobytes(), dtype="f4")
+        grain.filter = (ctx.LINEAR, ctx.LINEAR)
+        return cls(paper, grain, shade, contours, key)
+
+    def use(self, prog: Any, first_unit: int) -> None:
+        """Bind the textures from ``first_unit`` on and set the shader's uniforms."""
+        self.paper.use(first_unit)
+        self.grain.use(first_unit + 1)
+        prog["paper"].value = first_unit
+        prog["grain"].value = first_unit + 1
+        prog["grain_k"].value = float(subcell.GRAIN_K)
+        prog["grain_texels"].value = float(self.grain.size[0])
+        prog["shade"].value = self.shade
+        prog["granulation"].value = subcell.GRANULATION
+        prog["contours"].value = self.contours
+
+    def release(self) -> None:
+        self.paper.release()
+        self.grain.release()
 
 
 def make_display(ctx: Any, session: Any) -> CpuDisplay | GpuDisplay:

@@ -1,0 +1,209 @@
+"""The canvas at the screen's resolution: sub-cell contours and paper grain on the GPU.
+
+The headless renderer draws a canvas at ``k`` pixels per cell
+(:mod:`station.canvas.upscale`): the paint's colour resampled bicubically, the
+edge of the paint as the 1/2 level set of the blurred, peak-normalised
+painted-cell indicator (anti-aliased over one output pixel), paint extended
+into the blank cells that contour reaches, and the paper's sub-cell grain (a
+finer Worley texture of the same preset, high-passed so it keeps the cells'
+means).  The kiosk draws the same at whatever resolution the screen has, in
+the window's fragment shader:
+
+* per cell, on the CPU, where the display re-renders anyway (dirty tiles, the
+  preview): the linear reflectance, *extended* into blank cells that touch paint
+  (the mean of their painted 3×3 neighbours, as ``upscale._extended``), and the
+  contour level (``upscale.edge_coverage``'s blurred, peak-normalised indicator)
+  in the texture's alpha.  A cell's level depends on the indicator
+  :data:`LEVEL_REACH` cells around it, so a changed region is re-uploaded grown
+  by that much (:func:`grow`);
+* per screen pixel, in the shader: Catmull–Rom bicubic of that texture (nine
+  bilinear fetches), the level's 1/2 contour anti-aliased over one pixel
+  (``fwidth``), blank paper from the cells' paper reflectance, and the paper's
+  sub-cell grain (:func:`grain_patch`, :data:`GRAIN_K` texels per cell) shading
+  paper and paint alike, faded out where a pixel covers a cell or more (the far
+  side of the table) so it cannot alias.
+
+Blocks and staircases are gone in every view; the brush view's magnification
+shows the paper's grain and the paint's edge, not cells.
+"""
+
+from __future__ import annotations
+
+from functools import cache
+
+import numpy as np
+from scipy import ndimage
+
+from station.canvas.paper import make_paper
+
+F32 = np.float32
+
+#: The painted-cell indicator's blur (cells; ``upscale.EDGE_SIGMA``), cut at two cells.
+EDGE_SIGMA = 0.8
+_TRUNCATE = 2.5  # gaussian_filter's radius: int(2.5 * 0.8 + 0.5) = 2 cells
+
+#: Cells around a changed cell whose contour level may change (blur 2 + local peak 1).
+LEVEL_REACH = 3
+
+#: Cells beyond a region whose indicator its fields need (its level's reach), and whose
+#: reflectance they need (the extension's 3×3).
+INDICATOR_HALO = LEVEL_REACH
+COLOUR_HALO = 1
+
+#: Cells around a changed texel whose pixels change on screen (the Catmull-Rom's 4×4
+#: support reaches two texels each way).
+BICUBIC_REACH = 2
+
+#: Grain texels per cell, and the grain patch's side in cells (repeated over the canvas:
+#: a whole canvas at 4 texels per cell is seconds of Worley noise at every fresh canvas).
+GRAIN_K = 4
+GRAIN_CELLS = 128
+
+#: Painted: more pigment than this in a cell, or dried layers this far from bare paper.
+PAINTED_AMOUNT = 1e-6
+DRIED_DIFF = 1e-4
+
+
+def grow(ys: slice, xs: slice, by: int, height: int, width: int) -> tuple[slice, slice]:
+    """``[ys, xs]`` grown by ``by`` cells, clipped to the canvas."""
+    return (slice(max(ys.start - by, 0), min(ys.stop + by, height)),
+            slice(max(xs.start - by, 0), min(xs.stop + by, width)))
+
+
+def contour_level(painted: np.ndarray) -> np.ndarray:
+    """The painted-cell indicator blurred and divided by its 3×3 peak (float32), whose
+    1/2 level set is the paint's edge (``upscale.edge_coverage`` before resampling)."""
+    lvl = ndimage.gaussian_filter(painted.astype(F32), EDGE_SIGMA, mode="constant",
+                                  truncate=_TRUNCATE)
+    peak = ndimage.maximum_filter(lvl, size=3, mode="constant")
+    return np.where(peak > 0, lvl / np.maximum(peak, F32(1e-6)), F32(0)).astype(F32)
+
+
+def extended(rgb: np.ndarray, painted: np.ndarray) -> np.ndarray:
+    """``rgb`` (h, w, 3) on painted cells; on blank cells that touch paint the mean of
+    their painted 3×3 neighbours (``upscale._extended``); bare paper elsewhere."""
+    box = np.ones((3, 3), F32)
+    den = ndimage.convolve(painted.astype(F32), box, mode="constant")
+    out = rgb.astype(F32, copy=True)
+    edge = (~painted) & (den > 0)
+    if edge.any():
+        for c in range(3):
+            num = ndimage.convolve(np.where(painted, rgb[..., c], F32(0)).astype(F32), box,
+                                   mode="constant")
+            out[..., c] = np.where(edge, num / np.maximum(den, F32(1)), out[..., c])
+    return out
+
+
+def painted_cells(amount: np.ndarray, r_composed: np.ndarray, paper: np.ndarray
+                  ) -> np.ndarray:
+    """Cells holding paint: pigment in the surface layer (``amount``: per pigment, (n, h,
+    w)), or dried layers whose reflectance ``r_composed`` (h, w, 3) is off the bare
+    ``paper`` (h, w)."""
+    wet = amount.sum(axis=0) > F32(PAINTED_AMOUNT) if len(amount) else \
+        np.zeros(paper.shape, bool)
+    dried = np.abs(r_composed - paper[..., None]).max(axis=-1) > F32(DRIED_DIFF)
+    return wet | dried
+
+
+def fields(rgb: np.ndarray, painted: np.ndarray, inner: tuple[slice, slice]
+           ) -> np.ndarray:
+    """The texture's RGBA (h, w, 4) on ``inner`` (slices into the arrays given):
+    extended colour and contour level.  ``rgb`` and ``painted`` cover ``inner`` grown by
+    :data:`INDICATOR_HALO` where the canvas goes on (its edges are blank beyond)."""
+    lvl = contour_level(painted)[inner]
+    ext = extended(rgb, painted)[inner]
+    return np.concatenate([ext, lvl[..., None]], axis=-1).astype(F32)
+
+
+@cache
+def grain_patch(preset: str, seed: int) -> np.ndarray:
+    """Sub-cell paper height detail of ``preset`` (float32 (GRAIN_CELLS·GRAIN_K)², zero
+    mean per cell, about [-1, 1]; ``upscale.paper_detail`` on a patch), made once per
+    process."""
+    k, n = GRAIN_K, GRAIN_CELLS
+    fine = make_paper(preset, n * k, n * k, seed + 7919)
+    cell = fine.reshape(n, k, n, k).mean(axis=(1, 3))
+    return (fine - np.repeat(np.repeat(cell, k, 0), k, 1)).astype(F32)
+
+
+CANVAS_VERT = """
+#version 330
+uniform mat4 vp;
+in vec3 pos;
+in vec2 uv;
+out vec2 f_uv;
+void main() { f_uv = uv; gl_Position = vp * vec4(pos, 1.0); }
+"""
+
+CANVAS_FRAG = """
+#version 330
+uniform sampler2D canvas;   // rgb: linear reflectance (extended), a: contour level
+uniform sampler2D paper;    // r: bare paper reflectance per cell
+uniform sampler2D grain;    // r: sub-cell paper detail, GRAIN_K texels per cell, repeated
+uniform vec2 cells;         // the canvas in cells (width, height)
+uniform float grain_k;      // grain texels per cell
+uniform float grain_texels; // the grain patch's side in texels
+uniform float shade;        // paper_shade: how much the paper's relief shades it
+uniform float granulation;  // extra relief shading of paint (deposits in the valleys)
+uniform bool contours;      // the alpha holds a contour level (CPU displays)
+in vec2 f_uv;
+out vec4 frag;
+
+vec3 srgb(vec3 x) {  // the sRGB transfer function (render.linear_to_srgb)
+    x = clamp(x, 0.0, 1.0);
+    return mix(12.92 * x, 1.055 * pow(x, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, x));
+}
+
+// Catmull-Rom bicubic from nine bilinear fetches (the weights of each pair of
+// neighbouring texels folded into one fetch between them); c in texels.
+vec4 bicubic(sampler2D t, vec2 c, vec2 size) {
+    vec2 p = c - 0.5;
+    vec2 i = floor(p);
+    vec2 f = p - i;
+    vec2 w0 = f * (-0.5 + f * (1.0 - 0.5 * f));
+    vec2 w1 = 1.0 + f * f * (-2.5 + 1.5 * f);
+    vec2 w2 = f * (0.5 + f * (2.0 - 1.5 * f));
+    vec2 w3 = f * f * (-0.5 + 0.5 * f);
+    vec2 w12 = w1 + w2;
+    vec2 o12 = w2 / w12;
+    vec2 t0 = (i - 0.5) / size;
+    vec2 t3 = (i + 2.5) / size;
+    vec2 t12 = (i + 0.5 + o12) / size;
+    vec4 r = vec4(0.0);
+    r += texture(t, vec2(t0.x, t0.y)) * w0.x * w0.y;
+    r += texture(t, vec2(t12.x, t0.y)) * w12.x * w0.y;
+    r += texture(t, vec2(t3.x, t0.y)) * w3.x * w0.y;
+    r += texture(t, vec2(t0.x, t12.y)) * w0.x * w12.y;
+    r += texture(t, vec2(t12.x, t12.y)) * w12.x * w12.y;
+    r += texture(t, vec2(t3.x, t12.y)) * w3.x * w12.y;
+    r += texture(t, vec2(t0.x, t3.y)) * w0.x * w3.y;
+    r += texture(t, vec2(t12.x, t3.y)) * w12.x * w3.y;
+    r += texture(t, vec2(t3.x, t3.y)) * w3.x * w3.y;
+    return r;
+}
+
+void main() {
+    vec2 c = f_uv * cells;
+    vec4 s = bicubic(canvas, c, cells);
+    // a pixel's footprint in cells: the grain fades out from half a cell to a cell
+    vec2 dx = dFdx(c), dy = dFdy(c);
+    float foot = max(length(dx), length(dy));
+    float fade = clamp(2.0 - 2.0 * foot, 0.0, 1.0);
+    float hp = texture(grain, c * grain_k / grain_texels).r * fade;
+    float bare = texture(paper, f_uv).r;
+    vec3 paint = clamp(s.rgb, 0.0, 1.0);
+    float cover = 1.0;
+    if (contours) {
+        float w = max(fwidth(s.a), 1e-4);
+        cover = clamp((s.a - 0.5) / w + 0.5, 0.0, 1.0);
+    }
+    // deposits favour the valleys: the more the paint absorbs, the more relief it shows
+    float absorbed = clamp(1.0 - dot(paint, vec3(1.0 / 3.0)) / max(bare, 1e-3), 0.0, 1.0);
+    vec3 wet = paint * (1.0 + (shade + granulation * absorbed) * hp);
+    vec3 dry = vec3(bare * (1.0 + shade * hp));
+    frag = vec4(srgb(mix(dry, wet, cover)), 1.0);
+}
+"""
+
+#: Extra relief shading of fully absorbing paint (granulation below the cell).
+GRANULATION = 0.25
