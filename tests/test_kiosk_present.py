@@ -194,8 +194,8 @@ def test_tile_rendering_stops_at_its_time_budget(display: str, tmp_path: Path,
             assert rounds < 100
         tiles = -(-W // ts) * -(-H // ts)
         assert rounds >= tiles / RUN_TILES  # the whole canvas, a run at a time
-        tex = np.frombuffer(disp.texture.read(), np.float32).reshape(H, W, 3)
-        assert np.abs(tex - app.session.canvas.render()).max() < 2e-6
+        tex = disp.read()
+        assert np.abs(tex - disp.expected()).max() < 2e-6
     finally:
         app.close()
 
@@ -283,20 +283,25 @@ def test_the_preview_grows_with_the_stroke_and_matches_a_whole_render(
         st = s.cpu_state
         extra = {k: v.astype(np.float32) * (st.mask[ys, xs] == 0) for k, v in src.dp.items()}
         ref = render_region(st, "km", ys, xs, extra)
-        tex = np.frombuffer(disp.texture.read(), np.float32).reshape(H, W, 3)[ys, xs]
-        assert np.abs(tex - ref).max() < 2e-5  # as one render of all the pending stamps
+        tex = disp.read()[ys, xs]
+        inside = tex[..., 3] >= 0.999  # painted cells (blank ones hold the paint's extension)
+        assert inside.mean() > 0.3
+        # as one render of all the pending stamps
+        assert np.abs(tex[..., :3] - ref)[inside].max() < 2e-5
         s.mark_all_dirty()  # the state redrawn everywhere (a command): the stamps stay
         while disp.update_tiles() or disp.behind():
             pass
         assert disp.update_preview() == 0  # nothing new to preview ...
-        tex = np.frombuffer(disp.texture.read(), np.float32).reshape(H, W, 3)[ys, xs]
-        assert np.abs(tex - ref).max() < 2e-5  # ... and the tiles drew them too
+        tex = disp.read()[ys, xs]
+        inside = tex[..., 3] >= 0.999  # painted cells (blank ones hold the paint's extension)
+        assert inside.mean() > 0.3
+        assert np.abs(tex[..., :3] - ref)[inside].max() < 2e-5  # ... and the tiles drew them too
         s.step()  # the step takes the stamps: the state is shown there again
         while disp.update_tiles() or disp.behind():
             pass
         assert disp.update_preview() == 0 and disp.preview_box is None
-        tex = np.frombuffer(disp.texture.read(), np.float32).reshape(H, W, 3)
-        assert np.abs(tex - s.canvas.render()).max() < 2e-6
+        tex = disp.read()
+        assert np.abs(tex - disp.expected()).max() < 2e-6
     finally:
         app.close()
 
@@ -332,7 +337,7 @@ def test_a_deformable_brush_is_previewed_before_the_step(display: str, tmp_path:
                   pigment={"French Ultramarine": 0.6})
         while disp.update_tiles() or disp.behind():
             pass
-        white = np.frombuffer(disp.texture.read(), np.float32).reshape(H, W, 3).copy()
+        white = disp.read()[..., :3].copy()
         q = s.sub
         rendered = []
         for i in range(8):
@@ -342,7 +347,7 @@ def test_a_deformable_brush_is_previewed_before_the_step(display: str, tmp_path:
             rendered.append(disp.update_preview())
         assert s.player.counters.steps == 0 and s.player.brush.pending > 0
         assert sum(rendered) > 0 and max(rendered[3:]) < W * H / 4  # the new cells only
-        tex = np.frombuffer(disp.texture.read(), np.float32).reshape(H, W, 3)
+        tex = disp.read()[..., :3]
         changed = np.abs(tex - white).max(axis=2) > 0.02
         assert changed[H // 2 - 2:H // 2 + 3, int(0.3 * W):int(0.55 * W)].mean() > 0.5
     finally:
@@ -365,5 +370,90 @@ def test_the_auto_prediction_horizon_is_the_windows_measured_lag(
         # from its start towards the lag each frame had: 10 ms plus the frame's own time
         assert 0.010 < app.lag.value < 0.05 and lags[-1] > lags[0]
         assert app.predictor.cfg.horizon_s == app.lag.value
+    finally:
+        app.close()
+
+
+def _settle(app: Any) -> None:
+    """Frames until the display has drawn everything it owes (the clock stopped)."""
+    for i in range(400):
+        app.frame(0.016)
+        s = app.session
+        if i >= 4 and not app.display.behind() and not s.whole_dirty and not s.dirty.any():
+            break
+    app.frame(0.016)
+
+
+def _screen_is_the_full_render(app: Any, what: str) -> None:
+    """The window as the X server shows it equals the picture drawn from scratch (the
+    whole canvas rendered afresh, the whole scene) within 2/255 outside the shadow."""
+    _settle(app)
+    front, ref = _front(app), app.reference_picture()
+    assert front.shape == ref.shape, what
+    differ = np.abs(front.astype(int) - ref.astype(int)).max(axis=2)
+    box = app._shadow_box
+    if box is not None:
+        x0, y0, x1, y1 = box
+        differ[y0:y1, x0:x1] = 0
+    assert differ.max() <= 2, f"{what}: {int((differ > 2).sum())} pixels differ, " \
+        f"up to {differ.max()}"
+
+
+def _edge_jump(lum: np.ndarray) -> float:
+    """Median over columns crossing paint of the largest one-pixel step in a column
+    divided by the column's contrast: a cell-wise (bilinear) magnification spreads the
+    paper-to-paint step over a cell's width in pixels (a fifth or less of the contrast per
+    pixel at 8 px per cell); a sub-cell contour makes it in about one pixel."""
+    jumps = []
+    for c in range(0, lum.shape[1], 5):
+        col = lum[:, c]
+        contrast = col.max() - col.min()
+        if contrast >= 15:
+            jumps.append(np.abs(np.diff(col)).max() / contrast)
+    assert len(jumps) >= 10
+    return float(np.median(jumps))
+
+
+@pytest.mark.parametrize("mode", ["partial", "swap"])
+@in_own_process
+def test_the_screen_is_a_full_render_through_strokes_views_undo_resize_and_clear(
+        display: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, mode: str) -> None:
+    from scipy import ndimage
+
+    app = _app(display, tmp_path, monkeypatch, mode)
+    try:
+        if mode == "partial" and app.presenter.mode != "partial":
+            pytest.skip("no GLX_MESA_copy_sub_buffer here")
+        q = app.session.sub
+        app.frame(0.016)
+        for i in range(16):
+            q.push(_pen(app, i, 0.2 + 0.035 * i, 0.4 + 0.015 * i))
+            app.frame(0.016)
+            app.session.step()
+        q.push(_pen(app, 17, 0.9, 0.8, touching=False))
+        for _ in range(6):
+            app.session.step()
+        app.session.run_due_steps = lambda max_steps=2: 0  # the clock stops: a still canvas
+        _screen_is_the_full_render(app, "top view after a stroke")
+        app.panel.set_view("3d")
+        _screen_is_the_full_render(app, "table view")
+        app.panel.set_view("follow")
+        app.follow_at = (0.45, 0.5)  # on the stroke
+        _screen_is_the_full_render(app, "brush view")
+        # the brush view magnifies the cells (about 11 px each): the paper shows its grain
+        # below the cell and the paint's edge is a contour, not a cell-wide ramp
+        pic = _front(app).astype(float).mean(axis=2)[:, app.panel_w + 4:]
+        assert _edge_jump(pic) > 0.35
+        paper = pic > pic.max() - 12
+        grain = np.abs(pic - ndimage.uniform_filter(pic, 3))[paper].mean()
+        assert grain > 0.25, grain  # a bilinear magnification of cells: < 0.1
+        app.panel.set_view("2d")
+        app.session.command("undo")
+        _screen_is_the_full_render(app, "top view after undo")
+        app.glfw.set_window_size(app.window, 560, 400)  # a window manager resizes it
+        _screen_is_the_full_render(app, "resized window")
+        assert app.size == (560, 400)
+        app.session.command("clear")
+        _screen_is_the_full_render(app, "after clear")
     finally:
         app.close()

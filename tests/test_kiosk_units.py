@@ -176,7 +176,7 @@ def test_cpu_display_texture_equals_a_full_render(tmp_path) -> None:  # type: ig
                                       y=0.5, pressure=0.9, touching=True))
         # stamps not yet simulated are on screen at once (the preview)
         cells = disp.update()
-        tex = np.frombuffer(disp.texture.read(), np.float32).reshape(64, 96, 3)
+        tex = disp.read()[..., :3]
         preview_only = render_state(s.cpu_state, "km")
         assert cells < 96 * 64 and (np.abs(tex - preview_only).max(axis=2) > 0.01).sum() > 20
         for _ in range(10):
@@ -188,11 +188,14 @@ def test_cpu_display_texture_equals_a_full_render(tmp_path) -> None:  # type: ig
             disp.update()
             frames += 1
         assert not disp.behind()
-        tex = np.frombuffer(disp.texture.read(), np.float32).reshape(64, 96, 3)
-        ref = s.canvas.render()
-        # nothing pending: the texture is the canvas (the compiled KM: to float32 rounding)
+        tex = disp.read()
+        # nothing pending: the texture is the canvas's (the compiled KM: to float32
+        # rounding), its colour extended by the paint and the contour level
         assert s.player.brush.pending == 0
-        assert np.abs(tex - ref).max() < 2e-6
+        assert np.abs(tex - disp.expected()).max() < 2e-6
+        inside = tex[..., 3] >= 0.999
+        assert inside.sum() > 20
+        assert np.abs(tex[..., :3] - s.canvas.render())[inside].max() < 2e-6
     finally:
         s.shutdown()
         ctx.release()

@@ -270,13 +270,37 @@ class KioskApp:
         fb = self.glfw.get_framebuffer_size(self.window)
         self.size: tuple[int, int] = (int(fb[0]), int(fb[1]))
         w, h = self.size
-        self.panel_w = int(max(300, w * self.cfg.panel_fraction))
-        self.area = Viewport(self.panel_w, 0, w - self.panel_w, h)
+        self._place_panel()
         self.aspect = self.cfg.width / self.cfg.height
         # imgui-bundle is an optional extra (painting-station[kiosk]), like glfw
         from station.kiosk.imgui_gl import ImGuiLayer
 
         self.gui = ImGuiLayer(self.ctx, (w, h), scale=max(1.5, h / 480))
+
+    def _place_panel(self) -> None:
+        w, h = self.size
+        self.panel_w = int(max(300, w * self.cfg.panel_fraction))
+        self.area = Viewport(self.panel_w, 0, w - self.panel_w, h)
+
+    def _follow_window_size(self) -> None:
+        """A window resized (a window manager, a monitor's mode, an operator) is laid out
+        and drawn anew at its new size: the picture's framebuffer, the panel, the
+        presenter all follow (kept at the old size, the window showed black bands along
+        its right and bottom edges and stale parts of the old picture)."""
+        fb = self.glfw.get_framebuffer_size(self.window)
+        size = (int(fb[0]), int(fb[1]))
+        if size == self.size or size[0] <= 0 or size[1] <= 0:  # same, or minimised
+            return
+        log.info("window resized to %dx%d", *size)
+        self.size = size
+        self._place_panel()
+        self.gui.resize(size)
+        self.compositor.release()
+        self.compositor = Compositor(self.ctx, size)
+        self.presenter.resized(size)
+        self._frame_boxes, self._shadow_box = [], None
+        self._ui_last_key = None  # the panel is built again for the new size
+        self._need_draw = True
 
     def _open_gallery(self) -> None:
         """The gallery, its live directory (logs and autosaves of paintings in progress)
@@ -369,6 +393,7 @@ class KioskApp:
         self._status_due = 0.0
         self._status_cache = ""
         self._brush_key: tuple[Any, ...] | None = None
+        self._drawn_view: tuple[str, tuple[float, float]] | None = None
         self._glfinish = _gl_function("glFinish")
         self._glflush = _gl_function("glFlush")
         # the UI is built only when what it shows may have changed (compose)
@@ -913,6 +938,7 @@ class KioskApp:
         """
         t0 = time.perf_counter()
         self.glfw.poll_events()
+        self._follow_window_size()
         busy, got_input = self._take_input()
         tw = time.perf_counter()
         now = time.monotonic()
@@ -976,7 +1002,12 @@ class KioskApp:
         s = self.session
         return (self._need_draw or got_input or bool(self.screenshots) or s.whole_dirty
                 or bool(s.dirty.any()) or self.display.behind()
-                or now - self._last_draw >= REDRAW_EVERY_S)
+                or now - self._last_draw >= REDRAW_EVERY_S
+                or self._view_key() != self._drawn_view or self.presenter.owes_whole())
+
+    def _view_key(self) -> tuple[str, tuple[float, float]]:
+        """What the camera depends on: a view changed by any path is drawn at once."""
+        return self.panel.view, self.follow_at
 
     def _draw_frame(self, now: float, dt: float, times: _FrameTimes) -> bool:
         """Tiles, UI, their composition, the late latch, the preview, present; returns
@@ -988,6 +1019,7 @@ class KioskApp:
         times.tiles = time.perf_counter()
         self.build_ui_if_changed(now - self._last_draw if self._last_draw else dt)
         cam = self.camera()
+        self._drawn_view = self._view_key()
         self.compose_changes(cam)
         # the late latch: what the pen sent while the tiles and the UI were drawn is
         # shown in this frame, not the next (what stands between a sample and the

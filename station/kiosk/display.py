@@ -305,15 +305,26 @@ class CpuDisplay:
         self.texture.write(data.tobytes(), viewport=(xs.start, ys.start, xs.stop - xs.start,
                                                      ys.stop - ys.start))
 
-    def full_texture(self) -> Any:
-        """A texture of the whole canvas made from scratch (the reference a test holds
-        the incremental one to): the state's reference render, no pending stamps."""
+    def expected(self) -> np.ndarray:
+        """What the texture holds once every change is drawn (float32 (H, W, 4)), made
+        from scratch: the state's reference render, no pending stamps."""
         st = self.session.cpu_state
         rgb = np.asarray(self.session.canvas.render(), F32)
         pigments = st.slot_pigments()
         amount = st.p[:len(pigments)] + st.q[:len(pigments)]
         painted = subcell.painted_cells(amount, st.r_composed, self.paper_cells)
-        rgba = subcell.fields(rgb, painted, (slice(0, st.height), slice(0, st.width)))
+        return subcell.fields(rgb, painted, (slice(0, st.height), slice(0, st.width)))
+
+    def read(self) -> np.ndarray:
+        """The texture's contents (float32 (H, W, 4): colour, contour level)."""
+        w, h = self.texture.size
+        return np.frombuffer(self.texture.read(), F32).reshape(h, w, 4)
+
+    def full_texture(self) -> Any:
+        """A texture of the whole canvas made from scratch (:meth:`expected`; the
+        reference a test holds the incremental one to)."""
+        st = self.session.cpu_state
+        rgba = self.expected()
         tex = self.ctx.texture((st.width, st.height), 4, np.ascontiguousarray(rgba).tobytes(),
                                dtype="f4")
         tex.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
@@ -423,7 +434,7 @@ class CanvasSurface:
         prog["grain"].value = first_unit + 1
         prog["grain_k"].value = float(subcell.GRAIN_K)
         prog["grain_texels"].value = float(self.grain.size[0])
-        prog["shade"].value = self.shade
+        prog["shade"].value = self.shade * subcell.GRAIN_GAIN
         prog["granulation"].value = subcell.GRANULATION
         prog["contours"].value = self.contours
 

@@ -206,4 +206,10 @@ void main() {
 """
 
 #: Extra relief shading of fully absorbing paint (granulation below the cell).
-GRANULATION = 0.25
+GRANULATION = 0.5
+
+#: The sub-cell grain's shading relative to the profile's ``paper_shade`` (the headless
+#: renderer's 1×: there the grain's standard deviation is about 1/255 of the paper,
+#: invisible at the kiosk's distance; 4× reads as paper in the brush view and stays
+#: quiet in the top view).
+GRAIN_GAIN = 4.0
