@@ -177,6 +177,7 @@ def test_a_sample_arriving_while_the_tiles_are_drawn_is_shown_in_that_frame(
 def test_tile_rendering_stops_at_its_time_budget(display: str, tmp_path: Path,
                                                  monkeypatch: pytest.MonkeyPatch) -> None:
     from station.kiosk.display import RUN_TILES
+    from station.kiosk.subcell import LEVEL_REACH
 
     app = _app(display, tmp_path, monkeypatch, "auto")
     try:
@@ -188,7 +189,8 @@ def test_tile_rendering_stops_at_its_time_budget(display: str, tmp_path: Path,
         while True:
             cells = disp.update_tiles()
             rounds += 1
-            assert 0 < cells <= RUN_TILES * ts * ts
+            # a run of tiles, grown by the reach of its contour level (subcell.grow)
+            assert 0 < cells <= (RUN_TILES * ts + 2 * LEVEL_REACH) * (ts + 2 * LEVEL_REACH)
             if not disp.behind():
                 break
             assert rounds < 100
@@ -455,5 +457,37 @@ def test_the_screen_is_a_full_render_through_strokes_views_undo_resize_and_clear
         assert app.size == (560, 400)
         app.session.command("clear")
         _screen_is_the_full_render(app, "after clear")
+    finally:
+        app.close()
+
+
+@in_own_process
+def test_the_mouse_paints_and_gives_way_to_a_pen(display: str, tmp_path: Path,
+                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    app = _app(display, tmp_path, monkeypatch, "auto")
+    try:
+        x, y, w, h = app.canvas_rect()
+        app.frame(0.016)
+        app.on_cursor(app.window, x + 0.2 * w, y + 0.5 * h)
+        app.on_mouse_button(app.window, app.glfw.MOUSE_BUTTON_LEFT, app.glfw.PRESS, 0)
+        for i in range(20):  # a drag across the canvas, a frame per pointer event
+            app.on_cursor(app.window, x + (0.2 + 0.03 * i) * w, y + 0.5 * h)
+            app.frame(0.016)
+        app.on_mouse_button(app.window, app.glfw.MOUSE_BUTTON_LEFT, app.glfw.RELEASE, 0)
+        app.frame(0.016)
+        st = app.session.status()
+        assert app.session.painted_stamps > 10 and st["devices"]["mouse"]["touching"] is False
+        pic = _picture(app).astype(int)
+        row = pic[int(y + 0.5 * h), int(x + 0.3 * w):int(x + 0.7 * w)]
+        assert (row.sum(axis=1) < 3 * 245).mean() > 0.9  # paint along the drag
+        assert (pic[int(y + 0.15 * h), int(x + 0.3 * w)] > 245).all()  # not elsewhere
+        # a pen on the bus: the mouse gives way while the pen is heard
+        q = app.session.sub
+        q.push(_pen(app, 0, 0.5, 0.2, touching=False))
+        app.frame(0.016)
+        before = app.session.counters.samples
+        app.on_cursor(app.window, x + 0.5 * w, y + 0.8 * h)
+        app.frame(0.016)
+        assert app.session.counters.samples == before
     finally:
         app.close()

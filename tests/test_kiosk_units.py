@@ -7,6 +7,7 @@ import pytest
 
 from station.canvas.backend import create_backend
 from station.canvas.render import render_region, render_state
+from station.errors import BadInput
 from station.events import Command, PenSample, Tool
 from station.kiosk.display import tile_runs
 from station.kiosk.idle import IdleClock, IdleConfig
@@ -274,3 +275,57 @@ def test_bad_flags_exit_2_with_one_line(argv: list[str], where: str) -> None:
     assert proc.returncode == 2, proc.stderr
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and where in lines[0], proc.stderr
+
+
+def test_the_mouse_pen_smooths_jitter_and_presses_by_speed() -> None:
+    from station.kiosk.mouse import PRESSURE_FAST, PRESSURE_SLOW, MousePen, parse_pressure
+
+    rng = np.random.default_rng(1)
+    pen = MousePen((4000, 1000), pressure=None)
+    pen.move(100, 500, 0.0, 0.0)
+    pen.button(True, 0.0, 0.0)
+    raw = []
+    for i in range(1, 120):  # a slow, straight drag (60 px/s) with a finger's 3 px jitter
+        t = i / 120
+        yy = 500 + rng.normal(0, 3.0)
+        raw.append(yy)
+        pen.move(100 + 60 * t, yy, t, t)
+    slow = pen.take()
+    ys = np.array([s.y * 1000 for s in slow[20:]])
+    assert np.std(ys - 500) < 0.4 * np.std(np.array(raw[20:]) - 500)  # jitter removed
+    assert all(s.touching for s in slow[1:]) and slow[-1].pressure > PRESSURE_SLOW - 0.1
+    for i in range(1, 60):  # then fast (3000 px/s): lighter
+        t = 1 + i / 120
+        pen.move(160 + 3000 * (t - 1), 500, t, t)
+    fast = pen.take()
+    assert fast[-1].pressure < PRESSURE_FAST + 0.1
+    # on a fast stroke the filter keeps up (lag well under 10 ms of travel)
+    assert abs(fast[-1].x * 4000 - (160 + 3000 * 59 / 120)) < 30
+    pen.button(False, 2.0, 2.0)
+    assert pen.take()[-1].touching is False
+    assert parse_pressure("speed") is None and parse_pressure("0.4") == 0.4
+    with pytest.raises(BadInput):
+        parse_pressure("2")
+
+
+def test_the_compiled_subcell_fields_match_their_definition() -> None:
+    from station.kiosk.subcell import fields, fields_reference
+
+    rng = np.random.default_rng(3)
+    painted = rng.random((50, 70)) > 0.8
+    painted[10:30, 20:50] = True  # a wash with ragged surroundings and lone cells
+    rgb = rng.random((50, 70, 3)).astype(np.float32)
+    for inner in [(slice(0, 50), slice(0, 70)), (slice(3, 47), slice(3, 67))]:
+        got = fields(rgb, painted, inner)
+        assert np.abs(got - fields_reference(rgb, painted, inner)).max() < 1e-6
+    whole = fields(rgb, painted, (slice(0, 50), slice(0, 70)))
+    lvl = whole[..., 3]
+    assert (lvl[12:28, 22:48] > 0.99).all()  # inside the wash: the contour level is 1
+    # a blank cell beside paint takes the mean colour of its painted neighbours
+    p2 = np.zeros((6, 6), bool)
+    p2[2, 1] = p2[3, 1] = True
+    c2 = np.full((6, 6, 3), 0.9, np.float32)
+    c2[2, 1], c2[3, 1] = (0.2, 0.3, 0.4), (0.4, 0.5, 0.6)
+    f2 = fields(c2, p2, (slice(0, 6), slice(0, 6)))
+    assert np.allclose(f2[2, 2, :3], (0.3, 0.4, 0.5)) and np.allclose(f2[2, 4, :3], 0.9)
+    assert f2[2, 1, 3] > 0.5 > f2[2, 3, 3]  # the contour runs between paint and paper

@@ -178,6 +178,9 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
                           fullscreen=False, gallery=Path(tmp) / "gallery", serve=None,
                           status="none", vsync=False, cmd="none", sim_thread=sim_thread,
                           predict_ms=predict_ms, present=present,
+                          # the pen's path only: the X pointer entering the window would be
+                          # a mouse sample, and the warm-up would take it for the pen's
+                          input="pen",
                           idle=IdleConfig(attract_after=3600, finish_after=7200))
         app = KioskApp(cfg)
         if brush != "round":

@@ -49,7 +49,7 @@ from station.canvas.params import get_profile
 from station.canvas.render import to_srgb8
 from station.errors import BadInput, StationError
 from station.events import Command, PenSample, Tool
-from station.kiosk import subcell
+from station.kiosk import mouse, subcell
 from station.kiosk.compose import Box, Compositor, merge_rects, screen_box
 from station.kiosk.display import CpuDisplay, GpuDisplay, make_display
 from station.kiosk.gallery import (
@@ -129,6 +129,10 @@ class KioskConfig:
     # window's own measured pen-to-screen lag, station.kiosk.predict.LagEstimate)
     predict_ms: float | None = None
     present: str = "auto"  # auto, swap, partial (station.kiosk.present)
+    # what paints besides a pen driver on the bus: the window's mouse/touchscreen
+    # ("auto": yes, unless a pen was heard in the last second; "pen": no; "mouse": yes)
+    input: str = "auto"
+    mouse_pressure: float | None = 0.6  # the mouse's pressure (None: from its speed)
     keys: Path | None = None  # CURVE key directory for tcp endpoints (None: the default)
     client_key: str | None = None  # a client key pair of its own for connecting over tcp
 
@@ -202,6 +206,7 @@ class KioskApp:
         self._open_endpoints()
         self._make_panel()
         self._init_frame_state()
+        self._take_the_mouse()
         self.session: KioskSession = self._new_session()
         self.display: CpuDisplay | GpuDisplay = make_display(self.ctx, self.session)
         self.compositor = Compositor(self.ctx, self.size)
@@ -218,6 +223,9 @@ class KioskApp:
                            f"{', '.join(PRESENT_MODES)})", "--present")
         if cfg.view not in VIEWS:
             raise BadInput(f"unknown view {cfg.view!r} (one of {', '.join(VIEWS)})", "--view")
+        if cfg.input not in mouse.INPUTS:
+            raise BadInput(f"unknown input {cfg.input!r} (one of {', '.join(mouse.INPUTS)})",
+                           "--input")
         # the simulation's OpenMP workers sleep as soon as a parallel loop ends instead
         # of spinning for the next: spinning, they take the cores the window's thread
         # needs to show the pen (read when OpenMP starts, so before the first kernel)
@@ -295,12 +303,53 @@ class KioskApp:
         self.size = size
         self._place_panel()
         self.gui.resize(size)
+        self.mouse.size = size
         self.compositor.release()
         self.compositor = Compositor(self.ctx, size)
         self.presenter.resized(size)
         self._frame_boxes, self._shadow_box = [], None
         self._ui_last_key = None  # the panel is built again for the new size
         self._need_draw = True
+
+    def _take_the_mouse(self) -> None:
+        """The mouse (or a touchscreen's pointer) paints too (:mod:`station.kiosk.mouse`)
+        unless ``--input pen``."""
+        self.mouse = mouse.MousePen(self.size, self.cfg.mouse_pressure)
+        self._pen_heard = -math.inf  # monotonic time of the last sample from a pen driver
+        if self.cfg.input == "pen":
+            return
+        glfw = self.glfw
+        glfw.set_cursor_pos_callback(self.window, self.on_cursor)
+        glfw.set_mouse_button_callback(self.window, self.on_mouse_button)
+        glfw.set_cursor_enter_callback(self.window, self.on_cursor_enter)
+
+    def _mouse_time(self) -> tuple[float, float]:
+        now = time.monotonic()
+        return now - self.session.started_mono, now
+
+    def on_cursor(self, window: Any, x: float, y: float) -> None:
+        """glfw: the pointer moved to window pixel (x, y)."""
+        self.mouse.move(float(x), float(y), *self._mouse_time())
+
+    def on_mouse_button(self, window: Any, button: int, action: int, mods: int) -> None:
+        """glfw: a button went down or up (the left one, or a touchscreen's finger)."""
+        if button == self.glfw.MOUSE_BUTTON_LEFT:
+            self.mouse.button(action == self.glfw.PRESS, *self._mouse_time())
+
+    def on_cursor_enter(self, window: Any, entered: int) -> None:
+        if not entered:
+            self.mouse.leave(*self._mouse_time())
+
+    def _feed_mouse(self) -> bool:
+        """The mouse's samples to the painting, as a pen's (``auto``: not while a pen is
+        heard); ``True`` if any went."""
+        samples = self.mouse.take()
+        if not samples or (self.cfg.input == "auto"
+                           and time.monotonic() - self._pen_heard < mouse.PEN_WINS_S):
+            return False
+        for sample in samples:
+            self.session.handle("pen", sample)
+        return True
 
     def _open_gallery(self) -> None:
         """The gallery, its live directory (logs and autosaves of paintings in progress)
@@ -554,6 +603,8 @@ class KioskApp:
         w, h = self.size
         px, py = s.x * w, s.y * h
         self._pen_received = now
+        if s.device != mouse.DEVICE:
+            self._pen_heard = now
         self._pen_read = s.t_mono if s.t_mono > 0.0 else now
         self.predictor.add(s.t, px, py, s.proximity, s.touching and s.proximity)
         if self.pen_log is not None:
@@ -976,7 +1027,8 @@ class KioskApp:
         # handling may take half as long as the last pass took: it keeps up with the pen
         # on a slow pass, and a queue that grew cannot hold the frames back
         s.drain(wait_ms, 0.5 * self._last_pass_s)
-        return busy, s.sub.stats.received != received
+        moused = self._feed_mouse()
+        return busy, s.sub.stats.received != received or moused
 
     def _operator_and_idle(self, now: float) -> bool:
         """``station send``'s commands, the drivers' status, a fresh canvas when asked

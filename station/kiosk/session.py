@@ -108,6 +108,7 @@ class KioskSession:
         self.map_pen = map_pen
         self.kiosk_command = kiosk_command
         self.started_wall = time.time()
+        self.started_mono = time.monotonic()  # the window's own devices (the mouse) count from here
         ty, tx = self._tile_shape()
         self.dirty = np.ones((ty, tx), bool)  # everything needs its first render
         self.whole_dirty = True

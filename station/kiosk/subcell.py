@@ -16,7 +16,7 @@ the window's fragment shader:
   in the texture's alpha.  A cell's level depends on the indicator
   :data:`LEVEL_REACH` cells around it, so a changed region is re-uploaded grown
   by that much (:func:`grow`);
-* per screen pixel, in the shader: Catmull–Rom bicubic of that texture (nine
+* per screen pixel, in the shader: Catmull–Rom bicubic of that texture (five
   bilinear fetches), the level's 1/2 contour anti-aliased over one pixel
   (``fwidth``), blank paper from the cells' paper reflectance, and the paper's
   sub-cell grain (:func:`grain_patch`, :data:`GRAIN_K` texels per cell) shading
@@ -31,6 +31,7 @@ from __future__ import annotations
 
 from functools import cache
 
+import numba
 import numpy as np
 from scipy import ndimage
 
@@ -105,14 +106,92 @@ def painted_cells(amount: np.ndarray, r_composed: np.ndarray, paper: np.ndarray
     return wet | dried
 
 
+def fields_reference(rgb: np.ndarray, painted: np.ndarray, inner: tuple[slice, slice]
+                     ) -> np.ndarray:
+    """:func:`fields` with scipy (the definition; :func:`fields` is its compiled twin)."""
+    lvl = contour_level(painted)[inner]
+    ext = extended(rgb, painted)[inner]
+    return np.concatenate([ext, lvl[..., None]], axis=-1).astype(F32)
+
+
+def _gauss_weights() -> np.ndarray:
+    x = np.arange(-2, 3, dtype=np.float64)
+    w = np.exp(-0.5 * (x / EDGE_SIGMA) ** 2)
+    return (w / w.sum()).astype(F32)
+
+
+_W = _gauss_weights()
+
+
+@numba.njit(cache=True, nogil=True)
+def _fields_kernel(rgb: np.ndarray, painted: np.ndarray, y0: int, y1: int, x0: int,
+                   x1: int, wts: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover
+    h, w = painted.shape
+    # the blurred indicator where the peaks need it: inner grown by one (clipped)
+    by0, by1 = max(y0 - 1, 0), min(y1 + 1, h)
+    bx0, bx1 = max(x0 - 1, 0), min(x1 + 1, w)
+    hy0, hy1 = max(by0 - 2, 0), min(by1 + 2, h)
+    horiz = np.zeros((hy1 - hy0, bx1 - bx0), np.float32)
+    for y in range(hy0, hy1):
+        for x in range(bx0, bx1):
+            acc = np.float32(0.0)
+            for k in range(-2, 3):
+                xx = x + k
+                if 0 <= xx < w and painted[y, xx]:
+                    acc += wts[k + 2]
+            horiz[y - hy0, x - bx0] = acc
+    blur = np.zeros((by1 - by0, bx1 - bx0), np.float32)
+    for y in range(by0, by1):
+        for x in range(bx0, bx1):
+            acc = np.float32(0.0)
+            for k in range(-2, 3):
+                yy = y + k
+                if 0 <= yy < h:
+                    acc += wts[k + 2] * horiz[yy - hy0, x - bx0]
+            blur[y - by0, x - bx0] = acc
+    for y in range(y0, y1):
+        for x in range(x0, x1):
+            peak = np.float32(0.0)
+            n = 0
+            r = np.float32(0.0)
+            g = np.float32(0.0)
+            b = np.float32(0.0)
+            for dy in range(-1, 2):
+                yy = y + dy
+                if yy < 0 or yy >= h:
+                    continue
+                for dx in range(-1, 2):
+                    xx = x + dx
+                    if xx < 0 or xx >= w:
+                        continue
+                    v = blur[yy - by0, xx - bx0]
+                    if v > peak:
+                        peak = v
+                    if painted[yy, xx]:
+                        n += 1
+                        r += rgb[yy, xx, 0]
+                        g += rgb[yy, xx, 1]
+                        b += rgb[yy, xx, 2]
+            o = out[y - y0, x - x0]
+            if painted[y, x] or n == 0:
+                o[0], o[1], o[2] = rgb[y, x, 0], rgb[y, x, 1], rgb[y, x, 2]
+            else:
+                o[0], o[1], o[2] = r / n, g / n, b / n
+            o[3] = blur[y - by0, x - bx0] / max(peak, np.float32(1e-6)) if peak > 0 else 0.0
+
+
 def fields(rgb: np.ndarray, painted: np.ndarray, inner: tuple[slice, slice]
            ) -> np.ndarray:
     """The texture's RGBA (h, w, 4) on ``inner`` (slices into the arrays given):
     extended colour and contour level.  ``rgb`` and ``painted`` cover ``inner`` grown by
-    :data:`INDICATOR_HALO` where the canvas goes on (its edges are blank beyond)."""
-    lvl = contour_level(painted)[inner]
-    ext = extended(rgb, painted)[inner]
-    return np.concatenate([ext, lvl[..., None]], axis=-1).astype(F32)
+    :data:`INDICATOR_HALO` where the canvas goes on (its edges are blank beyond).
+    Compiled (a frame renders many small regions; scipy's filters cost more in calls
+    than in arithmetic there); :func:`fields_reference` is the definition."""
+    ys, xs = inner
+    out = np.empty((ys.stop - ys.start, xs.stop - xs.start, 4), F32)
+    _fields_kernel(np.ascontiguousarray(rgb, F32), np.ascontiguousarray(painted),
+                   ys.start, ys.stop, xs.start, xs.stop, _W, out)
+    return out
 
 
 @cache
@@ -154,8 +233,10 @@ vec3 srgb(vec3 x) {  // the sRGB transfer function (render.linear_to_srgb)
     return mix(12.92 * x, 1.055 * pow(x, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, x));
 }
 
-// Catmull-Rom bicubic from nine bilinear fetches (the weights of each pair of
-// neighbouring texels folded into one fetch between them); c in texels.
+// Catmull-Rom bicubic from five bilinear fetches (the weights of each pair of
+// neighbouring texels folded into one fetch between them; the four corner fetches,
+// whose weights are tiny, left out and the rest renormalised): a texture fetch is
+// the dearest part of a pixel on a software rasteriser.  c in texels.
 vec4 bicubic(sampler2D t, vec2 c, vec2 size) {
     vec2 p = c - 0.5;
     vec2 i = floor(p);
@@ -169,17 +250,13 @@ vec4 bicubic(sampler2D t, vec2 c, vec2 size) {
     vec2 t0 = (i - 0.5) / size;
     vec2 t3 = (i + 2.5) / size;
     vec2 t12 = (i + 0.5 + o12) / size;
-    vec4 r = vec4(0.0);
-    r += texture(t, vec2(t0.x, t0.y)) * w0.x * w0.y;
-    r += texture(t, vec2(t12.x, t0.y)) * w12.x * w0.y;
-    r += texture(t, vec2(t3.x, t0.y)) * w3.x * w0.y;
-    r += texture(t, vec2(t0.x, t12.y)) * w0.x * w12.y;
-    r += texture(t, vec2(t12.x, t12.y)) * w12.x * w12.y;
-    r += texture(t, vec2(t3.x, t12.y)) * w3.x * w12.y;
-    r += texture(t, vec2(t0.x, t3.y)) * w0.x * w3.y;
-    r += texture(t, vec2(t12.x, t3.y)) * w12.x * w3.y;
-    r += texture(t, vec2(t3.x, t3.y)) * w3.x * w3.y;
-    return r;
+    vec4 r = texture(t, vec2(t12.x, t0.y)) * (w12.x * w0.y)
+           + texture(t, vec2(t0.x, t12.y)) * (w0.x * w12.y)
+           + texture(t, t12) * (w12.x * w12.y)
+           + texture(t, vec2(t3.x, t12.y)) * (w3.x * w12.y)
+           + texture(t, vec2(t12.x, t3.y)) * (w12.x * w3.y);
+    float norm = w12.x * w0.y + w0.x * w12.y + w12.x * w12.y + w3.x * w12.y + w12.x * w3.y;
+    return r / norm;
 }
 
 void main() {
