@@ -329,3 +329,64 @@ def test_the_compiled_subcell_fields_match_their_definition() -> None:
     f2 = fields(c2, p2, (slice(0, 6), slice(0, 6)))
     assert np.allclose(f2[2, 2, :3], (0.3, 0.4, 0.5)) and np.allclose(f2[2, 4, :3], 0.9)
     assert f2[2, 1, 3] > 0.5 > f2[2, 3, 3]  # the contour runs between paint and paper
+
+
+def test_station_send_reaches_the_kiosk_with_its_window_commands(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    import subprocess
+    import sys
+
+    from station.bus import Subscriber
+
+    ep = f"ipc://{tmp_path}/kiosk-cmd"
+    sub = Subscriber("@" + ep, topics=("cmd",))
+    try:
+        got = []
+        for words in (["view", "name=3d"], ["fresh"], ["screenshot", "name=top-1"]):
+            proc = subprocess.Popen([sys.executable, "-m", "station", "send", *words, "--to",
+                                     ">" + ep], stderr=subprocess.PIPE, text=True)
+            msg = None
+            for _ in range(200):  # a generous deadline: the sender starts a Python
+                msg = sub.recv(100)
+                if msg is not None:
+                    break
+            _, err = proc.communicate(timeout=60)
+            assert proc.returncode == 0, err
+            assert msg is not None
+            got.append((msg.value.cmd, msg.value.args))
+        assert got == [("view", {"name": "3d"}), ("fresh", {}),
+                       ("screenshot", {"name": "top-1"})]
+    finally:
+        sub.close()
+    proc = subprocess.run([sys.executable, "-m", "station", "send", "view", "name=4d", "--to",
+                           ">" + ep, "--timeout", "0.2"], capture_output=True, text=True,
+                          timeout=60)
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode == 2 and len(lines) == 1 and "view" in lines[0], proc.stderr
+    from station.kiosk.commands import check_kiosk_command
+
+    for cmd, args in (("screenshot", {"name": "../x"}), ("fresh", {"now": 1}),
+                      ("message", {"text": " "})):
+        with pytest.raises(BadInput):
+            check_kiosk_command(Command(t=0, cmd=cmd, args=args))
+
+
+def test_the_status_tells_wet_damp_and_dry(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    s = _session(tmp_path)
+    try:
+        s.command("brush", size=10, water=1.0, pigment={"French Ultramarine": 0.5})
+        for i in range(6):
+            s.handle("pen", PenSample(t=0.01 * i, device="p", tool=Tool.PEN, x=0.3 + 0.03 * i,
+                                      y=0.5, pressure=0.8, touching=True))
+        s.step()
+        m = s.moisture()
+        assert m is not None and m.word == "wet" and m.line().startswith("wet ")
+        st = s.cpu_state
+        st.wc[st.w > 0] = 0.05  # the surface water gone into the paper
+        st.w[:] = 0.0
+        m = s.moisture()
+        assert m.word == "damp" and m.wet == 0 and m.damp > 0.01
+        assert m.line().startswith("damp ") and "wet" not in m.line()
+        st.wc[:] = 0.0
+        assert s.moisture().word == "dry" and s.moisture().line() == "dry"
+    finally:
+        s.shutdown()

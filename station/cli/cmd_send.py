@@ -1,4 +1,7 @@
-"""``station send CMD [ARGS]``: send a command to a running ``station sim``.
+"""``station send CMD [ARGS]``: send a command to a running ``station sim`` or kiosk.
+
+A kiosk also takes its window's commands (:mod:`station.kiosk.commands`: ``view``,
+``fresh``, ``screenshot``, ``message``), checked here as strictly.
 
 ARGS is one JSON object (``'{"size": 12, "pigment": {"Black": 0.5}}'``) or
 ``key=value`` pairs whose values are JSON where they parse as JSON and strings
@@ -25,10 +28,12 @@ DEFAULT_TIMEOUT_S = 3.0
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("send", help="send a command (brush, profile, dry, save, stop …) to "
-                                    "a running station sim",
+                                    "a running station sim or kiosk",
                        description="Send one command to a running `station sim`: brush, "
-                                   "profile, wait, dry, new_layer, clear, save, stop. ARGS: a "
-                                   "JSON object or key=value pairs (values JSON or text).")
+                                   "profile, wait, dry, new_layer, clear, save, stop; a kiosk "
+                                   "also takes view name=2d|3d|follow, fresh, screenshot "
+                                   "name=N, message text=T. ARGS: a JSON object or "
+                                   "key=value pairs (values JSON or text).")
     p.add_argument("cmd", metavar="CMD", help="command name")
     p.add_argument("args", nargs="*", metavar="ARGS", help="JSON object or key=value pairs")
     p.add_argument("--to", metavar="ENDPOINT", default=None,
@@ -71,13 +76,17 @@ def _no_constant(name: str) -> Any:
 def run(args: argparse.Namespace) -> int:
     from station.bus import Publisher
     from station.canvas.palette import default_palette
+    from station.kiosk.commands import check_kiosk_command, is_kiosk_command
     from station.sim.live import DEFAULT_CMD_ENDPOINT
     from station.sim.player import check_command
 
     if not (math.isfinite(args.timeout) and 0 < args.timeout <= 60):
         raise BadInput("must be in (0, 60] seconds", "--timeout")
     command = Command(t=0.0, cmd=args.cmd, args=parse_args(args.args), where="CMD")
-    check_command(command, default_palette(), where=f"command {command.cmd!r}")
+    if is_kiosk_command(command.cmd):  # the kiosk's window listens on the same endpoint
+        check_kiosk_command(command, where=f"command {command.cmd!r}")
+    else:
+        check_command(command, default_palette(), where=f"command {command.cmd!r}")
     target = args.to or ">" + DEFAULT_CMD_ENDPOINT
     check_keys(args.keys, args.client_key, (("--to", target, False),))
     with Publisher(target, bind=False, replay=False, keys=args.keys,

@@ -33,7 +33,6 @@ import dataclasses
 import logging
 import math
 import os
-import re
 import subprocess
 import sys
 import time
@@ -50,6 +49,7 @@ from station.canvas.render import to_srgb8
 from station.errors import BadInput, StationError
 from station.events import Command, PenSample, Tool
 from station.kiosk import mouse, subcell
+from station.kiosk.commands import MESSAGE_MAX, check_kiosk_command, is_kiosk_command
 from station.kiosk.compose import Box, Compositor, merge_rects, screen_box
 from station.kiosk.display import CpuDisplay, GpuDisplay, make_display
 from station.kiosk.gallery import (
@@ -77,7 +77,6 @@ AUTO_HORIZON_START_S = 0.008  # the auto prediction's horizon until frames measu
 TILE_FRAME_S = 1 / 120  # frames that show only the steps' tiles come at most this often
 LATCH_BUDGET_S = 0.002  # the late latch handles pen samples for at most this long
 THREAD_POLL_S = 0.004  # a wet canvas: how often the window looks for the thread's steps
-SCREENSHOT_NAME = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 
 FLAT_VERT = """
 #version 330
@@ -663,40 +662,34 @@ class KioskApp:
             p.mix = {}
 
     def _kiosk_command(self, cmd: Command) -> bool:
-        """Commands for the window: ``view {name}``, ``save``, ``fresh``,
-        ``message {text}``, ``screenshot {name}``, ``stop``."""
-        if cmd.cmd == "view":
-            name = cmd.args.get("name")
-            if name in VIEWS:
-                self.panel.set_view(str(name))
-            else:
-                log.warning("view %r is not one of %s", name, ", ".join(VIEWS))
-            return True
+        """Commands for the window (:mod:`station.kiosk.commands`: ``view``, ``fresh``,
+        ``screenshot``, ``message``) and the gallery's ``save`` and ``stop``; ``False``:
+        the painting's.  A bad one is logged and dropped (it came from the bus)."""
         if cmd.cmd == "save":
             self.save_now()
-            return True
-        if cmd.cmd == "fresh":
-            self._fresh_requested = True
-            return True
-        if cmd.cmd == "message":  # an operator's note on the panel (blueprint show-message)
-            text = cmd.args.get("text")
-            if isinstance(text, str) and text.strip():
-                self.panel.message = " ".join(text.split())[:200]
-            else:
-                log.warning("message needs {\"text\": \"...\"}")
-            return True
-        if cmd.cmd == "screenshot":
-            name = cmd.args.get("name")
-            if self.cfg.screenshot_dir is None or not isinstance(name, str) \
-                    or not SCREENSHOT_NAME.match(name):
-                log.warning("screenshot refused (needs --screenshot-dir and a plain name)")
-            else:
-                self.screenshots.append(self.cfg.screenshot_dir / f"{name}.png")
             return True
         if cmd.cmd == "stop":
             self.stop_requested = True
             return True
-        return False
+        if not is_kiosk_command(cmd.cmd):
+            return False
+        try:
+            check_kiosk_command(cmd, where="bus")
+        except BadInput as exc:
+            log.warning("kiosk command refused: %s", exc)
+            return True
+        if cmd.cmd == "view":
+            self.panel.set_view(str(cmd.args["name"]))
+        elif cmd.cmd == "fresh":
+            self._fresh_requested = True
+        elif cmd.cmd == "message":  # an operator's note on the panel (blueprint show-message)
+            self.panel.message = " ".join(str(cmd.args["text"]).split())[:MESSAGE_MAX]
+        elif cmd.cmd == "screenshot":
+            if self.cfg.screenshot_dir is None:
+                log.warning("screenshot refused: the kiosk runs without --screenshot-dir")
+            else:
+                self.screenshots.append(self.cfg.screenshot_dir / f"{cmd.args['name']}.png")
+        return True
 
     def _commands(self) -> None:
         """Commands sent to the kiosk's own endpoint (``station send``)."""
@@ -852,12 +845,12 @@ class KioskApp:
 
     def status_line(self) -> str:
         s = self.session
-        wet = s.wet_fraction()
+        m = s.moisture()
         parts = []
-        if wet is not None:
-            parts.append(f"wet {100 * wet:.1f}%")
-            tiles = s.active_tiles()
-            parts.append("drying" if tiles else ("dry" if wet == 0 else "settled"))
+        if m is not None:
+            parts.append(m.line())
+            if m.word != "dry":
+                parts.append("drying" if s.active_tiles() else "settled")
         if s.counters.bad_samples:
             parts.append("layer full: press New layer")
         return "  ".join(parts)
@@ -1198,9 +1191,16 @@ class KioskApp:
             "skipped_commands": dict(s.player.counters.skipped_commands),
             "brush": s.player.brush.settings.to_args(),
             "wet_fraction": s.wet_fraction(),
+            **self._moisture_status(),
             "gallery_url": self.base_url,
         })
         return st
+
+    def _moisture_status(self) -> dict[str, Any]:
+        m = self.session.moisture()
+        if m is None:
+            return {"paper": None, "damp_fraction": None}
+        return {"paper": m.word, "damp_fraction": m.damp}
 
     def maybe_publish_status(self) -> None:
         now = time.monotonic()
