@@ -491,3 +491,56 @@ def test_the_mouse_paints_and_gives_way_to_a_pen(display: str, tmp_path: Path,
         assert app.session.counters.samples == before
     finally:
         app.close()
+
+
+@in_own_process
+def test_a_killed_kiosk_resumes_the_painting_exactly(display: str, tmp_path: Path,
+                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    import shutil
+
+    from PIL import Image
+
+    from station.cli import main
+
+    app = _app(display, tmp_path, monkeypatch, "auto")
+    live = tmp_path / "gallery" / ".live"
+    try:
+        q = app.session.sub
+        pid = app.session.painting_id
+        for i in range(10):
+            q.push(_pen(app, i, 0.2 + 0.04 * i, 0.3))
+            app.frame(0.016)
+            app.session.step()
+            if i == 5:
+                q.push(_pen(app, 6, 0.45, 0.3, touching=False))
+                app.frame(0.016)
+                assert app.session.sim.autosave()  # between strokes, as the live sim does
+        app.session.step()
+        app.session.journal.sync()
+        crashed = tmp_path / "crashed"  # what a kill -9 leaves on disk
+        shutil.copytree(live, crashed)
+    finally:
+        app.close()
+    shutil.rmtree(live)
+    shutil.copytree(crashed, live)
+    app = _app(display, tmp_path, monkeypatch, "auto")
+    try:
+        assert app.session.resumed and app.session.painting_id == pid
+        app.frame(0.016)
+        st = app.kiosk_status()
+        assert st["samples"] >= 10 and st["painting_id"] == pid
+    finally:
+        app.close()  # stopped: the painting (resumed, nothing added) goes to the gallery
+    saved = tmp_path / "gallery" / pid
+    assert main(["paint", str(saved / "session.jsonl"), "-o", str(tmp_path / "paint.png"),
+                 "--backend", "cpu"]) == 0
+    kiosk = np.asarray(Image.open(saved / "painting.png").convert("RGB")).astype(int)
+    replay = np.asarray(Image.open(tmp_path / "paint.png").convert("RGB")).astype(int)
+    assert (kiosk.min(axis=2) < 200).sum() > 30  # the stroke is there
+    assert np.abs(kiosk - replay).max() == 0
+    # a live log with no stroke (the fresh canvas after an idle save): a fresh start
+    from station.kiosk.app import painting_in_progress
+
+    empty = live / "20260101-000000-abcdef.jsonl"
+    empty.write_text((crashed / f"{pid}.jsonl").read_text().splitlines()[0] + "\n")
+    assert painting_in_progress(live) is None and not empty.exists()

@@ -66,6 +66,7 @@ from station.kiosk.present import PRESENT_MODES, Presenter
 from station.kiosk.session import KioskSession
 from station.kiosk.ui import PanelState, draw_banner, draw_panel, draw_qr
 from station.kiosk.views import VIEWS, Camera, Viewport, input_camera, make_camera
+from station.sim.journal import autosave_path
 from station.sim.live import DEFAULT_CMD_ENDPOINT, LiveConfig, default_status_endpoint
 
 log = logging.getLogger(__name__)
@@ -149,6 +150,36 @@ def numba_threadsafe() -> bool:
         return False
 
 
+def painting_in_progress(live_dir: Path) -> Path | None:
+    """The live log of the painting a killed or restarted kiosk left in ``live_dir``, or
+    ``None``: the newest log that holds a stroke (the tip down on the paper).  A log
+    without one is a fresh canvas nobody painted on (an idle kiosk saves its painting
+    and starts such a one): it and its autosave go, and the kiosk starts fresh."""
+    logs = sorted(live_dir.glob("*.jsonl"), key=lambda p: p.stat().st_mtime, reverse=True)
+    found: Path | None = None
+    for path in logs:
+        if not _has_stroke(path):
+            path.unlink(missing_ok=True)
+            autosave_path(path).unlink(missing_ok=True)
+        elif found is None:
+            found = path
+        else:  # an older crash's painting: kept for the operator (station paint repaints it)
+            log.warning("an older painting in progress is left in %s", path)
+    return found
+
+
+def _has_stroke(path: Path) -> bool:
+    """Whether the session log at ``path`` holds a pen sample with the tip down."""
+    try:
+        with path.open("rb") as f:
+            for line in f:
+                if b'"touching": true' in line or b'"touching":true' in line:
+                    return True
+    except OSError:
+        return False
+    return False
+
+
 def _gl_function(name: str) -> Any:
     """A GL entry point through ctypes (released interpreter lock), or ``None``."""
     for lib in ("libGL.so.1", "libOpenGL.so.0"):
@@ -206,7 +237,7 @@ class KioskApp:
         self._make_panel()
         self._init_frame_state()
         self._take_the_mouse()
-        self.session: KioskSession = self._new_session()
+        self.session: KioskSession = self._new_session(painting_in_progress(self.live_dir))
         self.display: CpuDisplay | GpuDisplay = make_display(self.ctx, self.session)
         self.compositor = Compositor(self.ctx, self.size)
         self.presenter = Presenter(glfw, self.window, str(self.ctx.info.get("GL_RENDERER", "")),
@@ -473,24 +504,31 @@ class KioskApp:
         self.flat_vao = ctx.vertex_array(self.flat_prog, [(self.flat_vbo, "3f", "pos")])
 
     # -- sessions (one per painting) ---------------------------------------------------
-    def _new_session(self) -> KioskSession:
+    def _new_session(self, resume: Path | None = None) -> KioskSession:
+        """A fresh painting, or (``resume``: its live log) the painting in progress that a
+        killed or restarted kiosk left: its autosave plus the log since, replayed exactly
+        (:mod:`station.sim.recovery`), the log continued."""
         cfg = self.cfg
-        pid = new_id()
+        pid = resume.stem if resume is not None else new_id()
         opts: dict[str, Any] = {"ctx": self.ctx} if cfg.backend == "gl" else {}
         live = LiveConfig(bus=cfg.bus, width=cfg.width, height=cfg.height, profile=cfg.profile,
                           backend=cfg.backend, seed=cfg.seed, rate=cfg.rate,
                           log_path=str(self.live_dir / f"{pid}.jsonl"), status="none",
                           cmd="none", autosave=cfg.autosave, backend_opts=opts,
-                          keys=cfg.keys, client_key=cfg.client_key)
+                          keys=cfg.keys, client_key=cfg.client_key,
+                          recover=str(resume) if resume is not None else None)
         session = KioskSession(live, map_pen=self._map_pen, kiosk_command=self._kiosk_command)
+        session.resumed = resume is not None
         pub = self.pub
         if pub is not None:  # the deformable brush's reaction to haptic devices
             session.haptics.send = pub.publish_haptic
             session.haptics.wanted = lambda name: pub.wants(f"haptic.{name}")
         session.painting_id = pid
         self.session = session
-        self.panel.apply_brush()  # the visitor's brush carries over, logged first
+        if resume is None:
+            self.panel.apply_brush()  # the visitor's brush carries over, logged first
         self.idle.fresh(time.monotonic())
+        self.idle.painted = session.resumed
         self._set_qr(None)
         if cfg.sim_thread:
             session.start_worker()
@@ -543,7 +581,7 @@ class KioskApp:
         s = self.session
         s.stop_worker()
         pid = s.painting_id
-        painted = s.painted_stamps > 0 or pid in self.saved
+        painted = s.painted_stamps > 0 or s.resumed or pid in self.saved
         meta = self._meta(reason)
         s.shutdown()  # log end marker, log closed
         stored = True
@@ -1177,7 +1215,7 @@ class KioskApp:
             "process": "kiosk", "view": self.panel.view, "frames": self.frames,
             "sim_thread": s.threaded,
             "frame_errors": self.frame_errors,
-            "painting_id": s.painting_id,
+            "painting_id": s.painting_id, "resumed": s.resumed,
             "painted_stamps": s.painted_stamps, "saved": list(self.saved),
             "qr_url": self.qr_url, "driver_state": self.driver_state,
             "driver_events": list(self.driver_events), "pen_missing": self.pen_missing(),

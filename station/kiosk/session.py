@@ -118,6 +118,7 @@ class KioskSession:
         self.last_canvas_pen: PenSample | None = None
         self.painted_stamps = 0
         self.painting_id = ""  # the gallery id the window gives this painting
+        self.resumed = False  # the painting in progress a killed kiosk left, continued
         # the simulation thread (start_worker) and what it shares with the window
         self.lock = threading.Condition()
         self.inflight = False  # the canvas kernel of a step runs now, the lock released
