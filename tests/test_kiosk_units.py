@@ -264,6 +264,8 @@ def test_compiled_km_matches_the_reference() -> None:
     (["bench", "latency", "--rate", "5"], "--rate"),
     (["bench", "latency", "--predict-ms", "-1"], "--predict-ms"),
     (["bench", "latency", "--brush", "broom"], "--brush"),
+    (["bench", "latency", "--window", "100x50"], "--window"),
+    (["kiosk", "--mouse-pressure", "hard"], "--mouse-pressure"),
     (["kiosk", "--predict-ms", "500"], "--predict-ms"),
 ])
 def test_bad_flags_exit_2_with_one_line(argv: list[str], where: str) -> None:
