@@ -392,3 +392,34 @@ def test_the_status_tells_wet_damp_and_dry(tmp_path) -> None:  # type: ignore[no
         assert s.moisture().word == "dry" and s.moisture().line() == "dry"
     finally:
         s.shutdown()
+
+
+def test_a_tap_picks_mixing_is_a_mode_with_a_preview_and_swatches_differ() -> None:
+    import itertools
+
+    from station.canvas.palette import default_palette
+    from station.kiosk.ui import PanelState, mix_words, swatch_pair
+
+    sent: list[tuple[str, dict]] = []
+    p = PanelState(default_palette(), lambda c, a: sent.append((c, a)), lambda: None,
+                   mix={"Black": 1.0})
+    p.tap_pigment("Hansa Yellow")
+    p.tap_pigment("French Ultramarine")  # a tap picks: the colour in the brush is that one
+    assert p.mix == {"French Ultramarine": 1.0}
+    assert sent[-1][1]["pigment"] == {"French Ultramarine": pytest.approx(p.strength)}
+    p.toggle_mixing()
+    p.hovered = "Hansa Yellow"  # the pen over a swatch while mixing: the preview
+    assert p.preview_mix() == {"French Ultramarine": 1.0, "Hansa Yellow": 1.0}
+    assert p.mix == {"French Ultramarine": 1.0}  # ... changes nothing yet
+    p.tap_pigment("Hansa Yellow")
+    p.tap_pigment("Hansa Yellow")
+    assert p.mix == {"French Ultramarine": 1.0, "Hansa Yellow": 2.0}
+    assert mix_words(p.mix) == "1 French Ultramarine + 2 Hansa Yellow"
+    p.toggle_mixing()
+    p.tap_pigment("Cadmium Red")
+    assert p.mix == {"Cadmium Red": 1.0}
+    # every swatch (masstone and wash) differs from every other by a visible step
+    pal = default_palette()
+    look = {n: np.array(swatch_pair(pal, n)).ravel() for n in pal.names()}
+    worst = min(np.abs(look[a] - look[b]).max() for a, b in itertools.combinations(look, 2))
+    assert worst > 0.12, worst

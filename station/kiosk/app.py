@@ -920,7 +920,7 @@ class KioskApp:
         near = pen is not None and pen.proximity and \
             (pen.x * self.size[0] < self.panel_w + 40 or self.capture == "ui")
         return (self._status_text(), tuple(sorted(p.mix.items())), p.size, p.water,
-                p.strength, p.kind, p.view, p.confirm_clear, p.eraser, p.message,
+                p.strength, p.kind, p.view, p.confirm_clear, p.eraser, p.message, p.mixing,
                 p.can_undo(), len(p.pressed), self.qr_url, self.pen_missing(),
                 self.idle.attract(now), near)
 
@@ -1224,6 +1224,7 @@ class KioskApp:
                 "mix": dict(self.panel.mix), "size": self.panel.size,
                 "water": self.panel.water, "strength": self.panel.strength,
                 "confirm_clear": self.panel.confirm_clear, "eraser": self.panel.eraser,
+                "mixing": self.panel.mixing,
                 "pressed": list(self.panel.pressed)},
             "player_commands": dict(s.player.counters.commands),
             "skipped_commands": dict(s.player.counters.skipped_commands),

@@ -22,7 +22,7 @@ import numpy as np
 
 from station.brush.stamp import brush_kinds
 from station.canvas.palette import Palette
-from station.canvas.render import linear_to_srgb, on_white
+from station.canvas.render import km_layer, linear_to_srgb, on_white, to_linear_rgb
 from station.kiosk.views import VIEWS
 
 MAX_MIX = 4  # pigments in one mix (a layer holds 8; a mix of more is mud anyway)
@@ -41,6 +41,37 @@ def swatch(palette: Palette, mix: dict[str, float], thickness: float = 0.35
     rgb = on_white(amount, pigs)[0, 0]
     srgb = linear_to_srgb(rgb)
     return (float(srgb[0]), float(srgb[1]), float(srgb[2]))
+
+
+#: The thickness of a swatch's masstone and of its wash, and the dark ground a light
+#: pigment's wash is shown on (a white wash on white paper shows nothing).
+SWATCH_MASS = 1.5
+SWATCH_WASH = 0.3
+LIGHT_LUMA = 0.8
+DARK_GROUND = 0.05
+
+
+def swatch_pair(palette: Palette, name: str) -> tuple[tuple[float, float, float],
+                                                      tuple[float, float, float]]:
+    """What a pigment's swatch shows (sRGB 0..1): its masstone over white paper, and a
+    wash — thin over white paper, or for a light pigment (whites, interference) over a
+    dark ground.  Two blacks differ in their washes, two whites over the dark ground."""
+    pig = palette.get(name)
+    mass = swatch(palette, {name: 1.0}, SWATCH_MASS)
+    light = 0.2126 * mass[0] + 0.7152 * mass[1] + 0.0722 * mass[2] > LIGHT_LUMA
+    ground = np.full((1, 1, 3), DARK_GROUND if light else 1.0, np.float32)
+    amount = np.full((1, 1, 1), SWATCH_WASH, np.float32)
+    wash = linear_to_srgb(to_linear_rgb(km_layer(amount, [pig], ground)))[0, 0]
+    return mass, (float(wash[0]), float(wash[1]), float(wash[2]))
+
+
+def mix_words(mix: dict[str, float]) -> str:
+    """``French Ultramarine`` or ``2 French Ultramarine + 1 Hansa Yellow`` (``water``)."""
+    if not mix:
+        return "water"
+    if len(mix) == 1:
+        return next(iter(mix))
+    return " + ".join(f"{v:g} {n}" for n, v in mix.items())
 
 
 def undo_available() -> bool:
@@ -74,6 +105,8 @@ class PanelState:
     pressed: list[str] = field(default_factory=list)  # every control used, in order
     # whether the painting has a stroke to undo now (the live sim's UndoHistory.can_undo)
     can_undo: Callable[[], bool] = _nothing_to_undo
+    mixing: bool = False  # a tap adds a part to the mix (else it picks the colour)
+    hovered: str | None = None  # the swatch under the pen (its name shown; mixing: preview)
 
     # -- actions -----------------------------------------------------------------
     def brush_args(self) -> dict[str, Any]:
@@ -83,6 +116,34 @@ class PanelState:
 
     def apply_brush(self) -> None:
         self.send("brush", self.brush_args())
+
+    def tap_pigment(self, name: str) -> None:
+        """A tap on a swatch: picks that colour, or while mixing adds a part of it."""
+        if self.mixing:
+            self.add_pigment(name)
+        else:
+            self.pick_pigment(name)
+
+    def pick_pigment(self, name: str) -> None:
+        self.pressed.append(f"pick:{name}")
+        self.mix = {name: 1.0}
+        self.apply_brush()
+
+    def toggle_mixing(self) -> None:
+        """Mixing on (taps add parts to the colour in the brush) or off (taps pick)."""
+        self.pressed.append("mixing:off" if self.mixing else "mixing:on")
+        self.mixing = not self.mixing
+
+    def preview_mix(self) -> dict[str, float]:
+        """The mix the mix button shows: while mixing with the pen over a swatch, the mix
+        one more tap would make (a preview); else the brush's."""
+        if not (self.mixing and self.hovered):
+            return dict(self.mix)
+        if self.hovered not in self.mix and len(self.mix) >= MAX_MIX:
+            return dict(self.mix)
+        out = dict(self.mix)
+        out[self.hovered] = out.get(self.hovered, 0.0) + 1.0
+        return out
 
     def add_pigment(self, name: str) -> None:
         self.pressed.append(f"pigment:{name}")
@@ -172,25 +233,38 @@ def draw_panel(st: PanelState, width: float, height: float, status: str,
     gap = imgui.get_style().item_spacing.x
     row_h = 56.0
 
-    # palette: a grid of swatches, tap to add to the mix
-    imgui.text("Paint")
+    # palette: a grid of named swatches (masstone above, wash below); a tap picks the
+    # colour, or adds a part of it while mixing
+    imgui.text("Mixing: tap colours to add" if st.mixing else "Paint: tap a colour")
     names = list(st.palette.names())
     cols = 5
     sw = (avail - gap * (cols - 1)) / cols
+    hovered = None
+    draw = imgui.get_window_draw_list()
     for i, name in enumerate(names):
         if i % cols:
             imgui.same_line()
         imgui.push_id(name)
-        if _button(imgui, "##p", sw, sw * 0.8, rects, f"pigment:{name}",
-                   color=swatch(st.palette, {name: 1.0}, 1.5)):
-            st.add_pigment(name)
+        mass, wash = swatch_pair(st.palette, name)
+        if _button(imgui, "##p", sw, sw * 0.8, rects, f"pigment:{name}", color=mass):
+            st.tap_pigment(name)
+        if imgui.is_item_hovered():
+            hovered = name
+            imgui.set_tooltip(name)
+        x0, y0, x1, y1 = rects[f"pigment:{name}"]
+        draw.add_rect_filled(imgui.ImVec2(x0, y0 + (y1 - y0) * 0.62), imgui.ImVec2(x1, y1),
+                             imgui.color_convert_float4_to_u32(imgui.ImVec4(*wash, 1.0)))
         imgui.pop_id()
-    # current mix
-    mix_rgb = swatch(st.palette, st.mix)
-    _button(imgui, "mix" if st.mix else "water", avail * 0.55, row_h, rects, "mix",
-            color=mix_rgb)
+    st.hovered = hovered
+    # the colour in the brush (or, mixing over a swatch, what one more tap makes), named
+    shown = st.preview_mix()
+    imgui.text_wrapped("Mix: " + mix_words(shown) if st.mixing
+                       else (hovered or mix_words(st.mix)))
+    label = "Done mixing" if st.mixing else "Mix colours"
+    if _button(imgui, label, avail * 0.55, row_h, rects, "mix", color=swatch(st.palette, shown)):
+        st.toggle_mixing()
     imgui.same_line()
-    if _button(imgui, "Fresh", avail * 0.45 - gap, row_h, rects, "fresh_mix"):
+    if _button(imgui, "Water", avail * 0.45 - gap, row_h, rects, "fresh_mix"):
         st.fresh_mix()
 
     # brush
