@@ -544,3 +544,41 @@ def test_a_killed_kiosk_resumes_the_painting_exactly(display: str, tmp_path: Pat
     empty = live / "20260101-000000-abcdef.jsonl"
     empty.write_text((crashed / f"{pid}.jsonl").read_text().splitlines()[0] + "\n")
     assert painting_in_progress(live) is None and not empty.exists()
+
+
+@in_own_process
+def test_the_attract_screen_replays_the_gallery_and_gives_way_at_a_touch(
+        display: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from PIL import Image
+
+    replay = tmp_path / "gallery" / "20260101-000000-aaaaaa" / "replay.webp"
+    replay.parent.mkdir(parents=True)
+    colours = [(200, 40, 40), (40, 160, 40), (40, 60, 200)]  # a painting "being painted"
+    frames = [Image.new("RGB", (160, 120), c) for c in colours]
+    frames[0].save(replay, save_all=True, append_images=frames[1:], duration=[150, 150, 150],
+                   loop=0, lossless=True)
+    app = _app(display, tmp_path, monkeypatch, "auto")
+    try:
+        app.idle.cfg.attract_after = 0.05
+        time.sleep(0.1)
+        seen = set()
+        t_end = time.monotonic() + 20.0  # a generous deadline: three frames to show
+        while time.monotonic() < t_end and len(seen) < 3:
+            app.frame(0.016)
+            if "attract_image" in app.rects:
+                x0, y0, x1, y1 = (int(v) for v in app.rects["attract_image"])
+                px = tuple(int(c) for c in _picture(app)[(y0 + y1) // 2, (x0 + x1) // 2])
+                seen.update(i for i, c in enumerate(colours)
+                            if max(abs(a - b) for a, b in zip(px, c, strict=True)) < 12)
+            time.sleep(0.03)
+        assert seen == {0, 1, 2}  # the replay plays, frame after frame
+        assert "attract_text" in app.rects  # with its line of invitation
+        # the first touch (a mouse move over the window): the painting is back
+        x, y, w, h = app.canvas_rect()
+        app.on_cursor(app.window, x + w / 2, y + h / 2)
+        for _ in range(3):
+            app.frame(0.016)
+        assert "attract_text" not in app.rects and not app.kiosk_status()["attract"]
+        assert (_picture(app)[int(y + 0.2 * h), int(x + 0.2 * w)] > 240).all()  # paper
+    finally:
+        app.close()

@@ -423,3 +423,14 @@ def test_a_tap_picks_mixing_is_a_mode_with_a_preview_and_swatches_differ() -> No
     look = {n: np.array(swatch_pair(pal, n)).ravel() for n in pal.names()}
     worst = min(np.abs(look[a] - look[b]).max() for a, b in itertools.combinations(look, 2))
     assert worst > 0.12, worst
+
+
+def test_without_replays_the_attract_screen_paints_a_demo_stroke(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from station.kiosk.attract import AttractShow, demo_stroke
+
+    show = AttractShow(tmp_path)  # an empty gallery
+    show.start(0.0)
+    assert not show.playing and show.frame(1.0) == (None, False)
+    early, later = demo_stroke(0.5, 800, 600), demo_stroke(3.0, 800, 600)
+    assert 2 <= len(early) < len(later)  # the stroke paints itself along
+    assert all(0 <= x <= 800 and 0 <= y <= 600 for x, y in later)

@@ -49,6 +49,7 @@ from station.canvas.render import to_srgb8
 from station.errors import BadInput, StationError
 from station.events import Command, PenSample, Tool
 from station.kiosk import mouse, subcell
+from station.kiosk.attract import INVITATION, AttractShow, demo_stroke
 from station.kiosk.commands import MESSAGE_MAX, check_kiosk_command, is_kiosk_command
 from station.kiosk.compose import Box, Compositor, merge_rects, screen_box
 from station.kiosk.display import CpuDisplay, GpuDisplay, make_display
@@ -64,7 +65,7 @@ from station.kiosk.idle import IdleClock, IdleConfig
 from station.kiosk.predict import LagEstimate, PenPredictor, PredictConfig
 from station.kiosk.present import PRESENT_MODES, Presenter
 from station.kiosk.session import KioskSession
-from station.kiosk.ui import PanelState, draw_banner, draw_panel, draw_qr
+from station.kiosk.ui import PanelState, draw_attract, draw_banner, draw_panel, draw_qr
 from station.kiosk.views import VIEWS, Camera, Viewport, input_camera, make_camera
 from station.sim.journal import autosave_path
 from station.sim.live import DEFAULT_CMD_ENDPOINT, LiveConfig, default_status_endpoint
@@ -78,6 +79,7 @@ AUTO_HORIZON_START_S = 0.008  # the auto prediction's horizon until frames measu
 TILE_FRAME_S = 1 / 120  # frames that show only the steps' tiles come at most this often
 LATCH_BUDGET_S = 0.002  # the late latch handles pen samples for at most this long
 THREAD_POLL_S = 0.004  # a wet canvas: how often the window looks for the thread's steps
+ATTRACT_FRAME_S = 1 / 12  # the attract screen's animation: frames this often
 
 FLAT_VERT = """
 #version 330
@@ -426,6 +428,10 @@ class KioskApp:
     def _init_frame_state(self) -> None:
         """What the loop keeps between frames: the pen, the driver, the gallery's
         saves, the bench's records, the caches of the UI, compositing and presenting."""
+        # the attract screen (station.kiosk.attract)
+        self.attract_show = AttractShow(self.cfg.gallery)
+        self._attracting = False
+        self._attract_tex: tuple[int, tuple[int, int], Any] | None = None
         # the pen and what it holds
         self.stop_requested = False
         self.capture: str | None = None  # "ui" or "canvas" while the tip is down
@@ -908,9 +914,34 @@ class KioskApp:
             draw_banner("The pen is unplugged - please wait, it will be back",
                         a.x + 20, a.y + 20, a.w - 40, 110, "unplugged", big=False)
         elif self.idle.attract(now):
-            draw_banner("Pick up the pen and paint!", a.x + a.w * 0.1, a.y + a.h * 0.38,
-                        a.w * 0.8, a.h * 0.24, "attract")
+            draw_attract(a.x, a.y, a.w, a.h, INVITATION, self._attract_image(now),
+                         demo_stroke(now, a.w, a.h), self.rects)
+        else:
+            self._attracting = False
         return self.gui.end_frame()
+
+    def _attract_image(self, now: float) -> tuple[int, tuple[int, int]] | None:
+        """The replay frame the attract screen shows now (an ImGui texture), or ``None``
+        (no replay in the gallery: the demo stroke)."""
+        if not self._attracting:
+            self._attracting = True
+            self.attract_show.start(now)
+        rgba, new = self.attract_show.frame(now)
+        if rgba is None:
+            return None
+        if new or self._attract_tex is None:
+            h, w = rgba.shape[:2]
+            # a new texture (and ImGui id) for each new frame: the compositor redraws the
+            # UI where its draw data changed, and an id is what changes
+            old = self._attract_tex
+            tex = self.ctx.texture((w, h), 4, np.ascontiguousarray(rgba).tobytes())
+            tex.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+            self._attract_tex = (self.gui.add_texture(tex), (w, h), tex)
+            if old is not None:
+                self.gui.textures.pop(old[0], None)
+                old[2].release()
+        tid, size, _tex = self._attract_tex
+        return tid, size
 
     def _ui_key(self, now: float) -> tuple[Any, ...]:
         """What the panel and overlays show; the last item: the pen is near the panel
@@ -922,7 +953,7 @@ class KioskApp:
         return (self._status_text(), tuple(sorted(p.mix.items())), p.size, p.water,
                 p.strength, p.kind, p.view, p.confirm_clear, p.eraser, p.message, p.mixing,
                 p.can_undo(), len(p.pressed), self.qr_url, self.pen_missing(),
-                self.idle.attract(now), near)
+                self.idle.attract(now) and int(now / ATTRACT_FRAME_S), near)
 
     def _status_text(self) -> str:
         """The status line, refreshed every :data:`STATUS_EVERY_S` (people read it; a
@@ -1002,6 +1033,8 @@ class KioskApp:
         steps end any time).  At least a millisecond: a loop that does not wait spins,
         and a spinning loop takes the interpreter lock and a core from the steps."""
         s = self.session
+        if self.idle.attract(time.monotonic()):
+            return max(1, math.ceil(ATTRACT_FRAME_S * 1000))
         if s.threaded:
             wait = THREAD_POLL_S if s.active_tiles() else REDRAW_EVERY_S
         else:
@@ -1086,7 +1119,8 @@ class KioskApp:
         return (self._need_draw or got_input or bool(self.screenshots) or s.whole_dirty
                 or bool(s.dirty.any()) or self.display.behind()
                 or now - self._last_draw >= REDRAW_EVERY_S
-                or self._view_key() != self._drawn_view or self.presenter.owes_whole())
+                or self._view_key() != self._drawn_view or self.presenter.owes_whole()
+                or (self.idle.attract(now) and now - self._last_draw >= ATTRACT_FRAME_S))
 
     def _view_key(self) -> tuple[str, tuple[float, float]]:
         """What the camera depends on: a view changed by any path is drawn at once."""

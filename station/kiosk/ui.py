@@ -375,3 +375,40 @@ def draw_banner(text: str, x: float, y: float, w: float, h: float, key: str,
     if big:
         imgui.pop_font()
     imgui.end()
+
+
+def draw_attract(x: float, y: float, w: float, h: float, text: str,
+                 image: tuple[int, tuple[int, int]] | None,
+                 stroke: list[tuple[float, float]], rects: dict[str, Any]) -> None:
+    """The attract screen over the canvas area (x, y, w, h): a replay's frame (ImGui
+    texture id and size) fitted into it, or the demo stroke (area pixels), and one
+    line of invitation."""
+    from imgui_bundle import imgui
+
+    imgui.set_next_window_pos(imgui.ImVec2(x, y))
+    imgui.set_next_window_size(imgui.ImVec2(w, h))
+    imgui.set_next_window_bg_alpha(0.92)
+    flags = (imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_move
+             | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_inputs
+             | imgui.WindowFlags_.no_saved_settings | imgui.WindowFlags_.no_scrollbar)
+    imgui.begin("attract", None, flags)
+    line_h = imgui.get_text_line_height() * 2.2
+    if image is not None:
+        tex_id, (iw, ih) = image
+        scale = min((w - 40) / iw, (h - 60 - 2 * line_h) / ih)
+        dw, dh = iw * scale, ih * scale
+        imgui.set_cursor_pos(imgui.ImVec2((w - dw) / 2, 20))
+        imgui.image(imgui.ImTextureRef(tex_id), imgui.ImVec2(dw, dh))
+        rects["attract_image"] = _rect(imgui)
+    elif len(stroke) >= 2:
+        draw = imgui.get_window_draw_list()
+        col = imgui.color_convert_float4_to_u32(imgui.ImVec4(0.16, 0.36, 0.78, 0.85))
+        pts = [imgui.ImVec2(x + px, y + py) for px, py in stroke]
+        draw.add_polyline(pts, col, imgui.ImDrawFlags_.none, max(8.0, h * 0.05))
+    imgui.push_font(None, imgui.get_style().font_size_base * 1.8)
+    tw = imgui.calc_text_size(text).x
+    imgui.set_cursor_pos(imgui.ImVec2(max(8.0, (w - tw) / 2), h - line_h - 10))
+    imgui.text(text)
+    rects["attract_text"] = _rect(imgui)
+    imgui.pop_font()
+    imgui.end()
