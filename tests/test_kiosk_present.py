@@ -582,3 +582,27 @@ def test_the_attract_screen_replays_the_gallery_and_gives_way_at_a_touch(
         assert (_picture(app)[int(y + 0.2 * h), int(x + 0.2 * w)] > 240).all()  # paper
     finally:
         app.close()
+
+
+@in_own_process
+def test_an_empty_gallery_attracts_with_a_demo_stroke(display: str, tmp_path: Path,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    app = _app(display, tmp_path, monkeypatch, "auto")
+    try:
+        app.idle.cfg.attract_after = 0.05
+        time.sleep(0.1)
+        x, y, w, h = app.canvas_rect()
+        before = None
+        changed = False
+        for _ in range(30):  # the stroke paints itself: the area changes frame to frame
+            app.frame(0.016)
+            time.sleep(0.05)
+            pic = _picture(app)[int(y):int(y + h), int(x):int(x + w)].astype(int)
+            if before is not None and np.abs(pic - before).max() > 40:
+                changed = True
+            before = pic
+        assert changed and "attract_text" in app.rects and "attract_image" not in app.rects
+        blue = (pic[..., 2] - pic[..., 0] > 60).sum()
+        assert blue > 200  # the stroke's colour on the screen
+    finally:
+        app.close()

@@ -258,8 +258,8 @@ def draw_panel(st: PanelState, width: float, height: float, status: str,
     st.hovered = hovered
     # the colour in the brush (or, mixing over a swatch, what one more tap makes), named
     shown = st.preview_mix()
-    imgui.text_wrapped("Mix: " + mix_words(shown) if st.mixing
-                       else (hovered or mix_words(st.mix)))
+    # one line, whatever it says: the controls below stay where they are
+    imgui.text("Mix: " + mix_words(shown) if st.mixing else (hovered or mix_words(st.mix)))
     label = "Done mixing" if st.mixing else "Mix colours"
     if _button(imgui, label, avail * 0.55, row_h, rects, "mix", color=swatch(st.palette, shown)):
         st.toggle_mixing()
@@ -404,8 +404,11 @@ def draw_attract(x: float, y: float, w: float, h: float, text: str,
         draw = imgui.get_window_draw_list()
         col = imgui.color_convert_float4_to_u32(imgui.ImVec4(0.16, 0.36, 0.78, 0.85))
         pts = [imgui.ImVec2(x + px, y + py) for px, py in stroke]
-        draw.add_polyline(pts, col, imgui.ImDrawFlags_.none, max(8.0, h * 0.05))
-    imgui.push_font(None, imgui.get_style().font_size_base * 1.8)
+        draw.add_polyline(pts, col, max(8.0, h * 0.05), 0)
+    # one line, as large as fits the area (at most 1.8 times the panel's text)
+    base = imgui.get_style().font_size_base
+    fit = (w - 40) / max(imgui.calc_text_size(text).x, 1.0)
+    imgui.push_font(None, base * max(0.8, min(1.8, fit)))
     tw = imgui.calc_text_size(text).x
     imgui.set_cursor_pos(imgui.ImVec2(max(8.0, (w - tw) / 2), h - line_h - 10))
     imgui.text(text)
