@@ -434,3 +434,22 @@ def test_without_replays_the_attract_screen_paints_a_demo_stroke(tmp_path) -> No
     early, later = demo_stroke(0.5, 800, 600), demo_stroke(3.0, 800, 600)
     assert 2 <= len(early) < len(later)  # the stroke paints itself along
     assert all(0 <= x <= 800 and 0 <= y <= 600 for x, y in later)
+
+
+def test_a_live_painting_held_by_another_kiosk_is_neither_resumed_nor_removed(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    import os
+
+    pytest.importorskip("glfw")
+    from station.kiosk.app import hold_live_log, painting_in_progress
+
+    header = '{"format": "station-session", "version": 1}\n'
+    stroke = tmp_path / "20260101-000000-aaaaaa.jsonl"
+    stroke.write_text(header + '{"type": "pen", "touching": true}\n')
+    empty = tmp_path / "20260101-000001-bbbbbb.jsonl"
+    empty.write_text(header)
+    held = [hold_live_log(stroke), hold_live_log(empty)]  # a kiosk beside this one
+    assert painting_in_progress(tmp_path) is None
+    assert stroke.exists() and empty.exists()  # not its to remove
+    for fd in held:
+        os.close(fd)
+    assert painting_in_progress(tmp_path) == stroke and not empty.exists()

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import ctypes
 import dataclasses
+import fcntl
 import logging
 import math
 import os
@@ -160,6 +161,8 @@ def painting_in_progress(live_dir: Path) -> Path | None:
     logs = sorted(live_dir.glob("*.jsonl"), key=lambda p: p.stat().st_mtime, reverse=True)
     found: Path | None = None
     for path in logs:
+        if _held_by_another(path):  # a kiosk beside this one paints on it (one gallery)
+            continue
         if not _has_stroke(path):
             path.unlink(missing_ok=True)
             autosave_path(path).unlink(missing_ok=True)
@@ -168,6 +171,30 @@ def painting_in_progress(live_dir: Path) -> Path | None:
         else:  # an older crash's painting: kept for the operator (station paint repaints it)
             log.warning("an older painting in progress is left in %s", path)
     return found
+
+
+def hold_live_log(path: Path) -> int | None:
+    """An exclusive lock on a live log for as long as this kiosk paints on it (the file
+    descriptor; the system lets go when the process dies, ``kill -9`` included): another
+    kiosk on the same gallery neither resumes nor removes it."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_CREAT, 0o600)
+    except OSError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        os.close(fd)
+        return None
+    return fd
+
+
+def _held_by_another(path: Path) -> bool:
+    fd = hold_live_log(path)
+    if fd is None:
+        return path.exists()
+    os.close(fd)  # closing lets the lock go
+    return False
 
 
 def _has_stroke(path: Path) -> bool:
@@ -530,6 +557,8 @@ class KioskApp:
             session.haptics.send = pub.publish_haptic
             session.haptics.wanted = lambda name: pub.wants(f"haptic.{name}")
         session.painting_id = pid
+        self._release_live_log()
+        self._live_lock = hold_live_log(session.log_path)
         self.session = session
         if resume is None:
             self.panel.apply_brush()  # the visitor's brush carries over, logged first
@@ -539,6 +568,11 @@ class KioskApp:
         if cfg.sim_thread:
             session.start_worker()
         return session
+
+    def _release_live_log(self) -> None:
+        fd, self._live_lock = getattr(self, "_live_lock", None), None
+        if fd is not None:
+            os.close(fd)
 
     def _send(self, name: str, args: dict[str, Any]) -> None:
         session = getattr(self, "session", None)
@@ -605,6 +639,7 @@ class KioskApp:
         if close is not None:
             close()
         if stored:  # in the gallery now (or nothing was painted): the live files go
+            self._release_live_log()
             Path(s.log_path).unlink(missing_ok=True)
             Path(s.autosave_path).unlink(missing_ok=True)
         return pid if painted and stored else None
@@ -1299,6 +1334,7 @@ class KioskApp:
         try:
             self.finish_painting("stopped")
         finally:
+            self._release_live_log()
             if self.pub is not None:
                 try:
                     self.pub.publish_status({**self.kiosk_status_safe(), "state": "stopped"})
