@@ -349,27 +349,6 @@ class KioskApp:
         self.panel_w = int(max(300, w * self.cfg.panel_fraction))
         self.area = Viewport(self.panel_w, 0, w - self.panel_w, h)
 
-    def _follow_window_size(self) -> None:
-        """A window resized (a window manager, a monitor's mode, an operator) is laid out
-        and drawn anew at its new size: the picture's framebuffer, the panel, the
-        presenter all follow (kept at the old size, the window showed black bands along
-        its right and bottom edges and stale parts of the old picture)."""
-        fb = self.glfw.get_framebuffer_size(self.window)
-        size = (int(fb[0]), int(fb[1]))
-        if size == self.size or size[0] <= 0 or size[1] <= 0:  # same, or minimised
-            return
-        log.info("window resized to %dx%d", *size)
-        self.size = size
-        self._place_panel()
-        self.gui.resize(size)
-        self.mouse.size = size
-        self.compositor.release()
-        self.compositor = Compositor(self.ctx, size)
-        self.presenter.resized(size)
-        self._frame_boxes, self._shadow_box = [], None
-        self._ui_last_key = None  # the panel is built again for the new size
-        self._need_draw = True
-
     def _take_the_mouse(self) -> None:
         """The mouse (or a touchscreen's pointer) paints too (:mod:`station.kiosk.mouse`)
         unless ``--input pen``."""
@@ -522,6 +501,27 @@ class KioskApp:
         self._last_whole = 0.0  # monotonic time of the last whole present
 
     # -- GL programs -------------------------------------------------------------
+    def _follow_window_size(self) -> None:
+        """A window resized (a window manager, a monitor's mode, an operator) is laid out
+        and drawn anew at its new size: the picture's framebuffer, the panel, the
+        presenter all follow (kept at the old size, the window showed black bands along
+        its right and bottom edges and stale parts of the old picture)."""
+        fb = self.glfw.get_framebuffer_size(self.window)
+        size = (int(fb[0]), int(fb[1]))
+        if size == self.size or size[0] <= 0 or size[1] <= 0:  # same, or minimised
+            return
+        log.info("window resized to %dx%d", *size)
+        self.size = size
+        self._place_panel()
+        self.gui.resize(size)
+        self.mouse.size = size
+        self.compositor.release()
+        self.compositor = Compositor(self.ctx, size)
+        self.presenter.resized(size)
+        self._frame_boxes, self._shadow_box = [], None
+        self._ui_last_key = None  # the panel is built again for the new size
+        self._need_draw = True
+
     def _programs(self) -> None:
         ctx = self.ctx
         self.canvas_prog = ctx.program(vertex_shader=subcell.CANVAS_VERT,

@@ -403,7 +403,7 @@ def draw_attract(x: float, y: float, w: float, h: float, text: str,
     elif len(stroke) >= 2:
         draw = imgui.get_window_draw_list()
         col = imgui.color_convert_float4_to_u32(imgui.ImVec4(0.16, 0.36, 0.78, 0.85))
-        pts = [imgui.ImVec2(x + px, y + py) for px, py in stroke]
+        pts: list[Any] = [imgui.ImVec2(x + px, y + py) for px, py in stroke]
         draw.add_polyline(pts, col, max(8.0, h * 0.05), 0)
     # one line, as large as fits the area (at most 1.8 times the panel's text)
     base = imgui.get_style().font_size_base
