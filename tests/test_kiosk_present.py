@@ -574,6 +574,9 @@ def test_the_attract_screen_replays_the_gallery_and_gives_way_at_a_touch(
         assert seen == {0, 1, 2}  # the replay plays, frame after frame
         assert "attract_text" in app.rects  # with its line of invitation
         # the first touch (a mouse move over the window): the painting is back
+        app.idle.cfg.attract_after = 5.0  # (and stays, however slow the next frames)
+        app.idle.last_activity -= 100.0
+        assert app.kiosk_status()["attract"]  # still attracting before the touch
         x, y, w, h = app.canvas_rect()
         app.on_cursor(app.window, x + w / 2, y + h / 2)
         for _ in range(3):
