@@ -6,6 +6,12 @@ tools/kiosk_screenshots.py``), paints a few strokes with the mouse path (as a
 visitor without a tablet would), waits for the paint to settle a little, and
 takes the top, table and brush views; then saves the painting to the gallery,
 waits for its replay, and takes the attract screen replaying it.
+
+``--inline-sim`` steps the simulation in the frame loop (``station kiosk
+--inline-sim``): every frame then shows tiles rendered between steps. With the
+simulation thread (the default) a frame can show a wet tile rendered while a
+step's kernel wrote it, for one frame (see docs/kiosk.md); the README's shots
+are taken inline so they show the picture, not that frame.
 """
 
 from __future__ import annotations
@@ -61,6 +67,7 @@ def main() -> int:
     cfg = KioskConfig(bus=f">ipc://{tmp}/bus", fullscreen=False, window=(1920, 1080),
                       gallery=tmp / "gallery", serve=None, status="none", cmd="none",
                       vsync=False, autosave=0, input="mouse",
+                      sim_thread="--inline-sim" not in sys.argv,
                       idle=IdleConfig(attract_after=3600, finish_after=7200))
     app = KioskApp(cfg)
     try:

@@ -140,8 +140,6 @@ class CpuDisplay:
             self.texture.repeat_x = self.texture.repeat_y = False
         st = session.cpu_state
         self.paper_cells = st.paper_reflectance()
-        # the cells' rendered reflectance as shown (the texture holds it extended)
-        self.cell_rgb = np.zeros((h, w, 3), F32)
         self.surface = CanvasSurface.make(self.ctx, self.paper_cells, st.paper_preset, st.seed,
                                           float(st.params.paper_shade), contours=True,
                                           old=getattr(self, "surface", None))
@@ -270,15 +268,19 @@ class CpuDisplay:
         extra = None if pending is None else _pending_in(pending, st, ry, rx)
         amount, _pigments = region_amount(st, ry, rx, extra)
         painted = subcell.painted_cells(amount, st.r_composed[ry, rx], self.paper_cells[ry, rx])
-        # only the changed cells are rendered: the colours around them, which the
-        # extension reads, are those already shown (every change marks its cells dirty)
-        din = (slice(ys.start - ry.start, ys.stop - ry.start),
-               slice(xs.start - rx.start, xs.stop - rx.start))
-        d_extra = None if extra is None else {n: a[din] for n, a in extra.items()}
-        self.cell_rgb[ys, xs] = self._render(st, kind, ys, xs, d_extra)
+        # the colours the extension reads (the uploaded cells and one more) rendered from
+        # the same state as the indicator: colours kept from earlier renders (a mirror of
+        # what was shown) disagreed with a fresher indicator along a wet edge, and the
+        # extension carried a stale, darker colour out as specks and notches
+        ky, kx = subcell.grow(uy, ux, subcell.COLOUR_HALO, h, w)
+        kin = (slice(ky.start - ry.start, ky.stop - ry.start),
+               slice(kx.start - rx.start, kx.stop - rx.start))
+        k_extra = None if extra is None else {n: a[kin] for n, a in extra.items()}
+        rgb = np.zeros((ry.stop - ry.start, rx.stop - rx.start, 3), F32)
+        rgb[kin] = self._render(st, kind, ky, kx, k_extra)
         inner = (slice(uy.start - ry.start, uy.stop - ry.start),
                  slice(ux.start - rx.start, ux.stop - rx.start))
-        self._upload(subcell.fields(self.cell_rgb[ry, rx], painted, inner), uy, ux)
+        self._upload(subcell.fields(rgb, painted, inner), uy, ux)
         return uy, ux
 
     def _render(self, st: Any, kind: str, ys: slice, xs: slice,
