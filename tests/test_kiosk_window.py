@@ -68,6 +68,13 @@ def test_mock_stroke_appears_under_the_pen_and_every_view_renders(display: str,
         run_driver("mock:intuos-pro-m?script=line&rate=200", "--calibration",
                    str(tmp_path / "cal.json"))
         st = k.wait(lambda s: s["samples"] >= 100 and s["stamps"] > 50, 30, "the stroke")
+        seen = [st["samples"]]  # the driver is done: wait until the kiosk has taken it all
+
+        def settled(s: dict) -> bool:
+            seen.append(s["samples"])
+            return len(seen) >= 3 and seen[-1] == seen[-2] == seen[-3]
+
+        st = k.wait(settled, 60, "the whole stroke taken")
         # the numpy backend steps in its own thread where numba's layer is thread-safe
         assert st["sim_thread"] is numba_threadsafe()
         shot = rgb(k.screenshot("2d"))

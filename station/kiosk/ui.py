@@ -261,8 +261,14 @@ def draw_panel(st: PanelState, width: float, height: float, status: str,
     # one line, whatever it says: the controls below stay where they are
     imgui.text("Mix: " + mix_words(shown) if st.mixing else (hovered or mix_words(st.mix)))
     label = "Done mixing" if st.mixing else "Mix colours"
-    if _button(imgui, label, avail * 0.55, row_h, rects, "mix", color=swatch(st.palette, shown)):
+    shown_rgb = swatch(st.palette, shown)
+    light = 0.2126 * shown_rgb[0] + 0.7152 * shown_rgb[1] + 0.0722 * shown_rgb[2] > 0.6
+    if light:  # dark letters on a light mix, or the label is white on white
+        imgui.push_style_color(imgui.Col_.text, imgui.ImVec4(0.08, 0.08, 0.1, 1.0))
+    if _button(imgui, label, avail * 0.55, row_h, rects, "mix", color=shown_rgb):
         st.toggle_mixing()
+    if light:
+        imgui.pop_style_color()
     imgui.same_line()
     if _button(imgui, "Water", avail * 0.45 - gap, row_h, rects, "fresh_mix"):
         st.fresh_mix()
