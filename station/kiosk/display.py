@@ -22,7 +22,7 @@ applies the sRGB transfer), row 0 = the canvas's top row.
 from __future__ import annotations
 
 import time
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, Protocol
 
 import numba
 import numpy as np
@@ -69,10 +69,11 @@ def tile_runs(dirty: np.ndarray, most: int | None = None) -> list[tuple[int, int
     return runs
 
 
-@runtime_checkable
 class PreviewingBrush(Protocol):
     """A brush whose stamps wait for the next step (both of the station's brushes): the
-    display shows them at once through :meth:`preview`."""
+    display shows them at once through :meth:`preview` (the seam :func:`brush_preview`
+    and :func:`pending_stamps` use; asked by attribute, as an ``isinstance`` check on a
+    Protocol costs more than the call every frame)."""
 
     @property
     def pending(self) -> int: ...  # stamps waiting for the next step (cheap to ask)
@@ -82,7 +83,7 @@ class PreviewingBrush(Protocol):
 
 def brush_preview(brush: object, since: int = 0) -> StampPreview | None:
     """The brush's preview, or ``None`` for a brush that has none."""
-    fn = getattr(brush, "preview", None)  # not isinstance(PreviewingBrush): per frame, slow
+    fn = getattr(brush, "preview", None)
     return fn(since) if fn is not None else None
 
 
