@@ -107,8 +107,8 @@ def _app(display: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, present:
                       idle=IdleConfig(attract_after=3600, finish_after=7200))
     app = KioskApp(cfg)
     app.display_name = display
-    real = app.session.sub
-    app.session.sub = _Queue()
+    real = app.session.sim.sub
+    app.session.sim.sub = _Queue()
     real.close()
     return app
 
@@ -177,6 +177,7 @@ def test_a_sample_arriving_while_the_tiles_are_drawn_is_shown_in_that_frame(
 def test_tile_rendering_stops_at_its_time_budget(display: str, tmp_path: Path,
                                                  monkeypatch: pytest.MonkeyPatch) -> None:
     from station.kiosk.display import RUN_TILES
+    from station.kiosk.subcell import LEVEL_REACH
 
     app = _app(display, tmp_path, monkeypatch, "auto")
     try:
@@ -188,14 +189,15 @@ def test_tile_rendering_stops_at_its_time_budget(display: str, tmp_path: Path,
         while True:
             cells = disp.update_tiles()
             rounds += 1
-            assert 0 < cells <= RUN_TILES * ts * ts
+            # a run of tiles, grown by the reach of its contour level (subcell.grow)
+            assert 0 < cells <= (RUN_TILES * ts + 2 * LEVEL_REACH) * (ts + 2 * LEVEL_REACH)
             if not disp.behind():
                 break
             assert rounds < 100
         tiles = -(-W // ts) * -(-H // ts)
         assert rounds >= tiles / RUN_TILES  # the whole canvas, a run at a time
-        tex = np.frombuffer(disp.texture.read(), np.float32).reshape(H, W, 3)
-        assert np.abs(tex - app.session.canvas.render()).max() < 2e-6
+        tex = disp.read()
+        assert np.abs(tex - disp.expected()).max() < 2e-6
     finally:
         app.close()
 
@@ -283,20 +285,25 @@ def test_the_preview_grows_with_the_stroke_and_matches_a_whole_render(
         st = s.cpu_state
         extra = {k: v.astype(np.float32) * (st.mask[ys, xs] == 0) for k, v in src.dp.items()}
         ref = render_region(st, "km", ys, xs, extra)
-        tex = np.frombuffer(disp.texture.read(), np.float32).reshape(H, W, 3)[ys, xs]
-        assert np.abs(tex - ref).max() < 2e-5  # as one render of all the pending stamps
+        tex = disp.read()[ys, xs]
+        inside = tex[..., 3] >= 0.999  # painted cells (blank ones hold the paint's extension)
+        assert inside.mean() > 0.3
+        # as one render of all the pending stamps
+        assert np.abs(tex[..., :3] - ref)[inside].max() < 2e-5
         s.mark_all_dirty()  # the state redrawn everywhere (a command): the stamps stay
         while disp.update_tiles() or disp.behind():
             pass
         assert disp.update_preview() == 0  # nothing new to preview ...
-        tex = np.frombuffer(disp.texture.read(), np.float32).reshape(H, W, 3)[ys, xs]
-        assert np.abs(tex - ref).max() < 2e-5  # ... and the tiles drew them too
+        tex = disp.read()[ys, xs]
+        inside = tex[..., 3] >= 0.999  # painted cells (blank ones hold the paint's extension)
+        assert inside.mean() > 0.3
+        assert np.abs(tex[..., :3] - ref)[inside].max() < 2e-5  # ... and the tiles drew them too
         s.step()  # the step takes the stamps: the state is shown there again
         while disp.update_tiles() or disp.behind():
             pass
         assert disp.update_preview() == 0 and disp.preview_box is None
-        tex = np.frombuffer(disp.texture.read(), np.float32).reshape(H, W, 3)
-        assert np.abs(tex - s.canvas.render()).max() < 2e-6
+        tex = disp.read()
+        assert np.abs(tex - disp.expected()).max() < 2e-6
     finally:
         app.close()
 
@@ -332,7 +339,7 @@ def test_a_deformable_brush_is_previewed_before_the_step(display: str, tmp_path:
                   pigment={"French Ultramarine": 0.6})
         while disp.update_tiles() or disp.behind():
             pass
-        white = np.frombuffer(disp.texture.read(), np.float32).reshape(H, W, 3).copy()
+        white = disp.read()[..., :3].copy()
         q = s.sub
         rendered = []
         for i in range(8):
@@ -342,7 +349,7 @@ def test_a_deformable_brush_is_previewed_before_the_step(display: str, tmp_path:
             rendered.append(disp.update_preview())
         assert s.player.counters.steps == 0 and s.player.brush.pending > 0
         assert sum(rendered) > 0 and max(rendered[3:]) < W * H / 4  # the new cells only
-        tex = np.frombuffer(disp.texture.read(), np.float32).reshape(H, W, 3)
+        tex = disp.read()[..., :3]
         changed = np.abs(tex - white).max(axis=2) > 0.02
         assert changed[H // 2 - 2:H // 2 + 3, int(0.3 * W):int(0.55 * W)].mean() > 0.5
     finally:
@@ -365,5 +372,240 @@ def test_the_auto_prediction_horizon_is_the_windows_measured_lag(
         # from its start towards the lag each frame had: 10 ms plus the frame's own time
         assert 0.010 < app.lag.value < 0.05 and lags[-1] > lags[0]
         assert app.predictor.cfg.horizon_s == app.lag.value
+    finally:
+        app.close()
+
+
+def _settle(app: Any) -> None:
+    """Frames until the display has drawn everything it owes (the clock stopped)."""
+    for i in range(400):
+        app.frame(0.016)
+        s = app.session
+        if i >= 4 and not app.display.behind() and not s.whole_dirty and not s.dirty.any():
+            break
+    app.frame(0.016)
+
+
+def _screen_is_the_full_render(app: Any, what: str) -> None:
+    """The window as the X server shows it equals the picture drawn from scratch (the
+    whole canvas rendered afresh, the whole scene) within 2/255 outside the shadow."""
+    _settle(app)
+    front, ref = _front(app), app.reference_picture()
+    assert front.shape == ref.shape, what
+    differ = np.abs(front.astype(int) - ref.astype(int)).max(axis=2)
+    box = app._shadow_box
+    if box is not None:
+        x0, y0, x1, y1 = box
+        differ[y0:y1, x0:x1] = 0
+    assert differ.max() <= 2, f"{what}: {int((differ > 2).sum())} pixels differ, " \
+        f"up to {differ.max()}"
+
+
+def _edge_jump(lum: np.ndarray) -> float:
+    """Median over columns crossing paint of the largest one-pixel step in a column
+    divided by the column's contrast: a cell-wise (bilinear) magnification spreads the
+    paper-to-paint step over a cell's width in pixels (a fifth or less of the contrast per
+    pixel at 8 px per cell); a sub-cell contour makes it in about one pixel."""
+    jumps = []
+    for c in range(0, lum.shape[1], 5):
+        col = lum[:, c]
+        contrast = col.max() - col.min()
+        if contrast >= 15:
+            jumps.append(np.abs(np.diff(col)).max() / contrast)
+    assert len(jumps) >= 10
+    return float(np.median(jumps))
+
+
+@pytest.mark.parametrize("mode", ["partial", "swap"])
+@in_own_process
+def test_the_screen_is_a_full_render_through_strokes_views_undo_resize_and_clear(
+        display: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, mode: str) -> None:
+    from scipy import ndimage
+
+    app = _app(display, tmp_path, monkeypatch, mode)
+    try:
+        if mode == "partial" and app.presenter.mode != "partial":
+            pytest.skip("no GLX_MESA_copy_sub_buffer here")
+        q = app.session.sub
+        app.frame(0.016)
+        for i in range(16):
+            q.push(_pen(app, i, 0.2 + 0.035 * i, 0.4 + 0.015 * i))
+            app.frame(0.016)
+            app.session.step()
+        q.push(_pen(app, 17, 0.9, 0.8, touching=False))
+        for _ in range(6):
+            app.session.step()
+        app.session.run_due_steps = lambda max_steps=2: 0  # the clock stops: a still canvas
+        _screen_is_the_full_render(app, "top view after a stroke")
+        app.panel.set_view("3d")
+        _screen_is_the_full_render(app, "table view")
+        app.panel.set_view("follow")
+        app.follow_at = (0.45, 0.5)  # on the stroke
+        _screen_is_the_full_render(app, "brush view")
+        # the brush view magnifies the cells (about 11 px each): the paper shows its grain
+        # below the cell and the paint's edge is a contour, not a cell-wide ramp
+        pic = _front(app).astype(float).mean(axis=2)[:, app.panel_w + 4:]
+        assert _edge_jump(pic) > 0.35
+        paper = pic > pic.max() - 12
+        grain = np.abs(pic - ndimage.uniform_filter(pic, 3))[paper].mean()
+        assert grain > 0.25, grain  # a bilinear magnification of cells: < 0.1
+        app.panel.set_view("2d")
+        app.session.command("undo")
+        _screen_is_the_full_render(app, "top view after undo")
+        app.glfw.set_window_size(app.window, 560, 400)  # a window manager resizes it
+        _screen_is_the_full_render(app, "resized window")
+        assert app.size == (560, 400)
+        app.session.command("clear")
+        _screen_is_the_full_render(app, "after clear")
+    finally:
+        app.close()
+
+
+@in_own_process
+def test_the_mouse_paints_and_gives_way_to_a_pen(display: str, tmp_path: Path,
+                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    app = _app(display, tmp_path, monkeypatch, "auto")
+    try:
+        x, y, w, h = app.canvas_rect()
+        app.frame(0.016)
+        app.on_cursor(app.window, x + 0.2 * w, y + 0.5 * h)
+        app.on_mouse_button(app.window, app.glfw.MOUSE_BUTTON_LEFT, app.glfw.PRESS, 0)
+        for i in range(20):  # a drag across the canvas, a frame per pointer event
+            app.on_cursor(app.window, x + (0.2 + 0.03 * i) * w, y + 0.5 * h)
+            app.frame(0.016)
+        app.on_mouse_button(app.window, app.glfw.MOUSE_BUTTON_LEFT, app.glfw.RELEASE, 0)
+        app.frame(0.016)
+        st = app.session.status()
+        assert app.session.painted_stamps > 10 and st["devices"]["mouse"]["touching"] is False
+        pic = _picture(app).astype(int)
+        row = pic[int(y + 0.5 * h), int(x + 0.3 * w):int(x + 0.7 * w)]
+        assert (row.sum(axis=1) < 3 * 245).mean() > 0.9  # paint along the drag
+        assert (pic[int(y + 0.15 * h), int(x + 0.3 * w)] > 245).all()  # not elsewhere
+        # a pen on the bus: the mouse gives way while the pen is heard
+        q = app.session.sub
+        q.push(_pen(app, 0, 0.5, 0.2, touching=False))
+        app.frame(0.016)
+        before = app.session.counters.samples
+        app.on_cursor(app.window, x + 0.5 * w, y + 0.8 * h)
+        app.frame(0.016)
+        assert app.session.counters.samples == before
+    finally:
+        app.close()
+
+
+@in_own_process
+def test_a_killed_kiosk_resumes_the_painting_exactly(display: str, tmp_path: Path,
+                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    import shutil
+
+    from PIL import Image
+
+    from station.cli import main
+
+    app = _app(display, tmp_path, monkeypatch, "auto")
+    live = tmp_path / "gallery" / ".live"
+    try:
+        q = app.session.sub
+        pid = app.session.painting_id
+        for i in range(10):
+            q.push(_pen(app, i, 0.2 + 0.04 * i, 0.3))
+            app.frame(0.016)
+            app.session.step()
+            if i == 5:
+                q.push(_pen(app, 6, 0.45, 0.3, touching=False))
+                app.frame(0.016)
+                assert app.session.sim.autosave()  # between strokes, as the live sim does
+        app.session.step()
+        app.session.journal.sync()
+        crashed = tmp_path / "crashed"  # what a kill -9 leaves on disk
+        shutil.copytree(live, crashed)
+    finally:
+        app.close()
+    shutil.rmtree(live)
+    shutil.copytree(crashed, live)
+    app = _app(display, tmp_path, monkeypatch, "auto")
+    try:
+        assert app.session.resumed and app.session.painting_id == pid
+        app.frame(0.016)
+        st = app.kiosk_status()
+        assert st["samples"] >= 10 and st["painting_id"] == pid
+    finally:
+        app.close()  # stopped: the painting (resumed, nothing added) goes to the gallery
+    saved = tmp_path / "gallery" / pid
+    assert main(["paint", str(saved / "session.jsonl"), "-o", str(tmp_path / "paint.png"),
+                 "--backend", "cpu"]) == 0
+    kiosk = np.asarray(Image.open(saved / "painting.png").convert("RGB")).astype(int)
+    replay = np.asarray(Image.open(tmp_path / "paint.png").convert("RGB")).astype(int)
+    assert (kiosk.min(axis=2) < 200).sum() > 30  # the stroke is there
+    assert np.abs(kiosk - replay).max() == 0
+    # a live log with no stroke (the fresh canvas after an idle save): a fresh start
+    from station.kiosk.app import painting_in_progress
+
+    empty = live / "20260101-000000-abcdef.jsonl"
+    empty.write_text((crashed / f"{pid}.jsonl").read_text().splitlines()[0] + "\n")
+    assert painting_in_progress(live) is None and not empty.exists()
+
+
+@in_own_process
+def test_the_attract_screen_replays_the_gallery_and_gives_way_at_a_touch(
+        display: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from PIL import Image
+
+    replay = tmp_path / "gallery" / "20260101-000000-aaaaaa" / "replay.webp"
+    replay.parent.mkdir(parents=True)
+    colours = [(200, 40, 40), (40, 160, 40), (40, 60, 200)]  # a painting "being painted"
+    frames = [Image.new("RGB", (160, 120), c) for c in colours]
+    frames[0].save(replay, save_all=True, append_images=frames[1:], duration=[150, 150, 150],
+                   loop=0, lossless=True)
+    app = _app(display, tmp_path, monkeypatch, "auto")
+    try:
+        app.idle.cfg.attract_after = 0.05
+        time.sleep(0.1)
+        seen = set()
+        t_end = time.monotonic() + 20.0  # a generous deadline: three frames to show
+        while time.monotonic() < t_end and len(seen) < 3:
+            app.frame(0.016)
+            if "attract_image" in app.rects:
+                x0, y0, x1, y1 = (int(v) for v in app.rects["attract_image"])
+                px = tuple(int(c) for c in _picture(app)[(y0 + y1) // 2, (x0 + x1) // 2])
+                seen.update(i for i, c in enumerate(colours)
+                            if max(abs(a - b) for a, b in zip(px, c, strict=True)) < 12)
+            time.sleep(0.03)
+        assert seen == {0, 1, 2}  # the replay plays, frame after frame
+        assert "attract_text" in app.rects  # with its line of invitation
+        # the first touch (a mouse move over the window): the painting is back
+        app.idle.cfg.attract_after = 5.0  # (and stays, however slow the next frames)
+        app.idle.last_activity -= 100.0
+        assert app.kiosk_status()["attract"]  # still attracting before the touch
+        x, y, w, h = app.canvas_rect()
+        app.on_cursor(app.window, x + w / 2, y + h / 2)
+        for _ in range(3):
+            app.frame(0.016)
+        assert "attract_text" not in app.rects and not app.kiosk_status()["attract"]
+        assert (_picture(app)[int(y + 0.2 * h), int(x + 0.2 * w)] > 240).all()  # paper
+    finally:
+        app.close()
+
+
+@in_own_process
+def test_an_empty_gallery_attracts_with_a_demo_stroke(display: str, tmp_path: Path,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    app = _app(display, tmp_path, monkeypatch, "auto")
+    try:
+        app.idle.cfg.attract_after = 0.05
+        time.sleep(0.1)
+        x, y, w, h = app.canvas_rect()
+        before = None
+        changed = False
+        for _ in range(30):  # the stroke paints itself: the area changes frame to frame
+            app.frame(0.016)
+            time.sleep(0.05)
+            pic = _picture(app)[int(y):int(y + h), int(x):int(x + w)].astype(int)
+            if before is not None and np.abs(pic - before).max() > 40:
+                changed = True
+            before = pic
+        assert changed and "attract_text" in app.rects and "attract_image" not in app.rects
+        blue = (pic[..., 2] - pic[..., 0] > 60).sum()
+        assert blue > 200  # the stroke's colour on the screen
     finally:
         app.close()

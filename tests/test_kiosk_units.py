@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from station.backends.factory import create_backend
+from station.errors import BadInput
 from station.events import Command, PenSample, Tool
 from station.kiosk.display import tile_runs
 from station.kiosk.idle import IdleClock, IdleConfig
@@ -176,7 +177,7 @@ def test_cpu_display_texture_equals_a_full_render(tmp_path) -> None:  # type: ig
                                       y=0.5, pressure=0.9, touching=True))
         # stamps not yet simulated are on screen at once (the preview)
         cells = disp.update()
-        tex = np.frombuffer(disp.texture.read(), np.float32).reshape(64, 96, 3)
+        tex = disp.read()[..., :3]
         preview_only = render_state(s.cpu_state, "km")
         assert cells < 96 * 64 and (np.abs(tex - preview_only).max(axis=2) > 0.01).sum() > 20
         for _ in range(10):
@@ -188,11 +189,14 @@ def test_cpu_display_texture_equals_a_full_render(tmp_path) -> None:  # type: ig
             disp.update()
             frames += 1
         assert not disp.behind()
-        tex = np.frombuffer(disp.texture.read(), np.float32).reshape(64, 96, 3)
-        ref = s.canvas.render()
-        # nothing pending: the texture is the canvas (the compiled KM: to float32 rounding)
+        tex = disp.read()
+        # nothing pending: the texture is the canvas's (the compiled KM: to float32
+        # rounding), its colour extended by the paint and the contour level
         assert s.player.brush.pending == 0
-        assert np.abs(tex - ref).max() < 2e-6
+        assert np.abs(tex - disp.expected()).max() < 2e-6
+        inside = tex[..., 3] >= 0.999
+        assert inside.sum() > 20
+        assert np.abs(tex[..., :3] - s.canvas.render())[inside].max() < 2e-6
     finally:
         s.shutdown()
         ctx.release()
@@ -260,6 +264,8 @@ def test_compiled_km_matches_the_reference() -> None:
     (["bench", "latency", "--rate", "5"], "--rate"),
     (["bench", "latency", "--predict-ms", "-1"], "--predict-ms"),
     (["bench", "latency", "--brush", "broom"], "--brush"),
+    (["bench", "latency", "--window", "100x50"], "--window"),
+    (["kiosk", "--mouse-pressure", "hard"], "--mouse-pressure"),
     (["kiosk", "--predict-ms", "500"], "--predict-ms"),
 ])
 def test_bad_flags_exit_2_with_one_line(argv: list[str], where: str) -> None:
@@ -271,3 +277,179 @@ def test_bad_flags_exit_2_with_one_line(argv: list[str], where: str) -> None:
     assert proc.returncode == 2, proc.stderr
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and where in lines[0], proc.stderr
+
+
+def test_the_mouse_pen_smooths_jitter_and_presses_by_speed() -> None:
+    from station.kiosk.mouse import PRESSURE_FAST, PRESSURE_SLOW, MousePen, parse_pressure
+
+    rng = np.random.default_rng(1)
+    pen = MousePen((4000, 1000), pressure=None)
+    pen.move(100, 500, 0.0, 0.0)
+    pen.button(True, 0.0, 0.0)
+    raw = []
+    for i in range(1, 120):  # a slow, straight drag (60 px/s) with a finger's 3 px jitter
+        t = i / 120
+        yy = 500 + rng.normal(0, 3.0)
+        raw.append(yy)
+        pen.move(100 + 60 * t, yy, t, t)
+    slow = pen.take()
+    ys = np.array([s.y * 1000 for s in slow[20:]])
+    assert np.std(ys - 500) < 0.4 * np.std(np.array(raw[20:]) - 500)  # jitter removed
+    assert all(s.touching for s in slow[1:]) and slow[-1].pressure > PRESSURE_SLOW - 0.1
+    for i in range(1, 60):  # then fast (3000 px/s): lighter
+        t = 1 + i / 120
+        pen.move(160 + 3000 * (t - 1), 500, t, t)
+    fast = pen.take()
+    assert fast[-1].pressure < PRESSURE_FAST + 0.1
+    # on a fast stroke the filter keeps up (lag well under 10 ms of travel)
+    assert abs(fast[-1].x * 4000 - (160 + 3000 * 59 / 120)) < 30
+    pen.button(False, 2.0, 2.0)
+    assert pen.take()[-1].touching is False
+    assert parse_pressure("speed") is None and parse_pressure("0.4") == 0.4
+    with pytest.raises(BadInput):
+        parse_pressure("2")
+
+
+def test_the_compiled_subcell_fields_match_their_definition() -> None:
+    from station.kiosk.subcell import fields, fields_reference
+
+    rng = np.random.default_rng(3)
+    painted = rng.random((50, 70)) > 0.8
+    painted[10:30, 20:50] = True  # a wash with ragged surroundings and lone cells
+    rgb = rng.random((50, 70, 3)).astype(np.float32)
+    for inner in [(slice(0, 50), slice(0, 70)), (slice(3, 47), slice(3, 67))]:
+        got = fields(rgb, painted, inner)
+        assert np.abs(got - fields_reference(rgb, painted, inner)).max() < 1e-6
+    whole = fields(rgb, painted, (slice(0, 50), slice(0, 70)))
+    lvl = whole[..., 3]
+    assert (lvl[12:28, 22:48] > 0.99).all()  # inside the wash: the contour level is 1
+    # a blank cell beside paint takes the mean colour of its painted neighbours
+    p2 = np.zeros((6, 6), bool)
+    p2[2, 1] = p2[3, 1] = True
+    c2 = np.full((6, 6, 3), 0.9, np.float32)
+    c2[2, 1], c2[3, 1] = (0.2, 0.3, 0.4), (0.4, 0.5, 0.6)
+    f2 = fields(c2, p2, (slice(0, 6), slice(0, 6)))
+    assert np.allclose(f2[2, 2, :3], (0.3, 0.4, 0.5)) and np.allclose(f2[2, 4, :3], 0.9)
+    assert f2[2, 1, 3] > 0.5 > f2[2, 3, 3]  # the contour runs between paint and paper
+
+
+def test_station_send_reaches_the_kiosk_with_its_window_commands(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    import subprocess
+    import sys
+
+    from station.bus import Subscriber
+
+    ep = f"ipc://{tmp_path}/kiosk-cmd"
+    sub = Subscriber("@" + ep, topics=("cmd",))
+    try:
+        got = []
+        for words in (["view", "name=3d"], ["fresh"], ["screenshot", "name=top-1"]):
+            proc = subprocess.Popen([sys.executable, "-m", "station", "send", *words, "--to",
+                                     ">" + ep], stderr=subprocess.PIPE, text=True)
+            msg = None
+            for _ in range(200):  # a generous deadline: the sender starts a Python
+                msg = sub.recv(100)
+                if msg is not None:
+                    break
+            _, err = proc.communicate(timeout=60)
+            assert proc.returncode == 0, err
+            assert msg is not None
+            got.append((msg.value.cmd, msg.value.args))
+        assert got == [("view", {"name": "3d"}), ("fresh", {}),
+                       ("screenshot", {"name": "top-1"})]
+    finally:
+        sub.close()
+    proc = subprocess.run([sys.executable, "-m", "station", "send", "view", "name=4d", "--to",
+                           ">" + ep, "--timeout", "0.2"], capture_output=True, text=True,
+                          timeout=60)
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode == 2 and len(lines) == 1 and "view" in lines[0], proc.stderr
+    from station.kiosk.commands import check_kiosk_command
+
+    for cmd, args in (("screenshot", {"name": "../x"}), ("fresh", {"now": 1}),
+                      ("message", {"text": " "})):
+        with pytest.raises(BadInput):
+            check_kiosk_command(Command(t=0, cmd=cmd, args=args))
+
+
+def test_the_status_tells_wet_damp_and_dry(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    s = _session(tmp_path)
+    try:
+        s.command("brush", size=10, water=1.0, pigment={"French Ultramarine": 0.5})
+        for i in range(6):
+            s.handle("pen", PenSample(t=0.01 * i, device="p", tool=Tool.PEN, x=0.3 + 0.03 * i,
+                                      y=0.5, pressure=0.8, touching=True))
+        s.step()
+        m = s.moisture()
+        assert m is not None and m.word == "wet" and m.line().startswith("wet ")
+        st = s.cpu_state
+        st.wc[st.w > 0] = 0.05  # the surface water gone into the paper
+        st.w[:] = 0.0
+        m = s.moisture()
+        assert m.word == "damp" and m.wet == 0 and m.damp > 0.01
+        assert m.line().startswith("damp ") and "wet" not in m.line()
+        st.wc[:] = 0.0
+        assert s.moisture().word == "dry" and s.moisture().line() == "dry"
+    finally:
+        s.shutdown()
+
+
+def test_a_tap_picks_mixing_is_a_mode_with_a_preview_and_swatches_differ() -> None:
+    import itertools
+
+    from station.canvas.palette import default_palette
+    from station.kiosk.ui import PanelState, mix_words, swatch_pair
+
+    sent: list[tuple[str, dict]] = []
+    p = PanelState(default_palette(), lambda c, a: sent.append((c, a)), lambda: None,
+                   mix={"Black": 1.0})
+    p.tap_pigment("Hansa Yellow")
+    p.tap_pigment("French Ultramarine")  # a tap picks: the colour in the brush is that one
+    assert p.mix == {"French Ultramarine": 1.0}
+    assert sent[-1][1]["pigment"] == {"French Ultramarine": pytest.approx(p.strength)}
+    p.toggle_mixing()
+    p.hovered = "Hansa Yellow"  # the pen over a swatch while mixing: the preview
+    assert p.preview_mix() == {"French Ultramarine": 1.0, "Hansa Yellow": 1.0}
+    assert p.mix == {"French Ultramarine": 1.0}  # ... changes nothing yet
+    p.tap_pigment("Hansa Yellow")
+    p.tap_pigment("Hansa Yellow")
+    assert p.mix == {"French Ultramarine": 1.0, "Hansa Yellow": 2.0}
+    assert mix_words(p.mix) == "1 French Ultramarine + 2 Hansa Yellow"
+    p.toggle_mixing()
+    p.tap_pigment("Cadmium Red")
+    assert p.mix == {"Cadmium Red": 1.0}
+    # every swatch (masstone and wash) differs from every other by a visible step
+    pal = default_palette()
+    look = {n: np.array(swatch_pair(pal, n)).ravel() for n in pal.names()}
+    worst = min(np.abs(look[a] - look[b]).max() for a, b in itertools.combinations(look, 2))
+    assert worst > 0.12, worst
+
+
+def test_without_replays_the_attract_screen_paints_a_demo_stroke(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from station.kiosk.attract import AttractShow, demo_stroke
+
+    show = AttractShow(tmp_path)  # an empty gallery
+    show.start(0.0)
+    assert not show.playing and show.frame(1.0) == (None, False)
+    early, later = demo_stroke(0.5, 800, 600), demo_stroke(3.0, 800, 600)
+    assert 2 <= len(early) < len(later)  # the stroke paints itself along
+    assert all(0 <= x <= 800 and 0 <= y <= 600 for x, y in later)
+
+
+def test_a_live_painting_held_by_another_kiosk_is_neither_resumed_nor_removed(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    import os
+
+    pytest.importorskip("glfw")
+    from station.kiosk.app import hold_live_log, painting_in_progress
+
+    header = '{"format": "station-session", "version": 1}\n'
+    stroke = tmp_path / "20260101-000000-aaaaaa.jsonl"
+    stroke.write_text(header + '{"type": "pen", "touching": true}\n')
+    empty = tmp_path / "20260101-000001-bbbbbb.jsonl"
+    empty.write_text(header)
+    held = [hold_live_log(stroke), hold_live_log(empty)]  # a kiosk beside this one
+    assert painting_in_progress(tmp_path) is None
+    assert stroke.exists() and empty.exists()  # not its to remove
+    for fd in held:
+        os.close(fd)
+    assert painting_in_progress(tmp_path) == stroke and not empty.exists()

@@ -68,6 +68,13 @@ def test_mock_stroke_appears_under_the_pen_and_every_view_renders(display: str,
         run_driver("mock:intuos-pro-m?script=line&rate=200", "--calibration",
                    str(tmp_path / "cal.json"))
         st = k.wait(lambda s: s["samples"] >= 100 and s["stamps"] > 50, 30, "the stroke")
+        seen = [st["samples"]]  # the driver is done: wait until the kiosk has taken it all
+
+        def settled(s: dict) -> bool:
+            seen.append(s["samples"])
+            return len(seen) >= 3 and seen[-1] == seen[-2] == seen[-3]
+
+        st = k.wait(settled, 60, "the whole stroke taken")
         # the numpy backend steps in its own thread where numba's layer is thread-safe
         assert st["sim_thread"] is numba_threadsafe()
         shot = rgb(k.screenshot("2d"))
@@ -139,9 +146,15 @@ def test_each_pen_control_does_what_it_says(display: str, tmp_path: Path) -> Non
         pick_kind("round")
         k.tap(ui["fresh_mix"])
         s = k.wait(lambda s: s["panel"]["mix"] == {}, 10, "fresh mix")
-        k.tap(ui["pigment:Quinacridone Rose"])
         k.tap(ui["pigment:Hansa Yellow"])
+        k.tap(ui["pigment:Quinacridone Rose"])  # a tap picks: the yellow is gone
+        s = k.wait(lambda s: s["panel"]["mix"] == {"Quinacridone Rose": 1.0}, 10, "a pick")
+        k.tap(s["ui"]["mix"])  # mixing: taps add
+        s = k.wait(lambda s: s["panel"]["mixing"], 10, "mixing")
+        k.tap(s["ui"]["pigment:Hansa Yellow"])
         s = k.wait(lambda s: len(s["panel"]["mix"]) == 2, 10, "a mix of two")
+        k.tap(s["ui"]["mix"])  # done mixing
+        s = k.wait(lambda s: not s["panel"]["mixing"], 10, "done mixing")
         assert s["brush"]["pigment"] == pytest.approx(
             {"Quinacridone Rose": 0.3, "Hansa Yellow": 0.3})
         # drag the size slider to its right end

@@ -55,6 +55,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--size", default="800x600", help="canvas size (800x600)")
     p.add_argument("--backend", default="cpu", choices=("cpu", "numpy", "gl"),
                    help="canvas backend (cpu)")
+    p.add_argument("--window", default="1024x768", metavar="WxH",
+                   help="the kiosk's window in pixels (1024x768): the canvas is drawn at "
+                        "this resolution; a private Xvfb's screen is made this size")
     p.add_argument("--seconds", type=float, default=8.0, help="measuring time (8 s)")
     p.add_argument("--rate", type=int, default=200, help="tablet reports per second (200)")
     p.add_argument("--model", default="intuos-pro-m", help="mock tablet model")
@@ -106,7 +109,7 @@ def _goal(measured: float | None, goal: float, at_most: bool) -> dict[str, Any]:
     return {"goal": goal, "measured": measured, "flag": "PASS" if ok else "MISS"}
 
 
-def _start_xvfb() -> tuple[subprocess.Popen[bytes], str]:
+def _start_xvfb(window: tuple[int, int] = (1024, 768)) -> tuple[subprocess.Popen[bytes], str]:
     exe = shutil.which("Xvfb")
     if exe is None:
         raise StationError("no $DISPLAY and no Xvfb: the latency bench needs a display")
@@ -114,7 +117,8 @@ def _start_xvfb() -> tuple[subprocess.Popen[bytes], str]:
         if not Path(f"/tmp/.X11-unix/X{number}").exists() and \
                 not Path(f"/tmp/.X{number}-lock").exists():
             break
-    proc = subprocess.Popen([exe, f":{number}", "-screen", "0", "1024x768x24", "-nolisten",
+    screen = f"{max(window[0], 1024)}x{max(window[1], 768)}x24"
+    proc = subprocess.Popen([exe, f":{number}", "-screen", "0", screen, "-nolisten",
                              "tcp", "-noreset"], stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
     deadline = time.monotonic() + 10
@@ -128,22 +132,26 @@ def _start_xvfb() -> tuple[subprocess.Popen[bytes], str]:
 
 def run(args: argparse.Namespace) -> int:
     width, height = parse_size(args.size)
+    window = parse_size(args.window, "--window")
+    if not (320 <= window[0] <= 7680 and 240 <= window[1] <= 4320):
+        raise BadInput(f"{args.window} is not a window from 320x240 to 7680x4320", "--window")
     if not args.seconds > 0:
         raise BadInput("must be > 0", "--seconds")
     if not 10 <= args.rate <= 2000:
         raise BadInput("must be 10..2000 reports/s", "--rate")
     xvfb = None
     if not os.environ.get("DISPLAY"):
-        xvfb, os.environ["DISPLAY"] = _start_xvfb()
+        xvfb, os.environ["DISPLAY"] = _start_xvfb(window)
     try:
         result = measure(width, height, args.backend, args.seconds, args.rate, args.model,
                          args.script, sim_thread=not args.inline_sim,
-                         predict_ms=args.predict_ms, present=args.present, brush=args.brush)
+                         predict_ms=args.predict_ms, present=args.present, brush=args.brush,
+                         window=window)
         if args.compare:
             peer = measure(width, height, args.backend, args.seconds, args.rate, args.model,
                            args.script, sim_thread=args.inline_sim,
                            predict_ms=args.predict_ms, present=args.present,
-                           brush=args.brush)
+                           brush=args.brush, window=window)
             result["peer"] = {k: peer[k] for k in ("sim", "latency", "frames", "load_avg")}
             result["ratios"] = _ratios(result, peer)
     finally:
@@ -169,13 +177,17 @@ def _ratios(a: dict[str, Any], b: dict[str, Any]) -> dict[str, Any]:
 def measure(width: int, height: int, backend: str, seconds: float, rate: int,
             model: str, script: str = "arc", sim_thread: bool = True,
             predict_ms: float | None = None, present: str = "auto",
-            brush: str = "round") -> dict[str, Any]:
+            brush: str = "round", window: tuple[int, int] = (1024, 768)) -> dict[str, Any]:
     bus = f"bench-latency-{os.getpid()}-{int(sim_thread)}"
     with tempfile.TemporaryDirectory(prefix="station-latency-") as tmp:
         cfg = KioskConfig(bus=f">ipc:{bus}", width=width, height=height, backend=backend,
-                          fullscreen=False, gallery=Path(tmp) / "gallery", serve=None,
+                          fullscreen=False, window=window, gallery=Path(tmp) / "gallery",
+                          serve=None,
                           status="none", vsync=False, cmd="none", sim_thread=sim_thread,
                           predict_ms=predict_ms, present=present,
+                          # the pen's path only: the X pointer entering the window would be
+                          # a mouse sample, and the warm-up would take it for the pen's
+                          input="pen",
                           idle=IdleConfig(attract_after=3600, finish_after=7200))
         app = KioskApp(cfg)
         if brush != "round":

@@ -61,7 +61,9 @@ from station.brush.stamp import (
     Footprint,
     Sources,
     Stamp,
+    StampPreview,
     accumulate,
+    preview_of,
     stamps_box,
 )
 from station.errors import BadInput
@@ -549,3 +551,7 @@ class DeformableBrush:
     def pending_box(self, since: int = 0) -> tuple[slice, slice] | None:
         """As :meth:`RoundBrush.pending_box` (the live preview's new cells)."""
         return stamps_box(self._pending[since:])
+
+    def preview(self, since: int = 0) -> StampPreview | None:
+        """As :meth:`RoundBrush.preview`."""
+        return preview_of(self._pending, since)

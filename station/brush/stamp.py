@@ -375,6 +375,26 @@ def accumulate(stamps: Iterable[Stamp]) -> Sources | None:
                    dvx.astype(f32), dvy.astype(f32))
 
 
+@dataclass(frozen=True)
+class StampPreview:
+    """What a live view shows of the stamps a brush made since the last step (the
+    kiosk draws them over the simulated canvas until a step takes them)."""
+
+    sources: Sources  # every pending stamp's water and pigment, summed (as take() sums)
+    count: int  # pending stamps
+    # canvas cells (rows, columns) covered by the stamps from the asked ``since``-th on;
+    # ``None`` if those are all masked or there are none
+    new_cells: tuple[slice, slice] | None
+
+
+def preview_of(pending: list[Stamp], since: int) -> StampPreview | None:
+    """:class:`StampPreview` of ``pending`` (``None``: nothing to show)."""
+    src = accumulate(list(pending))
+    if src is None:
+        return None
+    return StampPreview(src, len(pending), stamps_box(pending[since:]))
+
+
 @dataclass(slots=True)
 class _Stroke:
     """The running stroke of one device."""
@@ -535,6 +555,11 @@ class RoundBrush:
         ``since``-th on (what a live preview must redraw since it last showed ``since``
         of them); ``None`` if there are none."""
         return stamps_box(self._pending[since:])
+
+    def preview(self, since: int = 0) -> StampPreview | None:
+        """The stamps not yet taken by a step, for a live view (``since``: how many of
+        them it already shows; ``None``: none pending)."""
+        return preview_of(self._pending, since)
 
     @property
     def drawing(self) -> bool:

@@ -14,6 +14,7 @@ from station.cli.cmd_gallery import add_web_flags, web_options
 from station.errors import BadInput
 from station.kiosk.app import KioskApp, KioskConfig
 from station.kiosk.idle import IdleConfig
+from station.kiosk.mouse import parse_pressure
 from station.sim.paint import parse_size
 
 
@@ -70,6 +71,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "0: off)")
     p.add_argument("--inline-sim", action="store_true",
                    help="run the simulation steps in the frame loop, not in a thread")
+    p.add_argument("--input", choices=("auto", "pen", "mouse"), default="auto",
+                   help="what paints besides pen drivers on the bus: the window's mouse or "
+                        "touchscreen (auto: yes, except while a pen is heard; pen: no; "
+                        "mouse: yes)")
+    p.add_argument("--mouse-pressure", default="0.6", metavar="P|speed",
+                   help="the mouse's pressure in (0, 1], or 'speed' (a slow stroke presses, "
+                        "a fast one flicks); default 0.6")
     p.add_argument("--duration", type=float, metavar="SECONDS", help="stop after this long")
     p.add_argument("--screenshot-dir", metavar="DIR",
                    help="directory for 'screenshot {\"name\": N}' commands from the bus")
@@ -96,6 +104,7 @@ def run(args: argparse.Namespace) -> int:
                 ("--cmd", args.cmd, True)))
     if not (0 <= args.autosave <= 3600):
         raise BadInput("must be 0 (off) to 3600 seconds", "--autosave")
+    mouse_pressure = parse_pressure(args.mouse_pressure)
     serve = None if args.serve == "none" else args.serve
     if serve is not None:
         _host, sep, port = serve.rpartition(":")
@@ -111,7 +120,8 @@ def run(args: argparse.Namespace) -> int:
         screenshot_dir=Path(args.screenshot_dir) if args.screenshot_dir else None,
         view=args.view, vsync=not args.no_vsync, cmd=args.cmd, autosave=args.autosave,
         sim_thread=not args.inline_sim, predict_ms=args.predict_ms,
-        present=args.present, keys=args.keys, client_key=args.client_key)
+        present=args.present, keys=args.keys, client_key=args.client_key,
+        input=args.input, mouse_pressure=mouse_pressure)
     app = KioskApp(cfg)
     app.install_signal_handlers()
     sys.stderr.write(f"station kiosk: {width}x{height} {cfg.profile} on "

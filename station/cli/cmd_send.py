@@ -1,6 +1,9 @@
 """``station send CMD [ARGS]``: send a command to a running ``station sim`` or kiosk,
 and say what it did with it.
 
+A kiosk also takes its window's commands (:mod:`station.kiosk.commands`: ``view``,
+``fresh``, ``screenshot``, ``message``), checked here as strictly.
+
 ARGS is one JSON object (``'{"size": 12, "pigment": {"Black": 0.5}}'``) or
 ``key=value`` pairs whose values are JSON where they parse as JSON and strings
 otherwise (``station send profile name=ink``).  The process that takes the
@@ -34,6 +37,7 @@ from station.bus import Publisher, runtime_dir
 from station.cli.buskeys import add_key_flags, check_keys
 from station.errors import BadInput, StationError
 from station.events import Command
+from station.kiosk.commands import check_kiosk_command, is_kiosk_command
 
 # the defaults of `station sim --cmd` and `station kiosk --cmd` (station.sim.live, which
 # this start-up-time-critical command does not import: it pulls in the whole sim)
@@ -112,7 +116,11 @@ def run(args: argparse.Namespace) -> int:
     if not (math.isfinite(args.timeout) and 0 < args.timeout <= 60):
         raise BadInput("must be in (0, 60] seconds", "--timeout")
     command = Command(t=0.0, cmd=args.cmd, args=parse_args(args.args), where="CMD")
-    target, expect = target_endpoint(args.to)
+    to = args.to
+    if is_kiosk_command(command.cmd):  # the kiosk's window commands, checked as it will
+        check_kiosk_command(command, where=f"command {command.cmd!r}")
+        to = to or "kiosk"  # only a kiosk has a window: `station send view name=3d` finds it
+    target, expect = target_endpoint(to)
     check_keys(args.keys, args.client_key, (("--to", target, False),))
     deadline = time.monotonic() + args.timeout
     over_ipc = "tcp://" not in target

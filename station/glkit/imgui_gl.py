@@ -65,6 +65,11 @@ class ImGuiLayer:
         self._next_id = 1
         self.touching = False
 
+    def resize(self, size: tuple[int, int]) -> None:
+        """The window is now ``size`` pixels (the panel is laid out for it next frame)."""
+        self.size = size
+        imgui.get_io().display_size = imgui.ImVec2(float(size[0]), float(size[1]))
+
     # -- textures --------------------------------------------------------------
     def add_texture(self, texture: Any) -> int:
         """Register a moderngl texture for ``imgui.image``; returns its ImGui id."""

@@ -30,10 +30,10 @@ from __future__ import annotations
 
 import ctypes
 import dataclasses
+import fcntl
 import logging
 import math
 import os
-import re
 import subprocess
 import sys
 import time
@@ -43,8 +43,14 @@ from typing import Any
 
 import numpy as np
 
+from station.bus import Publisher, Subscriber
+from station.canvas.palette import default_palette
+from station.canvas.params import get_profile
 from station.errors import BadInput, StationError
 from station.events import Command, PenSample, Tool
+from station.kiosk import mouse, subcell
+from station.kiosk.attract import INVITATION, AttractShow, demo_stroke
+from station.kiosk.commands import MESSAGE_MAX, check_kiosk_command, is_kiosk_command
 from station.kiosk.compose import Box, Compositor, merge_rects, screen_box
 from station.kiosk.display import CpuDisplay, GpuDisplay, make_display
 from station.kiosk.gallery import (
@@ -60,8 +66,11 @@ from station.kiosk.idle import IdleClock, IdleConfig
 from station.kiosk.predict import LagEstimate, PenPredictor, PredictConfig
 from station.kiosk.present import PRESENT_MODES, Presenter
 from station.kiosk.session import KioskSession
+from station.kiosk.ui import PanelState, draw_attract, draw_banner, draw_panel, draw_qr
 from station.kiosk.views import VIEWS, Camera, Viewport, input_camera, make_camera
-from station.sim.live import KIOSK_CMD_ENDPOINT, LiveConfig
+from station.render.km import to_srgb8
+from station.sim.journal import autosave_path
+from station.sim.live import KIOSK_CMD_ENDPOINT, LiveConfig, default_status_endpoint
 
 log = logging.getLogger(__name__)
 
@@ -72,27 +81,8 @@ AUTO_HORIZON_START_S = 0.008  # the auto prediction's horizon until frames measu
 TILE_FRAME_S = 1 / 120  # frames that show only the steps' tiles come at most this often
 LATCH_BUDGET_S = 0.002  # the late latch handles pen samples for at most this long
 THREAD_POLL_S = 0.004  # a wet canvas: how often the window looks for the thread's steps
-SCREENSHOT_NAME = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
+ATTRACT_FRAME_S = 1 / 12  # the attract screen's animation: frames this often
 
-CANVAS_VERT = """
-#version 330
-uniform mat4 vp;
-in vec3 pos;
-in vec2 uv;
-out vec2 f_uv;
-void main() { f_uv = uv; gl_Position = vp * vec4(pos, 1.0); }
-"""
-CANVAS_FRAG = """
-#version 330
-uniform sampler2D canvas;
-in vec2 f_uv;
-out vec4 frag;
-vec3 srgb(vec3 x) {  // the sRGB transfer function (render.linear_to_srgb)
-    x = clamp(x, 0.0, 1.0);
-    return mix(12.92 * x, 1.055 * pow(x, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, x));
-}
-void main() { frag = vec4(srgb(texture(canvas, f_uv).rgb), 1.0); }
-"""
 FLAT_VERT = """
 #version 330
 uniform mat4 vp;
@@ -146,6 +136,10 @@ class KioskConfig:
     # window's own measured pen-to-screen lag, station.kiosk.predict.LagEstimate)
     predict_ms: float | None = None
     present: str = "auto"  # auto, swap, partial (station.kiosk.present)
+    # what paints besides a pen driver on the bus: the window's mouse/touchscreen
+    # ("auto": yes, unless a pen was heard in the last second; "pen": no; "mouse": yes)
+    input: str = "auto"
+    mouse_pressure: float | None = 0.6  # the mouse's pressure (None: from its speed)
     keys: Path | None = None  # CURVE key directory for tcp endpoints (None: the default)
     client_key: str | None = None  # a client key pair of its own for connecting over tcp
 
@@ -163,6 +157,62 @@ def numba_threadsafe() -> bool:
         return False
 
 
+def painting_in_progress(live_dir: Path) -> Path | None:
+    """The live log of the painting a killed or restarted kiosk left in ``live_dir``, or
+    ``None``: the newest log that holds a stroke (the tip down on the paper).  A log
+    without one is a fresh canvas nobody painted on (an idle kiosk saves its painting
+    and starts such a one): it and its autosave go, and the kiosk starts fresh."""
+    logs = sorted(live_dir.glob("*.jsonl"), key=lambda p: p.stat().st_mtime, reverse=True)
+    found: Path | None = None
+    for path in logs:
+        if _held_by_another(path):  # a kiosk beside this one paints on it (one gallery)
+            continue
+        if not _has_stroke(path):
+            path.unlink(missing_ok=True)
+            autosave_path(path).unlink(missing_ok=True)
+        elif found is None:
+            found = path
+        else:  # an older crash's painting: kept for the operator (station paint repaints it)
+            log.warning("an older painting in progress is left in %s", path)
+    return found
+
+
+def hold_live_log(path: Path) -> int | None:
+    """An exclusive lock on a live log for as long as this kiosk paints on it (the file
+    descriptor; the system lets go when the process dies, ``kill -9`` included): another
+    kiosk on the same gallery neither resumes nor removes it."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_CREAT, 0o600)
+    except OSError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        os.close(fd)
+        return None
+    return fd
+
+
+def _held_by_another(path: Path) -> bool:
+    fd = hold_live_log(path)
+    if fd is None:
+        return path.exists()
+    os.close(fd)  # closing lets the lock go
+    return False
+
+
+def _has_stroke(path: Path) -> bool:
+    """Whether the session log at ``path`` holds a pen sample with the tip down."""
+    try:
+        with path.open("rb") as f:
+            for line in f:
+                if b'"touching": true' in line or b'"touching":true' in line:
+                    return True
+    except OSError:
+        return False
+    return False
+
+
 def _gl_function(name: str) -> Any:
     """A GL entry point through ctypes (released interpreter lock), or ``None``."""
     for lib in ("libGL.so.1", "libOpenGL.so.0"):
@@ -176,21 +226,69 @@ def _gl_function(name: str) -> Any:
     return None
 
 
+@dataclass
+class _FrameTimes:
+    """``perf_counter`` marks of one frame's parts (all equal to the start when no frame
+    is drawn): tiles rendered, UI composed, late latch drained, preview rendered, the
+    back buffer filled, shown."""
+
+    start: float
+    tiles: float = 0.0
+    ui: float = 0.0
+    drained: float = 0.0
+    preview: float = 0.0
+    present: float = 0.0
+    shown: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("tiles", "ui", "drained", "preview", "present", "shown"):
+            setattr(self, name, self.start)
+
+
 class KioskApp:
     """The window, the current painting, the panel, the gallery (see module docstring)."""
 
     def __init__(self, cfg: KioskConfig) -> None:
         try:
-            import glfw
-            import moderngl
+            import glfw  # optional extra (painting-station[kiosk])
+            import moderngl  # optional extra
         except ImportError as exc:
             raise StationError(f"the kiosk needs glfw and moderngl ({exc}); "
                                "pip install 'painting-station[kiosk]'") from None
+        self.cfg = self._checked_config(cfg)
+        self.glfw = glfw
+        # the window's thread gets the interpreter back from the simulation thread's
+        # Python within half a millisecond (the default 5 ms would be a third of a 60 Hz
+        # frame, and every bus read gives it up)
+        sys.setswitchinterval(0.0005)
+        self.window = self._open_window(glfw, self.cfg)
+        self.ctx: Any = moderngl.create_context()
+        self._lay_out()
+        self._programs()
+        self._open_gallery()
+        self._open_endpoints()
+        self._make_panel()
+        self._init_frame_state()
+        self._take_the_mouse()
+        self.session: KioskSession = self._new_session(painting_in_progress(self.live_dir))
+        self.display: CpuDisplay | GpuDisplay = make_display(self.ctx, self.session)
+        self.compositor = Compositor(self.ctx, self.size)
+        self.presenter = Presenter(glfw, self.window, str(self.ctx.info.get("GL_RENDERER", "")),
+                                   self.size, self.cfg.present, self.cfg.vsync)
+
+    # -- start-up, in parts -----------------------------------------------------------
+    @staticmethod
+    def _checked_config(cfg: KioskConfig) -> KioskConfig:
+        """``cfg`` checked (bad input: :class:`BadInput`), with the simulation in the
+        frame loop where numba's threading layer cannot run two threads' kernels."""
         if cfg.present not in PRESENT_MODES:
             raise BadInput(f"unknown present mode {cfg.present!r} (one of "
                            f"{', '.join(PRESENT_MODES)})", "--present")
         if cfg.view not in VIEWS:
             raise BadInput(f"unknown view {cfg.view!r} (one of {', '.join(VIEWS)})", "--view")
+        if cfg.input not in mouse.INPUTS:
+            raise BadInput(f"unknown input {cfg.input!r} (one of {', '.join(mouse.INPUTS)})",
+                           "--input")
         # the simulation's OpenMP workers sleep as soon as a parallel loop ends instead
         # of spinning for the next: spinning, they take the cores the window's thread
         # needs to show the pen (read when OpenMP starts, so before the first kernel)
@@ -199,12 +297,12 @@ class KioskApp:
             log.warning("numba's threading layer is not thread-safe here (install tbb): "
                         "the simulation steps in the frame loop")
             cfg = dataclasses.replace(cfg, sim_thread=False)
-        self.cfg = cfg
-        self.glfw = glfw
-        # the window's thread gets the interpreter back from the simulation thread's
-        # Python within half a millisecond (the default 5 ms would be a third of a 60 Hz
-        # frame, and every bus read gives it up)
-        sys.setswitchinterval(0.0005)
+        return cfg
+
+    @staticmethod
+    def _open_window(glfw: Any, cfg: KioskConfig) -> Any:
+        """The window (fullscreen on ``cfg.monitor``, or ``cfg.window``) with its GL
+        context current; a visitor cannot close it."""
         if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
             raise StationError("no display: the kiosk needs X or Wayland (try Xvfb)")
         if not glfw.init():
@@ -225,29 +323,80 @@ class KioskApp:
             monitor = monitors[cfg.monitor]
             mode = glfw.get_video_mode(monitor)
             width, height = mode.size.width, mode.size.height
-        self.window = glfw.create_window(width, height, "station kiosk", monitor, None)
-        if not self.window:
+        window = glfw.create_window(width, height, "station kiosk", monitor, None)
+        if not window:
             glfw.terminate()
             raise StationError("glfw could not open a window"
                                + (" with OpenGL 4.3 (the gl backend needs it)" if gl43 else ""))
-        glfw.make_context_current(self.window)
+        glfw.make_context_current(window)
         glfw.swap_interval(1 if cfg.vsync else 0)
         # a visitor cannot close the kiosk: refuse every close request
-        glfw.set_window_close_callback(self.window,
-                                       lambda w: glfw.set_window_should_close(w, False))
+        glfw.set_window_close_callback(window, lambda w: glfw.set_window_should_close(w, False))
         if cfg.fullscreen:
-            glfw.set_input_mode(self.window, glfw.CURSOR, glfw.CURSOR_HIDDEN)
-        self.ctx: Any = moderngl.create_context()
-        self.size = tuple(glfw.get_framebuffer_size(self.window))
-        w, h = self.size
-        self.panel_w = int(max(300, w * cfg.panel_fraction))
-        self.area = Viewport(self.panel_w, 0, w - self.panel_w, h)
-        self.aspect = cfg.width / cfg.height
+            glfw.set_input_mode(window, glfw.CURSOR, glfw.CURSOR_HIDDEN)
+        return window
 
+    def _lay_out(self) -> None:
+        """The window's size, the panel's width, the canvas's area, the ImGui layer."""
+        fb = self.glfw.get_framebuffer_size(self.window)
+        self.size: tuple[int, int] = (int(fb[0]), int(fb[1]))
+        w, h = self.size
+        self._place_panel()
+        self.aspect = self.cfg.width / self.cfg.height
+        # imgui-bundle is an optional extra (painting-station[kiosk]), like glfw
         from station.glkit.imgui_gl import ImGuiLayer
 
         self.gui = ImGuiLayer(self.ctx, (w, h), scale=max(1.5, h / 480))
-        self._programs()
+
+    def _place_panel(self) -> None:
+        w, h = self.size
+        self.panel_w = int(max(300, w * self.cfg.panel_fraction))
+        self.area = Viewport(self.panel_w, 0, w - self.panel_w, h)
+
+    def _take_the_mouse(self) -> None:
+        """The mouse (or a touchscreen's pointer) paints too (:mod:`station.kiosk.mouse`)
+        unless ``--input pen``."""
+        self.mouse = mouse.MousePen(self.size, self.cfg.mouse_pressure)
+        self._pen_heard = -math.inf  # monotonic time of the last sample from a pen driver
+        if self.cfg.input == "pen":
+            return
+        glfw = self.glfw
+        glfw.set_cursor_pos_callback(self.window, self.on_cursor)
+        glfw.set_mouse_button_callback(self.window, self.on_mouse_button)
+        glfw.set_cursor_enter_callback(self.window, self.on_cursor_enter)
+
+    def _mouse_time(self) -> tuple[float, float]:
+        now = time.monotonic()
+        return now - self.session.started_mono, now
+
+    def on_cursor(self, window: Any, x: float, y: float) -> None:
+        """glfw: the pointer moved to window pixel (x, y)."""
+        self.mouse.move(float(x), float(y), *self._mouse_time())
+
+    def on_mouse_button(self, window: Any, button: int, action: int, mods: int) -> None:
+        """glfw: a button went down or up (the left one, or a touchscreen's finger)."""
+        if button == self.glfw.MOUSE_BUTTON_LEFT:
+            self.mouse.button(action == self.glfw.PRESS, *self._mouse_time())
+
+    def on_cursor_enter(self, window: Any, entered: int) -> None:
+        if not entered:
+            self.mouse.leave(*self._mouse_time())
+
+    def _feed_mouse(self) -> bool:
+        """The mouse's samples to the painting, as a pen's (``auto``: not while a pen is
+        heard); ``True`` if any went."""
+        samples = self.mouse.take()
+        if not samples or (self.cfg.input == "auto"
+                           and time.monotonic() - self._pen_heard < mouse.PEN_WINS_S):
+            return False
+        for sample in samples:
+            self.session.handle("pen", sample)
+        return True
+
+    def _open_gallery(self) -> None:
+        """The gallery, its live directory (logs and autosaves of paintings in progress)
+        and its web page's server."""
+        cfg = self.cfg
         self.gallery = Gallery(cfg.gallery)
         self.live_dir = self.gallery.root / ".live"
         self.live_dir.mkdir(exist_ok=True)
@@ -261,11 +410,10 @@ class KioskApp:
                 base_url = default_base_url(self.server.port, host or "127.0.0.1")
         self.base_url = base_url or "http://127.0.0.1:8080"
 
-        from station.bus import Publisher, Subscriber
-        from station.canvas.palette import default_palette
-        from station.kiosk.ui import PanelState
-        from station.sim.live import default_status_endpoint
-
+    def _open_endpoints(self) -> None:
+        """The status publisher, the drivers' status, ``station send``'s endpoint (the
+        paintings' sessions come and go; these stay)."""
+        cfg = self.cfg
         status_ep = cfg.status or default_status_endpoint(cfg.bus)
         keys, client_key = cfg.keys, cfg.client_key  # CURVE, used on tcp only
         self.pub = None if status_ep == "none" else Publisher(status_ep, keys=keys,
@@ -277,19 +425,39 @@ class KioskApp:
         self.cmd_sub = None if cmd_ep == "none" else Subscriber(
             cmd_ep if cmd_ep[0] in "@>" else "@" + cmd_ep, topics=("cmd",), keys=keys,
             client_key=client_key)
-        from station.canvas.profiles import get_profile
 
-        brush = get_profile(cfg.profile).brush
-        self.panel = PanelState(default_palette(), self._send, self.save_now, view=cfg.view,
-                                mix={brush.pigment: 1.0}, size=2.0 * brush.radius,
+    def _make_panel(self) -> None:
+        """The panel, with the profile's brush, and the idle clock."""
+        brush = get_profile(self.cfg.profile).brush
+        self.panel = PanelState(default_palette(), self._send, self.save_now,
+                                view=self.cfg.view, mix={brush.pigment: 1.0},
+                                size=2.0 * brush.radius,
                                 can_undo=lambda: self.session.history.can_undo())
         self.rects: dict[str, Any] = {}
-        self.idle = IdleClock(cfg.idle, time.monotonic())
+        self.idle = IdleClock(self.cfg.idle, time.monotonic())
+
+    def _init_frame_state(self) -> None:
+        """What the loop keeps between frames: the pen, the driver, the gallery's
+        saves, the bench's records, the caches of the UI, compositing and presenting."""
+        # the attract screen (station.kiosk.attract)
+        self.attract_show = AttractShow(self.cfg.gallery)
+        self._attracting = False
+        self._attract_tex: tuple[int, tuple[int, int], Any] | None = None
+        # the pen and what it holds
         self.stop_requested = False
         self.capture: str | None = None  # "ui" or "canvas" while the tip is down
         self.hover: tuple[float, float] | None = None  # canvas (u, v) of the pen
         self.touching = False
         self.follow_at = (0.5, 0.5)
+        self.lag = LagEstimate(initial=AUTO_HORIZON_START_S)
+        cfg = self.cfg
+        self.predictor = PenPredictor(PredictConfig(
+            horizon_s=self.lag.value if cfg.predict_ms is None else max(cfg.predict_ms, 0.0)
+            / 1000))
+        self._pen_received = 0.0  # monotonic time the last pen sample came
+        self._pen_read = 0.0  # ... and when its driver read it (monotonic)
+        self._shadow_read = 0.0  # the read time of the sample this frame's shadow is from
+        # the driver, the gallery, the operator
         self.driver_state = "unknown"
         self.driver_seen = 0.0
         self.driver_events: list[str] = []
@@ -299,57 +467,70 @@ class KioskApp:
         self.qr_url: str | None = None
         self.qr_texture: Any = None
         self.screenshots: list[Path] = []
+        self._fresh_requested = False  # an operator's "fresh" command
+        # counts and the latency bench's records: pen samples (read time, device time, x,
+        # y, touching) in window pixels, and per frame (shown, last sample's x, y, the
+        # shadow's predicted x, y); per frame: seconds from the late latch to shown,
+        # samples that made paint in it
         self.frames = 0
+        self.frame_errors = 0
         self.latencies: list[float] = []
         self.phase = {"wait": 0.0, "input": 0.0, "sim": 0.0, "render": 0.0, "ui": 0.0,
                       "present": 0.0}
-        self._need_draw = True
-        self._last_draw = 0.0
-        self._fresh_requested = False  # an operator's "fresh" command
-        self._brush_key: tuple[Any, ...] | None = None
-        self._glfinish = _gl_function("glFinish")
-        self._glflush = _gl_function("glFlush")
-        self._frame_boxes: list[Box] = []  # what this frame redrew in the picture
-        self.frame_pixels = 0  # ... in pixels (both compositions of the frame)
-        self._frame_full = False  # ... everything (a new camera)
-        self.lag = LagEstimate(initial=AUTO_HORIZON_START_S)
-        self.predictor = PenPredictor(PredictConfig(
-            horizon_s=self.lag.value if cfg.predict_ms is None else max(cfg.predict_ms, 0.0)
-            / 1000))
-        self._pen_received = 0.0  # monotonic time the last pen sample came
-        self._pen_read = 0.0  # ... and when its driver read it (monotonic)
-        self._shadow_read = 0.0  # the read time of the sample this frame's shadow is from
-        # the latency bench's records: pen samples (read time, device time, x, y,
-        # touching) in window pixels, and per frame (shown, last sample's x, y, the
-        # shadow's predicted x, y)
         self.pen_log: list[tuple[float, float, float, float, bool]] | None = None
         self.cursor_log: list[tuple[float, float, float, float, float]] | None = None
-        # per frame: seconds from the late latch to shown, samples that made paint in it
         self.tail_log: list[tuple[float, int]] | None = None
         self._cursor_drawn: tuple[tuple[float, float], tuple[float, float]] | None = None
-        self.frame_errors = 0
+        # the loop's pace
+        self._need_draw = True
+        self._last_draw = 0.0
+        self._last_pass_s = 0.0  # wall time of the last pass of the loop
         self._next_status = 0.0
         self._status_due = 0.0
         self._status_cache = ""
+        self._brush_key: tuple[Any, ...] | None = None
+        self._drawn_view: tuple[str, tuple[float, float]] | None = None
+        self._glfinish = _gl_function("glFinish")
+        self._glflush = _gl_function("glFlush")
         # the UI is built only when what it shows may have changed (compose)
         self._ui_last_key: tuple[Any, ...] | None = None
         self._ui_built = 0.0
-        self._last_pass_s = 0.0  # wall time of the last pass of the loop
         self._ui_hash = 0
         self._ui_bounds: Box | None = None
-        self.session: KioskSession = self._new_session()
-        self.display: CpuDisplay | GpuDisplay = make_display(self.ctx, self.session)
-        self.compositor = Compositor(self.ctx, (w, h))
-        self.presenter = Presenter(glfw, self.window, str(self.ctx.info.get("GL_RENDERER", "")),
-                                   (w, h), cfg.present, cfg.vsync)
+        # compositing and presenting
+        self._frame_boxes: list[Box] = []  # what this frame redrew in the picture
+        self.frame_pixels = 0  # ... in pixels (both compositions of the frame)
+        self._frame_full = False  # ... everything (a new camera)
         self._present_rects: list[Box] | None = None  # this frame's partial present
         self._shadow_box: Box | None = None  # where the last frame drew the shadow
         self._last_whole = 0.0  # monotonic time of the last whole present
 
     # -- GL programs -------------------------------------------------------------
+    def _follow_window_size(self) -> None:
+        """A window resized (a window manager, a monitor's mode, an operator) is laid out
+        and drawn anew at its new size: the picture's framebuffer, the panel, the
+        presenter all follow (kept at the old size, the window showed black bands along
+        its right and bottom edges and stale parts of the old picture)."""
+        fb = self.glfw.get_framebuffer_size(self.window)
+        size = (int(fb[0]), int(fb[1]))
+        if size == self.size or size[0] <= 0 or size[1] <= 0:  # same, or minimised
+            return
+        log.info("window resized to %dx%d", *size)
+        self.size = size
+        self._place_panel()
+        self.gui.resize(size)
+        self.mouse.size = size
+        self.compositor.release()
+        self.compositor = Compositor(self.ctx, size)
+        self.presenter.resized(size)
+        self._frame_boxes, self._shadow_box = [], None
+        self._ui_last_key = None  # the panel is built again for the new size
+        self._need_draw = True
+
     def _programs(self) -> None:
         ctx = self.ctx
-        self.canvas_prog = ctx.program(vertex_shader=CANVAS_VERT, fragment_shader=CANVAS_FRAG)
+        self.canvas_prog = ctx.program(vertex_shader=subcell.CANVAS_VERT,
+                                       fragment_shader=subcell.CANVAS_FRAG)
         self.flat_prog = ctx.program(vertex_shader=FLAT_VERT, fragment_shader=FLAT_FRAG)
         a = self.aspect / 2
         quad = np.array([[-a, 0.5, 0, 0, 0], [a, 0.5, 0, 1, 0], [-a, -0.5, 0, 0, 1],
@@ -361,28 +542,42 @@ class KioskApp:
         self.flat_vao = ctx.vertex_array(self.flat_prog, [(self.flat_vbo, "3f", "pos")])
 
     # -- sessions (one per painting) ---------------------------------------------------
-    def _new_session(self) -> KioskSession:
+    def _new_session(self, resume: Path | None = None) -> KioskSession:
+        """A fresh painting, or (``resume``: its live log) the painting in progress that a
+        killed or restarted kiosk left: its autosave plus the log since, replayed exactly
+        (:mod:`station.sim.recovery`), the log continued."""
         cfg = self.cfg
-        pid = new_id()
+        pid = resume.stem if resume is not None else new_id()
         opts: dict[str, Any] = {"ctx": self.ctx} if cfg.backend == "gl" else {}
         live = LiveConfig(bus=cfg.bus, width=cfg.width, height=cfg.height, profile=cfg.profile,
                           backend=cfg.backend, seed=cfg.seed, rate=cfg.rate,
                           log_path=str(self.live_dir / f"{pid}.jsonl"), status="none",
                           cmd="none", autosave=cfg.autosave, backend_opts=opts,
-                          keys=cfg.keys, client_key=cfg.client_key)
+                          keys=cfg.keys, client_key=cfg.client_key,
+                          recover=str(resume) if resume is not None else None)
         session = KioskSession(live, map_pen=self._map_pen, kiosk_command=self._kiosk_command)
+        session.resumed = resume is not None
         pub = self.pub
         if pub is not None:  # the deformable brush's reaction to haptic devices
             session.haptics.send = pub.publish_haptic
             session.haptics.wanted = lambda name: pub.wants(f"haptic.{name}")
         session.painting_id = pid
+        self._release_live_log()
+        self._live_lock = hold_live_log(session.log_path)
         self.session = session
-        self.panel.apply_brush()  # the visitor's brush carries over, logged first
+        if resume is None:
+            self.panel.apply_brush()  # the visitor's brush carries over, logged first
         self.idle.fresh(time.monotonic())
+        self.idle.painted = session.resumed
         self._set_qr(None)
         if cfg.sim_thread:
             session.start_worker()
         return session
+
+    def _release_live_log(self) -> None:
+        fd, self._live_lock = getattr(self, "_live_lock", None), None
+        if fd is not None:
+            os.close(fd)
 
     def _send(self, name: str, args: dict[str, Any]) -> None:
         session = getattr(self, "session", None)
@@ -399,11 +594,7 @@ class KioskApp:
                 "painting_seconds": st["painting_time"]}
 
     def _render_srgb8(self) -> np.ndarray:
-        from station.render.km import to_srgb8
-
-        with self.session.lock:
-            self.session._wait_step()
-            return to_srgb8(self.session.canvas.render())
+        return to_srgb8(self.session.render_between_steps())
 
     def _gl_finish(self) -> None:
         """``glFinish`` through ctypes, which lets the simulation thread run while the GL
@@ -435,7 +626,7 @@ class KioskApp:
         s = self.session
         s.stop_worker()
         pid = s.painting_id
-        painted = s.painted_stamps > 0 or pid in self.saved
+        painted = s.painted_stamps > 0 or s.resumed or pid in self.saved
         meta = self._meta(reason)
         s.shutdown()  # log end marker, log closed
         stored = True
@@ -453,6 +644,7 @@ class KioskApp:
         if close is not None:
             close()
         if stored:  # in the gallery now (or nothing was painted): the live files go
+            self._release_live_log()
             Path(s.log_path).unlink(missing_ok=True)
             Path(s.autosave_path).unlink(missing_ok=True)
         return pid if painted and stored else None
@@ -494,6 +686,8 @@ class KioskApp:
         w, h = self.size
         px, py = s.x * w, s.y * h
         self._pen_received = now
+        if s.device != mouse.DEVICE:
+            self._pen_heard = now
         self._pen_read = s.t_mono if s.t_mono > 0.0 else now
         self.predictor.add(s.t, px, py, s.proximity, s.touching and s.proximity)
         if self.pen_log is not None:
@@ -552,40 +746,34 @@ class KioskApp:
             p.mix = {}
 
     def _kiosk_command(self, cmd: Command) -> bool:
-        """Commands for the window: ``view {name}``, ``save``, ``fresh``,
-        ``message {text}``, ``screenshot {name}``, ``stop``."""
-        if cmd.cmd == "view":
-            name = cmd.args.get("name")
-            if name in VIEWS:
-                self.panel.set_view(str(name))
-            else:
-                log.warning("view %r is not one of %s", name, ", ".join(VIEWS))
-            return True
+        """Commands for the window (:mod:`station.kiosk.commands`: ``view``, ``fresh``,
+        ``screenshot``, ``message``) and the gallery's ``save`` and ``stop``; ``False``:
+        the painting's.  A bad one is logged and dropped (it came from the bus)."""
         if cmd.cmd == "save":
             self.save_now()
-            return True
-        if cmd.cmd == "fresh":
-            self._fresh_requested = True
-            return True
-        if cmd.cmd == "message":  # an operator's note on the panel (blueprint show-message)
-            text = cmd.args.get("text")
-            if isinstance(text, str) and text.strip():
-                self.panel.message = " ".join(text.split())[:200]
-            else:
-                log.warning("message needs {\"text\": \"...\"}")
-            return True
-        if cmd.cmd == "screenshot":
-            name = cmd.args.get("name")
-            if self.cfg.screenshot_dir is None or not isinstance(name, str) \
-                    or not SCREENSHOT_NAME.match(name):
-                log.warning("screenshot refused (needs --screenshot-dir and a plain name)")
-            else:
-                self.screenshots.append(self.cfg.screenshot_dir / f"{name}.png")
             return True
         if cmd.cmd == "stop":
             self.stop_requested = True
             return True
-        return False
+        if not is_kiosk_command(cmd.cmd):
+            return False
+        try:
+            check_kiosk_command(cmd, where="bus")
+        except BadInput as exc:
+            log.warning("kiosk command refused: %s", exc)
+            return True
+        if cmd.cmd == "view":
+            self.panel.set_view(str(cmd.args["name"]))
+        elif cmd.cmd == "fresh":
+            self._fresh_requested = True
+        elif cmd.cmd == "message":  # an operator's note on the panel (blueprint show-message)
+            self.panel.message = " ".join(str(cmd.args["text"]).split())[:MESSAGE_MAX]
+        elif cmd.cmd == "screenshot":
+            if self.cfg.screenshot_dir is None:
+                log.warning("screenshot refused: the kiosk runs without --screenshot-dir")
+            else:
+                self.screenshots.append(self.cfg.screenshot_dir / f"{cmd.args['name']}.png")
+        return True
 
     def _commands(self) -> None:
         """Commands sent to the kiosk's own endpoint (``station send``)."""
@@ -646,13 +834,45 @@ class KioskApp:
             t = 3.0
             self._flat(cam, np.array([[-t, t, -1e-3], [t, t, -1e-3], [-t, -t, -1e-3],
                                       [t, -t, -1e-3]]), TABLE, ctx.TRIANGLE_STRIP)
-        self.display.texture.use(0)
-        self.canvas_prog["canvas"].value = 0
-        self.canvas_prog["vp"].write(cam.vp.T.astype("f4").tobytes())
-        self.canvas_vao.render(ctx.TRIANGLE_STRIP)
+        self.draw_canvas(cam, self.display.texture)
         ctx.disable(ctx.BLEND)
         ctx.viewport = (0, 0, w, h)
         ctx.scissor = None
+
+    def draw_canvas(self, cam: Camera, texture: Any) -> None:
+        """The canvas quad at the screen's resolution (:mod:`station.kiosk.subcell`)."""
+        prog = self.canvas_prog
+        texture.use(0)
+        prog["canvas"].value = 0
+        self.display.surface.use(prog, 1)
+        prog["cells"].value = (float(self.cfg.width), float(self.cfg.height))
+        prog["vp"].write(cam.vp.T.astype("f4").tobytes())
+        self.canvas_vao.render(self.ctx.TRIANGLE_STRIP)
+
+    def reference_picture(self) -> np.ndarray:
+        """The window's picture drawn from scratch (sRGB8, H×W×3, row 0 on top): the whole
+        canvas rendered afresh (:meth:`CpuDisplay.full_texture`), the whole scene and UI,
+        no shadow — what the screen must show outside the shadow, however it got there."""
+        ctx = self.ctx
+        w, h = self.size
+        tex = ctx.texture((w, h), 4)
+        fbo = ctx.framebuffer([tex])
+        full = self.display.full_texture()
+        real = self.display.texture
+        try:
+            fbo.use()
+            self.display.texture = full
+            self.draw_scene(self.camera())
+            self.gui.draw((0, 0, w, h))
+            data = fbo.read(viewport=(0, 0, w, h), components=3, alignment=1)
+        finally:
+            self.display.texture = real
+            if full is not real:
+                full.release()
+            fbo.release()
+            tex.release()
+            ctx.screen.use()
+        return np.frombuffer(data, np.uint8).reshape(h, w, 3)[::-1]
 
     def predicted_hover(self) -> tuple[float, float] | None:
         """Canvas (u, v) of the pen's shadow: the pen as predicted for when this frame is
@@ -709,20 +929,18 @@ class KioskApp:
 
     def status_line(self) -> str:
         s = self.session
-        wet = s.wet_fraction()
+        m = s.moisture()
         parts = []
-        if wet is not None:
-            parts.append(f"wet {100 * wet:.1f}%")
-            tiles = s.active_tiles()
-            parts.append("drying" if tiles else ("dry" if wet == 0 else "settled"))
+        if m is not None:
+            parts.append(m.line())
+            if m.word != "dry":
+                parts.append("drying" if s.active_tiles() else "settled")
         if s.counters.bad_samples:
             parts.append("layer full: press New layer")
         return "  ".join(parts)
 
     def build_ui(self, dt: float) -> int:
         """One ImGui frame (panel, QR, banners), not drawn yet; returns its hash."""
-        from station.kiosk.ui import draw_banner, draw_panel, draw_qr
-
         self.gui.new_frame(dt)
         w, h = self.size
         self.rects = {}
@@ -736,9 +954,34 @@ class KioskApp:
             draw_banner("The pen is unplugged - please wait, it will be back",
                         a.x + 20, a.y + 20, a.w - 40, 110, "unplugged", big=False)
         elif self.idle.attract(now):
-            draw_banner("Pick up the pen and paint!", a.x + a.w * 0.1, a.y + a.h * 0.38,
-                        a.w * 0.8, a.h * 0.24, "attract")
+            draw_attract(a.x, a.y, a.w, a.h, INVITATION, self._attract_image(now),
+                         demo_stroke(now, a.w, a.h), self.rects)
+        else:
+            self._attracting = False
         return self.gui.end_frame()
+
+    def _attract_image(self, now: float) -> tuple[int, tuple[int, int]] | None:
+        """The replay frame the attract screen shows now (an ImGui texture), or ``None``
+        (no replay in the gallery: the demo stroke)."""
+        if not self._attracting:
+            self._attracting = True
+            self.attract_show.start(now)
+        rgba, new = self.attract_show.frame(now)
+        if rgba is None:
+            return None
+        if new or self._attract_tex is None:
+            h, w = rgba.shape[:2]
+            # a new texture (and ImGui id) for each new frame: the compositor redraws the
+            # UI where its draw data changed, and an id is what changes
+            old = self._attract_tex
+            tex = self.ctx.texture((w, h), 4, np.ascontiguousarray(rgba).tobytes())
+            tex.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+            self._attract_tex = (self.gui.add_texture(tex), (w, h), tex)
+            if old is not None:
+                self.gui.textures.pop(old[0], None)
+                old[2].release()
+        tid, size, _tex = self._attract_tex
+        return tid, size
 
     def _ui_key(self, now: float) -> tuple[Any, ...]:
         """What the panel and overlays show; the last item: the pen is near the panel
@@ -748,9 +991,9 @@ class KioskApp:
         near = pen is not None and pen.proximity and \
             (pen.x * self.size[0] < self.panel_w + 40 or self.capture == "ui")
         return (self._status_text(), tuple(sorted(p.mix.items())), p.size, p.water,
-                p.strength, p.kind, p.view, p.confirm_clear, p.eraser, p.message,
+                p.strength, p.kind, p.view, p.confirm_clear, p.eraser, p.message, p.mixing,
                 p.can_undo(), len(p.pressed), self.qr_url, self.pen_missing(),
-                self.idle.attract(now), near)
+                self.idle.attract(now) and int(now / ATTRACT_FRAME_S), near)
 
     def _status_text(self) -> str:
         """The status line, refreshed every :data:`STATUS_EVERY_S` (people read it; a
@@ -830,6 +1073,8 @@ class KioskApp:
         steps end any time).  At least a millisecond: a loop that does not wait spins,
         and a spinning loop takes the interpreter lock and a core from the steps."""
         s = self.session
+        if self.idle.attract(time.monotonic()):
+            return max(1, math.ceil(ATTRACT_FRAME_S * 1000))
         if s.threaded:
             wait = THREAD_POLL_S if s.active_tiles() else REDRAW_EVERY_S
         else:
@@ -848,6 +1093,28 @@ class KioskApp:
         """
         t0 = time.perf_counter()
         self.glfw.poll_events()
+        self._follow_window_size()
+        busy, got_input = self._take_input()
+        tw = time.perf_counter()
+        now = time.monotonic()
+        got_input = self._operator_and_idle(now) or got_input
+        t1 = time.perf_counter()
+        times = _FrameTimes(t1)
+        if self._frame_due(now, got_input):
+            got_input = self._draw_frame(now, dt, times) or got_input
+        # ImGui spreads pen events queued together over the next frames: draw one more
+        self._need_draw = got_input
+        self._steps_or_housekeeping()
+        t_end = time.perf_counter()
+        if busy:  # a pass that did not wait for the bus
+            self._last_pass_s = t_end - t0
+        self._account(t0, tw, t1, times, t_end)
+        self.maybe_publish_status()
+
+    # -- the parts of a pass ------------------------------------------------------------
+    def _take_input(self) -> tuple[bool, bool]:
+        """Wait for the bus as long as the kiosk may (not at all when a frame is due),
+        then handle what came; returns (the pass is busy, input came)."""
         s = self.session
         urgent = self._need_draw or bool(self.screenshots)
         busy = (urgent or s.whole_dirty or bool(s.dirty.any()) or self.display.behind())
@@ -864,97 +1131,125 @@ class KioskApp:
         # handling may take half as long as the last pass took: it keeps up with the pen
         # on a slow pass, and a queue that grew cannot hold the frames back
         s.drain(wait_ms, 0.5 * self._last_pass_s)
-        tw = time.perf_counter()
-        got_input = s.sub.stats.received != received
+        moused = self._feed_mouse()
+        return busy, s.sub.stats.received != received or moused
+
+    def _operator_and_idle(self, now: float) -> bool:
+        """``station send``'s commands, the drivers' status, a fresh canvas when asked
+        for or idle, the panel following the painting's brush; ``True``: the picture
+        changed (a fresh canvas)."""
         self._commands()
         self._driver_status()
         if self._fresh_requested:
             self._fresh_requested = False
             self.fresh_canvas("operator")
-        now = time.monotonic()
         if self.session.painted_stamps > 0:
             self.idle.painted = True
         self._sync_panel()
         if self.idle.should_finish(now):
             pid = self.fresh_canvas("idle")
             log.info("idle: painting %s saved to the gallery, fresh canvas", pid)
-            got_input = True
+            return True
+        return False
+
+    def _frame_due(self, now: float, got_input: bool) -> bool:
+        """Whether to draw: new stamps come with input (their preview is drawn then); a
+        step's changes come as dirty tiles; a quiet kiosk every REDRAW_EVERY_S."""
         s = self.session
-        # new stamps come with input (their preview is drawn then); a step's changes
-        # come as dirty tiles
-        draw = (self._need_draw or got_input or bool(self.screenshots) or s.whole_dirty
+        return (self._need_draw or got_input or bool(self.screenshots) or s.whole_dirty
                 or bool(s.dirty.any()) or self.display.behind()
-                or now - self._last_draw >= REDRAW_EVERY_S)
-        t1 = time.perf_counter()
-        t_tiles = t_ui = t_drained = t_preview = t_present = t_shown = t1
-        if draw:
-            self.frame_pixels = 0
-            with s.lock:  # not while a step hands its sources over (the kernel may run)
-                self.display.update_tiles()
-            t_tiles = time.perf_counter()
-            self.build_ui_if_changed(now - self._last_draw if self._last_draw else dt)
-            cam = self.camera()
-            self.compose_changes(cam)
-            # the late latch: what the pen sent while the tiles and the UI were drawn is
-            # shown in this frame, not the next (what stands between a sample and the
-            # screen is only its stamps' preview, their composition and the present)
-            t_ui = time.perf_counter()
-            n_early = len(s.awaiting_paint)
-            received = s.sub.stats.received
-            s.drain(0, LATCH_BUDGET_S, floor_s=0.0)
-            got_input = got_input or s.sub.stats.received != received
-            t_drained = time.perf_counter()
-            with s.lock:
-                self.display.update_preview()
-            t_preview = time.perf_counter()
-            self.compose_changes(cam)
-            self.fill_back_buffer(cam)
-            for path in self.screenshots:
-                self._screenshot(path)
-            self.screenshots.clear()
-            t_present = time.perf_counter()
-            if self._present_rects is None:
-                self._gl_finish()
-                self.presenter.present_whole()
-            else:
-                self.presenter.present_rects(self._present_rects)
-                self._gl_finish()
-            shown = time.monotonic()
-            t_shown = time.perf_counter()
-            for t_read in s.awaiting_paint:
-                self.latencies.append(shown - t_read)
-            if self.tail_log is not None:
-                self.tail_log.append((t_shown - t_ui, len(s.awaiting_paint) - n_early))
-            if self._cursor_drawn is not None and self.cfg.predict_ms is None:
-                lag = shown - self._shadow_read
-                if lag <= self.predictor.cfg.stale_s:  # a moving pen (a still one is not
-                    # predicted, and its lag is only the time it stood still)
-                    self.predictor.cfg = dataclasses.replace(self.predictor.cfg,
-                                                             horizon_s=self.lag.add(lag))
-            if self.cursor_log is not None and self._cursor_drawn is not None:
-                (rx, ry), (qx, qy) = self._cursor_drawn
-                self.cursor_log.append((shown, rx, ry, qx, qy))
-            s.awaiting_paint.clear()
-            self._last_draw = shown
-            self.frames += 1
-        # ImGui spreads pen events queued together over the next frames: draw one more
-        self._need_draw = got_input
+                or now - self._last_draw >= REDRAW_EVERY_S
+                or self._view_key() != self._drawn_view or self.presenter.owes_whole()
+                or (self.idle.attract(now) and now - self._last_draw >= ATTRACT_FRAME_S))
+
+    def _view_key(self) -> tuple[str, tuple[float, float]]:
+        """What the camera depends on: a view changed by any path is drawn at once."""
+        return self.panel.view, self.follow_at
+
+    def _draw_frame(self, now: float, dt: float, times: _FrameTimes) -> bool:
+        """Tiles, UI, their composition, the late latch, the preview, present; returns
+        whether the late latch took input."""
+        s = self.session
+        self.frame_pixels = 0
+        with s.lock:  # not while a step hands its sources over (the kernel may run)
+            self.display.update_tiles()
+        times.tiles = time.perf_counter()
+        self.build_ui_if_changed(now - self._last_draw if self._last_draw else dt)
+        cam = self.camera()
+        self._drawn_view = self._view_key()
+        self.compose_changes(cam)
+        # the late latch: what the pen sent while the tiles and the UI were drawn is
+        # shown in this frame, not the next (what stands between a sample and the
+        # screen is only its stamps' preview, their composition and the present)
+        times.ui = time.perf_counter()
+        n_early = len(s.awaiting_paint)
+        received = s.sub.stats.received
+        s.drain(0, LATCH_BUDGET_S, floor_s=0.0)
+        latched = s.sub.stats.received != received
+        times.drained = time.perf_counter()
+        with s.lock:
+            self.display.update_preview()
+        times.preview = time.perf_counter()
+        self.compose_changes(cam)
+        self.fill_back_buffer(cam)
+        for path in self.screenshots:
+            self._screenshot(path)
+        self.screenshots.clear()
+        times.present = time.perf_counter()
+        shown = self._present()
+        times.shown = time.perf_counter()
+        self._record_shown(shown, times, n_early)
+        return latched
+
+    def _present(self) -> float:
+        """The back buffer to the screen, whole or by rectangles; when it was shown."""
+        if self._present_rects is None:
+            self._gl_finish()
+            self.presenter.present_whole()
+        else:
+            self.presenter.present_rects(self._present_rects)
+            self._gl_finish()
+        return time.monotonic()
+
+    def _record_shown(self, shown: float, times: _FrameTimes, n_early: int) -> None:
+        """A frame is on screen: the latency of the paint it shows, the prediction's
+        horizon from its measured lag, the bench's records."""
+        s = self.session
+        for t_read in s.awaiting_paint:
+            self.latencies.append(shown - t_read)
+        if self.tail_log is not None:
+            self.tail_log.append((times.shown - times.ui, len(s.awaiting_paint) - n_early))
+        if self._cursor_drawn is not None and self.cfg.predict_ms is None:
+            lag = shown - self._shadow_read
+            if lag <= self.predictor.cfg.stale_s:  # a moving pen (a still one is not
+                # predicted, and its lag is only the time it stood still)
+                self.predictor.cfg = dataclasses.replace(self.predictor.cfg,
+                                                         horizon_s=self.lag.add(lag))
+        if self.cursor_log is not None and self._cursor_drawn is not None:
+            (rx, ry), (qx, qy) = self._cursor_drawn
+            self.cursor_log.append((shown, rx, ry, qx, qy))
+        s.awaiting_paint.clear()
+        self._last_draw = shown
+        self.frames += 1
+
+    def _steps_or_housekeeping(self) -> None:
+        s = self.session
         if s.threaded:
             s.check_worker()
             s.housekeeping()
         else:  # the steps in this loop (after presenting: a step delays the next frame)
             s.run_due_steps(max_steps=2)  # what they change: dirty tiles
-        t_end = time.perf_counter()
-        if busy:  # a pass that did not wait for the bus
-            self._last_pass_s = t_end - t0
+
+    def _account(self, t0: float, tw: float, t1: float, times: _FrameTimes,
+                 t_end: float) -> None:
+        """The pass's wall time into the phases (the bench's share per phase)."""
         ph = self.phase
         ph["wait"] += tw - t0
-        ph["input"] += (t1 - tw) + (t_drained - t_ui)
-        ph["render"] += (t_tiles - t1) + (t_preview - t_drained)
-        ph["ui"] += (t_ui - t_tiles) + (t_present - t_preview)
-        ph["present"] += t_shown - t_present
-        ph["sim"] += t_end - t_shown
-        self.maybe_publish_status()
+        ph["input"] += (t1 - tw) + (times.drained - times.ui)
+        ph["render"] += (times.tiles - t1) + (times.preview - times.drained)
+        ph["ui"] += (times.ui - times.tiles) + (times.present - times.preview)
+        ph["present"] += times.shown - times.present
+        ph["sim"] += t_end - times.shown
 
     def run(self) -> dict[str, Any]:
         """Frames until stopped (signal, ``stop`` command, ``duration``)."""
@@ -994,7 +1289,7 @@ class KioskApp:
             "process": "kiosk", "view": self.panel.view, "frames": self.frames,
             "sim_thread": s.threaded,
             "frame_errors": self.frame_errors,
-            "painting_id": s.painting_id,
+            "painting_id": s.painting_id, "resumed": s.resumed,
             "painted_stamps": s.painted_stamps, "saved": list(self.saved),
             "qr_url": self.qr_url, "driver_state": self.driver_state,
             "driver_events": list(self.driver_events), "pen_missing": self.pen_missing(),
@@ -1003,14 +1298,22 @@ class KioskApp:
                 "mix": dict(self.panel.mix), "size": self.panel.size,
                 "water": self.panel.water, "strength": self.panel.strength,
                 "confirm_clear": self.panel.confirm_clear, "eraser": self.panel.eraser,
+                "mixing": self.panel.mixing,
                 "pressed": list(self.panel.pressed)},
             "player_commands": dict(s.player.counters.commands),
             "skipped_commands": dict(s.player.counters.skipped_commands),
             "brush": s.player.brush.settings.to_args(),
             "wet_fraction": s.wet_fraction(),
+            **self._moisture_status(),
             "gallery_url": self.base_url,
         })
         return st
+
+    def _moisture_status(self) -> dict[str, Any]:
+        m = self.session.moisture()
+        if m is None:
+            return {"paper": None, "damp_fraction": None}
+        return {"paper": m.word, "damp_fraction": m.damp}
 
     def maybe_publish_status(self) -> None:
         now = time.monotonic()
@@ -1036,6 +1339,7 @@ class KioskApp:
         try:
             self.finish_painting("stopped")
         finally:
+            self._release_live_log()
             if self.pub is not None:
                 try:
                     self.pub.publish_status({**self.kiosk_status_safe(), "state": "stopped"})

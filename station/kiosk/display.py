@@ -22,12 +22,14 @@ applies the sRGB transfer), row 0 = the canvas's top row.
 from __future__ import annotations
 
 import time
-from typing import Any
+from typing import Any, Protocol
 
 import numba
 import numpy as np
 
+from station.brush.stamp import Sources, StampPreview
 from station.canvas.profiles import get_profile
+from station.kiosk import subcell
 from station.render.km import region_amount, render_region
 from station.render.km_fast import km_layer_fast
 
@@ -67,12 +69,35 @@ def tile_runs(dirty: np.ndarray, most: int | None = None) -> list[tuple[int, int
     return runs
 
 
+class PreviewingBrush(Protocol):
+    """A brush whose stamps wait for the next step (both of the station's brushes): the
+    display shows them at once through :meth:`preview` (the seam :func:`brush_preview`
+    and :func:`pending_stamps` use; asked by attribute, as an ``isinstance`` check on a
+    Protocol costs more than the call every frame)."""
+
+    @property
+    def pending(self) -> int: ...  # stamps waiting for the next step (cheap to ask)
+
+    def preview(self, since: int = 0) -> StampPreview | None: ...
+
+
+def brush_preview(brush: object, since: int = 0) -> StampPreview | None:
+    """The brush's preview, or ``None`` for a brush that has none."""
+    fn = getattr(brush, "preview", None)
+    return fn(since) if fn is not None else None
+
+
+def pending_stamps(brush: object) -> int:
+    """Stamps the brush holds for the next step (0 for a brush without a preview)."""
+    return int(getattr(brush, "pending", 0))
+
+
 def _overlap(a: tuple[slice, slice], b: tuple[slice, slice]) -> bool:
     return bool(a[0].start < b[0].stop and b[0].start < a[0].stop
                 and a[1].start < b[1].stop and b[1].start < a[1].stop)
 
 
-def _pending_in(src: Any, st: Any, ys: slice, xs: slice) -> dict[str, np.ndarray]:
+def _pending_in(src: Sources, st: Any, ys: slice, xs: slice) -> dict[str, np.ndarray]:
     """The pending stamps' pigment (``src``: the brush's summed sources) on the cells
     ``[ys, xs]``, region-shaped, nothing on masked cells."""
     sy, sx = src.region
@@ -109,8 +134,16 @@ class CpuDisplay:
         if old is None or old.size != (w, h):
             if old is not None:
                 old.release()
-            self.texture = self.ctx.texture((w, h), 3, dtype="f4")
+            # rgb: the cells' reflectance extended into blank cells by the paint; a: the
+            # contour level (station.kiosk.subcell)
+            self.texture = self.ctx.texture((w, h), 4, dtype="f4")
             self.texture.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+            self.texture.repeat_x = self.texture.repeat_y = False
+        st = session.cpu_state
+        self.paper_cells = st.paper_reflectance()
+        self.surface = CanvasSurface.make(self.ctx, self.paper_cells, st.paper_preset, st.seed,
+                                          float(st.params.paper_shade), contours=True,
+                                          old=getattr(self, "surface", None))
         self.preview_box: tuple[slice, slice] | None = None  # cells showing stamps
         self._preview_steps = -1  # the step count when the preview was started
         self._previewed = 0  # pending stamps the preview shows
@@ -141,8 +174,9 @@ class CpuDisplay:
         dirty = self.session.take_dirty()
         carried = self._carry if self._carry is not None and \
             self._carry.shape == dirty.shape else np.zeros_like(dirty)
-        peek = getattr(self.session.player.brush, "peek", None)
-        src = peek() if peek is not None and dirty.any() | carried.any() else None
+        pv = brush_preview(self.session.player.brush) if dirty.any() | carried.any() \
+            else None
+        src = None if pv is None else pv.sources
         cells = 0
         self.damage = []
         left = np.zeros_like(dirty)
@@ -153,14 +187,15 @@ class CpuDisplay:
                 continue
             ys = slice(ty * ts, min((ty + 1) * ts, st.height))
             xs = slice(a * ts, min(b * ts, st.width))
-            extra = None
-            if src is not None and _overlap(src.region, (ys, xs)):
-                # stamps not yet simulated lie here: drawn with them, as the preview
-                # draws them (else the state would hide the preview until it is redone)
-                extra = _pending_in(src, st, ys, xs)
-                self._grow_preview(ys, xs)
-            self._upload(self._render(st, kind, ys, xs, extra), ys, xs)
-            cells += (ys.stop - ys.start) * (xs.stop - xs.start)
+            # stamps not yet simulated lie here: drawn with them, as the preview draws
+            # them (else the state would hide the preview until it is redone)
+            pending = src if src is not None and _overlap(
+                src.region, subcell.grow(ys, xs, 2 * subcell.LEVEL_REACH, st.height,
+                                         st.width)) else None
+            uy, ux = self._render_cells(st, kind, ys, xs, pending)
+            if pending is not None:
+                self._grow_preview(uy, ux)
+            cells += (uy.stop - uy.start) * (ux.stop - ux.start)
         self._carry = left if left.any() else None
         self.cells_rendered = cells
         self.render_seconds = time.perf_counter() - t0
@@ -172,20 +207,16 @@ class CpuDisplay:
         a frame renders only where the stamps that came since the last frame lie."""
         t0 = time.perf_counter()
         st = self.session.cpu_state
-        brush = self.session.player.brush
-        peek = getattr(brush, "peek", None)  # the stamp brush has these
-        since = getattr(brush, "pending_box", None)
-        if peek is None:
-            return 0
         self._retire_preview()
-        n = int(brush.pending)
-        if n == 0 or n == self._previewed:
+        brush = self.session.player.brush
+        if pending_stamps(brush) in (0, self._previewed):
             return 0
-        src = peek()
-        if src is None:
+        pv = brush_preview(brush, self._previewed)
+        if pv is None:
             return 0
-        box = since(self._previewed) if self._previewed and since is not None else src.region
-        self._previewed = n
+        src = pv.sources
+        box = pv.new_cells if self._previewed else src.region
+        self._previewed = pv.count
         if box is None:  # the new stamps are all masked
             return 0
         sy, sx = src.region
@@ -193,10 +224,9 @@ class CpuDisplay:
         xs = slice(max(box[1].start, sx.start, 0), min(box[1].stop, sx.stop, st.width))
         cells = 0
         if ys.stop > ys.start and xs.stop > xs.start:
-            extra = _pending_in(src, st, ys, xs)
-            self._upload(self._render(st, self._renderer_kind(), ys, xs, extra), ys, xs)
-            self._grow_preview(ys, xs)
-            cells = (ys.stop - ys.start) * (xs.stop - xs.start)
+            uy, ux = self._render_cells(st, self._renderer_kind(), ys, xs, src)
+            self._grow_preview(uy, ux)
+            cells = (uy.stop - uy.start) * (ux.stop - ux.start)
         self.cells_rendered += cells
         self.render_seconds += time.perf_counter() - t0
         return cells
@@ -211,7 +241,7 @@ class CpuDisplay:
         """When a step has taken the previewed stamps (the state has them now), mark the
         preview's tiles dirty: the state is rendered there and a new preview begins."""
         steps = self.session.player.counters.steps
-        n = int(getattr(self.session.player.brush, "pending", 0))
+        n = pending_stamps(self.session.player.brush)
         if steps == self._preview_steps and n >= self._previewed:
             return
         self._preview_steps, self._previewed = steps, 0
@@ -226,6 +256,33 @@ class CpuDisplay:
     def behind(self) -> bool:
         """Whether dirty tiles wait for the next frame (over this frame's budget)."""
         return self._carry is not None
+
+    def _render_cells(self, st: Any, kind: str, ys: slice, xs: slice,
+                      pending: Sources | None) -> tuple[slice, slice]:
+        """Render the cells ``[ys, xs]`` that changed (with the ``pending`` stamps'
+        pigment over them) and upload what that changes in the texture: those cells
+        grown by the contour level's reach (:mod:`station.kiosk.subcell`); returns the
+        uploaded cells."""
+        h, w = st.height, st.width
+        uy, ux = subcell.grow(ys, xs, subcell.LEVEL_REACH, h, w)
+        ry, rx = subcell.grow(uy, ux, subcell.INDICATOR_HALO, h, w)
+        extra = None if pending is None else _pending_in(pending, st, ry, rx)
+        amount, _pigments = region_amount(st, ry, rx, extra)
+        painted = subcell.painted_cells(amount, st.r_composed[ry, rx], self.paper_cells[ry, rx])
+        # the colours the extension reads (the uploaded cells and one more) rendered from
+        # the same state as the indicator: colours kept from earlier renders (a mirror of
+        # what was shown) disagreed with a fresher indicator along a wet edge, and the
+        # extension carried a stale, darker colour out as specks and notches
+        ky, kx = subcell.grow(uy, ux, subcell.COLOUR_HALO, h, w)
+        kin = (slice(ky.start - ry.start, ky.stop - ry.start),
+               slice(kx.start - rx.start, kx.stop - rx.start))
+        k_extra = None if extra is None else {n: a[kin] for n, a in extra.items()}
+        rgb = np.zeros((ry.stop - ry.start, rx.stop - rx.start, 3), F32)
+        rgb[kin] = self._render(st, kind, ky, kx, k_extra)
+        inner = (slice(uy.start - ry.start, uy.stop - ry.start),
+                 slice(ux.start - rx.start, ux.stop - rx.start))
+        self._upload(subcell.fields(rgb, painted, inner), uy, ux)
+        return uy, ux
 
     def _render(self, st: Any, kind: str, ys: slice, xs: slice,
                 extra: dict[str, np.ndarray] | None = None) -> np.ndarray:
@@ -244,13 +301,45 @@ class CpuDisplay:
             numba.set_num_threads(before)
 
     def _upload(self, rgb: np.ndarray, ys: slice, xs: slice) -> None:
-        self.damage.append((ys.start, ys.stop, xs.start, xs.stop))
+        # the screen changes wherever the shader's bicubic reads these texels: up to
+        # two cells around them, however many pixels a cell covers in the view (a damage
+        # margin in pixels left stale strips where the table view magnifies the cells)
+        h, w = self.session.cfg.height, self.session.cfg.width
+        dy, dx = subcell.grow(ys, xs, subcell.BICUBIC_REACH, h, w)
+        self.damage.append((dy.start, dy.stop, dx.start, dx.stop))
         data = np.ascontiguousarray(rgb, dtype=F32)
         self.texture.write(data.tobytes(), viewport=(xs.start, ys.start, xs.stop - xs.start,
                                                      ys.stop - ys.start))
 
+    def expected(self) -> np.ndarray:
+        """What the texture holds once every change is drawn (float32 (H, W, 4)), made
+        from scratch: the state's reference render, no pending stamps."""
+        st = self.session.cpu_state
+        rgb = np.asarray(self.session.canvas.render(), F32)
+        pigments = st.slot_pigments()
+        amount = st.p[:len(pigments)] + st.q[:len(pigments)]
+        painted = subcell.painted_cells(amount, st.r_composed, self.paper_cells)
+        return subcell.fields(rgb, painted, (slice(0, st.height), slice(0, st.width)))
+
+    def read(self) -> np.ndarray:
+        """The texture's contents (float32 (H, W, 4): colour, contour level)."""
+        w, h = self.texture.size
+        return np.frombuffer(self.texture.read(), F32).reshape(h, w, 4)
+
+    def full_texture(self) -> Any:
+        """A texture of the whole canvas made from scratch (:meth:`expected`; the
+        reference a test holds the incremental one to)."""
+        st = self.session.cpu_state
+        rgba = self.expected()
+        tex = self.ctx.texture((st.width, st.height), 4, np.ascontiguousarray(rgba).tobytes(),
+                               dtype="f4")
+        tex.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+        tex.repeat_x = tex.repeat_y = False
+        return tex
+
     def release(self) -> None:
         self.texture.release()
+        self.surface.release()
 
 
 class GpuDisplay:
@@ -267,6 +356,14 @@ class GpuDisplay:
         self.render_seconds = 0.0
         self.texture = session.canvas.render_texture()
         self.texture.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+        st = session.canvas.state()  # once per painting: the paper and its grain
+        self.surface = CanvasSurface.make(self.ctx, st.paper_reflectance(), st.paper_preset,
+                                          st.seed, float(st.params.paper_shade),
+                                          contours=False, old=getattr(self, "surface", None))
+
+    def full_texture(self) -> Any:
+        """The canvas's own render texture (the GPU renders it whole every frame)."""
+        return self.texture
 
     def behind(self) -> bool:
         """The GPU renders the whole canvas every frame: never behind."""
@@ -298,7 +395,58 @@ class GpuDisplay:
         return self.cells_rendered
 
     def release(self) -> None:
-        """The texture belongs to the canvas."""
+        """The texture belongs to the canvas; the paper's are ours."""
+        self.surface.release()
+
+
+class CanvasSurface:
+    """The paper under the paint, as textures for the window's shader: the cells' bare
+    reflectance and the sub-cell grain (:mod:`station.kiosk.subcell`)."""
+
+    def __init__(self, paper: Any, grain: Any, shade: float, contours: bool,
+                 key: tuple[str, int, int, int]) -> None:
+        self.paper = paper
+        self.grain = grain
+        self.shade = shade
+        self.contours = contours
+        self.key = key
+
+    @classmethod
+    def make(cls, ctx: Any, paper_cells: np.ndarray, preset: str, seed: int, shade: float,
+             contours: bool, old: CanvasSurface | None = None) -> CanvasSurface:
+        """The surface of a painting (``old``'s textures kept when the paper is the same:
+        a fresh canvas of the same size and seed)."""
+        h, w = paper_cells.shape
+        key = (preset, seed, w, h)
+        if old is not None and old.key == key:
+            old.contours, old.shade = contours, shade
+            return old
+        if old is not None:
+            old.release()
+        paper = ctx.texture((w, h), 1, np.ascontiguousarray(paper_cells, F32).tobytes(),
+                            dtype="f4")
+        paper.filter = (ctx.LINEAR, ctx.LINEAR)
+        paper.repeat_x = paper.repeat_y = False
+        patch = subcell.grain_patch(preset, seed)
+        grain = ctx.texture((patch.shape[1], patch.shape[0]), 1, patch.tobytes(), dtype="f4")
+        grain.filter = (ctx.LINEAR, ctx.LINEAR)
+        return cls(paper, grain, shade, contours, key)
+
+    def use(self, prog: Any, first_unit: int) -> None:
+        """Bind the textures from ``first_unit`` on and set the shader's uniforms."""
+        self.paper.use(first_unit)
+        self.grain.use(first_unit + 1)
+        prog["paper"].value = first_unit
+        prog["grain"].value = first_unit + 1
+        prog["grain_k"].value = float(subcell.GRAIN_K)
+        prog["grain_texels"].value = float(self.grain.size[0])
+        prog["shade"].value = self.shade * subcell.GRAIN_GAIN
+        prog["granulation"].value = subcell.GRANULATION
+        prog["contours"].value = self.contours
+
+    def release(self) -> None:
+        self.paper.release()
+        self.grain.release()
 
 
 def make_display(ctx: Any, session: Any) -> CpuDisplay | GpuDisplay:

@@ -39,6 +39,9 @@ PRESENT_MODES = ("auto", "swap", "partial")
 #: window is right even if the X server lost pixels without telling.
 FULL_EVERY_S = 1.0
 
+#: Whole frames presented after the window is resized (see Presenter.resized).
+RESIZE_WHOLE_FRAMES = 8
+
 #: Renderers that rasterise on the CPU (no vertical blank, swap copies the window).
 SOFTWARE_RENDERERS = ("llvmpipe", "softpipe", "swrast", "lavapipe", "swr")
 
@@ -56,6 +59,7 @@ class Presenter:
         self.window = window
         self.size = size
         self.whole_next = True  # the first frame is presented whole
+        self._whole_left = 0  # whole frames still owed to a resize
         self.partial_frames = 0
         self.whole_frames = 0
         self._copy_sub: Any = None
@@ -108,16 +112,27 @@ class Presenter:
         self.whole_next = True
 
     def resized(self, size: tuple[int, int]) -> None:
+        """The window changed size: whole frames for a while.  The driver's buffers take
+        the new size at a swap of its own choosing (Mesa's software GLX: a swap or two
+        later); a rectangle copied before that lands on the old buffers' place, and
+        the window showed the old picture shifted, black along its right and bottom."""
         self.size = size
         self.whole_next = True
+        self._whole_left = RESIZE_WHOLE_FRAMES
+
+    def owes_whole(self) -> bool:
+        """Whether frames are owed to a resize (drawn even if nothing else changed)."""
+        return self._whole_left > 0
 
     def needs_whole(self, now: float, last_whole: float) -> bool:
         """Whether the next frame must fill and present the whole window."""
-        return self._copy_sub is None or self.whole_next or now - last_whole >= FULL_EVERY_S
+        return (self._copy_sub is None or self.whole_next or self._whole_left > 0
+                or now - last_whole >= FULL_EVERY_S)
 
     def present_whole(self) -> None:
         self.glfw.swap_buffers(self.window)
         self.whole_next = False
+        self._whole_left = max(0, self._whole_left - 1)
         self.whole_frames += 1
 
     def present_rects(self, rects: list[Rect]) -> int:

@@ -1,8 +1,8 @@
 """One painting: the live simulation running inside the kiosk process.
 
-:class:`KioskSession` wraps :class:`~station.sim.live.LiveSim` (the same bus
+:class:`KioskSession` holds a :class:`~station.sim.live.LiveSim` (the same bus
 subscription, session clock, session log and exact-replay time stamping as
-``station sim``) and adds what a window needs:
+``station sim``; :attr:`KioskSession.sim`) and adds what a window needs:
 
 * pen samples arrive in *screen* coordinates (a calibrated driver maps the
   tablet onto the screen); the view maps them to canvas coordinates before
@@ -56,11 +56,12 @@ from __future__ import annotations
 
 import json
 import logging
-import math
 import threading
 import time
 from collections import deque
 from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numba
@@ -69,10 +70,14 @@ import numpy as np
 from station.answer import parse_request
 from station.brush.deformable import DeformableBrush
 from station.brush.stamp import RoundBrush
-from station.bus import runtime_dir
+from station.bus import Subscriber, runtime_dir
 from station.canvas.state import CanvasState
 from station.events import Command, PenSample, Tool
-from station.sim.live import SYNC_EVERY_S, LiveConfig, LiveSim
+from station.sim.haptic import HapticFeedback
+from station.sim.journal import SessionJournal
+from station.sim.live import SYNC_EVERY_S, Counters, LiveConfig, LiveSim
+from station.sim.player import SessionPlayer
+from station.sim.undo import UndoHistory
 
 log = logging.getLogger(__name__)
 
@@ -85,8 +90,13 @@ PenMapper = Callable[[PenSample], "PenSample | None"]
 KioskCommands = Callable[[Command], bool]
 
 
-class KioskSession(LiveSim):
+class KioskSession:
     """The live simulation of one painting (see the module docstring).
+
+    It holds ``station sim``'s :class:`LiveSim` (:attr:`sim`) and plugs into its two
+    seams: records applied while a step's kernel runs belong to the next step
+    (:meth:`LiveSim.records_in_next_step`), and every step tells the display which
+    tiles changed (:class:`~station.sim.live.StepHooks`).
 
     ``map_pen`` turns a screen-space sample into the canvas-space sample to
     paint, or ``None`` when the canvas must not see it (the pen is over the UI).
@@ -96,10 +106,13 @@ class KioskSession(LiveSim):
 
     def __init__(self, cfg: LiveConfig, map_pen: PenMapper | None = None,
                  kiosk_command: KioskCommands | None = None) -> None:
-        super().__init__(cfg)
+        self.sim = LiveSim(cfg)
+        self.sim.slot_ahead = self._slot_ahead
+        self.sim.step_hooks = self
         self.map_pen = map_pen
         self.kiosk_command = kiosk_command
         self.started_wall = time.time()
+        self.started_mono = time.monotonic()  # the window's own devices (the mouse) count from here
         ty, tx = self._tile_shape()
         self.dirty = np.ones((ty, tx), bool)  # everything needs its first render
         self.whole_dirty = True
@@ -108,6 +121,7 @@ class KioskSession(LiveSim):
         self.last_canvas_pen: PenSample | None = None
         self.painted_stamps = 0
         self.painting_id = ""  # the gallery id the window gives this painting
+        self.resumed = False  # the painting in progress a killed kiosk left, continued
         # the simulation thread (start_worker) and what it shares with the window
         self.lock = threading.Condition()
         self.inflight = False  # the canvas kernel of a step runs now, the lock released
@@ -126,6 +140,69 @@ class KioskSession(LiveSim):
         self._mid_step: list[Any] = []  # ... taken while a step's kernel ran (finish_mid_step)
         self._checkpoint_now = self.history._checkpoint
         self.history._checkpoint = self._checkpoint_deferred  # type: ignore[method-assign]
+
+    # -- the simulation's parts the window reads ------------------------------------
+    @property
+    def cfg(self) -> LiveConfig:
+        return self.sim.cfg
+
+    @property
+    def player(self) -> SessionPlayer:
+        return self.sim.player
+
+    @property
+    def canvas(self) -> Any:
+        """The backend (numpy, cpu or gl canvas: :func:`station.sim.paint.make_backend`)."""
+        return self.sim.canvas
+
+    @property
+    def history(self) -> UndoHistory:
+        return self.sim.history
+
+    @property
+    def counters(self) -> Counters:
+        return self.sim.counters
+
+    @property
+    def sub(self) -> Subscriber:
+        """The bus subscription the pen and commands come on."""
+        return self.sim.sub
+
+    @property
+    def journal(self) -> SessionJournal:
+        return self.sim.journal
+
+    @property
+    def haptics(self) -> HapticFeedback:
+        return self.sim.haptics
+
+    @property
+    def backend_name(self) -> str:
+        return self.sim.backend_name
+
+    @property
+    def log_path(self) -> Path:
+        return Path(self.sim.log_path)
+
+    @property
+    def autosave_path(self) -> Path:
+        return Path(self.sim.autosave_path)
+
+    @property
+    def stop_requested(self) -> bool:
+        return self.sim.stop_requested
+
+    def now(self) -> float:
+        """Session time (s): :meth:`LiveSim.now`."""
+        return self.sim.now()
+
+    def status(self) -> dict[str, Any]:
+        return self.sim.status()
+
+    def shutdown(self) -> dict[str, Any]:
+        """End the painting's simulation: :meth:`LiveSim.shutdown` (log end marker, last
+        autosave, endpoints closed)."""
+        return self.sim.shutdown()
 
     # -- geometry ----------------------------------------------------------------
     def _tile_shape(self) -> tuple[int, int]:
@@ -156,7 +233,7 @@ class KioskSession(LiveSim):
                     self._wait_step()
                     self.materialize_checkpoints()  # a tool's dab changes the canvas
                 before = self.player.brush.stamps
-                super().handle(kind, sample, topic, replay)
+                self.sim.handle(kind, sample, topic, replay)
                 made = self.player.brush.stamps - before
             if made > 0:
                 self.painted_stamps += made
@@ -177,7 +254,7 @@ class KioskSession(LiveSim):
             if kind == "cmd":  # a command may change the canvas (heartbeats do not)
                 self._wait_step()
                 self.materialize_checkpoints()
-            super().handle(kind, value, topic, replay)
+            self.sim.handle(kind, value, topic, replay)
             if kind == "cmd" and isinstance(value, Command) and value.cmd in WHOLE_CANVAS_COMMANDS:
                 self.mark_all_dirty()
 
@@ -249,18 +326,17 @@ class KioskSession(LiveSim):
         finally:
             self._window_waits -= 1
 
-    def _in_this_step(self, t: float) -> float:
-        """As :meth:`LiveCore._in_this_step`, but while step *k*'s kernel runs a record
-        belongs to step *k + 1* (its stamps were not in step *k*)."""
-        if not self.inflight or self._copying:  # copying: the step has not taken stamps
-            return super()._in_this_step(t)
-        p = self.player
-        k = p.counters.steps + 1
-        lo = math.ceil((k / p.rate - p.waited) * 1e6) / 1e6
-        hi = math.floor(((k + 1) / p.rate - p.waited - 2e-6) * 1e6) / 1e6
-        t = round(min(max(t, lo, self._last_t), max(hi, lo)), 6)
-        self._last_t = t
-        return t
+    def _slot_ahead(self) -> bool:
+        """While step *k*'s kernel runs a record belongs to step *k + 1* (its stamps were
+        not in step *k*); not while the step copies checkpoints (it has not taken the
+        stamps yet)."""
+        return self.inflight and not self._copying
+
+    def render_between_steps(self) -> np.ndarray:
+        """The whole canvas rendered (linear RGB, H×W×3), with no step running."""
+        with self.lock:
+            self._wait_step()
+            return np.asarray(self.canvas.render())
 
     def command(self, name: str, **args: Any) -> None:
         """Apply a command from the UI exactly as one from the bus (and log it)."""
@@ -271,14 +347,23 @@ class KioskSession(LiveSim):
 
     # -- stepping ------------------------------------------------------------------
     def step(self) -> None:
+        """One step of the simulation (:meth:`LiveSim.step`, with :meth:`before_step`
+        and :meth:`after_step` around it)."""
+        self.sim.step()
+
+    def before_step(self) -> None:
+        """The tiles active before the step (it may dry them), and the undo checkpoints
+        copied before its kernel writes the canvas."""
         st = self.cpu_state
         if st is not None:
             self._note_active(st)
         if self._lazy:
             self._copy_unlocked()
-        super().step()
+
+    def after_step(self) -> None:
+        st = self.cpu_state
         if st is not None:
-            self._note_active(self.cpu_state)
+            self._note_active(st)
 
     def _note_active(self, st: Any) -> None:
         if not st.tiling:
@@ -326,14 +411,14 @@ class KioskSession(LiveSim):
                 with self.lock:
                     while self._window_waits:  # the window first (lock released meanwhile)
                         self.lock.wait(0.002)
-                    wait = self.seconds_to_next_step()
+                    wait = self.sim.seconds_to_next_step()
                     if wait <= 0.0:
                         t0 = time.perf_counter()
                         self._step_unlocked()
                         t1 = time.perf_counter()
                         self.sim_seconds += t1 - t0
                         self.step_times.append((t0, t1))
-                        self.maybe_autosave()
+                        self.sim.maybe_autosave()
                         continue
                 self._halt.wait(min(wait, 0.05))
         except BaseException as exc:  # the window's thread reports it (check_worker)
@@ -378,10 +463,11 @@ class KioskSession(LiveSim):
         than three are due (a frame waits for at most that many; a slow machine falls
         behind and catches up as ``station sim`` does); then ``station sim``'s
         housekeeping (autosave between strokes, log sync, silent devices)."""
-        limit = max_steps if self.steps_due() > 3 else 1
+        sim = self.sim
+        limit = max_steps if sim.steps_due() > 3 else 1
         n = 0
         t0 = time.perf_counter()
-        while n < limit and self.steps_due() > 0:
+        while n < limit and sim.steps_due() > 0:
             self.step()
             n += 1
         if n:
@@ -389,17 +475,17 @@ class KioskSession(LiveSim):
             self.sim_seconds += t1 - t0
             self.step_times.append((t0, t1))
         if n:
-            self.maybe_autosave()
-        self.journal.maybe_sync(SYNC_EVERY_S)
-        self.check_devices()
+            sim.maybe_autosave()
+        sim.journal.maybe_sync(SYNC_EVERY_S)
+        sim.check_devices()
         return n
 
     def housekeeping(self) -> None:
         """``station sim``'s housekeeping when the thread runs the steps (log sync, silent
         devices)."""
         with self.lock:
-            self.journal.maybe_sync(SYNC_EVERY_S)
-            self.check_devices()
+            self.sim.journal.maybe_sync(SYNC_EVERY_S)
+            self.sim.check_devices()
 
     def pump(self) -> None:
         """Handle the messages waiting on the bus (no blocking)."""
@@ -412,13 +498,14 @@ class KioskSession(LiveSim):
         draws what it has handled and takes the rest in the next frames, instead of
         handling a growing queue before it draws again (each frame longer, the queue
         longer).  At least one message is handled when one is there."""
-        msg = self.sub.recv(timeout_ms)
+        sub = self.sim.sub
+        msg = sub.recv(timeout_ms)
         deadline = time.perf_counter() + max(budget_s, floor_s)
         while msg is not None:
             self.handle(msg.kind, msg.value, msg.topic, msg.replay)
             if self.stop_requested or time.perf_counter() > deadline:
                 return
-            msg = self.sub.recv(0)
+            msg = sub.recv(0)
 
     def mark_all_dirty(self) -> None:
         self.whole_dirty = True
@@ -448,9 +535,48 @@ class KioskSession(LiveSim):
             return None
         return float(np.count_nonzero(st.w > 0)) / float(st.w.size)
 
+    def moisture(self) -> Moisture | None:
+        """How wet the paper is (CPU backends; ``None`` on GL, whose state is on the GPU)."""
+        st = self.cpu_state
+        if st is None:
+            return None
+        wet = st.w > 0
+        damp = ~wet & (st.wc > DAMP_WATER)
+        n = float(st.w.size)
+        return Moisture(float(np.count_nonzero(wet)) / n, float(np.count_nonzero(damp)) / n)
+
     def active_tiles(self) -> int | None:
         st = self.cpu_state
         return None if st is None else int(np.count_nonzero(st.tile_ttl > 0))
+
+
+#: Capillary water (the paper's ``wc``) above which a cell without surface water is
+#: damp, not dry: after a wash the surface water is gone in seconds while the paper
+#: holds water for a minute more (the status read "wet 0.0%" all that time).
+DAMP_WATER = 1e-4
+
+
+@dataclass(frozen=True)
+class Moisture:
+    """Shares of the canvas's cells (0..1): with surface water (wet), with water only
+    in the paper (damp); the rest is dry."""
+
+    wet: float
+    damp: float
+
+    @property
+    def word(self) -> str:
+        """``wet``, ``damp`` or ``dry``: the wettest state any cell is in."""
+        return "wet" if self.wet > 0 else ("damp" if self.damp > 0 else "dry")
+
+    def line(self) -> str:
+        """The status line's words: ``wet 3.1%  damp 8.0%``, ``damp 8.0%`` or ``dry``."""
+        parts = []
+        if self.wet > 0:
+            parts.append(f"wet {100 * self.wet:.1f}%")
+        if self.damp > 0:
+            parts.append(f"damp {100 * self.damp:.1f}%")
+        return "  ".join(parts) or "dry"
 
 
 class _KernelUnlocked:

@@ -23,7 +23,7 @@ import numpy as np
 from station.brush.stamp import BrushModel, brush_kinds
 from station.canvas.palette import Palette
 from station.kiosk.views import VIEWS
-from station.render.km import linear_to_srgb, on_white
+from station.render.km import km_layer, linear_to_srgb, on_white, to_linear_rgb
 from station.sim import player
 
 MAX_MIX = 4  # pigments in one mix (a layer holds 8; a mix of more is mud anyway)
@@ -48,6 +48,37 @@ def swatch(palette: Palette, mix: dict[str, float], thickness: float = 0.35
     rgb = on_white(amount, pigs)[0, 0]
     srgb = linear_to_srgb(rgb)
     return (float(srgb[0]), float(srgb[1]), float(srgb[2]))
+
+
+#: The thickness of a swatch's masstone and of its wash, and the dark ground a light
+#: pigment's wash is shown on (a white wash on white paper shows nothing).
+SWATCH_MASS = PASS_THICKNESS  # the masstone as one brush pass paints it (issue 21 item 6)
+SWATCH_WASH = 0.3
+LIGHT_LUMA = 0.8
+DARK_GROUND = 0.05
+
+
+def swatch_pair(palette: Palette, name: str) -> tuple[tuple[float, float, float],
+                                                      tuple[float, float, float]]:
+    """What a pigment's swatch shows (sRGB 0..1): its masstone over white paper, and a
+    wash — thin over white paper, or for a light pigment (whites, interference) over a
+    dark ground.  Two blacks differ in their washes, two whites over the dark ground."""
+    pig = palette.get(name)
+    mass = swatch(palette, {name: 1.0}, SWATCH_MASS)
+    light = 0.2126 * mass[0] + 0.7152 * mass[1] + 0.0722 * mass[2] > LIGHT_LUMA
+    ground = np.full((1, 1, 3), DARK_GROUND if light else 1.0, np.float32)
+    amount = np.full((1, 1, 1), SWATCH_WASH, np.float32)
+    wash = linear_to_srgb(to_linear_rgb(km_layer(amount, [pig], ground)))[0, 0]
+    return mass, (float(wash[0]), float(wash[1]), float(wash[2]))
+
+
+def mix_words(mix: dict[str, float]) -> str:
+    """``French Ultramarine`` or ``2 French Ultramarine + 1 Hansa Yellow`` (``water``)."""
+    if not mix:
+        return "water"
+    if len(mix) == 1:
+        return next(iter(mix))
+    return " + ".join(f"{v:g} {n}" for n, v in mix.items())
 
 
 def undo_available() -> bool:
@@ -79,6 +110,8 @@ class PanelState:
     pressed: list[str] = field(default_factory=list)  # every control used, in order
     # whether the painting has a stroke to undo now (the live sim's UndoHistory.can_undo)
     can_undo: Callable[[], bool] = _nothing_to_undo
+    mixing: bool = False  # a tap adds a part to the mix (else it picks the colour)
+    hovered: str | None = None  # the swatch under the pen (its name shown; mixing: preview)
 
     # -- actions -----------------------------------------------------------------
     def brush_args(self) -> dict[str, Any]:
@@ -88,6 +121,34 @@ class PanelState:
 
     def apply_brush(self) -> None:
         self.send("brush", self.brush_args())
+
+    def tap_pigment(self, name: str) -> None:
+        """A tap on a swatch: picks that colour, or while mixing adds a part of it."""
+        if self.mixing:
+            self.add_pigment(name)
+        else:
+            self.pick_pigment(name)
+
+    def pick_pigment(self, name: str) -> None:
+        self.pressed.append(f"pick:{name}")
+        self.mix = {name: 1.0}
+        self.apply_brush()
+
+    def toggle_mixing(self) -> None:
+        """Mixing on (taps add parts to the colour in the brush) or off (taps pick)."""
+        self.pressed.append("mixing:off" if self.mixing else "mixing:on")
+        self.mixing = not self.mixing
+
+    def preview_mix(self) -> dict[str, float]:
+        """The mix the mix button shows: while mixing with the pen over a swatch, the mix
+        one more tap would make (a preview); else the brush's."""
+        if not (self.mixing and self.hovered):
+            return dict(self.mix)
+        if self.hovered not in self.mix and len(self.mix) >= MAX_MIX:
+            return dict(self.mix)
+        out = dict(self.mix)
+        out[self.hovered] = out.get(self.hovered, 0.0) + 1.0
+        return out
 
     def add_pigment(self, name: str) -> None:
         self.pressed.append(f"pigment:{name}")
@@ -177,25 +238,44 @@ def draw_panel(st: PanelState, width: float, height: float, status: str,
     gap = imgui.get_style().item_spacing.x
     row_h = 56.0
 
-    # palette: a grid of swatches, tap to add to the mix
-    imgui.text("Paint")
+    # palette: a grid of named swatches (masstone above, wash below); a tap picks the
+    # colour, or adds a part of it while mixing
+    imgui.text("Mixing: tap colours to add" if st.mixing else "Paint: tap a colour")
     names = list(st.palette.names())
     cols = 5
     sw = (avail - gap * (cols - 1)) / cols
+    hovered = None
+    draw = imgui.get_window_draw_list()
     for i, name in enumerate(names):
         if i % cols:
             imgui.same_line()
         imgui.push_id(name)
-        if _button(imgui, "##p", sw, sw * 0.8, rects, f"pigment:{name}",
-                   color=swatch(st.palette, {name: 1.0}, PASS_THICKNESS)):
-            st.add_pigment(name)
+        mass, wash = swatch_pair(st.palette, name)
+        if _button(imgui, "##p", sw, sw * 0.8, rects, f"pigment:{name}", color=mass):
+            st.tap_pigment(name)
+        if imgui.is_item_hovered():
+            hovered = name
+            imgui.set_tooltip(name)
+        x0, y0, x1, y1 = rects[f"pigment:{name}"]
+        draw.add_rect_filled(imgui.ImVec2(x0, y0 + (y1 - y0) * 0.62), imgui.ImVec2(x1, y1),
+                             imgui.color_convert_float4_to_u32(imgui.ImVec4(*wash, 1.0)))
         imgui.pop_id()
-    # current mix
-    mix_rgb = swatch(st.palette, st.mix, st.strength * PASS_THICKNESS)
-    _button(imgui, "mix" if st.mix else "water", avail * 0.55, row_h, rects, "mix",
-            color=mix_rgb)
+    st.hovered = hovered
+    # the colour in the brush (or, mixing over a swatch, what one more tap makes), named
+    shown = st.preview_mix()
+    # one line, whatever it says: the controls below stay where they are
+    imgui.text("Mix: " + mix_words(shown) if st.mixing else (hovered or mix_words(st.mix)))
+    label = "Done mixing" if st.mixing else "Mix colours"
+    shown_rgb = swatch(st.palette, shown)
+    light = 0.2126 * shown_rgb[0] + 0.7152 * shown_rgb[1] + 0.0722 * shown_rgb[2] > 0.6
+    if light:  # dark letters on a light mix, or the label is white on white
+        imgui.push_style_color(imgui.Col_.text, imgui.ImVec4(0.08, 0.08, 0.1, 1.0))
+    if _button(imgui, label, avail * 0.55, row_h, rects, "mix", color=shown_rgb):
+        st.toggle_mixing()
+    if light:
+        imgui.pop_style_color()
     imgui.same_line()
-    if _button(imgui, "Fresh", avail * 0.45 - gap, row_h, rects, "fresh_mix"):
+    if _button(imgui, "Water", avail * 0.45 - gap, row_h, rects, "fresh_mix"):
         st.fresh_mix()
 
     # brush
@@ -305,4 +385,44 @@ def draw_banner(text: str, x: float, y: float, w: float, h: float, key: str,
     imgui.text(text)
     if big:
         imgui.pop_font()
+    imgui.end()
+
+
+def draw_attract(x: float, y: float, w: float, h: float, text: str,
+                 image: tuple[int, tuple[int, int]] | None,
+                 stroke: list[tuple[float, float]], rects: dict[str, Any]) -> None:
+    """The attract screen over the canvas area (x, y, w, h): a replay's frame (ImGui
+    texture id and size) fitted into it, or the demo stroke (area pixels), and one
+    line of invitation."""
+    from imgui_bundle import imgui
+
+    imgui.set_next_window_pos(imgui.ImVec2(x, y))
+    imgui.set_next_window_size(imgui.ImVec2(w, h))
+    imgui.set_next_window_bg_alpha(0.92)
+    flags = (imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_move
+             | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_inputs
+             | imgui.WindowFlags_.no_saved_settings | imgui.WindowFlags_.no_scrollbar)
+    imgui.begin("attract", None, flags)
+    line_h = imgui.get_text_line_height() * 2.2
+    if image is not None:
+        tex_id, (iw, ih) = image
+        scale = min((w - 40) / iw, (h - 60 - 2 * line_h) / ih)
+        dw, dh = iw * scale, ih * scale
+        imgui.set_cursor_pos(imgui.ImVec2((w - dw) / 2, 20))
+        imgui.image(imgui.ImTextureRef(tex_id), imgui.ImVec2(dw, dh))
+        rects["attract_image"] = _rect(imgui)
+    elif len(stroke) >= 2:
+        draw = imgui.get_window_draw_list()
+        col = imgui.color_convert_float4_to_u32(imgui.ImVec4(0.16, 0.36, 0.78, 0.85))
+        pts: list[Any] = [imgui.ImVec2(x + px, y + py) for px, py in stroke]
+        draw.add_polyline(pts, col, max(8.0, h * 0.05), 0)
+    # one line, as large as fits the area (at most 1.8 times the panel's text)
+    base = imgui.get_style().font_size_base
+    fit = (w - 40) / max(imgui.calc_text_size(text).x, 1.0)
+    imgui.push_font(None, base * max(0.8, min(1.8, fit)))
+    tw = imgui.calc_text_size(text).x
+    imgui.set_cursor_pos(imgui.ImVec2(max(8.0, (w - tw) / 2), h - line_h - 10))
+    imgui.text(text)
+    rects["attract_text"] = _rect(imgui)
+    imgui.pop_font()
     imgui.end()

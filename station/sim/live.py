@@ -54,10 +54,11 @@ import math
 import os
 import signal
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import FrameType
-from typing import Any
+from typing import Any, Protocol
 
 from station.answer import Answerer, ReadKeys, ReplyRequest, parse_request
 from station.backends.factory import create_distributed, make_backend
@@ -176,6 +177,15 @@ class Counters:
     extra: dict[str, int] = field(default_factory=dict)
 
 
+class StepHooks(Protocol):
+    """What a host runs around every step of its :class:`LiveCore` (the kiosk: its undo
+    checkpoints' copies before, the tiles its display must redraw before and after)."""
+
+    def before_step(self) -> None: ...
+
+    def after_step(self) -> None: ...
+
+
 class LiveCore:
     """The live simulation without a bus (see the module docstring)."""
 
@@ -193,6 +203,10 @@ class LiveCore:
         self._flood_logged = -math.inf
         self._last_t = 0.0
         self._offsets: dict[str, float] = {}
+        # a host's seams (station.kiosk.session): records a step ahead while its kernel
+        # runs, and what to do around every step (its display's dirty tiles)
+        self.slot_ahead: Callable[[], bool] | None = None
+        self.step_hooks: StepHooks | None = None
         plan = recovery.plan(cfg.recover) if cfg.recover else None
         start = None
         if plan is not None:
@@ -267,6 +281,13 @@ class LiveCore:
         self.stop_requested = False
         self.newly_silent: list[str] = []  # fell silent since the caller last looked
 
+    # -- seams for a host that runs this simulation inside its own loop (the kiosk) --
+    def records_in_next_step(self) -> bool:
+        """Whether a record applied now belongs to the step after the one about to run
+        (a host that applies samples while a step's kernel runs says so; see
+        :meth:`_in_this_step`).  ``False`` here: records land in the step about to run."""
+        return self.slot_ahead is not None and self.slot_ahead()
+
     # -- clock ---------------------------------------------------------------
     def now(self) -> float:
         """Session time: seconds since start (after a recovery: since the log's start,
@@ -283,8 +304,9 @@ class LiveCore:
         the same two steps as this process did, so the replay is exact.
         """
         p = self.player
-        lo = math.ceil((p.counters.steps / p.rate - p.waited) * 1e6) / 1e6
-        hi = math.floor(((p.counters.steps + 1) / p.rate - p.waited - 2e-6) * 1e6) / 1e6
+        k = p.counters.steps + (1 if self.records_in_next_step() else 0)
+        lo = math.ceil((k / p.rate - p.waited) * 1e6) / 1e6
+        hi = math.floor(((k + 1) / p.rate - p.waited - 2e-6) * 1e6) / 1e6
         t = round(min(max(t, lo, self._last_t), max(hi, lo)), 6)
         self._last_t = t
         return t
@@ -465,6 +487,9 @@ class LiveCore:
         Everything applied before it is handed to the kernel first: what is
         painted is in the log.
         """
+        hooks = self.step_hooks
+        if hooks is not None:
+            hooks.before_step()
         self.journal.flush()
         try:
             self.player.flush_sources()
@@ -472,6 +497,8 @@ class LiveCore:
             self.counters.dropped_sources += 1
             self._warn(f"brush sources dropped: {exc}")
         self.player.step()
+        if hooks is not None:
+            hooks.after_step()
 
     def publish_haptic(self, device: str, force: HapticForce) -> None:
         """Send a reaction frame to ``haptic.<device>`` (no bus here: dropped)."""
