@@ -111,6 +111,7 @@ class SessionPlayer:
         if not (isinstance(rate, (int, float)) and math.isfinite(rate) and rate > 0):
             raise BadInput(f"simulation rate {rate!r} must be a positive number of steps/s")
         self.backend = backend
+        self._grain_h: Any = None  # the paper height, read once (see _grain)
         self.rate = float(rate)
         self.pigments = pigments
         self.brush_scale = brush_scale
@@ -118,7 +119,7 @@ class SessionPlayer:
         self.width, self.height = width, height
         self.brush: RoundBrush | DeformableBrush = RoundBrush(
             width, height, brush_defaults(prof).scaled(brush_scale), brush_model(prof),
-            time_scale=self.rate * self.dt)
+            time_scale=self.rate * self.dt, paper=self._grain())
         self.pickups_skipped = 0  # pick-ups on a backend whose arrays are not in memory
         self.solver = SolverCounters()  # the deformable brushes' spine solves, all kinds
         self.counters = PlayerCounters()
@@ -333,7 +334,7 @@ class SessionPlayer:
                                          counters=self.solver)
         else:
             self.brush = RoundBrush(self.width, self.height, settings, old.model,
-                                    time_scale=old.time_scale)
+                                    time_scale=old.time_scale, paper=self._grain())
         # the counters of the session go on across brushes
         self.brush.stamps, self.brush.samples = old.stamps, old.samples
         self.brush.strokes, self.brush.eraser_samples = old.strokes, old.eraser_samples
@@ -350,6 +351,17 @@ class SessionPlayer:
         if isinstance(b, DeformableBrush):
             out["brush_reservoir"] = b.reservoir.ledger()
         return out
+
+    def _grain(self) -> Any:
+        """The paper height the round brush's edge and dry-brush follow, or ``None`` for a
+        backend that shows no state (a spy, a remote canvas): the brush then paints
+        geometric footprints. Read once per player (a GPU backend reads it back)."""
+        if self._grain_h is None:
+            if getattr(self.backend, "live_state", None) is None and not hasattr(
+                    self.backend, "state"):
+                return None
+            self._grain_h = self._paper()
+        return self._grain_h
 
     def _paper(self) -> Any:
         """The paper height of the backend (read back once from a GPU backend)."""
