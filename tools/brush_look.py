@@ -183,8 +183,9 @@ def drybrush() -> dict[str, Any]:
             if float((x * y).mean()) / var < np.exp(-1):
                 return lag - 1 + 0.5
         return 40.0
-    return {"bare": float(bare), "corr_along": corr_len(m, 1), "corr_across": corr_len(m, 0), "painted_mean": float(d[painted & env].mean()) if
-            (painted & env).any() else 0.0}
+    dark = float(d[painted & env].mean()) if (painted & env).any() else 0.0
+    return {"bare": float(bare), "corr_along": corr_len(m, 1), "corr_across": corr_len(m, 0),
+            "painted_mean": dark}
 
 
 ALL = {"edges": edges, "taper": taper_end, "bloom": bloom, "drybrush": drybrush}

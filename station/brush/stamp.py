@@ -195,7 +195,7 @@ class BrushModel:
     tooth_edge: float = 1.2
     dry_water: float = 0.4
     dry_speed: float = 10.0
-    dry_bare: float = 0.45
+    dry_bare: float = 0.55
     streak_width: float = 1.2
     tail_time: float = 0.05
     tail_max: float = 4.0
