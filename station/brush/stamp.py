@@ -573,6 +573,10 @@ class RoundBrush:
         if dry <= 0.0:
             return 0.0
         diam = max(1.0, self.settings.size)
+        if s.previous is None:
+            # touch-down: the pen's speed is not known yet; a dry tuft set down on the
+            # paper meets only its hills (a round, filled blob would start every streak)
+            return math.sqrt(min(1.0, dry))
         fast = math.hypot(s.vx, s.vy) / diam / m.dry_speed if m.dry_speed > 0 else 1.0
         # the first loss of water shows most: a half-loaded tuft already skips
         return math.sqrt(min(1.0, dry)) * min(1.0, fast)
@@ -600,9 +604,10 @@ class RoundBrush:
         m = self.model
         grain = self._grain
         speed = math.hypot(s.vx, s.vy)
-        if grain is None or speed <= 0.0 or not fp.cover.size:
+        if grain is None or not fp.cover.size:
             return fp
-        c, sn = s.vx / speed, s.vy / speed
+        # across the motion; a touch-down (no motion yet) takes the hairs as lying along x
+        c, sn = (s.vx / speed, s.vy / speed) if speed > 0.0 else (1.0, 0.0)
         dx = (np.arange(fp.x0, fp.x1, dtype=np.float64) + 0.5 - x)[None, :]
         dy = (np.arange(fp.y0, fp.y1, dtype=np.float64) + 0.5 - y)[:, None]
         across = -dx * sn + dy * c
