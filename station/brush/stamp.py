@@ -278,9 +278,10 @@ def footprint(
     for a disc, ``d`` the centre distance), so the area is ``πr²`` without
     a staircase edge.  Clipped to the canvas; empty when outside.
 
-    ``tooth`` (float (height, width), cells, ``|tooth| <= tooth_reach``) moves the rim
-    cell by cell: the distance inside the rim becomes ``(1 - rho) r + tooth``, so the
-    edge runs along the paper's hills and valleys; the interior stays covered.
+    ``tooth`` (float (height, width) in [-1, 1]) moves the rim cell by cell by up to
+    ``tooth_reach`` cells: the distance inside the rim becomes
+    ``(1 - rho) r + tooth_reach * tooth``, so the edge runs along the paper's hills and
+    valleys; the interior stays covered.
     """
     reach = radius * max(1.0, stretch) + (1.0 if soft else 0.0) + max(0.0, tooth_reach)
     x0 = max(0, int(math.floor(cx - reach)))
@@ -300,7 +301,7 @@ def footprint(
         rho = np.sqrt(along * along + across * across)
     inside = (1.0 - rho) * radius  # cells inside the rim (negative outside)
     if tooth is not None:
-        inside = inside + tooth[y0:y1, x0:x1]
+        inside = inside + tooth_reach * tooth[y0:y1, x0:x1]
     if soft:
         cover = np.clip(inside + 0.5, 0.0, 1.0)
     elif tooth is not None:
@@ -635,7 +636,7 @@ class RoundBrush:
         if self._edge is not None and m.tooth_edge > 0.0:
             # a thin tip cannot wander farther than it is wide
             reach = m.tooth_edge * min(1.0, r / 4.0)
-            tooth = self._edge * reach
+            tooth = self._edge
         fp = footprint(x, y, r, self.width, self.height, stretch, angle, soft=m.soft_edge,
                        tooth=tooth, tooth_reach=reach)
         skip = self._skip(s)
