@@ -9,6 +9,7 @@ import pytest
 
 from station.brush.stamp import BrushModel, BrushSettings, RoundBrush
 from station.canvas.numpy_backend import NumpyCanvas
+from station.canvas.params import get_profile
 from station.canvas.render import linear_to_srgb
 from station.canvas.scenarios import distance_inside, run_until_dry
 from station.events import PenSample
@@ -49,7 +50,10 @@ def test_dried_stroke_has_a_dark_rim_that_follows_the_paper() -> None:
     its interior, and its edge wanders with the tooth (>= 0.3 cells std), no ruler."""
     w, h = 160, 48
     s = Script(w, h, seed=7, rate_hz=120.0)
-    s.brush(size=22, water=0.8, pigment={PIG: 1.0})
+    # a mid-value stroke, whatever the profile's pigment load (about 0.3 of a cell's
+    # area of tube paint): the rim shows most there, a full-strength pass saturates
+    load = get_profile("watercolor").brush.pigment_load
+    s.brush(size=22, water=0.8, pigment={PIG: min(1.0, 0.3 / load)})
     s.line((0.1, 0.5), (0.9, 0.5), 1.0, pressure=0.8)
     d = _painted_darkness(s, w, h)
     painted = d > 0.03
