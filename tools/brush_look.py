@@ -177,6 +177,8 @@ def drybrush() -> dict[str, Any]:
 
     def corr_len(a: np.ndarray, axis: int) -> float:
         var = float((a * a).mean())
+        if var <= 0:
+            return 0.0
         for lag in range(1, 40):
             x = np.take(a, range(lag, a.shape[axis]), axis=axis)
             y = np.take(a, range(0, a.shape[axis] - lag), axis=axis)
@@ -190,6 +192,30 @@ def drybrush() -> dict[str, Any]:
 
 ALL = {"edges": edges, "taper": taper_end, "bloom": bloom, "drybrush": drybrush}
 
+def zigzag(gap: float = 0.3) -> dict[str, Any]:
+    """Item 8: a wash laid in zig-zag rows, each over the lower edge of the previous,
+    half-dry row (a painter's graded wash): the darkest line between rows over the wash."""
+    w, h = 160, 96
+    s = Script(w, h, seed=7, rate_hz=120.0)
+    s.brush(size=20, water=0.8, pigment={PIG: 0.6})
+    ys = [0.15 + 0.13 * k for k in range(6)]
+    for k, y in enumerate(ys):
+        a, b = ((0.1, y), (0.9, y)) if k % 2 == 0 else ((0.9, y), (0.1, y))
+        s.line(a, b, 0.8, pressure=0.8, gap=gap)
+    c, blank = paint(s, w, h, max_steps=6000)
+    d = darkness(c, blank)
+    save(f"zigzag-{gap:g}", c.render())
+    inner = d[int(ys[0] * h):int(ys[-1] * h), 30:130]
+    wash = float(np.median(inner))
+    rows = inner.mean(axis=1)
+    return {"wash": wash, "darkest_row_over_wash": float(rows.max() / wash),
+            "p99_over_wash": float(np.percentile(inner, 99) / wash)}
+
+
+ALL["zigzag"] = zigzag
+ALL["zigzag-halfdry"] = lambda: zigzag(3.0)
+
+
 if __name__ == "__main__":
     names = sys.argv[1:] or list(ALL)
     res = {}
@@ -198,4 +224,3 @@ if __name__ == "__main__":
         res[n] = ALL[n]()
         res[n]["seconds"] = round(time.time() - t0, 1)
         print(n, json.dumps(res[n]), flush=True)
-
