@@ -460,10 +460,12 @@ class RoundBrush:
             self._grain = (np.clip((h - float(h.mean())) / (2.0 * sd), -1.0, 1.0)
                            if sd > 0 else np.zeros_like(h))
             # the wet edge follows the tooth's bumps, not single fibre tips: the grain
-            # seen over a cell or so (a 3x3 binomial blur), renormalised to [-1, 1]
-            g = np.pad(self._grain, 1, mode="edge")
-            g = (g[:-2] + 2.0 * g[1:-1] + g[2:]) / 4.0
-            g = (g[:, :-2] + 2.0 * g[:, 1:-1] + g[:, 2:]) / 4.0
+            # seen over a couple of cells (a 5x5 binomial blur), renormalised to [-1, 1]
+            g = self._grain
+            for _ in range(2):  # twice: a 5x5 binomial, bumps of two cells and more
+                g = np.pad(g, 1, mode="edge")
+                g = (g[:-2] + 2.0 * g[1:-1] + g[2:]) / 4.0
+                g = (g[:, :-2] + 2.0 * g[:, 1:-1] + g[:, 2:]) / 4.0
             gs = float(g.std())
             self._edge = (np.clip((g - float(g.mean())) / (2.0 * gs), -1.0, 1.0)
                           if gs > 0 else g)
