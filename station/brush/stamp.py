@@ -468,7 +468,9 @@ class RoundBrush:
                 g = (g[:, :-2] + 2.0 * g[:, 1:-1] + g[:, 2:]) / 4.0
             gs = float(g.std())
             self._edge = (np.clip((g - float(g.mean())) / (2.0 * gs), -1.0, 1.0)
-                          if gs > 0 else g)
+                          if gs > 0 else g).astype(np.float32)
+            # float32 held: two canvas-sized maps (a 4096^2 canvas: 128 MiB, not 256)
+            self._grain = self._grain.astype(np.float32)
         self._strokes: dict[str, _Stroke] = {}
         self._pending: list[Stamp] = []
         self.stamps = 0  # stamps applied (including fully masked ones)
