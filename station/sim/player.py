@@ -37,6 +37,7 @@ from station.brush.reservoir import pickup
 from station.brush.solver import SolverCounters
 from station.brush.stamp import STAMP_KIND, BrushModel, BrushSettings, RoundBrush
 from station.canvas.numpy_backend import NumpyCanvas
+from station.canvas.paper import make_paper
 from station.canvas.params import Profile
 from station.canvas.profiles import get_profile, profile_names
 from station.canvas.state import DEFAULT_SLOTS
@@ -354,13 +355,21 @@ class SessionPlayer:
 
     def _grain(self) -> Any:
         """The paper height the round brush's edge and dry-brush follow, or ``None`` for a
-        backend that shows no state (a spy, a remote canvas): the brush then paints
-        geometric footprints. Read once per player (a GPU backend reads it back)."""
+        backend that shows no state (a spy): the brush then paints geometric footprints.
+        Read once per player (a GPU backend reads it back). A rank of a distributed canvas
+        gets the state's metadata only (its ``state`` is collective, every rank's player
+        asks at the same record): it makes the same paper from the preset and seed, so
+        every rank's brush lays the same stamps."""
         if self._grain_h is None:
-            if getattr(self.backend, "live_state", None) is None and not hasattr(
-                    self.backend, "state"):
-                return None
-            self._grain_h = self._paper()
+            state = getattr(self.backend, "live_state", None)
+            if state is None:
+                if not hasattr(self.backend, "state"):
+                    return None
+                state = self.backend.state()
+            h = state.h
+            if h.shape != (self.height, self.width):
+                h = make_paper(state.paper_preset, self.height, self.width, state.seed)
+            self._grain_h = h
         return self._grain_h
 
     def _paper(self) -> Any:
