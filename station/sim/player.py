@@ -40,7 +40,7 @@ from station.canvas.numpy_backend import NumpyCanvas
 from station.canvas.paper import make_paper
 from station.canvas.params import Profile
 from station.canvas.profiles import get_profile, profile_names
-from station.canvas.state import DEFAULT_SLOTS
+from station.canvas.state import DEFAULT_SLOTS, CanvasState
 from station.canvas.tools import HairDryer, blow, on_state
 from station.errors import BadInput
 from station.events import Command, PenSample, Tool
@@ -362,10 +362,11 @@ class SessionPlayer:
         every rank's brush lays the same stamps."""
         if self._grain_h is None:
             state = getattr(self.backend, "live_state", None)
-            if state is None:
-                if not hasattr(self.backend, "state"):
-                    return None
-                state = self.backend.state()
+            if not isinstance(state, CanvasState):
+                read = getattr(self.backend, "state", None)
+                state = read() if callable(read) else None
+            if not isinstance(state, CanvasState):
+                return None
             h = state.h
             if h.shape != (self.height, self.width):
                 h = make_paper(state.paper_preset, self.height, self.width, state.seed)
