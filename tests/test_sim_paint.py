@@ -368,8 +368,13 @@ def test_demo_paints_a_landscape_and_books_close(tmp_path: Path,
     assert hills[2] > hills[1] + 30 and hills[0] > hills[1]  # violet distant mountains
     assert glazed[1] > glazed[0] + 30 and glazed[1] > glazed[2] + 40  # blue + yellow = green
     assert lake[2] > lake[0] + 60 and lake[2] > glazed[2] + 40  # the blue lake below them
-    assert ink.max() < 80  # the ink tree trunk (dark: about 66, 59, 52)
-    assert earth[0] > earth[2] + 20 and earth.sum() < 600  # brown foreground
+    assert ink.max() < 90  # the ink tree trunk (dark: about 66, 59, 52; 83, 74, 69 since the
+    # round brush's edge follows the paper's tooth and a moving lift tapers, issue 21)
+    # brown foreground, over a 7x7 patch, not one pixel: since issue 21 the rows' edges
+    # follow the paper and dry with a rim, and one pixel may sit on an Ultramarine-rich
+    # rim (the patch: R 198, B 178)
+    earth = img[int(0.85 * 90) - 3:int(0.85 * 90) + 4, 60 - 3:60 + 4].reshape(-1, 3).mean(axis=0)
+    assert earth[0] > earth[2] + 15 and earth.sum() < 600
     st = json.loads(stats.read_text())
     assert st["profile"] == "ink" and st["player"]["commands"]["profile"] == 1
     wtr = st["water"]

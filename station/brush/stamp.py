@@ -43,6 +43,7 @@ from __future__ import annotations
 import math
 from collections.abc import Container, Iterable, Mapping
 from dataclasses import dataclass, field
+from statistics import NormalDist
 from typing import Any
 
 import numpy as np
@@ -163,6 +164,21 @@ class BrushModel:
         default_pressure: pressure used for tools that report none.
         soft_edge: anti-aliased footprint rim (fractional coverage) instead of
             the seed's all-or-nothing cell map.
+        tooth_edge: how far the paper's tooth moves the footprint's rim [cells]: a rim
+            cell on a paper hill (normalised height +1) is reached ``tooth_edge`` cells
+            beyond the circle, one in a valley that much short of it, so a stroke's edge
+            follows the paper's grain instead of a ruler (0: a geometric circle).
+        dry_water: water load below which a fast stroke skips over the paper [1]: the
+            tuft holds too little liquid to fill the valleys between its hairs' marks.
+        dry_speed: pen speed at which a brush with no water skips most, in brush
+            diameters per session second (a quick drag); slower strokes skip less.
+        dry_bare: the share of the stamp a fully dry, fast brush leaves bare [1].
+        streak_width: correlation length of the hair clumps across the stroke [cells]:
+            the dry-brush marks are streaks along the stroke, this wide.
+        tail_time: how long the tuft keeps sweeping after a pen lifted while moving
+            [session s]: its tail is ``speed * tail_time`` long (at most ``tail_max``
+            brush radii), narrowing to the tip, so a flick ends in a taper.
+        tail_max: the longest tail in brush radii.
     """
 
     r_min: float = 0.3
@@ -176,6 +192,13 @@ class BrushModel:
     tilt_stretch: float = 0.5
     default_pressure: float = 0.6
     soft_edge: bool = True
+    tooth_edge: float = 1.2
+    dry_water: float = 0.4
+    dry_speed: float = 10.0
+    dry_bare: float = 0.55
+    streak_width: float = 1.2
+    tail_time: float = 0.05
+    tail_max: float = 4.0
 
     def radius(self, size: float, pressure: float) -> float:
         """Footprint radius in cells for a brush of diameter ``size`` at ``pressure``."""
@@ -247,6 +270,7 @@ class Footprint:
 def footprint(
     cx: float, cy: float, radius: float, width: int, height: int,
     stretch: float = 1.0, angle: float = 0.0, soft: bool = False,
+    tooth: np.ndarray | None = None, tooth_reach: float = 0.0,
 ) -> Footprint:
     """The ellipse at ``(cx, cy)`` (cell units) as cell coverage.
 
@@ -256,8 +280,13 @@ def footprint(
     from 1 to 0 over the cell straddling the rim (``clip(r - d + 1/2, 0, 1)``
     for a disc, ``d`` the centre distance), so the area is ``πr²`` without
     a staircase edge.  Clipped to the canvas; empty when outside.
+
+    ``tooth`` (float (height, width) in [-1, 1]) moves the rim cell by cell by up to
+    ``tooth_reach`` cells: the distance inside the rim becomes
+    ``(1 - rho) r + tooth_reach * tooth``, so the edge runs along the paper's hills and
+    valleys; the interior stays covered.
     """
-    reach = radius * max(1.0, stretch) + (1.0 if soft else 0.0)
+    reach = radius * max(1.0, stretch) + (1.0 if soft else 0.0) + max(0.0, tooth_reach)
     x0 = max(0, int(math.floor(cx - reach)))
     x1 = min(width, int(math.ceil(cx + reach)) + 1)
     y0 = max(0, int(math.floor(cy - reach)))
@@ -273,8 +302,13 @@ def footprint(
         along = (dx * c + dy * s) / (radius * stretch)
         across = (-dx * s + dy * c) / radius
         rho = np.sqrt(along * along + across * across)
+    inside = (1.0 - rho) * radius  # cells inside the rim (negative outside)
+    if tooth is not None:
+        inside = inside + tooth_reach * tooth[y0:y1, x0:x1]
     if soft:
-        cover = np.clip((1.0 - rho) * radius + 0.5, 0.0, 1.0)
+        cover = np.clip(inside + 0.5, 0.0, 1.0)
+    elif tooth is not None:
+        cover = (inside >= 0.0).astype(np.float64)
     else:
         cover = (rho <= 1.0).astype(np.float64)
     return Footprint(y0, x0, cover)
@@ -395,6 +429,32 @@ def preview_of(pending: list[Stamp], since: int) -> StampPreview | None:
     return StampPreview(src, len(pending), stamps_box(pending[since:]))
 
 
+_MAPS: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+"""The last paper's maps (paper, grain, edge): a player swapping brush kinds hands the same
+height field again, and its two maps cost tens of milliseconds at 800x600."""
+
+
+def _paper_maps(paper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The paper's grain (height normalised to [-1, 1] over two standard deviations) and
+    the edge map (the grain seen over a couple of cells, a 5x5 binomial blur, renormalised):
+    the wet edge follows the tooth's bumps, not single fibre tips. float32."""
+    if _MAPS and _MAPS[0][0] is paper:
+        return _MAPS[0][1], _MAPS[0][2]
+    h = np.asarray(paper, np.float64)
+    sd = float(h.std())
+    grain = np.clip((h - float(h.mean())) / (2.0 * sd), -1.0, 1.0) if sd > 0 else 0.0 * h
+    g = grain
+    for _ in range(2):
+        g = np.pad(g, 1, mode="edge")
+        g = (g[:-2] + 2.0 * g[1:-1] + g[2:]) / 4.0
+        g = (g[:, :-2] + 2.0 * g[:, 1:-1] + g[:, 2:]) / 4.0
+    gs = float(g.std())
+    edge = np.clip((g - float(g.mean())) / (2.0 * gs), -1.0, 1.0) if gs > 0 else g
+    maps = grain.astype(np.float32), edge.astype(np.float32)
+    _MAPS[:] = [(paper, *maps)]
+    return maps
+
+
 @dataclass(slots=True)
 class _Stroke:
     """The running stroke of one device."""
@@ -409,6 +469,7 @@ class _Stroke:
     vy: float = 0.0
     to_next: float = 0.0  # path length (cells) until the next stamp
     previous: Footprint | None = None
+    streak: np.ndarray | None = None  # hair clumps across the stroke (dry brush)
 
 
 class RoundBrush:
@@ -427,6 +488,7 @@ class RoundBrush:
         settings: BrushSettings | None = None,
         model: BrushModel | None = None,
         time_scale: float = 1.0,
+        paper: np.ndarray | None = None,
     ) -> None:
         if width < 1 or height < 1:
             raise BadInput(f"canvas {width}x{height} has no cells")
@@ -434,6 +496,15 @@ class RoundBrush:
         self.settings = settings or BrushSettings()
         self.model = model or BrushModel()
         self.time_scale = time_scale
+        # The paper's tooth, normalised: +1 on its hills, -1 in its valleys (about two
+        # standard deviations), so the brush's response does not depend on the preset's
+        # height range. None: a smooth sheet (geometric footprints, no dry-brush grain).
+        self._grain: np.ndarray | None = None
+        self._edge: np.ndarray | None = None
+        if paper is not None:
+            if paper.shape != (height, width):
+                raise BadInput("paper height does not match the canvas")
+            self._grain, self._edge = _paper_maps(paper)
         self._strokes: dict[str, _Stroke] = {}
         self._pending: list[Stamp] = []
         self.stamps = 0  # stamps applied (including fully masked ones)
@@ -459,8 +530,8 @@ class RoundBrush:
             self._strokes.pop(key, None)
             return 0
         if not (sample.touching and sample.proximity):
-            self._strokes.pop(key, None)
-            return 0
+            ended = self._strokes.pop(key, None)
+            return self._tail(ended) if ended is not None else 0
         self.samples += 1
         pressure = sample.pressure
         if pressure == 0.0 and sample.tool in NO_PRESSURE_TOOLS:
@@ -504,16 +575,115 @@ class RoundBrush:
         r = self.model.radius(self.settings.size, pressure)
         return max(0.5, self.model.spacing * r)
 
+    def _tail(self, s: _Stroke) -> int:
+        """Stamps of the tuft sweeping on after a pen lifted while moving.
+
+        The hairs leave the paper one after the other: the tip drags on for
+        ``speed * tail_time`` (at most ``tail_max`` radii of the last stamp), narrowing
+        from the last stamp's radius to nothing, so a flick ends in a point whose length
+        follows the speed and whose width follows the last pressure. A pen lifted at
+        rest leaves its round dab.
+        """
+        m = self.model
+        speed = math.hypot(s.vx, s.vy)
+        r0 = m.radius(self.settings.size, s.pressure)
+        length = min(speed * m.tail_time, m.tail_max * r0)
+        if length < 1.0 or speed <= 0.0:
+            return 0
+        ux, uy = s.vx / speed, s.vy / speed
+        made = 0
+        pos = s.to_next
+        while pos < length:
+            f = pos / length
+            r = max(0.5, r0 * (1.0 - f))
+            # the last hairs carry less water but the same paint: a thin dark point
+            self._stamp(s, s.x + ux * pos, s.y + uy * pos, s.pressure, s.tilt_x, s.tilt_y,
+                        advance=False, radius=r, water_share=1.0 - 0.5 * f)
+            made += 1
+            pos += max(0.5, m.spacing * r)
+        return made
+
+    def _skip(self, s: _Stroke) -> float:
+        """How much a stroke skips over the paper, 0 (fills it) ... 1 (driest, fastest)."""
+        m = self.model
+        if self._grain is None or m.dry_water <= 0.0 or m.dry_bare <= 0.0:
+            return 0.0
+        dry = (m.dry_water - self.settings.water) / m.dry_water
+        if dry <= 0.0:
+            return 0.0
+        diam = max(1.0, self.settings.size)
+        if s.previous is None:
+            # touch-down: the pen's speed is not known yet; a dry tuft set down on the
+            # paper meets only its hills (a round, filled blob would start every streak)
+            return math.sqrt(min(1.0, dry))
+        fast = math.hypot(s.vx, s.vy) / diam / m.dry_speed if m.dry_speed > 0 else 1.0
+        # the first loss of water shows most: a half-loaded tuft already skips
+        return math.sqrt(min(1.0, dry)) * min(1.0, fast)
+
+    def _streaks(self, s: _Stroke, radius: float) -> np.ndarray:
+        """The stroke's hair clumps: smooth unit-variance noise across the stroke,
+        sampled every quarter cell over ``[-reach, reach]`` (deterministic per stroke)."""
+        reach = radius + self.model.tooth_edge + 2.0
+        n = int(math.ceil(2.0 * reach * 4.0)) + 1
+        if s.streak is None or len(s.streak) < n:
+            rng = np.random.default_rng((self.strokes, 0x0B2157))
+            sig = max(0.25, self.model.streak_width) * 4.0  # in quarter cells
+            k = np.arange(-int(3 * sig), int(3 * sig) + 1, dtype=np.float64)
+            g = np.exp(-0.5 * (k / sig) ** 2)
+            noise = np.convolve(rng.standard_normal(n + len(k)), g, mode="same")[:n]
+            sd = float(noise.std())
+            s.streak = noise / sd if sd > 0 else noise
+        return s.streak
+
+    def _dry_gate(self, s: _Stroke, fp: Footprint, x: float, y: float, radius: float,
+                  skip: float) -> Footprint:
+        """The footprint where a skipping tuft touches: its hair clumps (streaks along the
+        stroke) and the paper's hills take the paint, the valleys between stay bare; the
+        share left bare is ``dry_bare * skip``."""
+        m = self.model
+        grain = self._grain
+        speed = math.hypot(s.vx, s.vy)
+        if grain is None or not fp.cover.size:
+            return fp
+        # across the motion; a touch-down (no motion yet) takes the hairs as lying along x
+        c, sn = (s.vx / speed, s.vy / speed) if speed > 0.0 else (1.0, 0.0)
+        dx = (np.arange(fp.x0, fp.x1, dtype=np.float64) + 0.5 - x)[None, :]
+        dy = (np.arange(fp.y0, fp.y1, dtype=np.float64) + 0.5 - y)[:, None]
+        across = -dx * sn + dy * c
+        prof = self._streaks(s, radius)
+        half = (len(prof) - 1) / 8.0
+        clump = np.interp(across, np.linspace(-half, half, len(prof)), prof)
+        score = 0.7 * clump + 0.9 * grain[fp.y0:fp.y1, fp.x0:fp.x1]
+        sigma = math.sqrt(0.49 + 0.81 * 0.25)
+        bare = min(0.95, m.dry_bare * skip)
+        thr = NormalDist().inv_cdf(bare) * sigma
+        gate = np.clip((score - thr) / 0.2 + 0.5, 0.0, 1.0)
+        return Footprint(fp.y0, fp.x0, fp.cover * gate)
+
     def _stamp(
         self, s: _Stroke, x: float, y: float, p: float, tx: float, ty: float,
-        advance: bool = True,
+        advance: bool = True, radius: float | None = None, water_share: float = 1.0,
     ) -> None:
         m = self.model
-        r = m.radius(self.settings.size, p)
+        r = m.radius(self.settings.size, p) if radius is None else radius
         tilt = min(90.0, math.hypot(tx, ty))
         stretch = 1.0 + m.tilt_stretch * math.sin(math.radians(tilt))
         angle = math.atan2(ty, tx) if tilt > 0.0 else 0.0
-        fp = footprint(x, y, r, self.width, self.height, stretch, angle, soft=m.soft_edge)
+        tooth = None
+        reach = 0.0
+        if self._edge is not None and m.tooth_edge > 0.0:
+            # a thin tip cannot wander farther than it is wide
+            reach = m.tooth_edge * min(1.0, r / 4.0)
+            tooth = self._edge
+        fp = footprint(x, y, r, self.width, self.height, stretch, angle, soft=m.soft_edge,
+                       tooth=tooth, tooth_reach=reach)
+        skip = self._skip(s)
+        thick = 1.0
+        if skip > 0.0:
+            full = fp.area
+            fp = self._dry_gate(s, fp, x, y, r, skip)
+            # the tuft's paint goes where its hairs touch: thick paint, little water
+            thick = min(2.0, full / fp.area) if fp.area > 0 else 1.0
         fresh = fp.without(s.previous)
         s.previous = fp
         if advance:
@@ -529,8 +699,9 @@ class RoundBrush:
         self._pending.append(
             Stamp(
                 cells=fresh,
-                water=stg.water * load * m.water_scale,
-                pigment={k: a * load * m.pigment_scale for k, a in stg.pigment.items()},
+                water=stg.water * load * m.water_scale * water_share,
+                pigment={k: a * load * m.pigment_scale * thick
+                         for k, a in stg.pigment.items()},
                 vx=vx,
                 vy=vy,
             )

@@ -45,6 +45,7 @@ from station.brush.deformable import DeformableBrush
 from station.brush.reservoir import pickup
 from station.brush.solver import SolverCounters
 from station.brush.stamp import STAMP_KIND, BrushModel, BrushSettings, RoundBrush, Sources
+from station.canvas.paper import make_paper
 from station.canvas.params import Profile
 from station.canvas.profiles import get_profile, profile_names
 from station.canvas.removal import HairDryer, StateSurface, blow
@@ -115,6 +116,7 @@ class SessionPlayer:
         if not (isinstance(rate, (int, float)) and math.isfinite(rate) and rate > 0):
             raise BadInput(f"simulation rate {rate!r} must be a positive number of steps/s")
         self.backend = backend
+        self._grain_h: Any = None  # the paper height, read once (see _grain)
         self.rate = float(rate)
         self.pigments = pigments
         self.brush_scale = brush_scale
@@ -122,7 +124,7 @@ class SessionPlayer:
         self.width, self.height = width, height
         self.brush: RoundBrush | DeformableBrush = RoundBrush(
             width, height, brush_defaults(prof).scaled(brush_scale), brush_model(prof),
-            time_scale=self.rate * self.dt)
+            time_scale=self.rate * self.dt, paper=self._grain())
         self.pickups_skipped = 0  # pick-ups on a backend whose arrays are not in memory
         self.solver = SolverCounters()  # the deformable brushes' spine solves, all kinds
         self.counters = PlayerCounters()
@@ -337,7 +339,7 @@ class SessionPlayer:
                                          counters=self.solver)
         else:
             self.brush = RoundBrush(self.width, self.height, settings, old.model,
-                                    time_scale=old.time_scale)
+                                    time_scale=old.time_scale, paper=self._grain())
         # the counters of the session go on across brushes
         self.brush.stamps, self.brush.samples = old.stamps, old.samples
         self.brush.strokes, self.brush.eraser_samples = old.strokes, old.eraser_samples
@@ -354,6 +356,26 @@ class SessionPlayer:
         if isinstance(b, DeformableBrush):
             out["brush_reservoir"] = b.reservoir.ledger()
         return out
+
+    def _grain(self) -> Any:
+        """The paper height the round brush's edge and dry-brush follow, or ``None`` for a
+        backend that shows no state (a spy): the brush then paints geometric footprints.
+        Read once per player (a GPU backend reads it back). A rank of a distributed canvas
+        gets the state's metadata only (its ``state`` is collective, every rank's player
+        asks at the same record): it makes the same paper from the preset and seed, so
+        every rank's brush lays the same stamps."""
+        if self._grain_h is None:
+            state = getattr(self.backend, "live_state", None)
+            if not isinstance(state, CanvasState):
+                read = getattr(self.backend, "state", None)
+                state = read() if callable(read) else None
+            if not isinstance(state, CanvasState):
+                return None
+            h = state.h
+            if h.shape != (self.height, self.width):
+                h = make_paper(state.paper_preset, self.height, self.width, state.seed)
+            self._grain_h = h
+        return self._grain_h
 
     def _paper(self) -> np.ndarray:
         """The paper height of the backend (read back once from a GPU backend)."""
