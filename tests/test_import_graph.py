@@ -33,10 +33,9 @@ LAZY_LIMIT = 0.10
 IMPORTLIB_ALLOWED = ("station.cli",)
 """Rooms that may name internal modules by string: the CLI's command registry."""
 
-UNCOMMENTED_PENDING = ("station/kiosk/app",)
-"""Files (path prefixes: a module, or the package it is split into) whose in-function
-imports are not yet commented: the kiosk app is being split into named parts by other
-work of issue 23, which moves or comments them; the rule applies to it when that lands."""
+UNCOMMENTED_PENDING: tuple[str, ...] = ()
+"""Files (path prefixes) whose in-function imports need not be commented yet: none left
+since the pipeline and kiosk app splits landed."""
 
 # The rooms, lowest first. A module may import its own room and any room listed in
 # its entry of UPHILL_FREE (what lies below it); anything else is an upward or
