@@ -9,7 +9,7 @@ import pytest
 
 from station.backends.numpy_canvas import NumpyCanvas
 from station.brush.stamp import BrushModel, BrushSettings, RoundBrush
-from station.canvas.params import get_profile
+from station.canvas.profiles import get_profile
 from station.events import PenSample
 from station.pictures.scenarios import distance_inside, run_until_dry
 from station.render.km import linear_to_srgb

@@ -337,7 +337,8 @@ def test_station_send_reaches_the_kiosk_with_its_window_commands(tmp_path) -> No
     import subprocess
     import sys
 
-    from station.bus import Subscriber
+    from station.answer import Answerer, parse_request
+    from station.bus import Subscriber, runtime_dir
 
     ep = f"ipc://{tmp_path}/kiosk-cmd"
     sub = Subscriber("@" + ep, topics=("cmd",))
@@ -351,6 +352,9 @@ def test_station_send_reaches_the_kiosk_with_its_window_commands(tmp_path) -> No
                 msg = sub.recv(100)
                 if msg is not None:
                     break
+            if msg is not None and msg.value.reply:  # answer as the kiosk does
+                req = parse_request(msg.value.reply, runtime_dir())
+                Answerer("kiosk").answer(req, msg.value.cmd, True, "taken", "test")
             _, err = proc.communicate(timeout=60)
             assert proc.returncode == 0, err
             assert msg is not None

@@ -45,7 +45,7 @@ import numpy as np
 
 from station.bus import Publisher, Subscriber
 from station.canvas.palette import default_palette
-from station.canvas.params import get_profile
+from station.canvas.profiles import get_profile
 from station.errors import BadInput, StationError
 from station.events import Command, PenSample, Tool
 from station.kiosk import mouse, subcell

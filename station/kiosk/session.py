@@ -107,6 +107,7 @@ class KioskSession:
     def __init__(self, cfg: LiveConfig, map_pen: PenMapper | None = None,
                  kiosk_command: KioskCommands | None = None) -> None:
         self.sim = LiveSim(cfg)
+        self.sim.answer_as(self.process_kind)
         self.sim.slot_ahead = self._slot_ahead
         self.sim.step_hooks = self
         self.map_pen = map_pen
@@ -243,12 +244,12 @@ class KioskSession:
         if kind == "cmd" and isinstance(value, Command) and self.kiosk_command is not None:
             req = parse_request(value.reply, runtime_dir()) if value.reply else None
             if req is not None and req.expect not in (None, self.process_kind):
-                self.counters.bad_commands += 1  # a `station send --to sim` that found us
-                self._answer(req, value.cmd, False, f"this is a kiosk, not a {req.expect}")
+                self.sim.counters.bad_commands += 1  # a `station send --to sim` found us
+                self.sim.answer(req, value.cmd, False, f"this is a kiosk, not a {req.expect}")
                 return
             if self.kiosk_command(value):
                 # the window's own command (view, save, screenshot): not the canvas's
-                self._answer(req, value.cmd, True, f"the kiosk window took {value.cmd}")
+                self.sim.answer(req, value.cmd, True, f"the kiosk window took {value.cmd}")
                 return
         with self.lock:
             if kind == "cmd":  # a command may change the canvas (heartbeats do not)

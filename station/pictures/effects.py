@@ -555,7 +555,9 @@ def brush_glazing() -> Effect:
     Cerulean, not Ultramarine: PB29's absorption band takes the 500-550 nm window a glaze
     needs, so Hansa Yellow over real French Ultramarine reads olive (its hue is reported,
     ``ultramarine_glaze_hue_srgb_deg``); cerulean over a yellow is the painter's green."""
-    blue, yellow = 0.8, 0.5
+    # yellow 0.6 parts: a glaze a painter would lay over a mid blue (0.5 read as a thin
+    # yellow veil once the rim took its share of the yellow to the stroke's edge)
+    blue, yellow = 0.8, 0.6
 
     def canvas(mixed: bool, name: str = "Cerulean Blue") -> NumpyCanvas:
         s = Script(VALUE_W, 36, seed=12, rate_hz=PEN_HZ)

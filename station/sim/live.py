@@ -468,6 +468,15 @@ class LiveCore:
         if req is not None:
             self.answerer.answer(req, cmd, ok, text, self.log_path.stem)
 
+    def answer(self, req: ReplyRequest | None, cmd: str, ok: bool, text: str) -> None:
+        """Answer a ``station send`` for a process that holds this sim (the kiosk)."""
+        self._answer(req, cmd, ok, text)
+
+    def answer_as(self, kind: str) -> None:
+        """Answer ``station send`` as ``kind`` (a kiosk holding this sim)."""
+        self.process_kind = kind
+        self.answerer = Answerer(kind)
+
     def on_wait_step(self) -> None:
         """Called between the steps of a long ``wait`` (LiveSim publishes status)."""
 
