@@ -1,6 +1,6 @@
 """The interactive ``station calibrate --device`` window under Xvfb, driven by mock devices.
 
-Starts ``Xvfb :N -screen 0 1024x768x24`` (installed by ``make test``), runs the
+Starts ``Xvfb -displayfd`` (installed by ``make test``; see xvfb_server), runs the
 command in a subprocess against a simulated installer with a known distortion,
 a misclick and screen-tablet parallax, then checks the written calibration
 file against the distortion and the screenshot for the drawn targets.
@@ -10,10 +10,8 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import subprocess
 import sys
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -22,6 +20,7 @@ import pytest
 from station.calibration.files import read_file
 from station.calibration.geometry import project
 from station.calibration.session import CalibrationSession, target_grid
+from xvfb_server import xvfb
 
 from station.calibrate.sources import MockUserSource
 from station.events import PenSample, Tool
@@ -35,28 +34,8 @@ BACKGROUND = np.array([20, 20, 26])
 
 @pytest.fixture(scope="module")
 def display() -> Iterator[str]:
-    xvfb = shutil.which("Xvfb")
-    if xvfb is None:
-        pytest.skip("Xvfb is not installed (make test installs it: apt-get install xvfb)")
-    for number in range(91, 120):
-        if not Path(f"/tmp/.X11-unix/X{number}").exists() and not Path(
-                f"/tmp/.X{number}-lock").exists():
-            break
-    proc = subprocess.Popen([xvfb, f":{number}", "-screen", "0", "1024x768x24", "-nolisten",
-                             "tcp", "-noreset"], stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL)
-    sock = Path(f"/tmp/.X11-unix/X{number}")
-    deadline = time.monotonic() + 10
-    while not sock.exists() and time.monotonic() < deadline and proc.poll() is None:
-        time.sleep(0.05)
-    if not sock.exists():
-        proc.kill()
-        pytest.fail(f"Xvfb :{number} did not start")
-    try:
-        yield f":{number}"
-    finally:
-        proc.terminate()
-        proc.wait(timeout=10)
+    with xvfb() as name:
+        yield name
 
 
 def calibrate(display: str, *argv: str) -> subprocess.CompletedProcess[str]:
