@@ -69,6 +69,17 @@ def pens(log: Path) -> list[dict[str, Any]]:
     return [r for r in records(log) if r["type"] == "pen"]
 
 
+def device_pens(log: Path) -> list[dict[str, Any]]:
+    """The pen samples a device sent (each has its publisher's ``seq``), not the pen-ups
+    the sim logs itself when a device falls silent mid-stroke (no ``seq``): a source
+    stalled for 3 heartbeats on a loaded machine gets one, and it is no sample of the
+    device's (counting it made 2001 logged for 2000 sent)."""
+    got = pens(log)
+    synthetic = [r for r in got if "seq" not in r]
+    assert all(not r["touching"] and not r["proximity"] for r in synthetic), synthetic
+    return [r for r in got if "seq" in r]
+
+
 def pixels(png: Path) -> np.ndarray:
     from PIL import Image
 
@@ -104,7 +115,7 @@ def test_headless_demo_paints(tmp_path: Path) -> None:
     assert pixels(png).shape[:2] == (48, 64)
     assert painted(png) > 40  # the stroke is there
     log = Path(state(run)["components"]["sim"]["log"])
-    assert len(pens(log)) == driver_total(run, "pen") > 100  # every sample painted
+    assert len(device_pens(log)) == driver_total(run, "pen") > 100  # every sample painted
     paint(log, tmp_path / "replay.png")
     assert np.array_equal(pixels(png), pixels(tmp_path / "replay.png"))
     assert (tmp_path / "painting.npz").exists()
@@ -135,7 +146,7 @@ def test_two_tablets_paint_one_canvas(tmp_path: Path) -> None:
     proc = station("run", "two-tablets", "--once", "--run-dir", str(run), *SMALL, cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     log = Path(state(run)["components"]["sim"]["log"])
-    samples = pens(log)
+    samples = device_pens(log)
     by_device = {d: sum(1 for r in samples if r["device"] == d) for d in ("left", "right")}
     assert by_device == {"left": driver_total(run, "left"), "right": driver_total(run, "right")}
     assert min(by_device.values()) > 100
@@ -324,7 +335,7 @@ def test_trace_and_haptic_device_through_the_bus(tmp_path: Path) -> None:
     proc = station("run", "bp.xml", "--once", "--run-dir", str(run), cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     log = Path(state(run)["components"]["sim"]["log"])
-    counts = {d: sum(1 for r in pens(log) if r["device"] == d) for d in ("trace", "hand")}
+    counts = {d: sum(1 for r in device_pens(log) if r["device"] == d) for d in ("trace", "hand")}
     replayed = int(proc.stderr.split("reports -> ")[1].split(" samples")[0])
     assert counts == {"trace": replayed, "hand": driver_total(run, "hand")}
     assert min(counts.values()) > 100
