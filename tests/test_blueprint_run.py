@@ -257,6 +257,14 @@ def _kiosk_unplug_line() -> int:
                     if '<on event="device-unplugged"' in ln)
 
 
+def _unplugged(run: Path) -> bool:
+    """The unplug message is up and the tablet has exited (a driver stopped on its way out,
+    its handlers gone, would die of the SIGTERM and the run count it failed)."""
+    st = state(run)
+    tablet = st.get("components", {}).get("tablet", {})
+    return UNPLUG_TEXT in st.get("messages", []) and tablet.get("state") == "finished"
+
+
 @pytest.mark.skipif(shutil.which("Xvfb") is None, reason="no Xvfb here")
 @pytest.mark.skipif(not _have_kiosk(), reason="station kiosk is not merged here")
 def test_kiosk_blueprint_under_xvfb(tmp_path: Path) -> None:
@@ -266,9 +274,10 @@ def test_kiosk_blueprint_under_xvfb(tmp_path: Path) -> None:
     leaves the letterboxed canvas is not painted), the unplug rule puts its message on the
     panel, and the kiosk stops cleanly under the supervisor, saving the painting.
 
-    No fixed window: the run goes on until the unplug rule has fired (the kiosk heard the
-    whole stroke, then the tablet fell silent: only a kiosk that took the pen's samples
-    reports it silent), however long a loaded machine takes to get there, then the test
+    No fixed window: the run goes on until the mock tablet has played its script and
+    exited and the unplug rule has fired (the kiosk heard the whole stroke, then the
+    tablet fell silent: only a kiosk that took the pen's samples reports it silent),
+    however long a loaded machine takes to get there, then the test
     stops it the way an operator does, with SIGTERM to ``station run``."""
     run = tmp_path / "r"
     err_path = tmp_path / "run.err"
@@ -284,8 +293,7 @@ def test_kiosk_blueprint_under_xvfb(tmp_path: Path) -> None:
             cwd=tmp_path, env={**os.environ, "DISPLAY": display}, text=True,
             stdout=subprocess.DEVNULL, stderr=err_file)
         try:
-            unplugged = wait_for(lambda: sup.poll() is not None
-                                 or UNPLUG_TEXT in state(run).get("messages", []), 120)
+            unplugged = wait_for(lambda: sup.poll() is not None or _unplugged(run), 120)
             running = sup.poll() is None
         finally:
             if sup.poll() is None:
