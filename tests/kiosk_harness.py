@@ -1,49 +1,21 @@
-"""Helpers of the kiosk tests: Xvfb, a bus proxy, the kiosk process, a scripted pen."""
+"""Helpers of the kiosk tests: Xvfb (xvfb_server), a bus proxy, the kiosk process, a pen."""
 
 from __future__ import annotations
 
 import os
-import shutil
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import pytest
+from xvfb_server import xvfb as xvfb  # the kiosk tests' Xvfb, from here as before
 
 from station.bus import Publisher, Subscriber
 from station.events import Command, PenSample, Tool
 
 SCREEN = (1024, 768)
-
-
-@contextmanager
-def xvfb() -> Iterator[str]:
-    exe = shutil.which("Xvfb")
-    if exe is None:
-        pytest.skip("Xvfb is not installed (make test installs it: apt-get install xvfb)")
-    for number in range(121, 160):
-        if not Path(f"/tmp/.X11-unix/X{number}").exists() and not Path(
-                f"/tmp/.X{number}-lock").exists():
-            break
-    proc = subprocess.Popen([exe, f":{number}", "-screen", "0", f"{SCREEN[0]}x{SCREEN[1]}x24",
-                             "-nolisten", "tcp", "-noreset"], stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL)
-    sock = Path(f"/tmp/.X11-unix/X{number}")
-    deadline = time.monotonic() + 10
-    while not sock.exists() and time.monotonic() < deadline and proc.poll() is None:
-        time.sleep(0.05)
-    if not sock.exists():
-        proc.kill()
-        pytest.fail(f"Xvfb :{number} did not start")
-    try:
-        yield f":{number}"
-    finally:
-        proc.terminate()
-        proc.wait(timeout=10)
 
 
 def station(*argv: str, display: str | None = None, **kw: Any) -> subprocess.Popen[str]:

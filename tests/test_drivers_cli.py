@@ -3,6 +3,11 @@
 from __future__ import annotations
 
 import json
+import os
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -104,31 +109,73 @@ def test_devices_text_lists_every_mock(capsys) -> None:
     assert json.loads(capsys.readouterr().out)["found"] >= 0
 
 
-def test_driver_waits_for_a_missing_device_and_stops_on_sigint(tmp_path: Path) -> None:
-    import os
-    import signal
-    import subprocess
-    import sys
-    import time
+def _driver(*argv: str, tmp_path: Path) -> subprocess.Popen[str]:
+    env = {**os.environ, "STATION_RUNTIME_DIR": str(tmp_path / "run")}
+    return subprocess.Popen([sys.executable, "-m", "station", "driver", *argv], env=env,
+                            text=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
 
+
+def _stop(proc: subprocess.Popen[str], sig: int) -> tuple[int, str]:
+    """``sig`` to a driver, its exit code and stderr; killed (never left running) if it
+    does not stop in a minute, or if the test failed before the signal."""
+    try:
+        if proc.poll() is None:
+            proc.send_signal(sig)
+        _out, err = proc.communicate(timeout=60)
+        return proc.returncode, err
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_driver_waits_for_a_missing_device_and_stops_on_a_signal(tmp_path: Path,
+                                                                 sig: int) -> None:
     endpoint = f"ipc://{tmp_path}/bus"
     sub = Subscriber(endpoint, topics=("status",))
-    env = {**os.environ, "STATION_RUNTIME_DIR": str(tmp_path / "run")}
-    proc = subprocess.Popen([sys.executable, "-m", "station", "driver", "--device",
-                             "evdev:/nonexistent/event42", "--bus", endpoint, "--wait",
-                             "--wait-subscribers", "1"], env=env, stderr=subprocess.PIPE)
+    proc = _driver("--device", "evdev:/nonexistent/event42", "--bus", endpoint, "--wait",
+                   "--wait-subscribers", "1", tmp_path=tmp_path)
+    stopped: tuple[int, str] | None = None
     try:
-        deadline = time.monotonic() + 15
+        deadline = time.monotonic() + 120  # a loaded machine starts Python slowly
         status = None
-        while status is None and time.monotonic() < deadline:
+        while status is None and time.monotonic() < deadline and proc.poll() is None:
             msg = sub.recv(500)
             status = msg.value if msg is not None else None
-        assert status is not None and status["state"] == "waiting"
+        assert status is not None and status["state"] == "waiting", status
         assert "/nonexistent/event42" in status["error"]
+        stopped = _stop(proc, sig)
     finally:
-        proc.send_signal(signal.SIGINT)
-        assert proc.wait(timeout=10) == 0
+        _stop(proc, signal.SIGKILL)
         sub.close()
+    assert stopped is not None
+    code, err = stopped
+    assert code == 0, err
+
+
+def test_a_driver_stopped_while_waiting_for_subscribers_never_reads_its_device(
+        tmp_path: Path) -> None:
+    """SIGTERM during --wait-subscribers ends the wait at once: the driver stops without
+    opening its device (it used to sit out the whole wait, then open the device and
+    write its log as if it was going to run)."""
+    sock = tmp_path / "bus"
+    log = tmp_path / "pen.jsonl"
+    proc = _driver("--device", "mock:intuos-pro-m?script=line", "--bus", f"ipc://{sock}",
+                   "--wait-subscribers", "1", "--jsonl", str(log), tmp_path=tmp_path)
+    stopped: tuple[int, str] | None = None
+    try:
+        deadline = time.monotonic() + 120
+        while not sock.exists() and time.monotonic() < deadline and proc.poll() is None:
+            time.sleep(0.02)
+        assert sock.exists()  # its publisher is bound: it waits for a subscriber now
+        stopped = _stop(proc, signal.SIGTERM)
+    finally:
+        _stop(proc, signal.SIGKILL)
+    assert stopped is not None
+    code, err = stopped
+    assert code == 0, err
+    assert not log.exists(), err
 
 
 def test_driver_normaliser_flags_are_checked(capsys) -> None:

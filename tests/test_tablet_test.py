@@ -4,10 +4,8 @@ the same for evdev, hidraw and UC-Logic devices; the window under Xvfb."""
 from __future__ import annotations
 
 import os
-import shutil
 import subprocess
 import sys
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -17,6 +15,7 @@ from station.calibration.files import read_file
 from station.drivers.mock.evdev import states_to_events, wacom_like_caps
 from station.drivers.mock.script import timed_states
 from station.drivers.traces.evemu import format_evemu
+from xvfb_server import xvfb
 
 from station.cli import main
 
@@ -81,22 +80,8 @@ def test_the_curve_and_threshold_change_the_normalised_pressure_and_are_saved(
 
 @pytest.fixture
 def display() -> Iterator[str]:
-    xvfb = shutil.which("Xvfb")
-    if xvfb is None:
-        pytest.skip("Xvfb is not installed (make test installs it)")
-    number = 140 + os.getpid() % 200
-    proc = subprocess.Popen([xvfb, f":{number}", "-screen", "0", "1280x800x24", "-noreset"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    try:
-        deadline = time.monotonic() + 30
-        while not Path(f"/tmp/.X11-unix/X{number}").exists():
-            if time.monotonic() > deadline:
-                pytest.fail("Xvfb did not start")
-            time.sleep(0.05)
-        yield f":{number}"
-    finally:
-        proc.terminate()
-        proc.wait(timeout=10)
+    with xvfb(1280, 800) as name:
+        yield name
 
 
 def test_the_window_draws_the_trail_the_fields_and_the_curve(display: str,

@@ -32,6 +32,8 @@ from station.errors import BadInput
 from station.sessionlog import SessionHeader, SessionLogWriter
 from station.sizes import parse_size
 
+SUBSCRIBER_WAIT_S = 5.0  # --wait-subscribers: then the driver reads the device anyway
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("driver", help="run a pen driver publishing on the bus")
@@ -150,7 +152,10 @@ def _serve(args: argparse.Namespace, config: NormaliserConfig, stop: threading.E
 
     try:
         if args.wait_subscribers:
-            publisher.wait_for_subscribers(args.wait_subscribers, timeout=5.0)
+            _wait_for_subscribers(publisher, args.wait_subscribers, stop)
+            if stop.is_set():  # stopped before anyone listened: the device is never read
+                status("stopped")
+                return 0
         try:
             source = open_device(args.device, name=args.name, send_init=not args.no_init)
         except TransportError as exc:
@@ -225,6 +230,16 @@ def _serve(args: argparse.Namespace, config: NormaliserConfig, stop: threading.E
             *(("curve_rejected",) if "curve_rejected" in last else ()))
     sys.stderr.write("station driver: " + json.dumps({k: last.get(k) for k in keys}) + "\n")
     return 0
+
+
+def _wait_for_subscribers(publisher: Publisher, count: int, stop: threading.Event) -> None:
+    """Up to :data:`SUBSCRIBER_WAIT_S` for ``count`` subscriptions, in short slices so a
+    SIGTERM/SIGINT meanwhile ends the wait at once (a supervisor stopping a run must not
+    wait out a driver that nobody has subscribed to yet)."""
+    deadline = time.monotonic() + SUBSCRIBER_WAIT_S
+    while not stop.is_set() and time.monotonic() < deadline:
+        if publisher.wait_for_subscribers(count, timeout=0.1) or publisher.refusals:
+            return
 
 
 def _flush(driver: PenDriver, publisher: Publisher, writer: SessionLogWriter | None,
