@@ -24,7 +24,10 @@ from station.calibration.pressure import PressureSettings, TiltSettings
 from station.events import PenSample
 
 MAX_MATRIX_ENTRY = 1e3
-MIN_MATRIX_DET = 1e-9
+# A fit in raw device units has a tiny determinant: (1/44704)x(1/29603) = 7.6e-10 on an
+# Intuos Pro L. 1e-11 admits tablets up to about 300,000 units a side (the largest real
+# ones report under 100,000) and still refuses a matrix that squeezes the tablet to a spot.
+MIN_MATRIX_DET = 1e-11
 
 
 @dataclass(frozen=True)

@@ -123,7 +123,9 @@ def test_granulation_anticorrelates_with_paper_height() -> None:
     # gamma = 0: the paper height does not enter the surface exchange; what is left is
     # the chance alignment of a smooth deposit with the noise (|r| < 0.15 over seeds 0-5)
     assert abs(r_none) < 0.2, r_none
-    assert r_gran < r_none - 0.4
+    # granulating against not: -0.18 against +0.18 on the broadband paper with the rim
+    # (was -0.51 against ~0 on the two-octave paper without it)
+    assert r_gran < r_none - 0.3, (r_gran, r_none)
 
 
 def test_staining_low_beta_lifts_much_more() -> None:

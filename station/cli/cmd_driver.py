@@ -23,7 +23,7 @@ from typing import Any
 
 from station.bus import HEARTBEAT_S, Publisher
 from station.cli.buskeys import check_keys
-from station.drivers.calibrated import choose_calibration
+from station.drivers.calibrated import choose_calibration, settle_pressure
 from station.drivers.normalise import NormaliserConfig
 from station.drivers.pipeline import PenDriver, PenSource, open_device
 from station.drivers.transport.base import DeviceGone, EndOfStream, TransportError
@@ -138,11 +138,12 @@ def _serve(args: argparse.Namespace, config: NormaliserConfig, stop: threading.E
     reconnects = 0
     totals = {"total_samples": 0, "reconnects": 0}
     last: dict[str, Any] = {}
+    in_force: dict[str, Any] = {}  # the calibration and pressure shaping of this connection
 
     def status(state: str, driver: PenDriver | None = None, **extra: Any) -> None:
         nonlocal last
         rec: dict[str, Any] = {"kind": "driver", "state": state, "device_spec": args.device,
-                               **totals, **extra}
+                               **totals, **in_force, **extra}
         if driver is not None:
             rec.update(driver.status())
         if publisher.endpoint.is_tcp and publisher.endpoint.bind:
@@ -165,12 +166,6 @@ def _serve(args: argparse.Namespace, config: NormaliserConfig, stop: threading.E
             source = _wait_for_device(args, stop, status)
             if source is None:  # stopped while waiting, or a finite source ended meanwhile
                 return 0
-        if args.jsonl:
-            writer = SessionLogWriter(args.jsonl, SessionHeader(extra={"source": args.device}))
-        if args.raw_jsonl:
-            raw_writer = SessionLogWriter(args.raw_jsonl,
-                                          SessionHeader(extra={"source": args.device,
-                                                               "calibrated": False}))
         t_offset = 0.0
         while not stop.is_set():
             attach_bus = getattr(source, "attach_bus", None)
@@ -180,11 +175,20 @@ def _serve(args: argparse.Namespace, config: NormaliserConfig, stop: threading.E
             ident = source.describe()
             calibration = choose_calibration(args.calibration, int(ident.get("vid") or 0),
                                              int(ident.get("pid") or 0))
+            norm_config, pressure = settle_pressure(calibration, config)
+            if args.jsonl and writer is None:  # the header names the curve in force
+                writer = SessionLogWriter(args.jsonl, SessionHeader(
+                    extra={"source": args.device, "pressure": pressure.record()}))
+            if args.raw_jsonl and raw_writer is None:
+                raw_writer = SessionLogWriter(args.raw_jsonl, SessionHeader(
+                    extra={"source": args.device, "calibrated": False,
+                           "pressure": pressure.before_transform().record()}))
             # After a reconnection the session time goes on from where it was.
-            driver = PenDriver(source, config, live=True, t_offset=t_offset,
+            driver = PenDriver(source, norm_config, live=True, t_offset=t_offset,
                                transform=calibration.transform,
                                on_device_sample=raw_writer.write if raw_writer else None)
-            status("running", driver, calibration=calibration.description)
+            in_force.update(calibration=calibration.description, pressure=pressure.record())
+            status("running", driver)
             next_status = time.monotonic() + args.status_interval
             gone = False
             try:
