@@ -51,8 +51,11 @@ $(VENV)/.installed: pyproject.toml
 demo: setup
 	$(STATION) demo -o painting.png
 
+# two workers: most of the suite's time is real processes and windows waiting for each
+# other, which a second worker overlaps (tests/conftest.py keeps each worker's displays,
+# runtime and config directories apart)
 test: testdeps venv
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n 2
 
 lint: venv
 	$(VENV)/bin/ruff check .
