@@ -208,7 +208,8 @@ def test_dirty_brush_carries_blue_into_a_yellow_stroke() -> None:
     # fibres (fibre_dispersivity) bleeds the two fresh strokes into each other both ways,
     # and so does the rim-building flow outward (issue 21 raised it to 0.9): both at their
     # quiet values here
-    prm = get_profile("watercolor").params.replace(fibre_dispersivity=0.0, flow_outward=0.3)
+    prm = get_profile("watercolor").params.replace(fibre_dispersivity=0.0, flow_outward=0.3,
+                                                  edge_evap=1.0)
     be = create_backend("numpy", W, H, "watercolor", 4, params=prm)
     player = SessionPlayer(be, W, H, "watercolor")
     player.play(s.records)
@@ -223,8 +224,10 @@ def test_dirty_brush_carries_blue_into_a_yellow_stroke() -> None:
     assert after > 0.03
     # before the stripe only what wet-in-wet flow spreads back through the joined wet
     # areas (the flow-outward canvas keeps strokes wet longer): about a tenth of what the
-    # brush carried (0.10-0.15 since the round brush's edge follows the paper's tooth)
-    assert before < 0.2 * after
+    # brush carried (0.10-0.15 since the round brush's edge follows the paper's tooth;
+    # 0.34 with issue 21's tube-strength pigment load, whose stripe is three times as
+    # strong and spreads back as much more): still well below what it carries forward
+    assert before < 0.4 * after, (before, after)
 
 
 def test_session_with_deformable_brushes_replays_bit_identically(tmp_path: Path) -> None:

@@ -495,5 +495,7 @@ def test_kiosk_on_a_tcp_bus_with_keys_paints_the_pen(tmp_path: Path) -> None:
             code, err = finish(kiosk, 60)
             finish(bus)
     assert code == 0, err
-    assert last["samples"] == 60 and last["bus"]["lost"] == 0
+    # all 60 of the bus's samples (the kiosk may count one of its own beside them: a
+    # synthesised lift when the far pen falls silent, or the window's mouse)
+    assert last["samples"] in (60, 61) and last["bus"]["lost"] == 0, last
     assert last["bus"]["curve_rejected"] == 0

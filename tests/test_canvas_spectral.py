@@ -122,7 +122,11 @@ def test_granulation_is_visible_at_one_to_one() -> None:
     h = st.h[inner]
     valley, hill = h < np.quantile(h, 0.25), h > np.quantile(h, 0.75)
     de = fx.delta_e76(img[inner][valley].mean(axis=0), img[inner][hill].mean(axis=0))
-    assert de >= 3.0, de  # one pixel per cell, valleys visibly darker than hills
+    # one pixel per cell, valleys visibly darker than hills: dE76 3+ on the two-octave paper
+    # without the rim, 2.2 on the broadband paper with issue 21's rim flow (which keeps
+    # pigment moving to the edge); the brushed wash's 1:1 visibility (luma std >= 8/255) is
+    # asserted in test_effects_brush
+    assert de >= 2.0, de
     assert img[inner][valley].mean() < img[inner][hill].mean()
 
 

@@ -297,7 +297,8 @@ def test_gl_backend_paints_from_its_own_texture(display: str, tmp_path: Path) ->
         row = painted(shot[int(cy + ch * 0.5) - 2:int(cy + ch * 0.5) + 3, x0:x1])
         cols = np.nonzero(row.any(axis=0))[0] + x0
         assert cols.min() == pytest.approx(cx + cw * 0.2, abs=25)
-        assert cols.max() == pytest.approx(cx + cw * 0.78, abs=25)
+        # the lift tapers to a point (issue 21), thinner than this row's "painted" test
+        assert cols.max() == pytest.approx(cx + cw * 0.78, abs=40)
         assert not painted(shot[int(cy) + 3:int(cy + ch * 0.3), x0:x1]).any()  # above: paper
     finally:
         rc, err = k.stop()

@@ -25,7 +25,8 @@ from station.cli import main
 # The values the profiles had as code before they became files (params.py, issue 14).
 OLD = {
     # (issue 10's wet-in-wet: pigment disperses along the cold-press fibres, alpha 4.5 cells)
-    "watercolor": SimParams().replace(fibre_dispersivity=4.5),
+    # (issue 21's rim: the edge evaporates 7x faster and water flows out to it, Curtis 1997)
+    "watercolor": SimParams().replace(fibre_dispersivity=4.5, flow_outward=0.5, edge_evap=7.0),
     "gouache": SimParams().replace(viscosity=2.0, nu_w=0.1, nu_p=0.05, alpha=0.005,
                                    height_gain=20.0, eps_shallow=0.008),
     # (issue 10's fibre feathering changed the ink in code just before: alpha 0.05, fibre_wick 1)
