@@ -296,7 +296,8 @@ def test_gl_backend_paints_from_its_own_texture(display: str, tmp_path: Path) ->
         x0, x1 = int(cx) + 3, int(cx + cw) - 3
         row = painted(shot[int(cy + ch * 0.5) - 2:int(cy + ch * 0.5) + 3, x0:x1])
         cols = np.nonzero(row.any(axis=0))[0] + x0
-        assert cols.min() == pytest.approx(cx + cw * 0.2, abs=25)
+        # the stroke's start: a wet tube-strength stroke (issue 21) spreads a little further
+        assert cols.min() == pytest.approx(cx + cw * 0.2, abs=40)
         # the lift tapers to a point (issue 21), thinner than this row's "painted" test
         assert cols.max() == pytest.approx(cx + cw * 0.78, abs=40)
         assert not painted(shot[int(cy) + 3:int(cy + ch * 0.3), x0:x1]).any()  # above: paper

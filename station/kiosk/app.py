@@ -1173,6 +1173,10 @@ class KioskApp:
         self.frame_pixels = 0
         with s.lock:  # not while a step hands its sources over (the kernel may run)
             self.display.update_tiles()
+            # a screenshot shows the whole canvas as it is, not a frame still catching up
+            # with its tiles (the per-frame budget keeps the pen fluid, not a screenshot)
+            while self.screenshots and self.display.behind():
+                self.display.update_tiles()
         times.tiles = time.perf_counter()
         self.build_ui_if_changed(now - self._last_draw if self._last_draw else dt)
         cam = self.camera()
