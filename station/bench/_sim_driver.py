@@ -84,7 +84,7 @@ def run_fixed(backend: str, width: int, height: int, scenario: str, warmup: int,
     try:
         from station.backends.factory import create_backend  # this tree's
     except ImportError:
-        from station.backends.factory import create_backend  # type: ignore[no-redef]
+        from station.backends.factory import create_backend
 
     canvas = create_backend(backend, width, height, "watercolor", 1,
                             tiling=(scenario == "stroke"))

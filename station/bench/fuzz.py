@@ -281,7 +281,7 @@ class CountingBackend:
 
 def play_session(text: str) -> Any:
     with SessionLogReader(io.StringIO(text), name="fuzz.jsonl") as r:
-        player = SessionPlayer(CountingBackend(), 32, 24, r.header.profile
+        player = SessionPlayer(CountingBackend(), 32, 24, r.header.profile  # type: ignore[arg-type]
                                if r.header.profile in ("watercolor", "gouache", "ink")
                                else "watercolor", rate=1.0, pigments=default_palette())
         player.play(r, lambda: f"fuzz.jsonl:{r.line_no}")

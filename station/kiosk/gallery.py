@@ -628,7 +628,7 @@ def _guarded_server_class() -> type:
     from waitress.channel import HTTPChannel
     from waitress.server import TcpWSGIServer
 
-    class Channel(HTTPChannel):
+    class Channel(HTTPChannel):  # type: ignore[misc]  # waitress is untyped
         started = 0.0  # when the request now arriving began
 
         def received(self, data: bytes) -> bool:
@@ -636,7 +636,7 @@ def _guarded_server_class() -> type:
                 self.started = time.monotonic()
             return bool(super().received(data))
 
-    class Server(TcpWSGIServer):
+    class Server(TcpWSGIServer):  # type: ignore[misc]  # waitress is untyped
         channel_class = Channel
         per_client = 8
         request_timeout_s = 10.0

@@ -103,7 +103,7 @@ def painted_cells(amount: np.ndarray, r_composed: np.ndarray, paper: np.ndarray
     wet = amount.sum(axis=0) > F32(PAINTED_AMOUNT) if len(amount) else \
         np.zeros(paper.shape, bool)
     dried = np.abs(r_composed - paper[..., None]).max(axis=-1) > F32(DRIED_DIFF)
-    return wet | dried
+    return np.asarray(wet | dried)
 
 
 def fields_reference(rgb: np.ndarray, painted: np.ndarray, inner: tuple[slice, slice]
@@ -117,7 +117,7 @@ def fields_reference(rgb: np.ndarray, painted: np.ndarray, inner: tuple[slice, s
 def _gauss_weights() -> np.ndarray:
     x = np.arange(-2, 3, dtype=np.float64)
     w = np.exp(-0.5 * (x / EDGE_SIGMA) ** 2)
-    return (w / w.sum()).astype(F32)
+    return np.asarray((w / w.sum()).astype(F32))
 
 
 _W = _gauss_weights()
@@ -202,7 +202,7 @@ def grain_patch(preset: str, seed: int) -> np.ndarray:
     k, n = GRAIN_K, GRAIN_CELLS
     fine = make_paper(preset, n * k, n * k, seed + 7919)
     cell = fine.reshape(n, k, n, k).mean(axis=(1, 3))
-    return (fine - np.repeat(np.repeat(cell, k, 0), k, 1)).astype(F32)
+    return np.asarray((fine - np.repeat(np.repeat(cell, k, 0), k, 1)).astype(F32))
 
 
 CANVAS_VERT = """
