@@ -80,11 +80,11 @@ def run_fixed(backend: str, width: int, height: int, scenario: str, warmup: int,
     """A fresh canvas, ``warmup`` untimed steps, then ``steps`` timed ones (the stroke
     paints before every step, timed too: it is part of a live stroke's cost)."""
     # in the function: this source also runs against older checkouts (``--baseline``),
-    # whose factory lived in ``station.backends.factory``
+    # whose factory lived in ``station.canvas.backend``
     try:
         from station.backends.factory import create_backend  # this tree's
-    except ImportError:
-        from station.backends.factory import create_backend
+    except ImportError:  # an older checkout's path (before the house of issue 23)
+        from station.canvas.backend import create_backend  # type: ignore[no-redef]
 
     canvas = create_backend(backend, width, height, "watercolor", 1,
                             tiling=(scenario == "stroke"))
