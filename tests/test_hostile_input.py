@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import json
 import logging
-import signal
 import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -17,6 +16,7 @@ from pathlib import Path
 import pytest
 from station.drivers import synth
 
+from station.bench.fuzz import Hang, alarm
 from station.cli import main
 
 HEADER = json.dumps({"format": "station-session", "version": 1,
@@ -31,17 +31,12 @@ def pen(t: float, **kw: object) -> str:
 
 @contextmanager
 def deadline(seconds: float) -> Iterator[None]:
-    """Fail instead of hanging."""
-    def ring(*_: object) -> None:
-        raise AssertionError(f"still running after {seconds} s: a hang")
-
-    old = signal.signal(signal.SIGALRM, ring)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
+    """Fail instead of hanging (the fuzzer's alarm, its Hang a test failure)."""
     try:
-        yield
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, old)
+        with alarm(seconds):
+            yield
+    except Hang as exc:
+        raise AssertionError(f"still running: {exc}: a hang") from None
 
 
 OUT: list[str] = []  # stdout of the last run
