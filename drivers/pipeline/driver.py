@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import threading
 import time
 from collections.abc import Callable, Iterator
 from typing import Any
@@ -12,6 +11,7 @@ from station.drivers.pipeline.sources import PenSource
 from station.drivers.transport.base import DeviceGone
 
 from station.events import PenSample
+from station.stopsignal import StopFlag
 
 
 class PenDriver:
@@ -79,7 +79,7 @@ class PenDriver:
 
 
 def run_paced(drivers: list[PenDriver], emit: Callable[[PenSample], None],
-              stop: threading.Event | None = None,
+              stop: StopFlag | None = None,
               idle: Callable[[], None] | None = None) -> None:
     """Run paced drivers (speed set on their transports) round-robin until all end.
 

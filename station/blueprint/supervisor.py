@@ -40,6 +40,7 @@ from station.canvas.state import CanvasState
 from station.events import Command
 from station.render.km import render_state
 from station.sim.paint import write_image
+from station.stopsignal import StopSignal
 
 MAX_BACKOFF_S = 30.0
 STABLE_S = 10.0  # a component that ran this long starts its back-off afresh
@@ -137,7 +138,7 @@ class Supervisor:
         self.out = out or sys.stderr
         self.children = [Child(p) for p in plan.processes]
         self.by_id = {c.proc.id: c for c in self.children}
-        self.stop_requested = threading.Event()
+        self.stop_requested = StopSignal()
         self.stopping = False
         self.env = child_env(plan)
         painters = [p.id for p in plan.processes if p.kind in ("sim", "kiosk")]

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import threading
 from pathlib import Path
 
 import zmq
@@ -11,6 +10,7 @@ from station import sdnotify
 from station.bus.endpoints import resolve_endpoint
 from station.bus.keys import refused_count
 from station.bus.sockets import HWM, attach
+from station.stopsignal import StopFlag
 
 
 def run_proxy(
@@ -18,7 +18,7 @@ def run_proxy(
     sub_side: str,
     keys: Path | None = None,
     context: zmq.Context | None = None,
-    stop: threading.Event | None = None,
+    stop: StopFlag | None = None,
 ) -> int:
     """Forward every publisher (connecting to ``pub_side``) to every subscriber
     (connecting to ``sub_side``) until ``stop`` is set or the context ends.

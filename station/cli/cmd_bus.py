@@ -5,12 +5,11 @@ from __future__ import annotations
 import argparse
 import signal
 import sys
-import threading
 from pathlib import Path
-from types import FrameType
 
 from station.bus import resolve_endpoint, run_proxy
 from station.cli.buskeys import check_keys
+from station.stopsignal import StopSignal
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -32,13 +31,10 @@ def run(args: argparse.Namespace) -> int:
     check_keys(args.keys, None, (("--pub", args.pub, True), ("--sub", args.sub, True)))
     pub_url = resolve_endpoint(args.pub, True).url
     sub_url = resolve_endpoint(args.sub, True).url
-    stop = threading.Event()
+    stop = StopSignal()
 
-    def _stop(signum: int, frame: FrameType | None) -> None:
-        stop.set()
-
-    signal.signal(signal.SIGTERM, _stop)
-    signal.signal(signal.SIGINT, _stop)
+    signal.signal(signal.SIGTERM, stop.handler)
+    signal.signal(signal.SIGINT, stop.handler)
     sys.stderr.write(f"station bus: publishers -> {pub_url}, subscribers <- {sub_url}\n")
     sys.stderr.flush()
     rejected = run_proxy(args.pub, args.sub, keys=args.keys, stop=stop)

@@ -15,7 +15,6 @@ import json
 import os
 import signal
 import sys
-import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -31,6 +30,7 @@ from station.drivers.transport.evdev import find_evdev_node
 from station.errors import BadInput
 from station.sessionlog import SessionHeader, SessionLogWriter
 from station.sizes import parse_size
+from station.stopsignal import StopSignal
 
 SUBSCRIBER_WAIT_S = 5.0  # --wait-subscribers: then the driver reads the device anyway
 
@@ -120,8 +120,8 @@ def run(args: argparse.Namespace) -> int:
                                                for ep in args.haptic_bus or ()])
     if args.status_interval <= 0:
         raise BadInput("must be > 0 seconds", "--status-interval")
-    stop = threading.Event()
-    old = {sig: signal.signal(sig, lambda *_: stop.set())
+    stop = StopSignal()
+    old = {sig: signal.signal(sig, stop.handler)
            for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         return _serve(args, config, stop)
@@ -130,7 +130,7 @@ def run(args: argparse.Namespace) -> int:
             signal.signal(sig, handler)
 
 
-def _serve(args: argparse.Namespace, config: NormaliserConfig, stop: threading.Event) -> int:
+def _serve(args: argparse.Namespace, config: NormaliserConfig, stop: StopSignal) -> int:
     publisher = Publisher(args.bus, keys=args.keys, client_key=args.client_key,
                           heartbeat=args.heartbeat or HEARTBEAT_S)
     writer = None
@@ -236,7 +236,7 @@ def _serve(args: argparse.Namespace, config: NormaliserConfig, stop: threading.E
     return 0
 
 
-def _wait_for_subscribers(publisher: Publisher, count: int, stop: threading.Event) -> None:
+def _wait_for_subscribers(publisher: Publisher, count: int, stop: StopSignal) -> None:
     """Up to :data:`SUBSCRIBER_WAIT_S` for ``count`` subscriptions, in short slices so a
     SIGTERM/SIGINT meanwhile ends the wait at once (a supervisor stopping a run must not
     wait out a driver that nobody has subscribed to yet)."""
@@ -269,7 +269,7 @@ def _replugged_spec(spec: str, identity: dict[str, Any] | None) -> str:
     return f"evdev:{found}{sep}{query}" if found else spec
 
 
-def _wait_for_device(args: argparse.Namespace, stop: threading.Event,
+def _wait_for_device(args: argparse.Namespace, stop: StopSignal,
                      status: Callable[..., None],
                      identity: dict[str, Any] | None = None) -> PenSource | None:
     """Try to reopen the device every 0.5 s until it is back (or we are stopped, or it has

@@ -14,12 +14,12 @@ import os
 import resource
 import signal
 import sys
-import threading
 from pathlib import Path
 
 from station.errors import BadInput
 from station.kiosk.gallery import Gallery, GalleryError, GalleryServer, WebOptions, check_id
 from station.sim.paint import BYTES_PER_CELL
+from station.stopsignal import StopSignal
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -141,9 +141,9 @@ def run_serve(args: argparse.Namespace) -> int:
         raise BadInput(f"{args.serve!r} is not HOST:PORT", "--serve")
     server = GalleryServer(Gallery(Path(args.root)), host or "127.0.0.1", int(port),
                            args.base_url, web_options(args)).start()
-    stop = threading.Event()
+    stop = StopSignal()
     for sig in (signal.SIGTERM, signal.SIGINT):
-        signal.signal(sig, lambda *_: stop.set())
+        signal.signal(sig, stop.handler)
     sys.stderr.write(f"station gallery: serving {args.root} on {host or '127.0.0.1'}:"
                      f"{server.port}\n")
     while not stop.wait(0.5):  # a timed wait: the signal handlers run meanwhile

@@ -14,7 +14,6 @@ from __future__ import annotations
 import argparse
 import signal
 import sys
-import threading
 import time
 from typing import IO
 
@@ -37,6 +36,7 @@ from station.drivers.transport.base import (
 )
 from station.errors import BadInput
 from station.sessionlog import SessionHeader, SessionLogWriter
+from station.stopsignal import StopSignal
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -67,8 +67,8 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:
         opened.transport.close()
         raise BadInput(f"cannot write {args.output!r} ({exc.strerror})", "-o") from None
-    stop = threading.Event()
-    old = {sig: signal.signal(sig, lambda *_: stop.set())
+    stop = StopSignal()
+    old = {sig: signal.signal(sig, stop.handler)
            for sig in (signal.SIGINT, signal.SIGTERM)}
     deadline = time.monotonic() + args.duration if args.duration else None
     count = 0
@@ -98,7 +98,7 @@ def _init_features(info: HidDeviceInfo) -> list[bytes]:
         return []
 
 
-def _record_hid(transport: HidTransport, fh: IO[str], stop: threading.Event,
+def _record_hid(transport: HidTransport, fh: IO[str], stop: StopSignal,
                 deadline: float | None, duration: float | None, send_init: bool,
                 show: IO[str] | None) -> int:
     info = transport.info
@@ -133,7 +133,7 @@ def _record_hid(transport: HidTransport, fh: IO[str], stop: threading.Event,
     return writer.reports
 
 
-def _record_evdev(transport: EvdevTransport, fh: IO[str], path: str, stop: threading.Event,
+def _record_evdev(transport: EvdevTransport, fh: IO[str], path: str, stop: StopSignal,
                   deadline: float | None, duration: float | None,
                   show: IO[str] | None) -> int:
     events: list[InputEvent] = []
@@ -174,8 +174,8 @@ def _record_bus(args: argparse.Namespace) -> int:
         raise BadInput("the recorder connects to the bus (a driver or 'station bus' binds it); "
                        "drop the '@'", "--bus")
     check_keys(args.keys, args.client_key, (("--bus", args.bus, False),))
-    stop = threading.Event()
-    old = {sig: signal.signal(sig, lambda *_: stop.set())
+    stop = StopSignal()
+    old = {sig: signal.signal(sig, stop.handler)
            for sig in (signal.SIGINT, signal.SIGTERM)}
     deadline = time.monotonic() + args.duration if args.duration else None
     counts = {"samples": 0, "commands": 0, "retimed": 0}

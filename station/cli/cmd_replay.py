@@ -13,7 +13,6 @@ import json
 import os
 import signal
 import sys
-import threading
 import time
 from typing import IO, Any
 
@@ -26,6 +25,7 @@ from station.errors import BadInput, StationError
 from station.events import PenSample
 from station.progress import Progress
 from station.sessionlog import SessionHeader, SessionLogWriter
+from station.stopsignal import StopSignal
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -90,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
                               keys=args.keys, client_key=args.client_key)
         if args.wait_subscribers:
             publisher.wait_for_subscribers(args.wait_subscribers, timeout=5.0)
-    stop = threading.Event()
+    stop = StopSignal()
     count = {"samples": 0}
     bar = Progress(replay.duration(), "replay", unit="s")
 
@@ -102,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
         if publisher is not None:
             publisher.publish_pen(sample)
 
-    old = {sig: signal.signal(sig, lambda *_: stop.set())
+    old = {sig: signal.signal(sig, stop.handler)
            for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         if speed is None:
