@@ -9,7 +9,7 @@ import random
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import zmq
 
@@ -35,7 +35,7 @@ class Publisher:
         endpoint: str | None = None,
         bind: bool = True,
         keys: Path | None = None,
-        context: zmq.Context | None = None,
+        context: zmq.Context[zmq.Socket[bytes]] | None = None,
         replay: bool = True,
         heartbeat: float | None = None,
         client_key: str | None = None,
@@ -84,7 +84,7 @@ class Publisher:
         sdnotify.alive()  # a publishing loop that runs feeds systemd's watchdog
         # Reading ZMQ_EVENTS makes libzmq apply pending subscriptions now, so a new
         # subscriber gets its replay before this sample, never after it.
-        if self.sock.get(zmq.EVENTS) & zmq.POLLIN:
+        if cast(int, self.sock.get(zmq.EVENTS)) & zmq.POLLIN:  # EVENTS is an int option
             self._serve_subscriptions()
         seq = self._seq[topic] + 1
         self._seq[topic] = seq
@@ -116,7 +116,7 @@ class Publisher:
         device; each sample still takes its own sequence number, so loss counting
         and late-joiner replay work as for single samples.  Returns the last
         sequence number."""
-        if self.sock.get(zmq.EVENTS) & zmq.POLLIN:
+        if cast(int, self.sock.get(zmq.EVENTS)) & zmq.POLLIN:  # EVENTS is an int option
             self._serve_subscriptions()
         last = 0
         by_topic: dict[str, list[PenSample]] = {}
@@ -297,7 +297,7 @@ class Subscriber:
         topics: tuple[str, ...] = ("pen.", "cmd"),
         bind: bool = False,
         keys: Path | None = None,
-        context: zmq.Context | None = None,
+        context: zmq.Context[zmq.Socket[bytes]] | None = None,
         client_key: str | None = None,
     ) -> None:
         specs = endpoint if isinstance(endpoint, list) else [endpoint]
