@@ -66,7 +66,8 @@ def _init_features(model: dict[str, Any]) -> list[bytes]:
     return [bytes.fromhex(h) for h in model.get("init_feature_reports", [])]
 
 
-def _wacom(cls: type, **kw: Any) -> Callable[[dict[str, Any], Descriptor | None], ReportParser]:
+def _wacom(cls: Callable[..., ReportParser], **kw: bool,
+           ) -> Callable[[dict[str, Any], Descriptor | None], ReportParser]:
     def make(model: dict[str, Any], desc: Descriptor | None) -> ReportParser:
         parser: ReportParser = cls(WacomParams.from_model(model), model, _init_features(model),
                                    **kw)  # fmt: skip

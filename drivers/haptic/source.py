@@ -235,8 +235,9 @@ class HapticPenSource:
 
     def describe(self) -> dict[str, Any]:
         h = self.hello
+        port = getattr(self.session.transport, "port", "")  # a test's byte line has none
         return {
-            "name": self.name, "source": "serial", "path": self.session.transport.port,
+            "name": self.name, "source": "serial", "path": port,
             "product": h.name, "vid": h.vid, "pid": h.pid, "usb_id": f"{h.vid:04x}:{h.pid:04x}",
             "serial": h.serial, "bus": 3, "parser": "haptic-serial", "generic": False,
             "model": "", "can_map_mm": True,

@@ -101,11 +101,12 @@ def normaliser_config(args: argparse.Namespace) -> NormaliserConfig:
     area = None
     if args.area:
         try:
-            area = tuple(float(v) for v in args.area.split(","))
+            corners = tuple(float(v) for v in args.area.split(","))
         except ValueError:
             raise BadInput("needs four numbers x0,y0,x1,y1", "--area") from None
-        if len(area) != 4:
+        if len(corners) != 4:
             raise BadInput("needs four numbers x0,y0,x1,y1", "--area")
+        area = (corners[0], corners[1], corners[2], corners[3])
 
     return NormaliserConfig(area=area, tip_down=args.tip_down, tip_up=args.tip_up,
                             smoothing_ms=args.smoothing, pressure_curve=curve,
@@ -163,9 +164,10 @@ def _serve(args: argparse.Namespace, config: NormaliserConfig, stop: StopSignal)
             if not args.wait:
                 status("failed", error=str(exc))
                 raise
-            source = _wait_for_device(args, stop, status)
-            if source is None:  # stopped while waiting, or a finite source ended meanwhile
+            waited = _wait_for_device(args, stop, status)
+            if waited is None:  # stopped while waiting, or a finite source ended meanwhile
                 return 0
+            source = waited
         t_offset = 0.0
         while not stop.is_set():
             attach_bus = getattr(source, "attach_bus", None)
@@ -220,9 +222,10 @@ def _serve(args: argparse.Namespace, config: NormaliserConfig, stop: StopSignal)
             if not gone or args.no_reconnect or (
                     args.max_reconnects is not None and reconnects >= args.max_reconnects):
                 break
-            source = _wait_for_device(args, stop, status, identity=driver.source.describe())
-            if source is None:
+            again = _wait_for_device(args, stop, status, identity=driver.source.describe())
+            if again is None:
                 break
+            source = again
             reconnects += 1
             totals["reconnects"] = reconnects
     finally:
