@@ -12,8 +12,9 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
+from station.drivers.devicedata import DeviceModel
 from station.drivers.evdev.frames import is_pen_device, ranges_from_caps
 from station.drivers.mock.tablet import GENERIC_MODELS
 from station.drivers.registry import (
@@ -33,7 +34,7 @@ from station.errors import BadInput
 from station.paths import device_data_dirs
 
 
-def _data_file(model: dict[str, Any] | None) -> str | None:
+def _data_file(model: DeviceModel | None) -> str | None:
     if model is None:
         return None
     path = Path(model["_path"])
@@ -167,9 +168,20 @@ def scan_hidapi() -> tuple[list[dict[str, Any]], list[str]]:
     return out, []
 
 
-def mock_models() -> list[dict[str, Any]]:
+class MockEntry(TypedDict):
+    """A mock device ``station devices`` lists: the spec that opens it and its ids."""
+
+    spec: str
+    name: str | None
+    vid: str | None
+    pid: str | None
+    parser: str | None
+    bus: str | None
+
+
+def mock_models() -> list[MockEntry]:
     """The curated models (hand-written data, encoded by the mock tablet) and generic pens."""
-    out = []
+    out: list[MockEntry] = []
     curated = [m for m in load_devices() if "provenance" not in m]
     for m in [*curated, *GENERIC_MODELS.values()]:
         mid = str(m.get("id"))
@@ -200,8 +212,10 @@ def scan() -> dict[str, Any]:
 
 def model_list() -> dict[str, Any]:
     """Every model of the device data: id, ids, protocol, family, name, file."""
-    rows = []
+    rows: list[dict[str, object]] = []
+    pen_models = 0
     for m in sorted(load_devices(), key=lambda m: (m["vendor_id"], m["product_id"], m["bus"])):
+        pen_models += len(m.get("models", [])) or 1
         rows.append({"id": m["id"], "vid": m["vendor_id"], "pid": m["product_id"],
                      "bus": m["bus"], "protocol": m["parser"], "family": m.get("family", ""),
                      "name": m["name"], "models": len(m.get("models", [])) or 1,
@@ -209,7 +223,6 @@ def model_list() -> dict[str, Any]:
                      "source": "generated" if "provenance" in m else "curated",
                      "from": m.get("_source", "bundled"), "path": m["_path"],
                      **({"overrides": m["_overrides"]} if "_overrides" in m else {})})
-    pen_models = sum(r["models"] for r in rows)
     return {"models": rows, "device_ids": len(rows), "pen_models": pen_models,
             "directories": {name: str(d) for name, d in device_data_dirs()},
             "bad_files": bad_device_files()}

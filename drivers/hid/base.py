@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections import Counter
 from typing import Any
 
+from station.drivers.devicedata import DeviceModel
 from station.drivers.hid.errors import ReportError
 from station.drivers.raw import AxisRanges, RawSample
 
@@ -43,7 +44,7 @@ class ReportParser:
     def __init__(
         self,
         ranges: AxisRanges,
-        model: dict[str, Any] | None = None,
+        model: DeviceModel | None = None,
         init_features: list[bytes] | None = None,
         generic: bool = False,
         is_pen: bool = True,
@@ -112,7 +113,7 @@ class IgnoredInterface(ReportParser):
     """An interface of a known device that carries no pen (touch, pad): every report skipped."""
 
     def __init__(self, name: str, kind: str, ranges: AxisRanges,
-                 model: dict[str, Any] | None = None, generic: bool = False) -> None:
+                 model: DeviceModel | None = None, generic: bool = False) -> None:
         super().__init__(ranges, model, [], generic=generic, is_pen=False, kind=kind)
         self.name = name
 
