@@ -54,8 +54,8 @@ class ReplyRequest:
     id: str
     expect: str | None = None
 
-    def as_record(self) -> dict[str, Any]:
-        rec: dict[str, Any] = {"to": self.to, "id": self.id}
+    def as_record(self) -> dict[str, object]:
+        rec: dict[str, object] = {"to": self.to, "id": self.id}
         if self.expect is not None:
             rec["expect"] = self.expect
         return rec
@@ -96,7 +96,7 @@ class Answerer:
         self.process = process
         self.sent = 0
         self.failed = 0
-        self._ctx: zmq.Context[Any] | None = None
+        self._ctx: zmq.Context[zmq.Socket[bytes]] | None = None
 
     def answer(self, req: ReplyRequest, cmd: str, ok: bool, text: str, session: str) -> None:
         body = {"id": req.id, "ok": ok, "process": self.process, "pid": os.getpid(),

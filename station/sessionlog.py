@@ -14,7 +14,7 @@ import logging
 import math
 import os
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
@@ -49,8 +49,8 @@ class SessionHeader:
     seed: int = 0
     extra: dict[str, Any] = field(default_factory=dict)
 
-    def to_record(self) -> dict[str, Any]:
-        rec: dict[str, Any] = {
+    def to_record(self) -> dict[str, object]:
+        rec: dict[str, object] = {
             "format": FORMAT_NAME,
             "version": FORMAT_VERSION,
             "canvas": {"width": self.width, "height": self.height},
@@ -257,7 +257,7 @@ class SessionLogWriter:
         self._write(header.to_record())
         self.flush()
 
-    def _write(self, rec: dict[str, Any]) -> None:
+    def _write(self, rec: Mapping[str, object]) -> None:
         self._fh.write(json.dumps(rec, separators=(", ", ": "), allow_nan=False) + "\n")
 
     def write(self, record: Record) -> None:

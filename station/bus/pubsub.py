@@ -7,6 +7,7 @@ import collections
 import logging
 import random
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, cast
@@ -80,7 +81,7 @@ class Publisher:
         same key directory)."""
         return refused_count(self._key_checks)
 
-    def _send(self, topic: str, value: Any) -> int:
+    def _send(self, topic: str, value: object) -> int:
         sdnotify.alive()  # a publishing loop that runs feeds systemd's watchdog
         # Reading ZMQ_EVENTS makes libzmq apply pending subscriptions now, so a new
         # subscriber gets its replay before this sample, never after it.
@@ -151,7 +152,7 @@ class Publisher:
     def publish_cmd(self, command: Command) -> int:
         return self._send("cmd", command)
 
-    def publish_status(self, status: dict[str, Any], topic: str = "status") -> int:
+    def publish_status(self, status: Mapping[str, object], topic: str = "status") -> int:
         return self._send(topic, status)
 
     def publish_haptic(self, device: str, haptic: wire.Haptic | wire.HapticForce) -> int:
@@ -266,7 +267,7 @@ class SubscriberStats:
         """Connections refused for a client key not authorised (0 unless bound on tcp)."""
         return refused_count(self.key_checks)
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> dict[str, object]:
         return {
             "received": self.received, "lost": self.lost, "heartbeats": self.heartbeats,
             "duplicates": self.duplicates,
