@@ -19,17 +19,36 @@ ROOT = Path(__file__).resolve().parent.parent
 FOLDERS = ("station", "drivers", "calibration", "tools")
 
 
-def uses(node: ast.AST) -> int:
-    n = 0
-    for sub in ast.walk(node):
-        if (isinstance(sub, ast.Name) and sub.id == "Any") or (
-                isinstance(sub, ast.Attribute) and sub.attr == "Any"):
-            n += 1
-        elif isinstance(sub, ast.Constant) and isinstance(sub.value, str) and "Any" in sub.value:
-            try:
-                n += uses(ast.parse(sub.value, mode="eval"))
-            except SyntaxError:
-                pass  # a string that is no annotation
+def _names(node: ast.AST) -> int:
+    return sum(1 for sub in ast.walk(node)
+               if (isinstance(sub, ast.Name) and sub.id == "Any")
+               or (isinstance(sub, ast.Attribute) and sub.attr == "Any"))
+
+
+def _annotations(tree: ast.AST) -> list[ast.expr]:
+    out: list[ast.expr] = []
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            a = node.args
+            out += [x.annotation for x in (*a.posonlyargs, *a.args, *a.kwonlyargs,
+                                           a.vararg, a.kwarg) if x is not None and x.annotation]
+            if node.returns is not None:
+                out.append(node.returns)
+        elif isinstance(node, ast.AnnAssign):
+            out.append(node.annotation)
+    return out
+
+
+def uses(tree: ast.AST) -> int:
+    """``Any`` nodes in ``tree``, and in the string annotations it holds."""
+    n = _names(tree)
+    for ann in _annotations(tree):
+        for sub in ast.walk(ann):
+            if isinstance(sub, ast.Constant) and isinstance(sub.value, str):
+                try:
+                    n += _names(ast.parse(sub.value, mode="eval"))
+                except SyntaxError:
+                    pass  # a Literal's string, not a type
     return n
 
 
