@@ -38,6 +38,8 @@ from wacom_sources import (
     WACOM,
     KernelEntry,
     Source,
+    Styli,
+    StylusGroups,
     Tablet,
     c_defines,
     enum_order,
@@ -155,7 +157,7 @@ def file_id(vid: int, pid: int, bus: str, name: str) -> str:
 
 
 def kernel_model(e: KernelEntry, src: Source, tablets: dict[tuple[str, int, int], Tablet],
-                 styli: Any, groups: Any, lw_src: Source) -> dict[str, Any] | None:
+                 styli: Styli, groups: StylusGroups, lw_src: Source) -> dict[str, Any] | None:
     f = e.features
     ktype = str(f.get("type"))
     if ktype == "HID_GENERIC" and not f.get("x_max"):
@@ -232,7 +234,8 @@ def kernel_model(e: KernelEntry, src: Source, tablets: dict[tuple[str, int, int]
 
 
 def generic_kernel_model(e: KernelEntry, src: Source, tablets: dict[tuple[str, int, int], Tablet],
-                         styli: Any, groups: Any, lw_src: Source) -> dict[str, Any] | None:
+                         styli: Styli, groups: StylusGroups, lw_src: Source,
+                         ) -> dict[str, Any] | None:
     """A kernel entry of type HID_GENERIC without numbers: the descriptor says everything."""
     tab = tablets.get((e.bus, e.vid, e.pid))
     if tab is not None and not tab.stylus:
@@ -253,7 +256,7 @@ def generic_kernel_model(e: KernelEntry, src: Source, tablets: dict[tuple[str, i
     return model
 
 
-def _libwacom_facts(model: dict[str, Any], tab: Tablet, styli: Any, groups: Any) -> None:
+def _libwacom_facts(model: dict[str, Any], tab: Tablet, styli: Styli, groups: StylusGroups) -> None:
     if tab.width_mm and tab.height_mm:
         model["physical_size_mm"] = [tab.width_mm, tab.height_mm]
     resolved = resolve_styli(tab.styli, styli, groups)
@@ -271,7 +274,7 @@ VENDOR_NAMES = {0x056A: "Wacom", 0x256C: "Huion/Gaomon", 0x28BD: "XP-Pen/UGEE",
 
 
 def libwacom_model(tabs: list[Tablet], key: tuple[str, int, int], uclogic: set[tuple[int, int]],
-                   styli: Any, groups: Any, lw_src: Source, uc_src: Source,
+                   styli: Styli, groups: StylusGroups, lw_src: Source, uc_src: Source,
                    uc_kinds: dict[tuple[int, int], str]) -> dict[str, Any]:
     bus, vid, pid = key
     uc = bus == "usb" and (vid, pid) in uclogic

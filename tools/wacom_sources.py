@@ -29,6 +29,12 @@ FEATURE_FIELDS = ["name", "x_max", "y_max", "pressure_max", "distance_max", "typ
                   "pktlen", "check_for_hid_type", "hid_type"]  # fmt: skip
 
 
+Styli = dict[str, dict[str, str]]
+"""libwacom's .stylus sections by ``vvvv:sssss`` (vendor id, stylus id): key -> value."""
+StylusGroups = dict[str, list[str]]
+"""libwacom's stylus groups: name -> stylus keys."""
+
+
 @dataclass
 class Source:
     repo: str
@@ -100,7 +106,9 @@ def c_value(token: str, defines: dict[str, str]) -> Any:
 
 
 def split_initializer(body: str) -> list[str]:
-    items, depth, cur = [], 0, []
+    items: list[str] = []
+    cur: list[str] = []
+    depth = 0
     for ch in body:
         if ch in "({":
             depth += 1
@@ -208,7 +216,7 @@ def stylus_key(bits: list[str]) -> tuple[int, int]:
     return WACOM, int(bits[0], 16)
 
 
-def parse_styli(paths: list[Path]) -> tuple[dict[str, dict[str, str]], dict[str, list[str]]]:
+def parse_styli(paths: list[Path]) -> tuple[Styli, StylusGroups]:
     """All styli by ``vvvv:iiiii`` key, and the keys of each group in file order."""
     styli: dict[str, dict[str, str]] = {}
     groups: dict[str, list[str]] = {}
@@ -223,16 +231,15 @@ def parse_styli(paths: list[Path]) -> tuple[dict[str, dict[str, str]], dict[str,
     return styli, groups
 
 
-def resolve_styli(refs: list[str], styli: dict[str, dict[str, str]],
-                  groups: dict[str, list[str]]) -> list[dict[str, Any]]:
+def resolve_styli(refs: list[str], styli: Styli, groups: StylusGroups) -> list[dict[str, Any]]:
     keys: list[str] = []
     for ref in refs:
         if ref.startswith("@"):
             keys.extend(groups.get(ref[1:], []))
         else:
             bits = ref.split(":")
-            vid, sid = stylus_key(bits)
-            keys.append(f"{vid:04x}:{sid:05x}")
+            vendor, stylus = stylus_key(bits)
+            keys.append(f"{vendor:04x}:{stylus:05x}")
     out = []
     for key in dict.fromkeys(keys):
         kv = styli.get(key)
