@@ -1,4 +1,5 @@
-"""The device data record: one ``drivers/devices/*.json`` file as the station reads it.
+"""The device data record: one ``drivers/devices/*.json`` file as the station reads it;
+and what an open pen source says about itself (:class:`SourceInfo`).
 
 ``devices.schema.json`` is the contract (``additionalProperties`` false, so these keys are
 all there are); :func:`station.drivers.registry.parse_device_data` validates a file
@@ -9,7 +10,7 @@ read the rest.  Pure types, no I/O.
 
 from __future__ import annotations
 
-from typing import Literal, NotRequired, TypedDict
+from typing import Any, Literal, NotRequired, TypedDict
 
 BusName = Literal["usb", "bluetooth", "i2c"]
 
@@ -101,3 +102,30 @@ class DeviceModel(TypedDict, total=False):
     _path: str  # the file it was read from
     _overrides: str  # the bundled file this one replaces
     descriptor: str  # mock models only: "huion", "ntrig"
+
+
+class SourceInfo(TypedDict, total=False):
+    """What an open pen source says about itself (``PenSource.describe``): the driver's
+    status and ``--jsonl`` header carry it.  Every source gives the first twelve keys."""
+
+    name: str  # the device name samples carry
+    source: str  # "hid", "evdev", "serial"
+    path: str
+    product: str
+    vid: int
+    pid: int
+    usb_id: str  # "vvvv:pppp"
+    bus: int  # BUS_USB, BUS_BLUETOOTH …
+    parser: str
+    generic: bool  # read through its descriptor alone (no device data)
+    model: str  # the device data's id ("" without one)
+    can_map_mm: bool  # the ranges have a resolution
+    features_sent: list[str]  # hid: init feature reports sent, hex
+    syn_dropped: int  # evdev: SYN_DROPPED seen
+    resyncs: int  # evdev: state re-read after a drop
+    serial: str  # serial haptic device: its serial number
+    protocol: str  # serial haptic device: "major.minor"
+    rate_hz: int  # serial haptic device: pose rate [Hz]
+    max_force_n: list[float]  # serial haptic device: per axis [N]
+    limits_n: list[float] | None  # serial haptic device: the limits in force [N]
+    haptic: dict[str, Any]  # serial haptic device: its session's status

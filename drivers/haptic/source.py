@@ -26,6 +26,7 @@ import threading
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from station.drivers.devicedata import SourceInfo
 from station.drivers.haptic.contact import BrushState, RoundBrushContact, Surface
 from station.drivers.haptic.loop import HapticConfig, HapticSession, zero_all
 from station.drivers.mock.haptic import SCRIPTS, MockHapticDevice, default_hello
@@ -233,7 +234,7 @@ class HapticPenSource:
     def now(self) -> float:
         return self.session.clock()
 
-    def describe(self) -> dict[str, Any]:
+    def describe(self) -> SourceInfo:
         h = self.hello
         port = getattr(self.session.transport, "port", "")  # a test's byte line has none
         return {

@@ -23,6 +23,7 @@ from typing import Any
 from station.bus import HEARTBEAT_S, Publisher
 from station.cli.buskeys import check_keys
 from station.drivers.calibrated import choose_calibration, settle_pressure
+from station.drivers.devicedata import SourceInfo
 from station.drivers.normalise import NormaliserConfig
 from station.drivers.pipeline import PenDriver, PenSource, open_device
 from station.drivers.transport.base import DeviceGone, EndOfStream, TransportError
@@ -258,7 +259,7 @@ def _flush(driver: PenDriver, publisher: Publisher, writer: SessionLogWriter | N
         totals["total_samples"] += 1
 
 
-def _replugged_spec(spec: str, identity: dict[str, Any] | None) -> str:
+def _replugged_spec(spec: str, identity: SourceInfo | None) -> str:
     """An evdev device that came back on another ``eventN``: the SPEC of its new node."""
     if identity is None or not spec.startswith("evdev:"):
         return spec
@@ -274,7 +275,7 @@ def _replugged_spec(spec: str, identity: dict[str, Any] | None) -> str:
 
 def _wait_for_device(args: argparse.Namespace, stop: StopSignal,
                      status: Callable[..., None],
-                     identity: dict[str, Any] | None = None) -> PenSource | None:
+                     identity: SourceInfo | None = None) -> PenSource | None:
     """Try to reopen the device every 0.5 s until it is back (or we are stopped, or it has
     ended: a finite source that reports EndOfStream; None then).
 
