@@ -14,7 +14,6 @@ import subprocess
 import sys
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
 
 from station import paths
 from station.blueprint.model import BlueprintError
@@ -350,6 +349,6 @@ def report(checks: list[Check]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def as_json(checks: list[Check]) -> dict[str, Any]:
+def as_json(checks: list[Check]) -> dict[str, object]:
     return {"ok": not any(c.status == "fail" for c in checks),
             "checks": [asdict(c) for c in checks]}

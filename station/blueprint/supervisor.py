@@ -321,7 +321,7 @@ class Supervisor:
             proc.log = Path(log)
             proc.recover_argv[-1] = log
 
-    def _command(self, target: str, name: str, args: dict[str, Any] | None = None) -> bool:
+    def _command(self, target: str, name: str, args: dict[str, object] | None = None) -> bool:
         proc = self.plan.process(target)
         if proc.cmd is None:
             self.log(f"{target} takes no commands; {name} skipped")

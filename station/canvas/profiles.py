@@ -73,7 +73,7 @@ def _err(where: str, el: object, msg: str) -> CanvasInputError:
     return CanvasInputError(f"element <{tag}>: {msg}", f"{where}:{line}" if line else where)
 
 
-def _finite(text: str, key: str, el: Any, where: str) -> float:
+def _finite(text: str, key: str, el: etree._Element, where: str) -> float:
     """A finite number or an error naming the attribute (``float`` takes inf and nan,
     which the simulation would carry into every cell)."""
     try:
@@ -88,7 +88,7 @@ def _finite(text: str, key: str, el: Any, where: str) -> float:
     return v
 
 
-def _rgb(el: Any, key: str, where: str) -> tuple[float, float, float]:
+def _rgb(el: etree._Element, key: str, where: str) -> tuple[float, float, float]:
     vals = [_finite(x, key, el, where) for x in el.get(key).split()]
     if len(vals) != 3:
         raise _err(where, el, f"{key} needs 3 numbers")

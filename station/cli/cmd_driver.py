@@ -18,7 +18,6 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
 from station.bus import HEARTBEAT_S, Publisher
 from station.cli.buskeys import check_keys
@@ -139,12 +138,12 @@ def _serve(args: argparse.Namespace, config: NormaliserConfig, stop: StopSignal)
     raw_writer = None
     reconnects = 0
     totals = {"total_samples": 0, "reconnects": 0}
-    last: dict[str, Any] = {}
-    in_force: dict[str, Any] = {}  # the calibration and pressure shaping of this connection
+    last: dict[str, object] = {}
+    in_force: dict[str, object] = {}  # the calibration and pressure shaping of this connection
 
-    def status(state: str, driver: PenDriver | None = None, **extra: Any) -> None:
+    def status(state: str, driver: PenDriver | None = None, **extra: object) -> None:
         nonlocal last
-        rec: dict[str, Any] = {"kind": "driver", "state": state, "device_spec": args.device,
+        rec: dict[str, object] = {"kind": "driver", "state": state, "device_spec": args.device,
                                **totals, **in_force, **extra}
         if driver is not None:
             rec.update(driver.status())

@@ -21,6 +21,7 @@ from station.cli.buskeys import add_key_flags, check_keys
 from station.drivers.decode import ReportDecoder, event_line
 from station.drivers.pipeline import TraceReplay, run_paced
 from station.drivers.traces import read_trace
+from station.drivers.traces.model import Trace
 from station.errors import BadInput, StationError
 from station.events import PenSample
 from station.progress import Progress
@@ -164,7 +165,7 @@ def _by_id(device: dict[str, Any]) -> str:
     return f" (ID {', ID '.join(f'{k}: {v}' for k, v in ids.items())})" if ids else ""
 
 
-def _decode(trace: Any) -> int:
+def _decode(trace: Trace) -> int:
     """``--decode``: every report (or event) of every device, one line each."""
 
     w = sys.stdout.write
@@ -188,7 +189,7 @@ def _decode(trace: Any) -> int:
 UHID = "/dev/uhid"
 
 
-def _uhid(trace: Any, speed: float | None) -> int:
+def _uhid(trace: Trace, speed: float | None) -> int:
     """``--uhid``: the trace's HID devices become kernel devices (hid-tools' UHIDDevice)
     and their reports are played at ``speed`` (as recorded by default)."""
     if not os.path.exists(UHID):
@@ -207,7 +208,7 @@ def _uhid(trace: Any, speed: float | None) -> int:
     try:
         for d in hid:
             u = UHIDDevice()
-            u.name, u.info, u.rdesc = d.name, (d.bus, d.vid, d.pid), bytes(d.descriptor)
+            u.name, u.info, u.rdesc = d.name, (d.bus, d.vid, d.pid), bytes(d.descriptor or b"")
             u.phys = d.phys or "station-replay"
             u.create_kernel_device()
             devices.append((u, d))

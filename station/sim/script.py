@@ -147,7 +147,7 @@ class Script:
         self._seq = 0
 
     # -- commands ------------------------------------------------------------
-    def cmd(self, command: str, /, **args: Any) -> None:
+    def cmd(self, command: str, /, **args: object) -> None:
         """Append the command ``command`` with keyword ``args`` at the current time."""
         self.records.append(Command(t=self._time(), cmd=command, args=args))
 
