@@ -5,7 +5,9 @@ A use is one ``Any`` node in a module's syntax tree: a ``Name`` ``Any`` or an at
 ``typing.Any``, anywhere (annotations, ``cast``, aliases, generic arguments), and inside
 string annotations; the ``import`` that brings it in is not a use.  Tests are not counted.
 
-    python tools/count_any.py [--top N] [FOLDER ...]   (default: station drivers calibration tools)
+    python tools/count_any.py [--top N] [FOLDER ...]
+
+(default folders: station drivers calibration tools)
 """
 
 from __future__ import annotations

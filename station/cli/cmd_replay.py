@@ -107,24 +107,7 @@ def run(args: argparse.Namespace) -> int:
            for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         if speed is None:
-            # Full speed: hand samples to the bus in batches (wire kind 5).
-            batch: list[PenSample] = []
-            for sample in replay.samples():
-                count["samples"] += 1
-                bar.set(sample.t)
-                if writer is not None:
-                    writer.write(sample)
-                if publisher is not None:
-                    batch.append(sample)
-                    if len(batch) >= 64:
-                        publisher.publish_pens(batch)
-                        batch = []
-                    else:
-                        publisher.tick()  # parsing a long trace: still alive
-                if stop.is_set():
-                    break
-            if batch and publisher is not None:  # a batch only fills with a publisher
-                publisher.publish_pens(batch)
+            count["samples"] = _play_full_speed(replay, writer, publisher, bar, stop)
         else:
             drivers = replay.open_drivers(speed)
             if publisher is not None:
@@ -147,16 +130,44 @@ def run(args: argparse.Namespace) -> int:
             writer.close()
         if publisher is not None:
             publisher.close()
-    out = sys.stderr if args.jsonl == "-" else sys.stdout
-    if args.json:
-        out.write(json.dumps(summary) + "\n")
-    else:
-        for d in summary["devices"]:
-            out.write(f"{d['name']}: {d['reports']} reports -> {d['samples']} samples "
-                      f"({d['parser']}; {d['bad_reports']} bad reports dropped, "
-                      f"{d['skipped_reports']} non-pen skipped{_by_id(d)}, "
-                      f"{d['forced_proximity_out']} forced proximity-out)\n")
+    _print_summary(summary, sys.stderr if args.jsonl == "-" else sys.stdout, args.json)
     return 0
+
+
+def _play_full_speed(replay: TraceReplay, writer: SessionLogWriter | None,
+                     publisher: Publisher | None, bar: Progress, stop: StopSignal) -> int:
+    """Every sample as fast as the trace parses, to the bus in batches (wire kind 5);
+    returns the number of samples."""
+    samples = 0
+    batch: list[PenSample] = []
+    for sample in replay.samples():
+        samples += 1
+        bar.set(sample.t)
+        if writer is not None:
+            writer.write(sample)
+        if publisher is not None:
+            batch.append(sample)
+            if len(batch) >= 64:
+                publisher.publish_pens(batch)
+                batch = []
+            else:
+                publisher.tick()  # parsing a long trace: still alive
+        if stop.is_set():
+            break
+    if batch and publisher is not None:  # a batch only fills with a publisher
+        publisher.publish_pens(batch)
+    return samples
+
+
+def _print_summary(summary: dict[str, Any], out: IO[str], as_json: bool) -> None:
+    if as_json:
+        out.write(json.dumps(summary) + "\n")
+        return
+    for d in summary["devices"]:
+        out.write(f"{d['name']}: {d['reports']} reports -> {d['samples']} samples "
+                  f"({d['parser']}; {d['bad_reports']} bad reports dropped, "
+                  f"{d['skipped_reports']} non-pen skipped{_by_id(d)}, "
+                  f"{d['forced_proximity_out']} forced proximity-out)\n")
 
 
 def _by_id(device: dict[str, Any]) -> str:
