@@ -32,7 +32,6 @@ import itertools
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 from station.calibration.errors import DegeneratePoints
@@ -93,7 +92,7 @@ class FitReport:
     condition: float
     residuals_mm: Array | None = None
     parallax_mm: tuple[float, float] | None = None
-    candidates: dict[str, dict[str, Any]] = field(default_factory=dict)
+    candidates: dict[str, dict[str, object]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     ambiguous: dict[int, list[int]] = field(default_factory=dict)  # outlier -> equal suspects
 
@@ -472,7 +471,7 @@ def _fit_auto(
     noise: float | None,
 ) -> FitReport:
     affine = fit_points(points, "affine", parallax, robust, min_sigma, units_per_mm, seed, noise)
-    candidates: dict[str, dict[str, Any]] = {
+    candidates: dict[str, dict[str, object]] = {
         "affine": {"rms": affine.rms, "loo_rms": affine.loo_rms, "outliers": affine.outliers,
                    "aicc": _aicc(affine, parallax)}
     }

@@ -293,7 +293,7 @@ class SessionLogWriter:
         self.close()
 
 
-def summarise(reader: SessionLogReader) -> dict[str, Any]:
+def summarise(reader: SessionLogReader) -> dict[str, object]:
     """Statistics of a log for ``station log stats`` (streams; constant memory)."""
     pens = cmds = strokes = 0
     devices: dict[str, int] = {}

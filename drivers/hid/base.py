@@ -9,7 +9,6 @@ the state lives in the parser object.
 from __future__ import annotations
 
 from collections import Counter
-from typing import Any
 
 from station.drivers.devicedata import DeviceModel
 from station.drivers.hid.errors import ReportError
@@ -90,7 +89,7 @@ class ReportParser:
             return self._skip("unused", report[0])
         raise ReportError(f"unknown {what} report ID {report[0]}")
 
-    def describe(self) -> dict[str, Any]:
+    def describe(self) -> dict[str, object]:
         """A JSON-ready summary for ``station devices`` and replay reports."""
         r = self.ranges
         return {

@@ -392,7 +392,7 @@ class GenericPenParser(ReportParser):
             valid=valid,
         )
 
-    def describe(self) -> dict[str, Any]:
+    def describe(self) -> dict[str, object]:
         d = super().describe()
         d["report_kinds"] = {str(k): v for k, v in sorted(self.kinds.items())}
         d["pen_reports"] = self.pen_report_ids

@@ -32,7 +32,7 @@ class _Loader(yaml.SafeLoader):
     """Safe YAML without aliases: libinput record never writes them, and aliases let a
     small file expand into an enormous document ("billion laughs")."""
 
-    def compose_node(self, parent: Any, index: Any) -> Any:
+    def compose_node(self, parent: yaml.Node | None, index: int) -> yaml.Node | None:
         if self.check_event(yaml.AliasEvent):
             raise ComposerError(None, None, "aliases (*name) are not used by libinput record",
                                 self.peek_event().start_mark)

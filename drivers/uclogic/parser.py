@@ -23,7 +23,6 @@ them before rewriting them):
 from __future__ import annotations
 
 import logging
-from typing import Any
 
 from station.drivers.devicedata import DeviceModel
 from station.drivers.hid.base import ReportParser
@@ -137,7 +136,7 @@ class UclogicPenParser(ReportParser):
         self._min = MIN_LENGTH[params.kind]
         self._rid = params.report_id
 
-    def describe(self) -> dict[str, Any]:
+    def describe(self) -> dict[str, object]:
         out = super().describe()
         out["uclogic_init"] = self.init_kind
         out["uclogic_params"] = None if self.params is None else self.params.kind

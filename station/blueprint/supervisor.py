@@ -149,7 +149,7 @@ class Supervisor:
         self.messages: list[str] = []
         self._lock = threading.Lock()
         self._sources_done_at: float | None = None
-        self._drain: dict[str, tuple[Any, float]] = {}  # id -> (samples, since)
+        self._drain: dict[str, tuple[object, float]] = {}  # id -> (samples, since)
 
     # -- logging and state ------------------------------------------------------
     def log(self, text: str) -> None:
