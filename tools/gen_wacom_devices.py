@@ -36,6 +36,7 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from wacom_sources import (
     WACOM,
+    CValue,
     KernelEntry,
     Source,
     Styli,
@@ -156,6 +157,13 @@ def file_id(vid: int, pid: int, bus: str, name: str) -> str:
     return f"{prefix}-{busp}{pid:04x}-{tail}" if tail else f"{prefix}-{busp}{pid:04x}"
 
 
+def _number(v: CValue) -> int:
+    """A feature that must be a number (an unresolved name there is a source we misread)."""
+    if isinstance(v, str):
+        raise ValueError(f"expected a number in wacom_features, got {v!r}")
+    return v
+
+
 def kernel_model(e: KernelEntry, src: Source, tablets: dict[tuple[str, int, int], Tablet],
                  styli: Styli, groups: StylusGroups, lw_src: Source) -> dict[str, Any] | None:
     f = e.features
@@ -172,7 +180,7 @@ def kernel_model(e: KernelEntry, src: Source, tablets: dict[tuple[str, int, int]
     name = tab.name if tab else str(f["name"])
     if tab and tab.model_name:
         name = f"{name} ({tab.model_name})"
-    xres, yres = f.get("x_resolution") or 0, f.get("y_resolution") or 0
+    xres, yres = _number(f.get("x_resolution") or 0), _number(f.get("y_resolution") or 0)
     model: dict[str, Any] = {
         "id": file_id(e.vid, e.pid, e.bus, str(f["name"])),
         "name": name,
@@ -190,7 +198,8 @@ def kernel_model(e: KernelEntry, src: Source, tablets: dict[tuple[str, int, int]
     }
     if xres and yres:
         model["resolution"] = {"x": xres, "y": yres}
-        model["drawing_area_mm"] = [round(f["x_max"] / xres, 2), round(f["y_max"] / yres, 2)]
+        model["drawing_area_mm"] = [round(_number(f["x_max"]) / xres, 2),
+                                    round(_number(f["y_max"]) / yres, 2)]
     init: list[str] = []
     rank = ENUM_ORDER.index(ktype)
     if e.bus == "usb" and rank <= ENUM_ORDER.index("BAMBOO_PT"):

@@ -29,6 +29,11 @@ FEATURE_FIELDS = ["name", "x_max", "y_max", "pressure_max", "distance_max", "typ
                   "pktlen", "check_for_hid_type", "hid_type"]  # fmt: skip
 
 
+CValue = int | str
+"""A value in a C initialiser: a number, a string, or an enum or flag name kept as text
+(``true``/``false`` read as bools, which are ints)."""
+Features = dict[str, CValue]
+"""One ``struct wacom_features`` initialiser: member name -> value."""
 Styli = dict[str, dict[str, str]]
 """libwacom's .stylus sections by ``vvvv:sssss`` (vendor id, stylus id): key -> value."""
 StylusGroups = dict[str, list[str]]
@@ -54,7 +59,7 @@ class KernelEntry:
     vid: int
     bus: str
     macro_arg: str
-    features: dict[str, Any]
+    features: Features
 
 
 @dataclass
@@ -86,7 +91,7 @@ def c_defines(text: str) -> dict[str, str]:
     return out
 
 
-def c_value(token: str, defines: dict[str, str]) -> Any:
+def c_value(token: str, defines: dict[str, str]) -> CValue:
     token = token.strip()
     if token.startswith('"'):
         return token.strip('"')
@@ -124,12 +129,12 @@ def split_initializer(body: str) -> list[str]:
     return items
 
 
-def parse_features(text: str, defines: dict[str, str]) -> dict[str, dict[str, Any]]:
+def parse_features(text: str, defines: dict[str, str]) -> dict[str, Features]:
     """``wacom_features_XXX`` initialisers -> {suffix: {member: value}} (C initialiser rules)."""
     out = {}
     pat = r"static const struct wacom_features wacom_features_(\w+)\s*=\s*\{(.*?)\};"
     for m in re.finditer(pat, text, flags=re.S):
-        feats: dict[str, Any] = {}
+        feats: Features = {}
         pos = 0
         for item in split_initializer(m.group(2)):
             d = re.fullmatch(r"\.(\w+)\s*=\s*(.+)", item, flags=re.S)
@@ -144,7 +149,7 @@ def parse_features(text: str, defines: dict[str, str]) -> dict[str, dict[str, An
     return out
 
 
-def parse_id_table(text: str, features: dict[str, dict[str, Any]]) -> list[KernelEntry]:
+def parse_id_table(text: str, features: dict[str, Features]) -> list[KernelEntry]:
     start = text.index("wacom_ids[] = {")
     table = text[start:text.index("};", start)]
     out = []
