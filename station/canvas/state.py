@@ -305,7 +305,7 @@ class CanvasState:
         return st
 
 
-def read_extra(path: str | Path, name: str) -> Any:
+def read_extra(path: str | Path, name: str) -> object:
     """The JSON entry ``name`` that :meth:`CanvasState.npz_bytes` added, or ``None``."""
     where = str(path)
     try:
