@@ -22,7 +22,7 @@ import re
 from collections.abc import Callable
 from functools import lru_cache
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from station.drivers.devicedata import BusName, DeviceModel
 from station.drivers.hid import usages as U
@@ -43,6 +43,9 @@ from station.drivers.wacom.legacy import LegacyPenParser
 
 from station import boundedio, paths
 from station.errors import BadInput
+
+if TYPE_CHECKING:  # jsonschema is imported where device data is first checked
+    import jsonschema
 
 log = logging.getLogger(__name__)
 _eq_usage = U.equivalent_usage
@@ -108,7 +111,7 @@ def parser_names() -> list[str]:
 
 
 @lru_cache(maxsize=1)
-def _validator() -> Any:
+def _validator() -> jsonschema.Draft202012Validator:
     import jsonschema
 
     return jsonschema.Draft202012Validator(json.loads(SCHEMA_PATH.read_text(encoding="utf-8")))

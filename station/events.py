@@ -291,7 +291,7 @@ class Command:
     args: dict[str, Any] = field(default_factory=dict)
     where: str | None = field(default=None, compare=False, repr=False)
     # on the bus only: where the taking process answers (station.answer); never logged
-    reply: dict[str, Any] | None = field(default=None, compare=False, repr=False)
+    reply: dict[str, object] | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         w = self.where
