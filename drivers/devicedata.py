@@ -10,7 +10,7 @@ read the rest.  Pure types, no I/O.
 
 from __future__ import annotations
 
-from typing import Any, Literal, NotRequired, TypedDict
+from typing import Literal, NotRequired, TypedDict
 
 BusName = Literal["usb", "bluetooth", "i2c"]
 
@@ -128,4 +128,4 @@ class SourceInfo(TypedDict, total=False):
     rate_hz: int  # serial haptic device: pose rate [Hz]
     max_force_n: list[float]  # serial haptic device: per axis [N]
     limits_n: list[float] | None  # serial haptic device: the limits in force [N]
-    haptic: dict[str, Any]  # serial haptic device: its session's status
+    haptic: dict[str, object]  # serial haptic device: its session's status
