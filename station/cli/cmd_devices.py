@@ -12,7 +12,7 @@ import json
 import sys
 from typing import Any
 
-from station.drivers.scan import model_list, scan
+from station.drivers.scan import SCAN_KINDS, model_list, scan
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -58,8 +58,10 @@ def run(args: argparse.Namespace) -> int:
     w = sys.stdout.write
     if result["found"] == 0:
         w("No pen tablet found on this machine.\n")
-    for key, title in (("evdev", "evdev (kernel driver)"), ("hidraw", "hidraw"),
-                       ("usb", "USB (pyusb)"), ("hidapi", "hidapi")):
+    titles = {"evdev": "evdev (kernel driver)", "hidraw": "hidraw", "usb": "USB (pyusb)",
+              "hidapi": "hidapi"}
+    for key in SCAN_KINDS:
+        title = titles[key]
         for d in result[key]:
             parser = d.get("parser") or "none"
             extra = f" — {d['problem']}" if "problem" in d else (
