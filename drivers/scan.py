@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any, Literal, TypedDict
+from typing import Literal, NotRequired, TypedDict
 
 from station.drivers.devicedata import DeviceModel
 from station.drivers.evdev.frames import is_pen_device, ranges_from_caps
@@ -256,19 +256,41 @@ def scan() -> ScanResult:
             "problems": [f"{d['path']}: {d['problem']}" for d in problems], "notes": notes}
 
 
-def model_list() -> dict[str, Any]:
+# One model of the device data as ``station devices --list`` shows it ("from": where the
+# record came from, "bundled", "user" …; "overrides": the bundled file it replaces).
+ModelRow = TypedDict("ModelRow", {
+    "id": str, "vid": str, "pid": str, "bus": str, "protocol": str, "family": str,
+    "name": str, "models": int, "screen_tablet": bool, "file": str | None, "source": str,
+    "from": str, "path": str, "overrides": NotRequired[str],
+})
+
+
+class ModelList(TypedDict):
+    """``station devices --list --json``."""
+
+    models: list[ModelRow]
+    device_ids: int
+    pen_models: int  # products: an id shared by several counts each
+    directories: dict[str, str]  # "user", "system": where own device data goes
+    bad_files: list[str]
+
+
+def model_list() -> ModelList:
     """Every model of the device data: id, ids, protocol, family, name, file."""
-    rows: list[dict[str, object]] = []
+    rows: list[ModelRow] = []
     pen_models = 0
     for m in sorted(load_devices(), key=lambda m: (m["vendor_id"], m["product_id"], m["bus"])):
         pen_models += len(m.get("models", [])) or 1
-        rows.append({"id": m["id"], "vid": m["vendor_id"], "pid": m["product_id"],
-                     "bus": m["bus"], "protocol": m["parser"], "family": m.get("family", ""),
-                     "name": m["name"], "models": len(m.get("models", [])) or 1,
-                     "screen_tablet": bool(m.get("screen_tablet")), "file": _data_file(m),
-                     "source": "generated" if "provenance" in m else "curated",
-                     "from": m.get("_source", "bundled"), "path": m["_path"],
-                     **({"overrides": m["_overrides"]} if "_overrides" in m else {})})
+        row: ModelRow = {
+            "id": m["id"], "vid": m["vendor_id"], "pid": m["product_id"],
+            "bus": m["bus"], "protocol": m["parser"], "family": m.get("family", ""),
+            "name": m["name"], "models": len(m.get("models", [])) or 1,
+            "screen_tablet": bool(m.get("screen_tablet")), "file": _data_file(m),
+            "source": "generated" if "provenance" in m else "curated",
+            "from": m.get("_source", "bundled"), "path": m["_path"]}
+        if "_overrides" in m:
+            row["overrides"] = m["_overrides"]
+        rows.append(row)
     return {"models": rows, "device_ids": len(rows), "pen_models": pen_models,
             "directories": {name: str(d) for name, d in device_data_dirs()},
             "bad_files": bad_device_files()}
