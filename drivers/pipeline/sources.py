@@ -12,7 +12,7 @@ import re
 import time
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Protocol
 
 from station.drivers.devicedata import SourceInfo
 from station.drivers.evdev.frames import FrameAssembler, is_pen_device, ranges_from_caps
@@ -21,6 +21,7 @@ from station.drivers.registry import ReportParser, interface_from_phys, parser_f
 from station.drivers.transport.base import DeviceSpecError, EvdevTransport, HidTransport
 from station.drivers.uclogic.init import UclogicControl
 from station.drivers.uclogic.params import UclogicParams
+from station.drivers.uclogic.parser import UclogicPenParser
 
 from station.errors import BadInput
 
@@ -210,9 +211,9 @@ class EvdevPenSource:
 
 
 
-def vendor_setup(parser: Any, transport: HidTransport) -> UclogicParams | None:
+def vendor_setup(parser: ReportParser, transport: HidTransport) -> UclogicParams | None:
     """UC-Logic tablets: the set-up over transports that can do it (pyusb), else say why not."""
-    if not getattr(parser, "needs_control", False):
+    if not isinstance(parser, UclogicPenParser) or not parser.needs_control:
         return None
     if not isinstance(transport, UclogicControl):
         log.info("%s: UC-Logic set-up needs raw USB (usb: SPEC); reading the reports its "
