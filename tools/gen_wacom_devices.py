@@ -29,7 +29,7 @@ import json
 import re
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 # tools/ is no package: run as a script, or loaded by path (tests), the generator finds its
 # sibling module through its own folder
@@ -115,7 +115,12 @@ TYPE_PROTOCOL: dict[str, tuple[str, str, list[str]]] = {
 # Measured corrections: what a device's pen really sends, where recordings of it show the
 # kernel table (which gives every pen of a kernel type the type's axes) and libwacom claim
 # more.  Each one names its evidence; the model gets the quirk and its provenance says why.
-MEASURED: dict[tuple[str, int, int], dict[str, Any]] = {
+class Measured(TypedDict):
+    quirks: list[str]  # protocol quirks the recordings show
+    evidence: str  # which recordings, and what they show
+
+
+MEASURED: dict[tuple[str, int, int], Measured] = {
     ("usb", 0x056A, 0x0057): {
         "quirks": ["no-tilt"],
         "evidence": "DTK-2241 recordings (issue 24): the pen's tilt bytes are 0 in every "
