@@ -121,7 +121,7 @@ def parse_profile(data: bytes, where: str) -> Profile:
             msg = f"element <{m.group(1)}>{attr}: {m.group(3)}"
         raise CanvasInputError(msg, f"{where}:{e.line}")
     values: dict[str, Any] = {}
-    owner: dict[str, Any] = {}
+    owner: dict[str, etree._Element] = {}  # which element set each value
     for group in GROUPS:
         el = root.find(group)
         if el is None:
