@@ -98,7 +98,7 @@ def _reject_constant(name: str) -> float:
     raise ValueError(f"{name} is not a JSON number")
 
 
-def _loads(text: str, where: str, header: bool = False) -> Any:
+def _loads(text: str, where: str, header: bool = False) -> object:
     """JSON of one line; malformed or absurdly nested text is a :class:`SessionLogError`."""
     prefix = "header is " if header else ""
     try:
