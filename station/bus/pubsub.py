@@ -24,6 +24,11 @@ log = logging.getLogger("station.bus")  # one logger for the whole bus, as befor
 
 REPLAY_LIMIT = 4096  # samples kept per pen topic for late joiners (20 s at 200 Hz)
 HEARTBEAT_S = 0.2  # drivers' heartbeat interval: a silent device is named within ~1 s
+# Streams (publisher id, topic) a subscriber follows for loss and duplicate counting:
+# both are chosen by whoever publishes, so the table is bounded; the stream heard least
+# recently goes first (counted), and is counted afresh if it speaks again.
+MAX_STREAMS = 4096
+MAX_STARTED_AT = 256  # streams whose first sequence number the status reports
 
 
 # -- publisher ------------------------------------------------------------------
@@ -258,6 +263,7 @@ class SubscriberStats:
     version_mismatch: int = 0
     started_at: dict[str, int] = field(default_factory=dict)  # "topic@publisher" -> first seq
     refused_by_peer: int = 0  # handshakes a publisher refused (our CURVE key, connecting)
+    streams_forgotten: int = 0  # streams let go beyond MAX_STREAMS (see there)
     # the ZAP checks of the tcp endpoints this subscriber binds (CURVE server)
     key_checks: list[KeyCheck] = field(default_factory=list, repr=False)
 
@@ -273,6 +279,7 @@ class SubscriberStats:
             "malformed": self.malformed, "foreign": self.foreign,
             "version_mismatch": self.version_mismatch, "started_at": dict(self.started_at),
             "curve_rejected": self.curve_rejected, "refused_by_peer": self.refused_by_peer,
+            "streams_forgotten": self.streams_forgotten,
         }  # fmt: skip
 
 
@@ -377,12 +384,17 @@ class Subscriber:
             if env.kind == "heartbeat":
                 return self._heartbeat(env)
             key = (env.publisher, env.topic)
-            last = self._last.get(key)
+            last = self._last.pop(key, None)  # re-inserted below: the newest at the end
             end = env.seq + env.count - 1
             if last is None:
-                self.stats.started_at[f"{env.topic}@{env.publisher:08x}"] = env.seq
+                if len(self._last) >= MAX_STREAMS:
+                    del self._last[next(iter(self._last))]
+                    self.stats.streams_forgotten += 1
+                if len(self.stats.started_at) < MAX_STARTED_AT:
+                    self.stats.started_at[f"{env.topic}@{env.publisher:08x}"] = env.seq
             elif end <= last:
                 self.stats.duplicates += env.count
+                self._last[key] = last
                 continue
             elif env.seq > last + 1:
                 self.stats.lost += env.seq - last - 1

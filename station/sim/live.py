@@ -435,7 +435,9 @@ class LiveCore:
             return False
         self.counters.commands += 1
         self.journal.write(cmd)
-        self._answer(req, cmd.cmd, True, f"{_did(cmd)} at session time {cmd.t:.2f} s "
+        did = (self.history.last if cmd.cmd in ("undo", "redo") and self.history.last
+               else _did(cmd))  # an undo that found nothing says why (the history's cap)
+        self._answer(req, cmd.cmd, True, f"{did} at session time {cmd.t:.2f} s "
                      f"(step {self.player.counters.steps})")
         if cmd.cmd == "wait":  # its painting time runs now, as in a replay
             while (self.player.counters.steps < self.player.steps_due(cmd.t)
