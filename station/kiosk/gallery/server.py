@@ -8,18 +8,31 @@ import time
 
 from station.kiosk.gallery.replays import ReplayMaker
 from station.kiosk.gallery.store import Gallery, GalleryError
-from station.kiosk.gallery.web import WebOptions, make_app
+from station.kiosk.gallery.web import SECURITY_HEADERS, WebOptions, make_app
 
 
 def _guarded_server_class() -> type:
     """Waitress's TCP server with the limits of :class:`WebOptions` waitress lacks: a
     cap on connections per client address, and a deadline for a whole request (its
     ``channel_timeout`` only closes connections idle that long, which a client
-    sending a byte every few seconds never is)."""
+    sending a byte every few seconds never is).  The responses waitress makes itself
+    (a malformed request line, oversized headers, bad chunking, a body too long, its
+    500) carry :data:`SECURITY_HEADERS` like the app's."""
     from waitress.channel import HTTPChannel
     from waitress.server import TcpWSGIServer
+    from waitress.task import ErrorTask
+
+    names = {k.lower() for k, _ in SECURITY_HEADERS}
+
+    class SecureErrorTask(ErrorTask):  # type: ignore[misc]  # waitress is untyped
+        def build_response_header(self) -> bytes:
+            # its execute() writes the body at once: the header is built from here
+            self.response_headers = [(k, v) for k, v in self.response_headers
+                                     if k.lower() not in names] + list(SECURITY_HEADERS)
+            return bytes(super().build_response_header())
 
     class Channel(HTTPChannel):  # type: ignore[misc]  # waitress is untyped
+        error_task_class = SecureErrorTask
         started = 0.0  # when the request now arriving began
 
         def received(self, data: bytes) -> bool:
