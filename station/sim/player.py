@@ -715,7 +715,7 @@ def _undo(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> No
     _check_keys("undo", args, set(), where)
     if p.history is None or not p.history.undo():
         p.counters.skipped_commands["undo"] = p.counters.skipped_commands.get("undo", 0) + 1
-        if p.history is not None and sum(p.history.dropped.values()) and (
+        if p.history is not None and any(p.history.dropped.values()) and (
                 "undo-let-go" not in p._warned):
             p._warned.add("undo-let-go")  # once: the history's status keeps the counts
             log.warning("%s%s", f"{where}: " if where else "", p.history.last)

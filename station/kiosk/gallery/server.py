@@ -27,7 +27,8 @@ def _guarded_server_class() -> type:
     class SecureErrorTask(ErrorTask):  # type: ignore[misc]  # waitress is untyped
         def build_response_header(self) -> bytes:
             # its execute() writes the body at once: the header is built from here
-            self.response_headers = [(k, v) for k, v in self.response_headers
+            theirs: list[tuple[str, str]] = list(getattr(self, "response_headers", []))
+            self.response_headers = [(k, v) for k, v in theirs
                                      if k.lower() not in names] + list(SECURITY_HEADERS)
             return bytes(super().build_response_header())
 
