@@ -29,6 +29,8 @@ HEARTBEAT_S = 0.2  # drivers' heartbeat interval: a silent device is named withi
 # recently goes first (counted), and is counted afresh if it speaks again.
 MAX_STREAMS = 4096
 MAX_STARTED_AT = 256  # streams whose first sequence number the status reports
+UPSTREAM_KEPT = 16  # messages a publisher keeps from its subscribers (command answers)
+MAX_UPSTREAM_BYTES = 64 * 1024
 
 
 # -- publisher ------------------------------------------------------------------
@@ -73,6 +75,9 @@ class Publisher:
         self.subscriptions = 0
         self.replayed = 0
         self._topics: set[bytes] = set()  # the prefixes subscribers hold now
+        # what subscribers sent that is not a subscription: answers to commands, from a
+        # Subscriber made with ``answers=True`` (bounded: a peer cannot grow it)
+        self.upstream: collections.deque[bytes] = collections.deque(maxlen=UPSTREAM_KEPT)
 
     @property
     def url(self) -> str:
@@ -190,6 +195,8 @@ class Publisher:
             except zmq.Again:
                 return
             if not msg or msg[0] not in (0, 1):
+                if msg and len(msg) <= MAX_UPSTREAM_BYTES:
+                    self.upstream.append(msg)
                 continue
             prefix = msg[1:]
             if msg[0] == 0:  # the last subscriber of this prefix left
@@ -230,6 +237,18 @@ class Publisher:
             if self._handshakes.refused():
                 return False
         return True
+
+    def recv_upstream(self, timeout: float) -> bytes | None:
+        """The next message a subscriber sent back (see :attr:`upstream`), or ``None``
+        after ``timeout`` seconds."""
+        deadline = time.monotonic() + timeout
+        while not self.upstream:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return None
+            if self.sock.poll(max(1, int(left * 1000)), zmq.POLLIN):
+                self._serve_subscriptions()
+        return self.upstream.popleft()
 
     @property
     def refusals(self) -> int:
@@ -306,15 +325,21 @@ class Subscriber:
         keys: Path | None = None,
         context: zmq.Context | None = None,
         client_key: str | None = None,
+        answers: bool = False,
     ) -> None:
         specs = endpoint if isinstance(endpoint, list) else [endpoint]
         self.endpoints = [resolve_endpoint(s, bind) for s in specs]
         self.ctx = context or zmq.Context.instance()
-        self.sock = self.ctx.socket(zmq.SUB)
+        # answers: an XSUB, which can send back to its publishers over the connections
+        # they opened (the answer to a command, :meth:`send_upstream`)
+        self.sock = self.ctx.socket(zmq.XSUB if answers else zmq.SUB)
         self.sock.setsockopt(zmq.RCVHWM, HWM)
         self.sock.setsockopt(zmq.LINGER, 0)
         for t in topics:
-            self.sock.setsockopt(zmq.SUBSCRIBE, t.encode())
+            if answers:
+                self.sock.send(b"\x01" + t.encode())
+            else:
+                self.sock.setsockopt(zmq.SUBSCRIBE, t.encode())
         self._key_checks: list[KeyCheck] = []
         self._handshakes = HandshakeWatch(self.sock, self.endpoints)  # before connecting
         try:
@@ -419,6 +444,18 @@ class Subscriber:
             self.stats.lost += env.value.pen_seq - last
             self._last[key] = env.value.pen_seq
         return Message(env.topic, "heartbeat", env.value, env.publisher, env.seq, env.replay)
+
+    def send_upstream(self, data: bytes) -> bool:
+        """Send ``data`` (one frame, not starting with 0 or 1) back to every publisher
+        connected to this subscriber (made with ``answers=True``): a command's sender
+        picks its own answer by id.  Never blocks; ``False`` when it could not go."""
+        if self.sock.type != zmq.XSUB or not data or data[0] in (0, 1):
+            return False
+        try:
+            self.sock.send(data, zmq.NOBLOCK)
+        except zmq.ZMQError:
+            return False
+        return True
 
     def close(self) -> None:
         self._handshakes.close()

@@ -767,10 +767,21 @@ class LiveSim(LiveCore):
         # The bus first: an endpoint in use ends the run before any file is made.
         endpoints = [cfg.bus]
         cmd_ep = cfg.cmd or "@" + DEFAULT_CMD_ENDPOINT
-        if cmd_ep != "none":
-            endpoints.append(cmd_ep if cmd_ep[0] in "@>" else "@" + cmd_ep)
+        cmd_ep = cmd_ep if cmd_ep in ("none", "") or cmd_ep[0] in "@>" else "@" + cmd_ep
+        tcp_cmd = cmd_ep.lstrip("@>").startswith("tcp://")
+        if cmd_ep != "none" and not tcp_cmd:
+            endpoints.append(cmd_ep)
         self.sub = Subscriber(endpoints, topics=("pen.", "cmd", "hb."),  # type: ignore[arg-type]
                               keys=cfg.keys, client_key=cfg.client_key)
+        # a tcp command endpoint answers over its own connections (station.answer: "peer")
+        self.cmd_sub: Subscriber | None = None
+        if tcp_cmd:
+            try:
+                self.cmd_sub = Subscriber(cmd_ep, topics=("cmd",), keys=cfg.keys,
+                                          client_key=cfg.client_key, answers=True)
+            except BaseException:
+                self.sub.close()
+                raise
         status_ep = cfg.status or default_status_endpoint(cfg.bus)
         try:
             self.pub = None if status_ep == "none" else Publisher(
@@ -778,6 +789,8 @@ class LiveSim(LiveCore):
             super().__init__(cfg)
         except BaseException:
             self.sub.close()
+            if self.cmd_sub is not None:
+                self.cmd_sub.close()
             pub = getattr(self, "pub", None)
             if pub is not None:
                 pub.close()
@@ -789,7 +802,21 @@ class LiveSim(LiveCore):
         self._fps_mark = (time.monotonic(), self.player.counters.steps)
         self.fps = 0.0
 
+    def _drain_commands(self, sub: Subscriber) -> None:
+        """What came on the tcp command endpoint, answered back over it."""
+        self.answerer.upstream = sub.send_upstream
+        try:
+            for _ in range(DRAIN_MAX):
+                msg = sub.recv(0)
+                if msg is None or self.stop_requested:
+                    return
+                self.handle(msg.kind, msg.value, msg.topic, msg.replay)
+        finally:
+            self.answerer.upstream = None
+
     def drain(self, timeout_ms: int) -> None:
+        if self.cmd_sub is not None:
+            self._drain_commands(self.cmd_sub)
         msg = self.sub.recv(timeout_ms)
         n = 0
         while msg is not None:
@@ -865,6 +892,8 @@ class LiveSim(LiveCore):
         final = self.status()
         self.publish_status(final=True)
         self.sub.close()
+        if self.cmd_sub is not None:
+            self.cmd_sub.close()
         if self.pub is not None:
             self.pub.close()
         return final
