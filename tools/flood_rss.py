@@ -73,7 +73,7 @@ def main() -> int:
             rss.append(round(rss_mib(sim.pid), 1))
         finally:
             sim.send_signal(signal.SIGTERM)
-            out, err = sim.communicate(timeout=120)
+            _out, err = sim.communicate(timeout=120)
             pub.close()
     last: dict[str, object] = {}
     for line in err.splitlines():  # its last line: "station sim: stopped {…}"
