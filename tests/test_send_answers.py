@@ -167,6 +167,7 @@ def test_send_over_tcp_with_curve_keys_gets_the_same_answers(
         th.join(30)
     assert sim.counters.commands == 2 and sim.counters.bad_commands == 3
     assert sim.answerer.sent == 5 and sim.answerer.failed == 0
+    assert sim.status()["cmd_endpoint"]["received"] == 5
     # nobody on the port now: exit 1 with one line, within the timeout
     code = main(["send", *to, "dry", "--timeout", "0.5"])
     err = capsys.readouterr().err.strip().splitlines()

@@ -841,6 +841,8 @@ class LiveSim(LiveCore):
               "bus": self.sub.stats.as_dict(), "haptic": self.haptics.as_dict()}
         # samples lost on the bus, and those sent while no sim listened (recovery)
         st["lost_samples"] = self.sub.stats.lost + self.counters.missed_while_down
+        if self.cmd_sub is not None:  # the tcp command endpoint: a socket of its own
+            st["cmd_endpoint"] = self.cmd_sub.stats.as_dict()
         return st
 
     def publish_haptic(self, device: str, force: HapticForce) -> None:
