@@ -106,3 +106,29 @@ def test_the_bus_subscriber_follows_a_bounded_number_of_streams(
         assert len(sub._last) <= 64 and sub.stats.streams_forgotten == n - 64
         assert len(sub.stats.started_at) <= pubsub.MAX_STARTED_AT
         assert sub.stats.as_dict()["streams_forgotten"] == n - 64
+
+
+def test_samples_still_queued_when_the_sim_stops_are_counted(tmp_path: Path) -> None:
+    from station.bus import Publisher
+    from station.sim.live import LiveSim
+
+    bus = f"ipc://{tmp_path}/bus"
+    with Publisher("@" + bus, replay=False) as pub:
+        sim = LiveSim(LiveConfig(bus=bus, width=16, height=16, backend="numpy",
+                                 log_path=str(tmp_path / "s.jsonl"), status="none",
+                                 autosave=0.0, cmd="none"))
+        try:
+            deadline = time.monotonic() + 60
+            while not pub.wait_for_subscribers(1, timeout=0.05):
+                sim.sub.sock.poll(0)  # the connecting sim's subscription goes out
+                assert time.monotonic() < deadline
+            n = 300  # the sim's loop never runs: all of them wait in its queue
+            for i in range(n):
+                pub.publish_pen(PenSample(t=i * 1e-3, device="pen", tool=Tool.PEN, x=0.5,
+                                          y=0.5, pressure=0.5, proximity=True,
+                                          touching=True, seq=i + 1))
+            while sim.counters.unread_at_stop < n and time.monotonic() < deadline:
+                sim._count_unread()  # what shutdown does, until all of it has arrived
+        finally:
+            final = sim.shutdown()
+    assert final["unread_at_stop"] == n and final["samples"] == 0, final

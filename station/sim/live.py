@@ -141,6 +141,7 @@ def default_status_endpoint(bus: str | None) -> str:
 
 
 DEFAULT_CMD_ENDPOINT = "ipc:sim-cmd"
+UNREAD_COUNT_S = 3.0  # reading what is still queued at stop, to count it (a flood's HWM)
 KIOSK_CMD_ENDPOINT = "ipc:kiosk-cmd"  # a kiosk's own: a `stop` for a sim never reaches it
 
 
@@ -174,6 +175,7 @@ class Counters:
     autosaves: int = 0
     flood_dropped: int = 0  # pen samples dropped beyond FLOOD_RATE or MAX_DEVICES
     warnings_suppressed: int = 0  # warnings past MAX_WARNINGS (counted, not logged)
+    unread_at_stop: int = 0  # pen samples still queued on the bus when it stopped
     extra: dict[str, int] = field(default_factory=dict)
 
 
@@ -690,7 +692,7 @@ class LiveCore:
             "bad_commands": c.bad_commands, "bad_samples": c.bad_samples,
             "dropped_sources": c.dropped_sources, "synthetic_pen_ups": c.synthetic_pen_ups,
             "recovered_duplicates": c.recovered_duplicates, "flood_dropped": c.flood_dropped,
-            "missed_while_down": c.missed_while_down,
+            "missed_while_down": c.missed_while_down, "unread_at_stop": c.unread_at_stop,
             "stamps": p.brush.stamps, "eraser_samples": p.brush.eraser_samples,
             "devices": {n: {"state": "silent" if d.silent else "live",
                             "last_seen_s": round(now - d.last_seen, 3),
@@ -802,6 +804,19 @@ class LiveSim(LiveCore):
         self._fps_mark = (time.monotonic(), self.player.counters.steps)
         self.fps = 0.0
 
+    def _count_unread(self) -> None:
+        """Count the pen samples still queued when the sim stops (a flood leaves up to
+        the queue's HWM): read, not painted, so none goes uncounted; at most
+        :data:`UNREAD_COUNT_S` seconds of reading, then what is left is said as such."""
+        deadline = time.monotonic() + UNREAD_COUNT_S
+        while (msg := self.sub.recv(0)) is not None:
+            if msg.kind == "pen":
+                self.counters.unread_at_stop += 1
+            if time.monotonic() > deadline:
+                log.warning("stopping: %d queued bus samples counted, more not read",
+                            self.counters.unread_at_stop)
+                return
+
     def _drain_commands(self, sub: Subscriber) -> None:
         """What came on the tcp command endpoint, answered back over it."""
         self.answerer.upstream = sub.send_upstream
@@ -891,6 +906,7 @@ class LiveSim(LiveCore):
     def shutdown(self) -> dict[str, Any]:
         """Finish (see :meth:`LiveCore.finish`), publish the final status, close."""
         self.finish()
+        self._count_unread()
         final = self.status()
         self.publish_status(final=True)
         self.sub.close()
