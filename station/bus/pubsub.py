@@ -445,6 +445,29 @@ class Subscriber:
             self._last[key] = env.value.pen_seq
         return Message(env.topic, "heartbeat", env.value, env.publisher, env.seq, env.replay)
 
+    def count_queued(self, deadline: float) -> tuple[int, bool]:
+        """Read what is queued without decoding it: the pen samples it held, and
+        whether the queue was emptied before ``deadline`` (monotonic seconds)."""
+        n = len(self._pending)  # the rest of a batch already taken apart
+        self._pending.clear()
+        while time.monotonic() < deadline:
+            try:
+                frames = self.sock.recv_multipart(zmq.NOBLOCK)
+            except zmq.Again:
+                return n, True
+            head = wire.pen_header(frames)
+            if head is None:
+                continue
+            publisher, seq, count = head
+            key = (publisher, frames[0].decode("ascii", "replace"))
+            last = self._last.get(key)
+            if last is not None and seq > last + 1:  # the publisher dropped these (its HWM)
+                self.stats.lost += seq - last - 1
+            if last is None or seq + count - 1 > last:
+                self._last[key] = seq + count - 1
+                n += count if last is None else min(count, seq + count - 1 - last)
+        return n, False
+
     def send_upstream(self, data: bytes) -> bool:
         """Send ``data`` (one frame, not starting with 0 or 1) back to every publisher
         connected to this subscriber (made with ``answers=True``): a command's sender

@@ -808,14 +808,11 @@ class LiveSim(LiveCore):
         """Count the pen samples still queued when the sim stops (a flood leaves up to
         the queue's HWM): read, not painted, so none goes uncounted; at most
         :data:`UNREAD_COUNT_S` seconds of reading, then what is left is said as such."""
-        deadline = time.monotonic() + UNREAD_COUNT_S
-        while (msg := self.sub.recv(0)) is not None:
-            if msg.kind == "pen":
-                self.counters.unread_at_stop += 1
-            if time.monotonic() > deadline:
-                log.warning("stopping: %d queued bus samples counted, more not read",
-                            self.counters.unread_at_stop)
-                return
+        n, emptied = self.sub.count_queued(time.monotonic() + UNREAD_COUNT_S)
+        self.counters.unread_at_stop += n
+        if not emptied:
+            log.warning("stopping: %d queued bus samples counted, more not read",
+                        self.counters.unread_at_stop)
 
     def _drain_commands(self, sub: Subscriber) -> None:
         """What came on the tcp command endpoint, answered back over it."""
