@@ -132,3 +132,19 @@ def test_samples_still_queued_when_the_sim_stops_are_counted(tmp_path: Path) -> 
         finally:
             final = sim.shutdown()
     assert final["unread_at_stop"] == n and final["samples"] == 0, final
+
+
+def test_refused_curve_keys_are_named_up_to_a_bound(tmp_path: Path) -> None:
+    """Any client may try any key: the table of refused keys stays bounded, every
+    refusal is still counted."""
+    import secrets
+
+    from station.bus import keys as bus_keys
+
+    (tmp_path / "authorized").mkdir()
+    check = bus_keys.KeyCheck(tmp_path / "authorized")
+    n = 400
+    for _ in range(n):
+        assert check.callback("d", secrets.token_hex(20).encode()) is False
+    assert len(check.rejected) == bus_keys.MAX_REJECTED_KEYS
+    assert check.refused == n and check.unnamed == n - bus_keys.MAX_REJECTED_KEYS

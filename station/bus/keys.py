@@ -143,6 +143,9 @@ _authenticators: dict[int, Any] = {}  # context id -> its ThreadAuthenticator
 _key_checks: dict[tuple[int, str], KeyCheck] = {}  # (context, ZAP domain) -> its check
 
 
+MAX_REJECTED_KEYS = 256  # distinct refused client keys named (and logged) one by one
+
+
 class KeyCheck:
     """The ZAP handler's verdict on a CURVE client: allowed if its public key is in
     the authorised directory (read at every connection, so a key added or revoked
@@ -151,6 +154,7 @@ class KeyCheck:
     def __init__(self, authorized_dir: Path) -> None:
         self.authorized_dir = authorized_dir
         self.rejected: dict[str, int] = {}  # z85 public key -> connection attempts
+        self.unnamed = 0  # rejections past MAX_REJECTED_KEYS distinct keys
         self.refused = 0  # all of them (read from other threads: one int, no iteration)
 
     def allowed_keys(self) -> set[bytes]:
@@ -164,8 +168,15 @@ class KeyCheck:
         if key in self.allowed_keys():
             return True
         text = key.decode("ascii", "replace")
-        self.rejected[text] = self.rejected.get(text, 0) + 1
         self.refused += 1
+        if text not in self.rejected and len(self.rejected) >= MAX_REJECTED_KEYS:
+            # any client may try any key: past this many, counted in `refused` only
+            if self.unnamed == 0:
+                log.warning("rejected CURVE peers with more than %d distinct keys: counting "
+                            "the rest without naming them", MAX_REJECTED_KEYS)
+            self.unnamed += 1
+            return False
+        self.rejected[text] = self.rejected.get(text, 0) + 1
         if self.rejected[text] == 1:
             log.warning("rejected a CURVE peer with public key %s (not in %s)", text,
                         self.authorized_dir)
