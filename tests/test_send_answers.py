@@ -172,3 +172,47 @@ def test_send_over_tcp_with_curve_keys_gets_the_same_answers(
     code = main(["send", *to, "dry", "--timeout", "0.5"])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 1 and len(err) == 1 and "no station process listens" in err[0], err
+
+
+def test_the_kiosk_answers_over_its_tcp_command_endpoint_too(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The kiosk's own command loop (KioskApp._commands) lends its tcp endpoint's
+    answer channel while it handles what came there: the window itself is not needed
+    (a stand-in session passes the commands to a live sim, as the kiosk's does)."""
+    from types import SimpleNamespace
+
+    from station.bus import Subscriber, generate_keys
+    from station.kiosk.app import KioskApp
+
+    keys = tmp_path / "keys"
+    generate_keys(keys)
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = int(s.getsockname()[1])
+    sim = LiveSim(LiveConfig(bus=f"ipc://{tmp_path}/bus", width=16, height=16,
+                             backend="numpy", log_path=str(tmp_path / "s.jsonl"),
+                             status="none", autosave=0.0, cmd="none"))
+    sim.answer_as("kiosk")
+    cmd_sub = Subscriber(f"@tcp://127.0.0.1:{port}", topics=("cmd",), keys=keys,
+                         answers=True)
+    app = SimpleNamespace(cmd_sub=cmd_sub, session=SimpleNamespace(sim=sim, handle=sim.handle))
+    done = threading.Event()
+
+    def loop() -> None:
+        while not done.is_set():
+            KioskApp._commands(app)  # type: ignore[arg-type]
+            done.wait(0.01)
+
+    th = threading.Thread(target=loop, daemon=True)
+    th.start()
+    try:
+        code, out, err = _send(capsys, "--to", f"tcp://127.0.0.1:{port}", "--keys",
+                               str(keys), "brush", "size=7")
+    finally:
+        done.set()
+        th.join(30)
+        cmd_sub.close()
+        sim.shutdown()
+    assert code == 0 and out.startswith(f"kiosk {os.getpid()} (session s): brush set"), (
+        out, err)
+    assert sim.answerer.upstream is None  # lent only while the loop handled them
