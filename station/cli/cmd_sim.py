@@ -139,7 +139,8 @@ def _lead(sim: LiveSim) -> int:
     final = sim.run()
     sys.stderr.write("station sim: stopped " + json.dumps(
         {k: final[k] for k in ("steps", "sim_time", "samples", "commands", "bad_commands",
-                               "lost_samples", "synthetic_pen_ups", "storage_failures")})
+                               "lost_samples", "synthetic_pen_ups", "storage_failures",
+                               "flood_dropped", "unread_at_stop")})
         + "\n")
     return 0
 

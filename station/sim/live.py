@@ -141,6 +141,7 @@ def default_status_endpoint(bus: str | None) -> str:
 
 
 DEFAULT_CMD_ENDPOINT = "ipc:sim-cmd"
+UNREAD_COUNT_S = 3.0  # reading what is still queued at stop, to count it (a flood's HWM)
 KIOSK_CMD_ENDPOINT = "ipc:kiosk-cmd"  # a kiosk's own: a `stop` for a sim never reaches it
 
 
@@ -174,6 +175,7 @@ class Counters:
     autosaves: int = 0
     flood_dropped: int = 0  # pen samples dropped beyond FLOOD_RATE or MAX_DEVICES
     warnings_suppressed: int = 0  # warnings past MAX_WARNINGS (counted, not logged)
+    unread_at_stop: int = 0  # pen samples still queued on the bus when it stopped
     extra: dict[str, int] = field(default_factory=dict)
 
 
@@ -435,7 +437,9 @@ class LiveCore:
             return False
         self.counters.commands += 1
         self.journal.write(cmd)
-        self._answer(req, cmd.cmd, True, f"{_did(cmd)} at session time {cmd.t:.2f} s "
+        did = (self.history.last if cmd.cmd in ("undo", "redo") and self.history.last
+               else _did(cmd))  # an undo that found nothing says why (the history's cap)
+        self._answer(req, cmd.cmd, True, f"{did} at session time {cmd.t:.2f} s "
                      f"(step {self.player.counters.steps})")
         if cmd.cmd == "wait":  # its painting time runs now, as in a replay
             while (self.player.counters.steps < self.player.steps_due(cmd.t)
@@ -688,7 +692,7 @@ class LiveCore:
             "bad_commands": c.bad_commands, "bad_samples": c.bad_samples,
             "dropped_sources": c.dropped_sources, "synthetic_pen_ups": c.synthetic_pen_ups,
             "recovered_duplicates": c.recovered_duplicates, "flood_dropped": c.flood_dropped,
-            "missed_while_down": c.missed_while_down,
+            "missed_while_down": c.missed_while_down, "unread_at_stop": c.unread_at_stop,
             "stamps": p.brush.stamps, "eraser_samples": p.brush.eraser_samples,
             "devices": {n: {"state": "silent" if d.silent else "live",
                             "last_seen_s": round(now - d.last_seen, 3),
@@ -765,10 +769,21 @@ class LiveSim(LiveCore):
         # The bus first: an endpoint in use ends the run before any file is made.
         endpoints = [cfg.bus]
         cmd_ep = cfg.cmd or "@" + DEFAULT_CMD_ENDPOINT
-        if cmd_ep != "none":
-            endpoints.append(cmd_ep if cmd_ep[0] in "@>" else "@" + cmd_ep)
+        cmd_ep = cmd_ep if cmd_ep in ("none", "") or cmd_ep[0] in "@>" else "@" + cmd_ep
+        tcp_cmd = cmd_ep.lstrip("@>").startswith("tcp://")
+        if cmd_ep != "none" and not tcp_cmd:
+            endpoints.append(cmd_ep)
         self.sub = Subscriber(endpoints, topics=("pen.", "cmd", "hb."),  # type: ignore[arg-type]
                               keys=cfg.keys, client_key=cfg.client_key)
+        # a tcp command endpoint answers over its own connections (station.answer: "peer")
+        self.cmd_sub: Subscriber | None = None
+        if tcp_cmd:
+            try:
+                self.cmd_sub = Subscriber(cmd_ep, topics=("cmd",), keys=cfg.keys,
+                                          client_key=cfg.client_key, answers=True)
+            except BaseException:
+                self.sub.close()
+                raise
         status_ep = cfg.status or default_status_endpoint(cfg.bus)
         try:
             self.pub = None if status_ep == "none" else Publisher(
@@ -776,6 +791,8 @@ class LiveSim(LiveCore):
             super().__init__(cfg)
         except BaseException:
             self.sub.close()
+            if self.cmd_sub is not None:
+                self.cmd_sub.close()
             pub = getattr(self, "pub", None)
             if pub is not None:
                 pub.close()
@@ -787,7 +804,31 @@ class LiveSim(LiveCore):
         self._fps_mark = (time.monotonic(), self.player.counters.steps)
         self.fps = 0.0
 
+    def _count_unread(self) -> None:
+        """Count the pen samples still queued when the sim stops (a flood leaves up to
+        the queue's HWM): read, not painted, so none goes uncounted; at most
+        :data:`UNREAD_COUNT_S` seconds of reading, then what is left is said as such."""
+        n, emptied = self.sub.count_queued(time.monotonic() + UNREAD_COUNT_S)
+        self.counters.unread_at_stop += n
+        if not emptied:
+            log.warning("stopping: %d queued bus samples counted, more not read",
+                        self.counters.unread_at_stop)
+
+    def _drain_commands(self, sub: Subscriber) -> None:
+        """What came on the tcp command endpoint, answered back over it."""
+        self.answerer.upstream = sub.send_upstream
+        try:
+            for _ in range(DRAIN_MAX):
+                msg = sub.recv(0)
+                if msg is None or self.stop_requested:
+                    return
+                self.handle(msg.kind, msg.value, msg.topic, msg.replay)
+        finally:
+            self.answerer.upstream = None
+
     def drain(self, timeout_ms: int) -> None:
+        if self.cmd_sub is not None:
+            self._drain_commands(self.cmd_sub)
         msg = self.sub.recv(timeout_ms)
         n = 0
         while msg is not None:
@@ -812,6 +853,8 @@ class LiveSim(LiveCore):
               "bus": self.sub.stats.as_dict(), "haptic": self.haptics.as_dict()}
         # samples lost on the bus, and those sent while no sim listened (recovery)
         st["lost_samples"] = self.sub.stats.lost + self.counters.missed_while_down
+        if self.cmd_sub is not None:  # the tcp command endpoint: a socket of its own
+            st["cmd_endpoint"] = self.cmd_sub.stats.as_dict()
         return st
 
     def publish_haptic(self, device: str, force: HapticForce) -> None:
@@ -860,9 +903,12 @@ class LiveSim(LiveCore):
     def shutdown(self) -> dict[str, Any]:
         """Finish (see :meth:`LiveCore.finish`), publish the final status, close."""
         self.finish()
+        self._count_unread()
         final = self.status()
         self.publish_status(final=True)
         self.sub.close()
+        if self.cmd_sub is not None:
+            self.cmd_sub.close()
         if self.pub is not None:
             self.pub.close()
         return final

@@ -56,6 +56,8 @@ from station.sim.undo import UndoHistory
 
 log = logging.getLogger(__name__)
 
+MAX_SKIPPED_NAMES = 64  # distinct unknown command names counted (and warned) by name
+
 MAX_WAIT_SECONDS = 3600.0
 MAX_PAINTING_SECONDS = 86400.0
 """Longest painting time a replayed session may reach (session time + waits +
@@ -303,8 +305,11 @@ class SessionPlayer:
             self.history.before(cmd)
         handler = _HANDLERS.get(name)
         if handler is None:
-            self.counters.skipped_commands[name] = self.counters.skipped_commands.get(name, 0) + 1
-            if name not in self._warned:
+            skipped = self.counters.skipped_commands
+            # names come from whoever publishes on the bus: a bounded set of them
+            key = name if name in skipped or len(skipped) < MAX_SKIPPED_NAMES else "(other)"
+            skipped[key] = skipped.get(key, 0) + 1
+            if name not in self._warned and len(self._warned) < MAX_SKIPPED_NAMES:
                 self._warned.add(name)
                 what = "not implemented yet" if cmd.known else "unknown"
                 log.warning("%scommand %r is %s: skipped", f"{where}: " if where else "", name,
@@ -710,6 +715,10 @@ def _undo(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> No
     _check_keys("undo", args, set(), where)
     if p.history is None or not p.history.undo():
         p.counters.skipped_commands["undo"] = p.counters.skipped_commands.get("undo", 0) + 1
+        if p.history is not None and any(p.history.dropped.values()) and (
+                "undo-let-go" not in p._warned):
+            p._warned.add("undo-let-go")  # once: the history's status keeps the counts
+            log.warning("%s%s", f"{where}: " if where else "", p.history.last)
 
 
 def _redo(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
