@@ -53,19 +53,16 @@ from station.brush.footprint import FootprintMaps, rasterise, segments, weight
 from station.brush.geometry import BrushShape, Tuft, get_shape
 from station.brush.reservoir import Reservoir
 from station.brush.solver import SolverCounters, SpineSolver, SpineState
-from station.brush.spine import handle_frame
-from station.brush.stamp import (
-    NO_PRESSURE_TOOLS,
-    BrushModel,
-    BrushSettings,
+from station.brush.sources import (
     Footprint,
     Sources,
     Stamp,
     StampPreview,
-    accumulate,
-    preview_of,
-    stamps_box,
+    StampQueue,
+    painting_steps,
 )
+from station.brush.spine import handle_frame
+from station.brush.stamp import NO_PRESSURE_TOOLS, BrushModel, BrushSettings
 from station.errors import BadInput
 from station.events import PenSample, Tool
 
@@ -207,7 +204,10 @@ class DeformableBrush:
         self.reservoir.load(settings.water, settings.pigment, model.water_scale,
                             model.pigment_scale)
         self._strokes: dict[str, _Stroke] = {}
-        self._pending: list[Stamp] = []
+        self._pending = StampQueue()
+        # the simulation's step clock, as RoundBrush.clock: spreads each stamp over the
+        # steps around its time
+        self.clock: tuple[float, float] | None = None
         self.pickups: list[PickupRequest] = []
         self.stamps = 0
         self.samples = 0
@@ -376,7 +376,7 @@ class DeformableBrush:
             self._strokes[key] = stroke
             self._solve(stroke, x, y, p, sample)
             maps = self._maps(stroke)
-            self._stamp(stroke, maps, 0, 0)
+            self._stamp(stroke, maps, 0, 0, sample.t)
             stroke.to_next = self._spacing(maps)
             return 1
         if self._due(stroke, x, y, sample.t):
@@ -398,7 +398,8 @@ class DeformableBrush:
             back = dist - pos  # along the path back from the sample's point
             maps = self._maps(stroke)
             self._stamp(stroke, maps, -int(round(dy * back / dist - ey)),
-                        -int(round(dx * back / dist - ex)))
+                        -int(round(dx * back / dist - ex)),
+                        stroke.t + (sample.t - stroke.t) * (pos / dist))
             made += 1
             step = step or self._spacing(maps)
             pos += step
@@ -475,7 +476,8 @@ class DeformableBrush:
         out: float = max(1.0, self.tuft_model.spacing * 0.5 * max(h, w, 1))
         return out
 
-    def _stamp(self, s: _Stroke, maps: FootprintMaps, dy: int, dx: int) -> None:
+    def _stamp(self, s: _Stroke, maps: FootprintMaps, dy: int, dx: int, t: float = 0.0
+               ) -> None:
         tm = self.tuft_model
         fill = self.reservoir.fill
         deepest = max(0.0, float(maps.depth.max(initial=0.0)))
@@ -525,16 +527,17 @@ class DeformableBrush:
         cover = fresh.cover
         # Stamp carries per-cell amounts as cover × scalar; ours vary per cell, so
         # the amounts ride in the cover array and the scalars are 1.
-        self._pending.append(Stamp(Footprint(y0, x0, dw), 1.0, {}, 0.0, 0.0))
+        tau = painting_steps(t, self.clock)
+        self._pending.add(Stamp(Footprint(y0, x0, dw), 1.0, {}, 0.0, 0.0, tau))
         for name, arr in dp.items():
-            self._pending.append(Stamp(Footprint(y0, x0, arr), 0.0, {name: 1.0}, 0.0, 0.0))
+            self._pending.add(Stamp(Footprint(y0, x0, arr), 0.0, {name: 1.0}, 0.0, 0.0, tau))
         if vx or vy:
-            self._pending.append(Stamp(Footprint(y0, x0, cover), 0.0, {}, vx, vy))
+            self._pending.add(Stamp(Footprint(y0, x0, cover), 0.0, {}, vx, vy, tau))
 
     # -- output --------------------------------------------------------------------
-    def take(self) -> Sources | None:
-        pending, self._pending = self._pending, []
-        return accumulate(pending)
+    def take(self, step: int | None = None) -> Sources | None:
+        """As :meth:`RoundBrush.take <station.brush.stamp.RoundBrush.take>`."""
+        return self._pending.take(step)
 
     def take_pickups(self) -> list[PickupRequest]:
         out, self.pickups = self.pickups, []
@@ -542,7 +545,7 @@ class DeformableBrush:
 
     def peek(self) -> Sources | None:
         """The sources :meth:`take` would return, left pending (a live view's preview)."""
-        return accumulate(list(self._pending))
+        return self._pending.peek()
 
     @property
     def pending(self) -> int:
@@ -550,8 +553,8 @@ class DeformableBrush:
 
     def pending_box(self, since: int = 0) -> tuple[slice, slice] | None:
         """As :meth:`RoundBrush.pending_box` (the live preview's new cells)."""
-        return stamps_box(self._pending[since:])
+        return self._pending.box(since)
 
     def preview(self, since: int = 0) -> StampPreview | None:
         """As :meth:`RoundBrush.preview`."""
-        return preview_of(self._pending, since)
+        return self._pending.preview(since)

@@ -728,7 +728,7 @@ class LiveCore:
         a last autosave, close the log."""
         p = self.player
         try:
-            p.flush_sources()
+            p.flush_sources(whole=True)
         except BadInput as exc:
             self.counters.dropped_sources += 1
             self._warn(f"brush sources dropped: {exc}")

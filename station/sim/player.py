@@ -44,7 +44,8 @@ from station.backends.protocol import CanvasBackend, edit_state
 from station.brush.deformable import DeformableBrush
 from station.brush.reservoir import pickup
 from station.brush.solver import SolverCounters
-from station.brush.stamp import STAMP_KIND, BrushModel, BrushSettings, RoundBrush, Sources
+from station.brush.sources import Sources
+from station.brush.stamp import STAMP_KIND, BrushModel, BrushSettings, RoundBrush
 from station.canvas.paper import make_paper
 from station.canvas.params import Profile
 from station.canvas.profiles import get_profile, profile_names
@@ -164,7 +165,8 @@ class SessionPlayer:
         return int(math.floor((t + self.waited) * self.rate + 1e-9))
 
     def step(self) -> None:
-        """One simulation step with the brush sources collected since the last."""
+        """One simulation step with the brush sources due before it (each stamp is
+        spread over the two steps around its time: :mod:`station.brush.sources`)."""
         self.flush_sources()
         dryer = self.dryer
         if dryer is not None:
@@ -183,8 +185,10 @@ class SessionPlayer:
             if on_step is not None:
                 on_step(self)
 
-    def flush_sources(self) -> None:
-        """Hand the pending brush stamps to the backend (no step).
+    def flush_sources(self, whole: bool = False) -> None:
+        """Hand the pending brush stamps to the backend (no step): all of them
+        (``whole``: before a command that needs the canvas as painted, at the end), or
+        the part due before the step about to run (a step, a live preview between steps).
 
         A deformable brush first lifts wet paint under its footprints (dirty
         brush) from the canvas arrays, where the backend keeps them in memory
@@ -199,7 +203,7 @@ class SessionPlayer:
                 for r in requests:
                     pickup(StateSurface(state), self.brush.reservoir, r.weight, r.y0, r.x0,
                            self.brush.shape.pickup)
-        src = self.brush.take()
+        src = self.brush.take(None if whole else self.counters.steps)
         if src is not None:
             add_sources(self.backend, src)
 
@@ -220,6 +224,7 @@ class SessionPlayer:
                 self._check_layer(where)
                 if self.controller is not None:
                     self._write_controller(record)
+            self.brush.clock = (self.rate, self.waited)
             self.brush.feed(record)
         else:
             self.command(record, where)
@@ -248,7 +253,7 @@ class SessionPlayer:
             self._dab = None
             self._tool_last = None
             return
-        self.flush_sources()  # what the brush painted before comes first
+        self.flush_sources(whole=True)  # what the brush painted before comes first
         cx, cy = rec.x * self.width, rec.y * self.height
         # dabs every third of the tool's radius between two samples, as the brush stamps
         radius = {"mask": self.mask_radius, "eraser": self.eraser.radius}.get(
@@ -331,7 +336,7 @@ class SessionPlayer:
         if deformable == isinstance(self.brush, DeformableBrush):
             self.brush.set(settings)
             return
-        self.flush_sources()
+        self.flush_sources(whole=True)
         old = self.brush
         if deformable:
             self.brush = DeformableBrush(self.width, self.height, settings, old.model,
@@ -386,7 +391,7 @@ class SessionPlayer:
 
     def _profile(self, args: Mapping[str, object], where: str | None) -> None:
         name = _profile_name(args, where)
-        self.flush_sources()
+        self.flush_sources(whole=True)
         try:
             self.backend.set_profile(name)
         except BadInput as exc:
@@ -432,11 +437,11 @@ class SessionPlayer:
                     self.advance_to(rec.t, on_step)
         except BadInput:
             try:  # keep what was painted before the bad record ...
-                self.flush_sources()
+                self.flush_sources(whole=True)
             except BadInput as exc:  # ... unless the stamps themselves are refused
                 log.warning("stamps before the bad record dropped: %s", exc)
             raise
-        self.flush_sources()
+        self.flush_sources(whole=True)
 
     def _check_time(self, t: float, more: float, where: Callable[[], str] | None,
                     flag: str | None = None) -> None:
@@ -454,7 +459,7 @@ class SessionPlayer:
         self._check_time(self.last_t, seconds, None, "--settle")
         self.waited += seconds
         self.advance_to(self.last_t, on_step)
-        self.flush_sources()
+        self.flush_sources(whole=True)
 
 
 def _profile_name(args: Mapping[str, object], where: str | None) -> str:
@@ -513,7 +518,7 @@ def check_command(cmd: Command, pigments: Container[str] | None = None,
 
 
 def _dry(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
-    p.flush_sources()
+    p.flush_sources(whole=True)
     p.backend.dry()
 
 
@@ -536,7 +541,7 @@ def _hairdryer(p: SessionPlayer, args: Mapping[str, object], where: str | None) 
     radius = _number(args, "radius", 60.0, 1.0, 2048.0, where) * p.brush_scale
     temp = _number(args, "temperature", 40.0, -10.0, 60.0, where)
     flow = _number(args, "airflow", 2.0, 0.0, 200.0, where)
-    p.flush_sources()
+    p.flush_sources(whole=True)
     p.dryer = HairDryer(cx=x * (p.width - 1), cy=y * (p.height - 1),
                         radius=max(1.0, min(radius, 2048.0)), temperature=temp, airflow=flow)
     p.dryer_until = p.counters.steps + int(round(seconds * p.rate))
@@ -545,7 +550,7 @@ def _hairdryer(p: SessionPlayer, args: Mapping[str, object], where: str | None) 
 
 
 def _new_layer(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
-    p.flush_sources()
+    p.flush_sources(whole=True)
     try:
         p.backend.new_layer()
     except BadInput as exc:
@@ -581,7 +586,7 @@ _AT = {"x", "y", "pressure"}
 
 def _pick_up(p: SessionPlayer, tool: str, args: Mapping[str, object], where: str | None) -> None:
     """Take ``tool`` in hand; with ``x``/``y`` (canvas-normalised) also dab once there."""
-    p.flush_sources()
+    p.flush_sources(whole=True)
     p.tool = tool
     p._dab = None
     p._tool_last = None
@@ -607,7 +612,7 @@ def _mask(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> No
 
 def _mask_remove(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
     _check_keys("mask_remove", args, set(), where)
-    p.flush_sources()
+    p.flush_sources(whole=True)
     edit_state(p.backend, mask_tool.rub_off)
 
 
@@ -658,7 +663,7 @@ def _tilt(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> No
     _check_keys("tilt", args, {"angle", "direction"}, where)
     angle = _tool_number("tilt", args, "angle", 0.0, 0.0, 90.0, where)
     direction = _tool_number("tilt", args, "direction", 90.0, 0.0, 359.999, where)
-    p.flush_sources()
+    p.flush_sources(whole=True)
     p.tilt = (angle, direction)
     _apply_tilt(p)
 
@@ -680,7 +685,7 @@ def _diffusion(p: SessionPlayer, args: Mapping[str, object], where: str | None) 
                                     "fade"}, where)
     if "fade" in args:  # how long a written pattern takes to age back to free [s]
         fade = _tool_number("diffusion", args, "fade", 2.0, 0.0, 3600.0, where)
-        p.flush_sources()
+        p.flush_sources(whole=True)
 
         def put(st: CanvasState) -> None:
             st.params = st.params.replace(block_fade=fade)
