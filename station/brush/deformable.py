@@ -49,7 +49,7 @@ from typing import Any
 
 import numpy as np
 
-from station.brush.footprint import FootprintMaps, rasterise, segments, weight
+from station.brush.footprint import FootprintMaps, prune_spurs, rasterise, segments, weight
 from station.brush.geometry import BrushShape, Tuft, get_shape
 from station.brush.reservoir import Reservoir
 from station.brush.solver import SolverCounters, SpineSolver, SpineState
@@ -502,6 +502,11 @@ class DeformableBrush:
         drag = (s.vx / speed, s.vy / speed) if speed > 0.0 else None
         y0, x0, wt = weight(maps, self.paper, tm.tooth, tm.ramp, dy, dx, lift, bead,
                             drag=drag, sink=tm.sink, skim=tm.skim)
+        if fill >= tm.film_fill:
+            # a loaded tuft's water is one body: a lone hair tip's drop joins its
+            # neighbours' (surface tension) instead of wetting a one-cell whisker; a
+            # draining tuft splits into locks and keeps its hair streaks
+            wt = prune_spurs(wt)
         self.stamps += 1
         if wt.size == 0:
             s.previous = None
