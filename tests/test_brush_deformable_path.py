@@ -76,3 +76,38 @@ def test_prune_spurs_clears_one_cell_protrusions_only() -> None:
     line[2, 1:8] = 1.0  # a rigger's one-cell line is the stroke, not a whisker
     assert (prune_spurs(line) == line).all()
     assert out.dtype == a.dtype
+
+
+@pytest.mark.parametrize("deg", [90, 225])
+def test_a_round_tuft_set_down_moving_draws_no_hook(
+        deg: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A round3d stroke that starts downwards or up-left: the middle of its mark, across
+    the pen's line, stays within 1.5 cells of it from the touch-down on (cells are whole:
+    a diagonal's midpoints fall on half-diagonals). Before the tuft buckled behind the
+    pen's first move it buckled along +-x whatever the motion: a 13.5 and 12.7 cell hook."""
+    n = 120
+    got = np.zeros((n, n))
+    add = player.add_sources
+
+    def grab(backend: CanvasBackend, src: Sources) -> None:
+        for v in src.dp.values():
+            got[src.region] += v
+        add(backend, src)
+
+    monkeypatch.setattr(player, "add_sources", grab)
+    a = np.radians(deg)
+    start = (0.5 - 0.3 * np.cos(a), 0.5 - 0.3 * np.sin(a))
+    end = (0.5 + 0.3 * np.cos(a), 0.5 + 0.3 * np.sin(a))
+    s = Script(n, n, seed=7, rate_hz=120.0)
+    s.brush(size=24, water=0.8, pigment={"French Ultramarine": 1.0}, kind="round3d")
+    s.line(start, end, 0.6, pressure=0.8)
+    player.SessionPlayer(NumpyCanvas(n, n, seed=7), n, n).play(s.records)
+    ys, xs = np.nonzero(got > 0)
+    px, py = xs + 0.5 - start[0] * n, ys + 0.5 - start[1] * n
+    along = np.floor(px * np.cos(a) + py * np.sin(a)).astype(int)
+    across = -px * np.sin(a) + py * np.cos(a)
+    for b in np.unique(along):
+        m = along == b
+        if m.sum() >= 3:
+            mid = 0.5 * (across[m].min() + across[m].max())
+            assert abs(mid) <= 1.5, (b, mid)

@@ -134,7 +134,9 @@ def test_coalesced_frames_match_a_solve_per_sample() -> None:
         assert src is not None
         out.append((src.full(W, H).dw, b.frames))
     (coalesced, f1), (every, f2) = out
-    assert f2 == 501 and f1 <= 130
+    # a solve per sample, but for the few the touch-down waits through (the pen's first
+    # quarter cell: the round tuft then buckles behind the motion)
+    assert 495 <= f2 <= 501 and f1 <= 130
     assert abs(coalesced.sum() - every.sum()) <= 0.05 * every.sum()
     a, b = coalesced > 0, every > 0
     assert (a & b).sum() / (a | b).sum() > 0.85  # the same trail

@@ -70,6 +70,13 @@ REACH = 0.03
 """How far below the plane the straight tip would reach at the lightest touch
 (tuft lengths): the bristles touch as soon as the pen does."""
 
+DOWN_MOVE = 0.25
+"""How far [cells] the pen must move from where a one-spine tuft touched down for the
+tuft to buckle behind that motion."""
+DOWN_WAIT = 0.25
+"""How long [session s] a one-spine tuft's touch-down waits for the pen to move before
+it buckles its own way (a brush pressed and held)."""
+
 
 @dataclass(frozen=True, slots=True)
 class TuftModel:
@@ -160,6 +167,10 @@ class _Stroke:
     ft: float = 0.0
     bristles: np.ndarray | None = None
     maps: FootprintMaps | None = None
+    # a one-spine tuft's touch-down waits for the pen's first move (sample, pressure):
+    # the tuft then buckles behind the motion (see DeformableBrush._touch_down)
+    down: tuple[PenSample, float] | None = None
+    twist: float = 0.0  # degrees added to the pen's barrel rotation for this stroke
 
 
 def _takes_tags(fn: Callable[..., FootprintMaps]) -> bool:
@@ -361,9 +372,13 @@ class DeformableBrush:
                 self._relax_all()
             return 0
         if not (sample.touching and sample.proximity):
-            if self._strokes.pop(key, None) is not None:
+            ended = self._strokes.pop(key, None)
+            made = 0
+            if ended is not None:
+                if ended.down is not None:  # a dab: the tuft set down and lifted
+                    made = self._touch_down(ended, *ended.down)
                 self._relax_all()
-            return 0
+            return made
         self.samples += 1
         p = sample.pressure
         if p == 0.0 and sample.tool in NO_PRESSURE_TOOLS:
@@ -374,11 +389,21 @@ class DeformableBrush:
             self.strokes += 1
             stroke = _Stroke(x, y, sample.t)
             self._strokes[key] = stroke
-            self._solve(stroke, x, y, p, sample)
-            maps = self._maps(stroke)
-            self._stamp(stroke, maps, 0, 0, sample.t)
-            stroke.to_next = self._spacing(maps)
-            return 1
+            if len(self.spines) == 1:
+                stroke.down = (sample, p)
+                return 0
+            return self._touch_down(stroke, sample, p)
+        made = 0
+        if stroke.down is not None:
+            down, pd = stroke.down
+            dx, dy = x - stroke.x, y - stroke.y
+            moved = math.hypot(dx, dy) >= DOWN_MOVE
+            if not moved and sample.t - down.t < DOWN_WAIT:
+                return 0  # still where it touched: the tuft's way is not known yet
+            stroke.down = None
+            if moved:
+                stroke.twist = math.degrees(math.atan2(dy, dx))
+            made = self._touch_down(stroke, down, pd)
         if self._due(stroke, x, y, sample.t):
             self._solve(stroke, x, y, p, sample)
         # the footprint belongs to the last solved frame, solved at (fx, fy); a stamp
@@ -391,7 +416,6 @@ class DeformableBrush:
             stroke.vx, stroke.vy = dx / dt, dy / dt
         elif dist == 0.0:
             stroke.vx = stroke.vy = 0.0
-        made = 0
         pos = stroke.to_next
         step = 0.0
         while pos <= dist and dist > 0.0:
@@ -408,6 +432,22 @@ class DeformableBrush:
         stroke.x, stroke.y, stroke.t = x, y, sample.t
         return made
 
+    def _touch_down(self, stroke: _Stroke, sample: PenSample, p: float) -> int:
+        """The stroke's first frame and stamp, at ``sample`` (its first).
+
+        A tuft pressed straight down buckles one way or the other; a round one's way is
+        the solver's symmetry breaker (along the handle's X axis), and a stroke that
+        starts any other way drew a hook where the tuft swung round behind the pen. A
+        painter's brush is set down moving and bends behind the motion, so a one-spine
+        tuft waits for the pen's first move and turns its handle's X axis along it
+        (``twist``); a dab lifted where it touched keeps the default."""
+        x, y = sample.x * self.width, sample.y * self.height
+        self._solve(stroke, x, y, p, sample)
+        maps = self._maps(stroke)
+        self._stamp(stroke, maps, 0, 0, sample.t)
+        stroke.to_next = self._spacing(maps)
+        return 1
+
     def _due(self, s: _Stroke, x: float, y: float, t: float) -> bool:
         """Does this sample need its own spine solve?  Yes when ``frame_interval`` has
         passed since the last one (every sample of a pen at ≤ 250 Hz), when the clock
@@ -420,7 +460,8 @@ class DeformableBrush:
         return math.hypot(x - s.fx, y - s.fy) >= tm.frame_reach * self.tuft_length
 
     def _solve(self, s: _Stroke, x: float, y: float, p: float, sample: PenSample) -> None:
-        s.bristles = self.frame(x, y, p, sample.tilt_x, sample.tilt_y, sample.rotation or 0.0)
+        s.bristles = self.frame(x, y, p, sample.tilt_x, sample.tilt_y,
+                                (sample.rotation or 0.0) + s.twist)
         s.fx, s.fy, s.ft = x, y, sample.t
         s.maps = None
 
