@@ -390,7 +390,10 @@ class DeformableBrush:
             stroke = _Stroke(x, y, sample.t)
             self._strokes[key] = stroke
             if len(self.spines) == 1:
+                # pressed, felt (haptics) and set (plasticity) at once; stamped when
+                # the pen's first move says which way the tuft bends
                 stroke.down = (sample, p)
+                self._solve(stroke, x, y, p, sample)
                 return 0
             return self._touch_down(stroke, sample, p)
         made = 0
@@ -399,10 +402,14 @@ class DeformableBrush:
             dx, dy = x - stroke.x, y - stroke.y
             moved = math.hypot(dx, dy) >= DOWN_MOVE
             if not moved and sample.t - down.t < DOWN_WAIT:
+                if self._due(stroke, x, y, sample.t):
+                    self._solve(stroke, x, y, p, sample)
                 return 0  # still where it touched: the tuft's way is not known yet
             stroke.down = None
             if moved:
                 stroke.twist = math.degrees(math.atan2(dy, dx))
+                st = self.spines[0]  # buckle afresh, behind the motion
+                st.x, st.pos, st.contact = st.rest.copy(), None, None
             made = self._touch_down(stroke, down, pd)
         if self._due(stroke, x, y, sample.t):
             self._solve(stroke, x, y, p, sample)
