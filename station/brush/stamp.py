@@ -49,14 +49,11 @@ from typing import Any
 import numpy as np
 
 from station.brush.geometry import known_shapes
-from station.brush.sources import (
-    Footprint,
-    Sources,
-    Stamp,
-    StampPreview,
-    StampQueue,
-    painting_steps,
-)
+from station.brush.sources import Footprint as Footprint
+from station.brush.sources import Sources as Sources
+from station.brush.sources import Stamp as Stamp
+from station.brush.sources import StampPreview as StampPreview
+from station.brush.sources import StampQueue, painting_steps
 from station.errors import BadInput
 from station.events import PenSample, Tool
 
