@@ -75,6 +75,11 @@ def test_prune_spurs_clears_one_cell_protrusions_only() -> None:
     line = np.zeros((5, 9), np.float32)
     line[2, 1:8] = 1.0  # a rigger's one-cell line is the stroke, not a whisker
     assert (prune_spurs(line) == line).all()
+    band = np.zeros((7, 12), np.float32)
+    band[2:5, 1:11] = 1.0  # a thin mark (a flat brush edge-on): mostly edge
+    band[1, 5] = 1.0  # ... with a whisker off its side: that goes, the band stays
+    out = prune_spurs(band)
+    assert out[1, 5] == 0.0 and (out[2:5, 1:11] == 1.0).all()
     assert out.dtype == a.dtype
 
 
