@@ -110,7 +110,7 @@ def test_the_bus_subscriber_follows_a_bounded_number_of_streams(
 
 def test_samples_still_queued_when_the_sim_stops_are_counted(tmp_path: Path) -> None:
     from station.bus import Publisher
-    from station.sim.live import LiveSim
+    from station.sim.live_bus import LiveSim
 
     bus = f"ipc://{tmp_path}/bus"
     with Publisher("@" + bus, replay=False) as pub:

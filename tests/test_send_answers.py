@@ -15,7 +15,8 @@ from station.answer import ReadKeys, ReplyRequest, parse_request
 from station.bus import runtime_dir
 from station.cli import main
 from station.events import Command
-from station.sim.live import LiveConfig, LiveSim
+from station.sim.live import LiveConfig
+from station.sim.live_bus import LiveSim
 
 
 def _sim(tmp_path: Path, cmd: str | None = None) -> tuple[LiveSim, threading.Thread]:

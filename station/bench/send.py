@@ -27,7 +27,8 @@ import time
 from pathlib import Path
 
 from station.errors import BadInput
-from station.sim.live import LiveConfig, LiveSim
+from station.sim.live import LiveConfig
+from station.sim.live_bus import LiveSim
 
 
 def register(sub: argparse._SubParsersAction) -> None:
