@@ -92,6 +92,18 @@ class SimParams:
             reference draught [1] (evaporation is proportional to it).
         c_min, c_max: capillary capacity at paper height 0 and 1 [height].
         moist_threshold: ``wc`` above which a cell is moist, hence wet [height].
+        damp_ease: how much the paper's saturation ``s = wc / c`` eases the contact line
+            into a cell [1], 0 ... 1: the advancing height becomes
+            ``advance_height * (1.5 - h) * (1 - damp_ease * s)``. Damp paper's fibres are
+            already swollen and wetted, so fresh water runs into a damp wash where it
+            stops at dry paper: the backrun of Curtis et al. 1997 (section 4.7, capillary
+            flow into damp cells; fig. 1c). 0: off.
+        suspend_sat: saturation ``wc / c`` above which a cell without fluid water keeps
+            its pigment in suspension instead of depositing it [1], 0 ... 1 (0: off, every
+            cell without fluid water deposits). Gum arabic stays soft while the paper is
+            damp, so water flowing back into a damp wash lifts and carries its pigment
+            (Curtis 1997, 4.7 backruns; Smith, "The Watercolour Painter's Handbook":
+            blooms form only while the wash is damp, not once it has dried).
         v_max: bound of each velocity component [cell/s]; ``v_max * dt <= 1``.
         surface_rate: factor on the surface exchange of eqs. 4.11/4.12 [1/s] (spec: 1;
             default 0.5 keeps pigment suspended long enough to travel to the rim).
@@ -143,6 +155,8 @@ class SimParams:
     c_min: float = 0.1
     c_max: float = 0.4
     moist_threshold: float = 0.25
+    damp_ease: float = 0.0
+    suspend_sat: float = 0.0
     v_max: float = 30.0
     surface_rate: float = 0.1
     block_paper: float = 0.0
@@ -199,6 +213,10 @@ class SimParams:
             raise CanvasInputError("fibre_wick must be in [0, 1]", "params")
         if self.fibre_dispersivity > 100:
             raise CanvasInputError("fibre_dispersivity must be <= 100 cells", "params")
+        if not 0 <= self.damp_ease <= 1:
+            raise CanvasInputError("damp_ease must lie in [0, 1]", "params")
+        if not 0 <= self.suspend_sat <= 1:
+            raise CanvasInputError("suspend_sat must lie in [0, 1]", "params")
         if not 0 <= self.block_paper <= 1:
             raise CanvasInputError("block_paper must lie in [0, 1]", "params")
         if not 0 <= self.tilt <= 90:

@@ -203,6 +203,8 @@ def wet_mask(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams,
     own = own_wet(w, wc, mask, prm)
     if prm.advance_height > 0:
         thr = F32(prm.advance_height) * (F32(1.5) - h)
+        if prm.damp_ease > 0:
+            thr = thr * damp_factor(wc, h, prm)
         if prm.fibre_wick > 0 and fibre is not None:
             # a fibre along the face axis wicks the front on: lower pinning height
             thx = thr * (_ONE - F32(prm.fibre_wick) * fibre[0])
@@ -221,6 +223,18 @@ def wet_mask(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams,
         nb[1:, :] = np.maximum(nb[1:, :], w[:-1, :])
         own = own | ((nb > thr) & (mask == 0))
     return own
+
+
+def capacity(h: np.ndarray, prm: SimParams) -> np.ndarray:
+    """Capillary capacity ``c = c_min + h (c_max - c_min)`` [height], float32."""
+    return F32(prm.c_min) + h * F32(prm.c_max - prm.c_min)
+
+
+def damp_factor(wc: np.ndarray, h: np.ndarray, prm: SimParams) -> np.ndarray:
+    """``1 - damp_ease * min(wc / c, 1)``: the share of the advancing height left to
+    overcome on paper whose capillary layer is already this saturated (float32)."""
+    s = np.minimum(wc / capacity(h, prm), _ONE)
+    return (_ONE - F32(prm.damp_ease) * s).astype(F32)
 
 
 def water_speed(vx: np.ndarray, vy: np.ndarray, prm: SimParams) -> np.ndarray:
@@ -606,13 +620,20 @@ def capillary(w: np.ndarray, wc: np.ndarray, h: np.ndarray, mask: np.ndarray,
 
 
 def dry_cells(w: np.ndarray, p: np.ndarray, q: np.ndarray, vx: np.ndarray, vy: np.ndarray,
-              evaporated: np.ndarray, prm: SimParams) -> tuple[np.ndarray, ...]:
-    """Pass 10: tiny water evaporates; cells without fluid water deposit their pigment."""
+              evaporated: np.ndarray, prm: SimParams, wc: np.ndarray | None = None,
+              h: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+    """Pass 10: tiny water evaporates; cells without fluid water deposit their pigment,
+    unless (``suspend_sat > 0``) their capillary layer is still saturated above
+    ``suspend_sat``: the pigment stays suspended in the damp paper until it dries."""
     tiny = (w > 0) & (w < F32(prm.w_dry_eps))
     evaporated = evaporated + np.where(tiny, w, _ZERO)
     w = np.where(tiny, _ZERO, w)
     dry = w == 0
-    t = np.where(dry, np.minimum(p, _ONE - q), _ZERO)
+    if prm.suspend_sat > 0 and wc is not None and h is not None:
+        settle = dry & ~(wc > F32(prm.suspend_sat) * capacity(h, prm))
+        t = np.where(settle, np.minimum(p, _ONE - q), _ZERO)
+    else:
+        t = np.where(dry, np.minimum(p, _ONE - q), _ZERO)
     return (w, p - t, q + t, np.where(dry, _ZERO, vx), np.where(dry, _ZERO, vy), evaporated)
 
 
@@ -707,7 +728,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
         elif name == "capillary":
             w, wc, evap = capillary(w, wc, h, mask, evap, prm, dt)
         else:  # dry_cells
-            w, pp, qq, vx, vy, evap = dry_cells(w, pp, qq, vx, vy, evap, prm)
+            w, pp, qq, vx, vy, evap = dry_cells(w, pp, qq, vx, vy, evap, prm, wc, h)
         if name == stop_after:
             break
 
