@@ -24,6 +24,9 @@ uniform float u_advance;      // advance_height [height] (0: contact line pinned
 uniform float u_wick;         // fibre_wick: a fibre along the axis lowers the advancing height
 uniform float u_disperse;     // fibre_dispersivity / nu_p [s/cell]: dispersion along fibre channels
 uniform float u_fibre_flow_max;  // [cell/s] water moves through the fibre channels no faster
+uniform float u_ease;         // damp_ease: saturation s = wc / c eases the advancing height
+uniform float u_cmin;         // c_min [height]
+uniform float u_crange;       // float32(c_max - c_min) [height]
 
 bool wet_at(ivec2 c) {
     vec4 wa = imageLoad(water_in, c);
@@ -48,6 +51,11 @@ void main() {
         // stands above its advancing height advance_height (1.5 - h), times
         // (1 - fibre_wick * fibre) along the axis of that neighbour (x: .x, y: .y)
         float thr = u_advance * (1.5 - pa.x);
+        if (u_ease > 0.0) {
+            // damp paper: times 1 - damp_ease * min(wc / c, 1) (reference.damp_factor)
+            float sat = min(wa.y / (u_cmin + pa.x * u_crange), 1.0);
+            thr = thr * (1.0 - u_ease * sat);
+        }
         vec2 fib = u_wick > 0.0 ? imageLoad(fibre_in, c).xy : vec2(0.0);
         for (int f = 0; f < 4; ++f) {
             ivec2 n = c + OFFS[f];

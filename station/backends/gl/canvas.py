@@ -441,6 +441,7 @@ class GLCanvas:
         _set(p["prep"], "u_wick", prm.fibre_wick)
         _set(p["prep"], "u_disperse", float(F32(prm.fibre_dispersion_gain())))
         _set(p["prep"], "u_fibre_flow_max", prm.fibre_flow_max)
+        _set(p["prep"], "u_ease", prm.damp_ease)
         taps = reference.gaussian_taps(prm.wet_blur) if prm.flow_outward > 0 else np.zeros(0, F32)
         if len(taps) > 17:
             raise CanvasInputError("wet_blur too large for the GL backend (at most 4)", "params")
@@ -477,13 +478,14 @@ class GLCanvas:
         for key, val in self._slot_uniforms().items():
             _set(es, key, val)
         _set(es, "u_absorb", float(F32(prm.alpha * dt)))
-        for name in ("evap_surface", "capillary_dry"):
+        for name in ("evap_surface", "capillary_dry", "prep"):
             _set(p[name], "u_cmin", prm.c_min)
             _set(p[name], "u_crange", float(F32(prm.c_max - prm.c_min)))
         cd = p["capillary_dry"]
         _set(cd, "u_kcap", float(F32(prm.cap_diffusion * dt)))
         _set(cd, "u_ecap", float(F32(prm.evap_cap() * dt)))
         _set(cd, "u_dry_eps", prm.w_dry_eps)
+        _set(cd, "u_susp", prm.suspend_sat)
         _set(p["tile_update"], "u_ttl", prm.tile_ttl_steps())
 
     def _begin_step(self) -> None:
