@@ -24,7 +24,7 @@ uniform float u_advance;      // advance_height [height] (0: contact line pinned
 uniform float u_wick;         // fibre_wick: a fibre along the axis lowers the advancing height
 uniform float u_disperse;     // fibre_dispersivity / nu_p [s/cell]: dispersion along fibre channels
 uniform float u_fibre_flow_max;  // [cell/s] water moves through the fibre channels no faster
-uniform float u_ease;         // damp_ease: saturation s = wc / c eases the advancing height
+uniform float u_ease;         // damp_ease: a saturated capillary layer eases the advancing height
 uniform float u_cmin;         // c_min [height]
 uniform float u_crange;       // float32(c_max - c_min) [height]
 
@@ -52,9 +52,9 @@ void main() {
         // (1 - fibre_wick * fibre) along the axis of that neighbour (x: .x, y: .y)
         float thr = u_advance * (1.5 - pa.x);
         if (u_ease > 0.0) {
-            // damp paper: times 1 - damp_ease * min(wc / c, 1) (reference.damp_factor)
-            float sat = min(wa.y / (u_cmin + pa.x * u_crange), 1.0);
-            thr = thr * (1.0 - u_ease * sat);
+            // damp paper: times min(damp_ease * (1 - wc / c), 1) (reference.damp_factor)
+            float f = u_ease * (1.0 - wa.y / (u_cmin + pa.x * u_crange));
+            thr = thr * min(f, 1.0);
         }
         vec2 fib = u_wick > 0.0 ? imageLoad(fibre_in, c).xy : vec2(0.0);
         for (int f = 0; f < 4; ++f) {

@@ -92,12 +92,14 @@ class SimParams:
             reference draught [1] (evaporation is proportional to it).
         c_min, c_max: capillary capacity at paper height 0 and 1 [height].
         moist_threshold: ``wc`` above which a cell is moist, hence wet [height].
-        damp_ease: how much the paper's saturation ``s = wc / c`` eases the contact line
-            into a cell [1], 0 ... 1: the advancing height becomes
-            ``advance_height * (1.5 - h) * (1 - damp_ease * s)``. Damp paper's fibres are
-            already swollen and wetted, so fresh water runs into a damp wash where it
-            stops at dry paper: the backrun of Curtis et al. 1997 (section 4.7, capillary
-            flow into damp cells; fig. 1c). 0: off.
+        damp_ease: how steeply the paper's saturation ``s = wc / c`` eases the contact
+            line into a cell [1] (0: off): the advancing height is multiplied by
+            ``min(damp_ease * (1 - s), 1)``, so paper below the saturation
+            ``1 - 1 / damp_ease`` pins the front like dry paper and a full capillary layer
+            lets it through. Damp paper's fibres are swollen and wetted: fresh water runs
+            on into a damp wash as far as the capillary layer around it fills, the
+            gradual growth of the wet-area mask by capillary flow of Curtis et al. 1997
+            (section 4.7, backruns; fig. 1c), here a ramp instead of their threshold sigma.
         suspend_sat: saturation ``wc / c`` above which a cell without fluid water keeps
             its pigment in suspension instead of depositing it [1], 0 ... 1 (0: off, every
             cell without fluid water deposits). Gum arabic stays soft while the paper is
@@ -213,8 +215,8 @@ class SimParams:
             raise CanvasInputError("fibre_wick must be in [0, 1]", "params")
         if self.fibre_dispersivity > 100:
             raise CanvasInputError("fibre_dispersivity must be <= 100 cells", "params")
-        if not 0 <= self.damp_ease <= 1:
-            raise CanvasInputError("damp_ease must lie in [0, 1]", "params")
+        if self.damp_ease > 1000:
+            raise CanvasInputError("damp_ease must lie in [0, 1000]", "params")
         if not 0 <= self.suspend_sat <= 1:
             raise CanvasInputError("suspend_sat must lie in [0, 1]", "params")
         if not 0 <= self.block_paper <= 1:

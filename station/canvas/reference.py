@@ -231,10 +231,11 @@ def capacity(h: np.ndarray, prm: SimParams) -> np.ndarray:
 
 
 def damp_factor(wc: np.ndarray, h: np.ndarray, prm: SimParams) -> np.ndarray:
-    """``1 - damp_ease * min(wc / c, 1)``: the share of the advancing height left to
-    overcome on paper whose capillary layer is already this saturated (float32)."""
-    s = np.minimum(wc / capacity(h, prm), _ONE)
-    return (_ONE - F32(prm.damp_ease) * s).astype(F32)
+    """``min(damp_ease * (1 - wc / c), 1)``: the share of the advancing height left to
+    overcome on paper whose capillary layer is already this saturated (float32); 0 on a
+    full capillary layer, 1 below the saturation ``1 - 1 / damp_ease``."""
+    f = F32(prm.damp_ease) * (_ONE - wc / capacity(h, prm))
+    return np.minimum(f, _ONE).astype(F32)
 
 
 def water_speed(vx: np.ndarray, vy: np.ndarray, prm: SimParams) -> np.ndarray:

@@ -293,10 +293,9 @@ def _fibre_dispersion(fibre: np.ndarray, vx: np.ndarray, vy: np.ndarray, y: int,
 @_inline
 def _damp_factor(wcv: np.float32, hv: np.float32, cmin: np.float32, cspan: np.float32,
                  ease: np.float32) -> np.float32:
-    """``1 - damp_ease * min(wc / c, 1)`` (reference.damp_factor)."""
-    sv = wcv / (cmin + hv * cspan)
-    sv = ONE if sv > ONE else sv
-    return ONE - ease * sv
+    """``min(damp_ease * (1 - wc / c), 1)`` (reference.damp_factor)."""
+    f = ease * (ONE - wcv / (cmin + hv * cspan))
+    return ONE if f > ONE else f
 
 
 @_parallel
