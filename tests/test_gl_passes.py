@@ -163,6 +163,7 @@ def test_damp_paper_keeps_its_pigment_suspended(ctx) -> None:
     w, p, q, vx, vy, evap = ref.dry_cells(w, st.p[:6], st.q[:6], st.vx, st.vy, evap, prm,
                                           wc, st.h)
     close("suspended pigment (10)", out.p[:6], p)
+    close("velocity y (10)", out.vy, vy)
     close("deposited pigment (10)", out.q[:6], q)
     close("velocity (10)", out.vx, vx)
     held = (out.w == 0) & (out.p[0] > 0)

@@ -45,6 +45,7 @@ from station.pictures.effects_core import (
     delta_e76,
     hue_deg,
     lab,
+    lab_hue_deg,
     luma,
 )
 from station.pictures.effects_physics import (
@@ -58,7 +59,6 @@ from station.pictures.effects_physics import (
     granulation,
     ink_bleed,
     ink_flying_white,
-    lab_hue_deg,
     staining_lifting,
     wet_in_wet,
     wet_on_dry_edge,
