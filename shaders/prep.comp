@@ -52,11 +52,9 @@ void main() {
         // (1 - fibre_wick * fibre) along the axis of that neighbour (x: .x, y: .y)
         float thr = u_advance * (1.5 - pa.x);
         if (u_ease > 0.0) {
-            // damp paper: times max(1 - damp_ease * 4 s (1 - s), 0), s = min(wc / c, 1)
-            // (reference.damp_factor): damp paper's suction draws the front in
-            float s = min(wa.y / (u_cmin + pa.x * u_crange), 1.0);
-            float f = 1.0 - u_ease * ((4.0 * s) * (1.0 - s));
-            thr = thr * max(f, 0.0);
+            // damp paper: times min(damp_ease * (1 - wc / c), 1) (reference.damp_factor)
+            float f = u_ease * (1.0 - wa.y / (u_cmin + pa.x * u_crange));
+            thr = thr * min(f, 1.0);
         }
         vec2 fib = u_wick > 0.0 ? imageLoad(fibre_in, c).xy : vec2(0.0);
         for (int f = 0; f < 4; ++f) {

@@ -92,15 +92,14 @@ class SimParams:
             reference draught [1] (evaporation is proportional to it).
         c_min, c_max: capillary capacity at paper height 0 and 1 [height].
         moist_threshold: ``wc`` above which a cell is moist, hence wet [height].
-        damp_ease: suction of damp paper on the contact line [1] (0: off): the advancing
-            height is multiplied by ``max(1 - damp_ease * 4 s (1 - s), 0)``, ``s = wc / c``
-            the capillary layer's saturation. Dry paper (s = 0) pins the front by its
-            sizing and a full capillary layer (s = 1) has no suction left; in between the
-            damp paper draws fresh water in. Water put into a damp wash therefore runs
-            on into it where the paper is still unsaturated and stalls where its own
-            capillary halo has filled the paper: a front that grows fingers into the
-            drier paper (Curtis et al. 1997, section 4.7: the wet-area mask grows by
-            capillary flow into damp cells, none into paper drier than delta; fig. 1c).
+        damp_ease: how steeply the paper's saturation ``s = wc / c`` eases the contact
+            line into a cell [1] (0: off): the advancing height is multiplied by
+            ``min(damp_ease * (1 - s), 1)``, so paper below the saturation
+            ``1 - 1 / damp_ease`` pins the front like dry paper and a full capillary layer
+            lets it through. Damp paper's fibres are swollen and wetted: fresh water runs
+            on into a damp wash as far as the capillary layer around it fills, the
+            gradual growth of the wet-area mask by capillary flow of Curtis et al. 1997
+            (section 4.7, backruns; fig. 1c), here a ramp instead of their threshold sigma.
         suspend_sat: saturation ``wc / c`` above which a cell without fluid water keeps
             its pigment in suspension instead of depositing it [1], 0 ... 1 (0: off, every
             cell without fluid water deposits). Gum arabic stays soft while the paper is

@@ -58,9 +58,9 @@ NOTE (no maths change): pass 6 evaluates ``r' = (r * s_out[donor]) * s_in[receiv
   that order; pass 4/5 skip the donor limiter when no cell is short (bitwise the same).
 
 CHANGED: backruns (issue 21 item 4). Wet mask on damp paper: with ``damp_ease > 0`` the
-  advancing height is multiplied by ``max(1 - damp_ease * ((4 s) (1 - s)), 0)``,
-  ``s = min(wc / c, 1)`` (``c`` the capillary capacity ``c_min + h (c_max - c_min)``;
-  stencils.damp_factor), both axes, before the fibre factor. Pass 10: with ``suspend_sat > 0`` a cell with ``w == 0`` deposits only when NOT
+  advancing height is multiplied by ``min(damp_ease * (1 - wc / c), 1)`` (``c`` the capillary
+  capacity ``c_min + h (c_max - c_min)``; stencils.damp_factor), both axes, before the fibre
+  factor. Pass 10: with ``suspend_sat > 0`` a cell with ``w == 0`` deposits only when NOT
   ``wc > suspend_sat * c`` (wc after pass 9): damp paper keeps its pigment suspended, so
   water flowing back into a damp wash carries it to the front (Curtis et al. 1997, 4.7).
   The watercolor profile sets both and ``moist_threshold`` 1.0 (no cell is wet by its

@@ -62,13 +62,11 @@ def capacity(h: np.ndarray, prm: SimParams) -> np.ndarray:
 
 
 def damp_factor(wc: np.ndarray, h: np.ndarray, prm: SimParams) -> np.ndarray:
-    """``max(1 - damp_ease * 4 s (1 - s), 0)``, ``s = min(wc / c, 1)`` the capillary layer's
-    saturation: the share of the advancing height left to overcome (float32). Dry paper
-    (s = 0) pins the front by its sizing and a full capillary layer (s = 1) has no suction
-    left; damp paper in between draws fresh water in, most at half saturation."""
-    s = np.minimum(wc / capacity(h, prm), _ONE)
-    f = _ONE - F32(prm.damp_ease) * (F32(4.0) * s * (_ONE - s))
-    return np.maximum(f, _ZERO).astype(F32)
+    """``min(damp_ease * (1 - wc / c), 1)``: the share of the advancing height left to
+    overcome on paper whose capillary layer is already this saturated (float32); 0 on a
+    full capillary layer, 1 below the saturation ``1 - 1 / damp_ease``."""
+    f = F32(prm.damp_ease) * (_ONE - wc / capacity(h, prm))
+    return np.minimum(f, _ONE).astype(F32)
 
 
 def water_speed(vx: np.ndarray, vy: np.ndarray, prm: SimParams) -> np.ndarray:

@@ -53,7 +53,6 @@ ONE = np.float32(1.0)
 HALF = np.float32(0.5)
 
 # indices into the float32 constant vector ``cst`` (see step.constants)
-FOUR = np.float32(4.0)
 C_DT = 0
 C_KV = 1          # viscosity * dt
 C_KW = 2          # nu_w * dt
@@ -294,12 +293,9 @@ def _fibre_dispersion(fibre: np.ndarray, vx: np.ndarray, vy: np.ndarray, y: int,
 @_inline
 def _damp_factor(wcv: np.float32, hv: np.float32, cmin: np.float32, cspan: np.float32,
                  ease: np.float32) -> np.float32:
-    """``max(1 - damp_ease * 4 s (1 - s), 0)``, ``s = min(wc / c, 1)``
-    (reference.damp_factor)."""
-    s = wcv / (cmin + hv * cspan)
-    s = ONE if s > ONE else s
-    f = ONE - ease * ((FOUR * s) * (ONE - s))
-    return ZERO if f < ZERO else f
+    """``min(damp_ease * (1 - wc / c), 1)`` (reference.damp_factor)."""
+    f = ease * (ONE - wcv / (cmin + hv * cspan))
+    return ONE if f > ONE else f
 
 
 @_parallel
