@@ -139,7 +139,7 @@ def test_prep_front_runs_along_fibres(ctx) -> None:
 
 def test_prep_damp_paper_eases_the_front(ctx) -> None:
     """damp_ease: the advancing height into a damp cell falls with its saturation."""
-    prm = SimParams(damp_ease=3.0, moist_threshold=1.0)
+    prm = SimParams(damp_ease=3.0, damp_sat=0.3, moist_threshold=1.0)
     st = random_state(2, params=prm)
     c = gl_canvas(ctx, st)
     c._pass_prep()
@@ -171,7 +171,7 @@ def test_damp_paper_keeps_its_pigment_suspended(ctx) -> None:
 
 
 def test_full_step_on_damp_paper_matches_reference(ctx) -> None:
-    st = random_state(8, params=SimParams(damp_ease=2.0, suspend_sat=0.6,
+    st = random_state(8, params=SimParams(damp_ease=8.0, damp_sat=0.5, suspend_sat=0.6,
                                           moist_threshold=1.0))
     c = gl.GLCanvas(W, H, ctx=ctx, tiling=False)
     c.load_state(st)

@@ -92,14 +92,19 @@ class SimParams:
             reference draught [1] (evaporation is proportional to it).
         c_min, c_max: capillary capacity at paper height 0 and 1 [height].
         moist_threshold: ``wc`` above which a cell is moist, hence wet [height].
-        damp_ease: how steeply the paper's saturation ``s = wc / c`` eases the contact
-            line into a cell [1] (0: off): the advancing height is multiplied by
-            ``min(damp_ease * (1 - s), 1)``, so paper below the saturation
-            ``1 - 1 / damp_ease`` pins the front like dry paper and a full capillary layer
-            lets it through. Damp paper's fibres are swollen and wetted: fresh water runs
-            on into a damp wash as far as the capillary layer around it fills, the
-            gradual growth of the wet-area mask by capillary flow of Curtis et al. 1997
-            (section 4.7, backruns; fig. 1c), here a ramp instead of their threshold sigma.
+        damp_ease: suction of damp paper on the contact line [1] (0: off): the advancing
+            height is multiplied by ``max(1 - damp_ease * 4 s' (1 - s'), 0)``, where
+            ``s' = max(s - damp_sat, 0) / (1 - damp_sat)`` rescales the capillary layer's
+            saturation ``s = wc / c`` above ``damp_sat``. Paper drier than ``damp_sat``
+            (dry paper, the capillary halo of a stroke) pins the front as before; a full
+            capillary layer has no suction left; damp paper in between draws fresh water
+            in. Water put into a damp wash therefore runs on where the wash is still
+            unsaturated and stalls where its own capillary halo has filled the paper: the
+            front grows lobes into the drier paper (Curtis et al. 1997, section 4.7: the
+            wet-area mask grows by capillary flow into damp cells, none into paper drier
+            than their delta; fig. 1c).
+        damp_sat: saturation ``wc / c`` above which paper counts as damp for
+            ``damp_ease`` [1], 0 ... 0.99 (Curtis's delta).
         suspend_sat: saturation ``wc / c`` above which a cell without fluid water keeps
             its pigment in suspension instead of depositing it [1], 0 ... 1 (0: off, every
             cell without fluid water deposits). Gum arabic stays soft while the paper is
@@ -158,6 +163,7 @@ class SimParams:
     c_max: float = 0.4
     moist_threshold: float = 0.25
     damp_ease: float = 0.0
+    damp_sat: float = 0.0
     suspend_sat: float = 0.0
     v_max: float = 30.0
     surface_rate: float = 0.1
@@ -215,6 +221,8 @@ class SimParams:
             raise CanvasInputError("fibre_wick must be in [0, 1]", "params")
         if self.fibre_dispersivity > 100:
             raise CanvasInputError("fibre_dispersivity must be <= 100 cells", "params")
+        if not 0 <= self.damp_sat <= 0.99:
+            raise CanvasInputError("damp_sat must lie in [0, 0.99]", "params")
         if self.damp_ease > 1000:
             raise CanvasInputError("damp_ease must lie in [0, 1000]", "params")
         if not 0 <= self.suspend_sat <= 1:

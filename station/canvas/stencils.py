@@ -62,11 +62,14 @@ def capacity(h: np.ndarray, prm: SimParams) -> np.ndarray:
 
 
 def damp_factor(wc: np.ndarray, h: np.ndarray, prm: SimParams) -> np.ndarray:
-    """``min(damp_ease * (1 - wc / c), 1)``: the share of the advancing height left to
-    overcome on paper whose capillary layer is already this saturated (float32); 0 on a
-    full capillary layer, 1 below the saturation ``1 - 1 / damp_ease``."""
-    f = F32(prm.damp_ease) * (_ONE - wc / capacity(h, prm))
-    return np.minimum(f, _ONE).astype(F32)
+    """``max(1 - damp_ease * ((4 s') (1 - s')), 0)`` with ``s' = max(s - damp_sat, 0) /
+    (1 - damp_sat)``, ``s = min(wc / c, 1)``: the share of the advancing height left to
+    overcome (float32). Paper drier than ``damp_sat`` pins the front (1), a full capillary
+    layer has no suction (1), damp paper in between draws fresh water in."""
+    s = np.minimum(wc / capacity(h, prm), _ONE)
+    sp = np.maximum(s - F32(prm.damp_sat), _ZERO) / F32(1.0 - prm.damp_sat)
+    f = _ONE - F32(prm.damp_ease) * ((F32(4.0) * sp) * (_ONE - sp))
+    return np.maximum(f, _ZERO).astype(F32)
 
 
 def water_speed(vx: np.ndarray, vy: np.ndarray, prm: SimParams) -> np.ndarray:

@@ -53,6 +53,7 @@ ONE = np.float32(1.0)
 HALF = np.float32(0.5)
 
 # indices into the float32 constant vector ``cst`` (see step.constants)
+FOUR = np.float32(4.0)
 C_DT = 0
 C_KV = 1          # viscosity * dt
 C_KW = 2          # nu_w * dt
@@ -87,7 +88,9 @@ C_DISP = 30       # fibre_dispersivity / nu_p (SimParams.fibre_dispersion_gain)
 C_VFIB = 31       # fibre_flow_max
 C_EASE = 32       # damp_ease
 C_SUSP = 33       # suspend_sat
-N_CONST = 34
+C_DSAT = 34       # damp_sat
+C_DSPAN = 35      # float32(1 - damp_sat)
+N_CONST = 36
 
 # the sweeps: rows in parallel; IEEE float32 maths exactly as written (no fastmath, no FMA
 # contraction), numpy's error model (division without ZeroDivision checks: every division
@@ -292,10 +295,15 @@ def _fibre_dispersion(fibre: np.ndarray, vx: np.ndarray, vy: np.ndarray, y: int,
 
 @_inline
 def _damp_factor(wcv: np.float32, hv: np.float32, cmin: np.float32, cspan: np.float32,
-                 ease: np.float32) -> np.float32:
-    """``min(damp_ease * (1 - wc / c), 1)`` (reference.damp_factor)."""
-    f = ease * (ONE - wcv / (cmin + hv * cspan))
-    return ONE if f > ONE else f
+                 ease: np.float32, dsat: np.float32, dspan: np.float32) -> np.float32:
+    """``max(1 - damp_ease ((4 s') (1 - s')), 0)``, ``s' = max(s - damp_sat, 0) /
+    (1 - damp_sat)``, ``s = min(wc / c, 1)`` (reference.damp_factor)."""
+    s = wcv / (cmin + hv * cspan)
+    s = ONE if s > ONE else s
+    sp = s - dsat
+    sp = (sp if sp > ZERO else ZERO) / dspan
+    f = ONE - ease * ((FOUR * sp) * (ONE - sp))
+    return ZERO if f < ZERO else f
 
 
 @_parallel
@@ -328,6 +336,8 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
     disp = cst[C_DISP]
     vfib = cst[C_VFIB]
     ease = cst[C_EASE]
+    dsat = cst[C_DSAT]
+    dspan = cst[C_DSPAN]
     easing = ease > ZERO
     advancing = adv > ZERO
     nt = taps.shape[0]
@@ -364,7 +374,8 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         own[i + r] = ONE if ow else ZERO
                         thr = adv * (one5 - h[y, x])
                         if easing:
-                            thr = thr * _damp_factor(wc[y, x], h[y, x], cmin, cspan, ease)
+                            thr = thr * _damp_factor(wc[y, x], h[y, x], cmin, cspan, ease,
+                                                        dsat, dspan)
                         nb = wr[i + 1]
                         t = wr[i - 1]
                         nb = nb if nb > t else t
@@ -387,7 +398,8 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         own[i + r] = ONE if ow else ZERO
                         thr = adv * (one5 - h[y, x])
                         if easing:
-                            thr = thr * _damp_factor(wc[y, x], h[y, x], cmin, cspan, ease)
+                            thr = thr * _damp_factor(wc[y, x], h[y, x], cmin, cspan, ease,
+                                                        dsat, dspan)
                         nb = wr[i + 1]
                         t = wr[i - 1]
                         nb = nb if nb > t else t

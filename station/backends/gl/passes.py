@@ -86,6 +86,8 @@ class GLStepPasses:
         _set(p["prep"], "u_disperse", float(F32(prm.fibre_dispersion_gain())))
         _set(p["prep"], "u_fibre_flow_max", prm.fibre_flow_max)
         _set(p["prep"], "u_ease", prm.damp_ease)
+        _set(p["prep"], "u_dsat", prm.damp_sat)
+        _set(p["prep"], "u_dspan", float(F32(1.0 - prm.damp_sat)))
         taps = reference.gaussian_taps(prm.wet_blur) if prm.flow_outward > 0 else np.zeros(0, F32)
         if len(taps) > 17:
             raise CanvasInputError("wet_blur too large for the GL backend (at most 4)", "params")
