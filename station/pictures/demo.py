@@ -138,10 +138,10 @@ def landscape(width: int = DEMO_WIDTH, height: int = DEMO_HEIGHT) -> Script:
     _fill(s, 0.38, 0.07, 0.1, 1.3, 0.5, 5, 0.8, 15.0, sharp=0.5, fade=0.6)
     # the wash loses its shine (no standing water, the paper still damp) before the
     # water goes in: only then does it run back into the wash as a backrun
-    s.wait(16.0)
-    s.brush(size=6 * c, water=1.0, pigment={})
+    s.wait(25.0)  # measured: the standing water is gone at 25-28 s, the paper 85-95 % full
+    s.brush(size=4 * c, water=1.0, pigment={})
     for x, y in ((0.18, 0.42), (0.63, 0.4)):
-        s.dab((x, y), 0.5, pressure=0.8)
+        s.dab((x, y), 0.35, pressure=0.8)
     _blow_dry(s, 14.0)
     s.new_layer()
 
