@@ -49,6 +49,12 @@ class _Queue:
         self.stats.received += 1
         return self.items.pop(0)
 
+    def count_queued(self, deadline: float) -> tuple[int, bool]:
+        """What is still queued when the sim stops: counted, not painted (as the bus's)."""
+        n = sum(1 for m in self.items if m.kind == "pen")
+        self.items.clear()
+        return n, True
+
     def close(self) -> None:
         pass
 
