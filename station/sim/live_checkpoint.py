@@ -81,7 +81,7 @@ def replay(core: LiveCore, plan: recovery.Plan) -> None:
     live (each after ``floor((t + waited)·rate)`` steps), then continue the
     session clock from there."""
     p = core.player
-    last_seq: dict[str, int] = {}
+    last_seq = plan.seqs_before()
     for rec in plan.records():
         while p.counters.steps < p.steps_due(rec.t):
             core.step()
@@ -107,6 +107,8 @@ def replay(core: LiveCore, plan: recovery.Plan) -> None:
     # autosave), exactly as a replay of the continued log runs it.
     core.start = time.monotonic() - ((p.counters.steps + 1) / p.rate - p.waited)
     now = time.monotonic()
+    for name in last_seq:  # a device heard only before the autosave is resumed too
+        core.devices.setdefault(name, DeviceState(last_seen=now))
     for name, dev in core.devices.items():
         dev.last_seen = now
         dev.resume_seq = last_seq.get(name)

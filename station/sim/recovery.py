@@ -54,6 +54,19 @@ class Plan:
     skip: int  # records the state already holds
     replayed: int = 0
 
+    def seqs_before(self) -> dict[str, int]:
+        """Each device's last pen seq in the records the start state already holds: a
+        crash just after an autosave leaves none after it, and the samples lost while
+        no sim listened are still counted from these."""
+        last: dict[str, int] = {}
+        with SessionLogReader(self.log_path) as reader:
+            for i, rec in enumerate(reader):
+                if i >= self.skip:
+                    break
+                if isinstance(rec, PenSample) and rec.seq:
+                    last[rec.device] = rec.seq
+        return last
+
     def records(self) -> Iterator[PenSample | Command]:
         """The records after the start state, in log order."""
         with SessionLogReader(self.log_path) as reader:
