@@ -213,7 +213,11 @@ def test_unplug_and_replug_are_survived(tmp_path: Path, capsys) -> None:
     assert mock.unplugs == 1 and mock.plugged
     before = [t for t in mock.poses_sent if t < 0.4]
     after = [t for t in mock.poses_sent if t > 0.4 + 0.3]
-    assert len(before) > 200 and len(after) > 300
+    # The device keeps its 1 kHz clock: 400 poses in the first 0.4 s, each either sent or,
+    # while a loaded station had not yet read the port and its buffer was full, dropped
+    # and counted by the device (a fixed 0.4 s is too short a window to demand reads in).
+    assert len(before) >= 20 and len(before) + mock.poses_dropped >= 380
+    assert len(after) > 300
     _, records = read_session(log)
     pens = [r for r in records if isinstance(r, PenSample)]
     print(f"poses sent {len(before)} + {len(after)}, frames read in the second session "

@@ -26,7 +26,11 @@ from station.cli import main
 OLD = {
     # (issue 10's wet-in-wet: pigment disperses along the cold-press fibres, alpha 4.5 cells)
     # (issue 21's rim: the edge evaporates 7x faster and water flows out to it, Curtis 1997)
-    "watercolor": SimParams().replace(fibre_dispersivity=4.5, flow_outward=0.5, edge_evap=7.0),
+    # (issue 21's backruns: damp paper is not wet, keeps pigment suspended above half
+    # full, and draws a front in between 70 % full and full; Curtis 1997 section 4.7)
+    "watercolor": SimParams().replace(fibre_dispersivity=4.5, flow_outward=0.5, edge_evap=7.0,
+                                      moist_threshold=1.0, damp_ease=4.5, damp_sat=0.7,
+                                      suspend_sat=0.5),
     "gouache": SimParams().replace(viscosity=2.0, nu_w=0.1, nu_p=0.05, alpha=0.005,
                                    height_gain=20.0, eps_shallow=0.008),
     # (issue 10's fibre feathering changed the ink in code just before: alpha 0.05, fibre_wick 1)
