@@ -530,3 +530,63 @@ def test_the_auto_horizon_follows_the_measured_lag() -> None:
     for _ in range(60):
         est.add(-1.0)  # a clock oddity never makes a negative horizon
     assert 0.0 <= est.value < 1e-3
+
+
+def test_a_window_that_stalls_mid_stroke_never_ends_the_stroke(tmp_path: Path) -> None:
+    """A kiosk that reads nothing for longer than the driver's silence timeout (a loaded
+    machine, a long frame) while the pen goes on painting: the samples wait on the bus,
+    so the stroke is not ended by a synthesised pen-up (on a loaded fresh machine the
+    mock line was broken mid-line this way); a device really silent still is."""
+    from station.bus import Publisher
+
+    s = _session(tmp_path)
+    pub = Publisher(f"ipc://{tmp_path}/bus", heartbeat=0.2)
+    n = 0
+
+    def send(touching: bool = True) -> None:
+        nonlocal n
+        pub.publish_pen(PenSample(t=0.01 * n, device="p", tool=Tool.PEN, x=0.1 + 0.004 * n,
+                                  y=0.5, pressure=0.8 * touching, touching=touching, seq=n + 1))
+        n += 1
+
+    def take(count: int) -> None:
+        deadline = time.monotonic() + 60
+        while s.counters.samples < count:
+            assert time.monotonic() < deadline, (s.counters.samples, count)
+            s.drain(50)
+
+    try:
+        assert pub.wait_for_subscribers(1, 30)
+        s.command("brush", size=6, water=1.0, pigment={"French Ultramarine": 0.5})
+        for _ in range(10):
+            send()
+        take(10)
+        timeout = s.sim.devices["p"].timeout()
+        assert timeout is not None and timeout < 1.0
+        stall_end = time.monotonic() + timeout + 0.6  # the window reads nothing meanwhile
+        while time.monotonic() < stall_end:
+            send()  # the pen paints on (heartbeats go with the samples)
+            time.sleep(0.02)
+        s.housekeeping()  # the kiosk's check for silent devices, after its stalled frame
+        assert s.counters.synthetic_pen_ups == 0 and not s.sim.silent_devices()
+        take(n)
+        send(touching=False)
+        take(n)
+        s.journal.sync()
+        _header, records = read_session(s.log_path)
+        pens = [r for r in records if isinstance(r, PenSample)]
+        touching = [p.touching for p in pens]
+        assert len(pens) == n and all(touching[:-1]) and not touching[-1]  # one stroke
+        # a device that really falls silent mid-stroke (its heartbeats stop while the
+        # window reads the bus) still has its stroke ended
+        send()
+        take(n)
+        deadline = time.monotonic() + 30
+        while s.counters.synthetic_pen_ups == 0:
+            assert time.monotonic() < deadline, "a silent device was never noticed"
+            s.drain(20)
+            s.housekeeping()
+        assert s.sim.silent_devices() == ["p"]
+    finally:
+        pub.close()
+        s.shutdown()
