@@ -15,8 +15,9 @@ applies the sRGB transfer), row 0 = the canvas's top row.
   until a step takes its stamps, and each frame renders only the new stamps'
   cells.
 * :class:`GpuDisplay` (gl backend): the canvas's render pass writes its own
-  RGBA32F texture in the window's GL context; the window samples it with no
-  read-back.
+  RGBA32F texture in the window's GL context, and three compute passes make of it
+  the same colour-and-contour-level texture as the CPU displays'
+  (:mod:`station.kiosk.gl_fields`); the window samples it with no read-back.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ import numpy as np
 from station.brush.stamp import Sources, StampPreview
 from station.canvas.profiles import get_profile
 from station.kiosk import subcell
+from station.kiosk.gl_fields import GlFields
 from station.render.km import region_amount, render_region
 from station.render.km_fast import km_layer_fast
 
@@ -354,12 +356,23 @@ class GpuDisplay:
         self.damage: list[tuple[int, int, int, int]] = []
         self.cells_rendered = 0
         self.render_seconds = 0.0
-        self.texture = session.canvas.render_texture()
-        self.texture.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
         st = session.canvas.state()  # once per painting: the paper and its grain
         self.surface = CanvasSurface.make(self.ctx, st.paper_reflectance(), st.paper_preset,
                                           st.seed, float(st.params.paper_shade),
-                                          contours=False, old=getattr(self, "surface", None))
+                                          contours=True, old=getattr(self, "surface", None))
+        w, h = session.cfg.width, session.cfg.height
+        old = getattr(self, "fields", None)
+        if old is None or old.size != (w, h):
+            if old is not None:
+                old.release()
+            self.fields = GlFields(self.ctx, w, h)
+        self._render()
+
+    def _render(self) -> None:
+        """The canvas's render pass, then its sub-cell fields (the texture the window
+        samples: colour extended by the paint, the contour level)."""
+        rgb = self.session.canvas.render_texture()
+        self.texture = self.fields.run(self.session.canvas, rgb, self.surface.paper)
 
     def full_texture(self) -> Any:
         """The canvas's own render texture (the GPU renders it whole every frame)."""
@@ -386,7 +399,7 @@ class GpuDisplay:
         # would need the state on the CPU
         self.session.player.flush_sources()
         self.session.take_dirty()
-        self.texture = self.session.canvas.render_texture()
+        self._render()
         self.ctx.memory_barrier()  # image stores → texture fetches of the window's shader
         w, h = self.session.cfg.width, self.session.cfg.height
         self.damage = [(0, h, 0, w)]  # the whole canvas may have changed
@@ -395,7 +408,8 @@ class GpuDisplay:
         return self.cells_rendered
 
     def release(self) -> None:
-        """The texture belongs to the canvas; the paper's are ours."""
+        """The canvas's render texture is the canvas's; the fields and paper are ours."""
+        self.fields.release()
         self.surface.release()
 
 
