@@ -590,3 +590,109 @@ def test_a_window_that_stalls_mid_stroke_never_ends_the_stroke(tmp_path: Path) -
     finally:
         pub.close()
         s.shutdown()
+
+
+class _Tearing(_Gate):
+    """A kernel caught half way: cells of a blank corner hold values that are not the
+    step's result until the gate opens (then the real step runs)."""
+
+    def __init__(self, backend: Any, state: Any) -> None:
+        super().__init__(backend)
+        self.state = state
+
+    def step(self, *a: Any, **kw: Any) -> None:
+        st = self.state
+        corner = (slice(0, 8), slice(W - 16, W))
+        saved = st.p[(slice(None), *corner)].copy()
+        st.p[(0, *corner)] = 0.5  # half written
+        self.entered.set()
+        assert self.open.wait(20), "the test never opened the gate"
+        st.p[(slice(None), *corner)] = saved
+        self._backend.step(*a, **kw)
+
+
+def test_no_tile_is_drawn_from_a_state_a_kernel_is_writing(tmp_path: Path) -> None:
+    """While a step's kernel runs (the window draws on, the lock released) the display
+    renders no tile from the half-written state and spends no dirty mark: tiles drawn
+    then, and left inactive by the step, kept a torn picture (a kiosk's screenshot
+    showed a stroke broken, with a tile-edged block, while the painting was whole); the
+    pen's preview stays on screen meanwhile; after the step the texture is the canvas."""
+    from station.kiosk.display import CpuDisplay
+
+    try:
+        import moderngl
+
+        ctx = moderngl.create_context(standalone=True, backend="egl")  # type: ignore[arg-type]
+    except Exception as exc:  # no EGL here
+        pytest.skip(f"no EGL context: {exc}")
+    s = _session(tmp_path)
+    gate = _Tearing(s.player.backend, s.cpu_state)
+    s.player.backend = gate
+    try:
+        disp = CpuDisplay(ctx, s)
+        s.command("brush", size=8, water=1.0, pigment={"French Ultramarine": 0.5})
+        for i in range(6):
+            s.handle("pen", _pen(i, 0.2 + 0.03 * i))
+        for _ in range(100):  # the preview and every tile drawn
+            disp.update()
+            if not disp.behind():
+                break
+        shown = disp.read()
+        s.mark_all_dirty()  # (an undo, a fresh canvas: every tile to draw again)
+        disp.damage = []  # (composed by the window)
+        th = _step_in_thread(s, gate)
+        try:
+            with s.lock:
+                assert s.kernel_running
+                assert disp.update_tiles() == 0 and not disp.damage
+            # the stamps the step took stay on screen as they were previewed
+            assert np.array_equal(disp.read(), shown)
+        finally:
+            gate.open.set()
+            th.join(20)
+        frames = 0
+        while True:
+            with s.lock:
+                disp.update()
+            frames += 1
+            if not disp.behind() or frames > 200:
+                break
+        tex = disp.read()
+        # the half-written corner was never shown; the texture is the canvas after the step
+        assert np.abs(tex - disp.expected()).max() < 2e-6
+    finally:
+        s.shutdown()
+        ctx.release()
+
+
+def test_the_damage_of_every_tile_drawn_waits_for_the_window_to_compose_it(
+        tmp_path: Path) -> None:
+    """A screenshot renders the tiles in several calls before the window composes them:
+    the damage of every call is kept (a list reset at each call lost the earlier calls'
+    tiles, which stayed stale on screen: the mock line shown broken)."""
+    from station.kiosk.display import CpuDisplay
+
+    try:
+        import moderngl
+
+        ctx = moderngl.create_context(standalone=True, backend="egl")  # type: ignore[arg-type]
+    except Exception as exc:  # no EGL here
+        pytest.skip(f"no EGL context: {exc}")
+    s = _session(tmp_path)
+    try:
+        disp = CpuDisplay(ctx, s, max_cells=1500)
+        disp.damage = []
+        s.mark_all_dirty()
+        calls = 0
+        while True:
+            disp.update_tiles()
+            calls += 1
+            if not disp.behind() or calls > 100:
+                break
+        covered = np.zeros((H, W), bool)
+        for y0, y1, x0, x1 in disp.damage:
+            covered[y0:y1, x0:x1] = True
+        assert calls >= 2 and covered.all(), (calls, covered.mean())
+    finally:
+        s.shutdown()
+        ctx.release()

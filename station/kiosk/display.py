@@ -147,9 +147,13 @@ class CpuDisplay:
                                           float(st.params.paper_shade), contours=True,
                                           old=getattr(self, "surface", None))
         self.preview_box: tuple[slice, slice] | None = None  # cells showing stamps
+        # cells of previews whose stamps a step took while its kernel still runs: drawn
+        # anew from the state once the step is over (not from a half-written state)
+        self._retired: list[tuple[slice, slice]] = []
         self._preview_steps = -1  # the step count when the preview was started
         self._previewed = 0  # pending stamps the preview shows
-        self.damage: list[tuple[int, int, int, int]] = []  # cells (y0, y1, x0, x1) uploaded
+        # cells (y0, y1, x0, x1) uploaded since the window last composed (it empties this)
+        self.damage: list[tuple[int, int, int, int]] = []
         self._carry: np.ndarray | None = None  # dirty tiles over last frame's budget
         self.cells_rendered = 0
         self.render_seconds = 0.0
@@ -173,6 +177,18 @@ class CpuDisplay:
         kind = self._renderer_kind()
         ts = int(st.params.tile_size)
         self._retire_preview()
+        # (the damage accumulates until the window composes it: a screenshot renders the
+        # tiles in several calls before it composes, and a list reset here lost the
+        # earlier calls' damage — their tiles stayed stale on screen, the stroke broken)
+        if self.session.kernel_running:
+            # a step's kernel is writing the state: a tile rendered now would be torn
+            # (half old, half new) and its dirty mark spent — a tile that the step then
+            # leaves inactive kept the torn picture, or paper where the stroke was (the
+            # mock line broken on screen while the painting was whole).  The tiles wait
+            # for the step's end; the pen's preview goes on meanwhile.
+            self.cells_rendered = 0
+            self.render_seconds = time.perf_counter() - t0
+            return 0
         dirty = self.session.take_dirty()
         carried = self._carry if self._carry is not None and \
             self._carry.shape == dirty.shape else np.zeros_like(dirty)
@@ -180,7 +196,6 @@ class CpuDisplay:
             else None
         src = None if pv is None else pv.sources
         cells = 0
-        self.damage = []
         left = np.zeros_like(dirty)
         # tiles left over from the last frame first, then the new ones, up to the budget
         for ty, a, b in tile_runs(carried, RUN_TILES) + tile_runs(dirty & ~carried, RUN_TILES):
@@ -246,14 +261,23 @@ class CpuDisplay:
         n = pending_stamps(self.session.player.brush)
         if steps == self._preview_steps and n >= self._previewed:
             return
-        self._preview_steps, self._previewed = steps, 0
-        if self.preview_box is None:
+        if steps == self._preview_steps and self.session.kernel_running:
+            # the step took the stamps, and its kernel is still writing them into the
+            # state: the preview stays on screen until the step is over (a new preview
+            # begins for the stamps that come meanwhile)
+            if self.preview_box is not None:
+                self._retired.append(self.preview_box)
+            self.preview_box, self._previewed = None, 0
             return
-        ts = int(self.session.cpu_state.params.tile_size)
-        ys, xs = self.preview_box
-        dirty = self.session.dirty
-        dirty[ys.start // ts:-(-ys.stop // ts), xs.start // ts:-(-xs.stop // ts)] = True
+        self._preview_steps, self._previewed = steps, 0
+        boxes, self._retired = self._retired, []
+        if self.preview_box is not None:
+            boxes.append(self.preview_box)
         self.preview_box = None
+        ts = int(self.session.cpu_state.params.tile_size)
+        dirty = self.session.dirty
+        for ys, xs in boxes:
+            dirty[ys.start // ts:-(-ys.stop // ts), xs.start // ts:-(-xs.stop // ts)] = True
 
     def behind(self) -> bool:
         """Whether dirty tiles wait for the next frame (over this frame's budget)."""

@@ -182,6 +182,8 @@ def draw_frame(app: KioskApp, now: float, dt: float, times: _FrameTimes) -> bool
     s = app.session
     app.frame_pixels = 0
     with s.lock:  # not while a step hands its sources over (the kernel may run)
+        if app.screenshots:  # a screenshot shows the canvas between steps
+            s.wait_step()
         app.display.update_tiles()
         # a screenshot shows the whole canvas as it is, not a frame still catching up
         # with its tiles (the per-frame budget keeps the pen fluid, not a screenshot)

@@ -327,6 +327,17 @@ class KioskSession:
         finally:
             self._window_waits -= 1
 
+    def wait_step(self) -> None:
+        """Wait (lock held) until no step's kernel writes the canvas: what a screenshot
+        shows is the canvas between steps."""
+        self._wait_step()
+
+    @property
+    def kernel_running(self) -> bool:
+        """Whether a step's kernel writes the canvas now (the lock released meanwhile):
+        the state is half old, half new until it ends."""
+        return self.inflight and not self._copying
+
     def _slot_ahead(self) -> bool:
         """While step *k*'s kernel runs a record belongs to step *k + 1* (its stamps were
         not in step *k*); not while the step copies checkpoints (it has not taken the
