@@ -382,7 +382,7 @@ class KioskApp:
         self.idle.painted = session.resumed
         self._set_qr(None)
         if cfg.sim_thread:
-            session.start_worker()
+            session.start_worker(cfg.sim_nice)
         return session
 
     def _release_live_log(self) -> None:

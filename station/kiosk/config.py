@@ -50,6 +50,9 @@ class KioskConfig:
     cmd: str | None = None  # where `station send` reaches the kiosk; "none" disables
     autosave: float = 30.0  # seconds between autosaves of the painting (0: off)
     sim_thread: bool = True  # steps in a thread of their own (False: in the frame loop)
+    # how much lower the simulation thread's priority is than the window's (nice steps):
+    # on a busy machine the pen is shown first and the steps wait (0: the same)
+    sim_nice: int = 5
     # the pen shadow drawn this far ahead of the last sample (0: off; None: auto, the
     # window's own measured pen-to-screen lag, station.kiosk.predict.LagEstimate)
     predict_ms: float | None = None

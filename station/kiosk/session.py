@@ -56,6 +56,7 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 import threading
 import time
 from collections import deque
@@ -134,6 +135,7 @@ class KioskSession:
         self.worker_error: BaseException | None = None
         self.queue_log: list[float] | None = None  # bench: driver read → handled [s]
         self._worker: threading.Thread | None = None
+        self._nice = 0  # the simulation thread's niceness above the window's
         self._halt = threading.Event()
         self._window_waits = 0  # the window's thread waits for the step to end
         # undo checkpoints still holding the live canvas arrays (see the module docstring)
@@ -384,11 +386,13 @@ class KioskSession:
         self.dirty |= st.tile_ttl > 0
 
     # -- the simulation thread ------------------------------------------------------
-    def start_worker(self) -> None:
-        """Run the due steps in a thread of their own from now on (see module docstring).
-        Not for a GPU canvas: its GL context belongs to the window's thread."""
+    def start_worker(self, nice: int = 0) -> None:
+        """Run the due steps in a thread of their own from now on (see module docstring),
+        ``nice`` steps lower in the system's priority than the window's thread.  Not for
+        a GPU canvas: its GL context belongs to the window's thread."""
         if self._worker is not None or self.cpu_state is None:
             return
+        self._nice = nice
         self._halt.clear()
         self._worker = threading.Thread(target=self._work, name="kiosk-sim", daemon=True)
         self._worker.start()
@@ -418,6 +422,16 @@ class KioskSession:
         # the 2-core development machine one thread even steps faster than two that
         # fight the window for the cores (bench latency: 8 against 11 ms a step).
         numba.set_num_threads(max(1, numba.get_num_threads() - 1))
+        if self._nice > 0:
+            # the pen first: when the machine is busy the steps wait for a core, not the
+            # window, the X server or the driver (a step that falls behind is caught up,
+            # its records slotted as ever); the kernel's OpenMP workers are started by
+            # this thread's first parallel loop, after this, and share its priority
+            try:
+                os.setpriority(os.PRIO_PROCESS, threading.get_native_id(),
+                               os.getpriority(os.PRIO_PROCESS, 0) + self._nice)
+            except OSError as exc:  # not allowed here: the steps keep the window's priority
+                log.warning("the simulation thread keeps its priority: %s", exc)
         try:
             while not self._halt.is_set():
                 with self.lock:
