@@ -54,14 +54,12 @@ the bus, so drivers, recorders and the blueprint see the same traffic as with
 
 from __future__ import annotations
 
-import json
 import logging
 import os
 import threading
 import time
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -72,8 +70,9 @@ from station.answer import parse_request
 from station.brush.deformable import DeformableBrush
 from station.brush.stamp import RoundBrush
 from station.bus import Subscriber, runtime_dir
-from station.canvas.state import CanvasState
 from station.events import Command, PenSample, Tool
+from station.kiosk.locked_backend import KernelUnlocked, SharedState
+from station.kiosk.moisture import DAMP_WATER, Moisture
 from station.sim.haptic import HapticFeedback
 from station.sim.journal import SessionJournal
 from station.sim.live import SYNC_EVERY_S, Counters, LiveConfig, LiveSim
@@ -281,7 +280,7 @@ class KioskSession:
             return self._checkpoint_now()
         p = self.player
         real = p.backend
-        p.backend = _SharedState(real, st)
+        p.backend = SharedState(real, st)
         try:
             cp = self._checkpoint_now()
         finally:
@@ -302,7 +301,7 @@ class KioskSession:
             return
         p = self.player
         real = p.backend
-        p.backend = _SharedState(real, self.cpu_state)
+        p.backend = SharedState(real, self.cpu_state)
         try:
             for cp in self._mid_step:
                 now = self._checkpoint_now()
@@ -477,7 +476,7 @@ class KioskSession:
         """One step (lock held), its canvas kernel run with the lock released."""
         p = self.player
         real = p.backend
-        p.backend = _KernelUnlocked(real, self)
+        p.backend = KernelUnlocked(real, self)
         try:
             self.step()
         finally:
@@ -574,76 +573,3 @@ class KioskSession:
     def active_tiles(self) -> int | None:
         st = self.cpu_state
         return None if st is None else int(np.count_nonzero(st.tile_ttl > 0))
-
-
-#: Capillary water (the paper's ``wc``) above which a cell without surface water is
-#: damp, not dry: after a wash the surface water is gone in seconds while the paper
-#: holds water for a minute more (the status read "wet 0.0%" all that time).
-DAMP_WATER = 1e-4
-
-
-@dataclass(frozen=True)
-class Moisture:
-    """Shares of the canvas's cells (0..1): with surface water (wet), with water only
-    in the paper (damp); the rest is dry."""
-
-    wet: float
-    damp: float
-
-    @property
-    def word(self) -> str:
-        """``wet``, ``damp`` or ``dry``: the wettest state any cell is in."""
-        return "wet" if self.wet > 0 else ("damp" if self.damp > 0 else "dry")
-
-    def line(self) -> str:
-        """The status line's words: ``wet 3.1%  damp 8.0%``, ``damp 8.0%`` or ``dry``."""
-        parts = []
-        if self.wet > 0:
-            parts.append(f"wet {100 * self.wet:.1f}%")
-        if self.damp > 0:
-            parts.append(f"damp {100 * self.damp:.1f}%")
-        return "  ".join(parts) or "dry"
-
-
-class _KernelUnlocked:
-    """A backend whose ``step`` runs with the session's lock released (the window
-    applies brush samples meanwhile; see the module docstring)."""
-
-    def __init__(self, backend: Any, session: KioskSession) -> None:
-        self._backend = backend
-        self._session = session
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._backend, name)
-
-    def step(self, *args: Any, **kw: Any) -> None:
-        s = self._session
-        s.inflight = True
-        s.lock.release()
-        try:
-            self._backend.step(*args, **kw)
-        finally:
-            s.lock.acquire()
-            s.inflight = False
-            s.lock.notify_all()
-
-
-class _SharedState:
-    """A backend whose ``state()`` shares the live canvas arrays (small fields copied):
-    what a deferred undo checkpoint holds until the canvas next changes."""
-
-    def __init__(self, backend: Any, live: CanvasState) -> None:
-        self._backend = backend
-        self._live = live
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._backend, name)
-
-    def state(self) -> CanvasState:
-        kw: dict[str, Any] = {}
-        for name in self._live.__dataclass_fields__:
-            v = getattr(self._live, name)
-            if isinstance(v, (list, dict)):
-                v = json.loads(json.dumps(v))
-            kw[name] = v
-        return CanvasState(**kw)
