@@ -43,6 +43,9 @@ out vec4 frag;
 void main() { frag = color; }
 """
 
+#: A pen heard this recently is at work (its frames are not made whole for safety).
+PEN_AT_WORK_S = 0.5
+
 BACKGROUND = (0.13, 0.13, 0.15)
 TABLE = (0.42, 0.29, 0.18, 1.0)
 SHADOW = (0.0, 0.0, 0.0, 0.28)
@@ -300,7 +303,8 @@ def fill_back_buffer(app: KioskApp, cam: Camera) -> None:
                                                           (app.size[0], app.size[1]))
     now = time.monotonic()
     if (app.screenshots or app._frame_full
-            or app.presenter.needs_whole(now, app._last_whole)):
+            or app.presenter.needs_whole(now, app._last_whole,
+                                         painting=now - app._pen_received < PEN_AT_WORK_S)):
         app.compositor.present()
         app._present_rects = None
         app._last_whole = now
