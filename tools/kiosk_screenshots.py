@@ -6,7 +6,7 @@ It starts its own Xvfb (1920×1080; ``--display :N`` uses a running X server
 instead), opens the kiosk in this process at 1920×1080, and paints as a visitor
 without a tablet would, with the mouse: a sky laid as a wash in zig-zag rows, a
 drop of rose into the wet wash, green hills, a dark stroke, a dry-brush drag
-with a nearly dry brush; it waits for the strokes to dry (at most
+with a dry brush; it waits for the strokes to dry (at most
 ``--dry-seconds``), then takes the top, table and brush views, saves the
 painting to the gallery (the screen with its QR code, and the gallery's
 picture), waits for its replay and takes the attract screen replaying it.
@@ -144,10 +144,11 @@ def paint(app: KioskApp) -> None:
     drag(app, [(0.72 + 0.1 * k / 20, 0.5 - 0.08 * k / 20) for k in range(21)], 0.6)
     # a dry-brush drag: a nearly dry, broad brush pulled fast across the foreground
     p.set_size(30.0)
-    p.set_water(0.08)
+    p.set_water(0.0)
     p.tap_pigment("Burnt Umber")
-    drag(app, [(0.1 + 0.8 * k / 30, 0.86 + 0.015 * math.sin(3 * k / 30)) for k in range(31)],
-         0.5)
+    for v in (0.84, 0.9):  # two quick pulls: the tuft runs dry along each
+        drag(app, [(0.1 + 0.8 * k / 40, v + 0.012 * math.sin(3 * k / 40))
+                   for k in range(41)], 0.35)
 
 
 def main(argv: list[str] | None = None) -> int:
