@@ -532,3 +532,169 @@ def test_the_auto_horizon_follows_the_measured_lag() -> None:
     for _ in range(60):
         est.add(-1.0)  # a clock oddity never makes a negative horizon
     assert 0.0 <= est.value < 1e-3
+
+
+def test_a_window_that_stalls_mid_stroke_never_ends_the_stroke(tmp_path: Path) -> None:
+    """A kiosk that reads nothing for longer than the driver's silence timeout (a loaded
+    machine, a long frame) while the pen goes on painting: the samples wait on the bus,
+    so the stroke is not ended by a synthesised pen-up (on a loaded fresh machine the
+    mock line was broken mid-line this way); a device really silent still is."""
+    from station.bus import Publisher
+
+    s = _session(tmp_path)
+    pub = Publisher(f"ipc://{tmp_path}/bus", heartbeat=0.2)
+    n = 0
+
+    def send(touching: bool = True) -> None:
+        nonlocal n
+        pub.publish_pen(PenSample(t=0.01 * n, device="p", tool=Tool.PEN, x=0.1 + 0.004 * n,
+                                  y=0.5, pressure=0.8 * touching, touching=touching, seq=n + 1))
+        n += 1
+
+    def take(count: int) -> None:
+        deadline = time.monotonic() + 60
+        while s.counters.samples < count:
+            assert time.monotonic() < deadline, (s.counters.samples, count)
+            s.drain(50)
+
+    try:
+        assert pub.wait_for_subscribers(1, 30)
+        s.command("brush", size=6, water=1.0, pigment={"French Ultramarine": 0.5})
+        for _ in range(10):
+            send()
+        take(10)
+        timeout = s.sim.devices["p"].timeout()
+        assert timeout is not None and timeout < 1.0
+        stall_end = time.monotonic() + timeout + 0.6  # the window reads nothing meanwhile
+        while time.monotonic() < stall_end:
+            send()  # the pen paints on (heartbeats go with the samples)
+            time.sleep(0.02)
+        s.housekeeping()  # the kiosk's check for silent devices, after its stalled frame
+        assert s.counters.synthetic_pen_ups == 0 and not s.sim.silent_devices()
+        take(n)
+        send(touching=False)
+        take(n)
+        s.journal.sync()
+        _header, records = read_session(s.log_path)
+        pens = [r for r in records if isinstance(r, PenSample)]
+        touching = [p.touching for p in pens]
+        assert len(pens) == n and all(touching[:-1]) and not touching[-1]  # one stroke
+        # a device that really falls silent mid-stroke (its heartbeats stop while the
+        # window reads the bus) still has its stroke ended
+        send()
+        take(n)
+        deadline = time.monotonic() + 30
+        while s.counters.synthetic_pen_ups == 0:
+            assert time.monotonic() < deadline, "a silent device was never noticed"
+            s.drain(20)
+            s.housekeeping()
+        assert s.sim.silent_devices() == ["p"]
+    finally:
+        pub.close()
+        s.shutdown()
+
+
+class _Tearing(_Gate):
+    """A kernel caught half way: cells of a blank corner hold values that are not the
+    step's result until the gate opens (then the real step runs)."""
+
+    def __init__(self, backend: Any, state: Any) -> None:
+        super().__init__(backend)
+        self.state = state
+
+    def step(self, *a: Any, **kw: Any) -> None:
+        st = self.state
+        corner = (slice(0, 8), slice(W - 16, W))
+        saved = st.p[(slice(None), *corner)].copy()
+        st.p[(0, *corner)] = 0.5  # half written
+        self.entered.set()
+        assert self.open.wait(20), "the test never opened the gate"
+        st.p[(slice(None), *corner)] = saved
+        self._backend.step(*a, **kw)
+
+
+def test_no_tile_is_drawn_from_a_state_a_kernel_is_writing(tmp_path: Path) -> None:
+    """While a step's kernel runs (the window draws on, the lock released) the display
+    renders no tile from the half-written state and spends no dirty mark: tiles drawn
+    then, and left inactive by the step, kept a torn picture (a kiosk's screenshot
+    showed a stroke broken, with a tile-edged block, while the painting was whole); the
+    pen's preview stays on screen meanwhile; after the step the texture is the canvas."""
+    from station.kiosk.display import CpuDisplay
+
+    try:
+        import moderngl
+
+        ctx = moderngl.create_context(standalone=True, backend="egl")  # type: ignore[arg-type]
+    except Exception as exc:  # no EGL here
+        pytest.skip(f"no EGL context: {exc}")
+    s = _session(tmp_path)
+    gate = _Tearing(s.player.backend, s.cpu_state)
+    s.player.backend = gate
+    try:
+        disp = CpuDisplay(ctx, s)
+        s.command("brush", size=8, water=1.0, pigment={"French Ultramarine": 0.5})
+        for i in range(6):
+            s.handle("pen", _pen(i, 0.2 + 0.03 * i))
+        for _ in range(100):  # the preview and every tile drawn
+            disp.update()
+            if not disp.behind():
+                break
+        shown = disp.read()
+        s.mark_all_dirty()  # (an undo, a fresh canvas: every tile to draw again)
+        disp.damage = []  # (composed by the window)
+        th = _step_in_thread(s, gate)
+        try:
+            with s.lock:
+                assert s.kernel_running
+                assert disp.update_tiles() == 0 and not disp.damage
+            # the stamps the step took stay on screen as they were previewed
+            assert np.array_equal(disp.read(), shown)
+        finally:
+            gate.open.set()
+            th.join(20)
+        frames = 0
+        while True:
+            with s.lock:
+                disp.update()
+            frames += 1
+            if not disp.behind() or frames > 200:
+                break
+        tex = disp.read()
+        # the half-written corner was never shown; the texture is the canvas after the step
+        assert np.abs(tex - disp.expected()).max() < 2e-6
+    finally:
+        s.shutdown()
+        ctx.release()
+
+
+def test_the_damage_of_every_tile_drawn_waits_for_the_window_to_compose_it(
+        tmp_path: Path) -> None:
+    """A screenshot renders the tiles in several calls before the window composes them:
+    the damage of every call is kept (a list reset at each call lost the earlier calls'
+    tiles, which stayed stale on screen: the mock line shown broken)."""
+    from station.kiosk.display import CpuDisplay
+
+    try:
+        import moderngl
+
+        ctx = moderngl.create_context(standalone=True, backend="egl")  # type: ignore[arg-type]
+    except Exception as exc:  # no EGL here
+        pytest.skip(f"no EGL context: {exc}")
+    s = _session(tmp_path)
+    try:
+        disp = CpuDisplay(ctx, s, max_cells=1500)
+        disp.damage = []
+        s.mark_all_dirty()
+        calls = 0
+        while True:
+            disp.update_tiles()
+            calls += 1
+            if not disp.behind() or calls > 100:
+                break
+        covered = np.zeros((H, W), bool)
+        for y0, y1, x0, x1 in disp.damage:
+            covered[y0:y1, x0:x1] = True
+        assert calls >= 2 and covered.all(), (calls, covered.mean())
+    finally:
+        s.shutdown()
+        ctx.release()

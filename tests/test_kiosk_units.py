@@ -457,3 +457,23 @@ def test_a_live_painting_held_by_another_kiosk_is_neither_resumed_nor_removed(tm
     for fd in held:
         os.close(fd)
     assert painting_in_progress(tmp_path) == stroke and not empty.exists()
+
+
+def test_the_safety_net_whole_frame_waits_while_the_pen_paints() -> None:
+    """A partial-presenting window is presented whole once a second in case the X server
+    lost pixels; on a software rasteriser that whole frame is the slowest of all (at
+    3840×2160 tens of ms), so while the pen paints it comes every 10 s instead."""
+    from types import SimpleNamespace
+
+    from station.kiosk.present import FULL_EVERY_PAINTING_S, FULL_EVERY_S, Presenter
+
+    glfw = SimpleNamespace(set_window_refresh_callback=lambda window, cb: None)
+    p = Presenter(glfw, None, "llvmpipe", (100, 100), mode="swap")
+    p._copy_sub = object()  # as if GLX_MESA_copy_sub_buffer were there
+    p.whole_next = False
+    assert FULL_EVERY_S == 1.0 and FULL_EVERY_PAINTING_S == 10.0
+    assert p.needs_whole(10.0, 8.5)  # idle: a whole frame after a second
+    assert not p.needs_whole(10.0, 8.5, painting=True)  # painting: not yet
+    assert p.needs_whole(19.0, 8.5, painting=True)  # but at least every 10 s
+    p.lost()
+    assert p.needs_whole(10.0, 9.9, painting=True)  # an expose: at once, painting or not

@@ -177,13 +177,13 @@ def test_send_over_tcp_with_curve_keys_gets_the_same_answers(
 
 def test_the_kiosk_answers_over_its_tcp_command_endpoint_too(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """The kiosk's own command loop (KioskApp._commands) lends its tcp endpoint's
+    """The kiosk's own command loop (station.kiosk.pen_input.commands) lends its tcp endpoint's
     answer channel while it handles what came there: the window itself is not needed
     (a stand-in session passes the commands to a live sim, as the kiosk's does)."""
     from types import SimpleNamespace
 
     from station.bus import Subscriber, generate_keys
-    from station.kiosk.app import KioskApp
+    from station.kiosk import pen_input
 
     keys = tmp_path / "keys"
     generate_keys(keys)
@@ -201,7 +201,7 @@ def test_the_kiosk_answers_over_its_tcp_command_endpoint_too(
 
     def loop() -> None:
         while not done.is_set():
-            KioskApp._commands(app)  # type: ignore[arg-type]
+            pen_input.commands(app)  # type: ignore[arg-type]
             done.wait(0.01)
 
     th = threading.Thread(target=loop, daemon=True)

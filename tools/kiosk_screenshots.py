@@ -1,22 +1,29 @@
-"""Make the README's kiosk screenshots (docs/img/kiosk-*.png) at 1920×1080.
+"""Make the README's kiosk screenshots from a scripted visitor session (one command).
 
-Runs the kiosk in this process on ``$DISPLAY`` (an Xvfb with a screen of at
-least 1920×1080: ``Xvfb :5 -screen 0 1920x1080x24 & DISPLAY=:5 python
-tools/kiosk_screenshots.py``), paints a few strokes with the mouse path (as a
-visitor without a tablet would), waits for the paint to settle a little, and
-takes the top, table and brush views; then saves the painting to the gallery,
-waits for its replay, and takes the attract screen replaying it.
+    .venv/bin/python tools/kiosk_screenshots.py            # writes docs/img/kiosk-*.png
 
-``--inline-sim`` steps the simulation in the frame loop (``station kiosk
---inline-sim``): every frame then shows tiles rendered between steps. With the
-simulation thread (the default) a frame can show a wet tile rendered while a
-step's kernel wrote it, for one frame (see docs/kiosk.md); the README's shots
-are taken inline so they show the picture, not that frame.
+It starts its own Xvfb (1920×1080; ``--display :N`` uses a running X server
+instead), opens the kiosk in this process at 1920×1080, and paints as a visitor
+without a tablet would, with the mouse: a sky laid as a wash in zig-zag rows, a
+drop of rose into the wet wash, green hills, a dark stroke, a dry-brush drag
+with a dry brush; it waits for the strokes to dry (at most
+``--dry-seconds``), then takes the top, table and brush views, saves the
+painting to the gallery (the screen with its QR code, and the gallery's
+picture), waits for its replay and takes the attract screen replaying it.
+
+Writes ``docs/img/kiosk-2d.png``, ``kiosk-3d.png``, ``kiosk-follow.png``,
+``kiosk-saved.png``, ``kiosk-attract.png`` and ``kiosk-painting.png`` (the
+gallery's picture of the painting); ``--out DIR`` writes them elsewhere.
+Look at each one.
 """
 
 from __future__ import annotations
 
+import argparse
 import math
+import os
+import shutil
+import subprocess
 import sys
 import tempfile
 import time
@@ -26,10 +33,31 @@ from station.kiosk.app import KioskApp, KioskConfig
 from station.kiosk.idle import IdleConfig
 
 OUT = Path(__file__).resolve().parent.parent / "docs" / "img"
+SCREEN = (1920, 1080)
+
+Points = list[tuple[float, float]]
 
 
-def drag(app: KioskApp, pts: list[tuple[float, float]], seconds: float) -> None:
-    """A mouse drag through canvas points (u, v) over ``seconds``, a frame per event."""
+def start_xvfb() -> tuple[subprocess.Popen[bytes], str]:
+    """An Xvfb of :data:`SCREEN` on a display number it picks itself."""
+    exe = shutil.which("Xvfb")
+    if exe is None:
+        raise SystemExit("kiosk_screenshots: no Xvfb (apt install xvfb) and no --display")
+    r, w = os.pipe()
+    proc = subprocess.Popen([exe, "-displayfd", str(w), "-screen", "0",
+                             f"{SCREEN[0]}x{SCREEN[1]}x24", "-nolisten", "tcp", "-noreset"],
+                            pass_fds=(w,), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    os.close(w)
+    with os.fdopen(r) as f:
+        number = f.readline().strip()
+    if not number:
+        proc.kill()
+        raise SystemExit("kiosk_screenshots: Xvfb did not start")
+    return proc, f":{number}"
+
+
+def drag(app: KioskApp, pts: Points, seconds: float) -> None:
+    """A mouse drag through canvas points (u, v) over ``seconds``, frames between."""
     x, y, w, h = app.canvas_rect()
     left = app.glfw.MOUSE_BUTTON_LEFT
     n = len(pts)
@@ -43,9 +71,20 @@ def drag(app: KioskApp, pts: list[tuple[float, float]], seconds: float) -> None:
         app.frame(0.008)
     app.on_mouse_button(app.window, left, app.glfw.RELEASE, 0)
     app.frame(0.008)
+    app.on_cursor(app.window, 10_000, 10_000)  # the pointer away: no shadow in the shots
 
 
-def wave(u0: float, u1: float, v: float, amp: float, n: int = 90) -> list[tuple[float, float]]:
+def zigzag_rows(v0: float, v1: float, rows: int, n: int = 40) -> Points:
+    """A wash laid in rows, back and forth, each row overlapping the last."""
+    pts: Points = []
+    for r in range(rows):
+        v = v0 + (v1 - v0) * r / max(rows - 1, 1)
+        us = [0.04 + 0.92 * k / (n - 1) for k in range(n)]
+        pts += [(u, v + 0.01 * math.sin(7 * u)) for u in (us if r % 2 == 0 else us[::-1])]
+    return pts
+
+
+def wave(u0: float, u1: float, v: float, amp: float, n: int = 80) -> Points:
     return [(u0 + (u1 - u0) * k / (n - 1),
              v + amp * math.sin(2 * math.pi * 1.3 * k / (n - 1))) for k in range(n)]
 
@@ -56,72 +95,117 @@ def settle(app: KioskApp, seconds: float) -> None:
         app.frame(0.016)
 
 
-def shot(app: KioskApp, name: str) -> None:
-    app.screenshots.append(OUT / f"{name}.png")
-    app.frame(0.016)
-    sys.stderr.write(f"wrote {OUT / name}.png\n")
-
-
-def main() -> int:
-    tmp = Path(tempfile.mkdtemp(prefix="kiosk-shots-"))
-    cfg = KioskConfig(bus=f">ipc://{tmp}/bus", fullscreen=False, window=(1920, 1080),
-                      gallery=tmp / "gallery", serve=None, status="none", cmd="none",
-                      vsync=False, autosave=0, input="mouse",
-                      sim_thread="--inline-sim" not in sys.argv,
-                      idle=IdleConfig(attract_after=3600, finish_after=7200))
-    app = KioskApp(cfg)
-    try:
-        p = app.panel
+def wait_dry(app: KioskApp, seconds: float) -> None:
+    """Frames until the paper is dry or ``seconds`` passed (the wet paint keeps moving
+    until then; a loaded machine steps slower)."""
+    t_end = time.monotonic() + seconds
+    while time.monotonic() < t_end:
         settle(app, 1.0)
-        p.set_size(46.0)
-        p.set_water(1.0)
-        p.tap_pigment("French Ultramarine")
-        drag(app, wave(0.06, 0.94, 0.22, 0.05), 2.5)  # a sky wash
-        p.set_size(30.0)
-        p.tap_pigment("Hansa Yellow")
-        drag(app, wave(0.1, 0.9, 0.62, 0.08), 2.0)
-        p.toggle_mixing()
-        p.tap_pigment("Quinacridone Rose")  # yellow + rose: an orange
-        p.toggle_mixing()
-        drag(app, wave(0.15, 0.85, 0.72, -0.06), 2.0)
-        p.set_size(14.0)
-        p.tap_pigment("Sumi Ink")
-        drag(app, [(0.2 + 0.6 * k / 59, 0.45 - 0.12 * math.sin(math.pi * k / 59))
-                   for k in range(60)], 1.6)
-        settle(app, 4.0)
-        if "--check" in sys.argv:  # the texture against one made from scratch
-            import numpy as np
+        wet = app.session.wet_fraction()
+        if wet is not None and wet < 0.002:
+            break
+    sys.stderr.write(f"wet fraction {app.session.wet_fraction()}\n")
 
-            app.session.stop_worker()
-            app.session.run_due_steps = lambda max_steps=2: 0  # type: ignore[method-assign]
-            for _ in range(200):
-                app.frame(0.016)
-                if not app.display.behind() and not app.session.dirty.any():
-                    break
-            got, want = app.display.read(), app.display.expected()
-            d = np.abs(got - want).max(axis=2)
-            ys, xs = np.nonzero(d > 1e-3)
-            print("texture differs at", len(ys), "cells", list(zip(ys[:10], xs[:10], strict=True)),
-                  float(d.max()))
-            return 0
-        app.follow_at = (0.5, 0.62)
-        app.on_cursor(app.window, 10_000, 10_000)  # the pointer off the canvas: no shadow
-        for view, name in (("2d", "kiosk-2d"), ("3d", "kiosk-3d"), ("follow", "kiosk-follow")):
-            p.set_view(view)
+
+def shot(app: KioskApp, out: Path, name: str) -> None:
+    path = out / f"{name}.png"
+    app.screenshots.append(path)
+    app.frame(0.016)
+    sys.stderr.write(f"wrote {path}\n")
+
+
+def paint(app: KioskApp) -> None:
+    """The visitor's painting (see the module docstring)."""
+    p = app.panel
+    settle(app, 1.0)
+    # the sky: a big, wet brush of blue laid in zig-zag rows
+    p.set_size(72.0)
+    p.set_water(1.0)
+    p.tap_pigment("Cerulean Blue")
+    drag(app, zigzag_rows(0.07, 0.33, 6), 6.0)
+    # a drop of rose into the wet wash: it blooms there
+    p.set_size(30.0)
+    p.tap_pigment("Quinacridone Rose")
+    for u, v in ((0.3, 0.17), (0.62, 0.24), (0.82, 0.13)):
+        drag(app, [(u + 0.004 * k, v + 0.003 * math.sin(k)) for k in range(8)], 0.5)
+    # hills: a green wave and a warm one below it
+    p.set_size(34.0)
+    p.tap_pigment("Hookers Green")
+    drag(app, wave(0.04, 0.96, 0.56, 0.05), 2.2)
+    p.toggle_mixing()
+    p.tap_pigment("Hansa Yellow")  # green + yellow: a sap green
+    p.toggle_mixing()
+    drag(app, wave(0.08, 0.92, 0.7, -0.04), 2.0)
+    # a dark stroke: a tree, in ink
+    p.set_size(9.0)
+    p.tap_pigment("Sumi Ink")
+    drag(app, [(0.72 + 0.01 * math.sin(5 * k / 40), 0.66 - 0.3 * k / 40) for k in range(41)],
+         1.2)
+    drag(app, [(0.72 + 0.1 * k / 20, 0.5 - 0.08 * k / 20) for k in range(21)], 0.6)
+    # a dry-brush drag: a nearly dry, broad brush pulled fast across the foreground
+    p.set_size(30.0)
+    p.set_water(0.0)
+    p.tap_pigment("Burnt Umber")
+    for v in (0.84, 0.9):  # two quick pulls: the tuft runs dry along each
+        drag(app, [(0.1 + 0.8 * k / 40, v + 0.012 * math.sin(3 * k / 40))
+                   for k in range(41)], 0.35)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--display", help="a running X server (default: start an Xvfb)")
+    ap.add_argument("--out", type=Path, default=OUT, help=f"where the PNGs go ({OUT})")
+    ap.add_argument("--dry-seconds", type=float, default=90.0,
+                    help="wait at most this long for the paint to dry (90)")
+    args = ap.parse_args(argv)
+    xvfb = None
+    if args.display:
+        os.environ["DISPLAY"] = args.display
+    else:
+        xvfb, os.environ["DISPLAY"] = start_xvfb()
+    out: Path = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix="kiosk-shots-"))
+    try:
+        cfg = KioskConfig(bus=f">ipc://{tmp}/bus", fullscreen=False, window=SCREEN,
+                          gallery=tmp / "gallery", serve=None, status="none", cmd="none",
+                          vsync=False, autosave=0, input="mouse",
+                          idle=IdleConfig(attract_after=3600, finish_after=7200))
+        app = KioskApp(cfg)
+        try:
+            paint(app)
+            wait_dry(app, args.dry_seconds)
+            app.follow_at = (0.66, 0.3)
+            for view, name in (("2d", "kiosk-2d"), ("3d", "kiosk-3d"),
+                               ("follow", "kiosk-follow")):
+                app.panel.set_view(view)
+                settle(app, 0.6)
+                shot(app, out, name)
+            app.panel.set_view("2d")
+            pid = app.save_now()
             settle(app, 0.6)
-            shot(app, name)
-        p.set_view("2d")
-        pid = app.save_now()
-        replay = cfg.gallery / pid / "replay.webp"
-        t_end = time.monotonic() + 600
-        while not replay.exists() and time.monotonic() < t_end:
-            settle(app, 1.0)
-        app._set_qr(None)
-        app.idle.cfg.attract_after = 0.1
-        settle(app, 2.2)
-        shot(app, "kiosk-attract")
+            shot(app, out, "kiosk-saved")
+            shutil.copyfile(cfg.gallery / pid / "painting.png", out / "kiosk-painting.png")
+            sys.stderr.write(f"wrote {out / 'kiosk-painting.png'}\n")
+            replay = cfg.gallery / pid / "replay.webp"
+            failed = cfg.gallery / pid / "replay.failed"
+            t_end = time.monotonic() + 600
+            while not (replay.exists() or failed.exists()) and time.monotonic() < t_end:
+                settle(app, 1.0)
+            if not replay.exists():  # the attract screen paints its demo stroke then
+                why = (cfg.gallery / pid / "make.log").read_text().strip()
+                sys.stderr.write(f"no replay of the painting: {why}\n")
+            app._set_qr(None)
+            app.idle.cfg.attract_after = 0.1
+            settle(app, 2.5)
+            shot(app, out, "kiosk-attract")
+        finally:
+            app.close()
     finally:
-        app.close()
+        if xvfb is not None:
+            xvfb.terminate()
+            xvfb.wait(10)
+        shutil.rmtree(tmp, ignore_errors=True)
     return 0
 
 

@@ -356,6 +356,10 @@ class Subscriber:
         self._last: dict[tuple[int, str], int] = {}
         self._pending: collections.deque[Message] = collections.deque()
         self._last_warning = 0.0
+        # monotonic time up to which everything sent has been read: the last moment this
+        # subscriber found nothing waiting (a reader that stalls does not move it on, so
+        # its messages still queued are not taken for a publisher's silence)
+        self.heard_until = time.monotonic()
 
     @property
     def curve_rejected(self) -> int:
@@ -396,9 +400,11 @@ class Subscriber:
             try:
                 frames = self.sock.recv_multipart(zmq.NOBLOCK)
             except zmq.Again:
+                self.heard_until = time.monotonic()
                 wait = (None if deadline is None
                         else max(0, int((deadline - time.monotonic()) * 1000)))
                 if not self.sock.poll(wait, zmq.POLLIN):
+                    self.heard_until = time.monotonic()  # nothing came while it waited
                     self._check_handshakes()
                     return None
                 continue

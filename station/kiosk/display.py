@@ -15,8 +15,9 @@ applies the sRGB transfer), row 0 = the canvas's top row.
   until a step takes its stamps, and each frame renders only the new stamps'
   cells.
 * :class:`GpuDisplay` (gl backend): the canvas's render pass writes its own
-  RGBA32F texture in the window's GL context; the window samples it with no
-  read-back.
+  RGBA32F texture in the window's GL context, and three compute passes make of it
+  the same colour-and-contour-level texture as the CPU displays'
+  (:mod:`station.kiosk.gl_fields`); the window samples it with no read-back.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ import numpy as np
 from station.brush.stamp import Sources, StampPreview
 from station.canvas.profiles import get_profile
 from station.kiosk import subcell
+from station.kiosk.gl_fields import GlFields
 from station.render.km import region_amount, render_region
 from station.render.km_fast import km_layer_fast
 
@@ -145,9 +147,13 @@ class CpuDisplay:
                                           float(st.params.paper_shade), contours=True,
                                           old=getattr(self, "surface", None))
         self.preview_box: tuple[slice, slice] | None = None  # cells showing stamps
+        # cells of previews whose stamps a step took while its kernel still runs: drawn
+        # anew from the state once the step is over (not from a half-written state)
+        self._retired: list[tuple[slice, slice]] = []
         self._preview_steps = -1  # the step count when the preview was started
         self._previewed = 0  # pending stamps the preview shows
-        self.damage: list[tuple[int, int, int, int]] = []  # cells (y0, y1, x0, x1) uploaded
+        # cells (y0, y1, x0, x1) uploaded since the window last composed (it empties this)
+        self.damage: list[tuple[int, int, int, int]] = []
         self._carry: np.ndarray | None = None  # dirty tiles over last frame's budget
         self.cells_rendered = 0
         self.render_seconds = 0.0
@@ -171,6 +177,18 @@ class CpuDisplay:
         kind = self._renderer_kind()
         ts = int(st.params.tile_size)
         self._retire_preview()
+        # (the damage accumulates until the window composes it: a screenshot renders the
+        # tiles in several calls before it composes, and a list reset here lost the
+        # earlier calls' damage — their tiles stayed stale on screen, the stroke broken)
+        if self.session.kernel_running:
+            # a step's kernel is writing the state: a tile rendered now would be torn
+            # (half old, half new) and its dirty mark spent — a tile that the step then
+            # leaves inactive kept the torn picture, or paper where the stroke was (the
+            # mock line broken on screen while the painting was whole).  The tiles wait
+            # for the step's end; the pen's preview goes on meanwhile.
+            self.cells_rendered = 0
+            self.render_seconds = time.perf_counter() - t0
+            return 0
         dirty = self.session.take_dirty()
         carried = self._carry if self._carry is not None and \
             self._carry.shape == dirty.shape else np.zeros_like(dirty)
@@ -178,7 +196,6 @@ class CpuDisplay:
             else None
         src = None if pv is None else pv.sources
         cells = 0
-        self.damage = []
         left = np.zeros_like(dirty)
         # tiles left over from the last frame first, then the new ones, up to the budget
         for ty, a, b in tile_runs(carried, RUN_TILES) + tile_runs(dirty & ~carried, RUN_TILES):
@@ -244,14 +261,23 @@ class CpuDisplay:
         n = pending_stamps(self.session.player.brush)
         if steps == self._preview_steps and n >= self._previewed:
             return
-        self._preview_steps, self._previewed = steps, 0
-        if self.preview_box is None:
+        if steps == self._preview_steps and self.session.kernel_running:
+            # the step took the stamps, and its kernel is still writing them into the
+            # state: the preview stays on screen until the step is over (a new preview
+            # begins for the stamps that come meanwhile)
+            if self.preview_box is not None:
+                self._retired.append(self.preview_box)
+            self.preview_box, self._previewed = None, 0
             return
-        ts = int(self.session.cpu_state.params.tile_size)
-        ys, xs = self.preview_box
-        dirty = self.session.dirty
-        dirty[ys.start // ts:-(-ys.stop // ts), xs.start // ts:-(-xs.stop // ts)] = True
+        self._preview_steps, self._previewed = steps, 0
+        boxes, self._retired = self._retired, []
+        if self.preview_box is not None:
+            boxes.append(self.preview_box)
         self.preview_box = None
+        ts = int(self.session.cpu_state.params.tile_size)
+        dirty = self.session.dirty
+        for ys, xs in boxes:
+            dirty[ys.start // ts:-(-ys.stop // ts), xs.start // ts:-(-xs.stop // ts)] = True
 
     def behind(self) -> bool:
         """Whether dirty tiles wait for the next frame (over this frame's budget)."""
@@ -354,12 +380,23 @@ class GpuDisplay:
         self.damage: list[tuple[int, int, int, int]] = []
         self.cells_rendered = 0
         self.render_seconds = 0.0
-        self.texture = session.canvas.render_texture()
-        self.texture.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
         st = session.canvas.state()  # once per painting: the paper and its grain
         self.surface = CanvasSurface.make(self.ctx, st.paper_reflectance(), st.paper_preset,
                                           st.seed, float(st.params.paper_shade),
-                                          contours=False, old=getattr(self, "surface", None))
+                                          contours=True, old=getattr(self, "surface", None))
+        w, h = session.cfg.width, session.cfg.height
+        old = getattr(self, "fields", None)
+        if old is None or old.size != (w, h):
+            if old is not None:
+                old.release()
+            self.fields = GlFields(self.ctx, w, h)
+        self._render()
+
+    def _render(self) -> None:
+        """The canvas's render pass, then its sub-cell fields (the texture the window
+        samples: colour extended by the paint, the contour level)."""
+        rgb = self.session.canvas.render_texture()
+        self.texture = self.fields.run(self.session.canvas, rgb, self.surface.paper)
 
     def full_texture(self) -> Any:
         """The canvas's own render texture (the GPU renders it whole every frame)."""
@@ -386,7 +423,7 @@ class GpuDisplay:
         # would need the state on the CPU
         self.session.player.flush_sources()
         self.session.take_dirty()
-        self.texture = self.session.canvas.render_texture()
+        self._render()
         self.ctx.memory_barrier()  # image stores → texture fetches of the window's shader
         w, h = self.session.cfg.width, self.session.cfg.height
         self.damage = [(0, h, 0, w)]  # the whole canvas may have changed
@@ -395,7 +432,8 @@ class GpuDisplay:
         return self.cells_rendered
 
     def release(self) -> None:
-        """The texture belongs to the canvas; the paper's are ours."""
+        """The canvas's render texture is the canvas's; the fields and paper are ours."""
+        self.fields.release()
         self.surface.release()
 
 

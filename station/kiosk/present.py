@@ -39,6 +39,11 @@ PRESENT_MODES = ("auto", "swap", "partial")
 #: window is right even if the X server lost pixels without telling.
 FULL_EVERY_S = 1.0
 
+#: ... and while the pen paints, this often: a whole frame on a software rasteriser
+#: (fill, copy and swap of every pixel) is the slowest frame there is — tens of ms at
+#: 3840×2160 — and once a second it was the pen's p99.
+FULL_EVERY_PAINTING_S = 10.0
+
 #: Whole frames presented after the window is resized (see Presenter.resized).
 RESIZE_WHOLE_FRAMES = 8
 
@@ -124,10 +129,12 @@ class Presenter:
         """Whether frames are owed to a resize (drawn even if nothing else changed)."""
         return self._whole_left > 0
 
-    def needs_whole(self, now: float, last_whole: float) -> bool:
-        """Whether the next frame must fill and present the whole window."""
+    def needs_whole(self, now: float, last_whole: float, painting: bool = False) -> bool:
+        """Whether the next frame must fill and present the whole window (``painting``:
+        the pen is at work, the safety net's whole frame waits longer)."""
+        every = FULL_EVERY_PAINTING_S if painting else FULL_EVERY_S
         return (self._copy_sub is None or self.whole_next or self._whole_left > 0
-                or now - last_whole >= FULL_EVERY_S)
+                or now - last_whole >= every)
 
     def present_whole(self) -> None:
         self.glfw.swap_buffers(self.window)

@@ -54,13 +54,12 @@ the bus, so drivers, recorders and the blueprint see the same traffic as with
 
 from __future__ import annotations
 
-import json
 import logging
+import os
 import threading
 import time
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -71,8 +70,9 @@ from station.answer import parse_request
 from station.brush.deformable import DeformableBrush
 from station.brush.stamp import RoundBrush
 from station.bus import Subscriber, runtime_dir
-from station.canvas.state import CanvasState
 from station.events import Command, PenSample, Tool
+from station.kiosk.locked_backend import KernelUnlocked, SharedState
+from station.kiosk.moisture import DAMP_WATER, Moisture
 from station.sim.haptic import HapticFeedback
 from station.sim.journal import SessionJournal
 from station.sim.live import SYNC_EVERY_S, Counters, LiveConfig
@@ -135,6 +135,7 @@ class KioskSession:
         self.worker_error: BaseException | None = None
         self.queue_log: list[float] | None = None  # bench: driver read → handled [s]
         self._worker: threading.Thread | None = None
+        self._nice = 0  # the simulation thread's niceness above the window's
         self._halt = threading.Event()
         self._window_waits = 0  # the window's thread waits for the step to end
         # undo checkpoints still holding the live canvas arrays (see the module docstring)
@@ -280,7 +281,7 @@ class KioskSession:
             return self._checkpoint_now()
         p = self.player
         real = p.backend
-        p.backend = _SharedState(real, st)
+        p.backend = SharedState(real, st)
         try:
             cp = self._checkpoint_now()
         finally:
@@ -301,7 +302,7 @@ class KioskSession:
             return
         p = self.player
         real = p.backend
-        p.backend = _SharedState(real, self.cpu_state)
+        p.backend = SharedState(real, self.cpu_state)
         try:
             for cp in self._mid_step:
                 now = self._checkpoint_now()
@@ -327,6 +328,17 @@ class KioskSession:
                 self.lock.wait()
         finally:
             self._window_waits -= 1
+
+    def wait_step(self) -> None:
+        """Wait (lock held) until no step's kernel writes the canvas: what a screenshot
+        shows is the canvas between steps."""
+        self._wait_step()
+
+    @property
+    def kernel_running(self) -> bool:
+        """Whether a step's kernel writes the canvas now (the lock released meanwhile):
+        the state is half old, half new until it ends."""
+        return self.inflight and not self._copying
 
     def _slot_ahead(self) -> bool:
         """While step *k*'s kernel runs a record belongs to step *k + 1* (its stamps were
@@ -374,11 +386,13 @@ class KioskSession:
         self.dirty |= st.tile_ttl > 0
 
     # -- the simulation thread ------------------------------------------------------
-    def start_worker(self) -> None:
-        """Run the due steps in a thread of their own from now on (see module docstring).
-        Not for a GPU canvas: its GL context belongs to the window's thread."""
+    def start_worker(self, nice: int = 0) -> None:
+        """Run the due steps in a thread of their own from now on (see module docstring),
+        ``nice`` steps lower in the system's priority than the window's thread.  Not for
+        a GPU canvas: its GL context belongs to the window's thread."""
         if self._worker is not None or self.cpu_state is None:
             return
+        self._nice = nice
         self._halt.clear()
         self._worker = threading.Thread(target=self._work, name="kiosk-sim", daemon=True)
         self._worker.start()
@@ -408,6 +422,16 @@ class KioskSession:
         # the 2-core development machine one thread even steps faster than two that
         # fight the window for the cores (bench latency: 8 against 11 ms a step).
         numba.set_num_threads(max(1, numba.get_num_threads() - 1))
+        if self._nice > 0:
+            # the pen first: when the machine is busy the steps wait for a core, not the
+            # window, the X server or the driver (a step that falls behind is caught up,
+            # its records slotted as ever); the kernel's OpenMP workers are started by
+            # this thread's first parallel loop, after this, and share its priority
+            try:
+                os.setpriority(os.PRIO_PROCESS, threading.get_native_id(),
+                               os.getpriority(os.PRIO_PROCESS, 0) + self._nice)
+            except OSError as exc:  # not allowed here: the steps keep the window's priority
+                log.warning("the simulation thread keeps its priority: %s", exc)
         try:
             while not self._halt.is_set():
                 with self.lock:
@@ -453,7 +477,7 @@ class KioskSession:
         """One step (lock held), its canvas kernel run with the lock released."""
         p = self.player
         real = p.backend
-        p.backend = _KernelUnlocked(real, self)
+        p.backend = KernelUnlocked(real, self)
         try:
             self.step()
         finally:
@@ -550,76 +574,3 @@ class KioskSession:
     def active_tiles(self) -> int | None:
         st = self.cpu_state
         return None if st is None else int(np.count_nonzero(st.tile_ttl > 0))
-
-
-#: Capillary water (the paper's ``wc``) above which a cell without surface water is
-#: damp, not dry: after a wash the surface water is gone in seconds while the paper
-#: holds water for a minute more (the status read "wet 0.0%" all that time).
-DAMP_WATER = 1e-4
-
-
-@dataclass(frozen=True)
-class Moisture:
-    """Shares of the canvas's cells (0..1): with surface water (wet), with water only
-    in the paper (damp); the rest is dry."""
-
-    wet: float
-    damp: float
-
-    @property
-    def word(self) -> str:
-        """``wet``, ``damp`` or ``dry``: the wettest state any cell is in."""
-        return "wet" if self.wet > 0 else ("damp" if self.damp > 0 else "dry")
-
-    def line(self) -> str:
-        """The status line's words: ``wet 3.1%  damp 8.0%``, ``damp 8.0%`` or ``dry``."""
-        parts = []
-        if self.wet > 0:
-            parts.append(f"wet {100 * self.wet:.1f}%")
-        if self.damp > 0:
-            parts.append(f"damp {100 * self.damp:.1f}%")
-        return "  ".join(parts) or "dry"
-
-
-class _KernelUnlocked:
-    """A backend whose ``step`` runs with the session's lock released (the window
-    applies brush samples meanwhile; see the module docstring)."""
-
-    def __init__(self, backend: Any, session: KioskSession) -> None:
-        self._backend = backend
-        self._session = session
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._backend, name)
-
-    def step(self, *args: Any, **kw: Any) -> None:
-        s = self._session
-        s.inflight = True
-        s.lock.release()
-        try:
-            self._backend.step(*args, **kw)
-        finally:
-            s.lock.acquire()
-            s.inflight = False
-            s.lock.notify_all()
-
-
-class _SharedState:
-    """A backend whose ``state()`` shares the live canvas arrays (small fields copied):
-    what a deferred undo checkpoint holds until the canvas next changes."""
-
-    def __init__(self, backend: Any, live: CanvasState) -> None:
-        self._backend = backend
-        self._live = live
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._backend, name)
-
-    def state(self) -> CanvasState:
-        kw: dict[str, Any] = {}
-        for name in self._live.__dataclass_fields__:
-            v = getattr(self._live, name)
-            if isinstance(v, (list, dict)):
-                v = json.loads(json.dumps(v))
-            kw[name] = v
-        return CanvasState(**kw)

@@ -120,7 +120,9 @@ def _gauss_weights() -> np.ndarray:
     return np.asarray((w / w.sum()).astype(F32))
 
 
-_W = _gauss_weights()
+#: The blur's five weights (each axis); the GL fields pass uses them too.
+EDGE_WEIGHTS = _gauss_weights()
+_W = EDGE_WEIGHTS
 
 
 @numba.njit(cache=True, nogil=True)

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property, lru_cache
 
 import numpy as np
 
@@ -90,13 +91,20 @@ class Camera:
         vp = self.viewport
         return (vp.x + (ndc[0] + 1) / 2 * vp.w, vp.y + (1 - ndc[1]) / 2 * vp.h)
 
+    @cached_property
+    def inverse(self) -> np.ndarray:
+        """The view-projection's inverse (a pen sample un-projects through it: inverted
+        once per camera, not per sample)."""
+        inv: np.ndarray = np.linalg.inv(self.vp)
+        return inv
+
     def screen_to_world(self, x: float, y: float) -> np.ndarray | None:
         """Where the window pixel (x, y) meets the table plane z = 0 (``None``: it
         does not, looking above the horizon)."""
         vp = self.viewport
         nx = (x - vp.x) / vp.w * 2 - 1
         ny = 1 - (y - vp.y) / vp.h * 2
-        inv = np.linalg.inv(self.vp)
+        inv = self.inverse
         a = inv @ np.array([nx, ny, -1.0, 1.0])
         b = inv @ np.array([nx, ny, 1.0, 1.0])
         a, b = a[:3] / a[3], b[:3] / b[3]
@@ -154,6 +162,8 @@ def make_camera(name: str, area: Viewport, aspect: float,
     raise ValueError(f"unknown view {name!r} (one of {', '.join(VIEWS)})")
 
 
+@lru_cache(maxsize=8)
 def input_camera(name: str, area: Viewport, aspect: float) -> Camera:
-    """The camera the pen paints through in view ``name`` (``follow`` paints as ``2d``)."""
+    """The camera the pen paints through in view ``name`` (``follow`` paints as ``2d``);
+    made once per view and window layout (every pen sample asks for it)."""
     return table_3d(area, aspect) if name == "3d" else fit_2d(area, aspect)

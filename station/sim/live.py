@@ -446,10 +446,18 @@ class LiveCore:
         return ran
 
     # -- devices -----------------------------------------------------------------
+    def heard_until(self) -> float:
+        """Monotonic time up to which every message sent to this process has been read
+        (no bus here: now)."""
+        return time.monotonic()
+
     def check_devices(self) -> list[str]:
         """Mark devices silent after their heartbeats stop; end their strokes.
-        Returns the devices that fell silent now."""
-        now = time.monotonic()
+        Returns the devices that fell silent now.  Silence is judged up to the time the
+        bus was last read empty, not the clock: a process that stalled (a loaded machine,
+        a long step) with a device's samples still queued would otherwise end a stroke
+        the painter never lifted."""
+        now = self.heard_until()
         fell: list[str] = []
         for name, dev in self.devices.items():
             timeout = dev.timeout()

@@ -69,6 +69,10 @@ class LiveSim(LiveCore):
         self._fps_mark = (time.monotonic(), self.player.counters.steps)
         self.fps = 0.0
 
+    def heard_until(self) -> float:
+        # a stand-in subscriber (a test's queue) that cannot say: the clock
+        return float(getattr(self.sub, "heard_until", time.monotonic()))
+
     def _count_unread(self) -> None:
         """Count the pen samples still queued when the sim stops (a flood leaves up to
         the queue's HWM): read, not painted, so none goes uncounted; at most

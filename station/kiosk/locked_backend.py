@@ -1,0 +1,62 @@
+"""The canvas backend as the kiosk's session sees it: a step's kernel run with the
+session's lock released (:class:`KernelUnlocked`), and the live arrays shared by a
+deferred undo checkpoint until the canvas next changes (:class:`SharedState`)."""
+
+from __future__ import annotations
+
+import json
+import threading
+from typing import Any, Protocol
+
+from station.canvas.state import CanvasState
+
+
+class StepLock(Protocol):
+    """The session's side of a step: its lock, and whether a kernel runs now."""
+
+    inflight: bool
+    lock: threading.Condition
+
+
+class KernelUnlocked:
+    """A backend whose ``step`` runs with the session's lock released (the window
+    applies brush samples meanwhile; see :mod:`station.kiosk.session`)."""
+
+    def __init__(self, backend: Any, session: StepLock) -> None:
+        self._backend = backend
+        self._session = session
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._backend, name)
+
+    def step(self, *args: Any, **kw: Any) -> None:
+        s = self._session
+        s.inflight = True
+        s.lock.release()
+        try:
+            self._backend.step(*args, **kw)
+        finally:
+            s.lock.acquire()
+            s.inflight = False
+            s.lock.notify_all()
+
+
+class SharedState:
+    """A backend whose ``state()`` shares the live canvas arrays (small fields copied):
+    what a deferred undo checkpoint holds until the canvas next changes."""
+
+    def __init__(self, backend: Any, live: CanvasState) -> None:
+        self._backend = backend
+        self._live = live
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._backend, name)
+
+    def state(self) -> CanvasState:
+        kw: dict[str, Any] = {}
+        for name in self._live.__dataclass_fields__:
+            v = getattr(self._live, name)
+            if isinstance(v, (list, dict)):
+                v = json.loads(json.dumps(v))
+            kw[name] = v
+        return CanvasState(**kw)
