@@ -14,8 +14,8 @@ is the same method with a binary wheel.  Each frame:
 4. *Accept* a finite result that keeps every joint above ``-TOL``; otherwise
    keep the last shape and count a fallback.  The budget is an evaluation
    count (deterministic, so a replay gives the same brush) plus, in live use
-   only, a wall-clock limit (``time_budget_s``, NLopt's path only: the compiled
-   one is bounded by its evaluations alone).
+   only, a wall-clock limit (``time_budget_s``: a compiled solve that took longer
+   counts as failed, and NLopt gets it as its own limit).
 
 Step 3 runs :func:`station.brush.sqp.sqp` (the same method compiled, no call
 back into Python: issue 26); a frame it declines (an infeasible linearisation,
@@ -171,6 +171,7 @@ class SpineSolver:
         has_last = st.pos is not None and st.contact is not None
         fr = self.friction
         # one compiled call: contact set, anchors, warm start (steps 1-2) and the SQP
+        t0 = time.perf_counter()
         status = solve_frame(st.x, lo, hi, lengths, stiffness, st.rest, root, handle,
                              st.pos if has_last else _NO_POS,
                              st.contact if has_last else _NO_CONTACT, has_last, self.hold,
@@ -180,6 +181,9 @@ class SpineSolver:
         if self.method == "sqp":
             self.counters.evaluations += int(stats[0])
         x: np.ndarray | None = None
+        budget = self.time_budget_s
+        if budget is not None and time.perf_counter() - t0 > budget:
+            return False  # over the live budget, as NLopt's MAXTIME_REACHED
         if status == OK:  # a feasible point: its heights within CTOL < TOL
             x = x0
         else:  # NLopt's SLSQP relaxes what the compiled one gives up on
