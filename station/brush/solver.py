@@ -168,13 +168,15 @@ class SpineSolver:
         cflt = np.empty(n)
         x0 = np.empty(2 * n)
         stats = np.zeros(3, np.int64)
-        has_last = st.pos is not None and st.contact is not None
+        last_pos = st.pos if st.pos is not None and st.contact is not None else _NO_POS
+        last_contact = st.contact if st.pos is not None and st.contact is not None \
+            else _NO_CONTACT
+        has_last = last_pos is not _NO_POS
         fr = self.friction
         # one compiled call: contact set, anchors, warm start (steps 1-2) and the SQP
         t0 = time.perf_counter()
         status = solve_frame(st.x, lo, hi, lengths, stiffness, st.rest, root, handle,
-                             st.pos if has_last else _NO_POS,
-                             st.contact if has_last else _NO_CONTACT, has_last, self.hold,
+                             last_pos, last_contact, has_last, self.hold,
                              CONTACT_TOL, BUCKLE, fr.mu_n, fr.c_eta, fr.k_eta,
                              self.max_evals if self.method == "sqp" else 0, self.xtol, FTOL,
                              CTOL, x0, anchor, pull, cflt, stats)
