@@ -154,3 +154,15 @@ def test_bench_sim_takes_each_backend_s_fraction_of_its_own_device(
     out = json.loads(capsys.readouterr().out)
     assert out["bandwidth"]["gl_gb_s"] is None and "no EGL" in out["bandwidth"]["gl_error"]
     assert out["results"][0]["bandwidth_fraction"] is None
+
+
+def test_the_real_probe_runs_in_a_child_and_a_dead_child_gives_the_fixed_rule(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    path = tmp_path / "c.json"
+    c = choice.resolve(["numpy"], None, "m1", None, "cpu", path)  # a real child, numpy only
+    assert c.backend == "numpy" and c.steps_per_s["numpy"] > 0  # type: ignore[operator]
+    assert choice.load(path) is not None
+    monkeypatch.setattr(choice, "_CHILD", "import sys; sys.exit('driver crashed')")
+    c = choice.resolve(["numpy", "gl"], "GPU", "m1", None, "gl", path)
+    assert c.backend == "gl" and "driver crashed" in c.why and "fixed rule" in c.why
+    assert c.steps_per_s == {"numpy": None, "gl": None}

@@ -1,6 +1,8 @@
 """What ``--backend auto`` means on this machine: measured once, then cached (issue 26).
 
-On first use ``auto`` runs a short, bounded probe: every backend that can run here
+On first use ``auto`` runs a short, bounded probe, in a child process (its GL contexts
+stay out of the caller's: a kiosk's window context stays current; a broken driver
+cannot take the caller down): every backend that can run here
 (``numpy``; ``cpu`` with numba; ``gl`` when an OpenGL 4.3 context can be made, a CPU
 rasterizer included) steps a fully wet :data:`PROBE_SIZE` canvas — the case that
 decides whether a visitor's wet sky keeps real time — for about
@@ -25,6 +27,8 @@ import logging
 import math
 import os
 import platform
+import subprocess
+import sys
 import tempfile
 import time
 from collections.abc import Callable
@@ -115,7 +119,7 @@ class Choice:
             if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v)):
                 raise ValueError(f"steps_per_s[{k!r}] is not a number")
             figures[str(k)] = None if v is None else float(v)
-        if backend not in figures:
+        if backend not in figures and figures:
             raise ValueError("the chosen backend was not measured")
         renderer = data.get("renderer")
         errors = data.get("errors", {})
@@ -239,14 +243,59 @@ def still_valid(choice: Choice, renderer: str | None, machine: str,
 
 
 def resolve(candidates: list[str], renderer: str | None, machine: str,
-            make: Callable[..., Any], fallback: str, path: Path | None = None) -> Choice:
-    """The cached choice when still valid, else a fresh measurement (then cached)."""
+            make: Callable[..., Any] | None, fallback: str, path: Path | None = None
+            ) -> Choice:
+    """The cached choice when still valid, else a fresh measurement (then cached):
+    with ``make`` in this process, without it in a child (:func:`measure_in_child`)."""
     cached = load(path)
     if cached is not None and still_valid(cached, renderer, machine, candidates):
         return cached
     if cached is not None:
         log.info("backend choice cache is stale (version, machine or GL renderer "
                  "changed): measuring again")
-    choice = measure(candidates, renderer, machine, make, fallback)
+    if make is None:
+        choice = measure_in_child(candidates, renderer, machine, fallback)
+    else:
+        choice = measure(candidates, renderer, machine, make, fallback)
     save(choice, path)
     return choice
+
+
+CHILD_TIMEOUT_S = 300.0
+"""The probe in a child: a first run may compile the cpu backend (minutes on a loaded
+2-core machine); past this the fixed rule decides."""
+
+_CHILD = """
+import json, sys
+from station.backends import choice
+from station.backends.factory import create_backend
+a = json.loads(sys.argv[1])
+c = choice.measure(a["candidates"], a["renderer"], a["machine"], create_backend, a["fallback"])
+print(json.dumps(c.as_dict()))
+"""
+
+
+def measure_in_child(candidates: list[str], renderer: str | None, machine: str,
+                     fallback: str) -> Choice:
+    """:func:`measure` in a child process: the probe's GL contexts never touch the
+    caller's (a kiosk's window context stays current) and a broken driver cannot take
+    the caller down.  A child that fails gives the fixed rule's ``fallback``."""
+    arg = json.dumps({"candidates": candidates, "renderer": renderer, "machine": machine,
+                      "fallback": fallback})
+    why = ""
+    try:
+        proc = subprocess.run([sys.executable, "-c", _CHILD, arg], capture_output=True,
+                              text=True, timeout=CHILD_TIMEOUT_S, check=False)
+        if proc.returncode == 0:
+            c = Choice.from_dict(json.loads(proc.stdout.strip().splitlines()[-1]))
+            c.cached = False
+            return c
+        why = (proc.stderr.strip().splitlines() or ["no message"])[-1]
+    except subprocess.TimeoutExpired:
+        why = f"the probe took over {CHILD_TIMEOUT_S:g} s"
+    except (ValueError, IndexError) as exc:
+        why = f"the probe printed no choice ({exc})"
+    log.warning("backend probe failed (%s): the fixed rule picks %s", why, fallback)
+    return Choice(fallback, f"the probe failed ({why[:200]}); the fixed rule picks {fallback}",
+                  {name: None for name in candidates}, {"probe": why[:300]}, renderer,
+                  station.__version__, machine, time.time(), "")

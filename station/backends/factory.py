@@ -88,7 +88,8 @@ def auto_choice() -> Choice:
         problem = _one_line(exc)
     else:
         candidates.append("gl")
-    return choice.resolve(candidates, renderer, choice.machine_key(numba), create_backend,
+    # make=None: the probe runs in a child process (its GL contexts stay out of ours)
+    return choice.resolve(candidates, renderer, choice.machine_key(numba), None,
                           fixed_rule(renderer, problem)[0])
 
 
