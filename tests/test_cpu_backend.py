@@ -259,8 +259,12 @@ def test_operations_render_and_factory() -> None:
     assert c.live_state.q.sum() == 0
     # honest traffic: the per-sweep count, one float = 4 bytes
     slots = max(len(c.live_state.slots), 1)
-    assert c.bytes_per_cell_step() == 4 * sum(traffic.floats_per_cell_step(slots, 4).values())
+    iters = int(c.live_state.params.jacobi_iters)
+    assert c.bytes_per_cell_step() == 4 * sum(
+        traffic.floats_per_cell_step(slots, iters).values())
     assert traffic.bytes_per_cell_step(2, 4) == 544  # 520 before issue 10, 556 in own sweep
+    # one Jacobi iteration (the profiles since issue 26): no temporally blocked sweep
+    assert traffic.bytes_per_cell_step(2, 1) == 476
 
 
 def test_bench_sim_measures_the_cpu_backend(capsys) -> None:
