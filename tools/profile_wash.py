@@ -19,7 +19,6 @@ from collections import defaultdict
 from typing import Any
 
 from station.backends.cpu import kernels as K
-from station.backends.cpu import step as cpu_step
 from station.backends.cpu.traffic import floats_per_cell_step
 from station.backends.factory import create_backend
 from station.bench._sim_driver import wash
@@ -56,14 +55,14 @@ def main() -> None:
         return call
 
     for name in SWEEPS:
-        setattr(cpu_step.K, name, timed(name))
+        setattr(K, name, timed(name))
     load0 = os.getloadavg()
     t0 = time.perf_counter()
     for _ in range(args.steps):
         canvas.step()
     total = time.perf_counter() - t0
     for name, fn in originals.items():
-        setattr(cpu_step.K, name, fn)
+        setattr(K, name, fn)
     bw = memory_bandwidth_gb_s()
     st = canvas.live_state
     floats = floats_per_cell_step(max(len(st.slots), 1), int(st.params.jacobi_iters))
