@@ -103,3 +103,8 @@ def test_a_declined_frame_goes_to_nlopt() -> None:
         if method == "sqp":
             assert solver.counters.compiled_declined >= 1
     np.testing.assert_array_equal(results[0], results[1])
+
+
+def test_an_unknown_method_is_refused() -> None:
+    with pytest.raises(ValueError, match="slsqp"):
+        SpineSolver(method="slsqp")

@@ -45,6 +45,7 @@ FTOL = 1e-12
 """Absolute tolerance on the energy between two iterates."""
 CTOL = 1e-9
 """How far (tuft units) a height may miss its constraint at a feasible point."""
+METHODS = ("sqp", "nlopt")
 _NO_POS = np.zeros((0, 3))
 _NO_CONTACT = np.zeros(0, np.bool_)
 
@@ -126,6 +127,10 @@ class SpineSolver:
     counters: SolverCounters = field(default_factory=SolverCounters)
     hold: bool = True
     method: str = "sqp"
+
+    def __post_init__(self) -> None:
+        if self.method not in METHODS:
+            raise ValueError(f"solver method {self.method!r} is not one of {', '.join(METHODS)}")
 
     def solve(self, st: SpineState, root: np.ndarray, handle: np.ndarray) -> np.ndarray:
         """Move ``st`` to its equilibrium at ``root`` (3,), ``handle`` (3, 3); joints (n, 3).
