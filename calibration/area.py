@@ -155,8 +155,8 @@ class AreaSettings:
     def with_(self, **changes: Any) -> AreaSettings:
         return replace(self, **changes)
 
-    def to_json(self) -> dict[str, Any]:
-        out: dict[str, Any] = {
+    def to_json(self) -> dict[str, object]:
+        out: dict[str, object] = {
             "left_handed": self.left_handed,
             "lock_aspect": self.lock_aspect,
             "outside": self.outside,

@@ -63,12 +63,12 @@ def _folder(directory: str | os.PathLike[str] | None) -> Path:
     return Path(directory) if directory is not None else config_dir()
 
 
-def to_json(cal: Calibration) -> dict[str, Any]:
+def to_json(cal: Calibration) -> dict[str, object]:
     """The file's JSON object."""
     d = cal.device
     g = cal.geometry
     f = cal.fit
-    rec: dict[str, Any] = {
+    rec: dict[str, object] = {
         "format": FORMAT,
         "version": VERSION,
         "created": cal.created or _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),

@@ -32,7 +32,6 @@ import itertools
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 from station.calibration.errors import DegeneratePoints
@@ -93,7 +92,7 @@ class FitReport:
     condition: float
     residuals_mm: Array | None = None
     parallax_mm: tuple[float, float] | None = None
-    candidates: dict[str, dict[str, Any]] = field(default_factory=dict)
+    candidates: dict[str, dict[str, object]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     ambiguous: dict[int, list[int]] = field(default_factory=dict)  # outlier -> equal suspects
 
@@ -101,9 +100,14 @@ class FitReport:
     def model(self) -> str:
         return self.mapping.model
 
-    def to_json(self, labels: Sequence[str] = ()) -> dict[str, Any]:
+    def to_json(self, labels: Sequence[str] = ()) -> dict[str, object]:
         norms = np.linalg.norm(self.residuals, axis=1)
-        out: dict[str, Any] = {
+        residuals: list[dict[str, object]] = [
+            {"row": i, "dx": float(r[0]), "dy": float(r[1]), "norm": float(n),
+             "loo": self.loo_errors[i], "outlier": i in self.outliers}
+            for i, (r, n) in enumerate(zip(self.residuals, norms, strict=True))
+        ]
+        out: dict[str, object] = {
             "model": self.model,
             "matrix": _clean(self.mapping.matrix.tolist()),
             "rms": self.rms,
@@ -115,11 +119,7 @@ class FitReport:
             "outlier_threshold": self.threshold,
             "loo_rms": self.loo_rms,
             "loo_max": self.loo_max,
-            "residuals": [
-                {"row": i, "dx": float(r[0]), "dy": float(r[1]), "norm": float(n),
-                 "loo": self.loo_errors[i], "outlier": i in self.outliers}
-                for i, (r, n) in enumerate(zip(self.residuals, norms, strict=True))
-            ],
+            "residuals": residuals,
             "condition": self.condition,
         }
         if labels:
@@ -129,10 +129,10 @@ class FitReport:
             inl = mm[self.inliers] if self.inliers else mm
             out["rms_mm"] = float(np.sqrt(np.mean(inl**2)))
             out["max_mm"] = float(inl.max())
-            for rec, v in zip(out["residuals"], mm, strict=True):
+            for rec, v in zip(residuals, mm, strict=True):
                 rec["norm_mm"] = float(v)
         if self.mapping.parallax != (0.0, 0.0) or self.parallax_mm is not None:
-            par: dict[str, Any] = {
+            par: dict[str, object] = {
                 "x": self.mapping.parallax[0],
                 "y": self.mapping.parallax[1],
                 "units": "device units per tan(tilt)",
@@ -471,7 +471,7 @@ def _fit_auto(
     noise: float | None,
 ) -> FitReport:
     affine = fit_points(points, "affine", parallax, robust, min_sigma, units_per_mm, seed, noise)
-    candidates: dict[str, dict[str, Any]] = {
+    candidates: dict[str, dict[str, object]] = {
         "affine": {"rms": affine.rms, "loo_rms": affine.loo_rms, "outliers": affine.outliers,
                    "aicc": _aicc(affine, parallax)}
     }

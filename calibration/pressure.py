@@ -38,7 +38,7 @@ def _bezier(t: Array, a: float, b: float) -> Array:
     return 3.0 * s * s * t * a + 3.0 * s * t * t * b + t**3
 
 
-def bezier_eval(curve: Sequence[float], x: Array | float) -> Array:
+def bezier_eval(curve: Sequence[float] | Array, x: Array | float) -> Array:
     """``y`` of the pressure curve at input ``x`` (clamped to [0, 1]).
 
     Solves ``x(t) = x`` by bisection (40 halvings: 1e-12 in t), vectorised;

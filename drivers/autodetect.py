@@ -13,18 +13,18 @@ from __future__ import annotations
 
 import os
 from collections.abc import Callable
-from typing import Any
 
 from station.drivers.evdev.frames import is_pen_device
 from station.drivers.registry import find_device
 from station.drivers.transport.base import TransportError
-from station.drivers.transport.evdev import list_evdev
+from station.drivers.transport.evdev import EvdevNode, list_evdev
 from station.drivers.transport.hidraw import list_hidraw
 
 WHAT = "pen"
 
 
-def first_pen_spec(evdev_root: str = "/dev/input", opener: Callable[[str], Any] | None = None,
+def first_pen_spec(evdev_root: str = "/dev/input",
+                   opener: Callable[[str], EvdevNode] | None = None,
                    hidraw_sysfs: str = "/sys/class/hidraw") -> str:
     """The SPEC of the first pen tablet here (``evdev:/dev/input/eventN`` or
     ``hidraw:/dev/hidrawN``); :class:`TransportError` when there is none."""

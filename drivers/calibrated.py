@@ -19,7 +19,7 @@ import dataclasses
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from station.drivers.normalise import NormaliserConfig
 
@@ -89,7 +89,7 @@ class PressureInForce:
     applied_by: str
     source: str
 
-    def record(self) -> dict[str, Any]:
+    def record(self) -> dict[str, object]:
         """As JSON: the session-log header's and the status's ``pressure``."""
         return {**self.shaping.record(), "applied_by": self.applied_by, "from": self.source}
 

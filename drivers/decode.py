@@ -11,17 +11,17 @@ An evdev event is its type, code and value by name (``EV_ABS ABS_X 11826``).
 
 from __future__ import annotations
 
-from typing import Any
+from types import ModuleType
 
 from station.drivers.hid.descriptor import Descriptor, parse_descriptor, report_values
 from station.drivers.hid.errors import DescriptorError, ReportError
 from station.drivers.hid.usages import usage_name
 from station.drivers.raw import RawSample
-from station.drivers.registry import parser_for
+from station.drivers.registry import ReportParser, parser_for
 
 from station.errors import BadInput
 
-_ecodes: Any
+_ecodes: ModuleType | None
 try:  # event code names; without python-evdev the numbers are printed
     from evdev import ecodes as _ecodes
 except ImportError:  # pragma: no cover - python-evdev is a Linux dependency
@@ -41,7 +41,7 @@ class ReportDecoder:
                 self.desc = parse_descriptor(descriptor)
             except DescriptorError as exc:
                 self.note = f"descriptor not parsed: {exc}"
-        self.parser: Any = None
+        self.parser: ReportParser | None = None
         try:
             self.parser = parser_for(vid, pid, descriptor, bus)
         except BadInput as exc:

@@ -525,7 +525,7 @@ class Normaliser:
         try:
             x, y = self._position(raw, entering)
             pressure, touching = self._pressure_and_contact(raw, entering)
-            values = {
+            values: dict[str, Any] = {  # PenSample's fields: typed where PenSample checks them
                 "t": self._time(raw.time),
                 "device": self.device,
                 "tool": self._tool,

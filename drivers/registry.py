@@ -22,8 +22,9 @@ import re
 from collections.abc import Callable
 from functools import lru_cache
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
+from station.drivers.devicedata import BusName, DeviceModel
 from station.drivers.hid import usages as U
 from station.drivers.hid.base import IgnoredInterface, ReportParser
 from station.drivers.hid.descriptor import Descriptor, ReportType, parse_descriptor
@@ -43,6 +44,9 @@ from station.drivers.wacom.legacy import LegacyPenParser
 from station import boundedio, paths
 from station.errors import BadInput
 
+if TYPE_CHECKING:  # jsonschema is imported where device data is first checked
+    import jsonschema
+
 log = logging.getLogger(__name__)
 _eq_usage = U.equivalent_usage
 
@@ -53,8 +57,8 @@ MAX_FEATURE_REPORT = 64  # bytes of one init feature report (shipped ones: 2)
 SCHEMA_PATH = DEVICES_DIR / "devices.schema.json"
 
 BUS_USB, BUS_BLUETOOTH, BUS_I2C = 0x03, 0x05, 0x18
-BUS_NAMES = {"usb": BUS_USB, "bluetooth": BUS_BLUETOOTH, "i2c": BUS_I2C}
-BUS_NUMBERS = {v: k for k, v in BUS_NAMES.items()}
+BUS_NAMES: dict[BusName, int] = {"usb": BUS_USB, "bluetooth": BUS_BLUETOOTH, "i2c": BUS_I2C}
+BUS_NUMBERS: dict[int, BusName] = {v: k for k, v in BUS_NAMES.items()}
 
 __all__ = [
     "PARSERS", "DescriptorError", "ReportError", "ReportParser", "device_ids", "find_device",
@@ -62,12 +66,13 @@ __all__ = [
 ]  # fmt: skip
 
 
-def _init_features(model: dict[str, Any]) -> list[bytes]:
+def _init_features(model: DeviceModel) -> list[bytes]:
     return [bytes.fromhex(h) for h in model.get("init_feature_reports", [])]
 
 
-def _wacom(cls: type, **kw: Any) -> Callable[[dict[str, Any], Descriptor | None], ReportParser]:
-    def make(model: dict[str, Any], desc: Descriptor | None) -> ReportParser:
+def _wacom(cls: Callable[..., ReportParser], **kw: bool,
+           ) -> Callable[[DeviceModel, Descriptor | None], ReportParser]:
+    def make(model: DeviceModel, desc: Descriptor | None) -> ReportParser:
         parser: ReportParser = cls(WacomParams.from_model(model), model, _init_features(model),
                                    **kw)  # fmt: skip
         return parser
@@ -77,7 +82,7 @@ def _wacom(cls: type, **kw: Any) -> Callable[[dict[str, Any], Descriptor | None]
 
 # Protocol parsers by name (the names device data may use).  "hid-generic" is
 # built from the descriptor and has no factory here.
-PARSERS: dict[str, Callable[[dict[str, Any], Descriptor | None], ReportParser]] = {
+PARSERS: dict[str, Callable[[DeviceModel, Descriptor | None], ReportParser]] = {
     "wacom-intuos": _wacom(IntuosParser),
     "wacom-bamboo": _wacom(BambooParser),
     "wacom-graphire": _wacom(GraphireParser),
@@ -106,13 +111,13 @@ def parser_names() -> list[str]:
 
 
 @lru_cache(maxsize=1)
-def _validator() -> Any:
+def _validator() -> jsonschema.Draft202012Validator:
     import jsonschema
 
     return jsonschema.Draft202012Validator(json.loads(SCHEMA_PATH.read_text(encoding="utf-8")))
 
 
-def parse_device_data(text: str, where: str) -> dict[str, Any]:
+def parse_device_data(text: str, where: str) -> DeviceModel:
     """One device model from its JSON text, checked against ``devices.schema.json``
     and for a parser this station has; anything else is :class:`BadInput` at ``where``.
     Sizes are capped (:data:`MAX_DEVICE_DATA`, :data:`MAX_STRING`,
@@ -153,7 +158,7 @@ def parse_device_data(text: str, where: str) -> dict[str, Any]:
 
 
 @lru_cache(maxsize=1)
-def _bundled() -> tuple[dict[str, Any], ...]:
+def _bundled() -> tuple[DeviceModel, ...]:
     """The package's own models (validated once per process: 560 files, ~1 s)."""
     models = read_device_dir(DEVICES_DIR)
     for model in models:
@@ -161,7 +166,7 @@ def _bundled() -> tuple[dict[str, Any], ...]:
     return tuple(models)
 
 
-def read_device_dir(directory: Path) -> list[dict[str, Any]]:
+def read_device_dir(directory: Path) -> list[DeviceModel]:
     """Every model in ``directory`` (``*.json``), each checked; two with one id are
     refused (the second would shadow the first depending on file order)."""
     models = []
@@ -181,7 +186,7 @@ def read_device_dir(directory: Path) -> list[dict[str, Any]]:
 
 
 @lru_cache(maxsize=1)
-def _load() -> tuple[dict[str, Any], ...]:
+def _load() -> tuple[DeviceModel, ...]:
     """The bundled models, then the system's and the user's device data
     (:func:`station.paths.device_data_dirs`), a later file replacing an earlier model
     with the same id or the same vendor, product and bus.  A bad file of the system or
@@ -240,26 +245,26 @@ def reload_devices() -> None:
     _by_ids.cache_clear()
 
 
-def load_devices() -> list[dict[str, Any]]:
+def load_devices() -> list[DeviceModel]:
     """Every device model (dicts as in the JSON files, plus ``_path`` and ``_source``:
     ``bundled``, ``system`` or ``user``; ``_overrides``: the file it replaces)."""
     return [copy.deepcopy(m) for m in _load()]
 
 
-def device_ids(model: dict[str, Any]) -> tuple[int, int, int]:
+def device_ids(model: DeviceModel) -> tuple[int, int, int]:
     """(vid, pid, bus number) of a model."""
     return (int(model["vendor_id"], 16), int(model["product_id"], 16), BUS_NAMES[model["bus"]])
 
 
 @lru_cache(maxsize=1)
-def _by_ids() -> dict[tuple[int, int], list[dict[str, Any]]]:
-    index: dict[tuple[int, int], list[dict[str, Any]]] = {}
+def _by_ids() -> dict[tuple[int, int], list[DeviceModel]]:
+    index: dict[tuple[int, int], list[DeviceModel]] = {}
     for m in _load():
         index.setdefault(device_ids(m)[:2], []).append(m)
     return index
 
 
-def find_device(vid: int, pid: int, bus: int | None = None) -> dict[str, Any] | None:
+def find_device(vid: int, pid: int, bus: int | None = None) -> DeviceModel | None:
     """The model with this vid/pid (and bus, when given; else USB first), or None."""
     matches = _by_ids().get((vid, pid), [])
     if not matches:
@@ -272,7 +277,7 @@ def find_device(vid: int, pid: int, bus: int | None = None) -> dict[str, Any] | 
     return copy.deepcopy((usb or matches)[0])
 
 
-def _model_ranges(model: dict[str, Any]) -> AxisRanges:
+def _model_ranges(model: DeviceModel) -> AxisRanges:
     # Descriptor-driven models (hid-generic, uclogic) may carry no numbers: 0..1 then.
     res = model.get("resolution", {})
     return AxisRanges(Axis(0, int(model.get("max_x", 1)), res.get("x")),
@@ -352,7 +357,7 @@ def parser_for(vid: int, pid: int, descriptor: bytes | None, bus: int = BUS_USB,
 TOUCH_REPORT_LENGTHS = frozenset({20, 64})
 
 
-def _non_pen_interface(desc: Descriptor, model: dict[str, Any],
+def _non_pen_interface(desc: Descriptor, model: DeviceModel,
                        parser: ReportParser) -> ReportParser | None:
     """A protocol device's interface that plainly carries no pen -> ignored interface.
 
@@ -411,7 +416,7 @@ def interface_from_phys(phys: str) -> int | None:
     return int(m.group(1)) if m else None
 
 
-def _uclogic(model: dict[str, Any], descriptor: bytes | None,
+def _uclogic(model: DeviceModel, descriptor: bytes | None,
              interface: int | None) -> ReportParser:
     """A UC-Logic interface: the pen one gets the set-up-capable parser, others are ignored."""
     desc = None
@@ -476,13 +481,25 @@ def _unknown_wacom(vid: int, pid: int, desc: Descriptor, bus: int) -> ReportPars
     # the mapping to the surface is a guess until the tablet is in the data.
     peers = [m for m in _load() if m["parser"] == family and "max_x" in m]
     big = max(peers, key=lambda m: int(m["max_x"]) * int(m["max_y"]))
-    kept = ("max_x", "max_y", "max_pressure", "max_distance", "resolution", "pad_report_ids")
-    model: dict[str, Any] = {
-        **{k: big[k] for k in kept if k in big},
+    model: DeviceModel = {}
+    # the ranges of the family's largest model first (the keys in the order they had)
+    if "max_x" in big:
+        model["max_x"] = big["max_x"]
+    if "max_y" in big:
+        model["max_y"] = big["max_y"]
+    if "max_pressure" in big:
+        model["max_pressure"] = big["max_pressure"]
+    if "max_distance" in big:
+        model["max_distance"] = big["max_distance"]
+    if "resolution" in big:
+        model["resolution"] = big["resolution"]
+    if "pad_report_ids" in big:
+        model["pad_report_ids"] = big["pad_report_ids"]
+    model.update({
         "id": f"wacom-unknown-{pid:04x}", "name": what, "vendor_id": f"{vid:04x}",
         "product_id": f"{pid:04x}", "bus": BUS_NUMBERS.get(bus, "usb"),
         "parser": family, "init_feature_reports": ["0202"] if bus == BUS_USB else [],
-    }
+    })
     parser = PARSERS[family](model, desc)
     parser.unused_report_ids = unused_report_ids(desc, parser)
     parser.generic = True

@@ -12,8 +12,9 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any
+from typing import Literal, NotRequired, TypedDict
 
+from station.drivers.devicedata import DeviceModel
 from station.drivers.evdev.frames import is_pen_device, ranges_from_caps
 from station.drivers.mock.tablet import GENERIC_MODELS
 from station.drivers.registry import (
@@ -32,8 +33,53 @@ from station.drivers.transport.hidraw import HidrawTransport, OsHidrawNode, list
 from station.errors import BadInput
 from station.paths import device_data_dirs
 
+ScanKind = Literal["evdev", "hidraw", "usb", "hidapi"]
+SCAN_KINDS: tuple[ScanKind, ...] = ("evdev", "hidraw", "usb", "hidapi")
 
-def _data_file(model: dict[str, Any] | None) -> str | None:
+
+class ParserInfo(TypedDict, total=False):
+    """Which data file and protocol serve a node (``note``: why none, or a caveat)."""
+
+    model: str | None  # the device data's id
+    data_file: str | None  # "folder/file.json"
+    family: str | None
+    parser: str | None
+    generic: bool
+    is_pen: bool
+    kind: str  # "pen", "touch", "pad" …
+    note: str
+
+
+class ScanEntry(ParserInfo, total=False):
+    """A device the scan found: the SPEC that opens it, its ids, and what serves it
+    (``problem``: why it cannot be opened)."""
+
+    spec: str
+    path: str
+    name: str | None
+    vid: str  # 4 hex digits
+    pid: str
+    bus: int
+    resolution: bool  # evdev: the axes have a resolution
+    usage_page: int | None  # hidapi
+    interface: int | None  # hidapi
+    problem: str
+
+
+class ScanResult(TypedDict):
+    """``station devices --json``: what each way of opening a device found."""
+
+    evdev: list[ScanEntry]
+    hidraw: list[ScanEntry]
+    usb: list[ScanEntry]
+    hidapi: list[ScanEntry]
+    mock: list[MockEntry]
+    found: int  # devices that can be opened
+    problems: list[str]
+    notes: list[str]
+
+
+def _data_file(model: DeviceModel | None) -> str | None:
     if model is None:
         return None
     path = Path(model["_path"])
@@ -41,16 +87,16 @@ def _data_file(model: dict[str, Any] | None) -> str | None:
 
 
 def _parser_name(vid: int, pid: int, descriptor: bytes | None, bus: int,
-                 interface: int | None = None) -> dict[str, Any]:
+                 interface: int | None = None) -> ParserInfo:
     """Which data file and protocol serve this node, or exactly why none does."""
     model = find_device(vid, pid, bus)
-    base = {"model": model.get("id") if model else None, "data_file": _data_file(model),
+    base: ParserInfo = {"model": model.get("id") if model else None, "data_file": _data_file(model),
             "family": model.get("family") if model else None}
     try:
         parser = parser_for(vid, pid, descriptor, bus, interface=interface)
     except BadInput as exc:
         return {**base, "parser": None, "note": f"no parser: {exc}"}
-    out = {**base, "parser": parser.name, "generic": bool(parser.generic),
+    out: ParserInfo = {**base, "parser": parser.name, "generic": bool(parser.generic),
            "is_pen": bool(parser.is_pen), "kind": getattr(parser, "kind", "pen")}
     if parser.warning:
         out["note"] = parser.warning
@@ -62,8 +108,8 @@ def _parser_name(vid: int, pid: int, descriptor: bytes | None, bus: int,
     return out
 
 
-def scan_evdev() -> tuple[list[dict[str, Any]], list[str]]:
-    out: list[dict[str, Any]] = []
+def scan_evdev() -> tuple[list[ScanEntry], list[str]]:
+    out: list[ScanEntry] = []
     notes: list[str] = []
     if not os.path.isdir("/dev/input"):
         return out, ["no /dev/input on this machine (no evdev devices, or a container)"]
@@ -81,7 +127,8 @@ def scan_evdev() -> tuple[list[dict[str, Any]], list[str]]:
             continue
         ranges = ranges_from_caps(caps)
         model = find_device(caps.vid, caps.pid, getattr(caps, "bus", None))
-        item = {"spec": f"evdev:{entry['path']}", "path": entry["path"], "name": caps.name,
+        item: ScanEntry = {
+                "spec": f"evdev:{entry['path']}", "path": entry["path"], "name": caps.name,
                 "vid": f"{caps.vid:04x}", "pid": f"{caps.pid:04x}", "parser": "evdev",
                 "resolution": ranges.has_resolution, "model": model["id"] if model else None,
                 "data_file": _data_file(model)}
@@ -100,16 +147,16 @@ def scan_evdev() -> tuple[list[dict[str, Any]], list[str]]:
     return out, notes
 
 
-def scan_hidraw() -> tuple[list[dict[str, Any]], list[str]]:
-    out: list[dict[str, Any]] = []
+def scan_hidraw() -> tuple[list[ScanEntry], list[str]]:
+    out: list[ScanEntry] = []
     entries = list_hidraw()
     if not entries:
         return out, ["no hidraw nodes (/sys/class/hidraw is empty or missing)"]
     for e in entries:
         vid, pid, bus = int(e["vid"]), int(e["pid"]), int(e["bus"])
-        item: dict[str, Any] = {"spec": f"hidraw:{e['path']}", "path": e["path"],
-                                "name": e["name"], "vid": f"{vid:04x}", "pid": f"{pid:04x}",
-                                "bus": bus}
+        item: ScanEntry = {"spec": f"hidraw:{e['path']}", "path": e["path"],
+                           "name": e["name"], "vid": f"{vid:04x}", "pid": f"{pid:04x}",
+                           "bus": bus}
         descriptor = None
         if e["readable"]:
             try:
@@ -129,7 +176,7 @@ def scan_hidraw() -> tuple[list[dict[str, Any]], list[str]]:
     return out, []
 
 
-def scan_usb() -> tuple[list[dict[str, Any]], list[str]]:
+def scan_usb() -> tuple[list[ScanEntry], list[str]]:
     try:
         import usb.core  # in the function: pyusb is the optional ``usb`` extra
     except ImportError:
@@ -140,7 +187,7 @@ def scan_usb() -> tuple[list[dict[str, Any]], list[str]]:
         return [], ["pyusb has no backend (libusb-1.0 missing): USB devices not listed"]
     except Exception as exc:  # pyusb surfaces libusb errors untyped
         return [], [f"USB scan failed: {exc}"]
-    out = []
+    out: list[ScanEntry] = []
     for d in devices:
         model = find_device(d.idVendor, d.idProduct, 3)
         if model is None:
@@ -153,11 +200,12 @@ def scan_usb() -> tuple[list[dict[str, Any]], list[str]]:
     return out, []
 
 
-def scan_hidapi() -> tuple[list[dict[str, Any]], list[str]]:
-    out = []
+def scan_hidapi() -> tuple[list[ScanEntry], list[str]]:
+    out: list[ScanEntry] = []
     for e in enumerate_hidapi():
         vid, pid = int(e.get("vendor_id", 0)), int(e.get("product_id", 0))
-        item = {"spec": f"hidapi:{vid:04x}:{pid:04x}", "name": e.get("product_string", ""),
+        item: ScanEntry = {
+                "spec": f"hidapi:{vid:04x}:{pid:04x}", "name": e.get("product_string", ""),
                 "vid": f"{vid:04x}", "pid": f"{pid:04x}",
                 "usage_page": e.get("usage_page"), "interface": e.get("interface_number")}
         info = _parser_name(vid, pid, None, 3)
@@ -167,9 +215,20 @@ def scan_hidapi() -> tuple[list[dict[str, Any]], list[str]]:
     return out, []
 
 
-def mock_models() -> list[dict[str, Any]]:
+class MockEntry(TypedDict):
+    """A mock device ``station devices`` lists: the spec that opens it and its ids."""
+
+    spec: str
+    name: str | None
+    vid: str | None
+    pid: str | None
+    parser: str | None
+    bus: str | None
+
+
+def mock_models() -> list[MockEntry]:
     """The curated models (hand-written data, encoded by the mock tablet) and generic pens."""
-    out = []
+    out: list[MockEntry] = []
     curated = [m for m in load_devices() if "provenance" not in m]
     for m in [*curated, *GENERIC_MODELS.values()]:
         mid = str(m.get("id"))
@@ -179,37 +238,59 @@ def mock_models() -> list[dict[str, Any]]:
     return out
 
 
-def scan() -> dict[str, Any]:
-    result: dict[str, Any] = {}
+def scan() -> ScanResult:
     notes: list[str] = []
-    for key, fn in (("evdev", scan_evdev), ("hidraw", scan_hidraw), ("usb", scan_usb),
-                    ("hidapi", scan_hidapi)):
-        found, more = fn()
-        result[key] = found
-        notes.extend(more)
-    real = sum(1 for k in ("evdev", "hidraw", "usb", "hidapi") for d in result[k]
-               if "problem" not in d)
-    problems = [d for k in ("evdev", "hidraw") for d in result[k] if "problem" in d]
-    result["mock"] = mock_models()
-    result["found"] = real
-    result["problems"] = [f"{d['path']}: {d['problem']}" for d in problems]
+    evdev, more = scan_evdev()
+    notes.extend(more)
+    hidraw, more = scan_hidraw()
+    notes.extend(more)
+    usb, more = scan_usb()
+    notes.extend(more)
+    hidapi, more = scan_hidapi()
+    notes.extend(more)
+    real = sum(1 for found in (evdev, hidraw, usb, hidapi) for d in found if "problem" not in d)
+    problems = [d for found in (evdev, hidraw) for d in found if "problem" in d]
     notes.extend(f"your device data was skipped: {bad}" for bad in bad_device_files())
-    result["notes"] = notes
-    return result
+    return {"evdev": evdev, "hidraw": hidraw, "usb": usb, "hidapi": hidapi,
+            "mock": mock_models(), "found": real,
+            "problems": [f"{d['path']}: {d['problem']}" for d in problems], "notes": notes}
 
 
-def model_list() -> dict[str, Any]:
+# One model of the device data as ``station devices --list`` shows it ("from": where the
+# record came from, "bundled", "user" …; "overrides": the bundled file it replaces).
+ModelRow = TypedDict("ModelRow", {
+    "id": str, "vid": str, "pid": str, "bus": str, "protocol": str, "family": str,
+    "name": str, "models": int, "screen_tablet": bool, "file": str | None, "source": str,
+    "from": str, "path": str, "overrides": NotRequired[str],
+})
+
+
+class ModelList(TypedDict):
+    """``station devices --list --json``."""
+
+    models: list[ModelRow]
+    device_ids: int
+    pen_models: int  # products: an id shared by several counts each
+    directories: dict[str, str]  # "user", "system": where own device data goes
+    bad_files: list[str]
+
+
+def model_list() -> ModelList:
     """Every model of the device data: id, ids, protocol, family, name, file."""
-    rows = []
+    rows: list[ModelRow] = []
+    pen_models = 0
     for m in sorted(load_devices(), key=lambda m: (m["vendor_id"], m["product_id"], m["bus"])):
-        rows.append({"id": m["id"], "vid": m["vendor_id"], "pid": m["product_id"],
-                     "bus": m["bus"], "protocol": m["parser"], "family": m.get("family", ""),
-                     "name": m["name"], "models": len(m.get("models", [])) or 1,
-                     "screen_tablet": bool(m.get("screen_tablet")), "file": _data_file(m),
-                     "source": "generated" if "provenance" in m else "curated",
-                     "from": m.get("_source", "bundled"), "path": m["_path"],
-                     **({"overrides": m["_overrides"]} if "_overrides" in m else {})})
-    pen_models = sum(r["models"] for r in rows)
+        pen_models += len(m.get("models", [])) or 1
+        row: ModelRow = {
+            "id": m["id"], "vid": m["vendor_id"], "pid": m["product_id"],
+            "bus": m["bus"], "protocol": m["parser"], "family": m.get("family", ""),
+            "name": m["name"], "models": len(m.get("models", [])) or 1,
+            "screen_tablet": bool(m.get("screen_tablet")), "file": _data_file(m),
+            "source": "generated" if "provenance" in m else "curated",
+            "from": m.get("_source", "bundled"), "path": m["_path"]}
+        if "_overrides" in m:
+            row["overrides"] = m["_overrides"]
+        rows.append(row)
     return {"models": rows, "device_ids": len(rows), "pen_models": pen_models,
             "directories": {name: str(d) for name, d in device_data_dirs()},
             "bad_files": bad_device_files()}

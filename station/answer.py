@@ -27,7 +27,7 @@ from __future__ import annotations
 import json
 import logging
 import os
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -54,8 +54,8 @@ class ReplyRequest:
     id: str
     expect: str | None = None
 
-    def as_record(self) -> dict[str, Any]:
-        rec: dict[str, Any] = {"to": self.to, "id": self.id}
+    def as_record(self) -> dict[str, object]:
+        rec: dict[str, object] = {"to": self.to, "id": self.id}
         if self.expect is not None:
             rec["expect"] = self.expect
         return rec
@@ -96,7 +96,7 @@ class Answerer:
         self.process = process
         self.sent = 0
         self.failed = 0
-        self._ctx: zmq.Context[Any] | None = None
+        self._ctx: zmq.Context[zmq.Socket[bytes]] | None = None
 
     def answer(self, req: ReplyRequest, cmd: str, ok: bool, text: str, session: str) -> None:
         body = {"id": req.id, "ok": ok, "process": self.process, "pid": os.getpid(),
@@ -131,7 +131,7 @@ class ReadKeys(dict[str, Any]):
     Iterating over the keys counts as reading them all: a handler that walks its
     arguments validates each one itself."""
 
-    def __init__(self, args: dict[str, Any]) -> None:
+    def __init__(self, args: Mapping[str, object]) -> None:
         super().__init__(args)
         self.read: set[str] = set()
 
@@ -139,7 +139,7 @@ class ReadKeys(dict[str, Any]):
         self.read.add(key)
         return super().__getitem__(key)
 
-    def get(self, key: str, default: Any = None) -> Any:
+    def get(self, key: str, default: object = None) -> Any:
         self.read.add(key)
         return super().get(key, default)
 

@@ -173,9 +173,9 @@ class PenSample:
         return replace(self, **changes)
 
     # -- session-log JSON -------------------------------------------------
-    def to_record(self) -> dict[str, Any]:
+    def to_record(self) -> dict[str, object]:
         """The session-log ``pen`` record (interfaces.md)."""
-        rec: dict[str, Any] = {
+        rec: dict[str, object] = {
             "type": "pen",
             "t": self.t,
             "device": self.device,
@@ -291,7 +291,7 @@ class Command:
     args: dict[str, Any] = field(default_factory=dict)
     where: str | None = field(default=None, compare=False, repr=False)
     # on the bus only: where the taking process answers (station.answer); never logged
-    reply: dict[str, Any] | None = field(default=None, compare=False, repr=False)
+    reply: dict[str, object] | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         w = self.where
@@ -306,8 +306,8 @@ class Command:
     def known(self) -> bool:
         return self.cmd in KNOWN_COMMANDS
 
-    def to_record(self) -> dict[str, Any]:
-        rec = {"type": "cmd", "t": self.t, "cmd": self.cmd, "args": self.args}
+    def to_record(self) -> dict[str, object]:
+        rec: dict[str, object] = {"type": "cmd", "t": self.t, "cmd": self.cmd, "args": self.args}
         if self.reply is not None:
             rec["reply"] = self.reply
         return rec

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import bisect
 from dataclasses import dataclass, field
-from typing import Any
 
 Curve = tuple[float, float, float, float]
 """Bézier control points ``(x1, y1, x2, y2)`` in ``[0, 1]``."""
@@ -95,6 +94,6 @@ class PressureShaping:
         p = min(1.0, max(0.0, (pressure - self.threshold) / (self.maximum - self.threshold)))
         return (p if self._table is None else self._table(p)), True
 
-    def record(self) -> dict[str, Any]:
+    def record(self) -> dict[str, object]:
         """As JSON (status messages, session-log headers)."""
         return {"threshold": self.threshold, "maximum": self.maximum, "curve": list(self.curve)}

@@ -14,7 +14,7 @@ import logging
 import math
 import os
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, Any
@@ -49,8 +49,8 @@ class SessionHeader:
     seed: int = 0
     extra: dict[str, Any] = field(default_factory=dict)
 
-    def to_record(self) -> dict[str, Any]:
-        rec: dict[str, Any] = {
+    def to_record(self) -> dict[str, object]:
+        rec: dict[str, object] = {
             "format": FORMAT_NAME,
             "version": FORMAT_VERSION,
             "canvas": {"width": self.width, "height": self.height},
@@ -98,7 +98,7 @@ def _reject_constant(name: str) -> float:
     raise ValueError(f"{name} is not a JSON number")
 
 
-def _loads(text: str, where: str, header: bool = False) -> Any:
+def _loads(text: str, where: str, header: bool = False) -> object:
     """JSON of one line; malformed or absurdly nested text is a :class:`SessionLogError`."""
     prefix = "header is " if header else ""
     try:
@@ -257,7 +257,7 @@ class SessionLogWriter:
         self._write(header.to_record())
         self.flush()
 
-    def _write(self, rec: dict[str, Any]) -> None:
+    def _write(self, rec: Mapping[str, object]) -> None:
         self._fh.write(json.dumps(rec, separators=(", ", ": "), allow_nan=False) + "\n")
 
     def write(self, record: Record) -> None:
@@ -293,7 +293,7 @@ class SessionLogWriter:
         self.close()
 
 
-def summarise(reader: SessionLogReader) -> dict[str, Any]:
+def summarise(reader: SessionLogReader) -> dict[str, object]:
     """Statistics of a log for ``station log stats`` (streams; constant memory)."""
     pens = cmds = strokes = 0
     devices: dict[str, int] = {}

@@ -29,8 +29,9 @@ from __future__ import annotations
 import json
 import math
 import struct
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NoReturn
 
 from station.errors import EventError, WireError
 from station.events import TOOL_CODES, Command, PenSample
@@ -239,7 +240,7 @@ def _decode_pen_batch(device: str, body: bytes) -> list[PenSample]:
     ]
 
 
-def _encode_json(obj: dict[str, Any]) -> bytes:
+def _encode_json(obj: Mapping[str, object]) -> bytes:
     data = json.dumps(obj, separators=(",", ":"), allow_nan=False).encode()
     if len(data) > MAX_JSON_BODY:
         raise WireError(f"message body {len(data)} bytes exceeds {MAX_JSON_BODY}")
@@ -258,7 +259,7 @@ def _decode_json(body: bytes) -> dict[str, Any]:
     return obj
 
 
-def _no_constant(name: str) -> Any:
+def _no_constant(name: str) -> NoReturn:
     raise ValueError(f"{name} is not allowed")
 
 

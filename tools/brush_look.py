@@ -59,7 +59,7 @@ def save(name: str, rgb: np.ndarray, scale: int = 3,
     write_png(OUT / f"{name}.png", (img * 255 + 0.5).astype(np.uint8))
 
 
-def rim(d: np.ndarray, painted: np.ndarray, interior_from: int = 7) -> dict[str, Any]:
+def rim(d: np.ndarray, painted: np.ndarray, interior_from: int = 7) -> dict[str, object]:
     dist = distance_inside(painted.astype(np.float32))
     inner = dist >= interior_from
     interior = float(d[inner].mean())
@@ -86,7 +86,7 @@ def edge_std(painted: np.ndarray, cols: slice) -> float:
     return float(np.mean(out))
 
 
-def edges() -> dict[str, Any]:
+def edges() -> dict[str, object]:
     """Item 3: a loaded round-brush stroke on dry paper, dried."""
     w, h = 200, 64
     s = Script(w, h, seed=7, rate_hz=120.0)
@@ -103,7 +103,7 @@ def edges() -> dict[str, Any]:
     return out
 
 
-def taper_end() -> dict[str, Any]:
+def taper_end() -> dict[str, object]:
     """Item 3: a stroke lifted while moving (pressure falling over the last 30 %)."""
     w, h = 200, 64
     s = Script(w, h, seed=7, rate_hz=120.0)
@@ -120,7 +120,7 @@ def taper_end() -> dict[str, Any]:
             "width_end": [int(widths[end - k]) for k in (0, 3, 6, 10, 15, 20, 30)]}
 
 
-def bloom() -> dict[str, Any]:
+def bloom() -> dict[str, object]:
     """Item 4: clear water dropped into a damp wash."""
     w, h = 128, 96
     s = Script(w, h, seed=7, rate_hz=120.0)
@@ -157,7 +157,7 @@ def bloom() -> dict[str, Any]:
             "radius_cv": float(radii_a.std() / max(radii_a.mean(), 1e-6))}
 
 
-def drybrush() -> dict[str, Any]:
+def drybrush() -> dict[str, object]:
     """Item 5: the round brush, little water, dragged fast."""
     w, h = 200, 64
     s = Script(w, h, seed=7, rate_hz=120.0)
@@ -192,7 +192,7 @@ def drybrush() -> dict[str, Any]:
 
 ALL = {"edges": edges, "taper": taper_end, "bloom": bloom, "drybrush": drybrush}
 
-def zigzag(gap: float = 0.3) -> dict[str, Any]:
+def zigzag(gap: float = 0.3) -> dict[str, object]:
     """Item 8: a wash laid in zig-zag rows, each over the lower edge of the previous,
     half-dry row (a painter's graded wash): the darkest line between rows over the wash."""
     w, h = 160, 96

@@ -14,7 +14,8 @@ fetch them):
 - ``digimend/hid-uclogic-core.c`` and ``hid-ids.h`` (the uclogic driver's id
   table; DIGImend/digimend-kernel-drivers), with ``digimend/COMMIT``.
 
-Facts are read from the texts (numbers, names, ids); no code is copied.  One
+Facts are read from the texts (numbers, names, ids; ``tools/wacom_sources.py``); no code
+is copied.  One
 file is written per pen-capable device id (vendor, product, bus).  Files
 without a ``provenance`` key are curated by hand and left alone: the
 generator skips their ids.  Files it wrote before and would not write now are
@@ -27,27 +28,35 @@ import argparse
 import json
 import re
 import sys
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
+
+# tools/ is no package: run as a script, or loaded by path (tests), the generator finds its
+# sibling module through its own folder
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from wacom_sources import (
+    WACOM,
+    CValue,
+    KernelEntry,
+    Source,
+    Styli,
+    StylusGroups,
+    Tablet,
+    c_defines,
+    enum_order,
+    parse_features,
+    parse_id_table,
+    parse_styli,
+    parse_tablet,
+    resolve_styli,
+    strip_c_comments,
+    uclogic_ids,
+    uclogic_init_kinds,
+)
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT_DIR = ROOT / "drivers" / "devices"
 GENERATOR = "tools/gen_wacom_devices.py"
-
-WACOM = 0x056A
-VENDOR_MACROS = {"USB_VENDOR_ID_WACOM": WACOM, "USB_VENDOR_ID_LENOVO": 0x17EF}
-BUS_MACROS = {"USB_DEVICE_WACOM": "usb", "BT_DEVICE_WACOM": "bluetooth",
-              "I2C_DEVICE_WACOM": "i2c", "USB_DEVICE_LENOVO": "usb"}  # fmt: skip
-VENDOR_OF_MACRO = {"USB_DEVICE_LENOVO": 0x17EF}
-
-# The positional members of struct wacom_features (wacom_wac.h), in order.
-FEATURE_FIELDS = ["name", "x_max", "y_max", "pressure_max", "distance_max", "type",
-                  "x_resolution", "y_resolution", "numbered_buttons", "offset_left",
-                  "offset_right", "offset_top", "offset_bottom", "device_type", "x_phy",
-                  "y_phy", "unit", "unitExpo", "x_fuzz", "y_fuzz", "pressure_fuzz",
-                  "distance_fuzz", "tilt_fuzz", "quirks", "touch_max", "oVid", "oPid",
-                  "pktlen", "check_for_hid_type", "hid_type"]  # fmt: skip
 
 # Kernel type (wacom_wac.h enum) -> (station parser, family name, protocol quirks).
 # Which irq handler serves which type is wacom_wac_irq()'s switch; the quirks
@@ -106,7 +115,12 @@ TYPE_PROTOCOL: dict[str, tuple[str, str, list[str]]] = {
 # Measured corrections: what a device's pen really sends, where recordings of it show the
 # kernel table (which gives every pen of a kernel type the type's axes) and libwacom claim
 # more.  Each one names its evidence; the model gets the quirk and its provenance says why.
-MEASURED: dict[tuple[str, int, int], dict[str, Any]] = {
+class Measured(TypedDict):
+    quirks: list[str]  # protocol quirks the recordings show
+    evidence: str  # which recordings, and what they show
+
+
+MEASURED: dict[tuple[str, int, int], Measured] = {
     ("usb", 0x056A, 0x0057): {
         "quirks": ["no-tilt"],
         "evidence": "DTK-2241 recordings (issue 24): the pen's tilt bytes are 0 in every "
@@ -131,270 +145,6 @@ PAD_REPORT_IDS = {_INTUOS3: [3, 12, 17], "wacom-intuos1": [3, 12, 17],
                   "wacom-intuos4wl": [], "wacom-dtus": [21]}  # fmt: skip
 
 
-@dataclass
-class Source:
-    repo: str
-    commit: str
-    path: str
-
-    def ref(self, entry: str | None = None) -> dict[str, str]:
-        out = {"repo": self.repo, "commit": self.commit, "path": self.path}
-        if entry:
-            out["entry"] = entry
-        return out
-
-
-@dataclass
-class KernelEntry:
-    pid: int
-    vid: int
-    bus: str
-    macro_arg: str
-    features: dict[str, Any]
-
-
-@dataclass
-class Tablet:
-    file: str
-    name: str
-    model_name: str
-    matches: list[tuple[str, int, int, str]]
-    width_mm: float | None
-    height_mm: float | None
-    integrated: list[str]
-    styli: list[str]
-    stylus: bool
-    touch: bool
-    tablet_class: str
-    extra: dict[str, Any] = field(default_factory=dict)
-
-
-# -- C text -------------------------------------------------------------------------------------
-def strip_c_comments(text: str) -> str:
-    text = re.sub(r"/\*.*?\*/", " ", text, flags=re.S)
-    return re.sub(r"//[^\n]*", " ", text)
-
-
-def c_defines(text: str) -> dict[str, str]:
-    out = {}
-    for m in re.finditer(r"^#define[ \t]+(\w+)[ \t]+([^\n]+)$", text, flags=re.M):
-        out[m.group(1)] = m.group(2).strip()
-    return out
-
-
-def c_value(token: str, defines: dict[str, str]) -> Any:
-    token = token.strip()
-    if token.startswith('"'):
-        return token.strip('"')
-    if token in ("true", "false"):
-        return token == "true"
-    if token in VENDOR_MACROS:
-        return VENDOR_MACROS[token]
-    if token == "HID_ANY_ID":
-        return -1
-    if re.fullmatch(r"0[xX][0-9a-fA-F]+|\d+", token):
-        return int(token, 0)
-    if token in defines and defines[token] != token:
-        return c_value(defines[token], defines)
-    if re.fullmatch(r"[A-Z0-9_]+(\s*\|\s*[A-Z0-9_]+)*", token):
-        return token  # an enum or flag name: kept as text
-    raise ValueError(f"cannot read C value {token!r}")
-
-
-def split_initializer(body: str) -> list[str]:
-    items, depth, cur = [], 0, []
-    for ch in body:
-        if ch in "({":
-            depth += 1
-        elif ch in ")}":
-            depth -= 1
-        if ch == "," and depth == 0:
-            items.append("".join(cur).strip())
-            cur = []
-        else:
-            cur.append(ch)
-    if "".join(cur).strip():
-        items.append("".join(cur).strip())
-    return items
-
-
-def parse_features(text: str, defines: dict[str, str]) -> dict[str, dict[str, Any]]:
-    """``wacom_features_XXX`` initialisers -> {suffix: {member: value}} (C initialiser rules)."""
-    out = {}
-    pat = r"static const struct wacom_features wacom_features_(\w+)\s*=\s*\{(.*?)\};"
-    for m in re.finditer(pat, text, flags=re.S):
-        feats: dict[str, Any] = {}
-        pos = 0
-        for item in split_initializer(m.group(2)):
-            d = re.fullmatch(r"\.(\w+)\s*=\s*(.+)", item, flags=re.S)
-            if d:
-                name, value = d.group(1), d.group(2)
-                pos = FEATURE_FIELDS.index(name) + 1
-            else:
-                name, value = FEATURE_FIELDS[pos], item
-                pos += 1
-            feats[name] = c_value(" ".join(value.split()), defines)
-        out[m.group(1)] = feats
-    return out
-
-
-def parse_id_table(text: str, features: dict[str, dict[str, Any]]) -> list[KernelEntry]:
-    start = text.index("wacom_ids[] = {")
-    table = text[start:text.index("};", start)]
-    out = []
-    for m in re.finditer(r"\{\s*(\w+_DEVICE_\w+)\((\w+)\)\s*\}", table):
-        macro, arg = m.group(1), m.group(2)
-        if arg == "HID_ANY_ID" or macro not in BUS_MACROS:
-            continue
-        out.append(KernelEntry(pid=int(arg, 16), vid=VENDOR_OF_MACRO.get(macro, WACOM),
-                               bus=BUS_MACROS[macro], macro_arg=arg,
-                               features=features[arg]))  # fmt: skip
-    return out
-
-
-def enum_order(header: str) -> list[str]:
-    body = header[header.index("PENPARTNER = 0"):]
-    body = body[:body.index("}")]
-    return [w.split("=")[0].strip() for w in strip_c_comments(body).split(",") if w.strip()]
-
-
-# -- libwacom ------------------------------------------------------------------------------------
-def read_keyfile(path: Path) -> dict[str, dict[str, str]]:
-    sections: dict[str, dict[str, str]] = {}
-    cur: dict[str, str] | None = None
-    for raw in path.read_text(encoding="utf-8").splitlines():
-        line = raw.strip()
-        if not line or line.startswith("#"):
-            continue
-        if line.startswith("[") and line.endswith("]"):
-            cur = sections.setdefault(line[1:-1], {})
-        elif "=" in line and cur is not None:
-            k, v = line.split("=", 1)
-            cur[k.strip()] = v.split("#", 1)[0].strip()  # values may carry a comment
-    return sections
-
-
-def _parts(value: str) -> list[str]:
-    return [p for p in (s.strip() for s in value.split(";")) if p]
-
-
-def parse_tablet(path: Path) -> Tablet | None:
-    s = read_keyfile(path)
-    dev, feats = s.get("Device", {}), s.get("Features", {})
-    matches = []
-    for m in _parts(dev.get("DeviceMatch", "")):
-        bits = m.split("|")
-        if len(bits) < 3 or bits[0] not in ("usb", "bluetooth", "i2c"):
-            continue
-        matches.append((bits[0], int(bits[1], 16), int(bits[2], 16),
-                        bits[3] if len(bits) > 3 else ""))  # fmt: skip
-    styli = _parts(dev.get("Styli", ""))
-    stylus = feats.get("Stylus", "true" if styli else "false").lower() == "true"
-
-    def mm(key: str) -> float | None:
-        v = dev.get(key)
-        return float(v) if v and float(v) > 0 else None
-
-    return Tablet(file=path.name, name=dev.get("Name", path.stem),
-                  model_name=dev.get("ModelName", ""),
-                  matches=matches, width_mm=mm("Width"), height_mm=mm("Height"),
-                  integrated=_parts(dev.get("IntegratedIn", "")), styli=styli, stylus=stylus,
-                  touch=feats.get("Touch", "false").lower() == "true",
-                  tablet_class=dev.get("Class", ""))  # fmt: skip
-
-
-def stylus_key(bits: list[str]) -> tuple[int, int]:
-    """``[vid, id]`` or ``[id]`` (a Wacom stylus) of a ``0x56a:0x802`` style reference."""
-    if len(bits) == 2:
-        return int(bits[0], 16), int(bits[1], 16)
-    return WACOM, int(bits[0], 16)
-
-
-def parse_styli(paths: list[Path]) -> tuple[dict[str, dict[str, str]], dict[str, list[str]]]:
-    """All styli by ``vvvv:iiiii`` key, and the keys of each group in file order."""
-    styli: dict[str, dict[str, str]] = {}
-    groups: dict[str, list[str]] = {}
-    for path in paths:
-        for sec, kv in read_keyfile(path).items():
-            bits = sec.split(":")
-            vid, sid = stylus_key(bits)
-            key = f"{vid:04x}:{sid:05x}"
-            styli[key] = kv
-            if "Group" in kv:
-                groups.setdefault(kv["Group"], []).append(key)
-    return styli, groups
-
-
-def resolve_styli(refs: list[str], styli: dict[str, dict[str, str]],
-                  groups: dict[str, list[str]]) -> list[dict[str, Any]]:
-    keys: list[str] = []
-    for ref in refs:
-        if ref.startswith("@"):
-            keys.extend(groups.get(ref[1:], []))
-        else:
-            bits = ref.split(":")
-            vid, sid = stylus_key(bits)
-            keys.append(f"{vid:04x}:{sid:05x}")
-    out = []
-    for key in dict.fromkeys(keys):
-        kv = styli.get(key)
-        if kv is None:
-            continue
-        vid, sid = key.split(":")
-        if "AliasOf" in kv:  # same tool under another id: the alias's facts
-            kv = {**styli.get(f"{vid}:{int(kv['AliasOf'], 16):05x}", {}), **kv}
-        entry: dict[str, Any] = {"vendor_id": vid, "tool_id": f"0x{int(sid, 16):x}",
-                                 "name": kv.get("Name", "")}
-        if kv.get("Type"):
-            entry["type"] = kv["Type"].lower()
-        if kv.get("EraserType"):
-            entry["eraser"] = kv["EraserType"].lower()
-        if kv.get("Buttons"):
-            entry["buttons"] = int(kv["Buttons"])
-        axes = _parts(kv.get("Axes", ""))
-        if axes:
-            entry["axes"] = [a.lower() for a in axes]
-        out.append(entry)
-    return out
-
-
-# -- uclogic ---------------------------------------------------------------------------------
-def uclogic_ids(core: str, ids_h: str) -> set[tuple[int, int]]:
-    defines = c_defines(ids_h)
-    start = core.index("uclogic_devices[] = {")
-    table = core[start:core.index("};", start)]
-    out = set()
-    for m in re.finditer(r"HID_USB_DEVICE\(\s*(\w+)\s*,\s*(\w+)\s*\)", table):
-        out.add((int(defines[m.group(1)], 16), int(defines[m.group(2)], 16)))
-    return out
-
-
-UCLOGIC_INIT_CALLS = (("uclogic_params_huion_init", "huion"),
-                      ("uclogic_params_ugee_v2_init", "ugee-v2"),
-                      ("uclogic_params_pen_init_v1", "v1"), ("WITH_OPT_DESC", "fixed-descriptor"))
-
-
-def uclogic_init_kinds(params_c: str, ids_h: str) -> dict[tuple[int, int], str]:
-    """(vid, pid) -> how uclogic_params_init() sets the tablet up (first call after its cases)."""
-    defines = c_defines(ids_h)
-    start = params_c.index("switch (VID_PID(hdev->vendor, hdev->product))")
-    body = strip_c_comments(params_c[start:])
-    out: dict[tuple[int, int], str] = {}
-    pending: list[tuple[int, int]] = []
-    for m in re.finditer(r"case VID_PID\(\s*(\w+)\s*,\s*(\w+)\s*\)\s*:|(\w+)\s*\(", body):
-        if m.group(1):
-            pending.append((int(defines[m.group(1)], 16), int(defines[m.group(2)], 16)))
-            continue
-        kind = dict(UCLOGIC_INIT_CALLS).get(m.group(3))
-        if kind and pending:
-            for key in pending:
-                out[key] = kind
-            pending = []
-        if m.group(3) == "default" or body[m.start():m.start() + 8] == "default:":
-            break
-    return out
-
-
 # -- the files ------------------------------------------------------------------------------------
 def slug(text: str) -> str:
     s = re.sub(r"[^a-z0-9]+", "-", text.lower()).strip("-")
@@ -412,8 +162,15 @@ def file_id(vid: int, pid: int, bus: str, name: str) -> str:
     return f"{prefix}-{busp}{pid:04x}-{tail}" if tail else f"{prefix}-{busp}{pid:04x}"
 
 
+def _number(v: CValue) -> int:
+    """A feature that must be a number (an unresolved name there is a source we misread)."""
+    if isinstance(v, str):
+        raise ValueError(f"expected a number in wacom_features, got {v!r}")
+    return v
+
+
 def kernel_model(e: KernelEntry, src: Source, tablets: dict[tuple[str, int, int], Tablet],
-                 styli: Any, groups: Any, lw_src: Source) -> dict[str, Any] | None:
+                 styli: Styli, groups: StylusGroups, lw_src: Source) -> dict[str, Any] | None:
     f = e.features
     ktype = str(f.get("type"))
     if ktype == "HID_GENERIC" and not f.get("x_max"):
@@ -428,7 +185,7 @@ def kernel_model(e: KernelEntry, src: Source, tablets: dict[tuple[str, int, int]
     name = tab.name if tab else str(f["name"])
     if tab and tab.model_name:
         name = f"{name} ({tab.model_name})"
-    xres, yres = f.get("x_resolution") or 0, f.get("y_resolution") or 0
+    xres, yres = _number(f.get("x_resolution") or 0), _number(f.get("y_resolution") or 0)
     model: dict[str, Any] = {
         "id": file_id(e.vid, e.pid, e.bus, str(f["name"])),
         "name": name,
@@ -446,7 +203,8 @@ def kernel_model(e: KernelEntry, src: Source, tablets: dict[tuple[str, int, int]
     }
     if xres and yres:
         model["resolution"] = {"x": xres, "y": yres}
-        model["drawing_area_mm"] = [round(f["x_max"] / xres, 2), round(f["y_max"] / yres, 2)]
+        model["drawing_area_mm"] = [round(_number(f["x_max"]) / xres, 2),
+                                    round(_number(f["y_max"]) / yres, 2)]
     init: list[str] = []
     rank = ENUM_ORDER.index(ktype)
     if e.bus == "usb" and rank <= ENUM_ORDER.index("BAMBOO_PT"):
@@ -490,7 +248,8 @@ def kernel_model(e: KernelEntry, src: Source, tablets: dict[tuple[str, int, int]
 
 
 def generic_kernel_model(e: KernelEntry, src: Source, tablets: dict[tuple[str, int, int], Tablet],
-                         styli: Any, groups: Any, lw_src: Source) -> dict[str, Any] | None:
+                         styli: Styli, groups: StylusGroups, lw_src: Source,
+                         ) -> dict[str, Any] | None:
     """A kernel entry of type HID_GENERIC without numbers: the descriptor says everything."""
     tab = tablets.get((e.bus, e.vid, e.pid))
     if tab is not None and not tab.stylus:
@@ -511,7 +270,7 @@ def generic_kernel_model(e: KernelEntry, src: Source, tablets: dict[tuple[str, i
     return model
 
 
-def _libwacom_facts(model: dict[str, Any], tab: Tablet, styli: Any, groups: Any) -> None:
+def _libwacom_facts(model: dict[str, Any], tab: Tablet, styli: Styli, groups: StylusGroups) -> None:
     if tab.width_mm and tab.height_mm:
         model["physical_size_mm"] = [tab.width_mm, tab.height_mm]
     resolved = resolve_styli(tab.styli, styli, groups)
@@ -529,7 +288,7 @@ VENDOR_NAMES = {0x056A: "Wacom", 0x256C: "Huion/Gaomon", 0x28BD: "XP-Pen/UGEE",
 
 
 def libwacom_model(tabs: list[Tablet], key: tuple[str, int, int], uclogic: set[tuple[int, int]],
-                   styli: Any, groups: Any, lw_src: Source, uc_src: Source,
+                   styli: Styli, groups: StylusGroups, lw_src: Source, uc_src: Source,
                    uc_kinds: dict[tuple[int, int], str]) -> dict[str, Any]:
     bus, vid, pid = key
     uc = bus == "usb" and (vid, pid) in uclogic

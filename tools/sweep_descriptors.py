@@ -38,13 +38,12 @@ import sys
 from collections import Counter
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
 
 from station.drivers import synth as S
 from station.drivers.hid import usages as U
 from station.drivers.hid.descriptor import Descriptor, parse_descriptor
 from station.drivers.hid.pen import GenericPenParser
-from station.drivers.registry import BUS_NUMBERS, parser_for
+from station.drivers.registry import BUS_NUMBERS, ReportParser, parser_for
 
 from station.errors import BadInput
 
@@ -98,7 +97,7 @@ def declared(desc: Descriptor) -> tuple[bool, bool]:
     return pen, touch
 
 
-def reads_pen(desc: Descriptor, parser: Any) -> bool:
+def reads_pen(desc: Descriptor, parser: ReportParser) -> bool:
     """A protocol parser can get a pen report from this interface: the descriptor declares
     one of its pen IDs (or, for the Tablet PC protocol, a report of its pen length: the
     kernel's wacom_tpc_irq reads any 8-byte report as pen)."""
@@ -188,11 +187,11 @@ def family(e: Entry) -> str:
     return name
 
 
-def sweep(root: Path) -> tuple[list[Entry], dict[str, Any]]:
+def sweep(root: Path) -> tuple[list[Entry], dict[str, object]]:
     entries = [e for p in sorted(root.rglob("*.hid.bin")) if (e := sweep_one(p)) is not None]
     pens = [e for e in entries if e.outcome == "pen"]
     pen_devices = [e for e in entries if e.outcome == "pen" or e.declares_pen]
-    summary: dict[str, Any] = {
+    summary: dict[str, object] = {
         "root": str(root),
         "descriptors": len(entries),
         "by_outcome": dict(Counter(e.outcome for e in entries).most_common()),

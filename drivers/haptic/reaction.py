@@ -25,7 +25,7 @@ import sys
 import threading
 import time
 from multiprocessing.connection import Connection
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from station.drivers.haptic.contact import BrushState, Vec3
 
@@ -162,7 +162,7 @@ class ReactionWorker:
 def serve(conn: Connection) -> None:
     """The child: receive the model, load its solver, answer poses until ``None``."""
     try:
-        model: Any = conn.recv()
+        model: ReactionModel = conn.recv()
         warm = getattr(model, "warm_up", None)
         if warm is not None:
             warm()
@@ -172,7 +172,7 @@ def serve(conn: Connection) -> None:
             if state is None:
                 return
             try:
-                answer: Any = model.reaction(state)
+                answer: Vec3 | RuntimeError = model.reaction(state)
             except Exception as exc:  # the parent logs it and renders zero
                 answer = RuntimeError(f"{exc.__class__.__name__}: {exc}")
             conn.send(answer)

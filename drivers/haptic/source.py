@@ -26,6 +26,7 @@ import threading
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from station.drivers.devicedata import SourceInfo
 from station.drivers.haptic.contact import BrushState, RoundBrushContact, Surface
 from station.drivers.haptic.loop import HapticConfig, HapticSession, zero_all
 from station.drivers.mock.haptic import SCRIPTS, MockHapticDevice, default_hello
@@ -233,10 +234,11 @@ class HapticPenSource:
     def now(self) -> float:
         return self.session.clock()
 
-    def describe(self) -> dict[str, Any]:
+    def describe(self) -> SourceInfo:
         h = self.hello
+        port = getattr(self.session.transport, "port", "")  # a test's byte line has none
         return {
-            "name": self.name, "source": "serial", "path": self.session.transport.port,
+            "name": self.name, "source": "serial", "path": port,
             "product": h.name, "vid": h.vid, "pid": h.pid, "usb_id": f"{h.vid:04x}:{h.pid:04x}",
             "serial": h.serial, "bus": 3, "parser": "haptic-serial", "generic": False,
             "model": "", "can_map_mm": True,

@@ -9,8 +9,8 @@ the state lives in the parser object.
 from __future__ import annotations
 
 from collections import Counter
-from typing import Any
 
+from station.drivers.devicedata import DeviceModel
 from station.drivers.hid.errors import ReportError
 from station.drivers.raw import AxisRanges, RawSample
 
@@ -43,7 +43,7 @@ class ReportParser:
     def __init__(
         self,
         ranges: AxisRanges,
-        model: dict[str, Any] | None = None,
+        model: DeviceModel | None = None,
         init_features: list[bytes] | None = None,
         generic: bool = False,
         is_pen: bool = True,
@@ -89,7 +89,7 @@ class ReportParser:
             return self._skip("unused", report[0])
         raise ReportError(f"unknown {what} report ID {report[0]}")
 
-    def describe(self) -> dict[str, Any]:
+    def describe(self) -> dict[str, object]:
         """A JSON-ready summary for ``station devices`` and replay reports."""
         r = self.ranges
         return {
@@ -112,7 +112,7 @@ class IgnoredInterface(ReportParser):
     """An interface of a known device that carries no pen (touch, pad): every report skipped."""
 
     def __init__(self, name: str, kind: str, ranges: AxisRanges,
-                 model: dict[str, Any] | None = None, generic: bool = False) -> None:
+                 model: DeviceModel | None = None, generic: bool = False) -> None:
         super().__init__(ranges, model, [], generic=generic, is_pen=False, kind=kind)
         self.name = name
 

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 from functools import partial
 from typing import Any
 
+from station.drivers.devicedata import DeviceModel
 from station.drivers.hid import usages as U
 from station.drivers.hid.base import ReportParser
 from station.drivers.hid.descriptor import Descriptor, Field, Report, ReportType, resolution
@@ -251,7 +252,7 @@ class GenericPenParser(ReportParser):
 
     name = "hid-generic"
 
-    def __init__(self, desc: Descriptor, model: dict[str, Any] | None = None,
+    def __init__(self, desc: Descriptor, model: DeviceModel | None = None,
                  init_features: list[bytes] | None = None, generic: bool = True,
                  quirks: Mapping[int, str] | None = None) -> None:
         self.descriptor = desc
@@ -391,7 +392,7 @@ class GenericPenParser(ReportParser):
             valid=valid,
         )
 
-    def describe(self) -> dict[str, Any]:
+    def describe(self) -> dict[str, object]:
         d = super().describe()
         d["report_kinds"] = {str(k): v for k, v in sorted(self.kinds.items())}
         d["pen_reports"] = self.pen_report_ids

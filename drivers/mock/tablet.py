@@ -25,9 +25,10 @@ from __future__ import annotations
 import threading
 from collections.abc import Iterator
 from dataclasses import replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from station.drivers import synth
+from station.drivers.devicedata import DeviceModel
 from station.drivers.hid import usages as U
 from station.drivers.hid.descriptor import parse_descriptor
 from station.drivers.hid.pen import GenericPenParser
@@ -42,7 +43,7 @@ from station.events import Tool
 if TYPE_CHECKING:
     from station.drivers.pipeline.spec import DeviceSpec
 
-GENERIC_MODELS: dict[str, dict[str, Any]] = {
+GENERIC_MODELS: dict[str, DeviceModel] = {
     "huion-like": {"id": "huion-like", "name": "Mock Huion-like pen", "vendor_id": "256c",
                    "product_id": "006d", "bus": "usb", "parser": "hid-generic",
                    "report_rate_hz": 233, "descriptor": "huion"},
@@ -61,10 +62,10 @@ MOCK_PROTOCOLS = frozenset({"wacom-intuos", "wacom-bamboo", "wacom-graphire", "w
                             "wacom-graphire4", "hid-generic"})
 
 
-def find_model(name: str) -> dict[str, Any]:
+def find_model(name: str) -> DeviceModel:
     """Device data of a mock MODEL name (``intuos-pro-m``, ``wacom-intuos-pro-m`` …)."""
     if name in GENERIC_MODELS:
-        return dict(GENERIC_MODELS[name])
+        return GENERIC_MODELS[name].copy()
     models = load_devices()
     for m in models:
         if m.get("id") in (name, f"wacom-{name}"):
@@ -82,7 +83,7 @@ def _units(v: float, axis: Axis | None) -> int:
 class MockTablet:
     """Encodes timed pen states into one model's reports (see module docstring)."""
 
-    def __init__(self, model: dict[str, Any], script: str = "demo", rate: float | None = None,
+    def __init__(self, model: DeviceModel, script: str = "demo", rate: float | None = None,
                  seed: int = 0, repeat: int = 1, reports: int = 120, peak: float = 0.8,
                  tilt: float = 30.0, tool: str = "pen", paced: bool = False) -> None:
         if script not in SCRIPTS:

@@ -13,13 +13,13 @@ it (``detach_kernel_driver`` clears it, and the log records it).
 
 from __future__ import annotations
 
+import array
 import errno
 import logging
 import time
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from types import SimpleNamespace
-from typing import Any
 
 import usb.backend
 import usb.core
@@ -112,7 +112,7 @@ class RecordedUsbBackend(usb.backend.IBackend):
     def get_parent(self, dev: RecordedUsbDevice) -> None:
         return None
 
-    def get_device_descriptor(self, dev: RecordedUsbDevice) -> Any:
+    def get_device_descriptor(self, dev: RecordedUsbDevice) -> SimpleNamespace:
         return SimpleNamespace(
             bLength=18, bDescriptorType=1, bcdUSB=0x0200, bDeviceClass=0, bDeviceSubClass=0,
             bDeviceProtocol=0, bMaxPacketSize0=64, idVendor=dev.vid, idProduct=dev.pid,
@@ -121,7 +121,7 @@ class RecordedUsbBackend(usb.backend.IBackend):
             port_numbers=(1,), speed=2,
         )
 
-    def get_configuration_descriptor(self, dev: RecordedUsbDevice, config: int) -> Any:
+    def get_configuration_descriptor(self, dev: RecordedUsbDevice, config: int) -> SimpleNamespace:
         if config != 0:
             raise IndexError("one configuration")
         return SimpleNamespace(bLength=9, bDescriptorType=2, wTotalLength=34, bNumInterfaces=1,
@@ -129,7 +129,7 @@ class RecordedUsbBackend(usb.backend.IBackend):
                                bMaxPower=50, extra_descriptors=[])
 
     def get_interface_descriptor(self, dev: RecordedUsbDevice, intf: int, alt: int,
-                                 config: int) -> Any:
+                                 config: int) -> SimpleNamespace:
         if intf != 0 or alt != 0 or config != 0:
             raise IndexError("one interface, one alternate setting")
         return SimpleNamespace(bLength=9, bDescriptorType=4, bInterfaceNumber=HID_INTERFACE,
@@ -140,7 +140,7 @@ class RecordedUsbBackend(usb.backend.IBackend):
                                extra_descriptors=list(_hid_class_descriptor(len(dev.descriptor))))
 
     def get_endpoint_descriptor(self, dev: RecordedUsbDevice, ep: int, intf: int, alt: int,
-                                config: int) -> Any:
+                                config: int) -> SimpleNamespace:
         if ep == 1 and dev.out_endpoint is not None and intf == 0 and alt == 0 and config == 0:
             return SimpleNamespace(bLength=7, bDescriptorType=5,
                                    bEndpointAddress=dev.out_endpoint & 0x7F, bmAttributes=0x03,
@@ -191,7 +191,7 @@ class RecordedUsbBackend(usb.backend.IBackend):
         handle.log.append(f"attach {intf}")
 
     # -- transfers -------------------------------------------------------------
-    def intr_read(self, handle: RecordedUsbDevice, ep: int, intf: int, buff: Any,
+    def intr_read(self, handle: RecordedUsbDevice, ep: int, intf: int, buff: array.array[int],
                   timeout: int) -> int:
         if ep != IN_ENDPOINT:
             raise usb.core.USBError("Invalid endpoint", errno=errno.EINVAL)
@@ -205,7 +205,7 @@ class RecordedUsbBackend(usb.backend.IBackend):
         buff[:n] = type(buff)(buff.typecode, report.data[:n])
         return n
 
-    def intr_write(self, handle: RecordedUsbDevice, ep: int, intf: int, data: Any,
+    def intr_write(self, handle: RecordedUsbDevice, ep: int, intf: int, data: array.array[int],
                    timeout: int) -> int:
         if handle.out_endpoint is None or ep != handle.out_endpoint & 0x7F:
             raise usb.core.USBError("Invalid endpoint", errno=errno.EINVAL)
@@ -216,7 +216,7 @@ class RecordedUsbBackend(usb.backend.IBackend):
         return len(sent)
 
     def ctrl_transfer(self, handle: RecordedUsbDevice, bmRequestType: int, bRequest: int,
-                      wValue: int, wIndex: int, data: Any, timeout: int) -> Any:
+                      wValue: int, wIndex: int, data: array.array[int], timeout: int) -> int:
         if bmRequestType & 0x80 and bRequest == 0x06:  # GET_DESCRIPTOR
             kind, index = wValue >> 8, wValue & 0xFF
             if kind == 0x22:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterator
-from typing import Any
 
 from station.drivers.normalise import Normaliser, NormaliserConfig
 from station.drivers.pipeline.sources import PenSource
@@ -52,7 +51,7 @@ class PenDriver:
         finally:
             self.source.close()
 
-    def status(self) -> dict[str, Any]:
+    def status(self) -> dict[str, object]:
         n = self.normaliser.stats
         src = self.source.describe()
         stats = getattr(self.source, "stats", None)

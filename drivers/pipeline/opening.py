@@ -44,10 +44,10 @@ class OpenedTransport:
     """
 
     kind: str
-    transport: Any
+    transport: Any  # HidTransport or EvdevTransport, as ``kind`` says
     finite: bool
     spec: DeviceSpec
-    mock: Any = None
+    mock: object = None
 
 
 def open_transport(spec_text: str) -> OpenedTransport:

@@ -6,7 +6,6 @@ from __future__ import annotations
 import heapq
 import os
 from collections.abc import Callable, Iterator
-from typing import Any
 
 from station.drivers.evdev.frames import is_pen_device
 from station.drivers.normalise import NormaliserConfig
@@ -35,7 +34,7 @@ class TraceReplay:
         self.config = config
         self.device_name = device_name
         self.transform = transform
-        self.skipped: list[dict[str, Any]] = []
+        self.skipped: list[dict[str, object]] = []
         self.pen_devices: list[TraceDevice] = []
         self.drivers: list[PenDriver] = []
         for dev in trace.devices:
@@ -107,7 +106,7 @@ class TraceReplay:
             return
         yield from heapq.merge(*streams, key=lambda s: s.t)
 
-    def status(self) -> dict[str, Any]:
+    def status(self) -> dict[str, object]:
         return {"trace": self.trace.path, "format": self.trace.format,
                 "devices": [d.status() for d in self.drivers], "skipped": self.skipped}
 

@@ -12,13 +12,16 @@ import re
 import time
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Protocol
 
+from station.drivers.devicedata import SourceInfo
 from station.drivers.evdev.frames import FrameAssembler, is_pen_device, ranges_from_caps
 from station.drivers.raw import AxisRanges, RawSample
-from station.drivers.registry import interface_from_phys, parser_for
+from station.drivers.registry import ReportParser, interface_from_phys, parser_for
 from station.drivers.transport.base import DeviceSpecError, EvdevTransport, HidTransport
 from station.drivers.uclogic.init import UclogicControl
+from station.drivers.uclogic.params import UclogicParams
+from station.drivers.uclogic.parser import UclogicPenParser
 
 from station.errors import BadInput
 
@@ -31,7 +34,11 @@ class PenSource(Protocol):
     name: str
     ranges: AxisRanges
     finite: bool
-    mock: Any
+
+    @property
+    def mock(self) -> object:
+        """The mock device behind a mock: SPEC (None for a real one; tests inspect it)."""
+        ...
 
     def read_raw(self, timeout: float | None) -> list[RawSample]:
         """Samples from the next report/frame ([] on timeout); DeviceGone/EndOfStream at the end."""
@@ -41,7 +48,7 @@ class PenSource(Protocol):
         """The current time on the clock the samples are stamped with."""
         ...
 
-    def describe(self) -> dict[str, Any]: ...
+    def describe(self) -> SourceInfo: ...
 
     def close(self) -> None: ...
 
@@ -69,13 +76,14 @@ class HidPenSource:
     counted and dropped; it never becomes a sample.
     """
 
-    def __init__(self, transport: HidTransport, parser: Any = None, send_init: bool = True,
+    def __init__(self, transport: HidTransport, parser: ReportParser | None = None,
+                 send_init: bool = True,
                  finite: bool = False, name: str | None = None) -> None:
         self.transport = transport
         info = transport.info
         self.parser = parser or parser_for(info.vid, info.pid, info.descriptor, info.bus,
                                            interface=interface_from_phys(info.phys))
-        self.uclogic_params: Any = None
+        self.uclogic_params: UclogicParams | None = None
         if send_init:
             self.uclogic_params = vendor_setup(self.parser, transport)
         if not self.parser.is_pen:
@@ -86,7 +94,7 @@ class HidPenSource:
         self.finite = finite
         self.name = name or device_name(_model_name(self.parser) or info.name)
         self.stats = SourceStats()
-        self.mock: Any = None  # the mock device behind a mock: SPEC (tests inspect it)
+        self.mock: object = None  # the mock device behind a mock: SPEC (tests inspect it)
         self.features_sent: list[bytes] = []
         if send_init:
             for feature in self.parser.init_features:
@@ -113,7 +121,7 @@ class HidPenSource:
         clock = getattr(self.transport, "now", None)
         return float(clock()) if clock is not None else time.monotonic()
 
-    def describe(self) -> dict[str, Any]:
+    def describe(self) -> SourceInfo:
         info = self.transport.info
         p = self.parser
         return {
@@ -145,7 +153,7 @@ def _warn_bad(path: str, bad: int, index: int, data: bytes, exc: Exception) -> N
         log.warning("%s: %d bad reports dropped so far (last: %s)", path, bad, exc)
 
 
-def _model_name(parser: Any) -> str:
+def _model_name(parser: object) -> str:
     model = getattr(parser, "model", None)
     if isinstance(model, dict):
         return str(model.get("id") or model.get("name") or "")
@@ -167,7 +175,7 @@ class EvdevPenSource:
         self.finite = finite
         self.name = name or device_name(caps.name)
         self.stats = SourceStats()
-        self.mock: Any = None
+        self.mock: object = None
         if not self.ranges.has_resolution:
             log.warning("%s: no resolution: works in normalised units, cannot map millimetres",
                         caps.name)
@@ -185,7 +193,7 @@ class EvdevPenSource:
         clock = getattr(self.transport, "now", None)
         return float(clock()) if clock is not None else time.monotonic()
 
-    def describe(self) -> dict[str, Any]:
+    def describe(self) -> SourceInfo:
         caps = self.transport.caps
         s = self.assembler.stats
         return {
@@ -203,9 +211,9 @@ class EvdevPenSource:
 
 
 
-def vendor_setup(parser: Any, transport: HidTransport) -> Any:
+def vendor_setup(parser: ReportParser, transport: HidTransport) -> UclogicParams | None:
     """UC-Logic tablets: the set-up over transports that can do it (pyusb), else say why not."""
-    if not getattr(parser, "needs_control", False):
+    if not isinstance(parser, UclogicPenParser) or not parser.needs_control:
         return None
     if not isinstance(transport, UclogicControl):
         log.info("%s: UC-Logic set-up needs raw USB (usb: SPEC); reading the reports its "

@@ -19,7 +19,7 @@ import math
 import struct
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import ClassVar
 
 from station.errors import BadInput
 
@@ -367,8 +367,9 @@ class Heartbeat:
 
 
 Message = Hello | Pose | DeviceError | HelloRequest | Force | Vibration | Enable | Heartbeat
-MESSAGE_TYPES: dict[int, Any] = {m.TYPE: m for m in (Hello, Pose, DeviceError, HelloRequest,
-                                                      Force, Vibration, Enable, Heartbeat)}
+MESSAGE_TYPES: dict[int, type[Message]] = {
+    m.TYPE: m for m in (Hello, Pose, DeviceError, HelloRequest, Force, Vibration, Enable, Heartbeat)
+}
 DEVICE_TYPES = frozenset({Hello.TYPE, Pose.TYPE, DeviceError.TYPE})
 STATION_TYPES = frozenset({HelloRequest.TYPE, Force.TYPE, Vibration.TYPE, Enable.TYPE,
                            Heartbeat.TYPE})

@@ -26,8 +26,9 @@ import os
 import re
 import select
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 from station.drivers.transport.base import (
     DeviceGone,
@@ -35,6 +36,9 @@ from station.drivers.transport.base import (
     PermissionProblem,
     TransportError,
 )
+
+if TYPE_CHECKING:  # pyserial is the optional serial extra, imported where a port opens
+    import serial
 
 log = logging.getLogger(__name__)
 
@@ -111,7 +115,8 @@ def find_usb_port(ident: UsbSerialId) -> str:
 class SerialTransport:
     """A serial port opened through pyserial, non-blocking; see the module docstring."""
 
-    def __init__(self, port: str, baudrate: int = DEFAULT_BAUD, serial_factory: Any = None) -> None:
+    def __init__(self, port: str, baudrate: int = DEFAULT_BAUD,
+                 serial_factory: Callable[..., serial.Serial] | None = None) -> None:
         try:
             import serial  # the optional "serial" extra
         except ImportError:

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import os
 import re
-from typing import Any
 
 import yaml
 from station.drivers.evdev import codes as c
@@ -32,7 +31,7 @@ class _Loader(yaml.SafeLoader):
     """Safe YAML without aliases: libinput record never writes them, and aliases let a
     small file expand into an enormous document ("billion laughs")."""
 
-    def compose_node(self, parent: Any, index: Any) -> Any:
+    def compose_node(self, parent: yaml.Node | None, index: int) -> yaml.Node | None:
         if self.check_event(yaml.AliasEvent):
             raise ComposerError(None, None, "aliases (*name) are not used by libinput record",
                                 self.peek_event().start_mark)
@@ -158,10 +157,11 @@ def read_libinput_record(path: str | os.PathLike[str]) -> Trace:
 
 def format_libinput_record(devices: list[tuple[EvdevCaps, list[InputEvent]]]) -> str:
     """A libinput-record YAML document for (caps, events) pairs (one frame per SYN_REPORT)."""
-    doc: dict[str, Any] = {"version": 1, "ndevices": len(devices),
-                           "libinput": {"version": "station"}, "devices": []}
+    described: list[dict[str, object]] = []
+    doc: dict[str, object] = {"version": 1, "ndevices": len(devices),
+                              "libinput": {"version": "station"}, "devices": described}
     for caps, events in devices:
-        frames: list[dict[str, Any]] = []
+        frames: list[dict[str, object]] = []
         frame: list[list[int]] = []
         for ev in events:
             sec = int(ev.time)
@@ -172,7 +172,7 @@ def format_libinput_record(devices: list[tuple[EvdevCaps, list[InputEvent]]]) ->
         codes = {c.EV_SYN: [0], c.EV_KEY: sorted(caps.keys), c.EV_ABS: sorted(caps.absinfo)}
         if caps.msc:
             codes[c.EV_MSC] = sorted(caps.msc)
-        doc["devices"].append({
+        described.append({
             "node": caps.path or "/dev/input/event0",
             "evdev": {
                 "name": caps.name, "id": [caps.bus, caps.vid, caps.pid, caps.version],

@@ -11,8 +11,9 @@ import errno
 import os
 import select
 import time
-from collections.abc import Callable, Collection, Mapping
-from typing import Any
+from collections.abc import Callable, Collection, Iterable, Mapping
+from types import ModuleType
+from typing import Any, Protocol, TypedDict
 
 from station.drivers.evdev import codes as c
 from station.drivers.evdev.frames import AbsInfo, EvdevCaps, EvdevState, InputEvent
@@ -25,7 +26,71 @@ from station.drivers.transport.base import (
 )
 
 
-def _evdev() -> Any:
+class EvdevAbsInfo(Protocol):
+    """One axis's limits and value (python-evdev's ``AbsInfo``)."""
+
+    @property
+    def value(self) -> int: ...
+    @property
+    def min(self) -> int: ...
+    @property
+    def max(self) -> int: ...
+    @property
+    def fuzz(self) -> int: ...
+    @property
+    def flat(self) -> int: ...
+    @property
+    def resolution(self) -> int: ...
+
+
+class EvdevEvent(Protocol):
+    """One event as python-evdev reads it (``InputEvent``)."""
+
+    @property
+    def type(self) -> int: ...
+    @property
+    def code(self) -> int: ...
+    @property
+    def value(self) -> int: ...
+    def timestamp(self) -> float: ...
+
+
+class EvdevDeviceInfo(Protocol):
+    """The ids of a node (python-evdev's ``DeviceInfo``)."""
+
+    @property
+    def bustype(self) -> int: ...
+    @property
+    def vendor(self) -> int: ...
+    @property
+    def product(self) -> int: ...
+    @property
+    def version(self) -> int: ...
+
+
+class EvdevNode(Protocol):
+    """What the transport uses of an open node: python-evdev's ``InputDevice``, or
+    :class:`station.drivers.mock.evdev.MockEvdevNode` serving a recording."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def path(self) -> str: ...
+    @property
+    def info(self) -> EvdevDeviceInfo: ...
+    @property
+    def fd(self) -> int: ...
+    # values: key codes, or (code, AbsInfo) pairs for EV_ABS
+    def capabilities(self, absinfo: bool = True) -> Mapping[int, list[Any]]: ...
+    def absinfo(self, code: int) -> EvdevAbsInfo: ...
+    def active_keys(self) -> list[int]: ...
+    def read(self) -> Iterable[EvdevEvent]: ...
+    def grab(self) -> None: ...
+    def ungrab(self) -> None: ...
+    def close(self) -> None: ...
+
+
+def _evdev() -> ModuleType:
     try:
         import evdev
     except ImportError as exc:  # pragma: no cover - declared extra on Linux
@@ -34,7 +99,7 @@ def _evdev() -> Any:
     return evdev
 
 
-def caps_from_device(dev: Any) -> EvdevCaps:
+def caps_from_device(dev: EvdevNode) -> EvdevCaps:
     """EvdevCaps from a python-evdev ``InputDevice``."""
     caps = dev.capabilities(absinfo=True)
     absinfo: dict[int, AbsInfo] = {}
@@ -51,7 +116,7 @@ def caps_from_device(dev: Any) -> EvdevCaps:
 class _LiveState:
     """EvdevState read from the node (EVIOCGABS / EVIOCGKEY)."""
 
-    def __init__(self, dev: Any, codes: Collection[int]) -> None:
+    def __init__(self, dev: EvdevNode, codes: Collection[int]) -> None:
         self._dev = dev
         self._codes = list(codes)
 
@@ -85,7 +150,7 @@ class EvdevNodeTransport:
     """
 
     def __init__(self, path: str, grab: bool = False,
-                 opener: Callable[[str], Any] | None = None) -> None:
+                 opener: Callable[[str], EvdevNode] | None = None) -> None:
         try:
             self._dev = (opener or _evdev().InputDevice)(path)
         except OSError as exc:
@@ -134,10 +199,18 @@ class EvdevNodeTransport:
         self._dev.close()
 
 
+class EvdevEntry(TypedDict, total=False):
+    """An event node :func:`list_evdev` found: ``caps`` when it opened, ``error`` when not."""
+
+    path: str
+    caps: EvdevCaps
+    error: str
+
+
 def list_evdev(root: str = "/dev/input",
-               opener: Callable[[str], Any] | None = None) -> list[dict[str, Any]]:
+               opener: Callable[[str], EvdevNode] | None = None) -> list[EvdevEntry]:
     """Every event node: its capabilities when readable, the permission problem otherwise."""
-    out: list[dict[str, Any]] = []
+    out: list[EvdevEntry] = []
     if not os.path.isdir(root):
         return out
     open_node = opener or _evdev().InputDevice
@@ -161,7 +234,7 @@ def list_evdev(root: str = "/dev/input",
 
 
 def find_evdev_node(name: str, vid: int, pid: int, root: str = "/dev/input",
-                    opener: Callable[[str], Any] | None = None) -> str | None:
+                    opener: Callable[[str], EvdevNode] | None = None) -> str | None:
     """The event node of the device with this name and ids (after a replug it may have
     another ``eventN``), or None."""
     for entry in list_evdev(root, opener):

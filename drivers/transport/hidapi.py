@@ -7,7 +7,8 @@ reports are stamped with ``time.monotonic()`` when ``read`` returns them.
 from __future__ import annotations
 
 import time
-from typing import Any
+from types import ModuleType
+from typing import TypedDict
 
 from station.drivers.transport.base import (
     DeviceGone,
@@ -21,7 +22,7 @@ from station.drivers.transport.base import (
 MAX_REPORT = 16384  # the kernel's HID_MAX_BUFFER_SIZE (report ID included)
 
 
-def _hid() -> Any:
+def _hid() -> ModuleType:
     try:
         import hid
     except ImportError as exc:  # pragma: no cover - hidapi is a declared extra
@@ -29,7 +30,23 @@ def _hid() -> Any:
     return hid
 
 
-def enumerate_hidapi(vid: int = 0, pid: int = 0) -> list[dict[str, Any]]:
+class HidapiEntry(TypedDict, total=False):
+    """One interface in hidapi's device list (``hid.enumerate``)."""
+
+    path: bytes
+    vendor_id: int
+    product_id: int
+    serial_number: str
+    release_number: int
+    manufacturer_string: str
+    product_string: str
+    usage_page: int
+    usage: int
+    interface_number: int
+    bus_type: int  # HID_API_BUS_*: 1 USB, 2 Bluetooth, 3 I2C, 4 SPI
+
+
+def enumerate_hidapi(vid: int = 0, pid: int = 0) -> list[HidapiEntry]:
     """hidapi's device list (empty when hidapi is missing or sees nothing)."""
     try:
         return list(_hid().enumerate(vid, pid))
@@ -95,6 +112,6 @@ class HidapiTransport:
         self._dev.close()
 
 
-def _bus_from_hidapi(bus_type: Any) -> int:
+def _bus_from_hidapi(bus_type: int | None) -> int:
     """hidapi's HID_API_BUS_* (1 USB, 2 Bluetooth, 3 I2C, 4 SPI) → Linux BUS_* numbers."""
     return {1: 3, 2: 5, 3: 0x18, 4: 0x1C}.get(int(bus_type or 1), 3)

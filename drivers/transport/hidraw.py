@@ -19,7 +19,7 @@ import stat
 import struct
 import time
 from pathlib import Path
-from typing import Protocol
+from typing import Protocol, TypedDict
 
 from station.drivers.transport.base import (
     DeviceGone,
@@ -231,9 +231,21 @@ class HidrawTransport:
         self.node.close()
 
 
-def list_hidraw(sysfs: str = "/sys/class/hidraw") -> list[dict[str, object]]:
+class HidrawEntry(TypedDict):
+    """One hidraw node as sysfs shows it (ids 0 when sysfs does not say)."""
+
+    path: str
+    vid: int
+    pid: int
+    bus: int
+    name: str
+    readable: bool  # we may open it for reading and writing
+    exists: bool  # the /dev node is there
+
+
+def list_hidraw(sysfs: str = "/sys/class/hidraw") -> list[HidrawEntry]:
     """hidraw nodes from sysfs: path, vid, pid, bus, name, and whether we may open it."""
-    out: list[dict[str, object]] = []
+    out: list[HidrawEntry] = []
     root = Path(sysfs)
     if not root.is_dir():
         return out

@@ -11,7 +11,8 @@ including :class:`station.drivers.mock.usb.RecordedUsbBackend`.
 from __future__ import annotations
 
 import time
-from typing import Any
+from types import ModuleType
+from typing import TYPE_CHECKING, TypedDict
 
 from station.drivers.transport.base import (
     DeviceGone,
@@ -21,6 +22,9 @@ from station.drivers.transport.base import (
     TimedReport,
     TransportError,
 )
+
+if TYPE_CHECKING:  # pyusb is an optional extra, imported where a transport opens
+    import usb.core
 
 USB_CLASS_HID = 3
 # HID class requests (HID 1.11 §7.2) and the standard GET_DESCRIPTOR.
@@ -34,7 +38,7 @@ LANGID_EN_US = 0x0409
 RT_CLASS_OUT_INTERFACE = 0x21
 
 
-def _usb() -> Any:
+def _usb() -> ModuleType:
     try:
         import usb.core
         import usb.util
@@ -43,7 +47,16 @@ def _usb() -> Any:
     return usb
 
 
-def list_usb(backend: object = None) -> list[dict[str, Any]]:
+class UsbEntry(TypedDict):
+    """A USB device pyusb sees (bus and address as libusb numbers them, when it says)."""
+
+    vid: int
+    pid: int
+    bus: int | None
+    address: int | None
+
+
+def list_usb(backend: object = None) -> list[UsbEntry]:
     """USB devices pyusb can see (empty when there is no libusb or no device)."""
     usb = _usb()
     try:
@@ -67,7 +80,7 @@ class UsbTransport:
         timeout_ms: default read timeout.
     """
 
-    def __init__(self, vid: int, pid: int, backend: Any = None, interface: int | None = None,
+    def __init__(self, vid: int, pid: int, backend: object = None, interface: int | None = None,
                  detach_kernel_driver: bool = False) -> None:
         usb = _usb()
         self._usb = usb
@@ -117,7 +130,8 @@ class UsbTransport:
         self.features_sent: list[bytes] = []
 
     @staticmethod
-    def _find_endpoint(cfg: Any, interface: int | None) -> tuple[Any, Any]:
+    def _find_endpoint(cfg: usb.core.Configuration, interface: int | None,
+                       ) -> tuple[usb.core.Interface, usb.core.Endpoint]:
         for intf in cfg:
             if intf.bInterfaceClass != USB_CLASS_HID:
                 continue
@@ -206,7 +220,7 @@ class UsbTransport:
             self._usb.util.dispose_resources(self._dev)
 
 
-def _configured(dev: Any) -> bool:
+def _configured(dev: usb.core.Device) -> bool:
     try:
         dev.get_active_configuration()
     except Exception:  # pyusb raises USBError or NotFound when unconfigured

@@ -23,8 +23,8 @@ them before rewriting them):
 from __future__ import annotations
 
 import logging
-from typing import Any
 
+from station.drivers.devicedata import DeviceModel
 from station.drivers.hid.base import ReportParser
 from station.drivers.hid.descriptor import Descriptor
 from station.drivers.hid.errors import ReportError
@@ -88,8 +88,9 @@ class UclogicPenParser(ReportParser):
 
     name = "uclogic"
 
-    def __init__(self, model: dict[str, Any] | None, desc: Descriptor | None) -> None:
-        self.init_kind = str(((model or {}).get("uclogic") or {}).get("init", "fixed-descriptor"))
+    def __init__(self, model: DeviceModel | None, desc: Descriptor | None) -> None:
+        setup = model.get("uclogic") if model else None
+        self.init_kind = str(setup.get("init", "fixed-descriptor")) if setup else "fixed-descriptor"
         self.fallback: GenericPenParser | None = None
         if desc is not None:
             self.fallback = GenericPenParser(desc, model)
@@ -135,7 +136,7 @@ class UclogicPenParser(ReportParser):
         self._min = MIN_LENGTH[params.kind]
         self._rid = params.report_id
 
-    def describe(self) -> dict[str, Any]:
+    def describe(self) -> dict[str, object]:
         out = super().describe()
         out["uclogic_init"] = self.init_kind
         out["uclogic_params"] = None if self.params is None else self.params.kind

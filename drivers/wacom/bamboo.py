@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import struct
 from dataclasses import dataclass
-from typing import Any
 
+from station.drivers.devicedata import DeviceModel
 from station.drivers.hid.base import ReportParser
 from station.drivers.raw import Axis, AxisRanges, RawSample
 from station.drivers.wacom.common import WacomParams, check_length, unknown_id
@@ -54,7 +54,7 @@ class BambooParser(ReportParser):
     name = "wacom-bamboo"
     pen_report_ids = frozenset({PEN_REPORT_ID})
 
-    def __init__(self, params: WacomParams, model: dict[str, Any] | None = None,
+    def __init__(self, params: WacomParams, model: DeviceModel | None = None,
                  init_features: list[bytes] | None = None) -> None:
         self.params = params
         ranges = AxisRanges(

@@ -25,8 +25,8 @@ from __future__ import annotations
 
 import struct
 from dataclasses import dataclass
-from typing import Any
 
+from station.drivers.devicedata import DeviceModel
 from station.drivers.hid.base import ReportParser
 from station.drivers.hid.errors import ReportError
 from station.drivers.raw import Axis, AxisRanges, RawSample
@@ -64,7 +64,7 @@ class Intuos4WirelessParser(ReportParser):
     name = "wacom-intuos4wl"
     pen_report_ids = frozenset(I4WL_FRAMES)
 
-    def __init__(self, params: WacomParams, model: dict[str, Any] | None = None,
+    def __init__(self, params: WacomParams, model: DeviceModel | None = None,
                  init_features: list[bytes] | None = None) -> None:
         # The kernel checks no lens rule for this type: every Intuos4 tool works.
         self.inner = IntuosParser(params, model, [], quirks=frozenset())
@@ -117,7 +117,7 @@ class IntuosBluetoothParser(ReportParser):
     name = "wacom-intuos-bt"
     pen_report_ids = frozenset({0x80, 0x81})
 
-    def __init__(self, params: WacomParams, model: dict[str, Any] | None = None,
+    def __init__(self, params: WacomParams, model: DeviceModel | None = None,
                  init_features: list[bytes] | None = None, pro2: bool | None = None) -> None:
         if pro2 is None:
             pro2 = "pro2-frames" in (model or {}).get("protocol_quirks", [])

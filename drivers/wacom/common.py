@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
 
+from station.drivers.devicedata import DeviceModel
 from station.drivers.hid.errors import ReportError
 from station.drivers.raw import Axis
 
@@ -31,7 +31,7 @@ class WacomParams:
     skip_report_ids: frozenset[int] = field(default_factory=frozenset)
 
     @classmethod
-    def from_model(cls, model: dict[str, Any]) -> WacomParams:
+    def from_model(cls, model: DeviceModel) -> WacomParams:
         res = model.get("resolution", {})
         skip = {1}  # mouse-mode reports (report ID 1) before the pen-mode switch
         skip.update(model.get("pad_report_ids", []))

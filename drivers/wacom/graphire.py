@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import struct
 from dataclasses import dataclass
-from typing import Any
 
+from station.drivers.devicedata import DeviceModel
 from station.drivers.hid.base import ReportParser
 from station.drivers.raw import Axis, AxisRanges, RawSample
 from station.drivers.wacom.common import WacomParams, check_length, unknown_id
@@ -46,7 +46,7 @@ class GraphireParser(ReportParser):
 
     name = "wacom-graphire"
 
-    def __init__(self, params: WacomParams, model: dict[str, Any] | None = None,
+    def __init__(self, params: WacomParams, model: DeviceModel | None = None,
                  init_features: list[bytes] | None = None, bluetooth: bool = False,
                  graphire4: bool = False) -> None:
         self.params = params

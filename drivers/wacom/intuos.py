@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import struct
 from dataclasses import dataclass
-from typing import Any
 
+from station.drivers.devicedata import DeviceModel
 from station.drivers.hid.base import ReportParser
 from station.drivers.raw import Axis, AxisRanges, RawSample
 from station.drivers.wacom.common import WacomParams, check_length, unknown_id
@@ -163,7 +163,7 @@ class IntuosParser(ReportParser):
     name = "wacom-intuos"
     pen_report_ids = PEN_REPORT_IDS
 
-    def __init__(self, params: WacomParams, model: dict[str, Any] | None = None,
+    def __init__(self, params: WacomParams, model: DeviceModel | None = None,
                  init_features: list[bytes] | None = None, original: bool = False,
                  quirks: frozenset[str] | None = None) -> None:
         self.params = params

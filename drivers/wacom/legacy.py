@@ -30,8 +30,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
 
+from station.drivers.devicedata import DeviceModel
 from station.drivers.hid.base import ReportParser
 from station.drivers.hid.errors import ReportError
 from station.drivers.raw import Axis, AxisRanges, RawSample
@@ -143,7 +143,7 @@ MAX_LENGTH = 64
 class LegacyPenParser(ReportParser):
     """One of :data:`PROTOCOLS` on a pen interface."""
 
-    def __init__(self, protocol: str, params: WacomParams, model: dict[str, Any] | None = None,
+    def __init__(self, protocol: str, params: WacomParams, model: DeviceModel | None = None,
                  init_features: list[bytes] | None = None) -> None:
         self.protocol = PROTOCOLS[protocol]
         self.name = protocol
@@ -160,7 +160,7 @@ class LegacyPenParser(ReportParser):
     def for_protocol(cls, protocol: str) -> Callable[..., LegacyPenParser]:
         """A constructor with the protocol bound (what the registry's factories call)."""
 
-        def make(params: WacomParams, model: dict[str, Any] | None = None,
+        def make(params: WacomParams, model: DeviceModel | None = None,
                  init_features: list[bytes] | None = None) -> LegacyPenParser:
             return cls(protocol, params, model, init_features)
 

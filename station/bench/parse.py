@@ -130,14 +130,14 @@ def _more_workloads(work: dict[str, tuple[Any, list[bytes]]],
              for u, v, p, tx, ty in stroke[: n - 1]]  # fmt: skip
     work["wacom-intuos1"] = (i1, reps)
     # Intuos4 WL over Bluetooth: two Intuos packets a report
-    i4 = parser_for(0x056A, 0x00BD, 5)
+    i4 = parser_for(0x056A, 0x00BD, None, bus=5)
     pens = [S.intuos_pen(int(u * 40640), int(v * 25400), int(p * 2047), int(tx * 63),
                          int(ty * 63), 5, 0) for u, v, p, tx, ty in stroke]  # fmt: skip
     reps = [bytes([3]) + S.intuos_prox_in(0x802, 7) + pens[0] + b"\x07"]
     reps += [bytes([3]) + pens[i] + pens[i + 1] + b"\x07" for i in range(1, n - 1, 2)]
     work["wacom-intuos4wl"] = (i4, reps)
     # Intuos Pro 2 over Bluetooth: up to seven 14-byte frames a report (here 2)
-    bt = parser_for(0x056A, 0x0360, 5)
+    bt = parser_for(0x056A, 0x0360, None, bus=5)
     tail = bytes(14 * 5) + ((1 << 52) | 0x1234).to_bytes(8, "little") + bytes([2, 8])
     reps = []
     for i in range(0, n - 1, 2):

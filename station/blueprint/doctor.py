@@ -15,7 +15,6 @@ import sys
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
 
 from station import paths
 from station.backends import choice as backend_choice
@@ -406,6 +405,6 @@ def report(checks: list[Check]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def as_json(checks: list[Check]) -> dict[str, Any]:
+def as_json(checks: list[Check]) -> dict[str, object]:
     return {"ok": not any(c.status == "fail" for c in checks),
             "checks": [asdict(c) for c in checks]}

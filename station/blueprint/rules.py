@@ -31,7 +31,7 @@ class Fired:
 
     rule: Rule
     target: str | None
-    detail: dict[str, Any] = field(default_factory=dict)
+    detail: dict[str, object] = field(default_factory=dict)
 
 
 @dataclass

@@ -149,7 +149,7 @@ class Supervisor:
         self.messages: list[str] = []
         self._lock = threading.Lock()
         self._sources_done_at: float | None = None
-        self._drain: dict[str, tuple[Any, float]] = {}  # id -> (samples, since)
+        self._drain: dict[str, tuple[object, float]] = {}  # id -> (samples, since)
 
     # -- logging and state ------------------------------------------------------
     def log(self, text: str) -> None:
@@ -321,7 +321,7 @@ class Supervisor:
             proc.log = Path(log)
             proc.recover_argv[-1] = log
 
-    def _command(self, target: str, name: str, args: dict[str, Any] | None = None) -> bool:
+    def _command(self, target: str, name: str, args: dict[str, object] | None = None) -> bool:
         proc = self.plan.process(target)
         if proc.cmd is None:
             self.log(f"{target} takes no commands; {name} skipped")

@@ -172,7 +172,7 @@ class KeyCheck:
         return False
 
 
-def secure_socket(sock: zmq.Socket, endpoint: Endpoint, keys_directory: Path | None,
+def secure_socket(sock: zmq.Socket[bytes], endpoint: Endpoint, keys_directory: Path | None,
                   client: str | None = None) -> KeyCheck | None:
     """CURVE on tcp: the binding side is the server and checks client keys (the
     :class:`KeyCheck` it returns counts the peers it turned away)."""
@@ -225,7 +225,7 @@ class HandshakeWatch:
     refuses this client's key says so only by failing the handshake, and the socket
     would otherwise wait for a peer forever as if none listened."""
 
-    def __init__(self, sock: zmq.Socket, endpoints: list[Endpoint]) -> None:
+    def __init__(self, sock: zmq.Socket[bytes], endpoints: list[Endpoint]) -> None:
         self._sock = sock
         self.refusals = 0
         self._monitor = (sock.get_monitor_socket(HANDSHAKE_FAILED)

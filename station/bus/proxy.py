@@ -17,7 +17,7 @@ def run_proxy(
     pub_side: str,
     sub_side: str,
     keys: Path | None = None,
-    context: zmq.Context | None = None,
+    context: zmq.Context[zmq.Socket[bytes]] | None = None,
     stop: StopFlag | None = None,
 ) -> int:
     """Forward every publisher (connecting to ``pub_side``) to every subscriber

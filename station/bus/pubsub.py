@@ -7,9 +7,10 @@ import collections
 import logging
 import random
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import zmq
 
@@ -35,7 +36,7 @@ class Publisher:
         endpoint: str | None = None,
         bind: bool = True,
         keys: Path | None = None,
-        context: zmq.Context | None = None,
+        context: zmq.Context[zmq.Socket[bytes]] | None = None,
         replay: bool = True,
         heartbeat: float | None = None,
         client_key: str | None = None,
@@ -80,11 +81,11 @@ class Publisher:
         same key directory)."""
         return refused_count(self._key_checks)
 
-    def _send(self, topic: str, value: Any) -> int:
+    def _send(self, topic: str, value: object) -> int:
         sdnotify.alive()  # a publishing loop that runs feeds systemd's watchdog
         # Reading ZMQ_EVENTS makes libzmq apply pending subscriptions now, so a new
         # subscriber gets its replay before this sample, never after it.
-        if self.sock.get(zmq.EVENTS) & zmq.POLLIN:
+        if cast(int, self.sock.get(zmq.EVENTS)) & zmq.POLLIN:  # EVENTS is an int option
             self._serve_subscriptions()
         seq = self._seq[topic] + 1
         self._seq[topic] = seq
@@ -116,7 +117,7 @@ class Publisher:
         device; each sample still takes its own sequence number, so loss counting
         and late-joiner replay work as for single samples.  Returns the last
         sequence number."""
-        if self.sock.get(zmq.EVENTS) & zmq.POLLIN:
+        if cast(int, self.sock.get(zmq.EVENTS)) & zmq.POLLIN:  # EVENTS is an int option
             self._serve_subscriptions()
         last = 0
         by_topic: dict[str, list[PenSample]] = {}
@@ -151,7 +152,7 @@ class Publisher:
     def publish_cmd(self, command: Command) -> int:
         return self._send("cmd", command)
 
-    def publish_status(self, status: dict[str, Any], topic: str = "status") -> int:
+    def publish_status(self, status: Mapping[str, object], topic: str = "status") -> int:
         return self._send(topic, status)
 
     def publish_haptic(self, device: str, haptic: wire.Haptic | wire.HapticForce) -> int:
@@ -266,7 +267,7 @@ class SubscriberStats:
         """Connections refused for a client key not authorised (0 unless bound on tcp)."""
         return refused_count(self.key_checks)
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> dict[str, object]:
         return {
             "received": self.received, "lost": self.lost, "heartbeats": self.heartbeats,
             "duplicates": self.duplicates,
@@ -297,7 +298,7 @@ class Subscriber:
         topics: tuple[str, ...] = ("pen.", "cmd"),
         bind: bool = False,
         keys: Path | None = None,
-        context: zmq.Context | None = None,
+        context: zmq.Context[zmq.Socket[bytes]] | None = None,
         client_key: str | None = None,
     ) -> None:
         specs = endpoint if isinstance(endpoint, list) else [endpoint]

@@ -15,7 +15,7 @@ from station.errors import BusError
 HWM = 100_000  # ~100 s of one 1 kHz device: never drops in normal use, bounds memory (~12 MB)
 
 
-def attach(sock: zmq.Socket, endpoint: Endpoint, keys_directory: Path | None,
+def attach(sock: zmq.Socket[bytes], endpoint: Endpoint, keys_directory: Path | None,
            client: str | None = None) -> KeyCheck | None:
     """Bind or connect ``sock`` (CURVE first on tcp); a bound ipc socket file that a
     live process holds is refused (:class:`EndpointInUse`).  Returns the ZAP check of

@@ -12,7 +12,6 @@ from __future__ import annotations
 import itertools
 import time
 from pathlib import Path
-from typing import Any
 
 import glfw
 import moderngl
@@ -50,7 +49,7 @@ class TesterWindow:
             raise StationError("glfw could not open a window")
         glfw.make_context_current(self.window)
         glfw.swap_interval(1)
-        self.ctx: Any = moderngl.create_context()
+        self.ctx: moderngl.Context = moderngl.create_context()
         fw, fh = glfw.get_framebuffer_size(self.window)
         self.size: tuple[int, int] = (int(fw), int(fh))
         self.gui = ImGuiLayer(self.ctx, self.size, scale=1.15)

@@ -30,7 +30,7 @@ import os
 import sys
 import time
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -38,11 +38,15 @@ from station.calibrate.sources import CalibrationSource, open_source
 from station.calibration.area import AreaSettings
 from station.calibration.errors import CalibrationError
 from station.calibration.files import default_path, write_file
-from station.calibration.fit import Mapping, PointSet, fit_mapping
+from station.calibration.fit import FitReport, Mapping, PointSet, fit_mapping
 from station.calibration.model import Calibration, FitInfo
 from station.calibration.session import STEP_TEXT, CalibrationSession, TapResult
 from station.errors import StationError
 from station.events import PenSample
+
+if TYPE_CHECKING:  # the window's libraries are an optional extra, imported where it opens
+    import moderngl
+    from PIL import Image, ImageFont
 
 VERTEX = """
 #version 330
@@ -70,14 +74,19 @@ CYAN = (0.2, 0.9, 0.95, 1.0)
 MAGENTA = (0.95, 0.2, 0.9, 1.0)
 
 
+def _uniform(prog: moderngl.Program, name: str) -> moderngl.Uniform:
+    """The uniform ``name`` of ``prog`` (moderngl types a member as any of four kinds)."""
+    return cast("moderngl.Uniform", prog[name])
+
+
 class Renderer:
     """Draws lines, discs and rings with one tiny shader (screen-pixel coordinates)."""
 
-    def __init__(self, ctx: Any, size: tuple[int, int]) -> None:
+    def __init__(self, ctx: moderngl.Context, size: tuple[int, int]) -> None:
         self.ctx = ctx
         self.size = size
         self.prog = ctx.program(vertex_shader=VERTEX, fragment_shader=FRAGMENT)
-        self.prog["screen"].value = (float(size[0]), float(size[1]))
+        _uniform(self.prog, "screen").value = (float(size[0]), float(size[1]))
         self.vbo = ctx.buffer(reserve=4096 * 8, dynamic=True)
         self.vao = ctx.vertex_array(self.prog, [(self.vbo, "2f", "pos")])
 
@@ -86,7 +95,7 @@ class Renderer:
         if len(data) > self.vbo.size:
             self.vbo.orphan(len(data))
         self.vbo.write(data)
-        self.prog["color"].value = color
+        _uniform(self.prog, "color").value = color
         self.vao.render(mode, vertices=len(pts))
 
     def lines(self, segments: list[tuple[float, float, float, float]],
@@ -154,7 +163,8 @@ def panel_origin(size: tuple[int, int]) -> tuple[float, float]:
     return 20.0, float(int(0.1 * size[1]) + 45)
 
 
-def render_words(lines: tuple[WORDS, ...], font: Any, max_w: int) -> Any:
+def render_words(lines: tuple[WORDS, ...], font: ImageFont.FreeTypeFont | ImageFont.ImageFont,
+                 max_w: int) -> Image.Image:
     """The panel as an RGBA Pillow image: light words on translucent black."""
     from PIL import Image, ImageDraw
 
@@ -172,18 +182,18 @@ def render_words(lines: tuple[WORDS, ...], font: Any, max_w: int) -> Any:
 class TextPanel:
     """Lines of words on a dark panel (Pillow draws them, one texture per change)."""
 
-    def __init__(self, ctx: Any, size: tuple[int, int]) -> None:
+    def __init__(self, ctx: moderngl.Context, size: tuple[int, int]) -> None:
         from PIL import ImageFont
 
         self.ctx = ctx
         self.prog = ctx.program(vertex_shader=TEXT_VERTEX, fragment_shader=TEXT_FRAGMENT)
-        self.prog["screen"].value = (float(size[0]), float(size[1]))
+        _uniform(self.prog, "screen").value = (float(size[0]), float(size[1]))
         self.vbo = ctx.buffer(reserve=6 * 4 * 4, dynamic=True)
         self.vao = ctx.vertex_array(self.prog, [(self.vbo, "2f 2f", "pos", "uv")])
         self.font = ImageFont.load_default(size=TEXT_PX)
         self.max_w = size[0] - 40
         self._key: tuple[WORDS, ...] | None = None
-        self._tex: Any = None
+        self._tex: moderngl.Texture | None = None
         self._wh = (0, 0)
 
     def draw(self, lines: list[WORDS], x: float = 20, y: float = 20) -> None:
@@ -196,13 +206,16 @@ class TextPanel:
                 self._tex.release()
             self._tex = self.ctx.texture(img.size, 4, img.tobytes())
             self._wh, self._key = img.size, key
+        tex = self._tex
+        if tex is None:  # made above the first time there are words
+            return
         w, h = self._wh
         quad = np.array([x, y, 0, 0, x + w, y, 1, 0, x, y + h, 0, 1,
                          x + w, y, 1, 0, x + w, y + h, 1, 1, x, y + h, 0, 1], dtype="f4")
         self.vbo.write(quad.tobytes())
         self.ctx.enable(self.ctx.BLEND)
         self.ctx.blend_func = self.ctx.SRC_ALPHA, self.ctx.ONE_MINUS_SRC_ALPHA
-        self._tex.use(0)
+        tex.use(0)
         self.vao.render(self.ctx.TRIANGLES, vertices=6)
         self.ctx.disable(self.ctx.BLEND)
 
@@ -401,7 +414,7 @@ class _Loop:
         self.cursor = (pos[0], pos[1], sample.touching)
 
 
-def _result_words(report: Any, session: CalibrationSession, w: int, h: int) -> list[WORDS]:
+def _result_words(report: FitReport, session: CalibrationSession, w: int, h: int) -> list[WORDS]:
     """The fit in words for the screen: done, residuals in pixels, what was left out."""
     px = max(w, h)
     good = report.max * px <= max(2.0, session.misclick_px / 4)
@@ -416,7 +429,8 @@ def _result_words(report: Any, session: CalibrationSession, w: int, h: int) -> l
     ]
 
 
-def _hold(window: CalibrationWindow, source: Any, session: CalibrationSession, report: Any,
+def _hold(window: CalibrationWindow, source: CalibrationSource, session: CalibrationSession,
+          report: FitReport,
           seconds: float) -> None:
     """Keep the result on screen for an installer to read (Esc ends it; so does a
     recorded or mock source that has nothing more to give)."""

@@ -69,8 +69,8 @@ class Pigment:
             return np.array(self.K_spec, np.float32), np.array(self.S_spec, np.float32)
         return upsample_rgb(self.K), upsample_rgb(self.S)
 
-    def to_dict(self) -> dict[str, Any]:
-        d: dict[str, Any] = {"name": self.name, "K": list(self.K), "S": list(self.S),
+    def to_dict(self) -> dict[str, object]:
+        d: dict[str, object] = {"name": self.name, "K": list(self.K), "S": list(self.S),
                              "beta": self.beta, "gamma": self.gamma, "delta": self.delta}
         if self.K_spec:
             d.update(K_spec=list(self.K_spec), S_spec=list(self.S_spec))

@@ -245,7 +245,7 @@ class SimParams:
         """A copy with ``changes`` applied (validated)."""
         return dataclasses.replace(self, **changes)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return dataclasses.asdict(self)
 
     @classmethod

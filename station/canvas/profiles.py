@@ -73,7 +73,7 @@ def _err(where: str, el: object, msg: str) -> CanvasInputError:
     return CanvasInputError(f"element <{tag}>: {msg}", f"{where}:{line}" if line else where)
 
 
-def _finite(text: str, key: str, el: Any, where: str) -> float:
+def _finite(text: str, key: str, el: etree._Element, where: str) -> float:
     """A finite number or an error naming the attribute (``float`` takes inf and nan,
     which the simulation would carry into every cell)."""
     try:
@@ -88,7 +88,7 @@ def _finite(text: str, key: str, el: Any, where: str) -> float:
     return v
 
 
-def _rgb(el: Any, key: str, where: str) -> tuple[float, float, float]:
+def _rgb(el: etree._Element, key: str, where: str) -> tuple[float, float, float]:
     vals = [_finite(x, key, el, where) for x in el.get(key).split()]
     if len(vals) != 3:
         raise _err(where, el, f"{key} needs 3 numbers")
@@ -97,6 +97,22 @@ def _rgb(el: Any, key: str, where: str) -> tuple[float, float, float]:
 
 def parse_profile(data: bytes, where: str) -> Profile:
     """The profile in the XML ``data`` (``where`` names it in error messages)."""
+    root = _checked_root(data, where)
+    params = _profile_params(root, where)
+    defs = _profile_pigments(root, where)
+    names = tuple(p.name for p in defs)
+    if len({n.casefold() for n in names}) != len(names):
+        raise _err(where, root.find("palette"), "a pigment is listed twice")
+    brush = _profile_brush(root, names, where)
+    desc = root.find("description")
+    return Profile(name=root.get("name"), params=params, paper=root.find("paper").get("preset"),
+                   renderer=root.get("renderer"), pigments=names, brush=brush,
+                   description=(desc.text or "").strip() if desc is not None else "",
+                   pigment_defs=tuple(defs), source=where)
+
+
+def _checked_root(data: bytes, where: str) -> etree._Element:
+    """The XML root of a profile, well-formed, without a DTD, valid against the schema."""
     if len(data) > MAX_FILE_BYTES:
         raise CanvasInputError(f"profile file larger than {MAX_FILE_BYTES} bytes", where)
     if re.search(rb"<!\s*(DOCTYPE|ENTITY)", data, re.IGNORECASE):
@@ -120,8 +136,13 @@ def parse_profile(data: bytes, where: str) -> Profile:
             attr = f" attribute {m.group(2)}" if m.group(2) else ""
             msg = f"element <{m.group(1)}>{attr}: {m.group(3)}"
         raise CanvasInputError(msg, f"{where}:{e.line}")
+    return root
+
+
+def _profile_params(root: etree._Element, where: str) -> SimParams:
+    """The simulation parameters of the profile's groups (an error names the element)."""
     values: dict[str, Any] = {}
-    owner: dict[str, Any] = {}
+    owner: dict[str, etree._Element] = {}  # which element set each value
     for group in GROUPS:
         el = root.find(group)
         if el is None:
@@ -137,11 +158,15 @@ def parse_profile(data: bytes, where: str) -> Profile:
             values[key] = v
             owner[key] = el
     try:
-        params = SimParams(**values)
+        return SimParams(**values)
     except CanvasInputError as exc:
         msg = str(exc).removeprefix("params: ")
         el = next((owner[k] for k in owner if k in msg), root)
         raise _err(where, el, msg) from None
+
+
+def _profile_pigments(root: etree._Element, where: str) -> list[Pigment]:
+    """The palette: packaged pigments by name, or new ones with their coefficients."""
     known = default_palette()
     defs: list[Pigment] = []
     for el in root.find("palette").iterfind("pigment"):
@@ -170,9 +195,11 @@ def parse_profile(data: bytes, where: str) -> Profile:
             if exc.where and exc.where.startswith(where):
                 raise
             raise _err(where, el, str(exc).split(": ", 1)[-1]) from None
-    names = tuple(p.name for p in defs)
-    if len({n.casefold() for n in names}) != len(names):
-        raise _err(where, root.find("palette"), "a pigment is listed twice")
+    return defs
+
+
+def _profile_brush(root: etree._Element, names: tuple[str, ...], where: str) -> BrushDefaults:
+    """The brush defaults (the first pigment when the profile names none)."""
     bel = root.find("brush")
     battrs: dict[str, Any] = {}
     if bel is not None:
@@ -184,11 +211,7 @@ def parse_profile(data: bytes, where: str) -> Profile:
     brush = BrushDefaults(**battrs)
     if bel is None or "pigment" not in battrs:
         brush = dataclasses.replace(brush, pigment=names[0])
-    desc = root.find("description")
-    return Profile(name=root.get("name"), params=params, paper=root.find("paper").get("preset"),
-                   renderer=root.get("renderer"), pigments=names, brush=brush,
-                   description=(desc.text or "").strip() if desc is not None else "",
-                   pigment_defs=tuple(defs), source=where)
+    return brush
 
 
 def load_profile_file(path: str | Path) -> Profile:

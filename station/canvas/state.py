@@ -31,6 +31,7 @@ from __future__ import annotations
 import io
 import json
 import zipfile
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -186,7 +187,7 @@ class CanvasState:
         return CanvasState(**kw)
 
     # ------------------------------------------------------------------ save/load
-    def metadata(self) -> dict[str, Any]:
+    def metadata(self) -> dict[str, object]:
         return {
             "format": "station-canvas", "version": STATE_VERSION,
             "width": self.width, "height": self.height, "n_slots": self.n_slots,
@@ -209,7 +210,7 @@ class CanvasState:
         """
         atomic_write(path, self.npz_bytes())
 
-    def npz_bytes(self, extra: dict[str, Any] | None = None) -> bytes:
+    def npz_bytes(self, extra: Mapping[str, object] | None = None) -> bytes:
         """The .npz archive :meth:`save` writes; ``extra`` adds JSON entries (a live
         session's checkpoint data), which :meth:`load` ignores and
         :func:`read_extra` returns."""
@@ -304,7 +305,7 @@ class CanvasState:
         return st
 
 
-def read_extra(path: str | Path, name: str) -> Any:
+def read_extra(path: str | Path, name: str) -> object:
     """The JSON entry ``name`` that :meth:`CanvasState.npz_bytes` added, or ``None``."""
     where = str(path)
     try:

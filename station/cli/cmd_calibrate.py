@@ -21,7 +21,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from typing import Any
 
 import numpy as np
 
@@ -192,7 +191,7 @@ def _units_per_mm(args: argparse.Namespace) -> tuple[float, float] | None:
     return (span[0] / size[0], span[1] / size[1])
 
 
-def _fit_and_print(args: argparse.Namespace, points: PointSet, extra: dict[str, Any]) -> int:
+def _fit_and_print(args: argparse.Namespace, points: PointSet, extra: dict[str, object]) -> int:
     model = args.model or "affine"
     parallax = _parallax_choice(args, points)
     upm = _units_per_mm(args)

@@ -10,9 +10,8 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from typing import Any
 
-from station.drivers.scan import model_list, scan
+from station.drivers.scan import SCAN_KINDS, ModelList, model_list, scan
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -23,7 +22,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def print_list(data: dict[str, Any]) -> None:
+def print_list(data: ModelList) -> None:
     w = sys.stdout.write
     w(f"{data['device_ids']} device ids, {data['pen_models']} pen models "
       "(ids shared by several products count each product):\n")
@@ -58,8 +57,10 @@ def run(args: argparse.Namespace) -> int:
     w = sys.stdout.write
     if result["found"] == 0:
         w("No pen tablet found on this machine.\n")
-    for key, title in (("evdev", "evdev (kernel driver)"), ("hidraw", "hidraw"),
-                       ("usb", "USB (pyusb)"), ("hidapi", "hidapi")):
+    titles = {"evdev": "evdev (kernel driver)", "hidraw": "hidraw", "usb": "USB (pyusb)",
+              "hidapi": "hidapi"}
+    for key in SCAN_KINDS:
+        title = titles[key]
         for d in result[key]:
             parser = d.get("parser") or "none"
             extra = f" — {d['problem']}" if "problem" in d else (

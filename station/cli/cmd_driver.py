@@ -18,11 +18,11 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
 from station.bus import HEARTBEAT_S, Publisher
 from station.cli.buskeys import check_keys
 from station.drivers.calibrated import choose_calibration, settle_pressure
+from station.drivers.devicedata import SourceInfo
 from station.drivers.normalise import NormaliserConfig
 from station.drivers.pipeline import PenDriver, PenSource, open_device
 from station.drivers.transport.base import DeviceGone, EndOfStream, TransportError
@@ -101,11 +101,12 @@ def normaliser_config(args: argparse.Namespace) -> NormaliserConfig:
     area = None
     if args.area:
         try:
-            area = tuple(float(v) for v in args.area.split(","))
+            corners = tuple(float(v) for v in args.area.split(","))
         except ValueError:
             raise BadInput("needs four numbers x0,y0,x1,y1", "--area") from None
-        if len(area) != 4:
+        if len(corners) != 4:
             raise BadInput("needs four numbers x0,y0,x1,y1", "--area")
+        area = (corners[0], corners[1], corners[2], corners[3])
 
     return NormaliserConfig(area=area, tip_down=args.tip_down, tip_up=args.tip_up,
                             smoothing_ms=args.smoothing, pressure_curve=curve,
@@ -137,12 +138,12 @@ def _serve(args: argparse.Namespace, config: NormaliserConfig, stop: StopSignal)
     raw_writer = None
     reconnects = 0
     totals = {"total_samples": 0, "reconnects": 0}
-    last: dict[str, Any] = {}
-    in_force: dict[str, Any] = {}  # the calibration and pressure shaping of this connection
+    last: dict[str, object] = {}
+    in_force: dict[str, object] = {}  # the calibration and pressure shaping of this connection
 
-    def status(state: str, driver: PenDriver | None = None, **extra: Any) -> None:
+    def status(state: str, driver: PenDriver | None = None, **extra: object) -> None:
         nonlocal last
-        rec: dict[str, Any] = {"kind": "driver", "state": state, "device_spec": args.device,
+        rec: dict[str, object] = {"kind": "driver", "state": state, "device_spec": args.device,
                                **totals, **in_force, **extra}
         if driver is not None:
             rec.update(driver.status())
@@ -163,9 +164,10 @@ def _serve(args: argparse.Namespace, config: NormaliserConfig, stop: StopSignal)
             if not args.wait:
                 status("failed", error=str(exc))
                 raise
-            source = _wait_for_device(args, stop, status)
-            if source is None:  # stopped while waiting, or a finite source ended meanwhile
+            waited = _wait_for_device(args, stop, status)
+            if waited is None:  # stopped while waiting, or a finite source ended meanwhile
                 return 0
+            source = waited
         t_offset = 0.0
         while not stop.is_set():
             attach_bus = getattr(source, "attach_bus", None)
@@ -220,9 +222,10 @@ def _serve(args: argparse.Namespace, config: NormaliserConfig, stop: StopSignal)
             if not gone or args.no_reconnect or (
                     args.max_reconnects is not None and reconnects >= args.max_reconnects):
                 break
-            source = _wait_for_device(args, stop, status, identity=driver.source.describe())
-            if source is None:
+            again = _wait_for_device(args, stop, status, identity=driver.source.describe())
+            if again is None:
                 break
+            source = again
             reconnects += 1
             totals["reconnects"] = reconnects
     finally:
@@ -255,7 +258,7 @@ def _flush(driver: PenDriver, publisher: Publisher, writer: SessionLogWriter | N
         totals["total_samples"] += 1
 
 
-def _replugged_spec(spec: str, identity: dict[str, Any] | None) -> str:
+def _replugged_spec(spec: str, identity: SourceInfo | None) -> str:
     """An evdev device that came back on another ``eventN``: the SPEC of its new node."""
     if identity is None or not spec.startswith("evdev:"):
         return spec
@@ -271,7 +274,7 @@ def _replugged_spec(spec: str, identity: dict[str, Any] | None) -> str:
 
 def _wait_for_device(args: argparse.Namespace, stop: StopSignal,
                      status: Callable[..., None],
-                     identity: dict[str, Any] | None = None) -> PenSource | None:
+                     identity: SourceInfo | None = None) -> PenSource | None:
     """Try to reopen the device every 0.5 s until it is back (or we are stopped, or it has
     ended: a finite source that reports EndOfStream; None then).
 

@@ -6,7 +6,6 @@ import argparse
 import contextlib
 import json
 import sys
-from typing import Any
 
 from station.backends.distributed.guard import abort_job_on_error
 from station.sim.paint import paint, parse_size
@@ -60,7 +59,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     size = parse_size(args.size) if args.size else None
-    guard: Any = contextlib.nullcontext()
+    guard: contextlib.AbstractContextManager[object] = contextlib.nullcontext()
     if args.distributed:
         guard = abort_job_on_error()
     with guard:

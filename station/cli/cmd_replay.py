@@ -21,6 +21,7 @@ from station.cli.buskeys import add_key_flags, check_keys
 from station.drivers.decode import ReportDecoder, event_line
 from station.drivers.pipeline import TraceReplay, run_paced
 from station.drivers.traces import read_trace
+from station.drivers.traces.model import Trace
 from station.errors import BadInput, StationError
 from station.events import PenSample
 from station.progress import Progress
@@ -106,24 +107,7 @@ def run(args: argparse.Namespace) -> int:
            for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         if speed is None:
-            # Full speed: hand samples to the bus in batches (wire kind 5).
-            batch: list[PenSample] = []
-            for sample in replay.samples():
-                count["samples"] += 1
-                bar.set(sample.t)
-                if writer is not None:
-                    writer.write(sample)
-                if publisher is not None:
-                    batch.append(sample)
-                    if len(batch) >= 64:
-                        publisher.publish_pens(batch)
-                        batch = []
-                    else:
-                        publisher.tick()  # parsing a long trace: still alive
-                if stop.is_set():
-                    break
-            if batch and publisher is not None:  # a batch only fills with a publisher
-                publisher.publish_pens(batch)
+            count["samples"] = _play_full_speed(replay, writer, publisher, bar, stop)
         else:
             drivers = replay.open_drivers(speed)
             if publisher is not None:
@@ -146,16 +130,44 @@ def run(args: argparse.Namespace) -> int:
             writer.close()
         if publisher is not None:
             publisher.close()
-    out = sys.stderr if args.jsonl == "-" else sys.stdout
-    if args.json:
-        out.write(json.dumps(summary) + "\n")
-    else:
-        for d in summary["devices"]:
-            out.write(f"{d['name']}: {d['reports']} reports -> {d['samples']} samples "
-                      f"({d['parser']}; {d['bad_reports']} bad reports dropped, "
-                      f"{d['skipped_reports']} non-pen skipped{_by_id(d)}, "
-                      f"{d['forced_proximity_out']} forced proximity-out)\n")
+    _print_summary(summary, sys.stderr if args.jsonl == "-" else sys.stdout, args.json)
     return 0
+
+
+def _play_full_speed(replay: TraceReplay, writer: SessionLogWriter | None,
+                     publisher: Publisher | None, bar: Progress, stop: StopSignal) -> int:
+    """Every sample as fast as the trace parses, to the bus in batches (wire kind 5);
+    returns the number of samples."""
+    samples = 0
+    batch: list[PenSample] = []
+    for sample in replay.samples():
+        samples += 1
+        bar.set(sample.t)
+        if writer is not None:
+            writer.write(sample)
+        if publisher is not None:
+            batch.append(sample)
+            if len(batch) >= 64:
+                publisher.publish_pens(batch)
+                batch = []
+            else:
+                publisher.tick()  # parsing a long trace: still alive
+        if stop.is_set():
+            break
+    if batch and publisher is not None:  # a batch only fills with a publisher
+        publisher.publish_pens(batch)
+    return samples
+
+
+def _print_summary(summary: dict[str, Any], out: IO[str], as_json: bool) -> None:
+    if as_json:
+        out.write(json.dumps(summary) + "\n")
+        return
+    for d in summary["devices"]:
+        out.write(f"{d['name']}: {d['reports']} reports -> {d['samples']} samples "
+                  f"({d['parser']}; {d['bad_reports']} bad reports dropped, "
+                  f"{d['skipped_reports']} non-pen skipped{_by_id(d)}, "
+                  f"{d['forced_proximity_out']} forced proximity-out)\n")
 
 
 def _by_id(device: dict[str, Any]) -> str:
@@ -164,7 +176,7 @@ def _by_id(device: dict[str, Any]) -> str:
     return f" (ID {', ID '.join(f'{k}: {v}' for k, v in ids.items())})" if ids else ""
 
 
-def _decode(trace: Any) -> int:
+def _decode(trace: Trace) -> int:
     """``--decode``: every report (or event) of every device, one line each."""
 
     w = sys.stdout.write
@@ -188,7 +200,7 @@ def _decode(trace: Any) -> int:
 UHID = "/dev/uhid"
 
 
-def _uhid(trace: Any, speed: float | None) -> int:
+def _uhid(trace: Trace, speed: float | None) -> int:
     """``--uhid``: the trace's HID devices become kernel devices (hid-tools' UHIDDevice)
     and their reports are played at ``speed`` (as recorded by default)."""
     if not os.path.exists(UHID):
@@ -207,7 +219,7 @@ def _uhid(trace: Any, speed: float | None) -> int:
     try:
         for d in hid:
             u = UHIDDevice()
-            u.name, u.info, u.rdesc = d.name, (d.bus, d.vid, d.pid), bytes(d.descriptor)
+            u.name, u.info, u.rdesc = d.name, (d.bus, d.vid, d.pid), bytes(d.descriptor or b"")
             u.phys = d.phys or "station-replay"
             u.create_kernel_device()
             devices.append((u, d))

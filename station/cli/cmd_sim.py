@@ -6,7 +6,7 @@ import argparse
 import json
 import math
 import sys
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from station.backends.distributed.guard import abort_job_on_error
 from station.backends.factory import create_distributed
@@ -116,7 +116,7 @@ def run(args: argparse.Namespace) -> int:
     return _lead(LiveSim(cfg))
 
 
-def _start_brush(text: str | None) -> dict[str, Any] | None:
+def _start_brush(text: str | None) -> dict[str, object] | None:
     """``--brush JSON`` → the brush command's arguments, checked as the sim will run them."""
     if text is None:
         return None

@@ -10,9 +10,12 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from station.errors import StationError
+
+if TYPE_CHECKING:  # moderngl is an optional extra, imported where a context is made
+    import moderngl
 
 #: GL 4.3 is the first version with compute shaders and image load/store in core.
 REQUIRED_GL_VERSION = 430
@@ -63,7 +66,7 @@ def create_context(backend: str | None = None) -> Any:
     return ctx
 
 
-def query_limits(ctx: Any) -> GLLimits:
+def query_limits(ctx: moderngl.Context) -> GLLimits:
     """Read the limits of ``ctx`` that the canvas uses."""
     info = ctx.info
     return GLLimits(

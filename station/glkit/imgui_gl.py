@@ -14,10 +14,13 @@ from __future__ import annotations
 import ctypes
 import math
 import zlib
-from typing import Any
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 from imgui_bundle import imgui
+
+if TYPE_CHECKING:  # moderngl is imported by whoever makes the context
+    import moderngl
 
 VERTEX = """
 #version 330
@@ -43,7 +46,7 @@ void main() { frag = f_col * texture(tex, f_uv); }
 class ImGuiLayer:
     """An ImGui context drawn into a moderngl context of ``size`` pixels."""
 
-    def __init__(self, ctx: Any, size: tuple[int, int], scale: float = 2.0) -> None:
+    def __init__(self, ctx: moderngl.Context, size: tuple[int, int], scale: float = 2.0) -> None:
         self.ctx = ctx
         self.size = size
         self.context = imgui.create_context()
@@ -56,12 +59,12 @@ class ImGuiLayer:
         style.scale_all_sizes(scale)
         style.font_scale_main = scale
         self.prog = ctx.program(vertex_shader=VERTEX, fragment_shader=FRAGMENT)
-        self.prog["tex"].value = 0
+        cast("moderngl.Uniform", self.prog["tex"]).value = 0  # a sampler: a uniform
         self.vbo = ctx.buffer(reserve=1 << 20, dynamic=True)
         self.ibo = ctx.buffer(reserve=1 << 19, dynamic=True)
         self.vao = ctx.vertex_array(self.prog, [(self.vbo, "2f 2f 4f1", "pos", "uv", "col")],
                                     index_buffer=self.ibo, index_element_size=imgui.INDEX_SIZE)
-        self.textures: dict[int, Any] = {}
+        self.textures: dict[int, moderngl.Texture] = {}
         self._next_id = 1
         self.touching = False
 
@@ -71,7 +74,7 @@ class ImGuiLayer:
         imgui.get_io().display_size = imgui.ImVec2(float(size[0]), float(size[1]))
 
     # -- textures --------------------------------------------------------------
-    def add_texture(self, texture: Any) -> int:
+    def add_texture(self, texture: moderngl.Texture) -> int:
         """Register a moderngl texture for ``imgui.image``; returns its ImGui id."""
         tex_id = self._next_id
         self._next_id += 1
@@ -91,9 +94,10 @@ class ImGuiLayer:
                     self.textures[tex.tex_id].write(pixels)
                 tex.set_status(imgui.ImTextureStatus.ok)
             elif status == imgui.ImTextureStatus.want_destroy:
-                gl_tex = self.textures.pop(tex.tex_id, None)
-                if gl_tex is not None:
-                    gl_tex.release()
+                old = self.textures.get(tex.tex_id)
+                if old is not None:
+                    del self.textures[tex.tex_id]
+                    old.release()
                 tex.set_tex_id(0)
                 tex.set_status(imgui.ImTextureStatus.destroyed)
 
@@ -183,7 +187,7 @@ class ImGuiLayer:
         ctx.viewport = (0, 0, w, h)
         ctx.enable_only(ctx.BLEND)
         ctx.blend_func = ctx.SRC_ALPHA, ctx.ONE_MINUS_SRC_ALPHA
-        self.prog["proj"].write(np.array(
+        cast("moderngl.Uniform", self.prog["proj"]).write(np.array(
             [[2.0 / w, 0, 0, 0], [0, -2.0 / h, 0, 0], [0, 0, -1, 0], [-1, 1, 0, 1]],
             "f4").tobytes())
         for cmds in data.cmd_lists:

@@ -17,7 +17,6 @@ from __future__ import annotations
 import json
 from importlib import resources
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -37,9 +36,9 @@ class _Log:
 
     def __init__(self) -> None:
         self.t = 0.0
-        self.lines: list[dict[str, Any]] = []
+        self.lines: list[dict[str, object]] = []
 
-    def cmd(self, command: str, /, **args: Any) -> None:
+    def cmd(self, command: str, /, **args: object) -> None:
         self.lines.append({"type": "cmd", "t": round(self.t, 4), "cmd": command, "args": args})
 
     def wait(self, seconds: float) -> None:
@@ -55,7 +54,7 @@ class _Log:
         self.lines.append(self._pen(x, y, 0.0, False, tool))
 
     def _pen(self, x: float, y: float, pressure: float, touching: bool, tool: str
-             ) -> dict[str, Any]:
+             ) -> dict[str, object]:
         return {"type": "pen", "t": round(self.t, 4), "device": "sheet", "tool": tool,
                 "x": round(x, 5), "y": round(y, 5), "pressure": pressure, "proximity": True,
                 "touching": touching}

@@ -28,7 +28,6 @@ import logging
 import os
 import time
 from pathlib import Path
-from typing import Any
 
 from station import paths
 from station.durable import PartialWrite, write_all
@@ -87,7 +86,7 @@ def latest_log() -> Path | None:
 
 def record_line(record: PenSample | Command | SessionHeader) -> bytes:
     """One log line, formatted as :class:`station.sessionlog.SessionLogWriter` does."""
-    rec: dict[str, Any] = record.to_record()
+    rec: dict[str, object] = record.to_record()
     return (json.dumps(rec, separators=(", ", ": "), allow_nan=False) + "\n").encode()
 
 

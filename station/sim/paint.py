@@ -22,7 +22,7 @@ import math
 import os
 import re
 import time
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -214,7 +214,7 @@ def paint(
     rate: float | None = None,
     settle: float = 0.0,
     progress: bool | None = None,
-    backend_opts: dict[str, Any] | None = None,
+    backend_opts: Mapping[str, object] | None = None,
     resume: str | None = None,
     mapping: str = "fit",
     render_scale: int = 1,

@@ -22,8 +22,8 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING, Any, TypedDict
+from collections.abc import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, TypedDict
 
 from station.events import Command, PenSample
 from station.sessionlog import SessionHeader, SessionLogWriter
@@ -133,7 +133,7 @@ class Script:
         device: str = "script-0",
         rate_hz: float = 120.0,
         sim_rate: float | None = None,
-        extra: dict[str, Any] | None = None,
+        extra: Mapping[str, object] | None = None,
     ) -> None:
         ext = dict(extra or {})
         if sim_rate is not None:
@@ -147,7 +147,7 @@ class Script:
         self._seq = 0
 
     # -- commands ------------------------------------------------------------
-    def cmd(self, command: str, /, **args: Any) -> None:
+    def cmd(self, command: str, /, **args: object) -> None:
         """Append the command ``command`` with keyword ``args`` at the current time."""
         self.records.append(Command(t=self._time(), cmd=command, args=args))
 

@@ -261,7 +261,7 @@ class UndoHistory:
         self.replayed_steps += p.counters.steps - steps0
         self._trim()
 
-    def status(self) -> dict[str, Any]:
+    def status(self) -> dict[str, object]:
         """Depth of both stacks, the limits and the bytes held (for a status line)."""
         held = [self._units[u].checkpoint for u in self._done] + [u.checkpoint for u, _ in
                                                                    self._redo]

@@ -23,22 +23,27 @@ result of one process:
 Work follows the painting: every ``rebalance_every`` steps the strip bounds are
 recomputed from the cells the dirty-tile boxes simulate per tile row
 (``decomp.balanced_split``) and rows move to their new owners.
+
+Split by job: the shell, the local strip and the border bands are in ``strips``; the
+strips' geometry, gathering and moving rows in ``strip_canvas`` (the base class); this
+module holds the sources, the step and its halo schedule, commands, balance and display.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import os
 import time
-from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING, Any
+from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
 from mpi4py import MPI
 
 from station.backends.distributed import boxes, decomp, exchange
 from station.backends.distributed.exchange import Rect
+from station.backends.distributed.strip_canvas import StripCanvas
+from station.backends.distributed.strips import Band, empty_shell, local_from_shell, zero_fibre
 from station.canvas import operations, reference, tiles
 from station.canvas.palette import Palette
 from station.canvas.paper import make_fibres, make_paper
@@ -61,114 +66,7 @@ STEP_TIME_WEIGHT = 0.1
 """Weight of the newest step in the running mean of the step time (``step_seconds``)."""
 
 
-def _zero_fibre(height: int, width: int) -> np.ndarray:
-    """A (2, H, W) view of one zero: the shell's ``fibre`` has the canvas's shape (so
-    ``CanvasState`` does not make the sheet's fibres again) and holds no memory."""
-    return np.broadcast_to(np.zeros((1, 1, 1), F32), (2, height, width))
-
-
-def _empty_shell(st: CanvasState) -> CanvasState:
-    """``st``'s metadata and tiles with empty per-cell arrays (the replicated part)."""
-    kw: dict[str, Any] = {}
-    for name in st.__dataclass_fields__:
-        v = getattr(st, name)
-        if name == "tile_ttl":
-            v = v.copy()
-        elif name == "fibre":
-            v = _zero_fibre(st.height, st.width)
-        elif isinstance(v, np.ndarray):
-            v = np.zeros((st.n_slots, 0, 0) if name in exchange.STACKS else
-                         (0, 0, v.shape[-1]) if name == "r_composed" else (0, 0), v.dtype)
-        elif isinstance(v, (list, dict)):
-            v = _deep(v)
-        kw[name] = v
-    return CanvasState(**kw)
-
-
-def _local_from_shell(shell: CanvasState, rows: int, zeroed: bool = True) -> CanvasState:
-    """A strip of ``rows`` rows (zeros, or uninitialised for the caller to fill
-    completely) with its own copy of the shell's metadata.
-
-    Its ``tile_ttl`` is private (``operations`` mark it in strip coordinates; nothing
-    reads it): the canvas's tiles are the shell's.
-    """
-    kw: dict[str, Any] = {n: _deep(getattr(shell, n)) for n in shell.__dataclass_fields__}
-    kw["height"] = rows
-    for n in exchange.ALL_FIELDS:
-        shape = ((rows, shell.width, shell.r_composed.shape[-1]) if n == "r_composed" else
-                 (shell.n_slots, rows, shell.width) if n in exchange.STACKS else
-                 (2, rows, shell.width) if n == "fibre" else (rows, shell.width))
-        # free pigment slots are never moved: stacks always start as zeros
-        fill = zeroed or n in exchange.STACKS
-        kw[n] = np.zeros(shape, F32) if fill else np.empty(shape, F32)
-    ts = int(shell.params.tile_size)
-    kw["tile_ttl"] = np.zeros((-(-rows // ts), -(-shell.width // ts)), np.int32)
-    return CanvasState(**kw)
-
-
-def _deep(v: object) -> Any:
-    if isinstance(v, list):
-        return [_deep(x) for x in v]
-    if isinstance(v, dict):
-        return {k: _deep(x) for k, x in v.items()}
-    return v
-
-
-BAND_FIELDS = tuple(n for n in exchange.ALL_FIELDS if n != "r_composed")
-"""Per-cell fields a step reads or writes (a border band copies these)."""
-
-
-class _Band:
-    """A copy of canvas rows ``[r0, r1)`` x ``xs`` around a strip border, stepped once
-    the halo is in; its rows ``[out0, out1)`` (the owned rows next to the border, at
-    least one radius from the band's cut edges) are then right and are written back.
-
-    The owned rows are copied when the band is made (before the interior step changes
-    them); the halo rows ``[h0, h1)`` are copied again after the exchange.
-    """
-
-    def __init__(self, loc: CanvasState, off: int, r0: int, r1: int, xs: slice,
-                 out: tuple[int, int], halo: tuple[int, int]) -> None:
-        self.r0, self.r1, self.xs = r0, r1, xs
-        self.out0, self.out1 = out
-        self.halo = halo
-        rows = slice(r0 - off, r1 - off)
-        kw: dict[str, Any] = {}
-        for n in BAND_FIELDS:
-            arr = getattr(loc, n)
-            kw[n] = (arr[:, rows, xs] if arr.ndim == 3 else arr[rows, xs]).copy()
-        self.state = dataclasses.replace(loc, height=r1 - r0, width=xs.stop - xs.start,
-                                         r_composed=np.zeros((0, 0, 3), F32), **kw)
-
-    @property
-    def rows(self) -> int:
-        return self.r1 - self.r0
-
-    def step(self, loc: CanvasState, off: int, stepper: Callable[[CanvasState, float], None],
-             dt: float) -> None:
-        """Refresh the halo rows from ``loc``, step the band, write the border rows back."""
-        bs = self.state
-        a, b = self.halo
-        for n in exchange.DYNAMIC_FIELDS:  # only these travel in the halo
-            src, dst = getattr(loc, n), getattr(bs, n)
-            if n in exchange.STACKS:
-                dst[:, a - self.r0:b - self.r0] = src[:, a - off:b - off, self.xs]
-            else:
-                dst[a - self.r0:b - self.r0] = src[a - off:b - off, self.xs]
-        stepper(bs, dt)
-        o0, o1 = self.out0 - self.r0, self.out1 - self.r0
-        for n in BAND_FIELDS:
-            if n == "fibre":
-                continue  # static
-            src, dst = getattr(bs, n), getattr(loc, n)
-            if n in exchange.STACKS:
-                dst[:, self.out0 - off:self.out1 - off, self.xs] = src[:, o0:o1]
-            else:
-                dst[self.out0 - off:self.out1 - off, self.xs] = src[o0:o1]
-
-
-
-class DistributedCanvas:
+class DistributedCanvas(StripCanvas):
     """The canvas backend protocol over MPI ranks (see the module docstring).
 
     Args:
@@ -231,9 +129,9 @@ class DistributedCanvas:
         self._local.fibre = np.ascontiguousarray(
             make_fibres(preset, height, width, seed)[:, s.pad_lo:s.pad_hi])
         full_ttl = np.zeros((-(-height // ts), -(-width // ts)), np.int32)
-        self._shell = _empty_shell(dataclasses.replace(self._local, tile_ttl=full_ttl))
+        self._shell = empty_shell(dataclasses.replace(self._local, tile_ttl=full_ttl))
         self._shell.width, self._shell.height = width, height
-        self._shell.fibre = _zero_fibre(height, width)
+        self._shell.fibre = zero_fibre(height, width)
         self._renderer_kind = prof.renderer
         self._scratch: cpu_step.Scratch | None = None
         self._band_scratch: cpu_step.Scratch | None = None
@@ -253,58 +151,6 @@ class DistributedCanvas:
         self.late_steps = 0  # boxes stepped only after waiting for their halo
         self.cells_last = 0
         self.rebalances = 0
-
-    # ------------------------------------------------------------------ geometry
-    @property
-    def strip(self) -> decomp.Strip:
-        """This rank's rows."""
-        return self._strips[self.rank]
-
-    @property
-    def bounds(self) -> list[int]:
-        """Owned-row bounds of all ranks (``size + 1`` rows)."""
-        return list(self._bounds)
-
-    @property
-    def is_root(self) -> bool:
-        return self.rank == self.root
-
-    @property
-    def renderer(self) -> str:
-        return f"distributed ({self.size} ranks x {self.base})"
-
-    @property
-    def width(self) -> int:
-        return self._shell.width
-
-    @property
-    def height(self) -> int:
-        return self._shell.height
-
-    @property
-    def params(self) -> SimParams:
-        return self._shell.params
-
-    @property
-    def n_slots(self) -> int:
-        return self._local.n_slots
-
-    @property
-    def halo(self) -> int:
-        """Halo width [rows]: the model's stencil radius."""
-        return self._radius
-
-    def _slots_used(self) -> int:
-        return len(self._shell.slots)
-
-    def _sync_local(self) -> None:
-        """Metadata the passes read, from the shell to the local strip."""
-        loc, sh = self._local, self._shell
-        loc.slots = list(sh.slots)
-        loc.sim_time = sh.sim_time
-        loc.params = sh.params
-        loc.profile = sh.profile
-        loc.step_count = sh.step_count
 
     # ------------------------------------------------------------------ sources
     def add_sources(self, dw: np.ndarray | None = None,
@@ -421,7 +267,7 @@ class DistributedCanvas:
         box this rank owns are stepped in place (all but the ``radius`` rows next to a
         border come out right: they do not reach the halo), and, once the halo is in,
         each border's last ``radius`` owned rows are stepped on a copy of the
-        ``3 x radius`` rows around the border (``_Band``) and written back. A box whose
+        ``3 x radius`` rows around the border (``Band``) and written back. A box whose
         owned part is shorter than ``2 x radius`` rows, every box under the ``blocking``
         schedule, and under ``auto`` every box whose neighbours run on this machine, wait
         for the halo and are stepped with it in place.
@@ -444,7 +290,7 @@ class DistributedCanvas:
         t1 = time.perf_counter()
         rad, off = self._radius, s.pad_lo
         late: list[tuple[slice, slice]] = []
-        bands: list[_Band] = []
+        bands: list[Band] = []
         cells = 0
         # only the steps taken while the halo travels count as hidden work: the loop's
         # own bookkeeping is not overlapped work (a blocking schedule hides none)
@@ -467,10 +313,10 @@ class DistributedCanvas:
             else:  # snapshot the border rows before the interior step overwrites them
                 loc = self._local
                 if top:
-                    bands.append(_Band(loc, off, a, oa + 2 * rad, xs, (oa, oa + rad), (a, oa)))
+                    bands.append(Band(loc, off, a, oa + 2 * rad, xs, (oa, oa + rad), (a, oa)))
                     cells += (oa + 2 * rad - a) * cols
                 if bottom:
-                    bands.append(_Band(loc, off, ob - 2 * rad, b, xs, (ob - rad, ob), (ob, b)))
+                    bands.append(Band(loc, off, ob - 2 * rad, b, xs, (ob - rad, ob), (ob, b)))
                     cells += (b - ob + 2 * rad) * cols
                 w0 = time.perf_counter()
                 self._step_region((slice(oa - off, ob - off), xs), dt)
@@ -573,28 +419,6 @@ class DistributedCanvas:
         renew = (alive > 0) & inside & (ttl <= 0)
         ttl[renew] = sh.params.tile_ttl_steps()
 
-    # ------------------------------------------------------------------ global sums
-    def _gather_plane(self, plane: np.ndarray, tail: tuple[int, ...] = ()) -> np.ndarray | None:
-        """The owned rows of ``plane`` (a local (rows, W, *tail) array) as one canvas
-        array on the root (None elsewhere)."""
-        s, sh = self.strip, self._shell
-        per_row = sh.width * int(np.prod(tail, dtype=np.int64))
-        mine = np.ascontiguousarray(plane[s.lo - s.pad_lo:s.hi - s.pad_lo], F32)
-        if self.is_root:
-            full = np.empty((sh.height, sh.width, *tail), F32)
-            counts = [(b - a) * per_row for a, b in itertools.pairwise(self._bounds)]
-            displs = [a * per_row for a in self._bounds[:-1]]
-            self.comm.Gatherv(mine, [full, counts, displs, MPI.FLOAT], root=self.root)
-            return full
-        self.comm.Gatherv(mine, None, root=self.root)
-        return None
-
-    def _global_sum(self, plane: np.ndarray) -> float:
-        """float64 sum over the canvas of a local plane, summed as one process sums it."""
-        full = self._gather_plane(plane)
-        total = float(full.sum(dtype=np.float64)) if full is not None else 0.0
-        return float(self.comm.bcast(total, root=self.root))
-
     # ------------------------------------------------------------------ commands
     def dry(self) -> None:
         self._sync_local()
@@ -667,52 +491,6 @@ class DistributedCanvas:
         self.rebalances += 1
         return True
 
-    def set_bounds(self, bounds: list[int]) -> None:
-        """Move to the given owned-row bounds (multiples of ``decomp.GRANULE``; tests,
-        tools)."""
-        g = decomp.GRANULE
-        if (len(bounds) != self.size + 1 or bounds[0] != 0 or bounds[-1] != self.height
-                or any(b % g and b != self.height for b in bounds)
-                or any(a >= b for a, b in itertools.pairwise(bounds))):
-            raise CanvasInputError(f"bounds {bounds} are not {self.size} strips cut at "
-                                   f"multiples of {g} rows", "bounds")
-        self._redistribute(list(bounds))
-
-    def _redistribute(self, bounds: list[int]) -> None:
-        """Every rank gets the rows of its new strip (owned and halo) from their owners."""
-        t0 = time.perf_counter()
-        old = self._strips
-        new = decomp.strips(bounds, self.height, self._radius)
-        plan: dict[tuple[int, int], list[Rect]] = {}
-        for r, sn in enumerate(new):
-            for o, so in enumerate(old):
-                a, b = max(sn.pad_lo, so.lo), min(sn.pad_hi, so.hi)
-                if a < b:
-                    plan.setdefault((o, r), []).append((a, b, 0, self.width))
-        loc = self._local
-        s_new, s_old = new[self.rank], old[self.rank]
-        self._sync_local()
-        fresh = _local_from_shell(self._shell, s_new.rows, zeroed=False)
-        fresh.slots = list(loc.slots)
-        # rows this rank keeps: a plain copy, not through a message buffer
-        a, b = max(s_new.pad_lo, s_old.lo), min(s_new.pad_hi, s_old.hi)
-        if a < b:
-            for n in exchange.ALL_FIELDS:
-                src, dst = getattr(loc, n), getattr(fresh, n)
-                if n in exchange.STACKS or n == "fibre":
-                    dst[:, a - s_new.pad_lo:b - s_new.pad_lo] = src[:, a - s_old.pad_lo:
-                                                                     b - s_old.pad_lo]
-                else:
-                    dst[a - s_new.pad_lo:b - s_new.pad_lo] = src[a - s_old.pad_lo:
-                                                                 b - s_old.pad_lo]
-        plan.pop((self.rank, self.rank), None)
-        exchange.move(self.comm, loc, s_old.pad_lo, fresh, s_new.pad_lo, plan,
-                      exchange.ALL_FIELDS, max(self._slots_used(), 1), exchange.TAG_MOVE)
-        self._local = fresh
-        self._bounds = list(bounds)
-        self._strips = new
-        self.move_seconds = time.perf_counter() - t0
-
     # ------------------------------------------------------------------ state
     def state(self) -> CanvasState:
         """The whole state, gathered on the root (collective). Other ranks get the
@@ -720,40 +498,16 @@ class DistributedCanvas:
         full = self.gather_state()
         return full if full is not None else self._shell.copy()
 
-    def gather_state(self) -> CanvasState | None:
-        """The whole state on the root, ``None`` on the other ranks (collective)."""
-        sh, loc = self._shell, self._local
-        arrays: dict[str, Any] = {}
-        for n in exchange.PLANES:
-            arrays[n] = self._gather_plane(getattr(loc, n))
-        for n in exchange.STACKS:
-            planes = [self._gather_plane(getattr(loc, n)[k]) for k in range(len(sh.slots))]
-            if self.is_root:
-                full = np.zeros((loc.n_slots, sh.height, sh.width), F32)
-                for k, pl in enumerate(planes):
-                    full[k] = pl
-                arrays[n] = full
-        arrays["r_composed"] = self._gather_plane(loc.r_composed, (loc.r_composed.shape[-1],))
-        fibres = [self._gather_plane(loc.fibre[k]) for k in range(2)]
-        if self.is_root:
-            arrays["fibre"] = np.stack([f for f in fibres if f is not None])
-        if not self.is_root:
-            return None
-        st = sh.copy()
-        for n, a in arrays.items():
-            setattr(st, n, a)
-        return st
-
     def load_state(self, state: CanvasState | None) -> None:
         """Continue from ``state``, given on the root (other ranks may pass None):
         metadata is broadcast, each rank receives its rows (collective)."""
-        shell = _empty_shell(state) if self.is_root and state is not None else None
+        shell = empty_shell(state) if self.is_root and state is not None else None
         if shell is not None:
             shell.fibre = np.zeros((2, 0, 0), F32)  # not pickled whole: set again below
         shell = self.comm.bcast(shell, root=self.root)
         if shell is None:
             raise CanvasInputError("load_state needs a state on the root rank", "load_state")
-        shell.fibre = _zero_fibre(shell.height, shell.width)
+        shell.fibre = zero_fibre(shell.height, shell.width)
         ts = int(shell.params.tile_size)
         if shell.height < ts * self.size:
             raise CanvasInputError(f"canvas of {shell.height} rows cannot give {self.size} "
@@ -763,7 +517,7 @@ class DistributedCanvas:
         self._bounds = decomp.even_split(shell.height, ts, self.size)
         self._strips = decomp.strips(self._bounds, shell.height, self._radius)
         s = self.strip
-        loc = _local_from_shell(shell, s.rows)
+        loc = local_from_shell(shell, s.rows)
         plan = {(self.root, r): [(st.pad_lo, st.pad_hi, 0, shell.width)]
                 for r, st in enumerate(self._strips)}
         exchange.move(self.comm, state if self.is_root else None, 0, loc, s.pad_lo, plan,

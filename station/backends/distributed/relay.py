@@ -32,12 +32,12 @@ class Leader:
         self.canvas = canvas
         self._stopped = False
 
-    def _send(self, msg: tuple[str, tuple[Any, ...], dict[str, Any]]) -> None:
+    def _send(self, msg: tuple[str, tuple[object, ...], dict[str, object]]) -> None:
         comm, root = self.canvas.comm, self.canvas.root
         exchange.wait_all([comm.isend(msg, dest=r, tag=exchange.TAG_RELAY)
                            for r in range(comm.Get_size()) if r != root])
 
-    def _relay(self, name: str, *args: Any, **kw: Any) -> Any:
+    def _relay(self, name: str, *args: object, **kw: object) -> Any:
         self._send((name, args, kw))
         return getattr(self.canvas, name)(*args, **kw)
 
