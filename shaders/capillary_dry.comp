@@ -4,7 +4,8 @@
 //          s = wc / c, on faces whose two cells are unmasked; wc = max(wc, 0);
 //   pass 9c capillary evaporation where w == 0: e = min(eps_cap dt, wc);
 //   pass 10 dry_cells: 0 < w < w_dry_eps evaporates; cells with w == 0 deposit
-//          t = min(p, 1 - q) and lose their velocity.
+//          t = min(p, 1 - q) and lose their velocity; with suspend_sat > 0 a cell whose
+//          wc > suspend_sat c keeps its pigment suspended (damp paper).
 // Also flags the tile alive (any w > 0 or wc > 0) for the dirty-tile update.
 #include "common.glsl"
 #include "tiles.glsl"
@@ -23,6 +24,7 @@ uniform float u_ecap;    // float32(eps_cap * dt)
 uniform float u_dry_eps;
 uniform float u_cmin;
 uniform float u_crange;
+uniform float u_susp;    // suspend_sat [1] (0: off)
 
 shared uint g_alive;
 
@@ -60,7 +62,8 @@ void main() {
             evap = evap + w;
             w = 0.0;
         }
-        if (w == 0.0) {
+        bool settle = !(u_susp > 0.0 && wc > u_susp * (u_cmin + pa.x * u_crange));
+        if (w == 0.0 && settle) {
             for (int l = 0; l < NPL; ++l) {
                 if (l >= u_layers) continue;
                 vec4 p = imageLoad(pig_io, ivec3(c, l));
@@ -71,8 +74,8 @@ void main() {
                     imageStore(pig_io, ivec3(c, l), p - t);
                 }
             }
-            imageStore(vel_io, c, vec4(0.0));
         }
+        if (w == 0.0) imageStore(vel_io, c, vec4(0.0));
         imageStore(water_out, c, vec4(w, wc, evap, wa.w));
         if (w > 0.0 || wc > 0.0) g_alive = 1u;  // benign race: every writer stores 1
     }

@@ -24,6 +24,11 @@ uniform float u_advance;      // advance_height [height] (0: contact line pinned
 uniform float u_wick;         // fibre_wick: a fibre along the axis lowers the advancing height
 uniform float u_disperse;     // fibre_dispersivity / nu_p [s/cell]: dispersion along fibre channels
 uniform float u_fibre_flow_max;  // [cell/s] water moves through the fibre channels no faster
+uniform float u_ease;         // damp_ease: damp paper's suction eases the advancing height
+uniform float u_dsat;         // damp_sat [1]
+uniform float u_dspan;        // float32(1 - damp_sat)
+uniform float u_cmin;         // c_min [height]
+uniform float u_crange;       // float32(c_max - c_min) [height]
 
 bool wet_at(ivec2 c) {
     vec4 wa = imageLoad(water_in, c);
@@ -48,6 +53,14 @@ void main() {
         // stands above its advancing height advance_height (1.5 - h), times
         // (1 - fibre_wick * fibre) along the axis of that neighbour (x: .x, y: .y)
         float thr = u_advance * (1.5 - pa.x);
+        if (u_ease > 0.0) {
+            // damp paper's suction: times max(1 - damp_ease ((4 s') (1 - s')), 0),
+            // s' = max(s - damp_sat, 0) / (1 - damp_sat), s = min(wc / c, 1)
+            float s = min(wa.y / (u_cmin + pa.x * u_crange), 1.0);
+            float sp = max(s - u_dsat, 0.0) / u_dspan;
+            float f = 1.0 - u_ease * ((4.0 * sp) * (1.0 - sp));
+            thr = thr * max(f, 0.0);
+        }
         vec2 fib = u_wick > 0.0 ? imageLoad(fibre_in, c).xy : vec2(0.0);
         for (int f = 0; f < 4; ++f) {
             ivec2 n = c + OFFS[f];

@@ -17,9 +17,16 @@ directory; the process connects a PUSH socket there and sends one JSON object::
 or ``"ok": false`` with ``"error"`` saying why (an unknown key, a value out of
 range, a command this process does not run, or ``expect`` naming another kind
 of process).  A ``to`` outside the runtime directory is never connected: a
-command cannot make a process reach out to a place the sender chose.  Replies
-travel over ipc only; a command sent over tcp is answered in the status stream
-of the process (its counters) instead.
+command cannot make a process reach out to a place the sender chose.
+
+Over tcp (CURVE, the bus's keys) the sender cannot bind a socket the process
+may reach, so ``to`` is ``"peer"``: the process answers over the connection the
+command came on.  Its tcp command endpoint is an XSUB socket
+(:class:`station.bus.Subscriber` with ``answers=True``), which can send back to
+the publishers connected to it; the answer (the same JSON object, one frame)
+goes to every sender connected at that moment, each an authorised CURVE client,
+and each ``station send`` keeps the answer with its own id.  A ``"peer"``
+request that arrives any other way is not answered (counted in ``failed``).
 """
 
 from __future__ import annotations
@@ -27,7 +34,7 @@ from __future__ import annotations
 import json
 import logging
 import os
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -37,6 +44,7 @@ import zmq
 log = logging.getLogger(__name__)
 
 MAX_ID = 64
+PEER = "peer"  # answer over the connection the command came on (tcp command endpoints)
 PROCESS_KINDS = ("sim", "kiosk")
 
 
@@ -75,6 +83,8 @@ def parse_request(obj: object, runtime: Path) -> ReplyRequest | None:
         return None
     if expect is not None and expect not in PROCESS_KINDS:
         expect = None
+    if to == PEER:
+        return ReplyRequest(to=PEER, id=rid, expect=expect)
     if not isinstance(to, str) or not to.startswith("ipc://"):
         log.warning("ignoring a command's reply request: %r is not an ipc:// endpoint", to)
         return None
@@ -97,10 +107,21 @@ class Answerer:
         self.sent = 0
         self.failed = 0
         self._ctx: zmq.Context[zmq.Socket[bytes]] | None = None
+        # set by the loop while it handles what came on a tcp command endpoint: how a
+        # "peer" answer goes back (Subscriber.send_upstream)
+        self.upstream: Callable[[bytes], bool] | None = None
 
     def answer(self, req: ReplyRequest, cmd: str, ok: bool, text: str, session: str) -> None:
         body = {"id": req.id, "ok": ok, "process": self.process, "pid": os.getpid(),
                 "session": session, "cmd": cmd, ("did" if ok else "error"): text}
+        if req.to == PEER:
+            if self.upstream is not None and self.upstream(json.dumps(body).encode()):
+                self.sent += 1
+            else:
+                self.failed += 1
+                log.warning("cannot answer %s: it did not come over a tcp command endpoint",
+                            cmd)
+            return
         if self._ctx is None:
             self._ctx = zmq.Context()
         sock = self._ctx.socket(zmq.PUSH)

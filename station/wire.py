@@ -284,6 +284,22 @@ def encode(topic: str, value: object, publisher: int, seq: int, flags: int = 0) 
     return [topic.encode(), encode_header(kind, publisher, seq, flags) + body]
 
 
+def pen_header(frames: list[bytes]) -> tuple[int, int, int] | None:
+    """``(publisher, seq, samples)`` of a pen message read from its header alone, or
+    ``None`` for other kinds and what is not wire format: counting a queue (and the
+    gaps in it) without decoding it."""
+    if len(frames) != 2 or len(frames[1]) < HEADER_SIZE:
+        return None
+    magic, _version, kind, _flags, publisher, seq = _HEADER.unpack_from(frames[1])
+    if magic != MAGIC:
+        return None
+    if kind == KIND_PEN:
+        return publisher, seq, 1
+    if kind == KIND_PEN_BATCH and len(frames[1]) >= HEADER_SIZE + _COUNT.size:
+        return publisher, seq, int(_COUNT.unpack_from(frames[1], HEADER_SIZE)[0])
+    return None
+
+
 def decode(frames: list[bytes]) -> Envelope:
     """Decode a message; :class:`WireError` for anything that is not wire format v1."""
     if len(frames) != 2:

@@ -225,9 +225,10 @@ def test_dirty_brush_carries_blue_into_a_yellow_stroke() -> None:
     # before the stripe only what wet-in-wet flow spreads back through the joined wet
     # areas (the flow-outward canvas keeps strokes wet longer): about a tenth of what the
     # brush carried (0.10-0.15 since the round brush's edge follows the paper's tooth;
-    # 0.34 with issue 21's tube-strength pigment load, whose stripe is three times as
-    # strong and spreads back as much more): still well below what it carries forward
-    assert before < 0.4 * after, (before, after)
+    # 0.34 with issue 21's tube-strength pigment load while the round tuft touched down
+    # buckled along x and each step's stamps landed at once; 0.11 with the tuft buckling
+    # behind the pen and the stamps spread over the steps by their times)
+    assert before < 0.2 * after, (before, after)
 
 
 def test_session_with_deformable_brushes_replays_bit_identically(tmp_path: Path) -> None:

@@ -60,3 +60,33 @@ def test_demo_help_says_the_size_it_paints() -> None:
 
     canvas = json.loads(DEMO_FILE.read_text().splitlines()[0])["canvas"]
     assert f"{canvas['width']}x{canvas['height']}" in dict(COMMANDS)["demo"].format_help()
+
+
+def test_the_summaries_table_is_every_commands_own_help() -> None:
+    """`station --help` lists the commands from a table instead of importing them all:
+    it must say what their own help says (regenerate: station.cli.write_summaries)."""
+    from station.cli import _registered_help, summaries
+
+    assert summaries() == _registered_help(build_parser()), \
+        "python -c 'from station.cli import write_summaries; write_summaries()'"
+
+
+def test_help_and_send_start_without_the_heavy_modules() -> None:
+    """`station --help` imports no command module (over a second of CPU when it did)
+    and `station send` (≤ 0.3 s a call) no numpy, canvas or sim."""
+    import subprocess
+    import sys
+
+    probe = ("import sys\n"
+             "from station.cli import build_parser\n"
+             "p = build_parser(['--help'])\n"
+             "help_text = p.format_help()\n"
+             "heavy = sorted(m for m in sys.modules if m.startswith('station.cli.cmd_')\n"
+             "               or m in ('numpy', 'station.sim', 'station.canvas'))\n"
+             "import station.cli.cmd_send\n"
+             "send = sorted(m for m in sys.modules if m == 'numpy' or m.startswith(\n"
+             "    ('station.canvas', 'station.sim', 'station.kiosk.views')))\n"
+             "print(heavy, send, 'send' in help_text and 'tablet-test' in help_text)\n")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         timeout=120, check=True).stdout.strip()
+    assert out == "[] [] True", out

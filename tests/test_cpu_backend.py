@@ -120,7 +120,11 @@ def test_multi_step_stroke_is_bitwise_equal() -> None:
                                     {"flow_outward": 0.8, "wet_blur": 4.0, "temperature": 35.0,
                                      "humidity": 0.2, "advance_height": 0.3},
                                     {"paper_relief": 0.6}, {"paper_relief": 0.4,
-                                                            "flow_outward": 0.0}])
+                                                            "flow_outward": 0.0},
+                                    {"damp_ease": 0.0, "suspend_sat": 0.0,
+                                     "moist_threshold": 0.25},
+                                    {"damp_ease": 6.0, "damp_sat": 0.4, "suspend_sat": 0.8},
+                                    {"damp_ease": 2.0, "fibre_wick": 0.7}])
 def test_parameter_variants_match(change: dict[str, Any]) -> None:
     prm = dataclasses.replace(get_profile("watercolor").params, **change)
     a = _random_canvas(NumpyCanvas, 3, params=prm)

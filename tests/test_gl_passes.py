@@ -137,6 +137,54 @@ def test_prep_front_runs_along_fibres(ctx) -> None:
     assert (wet & ~plain).sum() >= 5  # the fibres carried the front on
 
 
+def test_prep_damp_paper_eases_the_front(ctx) -> None:
+    """damp_ease: the advancing height into a damp cell falls with its saturation."""
+    prm = SimParams(damp_ease=3.0, damp_sat=0.3, moist_threshold=1.0)
+    st = random_state(2, params=prm)
+    c = gl_canvas(ctx, st)
+    c._pass_prep()
+    wet = ref.wet_mask(st.w, st.wc, st.mask, prm, st.h)
+    jv = read_rgba(c, c.jv[0])
+    assert np.array_equal(jv[..., 3] >= 0, wet)
+    plain = ref.wet_mask(st.w, st.wc, st.mask, prm.replace(damp_ease=0.0), st.h)
+    assert (wet & ~plain).sum() >= 5  # damp cells let the front in
+
+
+def test_damp_paper_keeps_its_pigment_suspended(ctx) -> None:
+    """suspend_sat: a cell without fluid water but with saturated paper keeps p."""
+    prm = SimParams(suspend_sat=0.5)
+    st = random_state(7, params=prm)
+    st.p[:6] = np.where(st.wc > 0, 0.2, st.p[:6]).astype(np.float32)
+    c = gl_canvas(ctx, st)
+    c._pass_capillary_dry()
+    out = c.state()
+    no_absorb = prm.replace(alpha=0.0)
+    w, wc, evap = ref.capillary(st.w, st.wc, st.h, st.mask, st.evaporated, no_absorb, prm.dt)
+    w, p, q, vx, vy, evap = ref.dry_cells(w, st.p[:6], st.q[:6], st.vx, st.vy, evap, prm,
+                                          wc, st.h)
+    close("suspended pigment (10)", out.p[:6], p)
+    close("velocity y (10)", out.vy, vy)
+    close("deposited pigment (10)", out.q[:6], q)
+    close("velocity (10)", out.vx, vx)
+    held = (out.w == 0) & (out.p[0] > 0)
+    assert held.sum() >= 20  # damp cells kept pigment in suspension
+
+
+def test_full_step_on_damp_paper_matches_reference(ctx) -> None:
+    st = random_state(8, params=SimParams(damp_ease=8.0, damp_sat=0.5, suspend_sat=0.6,
+                                          moist_threshold=1.0))
+    c = gl.GLCanvas(W, H, ctx=ctx, tiling=False)
+    c.load_state(st)
+    for _ in range(3):
+        c.step()
+    mine = st.copy()
+    for _ in range(3):
+        ref.step(mine)
+    out = c.state()
+    for name in ("vx", "vy", "w", "wc", "p", "q", "evaporated"):
+        close(name, getattr(out, name), getattr(mine, name))
+
+
 def test_prep_fibre_dispersion(ctx) -> None:
     """fibre_dispersivity: beta_c times 1 + gd max(fibre) |v| (v at the step's start)."""
     st = random_state(3, params=SimParams(fibre_dispersivity=4.5))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import socket
 import threading
 from pathlib import Path
 
@@ -14,7 +15,8 @@ from station.answer import ReadKeys, ReplyRequest, parse_request
 from station.bus import runtime_dir
 from station.cli import main
 from station.events import Command
-from station.sim.live import LiveConfig, LiveSim
+from station.sim.live import LiveConfig
+from station.sim.live_bus import LiveSim
 
 
 def _sim(tmp_path: Path, cmd: str | None = None) -> tuple[LiveSim, threading.Thread]:
@@ -125,3 +127,93 @@ def test_bench_send_prints_its_figures(capsys: pytest.CaptureFixture[str]) -> No
     out = json.loads(capsys.readouterr().out)
     assert out["calls"] == 1 and out["target_ms"] == 300.0
     assert out["startup_ms"]["median"] > 0 and out["round_trip_ms"] < out["process_ms"]["median"]
+
+
+def test_send_over_tcp_with_curve_keys_gets_the_same_answers(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A sim whose command endpoint is tcp (CURVE, the bus's keys) answers over the
+    connection the command came on: who answered, exit 2 for a refusal, exit 1 for
+    nobody; the answer of one sender never reaches another's stdout."""
+    from station.bus import generate_keys
+
+    keys = tmp_path / "keys"
+    generate_keys(keys)
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = int(s.getsockname()[1])
+    cfg = LiveConfig(bus=f"ipc://{tmp_path}/bus", width=16, height=16, backend="numpy",
+                     log_path=str(tmp_path / "s.jsonl"), status="none", autosave=0.0,
+                     cmd=f"@tcp://127.0.0.1:{port}", keys=keys)
+    sim = LiveSim(cfg)
+    th = threading.Thread(target=sim.run, daemon=True)
+    th.start()
+    to = ["--to", f"tcp://127.0.0.1:{port}", "--keys", str(keys)]
+    try:
+        code, out, err = _send(capsys, *to, "brush", "size=10")
+        assert code == 0, err
+        assert out.startswith(f"sim {os.getpid()} (session s): brush set (size 10)"), out
+        code, out, err = _send(capsys, *to, "--json", "profile", "name=ink")
+        answer = json.loads(out)
+        assert code == 0 and answer["ok"] is True and answer["session"] == "s"
+        for words, text in ((["brush", "sizee=3"], "'sizee'"),
+                            (["hairdryer", '{"seconds": 1e9}'], "hairdryer seconds"),
+                            (["fly"], "command 'fly' is unknown")):
+            code, out, err = _send(capsys, *to, *words)
+            lines = err.strip().splitlines()
+            assert code == 2 and len(lines) == 1 and out == "", (words, err)
+            assert f"refused by sim {os.getpid()} (session s)" in lines[0], lines
+            assert text in lines[0], lines
+    finally:
+        sim.stop_requested = True
+        th.join(30)
+    assert sim.counters.commands == 2 and sim.counters.bad_commands == 3
+    assert sim.answerer.sent == 5 and sim.answerer.failed == 0
+    assert sim.status()["cmd_endpoint"]["received"] == 5
+    # nobody on the port now: exit 1 with one line, within the timeout
+    code = main(["send", *to, "dry", "--timeout", "0.5"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 1 and len(err) == 1 and "no station process listens" in err[0], err
+
+
+def test_the_kiosk_answers_over_its_tcp_command_endpoint_too(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The kiosk's own command loop (KioskApp._commands) lends its tcp endpoint's
+    answer channel while it handles what came there: the window itself is not needed
+    (a stand-in session passes the commands to a live sim, as the kiosk's does)."""
+    from types import SimpleNamespace
+
+    from station.bus import Subscriber, generate_keys
+    from station.kiosk.app import KioskApp
+
+    keys = tmp_path / "keys"
+    generate_keys(keys)
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = int(s.getsockname()[1])
+    sim = LiveSim(LiveConfig(bus=f"ipc://{tmp_path}/bus", width=16, height=16,
+                             backend="numpy", log_path=str(tmp_path / "s.jsonl"),
+                             status="none", autosave=0.0, cmd="none"))
+    sim.answer_as("kiosk")
+    cmd_sub = Subscriber(f"@tcp://127.0.0.1:{port}", topics=("cmd",), keys=keys,
+                         answers=True)
+    app = SimpleNamespace(cmd_sub=cmd_sub, session=SimpleNamespace(sim=sim, handle=sim.handle))
+    done = threading.Event()
+
+    def loop() -> None:
+        while not done.is_set():
+            KioskApp._commands(app)  # type: ignore[arg-type]
+            done.wait(0.01)
+
+    th = threading.Thread(target=loop, daemon=True)
+    th.start()
+    try:
+        code, out, err = _send(capsys, "--to", f"tcp://127.0.0.1:{port}", "--keys",
+                               str(keys), "brush", "size=7")
+    finally:
+        done.set()
+        th.join(30)
+        cmd_sub.close()
+        sim.shutdown()
+    assert code == 0 and out.startswith(f"kiosk {os.getpid()} (session s): brush set"), (
+        out, err)
+    assert sim.answerer.upstream is None  # lent only while the loop handled them

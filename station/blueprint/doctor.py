@@ -18,6 +18,7 @@ from pathlib import Path
 
 from station import paths
 from station.backends import choice as backend_choice
+from station.blueprint.exposure import gallery_exposure
 from station.blueprint.model import BlueprintError
 from station.blueprint.plan import Plan
 from station.blueprint.supervisor import running_pid
@@ -389,6 +390,10 @@ def run_checks(plan: Plan | None, gl: bool = True) -> list[Check]:
     checks += check_bus(plan)
     checks += check_keys(plan)
     checks += check_disk(plan)
+    if plan is not None:
+        checks += [Check("gallery", "warn", line, "serve it on 127.0.0.1, or set the options "
+                         "named (docs/gallery.md)")
+                   for line in gallery_exposure(plan.blueprint)]
     return checks
 
 

@@ -204,6 +204,11 @@ def _check_attrs(c: Component) -> None:
                 ok = False
             if not ok:
                 raise BlueprintError(f"speed={speed!r}: a number 0.01..1000 or max", where)
+    if c.get("keep-days") is not None and not 0 < float(c.attrs["keep-days"]) < 1e6:
+        raise BlueprintError(f"keep-days={c.attrs['keep-days']!r}: a number of days > 0",
+                             where)
+    if c.get("per-client") is not None and not 1 <= int(c.attrs["per-client"]) <= 1000:
+        raise BlueprintError(f"per-client={c.attrs['per-client']!r}: 1..1000", where)
     if c.kind == "sim" and c.get("resume") and (c.get("width") or c.get("height")):
         raise BlueprintError("resume= takes the size of the saved state; drop width/height",
                              where)
@@ -478,6 +483,12 @@ def _kiosk(c: Component, bus: str, ipc: object, out_path: object,
         argv.append("--no-vsync")
     serve = c.get("serve") or "none"
     argv += ["--serve", serve]
+    for flag in ("gallery-index", "gallery-logs"):
+        if c.get(flag) == "true":
+            argv.append(f"--{flag}")
+    for attr in ("keep-days", "per-client"):
+        if c.get(attr):
+            argv += [f"--{attr}", c.attrs[attr]]
     binds = [_norm(status, run_dir), _norm(cmd, run_dir)]
     if serve != "none":
         host, _, port = serve.rpartition(":")

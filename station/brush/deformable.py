@@ -49,23 +49,22 @@ from typing import Any
 
 import numpy as np
 
-from station.brush.footprint import FootprintMaps, rasterise, segments, weight
+from station.brush.footprint import FootprintMaps, prune_spurs, rasterise, segments, weight
 from station.brush.geometry import BrushShape, Tuft, get_shape
 from station.brush.reservoir import Reservoir
 from station.brush.solver import SolverCounters, SpineSolver, SpineState
-from station.brush.spine import handle_frame
-from station.brush.stamp import (
-    NO_PRESSURE_TOOLS,
-    BrushModel,
-    BrushSettings,
+from station.brush.sources import (
     Footprint,
     Sources,
     Stamp,
     StampPreview,
-    accumulate,
-    preview_of,
-    stamps_box,
+    StampQueue,
+    painting_steps,
 )
+from station.brush.spine import handle_frame
+from station.brush.stamp import NO_PRESSURE_TOOLS, BrushModel, BrushSettings
+from station.brush.tuft_model import PickupRequest
+from station.brush.tuft_model import TuftModel as TuftModel
 from station.errors import BadInput
 from station.events import PenSample, Tool
 
@@ -73,78 +72,12 @@ REACH = 0.03
 """How far below the plane the straight tip would reach at the lightest touch
 (tuft lengths): the bristles touch as soon as the pen does."""
 
-
-@dataclass(frozen=True, slots=True)
-class TuftModel:
-    """Canvas-facing constants of the deformable brush (cells).
-
-    Attributes:
-        tooth: depth of the paper's tooth: a cell of height ``h`` lies
-            ``tooth·(1-h)`` below the plane the spines rest on.
-        ramp: depth over which a bristle's contact weight goes from 0 to 1.
-        min_bristle_radius: thinnest bristle tube drawn, cells.
-        spacing: stamp spacing as a fraction of the footprint's half-size.
-        dry_lift: as the reservoir empties, the footprint's contact is lifted by
-            ``dry_lift · (1 - fill)² · depth_max``: a drying brush gives paint only
-            where its bristles press deepest into the paper, so the stroke breaks
-            up along the paper's hills.
-        ink_reach: how far below the plane the ink a loaded tuft holds wets the
-            paper's tooth (cells; the whole tooth by default) under the pressed
-            body of the tuft (:func:`~station.brush.footprint.weight`), times
-            the wetness below; the contact reaches the deeper of bristles and
-            ink.  Where the liquid touches the paper its capillaries draw the ink
-            in, so a loaded tuft wets the valleys between the hills its bristles
-            rest on.  A property of the ink and the paper, not of the tuft's
-            size: without it a tuft of a few cells, whose bristle tubes reach only
-            ~0.4 cells below the plane, touches nothing but the hills of a
-            1.5-cell tooth and leaves a dotted line (docs/brush.md, "Thin
-            strokes").
-        film_fill, pendular_fill: the tuft is a porous body: above ``film_fill``
-            its ink is one connected liquid that wets the tip (the funicular
-            regime); below ``pendular_fill`` only isolated rings of liquid remain
-            where bristles cross (the pendular regime) and nothing reaches past the
-            bristles: the wetness is ``clip((fill - pendular_fill) / (film_fill -
-            pendular_fill), 0, 1)``.  A brush dipped in little
-            water, or one that has painted itself below ``pendular_fill``, gives
-            paint only where its bristles touch: dry-brush, flying white.
-        frame_interval: session seconds between two spine solves while the pen
-            moves less than ``frame_reach`` tuft lengths: the samples in between
-            (a 1 kHz pen) stamp the last solved tuft along their own path.  Pens at
-            ≤ 250 Hz get a solve for every sample.
-        frame_reach: how far (tuft lengths) the pen may move from the last solved
-            pose before a sample gets its own solve whatever the clock says.
-        contact_time: session seconds of contact after which the paper under the
-            tuft has drunk the whole film (the transfer grows as ``√t`` up to it): a
-            flick that passes a cell faster lays a thinner film and goes further.
-        skim, sink: a bristle dragged over the tooth skims from hill to hill: leaving
-            one it sinks ``sink`` cells per cell travelled, looked at over ``skim``
-            cells behind (:func:`~station.brush.footprint.weight`).  So a dry tuft's
-            contact trails along the stroke behind the hills: dry-brush streaks, not
-            dots.  0 turns it off (contact only where the paper itself is high).
-    """
-
-    tooth: float = 1.5
-    ramp: float = 0.6
-    min_bristle_radius: float = 0.35
-    spacing: float = 0.25
-    dry_lift: float = 0.9
-    ink_reach: float = 1.5
-    film_fill: float = 0.4
-    pendular_fill: float = 0.2
-    frame_interval: float = 0.004
-    frame_reach: float = 0.5
-    contact_time: float = 0.02
-    skim: int = 8
-    sink: float = 0.1
-
-
-@dataclass(slots=True)
-class PickupRequest:
-    """A footprint weight placed at ``(y0, x0)`` under which wet paint is lifted."""
-
-    y0: int
-    x0: int
-    weight: np.ndarray
+DOWN_MOVE = 0.25
+"""How far [cells] the pen must move from where a one-spine tuft touched down for the
+tuft to buckle behind that motion."""
+DOWN_WAIT = 0.25
+"""How long [session s] a one-spine tuft's touch-down waits for the pen to move before
+it buckles its own way (a brush pressed and held)."""
 
 
 @dataclass(slots=True)
@@ -163,6 +96,10 @@ class _Stroke:
     ft: float = 0.0
     bristles: np.ndarray | None = None
     maps: FootprintMaps | None = None
+    # a one-spine tuft's touch-down waits for the pen's first move (sample, pressure):
+    # the tuft then buckles behind the motion (see DeformableBrush._touch_down)
+    down: tuple[PenSample, float] | None = None
+    twist: float = 0.0  # degrees added to the pen's barrel rotation for this stroke
 
 
 def _takes_tags(fn: Callable[..., FootprintMaps]) -> bool:
@@ -207,7 +144,10 @@ class DeformableBrush:
         self.reservoir.load(settings.water, settings.pigment, model.water_scale,
                             model.pigment_scale)
         self._strokes: dict[str, _Stroke] = {}
-        self._pending: list[Stamp] = []
+        self._pending = StampQueue()
+        # the simulation's step clock, as RoundBrush.clock: spreads each stamp over the
+        # steps around its time
+        self.clock: tuple[float, float] | None = None
         self.pickups: list[PickupRequest] = []
         self.stamps = 0
         self.samples = 0
@@ -361,9 +301,13 @@ class DeformableBrush:
                 self._relax_all()
             return 0
         if not (sample.touching and sample.proximity):
-            if self._strokes.pop(key, None) is not None:
+            ended = self._strokes.pop(key, None)
+            made = 0
+            if ended is not None:
+                if ended.down is not None:  # a dab: the tuft set down and lifted
+                    made = self._touch_down(ended, *ended.down)
                 self._relax_all()
-            return 0
+            return made
         self.samples += 1
         p = sample.pressure
         if p == 0.0 and sample.tool in NO_PRESSURE_TOOLS:
@@ -374,11 +318,28 @@ class DeformableBrush:
             self.strokes += 1
             stroke = _Stroke(x, y, sample.t)
             self._strokes[key] = stroke
-            self._solve(stroke, x, y, p, sample)
-            maps = self._maps(stroke)
-            self._stamp(stroke, maps, 0, 0)
-            stroke.to_next = self._spacing(maps)
-            return 1
+            if len(self.spines) == 1:
+                # pressed, felt (haptics) and set (plasticity) at once; stamped when
+                # the pen's first move says which way the tuft bends
+                stroke.down = (sample, p)
+                self._solve(stroke, x, y, p, sample)
+                return 0
+            return self._touch_down(stroke, sample, p)
+        made = 0
+        if stroke.down is not None:
+            down, pd = stroke.down
+            dx, dy = x - stroke.x, y - stroke.y
+            moved = math.hypot(dx, dy) >= DOWN_MOVE
+            if not moved and sample.t - down.t < DOWN_WAIT:
+                if self._due(stroke, x, y, sample.t):
+                    self._solve(stroke, x, y, p, sample)
+                return 0  # still where it touched: the tuft's way is not known yet
+            stroke.down = None
+            if moved:
+                stroke.twist = math.degrees(math.atan2(dy, dx))
+                st = self.spines[0]  # buckle afresh, behind the motion
+                st.x, st.pos, st.contact = st.rest.copy(), None, None
+            made = self._touch_down(stroke, down, pd)
         if self._due(stroke, x, y, sample.t):
             self._solve(stroke, x, y, p, sample)
         # the footprint belongs to the last solved frame, solved at (fx, fy); a stamp
@@ -391,14 +352,14 @@ class DeformableBrush:
             stroke.vx, stroke.vy = dx / dt, dy / dt
         elif dist == 0.0:
             stroke.vx = stroke.vy = 0.0
-        made = 0
         pos = stroke.to_next
         step = 0.0
         while pos <= dist and dist > 0.0:
             back = dist - pos  # along the path back from the sample's point
             maps = self._maps(stroke)
             self._stamp(stroke, maps, -int(round(dy * back / dist - ey)),
-                        -int(round(dx * back / dist - ex)))
+                        -int(round(dx * back / dist - ex)),
+                        stroke.t + (sample.t - stroke.t) * (pos / dist))
             made += 1
             step = step or self._spacing(maps)
             pos += step
@@ -406,6 +367,22 @@ class DeformableBrush:
             stroke.to_next = pos - dist
         stroke.x, stroke.y, stroke.t = x, y, sample.t
         return made
+
+    def _touch_down(self, stroke: _Stroke, sample: PenSample, p: float) -> int:
+        """The stroke's first frame and stamp, at ``sample`` (its first).
+
+        A tuft pressed straight down buckles one way or the other; a round one's way is
+        the solver's symmetry breaker (along the handle's X axis), and a stroke that
+        starts any other way drew a hook where the tuft swung round behind the pen. A
+        painter's brush is set down moving and bends behind the motion, so a one-spine
+        tuft waits for the pen's first move and turns its handle's X axis along it
+        (``twist``); a dab lifted where it touched keeps the default."""
+        x, y = sample.x * self.width, sample.y * self.height
+        self._solve(stroke, x, y, p, sample)
+        maps = self._maps(stroke)
+        self._stamp(stroke, maps, 0, 0, sample.t)
+        stroke.to_next = self._spacing(maps)
+        return 1
 
     def _due(self, s: _Stroke, x: float, y: float, t: float) -> bool:
         """Does this sample need its own spine solve?  Yes when ``frame_interval`` has
@@ -419,7 +396,8 @@ class DeformableBrush:
         return math.hypot(x - s.fx, y - s.fy) >= tm.frame_reach * self.tuft_length
 
     def _solve(self, s: _Stroke, x: float, y: float, p: float, sample: PenSample) -> None:
-        s.bristles = self.frame(x, y, p, sample.tilt_x, sample.tilt_y, sample.rotation or 0.0)
+        s.bristles = self.frame(x, y, p, sample.tilt_x, sample.tilt_y,
+                                (sample.rotation or 0.0) + s.twist)
         s.fx, s.fy, s.ft = x, y, sample.t
         s.maps = None
 
@@ -475,7 +453,8 @@ class DeformableBrush:
         out: float = max(1.0, self.tuft_model.spacing * 0.5 * max(h, w, 1))
         return out
 
-    def _stamp(self, s: _Stroke, maps: FootprintMaps, dy: int, dx: int) -> None:
+    def _stamp(self, s: _Stroke, maps: FootprintMaps, dy: int, dx: int, t: float = 0.0
+               ) -> None:
         tm = self.tuft_model
         fill = self.reservoir.fill
         deepest = max(0.0, float(maps.depth.max(initial=0.0)))
@@ -500,6 +479,11 @@ class DeformableBrush:
         drag = (s.vx / speed, s.vy / speed) if speed > 0.0 else None
         y0, x0, wt = weight(maps, self.paper, tm.tooth, tm.ramp, dy, dx, lift, bead,
                             drag=drag, sink=tm.sink, skim=tm.skim)
+        if fill >= tm.film_fill:
+            # a loaded tuft's water is one body: a lone hair tip's drop joins its
+            # neighbours' (surface tension) instead of wetting a one-cell whisker; a
+            # draining tuft splits into locks and keeps its hair streaks
+            wt = prune_spurs(wt)
         self.stamps += 1
         if wt.size == 0:
             s.previous = None
@@ -525,16 +509,17 @@ class DeformableBrush:
         cover = fresh.cover
         # Stamp carries per-cell amounts as cover × scalar; ours vary per cell, so
         # the amounts ride in the cover array and the scalars are 1.
-        self._pending.append(Stamp(Footprint(y0, x0, dw), 1.0, {}, 0.0, 0.0))
+        tau = painting_steps(t, self.clock)
+        self._pending.add(Stamp(Footprint(y0, x0, dw), 1.0, {}, 0.0, 0.0, tau))
         for name, arr in dp.items():
-            self._pending.append(Stamp(Footprint(y0, x0, arr), 0.0, {name: 1.0}, 0.0, 0.0))
+            self._pending.add(Stamp(Footprint(y0, x0, arr), 0.0, {name: 1.0}, 0.0, 0.0, tau))
         if vx or vy:
-            self._pending.append(Stamp(Footprint(y0, x0, cover), 0.0, {}, vx, vy))
+            self._pending.add(Stamp(Footprint(y0, x0, cover), 0.0, {}, vx, vy, tau))
 
     # -- output --------------------------------------------------------------------
-    def take(self) -> Sources | None:
-        pending, self._pending = self._pending, []
-        return accumulate(pending)
+    def take(self, step: int | None = None) -> Sources | None:
+        """As :meth:`RoundBrush.take <station.brush.stamp.RoundBrush.take>`."""
+        return self._pending.take(step)
 
     def take_pickups(self) -> list[PickupRequest]:
         out, self.pickups = self.pickups, []
@@ -542,7 +527,7 @@ class DeformableBrush:
 
     def peek(self) -> Sources | None:
         """The sources :meth:`take` would return, left pending (a live view's preview)."""
-        return accumulate(list(self._pending))
+        return self._pending.peek()
 
     @property
     def pending(self) -> int:
@@ -550,8 +535,8 @@ class DeformableBrush:
 
     def pending_box(self, since: int = 0) -> tuple[slice, slice] | None:
         """As :meth:`RoundBrush.pending_box` (the live preview's new cells)."""
-        return stamps_box(self._pending[since:])
+        return self._pending.box(since)
 
     def preview(self, since: int = 0) -> StampPreview | None:
         """As :meth:`RoundBrush.preview`."""
-        return preview_of(self._pending, since)
+        return self._pending.preview(since)

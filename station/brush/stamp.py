@@ -41,7 +41,7 @@ bounding box of the stamps, and deterministic.
 from __future__ import annotations
 
 import math
-from collections.abc import Container, Iterable, Mapping
+from collections.abc import Container, Mapping
 from dataclasses import dataclass, field
 from statistics import NormalDist
 from typing import Any
@@ -49,6 +49,11 @@ from typing import Any
 import numpy as np
 
 from station.brush.geometry import known_shapes
+from station.brush.sources import Footprint as Footprint
+from station.brush.sources import Sources as Sources
+from station.brush.sources import Stamp as Stamp
+from station.brush.sources import StampPreview as StampPreview
+from station.brush.sources import StampQueue, painting_steps
 from station.errors import BadInput
 from station.events import PenSample, Tool
 
@@ -210,63 +215,6 @@ class BrushModel:
         return self.load_min + (1.0 - self.load_min) * pressure
 
 
-@dataclass(frozen=True, slots=True)
-class Footprint:
-    """Cell coverage in ``[0, 1]`` placed at row ``y0``, column ``x0`` of the canvas.
-
-    1 is a cell wholly under the brush, 0 a cell outside; a soft-edged
-    footprint has fractions on its rim (an anti-aliased disc).
-    """
-
-    y0: int
-    x0: int
-    cover: np.ndarray  # float64 (h, w)
-
-    @property
-    def y1(self) -> int:
-        out: int = self.y0 + self.cover.shape[0]
-        return out
-
-    @property
-    def x1(self) -> int:
-        out: int = self.x0 + self.cover.shape[1]
-        return out
-
-    @property
-    def mask(self) -> np.ndarray:
-        """Cells touched at all (bool)."""
-        return self.cover > 0.0
-
-    @property
-    def cells(self) -> int:
-        return int(self.mask.sum())
-
-    @property
-    def area(self) -> float:
-        """Covered area in cells (sum of the coverage)."""
-        return float(self.cover.sum())
-
-    def without(self, other: Footprint | None) -> Footprint:
-        """This footprint minus what ``other`` already covered (seed figure 5.5).
-
-        Per cell ``max(0, cover - other.cover)``: a cell the previous stamp
-        covered fully gets nothing, a rim cell gets only the coverage it gains.
-        Along a stroke a cell's coverage rises then falls, so the increments
-        add up to its largest coverage: each cell is filled once.
-        """
-        if other is None:
-            return self
-        ya, yb = max(self.y0, other.y0), min(self.y1, other.y1)
-        xa, xb = max(self.x0, other.x0), min(self.x1, other.x1)
-        if ya >= yb or xa >= xb:
-            return self
-        cover = self.cover.copy()
-        mine = cover[ya - self.y0:yb - self.y0, xa - self.x0:xb - self.x0]
-        theirs = other.cover[ya - other.y0:yb - other.y0, xa - other.x0:xb - other.x0]
-        np.maximum(mine - theirs, 0.0, out=mine)
-        return Footprint(self.y0, self.x0, cover)
-
-
 def footprint(
     cx: float, cy: float, radius: float, width: int, height: int,
     stretch: float = 1.0, angle: float = 0.0, soft: bool = False,
@@ -312,121 +260,6 @@ def footprint(
     else:
         cover = (rho <= 1.0).astype(np.float64)
     return Footprint(y0, x0, cover)
-
-
-@dataclass(frozen=True, slots=True)
-class Stamp:
-    """One application of the footprint: its new cells and what they receive.
-
-    ``water`` and ``pigment`` are per-cell amounts; ``vx, vy`` the velocity
-    source in cells per unit of simulation time.
-    """
-
-    cells: Footprint
-    water: float
-    pigment: Mapping[str, float]
-    vx: float
-    vy: float
-
-
-@dataclass(slots=True)
-class Sources:
-    """Brush sources restricted to a bounding box, ready for ``add_sources``.
-
-    Arrays are float32 of shape ``(h, w)`` placed at row ``y0``, column ``x0``
-    of the canvas; :meth:`full` expands them to the whole canvas.
-    """
-
-    y0: int
-    x0: int
-    dw: np.ndarray
-    dp: dict[str, np.ndarray]
-    dvx: np.ndarray
-    dvy: np.ndarray
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        return self.dw.shape
-
-    @property
-    def region(self) -> tuple[slice, slice]:
-        h, w = self.dw.shape
-        return (slice(self.y0, self.y0 + h), slice(self.x0, self.x0 + w))
-
-    def full(self, width: int, height: int) -> Sources:
-        """The same sources as whole-canvas arrays (for backends without regions)."""
-        def grow(a: np.ndarray) -> np.ndarray:
-            out = np.zeros((height, width), dtype=np.float32)
-            out[self.region] = a
-            return out
-
-        return Sources(0, 0, grow(self.dw), {k: grow(v) for k, v in self.dp.items()},
-                       grow(self.dvx), grow(self.dvy))
-
-
-def stamps_box(stamps: Iterable[Stamp]) -> tuple[slice, slice] | None:
-    """Canvas cells (rows, columns) the stamps cover together; ``None`` if none."""
-    used = [s for s in stamps if s.cells.mask.size]
-    if not used:
-        return None
-    return (slice(min(s.cells.y0 for s in used), max(s.cells.y1 for s in used)),
-            slice(min(s.cells.x0 for s in used), max(s.cells.x1 for s in used)))
-
-
-def accumulate(stamps: Iterable[Stamp]) -> Sources | None:
-    """Sum stamps into one bounding-box :class:`Sources` (``None`` if nothing).
-
-    Along a stroke each stamp holds only what its predecessor did not cover;
-    a stroke that comes back over itself re-wets, so overlapping stamps add.
-    """
-    stamps = [s for s in stamps if s.cells.mask.size and s.cells.mask.any()]
-    if not stamps:
-        return None
-    y0 = min(s.cells.y0 for s in stamps)
-    x0 = min(s.cells.x0 for s in stamps)
-    y1 = max(s.cells.y1 for s in stamps)
-    x1 = max(s.cells.x1 for s in stamps)
-    shape = (y1 - y0, x1 - x0)
-    dw = np.zeros(shape, dtype=np.float64)
-    dvx = np.zeros(shape, dtype=np.float64)
-    dvy = np.zeros(shape, dtype=np.float64)
-    dp: dict[str, np.ndarray] = {}
-    for s in stamps:
-        fp = s.cells
-        sl = (slice(fp.y0 - y0, fp.y1 - y0), slice(fp.x0 - x0, fp.x1 - x0))
-        m = fp.cover
-        dw[sl] += m * s.water
-        dvx[sl] += m * s.vx
-        dvy[sl] += m * s.vy
-        for name, amount in s.pigment.items():
-            if amount <= 0.0:
-                continue
-            if name not in dp:
-                dp[name] = np.zeros(shape, dtype=np.float64)
-            dp[name][sl] += m * amount
-    f32 = np.float32
-    return Sources(y0, x0, dw.astype(f32), {k: v.astype(f32) for k, v in dp.items()},
-                   dvx.astype(f32), dvy.astype(f32))
-
-
-@dataclass(frozen=True)
-class StampPreview:
-    """What a live view shows of the stamps a brush made since the last step (the
-    kiosk draws them over the simulated canvas until a step takes them)."""
-
-    sources: Sources  # every pending stamp's water and pigment, summed (as take() sums)
-    count: int  # pending stamps
-    # canvas cells (rows, columns) covered by the stamps from the asked ``since``-th on;
-    # ``None`` if those are all masked or there are none
-    new_cells: tuple[slice, slice] | None
-
-
-def preview_of(pending: list[Stamp], since: int) -> StampPreview | None:
-    """:class:`StampPreview` of ``pending`` (``None``: nothing to show)."""
-    src = accumulate(list(pending))
-    if src is None:
-        return None
-    return StampPreview(src, len(pending), stamps_box(pending[since:]))
 
 
 _MAPS: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
@@ -506,7 +339,10 @@ class RoundBrush:
                 raise BadInput("paper height does not match the canvas")
             self._grain, self._edge = _paper_maps(paper)
         self._strokes: dict[str, _Stroke] = {}
-        self._pending: list[Stamp] = []
+        self._pending = StampQueue()
+        # (steps per session second, seconds waited): puts each stamp's time on the
+        # simulation's step clock (see station.brush.sources); None: whole at the next step
+        self.clock: tuple[float, float] | None = None
         self.stamps = 0  # stamps applied (including fully masked ones)
         self.samples = 0  # touching samples that painted
         self.eraser_samples = 0  # eraser samples (no paint yet)
@@ -542,7 +378,7 @@ class RoundBrush:
             self.strokes += 1
             stroke = _Stroke(x, y, sample.t, pressure, sample.tilt_x, sample.tilt_y)
             self._strokes[key] = stroke
-            self._stamp(stroke, x, y, pressure, sample.tilt_x, sample.tilt_y)
+            self._stamp(stroke, x, y, pressure, sample.tilt_x, sample.tilt_y, t=sample.t)
             return 1
         return self._segment(stroke, x, y, sample.t, pressure, sample.tilt_x, sample.tilt_y)
 
@@ -564,7 +400,7 @@ class RoundBrush:
             f = pos / dist
             pf = p0 + (p - p0) * f
             self._stamp(s, s.x + dx * f, s.y + dy * f, pf, tx0 + (tx - tx0) * f,
-                        ty0 + (ty - ty0) * f, advance=False)
+                        ty0 + (ty - ty0) * f, advance=False, t=s.t + (t - s.t) * f)
             made += 1
             pos += self._spacing(pf)
         s.to_next = pos - dist if dist > 0.0 else s.to_next
@@ -598,7 +434,7 @@ class RoundBrush:
             r = max(0.5, r0 * (1.0 - f))
             # the last hairs carry less water but the same paint: a thin dark point
             self._stamp(s, s.x + ux * pos, s.y + uy * pos, s.pressure, s.tilt_x, s.tilt_y,
-                        advance=False, radius=r, water_share=1.0 - 0.5 * f)
+                        advance=False, radius=r, water_share=1.0 - 0.5 * f, t=s.t)
             made += 1
             pos += max(0.5, m.spacing * r)
         return made
@@ -663,6 +499,7 @@ class RoundBrush:
     def _stamp(
         self, s: _Stroke, x: float, y: float, p: float, tx: float, ty: float,
         advance: bool = True, radius: float | None = None, water_share: float = 1.0,
+        t: float = 0.0,
     ) -> None:
         m = self.model
         r = m.radius(self.settings.size, p) if radius is None else radius
@@ -696,7 +533,7 @@ class RoundBrush:
         if speed > m.v_max:
             vx, vy = vx * m.v_max / speed, vy * m.v_max / speed
         stg = self.settings
-        self._pending.append(
+        self._pending.add(
             Stamp(
                 cells=fresh,
                 water=stg.water * load * m.water_scale * water_share,
@@ -704,33 +541,36 @@ class RoundBrush:
                          for k, a in stg.pigment.items()},
                 vx=vx,
                 vy=vy,
+                tau=painting_steps(t, self.clock),
             )
         )
 
     # -- output --------------------------------------------------------------
-    def take(self) -> Sources | None:
-        """The sources of every stamp since the last call, summed; ``None`` if none."""
-        pending, self._pending = self._pending, []
-        return accumulate(pending)
+    def take(self, step: int | None = None) -> Sources | None:
+        """The stamps' sources due before step ``step`` (each spread over the steps around
+        its time, :class:`~station.brush.sources.StampQueue`), summed; ``None``: all that
+        is left. ``None`` if there is nothing."""
+        return self._pending.take(step)
 
     def peek(self) -> Sources | None:
-        """The sources :meth:`take` would return, left pending (a live view's preview)."""
-        return accumulate(list(self._pending))
+        """All the sources still pending, left pending (a live view's preview)."""
+        return self._pending.peek()
 
     @property
     def pending(self) -> int:
+        """Stamps not yet wholly in the canvas."""
         return len(self._pending)
 
     def pending_box(self, since: int = 0) -> tuple[slice, slice] | None:
         """Canvas cells (rows, columns) covered by the pending stamps from the
         ``since``-th on (what a live preview must redraw since it last showed ``since``
         of them); ``None`` if there are none."""
-        return stamps_box(self._pending[since:])
+        return self._pending.box(since)
 
     def preview(self, since: int = 0) -> StampPreview | None:
         """The stamps not yet taken by a step, for a live view (``since``: how many of
         them it already shows; ``None``: none pending)."""
-        return preview_of(self._pending, since)
+        return self._pending.preview(since)
 
     @property
     def drawing(self) -> bool:

@@ -25,6 +25,13 @@ log = logging.getLogger("station.bus")  # one logger for the whole bus, as befor
 
 REPLAY_LIMIT = 4096  # samples kept per pen topic for late joiners (20 s at 200 Hz)
 HEARTBEAT_S = 0.2  # drivers' heartbeat interval: a silent device is named within ~1 s
+# Streams (publisher id, topic) a subscriber follows for loss and duplicate counting:
+# both are chosen by whoever publishes, so the table is bounded; the stream heard least
+# recently goes first (counted), and is counted afresh if it speaks again.
+MAX_STREAMS = 4096
+MAX_STARTED_AT = 256  # streams whose first sequence number the status reports
+UPSTREAM_KEPT = 16  # messages a publisher keeps from its subscribers (command answers)
+MAX_UPSTREAM_BYTES = 64 * 1024
 
 
 # -- publisher ------------------------------------------------------------------
@@ -69,6 +76,9 @@ class Publisher:
         self.subscriptions = 0
         self.replayed = 0
         self._topics: set[bytes] = set()  # the prefixes subscribers hold now
+        # what subscribers sent that is not a subscription: answers to commands, from a
+        # Subscriber made with ``answers=True`` (bounded: a peer cannot grow it)
+        self.upstream: collections.deque[bytes] = collections.deque(maxlen=UPSTREAM_KEPT)
 
     @property
     def url(self) -> str:
@@ -186,6 +196,8 @@ class Publisher:
             except zmq.Again:
                 return
             if not msg or msg[0] not in (0, 1):
+                if msg and len(msg) <= MAX_UPSTREAM_BYTES:
+                    self.upstream.append(msg)
                 continue
             prefix = msg[1:]
             if msg[0] == 0:  # the last subscriber of this prefix left
@@ -227,6 +239,18 @@ class Publisher:
                 return False
         return True
 
+    def recv_upstream(self, timeout: float) -> bytes | None:
+        """The next message a subscriber sent back (see :attr:`upstream`), or ``None``
+        after ``timeout`` seconds."""
+        deadline = time.monotonic() + timeout
+        while not self.upstream:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return None
+            if self.sock.poll(max(1, int(left * 1000)), zmq.POLLIN):
+                self._serve_subscriptions()
+        return self.upstream.popleft()
+
     @property
     def refusals(self) -> int:
         """Handshakes the peer refused (a tcp client whose CURVE key it does not know)."""
@@ -259,6 +283,7 @@ class SubscriberStats:
     version_mismatch: int = 0
     started_at: dict[str, int] = field(default_factory=dict)  # "topic@publisher" -> first seq
     refused_by_peer: int = 0  # handshakes a publisher refused (our CURVE key, connecting)
+    streams_forgotten: int = 0  # streams let go beyond MAX_STREAMS (see there)
     # the ZAP checks of the tcp endpoints this subscriber binds (CURVE server)
     key_checks: list[KeyCheck] = field(default_factory=list, repr=False)
 
@@ -274,6 +299,7 @@ class SubscriberStats:
             "malformed": self.malformed, "foreign": self.foreign,
             "version_mismatch": self.version_mismatch, "started_at": dict(self.started_at),
             "curve_rejected": self.curve_rejected, "refused_by_peer": self.refused_by_peer,
+            "streams_forgotten": self.streams_forgotten,
         }  # fmt: skip
 
 
@@ -300,15 +326,21 @@ class Subscriber:
         keys: Path | None = None,
         context: zmq.Context[zmq.Socket[bytes]] | None = None,
         client_key: str | None = None,
+        answers: bool = False,
     ) -> None:
         specs = endpoint if isinstance(endpoint, list) else [endpoint]
         self.endpoints = [resolve_endpoint(s, bind) for s in specs]
         self.ctx = context or zmq.Context.instance()
-        self.sock = self.ctx.socket(zmq.SUB)
+        # answers: an XSUB, which can send back to its publishers over the connections
+        # they opened (the answer to a command, :meth:`send_upstream`)
+        self.sock = self.ctx.socket(zmq.XSUB if answers else zmq.SUB)
         self.sock.setsockopt(zmq.RCVHWM, HWM)
         self.sock.setsockopt(zmq.LINGER, 0)
         for t in topics:
-            self.sock.setsockopt(zmq.SUBSCRIBE, t.encode())
+            if answers:
+                self.sock.send(b"\x01" + t.encode())
+            else:
+                self.sock.setsockopt(zmq.SUBSCRIBE, t.encode())
         self._key_checks: list[KeyCheck] = []
         self._handshakes = HandshakeWatch(self.sock, self.endpoints)  # before connecting
         try:
@@ -378,12 +410,17 @@ class Subscriber:
             if env.kind == "heartbeat":
                 return self._heartbeat(env)
             key = (env.publisher, env.topic)
-            last = self._last.get(key)
+            last = self._last.pop(key, None)  # re-inserted below: the newest at the end
             end = env.seq + env.count - 1
             if last is None:
-                self.stats.started_at[f"{env.topic}@{env.publisher:08x}"] = env.seq
+                if len(self._last) >= MAX_STREAMS:
+                    del self._last[next(iter(self._last))]
+                    self.stats.streams_forgotten += 1
+                if len(self.stats.started_at) < MAX_STARTED_AT:
+                    self.stats.started_at[f"{env.topic}@{env.publisher:08x}"] = env.seq
             elif end <= last:
                 self.stats.duplicates += env.count
+                self._last[key] = last
                 continue
             elif env.seq > last + 1:
                 self.stats.lost += env.seq - last - 1
@@ -408,6 +445,41 @@ class Subscriber:
             self.stats.lost += env.value.pen_seq - last
             self._last[key] = env.value.pen_seq
         return Message(env.topic, "heartbeat", env.value, env.publisher, env.seq, env.replay)
+
+    def count_queued(self, deadline: float) -> tuple[int, bool]:
+        """Read what is queued without decoding it: the pen samples it held, and
+        whether the queue was emptied before ``deadline`` (monotonic seconds)."""
+        n = len(self._pending)  # the rest of a batch already taken apart
+        self._pending.clear()
+        while time.monotonic() < deadline:
+            try:
+                frames = self.sock.recv_multipart(zmq.NOBLOCK)
+            except zmq.Again:
+                return n, True
+            head = wire.pen_header(frames)
+            if head is None:
+                continue
+            publisher, seq, count = head
+            key = (publisher, frames[0].decode("ascii", "replace"))
+            last = self._last.get(key)
+            if last is not None and seq > last + 1:  # the publisher dropped these (its HWM)
+                self.stats.lost += seq - last - 1
+            if last is None or seq + count - 1 > last:
+                self._last[key] = seq + count - 1
+                n += count if last is None else min(count, seq + count - 1 - last)
+        return n, False
+
+    def send_upstream(self, data: bytes) -> bool:
+        """Send ``data`` (one frame, not starting with 0 or 1) back to every publisher
+        connected to this subscriber (made with ``answers=True``): a command's sender
+        picks its own answer by id.  Never blocks; ``False`` when it could not go."""
+        if self.sock.type != zmq.XSUB or not data or data[0] in (0, 1):
+            return False
+        try:
+            self.sock.send(data, zmq.NOBLOCK)
+        except zmq.ZMQError:
+            return False
+        return True
 
     def close(self) -> None:
         self._handshakes.close()

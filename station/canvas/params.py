@@ -92,6 +92,25 @@ class SimParams:
             reference draught [1] (evaporation is proportional to it).
         c_min, c_max: capillary capacity at paper height 0 and 1 [height].
         moist_threshold: ``wc`` above which a cell is moist, hence wet [height].
+        damp_ease: suction of damp paper on the contact line [1] (0: off): the advancing
+            height is multiplied by ``max(1 - damp_ease * 4 s' (1 - s'), 0)``, where
+            ``s' = max(s - damp_sat, 0) / (1 - damp_sat)`` rescales the capillary layer's
+            saturation ``s = wc / c`` above ``damp_sat``. Paper drier than ``damp_sat``
+            (dry paper, the capillary halo of a stroke) pins the front as before; a full
+            capillary layer has no suction left; damp paper in between draws fresh water
+            in. Water put into a damp wash therefore runs on where the wash is still
+            unsaturated and stalls where its own capillary halo has filled the paper: the
+            front grows lobes into the drier paper (Curtis et al. 1997, section 4.7: the
+            wet-area mask grows by capillary flow into damp cells, none into paper drier
+            than their delta; fig. 1c).
+        damp_sat: saturation ``wc / c`` above which paper counts as damp for
+            ``damp_ease`` [1], 0 ... 0.99 (Curtis's delta).
+        suspend_sat: saturation ``wc / c`` above which a cell without fluid water keeps
+            its pigment in suspension instead of depositing it [1], 0 ... 1 (0: off, every
+            cell without fluid water deposits). Gum arabic stays soft while the paper is
+            damp, so water flowing back into a damp wash lifts and carries its pigment
+            (Curtis 1997, 4.7 backruns; Smith, "The Watercolour Painter's Handbook":
+            blooms form only while the wash is damp, not once it has dried).
         v_max: bound of each velocity component [cell/s]; ``v_max * dt <= 1``.
         surface_rate: factor on the surface exchange of eqs. 4.11/4.12 [1/s] (spec: 1;
             default 0.5 keeps pigment suspended long enough to travel to the rim).
@@ -143,6 +162,9 @@ class SimParams:
     c_min: float = 0.1
     c_max: float = 0.4
     moist_threshold: float = 0.25
+    damp_ease: float = 0.0
+    damp_sat: float = 0.0
+    suspend_sat: float = 0.0
     v_max: float = 30.0
     surface_rate: float = 0.1
     block_paper: float = 0.0
@@ -199,6 +221,12 @@ class SimParams:
             raise CanvasInputError("fibre_wick must be in [0, 1]", "params")
         if self.fibre_dispersivity > 100:
             raise CanvasInputError("fibre_dispersivity must be <= 100 cells", "params")
+        if not 0 <= self.damp_sat <= 0.99:
+            raise CanvasInputError("damp_sat must lie in [0, 0.99]", "params")
+        if self.damp_ease > 1000:
+            raise CanvasInputError("damp_ease must lie in [0, 1000]", "params")
+        if not 0 <= self.suspend_sat <= 1:
+            raise CanvasInputError("suspend_sat must lie in [0, 1]", "params")
         if not 0 <= self.block_paper <= 1:
             raise CanvasInputError("block_paper must lie in [0, 1]", "params")
         if not 0 <= self.tilt <= 90:

@@ -57,6 +57,17 @@ NOTE (no maths change): pass 1 computes the bilinear weight from the displacemen
 NOTE (no maths change): pass 6 evaluates ``r' = (r * s_out[donor]) * s_in[receiver]`` in
   that order; pass 4/5 skip the donor limiter when no cell is short (bitwise the same).
 
+CHANGED: backruns (issue 21 item 4). Wet mask on damp paper: with ``damp_ease > 0`` the
+  advancing height is multiplied by ``min(damp_ease * (1 - wc / c), 1)`` (``c`` the capillary
+  capacity ``c_min + h (c_max - c_min)``; stencils.damp_factor), both axes, before the fibre
+  factor. Pass 10: with ``suspend_sat > 0`` a cell with ``w == 0`` deposits only when NOT
+  ``wc > suspend_sat * c`` (wc after pass 9): damp paper keeps its pigment suspended, so
+  water flowing back into a damp wash carries it to the front (Curtis et al. 1997, 4.7).
+  The watercolor profile sets both and ``moist_threshold`` 1.0 (no cell is wet by its
+  capillary water alone: fresh water has a front to advance into a damp wash).
+NOTE (no maths change): the helpers live in ``stencils.py``, the passes in ``passes.py``;
+  this module re-exports them and runs the step.
+
 Notation: ``dt`` step [s]; ``own = ((w > 0) | (wc > moist_threshold)) & (mask == 0)``;
 ``wet = own | (unmasked and max_4-neighbours(w) > advance_height * (1.5 - h))`` (the
 contact line advances where the paper lets it; off when ``advance_height == 0``)
@@ -168,464 +179,49 @@ group of active tiles plus a one-cell halo (overlapping boxes merged, so boxes a
 disjoint); all other cells are inactive (w == 0, wc == 0, v == 0) and no pass changes
 them, so the result is the same as with tiling off.
 """
-
 from __future__ import annotations
-
-import numpy as np
 
 from station.canvas import tiles
 from station.canvas.params import CanvasInputError, SimParams
+from station.canvas.passes import (
+    advect_velocity,
+    advect_water_and_pigment,
+    blocking,
+    capillary,
+    diffuse_pigment,
+    diffuse_velocity,
+    diffuse_water,
+    dry_cells,
+    evaporate,
+    slot_properties,
+    surface_exchange,
+    tilt_kick,
+    water_height_and_boundary,
+)
 from station.canvas.state import CanvasState
+from station.canvas.stencils import (
+    F32,
+    apply_fluxes,
+    blurred_wet,
+    capacity,
+    damp_factor,
+    flow_pressure,
+    gaussian_taps,
+    implicit_diffusion,
+    neighbour_sum,
+    open_faces,
+    own_wet,
+    water_speed,
+    wet_mask,
+)
 
-F32 = np.float32
-_ZERO = F32(0.0)
-_ONE = F32(1.0)
-
-
-# ---------------------------------------------------------------- helpers
-def own_wet(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams) -> np.ndarray:
-    """Cells wet by their own water: fluid water, or capillary water above the moist
-    threshold, and not masked (bool (H, W)); the wet area the flow-outward term blurs."""
-    return ((w > 0) | (wc > F32(prm.moist_threshold))) & (mask == 0)
-
-
-def wet_mask(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams,
-             h: np.ndarray, fibre: np.ndarray | None = None) -> np.ndarray:
-    """Cells taking part in the fluid and surface layers this step (bool (H, W)).
-
-    With ``advance_height > 0`` an unmasked dry cell also joins when
-    a 4-neighbour's fluid water stands above the cell's advancing height
-    ``advance_height * (1.5 - h)``: the contact line creeps on where the paper lets it.
-    With ``fibre_wick > 0`` and the fibre texture ``fibre`` (2, H, W), that height is
-    lowered by ``1 - fibre_wick * fibre[axis]`` for the neighbours on each axis: along a
-    fibre the water is not pinned.
-    """
-    own = own_wet(w, wc, mask, prm)
-    if prm.advance_height > 0:
-        thr = F32(prm.advance_height) * (F32(1.5) - h)
-        if prm.fibre_wick > 0 and fibre is not None:
-            # a fibre along the face axis wicks the front on: lower pinning height
-            thx = thr * (_ONE - F32(prm.fibre_wick) * fibre[0])
-            thy = thr * (_ONE - F32(prm.fibre_wick) * fibre[1])
-            nx = np.zeros(w.shape, F32)
-            nx[:, :-1] = w[:, 1:]
-            nx[:, 1:] = np.maximum(nx[:, 1:], w[:, :-1])
-            ny = np.zeros(w.shape, F32)
-            ny[:-1, :] = w[1:, :]
-            ny[1:, :] = np.maximum(ny[1:, :], w[:-1, :])
-            return own | (((nx > thx) | (ny > thy)) & (mask == 0))
-        nb = np.zeros(w.shape, F32)
-        nb[:, :-1] = w[:, 1:]
-        nb[:, 1:] = np.maximum(nb[:, 1:], w[:, :-1])
-        nb[:-1, :] = np.maximum(nb[:-1, :], w[1:, :])
-        nb[1:, :] = np.maximum(nb[1:, :], w[:-1, :])
-        own = own | ((nb > thr) & (mask == 0))
-    return own
-
-
-def water_speed(vx: np.ndarray, vy: np.ndarray, prm: SimParams) -> np.ndarray:
-    """The fibre dispersion's water speed ``min(sqrt(vx*vx + vy*vy), fibre_flow_max)``
-    [cell/s], float32: water moves through the paper's channels no faster than that."""
-    return np.minimum(np.sqrt(vx * vx + vy * vy), F32(prm.fibre_flow_max)).astype(F32)
-
-
-def open_faces(wet: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Open faces (both cells wet): x faces (H, W-1) and y faces (H-1, W), bool."""
-    return wet[:, :-1] & wet[:, 1:], wet[:-1, :] & wet[1:, :]
-
-
-def neighbour_sum(x: np.ndarray, bx: np.ndarray, by: np.ndarray) -> np.ndarray:
-    """sum over the 4 faces of ``b_face * x_neighbour`` (x may have leading axes)."""
-    s = np.empty_like(x)
-    np.multiply(bx, x[..., :, 1:], out=s[..., :, :-1])  # east neighbours
-    s[..., :, -1] = 0
-    s[..., :, 1:] += bx * x[..., :, :-1]  # west
-    s[..., :-1, :] += by * x[..., 1:, :]  # south
-    s[..., 1:, :] += by * x[..., :-1, :]  # north
-    return s
-
-
-def apply_fluxes(u: np.ndarray, fx: np.ndarray, fy: np.ndarray) -> np.ndarray:
-    """``u`` after face fluxes (positive: lower-index cell -> higher-index cell)."""
-    out = u.copy()
-    out[..., :, :-1] -= fx
-    out[..., :, 1:] += fx
-    out[..., :-1, :] -= fy
-    out[..., 1:, :] += fy
-    return out
-
-
-def implicit_diffusion(u: np.ndarray, bx: np.ndarray, by: np.ndarray, k: float,
-                       iters: int) -> np.ndarray:
-    """Conservative implicit diffusion (pass 4/5 maths, see module docstring).
-
-    ``u`` (..., H, W) >= 0; ``bx`` (H, W-1) and ``by`` (H-1, W) face conductances in [0, 1];
-    ``k = nu * dt`` [cell^2]. Returns the new field, float32.
-    """
-    if k <= 0:
-        return u.copy()
-    kk = F32(k)
-    denom = _ONE + kk * neighbour_sum(np.ones(u.shape[-2:], F32), bx, by)
-    x = u
-    for _ in range(int(iters)):
-        acc = neighbour_sum(x, bx, by)
-        acc *= kk
-        acc += u
-        acc /= denom
-        x = acc
-    fx = kk * bx * (x[..., :, :-1] - x[..., :, 1:])
-    fy = kk * by * (x[..., :-1, :] - x[..., 1:, :])
-    fxp, fxn = np.maximum(fx, _ZERO), np.minimum(fx, _ZERO)
-    fyp, fyn = np.maximum(fy, _ZERO), np.minimum(fy, _ZERO)
-    out = np.zeros(u.shape, F32)
-    out[..., :, :-1] += fxp
-    out[..., :, 1:] -= fxn
-    out[..., :-1, :] += fyp
-    out[..., 1:, :] -= fyn
-    # donor limiter: never move more than a cell holds. A cell the limiter itself left a
-    # rounding error below zero holds nothing: clamped to 0 it gives nothing (s = 0)
-    # instead of a division by a zero outflow (-inf, then NaN fluxes that wipe a wash).
-    held = np.maximum(u, _ZERO)
-    short = out > held
-    if short.any():
-        s = np.where(short, held / np.where(short, out, _ONE), _ONE).astype(F32)
-        fx = fxp * s[..., :, :-1] + fxn * s[..., :, 1:]
-        fy = fyp * s[..., :-1, :] + fyn * s[..., 1:, :]
-    return apply_fluxes(u, fx, fy)
-
-
-def gaussian_taps(sigma: float) -> np.ndarray:
-    """Normalised float32 Gaussian taps ``g[0..2R]``, ``R = ceil(2 sigma)`` (empty: sigma 0)."""
-    if sigma <= 0:
-        return np.zeros(0, F32)
-    r = int(np.ceil(2.0 * sigma))
-    d = np.arange(-r, r + 1, dtype=np.float64)
-    g = np.exp(-0.5 * (d / sigma) ** 2)
-    return (g / g.sum()).astype(F32)
-
-
-def blurred_wet(wet: np.ndarray, taps: np.ndarray) -> np.ndarray:
-    """``M'``: the wet mask blurred separably (x, then y) with ``taps``; cells outside the
-    region count as non-wet. Each sum runs over the taps in order, offset -R first."""
-    hh, ww = wet.shape
-    r = (len(taps) - 1) // 2
-    m = np.pad(wet.astype(F32), r)
-    mx = np.zeros((hh + 2 * r, ww), F32)
-    for k in range(2 * r + 1):
-        mx = mx + taps[k] * m[:, k:k + ww]
-    out = np.zeros((hh, ww), F32)
-    for k in range(2 * r + 1):
-        out = out + taps[k] * mx[k:k + hh, :]
-    return out
-
-
-def flow_pressure(w: np.ndarray, own: np.ndarray, wet: np.ndarray, h: np.ndarray,
-                  prm: SimParams) -> np.ndarray:
-    """The height the water-height term levels, on wet cells: the free surface over the
-    paper, ``w + paper_relief * h``, lowered by ``flow_outward * (1 - M')`` near the edge
-    of the ``own`` wet area (Curtis 1997: flow outward, and water runs downhill over the
-    paper's relief); ``w`` elsewhere, and ``w`` itself when both terms are off."""
-    taps = gaussian_taps(prm.wet_blur)
-    outward = prm.flow_outward > 0 and len(taps) > 0
-    if not outward and prm.paper_relief <= 0:
-        return w
-    pr = w
-    if prm.paper_relief > 0:
-        pr = w + F32(prm.paper_relief) * h
-    if outward:
-        mb = blurred_wet(own, taps)
-        pr = pr - F32(prm.flow_outward) * (_ONE - mb)
-    return np.where(wet, pr, w).astype(F32)
-
-
-# ---------------------------------------------------------------- passes
-def _backtrace_axis(disp: np.ndarray, n: int, axis: int) -> tuple[np.ndarray, np.ndarray]:
-    """Left sample index (intp) and weight of the back-trace ``X = i - disp`` on one axis.
-
-    Same maths as ``X = clamp(i - disp, 0, n-1)``, ``i0 = min(floor(X), n-2)``,
-    ``f = X - i0``, but the fraction is computed from the displacement alone
-    (``|disp| <= 1``), so the result does not depend on where the simulated region
-    starts: tiling cannot change the rounding.
-    """
-    off = -disp
-    fl = np.floor(off)
-    frac = (off - fl).astype(F32)
-    shape = [1, 1]
-    shape[axis] = n
-    idx = np.arange(n, dtype=np.intp).reshape(shape) + fl.astype(np.intp)
-    if n < 2:
-        return np.zeros(disp.shape, np.intp), np.zeros(disp.shape, F32)
-    low = idx < 0
-    high = idx >= n - 1
-    idx = np.where(low, 0, np.where(high, n - 2, idx))
-    frac = np.where(low, _ZERO, np.where(high, _ONE, frac))
-    return idx, frac
-
-
-def advect_velocity(vx: np.ndarray, vy: np.ndarray, wet: np.ndarray,
-                    dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Pass 1: semi-Lagrangian self-advection of v (bilinear back-trace)."""
-    hh, ww = wet.shape
-    svx = np.where(wet, vx, _ZERO)
-    svy = np.where(wet, vy, _ZERO)
-    fdt = F32(dt)
-    x0, fx = _backtrace_axis(svx * fdt, ww, 1)
-    y0, fy = _backtrace_axis(svy * fdt, hh, 0)
-    i00 = y0 * ww + x0
-    dx = 1 if ww > 1 else 0  # x1 = min(x0 + 1, W - 1)
-    dy = ww if hh > 1 else 0
-    gx = _ONE - fx
-    gy = _ONE - fy
-    out = []
-    for src in (svx, svy):
-        flat = src.ravel()
-        top = gx * flat.take(i00) + fx * flat.take(i00 + dx)
-        bot = gx * flat.take(i00 + dy) + fx * flat.take(i00 + dy + dx)
-        out.append(np.where(wet, gy * top + fy * bot, _ZERO).astype(F32))
-    return out[0], out[1]
-
-
-def diffuse_velocity(vx: np.ndarray, vy: np.ndarray, wet: np.ndarray, prm: SimParams,
-                     dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Pass 2: implicit viscosity by Jacobi iterations over open faces."""
-    k = F32(prm.viscosity * dt)
-    ox, oy = open_faces(wet)
-    bx, by = ox.astype(F32), oy.astype(F32)
-    denom = _ONE + k * neighbour_sum(np.ones(wet.shape, F32), bx, by)
-    res = []
-    for u in (vx, vy):
-        x = u
-        if k > 0:
-            for _ in range(int(prm.jacobi_iters)):
-                x = (u + k * neighbour_sum(x, bx, by)) / denom
-        res.append(np.where(wet, x, _ZERO).astype(F32))
-    return res[0], res[1]
-
-
-def tilt_kick(prm: SimParams, dt: float) -> tuple[np.float32, np.float32]:
-    """The velocity a tilted canvas adds to wet cells in one step, float32 (x, y) [cell/s]."""
-    ax, ay = prm.tilt_acceleration()
-    return F32(ax * dt), F32(ay * dt)
-
-
-def water_height_and_boundary(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, wet: np.ndarray,
-                              prm: SimParams, dt: float | None = None
-                              ) -> tuple[np.ndarray, np.ndarray]:
-    """Pass 3: blend in the water-height velocity and the tilt's gravity, then the
-    no-penetration boundary (``dt`` defaults to ``prm.dt``)."""
-    ox, oy = open_faces(wet)
-    w_e = w.copy()
-    w_e[:, :-1] = np.where(ox, w[:, 1:], w[:, :-1])
-    w_w = w.copy()
-    w_w[:, 1:] = np.where(ox, w[:, :-1], w[:, 1:])
-    w_s = w.copy()
-    w_s[:-1, :] = np.where(oy, w[1:, :], w[:-1, :])
-    w_n = w.copy()
-    w_n[1:, :] = np.where(oy, w[:-1, :], w[1:, :])
-    g = F32(-0.5 * prm.height_gain)
-    oh = F32(prm.omega_h)
-    oi = F32(1.0 - prm.omega_h)
-    nvx = oi * vx + oh * (g * (w_e - w_w))
-    nvy = oi * vy + oh * (g * (w_s - w_n))
-    gx, gy = tilt_kick(prm, prm.dt if dt is None else dt)
-    if gx != 0:  # flat canvas: no addition at all (x + 0 would turn -0.0 into +0.0)
-        nvx = nvx + gx
-    if gy != 0:
-        nvy = nvy + gy
-    e_open = np.zeros(wet.shape, bool)
-    e_open[:, :-1] = ox
-    w_open = np.zeros(wet.shape, bool)
-    w_open[:, 1:] = ox
-    s_open = np.zeros(wet.shape, bool)
-    s_open[:-1, :] = oy
-    n_open = np.zeros(wet.shape, bool)
-    n_open[1:, :] = oy
-    nvx = np.where(e_open, nvx, np.minimum(nvx, _ZERO))
-    nvx = np.where(w_open, nvx, np.maximum(nvx, _ZERO))
-    nvy = np.where(s_open, nvy, np.minimum(nvy, _ZERO))
-    nvy = np.where(n_open, nvy, np.maximum(nvy, _ZERO))
-    vm = F32(prm.v_max)
-    nvx = np.where(wet, np.clip(nvx, -vm, vm), _ZERO).astype(F32)
-    nvy = np.where(wet, np.clip(nvy, -vm, vm), _ZERO).astype(F32)
-    return nvx, nvy
-
-
-def diffuse_water(w: np.ndarray, wet: np.ndarray, prm: SimParams, dt: float) -> np.ndarray:
-    """Pass 4: conservative implicit water diffusion over open faces."""
-    ox, oy = open_faces(wet)
-    return implicit_diffusion(w, ox.astype(F32), oy.astype(F32), prm.nu_w * dt,
-                              prm.jacobi_iters)
-
-
-def blocking(h: np.ndarray, block: np.ndarray, block_time: np.ndarray, sim_time: float,
-             prm: SimParams, fibre: np.ndarray | None = None,
-             speed: np.ndarray | None = None) -> np.ndarray:
-    """Diffusion-controller cell value beta_c (1 free, 0 blocked), in [0, 1] without
-    fibre dispersion. With ``fibre_dispersivity > 0``, the fibre texture ``fibre`` (2, H, W)
-    and the water's speed ``speed`` (H, W) [cell/s] it is multiplied by
-    ``1 + gd * (max(fibre[0], fibre[1]) * speed)``, ``gd = fibre_dispersivity / nu_p``:
-    where water moves through fibre channels the pigment it carries disperses along them
-    (``D = alpha |v|``, Bear's hydrodynamic dispersion); still water is untouched."""
-    if prm.block_fade > 0:
-        age = np.clip((F32(sim_time) - block_time) / F32(prm.block_fade), _ZERO, _ONE)
-    else:
-        age = np.ones_like(block)
-    eff = block + (_ONE - block) * age
-    paper = _ONE - F32(prm.block_paper) * (_ONE - h)
-    beta = np.minimum(paper, eff).astype(F32)
-    gd = F32(prm.fibre_dispersion_gain())
-    if gd > 0 and fibre is not None and speed is not None:
-        beta = beta * (_ONE + gd * (np.maximum(fibre[0], fibre[1]) * speed))
-    return beta.astype(F32)
-
-
-def diffuse_pigment(p: np.ndarray, wet: np.ndarray, beta_c: np.ndarray, prm: SimParams,
-                    dt: float) -> np.ndarray:
-    """Pass 5: conservative implicit pigment diffusion with the diffusion controller."""
-    ox, oy = open_faces(wet)
-    bx = np.where(ox, np.minimum(beta_c[:, :-1], beta_c[:, 1:]), _ZERO)
-    by = np.where(oy, np.minimum(beta_c[:-1, :], beta_c[1:, :]), _ZERO)
-    return implicit_diffusion(p, bx, by, prm.nu_p * dt, prm.jacobi_iters)
-
-
-def advect_water_and_pigment(w: np.ndarray, p: np.ndarray, vx: np.ndarray, vy: np.ndarray,
-                             wet: np.ndarray, prm: SimParams,
-                             dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Pass 6: conservative, clamped face-flux advection of water and pigment.
-
-    Directional rates: ``rxp`` carries from (y, x) to (y, x+1), ``rxn`` from (y, x+1) to
-    (y, x); ``ryp`` from (y, x) to (y+1, x), ``ryn`` back. One of each pair is 0.
-    """
-    ox, oy = open_faces(wet)
-    q4 = F32(0.25 * dt)
-    ufx = np.where(ox, F32(0.5) * (vx[:, :-1] + vx[:, 1:]), _ZERO)
-    ufy = np.where(oy, F32(0.5) * (vy[:-1, :] + vy[1:, :]), _ZERO)
-    rx = np.abs(ufx) * q4
-    ry = np.abs(ufy) * q4
-    rxp = np.where(ufx > 0, rx, _ZERO)
-    rxn = rx - rxp
-    ryp = np.where(ufy > 0, ry, _ZERO)
-    ryn = ry - ryp
-    # donor-side total rate and lower limiter
-    r_out = np.zeros(w.shape, F32)
-    r_out[:, :-1] += rxp
-    r_out[:, 1:] += rxn
-    r_out[:-1, :] += ryp
-    r_out[1:, :] += ryn
-    lo = np.minimum(w, F32(prm.w_min))
-    want = w * r_out
-    room = w - lo
-    s_out = np.where(want > room, room / np.where(want > room, want, _ONE), _ONE).astype(F32)
-    # receiver-side unscaled inflows and upper limiter (water and every pigment)
-    i_w = np.zeros(w.shape, F32)
-    i_w[:, 1:] += w[:, :-1] * rxp
-    i_w[:, :-1] += w[:, 1:] * rxn
-    i_w[1:, :] += w[:-1, :] * ryp
-    i_w[:-1, :] += w[1:, :] * ryn
-    i_p = np.zeros(p.shape, F32)
-    i_p[:, :, 1:] += p[:, :, :-1] * rxp
-    i_p[:, :, :-1] += p[:, :, 1:] * rxn
-    i_p[:, 1:, :] += p[:, :-1, :] * ryp
-    i_p[:, :-1, :] += p[:, 1:, :] * ryn
-    room_w = np.maximum(np.maximum(w, F32(prm.w_max)) - w, _ZERO)
-    s_in = np.where(i_w > room_w, room_w / np.where(i_w > room_w, i_w, _ONE), _ONE)
-    room_p = np.maximum(_ONE - p, _ZERO)
-    s_in_p = np.where(i_p > room_p, room_p / np.where(i_p > room_p, i_p, _ONE), _ONE).min(axis=0)
-    s_in = np.minimum(np.minimum(s_in, s_in_p), _ONE).astype(F32)
-    # limited rates r' = r * s_out[donor] * s_in[receiver]
-    axp = rxp * s_out[:, :-1] * s_in[:, 1:]
-    axn = rxn * s_out[:, 1:] * s_in[:, :-1]
-    ayp = ryp * s_out[:-1, :] * s_in[1:, :]
-    ayn = ryn * s_out[1:, :] * s_in[:-1, :]
-    w_new = apply_fluxes(w, w[:, :-1] * axp - w[:, 1:] * axn, w[:-1, :] * ayp - w[1:, :] * ayn)
-    p_new = apply_fluxes(p, p[:, :, :-1] * axp - p[:, :, 1:] * axn,
-                         p[:, :-1, :] * ayp - p[:, 1:, :] * ayn)
-    return w_new, p_new
-
-
-def evaporate(w: np.ndarray, evaporated: np.ndarray, prm: SimParams,
-              dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Pass 7: fluid evaporation, faster at faces towards cells without fluid water."""
-    has = w > 0
-    n_dry = np.zeros(w.shape, F32)
-    n_dry[:, :-1] += ~has[:, 1:]
-    n_dry[:, 1:] += ~has[:, :-1]
-    n_dry[:-1, :] += ~has[1:, :]
-    n_dry[1:, :] += ~has[:-1, :]
-    n_dry[:, -1] += 1
-    n_dry[:, 0] += 1
-    n_dry[-1, :] += 1
-    n_dry[0, :] += 1
-    e = F32(prm.evap_shallow() * dt)
-    loss = e + F32(prm.edge_evap) * n_dry * w * e
-    loss = np.where(has, np.minimum(loss, w), _ZERO).astype(F32)
-    return w - loss, evaporated + loss
-
-
-def surface_exchange(p: np.ndarray, q: np.ndarray, w: np.ndarray, h: np.ndarray,
-                     wet: np.ndarray, beta: np.ndarray, gamma: np.ndarray, delta: np.ndarray,
-                     prm: SimParams, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Pass 8: deposition and lifting between fluid and surface layer (eqs. 4.11/4.12).
-
-    ``beta``, ``gamma``, ``delta``: float32 (S,) per slot (free slots: delta = 0).
-    """
-    f = np.clip(w / F32(prm.w_max), _ZERO, _ONE)
-    rate = F32(prm.surface_rate * dt)
-    g = gamma[:, None, None]
-    d = delta[:, None, None]
-    b = beta[:, None, None]
-    down = rate * p * (_ONE - f) * (_ONE - h * g) * d
-    up = rate * q * f * (_ONE - (_ONE - h) * g) * (d / b)
-    down = np.minimum(np.minimum(down, p), _ONE - q)
-    up = np.minimum(np.minimum(up, q), _ONE - p)
-    net = np.where(wet, down - up, _ZERO).astype(F32)
-    return p - net, q + net
-
-
-def capillary(w: np.ndarray, wc: np.ndarray, h: np.ndarray, mask: np.ndarray,
-              evaporated: np.ndarray, prm: SimParams,
-              dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Pass 9: absorption, capillary diffusion, capillary evaporation (all cells)."""
-    c = F32(prm.c_min) + h * F32(prm.c_max - prm.c_min)
-    opn = mask == 0
-    d = np.minimum(np.minimum(F32(prm.alpha * dt), w), np.maximum(c - wc, _ZERO))
-    d = np.where((w > 0) & opn, d, _ZERO)
-    w = w - d
-    wc = wc + d
-    k = F32(prm.cap_diffusion * dt)
-    if k > 0:
-        s = wc / c
-        fx = np.where(opn[:, :-1] & opn[:, 1:],
-                      k * np.minimum(c[:, :-1], c[:, 1:]) * (s[:, :-1] - s[:, 1:]), _ZERO)
-        fy = np.where(opn[:-1, :] & opn[1:, :],
-                      k * np.minimum(c[:-1, :], c[1:, :]) * (s[:-1, :] - s[1:, :]), _ZERO)
-        wc = apply_fluxes(wc, fx, fy)
-        wc = np.maximum(wc, _ZERO)  # guards -0.0/rounding only; the flux bound keeps wc >= 0
-    e = np.where(w == 0, np.minimum(F32(prm.evap_cap() * dt), wc), _ZERO).astype(F32)
-    return w, wc - e, evaporated + e
-
-
-def dry_cells(w: np.ndarray, p: np.ndarray, q: np.ndarray, vx: np.ndarray, vy: np.ndarray,
-              evaporated: np.ndarray, prm: SimParams) -> tuple[np.ndarray, ...]:
-    """Pass 10: tiny water evaporates; cells without fluid water deposit their pigment."""
-    tiny = (w > 0) & (w < F32(prm.w_dry_eps))
-    evaporated = evaporated + np.where(tiny, w, _ZERO)
-    w = np.where(tiny, _ZERO, w)
-    dry = w == 0
-    t = np.where(dry, np.minimum(p, _ONE - q), _ZERO)
-    return (w, p - t, q + t, np.where(dry, _ZERO, vx), np.where(dry, _ZERO, vy), evaporated)
-
-
-# ---------------------------------------------------------------- the step
-def slot_properties(state: CanvasState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """beta, gamma, delta per slot (float32 (S,)); free slots: beta 1, gamma 0, delta 0."""
-    n = state.n_slots
-    beta = np.ones(n, F32)
-    gamma = np.zeros(n, F32)
-    delta = np.zeros(n, F32)
-    for k, pig in enumerate(state.slot_pigments()):
-        beta[k], gamma[k], delta[k] = pig.beta, pig.gamma, pig.delta
-    return beta, gamma, delta
+__all__ = ["F32", "PASS_ORDER", "STENCIL_RADIUS_EXTRA", "advect_velocity",
+           "advect_water_and_pigment", "apply_fluxes", "blocking", "blurred_wet", "capacity",
+           "capillary", "damp_factor", "diffuse_pigment", "diffuse_velocity", "diffuse_water",
+           "dry_cells", "evaporate", "flow_pressure", "gaussian_taps", "implicit_diffusion",
+           "neighbour_sum", "open_faces", "own_wet", "slot_properties", "stencil_radius",
+           "step", "step_region", "surface_exchange", "tilt_kick", "water_height_and_boundary",
+           "water_speed", "wet_mask"]
 
 
 PASS_ORDER = (
@@ -707,7 +303,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
         elif name == "capillary":
             w, wc, evap = capillary(w, wc, h, mask, evap, prm, dt)
         else:  # dry_cells
-            w, pp, qq, vx, vy, evap = dry_cells(w, pp, qq, vx, vy, evap, prm)
+            w, pp, qq, vx, vy, evap = dry_cells(w, pp, qq, vx, vy, evap, prm, wc, h)
         if name == stop_after:
             break
 

@@ -10,16 +10,19 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import json
 import logging
 import pkgutil
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 from station import __version__
 from station.cli import helptext
 from station.errors import BadInput, StationError
 
 EXIT_OK, EXIT_FAIL, EXIT_BAD_INPUT = 0, 1, 2
+SUMMARIES_FILE = Path(__file__).resolve().parent.parent / "data" / "cli-summaries.json"
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -49,8 +52,35 @@ def _modules_for(argv: Sequence[str] | None) -> list[str]:
     return names
 
 
+def summaries() -> dict[str, str] | None:
+    """Each command's one-line help from :data:`SUMMARIES_FILE`, or ``None`` when it does
+    not name exactly the command modules there are (a new one: import them all)."""
+    try:
+        table = json.loads(SUMMARIES_FILE.read_text())
+    except (OSError, ValueError):
+        return None
+    names = sorted(m[len("cmd_"):].replace("_", "-") for m in _command_modules())
+    if not isinstance(table, dict) or sorted(table) != names:
+        return None
+    return {str(k): str(v) for k, v in table.items()}
+
+
+def write_summaries() -> None:
+    """Write :data:`SUMMARIES_FILE` from the commands' own ``help=`` (after adding a
+    command or changing its help; tests/test_cli_help.py says when)."""
+    table = _registered_help(build_parser())
+    SUMMARIES_FILE.write_text(json.dumps(table, indent=1, sort_keys=True) + "\n")
+
+
+def _registered_help(parser: argparse.ArgumentParser) -> dict[str, str]:
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return {a.dest: str(a.help) for a in sub._choices_actions}
+
+
 def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
-    """The parser with every command, or with only the one ``argv`` runs."""
+    """The parser with every command, or with only the one ``argv`` runs.  A command
+    line that names none (``station --help``, a typo) gets every command's one-line
+    help from :func:`summaries` instead of importing every command module."""
     parser = OneLineParser(
         prog="station",
         description="The painting station: pen input, watery-paint simulation, tools.",
@@ -59,7 +89,13 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
     parser.add_argument("-q", "--quiet", action="store_true", help="only errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=OneLineParser)
-    for name in _modules_for(argv):
+    modules = _modules_for(argv)
+    table = summaries() if argv is not None and len(modules) > 1 else None
+    if table is not None:
+        for name, text in table.items():
+            sub.add_parser(name, help=text)
+        return parser
+    for name in modules:
         module = importlib.import_module(f"station.cli.{name}")
         module.register(sub)
     for name, command in sub.choices.items():

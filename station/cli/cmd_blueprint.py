@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 from station.blueprint import diagram
+from station.blueprint.exposure import gallery_exposure
 from station.blueprint.load import bundled, bundled_names, load
 from station.blueprint.plan import resolve
 from station.blueprint.systemd import write_units
@@ -65,6 +66,8 @@ def run_list(args: argparse.Namespace) -> int:
 def run_check(args: argparse.Namespace) -> int:
     bp = load(args.file, args.overrides)
     plan = resolve(bp, Path("/nonexistent-run"), Path.cwd())
+    for line in gallery_exposure(bp):  # it runs: a warning, not a refusal
+        sys.stderr.write(f"station blueprint: warning: {line}\n")
     sys.stderr.write(f"station blueprint: {bp.file}: ok ({len(plan.processes)} processes, "
                      f"{len(plan.edges)} wires, {len(bp.rules)} rules)\n")
     return 0

@@ -14,7 +14,8 @@ with one line when it refused the command; exit 1 when nobody takes or answers
 it within ``--timeout``.  ``--to sim`` (the default) and ``--to kiosk`` pick the
 process by its default endpoint, and a command sent with them is refused by a
 process of the other kind; ``--to ENDPOINT`` names any endpoint.  Over tcp
-there is no answer channel: the command is checked here and sent (exit 0).
+(CURVE, ``--keys``/``--client-key``) the answer comes back over the same
+connection (:data:`station.answer.PEER`), with the same exits.
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ from typing import Any
 
 import zmq
 
-from station.answer import ReplyRequest
+from station.answer import PEER, ReplyRequest
 from station.bus import Publisher, runtime_dir
 from station.cli.buskeys import add_key_flags, check_keys
 from station.errors import BadInput, StationError
@@ -126,12 +127,13 @@ def run(args: argparse.Namespace) -> int:
     over_ipc = "tcp://" not in target
     ctx: zmq.Context[zmq.Socket[bytes]] = zmq.Context.instance()
     inbox = None
-    if not over_ipc:
-        _check_here(command)
+    tag = secrets.token_hex(6)
+    if not over_ipc:  # the answer comes back over the connection we open
+        command = replace(command, reply=ReplyRequest(to=PEER, id=tag,
+                                                      expect=expect).as_record())
     else:
         # the answer comes back on a socket of our own in the runtime directory
         # (station.answer: the taking process connects only there)
-        tag = secrets.token_hex(6)
         path = runtime_dir() / f"reply-{os.getpid()}-{tag}"
         inbox = ctx.socket(zmq.PULL)
         inbox.setsockopt(zmq.LINGER, 0)
@@ -155,15 +157,15 @@ def run(args: argparse.Namespace) -> int:
                                    "(is it running? its --cmd endpoint?)")
             pub.publish_cmd(command)
             if inbox is None:
-                sys.stderr.write(f"station send: {command.cmd} {json.dumps(command.args)} -> "
-                                 f"{pub.url} (sent; answers come back over ipc only)\n")
-                return 0
-            left_ms = int(max(0.0, deadline - time.monotonic()) * 1000)
-            if not inbox.poll(left_ms, zmq.POLLIN):
+                got = _peer_answer(pub, tag, deadline)
+            else:
+                left_ms = int(max(0.0, deadline - time.monotonic()) * 1000)
+                got = _answer(inbox.recv()) if inbox.poll(left_ms, zmq.POLLIN) else None
+            if got is None:
                 raise StationError(f"{command.cmd} went to {pub.url} but nobody answered "
                                    f"within {args.timeout:g} s (a station older than its "
                                    "answers, or a process busy painting)")
-            answer = _answer(inbox.recv())
+            answer = got
     finally:
         if inbox is not None:
             inbox.close()
@@ -179,6 +181,17 @@ def run(args: argparse.Namespace) -> int:
     else:
         sys.stdout.write(f"{who}: {answer.get('did', 'done')}\n")
     return 0
+
+
+def _peer_answer(pub: Publisher, tag: str, deadline: float) -> dict[str, Any] | None:
+    """Our answer among what came back over the tcp connection (other senders' answers
+    may pass by: each carries its own id), or ``None`` at the deadline."""
+    while (data := pub.recv_upstream(max(0.0, deadline - time.monotonic()))) is not None:
+        with contextlib.suppress(StationError):
+            answer = _answer(data)
+            if answer.get("id") == tag:
+                return answer
+    return None
 
 
 def _answer(data: bytes) -> dict[str, Any]:

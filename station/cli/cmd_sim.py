@@ -17,13 +17,15 @@ from station.cli.buskeys import add_key_flags, check_keys
 from station.cli.cmd_paint import BACKEND_HELP, BACKENDS
 from station.errors import BadInput, StationError
 from station.events import Command
-from station.sim.live import LiveConfig, LiveSim
+from station.sim.live import LiveConfig
+from station.sim.live_bus import LiveSim
 from station.sim.paint import check_outputs, load_resume_state, parse_size
 from station.sim.player import check_command
 from station.sim.recovery import resolve_log
 
 if TYPE_CHECKING:
-    from station.sim.live import LiveConfig, LiveSim
+    from station.sim.live import LiveConfig
+    from station.sim.live_bus import LiveSim
 
 MAX_AUTOSAVE_S = 86400.0
 
@@ -139,7 +141,8 @@ def _lead(sim: LiveSim) -> int:
     final = sim.run()
     sys.stderr.write("station sim: stopped " + json.dumps(
         {k: final[k] for k in ("steps", "sim_time", "samples", "commands", "bad_commands",
-                               "lost_samples", "synthetic_pen_ups", "storage_failures")})
+                               "lost_samples", "synthetic_pen_ups", "storage_failures",
+                               "flood_dropped", "unread_at_stop")})
         + "\n")
     return 0
 

@@ -424,7 +424,7 @@ class KioskApp:
         cmd_ep = cfg.cmd or "@" + KIOSK_CMD_ENDPOINT  # never the sim's: see station.answer
         self.cmd_sub = None if cmd_ep == "none" else Subscriber(
             cmd_ep if cmd_ep[0] in "@>" else "@" + cmd_ep, topics=("cmd",), keys=keys,
-            client_key=client_key)
+            client_key=client_key, answers="tcp://" in cmd_ep)  # tcp: station.answer "peer"
 
     def _make_panel(self) -> None:
         """The panel, with the profile's brush, and the idle clock."""
@@ -779,10 +779,15 @@ class KioskApp:
         """Commands sent to the kiosk's own endpoint (``station send``)."""
         if self.cmd_sub is None:
             return
-        msg = self.cmd_sub.recv(0)
-        while msg is not None:
-            self.session.handle(msg.kind, msg.value, msg.topic, msg.replay)
+        answerer = self.session.sim.answerer
+        answerer.upstream = self.cmd_sub.send_upstream  # a "peer" answer goes back here
+        try:
             msg = self.cmd_sub.recv(0)
+            while msg is not None:
+                self.session.handle(msg.kind, msg.value, msg.topic, msg.replay)
+                msg = self.cmd_sub.recv(0)
+        finally:
+            answerer.upstream = None
 
     def _driver_status(self) -> None:
         msg = self.driver_sub.recv(0)

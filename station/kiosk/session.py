@@ -75,7 +75,8 @@ from station.canvas.state import CanvasState
 from station.events import Command, PenSample, Tool
 from station.sim.haptic import HapticFeedback
 from station.sim.journal import SessionJournal
-from station.sim.live import SYNC_EVERY_S, Counters, LiveConfig, LiveSim
+from station.sim.live import SYNC_EVERY_S, Counters, LiveConfig
+from station.sim.live_bus import LiveSim
 from station.sim.player import SessionPlayer
 from station.sim.undo import UndoHistory
 

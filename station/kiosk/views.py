@@ -24,7 +24,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-VIEWS = ("2d", "3d", "follow")
+# the view command's names, defined with the command (re-exported for the window)
+from station.kiosk.commands import VIEWS as VIEWS
 
 
 def perspective(fovy_deg: float, aspect: float, near: float, far: float) -> np.ndarray:

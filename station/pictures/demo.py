@@ -136,11 +136,12 @@ def landscape(width: int = DEMO_WIDTH, height: int = DEMO_HEIGHT) -> Script:
     s.brush(size=6 * c, water=0.7, pigment={"French Ultramarine": 0.5,
                                              "Quinacridone Rose": 0.25, "Burnt Umber": 0.1})
     _fill(s, 0.38, 0.07, 0.1, 1.3, 0.5, 5, 0.8, 15.0, sharp=0.5, fade=0.6)
-    s.wait(6.0)
+    # the wash loses its shine (no standing water, the paper still damp) before the
+    # water goes in: only then does it run back into the wash as a backrun
+    s.wait(25.0)  # measured: the standing water is gone at 25-28 s, the paper 85-95 % full
     s.brush(size=4 * c, water=1.0, pigment={})
     for x, y in ((0.18, 0.42), (0.63, 0.4)):
-        s.curve([(x - 0.03, y + 0.01), (x, y - 0.012), (x + 0.025, y + 0.008)], 0.3,
-                pressure=swell(0.4, 0.8, 1.0))
+        s.dab((x, y), 0.35, pressure=0.8)
     _blow_dry(s, 14.0)
     s.new_layer()
 

@@ -1,4 +1,4 @@
-"""The live simulation (``station sim``): :class:`LiveCore` paints, :class:`LiveSim` listens.
+"""The live simulation (``station sim``): :class:`LiveCore` paints, ``LiveSim`` listens.
 
 :class:`LiveCore` is the simulation without a bus, for ``station sim`` and the
 kiosk alike: feed it pen samples and commands (:meth:`LiveCore.feed_sample`,
@@ -6,8 +6,8 @@ kiosk alike: feed it pen samples and commands (:meth:`LiveCore.feed_sample`,
 call :meth:`LiveCore.tick` as often as you can (it runs the steps due at the
 fixed ``rate`` of steps per wall-clock second, whatever the input rate, flushes
 the log, autosaves and watches for silent devices), and :meth:`LiveCore.shutdown`
-at the end.  :class:`LiveSim` adds the bus: it subscribes to ``pen.*``, ``hb.*``
-and ``cmd`` (also on a command endpoint of its own, for ``station send``) and
+at the end.  :class:`~station.sim.live_bus.LiveSim` adds the bus: it subscribes to
+``pen.*``, ``hb.*`` and ``cmd`` (also on a command endpoint of its own, for ``station send``) and
 publishes the status on the ``status`` topic twice a second and whenever a
 device falls silent.  SIGTERM, SIGINT or a ``stop`` command end it cleanly:
 pending stamps go into the canvas, the state and the log are saved, exit 0.
@@ -52,27 +52,22 @@ import json
 import logging
 import math
 import os
-import signal
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path
-from types import FrameType
-from typing import Any, Protocol
+from typing import Any
 
 from station.answer import Answerer, ReadKeys, ReplyRequest, parse_request
 from station.backends.factory import create_distributed, make_backend
 from station.backends.protocol import CanvasBackend
-from station.brush.deformable import DeformableBrush
-from station.brush.stamp import BrushSettings
-from station.bus import Publisher, Subscriber, runtime_dir
+from station.bus import runtime_dir
 from station.canvas.palette import default_palette
 from station.canvas.state import CanvasState
 from station.durable import atomic_write
 from station.errors import BadInput
 from station.events import Command, PenSample
 from station.sessionlog import SessionHeader
-from station.sim import recovery
+from station.sim import live_checkpoint, recovery
 from station.sim.haptic import HapticFeedback
 from station.sim.journal import (
     SessionJournal,
@@ -82,109 +77,27 @@ from station.sim.journal import (
     free_path,
     record_line,
 )
+from station.sim.live_config import DEFAULT_CMD_ENDPOINT as DEFAULT_CMD_ENDPOINT
+from station.sim.live_config import (
+    FLOOD_BURST,
+    FLOOD_RATE,
+    MAX_DEVICES,
+    MAX_WARNINGS,
+    RESYNC_S,
+    DeviceState,
+    StepHooks,
+)
+from station.sim.live_config import KIOSK_CMD_ENDPOINT as KIOSK_CMD_ENDPOINT
+from station.sim.live_config import SYNC_EVERY_S as SYNC_EVERY_S
+from station.sim.live_config import Counters as Counters
+from station.sim.live_config import LiveConfig as LiveConfig
+from station.sim.live_config import default_status_endpoint as default_status_endpoint
 from station.sim.paint import write_image
 from station.sim.player import LIVE_COMMANDS, SessionPlayer, check_command
 from station.sim.undo import UndoHistory
 from station.wire import HapticForce, Heartbeat
 
 log = logging.getLogger(__name__)
-
-RESYNC_S = 1.0
-STATUS_EVERY_S = 0.5
-DRAIN_MAX = 2000  # messages handled between two steps at most (steps must go on)
-# A bus flood (a broken or hostile publisher) is dropped and counted, so the sim's memory
-# and its log grow at most at these rates: a tablet sends 100-233 samples/s, a gaming
-# mouse 1000; beyond FLOOD_RATE per device (after a burst) samples are dropped.  Past
-# MAX_DEVICES device names, samples of new names are dropped (each name costs state).
-FLOOD_RATE = 4000.0
-FLOOD_BURST = 8000.0
-MAX_DEVICES = 64
-MAX_WARNINGS = 256  # distinct warnings logged; beyond, they are only counted
-SYNC_EVERY_S = 1.0  # fsync of the log (it reaches the kernel before every step)
-SILENCE_INTERVALS = 3.0  # heartbeat intervals without a message: the device is silent
-RECOVERED_STROKE_GRACE_S = 1.0  # a stroke open at a crash ends if its device stays quiet
-
-
-@dataclass
-class LiveConfig:
-    """Settings of one ``station sim`` run."""
-
-    bus: str | None
-    width: int = 800
-    height: int = 600
-    profile: str = "watercolor"
-    backend: str = "auto"
-    seed: int = 0
-    rate: float | None = None
-    log_path: str | None = None  # None: a new log in the data directory
-    state_path: str | None = None
-    png_path: str | None = None
-    status: str | None = None  # endpoint for status; "none" disables
-    duration: float | None = None  # stop after this many seconds (tests, benchmarks)
-    resume: str | None = None  # continue this saved canvas state (size, profile, seed)
-    autosave: float = 30.0  # seconds between autosaves; 0 disables
-    recover: str | None = None  # continue this session log (autosave + replay)
-    cmd: str | None = None  # command endpoint for `station send`; "none" disables
-    backend_opts: dict[str, Any] = field(default_factory=dict)  # e.g. ctx= of a kiosk window
-    distributed: bool = False  # rank 0 of an MPI job: the canvas spans every rank
-    keys: Path | None = None  # CURVE key directory for tcp endpoints (None: the default)
-    client_key: str | None = None  # a client key pair of its own for connecting over tcp
-    brush: dict[str, Any] | None = None  # a brush command's args, run (and logged) at start
-
-
-def default_status_endpoint(bus: str | None) -> str:
-    """Where status goes: the proxy's publisher side when subscribed to the
-    proxy (``ipc:sub``), else a socket of our own, ``ipc:sim-status``."""
-    if bus and bus.lstrip(">@") == "ipc:sub":
-        return ">ipc:pub"
-    return "@ipc:sim-status"
-
-
-DEFAULT_CMD_ENDPOINT = "ipc:sim-cmd"
-KIOSK_CMD_ENDPOINT = "ipc:kiosk-cmd"  # a kiosk's own: a `stop` for a sim never reaches it
-
-
-@dataclass
-class DeviceState:
-    """What the simulation knows of one pen device."""
-
-    last_seen: float  # monotonic seconds of its last message
-    heartbeat_s: float | None = None  # its publisher's interval; None: never sent one
-    silent: bool = False
-    touching: bool = False  # its last applied sample touched the paper
-    last_sample: PenSample | None = None
-    resume_seq: int | None = None  # after a recovery: the last device seq in the log
-
-    def timeout(self) -> float | None:
-        if self.heartbeat_s is None:
-            return None
-        return SILENCE_INTERVALS * self.heartbeat_s + 0.1
-
-
-@dataclass
-class Counters:
-    samples: int = 0
-    commands: int = 0
-    bad_commands: int = 0
-    bad_samples: int = 0
-    dropped_sources: int = 0
-    synthetic_pen_ups: int = 0
-    recovered_duplicates: int = 0  # replayed samples the log already had (dropped)
-    missed_while_down: int = 0  # device samples sent while no sim was listening
-    autosaves: int = 0
-    flood_dropped: int = 0  # pen samples dropped beyond FLOOD_RATE or MAX_DEVICES
-    warnings_suppressed: int = 0  # warnings past MAX_WARNINGS (counted, not logged)
-    extra: dict[str, int] = field(default_factory=dict)
-
-
-class StepHooks(Protocol):
-    """What a host runs around every step of its :class:`LiveCore` (the kiosk: its undo
-    checkpoints' copies before, the tiles its display must redraw before and after)."""
-
-    def before_step(self) -> None: ...
-
-    def after_step(self) -> None: ...
-
 
 class LiveCore:
     """The live simulation without a bus (see the module docstring)."""
@@ -435,7 +348,9 @@ class LiveCore:
             return False
         self.counters.commands += 1
         self.journal.write(cmd)
-        self._answer(req, cmd.cmd, True, f"{_did(cmd)} at session time {cmd.t:.2f} s "
+        did = (self.history.last if cmd.cmd in ("undo", "redo") and self.history.last
+               else _did(cmd))  # an undo that found nothing says why (the history's cap)
+        self._answer(req, cmd.cmd, True, f"{did} at session time {cmd.t:.2f} s "
                      f"(step {self.player.counters.steps})")
         if cmd.cmd == "wait":  # its painting time runs now, as in a replay
             while (self.player.counters.steps < self.player.steps_due(cmd.t)
@@ -581,98 +496,15 @@ class LiveCore:
         return True
 
     def checkpoint_session(self) -> dict[str, Any]:
-        p, b, c = self.player, self.player.brush, self.counters
-        return {
-            "version": recovery.CHECKPOINT_VERSION,
-            "log": {"path": str(self.log_path), "header": self.header_line,
-                    "records": self.journal.records_written},
-            "player": {
-                "steps": p.counters.steps, "waited": p.waited, "last_t": p.last_t,
-                "profile": p.profile, "brush": b.settings.to_args(),
-                "layer_pigments": sorted(p.layer_pigments),
-                "samples": p.counters.samples, "commands": p.counters.commands,
-                "skipped_commands": p.counters.skipped_commands,
-                "waited_s": p.counters.waited_s,
-                "stamps": b.stamps, "brush_samples": b.samples,
-                "eraser_samples": b.eraser_samples, "strokes": b.strokes,
-                **({"deformable": b.snapshot()} if isinstance(b, DeformableBrush) else {}),
-            },
-            "live": {"last_t": self._last_t, "samples": c.samples, "commands": c.commands,
-                     "bad_commands": c.bad_commands, "bad_samples": c.bad_samples,
-                     "dropped_sources": c.dropped_sources,
-                     "synthetic_pen_ups": c.synthetic_pen_ups},
-        }
+        """What an autosave keeps besides the canvas (:func:`live_checkpoint.session`)."""
+        return live_checkpoint.session(self)
 
     def _restore(self, s: dict[str, Any]) -> None:
-        """Player and counters as the checkpoint left them (recovery.plan checked it)."""
-        p, ps, ls = self.player, s["player"], s["live"]
-        p.counters.steps = int(ps["steps"])
-        p.waited, p.last_t = float(ps["waited"]), float(ps["last_t"])
-        a = ps["brush"]
-        # the saved settings are already scaled to the canvas; _use swaps in a deformable
-        # brush when the kind asks for one
-        p._use(BrushSettings(str(a["kind"]), float(a["size"]), float(a["water"]),
-                             {str(k): float(v) for k, v in a["pigment"].items()}))
-        b = p.brush
-        if isinstance(b, DeformableBrush) and "deformable" in ps:
-            try:
-                b.restore(ps["deformable"])
-            except (ValueError, KeyError, TypeError, AttributeError) as exc:
-                self._warn(f"recovery: the deformable brush's state was not restored ({exc}); "
-                           "it starts freshly loaded")
-        p.layer_pigments = set(ps["layer_pigments"])
-        p.counters.samples = int(ps["samples"])
-        p.counters.commands = {str(k): int(v) for k, v in ps["commands"].items()}
-        p.counters.skipped_commands = {str(k): int(v)
-                                       for k, v in ps["skipped_commands"].items()}
-        p.counters.waited_s = float(ps["waited_s"])
-        b.stamps, b.samples = int(ps["stamps"]), int(ps["brush_samples"])
-        b.eraser_samples, b.strokes = int(ps["eraser_samples"]), int(ps["strokes"])
-        self._last_t = float(ls["last_t"])
-        for k in ("samples", "commands", "bad_commands", "bad_samples", "dropped_sources",
-                  "synthetic_pen_ups"):
-            setattr(self.counters, k, int(ls[k]))
+        live_checkpoint.restore(self, s)
 
     def _replay(self, plan: recovery.Plan) -> None:
-        """Apply the log records after the checkpoint exactly as they were applied
-        live (each after ``floor((t + waited)·rate)`` steps), then continue the
-        session clock from there."""
-        p = self.player
-        last_seq: dict[str, int] = {}
-        for rec in plan.records():
-            while p.counters.steps < p.steps_due(rec.t):
-                self.step()
-            try:
-                p.apply(rec)
-            except BadInput as exc:  # not in a log this process wrote; counted anyway
-                self._warn(f"recovery: record not applied: {exc}")
-                continue
-            self._last_t = max(self._last_t, rec.t)
-            if isinstance(rec, PenSample):
-                dev = self.devices.setdefault(rec.device, DeviceState(last_seen=0.0))
-                dev.touching, dev.last_sample = rec.touching and rec.proximity, rec
-                if rec.seq:
-                    last_seq[rec.device] = rec.seq
-                self.counters.samples += 1
-            else:
-                self.counters.commands += 1
-                if rec.cmd == "wait":
-                    while p.counters.steps < p.steps_due(rec.t):
-                        self.step()
-        # The clock goes on at the start of the next step's slot: that step runs first,
-        # with whatever stamps are pending (or were put into the canvas by a final
-        # autosave), exactly as a replay of the continued log runs it.
-        self.start = time.monotonic() - ((p.counters.steps + 1) / p.rate - p.waited)
-        now = time.monotonic()
-        for name, dev in self.devices.items():
-            dev.last_seen = now
-            dev.resume_seq = last_seq.get(name)
-            if dev.touching:  # a stroke open at the crash: ends unless its device speaks
-                dev.heartbeat_s = RECOVERED_STROKE_GRACE_S / SILENCE_INTERVALS
-        log.warning("recovered %s: %d records replayed after the autosave (%d steps)",
-                    plan.log_path, plan.replayed, p.counters.steps)
+        live_checkpoint.replay(self, plan)
 
-    # -- status ------------------------------------------------------------------
     def status(self) -> dict[str, Any]:
         p, c = self.player, self.counters
         now = time.monotonic()
@@ -688,7 +520,7 @@ class LiveCore:
             "bad_commands": c.bad_commands, "bad_samples": c.bad_samples,
             "dropped_sources": c.dropped_sources, "synthetic_pen_ups": c.synthetic_pen_ups,
             "recovered_duplicates": c.recovered_duplicates, "flood_dropped": c.flood_dropped,
-            "missed_while_down": c.missed_while_down,
+            "missed_while_down": c.missed_while_down, "unread_at_stop": c.unread_at_stop,
             "stamps": p.brush.stamps, "eraser_samples": p.brush.eraser_samples,
             "devices": {n: {"state": "silent" if d.silent else "live",
                             "last_seen_s": round(now - d.last_seen, 3),
@@ -728,7 +560,7 @@ class LiveCore:
         a last autosave, close the log."""
         p = self.player
         try:
-            p.flush_sources()
+            p.flush_sources(whole=True)
         except BadInput as exc:
             self.counters.dropped_sources += 1
             self._warn(f"brush sources dropped: {exc}")
@@ -756,120 +588,3 @@ def _did(cmd: Command) -> str:
         return f"{cmd.cmd} done"
     parts = ", ".join(f"{k} {json.dumps(v)}" for k, v in sorted(cmd.args.items()))
     return f"{cmd.cmd} set ({parts[:200]})"
-
-
-class LiveSim(LiveCore):
-    """The running simulation process: :class:`LiveCore` on the bus."""
-
-    def __init__(self, cfg: LiveConfig) -> None:
-        # The bus first: an endpoint in use ends the run before any file is made.
-        endpoints = [cfg.bus]
-        cmd_ep = cfg.cmd or "@" + DEFAULT_CMD_ENDPOINT
-        if cmd_ep != "none":
-            endpoints.append(cmd_ep if cmd_ep[0] in "@>" else "@" + cmd_ep)
-        self.sub = Subscriber(endpoints, topics=("pen.", "cmd", "hb."),  # type: ignore[arg-type]
-                              keys=cfg.keys, client_key=cfg.client_key)
-        status_ep = cfg.status or default_status_endpoint(cfg.bus)
-        try:
-            self.pub = None if status_ep == "none" else Publisher(
-                status_ep, keys=cfg.keys, client_key=cfg.client_key)
-            super().__init__(cfg)
-        except BaseException:
-            self.sub.close()
-            pub = getattr(self, "pub", None)
-            if pub is not None:
-                pub.close()
-            raise
-        pub = self.pub
-        if pub is not None:  # a haptic driver subscribes to haptic.<device>
-            self.haptics.wanted = lambda name: pub.wants(f"haptic.{name}")
-        self._next_status = 0.0
-        self._fps_mark = (time.monotonic(), self.player.counters.steps)
-        self.fps = 0.0
-
-    def drain(self, timeout_ms: int) -> None:
-        msg = self.sub.recv(timeout_ms)
-        n = 0
-        while msg is not None:
-            self.handle(msg.kind, msg.value, msg.topic, msg.replay)
-            n += 1
-            if n >= DRAIN_MAX or self.stop_requested:
-                return
-            msg = self.sub.recv(0)
-
-    def on_wait_step(self) -> None:
-        self.maybe_publish_status()
-
-    # -- status --------------------------------------------------------------
-    def status(self) -> dict[str, Any]:
-        p = self.player
-        now = time.monotonic()
-        mark_t, mark_steps = self._fps_mark
-        if now - mark_t >= 0.25:
-            self.fps = (p.counters.steps - mark_steps) / (now - mark_t)
-            self._fps_mark = (now, p.counters.steps)
-        st = {"process": "sim", "pid": os.getpid(), **super().status(), "fps": self.fps,
-              "bus": self.sub.stats.as_dict(), "haptic": self.haptics.as_dict()}
-        # samples lost on the bus, and those sent while no sim listened (recovery)
-        st["lost_samples"] = self.sub.stats.lost + self.counters.missed_while_down
-        return st
-
-    def publish_haptic(self, device: str, force: HapticForce) -> None:
-        if self.pub is not None:
-            self.pub.publish_haptic(device, force)
-
-    def maybe_publish_status(self) -> None:
-        """Publish the status when the last one is :data:`STATUS_EVERY_S` old."""
-        now = time.monotonic()
-        if now >= self._next_status:
-            self._next_status = now + STATUS_EVERY_S
-            self.publish_status()
-
-    def publish_status(self, final: bool = False) -> None:
-        if self.pub is None:
-            return
-        st = self.status()
-        st["state"] = "stopped" if final else "running"
-        try:
-            self.pub.publish_status(st)
-        except Exception as exc:  # status is best effort; painting goes on
-            log.warning("cannot publish status: %s", exc)
-
-    # -- main loop -----------------------------------------------------------
-    def run(self) -> dict[str, Any]:
-        """Run until stopped; returns the final status."""
-        end = None if self.cfg.duration is None else self.now() + self.cfg.duration
-        try:
-            while not self.stop_requested:
-                if end is not None and self.now() >= end:
-                    break
-                if self.tick():
-                    self.drain(0)
-                else:
-                    wait = min(self.seconds_to_next_step(), 0.1)
-                    self.drain(max(0, int(wait * 1000) + 1))
-                self.check_devices()
-                if self.newly_silent:
-                    self.newly_silent.clear()
-                    self.publish_status()  # name a silent device at once
-                self.maybe_publish_status()
-        finally:
-            final = self.shutdown()
-        return final
-
-    def shutdown(self) -> dict[str, Any]:
-        """Finish (see :meth:`LiveCore.finish`), publish the final status, close."""
-        self.finish()
-        final = self.status()
-        self.publish_status(final=True)
-        self.sub.close()
-        if self.pub is not None:
-            self.pub.close()
-        return final
-
-    def install_signal_handlers(self) -> None:
-        def on_signal(signum: int, frame: FrameType | None) -> None:
-            self.stop_requested = True
-
-        signal.signal(signal.SIGTERM, on_signal)
-        signal.signal(signal.SIGINT, on_signal)

@@ -44,7 +44,8 @@ from station.backends.protocol import CanvasBackend, edit_state
 from station.brush.deformable import DeformableBrush
 from station.brush.reservoir import pickup
 from station.brush.solver import SolverCounters
-from station.brush.stamp import STAMP_KIND, BrushModel, BrushSettings, RoundBrush, Sources
+from station.brush.sources import Sources
+from station.brush.stamp import STAMP_KIND, BrushModel, BrushSettings, RoundBrush
 from station.canvas.paper import make_paper
 from station.canvas.params import Profile
 from station.canvas.profiles import get_profile, profile_names
@@ -52,21 +53,24 @@ from station.canvas.removal import HairDryer, StateSurface, blow
 from station.canvas.state import DEFAULT_SLOTS, CanvasState
 from station.errors import BadInput
 from station.events import Command, PenSample, Tool
+from station.sim.tool_commands import (
+    MAX_WAIT_SECONDS,
+    TOOL_HANDLERS,
+    PlayerError,
+    apply_tilt,
+)
 from station.sim.undo import UndoHistory
 
 log = logging.getLogger(__name__)
 
-MAX_WAIT_SECONDS = 3600.0
+MAX_SKIPPED_NAMES = 64  # distinct unknown command names counted (and warned) by name
+
 MAX_PAINTING_SECONDS = 86400.0
 """Longest painting time a replayed session may reach (session time + waits +
 ``--settle``): one day.  A record past it (``t`` = 1e12 would mean simulating
 for millennia) is refused as bad input instead of running "forever"."""
 MAX_RATE = 1000.0
 """Most simulation steps per second of painting time a replay may ask for."""
-
-
-class PlayerError(BadInput):
-    """A command the player executes has wrong arguments."""
 
 
 @dataclass
@@ -164,7 +168,8 @@ class SessionPlayer:
         return int(math.floor((t + self.waited) * self.rate + 1e-9))
 
     def step(self) -> None:
-        """One simulation step with the brush sources collected since the last."""
+        """One simulation step with the brush sources due before it (each stamp is
+        spread over the two steps around its time: :mod:`station.brush.sources`)."""
         self.flush_sources()
         dryer = self.dryer
         if dryer is not None:
@@ -183,8 +188,10 @@ class SessionPlayer:
             if on_step is not None:
                 on_step(self)
 
-    def flush_sources(self) -> None:
-        """Hand the pending brush stamps to the backend (no step).
+    def flush_sources(self, whole: bool = False) -> None:
+        """Hand the pending brush stamps to the backend (no step): all of them
+        (``whole``: before a command that needs the canvas as painted, at the end), or
+        the part due before the step about to run (a step, a live preview between steps).
 
         A deformable brush first lifts wet paint under its footprints (dirty
         brush) from the canvas arrays, where the backend keeps them in memory
@@ -199,7 +206,7 @@ class SessionPlayer:
                 for r in requests:
                     pickup(StateSurface(state), self.brush.reservoir, r.weight, r.y0, r.x0,
                            self.brush.shape.pickup)
-        src = self.brush.take()
+        src = self.brush.take(None if whole else self.counters.steps)
         if src is not None:
             add_sources(self.backend, src)
 
@@ -220,6 +227,7 @@ class SessionPlayer:
                 self._check_layer(where)
                 if self.controller is not None:
                     self._write_controller(record)
+            self.brush.clock = (self.rate, self.waited)
             self.brush.feed(record)
         else:
             self.command(record, where)
@@ -248,7 +256,7 @@ class SessionPlayer:
             self._dab = None
             self._tool_last = None
             return
-        self.flush_sources()  # what the brush painted before comes first
+        self.flush_sources(whole=True)  # what the brush painted before comes first
         cx, cy = rec.x * self.width, rec.y * self.height
         # dabs every third of the tool's radius between two samples, as the brush stamps
         radius = {"mask": self.mask_radius, "eraser": self.eraser.radius}.get(
@@ -303,8 +311,11 @@ class SessionPlayer:
             self.history.before(cmd)
         handler = _HANDLERS.get(name)
         if handler is None:
-            self.counters.skipped_commands[name] = self.counters.skipped_commands.get(name, 0) + 1
-            if name not in self._warned:
+            skipped = self.counters.skipped_commands
+            # names come from whoever publishes on the bus: a bounded set of them
+            key = name if name in skipped or len(skipped) < MAX_SKIPPED_NAMES else "(other)"
+            skipped[key] = skipped.get(key, 0) + 1
+            if name not in self._warned and len(self._warned) < MAX_SKIPPED_NAMES:
                 self._warned.add(name)
                 what = "not implemented yet" if cmd.known else "unknown"
                 log.warning("%scommand %r is %s: skipped", f"{where}: " if where else "", name,
@@ -331,7 +342,7 @@ class SessionPlayer:
         if deformable == isinstance(self.brush, DeformableBrush):
             self.brush.set(settings)
             return
-        self.flush_sources()
+        self.flush_sources(whole=True)
         old = self.brush
         if deformable:
             self.brush = DeformableBrush(self.width, self.height, settings, old.model,
@@ -386,7 +397,7 @@ class SessionPlayer:
 
     def _profile(self, args: Mapping[str, object], where: str | None) -> None:
         name = _profile_name(args, where)
-        self.flush_sources()
+        self.flush_sources(whole=True)
         try:
             self.backend.set_profile(name)
         except BadInput as exc:
@@ -394,7 +405,7 @@ class SessionPlayer:
         prof = get_profile(name)
         self.profile = name
         if self.tilt[0] != 0.0:
-            _apply_tilt(self)
+            apply_tilt(self)
         # The rate (steps per painting second) stays; a profile with another dt
         # changes how much simulated time a painting second holds.
         self.dt = prof.params.dt
@@ -432,11 +443,11 @@ class SessionPlayer:
                     self.advance_to(rec.t, on_step)
         except BadInput:
             try:  # keep what was painted before the bad record ...
-                self.flush_sources()
+                self.flush_sources(whole=True)
             except BadInput as exc:  # ... unless the stamps themselves are refused
                 log.warning("stamps before the bad record dropped: %s", exc)
             raise
-        self.flush_sources()
+        self.flush_sources(whole=True)
 
     def _check_time(self, t: float, more: float, where: Callable[[], str] | None,
                     flag: str | None = None) -> None:
@@ -454,7 +465,7 @@ class SessionPlayer:
         self._check_time(self.last_t, seconds, None, "--settle")
         self.waited += seconds
         self.advance_to(self.last_t, on_step)
-        self.flush_sources()
+        self.flush_sources(whole=True)
 
 
 def _profile_name(args: Mapping[str, object], where: str | None) -> str:
@@ -512,266 +523,11 @@ def check_command(cmd: Command, pigments: Container[str] | None = None,
         _HANDLERS[name](scratch, cmd.args, where)
 
 
-def _dry(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
-    p.flush_sources()
-    p.backend.dry()
-
-
-def _number(args: Mapping[str, object], key: str, default: float, lo: float, hi: float,
-            where: str | None) -> float:
-    v = args.get(key, default)
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
-            or not lo <= v <= hi:
-        raise PlayerError(f"hairdryer {key} {v!r} must be a number in [{lo:g}, {hi:g}]", where)
-    return float(v)
-
-
-def _hairdryer(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
-    """Hold a hair dryer over (x, y) (canvas-normalised) for ``seconds`` of painting time
-    from now (0 switches it off): ``radius`` [cells of the session's canvas],
-    ``temperature`` [C] and ``airflow`` [1] of its air at the sheet."""
-    x = _number(args, "x", 0.5, 0.0, 1.0, where)
-    y = _number(args, "y", 0.5, 0.0, 1.0, where)
-    seconds = _number(args, "seconds", 10.0, 0.0, MAX_WAIT_SECONDS, where)
-    radius = _number(args, "radius", 60.0, 1.0, 2048.0, where) * p.brush_scale
-    temp = _number(args, "temperature", 40.0, -10.0, 60.0, where)
-    flow = _number(args, "airflow", 2.0, 0.0, 200.0, where)
-    p.flush_sources()
-    p.dryer = HairDryer(cx=x * (p.width - 1), cy=y * (p.height - 1),
-                        radius=max(1.0, min(radius, 2048.0)), temperature=temp, airflow=flow)
-    p.dryer_until = p.counters.steps + int(round(seconds * p.rate))
-    if seconds == 0:
-        p.dryer = None
-
-
-def _new_layer(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
-    p.flush_sources()
-    try:
-        p.backend.new_layer()
-    except BadInput as exc:
-        raise PlayerError(str(exc), where) from None
-    p.layer_pigments.clear()
-
-
-def _clear(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
-    p.brush.take()  # stamps not yet simulated are cleared with the rest
-    p.backend.clear()
-    p.layer_pigments.clear()
-
-
-def _tool_number(tool: str, args: Mapping[str, object], key: str, default: float, lo: float,
-                 hi: float, where: str | None) -> float:
-    v = args.get(key, default)
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) \
-            or not lo <= v <= hi:
-        raise PlayerError(f"{tool} {key} {v!r:.40} must be a number in [{lo:g}, {hi:g}]",
-                          where)
-    return float(v)
-
-
-def _check_keys(tool: str, args: Mapping[str, object], known: set[str], where: str | None) -> None:
-    extra = sorted(set(args) - known)
-    if extra:
-        raise PlayerError(f"{tool}: unknown argument {extra[0]!r} (known: "
-                          f"{', '.join(sorted(known))})", where)
-
-
-_AT = {"x", "y", "pressure"}
-
-
-def _pick_up(p: SessionPlayer, tool: str, args: Mapping[str, object], where: str | None) -> None:
-    """Take ``tool`` in hand; with ``x``/``y`` (canvas-normalised) also dab once there."""
-    p.flush_sources()
-    p.tool = tool
-    p._dab = None
-    p._tool_last = None
-    if "x" in args or "y" in args:
-        x = _tool_number(tool, args, "x", 0.5, 0.0, 1.0, where)
-        y = _tool_number(tool, args, "y", 0.5, 0.0, 1.0, where)
-        pr = _tool_number(tool, args, "pressure", 1.0, 0.0, 1.0, where)
-        try:
-            p._dab_at(tool, x * p.width, y * p.height, pr)
-        except BadInput as exc:
-            raise PlayerError(str(exc), where) from None
-        p._dab = None
-
-
-def _mask(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
-    """Masking fluid: ``size`` (diameter, cells of the session's canvas)."""
-    _check_keys("mask", args, {"size"} | _AT, where)
-    if "size" in args:
-        p.mask_radius = _tool_number("mask", args, "size", 12, 1, 1024, where) * \
-            p.brush_scale / 2.0
-    _pick_up(p, "mask", args, where)
-
-
-def _mask_remove(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
-    _check_keys("mask_remove", args, set(), where)
-    p.flush_sources()
-    edit_state(p.backend, mask_tool.rub_off)
-
-
-def _eraser(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
-    """The selective eraser: ``fields`` (list), ``fraction``, ``size`` (diameter)."""
-    _check_keys("eraser", args, {"fields", "fraction", "size"} | _AT, where)
-    e = p.eraser
-    fields = args.get("fields", list(e.fields))
-    if not isinstance(fields, list) or not all(isinstance(f, str) for f in fields):
-        raise PlayerError("eraser fields must be a list of strings", where)
-    frac = _tool_number("eraser", args, "fraction", e.fraction, 0.0, 1.0, where)
-    size = _tool_number("eraser", args, "size", 2 * e.radius / p.brush_scale, 1, 1024, where)
-    try:
-        p.eraser = eraser_tool.Eraser(tuple(fields), frac, size * p.brush_scale / 2.0)
-    except BadInput as exc:
-        raise PlayerError(str(exc).removeprefix("eraser: "), where) from None
-    _pick_up(p, "eraser", args, where)
-
-
-def _tissue(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
-    """The textured tissue: ``kind`` (crepe, weave, flat), ``scale`` cells, ``seed``,
-    ``size`` (diameter), ``absorb``."""
-    _check_keys("tissue", args, {"kind", "scale", "seed", "size", "absorb"} | _AT, where)
-    t = p.tissue
-    kind = args.get("kind", t.kind)
-    if kind not in tissue_tool.KINDS:
-        raise PlayerError(f"tissue kind {kind!r:.40} must be one of "
-                          f"{', '.join(tissue_tool.KINDS)}", where)
-    seed = args.get("seed", t.seed)
-    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32:
-        raise PlayerError(f"tissue seed {seed!r:.40} must be an integer in [0, 2^32)", where)
-    scale = _tool_number("tissue", args, "scale", t.scale, 1, 256, where)
-    size = _tool_number("tissue", args, "size", 2 * t.radius / p.brush_scale, 1, 1024, where)
-    absorb = _tool_number("tissue", args, "absorb", t.absorb, 0, 1, where)
-    # a session painted at a smaller size scales the texture with it, but no finer
-    # than a cell: the texture lives on the canvas grid
-    new = tissue_tool.Tissue(kind, max(1.0, scale * p.brush_scale), seed, None,
-                             size * p.brush_scale / 2.0, absorb)
-    if (new.kind, new.scale, new.seed) != (t.kind, t.scale, t.seed):
-        p._tissue_tex = None
-    p.tissue = new
-    _pick_up(p, "tissue", args, where)
-
-
-def _tilt(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
-    """Tilt the canvas: ``angle`` from the horizontal [deg, 0 ... 90], ``direction`` of
-    the downhill slope on the canvas [deg from +x towards +y; 90 = towards the bottom]."""
-    _check_keys("tilt", args, {"angle", "direction"}, where)
-    angle = _tool_number("tilt", args, "angle", 0.0, 0.0, 90.0, where)
-    direction = _tool_number("tilt", args, "direction", 90.0, 0.0, 359.999, where)
-    p.flush_sources()
-    p.tilt = (angle, direction)
-    _apply_tilt(p)
-
-
-def _apply_tilt(p: SessionPlayer) -> None:
-    angle, direction = p.tilt
-
-    def put(st: CanvasState) -> None:
-        st.params = st.params.replace(tilt=angle, tilt_direction=direction)
-
-    edit_state(p.backend, put)
-
-
-def _diffusion(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
-    """The diffusion controller: while on, the brush writes ``pattern`` (``stripes``,
-    ``rings``, ``dots``, ``checks``; ``off`` stops it) of ``period`` cells at ``angle``
-    degrees with ``strength`` every ``interval`` touching samples along its strokes."""
-    _check_keys("diffusion", args, {"pattern", "period", "angle", "strength", "interval",
-                                    "fade"}, where)
-    if "fade" in args:  # how long a written pattern takes to age back to free [s]
-        fade = _tool_number("diffusion", args, "fade", 2.0, 0.0, 3600.0, where)
-        p.flush_sources()
-
-        def put(st: CanvasState) -> None:
-            st.params = st.params.replace(block_fade=fade)
-
-        edit_state(p.backend, put)
-    pattern = args.get("pattern", "stripes")
-    if pattern == "off":
-        p.controller = None
-        return
-    interval = args.get("interval", 1)
-    if isinstance(interval, bool) or not isinstance(interval, int) or not 1 <= interval <= 1000:
-        raise PlayerError(f"diffusion interval {interval!r:.40} must be an integer in "
-                          "[1, 1000]", where)
-    if pattern not in diffusion_tool.PATTERNS:
-        raise PlayerError(f"diffusion pattern {pattern!r:.40} must be off or one of "
-                          f"{', '.join(diffusion_tool.PATTERNS)}", where)
-    period = _tool_number("diffusion", args, "period", 4.0, 2.0, 512.0, where) * p.brush_scale
-    p.controller = diffusion_tool.Controller(
-        pattern, max(period, 2.0), _tool_number("diffusion", args, "angle", 0.0, -360, 360, where),
-        _tool_number("diffusion", args, "strength", 1.0, 0.0, 1.0, where), interval)
-    p._controller_field = None
-    p._controller_count = 0
-
-
-def _undo(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
-    """Undo the newest stroke or dab (``station.sim.undo``); nothing to undo: counted."""
-    _check_keys("undo", args, set(), where)
-    if p.history is None or not p.history.undo():
-        p.counters.skipped_commands["undo"] = p.counters.skipped_commands.get("undo", 0) + 1
-
-
-def _redo(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
-    _check_keys("redo", args, set(), where)
-    if p.history is None or not p.history.redo():
-        p.counters.skipped_commands["redo"] = p.counters.skipped_commands.get("redo", 0) + 1
-
-
-def _well(p: SessionPlayer, args: Mapping[str, object], where: str | None) -> None:
-    """The palette's mixing well: ``add`` a pigment (``amount`` of tube strength, ``water``,
-    ``settle`` seconds of mixing), ``pick`` the mix up with the brush, or ``clear`` it."""
-    _check_keys("well", args, {"add", "amount", "water", "settle", "pick", "clear"}, where)
-    if p.well is None:
-        prof = get_profile(p.profile)
-        p.well = well_tool.MixingWell(prof.params, prof.brush.pigment_load)
-    well = p.well
-    if args.get("clear") is True:
-        well.clear()
-    name = args.get("add")
-    if name is not None:
-        if not isinstance(name, str):
-            raise PlayerError(f"well add {name!r:.40} must be a pigment name", where)
-        amount = _tool_number("well", args, "amount", 0.5, 0.0, 1.0, where)
-        water = _tool_number("well", args, "water", 0.6, 0.05, 1.0, where)
-        settle = _tool_number("well", args, "settle", 2.0, 0.0, 60.0, where)
-        try:
-            well_tool.check_room(well, name)
-            well.add(name, amount, water, settle)
-        except BadInput as exc:
-            raise PlayerError(str(exc).removeprefix("well: ").removeprefix("pigment: "),
-                              where) from None
-    if args.get("pick") is True:
-        mix = well.mix()
-        if not mix:  # a state, not a malformed command (like undo with nothing to undo)
-            p.counters.skipped_commands["well"] = p.counters.skipped_commands.get("well", 0) + 1
-            if "well-empty" not in p._warned:
-                p._warned.add("well-empty")
-                log.warning("%sthe well is empty: nothing to pick up (skipped)",
-                            f"{where}: " if where else "")
-            return
-        b = p.brush.settings
-        p._use(BrushSettings(b.kind, b.size, b.water, mix))
-        p.tool = None
-
-
 _HANDLERS: dict[str, Callable[[SessionPlayer, Mapping[str, object], str | None], None]] = {
-    "well": _well,
-    "undo": _undo,
-    "redo": _redo,
-    "diffusion": _diffusion,
-    "tilt": _tilt,
-    "mask": _mask,
-    "mask_remove": _mask_remove,
-    "eraser": _eraser,
-    "tissue": _tissue,
+    **TOOL_HANDLERS,
     "brush": SessionPlayer._brush,
     "profile": SessionPlayer._profile,
     "wait": SessionPlayer._wait,
-    "dry": _dry,
-    "hairdryer": _hairdryer,
-    "new_layer": _new_layer,
-    "clear": _clear,
 }
 
 

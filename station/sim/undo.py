@@ -22,7 +22,15 @@ Bounded memory: at most ``limit`` units (default :data:`DEFAULT_LIMIT` = 20) and
 undo and redo stacks together; the oldest checkpoint goes first and its unit can no
 longer be undone. A checkpoint holds ``(10 + 3 S) H W + 3 H W`` float32 values (S pigments
 in the layer): 44 MB for 800x600 with 3 pigments, so about 11 strokes fit the default
-budget there; a 256x192 canvas keeps all 20.
+budget there; a 256x192 canvas keeps all 20. The records replayed after a checkpoint are
+kept too, at most ``max_records`` of them (default :data:`DEFAULT_MAX_RECORDS` = 50,000:
+about 4 minutes of one pen at 200 Hz, some 30 MB of Python objects): beyond it the oldest
+units are let go until a quarter of the cap is free, and records nothing could replay any
+more are forgotten. Under a bus flood (one endless stroke of touching samples) this is
+what keeps the sim's memory flat: the stroke stops being undoable, and says so. Every
+unit let go is counted by why (``limit``, ``budget``, ``records``) in
+:meth:`UndoHistory.status` and logged (at most one line per 10 s, with the counts); an
+``undo`` with nothing left names the cap that let the older steps go (:attr:`last`).
 
 API (the kiosk's undo button): ``hist = UndoHistory(player)`` attaches itself to the
 player (``player.history``); from then on every record the player applies is recorded;
@@ -37,6 +45,7 @@ from __future__ import annotations
 
 import copy
 import logging
+import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -52,6 +61,8 @@ log = logging.getLogger(__name__)
 
 DEFAULT_LIMIT = 20
 DEFAULT_BUDGET = 512 << 20
+DEFAULT_MAX_RECORDS = 50_000
+DROP_LOG_S = 10.0  # at most one line per this many seconds about units let go
 DAB_COMMANDS = frozenset({"tissue", "eraser", "mask"})
 _SHARED = ("backend", "history", "pigments")  # player attributes a checkpoint does not copy
 _STACKS = ("p", "q", "removed_p")
@@ -104,12 +115,17 @@ class UndoHistory:
     """Undo/redo for one :class:`SessionPlayer` (see the module docstring)."""
 
     def __init__(self, player: SessionPlayer, limit: int = DEFAULT_LIMIT,
-                 budget: int = DEFAULT_BUDGET) -> None:
-        if limit < 1 or budget < 1:
-            raise ValueError("undo limit and budget must be positive")
+                 budget: int = DEFAULT_BUDGET, max_records: int = DEFAULT_MAX_RECORDS) -> None:
+        if limit < 1 or budget < 1 or max_records < 4:
+            raise ValueError("undo limit, budget and record cap must be positive")
         self.player = player
         self.limit = int(limit)
         self.budget = int(budget)
+        self.max_records = int(max_records)
+        self.dropped: dict[str, int] = {"limit": 0, "budget": 0, "records": 0}
+        self.forgotten = 0  # records let go once no undo or redo could replay them
+        self.last = ""  # what the last undo/redo did, or why it did nothing
+        self._drop_logged = -DROP_LOG_S
         self._recs: dict[int, Record] = {}
         self._order: list[int] = []  # record ids in session order (undone units left out)
         self._unit_of: dict[int, int] = {}  # record id -> unit id
@@ -135,9 +151,11 @@ class UndoHistory:
         self._next += 1
         self._recs[rid] = rec
         self._order.append(rid)
-        if uid is not None:
+        if uid is not None and self._units[uid].checkpoint is not None:
             self._unit_of[rid] = uid
             self._units[uid].records.append(rid)
+        if len(self._recs) > self.max_records:
+            self._cap_records()
 
     def _unit_for(self, rec: Record) -> int | None:
         if isinstance(rec, PenSample):
@@ -184,9 +202,61 @@ class UndoHistory:
             total = sum(u.checkpoint.nbytes for u in kept if u.checkpoint)
             if len(kept) <= self.limit and (total <= self.budget or len(kept) <= 1):
                 return
-            oldest = self._units[self._done[0]]
-            oldest.checkpoint = None  # no longer undoable; its records stay for good
-            self._done.pop(0)
+            self._let_go(self._done[0], "limit" if len(kept) > self.limit else "budget")
+
+    def _let_go(self, uid: int, why: str) -> None:
+        """The oldest undoable unit ``uid`` can no longer be undone (counted, logged)."""
+        unit = self._units[uid]
+        unit.checkpoint = None  # its records stay in the order: later units replay them
+        for r in unit.records:
+            self._unit_of.pop(r, None)
+        unit.records.clear()
+        self._done.remove(uid)
+        self.dropped[why] += 1
+        now = time.monotonic()
+        if now >= self._drop_logged + DROP_LOG_S:
+            self._drop_logged = now
+            log.info("undo history: the oldest steps can no longer be undone (at most %d "
+                     "steps, %d MiB of checkpoints, %d records; let go so far: %s)",
+                     self.limit, self.budget >> 20, self.max_records,
+                     ", ".join(f"{k} {v}" for k, v in self.dropped.items()))
+
+    def _cap_records(self) -> None:
+        """Keep at most :attr:`max_records` records: forget those nothing can replay, then
+        let the oldest units go until a quarter of the cap is free (so this runs once per
+        ``max_records / 4`` records at most, not per record)."""
+        low = self.max_records * 3 // 4
+        self._forget()
+        while len(self._recs) > low and (self._done or self._redo):
+            if self._done:
+                self._let_go(self._done[0], "records")
+            else:  # only undone units hold records now: the oldest redo goes
+                unit, _ = self._redo.pop(0)
+                for r in unit.records:
+                    self._recs.pop(r, None)
+                    self._unit_of.pop(r, None)
+                self._units.pop(unit.uid, None)
+                self.dropped["records"] += 1
+            self._forget()
+
+    def _forget(self) -> None:
+        """Let go of the records before the first one an undo or redo would replay."""
+        starts = [self._order.index(self._units[u].records[0]) for u in self._done
+                  if self._units[u].records]
+        starts += [pos[0] for _, pos in self._redo if pos]
+        cut = min(starts, default=len(self._order))
+        for rid in self._order[:cut]:
+            del self._recs[rid]
+            self._unit_of.pop(rid, None)
+        self.forgotten += cut
+        self._order = self._order[cut:]
+        self._redo = [(u, [p - cut for p in pos]) for u, pos in self._redo]
+        live = set(self._done) | {u.uid for u, _ in self._redo}
+        for rid in [r for r, u in self._unit_of.items() if u not in live]:
+            del self._unit_of[rid]
+        keep = live | set(self._open.values())
+        for uid in [u for u in self._units if u not in keep]:
+            del self._units[uid]
 
     # -- undo / redo ---------------------------------------------------------------
     def can_undo(self) -> bool:
@@ -198,6 +268,7 @@ class UndoHistory:
     def undo(self) -> bool:
         """Undo the newest unit still undoable; ``False`` when there is none."""
         if not self.can_undo():
+            self.last = self._nothing("undo")
             return False
         unit = self._units[self._done.pop()]
         for dev, uid in list(self._open.items()):
@@ -210,11 +281,24 @@ class UndoHistory:
         self._redo.append((unit, positions))
         self._rewind(unit, start)
         self.undone += 1
+        self.last = f"undone ({self.undo_depth()} more can be undone)"
         return True
+
+    def undo_depth(self) -> int:
+        return sum(1 for u in self._done if self._units[u].checkpoint)
+
+    def _nothing(self, what: str) -> str:
+        gone = sum(self.dropped.values())
+        if what == "undo" and gone:
+            return (f"nothing left to undo: the {gone} oldest steps were let go to keep "
+                    f"memory bounded (at most {self.limit} steps, {self.budget >> 20} MiB of "
+                    f"checkpoints, {self.max_records} records)")
+        return f"nothing to {what}"
 
     def redo(self) -> bool:
         """Redo the unit undone last; ``False`` when there is none."""
         if not self._redo:
+            self.last = self._nothing("redo")
             return False
         unit, positions = self._redo.pop()
         for pos, rid in zip(positions, unit.records, strict=True):
@@ -224,6 +308,7 @@ class UndoHistory:
         start = positions[0] if positions else len(self._order)
         self._rewind(unit, start)
         self.redone += 1
+        self.last = f"redone ({len(self._redo)} more can be redone)"
         return True
 
     def _first_pos(self, uid: int) -> int:
@@ -265,9 +350,11 @@ class UndoHistory:
         """Depth of both stacks, the limits and the bytes held (for a status line)."""
         held = [self._units[u].checkpoint for u in self._done] + [u.checkpoint for u, _ in
                                                                    self._redo]
-        return {"undo_depth": sum(1 for u in self._done if self._units[u].checkpoint),
+        return {"undo_depth": self.undo_depth(),
                 "redo_depth": len(self._redo), "limit": self.limit, "budget": self.budget,
                 "bytes": sum(c.nbytes for c in held if c is not None),
+                "max_records": self.max_records, "records": len(self._recs),
+                "forgotten_records": self.forgotten, "let_go": dict(self.dropped),
                 "undone": self.undone, "redone": self.redone,
                 "replayed_steps": self.replayed_steps}
 

@@ -53,6 +53,7 @@ ONE = np.float32(1.0)
 HALF = np.float32(0.5)
 
 # indices into the float32 constant vector ``cst`` (see step.constants)
+FOUR = np.float32(4.0)
 C_DT = 0
 C_KV = 1          # viscosity * dt
 C_KW = 2          # nu_w * dt
@@ -85,7 +86,11 @@ C_TILTX = 28      # tilt kick x: float32(ax * dt)
 C_TILTY = 29      # tilt kick y
 C_DISP = 30       # fibre_dispersivity / nu_p (SimParams.fibre_dispersion_gain)
 C_VFIB = 31       # fibre_flow_max
-N_CONST = 32
+C_EASE = 32       # damp_ease
+C_SUSP = 33       # suspend_sat
+C_DSAT = 34       # damp_sat
+C_DSPAN = 35      # float32(1 - damp_sat)
+N_CONST = 36
 
 # the sweeps: rows in parallel; IEEE float32 maths exactly as written (no fastmath, no FMA
 # contraction), numpy's error model (division without ZeroDivision checks: every division
@@ -288,6 +293,19 @@ def _fibre_dispersion(fibre: np.ndarray, vx: np.ndarray, vy: np.ndarray, y: int,
     return ONE + gd * ((f0 if f0 > f1 else f1) * s)
 
 
+@_inline
+def _damp_factor(wcv: np.float32, hv: np.float32, cmin: np.float32, cspan: np.float32,
+                 ease: np.float32, dsat: np.float32, dspan: np.float32) -> np.float32:
+    """``max(1 - damp_ease ((4 s') (1 - s')), 0)``, ``s' = max(s - damp_sat, 0) /
+    (1 - damp_sat)``, ``s = min(wc / c, 1)`` (reference.damp_factor)."""
+    s = wcv / (cmin + hv * cspan)
+    s = ONE if s > ONE else s
+    sp = s - dsat
+    sp = (sp if sp > ZERO else ZERO) / dspan
+    f = ONE - ease * ((FOUR * sp) * (ONE - sp))
+    return ZERO if f < ZERO else f
+
+
 @_parallel
 def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np.ndarray,
          p: np.ndarray, h: np.ndarray, block: np.ndarray, block_time: np.ndarray,
@@ -317,6 +335,10 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
     cspan = cst[C_CSPAN]
     disp = cst[C_DISP]
     vfib = cst[C_VFIB]
+    ease = cst[C_EASE]
+    dsat = cst[C_DSAT]
+    dspan = cst[C_DSPAN]
+    easing = ease > ZERO
     advancing = adv > ZERO
     nt = taps.shape[0]
     r = (nt - 1) // 2
@@ -351,6 +373,9 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         ow = ((wv > ZERO) | (wc[y, x] > moist)) & un
                         own[i + r] = ONE if ow else ZERO
                         thr = adv * (one5 - h[y, x])
+                        if easing:
+                            thr = thr * _damp_factor(wc[y, x], h[y, x], cmin, cspan, ease,
+                                                        dsat, dspan)
                         nb = wr[i + 1]
                         t = wr[i - 1]
                         nb = nb if nb > t else t
@@ -372,6 +397,9 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         ow = ((wv > ZERO) | (wc[y, x] > moist)) & un
                         own[i + r] = ONE if ow else ZERO
                         thr = adv * (one5 - h[y, x])
+                        if easing:
+                            thr = thr * _damp_factor(wc[y, x], h[y, x], cmin, cspan, ease,
+                                                        dsat, dspan)
                         nb = wr[i + 1]
                         t = wr[i - 1]
                         nb = nb if nb > t else t
@@ -1170,6 +1198,8 @@ def capillary_dry(sat: np.ndarray, c: np.ndarray, opn: np.ndarray, v3x: np.ndarr
     k = cst[C_KC]
     ecap = cst[C_ECAP]
     wdry = cst[C_WDRY]
+    susp = cst[C_SUSP]
+    suspending = susp > ZERO
     nch = min(bh, N_CHUNKS)
     for ch in prange(nch):
         j0, j1 = _chunk(ch, nch, bh)
@@ -1227,7 +1257,10 @@ def capillary_dry(sat: np.ndarray, c: np.ndarray, opn: np.ndarray, v3x: np.ndarr
                             qv = q[kk, y, x]
                             t = ONE - qv
                             t = pv if pv < t else t
-                            t = t if w[y, x] == ZERO else ZERO
+                            settle = w[y, x] == ZERO
+                            if suspending and wc[y, x] > susp * c[j, i]:
+                                settle = False  # damp paper keeps its pigment suspended
+                            t = t if settle else ZERO
                             p[kk, y, x] = pv - t
                             q[kk, y, x] = qv + t
 

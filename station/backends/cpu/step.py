@@ -68,6 +68,10 @@ def constants(prm: SimParams, dt: float, sim_time: float) -> np.ndarray:
     c[K.C_WICK] = F32(prm.fibre_wick)
     c[K.C_DISP] = F32(prm.fibre_dispersion_gain())
     c[K.C_VFIB] = F32(prm.fibre_flow_max)
+    c[K.C_EASE] = F32(prm.damp_ease)
+    c[K.C_SUSP] = F32(prm.suspend_sat)
+    c[K.C_DSAT] = F32(prm.damp_sat)
+    c[K.C_DSPAN] = F32(1.0 - prm.damp_sat)
     c[K.C_TILTX], c[K.C_TILTY] = reference.tilt_kick(prm, dt)
     return c
 

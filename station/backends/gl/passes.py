@@ -1,0 +1,291 @@
+"""The GL step's passes: uniforms, dispatches and barriers of the compute programs that
+run ``station/canvas/reference.py``'s passes (the mapping is in ``canvas.py``'s docstring);
+:class:`GLStepPasses` is a mixin of :class:`station.backends.gl.canvas.GLCanvas`."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from station.canvas import operations, reference
+from station.canvas.params import CanvasInputError, SimParams
+
+F32 = np.float32
+# SSBO binding points (tiles.glsl, tile_*.comp, capillary_dry.comp, sources.comp)
+_B_LIST, _B_ALIVE, _B_TTL, _B_PREV, _B_ARGS, _B_ADDED, _B_MARK, _B_FOLDED = 0, 1, 2, 3, 4, 5, 6, 7
+
+
+class GLStepPasses:
+    """One step's passes on the canvas's textures (the attributes are the canvas's)."""
+
+    ctx: Any
+    params: SimParams
+    sim_time: float
+    step_count: int
+    slots: list[str]
+    npl: int
+    tiling: bool
+    _programs: dict[str, Any]
+    width: int
+    height: int
+    palette: Any
+    groups: tuple[int, int]
+    src_groups: tuple[int, int]
+    ntiles: int
+    _cells_cpu: int
+    f: Any
+    aux: Any
+    jv: list[Any]
+    jd: list[Any]
+    pr: Any
+    b_list: Any
+    b_prev: Any
+    b_args: Any
+    b_all: Any
+    b_alive: Any
+    b_ttl: Any
+    b_folded: Any
+
+    def _bind(self, unit: int, tex: Any, read: bool, write: bool) -> None:
+        tex.bind_to_image(unit, read=read, write=write)
+
+    def _barrier(self) -> None:
+        """Make image and SSBO writes (and the indirect dispatch size) visible to the next
+        dispatch; uploads and read-backs are ordered by GL itself."""
+        ctx = self.ctx
+        ctx.memory_barrier(ctx.SHADER_IMAGE_ACCESS_BARRIER_BIT | ctx.SHADER_STORAGE_BARRIER_BIT
+                           | ctx.COMMAND_BARRIER_BIT)
+
+    def _slot_uniforms(self) -> dict[str, list[tuple[float, ...]]]:
+        n = 4 * self.npl
+        beta = np.ones(n, F32)
+        gamma = np.zeros(n, F32)
+        delta = np.zeros(n, F32)
+        for k, name in enumerate(self.slots):
+            pig = self.palette.get(name)
+            beta[k], gamma[k], delta[k] = pig.beta, pig.gamma, pig.delta
+        dob = (delta / beta).astype(F32)
+
+        def vec4s(a: np.ndarray) -> list[tuple[float, ...]]:
+            return [tuple(float(x) for x in a[4 * i:4 * i + 4]) for i in range(self.npl)]
+
+        return {"u_gamma": vec4s(gamma), "u_delta": vec4s(delta), "u_dob": vec4s(dob)}
+
+    def _set_step_uniforms(self, dt: float) -> None:
+        prm = self.params
+        p = self._programs
+        _set(p["prep"], "u_dt", dt)
+        _set(p["prep"], "u_moist", prm.moist_threshold)
+        _set(p["prep"], "u_sim_time", float(F32(self.sim_time)))
+        _set(p["prep"], "u_block_fade", prm.block_fade)
+        _set(p["prep"], "u_block_paper", prm.block_paper)
+        _set(p["prep"], "u_advance", prm.advance_height)
+        _set(p["prep"], "u_wick", prm.fibre_wick)
+        _set(p["prep"], "u_disperse", float(F32(prm.fibre_dispersion_gain())))
+        _set(p["prep"], "u_fibre_flow_max", prm.fibre_flow_max)
+        _set(p["prep"], "u_ease", prm.damp_ease)
+        _set(p["prep"], "u_dsat", prm.damp_sat)
+        _set(p["prep"], "u_dspan", float(F32(1.0 - prm.damp_sat)))
+        taps = reference.gaussian_taps(prm.wet_blur) if prm.flow_outward > 0 else np.zeros(0, F32)
+        if len(taps) > 17:
+            raise CanvasInputError("wet_blur too large for the GL backend (at most 4)", "params")
+        pp = p["pressure"]
+        _set(pp, "u_moist", prm.moist_threshold)
+        _set(pp, "u_eta", prm.flow_outward)
+        _set(pp, "u_relief", prm.paper_relief)
+        _set(pp, "u_ntaps", len(taps))
+        _set(pp, "u_taps", [float(t) for t in taps] + [0.0] * (17 - len(taps)))
+        kv, kw, kp = (float(F32(prm.viscosity * dt)), float(F32(prm.nu_w * dt)),
+                      float(F32(prm.nu_p * dt)))
+        layers = -(-len(self.slots) // 4)
+        for prog in p.values():
+            _set(prog, "u_layers", layers)
+        for name in ("jacobi", "limit", "diffuse_apply"):
+            _set(p[name], "u_kv", kv)
+            _set(p[name], "u_kw", kw)
+            _set(p[name], "u_kp", kp)
+        _set(p["limit"], "u_omega_h", prm.omega_h)
+        _set(p["limit"], "u_omega_i", float(F32(1.0 - prm.omega_h)))
+        _set(p["limit"], "u_half_gain", float(F32(-0.5 * prm.height_gain)))
+        _set(p["limit"], "u_vmax", prm.v_max)
+        _set(p["limit"], "u_tilt", [float(x) for x in reference.tilt_kick(prm, dt)])
+        q4 = float(F32(0.25 * dt))
+        for name in ("advect_limit", "advect_apply"):
+            _set(p[name], "u_q4", q4)
+        _set(p["advect_limit"], "u_wmin", prm.w_min)
+        _set(p["advect_limit"], "u_wmax", prm.w_max)
+        es = p["evap_surface"]
+        _set(es, "u_e", float(F32(prm.evap_shallow() * dt)))
+        _set(es, "u_edge_evap", prm.edge_evap)
+        _set(es, "u_wmax", prm.w_max)
+        _set(es, "u_rate", float(F32(prm.surface_rate * dt)))
+        for key, val in self._slot_uniforms().items():
+            _set(es, key, val)
+        _set(es, "u_absorb", float(F32(prm.alpha * dt)))
+        for name in ("evap_surface", "capillary_dry", "prep"):
+            _set(p[name], "u_cmin", prm.c_min)
+            _set(p[name], "u_crange", float(F32(prm.c_max - prm.c_min)))
+        cd = p["capillary_dry"]
+        _set(cd, "u_kcap", float(F32(prm.cap_diffusion * dt)))
+        _set(cd, "u_ecap", float(F32(prm.evap_cap() * dt)))
+        _set(cd, "u_dry_eps", prm.w_dry_eps)
+        _set(cd, "u_susp", prm.suspend_sat)
+        _set(p["tile_update"], "u_ttl", prm.tile_ttl_steps())
+
+    def _begin_step(self) -> None:
+        """Bind the tile list and build it (tiling) for the passes of one step."""
+        gx, gy = self.groups
+        self.b_ttl.bind_to_storage_buffer(_B_TTL)
+        if self.tiling:
+            self.b_args.write(np.array([gx, gy, 0], np.uint32).tobytes())  # keeps the count
+            self.b_list.bind_to_storage_buffer(_B_LIST)
+            self.b_prev.bind_to_storage_buffer(_B_PREV)
+            self.b_args.bind_to_storage_buffer(_B_ARGS)
+            self._programs["tile_list"].run(-(-self.ntiles // 64), 1, 1)
+            self._barrier()
+        else:
+            self.b_all.bind_to_storage_buffer(_B_LIST)
+            self._cells_cpu += self.width * self.height
+        self.b_alive.bind_to_storage_buffer(_B_ALIVE)
+
+    def _dispatch(self, name: str) -> None:
+        prog = self._programs[name]
+        if self.tiling:
+            prog.run_indirect(self.b_args)
+        else:
+            prog.run(self.groups[0], self.groups[1], self.ntiles)
+        self._barrier()
+
+    def _pass_prep(self) -> None:
+        f = self.f
+        self._bind(1, f["vel"].src, True, False)
+        self._bind(2, f["water"].src, True, False)
+        self._bind(3, f["paper"].src, True, False)
+        self._bind(4, self.aux, False, True)
+        self._bind(5, self.jv[0], False, True)
+        self._bind(6, f["fibre"].src, True, False)
+        self._dispatch("prep")
+        self._bind(1, f["water"].src, True, False)
+        self._bind(2, f["paper"].src, True, False)
+        self._bind(3, self.jv[0], True, False)
+        self._bind(4, self.pr, False, True)
+        self._dispatch("pressure")
+        # until the diffusion passes run, jv[0] holds wb (.w) and jv[1] is free
+        self._js, self._jfree = self.jv[0], self.jv[1]
+
+    def _pass_diffusion(self) -> None:
+        """Jacobi iterations, limit (velocity final + limiters), diffuse_apply."""
+        f = self.f
+        n = int(self.params.jacobi_iters)
+        cur = 0
+        for i in range(n):
+            self._bind(1, self.jv[cur], True, False)
+            self._bind(2, self.aux, True, False)
+            self._bind(4, f["pig"].src, True, False)
+            self._bind(5, f["pig"].src if i == 0 else self.jd[cur], True, False)
+            self._bind(6, self.jv[1 - cur], False, True)
+            self._bind(7, self.jd[1 - cur], False, True)
+            self._dispatch("jacobi")
+            cur = 1 - cur
+        # the converged iterate is in jv[cur], jd[cur]
+        self._bind(1, self.jv[cur], True, False)
+        self._bind(2, self.jd[cur], True, False)
+        self._bind(3, f["water"].src, True, False)
+        self._bind(4, f["pig"].src, True, False)
+        self._bind(5, f["vel"].dst, False, True)
+        self._bind(6, self.jv[1 - cur], False, True)
+        self._bind(7, self.jd[1 - cur], False, True)
+        self._bind(0, self.pr, True, False)
+        self._dispatch("limit")
+        f["vel"].swap()
+        self._bind(1, self.jv[1 - cur], True, False)
+        self._bind(2, self.jd[cur], True, False)
+        self._bind(3, self.jd[1 - cur], True, False)
+        self._bind(4, f["water"].src, True, False)
+        self._bind(5, f["pig"].src, True, False)
+        self._bind(6, f["water"].dst, False, True)
+        self._bind(7, f["pig"].dst, False, True)
+        self._dispatch("diffuse_apply")
+        f["water"].swap()
+        f["pig"].swap()
+        self._js = self.jv[1 - cur]  # holds wb (.w) for the rest of the step
+        self._jfree = self.jv[cur]
+
+    def _pass_advect(self) -> None:
+        f = self.f
+        self._bind(1, f["vel"].src, True, False)
+        self._bind(2, self._js, True, False)
+        self._bind(3, f["water"].src, True, False)
+        self._bind(4, f["pig"].src, True, False)
+        self._bind(5, self._jfree, False, True)
+        self._dispatch("advect_limit")
+        self._bind(2, self._jfree, True, False)
+        self._bind(5, f["water"].dst, False, True)
+        self._bind(6, f["pig"].dst, False, True)
+        self._dispatch("advect_apply")
+        f["water"].swap()
+        f["pig"].swap()
+
+    def _pass_evap_surface(self) -> None:
+        f = self.f
+        self._bind(1, f["water"].src, True, False)
+        self._bind(2, f["water"].dst, False, True)
+        self._bind(3, f["pig"].src, True, True)
+        self._bind(4, f["dep"].src, True, True)
+        self._bind(5, f["paper"].src, True, False)
+        self._bind(6, self._js, True, False)
+        self._dispatch("evap_surface")
+        f["water"].swap()
+
+    def _pass_capillary_dry(self) -> None:
+        f = self.f
+        self._bind(1, f["water"].src, True, False)
+        self._bind(2, f["water"].dst, False, True)
+        self._bind(3, f["paper"].src, True, False)
+        self._bind(4, f["pig"].src, True, True)
+        self._bind(5, f["dep"].src, True, True)
+        self._bind(6, f["vel"].src, True, True)
+        self._dispatch("capillary_dry")
+        f["water"].swap()
+
+    def _end_step(self, dt: float) -> None:
+        if self.tiling:
+            self.b_alive.bind_to_storage_buffer(_B_ALIVE)
+            self.b_ttl.bind_to_storage_buffer(_B_TTL)
+            self._programs["tile_update"].run(-(-self.ntiles // 64), 1, 1)
+            self._barrier()
+        self.sim_time += dt
+        self.step_count += 1
+        if self.step_count % operations.FOLD_EVERY == 0:
+            self._fold()
+
+    def _fold(self) -> None:
+        """reference operations.fold_accumulators on the GPU (no read-back)."""
+        water = self.f["water"]
+        self._bind(1, water.textures[0], True, True)
+        self._bind(2, water.textures[1], True, True)
+        self.b_folded.bind_to_storage_buffer(_B_FOLDED)
+        self._programs["fold"].run(self.src_groups[0], self.src_groups[1], 1)
+        self._barrier()
+
+    def _check_dt(self, dt: float | None) -> float:
+        d = self.params.dt if dt is None else float(dt)
+        if not d > 0 or not math.isfinite(d):
+            raise CanvasInputError("dt must be > 0", "step")
+        if d * self.params.v_max > 1.0 + 1e-9:
+            raise CanvasInputError("dt too large for v_max (more than one cell per step)",
+                                   "step")
+        return d
+
+
+def _set(prog: Any, name: str, value: object) -> None:
+    """Set uniform ``name`` when the program uses it (drivers drop unused ones)."""
+    try:
+        u = prog[name]
+    except KeyError:
+        return
+    if isinstance(value, list) and len(value) == 1 and getattr(u, "array_length", 1) == 1:
+        value = value[0]  # a one-element uniform array is set like a plain uniform
+    u.value = value

@@ -1,0 +1,190 @@
+"""Stencils shared by the reference passes (``reference.py`` is the contract): the wet
+mask, the capillary capacity, faces, fluxes, the implicit diffusion, the flow-outward
+pressure."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from station.canvas.params import SimParams
+
+F32 = np.float32
+_ZERO = F32(0.0)
+_ONE = F32(1.0)
+
+
+# ---------------------------------------------------------------- helpers
+def own_wet(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams) -> np.ndarray:
+    """Cells wet by their own water: fluid water, or capillary water above the moist
+    threshold, and not masked (bool (H, W)); the wet area the flow-outward term blurs."""
+    return ((w > 0) | (wc > F32(prm.moist_threshold))) & (mask == 0)
+
+
+def wet_mask(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams,
+             h: np.ndarray, fibre: np.ndarray | None = None) -> np.ndarray:
+    """Cells taking part in the fluid and surface layers this step (bool (H, W)).
+
+    With ``advance_height > 0`` an unmasked dry cell also joins when
+    a 4-neighbour's fluid water stands above the cell's advancing height
+    ``advance_height * (1.5 - h)``: the contact line creeps on where the paper lets it.
+    With ``fibre_wick > 0`` and the fibre texture ``fibre`` (2, H, W), that height is
+    lowered by ``1 - fibre_wick * fibre[axis]`` for the neighbours on each axis: along a
+    fibre the water is not pinned.
+    """
+    own = own_wet(w, wc, mask, prm)
+    if prm.advance_height > 0:
+        thr = F32(prm.advance_height) * (F32(1.5) - h)
+        if prm.damp_ease > 0:
+            thr = thr * damp_factor(wc, h, prm)
+        if prm.fibre_wick > 0 and fibre is not None:
+            # a fibre along the face axis wicks the front on: lower pinning height
+            thx = thr * (_ONE - F32(prm.fibre_wick) * fibre[0])
+            thy = thr * (_ONE - F32(prm.fibre_wick) * fibre[1])
+            nx = np.zeros(w.shape, F32)
+            nx[:, :-1] = w[:, 1:]
+            nx[:, 1:] = np.maximum(nx[:, 1:], w[:, :-1])
+            ny = np.zeros(w.shape, F32)
+            ny[:-1, :] = w[1:, :]
+            ny[1:, :] = np.maximum(ny[1:, :], w[:-1, :])
+            return own | (((nx > thx) | (ny > thy)) & (mask == 0))
+        nb = np.zeros(w.shape, F32)
+        nb[:, :-1] = w[:, 1:]
+        nb[:, 1:] = np.maximum(nb[:, 1:], w[:, :-1])
+        nb[:-1, :] = np.maximum(nb[:-1, :], w[1:, :])
+        nb[1:, :] = np.maximum(nb[1:, :], w[:-1, :])
+        own = own | ((nb > thr) & (mask == 0))
+    return own
+
+
+def capacity(h: np.ndarray, prm: SimParams) -> np.ndarray:
+    """Capillary capacity ``c = c_min + h (c_max - c_min)`` [height], float32."""
+    return F32(prm.c_min) + h * F32(prm.c_max - prm.c_min)
+
+
+def damp_factor(wc: np.ndarray, h: np.ndarray, prm: SimParams) -> np.ndarray:
+    """``max(1 - damp_ease * ((4 s') (1 - s')), 0)`` with ``s' = max(s - damp_sat, 0) /
+    (1 - damp_sat)``, ``s = min(wc / c, 1)``: the share of the advancing height left to
+    overcome (float32). Paper drier than ``damp_sat`` pins the front (1), a full capillary
+    layer has no suction (1), damp paper in between draws fresh water in."""
+    s = np.minimum(wc / capacity(h, prm), _ONE)
+    sp = np.maximum(s - F32(prm.damp_sat), _ZERO) / F32(1.0 - prm.damp_sat)
+    f = _ONE - F32(prm.damp_ease) * ((F32(4.0) * sp) * (_ONE - sp))
+    return np.maximum(f, _ZERO).astype(F32)
+
+
+def water_speed(vx: np.ndarray, vy: np.ndarray, prm: SimParams) -> np.ndarray:
+    """The fibre dispersion's water speed ``min(sqrt(vx*vx + vy*vy), fibre_flow_max)``
+    [cell/s], float32: water moves through the paper's channels no faster than that."""
+    return np.minimum(np.sqrt(vx * vx + vy * vy), F32(prm.fibre_flow_max)).astype(F32)
+
+
+def open_faces(wet: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Open faces (both cells wet): x faces (H, W-1) and y faces (H-1, W), bool."""
+    return wet[:, :-1] & wet[:, 1:], wet[:-1, :] & wet[1:, :]
+
+
+def neighbour_sum(x: np.ndarray, bx: np.ndarray, by: np.ndarray) -> np.ndarray:
+    """sum over the 4 faces of ``b_face * x_neighbour`` (x may have leading axes)."""
+    s = np.empty_like(x)
+    np.multiply(bx, x[..., :, 1:], out=s[..., :, :-1])  # east neighbours
+    s[..., :, -1] = 0
+    s[..., :, 1:] += bx * x[..., :, :-1]  # west
+    s[..., :-1, :] += by * x[..., 1:, :]  # south
+    s[..., 1:, :] += by * x[..., :-1, :]  # north
+    return s
+
+
+def apply_fluxes(u: np.ndarray, fx: np.ndarray, fy: np.ndarray) -> np.ndarray:
+    """``u`` after face fluxes (positive: lower-index cell -> higher-index cell)."""
+    out = u.copy()
+    out[..., :, :-1] -= fx
+    out[..., :, 1:] += fx
+    out[..., :-1, :] -= fy
+    out[..., 1:, :] += fy
+    return out
+
+
+def implicit_diffusion(u: np.ndarray, bx: np.ndarray, by: np.ndarray, k: float,
+                       iters: int) -> np.ndarray:
+    """Conservative implicit diffusion (pass 4/5 maths, see module docstring).
+
+    ``u`` (..., H, W) >= 0; ``bx`` (H, W-1) and ``by`` (H-1, W) face conductances in [0, 1];
+    ``k = nu * dt`` [cell^2]. Returns the new field, float32.
+    """
+    if k <= 0:
+        return u.copy()
+    kk = F32(k)
+    denom = _ONE + kk * neighbour_sum(np.ones(u.shape[-2:], F32), bx, by)
+    x = u
+    for _ in range(int(iters)):
+        acc = neighbour_sum(x, bx, by)
+        acc *= kk
+        acc += u
+        acc /= denom
+        x = acc
+    fx = kk * bx * (x[..., :, :-1] - x[..., :, 1:])
+    fy = kk * by * (x[..., :-1, :] - x[..., 1:, :])
+    fxp, fxn = np.maximum(fx, _ZERO), np.minimum(fx, _ZERO)
+    fyp, fyn = np.maximum(fy, _ZERO), np.minimum(fy, _ZERO)
+    out = np.zeros(u.shape, F32)
+    out[..., :, :-1] += fxp
+    out[..., :, 1:] -= fxn
+    out[..., :-1, :] += fyp
+    out[..., 1:, :] -= fyn
+    # donor limiter: never move more than a cell holds. A cell the limiter itself left a
+    # rounding error below zero holds nothing: clamped to 0 it gives nothing (s = 0)
+    # instead of a division by a zero outflow (-inf, then NaN fluxes that wipe a wash).
+    held = np.maximum(u, _ZERO)
+    short = out > held
+    if short.any():
+        s = np.where(short, held / np.where(short, out, _ONE), _ONE).astype(F32)
+        fx = fxp * s[..., :, :-1] + fxn * s[..., :, 1:]
+        fy = fyp * s[..., :-1, :] + fyn * s[..., 1:, :]
+    return apply_fluxes(u, fx, fy)
+
+
+def gaussian_taps(sigma: float) -> np.ndarray:
+    """Normalised float32 Gaussian taps ``g[0..2R]``, ``R = ceil(2 sigma)`` (empty: sigma 0)."""
+    if sigma <= 0:
+        return np.zeros(0, F32)
+    r = int(np.ceil(2.0 * sigma))
+    d = np.arange(-r, r + 1, dtype=np.float64)
+    g = np.exp(-0.5 * (d / sigma) ** 2)
+    return (g / g.sum()).astype(F32)
+
+
+def blurred_wet(wet: np.ndarray, taps: np.ndarray) -> np.ndarray:
+    """``M'``: the wet mask blurred separably (x, then y) with ``taps``; cells outside the
+    region count as non-wet. Each sum runs over the taps in order, offset -R first."""
+    hh, ww = wet.shape
+    r = (len(taps) - 1) // 2
+    m = np.pad(wet.astype(F32), r)
+    mx = np.zeros((hh + 2 * r, ww), F32)
+    for k in range(2 * r + 1):
+        mx = mx + taps[k] * m[:, k:k + ww]
+    out = np.zeros((hh, ww), F32)
+    for k in range(2 * r + 1):
+        out = out + taps[k] * mx[k:k + hh, :]
+    return out
+
+
+def flow_pressure(w: np.ndarray, own: np.ndarray, wet: np.ndarray, h: np.ndarray,
+                  prm: SimParams) -> np.ndarray:
+    """The height the water-height term levels, on wet cells: the free surface over the
+    paper, ``w + paper_relief * h``, lowered by ``flow_outward * (1 - M')`` near the edge
+    of the ``own`` wet area (Curtis 1997: flow outward, and water runs downhill over the
+    paper's relief); ``w`` elsewhere, and ``w`` itself when both terms are off."""
+    taps = gaussian_taps(prm.wet_blur)
+    outward = prm.flow_outward > 0 and len(taps) > 0
+    if not outward and prm.paper_relief <= 0:
+        return w
+    pr = w
+    if prm.paper_relief > 0:
+        pr = w + F32(prm.paper_relief) * h
+    if outward:
+        mb = blurred_wet(own, taps)
+        pr = pr - F32(prm.flow_outward) * (_ONE - mb)
+    return np.where(wet, pr, w).astype(F32)
+
+
+# ---------------------------------------------------------------- passes

@@ -1,0 +1,206 @@
+"""The effects sheet's bloom tile (issue 21 item 4), painted through the brush: clear
+water and a second colour dropped into a damp wash, a drop of colour into a wet one."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+from station.backends.numpy_canvas import NumpyCanvas
+from station.brush.stamp import BrushModel
+from station.pictures.effects_core import (
+    PEN_HZ,
+    Effect,
+    _played,
+    darkness_map,
+)
+from station.pictures.scenarios import run_until_dry
+from station.sim.player import SessionPlayer
+from station.sim.script import Script
+
+
+def _wash_then(first: Script, seed: int, until_damp: bool
+               ) -> tuple[NumpyCanvas, SessionPlayer]:
+    h = first.header
+    c = NumpyCanvas(h.width, h.height, profile=h.profile, seed=seed)
+    p = SessionPlayer(c, h.width, h.height, h.profile)
+    p.play(first.records)
+    st = c.live_state
+    inner = (slice(h.height // 4, 3 * h.height // 4), slice(h.width // 4, 3 * h.width // 4))
+    n = 0
+    while until_damp and (st.w[inner] > 0).any() and n < 6000:
+        c.step()
+        n += 1
+    return c, p
+
+
+def _later(p: SessionPlayer, w: int, h: int, seed: int) -> Script:
+    s = Script(w, h, seed=seed, rate_hz=PEN_HZ)
+    s.t = p.painting_time + 0.05
+    return s
+
+
+def _radius_cv(region: np.ndarray, cy: float, cx: float, n: int = 64) -> tuple[float, float]:
+    """Mean radius [cells] and coefficient of variation of ``region``'s outline seen from
+    (cy, cx): along each of ``n`` rays the last cell still inside."""
+    radii = []
+    for a in np.linspace(0, 2 * np.pi, n, endpoint=False):
+        r = 0.0
+        for t in np.arange(0.5, max(region.shape), 0.5):
+            y, x = int(cy + t * np.sin(a)), int(cx + t * np.cos(a))
+            if not (0 <= y < region.shape[0] and 0 <= x < region.shape[1]) or not region[y, x]:
+                break
+            r = t
+        radii.append(r)
+    rr = np.array(radii)
+    return float(rr.mean()), float(rr.std() / max(rr.mean(), 1e-9))
+
+
+DROP_SIZE, DROP_S = 12, 0.3
+"""The clear-water drop of the bloom tile: brush size and how long the brush touches [s]."""
+N = 80
+"""Edge of the bloom tile's canvases [cells]."""
+WASH_PIGMENT, SECOND_PIGMENT = "French Ultramarine", "Quinacridone Rose"
+
+
+def damp_wash(seed: int = 22) -> tuple[NumpyCanvas, SessionPlayer]:
+    """A brushed Ultramarine wash (size 24, seven rows, 0.45 s each) left until no
+    standing water remains in its middle half, the paper still damp."""
+    wash = Script(N, N, seed=seed, rate_hz=PEN_HZ)
+    wash.brush(size=24, water=1.0, pigment={WASH_PIGMENT: 0.4})
+    for k in range(7):
+        y = (8 + 11 * k) / N
+        a, b = ((0.05, y), (0.95, y)) if k % 2 == 0 else ((0.95, y), (0.05, y))
+        wash.line(a, b, 0.45, pressure=0.7)
+        wash.wait(0.2)
+    return _wash_then(wash, seed, until_damp=True)
+
+
+def drop_into_damp_wash(pigment: dict[str, float], seed: int = 22) -> NumpyCanvas:
+    """:func:`damp_wash`, then the brush (size ``DROP_SIZE``, water 1) touches its middle
+    for ``DROP_S`` with ``pigment`` (empty: clear water); dried and fixed."""
+    c, p = damp_wash(seed)
+    drop = _later(p, N, N, seed)
+    drop.brush(size=DROP_SIZE, water=1.0, pigment=pigment)
+    drop.dab((0.5, 0.5), DROP_S, pressure=0.7)
+    p.play(drop.records)
+    run_until_dry(c, 6000)
+    c.dry()
+    return c
+
+
+def lobes(radii: np.ndarray, prominence: float = 0.15) -> int:
+    """Lobes of an outline: local maxima of the radius around the circle that stand
+    ``prominence`` of the mean radius above the lower of their two neighbouring minima."""
+    r = np.asarray(radii, float)
+    n = len(r)
+    if n < 3 or r.mean() <= 0:
+        return 0
+    count = 0
+    for i in range(n):
+        if r[i] < r[i - 1] or r[i] < r[(i + 1) % n] or r[i] == r[i - 1]:
+            continue
+        # walk down each side to the first rise: the neighbouring minima
+        lo_l = r[i]
+        k = 1
+        while k < n and r[(i - k) % n] <= lo_l:
+            lo_l = r[(i - k) % n]
+            k += 1
+        lo_r = r[i]
+        k = 1
+        while k < n and r[(i + k) % n] <= lo_r:
+            lo_r = r[(i + k) % n]
+            k += 1
+        if r[i] - max(lo_l, lo_r) >= prominence * r.mean():
+            count += 1
+    return count
+
+
+def bloom_front(amount: np.ndarray, centre: tuple[float, float] = (N / 2, N / 2)
+                ) -> dict[str, float]:
+    """The bloom in a dried wash: ``amount`` is the wash's pigment (or darkness) per cell.
+
+    The bloom is the connected pale region (below 0.85 of the wash's median, holes
+    filled) around ``centre``; its front the 3-cell ring outside it. Returns the front's
+    75th percentile over the wash's median (``front_ratio``), the outline's mean radius
+    [cells], its coefficient of variation and its lobes (:func:`lobes`)."""
+    n = amount.shape[0]
+    wash = float(np.median(amount[8:n - 8, 8:n - 8]))
+    pale = ndimage.binary_fill_holes(amount < 0.85 * wash)
+    lab_, _ = ndimage.label(pale)
+    cy, cx = centre
+    idx = lab_[int(cy), int(cx)]
+    if not idx or wash <= 0:
+        return {"front_ratio": 0.0, "radius": 0.0, "cv": 0.0, "lobes": 0.0}
+    bloom = lab_ == idx
+    rim = ndimage.binary_dilation(bloom, iterations=3) & ~bloom
+    front = float(np.percentile(amount[rim], 75)) / wash
+    radii = _radii(bloom, cy, cx)
+    return {"front_ratio": front, "radius": float(radii.mean()),
+            "cv": float(radii.std() / max(radii.mean(), 1e-9)), "lobes": float(lobes(radii))}
+
+
+def _radii(region: np.ndarray, cy: float, cx: float, n: int = 64) -> np.ndarray:
+    """Along each of ``n`` rays from (cy, cx) the distance to the last cell of ``region``."""
+    radii = []
+    for a in np.linspace(0, 2 * np.pi, n, endpoint=False):
+        r = 0.0
+        for t in np.arange(0.5, max(region.shape), 0.5):
+            y, x = int(cy + t * np.sin(a)), int(cx + t * np.cos(a))
+            if not (0 <= y < region.shape[0] and 0 <= x < region.shape[1]) or not region[y, x]:
+                break
+            r = t
+        radii.append(r)
+    return np.array(radii)
+
+
+def drop_into_wet_wash(wet: bool) -> NumpyCanvas:
+    """A dab of Ultramarine (size 12, water 0.8, amount 1, 0.3 s) into a fully wet clear
+    wash (``wet``), or on dry paper; dried and fixed."""
+    s = Script(N, N, seed=23, rate_hz=PEN_HZ)
+    if wet:
+        s.brush(size=24, water=1.0, pigment={})
+        for k in range(7):
+            y = (8 + 11 * k) / N
+            a, b = ((0.05, y), (0.95, y)) if k % 2 == 0 else ((0.95, y), (0.05, y))
+            s.line(a, b, 0.45, pressure=0.7)
+    s.brush(size=12, water=0.8, pigment={WASH_PIGMENT: 1.0})
+    s.dab((0.5, 0.5), 0.3, pressure=0.7)
+    return _played(s, seed=23)
+
+
+def blooms() -> Effect:
+    """Item 4, through the brush: (a) clear water touched (size 12, 0.3 s) into a brushed
+    Ultramarine wash once its standing water is gone but the paper is still damp: the
+    bloom's front over the wash's darkness, its radius CV and lobes; (b) the same touch
+    with Quinacridone Rose: the Ultramarine it pushed out (front and CV measured on the
+    wash pigment's amount); (c) a dab of Ultramarine into a fully wet clear wash: its
+    spread over the brush radius and its peak darkness over the same dab on dry paper."""
+    c1 = drop_into_damp_wash({})
+    clear = bloom_front(darkness_map(c1))
+    c2 = drop_into_damp_wash({SECOND_PIGMENT: 0.8})
+    st2 = c2.live_state
+    k = st2.slots.index(WASH_PIGMENT)
+    colour = bloom_front(st2.q[k] + st2.p[k])
+    wet, dry = drop_into_wet_wash(True), drop_into_wet_wash(False)
+    dw, dd = darkness_map(wet), darkness_map(dry)
+    r_brush = BrushModel().radius(12, 0.7)
+    spread_r = float(np.sqrt((dw > 0.25 * dw.max()).sum() / np.pi)) if dw.max() > 0 else 0.0
+    peak_share = float(np.percentile(dw, 99.5) / max(np.percentile(dd, 99.5), 1e-6))
+    front, cv = clear["front_ratio"], clear["cv"]
+    return Effect("blooms (brush)",
+                  {"bloom_front_ratio": front, "bloom_radius_cells": clear["radius"],
+                   "bloom_radius_cv": cv, "bloom_lobes": clear["lobes"],
+                   "colour_bloom_front_ratio": colour["front_ratio"],
+                   "colour_bloom_radius_cells": colour["radius"],
+                   "colour_bloom_radius_cv": colour["cv"],
+                   "drop_spread_over_brush_radius": spread_r / r_brush,
+                   "drop_peak_over_dry": peak_share},
+                  {"bloom front >= 1.3x": front >= 1.3, "irregular (CV >= 0.15)": cv >= 0.15,
+                   "branching (>= 3 lobes)": clear["lobes"] >= 3,
+                   "colour bloom front >= 1.3x": colour["front_ratio"] >= 1.3,
+                   "drop spreads >= 2.5 r": spread_r >= 2.5 * r_brush,
+                   "drop stays visible (>= 0.5x dry)": peak_share >= 0.5},
+                  np.concatenate([c1.render(), c2.render(), wet.render(), dry.render()],
+                                 axis=1),
+                  (c1, c2, wet, dry))

@@ -1,0 +1,42 @@
+"""Issue 21 item 4 through the brush: water touched into a damp wash makes a bloom.
+
+A brushed Ultramarine wash is left until no standing water remains in its middle (the
+paper still damp); the round brush then touches clear water into it. Before the backrun
+physics (``damp_ease``, ``suspend_sat``) the damp wash had deposited all its pigment and
+its damp cells counted as wet, so the water spread without a front: no bloom at all.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from station.brush.stamp import BrushModel
+from station.pictures import effects_bloom as fb
+from station.pictures.scenarios import run_until_dry
+
+
+def test_clear_water_in_a_damp_wash_pushes_the_pigment_to_a_dark_irregular_front() -> None:
+    c, p = fb.damp_wash()
+    st = c.live_state
+    k = st.slots.index(fb.WASH_PIGMENT)
+    inner = (slice(20, 60), slice(20, 60))
+    assert not (st.w[inner] > 0).any()  # no standing water left ...
+    assert (st.wc[inner] > 0.5 * st.capacity()[inner]).all()  # ... the paper still damp
+    # damp paper keeps the wash's pigment in suspension: it can still be moved
+    assert st.p[k][inner].sum() > 0.3 * (st.p[k] + st.q[k])[inner].sum()
+    drop = fb._later(p, fb.N, fb.N, 22)
+    drop.brush(size=fb.DROP_SIZE, water=1.0, pigment={})
+    drop.dab((0.5, 0.5), fb.DROP_S, pressure=0.7)
+    p.play(drop.records)
+    run_until_dry(c, 6000)
+    c.dry()
+    bal = c.stats()["balance"]
+    assert bal["water_rel_error"] < 1e-3 and bal["pigment_rel_error"] < 1e-3, bal
+    amount = st.q[k] + st.p[k]
+    b = fb.bloom_front(amount)
+    r_brush = BrushModel().radius(fb.DROP_SIZE, 0.7)
+    assert b["radius"] >= r_brush, b  # the water ran on into the damp wash
+    assert b["front_ratio"] >= 1.15, b  # and carried the wash's pigment to its front
+    assert b["cv"] >= 0.12, b  # along an outline the paper shaped, not a circle
+    centre = amount[36:44, 36:44].mean() / np.median(amount[8:72, 8:72])
+    assert centre < 0.85  # the bloom's heart is paler than the wash

@@ -1,0 +1,118 @@
+"""Issue 21 item 8: a deformable brush pulled along a straight pen path paints a stroke that
+follows it, without one-cell whiskers at its edges (measured on the brush's deposit)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import station.sim.player as player
+from station.backends.numpy_canvas import NumpyCanvas
+from station.backends.protocol import CanvasBackend
+from station.brush.footprint import prune_spurs
+from station.brush.sources import Sources
+from station.sim.script import Script
+
+W, H = 200, 64
+
+
+def _deposit(kind: str, monkeypatch: pytest.MonkeyPatch) -> np.ndarray:
+    """Pigment the brush lays for a size-24 loaded stroke pulled right in 1.2 s."""
+    got = np.zeros((H, W))
+    add = player.add_sources
+
+    def grab(backend: CanvasBackend, src: Sources) -> None:
+        for v in src.dp.values():
+            got[src.region] += v
+        add(backend, src)
+
+    monkeypatch.setattr(player, "add_sources", grab)
+    s = Script(W, H, seed=7, rate_hz=120.0)
+    s.brush(size=24, water=0.8, pigment={"French Ultramarine": 1.0}, kind=kind)
+    s.line((0.1, 0.5), (0.9, 0.5), 1.2, pressure=0.8)
+    c = NumpyCanvas(W, H, seed=7)
+    player.SessionPlayer(c, W, H).play(s.records)
+    return got
+
+
+def _whiskers(painted: np.ndarray) -> tuple[int, int]:
+    """(edge cells, one-cell protrusions: painted cells with at most one painted
+    4-neighbour)."""
+    pad = np.pad(painted, 1)
+    nb = pad[:-2, 1:-1].astype(int) + pad[2:, 1:-1] + pad[1:-1, :-2] + pad[1:-1, 2:]
+    return int((painted & (nb < 4)).sum()), int((painted & (nb <= 1)).sum())
+
+
+@pytest.mark.parametrize("kind", ["round3d", "mop"])
+def test_a_deformable_stroke_follows_the_pen_without_whiskers(
+        kind: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """round3d: 8.0 whiskers per 100 edge cells before a loaded tuft's lone hair tips
+    joined their neighbours, 0.5 after; mop 3.5 -> 0. The stroke's middle stays on the
+    pen's line within a cell in every column."""
+    dep = _deposit(kind, monkeypatch)
+    painted = dep > 0.0
+    edge, whiskers = _whiskers(painted)
+    assert whiskers <= 0.01 * edge, (whiskers, edge)
+    mid = []
+    for x in range(30, 160):  # the tuft trails the pen by up to a tuft length
+        ys = np.nonzero(painted[:, x])[0]
+        assert len(ys), x
+        mid.append(0.5 * (ys[0] + ys[-1] + 1))
+    assert np.abs(np.array(mid) - 0.5 * H).max() <= 1.0
+
+
+def test_prune_spurs_clears_one_cell_protrusions_only() -> None:
+    a = np.zeros((14, 14), np.float32)
+    a[3:11, 3:11] = 1.0  # a body
+    a[2, 6] = 0.5  # a one-cell whisker on its top edge
+    a[11:13, 5] = 0.7  # a two-cell spur below it
+    a[0:2, 12:14] = 0.3  # a 2x2 blob touching nothing: every cell has two neighbours
+    out = prune_spurs(a)
+    assert out[3:11, 3:11].min() == 1.0
+    assert out[2, 6] == 0.0 and out[11:13, 5].max() == 0.0
+    assert (out[0:2, 12:14] == np.float32(0.3)).all()
+    assert out.dtype == a.dtype
+    line = np.zeros((5, 9), np.float32)
+    line[2, 1:8] = 1.0  # a rigger's one-cell line is the stroke, not a whisker
+    assert (prune_spurs(line) == line).all()
+    band = np.zeros((7, 12), np.float32)
+    band[2:5, 1:11] = 1.0  # a thin mark (a flat brush edge-on): mostly edge
+    band[1, 5] = 1.0  # ... with a whisker off its side: that goes, the band stays
+    out = prune_spurs(band)
+    assert out[1, 5] == 0.0 and (out[2:5, 1:11] == 1.0).all()
+    assert out.dtype == a.dtype
+
+
+@pytest.mark.parametrize("deg", [90, 225])
+def test_a_round_tuft_set_down_moving_draws_no_hook(
+        deg: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A round3d stroke that starts downwards or up-left: the middle of its mark, across
+    the pen's line, stays within 1.5 cells of it from the touch-down on (cells are whole:
+    a diagonal's midpoints fall on half-diagonals). Before the tuft buckled behind the
+    pen's first move it buckled along +-x whatever the motion: a 13.5 and 12.7 cell hook."""
+    n = 120
+    got = np.zeros((n, n))
+    add = player.add_sources
+
+    def grab(backend: CanvasBackend, src: Sources) -> None:
+        for v in src.dp.values():
+            got[src.region] += v
+        add(backend, src)
+
+    monkeypatch.setattr(player, "add_sources", grab)
+    a = np.radians(deg)
+    start = (0.5 - 0.3 * np.cos(a), 0.5 - 0.3 * np.sin(a))
+    end = (0.5 + 0.3 * np.cos(a), 0.5 + 0.3 * np.sin(a))
+    s = Script(n, n, seed=7, rate_hz=120.0)
+    s.brush(size=24, water=0.8, pigment={"French Ultramarine": 1.0}, kind="round3d")
+    s.line(start, end, 0.6, pressure=0.8)
+    player.SessionPlayer(NumpyCanvas(n, n, seed=7), n, n).play(s.records)
+    ys, xs = np.nonzero(got > 0)
+    px, py = xs + 0.5 - start[0] * n, ys + 0.5 - start[1] * n
+    along = np.floor(px * np.cos(a) + py * np.sin(a)).astype(int)
+    across = -px * np.sin(a) + py * np.cos(a)
+    for b in np.unique(along):
+        m = along == b
+        if m.sum() >= 3:
+            mid = 0.5 * (across[m].min() + across[m].max())
+            assert abs(mid) <= 1.5, (b, mid)
