@@ -160,6 +160,8 @@ def _cd_row(sm: np.ndarray, s0r: np.ndarray, sp: np.ndarray, c: np.ndarray, opn:
     k = cst[K.C_KC]
     ecap = cst[K.C_ECAP]
     wdry = cst[K.C_WDRY]
+    susp = cst[K.C_SUSP]
+    suspending = susp > ZERO
     y = y0 + j - 1
     for si in range(nsp[j]):
         slo, shi = K._span(spans, j, si)
@@ -212,7 +214,10 @@ def _cd_row(sm: np.ndarray, s0r: np.ndarray, sp: np.ndarray, c: np.ndarray, opn:
                     qv = q[kk, y, x]
                     t = ONE - qv
                     t = pv if pv < t else t
-                    t = t if w[y, x] == ZERO else ZERO
+                    settle = w[y, x] == ZERO
+                    if suspending and wc[y, x] > susp * c[j, i]:
+                        settle = False  # damp paper keeps its pigment suspended (bloom's)
+                    t = t if settle else ZERO
                     p[kk, y, x] = pv - t
                     q[kk, y, x] = qv + t
 
