@@ -1,8 +1,8 @@
 """Prototype of issue 26 item 1's pass-6 fusion: ``advect_limit`` + ``advect_apply`` in one
 sweep, the limiter rows kept in a 3-row ring per chunk instead of two full scratch fields.
 
-Not wired into the backend (the kernels were being changed by the look work when this
-was written): it runs the cpu backend's own sweeps up to pass 6 on a wet canvas, then
+Wired in since as ``station.backends.cpu.fused.advect_fused`` (the same code); this
+keeps the measurement: it runs the cpu backend's own sweeps up to pass 6 on a wet canvas, then
 both versions of pass 6 on the same inputs, checks that the fused one is bitwise equal
 (water and pigment) and times both, interleaved.  To re-apply: move ``advect_fused``
 into ``station/backends/cpu/kernels.py``, call it from ``step.step_region`` in place of
@@ -158,10 +158,11 @@ def main() -> None:
     spans, nsp = scratch.spans, scratch.nsp
     w3a, w3b = np.zeros_like(w2), np.zeros_like(w2)
     pa_, pb_ = np.zeros_like(st.p), np.zeros_like(st.p)
+    sout, sin = np.zeros_like(w2), np.zeros_like(w2)  # the fields the fusion dropped
 
     def two() -> tuple[np.ndarray, np.ndarray]:
-        K.advect_limit(wet, vx, vy, w2, p2, h, w, ns, cst, s2["sout"], s2["sin"], spans, nsp)
-        K.advect_apply(wet, vx, vy, s2["sout"], s2["sin"], w2, p2, 0, 0, h, w, ns, cst, True,
+        K.advect_limit(wet, vx, vy, w2, p2, h, w, ns, cst, sout, sin, spans, nsp)
+        K.advect_apply(wet, vx, vy, sout, sin, w2, p2, 0, 0, h, w, ns, cst, True,
                        w3a, pa_, spans, nsp)
         return w3a, pa_
 

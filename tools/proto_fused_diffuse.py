@@ -2,11 +2,11 @@
 iteration, pass 3, the diffusion donor limiters) + ``diffuse_apply`` in one sweep, the
 limiter rows kept in a 3-row ring per chunk instead of the ``sw``/``sp`` scratch fields.
 
-Not wired into the backend (see tools/proto_fused_advect.py for why and how to
-re-apply).  It runs one step's sweeps up to pass 5 on a wet canvas, then both versions
-on the same inputs, checks the fused one bitwise (velocity, water, pigment) and times
-both, interleaved.  Re-applied it drops ``sw``, ``sp`` and diffuse_apply's re-reads
-(−14 floats, −56 B per cell-step with two slots).
+Wired in since as ``station.backends.cpu.fused.limit_diffuse_fused`` (the same code);
+this keeps the measurement.  It runs one step's sweeps up to pass 5 on a wet canvas,
+then both versions on the same inputs, checks the fused one bitwise (velocity, water,
+pigment) and times both, interleaved.  Wired in it dropped ``sw``, ``sp`` and
+diffuse_apply's re-reads (−14 floats, −56 B per cell-step with two slots).
 
     .venv/bin/python tools/proto_fused_diffuse.py [--size 1920x1080] [--rounds 9]
 """
@@ -245,7 +245,7 @@ def main() -> None:
             xp, pr, h, w, ns, cst, do_v, True, do_w, do_p)
     outs = {k: (np.zeros_like(s2["v3x"]), np.zeros_like(s2["v3y"]), np.zeros_like(s2["w2"]),
                 np.zeros_like(s3["p2"])) for k in ("two", "one")}
-    sw, sp = np.zeros_like(s2["sw"]), np.zeros_like(s3["sp"])
+    sw, sp = np.zeros_like(s2["w2"]), np.zeros_like(s3["p2"])  # the fields the fusion dropped
 
     def two() -> None:
         vx_, vy_, w2_, p2_ = outs["two"]

@@ -6,11 +6,11 @@ Pass 7-9a write the state in place, so a chunk cannot recompute its neighbours'
 boundary rows (the neighbour may have written them already): a first parallel loop
 computes each chunk's two boundary ``sat`` rows side-effect free from the state as the
 step found it (``sat`` depends on the state only through that row's ``wc``), and the
-fused loop seeds its ring with them.  Not wired into the backend (see
-tools/proto_fused_advect.py); it checks itself bitwise (w, wc, evaporated, p, q, vx, vy)
-against the two live sweeps on a wet canvas and times both, interleaved.  Re-applied it
-drops ``sat`` and capillary_dry's re-reads of w, wc, evaporated, c, opn (−10 floats,
-−40 B per cell-step).
+fused loop seeds its ring with them.  Not wired into the backend yet (stop_after's
+pass-by-pass switches need carrying into it); it checks itself bitwise (w, wc,
+evaporated, p, q, vx, vy) against the two live sweeps on a wet canvas and times both,
+interleaved.  Re-applied it drops ``sat`` and capillary_dry's re-reads of w, wc,
+evaporated, c, opn (−10 floats, −40 B per cell-step).
 
     .venv/bin/python tools/proto_fused_evap.py [--size 1920x1080] [--rounds 9]
 """
@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 from numba import njit, prange
 
+from station.backends.cpu import fused as F
 from station.backends.cpu import kernels as K
 from station.backends.cpu import step as S
 from station.backends.factory import create_backend
@@ -282,11 +283,8 @@ def main() -> None:
     s2, s3 = scratch.a2, scratch.a3
     ns = max(len(st.slots), 1)
     cst = S.constants(st.params, st.params.dt, st.sim_time)
-    K.advect_limit(s2["wet"], s2["v3x"], s2["v3y"], s2["w2"], s3["p2"], h, w, ns, cst,
-                   s2["sout"], s2["sin"], scratch.spans, scratch.nsp)
-    K.advect_apply(s2["wet"], s2["v3x"], s2["v3y"], s2["sout"], s2["sin"], s2["w2"],
-                   s3["p2"], 0, 0, h, w, ns, cst, True, s2["w3"], st.p, scratch.spans,
-                   scratch.nsp)
+    F.advect_fused(s2["wet"], s2["v3x"], s2["v3y"], s2["w2"], s3["p2"], 0, 0, h, w, ns, cst,
+                   s2["w3"], st.p, scratch.spans, scratch.nsp)
     beta, gamma, delta = (a[:ns].copy() for a in reference.slot_properties(st))
     prm = st.params
     names = ("w", "wc", "evaporated", "p", "q", "vx", "vy")
