@@ -26,7 +26,7 @@ from station.bench._sim_driver import wash
 from station.bench.sim import memory_bandwidth_gb_s
 
 SWEEPS = ("prep", "advect_jacobi1", "jacobi_blocked", "limit_diffuse_fused", "advect_fused",
-          "evap_surface_absorb", "capillary_dry")
+          "evap_cap_fused")
 """The sweeps of a step in the order of ``traffic.floats_per_cell_step`` (the fused ones
 live in ``station.backends.cpu.fused``)."""
 

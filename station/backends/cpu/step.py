@@ -233,14 +233,17 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     else:  # the copy of advect_apply's switched-off pass
         K.advect_apply(wet, v3x, v3y, s2["w2"], s2["w2"], s2["w2"], s3["p2"], y0, x0, bh, bw,
                        ns, cst, False, s2["w3"], state.p, spans, nsp)
-    K.evap_surface_absorb(wet, s2["w3"], s2["c"], s2["opn"], state.h, state.wc,
-                          state.evaporated, state.w, state.p, state.q, beta, gamma, delta,
-                          y0, x0, bh, bw, ns, cst, runs("evaporate"), runs("surface_exchange"),
-                          runs("capillary"), s2["sat"], spans, nsp)
-    if runs("capillary"):
-        K.capillary_dry(s2["sat"], s2["c"], s2["opn"], v3x, v3y, state.w, state.wc,
-                        state.evaporated, state.p, state.q, state.vx, state.vy, y0, x0, bh, bw,
-                        ns, cst, prm.cap_diffusion * dt > 0, runs("dry_cells"), spans, nsp)
+    if runs("capillary"):  # passes 7-10 in one sweep (fused.evap_cap_fused)
+        F.evap_cap_fused(wet, s2["w3"], s2["c"], s2["opn"], state.h, state.wc,
+                         state.evaporated, state.w, state.p, state.q, beta, gamma, delta,
+                         v3x, v3y, state.vx, state.vy, y0, x0, bh, bw, ns, cst,
+                         runs("evaporate"), runs("surface_exchange"), True,
+                         prm.cap_diffusion * dt > 0, runs("dry_cells"), spans, nsp)
+    else:  # a pass-by-pass comparison that stops before the capillary passes
+        K.evap_surface_absorb(wet, s2["w3"], s2["c"], s2["opn"], state.h, state.wc,
+                              state.evaporated, state.w, state.p, state.q, beta, gamma, delta,
+                              y0, x0, bh, bw, ns, cst, runs("evaporate"),
+                              runs("surface_exchange"), False, s2["sat"], spans, nsp)
     if not runs("dry_cells"):
         state.vx[ys, xs] = _win(v3x, bh, bw)
         state.vy[ys, xs] = _win(v3y, bh, bw)

@@ -34,12 +34,11 @@ def floats_per_cell_step(slots: int, jacobi_iters: int) -> dict[str, int]:
             (9 + 2 * s) + (3 + s),
         # one sweep (fused.advect_fused): read wet, v3(2), w2, p2(S); write w3, p(S)
         "advect (pass 6 limiters and fluxes)": (4 + s) + (1 + s),
-        # read wet, w3, c, opn, h, wc, evaporated, p(S), q(S);
-        # write w, wc, evaporated, sat, p(S), q(S)
-        "evap_surface_absorb (passes 7, 8, 9a)": (7 + 2 * s) + (4 + 2 * s),
-        # read sat, c, opn, v3(2), w, wc, evaporated; write w, wc, evaporated, vx, vy
-        # (a wet cell deposits nothing: the pigment loop runs only on rows with dry cells)
-        "capillary_dry (passes 9b, 9c, 10)": 8 + 5,
+        # one sweep (fused.evap_cap_fused): read wet, w3, c, opn, h, wc, evaporated, p(S),
+        # q(S), v3(2); write w, wc, evaporated, p(S), q(S), vx, vy (sat stays in a row ring;
+        # a wet cell deposits nothing: the pigment loop of pass 10 runs only on rows with
+        # dry cells)
+        "evap_capillary (passes 7, 8, 9a, 9b, 9c, 10)": (9 + 2 * s) + (5 + 2 * s),
     }
 
 
