@@ -6,8 +6,9 @@ Pass 7-9a write the state in place, so a chunk cannot recompute its neighbours'
 boundary rows (the neighbour may have written them already): a first parallel loop
 computes each chunk's two boundary ``sat`` rows side-effect free from the state as the
 step found it (``sat`` depends on the state only through that row's ``wc``), and the
-fused loop seeds its ring with them.  Not wired into the backend yet (stop_after's
-pass-by-pass switches need carrying into it); it checks itself bitwise (w, wc,
+fused loop seeds its ring with them.  Wired in since as
+``station.backends.cpu.fused.evap_cap_fused`` (the same code); this keeps the
+measurement: it checks itself bitwise (w, wc,
 evaporated, p, q, vx, vy) against the two live sweeps on a wet canvas and times both,
 interleaved.  Re-applied it drops ``sat`` and capillary_dry's re-reads of w, wc,
 evaporated, c, opn (−10 floats, −40 B per cell-step).
