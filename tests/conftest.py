@@ -8,9 +8,17 @@ from pathlib import Path
 import pytest
 
 
+@pytest.fixture(scope="session")
+def _station_cache_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """One cache per test worker: ``auto``'s backend probe runs once per worker, not
+    once per test, and never touches the user's ~/.cache."""
+    return tmp_path_factory.mktemp("station-cache")
+
+
 @pytest.fixture(autouse=True)
 def _private_station_dirs(
-    tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch
+    tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch,
+    _station_cache_dir: Path,
 ) -> None:
     base = tmp_path_factory.mktemp("station-env")
     # Short paths: ipc socket paths must stay under the ~107-byte sun_path limit.
@@ -18,6 +26,7 @@ def _private_station_dirs(
     monkeypatch.setenv("STATION_RUNTIME_DIR", str(run))
     monkeypatch.setenv("STATION_CONFIG_DIR", str(base / "config"))
     monkeypatch.setenv("STATION_DATA_DIR", str(base / "data"))
+    monkeypatch.setenv("STATION_CACHE_DIR", str(_station_cache_dir))
 
 
 def _no_pty_reason() -> str | None:

@@ -24,7 +24,8 @@ from station.backends.cpu import CpuCanvas
 from station.backends.distributed import boxes, decomp
 from station.backends.numpy_canvas import NumpyCanvas
 from station.bus import Publisher
-from station.canvas import tiles
+from station.canvas import reference, tiles
+from station.canvas.profiles import get_profile
 from station.canvas.state import CanvasState
 from station.events import Command, PenSample
 from station.sessionlog import read_session
@@ -370,7 +371,8 @@ def test_bench_reports_both_schedules_per_rank(tmp_path: Path) -> None:
     # the overlapped wash simulates the border bands too: 2 x 2 radius rows more
     extra = sum(runs[(2, "overlap")]["cells_per_rank_step"]) - sum(
         runs[(2, "blocking")]["cells_per_rank_step"])
-    assert extra == 2 * 2 * 10 * 512
+    radius = reference.stencil_radius(get_profile("watercolor").params)  # 7 (1 Jacobi iteration)
+    assert extra == 2 * 2 * radius * 512
     bad = subprocess.run([str(BIN / "station"), "bench", "distributed", "--schedules", "fast"],
                          capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and "--schedules" in bad.stderr

@@ -215,12 +215,13 @@ def test_renderer_string_and_traffic_count(ctx) -> None:
     assert g.renderer == ctx.info["GL_RENDERER"]
     # the pigment layers in use are counted: none, then 1 (4 slots), then 2 (8 slots)
     count = gl.traffic.floats_per_cell_step
-    assert g.bytes_per_cell_step() == 4 * sum(count(0, 4).values())
+    n = int(g.params.jacobi_iters)  # the profile's
+    assert g.bytes_per_cell_step() == 4 * sum(count(0, n).values())
     stamp(g, 10, 10, 3, {"Black": 0.1})
-    assert g.bytes_per_cell_step() == 4 * sum(count(4, 4).values())
+    assert g.bytes_per_cell_step() == 4 * sum(count(4, n).values())
     for name in ("Cadmium Red", "Hansa Yellow", "Burnt Umber", "Cerulean Blue"):
         stamp(g, 10, 10, 3, {name: 0.1})
-    assert g.bytes_per_cell_step() == 4 * sum(count(8, 4).values())
+    assert g.bytes_per_cell_step() == 4 * sum(count(8, n).values())
     assert count(8, 4)["jacobi (velocity, water, pigment)"] > count(4, 4)[
         "jacobi (velocity, water, pigment)"]
 

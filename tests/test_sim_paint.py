@@ -409,36 +409,36 @@ def test_paint_a_device_trace(tmp_path: Path, capsys: pytest.CaptureFixture[str]
 
 
 def test_auto_backend_choice_and_fallback(monkeypatch: pytest.MonkeyPatch,
-                                          caplog: pytest.LogCaptureFixture) -> None:
+                                          caplog: pytest.LogCaptureFixture,
+                                          tmp_path: Path) -> None:
+    import station.backends.choice as choice_mod
     import station.backends.factory as backend_mod
     import station.glkit.context as context_mod
     import station.sim.paint as paint_mod
     from station.errors import StationError
     from station.glkit.context import GLUnavailable
 
-    class FakeCtx:
-        def __init__(self, renderer: str) -> None:
-            self.info = {"GL_RENDERER": renderer}
-
-        def release(self) -> None:
-            pass
-
-    # a CPU rasterizer: the fastest CPU backend (cpu with numba, else numpy); a GPU: gl
+    # where nothing could be measured, the fixed rule: a CPU rasterizer -> the fastest
+    # CPU backend (cpu with numba, else numpy); a GPU -> gl
     cpu = backend_mod.fastest_cpu_backend()
-    monkeypatch.setattr(context_mod, "create_context", lambda: FakeCtx("llvmpipe (LLVM 15)"))
-    assert backend_mod.resolve_auto()[0] == cpu
-    monkeypatch.setattr(context_mod, "create_context", lambda: FakeCtx("NVIDIA GeForce RTX"))
-    assert backend_mod.resolve_auto() == ("gl", "OpenGL renderer 'NVIDIA GeForce RTX'")
+    assert backend_mod.fixed_rule("llvmpipe (LLVM 15)")[0] == cpu
+    assert backend_mod.fixed_rule("NVIDIA GeForce RTX") == (
+        "gl", "OpenGL renderer 'NVIDIA GeForce RTX'")
 
     def no_egl() -> Any:
         raise GLUnavailable("cannot create a context\nEGL: no display")
 
+    # no GL context: auto measures the CPU backends only (issue 26: by measurement)
+    monkeypatch.setenv("STATION_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(choice_mod, "PROBE_SECONDS", 0.02)
     monkeypatch.setattr(context_mod, "create_context", no_egl)
     name, why = backend_mod.resolve_auto()
-    assert name == cpu and "EGL: no display" in why and "\n" not in why
+    assert name in ("numpy", "cpu") and "measured" in why and "\n" not in why
+    assert set(backend_mod.auto_choice().steps_per_s) == {"numpy", "cpu"} & set(
+        backend_mod.available_backends())
 
     # GL chosen but it cannot start: the fastest CPU backend, with a one-line warning
-    monkeypatch.setattr(context_mod, "create_context", lambda: FakeCtx("Some GPU"))
+    monkeypatch.setattr(backend_mod, "resolve_auto", lambda: ("gl", "measured fastest"))
     real = backend_mod.create_backend
 
     def no_gl(name: str, *a: Any, **kw: Any) -> Any:

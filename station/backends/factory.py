@@ -16,6 +16,8 @@ import importlib.util
 import logging
 from typing import TYPE_CHECKING, Any
 
+from station.backends import choice
+from station.backends.choice import Choice
 from station.backends.numpy_canvas import NumpyCanvas
 from station.backends.protocol import CanvasBackend
 from station.canvas.params import CanvasInputError
@@ -60,23 +62,45 @@ def _one_line(exc: BaseException) -> str:
     return " | ".join(ln.strip() for ln in str(exc).splitlines() if ln.strip())[:300]
 
 
-def resolve_auto() -> tuple[str, str]:
-    """What ``--backend auto`` means on this machine, and why (one line).
-
-    The only place that decides it: ``gl`` when an OpenGL 4.3 context runs on a real
-    GPU; otherwise :func:`fastest_cpu_backend` (``cpu`` with numba, else ``numpy``),
-    also when the context is a CPU rasterizer such as Mesa llvmpipe, where the CPU
-    backends are faster (docs/gpu.md, docs/cpu-backend.md: on the 2-core machine at
-    800x600 llvmpipe GL did 73 stroke steps/s, NumPy 95, cpu 5-8x NumPy).
-    """
+def fixed_rule(renderer: str | None, gl_problem: str = "") -> tuple[str, str]:
+    """The rule ``auto`` followed before issue 26, now only where nothing could be
+    measured: ``gl`` on a real GPU, otherwise :func:`fastest_cpu_backend` (also on a
+    CPU rasterizer such as Mesa llvmpipe)."""
     cpu = fastest_cpu_backend()
-    try:
-        renderer = _gl_renderer()
-    except (ImportError, StationError) as exc:
-        return cpu, f"GL unavailable ({_one_line(exc)})"
+    if renderer is None:
+        return cpu, f"GL unavailable ({gl_problem})"
     if any(k in renderer.lower() for k in SOFTWARE_GL):
         return cpu, f"OpenGL renderer {renderer!r} runs on the CPU, where {cpu} is faster"
     return "gl", f"OpenGL renderer {renderer!r}"
+
+
+def auto_choice() -> Choice:
+    """What ``--backend auto`` means on this machine, with its figures: the cached
+    measurement of :mod:`station.backends.choice`, or a fresh one (a short bounded
+    probe of every backend available here; then cached)."""
+    numba = numba_available()
+    candidates = ["numpy"] + (["cpu"] if numba else [])
+    renderer: str | None = None
+    problem = ""
+    try:
+        renderer = _gl_renderer()
+    except (ImportError, StationError) as exc:
+        problem = _one_line(exc)
+    else:
+        candidates.append("gl")
+    # make=None: the probe runs in a child process (its GL contexts stay out of ours)
+    return choice.resolve(candidates, renderer, choice.machine_key(numba), None,
+                          fixed_rule(renderer, problem)[0])
+
+
+def resolve_auto() -> tuple[str, str]:
+    """What ``--backend auto`` means on this machine, and why (one line).
+
+    The only place that decides it: the fastest backend measured here
+    (:func:`auto_choice`; on the 2-core machine cpu beats llvmpipe's GL and NumPy,
+    on a machine with a GPU GL should win: measured, not assumed)."""
+    c = auto_choice()
+    return c.backend, c.why + (" (cached)" if c.cached else "")
 
 
 def available_backends() -> list[str]:

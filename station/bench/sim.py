@@ -9,13 +9,24 @@ steps per second and cell-steps per second:
 * ``stroke``: one live stroke on a dry canvas with dirty tiles on: a round
   footprint moving across the canvas, adding water and pigment every step.
 
-Beside the speed it reports the machine's copy bandwidth measured in the same
-run (``numpy.copyto`` of a 256 MiB array, read + write counted) and, from the
-backend's own honest count of bytes per cell-step (every field each pass must
-read and write, neighbours of a stencil counted once), the fraction of that
-bandwidth the simulation achieves: ``bytes_per_cell_step · cell_steps_per_s /
-copy bandwidth``.  For the stroke scenario cell-steps count the cells actually
-simulated (active tiles and their halo), reported as ``active_cells``.
+Beside the speed it reports the copy bandwidth of the device each backend runs
+on, measured in the same run, and, from the backend's own honest count of bytes
+per cell-step (every field each pass must read and write, neighbours of a
+stencil counted once), the fraction of that bandwidth the simulation achieves:
+``bytes_per_cell_step · cell_steps_per_s / copy bandwidth``.  ``numpy`` and
+``cpu`` run on the CPU: ``numpy.copyto`` of a 256 MiB array (read + write
+counted).  ``gl`` runs on the GL device: ``glCopyBufferSubData`` between two
+:data:`GL_COPY_BYTES` buffers, four per ``glFinish`` (read + write counted);
+where no context can be made the fraction is ``null`` and
+``bandwidth["gl_error"]`` says why.  ``bytes_per_cell_step`` lists each
+backend's own count once more at the top level.  For the stroke scenario
+cell-steps count the cells actually simulated (active tiles and their halo),
+reported as ``active_cells``.
+
+``realtime`` (issue 26 item 3; by default when ``--sizes`` is not given, or with
+``--realtime``): a fully wet 1920x1080 and 3840x2160 canvas on the fastest CPU
+backend, steps/s and the real-time factor (steps/s ÷ 30, the station's step
+rate; ≥ 1 keeps real time).
 """
 
 from __future__ import annotations
@@ -30,13 +41,21 @@ from typing import Any
 
 import numpy as np
 
-from station.backends.factory import available_backends, create_backend, resolve_auto
+from station.backends.factory import (
+    available_backends,
+    create_backend,
+    fastest_cpu_backend,
+    resolve_auto,
+)
 from station.bench import _sim_baseline as sim_baseline
 from station.bench import _sim_driver as sim_driver
 from station.errors import BadInput, StationError
 from station.progress import Progress
 
 DEFAULT_SIZES = ("512x512", "800x600", "1024x1024", "2048x2048")
+REALTIME_SIZES = ((1920, 1080), (3840, 2160))
+STEP_RATE = 30.0
+"""Simulation steps per second of a station in real time (a step is 1/30 s)."""
 SCENARIOS = ("wash", "stroke")
 BACKENDS = ("gl", "numpy", "cpu")
 """Without ``--backends`` every one available here is measured
@@ -68,6 +87,38 @@ def memory_bandwidth_gb_s(nbytes: int = 256 << 20, repeats: int = 5) -> float:
     return 2.0 * src.nbytes / best / 1e9
 
 
+GL_COPY_BYTES = 128 << 20
+GL_COPIES_PER_TIMING = 4
+
+
+def gl_copy_bandwidth_gb_s(nbytes: int = GL_COPY_BYTES, repeats: int = 5) -> float:
+    """Copy bandwidth of the GL device in GB/s (read + write), best of ``repeats``:
+    a GPU's own memory on a real card, system memory through llvmpipe.
+    :class:`StationError` or ImportError when no GL context can be made."""
+    # in the function: moderngl only when GL is measured
+    from station.glkit.context import create_context
+
+    ctx = create_context()
+    try:
+        src = ctx.buffer(reserve=nbytes)
+        dst = ctx.buffer(reserve=nbytes)
+        ctx.copy_buffer(dst, src)  # allocate and touch both before timing
+        ctx.finish()
+        best = math.inf
+        for _ in range(repeats):
+            # a batch per glFinish: on a GPU one copy takes ~0.1 ms, near the round trip
+            t0 = time.perf_counter()
+            for _ in range(GL_COPIES_PER_TIMING):
+                ctx.copy_buffer(dst, src)
+            ctx.finish()
+            best = min(best, (time.perf_counter() - t0) / GL_COPIES_PER_TIMING)
+        src.release()
+        dst.release()
+    finally:
+        ctx.release()
+    return 2.0 * nbytes / best / 1e9
+
+
 @dataclass
 class Result:
     """One measured configuration."""
@@ -81,7 +132,9 @@ class Result:
     bytes_per_cell_step: float
     renderer: str
 
-    def as_dict(self, bandwidth_gb_s: float) -> dict[str, Any]:
+    def as_dict(self, bandwidth_gb_s: float | None) -> dict[str, Any]:
+        """``bandwidth_gb_s``: the copy bandwidth of the device this backend ran on
+        (``None``: unknown, and so is the fraction)."""
         steps_per_s = self.steps / self.seconds
         cell_steps = steps_per_s * self.cells_per_step
         traffic = cell_steps * self.bytes_per_cell_step / 1e9
@@ -96,7 +149,9 @@ class Result:
             "active_cells": round(self.cells_per_step, 1),
             "bytes_per_cell_step": self.bytes_per_cell_step,
             "memory_traffic_gb_s": round(traffic, 4),
-            "bandwidth_fraction": round(traffic / bandwidth_gb_s, 4),
+            "bandwidth_gb_s": None if bandwidth_gb_s is None else round(bandwidth_gb_s, 3),
+            "bandwidth_fraction": (None if bandwidth_gb_s is None
+                                   else round(traffic / bandwidth_gb_s, 4)),
             "renderer": self.renderer,
         }
 
@@ -193,6 +248,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scenarios", default=",".join(SCENARIOS), help="wash,stroke or one")
     p.add_argument("--seconds", type=float, default=3.0,
                    help="measuring time per configuration (default %(default)s s)")
+    p.add_argument("--realtime", action=argparse.BooleanOptionalAction, default=None,
+                   help="measure the fully wet 1920x1080 and 3840x2160 canvas on the cpu "
+                        "backend (default: when --sizes is not given)")
     p.add_argument("--quick", action="store_true",
                    help="800x600 only, 1 s per configuration")
     p.add_argument("--baseline", metavar="REV", default=None,
@@ -259,6 +317,19 @@ def run(args: argparse.Namespace) -> int:
         if s not in SCENARIOS:
             raise BadInput(f"unknown scenario {s!r} (wash, stroke)", "--scenarios")
     bandwidth = memory_bandwidth_gb_s()
+    device_bw: dict[str, float | None] = {"numpy": bandwidth, "cpu": bandwidth}
+    bw_out: dict[str, Any] = {"cpu_gb_s": round(bandwidth, 3)}
+    if "gl" in backends:
+        try:
+            gl_bw = gl_copy_bandwidth_gb_s()
+        except (StationError, ImportError) as exc:
+            device_bw["gl"] = None
+            bw_out["gl_gb_s"] = None
+            bw_out["gl_error"] = " ".join(str(exc).split())[:300]
+        else:
+            device_bw["gl"] = gl_bw
+            bw_out["gl_gb_s"] = round(gl_bw, 3)
+    per_cell: dict[str, float] = {}
     results: list[dict[str, Any]] = []
     renderer = "numpy"
     bar = Progress(len(backends) * len(dims) * len(scenarios), "bench sim", unit="run")
@@ -275,12 +346,27 @@ def run(args: argparse.Namespace) -> int:
                     continue
                 if backend == "gl":
                     renderer = r.renderer
-                results.append(r.as_dict(bandwidth))
+                per_cell.setdefault(backend, r.bytes_per_cell_step)
+                results.append(r.as_dict(device_bw.get(backend)))
                 bar.write(f"bench sim: {backend} {w}x{h} {scenario}: "
                           f"{results[-1]['steps_per_s']} steps/s")
                 bar.update()
+    realtime: list[dict[str, Any]] = []
+    want_rt = args.realtime if args.realtime is not None else (
+        args.sizes == ",".join(DEFAULT_SIZES) and not args.quick)
+    if want_rt:
+        rt_backend = fastest_cpu_backend()
+        for w, h in REALTIME_SIZES:
+            bar.write(f"bench sim: realtime {rt_backend} {w}x{h} wash")
+            r = measure(rt_backend, w, h, "wash", seconds, warmup=3)
+            d = r.as_dict(device_bw.get(rt_backend))
+            d["realtime_factor"] = round(d["steps_per_s"] / STEP_RATE, 3)
+            d["goal_steps_per_s"] = STEP_RATE
+            realtime.append(d)
     bar.close()
     out = {"renderer": renderer, "memory_bandwidth_gb_s": round(bandwidth, 3),
-           "auto": resolve_auto()[0], "results": results}
+           "bandwidth": bw_out, "bytes_per_cell_step": per_cell,
+           "load_average": [round(x, 2) for x in os.getloadavg()],
+           "auto": resolve_auto()[0], "results": results, "realtime": realtime}
     print(json.dumps(out, indent=2))
     return 0

@@ -12,10 +12,12 @@ import os
 import shutil
 import subprocess
 import sys
+import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from station import paths
+from station.backends import choice as backend_choice
 from station.blueprint.exposure import gallery_exposure
 from station.blueprint.model import BlueprintError
 from station.blueprint.plan import Plan
@@ -30,6 +32,16 @@ UDEV_DIRS = (Path("/etc/udev/rules.d"), Path("/run/udev/rules.d"), Path("/lib/ud
              Path("/usr/lib/udev/rules.d"))
 DEFAULT_MIN_FREE = 1 << 30  # 1 GiB for the gallery and session logs
 GL_TIMEOUT_S = 60.0
+AUTO_TIMEOUT_S = 300.0
+"""The backend probe in a child: a first run compiles the cpu backend (minutes on a
+loaded 2-core machine)."""
+
+_AUTO_PROBE = """
+import json
+from station.backends.factory import auto_choice
+c = auto_choice()
+print(json.dumps(dict(c.as_dict(), cached=c.cached)))
+"""
 
 _GL_PROBE = """
 import json, moderngl
@@ -71,8 +83,51 @@ def check_gl() -> Check:
                      "use --backend cpu, or a newer driver for the gl backend")
     if any(k in str(info["renderer"]).lower() for k in ("llvmpipe", "softpipe", "swrast")):
         return Check("gl", "warn", detail + ": software rendering on the CPU",
-                     "install the GPU's driver for speed; --backend auto picks cpu meanwhile")
+                     "install the GPU's driver for speed; --backend auto measures and picks the "
+                     "fastest meanwhile (the backend check)")
     return Check("gl", "ok", detail)
+
+
+def _describe(c: backend_choice.Choice, cached: bool) -> str:
+    figures = ", ".join(f"{k} {'failed' if v is None else f'{v:g}'}"
+                        for k, v in sorted(c.steps_per_s.items()))
+    gl = f"GL renderer {c.renderer!r}" if c.renderer is not None else "no GL"
+    when = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime(c.measured_at))
+    return (f"--backend auto = {c.backend}: steps/s on a {c.probe}: {figures}; {gl}; "
+            f"{'cached, measured' if cached else 'measured just now'} {when}")
+
+
+def check_backend(measure: bool) -> Check:
+    """What ``--backend auto`` picks here and the figures it picked by: measured in a
+    child process (a broken GL driver cannot take the doctor down) and cached, or with
+    ``measure=False`` (``--no-gl``) only what the cache holds."""
+    if not measure:
+        cached = backend_choice.load()
+        if cached is None:
+            return Check("backend", "ok", "--backend auto: not measured on this machine yet "
+                         "(the first --backend auto, or station doctor without --no-gl, "
+                         "measures every backend for a few seconds)")
+        return Check("backend", "ok", _describe(cached, True))
+    try:
+        proc = subprocess.run([sys.executable, "-c", _AUTO_PROBE], capture_output=True,
+                              text=True, timeout=AUTO_TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        return Check("backend", "fail", f"measuring the backends took over "
+                     f"{AUTO_TIMEOUT_S:g} s", "run the sim with --backend cpu")
+    try:
+        if proc.returncode != 0:
+            raise ValueError((proc.stderr.strip().splitlines() or ["unknown error"])[-1])
+        data = json.loads(proc.stdout.strip().splitlines()[-1])
+        c = backend_choice.Choice.from_dict(data)
+    except (ValueError, IndexError) as exc:
+        return Check("backend", "fail", f"measuring the backends failed: {exc}",
+                     "run the sim with --backend cpu")
+    failed = dict(c.errors)
+    detail = _describe(c, bool(data.get("cached")))
+    if failed:
+        return Check("backend", "warn", detail + "; " + "; ".join(
+            f"{k}: {v}" for k, v in failed.items()), "see the gl check")
+    return Check("backend", "ok", detail)
 
 
 def check_devices(plan: Plan | None) -> list[Check]:
@@ -323,6 +378,7 @@ def run_checks(plan: Plan | None, gl: bool = True) -> list[Check]:
     checks: list[Check] = []
     if gl:
         checks.append(check_gl())
+    checks.append(check_backend(measure=gl))
     devices = check_devices(plan)
     checks += devices
     # "no pen tablet found" and nothing named: the station runs (mocks, traces, the

@@ -14,12 +14,17 @@ is the same method with a binary wheel.  Each frame:
 4. *Accept* a finite result that keeps every joint above ``-TOL``; otherwise
    keep the last shape and count a fallback.  The budget is an evaluation
    count (deterministic, so a replay gives the same brush) plus, in live use
-   only, a wall-clock limit (``time_budget_s``).
+   only, a wall-clock limit (``time_budget_s``: a compiled solve that took longer
+   counts as failed, and NLopt gets it as its own limit).
+
+Step 3 runs :func:`station.brush.sqp.sqp` (the same method compiled, no call
+back into Python: issue 26); a frame it declines (an infeasible linearisation,
+no descent, budget) goes to NLopt, whose SLSQP relaxes infeasible subproblems.
 """
 
 from __future__ import annotations
 
-import math
+import functools
 import time
 from dataclasses import dataclass, field
 
@@ -28,6 +33,7 @@ import numpy as np
 
 from station.brush.energy import evaluate, heights
 from station.brush.spine import SpineSpec, chain
+from station.brush.sqp import OK, solve_frame
 
 TOL = 1e-6
 """Largest accepted penetration of a joint below the plane, tuft units."""
@@ -35,6 +41,13 @@ CONTACT_TOL = 1e-7
 SUBSTEPS = 4
 BUCKLE = 0.05
 """Bend (rad per joint) given to a straight spine pressed onto the canvas."""
+FTOL = 1e-12
+"""Absolute tolerance on the energy between two iterates."""
+CTOL = 1e-9
+"""How far (tuft units) a height may miss its constraint at a feasible point."""
+METHODS = ("sqp", "nlopt")
+_NO_POS = np.zeros((0, 3))
+_NO_CONTACT = np.zeros(0, np.bool_)
 
 
 @dataclass(frozen=True, slots=True)
@@ -80,9 +93,11 @@ class SolverCounters:
     evaluations: int = 0
     seconds: float = 0.0  # wall clock
     cpu_seconds: float = 0.0  # this thread's CPU time (what a shared machine leaves us)
+    compiled_declined: int = 0  # tries the compiled SQP gave to NLopt
 
     def as_dict(self) -> dict[str, float]:
         return {"solves": self.solves, "fallbacks": self.fallbacks,
+                "compiled_declined": self.compiled_declined,
                 "evaluations": self.evaluations, "seconds": round(self.seconds, 6),
                 "cpu_seconds": round(self.cpu_seconds, 6)}
 
@@ -100,6 +115,9 @@ class SpineSolver:
             instead of hopping off to escape their friction; the painting brush).
             ``False``: every joint only stays above the canvas and may lift off (a
             frictionless tuft whose contact forces are all pushes: the haptic reaction).
+        method: ``"sqp"``: the compiled SQP of :mod:`station.brush.sqp` (one numba
+            call a frame), NLopt's SLSQP where it declines a frame; ``"nlopt"``:
+            NLopt only (the path before issue 26; the bench's comparison).
     """
 
     friction: Friction = field(default_factory=Friction)
@@ -108,6 +126,11 @@ class SpineSolver:
     xtol: float = 1e-6
     counters: SolverCounters = field(default_factory=SolverCounters)
     hold: bool = True
+    method: str = "sqp"
+
+    def __post_init__(self) -> None:
+        if self.method not in METHODS:
+            raise ValueError(f"solver method {self.method!r} is not one of {', '.join(METHODS)}")
 
     def solve(self, st: SpineState, root: np.ndarray, handle: np.ndarray) -> np.ndarray:
         """Move ``st`` to its equilibrium at ``root`` (3,), ``handle`` (3, 3); joints (n, 3).
@@ -143,34 +166,56 @@ class SpineSolver:
         return st.pos if st.pos is not None else np.zeros((st.spec.n, 3))
 
     def _solve(self, st: SpineState, root: np.ndarray, handle: np.ndarray) -> bool:
-        spec = st.spec
-        n = spec.n
-        lengths, stiffness, _ = spec.arrays()
-        pred, _, _ = chain(st.x, lengths, root, handle)
-        touching = pred[:, 2] <= CONTACT_TOL
-        contact = touching if self.hold else np.zeros(n, bool)
-        anchor = np.zeros((n, 2))
-        pull = np.zeros((n, 2))
-        if st.pos is not None and st.contact is not None:
-            last = st.pos
-            starts = np.vstack([root[None, :], last[:-1]])
-            for j in np.flatnonzero(contact):
-                if st.contact[j]:
-                    anchor[j] = last[j, :2]
-                else:  # touched down during this frame: where its path crossed the plane
-                    z0, z1 = last[j, 2], pred[j, 2]
-                    f = z0 / (z0 - z1) if z0 > z1 else 1.0
-                    anchor[j] = last[j, :2] + f * (pred[j, :2] - last[j, :2])
-                v = starts[j, :2] - last[j, :2]
-                norm = math.hypot(v[0], v[1])
-                if norm > 1e-9:
-                    pull[j] = v / norm
-        else:
-            anchor[:] = pred[:, :2]
+        lengths, stiffness, lo, hi = _arrays(st.spec)
+        n = lengths.shape[0]
+        anchor = np.empty((n, 2))
+        pull = np.empty((n, 2))
+        cflt = np.empty(n)
+        x0 = np.empty(2 * n)
+        stats = np.zeros(3, np.int64)
+        last_pos = st.pos if st.pos is not None and st.contact is not None else _NO_POS
+        last_contact = st.contact if st.pos is not None and st.contact is not None \
+            else _NO_CONTACT
+        has_last = last_pos is not _NO_POS
         fr = self.friction
-        mu_n = np.where(contact, fr.mu_n, 0.0)
-        cflt = contact.astype(np.float64)
-        rest = st.rest
+        # one compiled call: contact set, anchors, warm start (steps 1-2) and the SQP
+        t0 = time.perf_counter()
+        status = solve_frame(st.x, lo, hi, lengths, stiffness, st.rest, root, handle,
+                             last_pos, last_contact, has_last, self.hold,
+                             CONTACT_TOL, BUCKLE, fr.mu_n, fr.c_eta, fr.k_eta,
+                             self.max_evals if self.method == "sqp" else 0, self.xtol, FTOL,
+                             CTOL, x0, anchor, pull, cflt, stats)
+        if self.method == "sqp":
+            self.counters.evaluations += int(stats[0])
+        x: np.ndarray | None = None
+        budget = self.time_budget_s
+        if budget is not None and time.perf_counter() - t0 > budget:
+            return False  # over the live budget, as NLopt's MAXTIME_REACHED
+        if status == OK:  # a feasible point: its heights within CTOL < TOL
+            x = x0
+        else:  # NLopt's SLSQP relaxes what the compiled one gives up on
+            if self.method == "sqp":
+                self.counters.compiled_declined += 1
+            x = self._nlopt(x0, lo, hi, lengths, stiffness, st.rest, root, handle, cflt,
+                            anchor, pull, fr.mu_n * cflt)
+        if x is None:
+            return False
+        pos, _, _ = chain(x, lengths, root, handle)
+        st.x = x
+        st.pos = pos
+        st.root = root
+        st.contact = pos[:, 2] <= 1e-5
+        return True
+
+    def _nlopt(self, x0: np.ndarray, lo: np.ndarray, hi: np.ndarray, lengths: np.ndarray,
+               stiffness: np.ndarray, rest: np.ndarray, root: np.ndarray, handle: np.ndarray,
+               cflt: np.ndarray, anchor: np.ndarray, pull: np.ndarray, mu_n: np.ndarray
+               ) -> np.ndarray | None:
+        """The frame's solve with NLopt's SLSQP (the path before issue 26, and the
+        fallback of the compiled one): the angles, or ``None``."""
+        n = lengths.shape[0]
+        fr = self.friction
+        contact = cflt > 0.0
         evals = [0]
         eq = np.flatnonzero(contact)
         free = np.flatnonzero(~contact)
@@ -209,27 +254,18 @@ class SpineSolver:
                 grad[:] = -zg[free]
 
         opt = nlopt.opt(nlopt.LD_SLSQP, 2 * n)
-        lo, hi = spec.bounds()
         opt.set_lower_bounds(lo)
         opt.set_upper_bounds(hi)
         opt.set_min_objective(objective)
         if eq.size:
-            opt.add_equality_mconstraint(eq_c, np.full(eq.size, 1e-9))
+            opt.add_equality_mconstraint(eq_c, np.full(eq.size, CTOL))
         if free.size:
-            opt.add_inequality_mconstraint(ineq_c, np.full(free.size, 1e-9))
+            opt.add_inequality_mconstraint(ineq_c, np.full(free.size, CTOL))
         opt.set_xtol_rel(self.xtol)
-        opt.set_ftol_abs(1e-12)
+        opt.set_ftol_abs(FTOL)
         opt.set_maxeval(self.max_evals)
         if self.time_budget_s is not None:
             opt.set_maxtime(self.time_budget_s)
-        x0 = np.clip(st.x, lo, hi)
-        if touching.any() and float(np.abs(x0).max()) < BUCKLE:
-            # A straight chain pushed onto the plane is at a saddle: its joints' heights
-            # have no first-order dependence on the angles, and SQP cannot start.  A
-            # slight bend about the handle's Y axis (along its X) breaks the symmetry,
-            # deterministically, the way a real tuft always buckles one way.
-            x0 = x0.copy()
-            x0[1::2] += BUCKLE
         ok = True
         try:
             x = opt.optimize(x0)
@@ -237,18 +273,28 @@ class SpineSolver:
             x = None
             ok = False
         if ok and x is not None:
-            ok = bool(np.isfinite(x).all())
-            if ok:
-                z = heights(x, np.empty((0, 0)), lengths, root, handle)
-                ok = bool(z.min() >= -TOL and (eq.size == 0 or np.abs(z[eq]).max() <= 1e-5))
+            ok = bool(np.isfinite(x).all()) and _acceptable(x, lengths, root, handle, cflt)
             if ok and opt.last_optimize_result() == nlopt.MAXTIME_REACHED:
                 ok = False
         self.counters.evaluations += evals[0]
-        if not ok or x is None:
-            return False
-        pos, _, _ = chain(x, lengths, root, handle)
-        st.x = np.asarray(x, np.float64)
-        st.pos = pos
-        st.root = root
-        st.contact = pos[:, 2] <= 1e-5
-        return True
+        return np.asarray(x, np.float64) if ok and x is not None else None
+
+
+@functools.lru_cache(maxsize=256)
+def _arrays(spec: SpineSpec) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Lengths, stiffness and the angle bounds of ``spec``, shared: never written (a
+    frame's solve would spend as long building them as the compiled SQP takes; left
+    writeable so that numba sees the same array types as everywhere else)."""
+    lengths, stiffness, _ = spec.arrays()
+    lo, hi = spec.bounds()
+    return lengths, stiffness, lo, hi
+
+
+def _acceptable(x: np.ndarray, lengths: np.ndarray, root: np.ndarray, handle: np.ndarray,
+                cflt: np.ndarray) -> bool:
+    """Step 4: every joint above ``-TOL`` and the held ones within 1e-5 of the plane."""
+    if not np.isfinite(x).all():
+        return False
+    z = heights(x, np.empty((0, 0)), lengths, root, handle)
+    held = cflt > 0.0
+    return bool(z.min() >= -TOL and (not held.any() or np.abs(z[held]).max() <= 1e-5))

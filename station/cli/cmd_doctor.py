@@ -24,7 +24,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    dest="overrides", help="blueprint override, as for station run")
     p.add_argument("--run-dir", type=Path, metavar="DIR", help="the station's run directory "
                    "(as given to station run)")
-    p.add_argument("--no-gl", action="store_true", help="skip the OpenGL check")
+    p.add_argument("--no-gl", action="store_true",
+                   help="skip the OpenGL check and the backend probe (the cached choice only)")
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(func=run)
 

@@ -42,6 +42,8 @@ EXAMPLES: dict[str, list[str]] = {
     "bench haptic": ["station bench haptic"],
     "bench latency": ["station bench latency"],
     "bench parse": ["station bench parse"],
+    "bench peer": ["station bench peer --peer-src Open-Watercolor-Sim/src",
+                   "station bench peer --peer-src Open-Watercolor-Sim/src --sizes 512 --pairs 1"],
     "bench render": ["station bench render"],
     "bench sim": ["station bench sim --json"],
     "bench send": ["station bench send --calls 20"],

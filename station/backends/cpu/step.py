@@ -12,6 +12,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from station.backends.cpu import fused as F
 from station.backends.cpu import kernels as K
 from station.canvas import reference, tiles
 from station.canvas.params import CanvasInputError, SimParams
@@ -30,9 +31,9 @@ def work_grow(n_taps: int) -> int:
     return max(tiles.HALO, 1 + n_taps // 2) + 1
 
 _FIELDS_2D = ("wet", "w0", "bc", "vsx", "vsy", "c", "opn", "v1x", "v1y", "xvax", "xvay",
-              "xwa", "xwb", "v3x", "v3y", "sw", "w2", "sout", "sin", "w3",
+              "xwa", "xwb", "v3x", "v3y", "w2", "w3",
               "sat", "mbx", "pr")
-_FIELDS_3D = ("p0", "xpa", "xpb", "sp", "p2")
+_FIELDS_3D = ("p0", "xpa", "xpb", "p2")
 
 
 def constants(prm: SimParams, dt: float, sim_time: float) -> np.ndarray:
@@ -210,37 +211,39 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
             xw, xw_next = xw_next, xw
         if jp:
             xp, xp_next = xp_next, xp
-    # last velocity iteration, pass 3, donor limiters of passes 4/5
-    K.height_limit(wet, bc, s2["v1x"], s2["v1y"], xvx, xvy, w0, xw, p0, xp, pr, bh, bw, ns,
-                   cst, do_v, runs("water_height_and_boundary"), do_w, do_p,
-                   s2["v3x"], s2["v3y"], s2["sw"], s3["sp"], spans, nsp)
+    # last velocity iteration, pass 3, donor limiters and fluxes of passes 4/5: one sweep
+    # (fused.limit_diffuse_fused: height_limit + diffuse_apply, bitwise the same)
+    F.limit_diffuse_fused(wet, bc, s2["v1x"], s2["v1y"], xvx, xvy, w0, xw, p0, xp, pr, bh, bw,
+                          ns, cst, do_v, runs("water_height_and_boundary"), do_w, do_p,
+                          s2["v3x"], s2["v3y"], s2["w2"], s3["p2"], spans, nsp)
     v3x, v3y = s2["v3x"], s2["v3y"]
     if last <= reference.PASS_ORDER.index("water_height_and_boundary"):
         state.vx[ys, xs] = _win(v3x, bh, bw)
         state.vy[ys, xs] = _win(v3y, bh, bw)
         return
-    K.diffuse_apply(wet, bc, w0, xw, s2["sw"], p0, xp, s3["sp"], bh, bw, ns, cst, do_w,
-                    do_p, s2["w2"], s3["p2"], spans, nsp)
     if last <= reference.PASS_ORDER.index("diffuse_pigment"):
         state.vx[ys, xs] = _win(v3x, bh, bw)
         state.vy[ys, xs] = _win(v3y, bh, bw)
         state.w[ys, xs] = _win(s2["w2"], bh, bw)
         state.p[:ns, ys, xs] = _win(s3["p2"][:ns], bh, bw)
         return
-    do_adv = runs("advect_water_and_pigment")
-    if do_adv:
-        K.advect_limit(wet, v3x, v3y, s2["w2"], s3["p2"], bh, bw, ns, cst, s2["sout"],
-                       s2["sin"], spans, nsp)
-    K.advect_apply(wet, v3x, v3y, s2["sout"], s2["sin"], s2["w2"], s3["p2"], y0, x0, bh, bw,
-                   ns, cst, do_adv, s2["w3"], state.p, spans, nsp)
-    K.evap_surface_absorb(wet, s2["w3"], s2["c"], s2["opn"], state.h, state.wc,
-                          state.evaporated, state.w, state.p, state.q, beta, gamma, delta,
-                          y0, x0, bh, bw, ns, cst, runs("evaporate"), runs("surface_exchange"),
-                          runs("capillary"), s2["sat"], spans, nsp)
-    if runs("capillary"):
-        K.capillary_dry(s2["sat"], s2["c"], s2["opn"], v3x, v3y, state.w, state.wc,
-                        state.evaporated, state.p, state.q, state.vx, state.vy, y0, x0, bh, bw,
-                        ns, cst, prm.cap_diffusion * dt > 0, runs("dry_cells"), spans, nsp)
+    if runs("advect_water_and_pigment"):  # pass 6's limiters and fluxes in one sweep
+        F.advect_fused(wet, v3x, v3y, s2["w2"], s3["p2"], y0, x0, bh, bw, ns, cst, s2["w3"],
+                       state.p, spans, nsp)
+    else:  # the copy of advect_apply's switched-off pass
+        K.advect_apply(wet, v3x, v3y, s2["w2"], s2["w2"], s2["w2"], s3["p2"], y0, x0, bh, bw,
+                       ns, cst, False, s2["w3"], state.p, spans, nsp)
+    if runs("capillary"):  # passes 7-10 in one sweep (fused.evap_cap_fused)
+        F.evap_cap_fused(wet, s2["w3"], s2["c"], s2["opn"], state.h, state.wc,
+                         state.evaporated, state.w, state.p, state.q, beta, gamma, delta,
+                         v3x, v3y, state.vx, state.vy, y0, x0, bh, bw, ns, cst,
+                         runs("evaporate"), runs("surface_exchange"), True,
+                         prm.cap_diffusion * dt > 0, runs("dry_cells"), spans, nsp)
+    else:  # a pass-by-pass comparison that stops before the capillary passes
+        K.evap_surface_absorb(wet, s2["w3"], s2["c"], s2["opn"], state.h, state.wc,
+                              state.evaporated, state.w, state.p, state.q, beta, gamma, delta,
+                              y0, x0, bh, bw, ns, cst, runs("evaporate"),
+                              runs("surface_exchange"), False, s2["sat"], spans, nsp)
     if not runs("dry_cells"):
         state.vx[ys, xs] = _win(v3x, bh, bw)
         state.vy[ys, xs] = _win(v3y, bh, bw)

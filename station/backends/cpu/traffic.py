@@ -28,21 +28,17 @@ def floats_per_cell_step(slots: int, jacobi_iters: int) -> dict[str, int]:
         # p0(S), xp(S) once; write the last xv(2), xw, xp(S) once
         "jacobi_blocked (velocity 1..n-1, water/pigment 2..n)":
             ((8 + 2 * s) + (3 + s)) if n >= 2 else 0,
-        # read wet, bc, v1(2), xv(2), w0, xw, pr, p0(S), xp(S); write v3(2), sw, sp(S)
-        "height_limit (last velocity iteration, pass 3, donor limiters)":
+        # one sweep (fused.limit_diffuse_fused): read wet, bc, v1(2), xv(2), w0, xw, pr,
+        # p0(S), xp(S); write v3(2), w2, p2(S) (the donor limiters stay in a row ring)
+        "limit_diffuse (last velocity iteration, pass 3, passes 4/5 limiters and fluxes)":
             (9 + 2 * s) + (3 + s),
-        # read wet, bc, w0, xw, sw, p0(S), xp(S), sp(S); write w2, p2(S)
-        "diffuse_apply (passes 4/5 fluxes)": (5 + 3 * s) + (1 + s),
-        # read wet, v3(2), w2, p2(S); write sout, sin
-        "advect_limit (pass 6 limiters)": (4 + s) + 2,
-        # read wet, v3(2), sout, sin, w2, p2(S); write w3, p(S)
-        "advect_apply (pass 6 fluxes)": (6 + s) + (1 + s),
-        # read wet, w3, c, opn, h, wc, evaporated, p(S), q(S);
-        # write w, wc, evaporated, sat, p(S), q(S)
-        "evap_surface_absorb (passes 7, 8, 9a)": (7 + 2 * s) + (4 + 2 * s),
-        # read sat, c, opn, v3(2), w, wc, evaporated; write w, wc, evaporated, vx, vy
-        # (a wet cell deposits nothing: the pigment loop runs only on rows with dry cells)
-        "capillary_dry (passes 9b, 9c, 10)": 8 + 5,
+        # one sweep (fused.advect_fused): read wet, v3(2), w2, p2(S); write w3, p(S)
+        "advect (pass 6 limiters and fluxes)": (4 + s) + (1 + s),
+        # one sweep (fused.evap_cap_fused): read wet, w3, c, opn, h, wc, evaporated, p(S),
+        # q(S), v3(2); write w, wc, evaporated, p(S), q(S), vx, vy (sat stays in a row ring;
+        # a wet cell deposits nothing: the pigment loop of pass 10 runs only on rows with
+        # dry cells)
+        "evap_capillary (passes 7, 8, 9a, 9b, 9c, 10)": (9 + 2 * s) + (5 + 2 * s),
     }
 
 

@@ -1,0 +1,545 @@
+"""Fused sweeps of the ``cpu`` backend (issue 26 item 1): two pairs of sweeps of
+:mod:`station.backends.cpu.kernels` in one pass each, with the same arithmetic in the
+same order, so the results stay bitwise equal to the two-sweep kernels (and to the
+reference); the limiter rows a pass needs from its neighbours live in a three-row ring
+per chunk of rows instead of full scratch fields:
+
+* :func:`advect_fused`: pass 6's limiters (``advect_limit``) and fluxes
+  (``advect_apply``): no ``sout``/``sin`` fields, −10 floats per cell-step;
+* :func:`limit_diffuse_fused`: the last velocity iteration, pass 3 and the diffusion
+  donor limiters (``height_limit``) with the limited fluxes of passes 4/5
+  (``diffuse_apply``): no ``sw``/``sp`` fields and none of diffuse_apply's re-reads,
+  −(6 + 4·slots) floats per cell-step;
+* :func:`evap_cap_fused`: passes 7-9a (``evap_surface_absorb``) with 9b, 9c and 10
+  (``capillary_dry``): no ``sat`` field and none of capillary_dry's re-reads, −10 floats.
+
+A chunk's first ring rows belong to its neighbour chunk: they are recomputed here (the
+limiters are pure functions of the sweep's inputs).  tools/proto_fused_*.py check them
+bitwise against the two-sweep kernels and time both.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from station.backends.cpu import kernels as K
+
+F32 = np.float32
+ZERO, ONE = K.ZERO, K.ONE
+_inline = njit(inline="always", fastmath=False, cache=True, error_model="numpy")
+_parallel = njit(parallel=True, fastmath=False, cache=True, error_model="numpy", nogil=True)
+
+
+@_inline
+def _limit_row(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
+               p: np.ndarray, r: int, ns: int, q4: np.float32, wmin: np.float32,
+               wmax: np.float32, spans: np.ndarray, nsp: np.ndarray, buf: np.ndarray,
+               so: np.ndarray, si: np.ndarray) -> None:  # pragma: no cover - compiled
+    """advect_limit's row ``r`` into ``so``/``si`` (zero outside the row's spans)."""
+    so[:] = ZERO
+    si[:] = ZERO
+    for sx in range(nsp[r]):
+        slo, shi = K._span(spans, r, sx)
+        K._row_rates(vx, vy, wet, r, slo, shi, q4, buf)
+        rxp, rxn, syp, syn, nyp, nyn = buf[0], buf[1], buf[2], buf[3], buf[4], buf[5]
+        for i in range(slo, shi + 1):
+            r_out = ((rxp[i] + rxn[i - 1]) + syp[i]) + nyn[i]
+            wv = w[r, i]
+            lo = wv if wv < wmin else wmin
+            want = wv * r_out
+            room = wv - lo
+            so[i] = room / want if want > room else ONE
+            i_w = ((w[r, i - 1] * rxp[i - 1] + w[r, i + 1] * rxn[i])
+                   + w[r - 1, i] * nyp[i]) + w[r + 1, i] * syn[i]
+            hi = wv if wv > wmax else wmax
+            room_w = hi - wv
+            room_w = room_w if room_w > ZERO else ZERO
+            si[i] = room_w / i_w if i_w > room_w else ONE
+        for kk in range(ns):
+            for i in range(slo, shi + 1):
+                i_p = ((p[kk, r, i - 1] * rxp[i - 1] + p[kk, r, i + 1] * rxn[i])
+                       + p[kk, r - 1, i] * nyp[i]) + p[kk, r + 1, i] * syn[i]
+                room_p = ONE - p[kk, r, i]
+                room_p = room_p if room_p > ZERO else ZERO
+                sk = room_p / i_p if i_p > room_p else ONE
+                s = si[i]
+                si[i] = s if s < sk else sk
+        for i in range(slo, shi + 1):
+            s = si[i]
+            si[i] = s if s < ONE else ONE
+
+
+@_parallel
+def advect_fused(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
+                 p: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int,
+                 cst: np.ndarray, w3_o: np.ndarray, p_state: np.ndarray,
+                 spans: np.ndarray, nsp: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Pass 6 (limiters and fluxes) in one sweep: each chunk computes the limiter rows
+    j-1, j, j+1 into a ring and applies row j, exactly as advect_apply does."""
+    q4 = cst[K.C_Q4]
+    wmin = cst[K.C_WMIN]
+    wmax = cst[K.C_WMAX]
+    nch = min(bh, K.N_CHUNKS)
+    for ch in prange(nch):
+        j0, j1 = K._chunk(ch, nch, bh)
+        buf = np.empty((6, bw + 2), F32)
+        a = np.empty((6, bw + 2), F32)
+        so = np.zeros((3, bw + 2), F32)  # ring: row r lives in slot r % 3
+        si = np.zeros((3, bw + 2), F32)
+        for r in (j0 - 1, j0):
+            if 1 <= r <= bh:
+                _limit_row(wet, vx, vy, w, p, r, ns, q4, wmin, wmax, spans, nsp, buf,
+                           so[r % 3], si[r % 3])
+            else:
+                so[r % 3, :] = ZERO
+                si[r % 3, :] = ZERO
+        for j in range(j0, j1):
+            r = j + 1
+            if r <= bh:
+                _limit_row(wet, vx, vy, w, p, r, ns, q4, wmin, wmax, spans, nsp, buf,
+                           so[r % 3], si[r % 3])
+            else:
+                so[r % 3, :] = ZERO
+                si[r % 3, :] = ZERO
+            sm, s0, sp = (j - 1) % 3, j % 3, (j + 1) % 3
+            y = y0 + j - 1
+            for sx in range(nsp[j]):
+                slo, shi = K._span(spans, j, sx)
+                K._row_rates(vx, vy, wet, j, slo, shi, q4, buf)
+                for i in range(slo - 1, shi + 1):
+                    a[0, i] = (buf[0, i] * so[s0, i]) * si[s0, i + 1]
+                    a[1, i] = (buf[1, i] * so[s0, i + 1]) * si[s0, i]
+                for i in range(slo, shi + 1):
+                    a[2, i] = (buf[2, i] * so[s0, i]) * si[sp, i]
+                    a[3, i] = (buf[3, i] * so[sp, i]) * si[s0, i]
+                    a[4, i] = (buf[4, i] * so[sm, i]) * si[s0, i]
+                    a[5, i] = (buf[5, i] * so[s0, i]) * si[sm, i]
+                axp, axn, asp, asn, anp, ann = a[0], a[1], a[2], a[3], a[4], a[5]
+                for i in range(slo, shi + 1):
+                    wv = w[j, i]
+                    fe = wv * axp[i] - w[j, i + 1] * axn[i]
+                    fw = w[j, i - 1] * axp[i - 1] - wv * axn[i - 1]
+                    fs = wv * asp[i] - w[j + 1, i] * asn[i]
+                    fn = w[j - 1, i] * anp[i] - wv * ann[i]
+                    w3_o[j, i] = (((wv - fe) + fw) - fs) + fn
+                for kk in range(ns):
+                    for i in range(slo, shi + 1):
+                        pv = p[kk, j, i]
+                        fe = pv * axp[i] - p[kk, j, i + 1] * axn[i]
+                        fw = p[kk, j, i - 1] * axp[i - 1] - pv * axn[i - 1]
+                        fs = pv * asp[i] - p[kk, j + 1, i] * asn[i]
+                        fn = p[kk, j - 1, i] * anp[i] - pv * ann[i]
+                        p_state[kk, y, np.uint64(x0 + i - 1)] = (((pv - fe) + fw) - fs) + fn
+
+
+@_inline
+def _vel_row(wet: np.ndarray, v1x: np.ndarray, v1y: np.ndarray, xvx: np.ndarray,
+             xvy: np.ndarray, pr: np.ndarray, cst: np.ndarray, do_vjac: bool,
+             do_height: bool, j: int, slo: int, shi: int, v3x_o: np.ndarray,
+             v3y_o: np.ndarray) -> None:  # pragma: no cover - compiled
+    """height_limit's velocity part of row j (unchanged)."""
+    kv, g, oh, oi, vm = cst[K.C_KV], cst[K.C_G], cst[K.C_OH], cst[K.C_OI], cst[K.C_VMAX]
+    tgx, tgy = cst[K.C_TILTX], cst[K.C_TILTY]
+    wr, wn, ws = wet[j], wet[j - 1], wet[j + 1]
+    if do_vjac:
+        K._jacobi_v_row(wet, v1x, v1y, xvx, xvy, v3x_o, v3y_o, j, slo, shi, kv)
+    else:
+        for i in range(slo, shi + 1):
+            v3x_o[j, i] = xvx[j, i]
+            v3y_o[j, i] = xvy[j, i]
+    for i in range(slo, shi + 1):
+        c = wr[i]
+        be = c * wr[i + 1]
+        bwf = c * wr[i - 1]
+        bs = c * ws[i]
+        bn = c * wn[i]
+        vx0 = v3x_o[j, i]
+        vy0 = v3y_o[j, i]
+        wc_ = pr[j, i]
+        w_e = pr[j, i + 1] if be != ZERO else wc_
+        w_w = pr[j, i - 1] if bwf != ZERO else wc_
+        w_s = pr[j + 1, i] if bs != ZERO else wc_
+        w_n = pr[j - 1, i] if bn != ZERO else wc_
+        nvx = oi * vx0 + oh * (g * (w_e - w_w))
+        nvy = oi * vy0 + oh * (g * (w_s - w_n))
+        nvx = nvx + tgx if tgx != ZERO else nvx
+        nvy = nvy + tgy if tgy != ZERO else nvy
+        nvx = nvx if be != ZERO else (nvx if nvx < ZERO else ZERO)
+        nvx = nvx if bwf != ZERO else (nvx if nvx > ZERO else ZERO)
+        nvy = nvy if bs != ZERO else (nvy if nvy < ZERO else ZERO)
+        nvy = nvy if bn != ZERO else (nvy if nvy > ZERO else ZERO)
+        nvx = nvx if nvx > -vm else -vm
+        nvx = nvx if nvx < vm else vm
+        nvy = nvy if nvy > -vm else -vm
+        nvy = nvy if nvy < vm else vm
+        nvx = nvx if do_height else vx0
+        nvy = nvy if do_height else vy0
+        v3x_o[j, i] = nvx if c != ZERO else ZERO
+        v3y_o[j, i] = nvy if c != ZERO else ZERO
+
+
+@_inline
+def _pface(br: np.ndarray, bnr: np.ndarray, bsr: np.ndarray, wr: np.ndarray, wn: np.ndarray,
+           ws: np.ndarray, i: int) -> tuple[np.float32, np.float32, np.float32, np.float32]:
+    # pragma: no cover - compiled
+    b0 = br[i]
+    t = br[i + 1]
+    be_ = (b0 if b0 < t else t) if wr[i] * wr[i + 1] != ZERO else ZERO
+    t = br[i - 1]
+    bw_ = (b0 if b0 < t else t) if wr[i] * wr[i - 1] != ZERO else ZERO
+    t = bsr[i]
+    bs_ = (b0 if b0 < t else t) if wr[i] * ws[i] != ZERO else ZERO
+    t = bnr[i]
+    bn_ = (b0 if b0 < t else t) if wr[i] * wn[i] != ZERO else ZERO
+    return be_, bw_, bs_, bn_
+
+
+@_inline
+def _lim_row(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xw: np.ndarray,
+             p0: np.ndarray, xp: np.ndarray, ns: int, kw: np.float32, kp: np.float32,
+             do_w: bool, do_p: bool, r: int, spans: np.ndarray, nsp: np.ndarray,
+             sw_r: np.ndarray, sp_r: np.ndarray) -> None:  # pragma: no cover - compiled
+    """height_limit's donor limiters of row r into ring rows (zero outside the spans)."""
+    sw_r[:] = ZERO
+    sp_r[:, :] = ZERO
+    wr, wn, ws = wet[r], wet[r - 1], wet[r + 1]
+    for sx in range(nsp[r]):
+        slo, shi = K._span(spans, r, sx)
+        if do_w:
+            for i in range(slo, shi + 1):
+                fe = (kw * (wr[i] * wr[i + 1])) * (xw[r, i] - xw[r, i + 1])
+                fw = (kw * (wr[i - 1] * wr[i])) * (xw[r, i - 1] - xw[r, i])
+                fs = (kw * (wr[i] * ws[i])) * (xw[r, i] - xw[r + 1, i])
+                fn = (kw * (wn[i] * wr[i])) * (xw[r - 1, i] - xw[r, i])
+                out = (((fe if fe > ZERO else ZERO) - (fw if fw < ZERO else ZERO))
+                       + (fs if fs > ZERO else ZERO)) - (fn if fn < ZERO else ZERO)
+                uv = w0[r, i]
+                uv = uv if uv > ZERO else ZERO
+                sw_r[i] = uv / out if out > uv else ONE
+        if do_p:
+            br, bnr, bsr = bc[r], bc[r - 1], bc[r + 1]
+            for kk in range(ns):
+                for i in range(slo, shi + 1):
+                    be_, bw_, bs_, bn_ = _pface(br, bnr, bsr, wr, wn, ws, i)
+                    fe = (kp * be_) * (xp[kk, r, i] - xp[kk, r, i + 1])
+                    fw = (kp * bw_) * (xp[kk, r, i - 1] - xp[kk, r, i])
+                    fs = (kp * bs_) * (xp[kk, r, i] - xp[kk, r + 1, i])
+                    fn = (kp * bn_) * (xp[kk, r - 1, i] - xp[kk, r, i])
+                    out = (((fe if fe > ZERO else ZERO) - (fw if fw < ZERO else ZERO))
+                           + (fs if fs > ZERO else ZERO)) - (fn if fn < ZERO else ZERO)
+                    uv = p0[kk, r, i]
+                    uv = uv if uv > ZERO else ZERO
+                    sp_r[kk, i] = uv / out if out > uv else ONE
+
+
+@_parallel
+def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: np.ndarray,
+                        xvx: np.ndarray, xvy: np.ndarray, w0: np.ndarray, xw: np.ndarray,
+                        p0: np.ndarray, xp: np.ndarray, pr: np.ndarray, bh: int, bw: int,
+                        ns: int, cst: np.ndarray, do_vjac: bool, do_height: bool, do_w: bool,
+                        do_p: bool, v3x_o: np.ndarray, v3y_o: np.ndarray, w2_o: np.ndarray,
+                        p2_o: np.ndarray, spans: np.ndarray,
+                        nsp: np.ndarray) -> None:  # pragma: no cover - compiled
+    """height_limit and diffuse_apply in one sweep (their maths unchanged): each chunk
+    keeps the donor limiters of rows j-1, j, j+1 in a ring instead of ``sw``/``sp``."""
+    kw = cst[K.C_KW]
+    kp = cst[K.C_KP]
+    nch = min(bh, K.N_CHUNKS)
+    for ch in prange(nch):
+        j0, j1 = K._chunk(ch, nch, bh)
+        swr = np.zeros((3, bw + 2), F32)  # ring: row r in slot r % 3
+        spr = np.zeros((3, max(ns, 1), bw + 2), F32)
+        for r in (j0 - 1, j0):
+            if 1 <= r <= bh:
+                _lim_row(wet, bc, w0, xw, p0, xp, ns, kw, kp, do_w, do_p, r, spans, nsp,
+                         swr[r % 3], spr[r % 3])
+            else:
+                swr[r % 3, :] = ZERO
+                spr[r % 3, :, :] = ZERO
+        for j in range(j0, j1):
+            r = j + 1
+            if r <= bh:
+                _lim_row(wet, bc, w0, xw, p0, xp, ns, kw, kp, do_w, do_p, r, spans, nsp,
+                         swr[r % 3], spr[r % 3])
+            else:
+                swr[r % 3, :] = ZERO
+                spr[r % 3, :, :] = ZERO
+            sm, s0_, sp_ = (j - 1) % 3, j % 3, (j + 1) % 3
+            wr, wn, ws = wet[j], wet[j - 1], wet[j + 1]
+            for sx in range(nsp[j]):
+                slo, shi = K._span(spans, j, sx)
+                _vel_row(wet, v1x, v1y, xvx, xvy, pr, cst, do_vjac, do_height, j, slo, shi,
+                         v3x_o, v3y_o)
+                if do_w:
+                    for i in range(slo, shi + 1):
+                        fe = (kw * (wr[i] * wr[i + 1])) * (xw[j, i] - xw[j, i + 1])
+                        fw = (kw * (wr[i - 1] * wr[i])) * (xw[j, i - 1] - xw[j, i])
+                        fs = (kw * (wr[i] * ws[i])) * (xw[j, i] - xw[j + 1, i])
+                        fn = (kw * (wn[i] * wr[i])) * (xw[j - 1, i] - xw[j, i])
+                        s0 = swr[s0_, i]
+                        fe = (fe if fe > ZERO else ZERO) * s0 \
+                            + (fe if fe < ZERO else ZERO) * swr[s0_, i + 1]
+                        fw = (fw if fw > ZERO else ZERO) * swr[s0_, i - 1] \
+                            + (fw if fw < ZERO else ZERO) * s0
+                        fs = (fs if fs > ZERO else ZERO) * s0 \
+                            + (fs if fs < ZERO else ZERO) * swr[sp_, i]
+                        fn = (fn if fn > ZERO else ZERO) * swr[sm, i] \
+                            + (fn if fn < ZERO else ZERO) * s0
+                        w2_o[j, i] = (((w0[j, i] - fe) + fw) - fs) + fn
+                else:
+                    for i in range(slo, shi + 1):
+                        w2_o[j, i] = w0[j, i]
+                if do_p:
+                    br, bnr, bsr = bc[j], bc[j - 1], bc[j + 1]
+                    for kk in range(ns):
+                        for i in range(slo, shi + 1):
+                            be_, bw_, bs_, bn_ = _pface(br, bnr, bsr, wr, wn, ws, i)
+                            fe = (kp * be_) * (xp[kk, j, i] - xp[kk, j, i + 1])
+                            fw = (kp * bw_) * (xp[kk, j, i - 1] - xp[kk, j, i])
+                            fs = (kp * bs_) * (xp[kk, j, i] - xp[kk, j + 1, i])
+                            fn = (kp * bn_) * (xp[kk, j - 1, i] - xp[kk, j, i])
+                            s0 = spr[s0_, kk, i]
+                            fe = (fe if fe > ZERO else ZERO) * s0 \
+                                + (fe if fe < ZERO else ZERO) * spr[s0_, kk, i + 1]
+                            fw = (fw if fw > ZERO else ZERO) * spr[s0_, kk, i - 1] \
+                                + (fw if fw < ZERO else ZERO) * s0
+                            fs = (fs if fs > ZERO else ZERO) * s0 \
+                                + (fs if fs < ZERO else ZERO) * spr[sp_, kk, i]
+                            fn = (fn if fn > ZERO else ZERO) * spr[sm, kk, i] \
+                                + (fn if fn < ZERO else ZERO) * s0
+                            p2_o[kk, j, i] = (((p0[kk, j, i] - fe) + fw) - fs) + fn
+                else:
+                    for kk in range(ns):
+                        for i in range(slo, shi + 1):
+                            p2_o[kk, j, i] = p0[kk, j, i]
+
+
+@_inline
+def _sat_row(w3: np.ndarray, c: np.ndarray, opn: np.ndarray, wc: np.ndarray, y0: int,
+             x0: int, r: int, cst: np.ndarray, do_evap: bool, do_absorb: bool,
+             spans: np.ndarray, nsp: np.ndarray, out: np.ndarray) -> None:
+    # pragma: no cover - compiled
+    """The ``sat`` row ``r`` that pass 7-9a would write, without writing anything else."""
+    e = cst[K.C_EVAP]
+    edge = cst[K.C_EDGE]
+    alpha = cst[K.C_ALPHA]
+    out[:] = ZERO
+    y = y0 + r - 1
+    for sx in range(nsp[r]):
+        slo, shi = K._span(spans, r, sx)
+        for i in range(slo, shi + 1):
+            x = np.uint64(x0 + i - 1)
+            wv = w3[r, i]
+            if do_evap:
+                nd = (((ZERO if w3[r, i + 1] > ZERO else ONE)
+                       + (ZERO if w3[r, i - 1] > ZERO else ONE))
+                      + (ZERO if w3[r + 1, i] > ZERO else ONE)) \
+                    + (ZERO if w3[r - 1, i] > ZERO else ONE)
+                loss = e + ((edge * nd) * wv) * e
+                loss = loss if loss < wv else wv
+                loss = loss if wv > ZERO else ZERO
+                wv = wv - loss
+            wcv = wc[y, x]
+            cv = c[r, i]
+            if do_absorb:
+                d = alpha if alpha < wv else wv
+                room = cv - wcv
+                room = room if room > ZERO else ZERO
+                d = d if d < room else room
+                d = d if (wv > ZERO and opn[r, i] != ZERO) else ZERO
+                wcv = wcv + d
+            out[i] = wcv / cv
+
+
+@_inline
+def _esa_row(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.ndarray, h: np.ndarray,
+             wc: np.ndarray, evap: np.ndarray, w_state: np.ndarray, p: np.ndarray,
+             q: np.ndarray, beta: np.ndarray, gamma: np.ndarray, delta: np.ndarray, y0: int,
+             x0: int, ns: int, cst: np.ndarray, do_evap: bool, do_surface: bool,
+             do_absorb: bool, j: int, spans: np.ndarray, nsp: np.ndarray, wrow: np.ndarray,
+             frow: np.ndarray, sat_r: np.ndarray) -> None:  # pragma: no cover - compiled
+    """evap_surface_absorb's row j (unchanged), ``sat`` into the ring row."""
+    e = cst[K.C_EVAP]
+    edge = cst[K.C_EDGE]
+    wmax = cst[K.C_WMAX]
+    rate = cst[K.C_RATE]
+    alpha = cst[K.C_ALPHA]
+    sat_r[:] = ZERO
+    y = y0 + j - 1
+    for si in range(nsp[j]):
+        slo, shi = K._span(spans, j, si)
+        for i in range(slo, shi + 1):
+            x = np.uint64(x0 + i - 1)
+            wv = w3[j, i]
+            if do_evap:
+                nd = (((ZERO if w3[j, i + 1] > ZERO else ONE)
+                       + (ZERO if w3[j, i - 1] > ZERO else ONE))
+                      + (ZERO if w3[j + 1, i] > ZERO else ONE)) \
+                    + (ZERO if w3[j - 1, i] > ZERO else ONE)
+                loss = e + ((edge * nd) * wv) * e
+                loss = loss if loss < wv else wv
+                loss = loss if wv > ZERO else ZERO
+                wv = wv - loss
+                evap[y, x] = evap[y, x] + loss
+            wrow[i] = wv
+            f = wv / wmax
+            f = f if f > ZERO else ZERO
+            frow[i] = f if f < ONE else ONE
+        if do_surface:
+            for kk in range(ns):
+                g = gamma[kk]
+                d = delta[kk]
+                db = d / beta[kk]
+                for i in range(slo, shi + 1):
+                    x = np.uint64(x0 + i - 1)
+                    hv = h[y, x]
+                    f = frow[i]
+                    pv = p[kk, y, x]
+                    qv = q[kk, y, x]
+                    down = (((rate * pv) * (ONE - f)) * (ONE - hv * g)) * d
+                    up = (((rate * qv) * f) * (ONE - (ONE - hv) * g)) * db
+                    down = down if down < pv else pv
+                    t = ONE - qv
+                    down = down if down < t else t
+                    up = up if up < qv else qv
+                    t = ONE - pv
+                    up = up if up < t else t
+                    net = (down - up) if wet[j, i] != ZERO else ZERO
+                    p[kk, y, x] = pv - net
+                    q[kk, y, x] = qv + net
+        for i in range(slo, shi + 1):
+            x = np.uint64(x0 + i - 1)
+            wv = wrow[i]
+            wcv = wc[y, x]
+            cv = c[j, i]
+            if do_absorb:
+                d = alpha if alpha < wv else wv
+                room = cv - wcv
+                room = room if room > ZERO else ZERO
+                d = d if d < room else room
+                d = d if (wv > ZERO and opn[j, i] != ZERO) else ZERO
+                wv = wv - d
+                wcv = wcv + d
+            w_state[y, x] = wv
+            wc[y, x] = wcv
+            sat_r[i] = wcv / cv
+
+
+@_inline
+def _cd_row(sm: np.ndarray, s0r: np.ndarray, sp: np.ndarray, c: np.ndarray, opn: np.ndarray,
+            v3x: np.ndarray, v3y: np.ndarray, w: np.ndarray, wc: np.ndarray, evap: np.ndarray,
+            p: np.ndarray, q: np.ndarray, vx: np.ndarray, vy: np.ndarray, y0: int, x0: int,
+            ns: int, cst: np.ndarray, do_capdiff: bool, do_dry: bool, j: int,
+            spans: np.ndarray, nsp: np.ndarray, wcrow: np.ndarray) -> None:
+    # pragma: no cover - compiled
+    """capillary_dry's row j (unchanged) with ``sat`` rows j-1, j, j+1 from the ring."""
+    k = cst[K.C_KC]
+    ecap = cst[K.C_ECAP]
+    wdry = cst[K.C_WDRY]
+    susp = cst[K.C_SUSP]
+    suspending = susp > ZERO
+    y = y0 + j - 1
+    for si in range(nsp[j]):
+        slo, shi = K._span(spans, j, si)
+        if do_capdiff:
+            for i in range(slo, shi + 1):
+                o0 = opn[j, i]
+                c0 = c[j, i]
+                s0 = s0r[i]
+                t = c[j, i + 1]
+                fe = ((k * (c0 if c0 < t else t)) * (s0 - s0r[i + 1])) \
+                    if o0 * opn[j, i + 1] != ZERO else ZERO
+                t = c[j, i - 1]
+                fw = ((k * (t if t < c0 else c0)) * (s0r[i - 1] - s0)) \
+                    if opn[j, i - 1] * o0 != ZERO else ZERO
+                t = c[j + 1, i]
+                fs = ((k * (c0 if c0 < t else t)) * (s0 - sp[i])) \
+                    if o0 * opn[j + 1, i] != ZERO else ZERO
+                t = c[j - 1, i]
+                fn = ((k * (t if t < c0 else c0)) * (sm[i] - s0)) \
+                    if opn[j - 1, i] * o0 != ZERO else ZERO
+                wcv = (((wc[y, np.uint64(x0 + i - 1)] - fe) + fw) - fs) + fn
+                wcrow[i] = wcv if wcv > ZERO else ZERO
+        else:
+            for i in range(slo, shi + 1):
+                wcrow[i] = wc[y, np.uint64(x0 + i - 1)]
+        n_dry = 0
+        for i in range(slo, shi + 1):
+            x = np.uint64(x0 + i - 1)
+            wcv = wcrow[i]
+            wv = w[y, x]
+            ev = evap[y, x]
+            e = (ecap if ecap < wcv else wcv) if wv == ZERO else ZERO
+            wc[y, x] = wcv - e
+            ev = ev + e
+            if do_dry:
+                tiny = wv > ZERO and wv < wdry
+                ev = ev + (wv if tiny else ZERO)
+                wv = ZERO if tiny else wv
+                w[y, x] = wv
+                dry = wv == ZERO
+                n_dry += 1 if dry else 0
+                vx[y, x] = ZERO if dry else v3x[j, i]
+                vy[y, x] = ZERO if dry else v3y[j, i]
+            evap[y, x] = ev
+        if do_dry and n_dry > 0:
+            for kk in range(ns):
+                for i in range(slo, shi + 1):
+                    x = np.uint64(x0 + i - 1)
+                    pv = p[kk, y, x]
+                    qv = q[kk, y, x]
+                    t = ONE - qv
+                    t = pv if pv < t else t
+                    settle = w[y, x] == ZERO
+                    if suspending and wc[y, x] > susp * c[j, i]:
+                        settle = False  # damp paper keeps its pigment suspended (bloom's)
+                    t = t if settle else ZERO
+                    p[kk, y, x] = pv - t
+                    q[kk, y, x] = qv + t
+
+
+@_parallel
+def evap_cap_fused(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.ndarray,
+                   h: np.ndarray, wc: np.ndarray, evap: np.ndarray, w_state: np.ndarray,
+                   p: np.ndarray, q: np.ndarray, beta: np.ndarray, gamma: np.ndarray,
+                   delta: np.ndarray, v3x: np.ndarray, v3y: np.ndarray, vx: np.ndarray,
+                   vy: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int,
+                   cst: np.ndarray, do_evap: bool, do_surface: bool, do_absorb: bool,
+                   do_capdiff: bool, do_dry: bool, spans: np.ndarray,
+                   nsp: np.ndarray) -> None:  # pragma: no cover - compiled
+    """evap_surface_absorb and capillary_dry in one sweep (their maths unchanged): pass
+    7-9a write the state in place, so each chunk's two boundary ``sat`` rows are computed
+    first, side-effect free, from the state as the step found it; the fused loop keeps
+    the rows j-1, j, j+1 of ``sat`` in a ring instead of a scratch field."""
+    nch = min(bh, K.N_CHUNKS)
+    edge_sat = np.zeros((nch, 2, bw + 2), F32)
+    for ch in prange(nch):  # the boundary rows, from the state as the step found it
+        j0, j1 = K._chunk(ch, nch, bh)
+        if j0 - 1 >= 1:
+            _sat_row(w3, c, opn, wc, y0, x0, j0 - 1, cst, do_evap, do_absorb, spans, nsp,
+                     edge_sat[ch, 0])
+        if j1 <= bh:
+            _sat_row(w3, c, opn, wc, y0, x0, j1, cst, do_evap, do_absorb, spans, nsp,
+                     edge_sat[ch, 1])
+    for ch in prange(nch):
+        j0, j1 = K._chunk(ch, nch, bh)
+        ring = np.zeros((3, bw + 2), F32)
+        wrow = np.empty(bw + 2, F32)
+        frow = np.empty(bw + 2, F32)
+        wcrow = np.empty(bw + 2, F32)
+        ring[(j0 - 1) % 3, :] = edge_sat[ch, 0]
+        _esa_row(wet, w3, c, opn, h, wc, evap, w_state, p, q, beta, gamma, delta, y0, x0, ns,
+                 cst, do_evap, do_surface, do_absorb, j0, spans, nsp, wrow, frow,
+                 ring[j0 % 3])
+        for j in range(j0, j1):
+            r = j + 1
+            if r < j1:
+                _esa_row(wet, w3, c, opn, h, wc, evap, w_state, p, q, beta, gamma, delta, y0,
+                         x0, ns, cst, do_evap, do_surface, do_absorb, r, spans, nsp, wrow,
+                         frow, ring[r % 3])
+            else:
+                ring[r % 3, :] = edge_sat[ch, 1]
+            _cd_row(ring[(j - 1) % 3], ring[j % 3], ring[(j + 1) % 3], c, opn, v3x, v3y,
+                    w_state, wc, evap, p, q, vx, vy, y0, x0, ns, cst, do_capdiff, do_dry, j,
+                    spans, nsp, wcrow)

@@ -1,0 +1,90 @@
+"""Where a wash step of the ``cpu`` backend spends its time and its bytes (issue 26).
+
+Times every fused sweep of ``station.backends.cpu.step`` on a fully wet canvas
+(``station bench sim``'s wash) and sets beside each one the traffic that
+``station/backends/cpu/traffic.py`` counts for it: the achieved GB/s per sweep
+against the machine's copy bandwidth (measured in the same run) says which sweeps
+are bound by memory and which by arithmetic.  Prints JSON.
+
+    .venv/bin/python tools/profile_wash.py [--size 1024x1024] [--steps 20]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+from collections import defaultdict
+from typing import Any
+
+from station.backends.cpu import fused as F
+from station.backends.cpu import kernels as K
+from station.backends.cpu.traffic import floats_per_cell_step
+from station.backends.factory import create_backend
+from station.bench._sim_driver import wash
+from station.bench.sim import memory_bandwidth_gb_s
+
+SWEEPS = ("prep", "advect_jacobi1", "jacobi_blocked", "limit_diffuse_fused", "advect_fused",
+          "evap_cap_fused")
+"""The sweeps of a step in the order of ``traffic.floats_per_cell_step`` (the fused ones
+live in ``station.backends.cpu.fused``)."""
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--size", default="1024x1024")
+    ap.add_argument("--steps", type=int, default=20)
+    args = ap.parse_args()
+    w, h = (int(v) for v in args.size.split("x"))
+    canvas: Any = create_backend("cpu", w, h, "watercolor", 1, tiling=False)
+    wash(canvas, w, h)
+    for _ in range(3):
+        canvas.step()
+    spent: dict[str, float] = defaultdict(float)
+    home = {name: (F if hasattr(F, name) else K) for name in SWEEPS}
+    originals = {name: getattr(home[name], name) for name in SWEEPS}
+
+    def timed(name: str) -> Any:
+        fn = originals[name]
+
+        def call(*a: Any) -> Any:
+            t0 = time.perf_counter()
+            r = fn(*a)
+            spent[name] += time.perf_counter() - t0
+            return r
+        return call
+
+    for name in SWEEPS:
+        setattr(home[name], name, timed(name))
+    load0 = os.getloadavg()
+    t0 = time.perf_counter()
+    for _ in range(args.steps):
+        canvas.step()
+    total = time.perf_counter() - t0
+    for name, fn in originals.items():
+        setattr(home[name], name, fn)
+    bw = memory_bandwidth_gb_s()
+    st = canvas.live_state
+    floats = floats_per_cell_step(max(len(st.slots), 1), int(st.params.jacobi_iters))
+    cells = w * h * args.steps
+    rows = []
+    for (label, f), name in zip(floats.items(), SWEEPS, strict=True):
+        s = spent[name]
+        gbs = 4 * f * cells / s / 1e9 if s > 0 else 0.0
+        rows.append({"sweep": name, "counted": label, "bytes_per_cell": 4 * f,
+                     "ms_per_step": round(1e3 * s / args.steps, 3),
+                     "time_share": round(s / total, 3), "gb_s": round(gbs, 2),
+                     "fraction_of_copy": round(gbs / bw, 3)})
+    print(json.dumps({"size": args.size, "steps": args.steps,
+                      "load_average": [round(x, 2) for x in load0],
+                      "copy_bandwidth_gb_s": round(bw, 2),
+                      "bytes_per_cell_step": 4 * sum(floats.values()),
+                      "step_ms": round(1e3 * total / args.steps, 2),
+                      "outside_sweeps_ms": round(1e3 * (total - sum(spent.values()))
+                                                 / args.steps, 3),
+                      "sweeps": rows}, indent=2))
+
+
+if __name__ == "__main__":
+    main()
