@@ -28,15 +28,19 @@ OLD = {
     # (issue 21's rim: the edge evaporates 7x faster and water flows out to it, Curtis 1997)
     # (issue 21's backruns: damp paper is not wet, keeps pigment suspended above half
     # full, and draws a front in between 70 % full and full; Curtis 1997 section 4.7)
+    # (and bloom2's fibre flow capped at capillary speed, 1 cell/s, so a front keeps its
+    # pigment)
+    # (issue 26: one Jacobi iteration per implicit diffusion in every profile, was 4: the
+    # picture moves by at most 0.067 of an 8-bit level, docs/canvas-model.md)
     "watercolor": SimParams().replace(fibre_dispersivity=4.5, flow_outward=0.5, edge_evap=7.0,
                                       moist_threshold=1.0, damp_ease=4.5, damp_sat=0.7,
-                                      suspend_sat=0.5),
+                                      suspend_sat=0.5, fibre_flow_max=1.0, jacobi_iters=1),
     "gouache": SimParams().replace(viscosity=2.0, nu_w=0.1, nu_p=0.05, alpha=0.005,
-                                   height_gain=20.0, eps_shallow=0.008),
+                                   height_gain=20.0, eps_shallow=0.008, jacobi_iters=1),
     # (issue 10's fibre feathering changed the ink in code just before: alpha 0.05, fibre_wick 1)
     "ink": SimParams().replace(alpha=0.05, cap_diffusion=3.0, moist_threshold=0.15, nu_p=0.8,
                                block_paper=0.7, eps_cap=0.006, flow_outward=0.0,
-                               surface_rate=0.5, fibre_wick=1.0),
+                               surface_rate=0.5, fibre_wick=1.0, jacobi_iters=1),
 }
 
 
