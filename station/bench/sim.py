@@ -41,11 +41,11 @@ from typing import Any
 
 import numpy as np
 
+from station.backends import choice
 from station.backends.factory import (
     available_backends,
     create_backend,
     fastest_cpu_backend,
-    resolve_auto,
 )
 from station.bench import _sim_baseline as sim_baseline
 from station.bench import _sim_driver as sim_driver
@@ -297,6 +297,14 @@ def run_baseline(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cached_auto() -> str | None:
+    """What ``--backend auto`` picks here if it has measured already (None if not): the
+    bench does not start the probe itself (on a GPU machine's first run, a minute or two
+    of numba compiles in its child), and ``station doctor`` measures and shows it."""
+    cached = choice.load()
+    return cached.backend if cached is not None else None
+
+
 def run(args: argparse.Namespace) -> int:
     if args.baseline is not None:
         return run_baseline(args)
@@ -367,6 +375,6 @@ def run(args: argparse.Namespace) -> int:
     out = {"renderer": renderer, "memory_bandwidth_gb_s": round(bandwidth, 3),
            "bandwidth": bw_out, "bytes_per_cell_step": per_cell,
            "load_average": [round(x, 2) for x in os.getloadavg()],
-           "auto": resolve_auto()[0], "results": results, "realtime": realtime}
+           "auto": _cached_auto(), "results": results, "realtime": realtime}
     print(json.dumps(out, indent=2))
     return 0
