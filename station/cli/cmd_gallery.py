@@ -37,8 +37,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="lower this process's CPU priority by N first (19; 0: not)")
     m.add_argument("--max-memory", type=int, default=None, metavar="MB",
                    help="the replay's memory budget (default: 768 MB plus 1.5x what the "
-                        "painting's canvas needs); past it the replay fails and is not "
-                        "tried again")
+                        "painting's canvas needs, plus its 2x print); past it the replay "
+                        "fails and is not tried again")
     m.set_defaults(func=run_make)
     s = gsub.add_parser("serve", help="serve the gallery's web pages until stopped")
     s.add_argument("--root", default="gallery", help="gallery directory (gallery)")
@@ -121,7 +121,15 @@ def _default_budget_mb(meta: dict[str, object]) -> int:
     w, h = meta.get("width"), meta.get("height")
     cells = w * h if isinstance(w, int) and isinstance(h, int) and 0 < w * h < 1 << 26 \
         else 800 * 600
-    return 768 + int(1.5 * cells * BYTES_PER_CELL) // (1 << 20)
+    # the 2x print renders 4 pixels a cell through 12-channel float32 spectra, about ten
+    # such arrays alive at once: an 800x600 painting's replay and print peaked at 2.1 GB
+    # RSS (measured), past the canvas-only budget of 1385 MB it used to get
+    return 768 + int(1.5 * cells * BYTES_PER_CELL + cells * PRINT_BYTES_PER_CELL) // (1 << 20)
+
+
+PRINT_BYTES_PER_CELL = 4 * 12 * 4 * 10
+"""Memory the 2x print takes per canvas cell [bytes]: 4 pixels x 12 channels x float32 x
+about 10 arrays at once."""
 
 
 def run_expire(args: argparse.Namespace) -> int:

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from station.backends.factory import make_backend
+from station.backends.factory import fastest_cpu_backend, make_backend
 from station.canvas.palette import default_palette
 from station.canvas.profiles import get_profile
 from station.events import Command
@@ -21,7 +21,7 @@ from station.sim.player import SessionPlayer
 
 # -- replay animation ------------------------------------------------------------
 def replay_frames(log_path: str | os.PathLike[str], frames: int = 48, width: int = 400,
-                  backend: str = "auto",
+                  backend: str | None = None,
                   final: Callable[[Any, str], None] | None = None) -> Iterator[np.ndarray]:
     """sRGB8 frames of a session log replayed on a canvas backend: about ``frames``
     evenly spaced in painting time, then the final canvas; scaled to ``width`` px.
@@ -30,7 +30,10 @@ def replay_frames(log_path: str | os.PathLike[str], frames: int = 48, width: int
 
 
     header, records = read_session(log_path)
-    canvas, _ = make_backend(backend, header.width, header.height, header.profile, header.seed)
+    # None: a CPU backend.  A replay runs in the background under a memory cap: no GL
+    # context (a GL driver's threads share the cap and crash on it), and no `auto` probe
+    canvas, _ = make_backend(backend or fastest_cpu_backend(), header.width, header.height,
+                             header.profile, header.seed)
     sim = header.extra.get("sim") if isinstance(header.extra.get("sim"), dict) else {}
     rate = sim.get("rate") if isinstance(sim, dict) else None
     player = SessionPlayer(canvas, header.width, header.height, header.profile,
