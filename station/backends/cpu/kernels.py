@@ -38,6 +38,12 @@ wraps negative signed indices around, and the select that costs made LLVM give u
 vectorising those loops (measured 5-10x slower); an unsigned index cannot be negative.
 
 The constant vector ``cst`` (float32) is laid out as the ``C_*`` indices below.
+
+Why one file over 600 lines (issue 23 item 7 allows the kernels it): the sweeps share the
+``C_*`` layout, the padded-scratch convention and the unsigned-index intrinsic, and each
+sweep is read against the numbered passes of ``reference.py``/``passes.py`` in this order;
+split by pass, every reader would hold three files open to follow one step, and numba's
+cache would key on more modules.  The fused variants live apart (``fused.py``).
 """
 
 from __future__ import annotations
