@@ -14,8 +14,10 @@ per chunk of rows instead of full scratch fields:
   (``capillary_dry``): no ``sat`` field and none of capillary_dry's re-reads, −10 floats.
 
 A chunk's first ring rows belong to its neighbour chunk: they are recomputed here (the
-limiters are pure functions of the sweep's inputs).  tools/proto_fused_*.py check them
-bitwise against the two-sweep kernels and time both.
+limiters are pure functions of the sweep's inputs).  The cpu backend's bitwise tests
+against the numpy reference (tests/test_cpu_backend.py) hold them; the prototypes that
+first compared them with the two-sweep kernels were copies of this code and are gone
+(git history: tools/proto_fused_*.py).
 """
 
 from __future__ import annotations
