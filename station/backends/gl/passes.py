@@ -5,12 +5,18 @@ run ``station/canvas/reference.py``'s passes (the mapping is in ``canvas.py``'s 
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from station.canvas import operations, reference
 from station.canvas.params import CanvasInputError, SimParams
+
+if TYPE_CHECKING:
+    import moderngl
+
+    from station.backends.gl.textures import Field
+    from station.canvas.palette import Palette
 
 F32 = np.float32
 # SSBO binding points (tiles.glsl, tile_*.comp, capillary_dry.comp, sources.comp)
@@ -20,35 +26,36 @@ _B_LIST, _B_ALIVE, _B_TTL, _B_PREV, _B_ARGS, _B_ADDED, _B_MARK, _B_FOLDED = 0, 1
 class GLStepPasses:
     """One step's passes on the canvas's textures (the attributes are the canvas's)."""
 
-    ctx: Any
+    ctx: Any  # released to None by GLCanvas.close
     params: SimParams
     sim_time: float
     step_count: int
     slots: list[str]
     npl: int
     tiling: bool
-    _programs: dict[str, Any]
+    _programs: dict[str, moderngl.ComputeShader]
     width: int
     height: int
-    palette: Any
+    palette: Palette
     groups: tuple[int, int]
     src_groups: tuple[int, int]
     ntiles: int
     _cells_cpu: int
-    f: Any
-    aux: Any
-    jv: list[Any]
-    jd: list[Any]
-    pr: Any
-    b_list: Any
-    b_prev: Any
-    b_args: Any
-    b_all: Any
-    b_alive: Any
-    b_ttl: Any
-    b_folded: Any
+    f: dict[str, Field]
+    aux: moderngl.Texture
+    jv: list[moderngl.Texture]
+    jd: list[moderngl.TextureArray]
+    pr: moderngl.Texture
+    b_list: moderngl.Buffer
+    b_prev: moderngl.Buffer
+    b_args: moderngl.Buffer
+    b_all: moderngl.Buffer
+    b_alive: moderngl.Buffer
+    b_ttl: moderngl.Buffer
+    b_folded: moderngl.Buffer
 
-    def _bind(self, unit: int, tex: Any, read: bool, write: bool) -> None:
+    def _bind(self, unit: int, tex: moderngl.Texture | moderngl.TextureArray, read: bool,
+              write: bool) -> None:
         tex.bind_to_image(unit, read=read, write=write)
 
     def _barrier(self) -> None:
@@ -280,7 +287,7 @@ class GLStepPasses:
         return d
 
 
-def _set(prog: Any, name: str, value: object) -> None:
+def _set(prog: moderngl.ComputeShader, name: str, value: object) -> None:
     """Set uniform ``name`` when the program uses it (drivers drop unused ones)."""
     try:
         u = prog[name]
