@@ -40,7 +40,7 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -74,11 +74,14 @@ from station.drivers.serial import protocol as serial_proto
 from station.drivers.traces.evemu import format_evemu, parse_evemu
 from station.drivers.traces.hidrecorder import parse_hid_recorder
 from station.drivers.traces.libinput_record import format_libinput_record, parse_libinput_record
+from station.drivers.traces.model import Trace
 from station.errors import BadInput
 from station.events import Command, PenSample, Tool
 from station.kiosk.gallery import Gallery, make_app, new_id
 from station.sessionlog import SessionHeader, SessionLogReader, SessionLogWriter, summarise
 from station.sim.player import SessionPlayer
+
+_T = TypeVar("_T")
 
 INTERESTING = [
     "0", "-0", "-1", "1", "2", "255", "256", "65535", "65536", "4294967296",
@@ -259,7 +262,7 @@ def device_data_seeds() -> list[str]:
 
 
 # -- the readers, as the station uses them -------------------------------------------------
-def read_session(text: str) -> Any:
+def read_session(text: str) -> object:
     with SessionLogReader(io.StringIO(text), name="fuzz.jsonl") as r:
         return summarise(r)
 
@@ -274,12 +277,12 @@ class CountingBackend:
         self.calls: dict[str, int] = {}
 
     def __getattr__(self, name: str) -> Callable[..., None]:
-        def call(*args: Any, **kwargs: Any) -> None:
+        def call(*args: object, **kwargs: object) -> None:
             self.calls[name] = self.calls.get(name, 0) + 1
         return call
 
 
-def play_session(text: str) -> Any:
+def play_session(text: str) -> object:
     with SessionLogReader(io.StringIO(text), name="fuzz.jsonl") as r:
         player = SessionPlayer(CountingBackend(), 32, 24, r.header.profile  # type: ignore[arg-type]
                                if r.header.profile in ("watercolor", "gouache", "ink")
@@ -288,7 +291,7 @@ def play_session(text: str) -> Any:
         return player.counters
 
 
-def replay(trace: Any) -> int:
+def replay(trace: Trace) -> int:
     return sum(1 for _ in TraceReplay(trace).samples())
 
 
@@ -304,7 +307,7 @@ def read_libinput(text: str) -> int:
     return replay(parse_libinput_record(text, "fuzz.yaml"))
 
 
-def read_device_data(text: str) -> Any:
+def read_device_data(text: str) -> object:
     model = parse_device_data(text, "fuzz.json")
     device_ids(model)
     _model_ranges(model)
@@ -321,7 +324,7 @@ class Tally:
         self.kinds: dict[str, int] = {}  # traceback, hang, silent: each must stay 0
         self.seconds: dict[str, float] = {}
 
-    def run(self, name: str, fn: Callable[[Any], Any], value: Any, seed: int) -> None:
+    def run(self, name: str, fn: Callable[[_T], object], value: _T, seed: int) -> None:
         c = self.counts.setdefault(name, {"inputs": 0, "ok": 0, "bad_input": 0})
         c["inputs"] += 1
         t0 = time.perf_counter()
@@ -344,7 +347,7 @@ class SilentAcceptance(Exception):
     """A reader accepted an input it should have refused (an oracle says so)."""
 
 
-def _all_finite(obj: Any, where: str) -> None:
+def _all_finite(obj: object, where: str) -> None:
     """Every number reachable in ``obj`` (dataclasses, dicts, lists, arrays) is finite."""
     stack = [obj]
     seen = 0
@@ -374,7 +377,7 @@ def profile_seeds() -> list[str]:
             for n in ("watercolor", "gouache", "ink")]
 
 
-def read_profile(text: str) -> Any:
+def read_profile(text: str) -> object:
     prof = parse_profile(text.encode("utf-8", "surrogatepass"), "fuzz.xml")
     _all_finite(prof.params, "profile params")
     _all_finite(prof.brush, "profile brush")
@@ -387,7 +390,7 @@ def brush_seeds() -> list[str]:
             if e.name.endswith(".json") and e.name != "schema.json"][:4]
 
 
-def read_brush(text: str) -> Any:
+def read_brush(text: str) -> object:
     shape = BrushShape.loads(text, "fuzz.json")
     _all_finite(shape, "brush shape")
     return shape
@@ -402,7 +405,7 @@ def blueprint_seeds() -> list[str]:
 _UNIT_LINE = re.compile(r"^(#.*|\[(Unit|Service|Install)\]|[A-Z][A-Za-z]+=.*|)$")
 
 
-def read_blueprint(text: str) -> Any:
+def read_blueprint(text: str) -> object:
     bp = load_blueprint(text.encode("utf-8", "surrogatepass"), "fuzz.xml")
     resolve(bp, Path("/run/station-fuzz"), Path("/var/lib/station-fuzz"))
     made = units(bp, per_component=True, station="/usr/bin/station")
@@ -432,7 +435,7 @@ def serial_seeds() -> list[bytes]:
     return out
 
 
-def read_serial(body: bytes) -> Any:
+def read_serial(body: bytes) -> object:
     """A mutated body, framed with a valid CRC (so it reaches the message decoders)."""
     p = serial_proto
     framed = p.cobs_encode(body + p.crc16(body).to_bytes(2, "big"))
@@ -459,7 +462,7 @@ class GalleryUrls:
                 f"/p/{self.pid}/replay.webp", f"/p/{self.pid}/session.jsonl",
                 f"/p/{self.pid}/painting-2x.png", "/p/20261124-101500-a1b2c3"]
 
-    def get(self, path: str) -> Any:
+    def get(self, path: str) -> int:
         raw = path.encode("utf-8", "surrogateescape").decode("latin-1")
         env = {"REQUEST_METHOD": "GET", "PATH_INFO": raw.split("?", 1)[0],
                "QUERY_STRING": raw.split("?", 1)[1] if "?" in raw else "",
@@ -468,7 +471,7 @@ class GalleryUrls:
                "HTTP_HOST": "fuzz"}
         got: dict[str, Any] = {}
 
-        def start(status: str, headers: list[tuple[str, str]], exc_info: Any = None) -> None:
+        def start(status: str, headers: list[tuple[str, str]], exc_info: object = None) -> None:
             got["status"], got["headers"] = int(status.split()[0]), dict(headers)
 
         body = b"".join(self.app(env, start))
@@ -502,7 +505,7 @@ def run_fuzz(rounds: dict[str, int], tally: Tally | None = None, salt: str = "")
     evemu, yaml_ = evdev_seeds()
     cal = calibration_seeds()
     urls = GalleryUrls()
-    text_readers: list[tuple[str, list[str], Callable[[str], Any]]] = [
+    text_readers: list[tuple[str, list[str], Callable[[str], object]]] = [
         ("session-log", session_seeds(), read_session),
         ("session-play", session_seeds(), play_session),
         ("hid-recorder", hid_seeds(), read_hid),
