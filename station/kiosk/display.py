@@ -23,7 +23,7 @@ applies the sRGB transfer), row 0 = the canvas's top row.
 from __future__ import annotations
 
 import time
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numba
 import numpy as np
@@ -34,6 +34,9 @@ from station.kiosk import subcell
 from station.kiosk.gl_fields import GlFields
 from station.render.km import region_amount, render_region
 from station.render.km_fast import km_layer_fast
+
+if TYPE_CHECKING:
+    import moderngl
 
 F32 = np.float32
 
@@ -120,7 +123,7 @@ def _pending_in(src: Sources, st: Any, ys: slice, xs: slice) -> dict[str, np.nda
 class CpuDisplay:
     """Dirty-tile rendering of a CPU canvas into a float texture (see module docstring)."""
 
-    def __init__(self, ctx: Any, session: Any, max_cells: int = MAX_CELLS_PER_FRAME,
+    def __init__(self, ctx: moderngl.Context, session: Any, max_cells: int = MAX_CELLS_PER_FRAME,
                  budget_s: float = TILE_BUDGET_S) -> None:
         self.ctx = ctx
         self.max_cells = max_cells
@@ -352,7 +355,7 @@ class CpuDisplay:
         w, h = self.texture.size
         return np.frombuffer(self.texture.read(), F32).reshape(h, w, 4)
 
-    def full_texture(self) -> Any:
+    def full_texture(self) -> moderngl.Texture:
         """A texture of the whole canvas made from scratch (:meth:`expected`; the
         reference a test holds the incremental one to)."""
         st = self.session.cpu_state
@@ -371,7 +374,7 @@ class CpuDisplay:
 class GpuDisplay:
     """The GL canvas's own render texture (no read-back; see module docstring)."""
 
-    def __init__(self, ctx: Any, session: Any) -> None:
+    def __init__(self, ctx: moderngl.Context, session: Any) -> None:
         self.ctx = ctx
         self.bind(session)
 
@@ -398,7 +401,7 @@ class GpuDisplay:
         rgb = self.session.canvas.render_texture()
         self.texture = self.fields.run(self.session.canvas, rgb, self.surface.paper)
 
-    def full_texture(self) -> Any:
+    def full_texture(self) -> moderngl.Texture:
         """The canvas's own render texture (the GPU renders it whole every frame)."""
         return self.texture
 
@@ -441,8 +444,8 @@ class CanvasSurface:
     """The paper under the paint, as textures for the window's shader: the cells' bare
     reflectance and the sub-cell grain (:mod:`station.kiosk.subcell`)."""
 
-    def __init__(self, paper: Any, grain: Any, shade: float, contours: bool,
-                 key: tuple[str, int, int, int]) -> None:
+    def __init__(self, paper: moderngl.Texture, grain: moderngl.Texture, shade: float,
+                 contours: bool, key: tuple[str, int, int, int]) -> None:
         self.paper = paper
         self.grain = grain
         self.shade = shade
@@ -450,8 +453,8 @@ class CanvasSurface:
         self.key = key
 
     @classmethod
-    def make(cls, ctx: Any, paper_cells: np.ndarray, preset: str, seed: int, shade: float,
-             contours: bool, old: CanvasSurface | None = None) -> CanvasSurface:
+    def make(cls, ctx: moderngl.Context, paper_cells: np.ndarray, preset: str, seed: int,
+             shade: float, contours: bool, old: CanvasSurface | None = None) -> CanvasSurface:
         """The surface of a painting (``old``'s textures kept when the paper is the same:
         a fresh canvas of the same size and seed)."""
         h, w = paper_cells.shape
@@ -487,7 +490,7 @@ class CanvasSurface:
         self.grain.release()
 
 
-def make_display(ctx: Any, session: Any) -> CpuDisplay | GpuDisplay:
+def make_display(ctx: moderngl.Context, session: Any) -> CpuDisplay | GpuDisplay:
     if session.cpu_state is not None:
         return CpuDisplay(ctx, session)
     return GpuDisplay(ctx, session)

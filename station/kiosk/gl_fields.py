@@ -17,11 +17,16 @@ render pass (the GPU renders the whole canvas every frame anyway):
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from station.kiosk import subcell
+
+if TYPE_CHECKING:
+    import moderngl
+
+    from station.backends.gl.canvas import GLCanvas
 
 _HEAD = """
 #version 430
@@ -111,7 +116,7 @@ void main() {
 class GlFields:
     """The passes and their textures for a ``width`` × ``height`` GL canvas."""
 
-    def __init__(self, ctx: Any, width: int, height: int) -> None:
+    def __init__(self, ctx: moderngl.Context, width: int, height: int) -> None:
         self.ctx = ctx
         self.size = (width, height)
         self.indicator = ctx.compute_shader(INDICATOR)
@@ -132,7 +137,8 @@ class GlFields:
     def _barrier(self) -> None:
         self.ctx.memory_barrier(self.ctx.SHADER_IMAGE_ACCESS_BARRIER_BIT)
 
-    def run(self, canvas: Any, rgb: Any, paper: Any) -> Any:
+    def run(self, canvas: GLCanvas, rgb: moderngl.Texture,
+            paper: moderngl.Texture) -> moderngl.Texture:
         """The fields of the GL ``canvas`` (its state textures), whose render pass wrote
         ``rgb``, over the bare ``paper`` (an R32F texture of the cells' reflectance);
         returns :attr:`texture`."""
