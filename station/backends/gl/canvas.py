@@ -28,8 +28,8 @@ state to a :class:`CanvasState`, apply the reference operation and move it back
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import Any
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -53,6 +53,9 @@ from .passes import (
     _set,
 )
 from .traffic import bytes_per_cell_step
+
+if TYPE_CHECKING:
+    import moderngl
 
 F32 = np.float32
 
@@ -91,7 +94,7 @@ class GLCanvas(GLStepPasses):
     def __init__(self, width: int, height: int, profile: str = "watercolor", seed: int = 0,
                  *, tiling: bool = True, n_slots: int = DEFAULT_SLOTS,
                  params: SimParams | None = None, paper: str | None = None,
-                 palette: Palette | None = None, ctx: Any = None,
+                 palette: Palette | None = None, ctx: moderngl.Context | None = None,
                  gl_backend: str | None = None) -> None:
         check_size(width, height)
         prof = get_profile(profile)
@@ -108,7 +111,7 @@ class GLCanvas(GLStepPasses):
         self.limits = query_limits(self.ctx)
         self.renderer = self.limits.renderer
         self._shape: tuple[int, int, int, int, int] | None = None
-        self._programs: dict[str, Any] = {}
+        self._programs: dict[str, Any] = {}  # compile_compute's programs
         self.load_state(blank)
 
     # ------------------------------------------------------------ allocation
@@ -246,7 +249,7 @@ class GLCanvas(GLStepPasses):
         self._renderer_kind = get_profile(st.profile).renderer
         self._cells_cpu = 0
 
-    def _read(self, tex: Any) -> bytes:
+    def _read(self, tex: moderngl.Texture | moderngl.TextureArray) -> bytes:
         return bytes(tex.read())
 
     def state(self) -> CanvasState:
@@ -422,7 +425,7 @@ class GLCanvas(GLStepPasses):
         self._end_step(d)
 
     # ------------------------------------------------------------ operations
-    def _via_state(self, op: Any) -> None:
+    def _via_state(self, op: Callable[[CanvasState], object]) -> None:
         st = self.state()
         op(st)
         self.load_state(st)
@@ -469,7 +472,7 @@ class GLCanvas(GLStepPasses):
         out = np.frombuffer(self._read(self.rgb), F32).reshape(self.height, self.width, 4)
         return np.ascontiguousarray(out[..., :3])
 
-    def render_texture(self) -> Any:
+    def render_texture(self) -> moderngl.Texture:
         """Render into the RGBA32F texture ``self.rgb`` (linear reflectance) and return
         it, with no read-back: a window sharing this context samples it directly."""
         kind = self._renderer_kind

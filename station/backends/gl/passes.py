@@ -46,6 +46,7 @@ class GLStepPasses:
     jv: list[moderngl.Texture]
     jd: list[moderngl.TextureArray]
     pr: moderngl.Texture
+    rgb: moderngl.Texture
     b_list: moderngl.Buffer
     b_prev: moderngl.Buffer
     b_args: moderngl.Buffer

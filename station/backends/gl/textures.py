@@ -25,9 +25,12 @@ of a texture array (the seed's "two RGBA textures per layer").
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    import moderngl
 
 
 @dataclass
@@ -38,16 +41,16 @@ class Field:
     components: int
     layers: int  # 0: plain 2-D texture; >= 1: texture array with that many layers
     pingpong: bool
-    textures: list[Any] = field(default_factory=list)
+    textures: list[moderngl.Texture | moderngl.TextureArray] = field(default_factory=list)
     cur: int = 0
 
     @property
-    def src(self) -> Any:
+    def src(self) -> moderngl.Texture | moderngl.TextureArray:
         """The texture holding the current values."""
         return self.textures[self.cur]
 
     @property
-    def dst(self) -> Any:
+    def dst(self) -> moderngl.Texture | moderngl.TextureArray:
         """The texture a ping-pong pass writes (the current one for in-place fields)."""
         return self.textures[1 - self.cur] if self.pingpong else self.textures[self.cur]
 
@@ -63,7 +66,7 @@ class Field:
         return width * height * self.components * max(self.layers, 1) * 4
 
 
-def allocate(ctx: Any, width: int, height: int, n_layers: int,
+def allocate(ctx: moderngl.Context, width: int, height: int, n_layers: int,
              rcomp_layers: int = 1) -> dict[str, Field]:
     """Create every state texture of a ``width`` x ``height`` canvas (zeros);
     ``rcomp_layers``: layers of 4 render bands for ``r_composed``."""
@@ -80,6 +83,7 @@ def allocate(ctx: Any, width: int, height: int, n_layers: int,
     out: dict[str, Field] = {}
     for f in specs:
         for _ in range(2 if f.pingpong else 1):
+            tex: moderngl.Texture | moderngl.TextureArray
             if f.layers:
                 tex = ctx.texture_array((width, height, f.layers), f.components, dtype="f4")
             else:
