@@ -15,7 +15,7 @@ the interactive path; the tests hold it to the numba rasteriser.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -23,13 +23,16 @@ from station.brush.footprint import CLIP_ABOVE, NO_DEPTH, FootprintMaps, window
 from station.glkit.context import create_context
 from station.glkit.shaderlib import compile_program
 
+if TYPE_CHECKING:
+    import moderngl
+
 _CORNERS = np.array([0, 0, 1, 0, 0, 1, 1, 1], np.float32)
 
 
 class GLFootprint:
     """A moderngl renderer of footprints (owns its context unless given one)."""
 
-    def __init__(self, ctx: Any = None) -> None:
+    def __init__(self, ctx: moderngl.Context | None = None) -> None:
         import moderngl
 
         self._own = ctx is None
@@ -47,8 +50,8 @@ class GLFootprint:
         self._corners = self.ctx.buffer(_CORNERS.tobytes())
         self._max = moderngl.MAX
         self._min = moderngl.MIN
-        self._fbo: Any = None
-        self._tag_fbo: Any = None
+        self._fbo: moderngl.Framebuffer | None = None
+        self._tag_fbo: moderngl.Framebuffer | None = None
         self._size = (0, 0)
 
     def _release_targets(self) -> None:
