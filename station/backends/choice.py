@@ -100,14 +100,14 @@ class Choice:
     probe: str = ""
     cached: bool = False
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> dict[str, object]:
         return {"schema": SCHEMA, "backend": self.backend, "why": self.why,
                 "steps_per_s": self.steps_per_s, "errors": self.errors,
                 "renderer": self.renderer, "version": self.version, "machine": self.machine,
                 "measured_at": self.measured_at, "probe": self.probe}
 
     @classmethod
-    def from_dict(cls, data: Any) -> Choice:
+    def from_dict(cls, data: object) -> Choice:
         """A cache file's contents; ValueError for anything of another shape."""
         if not isinstance(data, dict) or data.get("schema") != SCHEMA:
             raise ValueError("not a backend choice of this schema")

@@ -29,7 +29,7 @@ class KernelUnlocked:
     def __getattr__(self, name: str) -> Any:
         return getattr(self._backend, name)
 
-    def step(self, *args: Any, **kw: Any) -> None:
+    def step(self, *args: object, **kw: object) -> None:
         s = self._session
         s.inflight = True
         s.lock.release()
