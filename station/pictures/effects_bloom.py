@@ -42,17 +42,8 @@ def _later(p: SessionPlayer, w: int, h: int, seed: int) -> Script:
 
 def _radius_cv(region: np.ndarray, cy: float, cx: float, n: int = 64) -> tuple[float, float]:
     """Mean radius [cells] and coefficient of variation of ``region``'s outline seen from
-    (cy, cx): along each of ``n`` rays the last cell still inside."""
-    radii = []
-    for a in np.linspace(0, 2 * np.pi, n, endpoint=False):
-        r = 0.0
-        for t in np.arange(0.5, max(region.shape), 0.5):
-            y, x = int(cy + t * np.sin(a)), int(cx + t * np.cos(a))
-            if not (0 <= y < region.shape[0] and 0 <= x < region.shape[1]) or not region[y, x]:
-                break
-            r = t
-        radii.append(r)
-    rr = np.array(radii)
+    (cy, cx): along each of ``n`` rays the last cell still inside (:func:`_radii`)."""
+    rr = _radii(region, cy, cx, n)
     return float(rr.mean()), float(rr.std() / max(rr.mean(), 1e-9))
 
 
