@@ -44,12 +44,19 @@ from __future__ import annotations
 import inspect
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from station.brush.footprint import FootprintMaps, prune_spurs, rasterise, segments, weight
+from station.brush.footprint import (
+    FootprintMaps,
+    prune_spurs,
+    rasterise,
+    segments,
+    union_max,
+    weight,
+)
 from station.brush.geometry import BrushShape, Tuft, get_shape
 from station.brush.reservoir import Reservoir
 from station.brush.solver import SolverCounters, SpineSolver, SpineState
@@ -80,6 +87,10 @@ DOWN_WAIT = 0.25
 it buckles its own way (a brush pressed and held)."""
 
 
+SLIDE = 0.5
+"""Cells between the points of the path a tuft slides over between two stamps."""
+
+
 @dataclass(slots=True)
 class _Stroke:
     x: float
@@ -100,6 +111,8 @@ class _Stroke:
     # the tuft then buckles behind the motion (see DeformableBrush._touch_down)
     down: tuple[PenSample, float] | None = None
     twist: float = 0.0  # degrees added to the pen's barrel rotation for this stroke
+    # shifts of a frame's maps the tuft slid over since the last stamp (DeformableBrush._slide)
+    slid: list[tuple[FootprintMaps, int, int]] = field(default_factory=list)
 
 
 def _takes_tags(fn: Callable[..., FootprintMaps]) -> bool:
@@ -354,19 +367,44 @@ class DeformableBrush:
             stroke.vx = stroke.vy = 0.0
         pos = stroke.to_next
         step = 0.0
+        # the tuft slides over the cells between stamps (every SLIDE cells of the
+        # segment, with this sample's frame); the next stamp takes them in
+        slid = 0.0
+
+        def shift(back: float) -> tuple[int, int]:
+            """The frame's shift for a point ``back`` cells behind the sample's."""
+            return (-int(round(dy * back / dist - ey)), -int(round(dx * back / dist - ex)))
+
         while pos <= dist and dist > 0.0:
             back = dist - pos  # along the path back from the sample's point
             maps = self._maps(stroke)
-            self._stamp(stroke, maps, -int(round(dy * back / dist - ey)),
-                        -int(round(dx * back / dist - ex)),
-                        stroke.t + (sample.t - stroke.t) * (pos / dist))
-            made += 1
             step = step or self._spacing(maps)
+            at = shift(back)
+            self._slide(stroke, maps, [shift(dist - a) for a in np.arange(
+                slid, pos - 1e-9, SLIDE)])
+            self._stamp(stroke, maps, at[0], at[1],
+                        stroke.t + (sample.t - stroke.t) * (pos / dist))
+            slid = pos + SLIDE
+            made += 1
             pos += step
         if dist > 0.0:
             stroke.to_next = pos - dist
+            if self.reservoir.fill >= self.tuft_model.film_fill:
+                self._slide(stroke, self._maps(stroke), [shift(dist - a) for a in np.arange(
+                    slid, dist + 1e-9, SLIDE)])
         stroke.x, stroke.y, stroke.t = x, y, sample.t
         return made
+
+    def _slide(self, s: _Stroke, maps: FootprintMaps, shifts: list[tuple[int, int]]) -> None:
+        """Note the shifts of ``maps`` the tuft slid over, once each, for the next stamp
+        (bounded: a stamp comes every spacing, a few cells); a draining tuft's are not
+        used (:meth:`_stamp`)."""
+        if self.reservoir.fill < self.tuft_model.film_fill:
+            return
+        seen = {(sy, sx) for m, sy, sx in s.slid if m is maps}
+        for sh in dict.fromkeys(shifts):
+            if sh not in seen:
+                s.slid.append((maps, sh[0], sh[1]))
 
     def _touch_down(self, stroke: _Stroke, sample: PenSample, p: float) -> int:
         """The stroke's first frame and stamp, at ``sample`` (its first).
@@ -453,8 +491,10 @@ class DeformableBrush:
         out: float = max(1.0, self.tuft_model.spacing * 0.5 * max(h, w, 1))
         return out
 
-    def _stamp(self, s: _Stroke, maps: FootprintMaps, dy: int, dx: int, t: float = 0.0
-               ) -> None:
+    def _contact_weight(self, s: _Stroke, maps: FootprintMaps, dy: int, dx: int
+                        ) -> tuple[int, int, np.ndarray]:
+        """:func:`~station.brush.footprint.weight` of ``maps`` shifted ``(dy, dx)`` on
+        the paper, for the tuft's fill now."""
         tm = self.tuft_model
         fill = self.reservoir.fill
         deepest = max(0.0, float(maps.depth.max(initial=0.0)))
@@ -477,8 +517,26 @@ class DeformableBrush:
             bead = tm.ink_reach * self._wetness_map(own)
         speed = math.hypot(s.vx, s.vy)
         drag = (s.vx / speed, s.vy / speed) if speed > 0.0 else None
-        y0, x0, wt = weight(maps, self.paper, tm.tooth, tm.ramp, dy, dx, lift, bead,
-                            drag=drag, sink=tm.sink, skim=tm.skim)
+        return weight(maps, self.paper, tm.tooth, tm.ramp, dy, dx, lift, bead, drag=drag,
+                      sink=tm.sink, skim=tm.skim)
+
+    def _stamp(self, s: _Stroke, maps: FootprintMaps, dy: int, dx: int, t: float = 0.0
+               ) -> None:
+        """One stamp of ``maps`` shifted ``(dy, dx)``, with the cells the tuft slid over
+        since the previous stamp (``s.slid``: every ``SLIDE`` cells of the pen's path,
+        each with the frame of its sample): a hair that touches all along wets a streak,
+        not a row of dots a stamp spacing apart; one skimming the tooth still misses the
+        valleys it skims."""
+        tm = self.tuft_model
+        fill = self.reservoir.fill
+        parts = [self._contact_weight(s, maps, dy, dx)]
+        if fill >= tm.film_fill:
+            # a loaded tuft's ink is one body sliding on the paper; a draining one's hairs
+            # skip over the tooth from stamp to stamp and leave its broken dry end
+            parts += [self._contact_weight(s, m, sy, sx) for m, sy, sx in s.slid
+                      if (m is not maps or (sy, sx) != (dy, dx))]
+        s.slid.clear()
+        y0, x0, wt = union_max(parts)
         if fill >= tm.film_fill:
             # a loaded tuft's water is one body: a lone hair tip's drop joins its
             # neighbours' (surface tension) instead of wetting a one-cell whisker; a

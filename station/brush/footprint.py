@@ -40,6 +40,9 @@ import numpy as np
 NO_DEPTH = -1.0e6
 CLIP_ABOVE = 0.05
 """ε: the back clip plane's height above the canvas plane, cells."""
+LONE_MIN = 8
+"""A mark of at least this many cells loses its lone dots (:func:`prune_spurs`); a
+smaller one (a tiny brush's tip) is all the stroke there is."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -196,12 +199,31 @@ def weight(maps: FootprintMaps, paper: np.ndarray, tooth: float, ramp: float,
     return ya, xa, (cov * reach).astype(np.float32)
 
 
-def prune_spurs(wt: np.ndarray, passes: int = 3) -> np.ndarray:
+def union_max(parts: list[tuple[int, int, np.ndarray]]) -> tuple[int, int, np.ndarray]:
+    """Weights ``(y0, x0, w)`` laid over one another, the largest per cell, over the
+    window that holds them all (the empty ones dropped)."""
+    parts = [p for p in parts if p[2].size]
+    if len(parts) <= 1:
+        return parts[0] if parts else (0, 0, np.zeros((0, 0), np.float32))
+    ya = min(p[0] for p in parts)
+    xa = min(p[1] for p in parts)
+    yb = max(p[0] + p[2].shape[0] for p in parts)
+    xb = max(p[1] + p[2].shape[1] for p in parts)
+    out = np.zeros((yb - ya, xb - xa), np.float32)
+    for py, px, w in parts:
+        win = out[py - ya:py - ya + w.shape[0], px - xa:px - xa + w.shape[1]]
+        np.maximum(win, w, out=win)
+    return ya, xa, out
+
+
+def prune_spurs(wt: np.ndarray, passes: int = 8) -> np.ndarray:
     """``wt`` without its one-cell spurs: a covered cell with at most one covered
-    4-neighbour is cleared, ``passes`` times (a spur three cells long goes too). In a thin
-    mark (fewer than half its cells inside: a rigger's line, a flat brush edge-on) only a
-    spur sticking out of the mark's side goes (its neighbour has three or more covered
-    neighbours): a one-cell line and its ends are the stroke."""
+    4-neighbour is cleared, up to ``passes`` times (a hair's streak dragged off the body,
+    :func:`sweep`, goes back to the body). In a line (fewer than a quarter of its cells
+    with three or more covered neighbours: a rigger's line) only a spur sticking out of
+    the line's side goes (its neighbour has three or more covered neighbours), and, in a
+    mark of ``LONE_MIN`` cells or more, a lone dot: a one-cell line and its ends are the
+    stroke."""
     out = wt
     for k in range(passes):
         on = out > 0
@@ -211,11 +233,12 @@ def prune_spurs(wt: np.ndarray, passes: int = 3) -> np.ndarray:
         nb = (pad[:-2, 1:-1].astype(np.int8) + pad[2:, 1:-1] + pad[1:-1, :-2]
               + pad[1:-1, 2:])
         spur = on & (nb <= 1)
-        if k == 0 and 2 * int(np.count_nonzero(on & (nb == 4))) < int(np.count_nonzero(on)):
-            # a thin mark: only side whiskers, once
+        if k == 0 and 4 * int(np.count_nonzero(on & (nb >= 3))) < int(np.count_nonzero(on)):
+            # a line (a rigger's mark): only side whiskers and lone dots, once
             busy = np.pad(on & (nb >= 3), 1)
             side = (busy[:-2, 1:-1] | busy[2:, 1:-1] | busy[1:-1, :-2] | busy[1:-1, 2:])
-            return np.where(spur & side, out.dtype.type(0), out)
+            lone = on & (nb == 0) if int(np.count_nonzero(on)) >= LONE_MIN else False
+            return np.where((spur & side) | lone, out.dtype.type(0), out)
         if not spur.any():
             break
         out = np.where(spur, out.dtype.type(0), out)
