@@ -182,12 +182,16 @@ def weight(maps: FootprintMaps, paper: np.ndarray, tooth: float, ramp: float,
     lift_w = lift[win].astype(np.float32) if isinstance(lift, np.ndarray) else np.float32(lift)
     hairs = below
     if drag is not None and skim > 0:
-        rows = np.arange(ya, yb)[:, None]
-        cols = np.arange(xa, xb)[None, :]
+        # the paper around the window, its edge rows and columns repeated past the
+        # canvas's edge, so each shift back along the drag is a plain slice
+        pa, pb = max(ya - skim, 0), min(yb + skim, hh)
+        qa, qb = max(xa - skim, 0), min(xb + skim, ww)
+        near = np.pad(paper[pa:pb, qa:qb], ((skim - (ya - pa), skim - (pb - yb)),
+                                            (skim - (xa - qa), skim - (qb - xb))), mode="edge")
         for k in range(1, skim + 1):
-            ys = np.clip(rows - int(round(k * drag[1])), 0, hh - 1)
-            xs = np.clip(cols - int(round(k * drag[0])), 0, ww - 1)
-            back = np.float32(tooth) * (np.float32(1.0) - paper[ys, xs]) + np.float32(k * sink)
+            oy, ox = skim - int(round(k * drag[1])), skim - int(round(k * drag[0]))
+            back = (np.float32(tooth) * (np.float32(1.0) - near[oy:oy + yb - ya, ox:ox + xb - xa])
+                    + np.float32(k * sink))
             hairs = np.minimum(hairs, back)
     reach = (dep - lift_w - hairs) / np.float32(ramp)
     if np.any(bead_w > 0.0):
