@@ -11,7 +11,6 @@ from station.canvas.paper import PAPER_PRESETS, make_paper
 from station.errors import BadInput
 from station.kiosk.ui import PASS_THICKNESS, swatch
 from station.pictures import effects as fx
-from station.pictures.effects_brush import STEP_H
 from station.sessionlog import SessionHeader
 from station.sim.paint import session_paper
 
@@ -82,4 +81,4 @@ def test_the_step_artefact_tile_resolves_one_percent() -> None:
     assert e.numbers["step_component_wet"] <= 0.01, e.numbers
     assert e.numbers["noise_floor_wet"] < 0.01, e.numbers
     assert e.numbers["other_bins_median_wet"] < 0.005, e.numbers
-    assert e.picture(1).shape[0] == 2 * STEP_H
+    assert e.picture(1).shape[0] == 2 * fx.STEP_H
