@@ -151,9 +151,9 @@ def _lake(s: Script, c: float) -> None:
     """The lake: wet paper, a pale blue graded darker to the near shore with a light band
     left in the middle; dried, a few quick dry-brush ripples."""
     _wet(s, c, [0.7, 0.73, 0.76], size=6.0)
-    s.brush(size=4 * c, water=0.9, pigment={"French Ultramarine": 0.1, "Cerulean Blue": 0.14})
-    s.curve(_wavy(0.0, 1.0, 0.695, 0.004, 3.0, 0.5), 0.8, pressure=swell(0.4, 0.7, 1.5))
-    s.brush(size=5 * c, water=0.9, pigment={"French Ultramarine": 0.32, "Cerulean Blue": 0.16})
+    s.brush(size=4 * c, water=0.9, pigment={"French Ultramarine": 0.16, "Cerulean Blue": 0.2})
+    s.curve(_wavy(0.0, 1.0, 0.695, 0.004, 3.0, 0.5), 0.8, pressure=swell(0.45, 0.75, 1.5))
+    s.brush(size=5 * c, water=0.9, pigment={"French Ultramarine": 0.45, "Cerulean Blue": 0.2})
     s.curve(_wavy(1.0, 0.0, 0.76, 0.005, 4.0, 1.3), 0.8, pressure=swell(0.55, 0.9, 2.0))
     _blow_dry(s, 10.0)
     s.brush(size=4 * c, water=0.15, pigment={"French Ultramarine": 0.45,
@@ -168,11 +168,11 @@ def _foreground(s: Script, c: float) -> None:
     """The near bank: wet paper, a warm ochre laid in varied diagonal strokes, a
     granulating umber-ultramarine dropped in wet at the bottom and a green at the grass,
     the shore's edge left ragged."""
-    _wet(s, c, [0.8, 0.85, 0.9, 0.95, 0.99])
+    _wet(s, c, [0.83, 0.88, 0.93, 0.98], size=7.0)
     s.brush(size=7 * c, water=0.9, pigment={"Hansa Yellow": 0.2, "Burnt Umber": 0.14,
                                              "Quinacridone Rose": 0.03})
     for k in range(5):
-        y = 0.8 + 0.045 * k
+        y = 0.815 + 0.042 * k
         x0 = 0.02 + 0.06 * (k % 3)
         pts = [(x0 + (0.96 - x0) * u / 5, y + 0.012 * math.sin(2.5 * u + k) + 0.01 * u)
                for u in range(6)]
