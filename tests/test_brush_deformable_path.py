@@ -9,7 +9,7 @@ import pytest
 import station.sim.player as player
 from station.backends.numpy_canvas import NumpyCanvas
 from station.backends.protocol import CanvasBackend
-from station.brush.footprint import prune_spurs, union_max
+from station.brush.footprint import NO_DEPTH, FootprintMaps, prune_spurs, shifted_union, union_max
 from station.brush.sources import Sources
 from station.sim.script import Script
 
@@ -180,3 +180,16 @@ def test_union_max_lays_weights_over_one_another() -> None:
     assert (y0, x0, w.shape) == (10, 18, (4, 5))
     assert w[0, 2] == np.float32(0.5) and w[1, 1] == np.float32(0.8) and w[0, 0] == 0.0
     assert union_max([]) [2].size == 0
+
+
+def test_shifted_union_merges_one_frame_laid_at_several_shifts() -> None:
+    maps = FootprintMaps(10, 20, np.array([[0.5, 1.0]], np.float32),
+                         np.array([[0.2, 0.4]], np.float32), np.array([[1.0, 2.0]], np.float32))
+    got = shifted_union(maps, [(0, 0), (0, 1), (1, 0)])
+    assert (got.y0, got.x0, got.cover.shape) == (10, 20, (2, 3))
+    # the middle cell: cover 1.0 (first shift's right cell), depth 0.4 with its tag
+    assert got.cover[0, 1] == np.float32(1.0) and got.depth[0, 1] == np.float32(0.4)
+    assert got.tag is not None and got.tag[0, 1] == np.float32(2.0)
+    assert got.depth[1, 2] == NO_DEPTH and got.cover[1, 2] == 0.0
+    one = shifted_union(maps, [(3, -2)])
+    assert (one.y0, one.x0) == (13, 18) and one.cover is maps.cover

@@ -54,6 +54,7 @@ from station.brush.footprint import (
     prune_spurs,
     rasterise,
     segments,
+    shifted_union,
     union_max,
     weight,
 )
@@ -529,13 +530,19 @@ class DeformableBrush:
         valleys it skims."""
         tm = self.tuft_model
         fill = self.reservoir.fill
-        parts = [self._contact_weight(s, maps, dy, dx)]
+        groups: dict[int, tuple[FootprintMaps, list[tuple[int, int]]]] = {
+            id(maps): (maps, [(dy, dx)])}
         if fill >= tm.film_fill:
             # a loaded tuft's ink is one body sliding on the paper; a draining one's hairs
-            # skip over the tooth from stamp to stamp and leave its broken dry end
-            parts += [self._contact_weight(s, m, sy, sx) for m, sy, sx in s.slid
-                      if (m is not maps or (sy, sx) != (dy, dx))]
+            # skip over the tooth from stamp to stamp and leave its broken dry end. Each
+            # frame's shifts are merged first and met against the paper once.
+            for m, sy, sx in s.slid:
+                got = groups.setdefault(id(m), (m, []))[1]
+                if (sy, sx) not in got:
+                    got.append((sy, sx))
         s.slid.clear()
+        parts = [self._contact_weight(s, shifted_union(m, shifts), 0, 0)
+                 for m, shifts in groups.values()]
         y0, x0, wt = union_max(parts)
         if fill >= tm.film_fill:
             # a loaded tuft's water is one body: a lone hair tip's drop joins its

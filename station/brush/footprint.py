@@ -203,6 +203,32 @@ def weight(maps: FootprintMaps, paper: np.ndarray, tooth: float, ramp: float,
     return ya, xa, (cov * reach).astype(np.float32)
 
 
+def shifted_union(maps: FootprintMaps, shifts: list[tuple[int, int]]) -> FootprintMaps:
+    """``maps`` laid at each of ``shifts`` (whole cells ``(dy, dx)``), merged: per cell
+    the fullest cover and the deepest reach, with that deepest bristle's tag. One frame of
+    the tuft slid over those cells; :func:`weight` of the result meets each cell against
+    its own paper once, instead of once per shift."""
+    if len(shifts) == 1:
+        dy, dx = shifts[0]
+        return FootprintMaps(maps.y0 + dy, maps.x0 + dx, maps.cover, maps.depth, maps.tag)
+    top = min(p[0] for p in shifts)
+    left = min(p[1] for p in shifts)
+    h, w = maps.cover.shape
+    hh = h + max(p[0] for p in shifts) - top
+    ww = w + max(p[1] for p in shifts) - left
+    cover = np.zeros((hh, ww), np.float32)
+    depth = np.full((hh, ww), NO_DEPTH, np.float32)
+    tag = None if maps.tag is None else np.full((hh, ww), np.nan, np.float32)
+    for dy, dx in shifts:
+        win = (slice(dy - top, dy - top + h), slice(dx - left, dx - left + w))
+        np.maximum(cover[win], maps.cover, out=cover[win])
+        deeper = maps.depth > depth[win]
+        depth[win] = np.where(deeper, maps.depth, depth[win])
+        if tag is not None and maps.tag is not None:
+            tag[win] = np.where(deeper, maps.tag, tag[win])
+    return FootprintMaps(maps.y0 + top, maps.x0 + left, cover, depth, tag)
+
+
 def union_max(parts: list[tuple[int, int, np.ndarray]]) -> tuple[int, int, np.ndarray]:
     """Weights ``(y0, x0, w)`` laid over one another, the largest per cell, over the
     window that holds them all (the empty ones dropped)."""
