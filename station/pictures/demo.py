@@ -148,9 +148,10 @@ def _hills(s: Script, c: float) -> None:
 
 
 def _lake(s: Script, c: float) -> None:
-    """The lake: wet paper, a pale blue graded darker to the near shore with a light band
-    left in the middle; dried, a few quick dry-brush ripples."""
-    _wet(s, c, [0.7, 0.73, 0.76], size=6.0)
+    """The lake: a pale blue laid wet-on-dry at the far shore (a crisp edge), a deeper blue
+    into damp paper at the near shore, a light band left between; dried, a few quick
+    dry-brush ripples."""
+    _wet(s, c, [0.75, 0.77], size=4.0)  # the near half: the far shore stays a crisp edge
     s.brush(size=4 * c, water=0.9, pigment={"French Ultramarine": 0.16, "Cerulean Blue": 0.2})
     s.curve(_wavy(0.0, 1.0, 0.695, 0.004, 3.0, 0.5), 0.8, pressure=swell(0.45, 0.75, 1.5))
     s.brush(size=5 * c, water=0.9, pigment={"French Ultramarine": 0.45, "Cerulean Blue": 0.2})
@@ -165,10 +166,10 @@ def _lake(s: Script, c: float) -> None:
 
 
 def _foreground(s: Script, c: float) -> None:
-    """The near bank: wet paper, a warm ochre laid in varied diagonal strokes, a
-    granulating umber-ultramarine dropped in wet at the bottom and a green at the grass,
-    the shore's edge left ragged."""
-    _wet(s, c, [0.83, 0.88, 0.93, 0.98], size=7.0)
+    """The near bank: a warm ochre laid in varied strokes, wet-on-dry at the shore and into
+    damp paper below, a granulating umber-ultramarine dropped in wet at the bottom and a
+    green at the grass."""
+    _wet(s, c, [0.88, 0.93, 0.98], size=7.0)  # below the bank's top: a crisp shore
     s.brush(size=7 * c, water=0.9, pigment={"Hansa Yellow": 0.2, "Burnt Umber": 0.14,
                                              "Quinacridone Rose": 0.03})
     for k in range(5):
