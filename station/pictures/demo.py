@@ -70,24 +70,30 @@ def _fill(s: Script, base: float, amp: float, phase: float, waves: float, bottom
 
 
 def _tree(s: Script, cells: float, foot: tuple[float, float], height: float) -> None:
-    """An ink tree: a tapering trunk, curved branches, two twigs at each end."""
+    """An ink tree: a trunk pressed hard at the foot and lifted towards the crown, branches
+    that taper from the trunk to a hair, twigs drawn with the rigger."""
     fx, fy = foot
-    s.brush(size=1.5 * cells, water=0.5, pigment={"Sumi Ink": 0.7})
+    s.brush(size=1.6 * cells, water=0.5, pigment={"Sumi Ink": 0.9})
     s.curve([foot, (fx - 0.006, fy - 0.35 * height), (fx + 0.006, fy - 0.7 * height),
-             (fx - 0.01, fy - height)], 1.1, pressure=taper(0.95, 0.9, 0.1, release=0.45),
+             (fx - 0.01, fy - height)], 1.1,
+            pressure=taper(0.95, 0.95, 0.1, attack=0.05, release=0.8),
             tilt=tilt_const(-10.0, 30.0))
-    s.brush(size=0.7 * cells, water=0.5, pigment={"Sumi Ink": 0.6})
+    s.brush(size=0.8 * cells, water=0.5, pigment={"Sumi Ink": 0.75})
     branches = ((0.42, -1, 0.12, 0.06), (0.52, 1, 0.12, 0.08), (0.66, -1, 0.09, 0.07),
                 (0.76, 1, 0.09, 0.06), (0.87, -1, 0.06, 0.05))
-    for k, (at, side, length, rise) in enumerate(branches):
+    ends = []
+    for at, side, length, rise in branches:
         bx, by = fx - 0.004 * at, fy - at * height
         dx, dy = side * length, -rise
         end = (bx + dx, by + dy)
+        ends.append((end, side))
         s.curve([(bx, by), (bx + 0.5 * dx, by + 0.25 * dy), end], 0.35,
-                pressure=taper(0.9, 0.8, 0.05, release=0.6))
+                pressure=taper(0.85, 0.85, 0.0, attack=0.05, release=0.9))
+    s.brush(size=1.4 * cells, water=0.5, pigment={"Sumi Ink": 0.7}, kind="rigger")
+    for k, (end, side) in enumerate(ends):
         for t in (-1, 1):
             tw = (end[0] + 0.025 * (side + 0.6 * t), end[1] - 0.03 * (1 + k % 2))
-            s.line(end, tw, 0.15, pressure=taper(0.7, 0.6, 0.02, attack=0.05, release=0.7))
+            s.line(end, tw, 0.15, pressure=taper(0.5, 0.5, 0.0, attack=0.05, release=0.8))
 
 
 def _blow_dry(s: Script, seconds: float) -> None:
