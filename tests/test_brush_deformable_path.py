@@ -3,14 +3,21 @@ follows it, without one-cell whiskers at its edges (measured on the brush's depo
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 
 import station.sim.player as player
 from station.backends.numpy_canvas import NumpyCanvas
 from station.backends.protocol import CanvasBackend
+from station.brush.deformable import DeformableBrush
 from station.brush.footprint import NO_DEPTH, FootprintMaps, prune_spurs, shifted_union, union_max
 from station.brush.sources import Sources
+from station.brush.stamp import BrushModel, BrushSettings
+from station.canvas.paper import make_paper
+from station.canvas.profiles import get_profile
+from station.events import PenSample, Tool
 from station.sim.script import Script
 
 W, H = 200, 64
@@ -193,3 +200,25 @@ def test_shifted_union_merges_one_frame_laid_at_several_shifts() -> None:
     assert got.depth[1, 2] == NO_DEPTH and got.cover[1, 2] == 0.0
     one = shifted_union(maps, [(3, -2)])
     assert (one.y0, one.x0) == (13, 18) and one.cover is maps.cover
+
+
+def test_a_slow_pen_keeps_one_slide_entry_a_pen_cell(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A loaded flat crawling 0.017 cells a sample (a frame every sample, a stamp every
+    few cells): the cells the tuft slid over between two stamps are noted once a pen cell,
+    not once a frame (600 frames would have meant 600 weights at the next stamp)."""
+    most = [0]
+    stamp = DeformableBrush._stamp
+
+    def watch(self: DeformableBrush, s: Any, *a: Any) -> None:
+        most[0] = max(most[0], len(s.slid))
+        stamp(self, s, *a)
+
+    monkeypatch.setattr(DeformableBrush, "_stamp", watch)
+    paper = make_paper(get_profile("watercolor").paper, 100, 200, 3)
+    b = DeformableBrush(200, 100, BrushSettings(kind="flat", size=24, water=0.8,
+                                                 pigment={"French Ultramarine": 1.0}),
+                        BrushModel(), paper)
+    for i in range(600):
+        b.feed(PenSample(t=i / 120, device="d", tool=Tool.PEN, x=0.3 + 0.05 * i / 600, y=0.5,
+                         pressure=0.8, touching=True))
+    assert 0 < most[0] <= 8, most

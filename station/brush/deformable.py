@@ -114,6 +114,7 @@ class _Stroke:
     twist: float = 0.0  # degrees added to the pen's barrel rotation for this stroke
     # shifts of a frame's maps the tuft slid over since the last stamp (DeformableBrush._slide)
     slid: list[tuple[FootprintMaps, int, int]] = field(default_factory=list)
+    slid_cells: set[tuple[int, int]] = field(default_factory=set)  # the pen cells noted
 
 
 def _takes_tags(fn: Callable[..., FootprintMaps]) -> bool:
@@ -376,13 +377,18 @@ class DeformableBrush:
             """The frame's shift for a point ``back`` cells behind the sample's."""
             return (-int(round(dy * back / dist - ey)), -int(round(dx * back / dist - ex)))
 
+        def path(a0: float, a1: float) -> list[tuple[tuple[int, int], tuple[int, int]]]:
+            """The pen's cells from ``a0`` to ``a1`` cells along this segment, each with
+            the frame's shift that lays the tuft there."""
+            return [((int(round(stroke.y + dy * a / dist)), int(round(stroke.x + dx * a / dist))),
+                     shift(dist - a)) for a in np.arange(a0, a1, SLIDE)]
+
         while pos <= dist and dist > 0.0:
             back = dist - pos  # along the path back from the sample's point
             maps = self._maps(stroke)
             step = step or self._spacing(maps)
             at = shift(back)
-            self._slide(stroke, maps, [shift(dist - a) for a in np.arange(
-                slid, pos - 1e-9, SLIDE)])
+            self._slide(stroke, maps, path(slid, pos - 1e-9))
             self._stamp(stroke, maps, at[0], at[1],
                         stroke.t + (sample.t - stroke.t) * (pos / dist))
             slid = pos + SLIDE
@@ -391,20 +397,22 @@ class DeformableBrush:
         if dist > 0.0:
             stroke.to_next = pos - dist
             if self.reservoir.fill >= self.tuft_model.film_fill:
-                self._slide(stroke, self._maps(stroke), [shift(dist - a) for a in np.arange(
-                    slid, dist + 1e-9, SLIDE)])
+                self._slide(stroke, self._maps(stroke), path(slid, dist + 1e-9))
         stroke.x, stroke.y, stroke.t = x, y, sample.t
         return made
 
-    def _slide(self, s: _Stroke, maps: FootprintMaps, shifts: list[tuple[int, int]]) -> None:
-        """Note the shifts of ``maps`` the tuft slid over, once each, for the next stamp
-        (bounded: a stamp comes every spacing, a few cells); a draining tuft's are not
-        used (:meth:`_stamp`)."""
+    def _slide(self, s: _Stroke, maps: FootprintMaps,
+               cells: list[tuple[tuple[int, int], tuple[int, int]]]) -> None:
+        """Note where the tuft slid since the last stamp: for each pen cell of ``cells``
+        not yet noted, the shift of ``maps`` (this sample's frame) that lays it there. One
+        entry a pen cell, the first frame that passed it: a stamp comes every spacing (a
+        few cells), so a slow pen with a frame every sample adds nothing new per frame.
+        A draining tuft's are not used (:meth:`_stamp`)."""
         if self.reservoir.fill < self.tuft_model.film_fill:
             return
-        seen = {(sy, sx) for m, sy, sx in s.slid if m is maps}
-        for sh in dict.fromkeys(shifts):
-            if sh not in seen:
+        for cell, sh in cells:
+            if cell not in s.slid_cells:
+                s.slid_cells.add(cell)
                 s.slid.append((maps, sh[0], sh[1]))
 
     def _touch_down(self, stroke: _Stroke, sample: PenSample, p: float) -> int:
@@ -541,6 +549,7 @@ class DeformableBrush:
                 if (sy, sx) not in got:
                     got.append((sy, sx))
         s.slid.clear()
+        s.slid_cells.clear()
         parts = [self._contact_weight(s, shifted_union(m, shifts), 0, 0)
                  for m, shifts in groups.values()]
         y0, x0, wt = union_max(parts)
