@@ -544,14 +544,14 @@ class DeformableBrush:
             # a loaded tuft's ink is one body sliding on the paper; a draining one's hairs
             # skip over the tooth from stamp to stamp and leave its broken dry end. Each
             # frame's shifts are merged first and met against the paper once.
-            for m, sy, sx in s.slid:
-                got = groups.setdefault(id(m), (m, []))[1]
+            for frame, sy, sx in s.slid:
+                got = groups.setdefault(id(frame), (frame, []))[1]
                 if (sy, sx) not in got:
                     got.append((sy, sx))
         s.slid.clear()
         s.slid_cells.clear()
-        parts = [self._contact_weight(s, shifted_union(m, shifts), 0, 0)
-                 for m, shifts in groups.values()]
+        parts = [self._contact_weight(s, shifted_union(frame, shifts), 0, 0)
+                 for frame, shifts in groups.values()]
         y0, x0, wt = union_max(parts)
         if fill >= tm.film_fill:
             # a loaded tuft's water is one body: a lone hair tip's drop joins its
