@@ -456,31 +456,6 @@ class DeformableBrush:
             self.last_maps = s.maps
         return s.maps
 
-    def _wetness(self, fill: float) -> float:
-        """How connected the tuft's ink is, 0 (pendular) to 1 (a film down to the tip)."""
-        tm = self.tuft_model
-        span = tm.film_fill - tm.pendular_fill
-        if span <= 0.0:
-            return 1.0 if fill >= tm.film_fill else 0.0
-        return min(1.0, max(0.0, (fill - tm.pendular_fill) / span))
-
-    def _split(self, fill: float) -> float:
-        """How far the tuft's ink has split into locks: 0 at ``film_fill`` and above
-        (one body), 1 at ``pendular_fill`` and below."""
-        tm = self.tuft_model
-        span = tm.film_fill - tm.pendular_fill
-        if span <= 0.0:
-            return 0.0 if fill >= tm.film_fill else 1.0
-        return min(1.0, max(0.0, (tm.film_fill - fill) / span))
-
-    def _wetness_map(self, fill: np.ndarray) -> np.ndarray:
-        """:meth:`_wetness` per cell."""
-        tm = self.tuft_model
-        span = tm.film_fill - tm.pendular_fill
-        if span <= 0.0:
-            return (fill >= tm.film_fill).astype(np.float32)
-        return np.clip((fill - tm.pendular_fill) / span, 0.0, 1.0).astype(np.float32)
-
     def _contact(self, s: _Stroke, maps: FootprintMaps) -> float:
         """Share of a saturating transfer a cell gets while the tuft passes over it.
 
@@ -513,7 +488,7 @@ class DeformableBrush:
             # the bristles lifted as the tuft dries; the ink a loaded tuft holds wets
             # the tooth below them (cells)
             lift = tm.dry_lift * (1.0 - fill) ** 2 * deepest
-            bead = tm.ink_reach * self._wetness(fill)
+            bead = tm.ink_reach * tm.wetness(fill)
         else:
             # the same per bristle, from its own fill: above film_fill the tuft's ink
             # is one body and every bristle has the same share; as it drains below,
@@ -521,9 +496,9 @@ class DeformableBrush:
             # lowest) keeps ``retention`` times the tuft's share at pendular_fill, so
             # the bristles lose their ink lock by lock and each leaves a streak along
             # the stroke where it stops giving paint
-            own = np.minimum(1.0, fill * np.nan_to_num(maps.tag, nan=1.0) ** self._split(fill))
+            own = np.minimum(1.0, fill * np.nan_to_num(maps.tag, nan=1.0) ** tm.split(fill))
             lift = tm.dry_lift * (1.0 - own) ** 2 * deepest
-            bead = tm.ink_reach * self._wetness_map(own)
+            bead = tm.ink_reach * tm.wetness_map(own)
         speed = math.hypot(s.vx, s.vy)
         drag = (s.vx / speed, s.vy / speed) if speed > 0.0 else None
         return weight(maps, self.paper, tm.tooth, tm.ramp, dy, dx, lift, bead, drag=drag,
