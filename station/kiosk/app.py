@@ -41,7 +41,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -78,6 +78,9 @@ from station.kiosk.ui import PanelState
 from station.kiosk.views import VIEWS, Camera, Viewport
 from station.render.km import to_srgb8
 from station.sim.live import KIOSK_CMD_ENDPOINT, LiveConfig, default_status_endpoint
+
+if TYPE_CHECKING:  # imgui-bundle is an optional extra (imported where the window opens)
+    from station.glkit.imgui_gl import UiTriangles
 
 __all__ = ["KioskApp", "KioskConfig", "hold_live_log", "numba_threadsafe", "painting_in_progress"]
 
@@ -308,6 +311,7 @@ class KioskApp:
         self._ui_built = 0.0
         self._ui_hash = 0
         self._ui_bounds: Box | None = None
+        self._ui_tris: UiTriangles | None = None  # its triangles (where the UI changed)
         # compositing and presenting
         self._frame_boxes: list[Box] = []  # what this frame redrew in the picture
         self.frame_pixels = 0  # ... in pixels (both compositions of the frame)

@@ -275,6 +275,7 @@ def build_ui_if_changed(app: KioskApp, dt: float) -> None:
             or now - app._ui_built >= REDRAW_EVERY_S):
         app._ui_hash = build_ui(app, now - app._ui_built if app._ui_built else dt)
         app._ui_bounds = app.gui.bounds()
+        app._ui_tris = app.gui.triangles()
         app._ui_last_key, app._ui_built = key, now
 
 
@@ -286,7 +287,7 @@ def compose_changes(app: KioskApp, cam: Camera) -> None:
     boxes = app.compositor.update(cam, app.display.damage,
                                    (app.cfg.width, app.cfg.height), app._ui_hash,
                                    app._ui_bounds, lambda box: draw_scene(app, cam, box),
-                                   app.gui.draw)
+                                   app.gui.draw, app._ui_tris)
     app.display.damage = []
     app.frame_pixels += app.compositor.pixels_redrawn
     app._frame_full = app._frame_full or app.compositor.full_last
