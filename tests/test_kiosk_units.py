@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -308,6 +310,33 @@ def test_the_mouse_pen_smooths_jitter_and_presses_by_speed() -> None:
     assert parse_pressure("speed") is None and parse_pressure("0.4") == 0.4
     with pytest.raises(BadInput):
         parse_pressure("2")
+
+
+def test_the_mouse_sets_the_brush_down_from_the_tip_and_reads_speed_per_screen() -> None:
+    from station.kiosk.mouse import ATTACK_FROM, ATTACK_S, MousePen
+
+    pen = MousePen((1920, 1080), pressure=0.7)
+    pen.move(500, 500, 0.0, 0.0)
+    pen.button(True, 0.0, 0.0)
+    for i in range(1, 30):  # 200 Hz, 0.145 s
+        pen.move(500 + 2 * i, 500, i / 200, i / 200)
+    p = [s.pressure for s in pen.take() if s.touching]
+    # the stroke starts at the tip (main: 0.6 from the first sample, a round stamp) and
+    # swells to the held pressure within ATTACK_S
+    assert p[0] == pytest.approx(0.7 * ATTACK_FROM)
+    assert all(b >= a for a, b in itertools.pairwise(p))
+    assert p[int(200 * ATTACK_S) + 1] == pytest.approx(0.7) and p[-1] == pytest.approx(0.7)
+    # the same hand movement (a tenth of the screen's height in 0.1 s) presses the same
+    # on a 1080 and a 2160 screen
+    got = []
+    for size in ((1920, 1080), (3840, 2160)):
+        m = MousePen(size)
+        m.move(100, 100, 0.0, 0.0)
+        m.button(True, 0.0, 0.0)
+        for i in range(1, 60):
+            m.move(100 + size[1] * i / 200, 100, i / 200, i / 200)
+        got.append(m.take()[-1].pressure)
+    assert got[0] == pytest.approx(got[1], abs=0.01) and 0.3 < got[0] < 0.8
 
 
 def test_the_compiled_subcell_fields_match_their_definition() -> None:

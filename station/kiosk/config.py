@@ -60,7 +60,7 @@ class KioskConfig:
     # what paints besides a pen driver on the bus: the window's mouse/touchscreen
     # ("auto": yes, unless a pen was heard in the last second; "pen": no; "mouse": yes)
     input: str = "auto"
-    mouse_pressure: float | None = 0.6  # the mouse's pressure (None: from its speed)
+    mouse_pressure: float | None = None  # the mouse's pressure (None: from its speed)
     keys: Path | None = None  # CURVE key directory for tcp endpoints (None: the default)
     client_key: str | None = None  # a client key pair of its own for connecting over tcp
 
