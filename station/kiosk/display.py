@@ -296,7 +296,7 @@ class CpuDisplay:
         uy, ux = subcell.grow(ys, xs, subcell.LEVEL_REACH, h, w)
         ry, rx = subcell.grow(uy, ux, subcell.INDICATOR_HALO, h, w)
         extra = None if pending is None else _pending_in(pending, st, ry, rx)
-        amount, _pigments = region_amount(st, ry, rx, extra)
+        amount, pigments = region_amount(st, ry, rx, extra)
         painted = subcell.painted_cells(amount, st.r_composed[ry, rx], self.paper_cells[ry, rx])
         # the colours the extension reads (the uploaded cells and one more) rendered from
         # the same state as the indicator: colours kept from earlier renders (a mirror of
@@ -305,9 +305,12 @@ class CpuDisplay:
         ky, kx = subcell.grow(uy, ux, subcell.COLOUR_HALO, h, w)
         kin = (slice(ky.start - ry.start, ky.stop - ry.start),
                slice(kx.start - rx.start, kx.stop - rx.start))
-        k_extra = None if extra is None else {n: a[kin] for n, a in extra.items()}
         rgb = np.zeros((ry.stop - ry.start, rx.stop - rx.start, 3), F32)
-        rgb[kin] = self._render(st, kind, ky, kx, k_extra)
+        if kind == "km":  # the amounts just taken, not a second region_amount
+            rgb[kin] = self._render_km(st, ky, kx, amount[:, kin[0], kin[1]], pigments)
+        else:
+            k_extra = None if extra is None else {n: a[kin] for n, a in extra.items()}
+            rgb[kin] = self._render(st, kind, ky, kx, k_extra)
         inner = (slice(uy.start - ry.start, uy.stop - ry.start),
                  slice(ux.start - rx.start, ux.stop - rx.start))
         self._upload(subcell.fields(rgb, painted, inner), uy, ux)
@@ -326,6 +329,19 @@ class CpuDisplay:
                 amount, pigments = region_amount(st, ys, xs, extra)
                 return km_layer_fast(amount, pigments, st.r_composed[ys, xs])
             return render_region(st, kind, ys, xs, extra)
+        finally:
+            numba.set_num_threads(before)
+
+    def _render_km(self, st: Any, ys: slice, xs: slice, amount: np.ndarray,
+                   pigments: list[Any]) -> np.ndarray:
+        """:meth:`_render` of the KM renderer from the region's amounts."""
+        cells = (ys.stop - ys.start) * (xs.stop - xs.start)
+        before = numba.get_num_threads()
+        numba.set_num_threads(1 if self.session.inflight or cells < SERIAL_CELLS
+                              else self._threads)
+        try:
+            return km_layer_fast(amount, pigments,
+                                 st.r_composed[ys, xs])
         finally:
             numba.set_num_threads(before)
 
