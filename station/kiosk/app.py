@@ -34,6 +34,7 @@ The app is in parts by job: here the start-up and the paintings' sessions;
 from __future__ import annotations
 
 import dataclasses
+import gc
 import logging
 import math
 import os
@@ -55,6 +56,7 @@ from station.kiosk.attract import AttractShow
 from station.kiosk.compose import Box, Compositor
 from station.kiosk.config import (
     AUTO_HORIZON_START_S,
+    GC_GEN2_THRESHOLD,
     KioskConfig,
     numba_threadsafe,
 )
@@ -117,8 +119,21 @@ class KioskApp:
         self.compositor = Compositor(self.ctx, self.size)
         self.presenter = Presenter(glfw, self.window, str(self.ctx.info.get("GL_RENDERER", "")),
                                    self.size, self.cfg.present, self.cfg.vsync)
+        self._take_over_full_collections()
 
     # -- start-up, in parts -----------------------------------------------------------
+    def _take_over_full_collections(self) -> None:
+        """What start-up made (modules, numba's and ImGui's objects, the window) lives as
+        long as the process: frozen out of the collector's sight, so a full collection
+        walks only what painting made since; and full collections come from the loop,
+        while the pen is up (:func:`station.kiosk.loop.collect_when_pen_up`), not
+        whenever the survivors grew."""
+        gc.collect()
+        gc.freeze()
+        g0, g1, _ = gc.get_threshold()
+        gc.set_threshold(g0, g1, GC_GEN2_THRESHOLD)
+        self._last_full_gc = time.monotonic()
+
     @staticmethod
     def _checked_config(cfg: KioskConfig) -> KioskConfig:
         """``cfg`` checked (bad input: :class:`BadInput`), with the simulation in the
@@ -269,6 +284,9 @@ class KioskApp:
             horizon_s=self.lag.value if cfg.predict_ms is None else max(cfg.predict_ms, 0.0)
             / 1000))
         self._pen_received = 0.0  # monotonic time the last pen sample came
+        self._last_touch = 0.0  # ... the last that touched the paper
+        self._last_full_gc = 0.0  # ... the last full garbage collection
+        self.full_collections = 0  # made by the loop (collect_when_pen_up)
         self._pen_read = 0.0  # ... and when its driver read it (monotonic)
         self._shadow_read = 0.0  # the read time of the sample this frame's shadow is from
         # the driver, the gallery, the operator

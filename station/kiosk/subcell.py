@@ -119,14 +119,14 @@ def _painted_kernel(amount: np.ndarray, r_composed: np.ndarray, paper: np.ndarra
             acc = np.float32(0.0)
             for k in range(n):  # numpy's sum over the first axis, in the same order
                 acc += amount[k, y, x]
-            painted = acc > wet_min
-            if not painted:
+            painted = 1 if acc > wet_min else 0
+            if painted == 0:
                 b = paper[y, x]
                 for c in range(3):
                     if abs(r_composed[y, x, c] - b) > dried_min:
-                        painted = True
+                        painted = 1
                         break
-            out[y, x] = painted
+            out[y, x] = painted != 0
 
 
 def fields_reference(rgb: np.ndarray, painted: np.ndarray, inner: tuple[slice, slice]
