@@ -387,6 +387,7 @@ def test_a_new_status_line_redraws_its_text_not_the_panel(display: str, tmp_path
         for _ in range(3):  # ImGui lays the panel out over its first frames (a scrollbar)
             app._ui_built, app._need_draw = 0.0, True
             app.frame(0.016)
+        _settle(app)  # and the canvas is drawn whole (over a few frames on a busy machine)
         panel = app.panel_w * app.size[1]
         text["line"] = "wet 11.5%  drying"  # what changes twice a second while paint dries
         app._status_due, app._need_draw = 0.0, True  # as a quiet kiosk's redraw finds it

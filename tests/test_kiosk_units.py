@@ -488,21 +488,34 @@ def test_a_live_painting_held_by_another_kiosk_is_neither_resumed_nor_removed(tm
     assert painting_in_progress(tmp_path) == stroke and not empty.exists()
 
 
-def test_the_safety_net_whole_frame_waits_while_the_pen_paints() -> None:
+def test_the_safety_net_while_the_pen_paints_is_a_rolling_band_not_a_whole_frame() -> None:
     """A partial-presenting window is presented whole once a second in case the X server
     lost pixels; on a software rasteriser that whole frame is the slowest of all (at
-    3840×2160 tens of ms), so while the pen paints it comes every 10 s instead."""
+    3840×2160 60-130 ms), so while the pen paints a band of rows rolls down the window
+    instead, every row presented again within ROLL_PERIOD_S (main: a whole frame every
+    10 s)."""
     from types import SimpleNamespace
 
-    from station.kiosk.present import FULL_EVERY_PAINTING_S, FULL_EVERY_S, Presenter
+    from station.kiosk.present import FULL_EVERY_S, ROLL_PERIOD_S, Presenter
 
     glfw = SimpleNamespace(set_window_refresh_callback=lambda window, cb: None)
-    p = Presenter(glfw, None, "llvmpipe", (100, 100), mode="swap")
+    p = Presenter(glfw, None, "llvmpipe", (3840, 2160), mode="swap")
     p._copy_sub = object()  # as if GLX_MESA_copy_sub_buffer were there
     p.whole_next = False
-    assert FULL_EVERY_S == 1.0 and FULL_EVERY_PAINTING_S == 10.0
+    assert FULL_EVERY_S == 1.0 and ROLL_PERIOD_S <= 5.0
     assert p.needs_whole(10.0, 8.5)  # idle: a whole frame after a second
-    assert not p.needs_whole(10.0, 8.5, painting=True)  # painting: not yet
-    assert p.needs_whole(19.0, 8.5, painting=True)  # but at least every 10 s
+    assert not p.needs_whole(10.0, 8.5, painting=True)  # painting: never on the clock
+    assert not p.needs_whole(100.0, 8.5, painting=True)
+    # frames at 200 Hz for one period: bands of a few rows, together every row, once
+    assert p.rolling_band(0.0) is None
+    rows = np.zeros(2160, int)
+    widest = 0
+    for k in range(1, int(200 * ROLL_PERIOD_S) + 1):
+        band = p.rolling_band(k / 200)
+        assert band is not None and band[0] == 0 and band[2] == 3840
+        rows[band[1]:band[3]] += 1
+        widest = max(widest, band[3] - band[1])
+    assert rows.min() >= 1 and widest <= 4  # every row; a few rows a frame
+    assert (rows <= 2).all()  # (a row at a band's edge may be presented twice)
     p.lost()
     assert p.needs_whole(10.0, 9.9, painting=True)  # an expose: at once, painting or not

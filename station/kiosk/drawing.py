@@ -313,6 +313,11 @@ def fill_back_buffer(app: KioskApp, cam: Camera) -> None:
         # merged once: overlapping rectangles would be copied twice, here and to X
         rects = merge_rects([b for b in (*app._frame_boxes, app._shadow_box,
                                          shadow_box) if b is not None])
+        # the safety net's rows, apart: merged, a window-wide band would widen any
+        # rectangle it touches to the window's width
+        band = app.presenter.rolling_band(now)
+        if band is not None:
+            rects.append(band)
         app.compositor.present(rects)
         app._present_rects = rects
     app._frame_boxes = []
