@@ -400,7 +400,7 @@ def draw_attract(x: float, y: float, w: float, h: float, text: str,
 
     imgui.set_next_window_pos(imgui.ImVec2(x, y))
     imgui.set_next_window_size(imgui.ImVec2(w, h))
-    imgui.set_next_window_bg_alpha(0.92)
+    imgui.set_next_window_bg_alpha(1.0)  # opaque: the canvas showing through read as a glitch
     flags = (imgui.WindowFlags_.no_title_bar | imgui.WindowFlags_.no_move
              | imgui.WindowFlags_.no_resize | imgui.WindowFlags_.no_inputs
              | imgui.WindowFlags_.no_saved_settings | imgui.WindowFlags_.no_scrollbar)
