@@ -273,9 +273,11 @@ def build_ui_if_changed(app: KioskApp, dt: float) -> None:
     key = ui_key(app, now)
     if (key != app._ui_last_key or key[-1] or bool(app.screenshots)
             or now - app._ui_built >= REDRAW_EVERY_S):
-        app._ui_hash = build_ui(app, now - app._ui_built if app._ui_built else dt)
-        app._ui_bounds = app.gui.bounds()
-        app._ui_tris = app.gui.triangles()
+        ui_hash = build_ui(app, now - app._ui_built if app._ui_built else dt)
+        if ui_hash != app._ui_hash or app._ui_tris is None:  # (the same drawing: as it was)
+            app._ui_hash = ui_hash
+            app._ui_bounds = app.gui.bounds()
+            app._ui_tris = app.gui.triangles()
         app._ui_last_key, app._ui_built = key, now
 
 
