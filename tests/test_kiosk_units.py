@@ -502,20 +502,23 @@ def test_the_safety_net_while_the_pen_paints_is_a_rolling_band_not_a_whole_frame
     p = Presenter(glfw, None, "llvmpipe", (3840, 2160), mode="swap")
     p._copy_sub = object()  # as if GLX_MESA_copy_sub_buffer were there
     p.whole_next = False
-    assert FULL_EVERY_S == 1.0 and ROLL_PERIOD_S <= 5.0
+    assert FULL_EVERY_S == 1.0 and ROLL_PERIOD_S <= 10.0
     assert p.needs_whole(10.0, 8.5)  # idle: a whole frame after a second
     assert not p.needs_whole(10.0, 8.5, painting=True)  # painting: never on the clock
     assert not p.needs_whole(100.0, 8.5, painting=True)
-    # frames at 200 Hz for one period: bands of a few rows, together every row, once
+    # frames at 200 Hz: bands of a few rows going down, every row once a period
     assert p.rolling_band(0.0) is None
     rows = np.zeros(2160, int)
-    widest = 0
-    for k in range(1, int(200 * ROLL_PERIOD_S) + 1):
+    widest, k = 0, 0
+    while rows[-1] == 0 and k < 10_000:
+        k += 1
         band = p.rolling_band(k / 200)
-        assert band is not None and band[0] == 0 and band[2] == 3840
+        if band is None:
+            continue
+        assert band[0] == 0 and band[2] == 3840
         rows[band[1]:band[3]] += 1
         widest = max(widest, band[3] - band[1])
-    assert rows.min() >= 1 and widest <= 4  # every row; a few rows a frame
-    assert (rows <= 2).all()  # (a row at a band's edge may be presented twice)
+    assert (rows == 1).all() and widest <= 3  # every row, once; a few rows a frame
+    assert abs(k / 200 - ROLL_PERIOD_S) < 0.05
     p.lost()
     assert p.needs_whole(10.0, 9.9, painting=True)  # an expose: at once, painting or not

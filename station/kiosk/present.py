@@ -45,7 +45,7 @@ FULL_EVERY_S = 1.0
 
 #: While the pen paints, the rolling band presents every row of the window again within
 #: this long (seconds) instead (see the module docstring).
-ROLL_PERIOD_S = 5.0
+ROLL_PERIOD_S = 10.0
 #: ... counting at most this long (s) a frame: the first frame after a pause (a quiet
 #: window draws four times a second, and is presented whole every second anyway) takes
 #: a band of a few rows, not a tenth of the window.
@@ -157,7 +157,8 @@ class Presenter:
         y0 = self._roll_y
         y1 = min(y0 + rows, float(h))
         self._roll_y = 0.0 if y1 >= h else y1
-        top, bottom = int(y0), min(int(y1) + 1, h)
+        # whole rows, each once: a row is presented by the frame whose band ends past it
+        top, bottom = int(y0), (h if y1 >= h else int(y1))
         return (0, top, w, bottom) if bottom > top else None
 
     def present_whole(self) -> None:
