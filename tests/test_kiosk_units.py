@@ -216,7 +216,7 @@ def test_panel_controls_send_commands() -> None:
     p.add_pigment("Hansa Yellow")
     p.add_pigment("Phthalo Green")
     assert sent[-1] == ("brush", {"kind": "round", "size": 24.0, "water": 0.8, "pigment": {
-        "Hansa Yellow": pytest.approx(0.4), "Phthalo Green": pytest.approx(0.2)}})
+        "Hansa Yellow": pytest.approx(0.8 * 2 / 3), "Phthalo Green": pytest.approx(0.8 / 3)}})
     for name in ("Black", "Cadmium Red", "Burnt Umber"):
         p.add_pigment(name)
     assert len(p.mix) == 4 and "Burnt Umber" not in p.mix and "fresh mix" in p.message

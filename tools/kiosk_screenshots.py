@@ -122,7 +122,7 @@ def paint(app: KioskApp) -> None:
     p.set_size(72.0)
     p.set_water(1.0)
     p.tap_pigment("Cerulean Blue")
-    drag(app, zigzag_rows(0.07, 0.33, 6), 6.0)
+    drag(app, zigzag_rows(0.07, 0.33, 6), 8.0)  # unhurried: a slow brush presses
     # a drop of rose into the wet wash: it blooms there
     p.set_size(30.0)
     p.tap_pigment("Quinacridone Rose")

@@ -113,7 +113,11 @@ class PanelState:
     send: Callable[[str, dict[str, Any]], None]
     on_save: Callable[[], object]
     mix: dict[str, float] = field(default_factory=dict)  # pigment -> parts
-    strength: float = 0.6  # brush pigment amount of the whole mix (0.25 = nominal load)
+    # brush pigment amount of the whole mix (1: tube strength, the effects sheet's full
+    # pass); 0.8 by default: a loaded brush's mid-to-dark value (a size-34 stroke at
+    # pressure 0.7: Hooker's Green darkness 0.38, Burnt Umber 0.53) — at 0.6 a pale wash
+    # (0.29) whose rim outshone it, "a felt-tip line with a rim"
+    strength: float = 0.8
     size: float = 24.0  # footprint diameter [cells]
     water: float = 0.8
     kind: str = "round"
