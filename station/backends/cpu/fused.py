@@ -34,17 +34,53 @@ _parallel = njit(parallel=True, fastmath=False, cache=True, error_model="numpy",
 
 
 @_inline
-def _limit_row(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
-               p: np.ndarray, r: int, ns: int, q4: np.float32, wmin: np.float32,
-               wmax: np.float32, spans: np.ndarray, nsp: np.ndarray, buf: np.ndarray,
-               so: np.ndarray, si: np.ndarray) -> None:  # pragma: no cover - compiled
-    """advect_limit's row ``r`` into ``so``/``si`` (zero outside the row's spans)."""
-    so[:] = ZERO
-    si[:] = ZERO
+def _x_rates(vx: np.ndarray, wet: np.ndarray, r: int, spans: np.ndarray, nsp: np.ndarray,
+             q4: np.float32, xo: np.ndarray) -> None:  # pragma: no cover - compiled
+    """The x-face rates of row r, (positive, negative) into ``xo[0]``/``xo[1]`` for the
+    faces (i, i+1), i = slo-1..shi of each span (``K._row_rates``' rows 0/1)."""
     for sx in range(nsp[r]):
         slo, shi = K._span(spans, r, sx)
-        K._row_rates(vx, vy, wet, r, slo, shi, q4, buf)
-        rxp, rxn, syp, syn, nyp, nyn = buf[0], buf[1], buf[2], buf[3], buf[4], buf[5]
+        for i in range(slo - 1, shi + 1):
+            rp, rn = K._face_x(vx, wet, r, i, q4)
+            xo[0, i] = rp
+            xo[1, i] = rn
+
+
+@_inline
+def _y_rates(vy: np.ndarray, wet: np.ndarray, r: int, bh: int, bw: int, spans: np.ndarray,
+             nsp: np.ndarray, q4: np.float32, yo: np.ndarray) -> None:
+    # pragma: no cover - compiled
+    """The rates of the y faces (r, r+1) into ``yo[0]``/``yo[1]`` on every column that a
+    span of row r or row r+1 holds: ``K._row_rates`` computes them as row r's south faces
+    and again as row r+1's north faces, from the same operands (a pure function of the
+    scratch), so one row of them serves both."""
+    lo = bw + 1
+    hi = 0
+    for rr in (r, r + 1):
+        if 1 <= rr <= bh and nsp[rr] > 0:
+            a, _ = K._span(spans, rr, 0)
+            b = spans[rr, nsp[rr] - 1, 1]
+            lo = a if a < lo else lo
+            hi = b if b > hi else hi
+    for i in range(lo, hi + 1):
+        rp, rn = K._face_y(vy, wet, r, i, q4)
+        yo[0, i] = rp
+        yo[1, i] = rn
+
+
+@_inline
+def _limit_row(w: np.ndarray, p: np.ndarray, r: int, ns: int, wmin: np.float32,
+               wmax: np.float32, spans: np.ndarray, nsp: np.ndarray, xr: np.ndarray,
+               ys: np.ndarray, yn: np.ndarray, so: np.ndarray,
+               si: np.ndarray) -> None:  # pragma: no cover - compiled
+    """advect_limit's row ``r`` into ``so``/``si`` (zero outside the row's spans), from
+    the row's x-face rates ``xr`` and the rates of its south ``ys`` and north ``yn``
+    faces."""
+    so[:] = ZERO
+    si[:] = ZERO
+    rxp, rxn, syp, syn, nyp, nyn = xr[0], xr[1], ys[0], ys[1], yn[0], yn[1]
+    for sx in range(nsp[r]):
+        slo, shi = K._span(spans, r, sx)
         for i in range(slo, shi + 1):
             r_out = ((rxp[i] + rxn[i - 1]) + syp[i]) + nyn[i]
             wv = w[r, i]
@@ -78,45 +114,56 @@ def advect_fused(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
                  cst: np.ndarray, w3_o: np.ndarray, p_state: np.ndarray,
                  spans: np.ndarray, nsp: np.ndarray) -> None:  # pragma: no cover - compiled
     """Pass 6 (limiters and fluxes) in one sweep: each chunk computes the limiter rows
-    j-1, j, j+1 into a ring and applies row j, exactly as advect_apply does."""
+    j-1, j, j+1 into a ring and applies row j, exactly as advect_apply does. The face
+    rates live in rings too: a row's x faces serve its limiter and its fluxes, a row of
+    y faces serves the cells on both sides (each face rate computed once, not four
+    times)."""
     q4 = cst[K.C_Q4]
     wmin = cst[K.C_WMIN]
     wmax = cst[K.C_WMAX]
     nch = min(bh, K.N_CHUNKS)
     for ch in prange(nch):
         j0, j1 = K._chunk(ch, nch, bh)
-        buf = np.empty((6, bw + 2), F32)
         a = np.empty((6, bw + 2), F32)
-        so = np.zeros((3, bw + 2), F32)  # ring: row r lives in slot r % 3
+        so = np.zeros((3, bw + 2), F32)  # rings: row r lives in slot r % 3
         si = np.zeros((3, bw + 2), F32)
+        xr = np.zeros((3, 2, bw + 2), F32)  # x-face rates of row r
+        yr = np.zeros((3, 2, bw + 2), F32)  # rates of the y faces (r, r+1)
+        for r in (j0 - 2, j0 - 1, j0):
+            if 0 <= r <= bh:
+                _y_rates(vy, wet, r, bh, bw, spans, nsp, q4, yr[r % 3])
+            if 1 <= r <= bh:
+                _x_rates(vx, wet, r, spans, nsp, q4, xr[r % 3])
         for r in (j0 - 1, j0):
             if 1 <= r <= bh:
-                _limit_row(wet, vx, vy, w, p, r, ns, q4, wmin, wmax, spans, nsp, buf,
-                           so[r % 3], si[r % 3])
+                _limit_row(w, p, r, ns, wmin, wmax, spans, nsp, xr[r % 3], yr[r % 3],
+                           yr[(r - 1) % 3], so[r % 3], si[r % 3])
             else:
                 so[r % 3, :] = ZERO
                 si[r % 3, :] = ZERO
         for j in range(j0, j1):
             r = j + 1
             if r <= bh:
-                _limit_row(wet, vx, vy, w, p, r, ns, q4, wmin, wmax, spans, nsp, buf,
-                           so[r % 3], si[r % 3])
+                _y_rates(vy, wet, r, bh, bw, spans, nsp, q4, yr[r % 3])
+                _x_rates(vx, wet, r, spans, nsp, q4, xr[r % 3])
+                _limit_row(w, p, r, ns, wmin, wmax, spans, nsp, xr[r % 3], yr[r % 3],
+                           yr[j % 3], so[r % 3], si[r % 3])
             else:
                 so[r % 3, :] = ZERO
                 si[r % 3, :] = ZERO
             sm, s0, sp = (j - 1) % 3, j % 3, (j + 1) % 3
+            bx, bs, bn = xr[s0], yr[s0], yr[sm]
             y = y0 + j - 1
             for sx in range(nsp[j]):
                 slo, shi = K._span(spans, j, sx)
-                K._row_rates(vx, vy, wet, j, slo, shi, q4, buf)
                 for i in range(slo - 1, shi + 1):
-                    a[0, i] = (buf[0, i] * so[s0, i]) * si[s0, i + 1]
-                    a[1, i] = (buf[1, i] * so[s0, i + 1]) * si[s0, i]
+                    a[0, i] = (bx[0, i] * so[s0, i]) * si[s0, i + 1]
+                    a[1, i] = (bx[1, i] * so[s0, i + 1]) * si[s0, i]
                 for i in range(slo, shi + 1):
-                    a[2, i] = (buf[2, i] * so[s0, i]) * si[sp, i]
-                    a[3, i] = (buf[3, i] * so[sp, i]) * si[s0, i]
-                    a[4, i] = (buf[4, i] * so[sm, i]) * si[s0, i]
-                    a[5, i] = (buf[5, i] * so[s0, i]) * si[sm, i]
+                    a[2, i] = (bs[0, i] * so[s0, i]) * si[sp, i]
+                    a[3, i] = (bs[1, i] * so[sp, i]) * si[s0, i]
+                    a[4, i] = (bn[0, i] * so[sm, i]) * si[s0, i]
+                    a[5, i] = (bn[1, i] * so[s0, i]) * si[sm, i]
                 axp, axn, asp, asn, anp, ann = a[0], a[1], a[2], a[3], a[4], a[5]
                 for i in range(slo, shi + 1):
                     wv = w[j, i]
