@@ -20,14 +20,14 @@ from typing import Any
 
 from station.backends.cpu import fused as F
 from station.backends.cpu import kernels as K
-from station.backends.cpu.traffic import floats_per_cell_step
+from station.backends.cpu.traffic import bytes_per_sweep
 from station.backends.factory import create_backend
 from station.bench._sim_driver import wash
 from station.bench.sim import memory_bandwidth_gb_s
 
 SWEEPS = ("prep", "advect_jacobi1", "jacobi_blocked", "limit_diffuse_fused", "advect_fused",
           "evap_cap_fused")
-"""The sweeps of a step in the order of ``traffic.floats_per_cell_step`` (the fused ones
+"""The sweeps of a step in the order of ``traffic.bytes_per_sweep`` (the fused ones
 live in ``station.backends.cpu.fused``)."""
 
 
@@ -66,20 +66,20 @@ def main() -> None:
         setattr(home[name], name, fn)
     bw = memory_bandwidth_gb_s()
     st = canvas.live_state
-    floats = floats_per_cell_step(max(len(st.slots), 1), int(st.params.jacobi_iters))
+    per_sweep = bytes_per_sweep(max(len(st.slots), 1), int(st.params.jacobi_iters))
     cells = w * h * args.steps
     rows = []
-    for (label, f), name in zip(floats.items(), SWEEPS, strict=True):
+    for (label, nbytes), name in zip(per_sweep.items(), SWEEPS, strict=True):
         s = spent[name]
-        gbs = 4 * f * cells / s / 1e9 if s > 0 else 0.0
-        rows.append({"sweep": name, "counted": label, "bytes_per_cell": 4 * f,
+        gbs = nbytes * cells / s / 1e9 if s > 0 else 0.0
+        rows.append({"sweep": name, "counted": label, "bytes_per_cell": nbytes,
                      "ms_per_step": round(1e3 * s / args.steps, 3),
                      "time_share": round(s / total, 3), "gb_s": round(gbs, 2),
                      "fraction_of_copy": round(gbs / bw, 3)})
     print(json.dumps({"size": args.size, "steps": args.steps,
                       "load_average": [round(x, 2) for x in load0],
                       "copy_bandwidth_gb_s": round(bw, 2),
-                      "bytes_per_cell_step": 4 * sum(floats.values()),
+                      "bytes_per_cell_step": sum(per_sweep.values()),
                       "step_ms": round(1e3 * total / args.steps, 2),
                       "outside_sweeps_ms": round(1e3 * (total - sum(spent.values()))
                                                  / args.steps, 3),

@@ -257,10 +257,10 @@ def _lim_row(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xw: np.ndarray,
         slo, shi = K._span(spans, r, sx)
         if do_w:
             for i in range(slo, shi + 1):
-                fe = (kw * (wr[i] * wr[i + 1])) * (xw[r, i] - xw[r, i + 1])
-                fw = (kw * (wr[i - 1] * wr[i])) * (xw[r, i - 1] - xw[r, i])
-                fs = (kw * (wr[i] * ws[i])) * (xw[r, i] - xw[r + 1, i])
-                fn = (kw * (wn[i] * wr[i])) * (xw[r - 1, i] - xw[r, i])
+                fe = (kw * F32(wr[i] * wr[i + 1])) * (xw[r, i] - xw[r, i + 1])
+                fw = (kw * F32(wr[i - 1] * wr[i])) * (xw[r, i - 1] - xw[r, i])
+                fs = (kw * F32(wr[i] * ws[i])) * (xw[r, i] - xw[r + 1, i])
+                fn = (kw * F32(wn[i] * wr[i])) * (xw[r - 1, i] - xw[r, i])
                 out = (((fe if fe > ZERO else ZERO) - (fw if fw < ZERO else ZERO))
                        + (fs if fs > ZERO else ZERO)) - (fn if fn < ZERO else ZERO)
                 uv = w0[r, i]
@@ -322,10 +322,10 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
                          v3x_o, v3y_o)
                 if do_w:
                     for i in range(slo, shi + 1):
-                        fe = (kw * (wr[i] * wr[i + 1])) * (xw[j, i] - xw[j, i + 1])
-                        fw = (kw * (wr[i - 1] * wr[i])) * (xw[j, i - 1] - xw[j, i])
-                        fs = (kw * (wr[i] * ws[i])) * (xw[j, i] - xw[j + 1, i])
-                        fn = (kw * (wn[i] * wr[i])) * (xw[j - 1, i] - xw[j, i])
+                        fe = (kw * F32(wr[i] * wr[i + 1])) * (xw[j, i] - xw[j, i + 1])
+                        fw = (kw * F32(wr[i - 1] * wr[i])) * (xw[j, i - 1] - xw[j, i])
+                        fs = (kw * F32(wr[i] * ws[i])) * (xw[j, i] - xw[j + 1, i])
+                        fn = (kw * F32(wn[i] * wr[i])) * (xw[j - 1, i] - xw[j, i])
                         s0 = swr[s0_, i]
                         fe = (fe if fe > ZERO else ZERO) * s0 \
                             + (fe if fe < ZERO else ZERO) * swr[s0_, i + 1]
@@ -365,7 +365,7 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
 
 
 @_inline
-def _sat_row(w3: np.ndarray, c: np.ndarray, opn: np.ndarray, wc: np.ndarray, y0: int,
+def _sat_row(w3: np.ndarray, h: np.ndarray, opn: np.ndarray, wc: np.ndarray, y0: int,
              x0: int, r: int, cst: np.ndarray, do_evap: bool, do_absorb: bool,
              spans: np.ndarray, nsp: np.ndarray, out: np.ndarray) -> None:
     # pragma: no cover - compiled
@@ -373,6 +373,8 @@ def _sat_row(w3: np.ndarray, c: np.ndarray, opn: np.ndarray, wc: np.ndarray, y0:
     e = cst[K.C_EVAP]
     edge = cst[K.C_EDGE]
     alpha = cst[K.C_ALPHA]
+    cmin = cst[K.C_CMIN]
+    cspan = cst[K.C_CSPAN]
     out[:] = ZERO
     y = y0 + r - 1
     for sx in range(nsp[r]):
@@ -390,7 +392,7 @@ def _sat_row(w3: np.ndarray, c: np.ndarray, opn: np.ndarray, wc: np.ndarray, y0:
                 loss = loss if wv > ZERO else ZERO
                 wv = wv - loss
             wcv = wc[y, x]
-            cv = c[r, i]
+            cv = cmin + h[y, x] * cspan
             if do_absorb:
                 d = alpha if alpha < wv else wv
                 room = cv - wcv
@@ -402,7 +404,7 @@ def _sat_row(w3: np.ndarray, c: np.ndarray, opn: np.ndarray, wc: np.ndarray, y0:
 
 
 @_inline
-def _esa_row(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.ndarray, h: np.ndarray,
+def _esa_row(wet: np.ndarray, w3: np.ndarray, opn: np.ndarray, h: np.ndarray,
              wc: np.ndarray, evap: np.ndarray, w_state: np.ndarray, p: np.ndarray,
              q: np.ndarray, beta: np.ndarray, gamma: np.ndarray, delta: np.ndarray, y0: int,
              x0: int, ns: int, cst: np.ndarray, do_evap: bool, do_surface: bool,
@@ -414,6 +416,8 @@ def _esa_row(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.ndarray, h:
     wmax = cst[K.C_WMAX]
     rate = cst[K.C_RATE]
     alpha = cst[K.C_ALPHA]
+    cmin = cst[K.C_CMIN]
+    cspan = cst[K.C_CSPAN]
     sat_r[:] = ZERO
     y = y0 + j - 1
     for si in range(nsp[j]):
@@ -461,7 +465,7 @@ def _esa_row(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.ndarray, h:
             x = np.uint64(x0 + i - 1)
             wv = wrow[i]
             wcv = wc[y, x]
-            cv = c[j, i]
+            cv = cmin + h[y, x] * cspan
             if do_absorb:
                 d = alpha if alpha < wv else wv
                 room = cv - wcv
@@ -476,7 +480,7 @@ def _esa_row(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.ndarray, h:
 
 
 @_inline
-def _cd_row(sm: np.ndarray, s0r: np.ndarray, sp: np.ndarray, c: np.ndarray, opn: np.ndarray,
+def _cd_row(sm: np.ndarray, s0r: np.ndarray, sp: np.ndarray, h: np.ndarray, opn: np.ndarray,
             v3x: np.ndarray, v3y: np.ndarray, w: np.ndarray, wc: np.ndarray, evap: np.ndarray,
             p: np.ndarray, q: np.ndarray, vx: np.ndarray, vy: np.ndarray, y0: int, x0: int,
             ns: int, cst: np.ndarray, do_capdiff: bool, do_dry: bool, j: int,
@@ -488,24 +492,35 @@ def _cd_row(sm: np.ndarray, s0r: np.ndarray, sp: np.ndarray, c: np.ndarray, opn:
     wdry = cst[K.C_WDRY]
     susp = cst[K.C_SUSP]
     suspending = susp > ZERO
+    cmin = cst[K.C_CMIN]
+    cspan = cst[K.C_CSPAN]
     y = y0 + j - 1
+    # the capacity c = c_min + h (c_max - c_min) from the paper, as the reference computes
+    # it, at the cell and its 4 neighbours; a neighbour off the canvas reads a clamped
+    # index: its flux is 0 anyway (only a cell in the spans is open)
+    height, width = h.shape
+    hn_, h0_, hs_ = h[max(y - 1, 0)], h[y], h[min(y + 1, height - 1)]
     for si in range(nsp[j]):
         slo, shi = K._span(spans, j, si)
         if do_capdiff:
             for i in range(slo, shi + 1):
                 o0 = opn[j, i]
-                c0 = c[j, i]
+                xi = x0 + i - 1
+                xu = np.uint64(xi)
+                xe = np.uint64(min(xi + 1, width - 1))
+                xw = np.uint64(max(xi - 1, 0))
+                c0 = cmin + h0_[xu] * cspan
                 s0 = s0r[i]
-                t = c[j, i + 1]
+                t = cmin + h0_[xe] * cspan
                 fe = ((k * (c0 if c0 < t else t)) * (s0 - s0r[i + 1])) \
                     if o0 * opn[j, i + 1] != ZERO else ZERO
-                t = c[j, i - 1]
+                t = cmin + h0_[xw] * cspan
                 fw = ((k * (t if t < c0 else c0)) * (s0r[i - 1] - s0)) \
                     if opn[j, i - 1] * o0 != ZERO else ZERO
-                t = c[j + 1, i]
+                t = cmin + hs_[xu] * cspan
                 fs = ((k * (c0 if c0 < t else t)) * (s0 - sp[i])) \
                     if o0 * opn[j + 1, i] != ZERO else ZERO
-                t = c[j - 1, i]
+                t = cmin + hn_[xu] * cspan
                 fn = ((k * (t if t < c0 else c0)) * (sm[i] - s0)) \
                     if opn[j - 1, i] * o0 != ZERO else ZERO
                 wcv = (((wc[y, np.uint64(x0 + i - 1)] - fe) + fw) - fs) + fn
@@ -541,7 +556,7 @@ def _cd_row(sm: np.ndarray, s0r: np.ndarray, sp: np.ndarray, c: np.ndarray, opn:
                     t = ONE - qv
                     t = pv if pv < t else t
                     settle = w[y, x] == ZERO
-                    if suspending and wc[y, x] > susp * c[j, i]:
+                    if suspending and wc[y, x] > susp * (cmin + h0_[x] * cspan):
                         settle = False  # damp paper keeps its pigment suspended (bloom's)
                     t = t if settle else ZERO
                     p[kk, y, x] = pv - t
@@ -549,7 +564,7 @@ def _cd_row(sm: np.ndarray, s0r: np.ndarray, sp: np.ndarray, c: np.ndarray, opn:
 
 
 @_parallel
-def evap_cap_fused(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.ndarray,
+def evap_cap_fused(wet: np.ndarray, w3: np.ndarray, opn: np.ndarray,
                    h: np.ndarray, wc: np.ndarray, evap: np.ndarray, w_state: np.ndarray,
                    p: np.ndarray, q: np.ndarray, beta: np.ndarray, gamma: np.ndarray,
                    delta: np.ndarray, v3x: np.ndarray, v3y: np.ndarray, vx: np.ndarray,
@@ -566,10 +581,10 @@ def evap_cap_fused(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.ndarr
     for ch in prange(nch):  # the boundary rows, from the state as the step found it
         j0, j1 = K._chunk(ch, nch, bh)
         if j0 - 1 >= 1:
-            _sat_row(w3, c, opn, wc, y0, x0, j0 - 1, cst, do_evap, do_absorb, spans, nsp,
+            _sat_row(w3, h, opn, wc, y0, x0, j0 - 1, cst, do_evap, do_absorb, spans, nsp,
                      edge_sat[ch, 0])
         if j1 <= bh:
-            _sat_row(w3, c, opn, wc, y0, x0, j1, cst, do_evap, do_absorb, spans, nsp,
+            _sat_row(w3, h, opn, wc, y0, x0, j1, cst, do_evap, do_absorb, spans, nsp,
                      edge_sat[ch, 1])
     for ch in prange(nch):
         j0, j1 = K._chunk(ch, nch, bh)
@@ -578,17 +593,17 @@ def evap_cap_fused(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.ndarr
         frow = np.empty(bw + 2, F32)
         wcrow = np.empty(bw + 2, F32)
         ring[(j0 - 1) % 3, :] = edge_sat[ch, 0]
-        _esa_row(wet, w3, c, opn, h, wc, evap, w_state, p, q, beta, gamma, delta, y0, x0, ns,
+        _esa_row(wet, w3, opn, h, wc, evap, w_state, p, q, beta, gamma, delta, y0, x0, ns,
                  cst, do_evap, do_surface, do_absorb, j0, spans, nsp, wrow, frow,
                  ring[j0 % 3])
         for j in range(j0, j1):
             r = j + 1
             if r < j1:
-                _esa_row(wet, w3, c, opn, h, wc, evap, w_state, p, q, beta, gamma, delta, y0,
+                _esa_row(wet, w3, opn, h, wc, evap, w_state, p, q, beta, gamma, delta, y0,
                          x0, ns, cst, do_evap, do_surface, do_absorb, r, spans, nsp, wrow,
                          frow, ring[r % 3])
             else:
                 ring[r % 3, :] = edge_sat[ch, 1]
-            _cd_row(ring[(j - 1) % 3], ring[j % 3], ring[(j + 1) % 3], c, opn, v3x, v3y,
+            _cd_row(ring[(j - 1) % 3], ring[j % 3], ring[(j + 1) % 3], h, opn, v3x, v3y,
                     w_state, wc, evap, p, q, vx, vy, y0, x0, ns, cst, do_capdiff, do_dry, j,
                     spans, nsp, wcrow)

@@ -18,7 +18,9 @@ same float32 value: mass is conserved exactly as in the reference.
 Sweeps (``n`` Jacobi iterations, ``s`` pigment slots in use):
 
 * ``prep``: wet mask, the copies the stencils need (w, p), the diffusion controller
-  beta_c, the masked velocity, paper capacity and the open (unmasked) flag;
+  beta_c and the open (unmasked) flag (the two flags are uint8 fields; the capacity is
+  recomputed from ``h`` where read, and pass 1 reads the state's velocity where the
+  wet mask is set, so neither is a scratch field);
 * ``advect_jacobi1``: pass 1 (semi-Lagrangian velocity) + Jacobi iteration 1 of the
   water and pigment solves (passes 4/5);
 * ``jacobi_blocked`` (one sweep): velocity iterations 1..n-1 and water/pigment
@@ -250,7 +252,8 @@ def live_spans(active: np.ndarray, ts: int, grow: int, y0: int, x0: int, bh: int
 
 @_serial
 def clear_stale(pspans: np.ndarray, pnsp: np.ndarray, spans: np.ndarray, nsp: np.ndarray,
-                f2: tuple[np.ndarray, ...], f3: tuple[np.ndarray, ...]) -> None:
+                f2: tuple[np.ndarray, ...], f3: tuple[np.ndarray, ...],
+                f2u: tuple[np.ndarray, ...]) -> None:
     """Zero the scratch cells the last box computed (``pspans``) that this box does not
     (``spans``), in every field, and remember this box's spans: outside its spans the
     scratch is then zero, which stands for the reference's quiet cells and the ring
@@ -272,6 +275,9 @@ def clear_stale(pspans: np.ndarray, pnsp: np.ndarray, spans: np.ndarray, nsp: np
                 for f in f2:
                     for i in range(c, e + 1):
                         f[r, i] = ZERO
+                for f in f2u:
+                    for i in range(c, e + 1):
+                        f[r, i] = 0
                 for f in f3:
                     for m in range(f.shape[0]):
                         for i in range(c, e + 1):
@@ -318,13 +324,13 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
          fibre: np.ndarray, taps: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int,
          cst: np.ndarray, outward: bool, spans: np.ndarray, nsp: np.ndarray,
          wet_o: np.ndarray, w0_o: np.ndarray, p0_o: np.ndarray, bc_o: np.ndarray,
-         vsx_o: np.ndarray, vsy_o: np.ndarray, c_o: np.ndarray, opn_o: np.ndarray,
+         opn_o: np.ndarray,
          mbx_o: np.ndarray) -> None:
     """Wet mask (once per step; own water, or the advancing contact line: a neighbour's
     w above ``advance_height (1.5 - h)``, lowered along the paper's fibres by
     ``1 - fibre_wick * fibre[axis]`` for the neighbours on that axis; cells outside the box
     count as w = 0), copies, beta_c (diffusion controller, times the fibre dispersion),
-    capacity, open, and with ``outward`` the own wet area blurred along x (``mbx``, the
+    open, and with ``outward`` the own wet area blurred along x (``mbx``, the
     first half of :func:`flow_pressure`'s blur).
 
     Two sweeps: the copy of w (and p) into the padded ``w0`` first, so the contact line
@@ -391,10 +397,8 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         line = (nb > thr * (ONE - wick * fibre[0, y, x])) | \
                             (ny > thr * (ONE - wick * fibre[1, y, x]))
                         wet = ow | (un & line)
-                        wet_o[j, i] = ONE if wet else ZERO
-                        vsx_o[j, i] = vx[y, x] if wet else ZERO
-                        vsy_o[j, i] = vy[y, x] if wet else ZERO
-                        opn_o[j, i] = ONE if un else ZERO
+                        wet_o[j, i] = 1 if wet else 0
+                        opn_o[j, i] = 1 if un else 0
                 else:
                     for i in range(slo, shi + 1):
                         x = np.uint64(x0 + i - 1)
@@ -414,10 +418,8 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         t = wn[i]
                         nb = nb if nb > t else t
                         wet = ow | (un & advancing & (nb > thr))
-                        wet_o[j, i] = ONE if wet else ZERO
-                        vsx_o[j, i] = vx[y, x] if wet else ZERO
-                        vsy_o[j, i] = vy[y, x] if wet else ZERO
-                        opn_o[j, i] = ONE if un else ZERO
+                        wet_o[j, i] = 1 if wet else 0
+                        opn_o[j, i] = 1 if un else 0
                 if fade > ZERO:
                     for i in range(slo, shi + 1):
                         x = np.uint64(x0 + i - 1)
@@ -430,7 +432,6 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         paper = ONE - bpaper * (ONE - hv)
                         bcv = paper if paper < eff else eff
                         bc_o[j, i] = bcv
-                        c_o[j, i] = cmin + hv * cspan
                 else:
                     for i in range(slo, shi + 1):
                         x = np.uint64(x0 + i - 1)
@@ -440,7 +441,6 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         paper = ONE - bpaper * (ONE - hv)
                         bcv = paper if paper < eff else eff
                         bc_o[j, i] = bcv
-                        c_o[j, i] = cmin + hv * cspan
                 if disp > ZERO:  # a loop of its own: no test inside the column loops
                     for i in range(slo, shi + 1):
                         x = np.uint64(x0 + i - 1)
@@ -494,14 +494,15 @@ def _pressure_row(mbx: np.ndarray, wet: np.ndarray, w0: np.ndarray, h: np.ndarra
 
 # ------------------------------------------------------------------ pass 1 + Jacobi 1
 @_parallel
-def advect_jacobi1(wet: np.ndarray, vsx: np.ndarray, vsy: np.ndarray, bc: np.ndarray,
+def advect_jacobi1(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, bc: np.ndarray,
                    w0: np.ndarray, p0: np.ndarray, mbx: np.ndarray, h: np.ndarray,
                    taps: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int,
                    cst: np.ndarray, do_w: bool, do_p: bool, do_pr: bool, outward: bool,
                    spans: np.ndarray, nsp: np.ndarray, v1x_o: np.ndarray, v1y_o: np.ndarray,
                    xw_o: np.ndarray,
                    xp_o: np.ndarray, pr_o: np.ndarray) -> None:
-    """Pass 1 (bilinear back-trace of the masked velocity, box-relative clamps), with
+    """Pass 1 (bilinear back-trace of the masked velocity: the state's ``vx``/``vy`` where
+    the wet mask is set, 0 elsewhere; box-relative clamps), with
     ``do_pr`` pass 3's levelled height (:func:`_pressure_row`), and the first Jacobi
     iteration of the water and pigment solves (from x0 = u)."""
     fdt = cst[C_DT]
@@ -521,13 +522,14 @@ def advect_jacobi1(wet: np.ndarray, vsx: np.ndarray, vsy: np.ndarray, bc: np.nda
                 if do_pr:
                     _pressure_row(mbx, wet, w0, h, taps, j, y0 + j - 1, x0, bh, slo, shi, eta,
                                   relief, outward, acc, pr_o)
+                y = y0 + j - 1
                 for i in range(slo, shi + 1):
                     if wet[j, i] != ZERO:
                         # x axis (box-relative index i - 1, n = bw)
                         if bw < 2:
                             ix, fx = 0, ZERO
                         else:
-                            off = -(vsx[j, i] * fdt)
+                            off = -(vx[y, np.uint64(x0 + i - 1)] * fdt)
                             fl = np.floor(off)
                             fx = off - fl
                             ix = (i - 1) + int(fl)
@@ -538,7 +540,7 @@ def advect_jacobi1(wet: np.ndarray, vsx: np.ndarray, vsy: np.ndarray, bc: np.nda
                         if bh < 2:
                             iy, fy = 0, ZERO
                         else:
-                            off = -(vsy[j, i] * fdt)
+                            off = -(vy[y, np.uint64(x0 + i - 1)] * fdt)
                             fl = np.floor(off)
                             fy = off - fl
                             iy = (j - 1) + int(fl)
@@ -550,11 +552,22 @@ def advect_jacobi1(wet: np.ndarray, vsx: np.ndarray, vsy: np.ndarray, bc: np.nda
                         gy = ONE - fy
                         a0, a1 = iy + 1, iy + 1 + dy
                         b0, b1 = ix + 1, ix + 1 + dx
-                        top = gx * vsx[a0, b0] + fx * vsx[a0, b1]
-                        bot = gx * vsx[a1, b0] + fx * vsx[a1, b1]
+                        # the masked velocity at the 4 corners (0 where not wet)
+                        ya, yb = np.uint64(y0 + a0 - 1), np.uint64(y0 + a1 - 1)
+                        xa, xb = np.uint64(x0 + b0 - 1), np.uint64(x0 + b1 - 1)
+                        m00 = wet[a0, b0] != 0
+                        m01 = wet[a0, b1] != 0
+                        m10 = wet[a1, b0] != 0
+                        m11 = wet[a1, b1] != 0
+                        top = gx * (vx[ya, xa] if m00 else ZERO) \
+                            + fx * (vx[ya, xb] if m01 else ZERO)
+                        bot = gx * (vx[yb, xa] if m10 else ZERO) \
+                            + fx * (vx[yb, xb] if m11 else ZERO)
                         v1x_o[j, i] = gy * top + fy * bot
-                        top = gx * vsy[a0, b0] + fx * vsy[a0, b1]
-                        bot = gx * vsy[a1, b0] + fx * vsy[a1, b1]
+                        top = gx * (vy[ya, xa] if m00 else ZERO) \
+                            + fx * (vy[ya, xb] if m01 else ZERO)
+                        bot = gx * (vy[yb, xa] if m10 else ZERO) \
+                            + fx * (vy[yb, xb] if m11 else ZERO)
                         v1y_o[j, i] = gy * top + fy * bot
                     else:
                         v1x_o[j, i] = ZERO
@@ -572,11 +585,11 @@ def _jacobi_v_row(wet: np.ndarray, ux: np.ndarray, uy: np.ndarray, xx: np.ndarra
     """One Jacobi iteration of pass 2 on row j (open faces: both cells wet)."""
     wr, wn, ws = wet[j], wet[j - 1], wet[j + 1]
     for i in range(lo, hi + 1):
-        c = wr[i]
-        be = c * wr[i + 1]
-        bwf = c * wr[i - 1]
-        bs = c * ws[i]
-        bn = c * wn[i]
+        c = F32(wr[i])
+        be = c * F32(wr[i + 1])
+        bwf = c * F32(wr[i - 1])
+        bs = c * F32(ws[i])
+        bn = c * F32(wn[i])
         den = ONE + k * (((be * ONE + bwf * ONE) + bs * ONE) + bn * ONE)
         sx = ((be * xx[j, i + 1] + bwf * xx[j, i - 1]) + bs * xx[j + 1, i]) + bn * xx[j - 1, i]
         sy = ((be * xy[j, i + 1] + bwf * xy[j, i - 1]) + bs * xy[j + 1, i]) + bn * xy[j - 1, i]
@@ -590,11 +603,11 @@ def _jacobi_w_row(wet: np.ndarray, u: np.ndarray, xin: np.ndarray, xout: np.ndar
     """One Jacobi iteration of the water solve (pass 4) on row j."""
     wr, wn, ws = wet[j], wet[j - 1], wet[j + 1]
     for i in range(lo, hi + 1):
-        c = wr[i]
-        be = c * wr[i + 1]
-        bwf = c * wr[i - 1]
-        bs = c * ws[i]
-        bn = c * wn[i]
+        c = F32(wr[i])
+        be = c * F32(wr[i + 1])
+        bwf = c * F32(wr[i - 1])
+        bs = c * F32(ws[i])
+        bn = c * F32(wn[i])
         den = ONE + k * (((be * ONE + bwf * ONE) + bs * ONE) + bn * ONE)
         acc = ((be * xin[j, i + 1] + bwf * xin[j, i - 1]) + bs * xin[j + 1, i]) \
             + bn * xin[j - 1, i]
@@ -633,11 +646,11 @@ def _jv_rows(wn: np.ndarray, wr: np.ndarray, ws: np.ndarray, u: np.ndarray, xn: 
     """One Jacobi iteration of one velocity component on one row, from row views
     (north, this, south) of the wet mask and the iterate: ``(u + k sum) / den``."""
     for i in range(lo, hi + 1):
-        c = wr[i]
-        be = c * wr[i + 1]
-        bwf = c * wr[i - 1]
-        bs = c * ws[i]
-        bn = c * wn[i]
+        c = F32(wr[i])
+        be = c * F32(wr[i + 1])
+        bwf = c * F32(wr[i - 1])
+        bs = c * F32(ws[i])
+        bn = c * F32(wn[i])
         den = ONE + k * (((be * ONE + bwf * ONE) + bs * ONE) + bn * ONE)
         sx = ((be * xr[i + 1] + bwf * xr[i - 1]) + bs * xs[i]) + bn * xn[i]
         o[i] = (u[i] + k * sx) / den
@@ -649,11 +662,11 @@ def _jw_rows(wn: np.ndarray, wr: np.ndarray, ws: np.ndarray, u: np.ndarray, xn: 
              k: np.float32) -> None:
     """One Jacobi iteration of the water solve on one row: ``(sum k + u) / den``."""
     for i in range(lo, hi + 1):
-        c = wr[i]
-        be = c * wr[i + 1]
-        bwf = c * wr[i - 1]
-        bs = c * ws[i]
-        bn = c * wn[i]
+        c = F32(wr[i])
+        be = c * F32(wr[i + 1])
+        bwf = c * F32(wr[i - 1])
+        bs = c * F32(ws[i])
+        bn = c * F32(wn[i])
         den = ONE + k * (((be * ONE + bwf * ONE) + bs * ONE) + bn * ONE)
         acc = ((be * xr[i + 1] + bwf * xr[i - 1]) + bs * xs[i]) + bn * xn[i]
         o[i] = (acc * k + u[i]) / den
@@ -854,10 +867,10 @@ def height_limit(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: np.ndarr
             if do_w:
                 # water conductances: 1 on open faces; b_e[i] = face (i, i+1), b_s = face (j, j+1)
                 for i in range(slo, shi + 1):
-                    fe = (kw * (wr[i] * wr[i + 1])) * (xw[j, i] - xw[j, i + 1])
-                    fw = (kw * (wr[i - 1] * wr[i])) * (xw[j, i - 1] - xw[j, i])
-                    fs = (kw * (wr[i] * ws[i])) * (xw[j, i] - xw[j + 1, i])
-                    fn = (kw * (wn[i] * wr[i])) * (xw[j - 1, i] - xw[j, i])
+                    fe = (kw * F32(wr[i] * wr[i + 1])) * (xw[j, i] - xw[j, i + 1])
+                    fw = (kw * F32(wr[i - 1] * wr[i])) * (xw[j, i - 1] - xw[j, i])
+                    fs = (kw * F32(wr[i] * ws[i])) * (xw[j, i] - xw[j + 1, i])
+                    fn = (kw * F32(wn[i] * wr[i])) * (xw[j - 1, i] - xw[j, i])
                     out = (((fe if fe > ZERO else ZERO) - (fw if fw < ZERO else ZERO))
                            + (fs if fs > ZERO else ZERO)) - (fn if fn < ZERO else ZERO)
                     uv = w0[j, i]
@@ -904,10 +917,10 @@ def diffuse_apply(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xw: np.ndarra
             wr, wn, ws = wet[j], wet[j - 1], wet[j + 1]
             if do_w:
                 for i in range(slo, shi + 1):
-                    fe = (kw * (wr[i] * wr[i + 1])) * (xw[j, i] - xw[j, i + 1])
-                    fw = (kw * (wr[i - 1] * wr[i])) * (xw[j, i - 1] - xw[j, i])
-                    fs = (kw * (wr[i] * ws[i])) * (xw[j, i] - xw[j + 1, i])
-                    fn = (kw * (wn[i] * wr[i])) * (xw[j - 1, i] - xw[j, i])
+                    fe = (kw * F32(wr[i] * wr[i + 1])) * (xw[j, i] - xw[j, i + 1])
+                    fw = (kw * F32(wr[i - 1] * wr[i])) * (xw[j, i - 1] - xw[j, i])
+                    fs = (kw * F32(wr[i] * ws[i])) * (xw[j, i] - xw[j + 1, i])
+                    fn = (kw * F32(wn[i] * wr[i])) * (xw[j - 1, i] - xw[j, i])
                     s0 = sw[j, i]
                     fe = (fe if fe > ZERO else ZERO) * s0 \
                         + (fe if fe < ZERO else ZERO) * sw[j, i + 1]
@@ -1108,7 +1121,7 @@ def advect_apply(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, sout: np.ndarr
 
 # ------------------------------------------------------------------ passes 7, 8, 9a
 @_parallel
-def evap_surface_absorb(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.ndarray,
+def evap_surface_absorb(wet: np.ndarray, w3: np.ndarray, opn: np.ndarray,
                         h: np.ndarray, wc: np.ndarray, evap: np.ndarray, w_state: np.ndarray,
                         p: np.ndarray, q: np.ndarray, beta: np.ndarray, gamma: np.ndarray,
                         delta: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int,
@@ -1122,6 +1135,8 @@ def evap_surface_absorb(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.
     wmax = cst[C_WMAX]
     rate = cst[C_RATE]
     alpha = cst[C_ALPHA]
+    cmin = cst[C_CMIN]
+    cspan = cst[C_CSPAN]
     nch = min(bh, N_CHUNKS)
     for ch in prange(nch):
         j0, j1 = _chunk(ch, nch, bh)
@@ -1177,7 +1192,7 @@ def evap_surface_absorb(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.
                     x = np.uint64(x0 + i - 1)
                     wv = wrow[i]
                     wcv = wc[y, x]
-                    cv = c[j, i]
+                    cv = cmin + h[y, x] * cspan  # the capacity, as the reference's
                     if do_absorb:
                         d = alpha if alpha < wv else wv
                         room = cv - wcv
