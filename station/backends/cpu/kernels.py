@@ -625,13 +625,13 @@ def _jacobi_p_row(wet: np.ndarray, bc: np.ndarray, u: np.ndarray, xin: np.ndarra
             c = wr[i]
             b0 = br[i]
             t = br[i + 1]
-            be = (b0 if b0 < t else t) if c * wr[i + 1] != ZERO else ZERO
+            be = (b0 if b0 < t else t) if (c != 0) & (wr[i + 1] != 0) else ZERO
             t = br[i - 1]
-            bwf = (b0 if b0 < t else t) if c * wr[i - 1] != ZERO else ZERO
+            bwf = (b0 if b0 < t else t) if (c != 0) & (wr[i - 1] != 0) else ZERO
             t = bsr[i]
-            bs = (b0 if b0 < t else t) if c * ws[i] != ZERO else ZERO
+            bs = (b0 if b0 < t else t) if (c != 0) & (ws[i] != 0) else ZERO
             t = bnr[i]
-            bn = (b0 if b0 < t else t) if c * wn[i] != ZERO else ZERO
+            bn = (b0 if b0 < t else t) if (c != 0) & (wn[i] != 0) else ZERO
             den = ONE + k * (((be * ONE + bwf * ONE) + bs * ONE) + bn * ONE)
             acc = ((be * xin[kk, j, i + 1] + bwf * xin[kk, j, i - 1]) + bs * xin[kk, j + 1, i]) \
                 + bn * xin[kk, j - 1, i]
@@ -681,13 +681,13 @@ def _jp_rows(wn: np.ndarray, wr: np.ndarray, ws: np.ndarray, bn_: np.ndarray,
         c = wr[i]
         b0 = br[i]
         t = br[i + 1]
-        be = (b0 if b0 < t else t) if c * wr[i + 1] != ZERO else ZERO
+        be = (b0 if b0 < t else t) if (c != 0) & (wr[i + 1] != 0) else ZERO
         t = br[i - 1]
-        bwf = (b0 if b0 < t else t) if c * wr[i - 1] != ZERO else ZERO
+        bwf = (b0 if b0 < t else t) if (c != 0) & (wr[i - 1] != 0) else ZERO
         t = bs_[i]
-        bs = (b0 if b0 < t else t) if c * ws[i] != ZERO else ZERO
+        bs = (b0 if b0 < t else t) if (c != 0) & (ws[i] != 0) else ZERO
         t = bn_[i]
-        bn = (b0 if b0 < t else t) if c * wn[i] != ZERO else ZERO
+        bn = (b0 if b0 < t else t) if (c != 0) & (wn[i] != 0) else ZERO
         den = ONE + k * (((be * ONE + bwf * ONE) + bs * ONE) + bn * ONE)
         acc = ((be * xr[i + 1] + bwf * xr[i - 1]) + bs * xs[i]) + bn * xn[i]
         o[i] = (acc * k + u[i]) / den
@@ -972,7 +972,7 @@ def diffuse_apply(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xw: np.ndarra
 def _face_x(vx: np.ndarray, wet: np.ndarray, j: int, i: int,
             q4: np.float32) -> tuple[np.float32, np.float32]:
     """(rxp, rxn) of the x face between (j, i) and (j, i + 1)."""
-    uf = HALF * (vx[j, i] + vx[j, i + 1]) if wet[j, i] * wet[j, i + 1] != ZERO else ZERO
+    uf = HALF * (vx[j, i] + vx[j, i + 1]) if (wet[j, i] != 0) & (wet[j, i + 1] != 0) else ZERO
     r = abs(uf) * q4
     rp = r if uf > ZERO else ZERO
     return rp, r - rp
@@ -982,7 +982,7 @@ def _face_x(vx: np.ndarray, wet: np.ndarray, j: int, i: int,
 def _face_y(vy: np.ndarray, wet: np.ndarray, j: int, i: int,
             q4: np.float32) -> tuple[np.float32, np.float32]:
     """(ryp, ryn) of the y face between (j, i) and (j + 1, i)."""
-    uf = HALF * (vy[j, i] + vy[j + 1, i]) if wet[j, i] * wet[j + 1, i] != ZERO else ZERO
+    uf = HALF * (vy[j, i] + vy[j + 1, i]) if (wet[j, i] != 0) & (wet[j + 1, i] != 0) else ZERO
     r = abs(uf) * q4
     rp = r if uf > ZERO else ZERO
     return rp, r - rp

@@ -193,9 +193,11 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     jp = do_p and n_it >= 1
     xw, xw_next = (s2["xwa"], s2["xwb"])
     xp, xp_next = (s3["xpa"], s3["xpb"])
+    # with one iteration, limit_diffuse_fused computes it in its row ring (no xw/xp fields)
+    jac1 = n_it == 1
     K.advect_jacobi1(wet, state.vx, state.vy, bc, w0, p0, s2["mbx"], state.h, taps, y0, x0,
-                     bh, bw, ns, cst, jw, jp, do_pr, outward, spans, nsp, s2["v1x"], s2["v1y"],
-                     xw, xp, s2["pr"])
+                     bh, bw, ns, cst, jw and not jac1, jp and not jac1, do_pr, outward, spans,
+                     nsp, s2["v1x"], s2["v1y"], xw, xp, s2["pr"])
     if not jw:
         xw = w0
     if not jp:
@@ -222,7 +224,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     # (fused.limit_diffuse_fused: height_limit + diffuse_apply, bitwise the same)
     F.limit_diffuse_fused(wet, bc, s2["v1x"], s2["v1y"], xvx, xvy, w0, xw, p0, xp, pr, bh, bw,
                           ns, cst, do_v, runs("water_height_and_boundary"), do_w, do_p,
-                          s2["v3x"], s2["v3y"], s2["w2"], s3["p2"], spans, nsp)
+                          jac1, s2["v3x"], s2["v3y"], s2["w2"], s3["p2"], spans, nsp)
     v3x, v3y = s2["v3x"], s2["v3y"]
     if last <= reference.PASS_ORDER.index("water_height_and_boundary"):
         state.vx[ys, xs] = _win(v3x, bh, bw)

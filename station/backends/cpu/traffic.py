@@ -29,18 +29,22 @@ def bytes_per_sweep(slots: int, jacobi_iters: int) -> dict[str, int]:
         # write w0, bc, mbx (the x half of the wet-area blur), p0(S); flags wet, opn
         "prep (wet mask, copies, diffusion controller, row blur)":
             f * ((11 + s) + (3 + s)) + b * 2,
-        # read vx, vy (state), w0, bc, mbx, h, p0(S), wet; write v1(2), pr, xw, xp(S)
+        # read vx, vy (state), w0, mbx, h, wet; write v1(2), pr; with n >= 2 also
+        # water/pigment iteration 1: read bc, p0(S), write xw, xp(S) (with n = 1
+        # limit_diffuse computes it in its row ring)
         "advect_jacobi1 (pass 1, pass 3's levelled height, water/pigment Jacobi 1)":
-            f * ((6 + s) + (4 + s)) + b,
+            (f * ((6 + s) + (4 + s)) + b) if n >= 2 else f * (5 + 3) + b,
         # one temporally blocked sweep for all remaining iterations (the intermediate
         # iterates live in per-chunk buffers in cache): read wet, bc, v1(2), xv(2), w0, xw,
         # p0(S), xp(S) once; write the last xv(2), xw, xp(S) once
         "jacobi_blocked (velocity 1..n-1, water/pigment 2..n)":
             (f * ((7 + 2 * s) + (3 + s)) + b) if n >= 2 else 0,
         # one sweep (fused.limit_diffuse_fused): read wet, bc, v1(2), xv(2), w0, xw, pr,
-        # p0(S), xp(S); write v3(2), w2, p2(S) (the donor limiters stay in a row ring)
+        # p0(S), xp(S); write v3(2), w2, p2(S) (the donor limiters stay in a row ring).
+        # With n = 1 the iterates xw, xp are Jacobi iteration 1 computed in a row ring
+        # from w0, p0 (not read), and xv is v1 (the same field, read once)
         "limit_diffuse (last velocity iteration, pass 3, passes 4/5 limiters and fluxes)":
-            f * ((8 + 2 * s) + (3 + s)) + b,
+            (f * ((8 + 2 * s) + (3 + s)) + b) if n >= 2 else f * ((6 + s) + (3 + s)) + b,
         # one sweep (fused.advect_fused): read wet, v3(2), w2, p2(S); write w3, p(S)
         "advect (pass 6 limiters and fluxes)": f * ((3 + s) + (1 + s)) + b,
         # one sweep (fused.evap_cap_fused): read wet, opn, w3, h, wc, evaporated, p(S),
