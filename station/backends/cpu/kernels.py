@@ -493,6 +493,142 @@ def _pressure_row(mbx: np.ndarray, wet: np.ndarray, w0: np.ndarray, h: np.ndarra
 
 
 # ------------------------------------------------------------------ pass 1 + Jacobi 1
+@_inline
+def _backtrace_cell(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, y0: int, x0: int,
+                    bh: int, bw: int, dx: int, dy: int, fdt: np.float32, j: int, i: int,
+                    v1x_o: np.ndarray, v1y_o: np.ndarray) -> None:
+    """Pass 1 at one cell (any cell of the box: the reference's clamps)."""
+    y = y0 + j - 1
+    if wet[j, i] != ZERO:
+        # x axis (box-relative index i - 1, n = bw)
+        if bw < 2:
+            ix, fx = 0, ZERO
+        else:
+            off = -(vx[y, np.uint64(x0 + i - 1)] * fdt)
+            fl = np.floor(off)
+            fx = off - fl
+            ix = (i - 1) + int(fl)
+            if ix < 0:
+                ix, fx = 0, ZERO
+            elif ix >= bw - 1:
+                ix, fx = bw - 2, ONE
+        if bh < 2:
+            iy, fy = 0, ZERO
+        else:
+            off = -(vy[y, np.uint64(x0 + i - 1)] * fdt)
+            fl = np.floor(off)
+            fy = off - fl
+            iy = (j - 1) + int(fl)
+            if iy < 0:
+                iy, fy = 0, ZERO
+            elif iy >= bh - 1:
+                iy, fy = bh - 2, ONE
+        gx = ONE - fx
+        gy = ONE - fy
+        a0, a1 = iy + 1, iy + 1 + dy
+        b0, b1 = ix + 1, ix + 1 + dx
+        # the masked velocity at the 4 corners (0 where not wet)
+        ya, yb = np.uint64(y0 + a0 - 1), np.uint64(y0 + a1 - 1)
+        xa, xb = np.uint64(x0 + b0 - 1), np.uint64(x0 + b1 - 1)
+        m00 = wet[a0, b0] != 0
+        m01 = wet[a0, b1] != 0
+        m10 = wet[a1, b0] != 0
+        m11 = wet[a1, b1] != 0
+        top = gx * (vx[ya, xa] if m00 else ZERO) \
+            + fx * (vx[ya, xb] if m01 else ZERO)
+        bot = gx * (vx[yb, xa] if m10 else ZERO) \
+            + fx * (vx[yb, xb] if m11 else ZERO)
+        v1x_o[j, i] = gy * top + fy * bot
+        top = gx * (vy[ya, xa] if m00 else ZERO) \
+            + fx * (vy[ya, xb] if m01 else ZERO)
+        bot = gx * (vy[yb, xa] if m10 else ZERO) \
+            + fx * (vy[yb, xb] if m11 else ZERO)
+        v1y_o[j, i] = gy * top + fy * bot
+    else:
+        v1x_o[j, i] = ZERO
+        v1y_o[j, i] = ZERO
+
+
+@_inline
+def _backtrace_run(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, y0: int, x0: int,
+                   fdt: np.float32, j: int, lo: int, hi: int, v1x_o: np.ndarray,
+                   v1y_o: np.ndarray) -> None:
+    """Pass 1 on the columns lo..hi of row j, all at least 2 cells inside the box
+    (2 <= i <= bw - 2, 2 <= j <= bh - 2) where ``v dt <= 1`` (the caller checks): no clamp
+    applies, ``floor(-v dt)`` is -1, 0 or 1, so every corner lies in rows j-1..j+2 and
+    columns i-1..i+2; each is loaded from a contiguous row and picked by selects, so the
+    column loop vectorises. The operands and their order are :func:`_backtrace_cell`'s."""
+    y = y0 + j - 1
+    for comp in range(2):
+        v = vx if comp == 0 else vy
+        o = v1x_o if comp == 0 else v1y_o
+        rm, r0, rp, r2 = v[y - 1], v[y], v[y + 1], v[y + 2]
+        wm, w0_, wp, w2 = wet[j - 1], wet[j], wet[j + 1], wet[j + 2]
+        for i in range(lo, hi + 1):
+            x = x0 + i - 1
+            xm, x_, xp, x2 = (np.uint64(x - 1), np.uint64(x), np.uint64(x + 1),
+                              np.uint64(x + 2))
+            im, i_, ip, i2 = (np.uint64(i - 1), np.uint64(i), np.uint64(i + 1),
+                              np.uint64(i + 2))
+            offx = -(vx[y, x_] * fdt)
+            flx = np.floor(offx)
+            fx = offx - flx
+            offy = -(vy[y, x_] * fdt)
+            fly = np.floor(offy)
+            fy = offy - fly
+            gx = ONE - fx
+            gy = ONE - fy
+            cm = flx < ZERO
+            c0 = flx == ZERO
+            # per candidate row: gx * V[b0] + fx * V[b1], V masked by the wet flags
+            t = rm[xm]
+            a_m = t if wm[im] != 0 else ZERO
+            t = rm[x_]
+            a_0 = t if wm[i_] != 0 else ZERO
+            t = rm[xp]
+            a_p = t if wm[ip] != 0 else ZERO
+            t = rm[x2]
+            a_2 = t if wm[i2] != 0 else ZERO
+            top_m = gx * (a_m if cm else (a_0 if c0 else a_p)) \
+                + fx * (a_0 if cm else (a_p if c0 else a_2))
+            t = r0[xm]
+            a_m = t if w0_[im] != 0 else ZERO
+            t = r0[x_]
+            a_0 = t if w0_[i_] != 0 else ZERO
+            t = r0[xp]
+            a_p = t if w0_[ip] != 0 else ZERO
+            t = r0[x2]
+            a_2 = t if w0_[i2] != 0 else ZERO
+            top_0 = gx * (a_m if cm else (a_0 if c0 else a_p)) \
+                + fx * (a_0 if cm else (a_p if c0 else a_2))
+            t = rp[xm]
+            a_m = t if wp[im] != 0 else ZERO
+            t = rp[x_]
+            a_0 = t if wp[i_] != 0 else ZERO
+            t = rp[xp]
+            a_p = t if wp[ip] != 0 else ZERO
+            t = rp[x2]
+            a_2 = t if wp[i2] != 0 else ZERO
+            top_p = gx * (a_m if cm else (a_0 if c0 else a_p)) \
+                + fx * (a_0 if cm else (a_p if c0 else a_2))
+            t = r2[xm]
+            a_m = t if w2[im] != 0 else ZERO
+            t = r2[x_]
+            a_0 = t if w2[i_] != 0 else ZERO
+            t = r2[xp]
+            a_p = t if w2[ip] != 0 else ZERO
+            t = r2[x2]
+            a_2 = t if w2[i2] != 0 else ZERO
+            top_2 = gx * (a_m if cm else (a_0 if c0 else a_p)) \
+                + fx * (a_0 if cm else (a_p if c0 else a_2))
+            rm_ = fly < ZERO
+            r0_ = fly == ZERO
+            top = top_m if rm_ else (top_0 if r0_ else top_p)
+            bot = top_0 if rm_ else (top_p if r0_ else top_2)
+            val = gy * top + fy * bot
+            o[j, i] = val if w0_[i_] != 0 else ZERO
+
+
 @_parallel
 def advect_jacobi1(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, bc: np.ndarray,
                    w0: np.ndarray, p0: np.ndarray, mbx: np.ndarray, h: np.ndarray,
@@ -523,55 +659,23 @@ def advect_jacobi1(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, bc: np.ndarr
                     _pressure_row(mbx, wet, w0, h, taps, j, y0 + j - 1, x0, bh, slo, shi, eta,
                                   relief, outward, acc, pr_o)
                 y = y0 + j - 1
+                # the cells 2 or more inside the box go through the vectorised run when
+                # every |v dt| of the row's span is <= 1 (the step's CFL bound)
+                lo, hi = shi + 1, shi
+                if 2 <= j <= bh - 2 and bw >= 4:
+                    fast = True
+                    for i in range(slo, shi + 1):
+                        xu = np.uint64(x0 + i - 1)
+                        fast &= (vx[y, xu] * fdt <= ONE) & (-(vx[y, xu] * fdt) <= ONE) \
+                            & (vy[y, xu] * fdt <= ONE) & (-(vy[y, xu] * fdt) <= ONE)
+                    if fast:
+                        lo, hi = max(slo, 2), min(shi, bw - 2)
                 for i in range(slo, shi + 1):
-                    if wet[j, i] != ZERO:
-                        # x axis (box-relative index i - 1, n = bw)
-                        if bw < 2:
-                            ix, fx = 0, ZERO
-                        else:
-                            off = -(vx[y, np.uint64(x0 + i - 1)] * fdt)
-                            fl = np.floor(off)
-                            fx = off - fl
-                            ix = (i - 1) + int(fl)
-                            if ix < 0:
-                                ix, fx = 0, ZERO
-                            elif ix >= bw - 1:
-                                ix, fx = bw - 2, ONE
-                        if bh < 2:
-                            iy, fy = 0, ZERO
-                        else:
-                            off = -(vy[y, np.uint64(x0 + i - 1)] * fdt)
-                            fl = np.floor(off)
-                            fy = off - fl
-                            iy = (j - 1) + int(fl)
-                            if iy < 0:
-                                iy, fy = 0, ZERO
-                            elif iy >= bh - 1:
-                                iy, fy = bh - 2, ONE
-                        gx = ONE - fx
-                        gy = ONE - fy
-                        a0, a1 = iy + 1, iy + 1 + dy
-                        b0, b1 = ix + 1, ix + 1 + dx
-                        # the masked velocity at the 4 corners (0 where not wet)
-                        ya, yb = np.uint64(y0 + a0 - 1), np.uint64(y0 + a1 - 1)
-                        xa, xb = np.uint64(x0 + b0 - 1), np.uint64(x0 + b1 - 1)
-                        m00 = wet[a0, b0] != 0
-                        m01 = wet[a0, b1] != 0
-                        m10 = wet[a1, b0] != 0
-                        m11 = wet[a1, b1] != 0
-                        top = gx * (vx[ya, xa] if m00 else ZERO) \
-                            + fx * (vx[ya, xb] if m01 else ZERO)
-                        bot = gx * (vx[yb, xa] if m10 else ZERO) \
-                            + fx * (vx[yb, xb] if m11 else ZERO)
-                        v1x_o[j, i] = gy * top + fy * bot
-                        top = gx * (vy[ya, xa] if m00 else ZERO) \
-                            + fx * (vy[ya, xb] if m01 else ZERO)
-                        bot = gx * (vy[yb, xa] if m10 else ZERO) \
-                            + fx * (vy[yb, xb] if m11 else ZERO)
-                        v1y_o[j, i] = gy * top + fy * bot
-                    else:
-                        v1x_o[j, i] = ZERO
-                        v1y_o[j, i] = ZERO
+                    if i < lo or i > hi:
+                        _backtrace_cell(wet, vx, vy, y0, x0, bh, bw, dx, dy, fdt, j, i,
+                                        v1x_o, v1y_o)
+                if lo <= hi:
+                    _backtrace_run(wet, vx, vy, y0, x0, fdt, j, lo, hi, v1x_o, v1y_o)
                 if do_w:
                     _jacobi_w_row(wet, w0, w0, xw_o, j, slo, shi, kw)
                 if do_p:
