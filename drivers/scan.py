@@ -169,7 +169,7 @@ def scan_hidraw() -> tuple[list[ScanEntry], list[str]]:
             item["problem"] = (f"no permission to open {e['path']}: install the station udev "
                                "rules (uaccess) or join the 'station' group")
         item.update(_parser_name(vid, pid, descriptor, bus,
-                                 interface_from_phys(str(e.get("phys", "")))))
+                                 interface_from_phys(e["phys"])))
         # Every node a data file names, every pen, and every unknown Wacom (with the reason).
         if item.get("parser") or item.get("model") or vid == WACOM_VID or "problem" in item:
             out.append(item)

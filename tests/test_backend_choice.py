@@ -132,23 +132,27 @@ def test_bench_sim_takes_each_backend_s_fraction_of_its_own_device(
     if "gl" not in available_backends():
         pytest.skip("no GL context here")
     monkeypatch.setattr(bench_sim, "memory_bandwidth_gb_s", lambda: 10.0)
-    monkeypatch.setattr(bench_sim, "gl_copy_bandwidth_gb_s", lambda: 1000.0)
+    monkeypatch.setattr(bench_sim, "gl_copy_probes", lambda: {"buffer": 1000.0, "image": 250.0})
     rc = main(["bench", "sim", "--sizes", "24x16", "--seconds", "0.01", "--scenarios",
                "wash", "--backends", "numpy,gl"])
     assert rc == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["bandwidth"] == {"cpu_gb_s": 10.0, "gl_gb_s": 1000.0}
+    assert out["bandwidth"] == {"cpu_gb_s": 10.0, "gl_gb_s": 1000.0,
+                                "gl_probes_gb_s": {"buffer": 1000.0, "image": 250.0}}
     rows = {r["backend"]: r for r in out["results"]}
     for name, bw in (("numpy", 10.0), ("gl", 1000.0)):
         r = rows[name]
         assert r["bandwidth_gb_s"] == bw
         assert r["bandwidth_fraction"] == pytest.approx(r["memory_traffic_gb_s"] / bw, abs=1e-4)
         assert out["bytes_per_cell_step"][name] == r["bytes_per_cell_step"] > 0
+    gl = rows["gl"]
+    assert gl["shader_copy_fraction"] == pytest.approx(gl["memory_traffic_gb_s"] / 250.0,
+                                                       abs=1e-4)
 
-    def no_gl() -> float:
+    def no_gl() -> dict[str, float]:
         raise StationError("no EGL context")
 
-    monkeypatch.setattr(bench_sim, "gl_copy_bandwidth_gb_s", no_gl)
+    monkeypatch.setattr(bench_sim, "gl_copy_probes", no_gl)
     main(["bench", "sim", "--sizes", "24x16", "--seconds", "0.01", "--scenarios", "wash",
           "--backends", "gl"])
     out = json.loads(capsys.readouterr().out)
@@ -166,3 +170,12 @@ def test_the_real_probe_runs_in_a_child_and_a_dead_child_gives_the_fixed_rule(
     c = choice.resolve(["numpy", "gl"], "GPU", "m1", None, "gl", path)
     assert c.backend == "gl" and "driver crashed" in c.why and "fixed rule" in c.why
     assert c.steps_per_s == {"numpy": None, "gl": None}
+
+
+def test_the_gl_copy_probes_measure_both_ways() -> None:
+    """Both probes run on the real GL device and move bytes at a positive rate; the
+    device's bound is the better of them."""
+    if "gl" not in available_backends():
+        pytest.skip("no GL context here")
+    probes = bench_sim.gl_copy_probes(nbytes=8 << 20, repeats=2)
+    assert set(probes) == {"buffer", "image"} and min(probes.values()) > 0.01

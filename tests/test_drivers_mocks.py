@@ -30,6 +30,7 @@ from station.drivers.pipeline import (
     iter_trace_samples,
     open_device,
 )
+from station.drivers.registry import interface_from_phys
 from station.drivers.traces import read_trace
 from station.drivers.transport.base import (
     DeviceSpecError,
@@ -219,10 +220,13 @@ def test_list_hidraw_reads_sysfs(tmp_path: Path) -> None:
     node = tmp_path / "hidraw7" / "device"
     node.mkdir(parents=True)
     (node / "uevent").write_text("DRIVER=wacom\nHID_ID=0003:0000056A:00000315\n"
-                                 "HID_NAME=Wacom Intuos Pro M\n")
+                                 "HID_NAME=Wacom Intuos Pro M\n"
+                                 "HID_PHYS=usb-0000:00:14.0-2/input1\n")
     (entry,) = list_hidraw(str(tmp_path))
     assert entry["path"] == "/dev/hidraw7" and (entry["vid"], entry["pid"]) == (0x56A, 0x315)
     assert entry["bus"] == 3 and entry["name"] == "Wacom Intuos Pro M"
+    # the interface number `station devices` shows comes from the physical path
+    assert interface_from_phys(entry["phys"]) == 1
     assert list_hidraw(str(tmp_path / "missing")) == []
 
 

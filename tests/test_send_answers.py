@@ -217,3 +217,19 @@ def test_the_kiosk_answers_over_its_tcp_command_endpoint_too(
     assert code == 0 and out.startswith(f"kiosk {os.getpid()} (session s): brush set"), (
         out, err)
     assert sim.answerer.upstream is None  # lent only while the loop handled them
+
+
+def test_with_nobody_listening_a_bad_key_is_still_refused(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """`station send brush sizee=3` with no sim is the same bad input (exit 2, naming
+    the key) as with one; a good command with nobody there is exit 1."""
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path))
+    for words, text in ((["brush", "sizee=3"], "brush takes no key 'sizee'"),
+                        (["stop", "now=1"], "stop takes no key 'now'"),
+                        (["dry", "hard=1"], "dry takes no key 'hard'")):
+        code = main(["send", *words, "--timeout", "0.3"])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert code == 2 and len(err) == 1 and text in err[0], (words, err)
+    assert main(["send", "brush", "size=3", "--timeout", "0.3"]) == 1
+    assert "no station sim listens" in capsys.readouterr().err

@@ -239,12 +239,15 @@ class HidrawEntry(TypedDict):
     pid: int
     bus: int
     name: str
+    phys: str  # the physical path, ``usb-0000:00:14.0-2/input1`` ("" when sysfs does not say)
     readable: bool  # we may open it for reading and writing
     exists: bool  # the /dev node is there
 
 
 def list_hidraw(sysfs: str = "/sys/class/hidraw") -> list[HidrawEntry]:
-    """hidraw nodes from sysfs: path, vid, pid, bus, name, and whether we may open it."""
+    """hidraw nodes from sysfs: path, vid, pid, bus, name, physical path (its
+    ``/inputN`` tail is the USB interface: the HID device's uevent carries HID_PHYS, as
+    hid-core's ``hid_uevent`` writes it), and whether we may open it."""
     out: list[HidrawEntry] = []
     root = Path(sysfs)
     if not root.is_dir():
@@ -273,6 +276,7 @@ def list_hidraw(sysfs: str = "/sys/class/hidraw") -> list[HidrawEntry]:
             "pid": pid,
             "bus": bus,
             "name": fields.get("HID_NAME", ""),
+            "phys": fields.get("HID_PHYS", ""),
             "readable": os.access(node, os.R_OK | os.W_OK),
             "exists": os.path.exists(node),
         })

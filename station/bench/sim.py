@@ -15,8 +15,11 @@ per cell-step (every field each pass must read and write, neighbours of a
 stencil counted once), the fraction of that bandwidth the simulation achieves:
 ``bytes_per_cell_step · cell_steps_per_s / copy bandwidth``.  ``numpy`` and
 ``cpu`` run on the CPU: ``numpy.copyto`` of a 256 MiB array (read + write
-counted).  ``gl`` runs on the GL device: ``glCopyBufferSubData`` between two
-:data:`GL_COPY_BYTES` buffers, four per ``glFinish`` (read + write counted);
+counted).  ``gl`` runs on the GL device: the better of ``glCopyBufferSubData``
+between two :data:`GL_COPY_BYTES` buffers and a compute shader copying one rgba32f
+image into another, four per ``glFinish`` (read + write counted; both in
+``bandwidth["gl_probes_gb_s"]``, and each GL result's ``shader_copy_fraction`` is
+its traffic over the image copy's, the most any shader moves there);
 where no context can be made the fraction is ``null`` and
 ``bandwidth["gl_error"]`` says why.  ``bytes_per_cell_step`` lists each
 backend's own count once more at the top level.  For the stroke scenario
@@ -36,6 +39,7 @@ import json
 import math
 import os
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -90,32 +94,84 @@ def memory_bandwidth_gb_s(nbytes: int = 256 << 20, repeats: int = 5) -> float:
 GL_COPY_BYTES = 128 << 20
 GL_COPIES_PER_TIMING = 4
 
+# The image-copy probe: one rgba32f texel per invocation, the storage and access the GL
+# backend's passes use (image2D load/store), so the bound is one its shaders can reach.
+_IMAGE_COPY = """#version 430
+layout(local_size_x = %d, local_size_y = %d) in;
+layout(rgba32f, binding = 0) uniform readonly image2D src;
+layout(rgba32f, binding = 1) uniform writeonly image2D dst;
+void main() {
+    ivec2 c = ivec2(gl_GlobalInvocationID.xy);
+    imageStore(dst, c, imageLoad(src, c));
+}
+"""
+
 
 def gl_copy_bandwidth_gb_s(nbytes: int = GL_COPY_BYTES, repeats: int = 5) -> float:
     """Copy bandwidth of the GL device in GB/s (read + write), best of ``repeats``:
-    a GPU's own memory on a real card, system memory through llvmpipe.
-    :class:`StationError` or ImportError when no GL context can be made."""
+    a GPU's own memory on a real card, system memory through llvmpipe.  The better of
+    two probes (:func:`gl_copy_probes`).  :class:`StationError` or ImportError when no
+    GL context can be made."""
+    return max(gl_copy_probes(nbytes, repeats).values())
+
+
+def gl_copy_probes(nbytes: int = GL_COPY_BYTES, repeats: int = 5) -> dict[str, float]:
+    """Two copy probes of the GL device, GB/s (read + write), best of ``repeats``:
+
+    * ``buffer``: ``glCopyBufferSubData`` between two buffers. llvmpipe does a memcpy;
+      a discrete card may hand it to a DMA copy engine, far below its memory's speed
+      (176 GB/s on an H100 whose HBM moves 3 TB/s);
+    * ``image``: a compute shader copying one rgba32f image into another, the access
+      the backend's own passes make; on a GPU this is what its cores reach.
+    """
     # in the function: moderngl only when GL is measured
     from station.glkit.context import create_context
 
     ctx = create_context()
+    out: dict[str, float] = {}
     try:
         src = ctx.buffer(reserve=nbytes)
         dst = ctx.buffer(reserve=nbytes)
-        ctx.copy_buffer(dst, src)  # allocate and touch both before timing
-        ctx.finish()
-        best = math.inf
-        for _ in range(repeats):
-            # a batch per glFinish: on a GPU one copy takes ~0.1 ms, near the round trip
-            t0 = time.perf_counter()
-            for _ in range(GL_COPIES_PER_TIMING):
-                ctx.copy_buffer(dst, src)
-            ctx.finish()
-            best = min(best, (time.perf_counter() - t0) / GL_COPIES_PER_TIMING)
+        out["buffer"] = _best_gb_s(ctx, nbytes, repeats, lambda: ctx.copy_buffer(dst, src))
         src.release()
         dst.release()
+        width = 4096
+        height = max(16, nbytes // (16 * width))  # 16 bytes a texel
+        a = ctx.texture((width, height), 4, dtype="f4")
+        b = ctx.texture((width, height), 4, dtype="f4")
+        a.bind_to_image(0, read=True, write=False)
+        b.bind_to_image(1, read=False, write=True)
+        best = 0.0
+        # the work-group shape matters on llvmpipe (a row of 256 copies ~2x a 16x16 tile
+        # there): the bound is the best shape's
+        for lx, ly in ((16, 16), (64, 1), (256, 1)):
+            prog = ctx.compute_shader(_IMAGE_COPY % (lx, ly))
+
+            def copy(prog: Any = prog, lx: int = lx, ly: int = ly) -> None:
+                prog.run(width // lx, -(-height // ly), 1)
+                ctx.memory_barrier()  # each copy done before the next reads (as the passes)
+
+            best = max(best, _best_gb_s(ctx, width * height * 16, repeats, copy))
+            prog.release()
+        out["image"] = best
+        a.release()
+        b.release()
     finally:
         ctx.release()
+    return out
+
+
+def _best_gb_s(ctx: Any, nbytes: int, repeats: int, copy: Callable[[], None]) -> float:
+    copy()  # allocate, compile and touch before timing
+    ctx.finish()
+    best = math.inf
+    for _ in range(repeats):
+        # a batch per glFinish: on a GPU one copy takes ~0.1 ms, near the round trip
+        t0 = time.perf_counter()
+        for _ in range(GL_COPIES_PER_TIMING):
+            copy()
+        ctx.finish()
+        best = min(best, (time.perf_counter() - t0) / GL_COPIES_PER_TIMING)
     return 2.0 * nbytes / best / 1e9
 
 
@@ -327,16 +383,19 @@ def run(args: argparse.Namespace) -> int:
     bandwidth = memory_bandwidth_gb_s()
     device_bw: dict[str, float | None] = {"numpy": bandwidth, "cpu": bandwidth}
     bw_out: dict[str, Any] = {"cpu_gb_s": round(bandwidth, 3)}
+    gl_probes: dict[str, float] = {}
     if "gl" in backends:
         try:
-            gl_bw = gl_copy_bandwidth_gb_s()
+            gl_probes = gl_copy_probes()
         except (StationError, ImportError) as exc:
             device_bw["gl"] = None
             bw_out["gl_gb_s"] = None
             bw_out["gl_error"] = " ".join(str(exc).split())[:300]
         else:
+            gl_bw = max(gl_probes.values())
             device_bw["gl"] = gl_bw
             bw_out["gl_gb_s"] = round(gl_bw, 3)
+            bw_out["gl_probes_gb_s"] = {k: round(v, 3) for k, v in gl_probes.items()}
     per_cell: dict[str, float] = {}
     results: list[dict[str, Any]] = []
     renderer = "numpy"
@@ -356,6 +415,11 @@ def run(args: argparse.Namespace) -> int:
                     renderer = r.renderer
                 per_cell.setdefault(backend, r.bytes_per_cell_step)
                 results.append(r.as_dict(device_bw.get(backend)))
+                if backend == "gl" and gl_probes.get("image"):
+                    # the bound a shader can reach on this device (llvmpipe's image copy
+                    # runs far below its memcpy): what "its own bound" means for GL passes
+                    results[-1]["shader_copy_fraction"] = round(
+                        results[-1]["memory_traffic_gb_s"] / gl_probes["image"], 4)
                 bar.write(f"bench sim: {backend} {w}x{h} {scenario}: "
                           f"{results[-1]['steps_per_s']} steps/s")
                 bar.update()

@@ -205,10 +205,11 @@ def _answer(data: bytes) -> dict[str, Any]:
 
 
 def _check_here(command: Command) -> None:
-    """Over tcp nobody answers: check the command here, as the sim will, so a bad one
-    is still exit 2 (the sim's modules load only for this case: they take a second)."""
+    """Nobody answers: check the command here, as the sim would, so a bad one (an
+    unknown key included) is still exit 2 (the sim's modules load only for this case:
+    they take a second)."""
     # in the function: the sim's modules take a second to load, and only this case needs them
     from station.canvas.palette import default_palette
-    from station.sim.player import check_command
+    from station.sim.player import check_sent_command
 
-    check_command(command, default_palette(), where=f"command {command.cmd!r}")
+    check_sent_command(command, default_palette(), where=f"command {command.cmd!r}")

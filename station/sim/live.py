@@ -57,7 +57,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from station.answer import Answerer, ReadKeys, ReplyRequest, parse_request
+from station.answer import Answerer, ReplyRequest, parse_request
 from station.backends.factory import create_distributed, make_backend
 from station.backends.protocol import CanvasBackend
 from station.bus import runtime_dir
@@ -93,7 +93,7 @@ from station.sim.live_config import Counters as Counters
 from station.sim.live_config import LiveConfig as LiveConfig
 from station.sim.live_config import default_status_endpoint as default_status_endpoint
 from station.sim.paint import write_image
-from station.sim.player import LIVE_COMMANDS, SessionPlayer, check_command
+from station.sim.player import SessionPlayer, check_sent_command
 from station.sim.undo import UndoHistory
 from station.wire import HapticForce, Heartbeat
 
@@ -364,19 +364,10 @@ class LiveCore:
         if req.expect is not None and req.expect != self.process_kind:
             return (f"this is a {self.process_kind}, not a {req.expect} (send it with "
                     f"--to {self.process_kind}, or to the {req.expect}'s own endpoint)")
-        if command.cmd in LIVE_COMMANDS:
-            unread = sorted(command.args)
-        else:
-            args = ReadKeys(command.args)
-            try:
-                check_command(Command(t=0.0, cmd=command.cmd, args=args),
-                              self.player.pigments)
-            except BadInput as exc:
-                return str(exc)
-            unread = args.unread()
-        if unread:
-            return (f"{command.cmd} takes no key {', '.join(map(repr, unread))}"
-                    f" (nothing would read it)")
+        try:
+            check_sent_command(command, self.player.pigments)
+        except BadInput as exc:
+            return str(exc)
         return None
 
     def _answer(self, req: ReplyRequest | None, cmd: str, ok: bool, text: str) -> None:

@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from station.answer import ReadKeys
 from station.arttools import diffusion as diffusion_tool
 from station.arttools import eraser as eraser_tool
 from station.arttools import mask as mask_tool
@@ -521,6 +522,24 @@ def check_command(cmd: Command, pigments: Container[str] | None = None,
     elif name in _SCRATCH_CHECKED:  # run it on a scratch canvas: the same checks, no effect
         scratch = SessionPlayer(NumpyCanvas(16, 16), 16, 16)
         _HANDLERS[name](scratch, cmd.args, where)
+
+
+def check_sent_command(cmd: Command, pigments: Container[str] | None = None,
+                       where: str | None = None) -> None:
+    """:func:`check_command`, held to the stricter rule of a command someone sends and
+    waits for (``station send``): a key nothing would read (``sizee=3``) is refused,
+    where a session log's is ignored with a warning (interfaces.md).
+
+    Raises :class:`PlayerError` (bad input)."""
+    if cmd.cmd in LIVE_COMMANDS:
+        unread = sorted(cmd.args)
+    else:
+        args = ReadKeys(cmd.args)
+        check_command(dataclasses.replace(cmd, args=args), pigments, where)
+        unread = args.unread()
+    if unread:
+        raise PlayerError(f"{cmd.cmd} takes no key {', '.join(map(repr, unread))} (nothing "
+                          "would read it)", where)
 
 
 _HANDLERS: dict[str, Callable[[SessionPlayer, Mapping[str, object], str | None], None]] = {
