@@ -91,10 +91,11 @@ class Scratch:
     def __init__(self, height: int, width: int, slots: int) -> None:
         self.height, self.width, self.slots = height, width, slots
         shape = (height + 2, width + 2)
-        self.a2 = {name: np.zeros(shape, F32) for name in _FIELDS_2D}
-        self.f2 = tuple(self.a2.values())
+        floats = {name: np.zeros(shape, F32) for name in _FIELDS_2D}
+        self.f2 = tuple(floats.values())
         self.f2u = tuple(np.zeros(shape, np.uint8) for _ in _FLAGS_2D)
-        self.a2.update(zip(_FLAGS_2D, self.f2u, strict=True))
+        self.a2: dict[str, np.ndarray] = {**floats,
+                                          **dict(zip(_FLAGS_2D, self.f2u, strict=True))}
         self.a3 = {name: np.zeros((slots, *shape), F32) for name in _FIELDS_3D}
         self.f3 = tuple(self.a3.values())
         most = width // 2 + 2  # spans per row: tiles are >= 4 cells, a gap >= 1
