@@ -6,6 +6,7 @@ import json
 import os
 import socket
 import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -26,6 +27,18 @@ def _sim(tmp_path: Path, cmd: str | None = None) -> tuple[LiveSim, threading.Thr
     th = threading.Thread(target=sim.run, daemon=True)
     th.start()
     return sim, th
+
+
+def _wait_refused(port: int, deadline_s: float) -> bool:
+    """Until a tcp connect to ``port`` is refused (True) or ``deadline_s`` passes."""
+    end = time.monotonic() + deadline_s
+    while time.monotonic() < end:
+        try:
+            socket.create_connection(("127.0.0.1", port), timeout=1.0).close()
+        except OSError:
+            return True
+        time.sleep(0.05)
+    return False
 
 
 def _send(capsys: pytest.CaptureFixture[str], *words: str) -> tuple[int, str, str]:
@@ -169,7 +182,10 @@ def test_send_over_tcp_with_curve_keys_gets_the_same_answers(
     assert sim.counters.commands == 2 and sim.counters.bad_commands == 3
     assert sim.answerer.sent == 5 and sim.answerer.failed == 0
     assert sim.status()["cmd_endpoint"]["received"] == 5
-    # nobody on the port now: exit 1 with one line, within the timeout
+    assert not th.is_alive()
+    # nobody on the port now (a closed zmq socket lets go of its listener in its io
+    # thread, which a loaded machine may run late): exit 1 with one line, within the timeout
+    assert _wait_refused(port, 60.0)
     code = main(["send", *to, "dry", "--timeout", "0.5"])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 1 and len(err) == 1 and "no station process listens" in err[0], err
