@@ -115,7 +115,8 @@ class SimParams:
             seed's eq. 4.12 as it is): pass 8 lifts with the pigment's staining
             ``beta / lift_gain``. Pigment that settled out of a wet wash sits loose on the
             sized paper until the gum dries; returning water takes it up again several
-            times faster than it settled (Curtis et al. 1997, 4.6: desorption; Smith, "The
+            times faster than it settled (Curtis et al. 1997, "Transferring pigment":
+            desorption; the seed's eq. 4.12, section 4.6; Smith, "The
             Watercolour Painter's Handbook": a wet wash lifts at a touch, a dried one
             hardly), so water put back into a damp wash carries the settled pigment to the
             bloom's front. Staining pigments (large ``beta``) still lift least.
