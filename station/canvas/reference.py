@@ -160,7 +160,8 @@ the same float32 value on both sides).
 
 8. ``surface_exchange`` (seed 4.6), per slot k, wet cells only, ``f = clamp(w/w_max, 0, 1)``:
    ``down = surface_rate*dt * p (1 - f)(1 - h*gamma) delta``,
-   ``up = surface_rate*dt * q f (1 - (1 - h)*gamma) delta / beta``;
+   ``up = surface_rate*dt * q f (1 - (1 - h)*gamma) delta / beta``, with
+   ``beta = float32(staining / lift_gain)`` (``slot_properties``);
    ``down = min(down, p, 1 - q)``; ``up = min(up, q, 1 - p)``;
    ``p += up - down``; ``q += down - up``. Free slots have delta = 0.
 
