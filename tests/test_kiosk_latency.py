@@ -702,3 +702,47 @@ def test_the_damage_of_every_tile_drawn_waits_for_the_window_to_compose_it(
     finally:
         s.shutdown()
         ctx.release()
+
+
+def test_only_texels_that_change_are_uploaded_and_redrawn(tmp_path: Path) -> None:
+    """A wet tile is rendered at every step, but most of its texels are as they were:
+    those are neither uploaded nor redrawn (main redrew every tile rendered), and the
+    texture stays the full render."""
+    from station.kiosk.display import CpuDisplay
+
+    try:
+        import moderngl
+
+        ctx = moderngl.create_context(standalone=True, backend="egl")  # type: ignore[arg-type]
+    except Exception as exc:  # no EGL here
+        pytest.skip(f"no EGL context: {exc}")
+    s = _session(tmp_path)
+    try:
+        s.command("brush", size=8, water=0.8, pigment={"French Ultramarine": 0.6})
+        for i in range(6):
+            s.handle("pen", _pen(i, 0.2 + 0.04 * i))
+        s.handle("pen", _pen(7, 0.44, touching=False))
+        for _ in range(3):
+            s.step()
+        disp = CpuDisplay(ctx, s)
+
+        def draw_all() -> list[tuple[int, int, int, int]]:
+            disp.damage = []
+            while disp.update_tiles() or disp.behind():
+                pass
+            return disp.damage
+
+        assert sum((y1 - y0) * (x1 - x0) for y0, y1, x0, x1 in draw_all()) >= W * H
+        s.mark_all_dirty()  # everything rendered again, nothing changed
+        assert draw_all() == []
+        # a step of the wet stroke: the damage is where its paint moved, not every tile
+        s.step()
+        wet_tiles = int(s.dirty.sum())
+        ts = int(s.cpu_state.params.tile_size)
+        damage = draw_all()
+        moved = sum((y1 - y0) * (x1 - x0) for y0, y1, x0, x1 in damage)
+        assert wet_tiles > 0 and moved < 0.8 * (wet_tiles * ts * ts)
+        assert np.abs(disp.read() - disp.expected()).max() < 1e-4
+    finally:
+        s.shutdown()
+        ctx.release()

@@ -22,7 +22,13 @@ import pytest
 
 from station.bus import Message, SubscriberStats
 from station.events import PenSample, Tool
-from station.kiosk.compose import canvas_box, canvas_boxes, merge_rects
+from station.kiosk.compose import (
+    canvas_box,
+    canvas_boxes,
+    grid_rects,
+    merge_rects,
+    ui_damage,
+)
 from station.kiosk.views import Viewport, make_camera
 from tests.kiosk_harness import xvfb
 
@@ -100,14 +106,14 @@ def display() -> Iterator[str]:
 
 
 def _app(display: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, present: str,
-         predict_ms: float | None = 0) -> Any:
+         predict_ms: float | None = 0, window: tuple[int, int] = WINDOW) -> Any:
     pytest.importorskip("glfw")
     from station.kiosk.app import KioskApp, KioskConfig
     from station.kiosk.idle import IdleConfig
 
     monkeypatch.setenv("DISPLAY", display)
     cfg = KioskConfig(bus=f">ipc://{tmp_path}/bus", width=W, height=H, backend="cpu",
-                      fullscreen=False, window=WINDOW, gallery=tmp_path / "gallery",
+                      fullscreen=False, window=window, gallery=tmp_path / "gallery",
                       serve=None, status="none", cmd="none", vsync=False, autosave=0,
                       sim_thread=False, present=present, predict_ms=predict_ms,
                       idle=IdleConfig(attract_after=3600, finish_after=7200))
@@ -264,6 +270,34 @@ def test_damage_boxes_are_projected_together_and_merged_when_close() -> None:
     assert merge_rects([(0, 0, 0, 10)]) == []  # empty ones go
 
 
+def test_the_ui_damage_is_the_triangles_that_changed_unless_the_order_did() -> None:
+    from station.glkit.imgui_gl import UiTriangles
+
+    def tris(keys: list[int], boxes: list[tuple[int, int, int, int]]) -> UiTriangles:
+        return UiTriangles(np.array(keys, np.uint64), np.array(boxes, np.int32))
+
+    panel = [(0, 40 * i, 300, 40 * i + 30) for i in range(6)]  # six widgets down a panel
+    old = tris([1, 2, 3, 4, 5, 6], panel)
+    # the fourth widget's text changed: its own box, on the 16-px grid, nothing else
+    new = tris([1, 2, 3, 9, 5, 6], panel)
+    assert ui_damage(old, new, (1920, 1080)) == [(0, 112, 304, 160)]
+    # a triangle more and one less in the middle: both boxes
+    grown = tris([1, 2, 7, 3, 5, 6], [*panel[:2], (500, 500, 510, 510), *panel[2:3],
+                                      *panel[4:]])
+    got = ui_damage(old, grown, (1920, 1080))
+    assert sorted(got) == [(0, 112, 304, 160), (496, 496, 512, 512)]
+    # the same triangles in another order: each pixel may blend differently, so all of
+    # the reordered span counts
+    swapped = tris([1, 2, 4, 3, 5, 6], [*panel[:2], panel[3], panel[2], *panel[4:]])
+    assert ui_damage(old, swapped, (1920, 1080)) == [(0, 80, 304, 160)]
+    assert ui_damage(old, old, (1920, 1080)) == []
+    # boxes are clipped to the window; thousands of glyphs are a few rectangles
+    assert grid_rects(np.array([[-5, -5, 3, 3], [1910, 1070, 1990, 1090]]), (1920, 1080),
+                      16) == [(0, 0, 16, 16), (1904, 1056, 1920, 1080)]
+    glyphs = np.array([[x, 700, x + 9, 718] for x in range(10, 290, 7)])
+    assert grid_rects(glyphs, (1920, 1080), 16) == [(0, 688, 304, 720)]
+
+
 @in_own_process
 def test_the_preview_grows_with_the_stroke_and_matches_a_whole_render(
         display: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -334,6 +368,76 @@ def test_the_ui_damage_is_where_the_ui_draws(display: str, tmp_path: Path,
         bx = app.gui.bounds()
         assert bx is not None and bx[0] >= 298 and bx[2] <= 300 + 120 + 2
         assert bx[1] >= 98 and bx[3] <= 100 + 60 + 2
+    finally:
+        app.close()
+
+
+@in_own_process
+def test_a_new_status_line_redraws_its_text_not_the_panel(display: str, tmp_path: Path,
+                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    from station.kiosk import drawing
+
+    # tall enough that the panel shows its status line (it scrolls out of a short one)
+    app = _app(display, tmp_path, monkeypatch, "partial", window=(960, 720))
+    try:
+        if app.presenter.mode != "partial":
+            pytest.skip("no GLX_MESA_copy_sub_buffer here")
+        text = {"line": "wet 12.0%  drying"}
+        monkeypatch.setattr(drawing, "status_line", lambda app_: text["line"])
+        for _ in range(3):  # ImGui lays the panel out over its first frames (a scrollbar)
+            app._ui_built, app._need_draw = 0.0, True
+            app.frame(0.016)
+        _settle(app)  # and the canvas is drawn whole (over a few frames on a busy machine)
+        panel = app.panel_w * app.size[1]
+        text["line"] = "wet 11.5%  drying"  # what changes twice a second while paint dries
+        app._status_due, app._need_draw = 0.0, True  # as a quiet kiosk's redraw finds it
+        app.frame(0.016)
+        # the status line's glyphs (with the grid they are gathered on), not the panel:
+        # main redrew the panel's whole extent (234 000 pixels here) at every new status
+        assert 0 < app.frame_pixels < 0.1 * panel, (app.frame_pixels, panel)
+        _screen_is_the_full_render(app, "a new status line")
+        text["line"] = "damp 40%  settled  layer full: press New layer"  # longer, wider
+        app._status_due, app._need_draw = 0.0, True  # as a quiet kiosk's redraw finds it
+        app.frame(0.016)
+        assert 0 < app.frame_pixels < 0.2 * panel, (app.frame_pixels, panel)
+        _screen_is_the_full_render(app, "a longer status line")
+    finally:
+        app.close()
+
+
+@in_own_process
+def test_full_garbage_collections_wait_for_the_pen_to_lift(display: str, tmp_path: Path,
+                                                          monkeypatch: pytest.MonkeyPatch) -> None:
+    import gc
+
+    from station.kiosk.config import GC_AT_LEAST_S, GC_EVERY_S, GC_GEN2_THRESHOLD, GC_PEN_UP_S
+    from station.kiosk.loop import collect_when_pen_up
+
+    app = _app(display, tmp_path, monkeypatch, "auto")
+    try:
+        # start-up's objects are out of the collector's sight; Python's own full
+        # collections (main: whenever the survivors grew by a quarter, 190 000 objects
+        # walked in the middle of a stroke) are off
+        assert gc.get_freeze_count() > 10_000
+        assert gc.get_threshold()[2] == GC_GEN2_THRESHOLD
+        q = app.session.sub
+        for i in range(4):  # a stroke: the pen on the paper
+            q.push(_pen(app, i, 0.3 + 0.05 * i, 0.5))
+            app.frame(0.016)
+        now = time.monotonic()
+        app._last_full_gc = now - 2 * GC_EVERY_S
+        made = app.full_collections
+        assert app.touching and not collect_when_pen_up(app, now)
+        q.push(_pen(app, 5, 0.55, 0.5, touching=False))
+        app.frame(0.016)
+        assert not collect_when_pen_up(app, time.monotonic())  # lifted only just now
+        assert collect_when_pen_up(app, time.monotonic() + GC_PEN_UP_S)
+        assert not collect_when_pen_up(app, time.monotonic() + GC_PEN_UP_S)  # not again soon
+        assert app.full_collections == made + 1
+        # a pen that never lifts still gets one now and then: garbage cannot pile up
+        q.push(_pen(app, 6, 0.6, 0.5))
+        app.frame(0.016)
+        assert app.touching and collect_when_pen_up(app, app._last_full_gc + GC_AT_LEAST_S)
     finally:
         app.close()
 

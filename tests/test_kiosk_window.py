@@ -176,7 +176,7 @@ def test_each_pen_control_does_what_it_says(display: str, tmp_path: Path) -> Non
         k.tap(s["ui"]["mix"])  # done mixing
         s = k.wait(lambda s: not s["panel"]["mixing"], 10, "done mixing")
         assert s["brush"]["pigment"] == pytest.approx(
-            {"Quinacridone Rose": 0.3, "Hansa Yellow": 0.3})
+            {"Quinacridone Rose": 0.4, "Hansa Yellow": 0.4})  # the default paint, 0.8, halved
         # drag the size slider to its right end
         x0, y0, x1, y1 = ui["size"]
         y = (y0 + y1) / 2

@@ -12,8 +12,10 @@ painting to the gallery (the screen with its QR code, and the gallery's
 picture), waits for its replay and takes the attract screen replaying it.
 
 Writes ``docs/img/kiosk-2d.png``, ``kiosk-3d.png``, ``kiosk-follow.png``,
-``kiosk-saved.png``, ``kiosk-attract.png`` and ``kiosk-painting.png`` (the
-gallery's picture of the painting); ``--out DIR`` writes them elsewhere.
+``kiosk-saved.png``, ``kiosk-attract.png``, ``kiosk-painting.png`` (the
+gallery's picture of the painting), and the painting's take-home page in headless
+Chromium, ``kiosk-phone.png`` (390 px wide) and ``gallery-page.png`` (1280);
+``--out DIR`` writes them elsewhere.
 Look at each one.
 """
 
@@ -30,6 +32,7 @@ import time
 from pathlib import Path
 
 from station.kiosk.app import KioskApp, KioskConfig
+from station.kiosk.gallery import GalleryServer, painting_url
 from station.kiosk.idle import IdleConfig
 
 OUT = Path(__file__).resolve().parent.parent / "docs" / "img"
@@ -122,7 +125,7 @@ def paint(app: KioskApp) -> None:
     p.set_size(72.0)
     p.set_water(1.0)
     p.tap_pigment("Cerulean Blue")
-    drag(app, zigzag_rows(0.07, 0.33, 6), 6.0)
+    drag(app, zigzag_rows(0.07, 0.33, 6), 8.0)  # unhurried: a slow brush presses
     # a drop of rose into the wet wash: it blooms there
     p.set_size(30.0)
     p.tap_pigment("Quinacridone Rose")
@@ -149,6 +152,32 @@ def paint(app: KioskApp) -> None:
     for v in (0.84, 0.9):  # two quick pulls: the tuft runs dry along each
         drag(app, [(0.1 + 0.8 * k / 40, v + 0.012 * math.sin(3 * k / 40))
                    for k in range(41)], 0.35)
+
+
+#: The take-home page as a phone (390 px wide, the README's phone) and a laptop show it.
+PAGES = (("kiosk-phone", (390, 844)), ("gallery-page", (1280, 800)))
+
+
+def page_shots(app: KioskApp, pid: str, out: Path) -> None:
+    """The painting's take-home page, served as the kiosk serves it, in headless
+    Chromium at a phone's and a laptop's width (skipped, said, without Chromium)."""
+    exe = shutil.which("chromium") or shutil.which("chromium-browser") or \
+        shutil.which("google-chrome")
+    if exe is None:
+        sys.stderr.write("no Chromium: the take-home page's screenshots are not made\n")
+        return
+    server = GalleryServer(app.gallery, "127.0.0.1", 0).start()
+    try:
+        url = painting_url(f"http://127.0.0.1:{server.port}", pid)
+        for name, (w, h) in PAGES:
+            path = out / f"{name}.png"
+            subprocess.run([exe, "--headless=new", "--no-sandbox", "--disable-gpu",
+                            "--hide-scrollbars", "--force-device-scale-factor=1",
+                            f"--window-size={w},{h}", f"--screenshot={path}", url],
+                           capture_output=True, timeout=120, check=False)
+            sys.stderr.write(f"wrote {path}\n" if path.exists() else f"no {path}\n")
+    finally:
+        server.stop()
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -195,6 +224,7 @@ def main(argv: list[str] | None = None) -> int:
             if not replay.exists():  # the attract screen paints its demo stroke then
                 why = (cfg.gallery / pid / "make.log").read_text().strip()
                 sys.stderr.write(f"no replay of the painting: {why}\n")
+            page_shots(app, pid, out)
             app._set_qr(None)
             app.idle.cfg.attract_after = 0.1
             settle(app, 2.5)

@@ -130,7 +130,7 @@ def split_initializer(body: str) -> list[str]:
 
 
 def parse_features(text: str, defines: dict[str, str]) -> dict[str, Features]:
-    """``wacom_features_<suffix>`` initialisers -> {suffix: {member: value}} (C initialiser rules)."""
+    """``wacom_features_<suffix>`` initialisers -> {suffix: {member: value}} (C rules)."""
     out = {}
     pat = r"static const struct wacom_features wacom_features_(\w+)\s*=\s*\{(.*?)\};"
     for m in re.finditer(pat, text, flags=re.S):

@@ -75,9 +75,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="what paints besides pen drivers on the bus: the window's mouse or "
                         "touchscreen (auto: yes, except while a pen is heard; pen: no; "
                         "mouse: yes)")
-    p.add_argument("--mouse-pressure", default="0.6", metavar="P|speed",
+    p.add_argument("--mouse-pressure", default="speed", metavar="P|speed",
                    help="the mouse's pressure in (0, 1], or 'speed' (a slow stroke presses, "
-                        "a fast one flicks); default 0.6")
+                        "a fast one flicks; the default)")
     p.add_argument("--duration", type=float, metavar="SECONDS", help="stop after this long")
     p.add_argument("--screenshot-dir", metavar="DIR",
                    help="directory for 'screenshot {\"name\": N}' commands from the bus")

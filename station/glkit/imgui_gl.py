@@ -14,6 +14,7 @@ from __future__ import annotations
 import ctypes
 import math
 import zlib
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, cast
 
 import numpy as np
@@ -41,6 +42,23 @@ in vec4 f_col;
 out vec4 frag;
 void main() { frag = f_col * texture(tex, f_uv); }
 """
+
+
+#: Odd 64-bit constants weighting a triangle's words in its hash (:meth:`ImGuiLayer.triangles`;
+#: fixed, so hashes compare across frames).
+_HASH_WEIGHTS = (np.random.default_rng(0x1A6E).integers(0, 2**63, 32, dtype=np.uint64)
+                 * np.uint64(2) + np.uint64(1))
+
+
+@dataclass(frozen=True)
+class UiTriangles:
+    """A UI frame's triangles in drawing order: ``hashes`` (uint64, one a triangle: its
+    vertices — position, texture coordinate, colour —, clip rectangle and texture) and
+    ``boxes`` (int32 (n, 4): window pixels x0, y0, x1, y1 it can touch; empty where
+    clipped away)."""
+
+    hashes: np.ndarray
+    boxes: np.ndarray
 
 
 class ImGuiLayer:
@@ -176,6 +194,48 @@ class ImGuiLayer:
             box = b if box is None else (min(box[0], b[0]), min(box[1], b[1]),
                                          max(box[2], b[2]), max(box[3], b[3]))
         return box
+
+    def triangles(self) -> UiTriangles:
+        """The last ended frame's triangles in drawing order (:class:`UiTriangles`): what a
+        compositor compares with the last frame it drew to find where the UI changed."""
+        hashes: list[np.ndarray] = []
+        boxes: list[np.ndarray] = []
+        words = imgui.VERTEX_SIZE // 4
+        itype = np.uint32 if imgui.INDEX_SIZE == 4 else np.uint16
+        for cmds in imgui.get_draw_data().cmd_lists:
+            n, m = cmds.vtx_buffer.size(), cmds.idx_buffer.size()
+            if n == 0 or m == 0:
+                continue
+            vtx = np.frombuffer(ctypes.string_at(cmds.vtx_buffer.data_address(),
+                                                 n * imgui.VERTEX_SIZE), np.uint32
+                                ).reshape(n, words)
+            idx = np.frombuffer(ctypes.string_at(cmds.idx_buffer.data_address(),
+                                                 m * imgui.INDEX_SIZE), itype)
+            for cmd in cmds.cmd_buffer:
+                count = cmd.elem_count - cmd.elem_count % 3
+                if count == 0:
+                    continue
+                tri = idx[cmd.idx_offset:cmd.idx_offset + count].astype(np.int64) + cmd.vtx_offset
+                v = vtx[np.minimum(tri, n - 1)].reshape(-1, 3 * words)
+                r = cmd.clip_rect
+                key = zlib.crc32(repr((r.x, r.y, r.z, r.w, cmd.tex_ref.get_tex_id())).encode())
+                # the three vertices' words and the command's key, weighted by odd 64-bit
+                # constants and summed (wrapping): two different triangles agree by chance
+                # about once in 2**60
+                h = (v.astype(np.uint64) * _HASH_WEIGHTS[:3 * words]).sum(axis=1, dtype=np.uint64)
+                hashes.append(h + np.array([key], np.uint64) * _HASH_WEIGHTS[-1:])
+                pos = v.view(np.float32).reshape(-1, 3, words)[:, :, :2]
+                lo, hi = pos.min(axis=1), pos.max(axis=1)
+                # its pixels: the vertices' extent within the clip rectangle, one pixel more
+                # each way for rounding
+                boxes.append(np.stack([
+                    np.floor(np.maximum(lo[:, 0], r.x)) - 1,
+                    np.floor(np.maximum(lo[:, 1], r.y)) - 1,
+                    np.ceil(np.minimum(hi[:, 0], r.z)) + 1,
+                    np.ceil(np.minimum(hi[:, 1], r.w)) + 1], axis=1).astype(np.int32))
+        if not hashes:
+            return UiTriangles(np.zeros(0, np.uint64), np.zeros((0, 4), np.int32))
+        return UiTriangles(np.concatenate(hashes), np.concatenate(boxes))
 
     def draw(self, clip: tuple[int, int, int, int] | None = None) -> None:
         """Draw the last ended frame over what is in the framebuffer; ``clip``: only

@@ -34,6 +34,7 @@ The app is in parts by job: here the start-up and the paintings' sessions;
 from __future__ import annotations
 
 import dataclasses
+import gc
 import logging
 import math
 import os
@@ -41,7 +42,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -55,6 +56,7 @@ from station.kiosk.attract import AttractShow
 from station.kiosk.compose import Box, Compositor
 from station.kiosk.config import (
     AUTO_HORIZON_START_S,
+    GC_GEN2_THRESHOLD,
     KioskConfig,
     numba_threadsafe,
 )
@@ -78,6 +80,9 @@ from station.kiosk.ui import PanelState
 from station.kiosk.views import VIEWS, Camera, Viewport
 from station.render.km import to_srgb8
 from station.sim.live import KIOSK_CMD_ENDPOINT, LiveConfig, default_status_endpoint
+
+if TYPE_CHECKING:  # imgui-bundle is an optional extra (imported where the window opens)
+    from station.glkit.imgui_gl import UiTriangles
 
 __all__ = ["KioskApp", "KioskConfig", "hold_live_log", "numba_threadsafe", "painting_in_progress"]
 
@@ -114,8 +119,21 @@ class KioskApp:
         self.compositor = Compositor(self.ctx, self.size)
         self.presenter = Presenter(glfw, self.window, str(self.ctx.info.get("GL_RENDERER", "")),
                                    self.size, self.cfg.present, self.cfg.vsync)
+        self._take_over_full_collections()
 
     # -- start-up, in parts -----------------------------------------------------------
+    def _take_over_full_collections(self) -> None:
+        """What start-up made (modules, numba's and ImGui's objects, the window) lives as
+        long as the process: frozen out of the collector's sight, so a full collection
+        walks only what painting made since; and full collections come from the loop,
+        while the pen is up (:func:`station.kiosk.loop.collect_when_pen_up`), not
+        whenever the survivors grew."""
+        gc.collect()
+        gc.freeze()
+        g0, g1, _ = gc.get_threshold()
+        gc.set_threshold(g0, g1, GC_GEN2_THRESHOLD)
+        self._last_full_gc = time.monotonic()
+
     @staticmethod
     def _checked_config(cfg: KioskConfig) -> KioskConfig:
         """``cfg`` checked (bad input: :class:`BadInput`), with the simulation in the
@@ -266,6 +284,9 @@ class KioskApp:
             horizon_s=self.lag.value if cfg.predict_ms is None else max(cfg.predict_ms, 0.0)
             / 1000))
         self._pen_received = 0.0  # monotonic time the last pen sample came
+        self._last_touch = 0.0  # ... the last that touched the paper
+        self._last_full_gc = 0.0  # ... the last full garbage collection
+        self.full_collections = 0  # made by the loop (collect_when_pen_up)
         self._pen_read = 0.0  # ... and when its driver read it (monotonic)
         self._shadow_read = 0.0  # the read time of the sample this frame's shadow is from
         # the driver, the gallery, the operator
@@ -308,6 +329,7 @@ class KioskApp:
         self._ui_built = 0.0
         self._ui_hash = 0
         self._ui_bounds: Box | None = None
+        self._ui_tris: UiTriangles | None = None  # its triangles (where the UI changed)
         # compositing and presenting
         self._frame_boxes: list[Box] = []  # what this frame redrew in the picture
         self.frame_pixels = 0  # ... in pixels (both compositions of the frame)

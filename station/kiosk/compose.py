@@ -21,11 +21,14 @@ content after a swap is undefined, so it is never relied on.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from station.kiosk.views import Camera
+
+if TYPE_CHECKING:  # imgui-bundle is an optional extra; only the type is needed here
+    from station.glkit.imgui_gl import UiTriangles
 
 Box = tuple[int, int, int, int]  # window pixels x0, y0, x1, y1 (origin top-left, exclusive)
 
@@ -107,6 +110,73 @@ def screen_box(cam: Camera, pts: np.ndarray, size: tuple[int, int]) -> Box | Non
     return box if box[2] > box[0] and box[3] > box[1] else None
 
 
+#: The grid (window pixels) the UI's changed triangles are gathered on into rectangles.
+UI_GRID_PX = 16
+
+#: More rectangles than this of UI damage are redrawn as their bounding box.
+UI_MOST_RECTS = 32
+
+
+def ui_damage(old: UiTriangles, new: UiTriangles, size: tuple[int, int]) -> list[Box]:
+    """Window rectangles where the UI drawn as ``new`` may differ from ``old``.
+
+    A pixel's colour is the blend of the triangles that cover it, in drawing order.
+    Triangles at the start and the end of both frames are the same ones; in between,
+    where the triangles that both frames draw keep their order, only the pixels of
+    triangles that one of them draws and the other does not can change (a status line's
+    new text: its glyphs, not the panel around it).  Otherwise every triangle in between
+    counts as changed."""
+    ho, hn = old.hashes, new.hashes
+    n = min(ho.size, hn.size)
+    differs = ho[:n] != hn[:n]
+    first = int(np.argmax(differs)) if differs.any() else n
+    rest = n - first  # the common end, at most what the start left
+    tail = ho[ho.size - rest:][::-1] != hn[hn.size - rest:][::-1]
+    last = int(np.argmax(tail)) if tail.any() else rest
+    mo, mn = slice(first, ho.size - last), slice(first, hn.size - last)
+    mid_o, mid_n = ho[mo], hn[mn]
+    kept_o, kept_n = np.isin(mid_o, mid_n), np.isin(mid_n, mid_o)
+    if np.array_equal(mid_o[kept_o], mid_n[kept_n]):
+        changed = np.concatenate([old.boxes[mo][~kept_o], new.boxes[mn][~kept_n]])
+    else:
+        changed = np.concatenate([old.boxes[mo], new.boxes[mn]])
+    return grid_rects(changed, size, UI_GRID_PX)
+
+
+def grid_rects(boxes: np.ndarray, size: tuple[int, int], cell: int) -> list[Box]:
+    """Rectangles of ``cell``-pixel grid squares covering ``boxes`` (int (n, 4): x0, y0,
+    x1, y1; empty ones ignored), clipped to the window of ``size``: thousands of glyph
+    quads become a few rectangles."""
+    w, h = size
+    b = np.asarray(boxes, np.int64).reshape(-1, 4)
+    b = np.column_stack([np.clip(b[:, 0], 0, w), np.clip(b[:, 1], 0, h),
+                         np.clip(b[:, 2], 0, w), np.clip(b[:, 3], 0, h)])
+    b = b[(b[:, 2] > b[:, 0]) & (b[:, 3] > b[:, 1])]
+    if b.size == 0:
+        return []
+    gw, gh = -(-w // cell), -(-h // cell)
+    gx0, gy0 = b[:, 0] // cell, b[:, 1] // cell
+    gx1, gy1 = -(-b[:, 2] // cell), -(-b[:, 3] // cell)
+    mark = np.zeros((gh + 1, gw + 1), np.int32)  # corners: a 2-D prefix sum fills them
+    np.add.at(mark, (gy0, gx0), 1)
+    np.add.at(mark, (gy0, gx1), -1)
+    np.add.at(mark, (gy1, gx0), -1)
+    np.add.at(mark, (gy1, gx1), 1)
+    grid = mark.cumsum(axis=0).cumsum(axis=1)[:gh, :gw] > 0
+    rects: list[Box] = []
+    for gy in np.flatnonzero(grid.any(axis=1)):
+        row = np.concatenate(([False], grid[gy], [False]))
+        edges = np.flatnonzero(row[1:] != row[:-1])
+        for a, c in zip(edges[0::2], edges[1::2], strict=True):
+            rects.append((int(a) * cell, int(gy) * cell, min(int(c) * cell, w),
+                          min((int(gy) + 1) * cell, h)))
+    rects = merge_rects(rects, 1)
+    if len(rects) > UI_MOST_RECTS:
+        return [(min(r[0] for r in rects), min(r[1] for r in rects),
+                 max(r[2] for r in rects), max(r[3] for r in rects))]
+    return rects
+
+
 class Compositor:
     """The kiosk's picture in a framebuffer of its own (see the module docstring)."""
 
@@ -122,6 +192,7 @@ class Compositor:
         self._camera_key: bytes | None = None
         self._ui_hash: int | None = None
         self._ui_box: Box | None = None
+        self._ui_tris: UiTriangles | None = None
         self.pixels_redrawn = 0  # window pixels redrawn in the picture by the last frame
         self.full_redraws = 0
         self.full_last = True  # the last update redrew everything (a new camera)
@@ -132,14 +203,15 @@ class Compositor:
 
     def update(self, cam: Camera, canvas_cells: list[tuple[int, int, int, int]],
                canvas_size: tuple[int, int], ui_hash: int, ui_box: Box | None,
-               draw_scene: Callable[[Box], None], draw_ui: Callable[[Box], None]
-               ) -> list[Box]:
+               draw_scene: Callable[[Box], None], draw_ui: Callable[[Box], None],
+               ui_tris: UiTriangles | None = None) -> list[Box]:
         """Redraw the damaged parts of the picture; returns the boxes redrawn.
 
         ``canvas_cells``: canvas rectangles ``(y0, y1, x0, x1)`` re-rendered since the
         last frame; ``ui_hash``/``ui_box``: the UI's drawing this frame and its extent;
         ``draw_scene(clip)`` draws the view of the canvas, ``draw_ui(clip)`` the UI, both
-        only inside ``clip``.
+        only inside ``clip``; ``ui_tris``: the UI's triangles, which narrow its damage to
+        where they changed (:func:`ui_damage`; without them: the old and new extents).
         """
         w, h = self.size
         key = cam.vp.astype("f4").tobytes() + repr(cam.viewport).encode()
@@ -153,12 +225,16 @@ class Compositor:
             canvas = canvas_boxes(cam, canvas_cells, cw, ch)
             boxes = [(0, 0, w, h)] if canvas is None else canvas
             if ui_hash != self._ui_hash:
-                ui_damage = union(self._ui_box, ui_box)
-                if ui_damage is not None:
-                    boxes.append(ui_damage)
+                if ui_tris is not None and self._ui_tris is not None:
+                    boxes.extend(ui_damage(self._ui_tris, ui_tris, (w, h)))
+                else:
+                    extent = union(self._ui_box, ui_box)
+                    if extent is not None:
+                        boxes.append(extent)
         self._camera_key = key
         self._ui_hash = ui_hash
         self._ui_box = ui_box
+        self._ui_tris = ui_tris
         boxes = merge_rects(boxes, MERGE_GAP_PX)
         ctx = self.ctx
         self.fbo.use()

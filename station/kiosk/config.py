@@ -18,6 +18,16 @@ TILE_FRAME_S = 1 / 120  # frames that show only the steps' tiles come at most th
 LATCH_BUDGET_S = 0.002  # the late latch handles pen samples for at most this long
 THREAD_POLL_S = 0.004  # a wet canvas: how often the window looks for the thread's steps
 ATTRACT_FRAME_S = 1 / 12  # the attract screen's animation: frames this often
+# Python's full garbage collections: never in the middle of a stroke (one walks every
+# object the process holds: 120 ms for a kiosk's 190 000 at load 8, a visible hitch)
+# but while the pen is off the paper this long, at most this often, and at least this
+# often whatever the pen does (cyclic garbage cannot pile up without bound)
+GC_PEN_UP_S = 1.5
+GC_EVERY_S = 60.0
+GC_AT_LEAST_S = 600.0
+#: The third generation's threshold while the kiosk collects it itself (Python's default
+#: is 10: a full collection whenever the survivors grew by a quarter).
+GC_GEN2_THRESHOLD = 1_000_000
 
 
 @dataclass
@@ -60,7 +70,7 @@ class KioskConfig:
     # what paints besides a pen driver on the bus: the window's mouse/touchscreen
     # ("auto": yes, unless a pen was heard in the last second; "pen": no; "mouse": yes)
     input: str = "auto"
-    mouse_pressure: float | None = 0.6  # the mouse's pressure (None: from its speed)
+    mouse_pressure: float | None = None  # the mouse's pressure (None: from its speed)
     keys: Path | None = None  # CURVE key directory for tcp endpoints (None: the default)
     client_key: str | None = None  # a client key pair of its own for connecting over tcp
 

@@ -273,8 +273,11 @@ def build_ui_if_changed(app: KioskApp, dt: float) -> None:
     key = ui_key(app, now)
     if (key != app._ui_last_key or key[-1] or bool(app.screenshots)
             or now - app._ui_built >= REDRAW_EVERY_S):
-        app._ui_hash = build_ui(app, now - app._ui_built if app._ui_built else dt)
-        app._ui_bounds = app.gui.bounds()
+        ui_hash = build_ui(app, now - app._ui_built if app._ui_built else dt)
+        if ui_hash != app._ui_hash or app._ui_tris is None:  # (the same drawing: as it was)
+            app._ui_hash = ui_hash
+            app._ui_bounds = app.gui.bounds()
+            app._ui_tris = app.gui.triangles()
         app._ui_last_key, app._ui_built = key, now
 
 
@@ -286,7 +289,7 @@ def compose_changes(app: KioskApp, cam: Camera) -> None:
     boxes = app.compositor.update(cam, app.display.damage,
                                    (app.cfg.width, app.cfg.height), app._ui_hash,
                                    app._ui_bounds, lambda box: draw_scene(app, cam, box),
-                                   app.gui.draw)
+                                   app.gui.draw, app._ui_tris)
     app.display.damage = []
     app.frame_pixels += app.compositor.pixels_redrawn
     app._frame_full = app._frame_full or app.compositor.full_last
@@ -312,6 +315,11 @@ def fill_back_buffer(app: KioskApp, cam: Camera) -> None:
         # merged once: overlapping rectangles would be copied twice, here and to X
         rects = merge_rects([b for b in (*app._frame_boxes, app._shadow_box,
                                          shadow_box) if b is not None])
+        # the safety net's rows, apart: merged, a window-wide band would widen any
+        # rectangle it touches to the window's width
+        band = app.presenter.rolling_band(now)
+        if band is not None:
+            rects.append(band)
         app.compositor.present(rects)
         app._present_rects = rects
     app._frame_boxes = []

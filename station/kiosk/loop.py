@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import ctypes
 import dataclasses
+import gc
 import logging
 import math
 import time
@@ -17,6 +18,9 @@ from station.errors import StationError
 from station.kiosk import drawing, pen_input
 from station.kiosk.config import (
     ATTRACT_FRAME_S,
+    GC_AT_LEAST_S,
+    GC_EVERY_S,
+    GC_PEN_UP_S,
     LATCH_BUDGET_S,
     REDRAW_EVERY_S,
     STATUS_EVERY_S,
@@ -258,6 +262,22 @@ def steps_or_housekeeping(app: KioskApp) -> None:
         s.housekeeping()
     else:  # the steps in this loop (after presenting: a step delays the next frame)
         s.run_due_steps(max_steps=2)  # what they change: dirty tiles
+    collect_when_pen_up(app, time.monotonic())
+
+
+def collect_when_pen_up(app: KioskApp, now: float) -> bool:
+    """A full garbage collection when it cannot cost the pen a frame (the pen off the
+    paper for :data:`GC_PEN_UP_S`, the last one :data:`GC_EVERY_S` ago), or when the
+    last is :data:`GC_AT_LEAST_S` old; returns whether it collected (see
+    ``KioskApp._take_over_full_collections``)."""
+    since = now - app._last_full_gc
+    pen_up = not app.touching and now - app._last_touch >= GC_PEN_UP_S
+    if not ((pen_up and since >= GC_EVERY_S) or since >= GC_AT_LEAST_S):
+        return False
+    gc.collect()
+    app._last_full_gc = now
+    app.full_collections += 1
+    return True
 
 
 def account(app: KioskApp, t0: float, tw: float, t1: float, times: _FrameTimes,

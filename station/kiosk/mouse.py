@@ -7,9 +7,13 @@ coordinates, as a calibrated tablet's driver sends them:
 
 * the button (or the finger) down is the tip down; the pointer over the window
   is the pen in proximity (a mouse always hovers: there is no "lifted away");
-* pressure from a setting (``--mouse-pressure 0.6``), or from speed
-  (``--mouse-pressure speed``: a slow stroke presses, a fast one flicks, as a
-  brush does — :data:`SPEED_FULL` px/s and faster gives the lightest);
+* pressure from speed (``--mouse-pressure speed``, the default: a slow stroke
+  presses, a fast one flicks, as a brush does — :data:`SPEED_FULL` window heights
+  a second and faster gives the lightest), or a fixed one (``--mouse-pressure
+  0.7``).  Either way the brush is set down as a hand sets it down: the pressure
+  rises from :data:`ATTACK_FROM` of its value over the first :data:`ATTACK_S` of
+  the stroke, so a stroke starts at the tip, narrow and light, and swells — not
+  with the round stamp of the whole brush that read as a felt-tip pen;
 * smooth strokes: a mouse reports whole pixels at irregular intervals, and a
   finger jitters.  The position goes through a one-euro filter (Casiez et al.,
   CHI 2012): a low cut-off while the pointer moves slowly (jitter removed), a
@@ -32,11 +36,16 @@ from station.events import PenSample, Tool
 INPUTS = ("auto", "pen", "mouse")
 DEVICE = "mouse"  # the device name in the session log
 
-#: Pointer speed (window px/s) at which pressure-from-speed is lightest.
-SPEED_FULL = 1500.0
+#: Pointer speed (window heights a second: the same hand on a 4K screen moves twice the
+#: pixels) at which pressure-from-speed is lightest.
+SPEED_FULL = 1.4
 #: The pressures pressure-from-speed moves between (slow, fast).
 PRESSURE_SLOW = 0.85
 PRESSURE_FAST = 0.25
+#: The brush set down: the pressure rises over this long (s) after the button goes down,
+#: from this share of its value (smoothstep), as a painter's stroke starts at the tip.
+ATTACK_S = 0.1
+ATTACK_FROM = 0.3
 #: A pen heard this recently (s) takes precedence over the mouse in ``auto``.
 PEN_WINS_S = 1.0
 
@@ -94,7 +103,7 @@ class MousePen:
     pressure while the button is down, or ``None`` for pressure from speed.
     """
 
-    def __init__(self, size: tuple[int, int], pressure: float | None = 0.6) -> None:
+    def __init__(self, size: tuple[int, int], pressure: float | None = None) -> None:
         self.size = size
         self.pressure = pressure
         self.fx, self.fy = OneEuro(), OneEuro()
@@ -104,6 +113,7 @@ class MousePen:
         self._raw: tuple[float, float, float] | None = None  # last raw x, y, t
         self._last: tuple[float, float, float] | None = None  # last smoothed x, y, t
         self._speed = 0.0  # px/s, smoothed
+        self._t_down = 0.0  # when the button went down (the stroke's attack)
         self.pending: list[PenSample] = []
 
     def move(self, x: float, y: float, t: float, t_mono: float) -> None:
@@ -119,6 +129,7 @@ class MousePen:
         self.down = down
         if down:  # a stroke starts where the pointer is, not where the filter lags
             self._speed = 0.0
+            self._t_down = t
             self._last = None
             if self._raw is not None:
                 self.fx.reset()
@@ -131,11 +142,14 @@ class MousePen:
         self.down = False
         self._emit(t, t_mono)
 
-    def _current_pressure(self) -> float:
+    def _current_pressure(self, t: float) -> float:
         if self.pressure is not None:
-            return self.pressure
-        f = min(1.0, self._speed / SPEED_FULL)
-        return PRESSURE_SLOW + (PRESSURE_FAST - PRESSURE_SLOW) * f
+            held = self.pressure
+        else:
+            f = min(1.0, self._speed / (SPEED_FULL * self.size[1]))
+            held = PRESSURE_SLOW + (PRESSURE_FAST - PRESSURE_SLOW) * f
+        a = min(max((t - self._t_down) / ATTACK_S, 0.0), 1.0)
+        return held * (ATTACK_FROM + (1.0 - ATTACK_FROM) * a * a * (3.0 - 2.0 * a))
 
     def _emit(self, t: float, t_mono: float) -> None:
         if self._raw is None:
@@ -154,7 +168,7 @@ class MousePen:
         touching = self.down and self.inside
         self.pending.append(PenSample(
             t=t, device=DEVICE, tool=Tool.PEN, x=min(max(x / w, 0.0), 1.0),
-            y=min(max(y / h, 0.0), 1.0), pressure=self._current_pressure() if touching else 0.0,
+            y=min(max(y / h, 0.0), 1.0), pressure=self._current_pressure(t) if touching else 0.0,
             proximity=self.inside, touching=touching, seq=self.seq, t_mono=t_mono))
 
     def take(self) -> list[PenSample]:

@@ -75,6 +75,8 @@ def map_pen(app: KioskApp, s: PenSample) -> PenSample | None:
     if s.proximity:
         app.idle.activity(now)
     touching = s.touching and s.proximity
+    if touching:
+        app._last_touch = now
     if touching and not app.touching:
         app.capture = "ui" if px < app.panel_w else "canvas"
     app.touching = touching

@@ -20,7 +20,13 @@ there.
 
 The X server keeps the window's pixels between copies.  Where it may have
 lost them (an expose: the window was covered, mapped again, resized), and
-anyway once a second, the next frame is presented whole.
+anyway once a second, the next frame is presented whole.  While the pen paints,
+that once-a-second whole frame would be the slowest frame of all (fill, copy
+and swap of every pixel: 60–130 ms at 3840×2160 on llvmpipe, the pen's p99
+whenever it fell in a stroke); instead every frame also presents a band of a
+few rows, rolling down the window (:meth:`Presenter.rolling_band`), so every
+pixel is presented again within :data:`ROLL_PERIOD_S` at the cost of a few
+rows a frame.
 """
 
 from __future__ import annotations
@@ -28,8 +34,6 @@ from __future__ import annotations
 import ctypes
 import logging
 from typing import Any
-
-from station.kiosk.compose import merge_rects
 
 log = logging.getLogger(__name__)
 
@@ -39,10 +43,13 @@ PRESENT_MODES = ("auto", "swap", "partial")
 #: window is right even if the X server lost pixels without telling.
 FULL_EVERY_S = 1.0
 
-#: ... and while the pen paints, this often: a whole frame on a software rasteriser
-#: (fill, copy and swap of every pixel) is the slowest frame there is — tens of ms at
-#: 3840×2160 — and once a second it was the pen's p99.
-FULL_EVERY_PAINTING_S = 10.0
+#: While the pen paints, the rolling band presents every row of the window again within
+#: this long (seconds) instead (see the module docstring).
+ROLL_PERIOD_S = 10.0
+#: ... counting at most this long (s) a frame: the first frame after a pause (a quiet
+#: window draws four times a second, and is presented whole every second anyway) takes
+#: a band of a few rows, not a tenth of the window.
+ROLL_FRAME_MAX_S = 0.02
 
 #: Whole frames presented after the window is resized (see Presenter.resized).
 RESIZE_WHOLE_FRAMES = 8
@@ -67,6 +74,8 @@ class Presenter:
         self._whole_left = 0  # whole frames still owed to a resize
         self.partial_frames = 0
         self.whole_frames = 0
+        self._roll_y = 0.0  # the rolling band's next row
+        self._roll_t: float | None = None  # when the last band was taken
         self._copy_sub: Any = None
         self._dpy: Any = None
         self._drawable = 0
@@ -131,10 +140,26 @@ class Presenter:
 
     def needs_whole(self, now: float, last_whole: float, painting: bool = False) -> bool:
         """Whether the next frame must fill and present the whole window (``painting``:
-        the pen is at work, the safety net's whole frame waits longer)."""
-        every = FULL_EVERY_PAINTING_S if painting else FULL_EVERY_S
+        the pen is at work; the rolling band is the safety net then, not whole frames)."""
         return (self._copy_sub is None or self.whole_next or self._whole_left > 0
-                or now - last_whole >= every)
+                or (not painting and now - last_whole >= FULL_EVERY_S))
+
+    def rolling_band(self, now: float) -> Rect | None:
+        """The rows (a whole-width rectangle) a partial frame at ``now`` presents besides
+        its damage: as many as keep the band going down the window once every
+        :data:`ROLL_PERIOD_S` (frames at least 50 a second), from where the last frame's
+        ended (``None``: the first)."""
+        w, h = self.size
+        last, self._roll_t = self._roll_t, now
+        if last is None or h <= 0:
+            return None
+        rows = h * min(max(now - last, 0.0), ROLL_FRAME_MAX_S) / ROLL_PERIOD_S
+        y0 = self._roll_y
+        y1 = min(y0 + rows, float(h))
+        self._roll_y = 0.0 if y1 >= h else y1
+        # whole rows, each once: a row is presented by the frame whose band ends past it
+        top, bottom = int(y0), (h if y1 >= h else int(y1))
+        return (0, top, w, bottom) if bottom > top else None
 
     def present_whole(self) -> None:
         self.glfw.swap_buffers(self.window)
@@ -143,12 +168,13 @@ class Presenter:
         self.whole_frames += 1
 
     def present_rects(self, rects: list[Rect]) -> int:
-        """Copy ``rects`` of the back buffer to the window; returns the pixels copied.
+        """Copy ``rects`` of the back buffer to the window (merged where they overlap
+        enough to matter: the caller's choice); returns the pixels copied.
         Each is clipped to the window first: a rectangle reaching outside it is an X
         protocol error, which ends the process."""
         w, h = self.size
         pixels = 0
-        for x0, y0, x1, y1 in merge_rects(rects):
+        for x0, y0, x1, y1 in rects:  # merged by the caller
             x0, y0, x1, y1 = max(int(x0), 0), max(int(y0), 0), min(int(x1), w), min(int(y1), h)
             if x1 <= x0 or y1 <= y0:
                 continue

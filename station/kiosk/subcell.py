@@ -99,11 +99,34 @@ def painted_cells(amount: np.ndarray, r_composed: np.ndarray, paper: np.ndarray
                   ) -> np.ndarray:
     """Cells holding paint: pigment in the surface layer (``amount``: per pigment, (n, h,
     w)), or dried layers whose reflectance ``r_composed`` (h, w, 3) is off the bare
-    ``paper`` (h, w)."""
-    wet = amount.sum(axis=0) > F32(PAINTED_AMOUNT) if len(amount) else \
-        np.zeros(paper.shape, bool)
-    dried = np.abs(r_composed - paper[..., None]).max(axis=-1) > F32(DRIED_DIFF)
-    return np.asarray(wet | dried)
+    ``paper`` (h, w).  Compiled: the window asks it of a few small regions every frame,
+    where numpy's reductions cost more in calls than in arithmetic."""
+    out = np.empty(paper.shape, np.bool_)
+    _painted_kernel(np.asarray(amount, F32).reshape(-1, *paper.shape),
+                    np.asarray(r_composed, F32), np.asarray(paper, F32), F32(PAINTED_AMOUNT),
+                    F32(DRIED_DIFF), out)
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _painted_kernel(amount: np.ndarray, r_composed: np.ndarray, paper: np.ndarray,
+                    wet_min: np.float32, dried_min: np.float32,
+                    out: np.ndarray) -> None:  # pragma: no cover
+    n = amount.shape[0]
+    h, w = paper.shape
+    for y in range(h):
+        for x in range(w):
+            acc = np.float32(0.0)
+            for k in range(n):  # numpy's sum over the first axis, in the same order
+                acc += amount[k, y, x]
+            painted = 1 if acc > wet_min else 0
+            if painted == 0:
+                b = paper[y, x]
+                for c in range(3):
+                    if abs(r_composed[y, x, c] - b) > dried_min:
+                        painted = 1
+                        break
+            out[y, x] = painted != 0
 
 
 def fields_reference(rgb: np.ndarray, painted: np.ndarray, inner: tuple[slice, slice]
