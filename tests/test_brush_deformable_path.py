@@ -3,14 +3,21 @@ follows it, without one-cell whiskers at its edges (measured on the brush's depo
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 
 import station.sim.player as player
 from station.backends.numpy_canvas import NumpyCanvas
 from station.backends.protocol import CanvasBackend
-from station.brush.footprint import prune_spurs
+from station.brush.deformable import DeformableBrush
+from station.brush.footprint import NO_DEPTH, FootprintMaps, prune_spurs, shifted_union, union_max
 from station.brush.sources import Sources
+from station.brush.stamp import BrushModel, BrushSettings
+from station.canvas.paper import make_paper
+from station.canvas.profiles import get_profile
+from station.events import PenSample, Tool
 from station.sim.script import Script
 
 W, H = 200, 64
@@ -43,12 +50,14 @@ def _whiskers(painted: np.ndarray) -> tuple[int, int]:
     return int((painted & (nb < 4)).sum()), int((painted & (nb <= 1)).sum())
 
 
-@pytest.mark.parametrize("kind", ["round3d", "mop"])
+@pytest.mark.parametrize("kind", ["round3d", "mop", "flat", "fan"])
 def test_a_deformable_stroke_follows_the_pen_without_whiskers(
         kind: str, monkeypatch: pytest.MonkeyPatch) -> None:
     """round3d: 8.0 whiskers per 100 edge cells before a loaded tuft's lone hair tips
-    joined their neighbours, 0.5 after; mop 3.5 -> 0. The stroke's middle stays on the
-    pen's line within a cell in every column."""
+    joined their neighbours, 0.5 after; mop 3.5 -> 0. The fan (three spines, edge-on to
+    this stroke) left 47 dots on 198 edge cells (24 per 100) while its hair tips were
+    stamped a spacing apart instead of dragged between stamps. The stroke's middle stays
+    on the pen's line within a cell in every column."""
     dep = _deposit(kind, monkeypatch)
     painted = dep > 0.0
     edge, whiskers = _whiskers(painted)
@@ -116,3 +125,100 @@ def test_a_round_tuft_set_down_moving_draws_no_hook(
         if m.sum() >= 3:
             mid = 0.5 * (across[m].min() + across[m].max())
             assert abs(mid) <= 1.5, (b, mid)
+
+
+@pytest.mark.parametrize("kind", ["flat", "fan"])
+@pytest.mark.parametrize("deg", [90, 45])
+def test_a_many_spine_tuft_leaves_no_whiskers_down_or_across(
+        kind: str, deg: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A flat and a fan pulled down (across their width) and down-right. Before the tuft
+    was dragged between its stamps, and before a loaded tuft's lone dots and long hair
+    spurs went: flat 3 and 5 whiskers (1.0 and 2.0 per 100 edge cells), fan 37 and 83
+    (8.4 and 18). The flat pulled straight down keeps its middle on the pen's line within
+    a cell (the fan's sits 1.7 cells to the left of it: see NOTES-paper7)."""
+    n = 140
+    got = np.zeros((n, n))
+    add = player.add_sources
+
+    def grab(backend: CanvasBackend, src: Sources) -> None:
+        for v in src.dp.values():
+            got[src.region] += v
+        add(backend, src)
+
+    monkeypatch.setattr(player, "add_sources", grab)
+    a = np.radians(deg)
+    s = Script(n, n, seed=7, rate_hz=120.0)
+    s.brush(size=24, water=0.8, pigment={"French Ultramarine": 1.0}, kind=kind)
+    s.line((0.5 - 0.3 * np.cos(a), 0.5 - 0.3 * np.sin(a)),
+           (0.5 + 0.3 * np.cos(a), 0.5 + 0.3 * np.sin(a)), 0.9, pressure=0.8)
+    player.SessionPlayer(NumpyCanvas(n, n, seed=7), n, n).play(s.records)
+    painted = got > 0.0
+    edge, whiskers = _whiskers(painted)
+    assert whiskers <= 0.01 * edge, (whiskers, edge)
+    if deg == 90 and kind == "flat":
+        mid = []
+        for y in range(45, 100):  # past the touch-down's splay, before the lift
+            xs = np.nonzero(painted[y])[0]
+            assert len(xs), y
+            mid.append(0.5 * (xs[0] + xs[-1] + 1))
+        assert np.abs(np.array(mid) - 0.5 * n).max() <= 1.0, mid
+
+
+def test_prune_spurs_takes_long_hair_spurs_and_a_lines_lone_dots() -> None:
+    a = np.zeros((16, 16), np.float32)
+    a[4:12, 4:12] = 1.0
+    a[12:16, 7] = 0.5  # a hair's streak four cells long off the body's bottom edge
+    a[1:4, 10] = 0.5  # ... and three off its top
+    assert prune_spurs(a)[12:16, 7].max() == 0.0 and prune_spurs(a)[1:4, 10].max() == 0.0
+    line = np.zeros((5, 16), np.float32)
+    line[2, 1:12] = 1.0
+    line[2, 14] = 1.0  # a lone dot beside a rigger's line: a hair tip's drop
+    out = prune_spurs(line)
+    assert out[2, 14] == 0.0 and (out[2, 1:12] == 1.0).all()
+    tip = np.zeros((3, 3), np.float32)
+    tip[1, 1] = 1.0  # a tiny brush's one-cell mark is the stroke
+    assert prune_spurs(tip)[1, 1] == 1.0
+
+
+def test_union_max_lays_weights_over_one_another() -> None:
+    a = (10, 20, np.full((2, 3), 0.5, np.float32))
+    b = (11, 18, np.full((3, 2), 0.8, np.float32))
+    y0, x0, w = union_max([a, b, (0, 0, np.zeros((0, 0), np.float32))])
+    assert (y0, x0, w.shape) == (10, 18, (4, 5))
+    assert w[0, 2] == np.float32(0.5) and w[1, 1] == np.float32(0.8) and w[0, 0] == 0.0
+    assert union_max([]) [2].size == 0
+
+
+def test_shifted_union_merges_one_frame_laid_at_several_shifts() -> None:
+    maps = FootprintMaps(10, 20, np.array([[0.5, 1.0]], np.float32),
+                         np.array([[0.2, 0.4]], np.float32), np.array([[1.0, 2.0]], np.float32))
+    got = shifted_union(maps, [(0, 0), (0, 1), (1, 0)])
+    assert (got.y0, got.x0, got.cover.shape) == (10, 20, (2, 3))
+    # the middle cell: cover 1.0 (first shift's right cell), depth 0.4 with its tag
+    assert got.cover[0, 1] == np.float32(1.0) and got.depth[0, 1] == np.float32(0.4)
+    assert got.tag is not None and got.tag[0, 1] == np.float32(2.0)
+    assert got.depth[1, 2] == NO_DEPTH and got.cover[1, 2] == 0.0
+    one = shifted_union(maps, [(3, -2)])
+    assert (one.y0, one.x0) == (13, 18) and one.cover is maps.cover
+
+
+def test_a_slow_pen_keeps_one_slide_entry_a_pen_cell(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A loaded flat crawling 0.017 cells a sample (a frame every sample, a stamp every
+    few cells): the cells the tuft slid over between two stamps are noted once a pen cell,
+    not once a frame (600 frames would have meant 600 weights at the next stamp)."""
+    most = [0]
+    stamp = DeformableBrush._stamp
+
+    def watch(self: DeformableBrush, s: Any, *a: Any) -> None:
+        most[0] = max(most[0], len(s.slid))
+        stamp(self, s, *a)
+
+    monkeypatch.setattr(DeformableBrush, "_stamp", watch)
+    paper = make_paper(get_profile("watercolor").paper, 100, 200, 3)
+    b = DeformableBrush(200, 100, BrushSettings(kind="flat", size=24, water=0.8,
+                                                 pigment={"French Ultramarine": 1.0}),
+                        BrushModel(), paper)
+    for i in range(600):
+        b.feed(PenSample(t=i / 120, device="d", tool=Tool.PEN, x=0.3 + 0.05 * i / 600, y=0.5,
+                         pressure=0.8, touching=True))
+    assert 0 < most[0] <= 8, most

@@ -112,21 +112,26 @@ def dry_brush_stroke(paper: np.ndarray, pressure: float, bristles: int) -> np.nd
 
 def test_dry_brush_leaves_bare_paper_following_its_height() -> None:
     prof = get_profile("watercolor")
-    paper = make_paper(prof.paper, H, W, 3)
-    dw = dry_brush_stroke(paper, 0.15, 14)
-    painted = dw > 0
-    rows = np.flatnonzero(painted.any(axis=1))
-    cols = np.flatnonzero(painted.any(axis=0))
-    inside = np.zeros_like(painted)
-    inside[rows.min():rows.max() + 1, cols.min() + 6:cols.max() - 5] = True
-    bare = 1.0 - painted[inside].mean()
-    assert bare >= 0.25, bare
-    # the paint lies on the hills of the paper (+0.028 on the broadband cold-press of issue
-    # 21 item 7, whose relief reaches 11 cells, wider than the tuft's bristle marks)
-    assert paper[inside & painted].mean() > paper[inside & ~painted].mean() + 0.02
-    # pressed firmly with a full tuft, the same stroke covers the valleys too
-    firm = dry_brush_stroke(paper, 0.6, 70) > 0
-    assert 1.0 - firm[inside].mean() < 0.5 * bare, (bare, 1.0 - firm[inside].mean())
+    hills = []
+    for seed in (1, 2, 3, 4):
+        paper = make_paper(prof.paper, H, W, seed)
+        dw = dry_brush_stroke(paper, 0.15, 14)
+        painted = dw > 0
+        rows = np.flatnonzero(painted.any(axis=1))
+        cols = np.flatnonzero(painted.any(axis=0))
+        inside = np.zeros_like(painted)
+        inside[rows.min():rows.max() + 1, cols.min() + 6:cols.max() - 5] = True
+        bare = 1.0 - painted[inside].mean()
+        assert bare >= 0.25, bare
+        hills.append(float(paper[inside & painted].mean() - paper[inside & ~painted].mean()))
+        # pressed firmly with a full tuft, the same stroke covers the valleys too
+        firm = dry_brush_stroke(paper, 0.6, 70) > 0
+        assert 1.0 - firm[inside].mean() < 0.5 * bare, (bare, 1.0 - firm[inside].mean())
+    # the paint lies on the hills of the paper (on the broadband cold-press of issue 21
+    # item 7, whose relief reaches 11 cells, wider than the tuft's bristle marks): +0.030
+    # averaged over four papers. One paper's reading ranges 0.002-0.066 (a mark of ~300
+    # cells), so one paper alone cannot hold a floor of 0.02.
+    assert float(np.mean(hills)) > 0.02, hills
 
 
 def test_stroke_tapers_at_press_in_and_lift_off() -> None:

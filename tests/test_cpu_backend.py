@@ -262,15 +262,17 @@ def test_operations_render_and_factory() -> None:
     assert c.live_state.w.sum() == 0 and c.live_state.q.sum() > 0
     c.clear()
     assert c.live_state.q.sum() == 0
-    # honest traffic: the per-sweep count, one float = 4 bytes
+    # honest traffic: the per-sweep count (float32 fields 4 bytes, the two flags 1 byte)
     slots = max(len(c.live_state.slots), 1)
     iters = int(c.live_state.params.jacobi_iters)
-    assert c.bytes_per_cell_step() == 4 * sum(
-        traffic.floats_per_cell_step(slots, iters).values())
-    # 520 before issue 10, 556 in own sweep, 544 before issue 26 fused passes 2-5, 6 and 7-10
-    assert traffic.bytes_per_cell_step(2, 4) == 408
-    # one Jacobi iteration (the profiles since issue 26): no temporally blocked sweep
-    assert traffic.bytes_per_cell_step(2, 1) == 340
+    assert c.bytes_per_cell_step() == sum(traffic.bytes_per_sweep(slots, iters).values())
+    # 520 before issue 10, 556 in own sweep, 544 before issue 26 fused passes 2-5, 6 and
+    # 7-10, 408 after them; 364 with uint8 flags, c from h, pass 1 on the state's velocity
+    assert traffic.bytes_per_cell_step(2, 4) == 380
+    # one Jacobi iteration (the profiles since issue 26): no temporally blocked sweep;
+    # 340 (348 with the fibres' reads, which that count left out) before the flags, 315
+    # after them; 275 with iteration 1 in limit_diffuse's row ring
+    assert traffic.bytes_per_cell_step(2, 1) == 275
 
 
 def test_bench_sim_measures_the_cpu_backend(capsys) -> None:

@@ -7,6 +7,9 @@ against the machine's copy bandwidth (measured in the same run) says which sweep
 are bound by memory and which by arithmetic.  Prints JSON.
 
     .venv/bin/python tools/profile_wash.py [--size 1024x1024] [--steps 20]
+
+On a shared machine the means move with the load; the fastest step and each sweep's
+fastest call (``min_ms``) are the figures closest to a quiet machine.
 """
 
 from __future__ import annotations
@@ -20,14 +23,14 @@ from typing import Any
 
 from station.backends.cpu import fused as F
 from station.backends.cpu import kernels as K
-from station.backends.cpu.traffic import floats_per_cell_step
+from station.backends.cpu.traffic import bytes_per_sweep
 from station.backends.factory import create_backend
 from station.bench._sim_driver import wash
 from station.bench.sim import memory_bandwidth_gb_s
 
 SWEEPS = ("prep", "advect_jacobi1", "jacobi_blocked", "limit_diffuse_fused", "advect_fused",
           "evap_cap_fused")
-"""The sweeps of a step in the order of ``traffic.floats_per_cell_step`` (the fused ones
+"""The sweeps of a step in the order of ``traffic.bytes_per_sweep`` (the fused ones
 live in ``station.backends.cpu.fused``)."""
 
 
@@ -42,6 +45,7 @@ def main() -> None:
     for _ in range(3):
         canvas.step()
     spent: dict[str, float] = defaultdict(float)
+    fastest: dict[str, float] = defaultdict(lambda: float("inf"))
     home = {name: (F if hasattr(F, name) else K) for name in SWEEPS}
     originals = {name: getattr(home[name], name) for name in SWEEPS}
 
@@ -51,7 +55,9 @@ def main() -> None:
         def call(*a: Any) -> Any:
             t0 = time.perf_counter()
             r = fn(*a)
-            spent[name] += time.perf_counter() - t0
+            dt = time.perf_counter() - t0
+            spent[name] += dt
+            fastest[name] = min(fastest[name], dt)
             return r
         return call
 
@@ -59,28 +65,33 @@ def main() -> None:
         setattr(home[name], name, timed(name))
     load0 = os.getloadavg()
     t0 = time.perf_counter()
+    step_min = float("inf")
     for _ in range(args.steps):
+        t1 = time.perf_counter()
         canvas.step()
+        step_min = min(step_min, time.perf_counter() - t1)
     total = time.perf_counter() - t0
     for name, fn in originals.items():
         setattr(home[name], name, fn)
     bw = memory_bandwidth_gb_s()
     st = canvas.live_state
-    floats = floats_per_cell_step(max(len(st.slots), 1), int(st.params.jacobi_iters))
+    per_sweep = bytes_per_sweep(max(len(st.slots), 1), int(st.params.jacobi_iters))
     cells = w * h * args.steps
     rows = []
-    for (label, f), name in zip(floats.items(), SWEEPS, strict=True):
+    for (label, nbytes), name in zip(per_sweep.items(), SWEEPS, strict=True):
         s = spent[name]
-        gbs = 4 * f * cells / s / 1e9 if s > 0 else 0.0
-        rows.append({"sweep": name, "counted": label, "bytes_per_cell": 4 * f,
+        gbs = nbytes * cells / s / 1e9 if s > 0 else 0.0
+        rows.append({"sweep": name, "counted": label, "bytes_per_cell": nbytes,
                      "ms_per_step": round(1e3 * s / args.steps, 3),
+                     "min_ms": round(1e3 * fastest[name], 3) if s > 0 else 0.0,
                      "time_share": round(s / total, 3), "gb_s": round(gbs, 2),
                      "fraction_of_copy": round(gbs / bw, 3)})
     print(json.dumps({"size": args.size, "steps": args.steps,
                       "load_average": [round(x, 2) for x in load0],
                       "copy_bandwidth_gb_s": round(bw, 2),
-                      "bytes_per_cell_step": 4 * sum(floats.values()),
+                      "bytes_per_cell_step": sum(per_sweep.values()),
                       "step_ms": round(1e3 * total / args.steps, 2),
+                      "fastest_step_ms": round(1e3 * step_min, 2),
                       "outside_sweeps_ms": round(1e3 * (total - sum(spent.values()))
                                                  / args.steps, 3),
                       "sweeps": rows}, indent=2))

@@ -5,7 +5,8 @@ The peer is a Taichi watercolor simulation (github.com/ShuoqiChen/Open-Watercolo
 Apache-2.0; measured at commit a5b7cad).  It is not a dependency: install it beside
 the station to compare::
 
-    pip install taichi==1.7.4            # from the registry, into any Python >= 3.9
+    pip install taichi==1.7.4 pillow     # from the registry, into any Python >= 3.9
+                                         # (the peer imports PIL)
     git clone https://github.com/ShuoqiChen/Open-Watercolor-Sim
     station bench peer --peer-src Open-Watercolor-Sim/src [--peer-python PY]
 
@@ -41,7 +42,7 @@ from typing import Any
 from station.errors import BadInput, StationError
 
 PEER_REPO = "https://github.com/ShuoqiChen/Open-Watercolor-Sim"
-INSTALL = (f"pip install taichi==1.7.4; git clone {PEER_REPO}; "
+INSTALL = (f"pip install taichi==1.7.4 pillow; git clone {PEER_REPO}; "
            "station bench peer --peer-src Open-Watercolor-Sim/src")
 STATION_DT = 1.0 / 30.0
 PEER_DT = 1.0 / 60.0

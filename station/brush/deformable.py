@@ -44,12 +44,20 @@ from __future__ import annotations
 import inspect
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from station.brush.footprint import FootprintMaps, prune_spurs, rasterise, segments, weight
+from station.brush.footprint import (
+    FootprintMaps,
+    prune_spurs,
+    rasterise,
+    segments,
+    shifted_union,
+    union_max,
+    weight,
+)
 from station.brush.geometry import BrushShape, Tuft, get_shape
 from station.brush.reservoir import Reservoir
 from station.brush.solver import SolverCounters, SpineSolver, SpineState
@@ -80,6 +88,10 @@ DOWN_WAIT = 0.25
 it buckles its own way (a brush pressed and held)."""
 
 
+SLIDE = 0.5
+"""Cells between the points of the path a tuft slides over between two stamps."""
+
+
 @dataclass(slots=True)
 class _Stroke:
     x: float
@@ -100,6 +112,9 @@ class _Stroke:
     # the tuft then buckles behind the motion (see DeformableBrush._touch_down)
     down: tuple[PenSample, float] | None = None
     twist: float = 0.0  # degrees added to the pen's barrel rotation for this stroke
+    # shifts of a frame's maps the tuft slid over since the last stamp (DeformableBrush._slide)
+    slid: list[tuple[FootprintMaps, int, int]] = field(default_factory=list)
+    slid_cells: set[tuple[int, int]] = field(default_factory=set)  # the pen cells noted
 
 
 def _takes_tags(fn: Callable[..., FootprintMaps]) -> bool:
@@ -354,19 +369,51 @@ class DeformableBrush:
             stroke.vx = stroke.vy = 0.0
         pos = stroke.to_next
         step = 0.0
+        # the tuft slides over the cells between stamps (every SLIDE cells of the
+        # segment, with this sample's frame); the next stamp takes them in
+        slid = 0.0
+
+        def shift(back: float) -> tuple[int, int]:
+            """The frame's shift for a point ``back`` cells behind the sample's."""
+            return (-int(round(dy * back / dist - ey)), -int(round(dx * back / dist - ex)))
+
+        def path(a0: float, a1: float) -> list[tuple[tuple[int, int], tuple[int, int]]]:
+            """The pen's cells from ``a0`` to ``a1`` cells along this segment, each with
+            the frame's shift that lays the tuft there."""
+            return [((int(round(stroke.y + dy * a / dist)), int(round(stroke.x + dx * a / dist))),
+                     shift(dist - a)) for a in np.arange(a0, a1, SLIDE)]
+
         while pos <= dist and dist > 0.0:
             back = dist - pos  # along the path back from the sample's point
             maps = self._maps(stroke)
-            self._stamp(stroke, maps, -int(round(dy * back / dist - ey)),
-                        -int(round(dx * back / dist - ex)),
-                        stroke.t + (sample.t - stroke.t) * (pos / dist))
-            made += 1
             step = step or self._spacing(maps)
+            at = shift(back)
+            self._slide(stroke, maps, path(slid, pos - 1e-9))
+            self._stamp(stroke, maps, at[0], at[1],
+                        stroke.t + (sample.t - stroke.t) * (pos / dist))
+            slid = pos + SLIDE
+            made += 1
             pos += step
         if dist > 0.0:
             stroke.to_next = pos - dist
+            if self.reservoir.fill >= self.tuft_model.film_fill:
+                self._slide(stroke, self._maps(stroke), path(slid, dist + 1e-9))
         stroke.x, stroke.y, stroke.t = x, y, sample.t
         return made
+
+    def _slide(self, s: _Stroke, maps: FootprintMaps,
+               cells: list[tuple[tuple[int, int], tuple[int, int]]]) -> None:
+        """Note where the tuft slid since the last stamp: for each pen cell of ``cells``
+        not yet noted, the shift of ``maps`` (this sample's frame) that lays it there. One
+        entry a pen cell, the first frame that passed it: a stamp comes every spacing (a
+        few cells), so a slow pen with a frame every sample adds nothing new per frame.
+        A draining tuft's are not used (:meth:`_stamp`)."""
+        if self.reservoir.fill < self.tuft_model.film_fill:
+            return
+        for cell, sh in cells:
+            if cell not in s.slid_cells:
+                s.slid_cells.add(cell)
+                s.slid.append((maps, sh[0], sh[1]))
 
     def _touch_down(self, stroke: _Stroke, sample: PenSample, p: float) -> int:
         """The stroke's first frame and stamp, at ``sample`` (its first).
@@ -409,31 +456,6 @@ class DeformableBrush:
             self.last_maps = s.maps
         return s.maps
 
-    def _wetness(self, fill: float) -> float:
-        """How connected the tuft's ink is, 0 (pendular) to 1 (a film down to the tip)."""
-        tm = self.tuft_model
-        span = tm.film_fill - tm.pendular_fill
-        if span <= 0.0:
-            return 1.0 if fill >= tm.film_fill else 0.0
-        return min(1.0, max(0.0, (fill - tm.pendular_fill) / span))
-
-    def _split(self, fill: float) -> float:
-        """How far the tuft's ink has split into locks: 0 at ``film_fill`` and above
-        (one body), 1 at ``pendular_fill`` and below."""
-        tm = self.tuft_model
-        span = tm.film_fill - tm.pendular_fill
-        if span <= 0.0:
-            return 0.0 if fill >= tm.film_fill else 1.0
-        return min(1.0, max(0.0, (tm.film_fill - fill) / span))
-
-    def _wetness_map(self, fill: np.ndarray) -> np.ndarray:
-        """:meth:`_wetness` per cell."""
-        tm = self.tuft_model
-        span = tm.film_fill - tm.pendular_fill
-        if span <= 0.0:
-            return (fill >= tm.film_fill).astype(np.float32)
-        return np.clip((fill - tm.pendular_fill) / span, 0.0, 1.0).astype(np.float32)
-
     def _contact(self, s: _Stroke, maps: FootprintMaps) -> float:
         """Share of a saturating transfer a cell gets while the tuft passes over it.
 
@@ -453,8 +475,10 @@ class DeformableBrush:
         out: float = max(1.0, self.tuft_model.spacing * 0.5 * max(h, w, 1))
         return out
 
-    def _stamp(self, s: _Stroke, maps: FootprintMaps, dy: int, dx: int, t: float = 0.0
-               ) -> None:
+    def _contact_weight(self, s: _Stroke, maps: FootprintMaps, dy: int, dx: int
+                        ) -> tuple[int, int, np.ndarray]:
+        """:func:`~station.brush.footprint.weight` of ``maps`` shifted ``(dy, dx)`` on
+        the paper, for the tuft's fill now."""
         tm = self.tuft_model
         fill = self.reservoir.fill
         deepest = max(0.0, float(maps.depth.max(initial=0.0)))
@@ -464,7 +488,7 @@ class DeformableBrush:
             # the bristles lifted as the tuft dries; the ink a loaded tuft holds wets
             # the tooth below them (cells)
             lift = tm.dry_lift * (1.0 - fill) ** 2 * deepest
-            bead = tm.ink_reach * self._wetness(fill)
+            bead = tm.ink_reach * tm.wetness(fill)
         else:
             # the same per bristle, from its own fill: above film_fill the tuft's ink
             # is one body and every bristle has the same share; as it drains below,
@@ -472,13 +496,38 @@ class DeformableBrush:
             # lowest) keeps ``retention`` times the tuft's share at pendular_fill, so
             # the bristles lose their ink lock by lock and each leaves a streak along
             # the stroke where it stops giving paint
-            own = np.minimum(1.0, fill * np.nan_to_num(maps.tag, nan=1.0) ** self._split(fill))
+            own = np.minimum(1.0, fill * np.nan_to_num(maps.tag, nan=1.0) ** tm.split(fill))
             lift = tm.dry_lift * (1.0 - own) ** 2 * deepest
-            bead = tm.ink_reach * self._wetness_map(own)
+            bead = tm.ink_reach * tm.wetness_map(own)
         speed = math.hypot(s.vx, s.vy)
         drag = (s.vx / speed, s.vy / speed) if speed > 0.0 else None
-        y0, x0, wt = weight(maps, self.paper, tm.tooth, tm.ramp, dy, dx, lift, bead,
-                            drag=drag, sink=tm.sink, skim=tm.skim)
+        return weight(maps, self.paper, tm.tooth, tm.ramp, dy, dx, lift, bead, drag=drag,
+                      sink=tm.sink, skim=tm.skim)
+
+    def _stamp(self, s: _Stroke, maps: FootprintMaps, dy: int, dx: int, t: float = 0.0
+               ) -> None:
+        """One stamp of ``maps`` shifted ``(dy, dx)``, with the cells the tuft slid over
+        since the previous stamp (``s.slid``: every ``SLIDE`` cells of the pen's path,
+        each with the frame of its sample): a hair that touches all along wets a streak,
+        not a row of dots a stamp spacing apart; one skimming the tooth still misses the
+        valleys it skims."""
+        tm = self.tuft_model
+        fill = self.reservoir.fill
+        groups: dict[int, tuple[FootprintMaps, list[tuple[int, int]]]] = {
+            id(maps): (maps, [(dy, dx)])}
+        if fill >= tm.film_fill:
+            # a loaded tuft's ink is one body sliding on the paper; a draining one's hairs
+            # skip over the tooth from stamp to stamp and leave its broken dry end. Each
+            # frame's shifts are merged first and met against the paper once.
+            for frame, sy, sx in s.slid:
+                got = groups.setdefault(id(frame), (frame, []))[1]
+                if (sy, sx) not in got:
+                    got.append((sy, sx))
+        s.slid.clear()
+        s.slid_cells.clear()
+        parts = [self._contact_weight(s, shifted_union(frame, shifts), 0, 0)
+                 for frame, shifts in groups.values()]
+        y0, x0, wt = union_max(parts)
         if fill >= tm.film_fill:
             # a loaded tuft's water is one body: a lone hair tip's drop joins its
             # neighbours' (surface tension) instead of wetting a one-cell whisker; a

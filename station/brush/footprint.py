@@ -40,6 +40,9 @@ import numpy as np
 NO_DEPTH = -1.0e6
 CLIP_ABOVE = 0.05
 """ε: the back clip plane's height above the canvas plane, cells."""
+LONE_MIN = 8
+"""A mark of at least this many cells loses its lone dots (:func:`prune_spurs`); a
+smaller one (a tiny brush's tip) is all the stroke there is."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -179,12 +182,16 @@ def weight(maps: FootprintMaps, paper: np.ndarray, tooth: float, ramp: float,
     lift_w = lift[win].astype(np.float32) if isinstance(lift, np.ndarray) else np.float32(lift)
     hairs = below
     if drag is not None and skim > 0:
-        rows = np.arange(ya, yb)[:, None]
-        cols = np.arange(xa, xb)[None, :]
+        # the paper around the window, its edge rows and columns repeated past the
+        # canvas's edge, so each shift back along the drag is a plain slice
+        pa, pb = max(ya - skim, 0), min(yb + skim, hh)
+        qa, qb = max(xa - skim, 0), min(xb + skim, ww)
+        near = np.pad(paper[pa:pb, qa:qb], ((skim - (ya - pa), skim - (pb - yb)),
+                                            (skim - (xa - qa), skim - (qb - xb))), mode="edge")
         for k in range(1, skim + 1):
-            ys = np.clip(rows - int(round(k * drag[1])), 0, hh - 1)
-            xs = np.clip(cols - int(round(k * drag[0])), 0, ww - 1)
-            back = np.float32(tooth) * (np.float32(1.0) - paper[ys, xs]) + np.float32(k * sink)
+            oy, ox = skim - int(round(k * drag[1])), skim - int(round(k * drag[0]))
+            back = (np.float32(tooth) * (np.float32(1.0) - near[oy:oy + yb - ya, ox:ox + xb - xa])
+                    + np.float32(k * sink))
             hairs = np.minimum(hairs, back)
     reach = (dep - lift_w - hairs) / np.float32(ramp)
     if np.any(bead_w > 0.0):
@@ -196,12 +203,57 @@ def weight(maps: FootprintMaps, paper: np.ndarray, tooth: float, ramp: float,
     return ya, xa, (cov * reach).astype(np.float32)
 
 
-def prune_spurs(wt: np.ndarray, passes: int = 3) -> np.ndarray:
+def shifted_union(maps: FootprintMaps, shifts: list[tuple[int, int]]) -> FootprintMaps:
+    """``maps`` laid at each of ``shifts`` (whole cells ``(dy, dx)``), merged: per cell
+    the fullest cover and the deepest reach, with that deepest bristle's tag. One frame of
+    the tuft slid over those cells; :func:`weight` of the result meets each cell against
+    its own paper once, instead of once per shift."""
+    if len(shifts) == 1:
+        dy, dx = shifts[0]
+        return FootprintMaps(maps.y0 + dy, maps.x0 + dx, maps.cover, maps.depth, maps.tag)
+    top = min(p[0] for p in shifts)
+    left = min(p[1] for p in shifts)
+    h, w = maps.cover.shape
+    hh = h + max(p[0] for p in shifts) - top
+    ww = w + max(p[1] for p in shifts) - left
+    cover = np.zeros((hh, ww), np.float32)
+    depth = np.full((hh, ww), NO_DEPTH, np.float32)
+    tag = None if maps.tag is None else np.full((hh, ww), np.nan, np.float32)
+    for dy, dx in shifts:
+        win = (slice(dy - top, dy - top + h), slice(dx - left, dx - left + w))
+        np.maximum(cover[win], maps.cover, out=cover[win])
+        deeper = maps.depth > depth[win]
+        depth[win] = np.where(deeper, maps.depth, depth[win])
+        if tag is not None and maps.tag is not None:
+            tag[win] = np.where(deeper, maps.tag, tag[win])
+    return FootprintMaps(maps.y0 + top, maps.x0 + left, cover, depth, tag)
+
+
+def union_max(parts: list[tuple[int, int, np.ndarray]]) -> tuple[int, int, np.ndarray]:
+    """Weights ``(y0, x0, w)`` laid over one another, the largest per cell, over the
+    window that holds them all (the empty ones dropped)."""
+    parts = [p for p in parts if p[2].size]
+    if len(parts) <= 1:
+        return parts[0] if parts else (0, 0, np.zeros((0, 0), np.float32))
+    ya = min(p[0] for p in parts)
+    xa = min(p[1] for p in parts)
+    yb = max(p[0] + p[2].shape[0] for p in parts)
+    xb = max(p[1] + p[2].shape[1] for p in parts)
+    out = np.zeros((yb - ya, xb - xa), np.float32)
+    for py, px, w in parts:
+        win = out[py - ya:py - ya + w.shape[0], px - xa:px - xa + w.shape[1]]
+        np.maximum(win, w, out=win)
+    return ya, xa, out
+
+
+def prune_spurs(wt: np.ndarray, passes: int = 8) -> np.ndarray:
     """``wt`` without its one-cell spurs: a covered cell with at most one covered
-    4-neighbour is cleared, ``passes`` times (a spur three cells long goes too). In a thin
-    mark (fewer than half its cells inside: a rigger's line, a flat brush edge-on) only a
-    spur sticking out of the mark's side goes (its neighbour has three or more covered
-    neighbours): a one-cell line and its ends are the stroke."""
+    4-neighbour is cleared, up to ``passes`` times (a hair's streak dragged off the body,
+    :func:`sweep`, goes back to the body). In a line (fewer than a quarter of its cells
+    with three or more covered neighbours: a rigger's line) only a spur sticking out of
+    the line's side goes (its neighbour has three or more covered neighbours), and, in a
+    mark of ``LONE_MIN`` cells or more, a lone dot: a one-cell line and its ends are the
+    stroke."""
     out = wt
     for k in range(passes):
         on = out > 0
@@ -211,11 +263,12 @@ def prune_spurs(wt: np.ndarray, passes: int = 3) -> np.ndarray:
         nb = (pad[:-2, 1:-1].astype(np.int8) + pad[2:, 1:-1] + pad[1:-1, :-2]
               + pad[1:-1, 2:])
         spur = on & (nb <= 1)
-        if k == 0 and 2 * int(np.count_nonzero(on & (nb == 4))) < int(np.count_nonzero(on)):
-            # a thin mark: only side whiskers, once
+        if k == 0 and 4 * int(np.count_nonzero(on & (nb >= 3))) < int(np.count_nonzero(on)):
+            # a line (a rigger's mark): only side whiskers and lone dots, once
             busy = np.pad(on & (nb >= 3), 1)
             side = (busy[:-2, 1:-1] | busy[2:, 1:-1] | busy[1:-1, :-2] | busy[1:-1, 2:])
-            return np.where(spur & side, out.dtype.type(0), out)
+            lone = on & (nb == 0) if int(np.count_nonzero(on)) >= LONE_MIN else False
+            return np.where((spur & side) | lone, out.dtype.type(0), out)
         if not spur.any():
             break
         out = np.where(spur, out.dtype.type(0), out)

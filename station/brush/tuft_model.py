@@ -71,6 +71,29 @@ class TuftModel:
     skim: int = 8
     sink: float = 0.1
 
+    def wetness(self, fill: float) -> float:
+        """How connected the tuft's ink is, 0 (pendular) to 1 (a film down to the tip)."""
+        span = self.film_fill - self.pendular_fill
+        if span <= 0.0:
+            return 1.0 if fill >= self.film_fill else 0.0
+        return min(1.0, max(0.0, (fill - self.pendular_fill) / span))
+
+    def split(self, fill: float) -> float:
+        """How far the tuft's ink has split into locks: 0 at ``film_fill`` and above
+        (one body), 1 at ``pendular_fill`` and below."""
+        span = self.film_fill - self.pendular_fill
+        if span <= 0.0:
+            return 0.0 if fill >= self.film_fill else 1.0
+        return min(1.0, max(0.0, (self.film_fill - fill) / span))
+
+    def wetness_map(self, fill: np.ndarray) -> np.ndarray:
+        """:meth:`wetness` per cell."""
+        span = self.film_fill - self.pendular_fill
+        if span <= 0.0:
+            out: np.ndarray = (fill >= self.film_fill).astype(np.float32)
+            return out
+        return np.clip((fill - self.pendular_fill) / span, 0.0, 1.0).astype(np.float32)
+
 
 @dataclass(slots=True)
 class PickupRequest:

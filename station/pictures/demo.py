@@ -11,13 +11,17 @@
 2. **distant mountains** — a violet mix laid **wet-on-dry** on the dried sky
    (hard, **dark edges**), fading into mist; clean water touched into the
    half-dry wash makes two **blooms** (backruns) with dark fringes;
-3. **hills** — Cerulean Blue with Phthalo Green and Burnt Umber dropped in
-   wet, dried, then a Hansa Yellow **glaze** over most of them on a new layer;
-4. **lake** — a blue wash with wavy edges, then quick, nearly dry strokes of
-   the deformable tuft over it: **dry-brush** glints;
-5. **foreground** — Burnt Umber with French Ultramarine, **granulating** in
-   the paper's valleys;
-6. **ink** — a profile switch to ``ink`` for a tree, grass and birds in Sumi Ink.
+3. **hills** — clear water first, then a pale yellow-green laid along the ridge
+   and graded out to water at the foot, greens and umber dropped in **wet-in-wet**
+   near the crest, warm light touched into the slopes; a nearer slope on a new layer,
+   wet-on-dry, its crest a hard edge and its foot lost in water;
+4. **lake** — wet paper, a pale blue graded darker towards the near shore with a light
+   band left; dried, quick **dry-brush** ripples of the deformable tuft;
+5. **foreground** — wet paper, warm ochre in varied strokes, Burnt Umber with French
+   Ultramarine dropped in wet (**granulating** in the paper's valleys), greens at the
+   grass;
+6. **ink** — a profile switch to ``ink`` for a slender tree, grass in quick flicks of
+   diluted ink, and birds in Sumi Ink.
 
 The committed ``station/data/demo/landscape.jsonl`` is exactly
 ``landscape().text()``; regenerate it with ``python -m station.pictures.demo``
@@ -66,24 +70,30 @@ def _fill(s: Script, base: float, amp: float, phase: float, waves: float, bottom
 
 
 def _tree(s: Script, cells: float, foot: tuple[float, float], height: float) -> None:
-    """An ink tree: a tapering trunk, curved branches, two twigs at each end."""
+    """An ink tree: a trunk pressed hard at the foot and lifted towards the crown, branches
+    that taper from the trunk to a hair, twigs drawn with the rigger."""
     fx, fy = foot
-    s.brush(size=2.2 * cells, water=0.5, pigment={"Sumi Ink": 0.85})
+    s.brush(size=1.6 * cells, water=0.5, pigment={"Sumi Ink": 0.9})
     s.curve([foot, (fx - 0.006, fy - 0.35 * height), (fx + 0.006, fy - 0.7 * height),
-             (fx - 0.01, fy - height)], 1.1, pressure=taper(0.95, 0.9, 0.1, release=0.45),
+             (fx - 0.01, fy - height)], 1.1,
+            pressure=taper(0.95, 0.95, 0.1, attack=0.05, release=0.8),
             tilt=tilt_const(-10.0, 30.0))
-    s.brush(size=1.1 * cells, water=0.5, pigment={"Sumi Ink": 0.8})
+    s.brush(size=0.8 * cells, water=0.5, pigment={"Sumi Ink": 0.75})
     branches = ((0.42, -1, 0.12, 0.06), (0.52, 1, 0.12, 0.08), (0.66, -1, 0.09, 0.07),
                 (0.76, 1, 0.09, 0.06), (0.87, -1, 0.06, 0.05))
-    for k, (at, side, length, rise) in enumerate(branches):
+    ends = []
+    for at, side, length, rise in branches:
         bx, by = fx - 0.004 * at, fy - at * height
         dx, dy = side * length, -rise
         end = (bx + dx, by + dy)
+        ends.append((end, side))
         s.curve([(bx, by), (bx + 0.5 * dx, by + 0.25 * dy), end], 0.35,
-                pressure=taper(0.9, 0.8, 0.05, release=0.6))
+                pressure=taper(0.85, 0.85, 0.0, attack=0.05, release=0.9))
+    s.brush(size=1.4 * cells, water=0.5, pigment={"Sumi Ink": 0.7}, kind="rigger")
+    for k, (end, side) in enumerate(ends):
         for t in (-1, 1):
             tw = (end[0] + 0.025 * (side + 0.6 * t), end[1] - 0.03 * (1 + k % 2))
-            s.line(end, tw, 0.15, pressure=taper(0.7, 0.6, 0.02, attack=0.05, release=0.7))
+            s.line(end, tw, 0.15, pressure=taper(0.5, 0.5, 0.0, attack=0.05, release=0.8))
 
 
 def _blow_dry(s: Script, seconds: float) -> None:
@@ -98,6 +108,117 @@ def _wavy(x0: float, x1: float, y: float, amp: float, freq: float, phase: float,
           n: int = 8) -> list[tuple[float, float]]:
     return [(x0 + (x1 - x0) * k / n, y + amp * math.sin(freq * k / n + phase))
             for k in range(n + 1)]
+
+
+def _wet(s: Script, c: float, rows: list[float], x0: float = 0.0, x1: float = 1.0,
+         size: float = 9.0) -> None:
+    """Clear water brushed across the rows ``rows`` (y) with a ``size`` % brush: paint
+    touched into it next spreads and feathers (wet-in-wet) instead of stopping at a hard
+    edge."""
+    s.brush(size=size * c, water=1.0, pigment={})
+    for k, y in enumerate(rows):
+        a, b = (x0, y), (x1, y + 0.004)
+        s.line(*((a, b) if k % 2 == 0 else (b, a)), 0.5, pressure=taper(0.9, 0.7, 0.7),
+               tilt=tilt_const(15.0, 10.0))
+
+
+def _hills(s: Script, c: float) -> None:
+    """Far hills into damp paper: a pale yellow-green laid along the ridge and graded out
+    to water at the foot, greens and umber dropped in wet near the crest, warm light
+    touched into the slopes; then a nearer slope on the left, wet-on-dry, its crest a hard
+    edge and its foot lost in water."""
+    _wet(s, c, [0.61, 0.645, 0.675], size=6.0)  # below the crest: it stays a crisp edge
+    s.brush(size=6 * c, water=0.9, pigment={"Hansa Yellow": 0.3, "Cerulean Blue": 0.22})
+    _fill(s, 0.54, 0.035, 0.55, 0.9, 0.65, 3, 0.7, -20.0, fade=0.6)
+    s.brush(size=3.5 * c, water=0.7, pigment={"Phthalo Green": 0.3, "Burnt Umber": 0.2,
+                                              "French Ultramarine": 0.08})
+    for k, x in enumerate((0.08, 0.27, 0.43, 0.7, 0.88)):
+        y = _ridge(x, 0.54, 0.035, 0.55, 0.9) + 0.02
+        s.curve([(x - 0.05, y + 0.004), (x, y - 0.002), (x + 0.04 + 0.01 * (k % 2), y + 0.01)],
+                0.3, pressure=taper(0.55 + 0.1 * (k % 3), 0.2, 0.1))
+    s.brush(size=4 * c, water=0.8, pigment={"Hansa Yellow": 0.22, "Quinacridone Rose": 0.03})
+    for x, y in ((0.2, 0.615), (0.55, 0.6), (0.8, 0.62)):
+        s.curve([(x - 0.06, y), (x, y - 0.006), (x + 0.06, y + 0.004)], 0.35,
+                pressure=swell(0.3, 0.6, 1.0))
+    _blow_dry(s, 12.0)
+    s.new_layer()
+    s.brush(size=5 * c, water=0.85, pigment={"Phthalo Green": 0.16, "Hansa Yellow": 0.2,
+                                              "Burnt Umber": 0.08})
+    pts = [(x / 10 * 0.48, 0.6 + 0.02 * math.sin(4.0 * x / 10 + 1.0) - 0.02 * x / 10)
+           for x in range(11)]
+    s.curve(pts, 0.8, pressure=taper(0.75, 0.3, 0.2), tilt=tilt_const(-15.0, 10.0))
+    s.brush(size=6 * c, water=1.0, pigment={"Hansa Yellow": 0.05})
+    s.curve([(p[0], p[1] + 0.03) for p in pts[::-1]], 0.8, pressure=taper(0.7, 0.4, 0.3))
+    _blow_dry(s, 10.0)
+    s.new_layer()
+
+
+def _lake(s: Script, c: float) -> None:
+    """The lake: a pale blue laid wet-on-dry at the far shore (a crisp edge), a deeper blue
+    into damp paper at the near shore, a light band left between; dried, a few quick
+    dry-brush ripples."""
+    _wet(s, c, [0.75, 0.77], size=4.0)  # the near half: the far shore stays a crisp edge
+    s.brush(size=4 * c, water=0.9, pigment={"French Ultramarine": 0.16, "Cerulean Blue": 0.2})
+    s.curve(_wavy(0.0, 1.0, 0.695, 0.004, 3.0, 0.5), 0.8, pressure=swell(0.45, 0.75, 1.5))
+    s.brush(size=5 * c, water=0.9, pigment={"French Ultramarine": 0.45, "Cerulean Blue": 0.2})
+    s.curve(_wavy(1.0, 0.0, 0.76, 0.005, 4.0, 1.3), 0.8, pressure=swell(0.55, 0.9, 2.0))
+    _blow_dry(s, 10.0)
+    s.brush(size=4 * c, water=0.15, pigment={"French Ultramarine": 0.45,
+                                              "Cerulean Blue": 0.2}, kind="round3d")
+    for x0, x1, y in ((0.1, 0.32, 0.745), (0.55, 0.9, 0.765), (0.38, 0.52, 0.73)):
+        s.line((x0, y), (x1, y + 0.003), 0.14, pressure=0.45, tilt=(30.0, 0.0))
+    _blow_dry(s, 6.0)
+    s.new_layer()
+
+
+def _foreground(s: Script, c: float) -> None:
+    """The near bank: a warm ochre laid in varied strokes, wet-on-dry at the shore and into
+    damp paper below, a granulating umber-ultramarine dropped in wet at the bottom and a
+    green at the grass."""
+    _wet(s, c, [0.88, 0.93, 0.98], size=7.0)  # below the bank's top: a crisp shore
+    s.brush(size=7 * c, water=0.9, pigment={"Hansa Yellow": 0.2, "Burnt Umber": 0.14,
+                                             "Quinacridone Rose": 0.03})
+    for k in range(5):
+        y = 0.815 + 0.042 * k
+        x0 = 0.02 + 0.06 * (k % 3)
+        pts = [(x0 + (0.96 - x0) * u / 5, y + 0.012 * math.sin(2.5 * u + k) + 0.01 * u)
+               for u in range(6)]
+        s.curve(pts[::-1] if k % 2 else pts, 0.7 + 0.1 * (k % 2),
+                pressure=swell(0.35 + 0.05 * k, 0.8, 1.0 + 0.5 * (k % 2)),
+                tilt=tilt_const(30.0, 5.0))
+    s.brush(size=6 * c, water=0.7, pigment={"Burnt Umber": 0.55, "French Ultramarine": 0.3})
+    for x, y, d in ((0.08, 0.95, 0.12), (0.35, 0.97, 0.16), (0.62, 0.94, 0.1),
+                    (0.9, 0.96, 0.09)):
+        s.curve([(x - d, y + 0.01), (x, y - 0.015), (x + d, y + 0.005)], 0.4,
+                pressure=taper(0.7, 0.3, 0.2))
+    s.brush(size=4 * c, water=0.7, pigment={"Phthalo Green": 0.2, "Burnt Umber": 0.15,
+                                             "Hansa Yellow": 0.1})
+    for x, y in ((0.05, 0.86), (0.24, 0.83), (0.5, 0.87), (0.72, 0.84)):
+        s.curve([(x, y), (x + 0.05, y - 0.012), (x + 0.1, y + 0.006)], 0.3,
+                pressure=taper(0.6, 0.3, 0.1))
+    _blow_dry(s, 12.0)
+
+
+def _ink(s: Script, c: float) -> None:
+    """Ink: a slender tree, grass in a few quick flicks of diluted ink, three birds."""
+    s.profile("ink")
+    _tree(s, c, foot=(0.8, 0.9), height=0.4)
+    for i, x in enumerate((0.07, 0.31, 0.56, 0.93)):
+        base = 0.985 - 0.012 * (i % 2)
+        s.brush(size=(0.6 + 0.15 * (i % 2)) * c, water=0.6,
+                pigment={"Sumi Ink": 0.4 + 0.15 * (i % 3)})
+        for j in range(4 + i % 2):
+            lean = (j - 2) * 0.014 + 0.005 * math.sin(5.0 * i + j)
+            hgt = 0.04 + 0.022 * ((i + 2 * j) % 3)
+            x0 = x + 0.006 * j
+            s.curve([(x0, base), (x0 + lean * 0.3, base - hgt * 0.5), (x0 + lean, base - hgt)],
+                    0.12, pressure=taper(0.7, 0.7, 0.0, attack=0.05, release=0.85))
+    s.brush(size=0.7 * c, water=0.4, pigment={"Sumi Ink": 0.55})
+    for bx, by, w in ((0.3, 0.2, 0.03), (0.37, 0.245, 0.022), (0.25, 0.265, 0.017)):
+        s.arc((bx - w / 2, by), (w / 2, w / 3), 200.0, 340.0, 0.2,
+              pressure=taper(0.6, 0.2, 0.1))
+        s.arc((bx + w / 2, by), (w / 2, w / 3), 200.0, 340.0, 0.2,
+              pressure=taper(0.6, 0.1, 0.2))
 
 
 def landscape(width: int = DEMO_WIDTH, height: int = DEMO_HEIGHT) -> Script:
@@ -135,7 +256,7 @@ def landscape(width: int = DEMO_WIDTH, height: int = DEMO_HEIGHT) -> Script:
     #    half-dry wash blooms.
     s.brush(size=6 * c, water=0.7, pigment={"French Ultramarine": 0.5,
                                              "Quinacridone Rose": 0.25, "Burnt Umber": 0.1})
-    _fill(s, 0.38, 0.07, 0.1, 1.3, 0.5, 5, 0.8, 15.0, sharp=0.5, fade=0.6)
+    _fill(s, 0.38, 0.07, 0.1, 1.3, 0.5, 5, 0.8, 15.0, sharp=0.5, fade=0.9)
     # the wash loses its shine (no standing water, the paper still damp) before the
     # water goes in: only then does it run back into the wash as a backrun
     s.wait(25.0)  # measured: the standing water is gone at 25-28 s, the paper 85-95 % full
@@ -145,61 +266,10 @@ def landscape(width: int = DEMO_WIDTH, height: int = DEMO_HEIGHT) -> Script:
     _blow_dry(s, 14.0)
     s.new_layer()
 
-    # 3. Hills: Cerulean Blue with green and umber dropped in wet; dried; a yellow glaze.
-    s.brush(size=8 * c, water=0.8, pigment={"Cerulean Blue": 0.7})
-    _fill(s, 0.55, 0.04, 0.55, 0.9, 0.66, 3, 0.7, -20.0)
-    s.brush(size=5 * c, water=0.6, pigment={"Phthalo Green": 0.4, "Burnt Umber": 0.3})
-    for x in (0.12, 0.4, 0.85):
-        s.curve([(x - 0.07, 0.62), (x, 0.6), (x + 0.07, 0.63)], 0.3, pressure=taper(0.7))
-    _blow_dry(s, 12.0)
-    s.new_layer()
-    s.brush(size=7 * c, water=0.8, pigment={"Hansa Yellow": 0.6})
-    for x0, x1, y in ((0.0, 0.45, 0.6), (0.05, 0.38, 0.63), (0.52, 1.0, 0.59),
-                      (0.6, 0.95, 0.625), (0.3, 0.7, 0.645)):
-        s.curve(_wavy(x0, x1, y, 0.012, 5.0, 7 * x0, 6), 0.5, pressure=swell(0.4, 0.95, 1.0),
-                tilt=tilt_const(0.0, 25.0))
-    _blow_dry(s, 10.0)
-    s.new_layer()
-
-    # 4. The lake: a wash with wavy edges, then dry-brush glints of the deformable tuft.
-    s.brush(size=6 * c, water=0.8, pigment={"French Ultramarine": 0.4, "Cerulean Blue": 0.3})
-    for i in range(3):
-        pts = _wavy(0.02, 0.98, 0.685 + i * 0.03, 0.008, 2.7 * 8, 2 * i)
-        s.curve(pts[::-1] if i % 2 else pts, 0.7, pressure=swell(0.6, 0.9, 1.5 + i))
-    _blow_dry(s, 10.0)
-    s.brush(size=6 * c, water=0.2, pigment={"French Ultramarine": 1.0}, kind="round3d")
-    for i in range(3):
-        y = 0.695 + i * 0.028
-        s.line((0.05 + 0.1 * i, y), (0.9 - 0.05 * i, y + 0.005), 0.18, pressure=0.5,
-               tilt=(30.0, 0.0))
-    _blow_dry(s, 6.0)
-    s.new_layer()
-
-    # 5. Foreground: granulating earth, wet-on-dry.
-    s.brush(size=7 * c, water=0.8, pigment={"Burnt Umber": 0.6, "French Ultramarine": 0.3})
-    for i in range(4):
-        y = 0.8 + i * 0.05
-        pts = [(x / 6, y + 0.015 * math.sin(3.0 * x + i)) for x in range(7)]
-        s.curve(pts[::-1] if i % 2 else pts, 0.8, pressure=swell(0.5, 1.0, 2.0),
-                tilt=tilt_const(30.0, 5.0))
-    _blow_dry(s, 12.0)
-
-    # 6. Ink: a tree, grass and birds.
-    s.profile("ink")
-    _tree(s, c, foot=(0.8, 0.92), height=0.45)
-    s.brush(size=0.8 * c, water=0.5, pigment={"Sumi Ink": 0.55})
-    for i, x in enumerate((0.05, 0.14, 0.3, 0.45, 0.58, 0.92)):
-        base = 0.99 - 0.01 * (i % 2)
-        for j in range(5):
-            lean = (j - 2) * 0.012 + 0.004 * math.sin(5.0 * i + j)
-            hgt = 0.06 + 0.025 * ((i + 2 * j) % 3)
-            x0 = x + 0.003 * j
-            s.curve([(x0, base), (x0 + lean * 0.3, base - hgt * 0.5), (x0 + lean, base - hgt)],
-                    0.15, pressure=taper(0.8, 0.8, 0.02, attack=0.05, release=0.8))
-    s.brush(size=0.9 * c, water=0.4, pigment={"Sumi Ink": 0.7})
-    for bx, by, w in ((0.3, 0.2, 0.035), (0.38, 0.25, 0.025), (0.24, 0.27, 0.02)):
-        s.arc((bx - w / 2, by), (w / 2, w / 3), 200.0, 340.0, 0.2, pressure=0.6)
-        s.arc((bx + w / 2, by), (w / 2, w / 3), 200.0, 340.0, 0.2, pressure=0.6)
+    _hills(s, c)
+    _lake(s, c)
+    _foreground(s, c)
+    _ink(s, c)
     s.wait(3.0)
     s.dry()
     return s

@@ -15,6 +15,8 @@ from collections.abc import Callable
 
 from station.pictures.effects_bloom import DROP_S, DROP_SIZE, blooms
 from station.pictures.effects_brush import (
+    SPECTRUM_WASH,
+    STEP_H,
     VALUE_H,
     VALUE_W,
     WASH,
@@ -67,7 +69,8 @@ from station.pictures.effects_physics import (
 from station.render.km import linear_to_srgb
 
 __all__ = ["BRUSH_TILES", "DARK_PIGMENTS", "DROP_S", "DROP_SIZE", "LUMA", "PALE_PIGMENTS",
-           "PEN_HZ", "PHYSICS_TILES", "REAL_MASSTONE_HUE", "TILES", "VALUE_H", "VALUE_W",
+           "PEN_HZ", "PHYSICS_TILES", "REAL_MASSTONE_HUE", "SPECTRUM_WASH", "STEP_H", "TILES",
+           "VALUE_H", "VALUE_W",
            "WASH", "Effect", "_hue_off", "_played", "_row_mask", "_value_canvas", "backrun",
            "blooms", "brush_edges", "brush_glazing", "darkness_map", "delta_e76", "density",
            "dry_brush", "edge_darkening", "edge_position_std", "flat_wash", "flow_patterns",

@@ -34,17 +34,60 @@ _parallel = njit(parallel=True, fastmath=False, cache=True, error_model="numpy",
 
 
 @_inline
-def _limit_row(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
-               p: np.ndarray, r: int, ns: int, q4: np.float32, wmin: np.float32,
-               wmax: np.float32, spans: np.ndarray, nsp: np.ndarray, buf: np.ndarray,
-               so: np.ndarray, si: np.ndarray) -> None:  # pragma: no cover - compiled
-    """advect_limit's row ``r`` into ``so``/``si`` (zero outside the row's spans)."""
-    so[:] = ZERO
-    si[:] = ZERO
+def _open(a: np.uint8, b: np.uint8) -> np.float32:  # pragma: no cover - compiled
+    """1 on a face whose two cells' flags are set, else 0 (float32, as the reference's
+    product of float32 wet masks)."""
+    return ONE if (a != 0) & (b != 0) else ZERO
+
+
+@_inline
+def _x_rates(vx: np.ndarray, wet: np.ndarray, r: int, spans: np.ndarray, nsp: np.ndarray,
+             q4: np.float32, xo: np.ndarray) -> None:  # pragma: no cover - compiled
+    """The x-face rates of row r, (positive, negative) into ``xo[0]``/``xo[1]`` for the
+    faces (i, i+1), i = slo-1..shi of each span (``K._row_rates``' rows 0/1)."""
     for sx in range(nsp[r]):
         slo, shi = K._span(spans, r, sx)
-        K._row_rates(vx, vy, wet, r, slo, shi, q4, buf)
-        rxp, rxn, syp, syn, nyp, nyn = buf[0], buf[1], buf[2], buf[3], buf[4], buf[5]
+        for i in range(slo - 1, shi + 1):
+            rp, rn = K._face_x(vx, wet, r, i, q4)
+            xo[0, i] = rp
+            xo[1, i] = rn
+
+
+@_inline
+def _y_rates(vy: np.ndarray, wet: np.ndarray, r: int, bh: int, bw: int, spans: np.ndarray,
+             nsp: np.ndarray, q4: np.float32, yo: np.ndarray) -> None:
+    # pragma: no cover - compiled
+    """The rates of the y faces (r, r+1) into ``yo[0]``/``yo[1]`` on every column that a
+    span of row r or row r+1 holds: ``K._row_rates`` computes them as row r's south faces
+    and again as row r+1's north faces, from the same operands (a pure function of the
+    scratch), so one row of them serves both."""
+    lo = bw + 1
+    hi = 0
+    for rr in (r, r + 1):
+        if 1 <= rr <= bh and nsp[rr] > 0:
+            a, _ = K._span(spans, rr, 0)
+            b = spans[rr, nsp[rr] - 1, 1]
+            lo = a if a < lo else lo
+            hi = b if b > hi else hi
+    for i in range(lo, hi + 1):
+        rp, rn = K._face_y(vy, wet, r, i, q4)
+        yo[0, i] = rp
+        yo[1, i] = rn
+
+
+@_inline
+def _limit_row(w: np.ndarray, p: np.ndarray, r: int, ns: int, wmin: np.float32,
+               wmax: np.float32, spans: np.ndarray, nsp: np.ndarray, xr: np.ndarray,
+               ys: np.ndarray, yn: np.ndarray, so: np.ndarray,
+               si: np.ndarray) -> None:  # pragma: no cover - compiled
+    """advect_limit's row ``r`` into ``so``/``si`` (zero outside the row's spans), from
+    the row's x-face rates ``xr`` and the rates of its south ``ys`` and north ``yn``
+    faces."""
+    so[:] = ZERO
+    si[:] = ZERO
+    rxp, rxn, syp, syn, nyp, nyn = xr[0], xr[1], ys[0], ys[1], yn[0], yn[1]
+    for sx in range(nsp[r]):
+        slo, shi = K._span(spans, r, sx)
         for i in range(slo, shi + 1):
             r_out = ((rxp[i] + rxn[i - 1]) + syp[i]) + nyn[i]
             wv = w[r, i]
@@ -78,45 +121,56 @@ def advect_fused(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
                  cst: np.ndarray, w3_o: np.ndarray, p_state: np.ndarray,
                  spans: np.ndarray, nsp: np.ndarray) -> None:  # pragma: no cover - compiled
     """Pass 6 (limiters and fluxes) in one sweep: each chunk computes the limiter rows
-    j-1, j, j+1 into a ring and applies row j, exactly as advect_apply does."""
+    j-1, j, j+1 into a ring and applies row j, exactly as advect_apply does. The face
+    rates live in rings too: a row's x faces serve its limiter and its fluxes, a row of
+    y faces serves the cells on both sides (each face rate computed once, not four
+    times)."""
     q4 = cst[K.C_Q4]
     wmin = cst[K.C_WMIN]
     wmax = cst[K.C_WMAX]
     nch = min(bh, K.N_CHUNKS)
     for ch in prange(nch):
         j0, j1 = K._chunk(ch, nch, bh)
-        buf = np.empty((6, bw + 2), F32)
         a = np.empty((6, bw + 2), F32)
-        so = np.zeros((3, bw + 2), F32)  # ring: row r lives in slot r % 3
+        so = np.zeros((3, bw + 2), F32)  # rings: row r lives in slot r % 3
         si = np.zeros((3, bw + 2), F32)
+        xr = np.zeros((3, 2, bw + 2), F32)  # x-face rates of row r
+        yr = np.zeros((3, 2, bw + 2), F32)  # rates of the y faces (r, r+1)
+        for r in (j0 - 2, j0 - 1, j0):
+            if 0 <= r <= bh:
+                _y_rates(vy, wet, r, bh, bw, spans, nsp, q4, yr[r % 3])
+            if 1 <= r <= bh:
+                _x_rates(vx, wet, r, spans, nsp, q4, xr[r % 3])
         for r in (j0 - 1, j0):
             if 1 <= r <= bh:
-                _limit_row(wet, vx, vy, w, p, r, ns, q4, wmin, wmax, spans, nsp, buf,
-                           so[r % 3], si[r % 3])
+                _limit_row(w, p, r, ns, wmin, wmax, spans, nsp, xr[r % 3], yr[r % 3],
+                           yr[(r - 1) % 3], so[r % 3], si[r % 3])
             else:
                 so[r % 3, :] = ZERO
                 si[r % 3, :] = ZERO
         for j in range(j0, j1):
             r = j + 1
             if r <= bh:
-                _limit_row(wet, vx, vy, w, p, r, ns, q4, wmin, wmax, spans, nsp, buf,
-                           so[r % 3], si[r % 3])
+                _y_rates(vy, wet, r, bh, bw, spans, nsp, q4, yr[r % 3])
+                _x_rates(vx, wet, r, spans, nsp, q4, xr[r % 3])
+                _limit_row(w, p, r, ns, wmin, wmax, spans, nsp, xr[r % 3], yr[r % 3],
+                           yr[j % 3], so[r % 3], si[r % 3])
             else:
                 so[r % 3, :] = ZERO
                 si[r % 3, :] = ZERO
             sm, s0, sp = (j - 1) % 3, j % 3, (j + 1) % 3
+            bx, bs, bn = xr[s0], yr[s0], yr[sm]
             y = y0 + j - 1
             for sx in range(nsp[j]):
                 slo, shi = K._span(spans, j, sx)
-                K._row_rates(vx, vy, wet, j, slo, shi, q4, buf)
                 for i in range(slo - 1, shi + 1):
-                    a[0, i] = (buf[0, i] * so[s0, i]) * si[s0, i + 1]
-                    a[1, i] = (buf[1, i] * so[s0, i + 1]) * si[s0, i]
+                    a[0, i] = (bx[0, i] * so[s0, i]) * si[s0, i + 1]
+                    a[1, i] = (bx[1, i] * so[s0, i + 1]) * si[s0, i]
                 for i in range(slo, shi + 1):
-                    a[2, i] = (buf[2, i] * so[s0, i]) * si[sp, i]
-                    a[3, i] = (buf[3, i] * so[sp, i]) * si[s0, i]
-                    a[4, i] = (buf[4, i] * so[sm, i]) * si[s0, i]
-                    a[5, i] = (buf[5, i] * so[s0, i]) * si[sm, i]
+                    a[2, i] = (bs[0, i] * so[s0, i]) * si[sp, i]
+                    a[3, i] = (bs[1, i] * so[sp, i]) * si[s0, i]
+                    a[4, i] = (bn[0, i] * so[sm, i]) * si[s0, i]
+                    a[5, i] = (bn[1, i] * so[s0, i]) * si[sm, i]
                 axp, axn, asp, asn, anp, ann = a[0], a[1], a[2], a[3], a[4], a[5]
                 for i in range(slo, shi + 1):
                     wv = w[j, i]
@@ -151,34 +205,34 @@ def _vel_row(wet: np.ndarray, v1x: np.ndarray, v1y: np.ndarray, xvx: np.ndarray,
             v3x_o[j, i] = xvx[j, i]
             v3y_o[j, i] = xvy[j, i]
     for i in range(slo, shi + 1):
-        c = wr[i]
-        be = c * wr[i + 1]
-        bwf = c * wr[i - 1]
-        bs = c * ws[i]
-        bn = c * wn[i]
+        c = wr[i] != 0
+        be = c & (wr[i + 1] != 0)
+        bwf = c & (wr[i - 1] != 0)
+        bs = c & (ws[i] != 0)
+        bn = c & (wn[i] != 0)
         vx0 = v3x_o[j, i]
         vy0 = v3y_o[j, i]
         wc_ = pr[j, i]
-        w_e = pr[j, i + 1] if be != ZERO else wc_
-        w_w = pr[j, i - 1] if bwf != ZERO else wc_
-        w_s = pr[j + 1, i] if bs != ZERO else wc_
-        w_n = pr[j - 1, i] if bn != ZERO else wc_
+        w_e = pr[j, i + 1] if be else wc_
+        w_w = pr[j, i - 1] if bwf else wc_
+        w_s = pr[j + 1, i] if bs else wc_
+        w_n = pr[j - 1, i] if bn else wc_
         nvx = oi * vx0 + oh * (g * (w_e - w_w))
         nvy = oi * vy0 + oh * (g * (w_s - w_n))
         nvx = nvx + tgx if tgx != ZERO else nvx
         nvy = nvy + tgy if tgy != ZERO else nvy
-        nvx = nvx if be != ZERO else (nvx if nvx < ZERO else ZERO)
-        nvx = nvx if bwf != ZERO else (nvx if nvx > ZERO else ZERO)
-        nvy = nvy if bs != ZERO else (nvy if nvy < ZERO else ZERO)
-        nvy = nvy if bn != ZERO else (nvy if nvy > ZERO else ZERO)
+        nvx = nvx if be else (nvx if nvx < ZERO else ZERO)
+        nvx = nvx if bwf else (nvx if nvx > ZERO else ZERO)
+        nvy = nvy if bs else (nvy if nvy < ZERO else ZERO)
+        nvy = nvy if bn else (nvy if nvy > ZERO else ZERO)
         nvx = nvx if nvx > -vm else -vm
         nvx = nvx if nvx < vm else vm
         nvy = nvy if nvy > -vm else -vm
         nvy = nvy if nvy < vm else vm
         nvx = nvx if do_height else vx0
         nvy = nvy if do_height else vy0
-        v3x_o[j, i] = nvx if c != ZERO else ZERO
-        v3y_o[j, i] = nvy if c != ZERO else ZERO
+        v3x_o[j, i] = nvx if c else ZERO
+        v3y_o[j, i] = nvy if c else ZERO
 
 
 @_inline
@@ -187,22 +241,25 @@ def _pface(br: np.ndarray, bnr: np.ndarray, bsr: np.ndarray, wr: np.ndarray, wn:
     # pragma: no cover - compiled
     b0 = br[i]
     t = br[i + 1]
-    be_ = (b0 if b0 < t else t) if wr[i] * wr[i + 1] != ZERO else ZERO
+    be_ = (b0 if b0 < t else t) if (wr[i] != 0) & (wr[i + 1] != 0) else ZERO
     t = br[i - 1]
-    bw_ = (b0 if b0 < t else t) if wr[i] * wr[i - 1] != ZERO else ZERO
+    bw_ = (b0 if b0 < t else t) if (wr[i] != 0) & (wr[i - 1] != 0) else ZERO
     t = bsr[i]
-    bs_ = (b0 if b0 < t else t) if wr[i] * ws[i] != ZERO else ZERO
+    bs_ = (b0 if b0 < t else t) if (wr[i] != 0) & (ws[i] != 0) else ZERO
     t = bnr[i]
-    bn_ = (b0 if b0 < t else t) if wr[i] * wn[i] != ZERO else ZERO
+    bn_ = (b0 if b0 < t else t) if (wr[i] != 0) & (wn[i] != 0) else ZERO
     return be_, bw_, bs_, bn_
 
 
 @_inline
-def _lim_row(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xw: np.ndarray,
-             p0: np.ndarray, xp: np.ndarray, ns: int, kw: np.float32, kp: np.float32,
+def _lim_row(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xn: np.ndarray,
+             xr: np.ndarray, xs: np.ndarray, p0: np.ndarray, pn: np.ndarray, pc: np.ndarray,
+             ps: np.ndarray, ns: int, kw: np.float32, kp: np.float32,
              do_w: bool, do_p: bool, r: int, spans: np.ndarray, nsp: np.ndarray,
              sw_r: np.ndarray, sp_r: np.ndarray) -> None:  # pragma: no cover - compiled
-    """height_limit's donor limiters of row r into ring rows (zero outside the spans)."""
+    """height_limit's donor limiters of row r into ring rows (zero outside the spans),
+    from the rows r-1, r, r+1 of the final water (``xn``, ``xr``, ``xs``) and pigment
+    (``pn``, ``pc``, ``ps``: slot, column) iterates."""
     sw_r[:] = ZERO
     sp_r[:, :] = ZERO
     wr, wn, ws = wet[r], wet[r - 1], wet[r + 1]
@@ -210,10 +267,10 @@ def _lim_row(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xw: np.ndarray,
         slo, shi = K._span(spans, r, sx)
         if do_w:
             for i in range(slo, shi + 1):
-                fe = (kw * (wr[i] * wr[i + 1])) * (xw[r, i] - xw[r, i + 1])
-                fw = (kw * (wr[i - 1] * wr[i])) * (xw[r, i - 1] - xw[r, i])
-                fs = (kw * (wr[i] * ws[i])) * (xw[r, i] - xw[r + 1, i])
-                fn = (kw * (wn[i] * wr[i])) * (xw[r - 1, i] - xw[r, i])
+                fe = (kw * _open(wr[i], wr[i + 1])) * (xr[i] - xr[i + 1])
+                fw = (kw * _open(wr[i - 1], wr[i])) * (xr[i - 1] - xr[i])
+                fs = (kw * _open(wr[i], ws[i])) * (xr[i] - xs[i])
+                fn = (kw * _open(wn[i], wr[i])) * (xn[i] - xr[i])
                 out = (((fe if fe > ZERO else ZERO) - (fw if fw < ZERO else ZERO))
                        + (fs if fs > ZERO else ZERO)) - (fn if fn < ZERO else ZERO)
                 uv = w0[r, i]
@@ -224,10 +281,10 @@ def _lim_row(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xw: np.ndarray,
             for kk in range(ns):
                 for i in range(slo, shi + 1):
                     be_, bw_, bs_, bn_ = _pface(br, bnr, bsr, wr, wn, ws, i)
-                    fe = (kp * be_) * (xp[kk, r, i] - xp[kk, r, i + 1])
-                    fw = (kp * bw_) * (xp[kk, r, i - 1] - xp[kk, r, i])
-                    fs = (kp * bs_) * (xp[kk, r, i] - xp[kk, r + 1, i])
-                    fn = (kp * bn_) * (xp[kk, r - 1, i] - xp[kk, r, i])
+                    fe = (kp * be_) * (pc[kk, i] - pc[kk, i + 1])
+                    fw = (kp * bw_) * (pc[kk, i - 1] - pc[kk, i])
+                    fs = (kp * bs_) * (pc[kk, i] - ps[kk, i])
+                    fn = (kp * bn_) * (pn[kk, i] - pc[kk, i])
                     out = (((fe if fe > ZERO else ZERO) - (fw if fw < ZERO else ZERO))
                            + (fs if fs > ZERO else ZERO)) - (fn if fn < ZERO else ZERO)
                     uv = p0[kk, r, i]
@@ -235,16 +292,52 @@ def _lim_row(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xw: np.ndarray,
                     sp_r[kk, i] = uv / out if out > uv else ONE
 
 
+@_inline
+def _iterate_row(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xw: np.ndarray,
+                 p0: np.ndarray, xp: np.ndarray, bh: int, ns: int, kw: np.float32,
+                 kp: np.float32, jac1: bool, do_w: bool, do_p: bool, r: int,
+                 spans: np.ndarray, nsp: np.ndarray, xo: np.ndarray,
+                 po: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Row r of the final water/pigment iterates into ring rows (zero outside the spans
+    and the box, like the scratch): with ``jac1`` Jacobi iteration 1 from x0 = u
+    (``K._jw_rows``/``K._jp_rows``, the operands and order of ``advect_jacobi1``'s
+    rows), else a copy of the iterates ``xw``/``xp`` that ``jacobi_blocked`` left."""
+    xo[:] = ZERO
+    po[:, :] = ZERO
+    if r < 1 or r > bh:
+        return
+    wn, wr, ws = wet[r - 1], wet[r], wet[r + 1]
+    for sx in range(nsp[r]):
+        slo, shi = K._span(spans, r, sx)
+        if do_w:
+            if jac1:
+                K._jw_rows(wn, wr, ws, w0[r], w0[r - 1], w0[r], w0[r + 1], xo, slo, shi, kw)
+            else:
+                for i in range(slo, shi + 1):
+                    xo[i] = xw[r, i]
+        if do_p:
+            for kk in range(ns):
+                if jac1:
+                    K._jp_rows(wn, wr, ws, bc[r - 1], bc[r], bc[r + 1], p0[kk, r],
+                               p0[kk, r - 1], p0[kk, r], p0[kk, r + 1], po[kk], slo, shi, kp)
+                else:
+                    for i in range(slo, shi + 1):
+                        po[kk, i] = xp[kk, r, i]
+
+
 @_parallel
 def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: np.ndarray,
                         xvx: np.ndarray, xvy: np.ndarray, w0: np.ndarray, xw: np.ndarray,
                         p0: np.ndarray, xp: np.ndarray, pr: np.ndarray, bh: int, bw: int,
                         ns: int, cst: np.ndarray, do_vjac: bool, do_height: bool, do_w: bool,
-                        do_p: bool, v3x_o: np.ndarray, v3y_o: np.ndarray, w2_o: np.ndarray,
-                        p2_o: np.ndarray, spans: np.ndarray,
+                        do_p: bool, jac1: bool, v3x_o: np.ndarray, v3y_o: np.ndarray,
+                        w2_o: np.ndarray, p2_o: np.ndarray, spans: np.ndarray,
                         nsp: np.ndarray) -> None:  # pragma: no cover - compiled
     """height_limit and diffuse_apply in one sweep (their maths unchanged): each chunk
-    keeps the donor limiters of rows j-1, j, j+1 in a ring instead of ``sw``/``sp``."""
+    keeps the donor limiters of rows j-1, j, j+1 in a ring instead of ``sw``/``sp``,
+    and the final iterates of rows j-1..j+2 in another; with ``jac1`` (one Jacobi
+    iteration) it computes them here instead of reading ``xw``/``xp`` (issue 26: the
+    iterate fields are neither written nor read)."""
     kw = cst[K.C_KW]
     kp = cst[K.C_KP]
     nch = min(bh, K.N_CHUNKS)
@@ -252,22 +345,33 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
         j0, j1 = K._chunk(ch, nch, bh)
         swr = np.zeros((3, bw + 2), F32)  # ring: row r in slot r % 3
         spr = np.zeros((3, max(ns, 1), bw + 2), F32)
+        xwr = np.zeros((4, bw + 2), F32)  # final iterates: row r in slot r % 4
+        xpr = np.zeros((4, max(ns, 1), bw + 2), F32)
+        for r in range(j0 - 2, j0 + 2):
+            _iterate_row(wet, bc, w0, xw, p0, xp, bh, ns, kw, kp, jac1, do_w, do_p, r, spans,
+                         nsp, xwr[r % 4], xpr[r % 4])
         for r in (j0 - 1, j0):
             if 1 <= r <= bh:
-                _lim_row(wet, bc, w0, xw, p0, xp, ns, kw, kp, do_w, do_p, r, spans, nsp,
-                         swr[r % 3], spr[r % 3])
+                _lim_row(wet, bc, w0, xwr[(r - 1) % 4], xwr[r % 4], xwr[(r + 1) % 4], p0,
+                         xpr[(r - 1) % 4], xpr[r % 4], xpr[(r + 1) % 4], ns, kw, kp, do_w,
+                         do_p, r, spans, nsp, swr[r % 3], spr[r % 3])
             else:
                 swr[r % 3, :] = ZERO
                 spr[r % 3, :, :] = ZERO
         for j in range(j0, j1):
+            _iterate_row(wet, bc, w0, xw, p0, xp, bh, ns, kw, kp, jac1, do_w, do_p, j + 2,
+                         spans, nsp, xwr[(j + 2) % 4], xpr[(j + 2) % 4])
             r = j + 1
             if r <= bh:
-                _lim_row(wet, bc, w0, xw, p0, xp, ns, kw, kp, do_w, do_p, r, spans, nsp,
-                         swr[r % 3], spr[r % 3])
+                _lim_row(wet, bc, w0, xwr[j % 4], xwr[r % 4], xwr[(r + 1) % 4], p0,
+                         xpr[j % 4], xpr[r % 4], xpr[(r + 1) % 4], ns, kw, kp, do_w, do_p,
+                         r, spans, nsp, swr[r % 3], spr[r % 3])
             else:
                 swr[r % 3, :] = ZERO
                 spr[r % 3, :, :] = ZERO
             sm, s0_, sp_ = (j - 1) % 3, j % 3, (j + 1) % 3
+            xn, xc, xs = xwr[(j - 1) % 4], xwr[j % 4], xwr[(j + 1) % 4]
+            pn, pc, ps = xpr[(j - 1) % 4], xpr[j % 4], xpr[(j + 1) % 4]
             wr, wn, ws = wet[j], wet[j - 1], wet[j + 1]
             for sx in range(nsp[j]):
                 slo, shi = K._span(spans, j, sx)
@@ -275,10 +379,10 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
                          v3x_o, v3y_o)
                 if do_w:
                     for i in range(slo, shi + 1):
-                        fe = (kw * (wr[i] * wr[i + 1])) * (xw[j, i] - xw[j, i + 1])
-                        fw = (kw * (wr[i - 1] * wr[i])) * (xw[j, i - 1] - xw[j, i])
-                        fs = (kw * (wr[i] * ws[i])) * (xw[j, i] - xw[j + 1, i])
-                        fn = (kw * (wn[i] * wr[i])) * (xw[j - 1, i] - xw[j, i])
+                        fe = (kw * _open(wr[i], wr[i + 1])) * (xc[i] - xc[i + 1])
+                        fw = (kw * _open(wr[i - 1], wr[i])) * (xc[i - 1] - xc[i])
+                        fs = (kw * _open(wr[i], ws[i])) * (xc[i] - xs[i])
+                        fn = (kw * _open(wn[i], wr[i])) * (xn[i] - xc[i])
                         s0 = swr[s0_, i]
                         fe = (fe if fe > ZERO else ZERO) * s0 \
                             + (fe if fe < ZERO else ZERO) * swr[s0_, i + 1]
@@ -297,10 +401,10 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
                     for kk in range(ns):
                         for i in range(slo, shi + 1):
                             be_, bw_, bs_, bn_ = _pface(br, bnr, bsr, wr, wn, ws, i)
-                            fe = (kp * be_) * (xp[kk, j, i] - xp[kk, j, i + 1])
-                            fw = (kp * bw_) * (xp[kk, j, i - 1] - xp[kk, j, i])
-                            fs = (kp * bs_) * (xp[kk, j, i] - xp[kk, j + 1, i])
-                            fn = (kp * bn_) * (xp[kk, j - 1, i] - xp[kk, j, i])
+                            fe = (kp * be_) * (pc[kk, i] - pc[kk, i + 1])
+                            fw = (kp * bw_) * (pc[kk, i - 1] - pc[kk, i])
+                            fs = (kp * bs_) * (pc[kk, i] - ps[kk, i])
+                            fn = (kp * bn_) * (pn[kk, i] - pc[kk, i])
                             s0 = spr[s0_, kk, i]
                             fe = (fe if fe > ZERO else ZERO) * s0 \
                                 + (fe if fe < ZERO else ZERO) * spr[s0_, kk, i + 1]
@@ -318,7 +422,7 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
 
 
 @_inline
-def _sat_row(w3: np.ndarray, c: np.ndarray, opn: np.ndarray, wc: np.ndarray, y0: int,
+def _sat_row(w3: np.ndarray, h: np.ndarray, opn: np.ndarray, wc: np.ndarray, y0: int,
              x0: int, r: int, cst: np.ndarray, do_evap: bool, do_absorb: bool,
              spans: np.ndarray, nsp: np.ndarray, out: np.ndarray) -> None:
     # pragma: no cover - compiled
@@ -326,6 +430,8 @@ def _sat_row(w3: np.ndarray, c: np.ndarray, opn: np.ndarray, wc: np.ndarray, y0:
     e = cst[K.C_EVAP]
     edge = cst[K.C_EDGE]
     alpha = cst[K.C_ALPHA]
+    cmin = cst[K.C_CMIN]
+    cspan = cst[K.C_CSPAN]
     out[:] = ZERO
     y = y0 + r - 1
     for sx in range(nsp[r]):
@@ -343,7 +449,7 @@ def _sat_row(w3: np.ndarray, c: np.ndarray, opn: np.ndarray, wc: np.ndarray, y0:
                 loss = loss if wv > ZERO else ZERO
                 wv = wv - loss
             wcv = wc[y, x]
-            cv = c[r, i]
+            cv = cmin + h[y, x] * cspan
             if do_absorb:
                 d = alpha if alpha < wv else wv
                 room = cv - wcv
@@ -355,7 +461,7 @@ def _sat_row(w3: np.ndarray, c: np.ndarray, opn: np.ndarray, wc: np.ndarray, y0:
 
 
 @_inline
-def _esa_row(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.ndarray, h: np.ndarray,
+def _esa_row(wet: np.ndarray, w3: np.ndarray, opn: np.ndarray, h: np.ndarray,
              wc: np.ndarray, evap: np.ndarray, w_state: np.ndarray, p: np.ndarray,
              q: np.ndarray, beta: np.ndarray, gamma: np.ndarray, delta: np.ndarray, y0: int,
              x0: int, ns: int, cst: np.ndarray, do_evap: bool, do_surface: bool,
@@ -367,6 +473,8 @@ def _esa_row(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.ndarray, h:
     wmax = cst[K.C_WMAX]
     rate = cst[K.C_RATE]
     alpha = cst[K.C_ALPHA]
+    cmin = cst[K.C_CMIN]
+    cspan = cst[K.C_CSPAN]
     sat_r[:] = ZERO
     y = y0 + j - 1
     for si in range(nsp[j]):
@@ -414,7 +522,7 @@ def _esa_row(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.ndarray, h:
             x = np.uint64(x0 + i - 1)
             wv = wrow[i]
             wcv = wc[y, x]
-            cv = c[j, i]
+            cv = cmin + h[y, x] * cspan
             if do_absorb:
                 d = alpha if alpha < wv else wv
                 room = cv - wcv
@@ -429,38 +537,50 @@ def _esa_row(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.ndarray, h:
 
 
 @_inline
-def _cd_row(sm: np.ndarray, s0r: np.ndarray, sp: np.ndarray, c: np.ndarray, opn: np.ndarray,
+def _cd_row(sm: np.ndarray, s0r: np.ndarray, sp: np.ndarray, h: np.ndarray, opn: np.ndarray,
             v3x: np.ndarray, v3y: np.ndarray, w: np.ndarray, wc: np.ndarray, evap: np.ndarray,
             p: np.ndarray, q: np.ndarray, vx: np.ndarray, vy: np.ndarray, y0: int, x0: int,
             ns: int, cst: np.ndarray, do_capdiff: bool, do_dry: bool, j: int,
-            spans: np.ndarray, nsp: np.ndarray, wcrow: np.ndarray) -> None:
+            spans: np.ndarray, nsp: np.ndarray, wcrow: np.ndarray, crow: np.ndarray) -> None:
     # pragma: no cover - compiled
-    """capillary_dry's row j (unchanged) with ``sat`` rows j-1, j, j+1 from the ring."""
+    """capillary_dry's row j (unchanged) with ``sat`` rows j-1, j, j+1 from the ring;
+    ``crow``: a row buffer for the capacity of row j."""
     k = cst[K.C_KC]
     ecap = cst[K.C_ECAP]
     wdry = cst[K.C_WDRY]
     susp = cst[K.C_SUSP]
     suspending = susp > ZERO
+    cmin = cst[K.C_CMIN]
+    cspan = cst[K.C_CSPAN]
     y = y0 + j - 1
+    # the capacity c = c_min + h (c_max - c_min) from the paper, as the reference computes
+    # it, at the cell and its 4 neighbours (row j's in ``crow``, one column either side of
+    # the span); a neighbour off the canvas is not computed: its flux is 0 anyway (only a
+    # cell in the spans is open)
+    height, width = h.shape
+    hn_, h0_, hs_ = h[max(y - 1, 0)], h[y], h[min(y + 1, height - 1)]
     for si in range(nsp[j]):
         slo, shi = K._span(spans, j, si)
         if do_capdiff:
+            for i in range(max(slo - 1, 1 - x0), min(shi + 1, width - x0) + 1):
+                crow[i] = cmin + h0_[np.uint64(x0 + i - 1)] * cspan
             for i in range(slo, shi + 1):
                 o0 = opn[j, i]
-                c0 = c[j, i]
+                xu = np.uint64(x0 + i - 1)
+                c0 = crow[i]
                 s0 = s0r[i]
-                t = c[j, i + 1]
+                t = crow[i + 1]
                 fe = ((k * (c0 if c0 < t else t)) * (s0 - s0r[i + 1])) \
-                    if o0 * opn[j, i + 1] != ZERO else ZERO
-                t = c[j, i - 1]
+                    if (o0 != 0) & (opn[j, i + 1] != 0) else ZERO
+                t = crow[i - 1]
                 fw = ((k * (t if t < c0 else c0)) * (s0r[i - 1] - s0)) \
-                    if opn[j, i - 1] * o0 != ZERO else ZERO
-                t = c[j + 1, i]
+                    if (opn[j, i - 1] != 0) & (o0 != 0) else ZERO
+                t = cmin + hs_[xu] * cspan
                 fs = ((k * (c0 if c0 < t else t)) * (s0 - sp[i])) \
-                    if o0 * opn[j + 1, i] != ZERO else ZERO
-                t = c[j - 1, i]
+                    if (o0 != 0) & (opn[j + 1, i] != 0) else ZERO
+                t = cmin + hn_[xu] * cspan
                 fn = ((k * (t if t < c0 else c0)) * (sm[i] - s0)) \
-                    if opn[j - 1, i] * o0 != ZERO else ZERO
+                    if (opn[j - 1, i] != 0) & (o0 != 0) else ZERO
                 wcv = (((wc[y, np.uint64(x0 + i - 1)] - fe) + fw) - fs) + fn
                 wcrow[i] = wcv if wcv > ZERO else ZERO
         else:
@@ -494,7 +614,7 @@ def _cd_row(sm: np.ndarray, s0r: np.ndarray, sp: np.ndarray, c: np.ndarray, opn:
                     t = ONE - qv
                     t = pv if pv < t else t
                     settle = w[y, x] == ZERO
-                    if suspending and wc[y, x] > susp * c[j, i]:
+                    if suspending and wc[y, x] > susp * (cmin + h0_[x] * cspan):
                         settle = False  # damp paper keeps its pigment suspended (bloom's)
                     t = t if settle else ZERO
                     p[kk, y, x] = pv - t
@@ -502,7 +622,7 @@ def _cd_row(sm: np.ndarray, s0r: np.ndarray, sp: np.ndarray, c: np.ndarray, opn:
 
 
 @_parallel
-def evap_cap_fused(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.ndarray,
+def evap_cap_fused(wet: np.ndarray, w3: np.ndarray, opn: np.ndarray,
                    h: np.ndarray, wc: np.ndarray, evap: np.ndarray, w_state: np.ndarray,
                    p: np.ndarray, q: np.ndarray, beta: np.ndarray, gamma: np.ndarray,
                    delta: np.ndarray, v3x: np.ndarray, v3y: np.ndarray, vx: np.ndarray,
@@ -519,10 +639,10 @@ def evap_cap_fused(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.ndarr
     for ch in prange(nch):  # the boundary rows, from the state as the step found it
         j0, j1 = K._chunk(ch, nch, bh)
         if j0 - 1 >= 1:
-            _sat_row(w3, c, opn, wc, y0, x0, j0 - 1, cst, do_evap, do_absorb, spans, nsp,
+            _sat_row(w3, h, opn, wc, y0, x0, j0 - 1, cst, do_evap, do_absorb, spans, nsp,
                      edge_sat[ch, 0])
         if j1 <= bh:
-            _sat_row(w3, c, opn, wc, y0, x0, j1, cst, do_evap, do_absorb, spans, nsp,
+            _sat_row(w3, h, opn, wc, y0, x0, j1, cst, do_evap, do_absorb, spans, nsp,
                      edge_sat[ch, 1])
     for ch in prange(nch):
         j0, j1 = K._chunk(ch, nch, bh)
@@ -530,18 +650,19 @@ def evap_cap_fused(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.ndarr
         wrow = np.empty(bw + 2, F32)
         frow = np.empty(bw + 2, F32)
         wcrow = np.empty(bw + 2, F32)
+        crow = np.zeros(bw + 2, F32)
         ring[(j0 - 1) % 3, :] = edge_sat[ch, 0]
-        _esa_row(wet, w3, c, opn, h, wc, evap, w_state, p, q, beta, gamma, delta, y0, x0, ns,
+        _esa_row(wet, w3, opn, h, wc, evap, w_state, p, q, beta, gamma, delta, y0, x0, ns,
                  cst, do_evap, do_surface, do_absorb, j0, spans, nsp, wrow, frow,
                  ring[j0 % 3])
         for j in range(j0, j1):
             r = j + 1
             if r < j1:
-                _esa_row(wet, w3, c, opn, h, wc, evap, w_state, p, q, beta, gamma, delta, y0,
+                _esa_row(wet, w3, opn, h, wc, evap, w_state, p, q, beta, gamma, delta, y0,
                          x0, ns, cst, do_evap, do_surface, do_absorb, r, spans, nsp, wrow,
                          frow, ring[r % 3])
             else:
                 ring[r % 3, :] = edge_sat[ch, 1]
-            _cd_row(ring[(j - 1) % 3], ring[j % 3], ring[(j + 1) % 3], c, opn, v3x, v3y,
+            _cd_row(ring[(j - 1) % 3], ring[j % 3], ring[(j + 1) % 3], h, opn, v3x, v3y,
                     w_state, wc, evap, p, q, vx, vy, y0, x0, ns, cst, do_capdiff, do_dry, j,
-                    spans, nsp, wcrow)
+                    spans, nsp, wcrow, crow)

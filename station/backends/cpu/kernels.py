@@ -18,7 +18,9 @@ same float32 value: mass is conserved exactly as in the reference.
 Sweeps (``n`` Jacobi iterations, ``s`` pigment slots in use):
 
 * ``prep``: wet mask, the copies the stencils need (w, p), the diffusion controller
-  beta_c, the masked velocity, paper capacity and the open (unmasked) flag;
+  beta_c and the open (unmasked) flag (the two flags are uint8 fields; the capacity is
+  recomputed from ``h`` where read, and pass 1 reads the state's velocity where the
+  wet mask is set, so neither is a scratch field);
 * ``advect_jacobi1``: pass 1 (semi-Lagrangian velocity) + Jacobi iteration 1 of the
   water and pigment solves (passes 4/5);
 * ``jacobi_blocked`` (one sweep): velocity iterations 1..n-1 and water/pigment
@@ -250,7 +252,8 @@ def live_spans(active: np.ndarray, ts: int, grow: int, y0: int, x0: int, bh: int
 
 @_serial
 def clear_stale(pspans: np.ndarray, pnsp: np.ndarray, spans: np.ndarray, nsp: np.ndarray,
-                f2: tuple[np.ndarray, ...], f3: tuple[np.ndarray, ...]) -> None:
+                f2: tuple[np.ndarray, ...], f3: tuple[np.ndarray, ...],
+                f2u: tuple[np.ndarray, ...]) -> None:
     """Zero the scratch cells the last box computed (``pspans``) that this box does not
     (``spans``), in every field, and remember this box's spans: outside its spans the
     scratch is then zero, which stands for the reference's quiet cells and the ring
@@ -272,6 +275,9 @@ def clear_stale(pspans: np.ndarray, pnsp: np.ndarray, spans: np.ndarray, nsp: np
                 for f in f2:
                     for i in range(c, e + 1):
                         f[r, i] = ZERO
+                for f in f2u:
+                    for i in range(c, e + 1):
+                        f[r, i] = 0
                 for f in f3:
                     for m in range(f.shape[0]):
                         for i in range(c, e + 1):
@@ -318,13 +324,13 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
          fibre: np.ndarray, taps: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int,
          cst: np.ndarray, outward: bool, spans: np.ndarray, nsp: np.ndarray,
          wet_o: np.ndarray, w0_o: np.ndarray, p0_o: np.ndarray, bc_o: np.ndarray,
-         vsx_o: np.ndarray, vsy_o: np.ndarray, c_o: np.ndarray, opn_o: np.ndarray,
+         opn_o: np.ndarray,
          mbx_o: np.ndarray) -> None:
     """Wet mask (once per step; own water, or the advancing contact line: a neighbour's
     w above ``advance_height (1.5 - h)``, lowered along the paper's fibres by
     ``1 - fibre_wick * fibre[axis]`` for the neighbours on that axis; cells outside the box
     count as w = 0), copies, beta_c (diffusion controller, times the fibre dispersion),
-    capacity, open, and with ``outward`` the own wet area blurred along x (``mbx``, the
+    open, and with ``outward`` the own wet area blurred along x (``mbx``, the
     first half of :func:`flow_pressure`'s blur).
 
     Two sweeps: the copy of w (and p) into the padded ``w0`` first, so the contact line
@@ -391,10 +397,8 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         line = (nb > thr * (ONE - wick * fibre[0, y, x])) | \
                             (ny > thr * (ONE - wick * fibre[1, y, x]))
                         wet = ow | (un & line)
-                        wet_o[j, i] = ONE if wet else ZERO
-                        vsx_o[j, i] = vx[y, x] if wet else ZERO
-                        vsy_o[j, i] = vy[y, x] if wet else ZERO
-                        opn_o[j, i] = ONE if un else ZERO
+                        wet_o[j, i] = 1 if wet else 0
+                        opn_o[j, i] = 1 if un else 0
                 else:
                     for i in range(slo, shi + 1):
                         x = np.uint64(x0 + i - 1)
@@ -414,10 +418,8 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         t = wn[i]
                         nb = nb if nb > t else t
                         wet = ow | (un & advancing & (nb > thr))
-                        wet_o[j, i] = ONE if wet else ZERO
-                        vsx_o[j, i] = vx[y, x] if wet else ZERO
-                        vsy_o[j, i] = vy[y, x] if wet else ZERO
-                        opn_o[j, i] = ONE if un else ZERO
+                        wet_o[j, i] = 1 if wet else 0
+                        opn_o[j, i] = 1 if un else 0
                 if fade > ZERO:
                     for i in range(slo, shi + 1):
                         x = np.uint64(x0 + i - 1)
@@ -430,7 +432,6 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         paper = ONE - bpaper * (ONE - hv)
                         bcv = paper if paper < eff else eff
                         bc_o[j, i] = bcv
-                        c_o[j, i] = cmin + hv * cspan
                 else:
                     for i in range(slo, shi + 1):
                         x = np.uint64(x0 + i - 1)
@@ -440,7 +441,6 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         paper = ONE - bpaper * (ONE - hv)
                         bcv = paper if paper < eff else eff
                         bc_o[j, i] = bcv
-                        c_o[j, i] = cmin + hv * cspan
                 if disp > ZERO:  # a loop of its own: no test inside the column loops
                     for i in range(slo, shi + 1):
                         x = np.uint64(x0 + i - 1)
@@ -493,15 +493,152 @@ def _pressure_row(mbx: np.ndarray, wet: np.ndarray, w0: np.ndarray, h: np.ndarra
 
 
 # ------------------------------------------------------------------ pass 1 + Jacobi 1
+@_inline
+def _backtrace_cell(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, y0: int, x0: int,
+                    bh: int, bw: int, dx: int, dy: int, fdt: np.float32, j: int, i: int,
+                    v1x_o: np.ndarray, v1y_o: np.ndarray) -> None:
+    """Pass 1 at one cell (any cell of the box: the reference's clamps)."""
+    y = y0 + j - 1
+    if wet[j, i] != ZERO:
+        # x axis (box-relative index i - 1, n = bw)
+        if bw < 2:
+            ix, fx = 0, ZERO
+        else:
+            off = -(vx[y, np.uint64(x0 + i - 1)] * fdt)
+            fl = np.floor(off)
+            fx = off - fl
+            ix = (i - 1) + int(fl)
+            if ix < 0:
+                ix, fx = 0, ZERO
+            elif ix >= bw - 1:
+                ix, fx = bw - 2, ONE
+        if bh < 2:
+            iy, fy = 0, ZERO
+        else:
+            off = -(vy[y, np.uint64(x0 + i - 1)] * fdt)
+            fl = np.floor(off)
+            fy = off - fl
+            iy = (j - 1) + int(fl)
+            if iy < 0:
+                iy, fy = 0, ZERO
+            elif iy >= bh - 1:
+                iy, fy = bh - 2, ONE
+        gx = ONE - fx
+        gy = ONE - fy
+        a0, a1 = iy + 1, iy + 1 + dy
+        b0, b1 = ix + 1, ix + 1 + dx
+        # the masked velocity at the 4 corners (0 where not wet)
+        ya, yb = np.uint64(y0 + a0 - 1), np.uint64(y0 + a1 - 1)
+        xa, xb = np.uint64(x0 + b0 - 1), np.uint64(x0 + b1 - 1)
+        m00 = wet[a0, b0] != 0
+        m01 = wet[a0, b1] != 0
+        m10 = wet[a1, b0] != 0
+        m11 = wet[a1, b1] != 0
+        top = gx * (vx[ya, xa] if m00 else ZERO) \
+            + fx * (vx[ya, xb] if m01 else ZERO)
+        bot = gx * (vx[yb, xa] if m10 else ZERO) \
+            + fx * (vx[yb, xb] if m11 else ZERO)
+        v1x_o[j, i] = gy * top + fy * bot
+        top = gx * (vy[ya, xa] if m00 else ZERO) \
+            + fx * (vy[ya, xb] if m01 else ZERO)
+        bot = gx * (vy[yb, xa] if m10 else ZERO) \
+            + fx * (vy[yb, xb] if m11 else ZERO)
+        v1y_o[j, i] = gy * top + fy * bot
+    else:
+        v1x_o[j, i] = ZERO
+        v1y_o[j, i] = ZERO
+
+
+@_inline
+def _backtrace_run(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, y0: int, x0: int,
+                   fdt: np.float32, j: int, lo: int, hi: int, v1x_o: np.ndarray,
+                   v1y_o: np.ndarray) -> None:
+    """Pass 1 on the columns lo..hi of row j, all at least 2 cells inside the box
+    (2 <= i <= bw - 2, 2 <= j <= bh - 2) where ``v dt <= 1`` (the caller checks): no clamp
+    applies, ``floor(-v dt)`` is -1, 0 or 1, so every corner lies in rows j-1..j+2 and
+    columns i-1..i+2; each is loaded from a contiguous row and picked by selects, so the
+    column loop vectorises. The operands and their order are :func:`_backtrace_cell`'s."""
+    y = y0 + j - 1
+    for comp in range(2):
+        v = vx if comp == 0 else vy
+        o = v1x_o if comp == 0 else v1y_o
+        rm, r0, rp, r2 = v[y - 1], v[y], v[y + 1], v[y + 2]
+        wm, w0_, wp, w2 = wet[j - 1], wet[j], wet[j + 1], wet[j + 2]
+        for i in range(lo, hi + 1):
+            x = x0 + i - 1
+            xm, x_, xp, x2 = (np.uint64(x - 1), np.uint64(x), np.uint64(x + 1),
+                              np.uint64(x + 2))
+            im, i_, ip, i2 = (np.uint64(i - 1), np.uint64(i), np.uint64(i + 1),
+                              np.uint64(i + 2))
+            offx = -(vx[y, x_] * fdt)
+            flx = np.floor(offx)
+            fx = offx - flx
+            offy = -(vy[y, x_] * fdt)
+            fly = np.floor(offy)
+            fy = offy - fly
+            gx = ONE - fx
+            gy = ONE - fy
+            cm = flx < ZERO
+            c0 = flx == ZERO
+            # per candidate row: gx * V[b0] + fx * V[b1], V masked by the wet flags
+            t = rm[xm]
+            a_m = t if wm[im] != 0 else ZERO
+            t = rm[x_]
+            a_0 = t if wm[i_] != 0 else ZERO
+            t = rm[xp]
+            a_p = t if wm[ip] != 0 else ZERO
+            t = rm[x2]
+            a_2 = t if wm[i2] != 0 else ZERO
+            top_m = gx * (a_m if cm else (a_0 if c0 else a_p)) \
+                + fx * (a_0 if cm else (a_p if c0 else a_2))
+            t = r0[xm]
+            a_m = t if w0_[im] != 0 else ZERO
+            t = r0[x_]
+            a_0 = t if w0_[i_] != 0 else ZERO
+            t = r0[xp]
+            a_p = t if w0_[ip] != 0 else ZERO
+            t = r0[x2]
+            a_2 = t if w0_[i2] != 0 else ZERO
+            top_0 = gx * (a_m if cm else (a_0 if c0 else a_p)) \
+                + fx * (a_0 if cm else (a_p if c0 else a_2))
+            t = rp[xm]
+            a_m = t if wp[im] != 0 else ZERO
+            t = rp[x_]
+            a_0 = t if wp[i_] != 0 else ZERO
+            t = rp[xp]
+            a_p = t if wp[ip] != 0 else ZERO
+            t = rp[x2]
+            a_2 = t if wp[i2] != 0 else ZERO
+            top_p = gx * (a_m if cm else (a_0 if c0 else a_p)) \
+                + fx * (a_0 if cm else (a_p if c0 else a_2))
+            t = r2[xm]
+            a_m = t if w2[im] != 0 else ZERO
+            t = r2[x_]
+            a_0 = t if w2[i_] != 0 else ZERO
+            t = r2[xp]
+            a_p = t if w2[ip] != 0 else ZERO
+            t = r2[x2]
+            a_2 = t if w2[i2] != 0 else ZERO
+            top_2 = gx * (a_m if cm else (a_0 if c0 else a_p)) \
+                + fx * (a_0 if cm else (a_p if c0 else a_2))
+            rm_ = fly < ZERO
+            r0_ = fly == ZERO
+            top = top_m if rm_ else (top_0 if r0_ else top_p)
+            bot = top_0 if rm_ else (top_p if r0_ else top_2)
+            val = gy * top + fy * bot
+            o[j, i] = val if w0_[i_] != 0 else ZERO
+
+
 @_parallel
-def advect_jacobi1(wet: np.ndarray, vsx: np.ndarray, vsy: np.ndarray, bc: np.ndarray,
+def advect_jacobi1(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, bc: np.ndarray,
                    w0: np.ndarray, p0: np.ndarray, mbx: np.ndarray, h: np.ndarray,
                    taps: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int,
                    cst: np.ndarray, do_w: bool, do_p: bool, do_pr: bool, outward: bool,
                    spans: np.ndarray, nsp: np.ndarray, v1x_o: np.ndarray, v1y_o: np.ndarray,
                    xw_o: np.ndarray,
                    xp_o: np.ndarray, pr_o: np.ndarray) -> None:
-    """Pass 1 (bilinear back-trace of the masked velocity, box-relative clamps), with
+    """Pass 1 (bilinear back-trace of the masked velocity: the state's ``vx``/``vy`` where
+    the wet mask is set, 0 elsewhere; box-relative clamps), with
     ``do_pr`` pass 3's levelled height (:func:`_pressure_row`), and the first Jacobi
     iteration of the water and pigment solves (from x0 = u)."""
     fdt = cst[C_DT]
@@ -521,44 +658,24 @@ def advect_jacobi1(wet: np.ndarray, vsx: np.ndarray, vsy: np.ndarray, bc: np.nda
                 if do_pr:
                     _pressure_row(mbx, wet, w0, h, taps, j, y0 + j - 1, x0, bh, slo, shi, eta,
                                   relief, outward, acc, pr_o)
+                y = y0 + j - 1
+                # the cells 2 or more inside the box go through the vectorised run when
+                # every |v dt| of the row's span is <= 1 (the step's CFL bound)
+                lo, hi = shi + 1, shi
+                if 2 <= j <= bh - 2 and bw >= 4:
+                    fast = True
+                    for i in range(slo, shi + 1):
+                        xu = np.uint64(x0 + i - 1)
+                        fast &= (vx[y, xu] * fdt <= ONE) & (-(vx[y, xu] * fdt) <= ONE) \
+                            & (vy[y, xu] * fdt <= ONE) & (-(vy[y, xu] * fdt) <= ONE)
+                    if fast:
+                        lo, hi = max(slo, 2), min(shi, bw - 2)
                 for i in range(slo, shi + 1):
-                    if wet[j, i] != ZERO:
-                        # x axis (box-relative index i - 1, n = bw)
-                        if bw < 2:
-                            ix, fx = 0, ZERO
-                        else:
-                            off = -(vsx[j, i] * fdt)
-                            fl = np.floor(off)
-                            fx = off - fl
-                            ix = (i - 1) + int(fl)
-                            if ix < 0:
-                                ix, fx = 0, ZERO
-                            elif ix >= bw - 1:
-                                ix, fx = bw - 2, ONE
-                        if bh < 2:
-                            iy, fy = 0, ZERO
-                        else:
-                            off = -(vsy[j, i] * fdt)
-                            fl = np.floor(off)
-                            fy = off - fl
-                            iy = (j - 1) + int(fl)
-                            if iy < 0:
-                                iy, fy = 0, ZERO
-                            elif iy >= bh - 1:
-                                iy, fy = bh - 2, ONE
-                        gx = ONE - fx
-                        gy = ONE - fy
-                        a0, a1 = iy + 1, iy + 1 + dy
-                        b0, b1 = ix + 1, ix + 1 + dx
-                        top = gx * vsx[a0, b0] + fx * vsx[a0, b1]
-                        bot = gx * vsx[a1, b0] + fx * vsx[a1, b1]
-                        v1x_o[j, i] = gy * top + fy * bot
-                        top = gx * vsy[a0, b0] + fx * vsy[a0, b1]
-                        bot = gx * vsy[a1, b0] + fx * vsy[a1, b1]
-                        v1y_o[j, i] = gy * top + fy * bot
-                    else:
-                        v1x_o[j, i] = ZERO
-                        v1y_o[j, i] = ZERO
+                    if i < lo or i > hi:
+                        _backtrace_cell(wet, vx, vy, y0, x0, bh, bw, dx, dy, fdt, j, i,
+                                        v1x_o, v1y_o)
+                if lo <= hi:
+                    _backtrace_run(wet, vx, vy, y0, x0, fdt, j, lo, hi, v1x_o, v1y_o)
                 if do_w:
                     _jacobi_w_row(wet, w0, w0, xw_o, j, slo, shi, kw)
                 if do_p:
@@ -572,11 +689,11 @@ def _jacobi_v_row(wet: np.ndarray, ux: np.ndarray, uy: np.ndarray, xx: np.ndarra
     """One Jacobi iteration of pass 2 on row j (open faces: both cells wet)."""
     wr, wn, ws = wet[j], wet[j - 1], wet[j + 1]
     for i in range(lo, hi + 1):
-        c = wr[i]
-        be = c * wr[i + 1]
-        bwf = c * wr[i - 1]
-        bs = c * ws[i]
-        bn = c * wn[i]
+        c = F32(wr[i])
+        be = c * F32(wr[i + 1])
+        bwf = c * F32(wr[i - 1])
+        bs = c * F32(ws[i])
+        bn = c * F32(wn[i])
         den = ONE + k * (((be * ONE + bwf * ONE) + bs * ONE) + bn * ONE)
         sx = ((be * xx[j, i + 1] + bwf * xx[j, i - 1]) + bs * xx[j + 1, i]) + bn * xx[j - 1, i]
         sy = ((be * xy[j, i + 1] + bwf * xy[j, i - 1]) + bs * xy[j + 1, i]) + bn * xy[j - 1, i]
@@ -590,11 +707,11 @@ def _jacobi_w_row(wet: np.ndarray, u: np.ndarray, xin: np.ndarray, xout: np.ndar
     """One Jacobi iteration of the water solve (pass 4) on row j."""
     wr, wn, ws = wet[j], wet[j - 1], wet[j + 1]
     for i in range(lo, hi + 1):
-        c = wr[i]
-        be = c * wr[i + 1]
-        bwf = c * wr[i - 1]
-        bs = c * ws[i]
-        bn = c * wn[i]
+        c = F32(wr[i])
+        be = c * F32(wr[i + 1])
+        bwf = c * F32(wr[i - 1])
+        bs = c * F32(ws[i])
+        bn = c * F32(wn[i])
         den = ONE + k * (((be * ONE + bwf * ONE) + bs * ONE) + bn * ONE)
         acc = ((be * xin[j, i + 1] + bwf * xin[j, i - 1]) + bs * xin[j + 1, i]) \
             + bn * xin[j - 1, i]
@@ -612,13 +729,13 @@ def _jacobi_p_row(wet: np.ndarray, bc: np.ndarray, u: np.ndarray, xin: np.ndarra
             c = wr[i]
             b0 = br[i]
             t = br[i + 1]
-            be = (b0 if b0 < t else t) if c * wr[i + 1] != ZERO else ZERO
+            be = (b0 if b0 < t else t) if (c != 0) & (wr[i + 1] != 0) else ZERO
             t = br[i - 1]
-            bwf = (b0 if b0 < t else t) if c * wr[i - 1] != ZERO else ZERO
+            bwf = (b0 if b0 < t else t) if (c != 0) & (wr[i - 1] != 0) else ZERO
             t = bsr[i]
-            bs = (b0 if b0 < t else t) if c * ws[i] != ZERO else ZERO
+            bs = (b0 if b0 < t else t) if (c != 0) & (ws[i] != 0) else ZERO
             t = bnr[i]
-            bn = (b0 if b0 < t else t) if c * wn[i] != ZERO else ZERO
+            bn = (b0 if b0 < t else t) if (c != 0) & (wn[i] != 0) else ZERO
             den = ONE + k * (((be * ONE + bwf * ONE) + bs * ONE) + bn * ONE)
             acc = ((be * xin[kk, j, i + 1] + bwf * xin[kk, j, i - 1]) + bs * xin[kk, j + 1, i]) \
                 + bn * xin[kk, j - 1, i]
@@ -633,11 +750,11 @@ def _jv_rows(wn: np.ndarray, wr: np.ndarray, ws: np.ndarray, u: np.ndarray, xn: 
     """One Jacobi iteration of one velocity component on one row, from row views
     (north, this, south) of the wet mask and the iterate: ``(u + k sum) / den``."""
     for i in range(lo, hi + 1):
-        c = wr[i]
-        be = c * wr[i + 1]
-        bwf = c * wr[i - 1]
-        bs = c * ws[i]
-        bn = c * wn[i]
+        c = F32(wr[i])
+        be = c * F32(wr[i + 1])
+        bwf = c * F32(wr[i - 1])
+        bs = c * F32(ws[i])
+        bn = c * F32(wn[i])
         den = ONE + k * (((be * ONE + bwf * ONE) + bs * ONE) + bn * ONE)
         sx = ((be * xr[i + 1] + bwf * xr[i - 1]) + bs * xs[i]) + bn * xn[i]
         o[i] = (u[i] + k * sx) / den
@@ -649,11 +766,11 @@ def _jw_rows(wn: np.ndarray, wr: np.ndarray, ws: np.ndarray, u: np.ndarray, xn: 
              k: np.float32) -> None:
     """One Jacobi iteration of the water solve on one row: ``(sum k + u) / den``."""
     for i in range(lo, hi + 1):
-        c = wr[i]
-        be = c * wr[i + 1]
-        bwf = c * wr[i - 1]
-        bs = c * ws[i]
-        bn = c * wn[i]
+        c = F32(wr[i])
+        be = c * F32(wr[i + 1])
+        bwf = c * F32(wr[i - 1])
+        bs = c * F32(ws[i])
+        bn = c * F32(wn[i])
         den = ONE + k * (((be * ONE + bwf * ONE) + bs * ONE) + bn * ONE)
         acc = ((be * xr[i + 1] + bwf * xr[i - 1]) + bs * xs[i]) + bn * xn[i]
         o[i] = (acc * k + u[i]) / den
@@ -668,13 +785,13 @@ def _jp_rows(wn: np.ndarray, wr: np.ndarray, ws: np.ndarray, bn_: np.ndarray,
         c = wr[i]
         b0 = br[i]
         t = br[i + 1]
-        be = (b0 if b0 < t else t) if c * wr[i + 1] != ZERO else ZERO
+        be = (b0 if b0 < t else t) if (c != 0) & (wr[i + 1] != 0) else ZERO
         t = br[i - 1]
-        bwf = (b0 if b0 < t else t) if c * wr[i - 1] != ZERO else ZERO
+        bwf = (b0 if b0 < t else t) if (c != 0) & (wr[i - 1] != 0) else ZERO
         t = bs_[i]
-        bs = (b0 if b0 < t else t) if c * ws[i] != ZERO else ZERO
+        bs = (b0 if b0 < t else t) if (c != 0) & (ws[i] != 0) else ZERO
         t = bn_[i]
-        bn = (b0 if b0 < t else t) if c * wn[i] != ZERO else ZERO
+        bn = (b0 if b0 < t else t) if (c != 0) & (wn[i] != 0) else ZERO
         den = ONE + k * (((be * ONE + bwf * ONE) + bs * ONE) + bn * ONE)
         acc = ((be * xr[i + 1] + bwf * xr[i - 1]) + bs * xs[i]) + bn * xn[i]
         o[i] = (acc * k + u[i]) / den
@@ -854,10 +971,10 @@ def height_limit(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: np.ndarr
             if do_w:
                 # water conductances: 1 on open faces; b_e[i] = face (i, i+1), b_s = face (j, j+1)
                 for i in range(slo, shi + 1):
-                    fe = (kw * (wr[i] * wr[i + 1])) * (xw[j, i] - xw[j, i + 1])
-                    fw = (kw * (wr[i - 1] * wr[i])) * (xw[j, i - 1] - xw[j, i])
-                    fs = (kw * (wr[i] * ws[i])) * (xw[j, i] - xw[j + 1, i])
-                    fn = (kw * (wn[i] * wr[i])) * (xw[j - 1, i] - xw[j, i])
+                    fe = (kw * F32(wr[i] * wr[i + 1])) * (xw[j, i] - xw[j, i + 1])
+                    fw = (kw * F32(wr[i - 1] * wr[i])) * (xw[j, i - 1] - xw[j, i])
+                    fs = (kw * F32(wr[i] * ws[i])) * (xw[j, i] - xw[j + 1, i])
+                    fn = (kw * F32(wn[i] * wr[i])) * (xw[j - 1, i] - xw[j, i])
                     out = (((fe if fe > ZERO else ZERO) - (fw if fw < ZERO else ZERO))
                            + (fs if fs > ZERO else ZERO)) - (fn if fn < ZERO else ZERO)
                     uv = w0[j, i]
@@ -904,10 +1021,10 @@ def diffuse_apply(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xw: np.ndarra
             wr, wn, ws = wet[j], wet[j - 1], wet[j + 1]
             if do_w:
                 for i in range(slo, shi + 1):
-                    fe = (kw * (wr[i] * wr[i + 1])) * (xw[j, i] - xw[j, i + 1])
-                    fw = (kw * (wr[i - 1] * wr[i])) * (xw[j, i - 1] - xw[j, i])
-                    fs = (kw * (wr[i] * ws[i])) * (xw[j, i] - xw[j + 1, i])
-                    fn = (kw * (wn[i] * wr[i])) * (xw[j - 1, i] - xw[j, i])
+                    fe = (kw * F32(wr[i] * wr[i + 1])) * (xw[j, i] - xw[j, i + 1])
+                    fw = (kw * F32(wr[i - 1] * wr[i])) * (xw[j, i - 1] - xw[j, i])
+                    fs = (kw * F32(wr[i] * ws[i])) * (xw[j, i] - xw[j + 1, i])
+                    fn = (kw * F32(wn[i] * wr[i])) * (xw[j - 1, i] - xw[j, i])
                     s0 = sw[j, i]
                     fe = (fe if fe > ZERO else ZERO) * s0 \
                         + (fe if fe < ZERO else ZERO) * sw[j, i + 1]
@@ -959,7 +1076,7 @@ def diffuse_apply(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xw: np.ndarra
 def _face_x(vx: np.ndarray, wet: np.ndarray, j: int, i: int,
             q4: np.float32) -> tuple[np.float32, np.float32]:
     """(rxp, rxn) of the x face between (j, i) and (j, i + 1)."""
-    uf = HALF * (vx[j, i] + vx[j, i + 1]) if wet[j, i] * wet[j, i + 1] != ZERO else ZERO
+    uf = HALF * (vx[j, i] + vx[j, i + 1]) if (wet[j, i] != 0) & (wet[j, i + 1] != 0) else ZERO
     r = abs(uf) * q4
     rp = r if uf > ZERO else ZERO
     return rp, r - rp
@@ -969,7 +1086,7 @@ def _face_x(vx: np.ndarray, wet: np.ndarray, j: int, i: int,
 def _face_y(vy: np.ndarray, wet: np.ndarray, j: int, i: int,
             q4: np.float32) -> tuple[np.float32, np.float32]:
     """(ryp, ryn) of the y face between (j, i) and (j + 1, i)."""
-    uf = HALF * (vy[j, i] + vy[j + 1, i]) if wet[j, i] * wet[j + 1, i] != ZERO else ZERO
+    uf = HALF * (vy[j, i] + vy[j + 1, i]) if (wet[j, i] != 0) & (wet[j + 1, i] != 0) else ZERO
     r = abs(uf) * q4
     rp = r if uf > ZERO else ZERO
     return rp, r - rp
@@ -1108,7 +1225,7 @@ def advect_apply(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, sout: np.ndarr
 
 # ------------------------------------------------------------------ passes 7, 8, 9a
 @_parallel
-def evap_surface_absorb(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.ndarray,
+def evap_surface_absorb(wet: np.ndarray, w3: np.ndarray, opn: np.ndarray,
                         h: np.ndarray, wc: np.ndarray, evap: np.ndarray, w_state: np.ndarray,
                         p: np.ndarray, q: np.ndarray, beta: np.ndarray, gamma: np.ndarray,
                         delta: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int,
@@ -1122,6 +1239,8 @@ def evap_surface_absorb(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.
     wmax = cst[C_WMAX]
     rate = cst[C_RATE]
     alpha = cst[C_ALPHA]
+    cmin = cst[C_CMIN]
+    cspan = cst[C_CSPAN]
     nch = min(bh, N_CHUNKS)
     for ch in prange(nch):
         j0, j1 = _chunk(ch, nch, bh)
@@ -1177,7 +1296,7 @@ def evap_surface_absorb(wet: np.ndarray, w3: np.ndarray, c: np.ndarray, opn: np.
                     x = np.uint64(x0 + i - 1)
                     wv = wrow[i]
                     wcv = wc[y, x]
-                    cv = c[j, i]
+                    cv = cmin + h[y, x] * cspan  # the capacity, as the reference's
                     if do_absorb:
                         d = alpha if alpha < wv else wv
                         room = cv - wcv

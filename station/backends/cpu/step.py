@@ -30,9 +30,12 @@ def work_grow(n_taps: int) -> int:
     (zero in the scratch, as the reference's quiet values act on it)."""
     return max(tiles.HALO, 1 + n_taps // 2) + 1
 
-_FIELDS_2D = ("wet", "w0", "bc", "vsx", "vsy", "c", "opn", "v1x", "v1y", "xvax", "xvay",
+_FIELDS_2D = ("w0", "bc", "v1x", "v1y", "xvax", "xvay",
               "xwa", "xwb", "v3x", "v3y", "w2", "w3",
               "sat", "mbx", "pr")
+_FLAGS_2D = ("wet", "opn")
+"""0/1 flags (the wet mask, the open flag), one byte a cell: every sweep reads the wet
+mask, so its bytes count five times a step (issue 26 item 1)."""
 _FIELDS_3D = ("p0", "xpa", "xpb", "p2")
 
 
@@ -78,7 +81,8 @@ def constants(prm: SimParams, dt: float, sim_time: float) -> np.ndarray:
 
 
 class Scratch:
-    """Padded float32 scratch fields ``(H + 2, W + 2)`` (pigment: ``(S, H + 2, W + 2)``),
+    """Padded float32 (flags: uint8) scratch fields ``(H + 2, W + 2)`` (pigment:
+    ``(S, H + 2, W + 2)``),
     allocated once per canvas size and slot count and reused every step, with the work
     spans of the box being simulated and those of the last one (:func:`K.clear_stale`
     keeps every cell outside the current spans at zero), and the per-thread buffers of the
@@ -87,9 +91,12 @@ class Scratch:
     def __init__(self, height: int, width: int, slots: int) -> None:
         self.height, self.width, self.slots = height, width, slots
         shape = (height + 2, width + 2)
-        self.a2 = {name: np.zeros(shape, F32) for name in _FIELDS_2D}
+        floats = {name: np.zeros(shape, F32) for name in _FIELDS_2D}
+        self.f2 = tuple(floats.values())
+        self.f2u = tuple(np.zeros(shape, np.uint8) for _ in _FLAGS_2D)
+        self.a2: dict[str, np.ndarray] = {**floats,
+                                          **dict(zip(_FLAGS_2D, self.f2u, strict=True))}
         self.a3 = {name: np.zeros((slots, *shape), F32) for name in _FIELDS_3D}
-        self.f2 = tuple(self.a2.values())
         self.f3 = tuple(self.a3.values())
         most = width // 2 + 2  # spans per row: tiles are >= 4 cells, a gap >= 1
         self.spans = np.zeros((height + 2, most, 2), np.int32)
@@ -132,7 +139,8 @@ class Scratch:
                          state.vy, state.p, ns, self.hsp, self.hn, self.spans, self.nsp)
         else:
             K.work_spans(active, ts, grow, y0, x0, bh, bw, self.spans, self.nsp)
-        K.clear_stale(self.pspans, self.pnsp, self.spans, self.nsp, self.f2, self.f3)
+        K.clear_stale(self.pspans, self.pnsp, self.spans, self.nsp, self.f2, self.f3,
+                      self.f2u)
 
 
 def _win(a: np.ndarray, bh: int, bw: int) -> np.ndarray:
@@ -176,8 +184,8 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     do_pr = (outward or prm.paper_relief > 0) and runs("water_height_and_boundary")
     K.prep(state.w, state.wc, state.mask, state.vx, state.vy, state.p, state.h,
            state.block, state.block_time, state.fibre, taps, y0, x0, bh, bw, ns, cst,
-           outward and do_pr, spans, nsp, s2["wet"], s2["w0"], s3["p0"], s2["bc"], s2["vsx"],
-           s2["vsy"], s2["c"], s2["opn"], s2["mbx"])
+           outward and do_pr, spans, nsp, s2["wet"], s2["w0"], s3["p0"], s2["bc"],
+           s2["opn"], s2["mbx"])
     wet, bc, w0, p0 = s2["wet"], s2["bc"], s2["w0"], s3["p0"]
     # pass 3 levels w itself unless the flow-outward or the relief term is on
     pr = s2["pr"] if do_pr else w0
@@ -186,9 +194,11 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     jp = do_p and n_it >= 1
     xw, xw_next = (s2["xwa"], s2["xwb"])
     xp, xp_next = (s3["xpa"], s3["xpb"])
-    K.advect_jacobi1(wet, s2["vsx"], s2["vsy"], bc, w0, p0, s2["mbx"], state.h, taps, y0, x0,
-                     bh, bw, ns, cst, jw, jp, do_pr, outward, spans, nsp, s2["v1x"], s2["v1y"],
-                     xw, xp, s2["pr"])
+    # with one iteration, limit_diffuse_fused computes it in its row ring (no xw/xp fields)
+    jac1 = n_it == 1
+    K.advect_jacobi1(wet, state.vx, state.vy, bc, w0, p0, s2["mbx"], state.h, taps, y0, x0,
+                     bh, bw, ns, cst, jw and not jac1, jp and not jac1, do_pr, outward, spans,
+                     nsp, s2["v1x"], s2["v1y"], xw, xp, s2["pr"])
     if not jw:
         xw = w0
     if not jp:
@@ -215,7 +225,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     # (fused.limit_diffuse_fused: height_limit + diffuse_apply, bitwise the same)
     F.limit_diffuse_fused(wet, bc, s2["v1x"], s2["v1y"], xvx, xvy, w0, xw, p0, xp, pr, bh, bw,
                           ns, cst, do_v, runs("water_height_and_boundary"), do_w, do_p,
-                          s2["v3x"], s2["v3y"], s2["w2"], s3["p2"], spans, nsp)
+                          jac1, s2["v3x"], s2["v3y"], s2["w2"], s3["p2"], spans, nsp)
     v3x, v3y = s2["v3x"], s2["v3y"]
     if last <= reference.PASS_ORDER.index("water_height_and_boundary"):
         state.vx[ys, xs] = _win(v3x, bh, bw)
@@ -234,13 +244,13 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
         K.advect_apply(wet, v3x, v3y, s2["w2"], s2["w2"], s2["w2"], s3["p2"], y0, x0, bh, bw,
                        ns, cst, False, s2["w3"], state.p, spans, nsp)
     if runs("capillary"):  # passes 7-10 in one sweep (fused.evap_cap_fused)
-        F.evap_cap_fused(wet, s2["w3"], s2["c"], s2["opn"], state.h, state.wc,
+        F.evap_cap_fused(wet, s2["w3"], s2["opn"], state.h, state.wc,
                          state.evaporated, state.w, state.p, state.q, beta, gamma, delta,
                          v3x, v3y, state.vx, state.vy, y0, x0, bh, bw, ns, cst,
                          runs("evaporate"), runs("surface_exchange"), True,
                          prm.cap_diffusion * dt > 0, runs("dry_cells"), spans, nsp)
     else:  # a pass-by-pass comparison that stops before the capillary passes
-        K.evap_surface_absorb(wet, s2["w3"], s2["c"], s2["opn"], state.h, state.wc,
+        K.evap_surface_absorb(wet, s2["w3"], s2["opn"], state.h, state.wc,
                               state.evaporated, state.w, state.p, state.q, beta, gamma, delta,
                               y0, x0, bh, bw, ns, cst, runs("evaporate"),
                               runs("surface_exchange"), False, s2["sat"], spans, nsp)

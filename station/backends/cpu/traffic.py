@@ -1,47 +1,61 @@
 """Honest memory traffic of one cell-step of the ``cpu`` backend, per fused sweep.
 
-Counted like ``station/backends/gl/traffic.py``: float32 values each sweep must read and
-write per cell (x 4 bytes), each field once per sweep (a stencil's neighbours come from
-cache), for a wet cell (the cell of a wash); ``slots`` = pigment slots in use (the
-sweeps process only those), ``jacobi_iters`` = n >= 1. The scratch copies the sweeps
-make (wet mask, w, p, beta_c, capacity, open flag, iterates, limiters) are counted: they
-are real traffic.
+Counted like ``station/backends/gl/traffic.py``: the values each sweep must read and
+write per cell, each field once per sweep (a stencil's neighbours come from cache), for
+a wet cell (the cell of a wash); ``slots`` = pigment slots in use (the sweeps process
+only those), ``jacobi_iters`` = n >= 1. Fields are float32 (4 bytes) except the two
+scratch flags, the wet mask and the open flag, which are uint8 (1 byte). The scratch
+copies the sweeps make (wet mask, w, p, beta_c, open flag, iterates, limiters) are
+counted: they are real traffic. Not scratch fields any more (issue 26 item 1): the
+capacity ``c`` (recomputed from ``h`` where read, the reference's float32 expression)
+and the masked velocity (pass 1 reads the state's ``vx``/``vy`` at its corners and the
+wet mask there).
 """
 
 from __future__ import annotations
 
+FLOAT = 4
+FLAG = 1
 
-def floats_per_cell_step(slots: int, jacobi_iters: int) -> dict[str, int]:
-    """Per sweep: float32 values read + written per cell for one step."""
+
+def bytes_per_sweep(slots: int, jacobi_iters: int) -> dict[str, int]:
+    """Per sweep: bytes read + written per cell for one step."""
     s = int(slots)
     n = max(int(jacobi_iters), 1)
+    f, b = FLOAT, FLAG
     return {
-        # read w, wc, mask, vx, vy, h, block, block_time, p(S), w0 again (second sweep);
-        # write wet, w0, bc, vsx, vsy, c, opn, mbx (the x half of the wet-area blur), p0(S)
-        "prep (wet mask, copies, diffusion controller, capacity, row blur)":
-            (9 + s) + (8 + s),
-        # read vsx, vsy, wet, w0, bc, mbx, h, p0(S); write v1(2), pr, xw, xp(S)
+        # read w, wc, mask, h, block, block_time, fibre(2) and vx, vy (the fibres'
+        # dispersion on beta_c: every profile has it), p(S), w0 again (second sweep);
+        # write w0, bc, mbx (the x half of the wet-area blur), p0(S); flags wet, opn
+        "prep (wet mask, copies, diffusion controller, row blur)":
+            f * ((11 + s) + (3 + s)) + b * 2,
+        # read vx, vy (state), w0, mbx, h, wet; write v1(2), pr; with n >= 2 also
+        # water/pigment iteration 1: read bc, p0(S), write xw, xp(S) (with n = 1
+        # limit_diffuse computes it in its row ring)
         "advect_jacobi1 (pass 1, pass 3's levelled height, water/pigment Jacobi 1)":
-            (7 + s) + (4 + s),
+            (f * ((6 + s) + (4 + s)) + b) if n >= 2 else f * (5 + 3) + b,
         # one temporally blocked sweep for all remaining iterations (the intermediate
         # iterates live in per-chunk buffers in cache): read wet, bc, v1(2), xv(2), w0, xw,
         # p0(S), xp(S) once; write the last xv(2), xw, xp(S) once
         "jacobi_blocked (velocity 1..n-1, water/pigment 2..n)":
-            ((8 + 2 * s) + (3 + s)) if n >= 2 else 0,
+            (f * ((7 + 2 * s) + (3 + s)) + b) if n >= 2 else 0,
         # one sweep (fused.limit_diffuse_fused): read wet, bc, v1(2), xv(2), w0, xw, pr,
-        # p0(S), xp(S); write v3(2), w2, p2(S) (the donor limiters stay in a row ring)
+        # p0(S), xp(S); write v3(2), w2, p2(S) (the donor limiters stay in a row ring).
+        # With n = 1 the iterates xw, xp are Jacobi iteration 1 computed in a row ring
+        # from w0, p0 (not read), and xv is v1 (the same field, read once)
         "limit_diffuse (last velocity iteration, pass 3, passes 4/5 limiters and fluxes)":
-            (9 + 2 * s) + (3 + s),
+            (f * ((8 + 2 * s) + (3 + s)) + b) if n >= 2 else f * ((6 + s) + (3 + s)) + b,
         # one sweep (fused.advect_fused): read wet, v3(2), w2, p2(S); write w3, p(S)
-        "advect (pass 6 limiters and fluxes)": (4 + s) + (1 + s),
-        # one sweep (fused.evap_cap_fused): read wet, w3, c, opn, h, wc, evaporated, p(S),
-        # q(S), v3(2); write w, wc, evaporated, p(S), q(S), vx, vy (sat stays in a row ring;
-        # a wet cell deposits nothing: the pigment loop of pass 10 runs only on rows with
-        # dry cells)
-        "evap_capillary (passes 7, 8, 9a, 9b, 9c, 10)": (9 + 2 * s) + (5 + 2 * s),
+        "advect (pass 6 limiters and fluxes)": f * ((3 + s) + (1 + s)) + b,
+        # one sweep (fused.evap_cap_fused): read wet, opn, w3, h, wc, evaporated, p(S),
+        # q(S), v3(2); write w, wc, evaporated, p(S), q(S), vx, vy (sat stays in a row
+        # ring; a wet cell deposits nothing: the pigment loop of pass 10 runs only on rows
+        # with dry cells)
+        "evap_capillary (passes 7, 8, 9a, 9b, 9c, 10)":
+            f * ((7 + 2 * s) + (5 + 2 * s)) + b * 2,
     }
 
 
 def bytes_per_cell_step(slots: int, jacobi_iters: int) -> int:
     """Bytes of honest memory traffic per simulated cell and step."""
-    return 4 * sum(floats_per_cell_step(slots, jacobi_iters).values())
+    return sum(bytes_per_sweep(slots, jacobi_iters).values())
