@@ -23,7 +23,7 @@ uniform float u_wmax;
 uniform float u_rate;       // float32(surface_rate * dt)
 uniform vec4 u_gamma[NPL];  // granulation per slot
 uniform vec4 u_delta[NPL];  // density per slot (0 for free slots)
-uniform vec4 u_dob[NPL];    // float32(delta / beta) per slot
+uniform vec4 u_dob[NPL];    // float32(delta / beta) per slot, beta = float32(staining / lift_gain)
 uniform float u_absorb;     // float32(alpha * dt)
 uniform float u_cmin;
 uniform float u_crange;     // float32(c_max - c_min)

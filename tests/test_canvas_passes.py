@@ -5,7 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 from station.canvas import reference as ref
+from station.canvas.palette import default_palette
 from station.canvas.params import CanvasInputError, SimParams
+from station.canvas.removal import pickup
+from station.canvas.state import CanvasState
 
 PRM = SimParams()
 DT = PRM.dt
@@ -275,3 +278,42 @@ def test_step_region_can_stop_after_any_pass() -> None:
         assert np.array_equal(getattr(st, f), getattr(full, f)), f
     with pytest.raises(BadInput):
         ref.step_region(before.copy(), (slice(0, 32), slice(0, 40)), DT, stop_after="nope")
+
+
+def test_lift_gain_lifts_settled_pigment_faster_in_the_surface_exchange_only() -> None:
+    """Pass 8 lifts with the staining over lift_gain (one float32 division in
+    slot_properties, the number every backend uses); the removal tools keep the pigment's
+    own staining; lift_gain is validated."""
+    h = np.full((6, 6), 0.5, np.float32)
+    sts = {}
+    for gain in (1.0, 5.0):
+        st = CanvasState.blank(6, 6, PRM.replace(lift_gain=gain), h, palette=default_palette())
+        st.slot_of("French Ultramarine")
+        st.w[...] = 0.4
+        st.q[0] = 0.3
+        sts[gain] = st
+    b1, g1, d1 = ref.slot_properties(sts[1.0])
+    b5, g5, d5 = ref.slot_properties(sts[5.0])
+    own = sts[5.0].slot_pigments()[0].beta
+    assert b1[0] == np.float32(own) and b5[0] == np.float32(own / 5.0)
+    assert (g1 == g5).all() and (d1 == d5).all()
+    assert (ref.slot_properties(sts[5.0], lift=False)[0] == b1).all()
+    wet = np.ones((6, 6), bool)
+    lifted = {}
+    for gain, b in ((1.0, b1), (5.0, b5)):
+        st = sts[gain]
+        p, q = ref.surface_exchange(st.p[:1], st.q[:1], st.w, st.h, wet, b[:1], g1[:1],
+                                    d1[:1], st.params, DT)
+        assert np.allclose(p + q, st.p[:1] + st.q[:1])  # moved, not made
+        lifted[gain] = float(p.sum())
+    assert lifted[1.0] > 0 and abs(lifted[5.0] / lifted[1.0] - 5.0) < 0.05, lifted
+    # a brush scrubbing a wet wash lifts by the pigment's own staining, whatever the gain
+    weight = np.ones((3, 3), np.float32)
+    took = [pickup(sts[g], weight, y0=1, x0=1, thirst=0.5, scrub=2.0).pigment for g in (1.0, 5.0)]
+    assert took[0] == took[1] and sum(took[0].values()) > 0
+    for bad in (0.0, -1.0, 101.0, float("nan")):
+        try:
+            PRM.replace(lift_gain=bad)
+        except CanvasInputError:
+            continue
+        raise AssertionError(f"lift_gain={bad} accepted")

@@ -124,7 +124,8 @@ def test_multi_step_stroke_is_bitwise_equal() -> None:
                                     {"damp_ease": 0.0, "suspend_sat": 0.0,
                                      "moist_threshold": 0.25},
                                     {"damp_ease": 6.0, "damp_sat": 0.4, "suspend_sat": 0.8},
-                                    {"damp_ease": 2.0, "fibre_wick": 0.7}])
+                                    {"damp_ease": 2.0, "fibre_wick": 0.7},
+                                    {"lift_gain": 1.0}, {"lift_gain": 37.0}])
 def test_parameter_variants_match(change: dict[str, Any]) -> None:
     prm = dataclasses.replace(get_profile("watercolor").params, **change)
     a = _random_canvas(NumpyCanvas, 3, params=prm)

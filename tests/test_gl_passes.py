@@ -261,8 +261,10 @@ def test_water_and_pigment_advection(ctx) -> None:
     assert abs(float(out.w.sum(dtype=np.float64) - st.w.sum(dtype=np.float64))) < 1e-3
 
 
-def test_evaporation_surface_exchange_absorption(ctx) -> None:
-    st = random_state(6)
+@pytest.mark.parametrize("lift_gain", [1.0, 5.0])
+def test_evaporation_surface_exchange_absorption(ctx, lift_gain: float) -> None:
+    """lift_gain: u_dob divides by the same float32 staining as slot_properties."""
+    st = random_state(6, params=SimParams(lift_gain=lift_gain))
     prm = st.params
     c = gl_canvas(ctx, st)
     c._pass_prep()

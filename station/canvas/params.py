@@ -111,6 +111,15 @@ class SimParams:
             damp, so water flowing back into a damp wash lifts and carries its pigment
             (Curtis 1997, 4.7 backruns; Smith, "The Watercolour Painter's Handbook":
             blooms form only while the wash is damp, not once it has dried).
+        lift_gain: desorption over adsorption rate of the surface exchange [1] (1: the
+            seed's eq. 4.12 as it is): pass 8 lifts with the pigment's staining
+            ``beta / lift_gain``. Pigment that settled out of a wet wash sits loose on the
+            sized paper until the gum dries; returning water takes it up again several
+            times faster than it settled (Curtis et al. 1997, "Transferring pigment":
+            desorption; the seed's eq. 4.12, section 4.6; Smith, "The
+            Watercolour Painter's Handbook": a wet wash lifts at a touch, a dried one
+            hardly), so water put back into a damp wash carries the settled pigment to the
+            bloom's front. Staining pigments (large ``beta``) still lift least.
         v_max: bound of each velocity component [cell/s]; ``v_max * dt <= 1``.
         surface_rate: factor on the surface exchange of eqs. 4.11/4.12 [1/s] (spec: 1;
             default 0.5 keeps pigment suspended long enough to travel to the rim).
@@ -165,6 +174,7 @@ class SimParams:
     damp_ease: float = 0.0
     damp_sat: float = 0.0
     suspend_sat: float = 0.0
+    lift_gain: float = 1.0
     v_max: float = 30.0
     surface_rate: float = 0.1
     block_paper: float = 0.0
@@ -227,6 +237,8 @@ class SimParams:
             raise CanvasInputError("damp_ease must lie in [0, 1000]", "params")
         if not 0 <= self.suspend_sat <= 1:
             raise CanvasInputError("suspend_sat must lie in [0, 1]", "params")
+        if not 0 < self.lift_gain <= 100:
+            raise CanvasInputError("lift_gain must lie in (0, 100]", "params")
         if not 0 <= self.block_paper <= 1:
             raise CanvasInputError("block_paper must lie in [0, 1]", "params")
         if not 0 <= self.tilt <= 90:

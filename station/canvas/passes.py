@@ -304,12 +304,18 @@ def dry_cells(w: np.ndarray, p: np.ndarray, q: np.ndarray, vx: np.ndarray, vy: n
 
 
 # ---------------------------------------------------------------- the step
-def slot_properties(state: CanvasState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """beta, gamma, delta per slot (float32 (S,)); free slots: beta 1, gamma 0, delta 0."""
+def slot_properties(state: CanvasState, lift: bool = True
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """beta, gamma, delta per slot (float32 (S,)); free slots: beta 1, gamma 0, delta 0.
+
+    With ``lift`` (pass 8's exchange) beta is the staining over ``lift_gain``, rounded to
+    float32 once here so every backend divides by the same number; ``lift=False`` gives
+    the pigments' own staining (the removal tools)."""
     n = state.n_slots
     beta = np.ones(n, F32)
     gamma = np.zeros(n, F32)
     delta = np.zeros(n, F32)
+    gain = float(state.params.lift_gain) if lift else 1.0
     for k, pig in enumerate(state.slot_pigments()):
-        beta[k], gamma[k], delta[k] = pig.beta, pig.gamma, pig.delta
+        beta[k], gamma[k], delta[k] = pig.beta / gain, pig.gamma, pig.delta
     return beta, gamma, delta

@@ -41,6 +41,7 @@ GROUPS: dict[str, tuple[str, ...]] = {
               "fibre_flow_max"),
     "fluid": ("viscosity", "nu_w", "nu_p", "eps_shallow", "edge_evap", "flow_outward",
               "wet_blur", "omega_h", "height_gain", "w_min", "w_max", "v_max", "surface_rate",
+              "lift_gain",
               "w_dry_eps", "temperature", "humidity", "airflow", "tilt", "tilt_direction",
               "gravity"),
     "numerics": ("dt", "jacobi_iters", "tile_size", "tile_check"),

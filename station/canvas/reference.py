@@ -65,6 +65,12 @@ CHANGED: backruns (issue 21 item 4). Wet mask on damp paper: with ``damp_ease > 
   water flowing back into a damp wash carries it to the front (Curtis et al. 1997, 4.7).
   The watercolor profile sets both and ``moist_threshold`` 1.0 (no cell is wet by its
   capillary water alone: fresh water has a front to advance into a damp wash).
+CHANGED: pass 8 lifts with ``beta / lift_gain`` in place of the staining ``beta`` (eq. 4.12
+  times ``lift_gain``; eq. 4.11 unchanged): settled pigment goes back into suspension faster
+  than it settles (watercolor 5: a bloom's returning water carries the damp wash's pigment to
+  its front, issue 21 item 4). ``slot_properties`` rounds ``beta / lift_gain`` to float32 once;
+  the cpu backend takes that array, GL's ``u_dob`` is ``delta / it`` (the removal tools keep
+  the pigments' own staining: ``slot_properties(state, lift=False)``).
 NOTE (no maths change): the helpers live in ``stencils.py``, the passes in ``passes.py``;
   this module re-exports them and runs the step.
 
@@ -154,7 +160,8 @@ the same float32 value on both sides).
 
 8. ``surface_exchange`` (seed 4.6), per slot k, wet cells only, ``f = clamp(w/w_max, 0, 1)``:
    ``down = surface_rate*dt * p (1 - f)(1 - h*gamma) delta``,
-   ``up = surface_rate*dt * q f (1 - (1 - h)*gamma) delta / beta``;
+   ``up = surface_rate*dt * q f (1 - (1 - h)*gamma) delta / beta``, with
+   ``beta = float32(staining / lift_gain)`` (``slot_properties``);
    ``down = min(down, p, 1 - q)``; ``up = min(up, q, 1 - p)``;
    ``p += up - down``; ``q += down - up``. Free slots have delta = 0.
 

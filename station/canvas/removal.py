@@ -172,7 +172,7 @@ def pickup(state: CanvasState, weight: np.ndarray, *, y0: int = 0, x0: int = 0,
     (ys, xs), (ay, ax) = win
     wgt = wgt_all[ay, ax]
     ns = max(len(state.slots), 1)
-    beta, _gamma, _delta = slot_properties(state)
+    beta, _gamma, _delta = slot_properties(state, lift=False)
     w = state.w[ys, xs]
     wet = (w > 0) & (state.mask[ys, xs] == 0)
     p = state.p[:ns, ys, xs]

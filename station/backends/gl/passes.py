@@ -73,7 +73,9 @@ class GLStepPasses:
         delta = np.zeros(n, F32)
         for k, name in enumerate(self.slots):
             pig = self.palette.get(name)
-            beta[k], gamma[k], delta[k] = pig.beta, pig.gamma, pig.delta
+            # the reference's slot_properties: the staining over lift_gain, float32 once
+            beta[k], gamma[k], delta[k] = (pig.beta / float(self.params.lift_gain), pig.gamma,
+                                           pig.delta)
         dob = (delta / beta).astype(F32)
 
         def vec4s(a: np.ndarray) -> list[tuple[float, ...]]:
