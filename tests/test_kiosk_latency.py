@@ -408,10 +408,12 @@ def test_latency_bench_reports_goals_prediction_and_load(tmp_path: Path) -> None
 
     with xvfb() as display:
         proc = station("bench", "latency", "--json", "--seconds", "1.5", "--size", "160x120",
-                       "--predict-ms", "12", "--brush", "round3d", display=display)
+                       "--predict-ms", "12", "--brush", "round3d", "--wet", display=display)
         out, err = proc.communicate(timeout=240)
     assert proc.returncode == 0, err[-2000:]
     r = json.loads(out)
+    # --wet: the whole sky wet under the pen, still mostly wet when the run ends
+    assert r["wet_share"]["start"] == 1.0 and r["wet_share"]["end"] > 0.5
     assert r["latency"]["n"] > 10 and r["latency"]["p99_ms"] > 0
     # the deformable brush painted (its samples go on while a step's kernel runs too)
     assert r["tablet"]["brush"] == "round3d" and r["tablet"]["stamps"] > 10

@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from station.bench._sim_driver import wash
 from station.brush.stamp import brush_kinds
 from station.calibration.area import AreaSettings, Rect
 from station.calibration.files import write_file
@@ -74,6 +75,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--brush", default="round", type=_brush_kind, metavar="KIND",
                    help="the brush the pen paints with: round (default) or a deformable "
                         "kind (round3d, flat, …), whose samples cost a spine solve each")
+    p.add_argument("--wet", action="store_true",
+                   help="the whole canvas wet under the pen (bench sim's wash: water, two "
+                        "pigments, a slow swirl), as when a visitor wets a whole sky: the "
+                        "sim steps every cell; reported as wet_share at start and end")
     p.add_argument("--compare", action="store_true",
                    help="also measure the peer (steps in the frame loop) in the same run, "
                         "each for --seconds, and report the ratios")
@@ -146,12 +151,12 @@ def run(args: argparse.Namespace) -> int:
         result = measure(width, height, args.backend, args.seconds, args.rate, args.model,
                          args.script, sim_thread=not args.inline_sim,
                          predict_ms=args.predict_ms, present=args.present, brush=args.brush,
-                         window=window)
+                         window=window, wet=args.wet)
         if args.compare:
             peer = measure(width, height, args.backend, args.seconds, args.rate, args.model,
                            args.script, sim_thread=args.inline_sim,
                            predict_ms=args.predict_ms, present=args.present,
-                           brush=args.brush, window=window)
+                           brush=args.brush, window=window, wet=args.wet)
             result["peer"] = {k: peer[k] for k in ("sim", "latency", "frames", "load_avg")}
             result["ratios"] = _ratios(result, peer)
     finally:
@@ -160,6 +165,11 @@ def run(args: argparse.Namespace) -> int:
             xvfb.wait(10)
     sys.stdout.write(json.dumps(result, indent=1) + "\n")
     return 0
+
+
+def _wet_share(canvas: Any) -> float:
+    """The share of cells holding surface water (``--wet``: the sky the sim steps)."""
+    return round(float(np.mean(canvas.state().w > 0)), 4)
 
 
 def _ratios(a: dict[str, Any], b: dict[str, Any]) -> dict[str, Any]:
@@ -177,7 +187,8 @@ def _ratios(a: dict[str, Any], b: dict[str, Any]) -> dict[str, Any]:
 def measure(width: int, height: int, backend: str, seconds: float, rate: int,
             model: str, script: str = "arc", sim_thread: bool = True,
             predict_ms: float | None = None, present: str = "auto",
-            brush: str = "round", window: tuple[int, int] = (1024, 768)) -> dict[str, Any]:
+            brush: str = "round", window: tuple[int, int] = (1024, 768),
+            wet: bool = False) -> dict[str, Any]:
     bus = f"bench-latency-{os.getpid()}-{int(sim_thread)}"
     with tempfile.TemporaryDirectory(prefix="station-latency-") as tmp:
         cfg = KioskConfig(bus=f">ipc:{bus}", width=width, height=height, backend=backend,
@@ -192,6 +203,11 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
         app = KioskApp(cfg)
         if brush != "round":
             app.session.command("brush", kind=brush)
+        wet_share: dict[str, float] = {}
+        if wet:  # under the session's lock: the sim thread may be stepping
+            with app.session.lock:
+                wash(app.session.canvas, width, height)
+                wet_share["start"] = _wet_share(app.session.canvas)
         spec = f"mock:{model}?script={script}&repeat=0&reports={rate * 2}&rate={rate}"
         probe = open_device(spec)
         ident = probe.describe()
@@ -278,6 +294,9 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
             lag_raw = perceived_lag(pen[:, 0], pen[:, 2:], curs[:, 0], curs[:, 1:3])
             lag_pred = perceived_lag(pen[:, 0], pen[:, 2:], curs[:, 0], curs[:, 3:5])
             sim_s = st.sim_busy(p0, p1)
+            if wet:
+                with st.lock:
+                    wet_share["end"] = _wet_share(st.canvas)
             result = {
                 "bench": "latency", "size": f"{width}x{height}", "backend": st.backend_name,
                 "renderer": str(getattr(st.canvas, "renderer", "")),
@@ -288,6 +307,7 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
                 "present": {"mode": app.presenter.mode, "asked": present,
                             "partial_frames": app.presenter.partial_frames,
                             "whole_frames": app.presenter.whole_frames},
+                "wet_share": wet_share or None,
                 "tablet": {"model": model, "script": script, "reports_per_s": rate,
                            "samples": st.counters.samples - samples0,
                            "stamps": st.painted_stamps - stamps0,
