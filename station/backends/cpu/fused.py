@@ -461,82 +461,6 @@ def _sat_row(w3: np.ndarray, h: np.ndarray, opn: np.ndarray, wc: np.ndarray, y0:
 
 
 @_inline
-def _esa_row(wet: np.ndarray, w3: np.ndarray, opn: np.ndarray, h: np.ndarray,
-             wc: np.ndarray, evap: np.ndarray, w_state: np.ndarray, p: np.ndarray,
-             q: np.ndarray, beta: np.ndarray, gamma: np.ndarray, delta: np.ndarray, y0: int,
-             x0: int, ns: int, cst: np.ndarray, do_evap: bool, do_surface: bool,
-             do_absorb: bool, j: int, spans: np.ndarray, nsp: np.ndarray, wrow: np.ndarray,
-             frow: np.ndarray, sat_r: np.ndarray) -> None:  # pragma: no cover - compiled
-    """evap_surface_absorb's row j (unchanged), ``sat`` into the ring row."""
-    e = cst[K.C_EVAP]
-    edge = cst[K.C_EDGE]
-    wmax = cst[K.C_WMAX]
-    rate = cst[K.C_RATE]
-    alpha = cst[K.C_ALPHA]
-    cmin = cst[K.C_CMIN]
-    cspan = cst[K.C_CSPAN]
-    sat_r[:] = ZERO
-    y = y0 + j - 1
-    for si in range(nsp[j]):
-        slo, shi = K._span(spans, j, si)
-        for i in range(slo, shi + 1):
-            x = np.uint64(x0 + i - 1)
-            wv = w3[j, i]
-            if do_evap:
-                nd = (((ZERO if w3[j, i + 1] > ZERO else ONE)
-                       + (ZERO if w3[j, i - 1] > ZERO else ONE))
-                      + (ZERO if w3[j + 1, i] > ZERO else ONE)) \
-                    + (ZERO if w3[j - 1, i] > ZERO else ONE)
-                loss = e + ((edge * nd) * wv) * e
-                loss = loss if loss < wv else wv
-                loss = loss if wv > ZERO else ZERO
-                wv = wv - loss
-                evap[y, x] = evap[y, x] + loss
-            wrow[i] = wv
-            f = wv / wmax
-            f = f if f > ZERO else ZERO
-            frow[i] = f if f < ONE else ONE
-        if do_surface:
-            for kk in range(ns):
-                g = gamma[kk]
-                d = delta[kk]
-                db = d / beta[kk]
-                for i in range(slo, shi + 1):
-                    x = np.uint64(x0 + i - 1)
-                    hv = h[y, x]
-                    f = frow[i]
-                    pv = p[kk, y, x]
-                    qv = q[kk, y, x]
-                    down = (((rate * pv) * (ONE - f)) * (ONE - hv * g)) * d
-                    up = (((rate * qv) * f) * (ONE - (ONE - hv) * g)) * db
-                    down = down if down < pv else pv
-                    t = ONE - qv
-                    down = down if down < t else t
-                    up = up if up < qv else qv
-                    t = ONE - pv
-                    up = up if up < t else t
-                    net = (down - up) if wet[j, i] != ZERO else ZERO
-                    p[kk, y, x] = pv - net
-                    q[kk, y, x] = qv + net
-        for i in range(slo, shi + 1):
-            x = np.uint64(x0 + i - 1)
-            wv = wrow[i]
-            wcv = wc[y, x]
-            cv = cmin + h[y, x] * cspan
-            if do_absorb:
-                d = alpha if alpha < wv else wv
-                room = cv - wcv
-                room = room if room > ZERO else ZERO
-                d = d if d < room else room
-                d = d if (wv > ZERO and opn[j, i] != ZERO) else ZERO
-                wv = wv - d
-                wcv = wcv + d
-            w_state[y, x] = wv
-            wc[y, x] = wcv
-            sat_r[i] = wcv / cv
-
-
-@_inline
 def _cd_row(sm: np.ndarray, s0r: np.ndarray, sp: np.ndarray, h: np.ndarray, opn: np.ndarray,
             v3x: np.ndarray, v3y: np.ndarray, w: np.ndarray, wc: np.ndarray, evap: np.ndarray,
             p: np.ndarray, q: np.ndarray, vx: np.ndarray, vy: np.ndarray, y0: int, x0: int,
@@ -652,13 +576,15 @@ def evap_cap_fused(wet: np.ndarray, w3: np.ndarray, opn: np.ndarray,
         wcrow = np.empty(bw + 2, F32)
         crow = np.zeros(bw + 2, F32)
         ring[(j0 - 1) % 3, :] = edge_sat[ch, 0]
-        _esa_row(wet, w3, opn, h, wc, evap, w_state, p, q, beta, gamma, delta, y0, x0, ns,
+        ring[j0 % 3, :] = ZERO
+        K._esa_row(wet, w3, opn, h, wc, evap, w_state, p, q, beta, gamma, delta, y0, x0, ns,
                  cst, do_evap, do_surface, do_absorb, j0, spans, nsp, wrow, frow,
                  ring[j0 % 3])
         for j in range(j0, j1):
             r = j + 1
             if r < j1:
-                _esa_row(wet, w3, opn, h, wc, evap, w_state, p, q, beta, gamma, delta, y0,
+                ring[r % 3, :] = ZERO
+                K._esa_row(wet, w3, opn, h, wc, evap, w_state, p, q, beta, gamma, delta, y0,
                          x0, ns, cst, do_evap, do_surface, do_absorb, r, spans, nsp, wrow,
                          frow, ring[r % 3])
             else:

@@ -1224,6 +1224,84 @@ def advect_apply(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, sout: np.ndarr
 
 
 # ------------------------------------------------------------------ passes 7, 8, 9a
+@_inline
+def _esa_row(wet: np.ndarray, w3: np.ndarray, opn: np.ndarray, h: np.ndarray,
+             wc: np.ndarray, evap: np.ndarray, w_state: np.ndarray, p: np.ndarray,
+             q: np.ndarray, beta: np.ndarray, gamma: np.ndarray, delta: np.ndarray, y0: int,
+             x0: int, ns: int, cst: np.ndarray, do_evap: bool, do_surface: bool,
+             do_absorb: bool, j: int, spans: np.ndarray, nsp: np.ndarray, wrow: np.ndarray,
+             frow: np.ndarray, sat_r: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Passes 7, 8 and 9a on row ``j`` of the box: w, wc, evaporated, p, q in place,
+    ``wc / c`` into ``sat_r`` on the spans' cells (the others are left as they are).
+    One body for :func:`evap_surface_absorb` and the fused sweep's row ring."""
+    e = cst[C_EVAP]
+    edge = cst[C_EDGE]
+    wmax = cst[C_WMAX]
+    rate = cst[C_RATE]
+    alpha = cst[C_ALPHA]
+    cmin = cst[C_CMIN]
+    cspan = cst[C_CSPAN]
+    y = y0 + j - 1
+    for si in range(nsp[j]):
+        slo, shi = _span(spans, j, si)
+        for i in range(slo, shi + 1):
+            x = np.uint64(x0 + i - 1)
+            wv = w3[j, i]
+            if do_evap:
+                nd = (((ZERO if w3[j, i + 1] > ZERO else ONE)
+                       + (ZERO if w3[j, i - 1] > ZERO else ONE))
+                      + (ZERO if w3[j + 1, i] > ZERO else ONE)) \
+                    + (ZERO if w3[j - 1, i] > ZERO else ONE)
+                loss = e + ((edge * nd) * wv) * e
+                loss = loss if loss < wv else wv
+                loss = loss if wv > ZERO else ZERO
+                wv = wv - loss
+                evap[y, x] = evap[y, x] + loss
+            wrow[i] = wv
+            f = wv / wmax
+            f = f if f > ZERO else ZERO
+            frow[i] = f if f < ONE else ONE
+        if do_surface:
+            for kk in range(ns):
+                g = gamma[kk]
+                d = delta[kk]
+                db = d / beta[kk]
+                for i in range(slo, shi + 1):
+                    x = np.uint64(x0 + i - 1)
+                    hv = h[y, x]
+                    f = frow[i]
+                    pv = p[kk, y, x]
+                    qv = q[kk, y, x]
+                    down = (((rate * pv) * (ONE - f)) * (ONE - hv * g)) * d
+                    up = (((rate * qv) * f) * (ONE - (ONE - hv) * g)) * db
+                    down = down if down < pv else pv
+                    t = ONE - qv
+                    down = down if down < t else t
+                    up = up if up < qv else qv
+                    t = ONE - pv
+                    up = up if up < t else t
+                    net = (down - up) if wet[j, i] != ZERO else ZERO
+                    p[kk, y, x] = pv - net
+                    q[kk, y, x] = qv + net
+        for i in range(slo, shi + 1):
+            x = np.uint64(x0 + i - 1)
+            wv = wrow[i]
+            wcv = wc[y, x]
+            cv = cmin + h[y, x] * cspan
+            if do_absorb:
+                d = alpha if alpha < wv else wv
+                room = cv - wcv
+                room = room if room > ZERO else ZERO
+                d = d if d < room else room
+                d = d if (wv > ZERO and opn[j, i] != ZERO) else ZERO
+                wv = wv - d
+                wcv = wcv + d
+            w_state[y, x] = wv
+            wc[y, x] = wcv
+            sat_r[i] = wcv / cv
+
+
+
 @_parallel
 def evap_surface_absorb(wet: np.ndarray, w3: np.ndarray, opn: np.ndarray,
                         h: np.ndarray, wc: np.ndarray, evap: np.ndarray, w_state: np.ndarray,
@@ -1234,80 +1312,15 @@ def evap_surface_absorb(wet: np.ndarray, w3: np.ndarray, opn: np.ndarray,
         spans: np.ndarray, nsp: np.ndarray) -> None:
     """Pass 7 (edge-enhanced fluid evaporation), pass 8 (deposition/lifting) and
     pass 9a (absorption); writes w, wc, evaporated, p, q in place and ``wc / c``."""
-    e = cst[C_EVAP]
-    edge = cst[C_EDGE]
-    wmax = cst[C_WMAX]
-    rate = cst[C_RATE]
-    alpha = cst[C_ALPHA]
-    cmin = cst[C_CMIN]
-    cspan = cst[C_CSPAN]
     nch = min(bh, N_CHUNKS)
     for ch in prange(nch):
         j0, j1 = _chunk(ch, nch, bh)
         buf = np.empty((2, bw + 2), F32)
         wrow, frow = buf[0], buf[1]
         for j in range(j0, j1):
-            for si in range(nsp[j]):
-                slo, shi = _span(spans, j, si)
-                y = y0 + j - 1
-                # pass 7: n = 4-neighbours without fluid water (the ring counts as dry)
-                for i in range(slo, shi + 1):
-                    x = np.uint64(x0 + i - 1)
-                    wv = w3[j, i]
-                    if do_evap:
-                        nd = (((ZERO if w3[j, i + 1] > ZERO else ONE)
-                               + (ZERO if w3[j, i - 1] > ZERO else ONE))
-                              + (ZERO if w3[j + 1, i] > ZERO else ONE)) \
-                            + (ZERO if w3[j - 1, i] > ZERO else ONE)
-                        loss = e + ((edge * nd) * wv) * e
-                        loss = loss if loss < wv else wv
-                        loss = loss if wv > ZERO else ZERO
-                        wv = wv - loss
-                        evap[y, x] = evap[y, x] + loss
-                    wrow[i] = wv
-                    f = wv / wmax
-                    f = f if f > ZERO else ZERO
-                    frow[i] = f if f < ONE else ONE
-                # pass 8, slot by slot (wet cells only)
-                if do_surface:
-                    for kk in range(ns):
-                        g = gamma[kk]
-                        d = delta[kk]
-                        db = d / beta[kk]
-                        for i in range(slo, shi + 1):
-                            x = np.uint64(x0 + i - 1)
-                            hv = h[y, x]
-                            f = frow[i]
-                            pv = p[kk, y, x]
-                            qv = q[kk, y, x]
-                            down = (((rate * pv) * (ONE - f)) * (ONE - hv * g)) * d
-                            up = (((rate * qv) * f) * (ONE - (ONE - hv) * g)) * db
-                            down = down if down < pv else pv
-                            t = ONE - qv
-                            down = down if down < t else t
-                            up = up if up < qv else qv
-                            t = ONE - pv
-                            up = up if up < t else t
-                            net = (down - up) if wet[j, i] != ZERO else ZERO
-                            p[kk, y, x] = pv - net
-                            q[kk, y, x] = qv + net
-                # pass 9a: absorption where there is fluid water and the cell is open
-                for i in range(slo, shi + 1):
-                    x = np.uint64(x0 + i - 1)
-                    wv = wrow[i]
-                    wcv = wc[y, x]
-                    cv = cmin + h[y, x] * cspan  # the capacity, as the reference's
-                    if do_absorb:
-                        d = alpha if alpha < wv else wv
-                        room = cv - wcv
-                        room = room if room > ZERO else ZERO
-                        d = d if d < room else room
-                        d = d if (wv > ZERO and opn[j, i] != ZERO) else ZERO
-                        wv = wv - d
-                        wcv = wcv + d
-                    w_state[y, x] = wv
-                    wc[y, x] = wcv
-                    sat_o[j, i] = wcv / cv
+            _esa_row(wet, w3, opn, h, wc, evap, w_state, p, q, beta, gamma, delta, y0, x0,
+                     ns, cst, do_evap, do_surface, do_absorb, j, spans, nsp, wrow, frow,
+                     sat_o[j])
 
 
 # ------------------------------------------------------------------ passes 9b, 9c, 10
