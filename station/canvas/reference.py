@@ -120,8 +120,9 @@ the same float32 value on both sides).
    1997's flow outward; a term whose parameter is 0 is left out), ``M'`` = ``blurred_wet``:
    the own wet mask (1/0; with ``wet_hold > 0`` the wet-area mask ``M``, see CHANGED)
    blurred with the float32 Gaussian ``gaussian_taps(wet_blur)`` along x, then along y,
-   each sum over the taps in order (offset -R first), cells outside the region 0. For each wet cell, neighbour
-   heights (of P) ``wE = P[y,x+1]`` if face E is open else ``w[y,x]`` (same for W, N, S);
+   each sum over the taps in order (offset -R first), cells outside the region 0. For
+   each wet cell, neighbour heights (of P) ``wE = P[y,x+1]`` if face E is open else
+   ``w[y,x]`` (same for W, N, S);
    ``vh = -height_gain * ((wE - wW)/2, (wS - wN)/2)``;
    ``v <- (1 - omega_h) v + omega_h vh``; then the tilt (``tilt_kick``: float32
    ``(ax dt, ay dt)`` of ``SimParams.tilt_acceleration``) is added to each component
