@@ -192,8 +192,10 @@ def flow_pressure(w: np.ndarray, own: np.ndarray, wet: np.ndarray, h: np.ndarray
                   prm: SimParams) -> np.ndarray:
     """The height the water-height term levels, on wet cells: the free surface over the
     paper, ``w + paper_relief * h``, lowered by ``flow_outward * (1 - M')`` near the edge
-    of the ``own`` wet area (Curtis 1997: flow outward, and water runs downhill over the
-    paper's relief); ``w`` elsewhere, and ``w`` itself when both terms are off."""
+    of the wet area ``own`` (Curtis 1997: flow outward, and water runs downhill over the
+    paper's relief); ``w`` elsewhere, and ``w`` itself when both terms are off. ``own``:
+    the cells wet by their own water (bool), or the wet-area mask of :func:`wet_memory`
+    (float32 in [0, 1]) when ``wet_hold > 0``."""
     taps = gaussian_taps(prm.wet_blur)
     outward = prm.flow_outward > 0 and len(taps) > 0
     if not outward and prm.paper_relief <= 0:
