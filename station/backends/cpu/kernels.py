@@ -319,15 +319,16 @@ def _damp_factor(wcv: np.float32, hv: np.float32, cmin: np.float32, cspan: np.fl
 
 
 @_inline
-def _wet_memory(ow: bool, area: np.ndarray, y: int, x: np.uint64,
-                holding: bool) -> np.float32:
-    """The wet-area mask of a cell: ``own`` (1/0), or with ``holding`` ``max(wet_area,
-    own)``, which the cell's ``area`` keeps (reference ``wet_memory``; area in [0, 1])."""
-    if not holding:
-        return ONE if ow else ZERO
-    m = ONE if ow else area[y, x]
-    area[y, x] = m
-    return m
+def _wet_memory_row(own: np.ndarray, area: np.ndarray, y: int, x0: int, r: int, slo: int,
+                    shi: int) -> None:
+    """The wet-area mask of a span of row y: ``max(wet_area, own)`` (own 1/0, area in
+    [0, 1]) into the row's ``own`` buffer and back into ``area`` (reference
+    ``wet_memory``)."""
+    for i in range(slo, shi + 1):
+        x = np.uint64(x0 + i - 1)
+        m = ONE if own[i + r] != ZERO else area[y, x]
+        area[y, x] = m
+        own[i + r] = m
 
 
 @_parallel
@@ -397,7 +398,7 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         wv = wr[i]
                         un = mask[y, x] == ZERO
                         ow = ((wv > ZERO) | (wc[y, x] > moist)) & un
-                        own[i + r] = _wet_memory(ow, area, y, x, holding)
+                        own[i + r] = ONE if ow else ZERO
                         thr = adv * (one5 - h[y, x])
                         if easing:
                             thr = thr * _damp_factor(wc[y, x], h[y, x], cmin, cspan, ease,
@@ -419,7 +420,7 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         wv = wr[i]
                         un = mask[y, x] == ZERO
                         ow = ((wv > ZERO) | (wc[y, x] > moist)) & un
-                        own[i + r] = _wet_memory(ow, area, y, x, holding)
+                        own[i + r] = ONE if ow else ZERO
                         thr = adv * (one5 - h[y, x])
                         if easing:
                             thr = thr * _damp_factor(wc[y, x], h[y, x], cmin, cspan, ease,
@@ -434,6 +435,8 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         wet = ow | (un & advancing & (nb > thr))
                         wet_o[j, i] = 1 if wet else 0
                         opn_o[j, i] = 1 if un else 0
+                if holding:  # a loop of its own: the column loops above stay as they were
+                    _wet_memory_row(own, area, y, x0, r, slo, shi)
                 if fade > ZERO:
                     for i in range(slo, shi + 1):
                         x = np.uint64(x0 + i - 1)
