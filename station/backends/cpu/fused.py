@@ -14,16 +14,20 @@ per chunk of rows instead of full scratch fields:
   (``capillary_dry``): no ``sat`` field and none of capillary_dry's re-reads, −10 floats.
 
 A chunk's first ring rows belong to its neighbour chunk: they are recomputed here (the
-limiters are pure functions of the sweep's inputs).  The cpu backend's bitwise tests
-against the numpy reference (tests/test_cpu_backend.py) hold them; the prototypes that
-first compared them with the two-sweep kernels were copies of this code and are gone
-(git history: tools/proto_fused_*.py).
+limiters are pure functions of the sweep's inputs).  So these sweeps take as few chunks as
+there are threads (``chunks``, :func:`ring_chunks`): prange hands each thread an equal
+share of the chunks anyway (a static schedule), and at 1920x1080 the 64 chunks of the
+other sweeps cost ~10 % more work here (2 limiter and 3 face-rate rows of pass 6, 3
+iterate rows and a limiter row of passes 4/5, 2 saturation rows of pass 9 per chunk).
+The cpu backend's bitwise tests against the numpy reference (tests/test_cpu_backend.py)
+hold them; the prototypes that first compared them with the two-sweep kernels were
+copies of this code and are gone (git history: tools/proto_fused_*.py).
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import get_num_threads, njit, prange
 
 from station.backends.cpu import kernels as K
 
@@ -31,6 +35,12 @@ F32 = np.float32
 ZERO, ONE = K.ZERO, K.ONE
 _inline = njit(inline="always", fastmath=False, cache=True, error_model="numpy")
 _parallel = njit(parallel=True, fastmath=False, cache=True, error_model="numpy", nogil=True)
+
+
+def ring_chunks() -> int:
+    """The ``chunks`` argument of the ringed sweeps: one chunk per thread."""
+    n: int = get_num_threads()
+    return n
 
 
 @_inline
@@ -119,7 +129,8 @@ def _limit_row(w: np.ndarray, p: np.ndarray, r: int, ns: int, wmin: np.float32,
 def advect_fused(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
                  p: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int,
                  cst: np.ndarray, w3_o: np.ndarray, p_state: np.ndarray,
-                 spans: np.ndarray, nsp: np.ndarray) -> None:  # pragma: no cover - compiled
+                 spans: np.ndarray, nsp: np.ndarray,
+                 chunks: int) -> None:  # pragma: no cover - compiled
     """Pass 6 (limiters and fluxes) in one sweep: each chunk computes the limiter rows
     j-1, j, j+1 into a ring and applies row j, exactly as advect_apply does. The face
     rates live in rings too: a row's x faces serve its limiter and its fluxes, a row of
@@ -128,7 +139,7 @@ def advect_fused(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
     q4 = cst[K.C_Q4]
     wmin = cst[K.C_WMIN]
     wmax = cst[K.C_WMAX]
-    nch = min(bh, K.N_CHUNKS)
+    nch = bh if bh < chunks else chunks
     for ch in prange(nch):
         j0, j1 = K._chunk(ch, nch, bh)
         a = np.empty((6, bw + 2), F32)
@@ -332,7 +343,7 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
                         ns: int, cst: np.ndarray, do_vjac: bool, do_height: bool, do_w: bool,
                         do_p: bool, jac1: bool, v3x_o: np.ndarray, v3y_o: np.ndarray,
                         w2_o: np.ndarray, p2_o: np.ndarray, spans: np.ndarray,
-                        nsp: np.ndarray) -> None:  # pragma: no cover - compiled
+                        nsp: np.ndarray, chunks: int) -> None:  # pragma: no cover - compiled
     """height_limit and diffuse_apply in one sweep (their maths unchanged): each chunk
     keeps the donor limiters of rows j-1, j, j+1 in a ring instead of ``sw``/``sp``,
     and the final iterates of rows j-1..j+2 in another; with ``jac1`` (one Jacobi
@@ -340,7 +351,7 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
     iterate fields are neither written nor read)."""
     kw = cst[K.C_KW]
     kp = cst[K.C_KP]
-    nch = min(bh, K.N_CHUNKS)
+    nch = bh if bh < chunks else chunks
     for ch in prange(nch):
         j0, j1 = K._chunk(ch, nch, bh)
         swr = np.zeros((3, bw + 2), F32)  # ring: row r in slot r % 3
@@ -553,12 +564,12 @@ def evap_cap_fused(wet: np.ndarray, w3: np.ndarray, opn: np.ndarray,
                    vy: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int,
                    cst: np.ndarray, do_evap: bool, do_surface: bool, do_absorb: bool,
                    do_capdiff: bool, do_dry: bool, spans: np.ndarray,
-                   nsp: np.ndarray) -> None:  # pragma: no cover - compiled
+                   nsp: np.ndarray, chunks: int) -> None:  # pragma: no cover - compiled
     """evap_surface_absorb and capillary_dry in one sweep (their maths unchanged): pass
     7-9a write the state in place, so each chunk's two boundary ``sat`` rows are computed
     first, side-effect free, from the state as the step found it; the fused loop keeps
     the rows j-1, j, j+1 of ``sat`` in a ring instead of a scratch field."""
-    nch = min(bh, K.N_CHUNKS)
+    nch = bh if bh < chunks else chunks
     edge_sat = np.zeros((nch, 2, bw + 2), F32)
     for ch in prange(nch):  # the boundary rows, from the state as the step found it
         j0, j1 = K._chunk(ch, nch, bh)
