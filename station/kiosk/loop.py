@@ -209,6 +209,11 @@ def draw_frame(app: KioskApp, now: float, dt: float, times: _FrameTimes) -> bool
     times.drained = time.perf_counter()
     with s.lock:
         app.display.update_preview()
+        # a screenshot shows the whole canvas: the tiles that a large fresh preview left
+        # to the next frames' budget are drawn now (between steps)
+        while app.screenshots and app.display.behind():
+            s.wait_step()
+            app.display.update_tiles()
     times.preview = time.perf_counter()
     drawing.compose_changes(app, cam)
     drawing.fill_back_buffer(app, cam)
