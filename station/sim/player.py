@@ -42,6 +42,7 @@ from station.arttools import tissue as tissue_tool
 from station.arttools import well as well_tool
 from station.backends.numpy_canvas import NumpyCanvas
 from station.backends.protocol import CanvasBackend, edit_state
+from station.brush.bead import bead_sources
 from station.brush.deformable import DeformableBrush
 from station.brush.reservoir import pickup
 from station.brush.solver import SolverCounters
@@ -131,6 +132,7 @@ class SessionPlayer:
             width, height, brush_defaults(prof).scaled(brush_scale), brush_model(prof),
             time_scale=self.rate * self.dt, paper=self._grain())
         self.pickups_skipped = 0  # pick-ups on a backend whose arrays are not in memory
+        self.beads_skipped = 0  # touch-down beads on such a backend (station.brush.bead)
         self.solver = SolverCounters()  # the deformable brushes' spine solves, all kinds
         self.counters = PlayerCounters()
         # Pigments painted into the active layer, to refuse a ninth one at the pen
@@ -170,8 +172,10 @@ class SessionPlayer:
 
     def step(self) -> None:
         """One simulation step with the brush sources due before it (each stamp is
-        spread over the two steps around its time: :mod:`station.brush.sources`)."""
+        spread over the two steps around its time: :mod:`station.brush.sources`), and the
+        beads of the touch-downs before it (:meth:`release_beads`)."""
         self.flush_sources()
+        self.release_beads()
         dryer = self.dryer
         if dryer is not None:
             if self.counters.steps < self.dryer_until:
@@ -210,6 +214,28 @@ class SessionPlayer:
         src = self.brush.take(None if whole else self.counters.steps)
         if src is not None:
             add_sources(self.backend, src)
+        if whole:
+            self.release_beads()
+
+    def release_beads(self) -> None:
+        """The beads of the round brush's touch-downs since the last release run out into
+        the standing water under them (:mod:`station.brush.bead`), read from the canvas
+        arrays where the backend keeps them in memory; on a GPU backend they are counted
+        and skipped, as pick-ups are. Called once a step, after all of the step's stamps
+        are in (never from a live preview's flush), so live and replay agree."""
+        if not isinstance(self.brush, RoundBrush):
+            return
+        beads = self.brush.take_beads()
+        if not beads:
+            return
+        state = getattr(self.backend, "live_state", None)
+        if state is None:
+            self.beads_skipped += len(beads)
+            return
+        for req in beads:
+            src = bead_sources(req, state.w, state.mask, state.params.w_max)
+            if src is not None:
+                add_sources(self.backend, src)
 
     # -- records -----------------------------------------------------------------
     def apply(self, record: PenSample | Command, where: str | None = None) -> None:
