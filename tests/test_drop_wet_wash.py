@@ -10,6 +10,7 @@ blurred over its minute of drying: 2.06 brush radii at 0.33x the dry dab's darkn
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from station.backends.numpy_canvas import NumpyCanvas
 from station.brush.bead import BeadRequest, bead_sources
@@ -79,3 +80,34 @@ def test_bead_sources_fill_the_nearest_room_through_the_film_only() -> None:
     assert np.allclose(pig, 2.5 * dw)
     # the tip on damp or dry paper (no film beyond its own stamp): nothing
     assert bead_sources(req, np.full((30, 30), 0.3, np.float32), mask, 1.0) is None
+
+
+def test_the_bead_runs_out_on_the_gl_backend_too() -> None:
+    """GL keeps its fields on the GPU: the player reads the fluid heights back at the
+    dipped touch-down (two textures), so the GL canvas gets the same bead as NumPy."""
+    gl = pytest.importorskip("station.backends.gl")
+    try:
+        ctx = gl.create_context()
+    except gl.GLUnavailable as exc:
+        pytest.skip(f"no OpenGL 4.3 context: {exc}")
+    n = 40
+    s = Script(n, n, seed=3, rate_hz=PEN_HZ)
+    s.brush(size=2 * n, water=1.0, pigment={})
+    s.dab((0.5, 0.5), 0.1, pressure=1.0)
+    s.brush(size=10, water=0.8, pigment={fb.WASH_PIGMENT: 1.0})
+    s.dab((0.5, 0.5), 0.2, pressure=0.7)
+    s.wait(0.1)
+    try:
+        out = []
+        for c in (NumpyCanvas(n, n, profile="watercolor", seed=3),
+                  gl.GLCanvas(n, n, profile="watercolor", seed=3, ctx=ctx)):
+            SessionPlayer(c, n, n, "watercolor").play(s.records)
+            out.append(c.state())
+        ref, got = out
+        name = ref.slots[0]
+        assert got.pigment_added[name] == pytest.approx(ref.pigment_added[name], rel=1e-4)
+        assert got.pigment_added[name] > 2.0 * _dab(0.0, True).live_state.pigment_added[name]
+        assert np.abs(got.p[0] - ref.p[0]).max() < 1e-3
+        assert np.abs(got.w - ref.w).max() < 1e-3
+    finally:
+        ctx.release()

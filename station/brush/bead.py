@@ -45,8 +45,9 @@ reservoir's ``W_WET``: wet paint comes along)."""
 class BeadRequest:
     """The bead of one touch-down: where [cells], the footprint's radius [cells], the
     liquid [height * cells], its pigment per unit of water (name -> area fraction per
-    height), and the water the touch-down stamp itself laid per cell [height] (it is not
-    the film the tip touches)."""
+    height), the water the touch-down stamp itself laid per cell [height] (it is not
+    the film the tip touches), and the stamp's painting time ``tau`` [steps]: the bead runs
+    out before the first step its stamp reaches (``station.brush.sources.due_share``)."""
 
     cx: float
     cy: float
@@ -54,6 +55,11 @@ class BeadRequest:
     volume: float
     concentration: Mapping[str, float]
     stamp_water: float
+    tau: float = -math.inf
+
+    def due(self, step: int) -> bool:
+        """Whether the bead runs out before step ``step`` (with its stamp's first share)."""
+        return step + 1.0 > self.tau
 
 
 def bead_sources(req: BeadRequest, w: np.ndarray, mask: np.ndarray, w_max: float

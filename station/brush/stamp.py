@@ -546,8 +546,9 @@ class RoundBrush:
         stg = self.settings
         water = stg.water * load * m.water_scale * water_share
         pigment = {k: a * load * m.pigment_scale * thick for k, a in stg.pigment.items()}
+        tau = painting_steps(t, self.clock)
         self._pending.add(Stamp(cells=fresh, water=water, pigment=pigment, vx=vx, vy=vy,
-                                tau=painting_steps(t, self.clock)))
+                                tau=tau))
         if touch_down and self._bead_ready:
             # the first touch-down after a dip lets the bead go: into a film it runs out
             # (the canvas decides, station.brush.bead); on paper without one the stroke
@@ -556,7 +557,7 @@ class RoundBrush:
             if m.bead > 0.0 and water > 0.0 and fresh.area > 0.0:
                 self._beads.append(BeadRequest(
                     x, y, r, m.bead * water * fresh.area,
-                    {k: a / water for k, a in pigment.items() if a > 0.0}, water))
+                    {k: a / water for k, a in pigment.items() if a > 0.0}, water, tau))
 
     # -- output --------------------------------------------------------------
     def take(self, step: int | None = None) -> Sources | None:
@@ -569,10 +570,15 @@ class RoundBrush:
         """All the sources still pending, left pending (a live view's preview)."""
         return self._pending.peek()
 
-    def take_beads(self) -> list[BeadRequest]:
-        """The touch-downs since the last call whose bead the canvas decides
-        (:mod:`station.brush.bead`; the session player releases them before a step)."""
-        beads, self._beads = self._beads, []
+    def take_beads(self, step: int | None = None) -> list[BeadRequest]:
+        """The touch-downs whose bead the canvas decides (:mod:`station.brush.bead`; the
+        session player releases them): those due before step ``step`` (their stamp's
+        first share goes in then), all of them when ``None``."""
+        if step is None:
+            beads, self._beads = self._beads, []
+            return beads
+        beads = [b for b in self._beads if b.due(step)]
+        self._beads = [b for b in self._beads if not b.due(step)]
         return beads
 
     @property

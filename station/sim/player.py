@@ -132,7 +132,6 @@ class SessionPlayer:
             width, height, brush_defaults(prof).scaled(brush_scale), brush_model(prof),
             time_scale=self.rate * self.dt, paper=self._grain())
         self.pickups_skipped = 0  # pick-ups on a backend whose arrays are not in memory
-        self.beads_skipped = 0  # touch-down beads on such a backend (station.brush.bead)
         self.solver = SolverCounters()  # the deformable brushes' spine solves, all kinds
         self.counters = PlayerCounters()
         # Pigments painted into the active layer, to refuse a ninth one at the pen
@@ -175,7 +174,7 @@ class SessionPlayer:
         spread over the two steps around its time: :mod:`station.brush.sources`), and the
         beads of the touch-downs before it (:meth:`release_beads`)."""
         self.flush_sources()
-        self.release_beads()
+        self.release_beads(self.counters.steps)
         dryer = self.dryer
         if dryer is not None:
             if self.counters.steps < self.dryer_until:
@@ -217,25 +216,32 @@ class SessionPlayer:
         if whole:
             self.release_beads()
 
-    def release_beads(self) -> None:
-        """The beads of the round brush's touch-downs since the last release run out into
-        the standing water under them (:mod:`station.brush.bead`), read from the canvas
-        arrays where the backend keeps them in memory; on a GPU backend they are counted
-        and skipped, as pick-ups are. Called once a step, after all of the step's stamps
-        are in (never from a live preview's flush), so live and replay agree."""
+    def release_beads(self, step: int | None = None) -> None:
+        """The beads of the round brush's touch-downs run out into the standing water under
+        them (:mod:`station.brush.bead`). Called once a step with the step's index (the
+        beads due before it: their stamps' first shares are in), after the step's stamps,
+        and with ``None`` (all) at a whole flush; never from a live preview's flush, so
+        live and replay agree."""
         if not isinstance(self.brush, RoundBrush):
             return
-        beads = self.brush.take_beads()
-        if not beads:
-            return
-        state = getattr(self.backend, "live_state", None)
-        if state is None:
-            self.beads_skipped += len(beads)
-            return
-        for req in beads:
-            src = bead_sources(req, state.w, state.mask, state.params.w_max)
+        for req in self.brush.take_beads(step):
+            src = bead_sources(req, *self._fluid_heights())
             if src is not None:
                 add_sources(self.backend, src)
+
+    def _fluid_heights(self) -> tuple[np.ndarray, np.ndarray, float]:
+        """The canvas's fluid water height, mask and ``w_max``: the arrays themselves where
+        the backend keeps them in memory, else read back (GL: two textures; other backends
+        their whole state), at most once a dip (a bead is the first touch-down's)."""
+        live = getattr(self.backend, "live_state", None)
+        if isinstance(live, CanvasState):
+            return live.w, live.mask, float(live.params.w_max)
+        read = getattr(self.backend, "fluid_heights", None)
+        if read is not None:
+            w, mask, w_max = read()
+            return w, mask, float(w_max)
+        st = self.backend.state()
+        return st.w, st.mask, float(st.params.w_max)
 
     # -- records -----------------------------------------------------------------
     def apply(self, record: PenSample | Command, where: str | None = None) -> None:
