@@ -347,7 +347,8 @@ class RoundBrush:
         self._strokes: dict[str, _Stroke] = {}
         self._pending = StampQueue()
         self._beads: list[BeadRequest] = []  # touch-downs whose bead the canvas decides
-        self._bead_ready = True  # the tuft still carries the bead of its last dip
+        # the tuft still carries the bead of its last dip (a checkpoint keeps it)
+        self.bead_ready = True
         # (steps per session second, seconds waited): puts each stamp's time on the
         # simulation's step clock (see station.brush.sources); None: whole at the next step
         self.clock: tuple[float, float] | None = None
@@ -361,7 +362,7 @@ class RoundBrush:
         """Change the brush (a ``brush`` command dips it: a fresh bead on its tip); a
         running stroke continues with the new paint."""
         self.settings = settings
-        self._bead_ready = True
+        self.bead_ready = True
 
     def end_strokes(self) -> None:
         """Lift every pen (e.g. before ``dry``/``clear``): the next stamp is a fresh start."""
@@ -549,11 +550,11 @@ class RoundBrush:
         tau = painting_steps(t, self.clock)
         self._pending.add(Stamp(cells=fresh, water=water, pigment=pigment, vx=vx, vy=vy,
                                 tau=tau))
-        if touch_down and self._bead_ready:
+        if touch_down and self.bead_ready:
             # the first touch-down after a dip lets the bead go: into a film it runs out
             # (the canvas decides, station.brush.bead); on paper without one the stroke
             # spends it, and its stamps are all the paper takes
-            self._bead_ready = False
+            self.bead_ready = False
             if m.bead > 0.0 and water > 0.0 and fresh.area > 0.0:
                 self._beads.append(BeadRequest(
                     x, y, r, m.bead * water * fresh.area,
