@@ -48,6 +48,7 @@ from typing import Any
 
 import numpy as np
 
+from station.brush.bead import BeadRequest
 from station.brush.geometry import known_shapes
 from station.brush.sources import Footprint as Footprint
 from station.brush.sources import Sources as Sources
@@ -184,6 +185,10 @@ class BrushModel:
             [session s]: its tail is ``speed * tail_time`` long (at most ``tail_max``
             brush radii), narrowing to the tip, so a flick ends in a taper.
         tail_max: the longest tail in brush radii.
+        bead: the liquid a loaded tuft lets go where its tip touches down in standing
+            water, in touch-down stamps' worth of water, at the paint's concentration
+            (:mod:`station.brush.bead`; 0: none). A round brush holds several stamps of
+            paint; dry paper takes one stamp's worth, a wet wash draws on the tuft.
     """
 
     r_min: float = 0.3
@@ -204,6 +209,7 @@ class BrushModel:
     streak_width: float = 1.2
     tail_time: float = 0.05
     tail_max: float = 4.0
+    bead: float = 2.0
 
     def radius(self, size: float, pressure: float) -> float:
         """Footprint radius in cells for a brush of diameter ``size`` at ``pressure``."""
@@ -340,6 +346,9 @@ class RoundBrush:
             self._grain, self._edge = _paper_maps(paper)
         self._strokes: dict[str, _Stroke] = {}
         self._pending = StampQueue()
+        self._beads: list[BeadRequest] = []  # touch-downs whose bead the canvas decides
+        # the tuft still carries the bead of its last dip (a checkpoint keeps it)
+        self.bead_ready = True
         # (steps per session second, seconds waited): puts each stamp's time on the
         # simulation's step clock (see station.brush.sources); None: whole at the next step
         self.clock: tuple[float, float] | None = None
@@ -350,8 +359,10 @@ class RoundBrush:
 
     # -- settings ------------------------------------------------------------
     def set(self, settings: BrushSettings) -> None:
-        """Change the brush; a running stroke continues with the new paint."""
+        """Change the brush (a ``brush`` command dips it: a fresh bead on its tip); a
+        running stroke continues with the new paint."""
         self.settings = settings
+        self.bead_ready = True
 
     def end_strokes(self) -> None:
         """Lift every pen (e.g. before ``dry``/``clear``): the next stamp is a fresh start."""
@@ -521,6 +532,7 @@ class RoundBrush:
             fp = self._dry_gate(s, fp, x, y, r, skip)
             # the tuft's paint goes where its hairs touch: thick paint, little water
             thick = min(2.0, full / fp.area) if fp.area > 0 else 1.0
+        touch_down = s.previous is None
         fresh = fp.without(s.previous)
         s.previous = fp
         if advance:
@@ -533,17 +545,20 @@ class RoundBrush:
         if speed > m.v_max:
             vx, vy = vx * m.v_max / speed, vy * m.v_max / speed
         stg = self.settings
-        self._pending.add(
-            Stamp(
-                cells=fresh,
-                water=stg.water * load * m.water_scale * water_share,
-                pigment={k: a * load * m.pigment_scale * thick
-                         for k, a in stg.pigment.items()},
-                vx=vx,
-                vy=vy,
-                tau=painting_steps(t, self.clock),
-            )
-        )
+        water = stg.water * load * m.water_scale * water_share
+        pigment = {k: a * load * m.pigment_scale * thick for k, a in stg.pigment.items()}
+        tau = painting_steps(t, self.clock)
+        self._pending.add(Stamp(cells=fresh, water=water, pigment=pigment, vx=vx, vy=vy,
+                                tau=tau))
+        if touch_down and self.bead_ready:
+            # the first touch-down after a dip lets the bead go: into a film it runs out
+            # (the canvas decides, station.brush.bead); on paper without one the stroke
+            # spends it, and its stamps are all the paper takes
+            self.bead_ready = False
+            if m.bead > 0.0 and water > 0.0 and fresh.area > 0.0:
+                self._beads.append(BeadRequest(
+                    x, y, r, m.bead * water * fresh.area,
+                    {k: a / water for k, a in pigment.items() if a > 0.0}, water, tau))
 
     # -- output --------------------------------------------------------------
     def take(self, step: int | None = None) -> Sources | None:
@@ -555,6 +570,17 @@ class RoundBrush:
     def peek(self) -> Sources | None:
         """All the sources still pending, left pending (a live view's preview)."""
         return self._pending.peek()
+
+    def take_beads(self, step: int | None = None) -> list[BeadRequest]:
+        """The touch-downs whose bead the canvas decides (:mod:`station.brush.bead`; the
+        session player releases them): those due before step ``step`` (their stamp's
+        first share goes in then), all of them when ``None``."""
+        if step is None:
+            beads, self._beads = self._beads, []
+            return beads
+        beads = [b for b in self._beads if b.due(step)]
+        self._beads = [b for b in self._beads if not b.due(step)]
+        return beads
 
     @property
     def pending(self) -> int:

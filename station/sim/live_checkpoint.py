@@ -9,7 +9,7 @@ import time
 from typing import TYPE_CHECKING, Any
 
 from station.brush.deformable import DeformableBrush
-from station.brush.stamp import BrushSettings
+from station.brush.stamp import BrushSettings, RoundBrush
 from station.errors import BadInput
 from station.events import PenSample
 from station.sim import recovery
@@ -39,6 +39,8 @@ def session(core: LiveCore) -> dict[str, Any]:
             "stamps": b.stamps, "brush_samples": b.samples,
             "eraser_samples": b.eraser_samples, "strokes": b.strokes,
             **({"deformable": b.snapshot()} if isinstance(b, DeformableBrush) else {}),
+            # whether the round brush's tip still carries the bead of its last dip
+            **({"bead_ready": b.bead_ready} if isinstance(b, RoundBrush) else {}),
         },
         "live": {"last_t": core._last_t, "samples": c.samples, "commands": c.commands,
                  "bad_commands": c.bad_commands, "bad_samples": c.bad_samples,
@@ -63,6 +65,8 @@ def restore(core: LiveCore, s: dict[str, Any]) -> None:
         except (ValueError, KeyError, TypeError, AttributeError) as exc:
             core._warn(f"recovery: the deformable brush's state was not restored ({exc}); "
                        "it starts freshly loaded")
+    if isinstance(b, RoundBrush) and "bead_ready" in ps:  # _use dipped it afresh
+        b.bead_ready = bool(ps["bead_ready"])
     p.layer_pigments = set(ps["layer_pigments"])
     p.counters.samples = int(ps["samples"])
     p.counters.commands = {str(k): int(v) for k, v in ps["commands"].items()}

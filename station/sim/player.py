@@ -42,6 +42,7 @@ from station.arttools import tissue as tissue_tool
 from station.arttools import well as well_tool
 from station.backends.numpy_canvas import NumpyCanvas
 from station.backends.protocol import CanvasBackend, edit_state
+from station.brush.bead import bead_sources
 from station.brush.deformable import DeformableBrush
 from station.brush.reservoir import pickup
 from station.brush.solver import SolverCounters
@@ -170,8 +171,10 @@ class SessionPlayer:
 
     def step(self) -> None:
         """One simulation step with the brush sources due before it (each stamp is
-        spread over the two steps around its time: :mod:`station.brush.sources`)."""
+        spread over the two steps around its time: :mod:`station.brush.sources`), and the
+        beads of the touch-downs before it (:meth:`release_beads`)."""
         self.flush_sources()
+        self.release_beads(self.counters.steps)
         dryer = self.dryer
         if dryer is not None:
             if self.counters.steps < self.dryer_until:
@@ -210,6 +213,41 @@ class SessionPlayer:
         src = self.brush.take(None if whole else self.counters.steps)
         if src is not None:
             add_sources(self.backend, src)
+        if whole:
+            self.release_beads()
+
+    def release_beads(self, step: int | None = None) -> None:
+        """The beads of the round brush's touch-downs run out into the standing water under
+        them (:mod:`station.brush.bead`). Called once a step with the step's index (the
+        beads due before it: their stamps' first shares are in), after the step's stamps,
+        and with ``None`` (all) at a whole flush; never from a live preview's flush, so
+        live and replay agree."""
+        if not isinstance(self.brush, RoundBrush):
+            return
+        for req in self.brush.take_beads(step):
+            heights = self._fluid_heights()
+            if heights is None:  # a backend that shows no state (a test double)
+                continue
+            src = bead_sources(req, *heights)
+            if src is not None:
+                add_sources(self.backend, src)
+
+    def _fluid_heights(self) -> tuple[np.ndarray, np.ndarray, float] | None:
+        """The canvas's fluid water height, mask and ``w_max``: the arrays themselves where
+        the backend keeps them in memory, else read back (GL: two textures; other backends
+        their whole state), at most once a dip (a bead is the first touch-down's)."""
+        live = getattr(self.backend, "live_state", None)
+        if isinstance(live, CanvasState):
+            return live.w, live.mask, float(live.params.w_max)
+        read = getattr(self.backend, "fluid_heights", None)
+        if read is not None:
+            w, mask, w_max = read()
+            return w, mask, float(w_max)
+        whole = getattr(self.backend, "state", None)
+        if whole is None:
+            return None
+        st = whole()
+        return st.w, st.mask, float(st.params.w_max)
 
     # -- records -----------------------------------------------------------------
     def apply(self, record: PenSample | Command, where: str | None = None) -> None:

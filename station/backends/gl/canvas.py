@@ -289,6 +289,17 @@ class GLCanvas(GLStepPasses):
             layers=[dict(d) for d in self.layers],
         )
 
+    def fluid_heights(self) -> tuple[np.ndarray, np.ndarray, float]:
+        """The fluid water height ``w``, the mask (float32 (H, W)) and ``w_max``, read back
+        from the GPU: two of the state's textures, not all of it (a freshly dipped brush's
+        first touch-down reads them once to let its bead run out into the film,
+        :mod:`station.brush.bead`)."""
+        self.ctx.memory_barrier()
+        hh, ww = self.height, self.width
+        w = tx.unpack_planes(self._read(self.f["water"].src), 4, hh, ww)[0]
+        mask = tx.unpack_planes(self._read(self.f["paper"].src), 4, hh, ww)[1]
+        return w, mask, float(self.params.w_max)
+
     # ------------------------------------------------------------ sources
     def _slot_of(self, name: str) -> int:
         canonical = self.palette.get(name).name
