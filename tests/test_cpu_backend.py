@@ -269,7 +269,10 @@ def test_operations_render_and_factory() -> None:
     # honest traffic: the per-sweep count (float32 fields 4 bytes, the two flags 1 byte)
     slots = max(len(c.live_state.slots), 1)
     iters = int(c.live_state.params.jacobi_iters)
-    assert c.bytes_per_cell_step() == sum(traffic.bytes_per_sweep(slots, iters).values())
+    memory = c.live_state.params.wet_hold > 0
+    assert memory  # the watercolor profile keeps a wet-area memory (issue 21 item 8)
+    assert c.bytes_per_cell_step() == sum(
+        traffic.bytes_per_sweep(slots, iters, memory).values())
     # 520 before issue 10, 556 in own sweep, 544 before issue 26 fused passes 2-5, 6 and
     # 7-10, 408 after them; 364 with uint8 flags, c from h, pass 1 on the state's velocity
     assert traffic.bytes_per_cell_step(2, 4) == 380
@@ -277,6 +280,9 @@ def test_operations_render_and_factory() -> None:
     # 340 (348 with the fibres' reads, which that count left out) before the flags, 315
     # after them; 275 with iteration 1 in limit_diffuse's row ring
     assert traffic.bytes_per_cell_step(2, 1) == 275
+    # the wet-area memory: prep reads and writes the area (8), and its fade is a sweep of
+    # its own (w, wc, area read, area written, the open flag: 17)
+    assert traffic.bytes_per_cell_step(2, 1, wet_memory=True) == 300
 
 
 def test_bench_sim_measures_the_cpu_backend(capsys) -> None:

@@ -216,12 +216,14 @@ def test_renderer_string_and_traffic_count(ctx) -> None:
     # the pigment layers in use are counted: none, then 1 (4 slots), then 2 (8 slots)
     count = gl.traffic.floats_per_cell_step
     n = int(g.params.jacobi_iters)  # the profile's
-    assert g.bytes_per_cell_step() == 4 * sum(count(0, n).values())
+    mem = g.params.wet_hold > 0  # the wet-area memory's texture is traffic too
+    assert mem and sum(count(4, n, True).values()) == sum(count(4, n).values()) + 3
+    assert g.bytes_per_cell_step() == 4 * sum(count(0, n, mem).values())
     stamp(g, 10, 10, 3, {"Black": 0.1})
-    assert g.bytes_per_cell_step() == 4 * sum(count(4, n).values())
+    assert g.bytes_per_cell_step() == 4 * sum(count(4, n, mem).values())
     for name in ("Cadmium Red", "Hansa Yellow", "Burnt Umber", "Cerulean Blue"):
         stamp(g, 10, 10, 3, {name: 0.1})
-    assert g.bytes_per_cell_step() == 4 * sum(count(8, n).values())
+    assert g.bytes_per_cell_step() == 4 * sum(count(8, n, mem).values())
     assert count(8, 4)["jacobi (velocity, water, pigment)"] > count(4, 4)[
         "jacobi (velocity, water, pigment)"]
 

@@ -16,15 +16,17 @@ from station.canvas.stats import CanvasStats, canvas_stats
 from station.render.km import render_bands, render_state
 
 
-def floats_per_cell_step(slots: int, jacobi_iters: int) -> dict[str, int]:
+def floats_per_cell_step(slots: int, jacobi_iters: int,
+                         wet_memory: bool = False) -> dict[str, int]:
     """Honest memory traffic of the reference per cell-step, in float32 values per pass.
 
     Each field a pass must read or write counts once (a stencil's neighbours come from
     cache), for a wet cell; ``slots`` = pigment slots in use (the reference skips the
-    others), ``jacobi_iters`` = n.
+    others), ``jacobi_iters`` = n; ``wet_memory``: the profile keeps a wet-area memory
+    (``SimParams.wet_hold > 0``).
     """
     s, n = int(slots), int(jacobi_iters)
-    return {
+    passes = {
         "wet mask (read w, wc, mask; write wet)": 4,
         "advect_velocity (read v, wet; write v)": 5,
         "diffuse_velocity (n x: read x, u, wet; write x)": 7 * n,
@@ -41,6 +43,10 @@ def floats_per_cell_step(slots: int, jacobi_iters: int) -> dict[str, int]:
         "capillary (read w, wc, h, mask, evaporated; write w, wc, evaporated)": 8,
         "dry_cells (read w, p, q, v, evaporated; write them)": 4 * s + 8,
     }
+    if wet_memory:
+        passes["wet_memory (read wet_area, own; write wet_area)"] = 3
+        passes["wet_area_update (read w, wc, wet_area; write wet_area)"] = 4
+    return passes
 
 
 class NumpyCanvas:
@@ -156,7 +162,9 @@ class NumpyCanvas:
     def bytes_per_cell_step(self) -> int:
         """Honest bytes of memory traffic per simulated cell and step (see above)."""
         slots = max(len(self._state.slots), 1)
-        return 4 * sum(floats_per_cell_step(slots, self._state.params.jacobi_iters).values())
+        prm = self._state.params
+        return 4 * sum(floats_per_cell_step(slots, prm.jacobi_iters,
+                                            prm.wet_hold > 0).values())
 
     def save(self, path: str) -> None:
         self._state.save(path)

@@ -43,4 +43,5 @@ class CpuCanvas(NumpyCanvas):
     def bytes_per_cell_step(self) -> int:
         """Honest bytes per simulated cell and step of the fused sweeps (see traffic.py)."""
         slots = max(len(self._state.slots), 1)
-        return traffic.bytes_per_cell_step(slots, self._state.params.jacobi_iters)
+        prm = self._state.params
+        return traffic.bytes_per_cell_step(slots, prm.jacobi_iters, prm.wet_hold > 0)

@@ -18,12 +18,14 @@ FLOAT = 4
 FLAG = 1
 
 
-def bytes_per_sweep(slots: int, jacobi_iters: int) -> dict[str, int]:
-    """Per sweep: bytes read + written per cell for one step."""
+def bytes_per_sweep(slots: int, jacobi_iters: int,
+                    wet_memory: bool = False) -> dict[str, int]:
+    """Per sweep: bytes read + written per cell for one step; ``wet_memory``: the
+    profile keeps a wet-area memory (``SimParams.wet_hold > 0``)."""
     s = int(slots)
     n = max(int(jacobi_iters), 1)
     f, b = FLOAT, FLAG
-    return {
+    sweeps = {
         # read w, wc, mask, h, block, block_time, fibre(2) and vx, vy (the fibres'
         # dispersion on beta_c: every profile has it), p(S), w0 again (second sweep);
         # write w0, bc, mbx (the x half of the wet-area blur), p0(S); flags wet, opn
@@ -54,8 +56,15 @@ def bytes_per_sweep(slots: int, jacobi_iters: int) -> dict[str, int]:
         "evap_capillary (passes 7, 8, 9a, 9b, 9c, 10)":
             f * ((7 + 2 * s) + (5 + 2 * s)) + b * 2,
     }
+    if wet_memory:
+        # prep's own loop per span reads the wet area and writes M = max(area, own)
+        sweeps["prep (wet mask, copies, diffusion controller, row blur)"] += f * 2
+        # kernels.wet_area_end: read w, wc, opn, area; write area
+        sweeps["wet_area_end (the end of pass 10: the wet-area memory fades)"] = (
+            f * (3 + 1) + b)
+    return sweeps
 
 
-def bytes_per_cell_step(slots: int, jacobi_iters: int) -> int:
+def bytes_per_cell_step(slots: int, jacobi_iters: int, wet_memory: bool = False) -> int:
     """Bytes of honest memory traffic per simulated cell and step."""
-    return sum(bytes_per_sweep(slots, jacobi_iters).values())
+    return sum(bytes_per_sweep(slots, jacobi_iters, wet_memory).values())

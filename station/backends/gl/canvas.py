@@ -538,7 +538,8 @@ class GLCanvas(GLStepPasses):
         """Honest bytes per cell-step: the passes process the RGBA pigment layers in use
         (4 slots each), so those slots are counted, not the 8 the textures hold."""
         layers = -(-len(self.slots) // 4)
-        return bytes_per_cell_step(4 * layers, int(self.params.jacobi_iters))
+        return bytes_per_cell_step(4 * layers, int(self.params.jacobi_iters),
+                                   self.params.wet_hold > 0)
 
 
 __all__ = ["GLCanvas", "GLUnavailable"]

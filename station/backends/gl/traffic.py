@@ -11,8 +11,10 @@ slots, the NumPy reference only the slots in use.
 from __future__ import annotations
 
 
-def floats_per_cell_step(slots: int, jacobi_iters: int) -> dict[str, int]:
-    """Per pass: float32 values read + written per cell for one step."""
+def floats_per_cell_step(slots: int, jacobi_iters: int,
+                         wet_memory: bool = False) -> dict[str, int]:
+    """Per pass: float32 values read + written per cell for one step; ``wet_memory``:
+    the profile keeps a wet-area memory (``SimParams.wet_hold > 0``)."""
     s = int(slots)
     n = int(jacobi_iters)
     passes = {
@@ -38,9 +40,15 @@ def floats_per_cell_step(slots: int, jacobi_iters: int) -> dict[str, int]:
         # read w, wc, evaporated, h, mask; write w, wc, evaporated (wet cell: no deposit)
         "capillary_dry (capillary diffusion/evaporation, dry_cells)": 5 + 3,
     }
+    if wet_memory:
+        # prep writes a wet cell's area (1); pressure blurs the area; capillary_dry
+        # writes a wet cell's area again (the fade reads it only on damp paper)
+        passes["prep (wet, controller, advect_velocity)"] += 1
+        passes["pressure (pass 3's levelled height)"] += 1
+        passes["capillary_dry (capillary diffusion/evaporation, dry_cells)"] += 1
     return passes
 
 
-def bytes_per_cell_step(slots: int, jacobi_iters: int) -> int:
+def bytes_per_cell_step(slots: int, jacobi_iters: int, wet_memory: bool = False) -> int:
     """Bytes of honest memory traffic per simulated cell and step."""
-    return 4 * sum(floats_per_cell_step(slots, jacobi_iters).values())
+    return 4 * sum(floats_per_cell_step(slots, jacobi_iters, wet_memory).values())
