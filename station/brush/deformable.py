@@ -60,7 +60,13 @@ from station.brush.footprint import (
 )
 from station.brush.geometry import BrushShape, Tuft, get_shape
 from station.brush.reservoir import Reservoir
-from station.brush.solver import BUCKLE, SolverCounters, SpineSolver, SpineState
+from station.brush.solver import (
+    SolverCounters,
+    SpineSolver,
+    SpineState,
+    bend_behind,
+    has_straight,
+)
 from station.brush.sources import (
     Footprint,
     Sources,
@@ -87,14 +93,6 @@ DOWN_WAIT = 0.25
 """How long [session s] a one-spine tuft's touch-down waits for the pen to move before
 it buckles its own way (a brush pressed and held)."""
 
-
-SET_DOWN_BEND = 0.25
-"""Bend [rad per joint] behind the pen's first move that a tuft with a straight spine
-(a fan) is set down with (:meth:`DeformableBrush._bend_behind`). Bending only the
-straight spine by the solver's buckle (0.05) left a diagonal stroke 1.9 cells off its line
-on average (the trailing outer spine held out to the side); 0.15 on every spine 0.9; 0.25
-0.3-0.4, its rows within 1.4 cells (a diagonal's half cells). More narrows the fan's mark
-(0.3: 22 cells wide pulled down)."""
 
 SLIDE = 0.5
 """Cells between the points of the path a tuft slides over between two stamps."""
@@ -341,7 +339,7 @@ class DeformableBrush:
             self.strokes += 1
             stroke = _Stroke(x, y, sample.t)
             self._strokes[key] = stroke
-            if len(self.spines) == 1 or self._straight():
+            if len(self.spines) == 1 or has_straight(self.specs):
                 # pressed, felt (haptics) and set (plasticity) at once; stamped when
                 # the pen's first move says which way the tuft bends
                 stroke.down = (sample, p)
@@ -362,8 +360,9 @@ class DeformableBrush:
                 stroke.twist = math.degrees(math.atan2(dy, dx))
                 st = self.spines[0]  # buckle afresh, behind the motion
                 st.x, st.pos, st.contact = st.rest.copy(), None, None
-            elif moved:
-                self._bend_behind(down, dx, dy)
+            elif moved:  # a fan: its spines set down bending behind the motion
+                bend_behind(self.spines, self.specs,
+                            handle_frame(down.tilt_x, down.tilt_y, down.rotation or 0.0), dx, dy)
             made = self._touch_down(stroke, down, pd)
         if self._due(stroke, x, y, sample.t):
             self._solve(stroke, x, y, p, sample)
@@ -440,34 +439,6 @@ class DeformableBrush:
         self._stamp(stroke, maps, 0, 0, sample.t)
         stroke.to_next = self._spacing(maps)
         return 1
-
-    def _straight(self) -> bool:
-        """Does the shape have a straight spine (a fan's middle one)?  Pressed, it
-        buckles the solver's default way (across the handle's X) unless set bending
-        first. The shape's rest, not the plastic set a last stroke left."""
-        return any(max(map(abs, spec.rest), default=0.0) < BUCKLE for spec in self.specs)
-
-    def _bend_behind(self, down: PenSample, dx: float, dy: float) -> None:
-        """Set a multi-spine tuft with a straight spine (a fan) down bending behind the
-        pen's first move (``dx, dy`` cells): every spine starts ``SET_DOWN_BEND`` back
-        from its rest, and the solve goes on from there. Pressed straight down, the fan's
-        middle spine buckled the solver's default way (across the fan's width) and the
-        stroke pulled down sat 1.7 cells off the pen's line; set down splayed flat, a
-        diagonal stroke's trailing outer spine stayed out to the side (friction holds
-        it) for a tuft length or two, 2-4 cells off. A painter's hairs trail the motion."""
-        handle = handle_frame(down.tilt_x, down.tilt_y, down.rotation or 0.0)
-        hx = dx * handle[0, 0] + dy * handle[1, 0]  # the motion along the handle's X, Y
-        hy = dx * handle[0, 1] + dy * handle[1, 1]
-        big = max(abs(hx), abs(hy))
-        if big <= 0.0:
-            return
-        # theta > 0 bends a segment toward the handle's +Y, phi > 0 toward its -X
-        theta, phi = -SET_DOWN_BEND * hy / big, SET_DOWN_BEND * hx / big
-        for st, spec in zip(self.spines, self.specs, strict=True):
-            st.x = np.asarray(spec.rest, np.float64)
-            st.x[0::2] += theta
-            st.x[1::2] += phi
-            st.pos, st.contact = None, None
 
     def _due(self, s: _Stroke, x: float, y: float, t: float) -> bool:
         """Does this sample need its own spine solve?  Yes when ``frame_interval`` has
