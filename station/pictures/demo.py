@@ -303,8 +303,9 @@ def landscape(width: int = DEMO_WIDTH, height: int = DEMO_HEIGHT) -> Script:
 
     # 2. Distant mountains, wet-on-dry, graded into mist. (Clean water touched into the
     #    half-dry wash made two blooms that read as rings, not a painter's backruns.)
-    s.brush(size=6 * c, water=0.7, pigment={"French Ultramarine": 0.5,
-                                             "Quinacridone Rose": 0.25, "Burnt Umber": 0.1})
+    # cool and lighter than the near ground: they are far
+    s.brush(size=6 * c, water=0.7, pigment={"French Ultramarine": 0.4, "Cerulean Blue": 0.08,
+                                             "Quinacridone Rose": 0.17, "Burnt Umber": 0.08})
     _fill(s, 0.38, 0.07, 0.1, 1.3, 0.5, 5, 0.8, 15.0, sharp=0.5, fade=0.9)
     _blow_dry(s, 14.0)
     s.new_layer()
