@@ -459,6 +459,51 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                             acc[i] = acc[i] + g * own[i + k]
                     for i in range(slo, shi + 1):
                         mbx_o[j, i] = acc[i]
+    if advancing:
+        _pin(wet_o, w0_o, wc, h, y0, x0, bh, spans, nsp, moist, cmin, cspan, dsat)
+
+
+@_inline
+def _pin(wet_o: np.ndarray, w0: np.ndarray, wc: np.ndarray, h: np.ndarray, y0: int, x0: int,
+         bh: int, spans: np.ndarray, nsp: np.ndarray, moist: np.float32, cmin: np.float32,
+         cspan: np.float32, dsat: np.float32) -> None:
+    """The contact line pinned on dry paper (stencils.pinned): a crept cell (wet, not by its
+    own water) whose paper is no damper than ``damp_sat`` and which has under two
+    4-neighbours wet or crept leaves the wet mask. Marked 2 first (its neighbours' counts
+    in the same sweep still read it as wet, whichever thread gets there first), then
+    cleared."""
+    for j in prange(1, bh + 1):
+        y = y0 + j - 1
+        for si in range(nsp[j]):
+            slo, shi = _span(spans, j, si)
+            for i in range(slo, shi + 1):
+                if wet_o[j, i] == 0:
+                    continue
+                x = np.uint64(x0 + i - 1)
+                if w0[j, i] > ZERO or wc[y, x] > moist:
+                    continue  # wet by its own water
+                n = 0
+                if wet_o[j, i - 1] != 0:
+                    n += 1
+                if wet_o[j, i + 1] != 0:
+                    n += 1
+                if wet_o[j - 1, i] != 0:
+                    n += 1
+                if wet_o[j + 1, i] != 0:
+                    n += 1
+                if n >= 2:
+                    continue
+                sat = wc[y, x] / (cmin + h[y, x] * cspan)
+                sat = ONE if sat > ONE else sat
+                if sat > dsat:
+                    continue  # damp paper: the front runs on in the capillary film
+                wet_o[j, i] = 2
+    for j in prange(1, bh + 1):
+        for si in range(nsp[j]):
+            slo, shi = _span(spans, j, si)
+            for i in range(slo, shi + 1):
+                if wet_o[j, i] == 2:
+                    wet_o[j, i] = 0
 
 
 # ------------------------------------------------------------------ flow outward
