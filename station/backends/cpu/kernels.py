@@ -396,8 +396,9 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         ny = ny if ny > t else t
                         line = (nb > thr * (ONE - wick * fibre[0, y, x])) | \
                             (ny > thr * (ONE - wick * fibre[1, y, x]))
-                        wet = ow | (un & line)
-                        wet_o[j, i] = 1 if wet else 0
+                        # 3: reached by the contact line, not wet by its own water
+                        # (_pin decides; every wet_o is 0 or 1 when prep returns)
+                        wet_o[j, i] = 1 if ow else (3 if un & line else 0)
                         opn_o[j, i] = 1 if un else 0
                 else:
                     for i in range(slo, shi + 1):
@@ -417,8 +418,7 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         nb = nb if nb > t else t
                         t = wn[i]
                         nb = nb if nb > t else t
-                        wet = ow | (un & advancing & (nb > thr))
-                        wet_o[j, i] = 1 if wet else 0
+                        wet_o[j, i] = 1 if ow else (3 if un & advancing & (nb > thr) else 0)
                         opn_o[j, i] = 1 if un else 0
                 if fade > ZERO:
                     for i in range(slo, shi + 1):
@@ -460,28 +460,26 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                     for i in range(slo, shi + 1):
                         mbx_o[j, i] = acc[i]
     if advancing:
-        _pin(wet_o, w0_o, wc, h, y0, x0, bh, spans, nsp, moist, cmin, cspan, dsat)
+        _pin(wet_o, wc, h, y0, x0, bh, spans, nsp, cmin, cspan, dsat)
 
 
 @_inline
-def _pin(wet_o: np.ndarray, w0: np.ndarray, wc: np.ndarray, h: np.ndarray, y0: int, x0: int,
-         bh: int, spans: np.ndarray, nsp: np.ndarray, moist: np.float32, cmin: np.float32,
-         cspan: np.float32, dsat: np.float32) -> None:
-    """The contact line pinned on dry paper (stencils.pinned): a crept cell (wet, not by its
-    own water) whose paper is no damper than ``damp_sat`` and which has under two
-    4-neighbours wet or crept leaves the wet mask. Marked 2 first (its neighbours' counts
-    in the same sweep still read it as wet, whichever thread gets there first), then
-    cleared."""
+def _pin(wet_o: np.ndarray, wc: np.ndarray, h: np.ndarray, y0: int, x0: int, bh: int,
+         spans: np.ndarray, nsp: np.ndarray, cmin: np.float32, cspan: np.float32,
+         dsat: np.float32) -> None:
+    """The contact line pinned on dry paper (stencils.pinned). ``wet_o`` comes in as 1
+    (wet by its own water), 3 (reached by the contact line) or 0: a 3 whose paper is no
+    damper than ``damp_sat`` with under two non-zero 4-neighbours becomes 2 (its
+    neighbours' counts in the same sweep still read it as wet, whichever thread gets there
+    first); then 3 becomes 1 and 2 becomes 0. One byte a cell read twice, the rest only at
+    the front."""
     for j in prange(1, bh + 1):
         y = y0 + j - 1
         for si in range(nsp[j]):
             slo, shi = _span(spans, j, si)
             for i in range(slo, shi + 1):
-                if wet_o[j, i] == 0:
+                if wet_o[j, i] != 3:
                     continue
-                x = np.uint64(x0 + i - 1)
-                if w0[j, i] > ZERO or wc[y, x] > moist:
-                    continue  # wet by its own water
                 n = 0
                 if wet_o[j, i - 1] != 0:
                     n += 1
@@ -493,6 +491,7 @@ def _pin(wet_o: np.ndarray, w0: np.ndarray, wc: np.ndarray, h: np.ndarray, y0: i
                     n += 1
                 if n >= 2:
                     continue
+                x = np.uint64(x0 + i - 1)
                 sat = wc[y, x] / (cmin + h[y, x] * cspan)
                 sat = ONE if sat > ONE else sat
                 if sat > dsat:
@@ -502,8 +501,9 @@ def _pin(wet_o: np.ndarray, w0: np.ndarray, wc: np.ndarray, h: np.ndarray, y0: i
         for si in range(nsp[j]):
             slo, shi = _span(spans, j, si)
             for i in range(slo, shi + 1):
-                if wet_o[j, i] == 2:
-                    wet_o[j, i] = 0
+                v = wet_o[j, i]
+                if v > 1:
+                    wet_o[j, i] = 1 if v == 3 else 0
 
 
 # ------------------------------------------------------------------ flow outward
