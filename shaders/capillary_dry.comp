@@ -5,7 +5,8 @@
 //   pass 9c capillary evaporation where w == 0: e = min(eps_cap dt, wc);
 //   pass 10 dry_cells: 0 < w < w_dry_eps evaporates; cells with w == 0 deposit
 //          t = min(p, 1 - q) and lose their velocity; with suspend_sat > 0 a cell whose
-//          wc > suspend_sat c keeps its pigment suspended (damp paper).
+//          wc > suspend_sat c keeps its pigment suspended (damp paper); then, with
+//          wet_hold > 0, the wet-area memory fades (reference wet_area_update).
 // Also flags the tile alive (any w > 0 or wc > 0) for the dirty-tile update.
 #include "common.glsl"
 #include "tiles.glsl"
@@ -16,6 +17,7 @@ layout(rgba32f, binding = 3) uniform readonly image2D paper_in;
 layout(rgba32f, binding = 4) uniform image2DArray pig_io;
 layout(rgba32f, binding = 5) uniform image2DArray dep_io;
 layout(rg32f, binding = 6) uniform image2D vel_io;
+layout(r32f, binding = 7) uniform image2D area_io;  // wet_area (Curtis's wet-area mask)
 
 layout(std430, binding = 1) buffer TileAlive { uint tile_alive[]; };
 
@@ -25,6 +27,8 @@ uniform float u_dry_eps;
 uniform float u_cmin;
 uniform float u_crange;
 uniform float u_susp;    // suspend_sat [1] (0: off)
+uniform float u_fade;    // float32(dt / wet_hold) (0: wet_hold off)
+uniform float u_moist;   // moist_threshold [height]
 
 shared uint g_alive;
 
@@ -77,6 +81,14 @@ void main() {
         }
         if (w == 0.0) imageStore(vel_io, c, vec4(0.0));
         imageStore(water_out, c, vec4(w, wc, evap, wa.w));
+        if (u_fade > 0.0) {
+            // reference wet_area_update: 1 where own-wet, else fades while the paper is
+            // damp, 0 on dry paper
+            float a = 0.0;
+            if ((w > 0.0 || wc > u_moist) && pa.y == 0.0) a = 1.0;
+            else if (wc > 0.0) a = max(imageLoad(area_io, c).x - u_fade, 0.0);
+            imageStore(area_io, c, vec4(a, 0.0, 0.0, 0.0));
+        }
         if (w > 0.0 || wc > 0.0) g_alive = 1u;  // benign race: every writer stores 1
     }
     barrier();

@@ -1,6 +1,7 @@
 #version 430
 // prep.comp: once per step, after the sources.  Reference: wet_mask (own water, or the
-// advancing contact line), blocking (diffusion
+// advancing contact line), wet_memory (with wet_hold > 0 an own-wet cell's wet_area is 1),
+// blocking (diffusion
 // controller beta_c, times the fibre dispersion) and pass 1 advect_velocity (semi-Lagrangian back-trace, bilinear).
 // Writes aux = (v1, w) (the right-hand sides of the velocity and water diffusions, read
 // by every Jacobi iteration in one load) and the first Jacobi
@@ -14,6 +15,7 @@ layout(rgba32f, binding = 3) uniform readonly image2D paper_in;
 layout(rgba32f, binding = 4) uniform writeonly image2D aux_out;
 layout(rgba32f, binding = 5) uniform writeonly image2D jv_out;
 layout(rg32f, binding = 6) uniform readonly image2D fibre_in;   // fibre along x, along y
+layout(r32f, binding = 7) uniform image2D area_io;  // wet_area: Curtis's wet-area mask memory
 
 uniform float u_dt;
 uniform float u_moist;        // moist_threshold [height]
@@ -29,6 +31,7 @@ uniform float u_dsat;         // damp_sat [1]
 uniform float u_dspan;        // float32(1 - damp_sat)
 uniform float u_cmin;         // c_min [height]
 uniform float u_crange;       // float32(c_max - c_min) [height]
+uniform int u_hold;           // wet_hold > 0: the wet-area mask M = max(wet_area, own) grows
 
 bool wet_at(ivec2 c) {
     vec4 wa = imageLoad(water_in, c);
@@ -70,6 +73,8 @@ void main() {
     vec4 pa = imageLoad(paper_in, c);
     vec4 wa = imageLoad(water_in, c);
     bool wet = (wa.x > 0.0 || wa.y > u_moist) && pa.y == 0.0;
+    // reference wet_memory: the wet-area mask keeps every cell wet in this wet phase
+    if (u_hold != 0 && wet) imageStore(area_io, c, vec4(1.0, 0.0, 0.0, 0.0));
     if (!wet && u_advance > 0.0 && pa.y == 0.0 && crept(c, pa, wa)) {
         // on paper no damper than damp_sat the front needs a neighbour beside it: two of
         // this cell's 4-neighbours wet or advancing with it (stencils.pinned)

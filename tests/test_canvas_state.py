@@ -19,7 +19,8 @@ from station.canvas.state import CanvasState
 from station.errors import BadInput
 from station.pictures.scenarios import disc, paint, rect
 
-FIELDS = ("vx", "vy", "w", "wc", "p", "q", "evaporated", "r_composed", "tile_ttl")
+FIELDS = ("vx", "vy", "w", "wc", "p", "q", "evaporated", "r_composed", "tile_ttl",
+          "wet_area")
 
 
 def _session(c: NumpyCanvas, steps: int = 80) -> None:
@@ -46,10 +47,24 @@ def test_save_load_continues_bitwise(tmp_path: Path) -> None:
     sa, sb = a.live_state, b.live_state
     for f in FIELDS:
         assert np.array_equal(getattr(sa, f), getattr(sb, f)), f
+    assert sa.wet_area.any()  # the wet-area memory (watercolor's wet_hold) was carried on
     assert sa.slots == sb.slots and sa.step_count == sb.step_count
     assert sa.sim_time == sb.sim_time
     assert a.stats() == b.stats()
     assert np.array_equal(a.render(), b.render())
+
+
+def test_a_state_saved_without_the_wet_area_loads_with_none(tmp_path: Path) -> None:
+    a = NumpyCanvas(40, 36, seed=3)
+    _session(a, 30)
+    path = tmp_path / "old.npz"
+    a.save(str(path))
+    with np.load(path) as z:
+        old = {k: z[k] for k in z.files if k != "wet_area"}
+    np.savez_compressed(path, **old)  # a state from before the field existed
+    b = CanvasState.load(path)
+    assert b.wet_area.shape == (36, 40) and not b.wet_area.any()
+    assert np.array_equal(b.w, a.live_state.w)
 
 
 def test_save_load_keeps_layers_profile_params_palette(tmp_path: Path) -> None:
@@ -77,7 +92,7 @@ def test_tiling_on_off_same_painting() -> None:
     off = NumpyCanvas(96, 80, seed=5, tiling=False)
     for c in (on, off):
         _session(c, 150)
-    for f in ("vx", "vy", "w", "wc", "p", "q", "evaporated"):
+    for f in ("vx", "vy", "w", "wc", "p", "q", "evaporated", "wet_area"):
         a, b = getattr(on.live_state, f), getattr(off.live_state, f)
         assert np.allclose(a, b, atol=1e-6, rtol=1e-5), f
     assert np.allclose(on.render(), off.render(), atol=1e-6)

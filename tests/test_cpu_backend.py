@@ -28,7 +28,7 @@ from station.canvas.profiles import get_profile
 from station.canvas.state import CanvasState
 
 TOL = 1e-5
-FIELDS = ("w", "wc", "vx", "vy", "p", "q", "evaporated")
+FIELDS = ("w", "wc", "vx", "vy", "p", "q", "evaporated", "wet_area")
 PIGMENTS = ("French Ultramarine", "Burnt Umber", "Quinacridone Rose")
 
 
@@ -66,6 +66,8 @@ def _random_canvas(cls: type[NumpyCanvas], seed: int, h: int = 40, w: int = 52,
     st.mask[25:29, 30:36] = 1
     st.w[25:29, 30:36] = 0
     st.w[3, 3] = np.float32(4e-6)  # a tiny height that dries at once
+    # a wet-area memory on damp paper (cells that were wet earlier in this wet phase)
+    st.wet_area[...] = (rng.uniform(0, 1, (h, w)) * (st.wc > 0)).astype(np.float32)
     return c
 
 
@@ -125,7 +127,9 @@ def test_multi_step_stroke_is_bitwise_equal() -> None:
                                      "moist_threshold": 0.25},
                                     {"damp_ease": 6.0, "damp_sat": 0.4, "suspend_sat": 0.8},
                                     {"damp_ease": 2.0, "fibre_wick": 0.7},
-                                    {"lift_gain": 1.0}, {"lift_gain": 37.0}])
+                                    {"lift_gain": 1.0}, {"lift_gain": 37.0},
+                                    {"wet_hold": 0.0}, {"wet_hold": 0.2},
+                                    {"wet_hold": 3.0, "moist_threshold": 0.25}])
 def test_parameter_variants_match(change: dict[str, Any]) -> None:
     prm = dataclasses.replace(get_profile("watercolor").params, **change)
     a = _random_canvas(NumpyCanvas, 3, params=prm)

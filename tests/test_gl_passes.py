@@ -73,6 +73,8 @@ def random_state(seed: int = 5, params: SimParams | None = None, tiling: bool = 
     st.sim_time = 1.0
     st.evaporated[...] = rng.uniform(0, 0.1, (H, W)).astype(np.float32)
     st.r_composed[...] = rng.uniform(0.3, 1, st.r_composed.shape).astype(np.float32)
+    # the wet-area memory of damp paper (used only with wet_hold > 0)
+    st.wet_area[...] = np.where(wc > 0, rng.uniform(0, 1, (H, W)), 0).astype(np.float32)
     return st
 
 
@@ -100,7 +102,8 @@ def test_state_round_trip_is_lossless(ctx) -> None:
     c.load_state(st)
     back = c.state()
     for name in ("vx", "vy", "w", "wc", "h", "mask", "block", "block_time", "p", "q",
-                 "r_composed", "evaporated", "removed_w", "removed_p", "tile_ttl", "fibre"):
+                 "r_composed", "evaporated", "removed_w", "removed_p", "tile_ttl", "fibre",
+                 "wet_area"):
         assert np.array_equal(getattr(back, name), getattr(st, name)), name
     assert back.slots == st.slots and back.sim_time == st.sim_time
     assert back.water_added == st.water_added
@@ -199,6 +202,57 @@ def test_full_step_on_damp_paper_matches_reference(ctx) -> None:
     out = c.state()
     for name in ("vx", "vy", "w", "wc", "p", "q", "evaporated"):
         close(name, getattr(out, name), getattr(mine, name))
+
+
+def test_wet_area_mask_grows_and_flow_outward_blurs_it(ctx) -> None:
+    """wet_hold: prep keeps max(wet_area, own) and pass 3's pressure blurs that mask."""
+    prm = SimParams(wet_hold=4.0, flow_outward=0.5)
+    st = random_state(3, params=prm)
+    c = gl_canvas(ctx, st)
+    c._pass_prep()
+    own = ref.own_wet(st.w, st.wc, st.mask, prm)
+    area_m = ref.wet_memory(own, st.wet_area, prm)
+    got = np.frombuffer(c.f["area"].src.read(), np.float32).reshape(H, W)
+    assert np.array_equal(got, area_m)
+    wet = ref.wet_mask(st.w, st.wc, st.mask, prm, st.h)
+    pr = ref.flow_pressure(st.w, area_m, wet, st.h, prm)
+    close("pressure with the wet-area mask", read_rgba(c, c.pr, 1)[..., 0], pr)
+    plain = ref.flow_pressure(st.w, own, wet, st.h, prm)
+    assert np.abs(pr - plain).max() > 1e-3  # the memory changed the pressure
+    assert ((area_m > 0) & ~own).sum() >= 20  # damp cells remembered as wet
+
+
+def test_wet_area_fades_at_the_end_of_pass_10(ctx) -> None:
+    prm = SimParams(wet_hold=0.5)
+    st = random_state(7, params=prm)
+    c = gl_canvas(ctx, st)
+    c._pass_capillary_dry()
+    out = c.state()
+    n = len(st.slots)
+    no_absorb = prm.replace(alpha=0.0)
+    w, wc, evap = ref.capillary(st.w, st.wc, st.h, st.mask, st.evaporated, no_absorb, prm.dt)
+    w = ref.dry_cells(w, st.p[:n], st.q[:n], st.vx, st.vy, evap, prm)[0]
+    want = ref.wet_area_update(st.wet_area, w, wc, st.mask, prm, prm.dt)
+    close("wet_area (10)", out.wet_area, want)
+    faded = (want > 0) & (want < 1)
+    assert faded.sum() >= 20 and (st.wet_area[faded] > want[faded]).all()
+
+
+def test_full_steps_with_the_wet_area_memory_match_reference(ctx) -> None:
+    st = random_state(8, params=SimParams(wet_hold=0.3, flow_outward=0.5, damp_ease=4.0,
+                                          damp_sat=0.5, suspend_sat=0.5,
+                                          moist_threshold=1.0))
+    c = gl.GLCanvas(W, H, ctx=ctx, tiling=False)
+    c.load_state(st)
+    for _ in range(4):
+        c.step()
+    mine = st.copy()
+    for _ in range(4):
+        ref.step(mine)
+    out = c.state()
+    for name in ("vx", "vy", "w", "wc", "p", "q", "evaporated", "wet_area"):
+        close(name, getattr(out, name), getattr(mine, name))
+    assert ((mine.wet_area > 0) & (mine.wet_area < 1)).sum() >= 20
 
 
 def test_prep_fibre_dispersion(ctx) -> None:

@@ -37,10 +37,12 @@ OLD = {
     # (lift7: returning water lifts settled pigment 5x faster than it settled, eq. 4.12's
     # desorption over adsorption, so a bloom's water carries the damp wash's pigment to its
     # front, issue 21 item 4)
+    # (wetarea: a cell stays in the wet-area mask 30 s after its water has gone while its
+    # paper is damp, so rows laid over half-dry rows draw no line, issue 21 item 8)
     "watercolor": SimParams().replace(fibre_dispersivity=4.5, flow_outward=0.5, edge_evap=7.0,
                                       moist_threshold=1.0, damp_ease=4.5, damp_sat=0.65,
                                       suspend_sat=0.5, fibre_flow_max=1.0, lift_gain=5.0,
-                                      jacobi_iters=1),
+                                      wet_hold=30.0, jacobi_iters=1),
     "gouache": SimParams().replace(viscosity=2.0, nu_w=0.1, nu_p=0.05, alpha=0.005,
                                    height_gain=20.0, eps_shallow=0.008, jacobi_iters=1),
     # (issue 10's fibre feathering changed the ink in code just before: alpha 0.05, fibre_wick 1)

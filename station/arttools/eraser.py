@@ -66,6 +66,9 @@ def erase(state: CanvasState, er: Eraser, cx: float, cy: float, pressure: float 
             take = state.wc[ys, xs] * share
             state.wc[ys, xs] -= take
             state.removed_w[ys, xs] += take
+            # paper dried out: no wet phase left there (pass 10's rule for wet_area)
+            area = state.wet_area[ys, xs]
+            state.wet_area[ys, xs] = np.where(state.wc[ys, xs] > 0, area, F32(0))
         else:
             arr = state.p if kind == "p" else state.q
             if name == "*":

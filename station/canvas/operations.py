@@ -118,6 +118,7 @@ def dry(state: CanvasState) -> None:
     state.evaporated += evap.astype(F32)
     state.w[...] = 0
     state.wc[...] = 0
+    state.wet_area[...] = 0  # dry paper: no wet phase left
     state.vx[...] = 0
     state.vy[...] = 0
     t = np.minimum(state.p, F32(1.0) - state.q)
@@ -186,7 +187,7 @@ def remove_mask(state: CanvasState) -> None:
 def clear(state: CanvasState) -> None:
     """Blank paper again: every field but the paper height reset, bookkeeping reset."""
     for name in ("vx", "vy", "w", "wc", "mask", "block_time", "evaporated", "removed_w",
-                 "p", "q", "removed_p"):
+                 "p", "q", "removed_p", "wet_area"):
         getattr(state, name)[...] = 0
     state.evaporated_folded = 0.0
     state.block[...] = 1

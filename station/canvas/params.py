@@ -79,6 +79,15 @@ class SimParams:
             water-height term levels the free surface ``w + paper_relief * h``, so water
             runs off the paper's hills into its valleys (Curtis 1997's flow down the paper
             texture) and a flowing front frays along them.
+        wet_hold: how long a cell stays in Curtis's wet-area mask ``M`` after its own
+            water is gone [s] (0: off, ``M`` is the cells wet by their own water). ``M``
+            (``CanvasState.wet_area``, in [0, 1]) is 1 where a cell holds fluid water (or
+            capillary water above ``moist_threshold``); once the fluid is gone it fades by
+            ``dt / wet_hold`` per step while the paper is damp, and is 0 once the paper
+            has dried (``wc == 0``). Flow outward acts at the edge of ``M``: a thin strip
+            drying inside a still-wet wash is no edge, so the water is not pulled into a
+            line there (Curtis et al. 1997, section 4.3: the wet-area mask of a glaze only
+            grows while it is wet; the flow outward pins the pigment at its edge).
         wet_blur: standard deviation of the Gaussian that blurs the wet mask [cells]
             (0: no flow-outward term); the kernel is truncated at ``ceil(2 * wet_blur)``.
         alpha: capillary absorption rate [height/s].
@@ -159,6 +168,7 @@ class SimParams:
     advance_height: float = 0.7
     paper_relief: float = 0.0
     wet_blur: float = 2.0
+    wet_hold: float = 0.0
     alpha: float = 0.03
     cap_diffusion: float = 1.5
     fibre_wick: float = 0.0
@@ -237,6 +247,8 @@ class SimParams:
             raise CanvasInputError("damp_ease must lie in [0, 1000]", "params")
         if not 0 <= self.suspend_sat <= 1:
             raise CanvasInputError("suspend_sat must lie in [0, 1]", "params")
+        if self.wet_hold > 600:
+            raise CanvasInputError("wet_hold must lie in [0, 600] s", "params")
         if not 0 < self.lift_gain <= 100:
             raise CanvasInputError("lift_gain must lie in (0, 100]", "params")
         if not 0 <= self.block_paper <= 1:

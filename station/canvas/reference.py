@@ -71,6 +71,19 @@ CHANGED: pass 8 lifts with ``beta / lift_gain`` in place of the staining ``beta`
   its front, issue 21 item 4). ``slot_properties`` rounds ``beta / lift_gain`` to float32 once;
   the cpu backend takes that array, GL's ``u_dob`` is ``delta / it`` (the removal tools keep
   the pigments' own staining: ``slot_properties(state, lift=False)``).
+CHANGED: Curtis 1997's wet-area mask with a memory (issue 21 item 8: rows laid over
+  half-dry rows). New field ``CanvasState.wet_area`` (float32 (H, W) in [0, 1]) and SimParams
+  ``wet_hold`` [s] (0: off, the field stays 0 and everything is as before). With
+  ``wet_hold > 0``: at the wet mask (once per step, after the sources)
+  ``M = max(wet_area, own)`` (``wet_memory``; ``own`` as 1/0) and ``wet_area <- M``;
+  pass 3's flow-outward term blurs ``M`` instead of ``own``; at the end of pass 10
+  (``wet_area_update``, with w and wc after pass 10) ``wet_area = 1`` where the cell is
+  ``own``-wet, else ``max(M - float32(dt / wet_hold), 0)`` where ``wc > 0``, else 0. A strip
+  that dries inside a still-wet wash stays in the wet area, so the flow outward no longer
+  pulls water and pigment to its receding edge (the dark line between zig-zag rows); a
+  wash whose water has been gone for ``wet_hold`` leaves the area, so water put back into
+  it still makes a bloom with a crust. Tools that dry paper out (hair dryer, eraser of
+  ``wc``) set ``wet_area = 0`` where ``wc`` becomes 0, as pass 10 would.
 NOTE (no maths change): the helpers live in ``stencils.py``, the passes in ``passes.py``;
   this module re-exports them and runs the step.
 
@@ -105,10 +118,11 @@ the same float32 value on both sides).
    ``P = (w + paper_relief * h) - flow_outward * (1 - M')`` on wet cells (``P = w``
    elsewhere; the free surface over the paper's relief, lowered near the edge by Curtis
    1997's flow outward; a term whose parameter is 0 is left out), ``M'`` = ``blurred_wet``:
-   the wet mask (1/0) blurred with the float32
-   Gaussian ``gaussian_taps(wet_blur)`` along x, then along y, each sum over the taps in
-   order (offset -R first), cells outside the region 0. For each wet cell, neighbour
-   heights (of P) ``wE = P[y,x+1]`` if face E is open else ``w[y,x]`` (same for W, N, S);
+   the own wet mask (1/0; with ``wet_hold > 0`` the wet-area mask ``M``, see CHANGED)
+   blurred with the float32 Gaussian ``gaussian_taps(wet_blur)`` along x, then along y,
+   each sum over the taps in order (offset -R first), cells outside the region 0. For
+   each wet cell, neighbour heights (of P) ``wE = P[y,x+1]`` if face E is open else
+   ``w[y,x]`` (same for W, N, S);
    ``vh = -height_gain * ((wE - wW)/2, (wS - wN)/2)``;
    ``v <- (1 - omega_h) v + omega_h vh``; then the tilt (``tilt_kick``: float32
    ``(ax dt, ay dt)`` of ``SimParams.tilt_acceleration``) is added to each component
@@ -178,7 +192,8 @@ the same float32 value on both sides).
 
 10. ``dry_cells`` (seed 4.7, spec step 8): cells with ``0 < w < w_dry_eps`` lose the
     rest to evaporation (booked); then every cell with ``w == 0`` deposits
-    ``t = min(p[k], 1 - q[k])``: ``q += t``, ``p -= t``, and gets ``v = 0``.
+    ``t = min(p[k], 1 - q[k])``: ``q += t``, ``p -= t``, and gets ``v = 0``; then (with
+    ``wet_hold > 0``) the wet-area memory fades (``wet_area_update``, see CHANGED).
 
 Then ``sim_time += dt``, ``step_count += 1`` and the dirty tiles are updated
 (``tiles.py``). With tiling on, passes run on the bounding box of each 8-connected
@@ -219,7 +234,9 @@ from station.canvas.stencils import (
     open_faces,
     own_wet,
     water_speed,
+    wet_area_update,
     wet_mask,
+    wet_memory,
 )
 
 __all__ = ["F32", "PASS_ORDER", "STENCIL_RADIUS_EXTRA", "advect_velocity",
@@ -228,7 +245,7 @@ __all__ = ["F32", "PASS_ORDER", "STENCIL_RADIUS_EXTRA", "advect_velocity",
            "dry_cells", "evaporate", "flow_pressure", "gaussian_taps", "implicit_diffusion",
            "neighbour_sum", "open_faces", "own_wet", "slot_properties", "stencil_radius",
            "step", "step_region", "surface_exchange", "tilt_kick", "water_height_and_boundary",
-           "water_speed", "wet_mask"]
+           "water_speed", "wet_area_update", "wet_mask", "wet_memory"]
 
 
 PASS_ORDER = (
@@ -285,6 +302,10 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
 
     fib = state.fibre[:, ys, xs]
     speed0 = water_speed(vx, vy, prm) if prm.fibre_dispersion_gain() > 0 else None
+    holding = prm.wet_hold > 0
+    area_m = wet_memory(own_wet(w, wc, mask, prm), state.wet_area[ys, xs], prm)
+    if holding:  # the wet-area mask grows where the cell holds its own water
+        state.wet_area[ys, xs] = area_m
     wet = wet_mask(w, wc, mask, prm, h, fib)
     for name in PASS_ORDER:
         if name == "advect_velocity":
@@ -292,7 +313,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
         elif name == "diffuse_velocity":
             vx, vy = diffuse_velocity(vx, vy, wet, prm, dt)
         elif name == "water_height_and_boundary":
-            pr = flow_pressure(w, own_wet(w, wc, mask, prm), wet, h, prm)
+            pr = flow_pressure(w, area_m, wet, h, prm)
             vx, vy = water_height_and_boundary(vx, vy, pr, wet, prm, dt)
         elif name == "diffuse_water":
             w = diffuse_water(w, wet, prm, dt)
@@ -311,6 +332,8 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
             w, wc, evap = capillary(w, wc, h, mask, evap, prm, dt)
         else:  # dry_cells
             w, pp, qq, vx, vy, evap = dry_cells(w, pp, qq, vx, vy, evap, prm, wc, h)
+            if holding:
+                state.wet_area[ys, xs] = wet_area_update(area_m, w, wc, mask, prm, dt)
         if name == stop_after:
             break
 

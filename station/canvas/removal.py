@@ -126,6 +126,8 @@ def blow(state: CanvasState, dryer: HairDryer, dt: float) -> float:
     lc = np.where(w_new == 0, np.minimum(wc, F32(prm.eps_cap * extra * dt) * wgt), F32(0))
     state.w[ys, xs] = w_new
     state.wc[ys, xs] = wc - lc
+    # paper dried out: no wet phase left there (pass 10's rule for wet_area)
+    state.wet_area[ys, xs] = np.where(wc - lc > 0, state.wet_area[ys, xs], F32(0))
     state.evaporated[ys, xs] += lw + lc
     return float(lw.sum(dtype=np.float64) + lc.sum(dtype=np.float64))
 

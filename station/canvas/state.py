@@ -9,6 +9,10 @@ Array fields (float32, shape (H, W) unless noted):
   ``fibre`` (2, H, W) in [0, 1], the fibre texture (along x, along y) of the paper
   preset (``paper.make_fibres``; static, regenerated from preset and seed when a saved
   state lacks it);
+- wet phase: ``wet_area`` in [0, 1], Curtis 1997's wet-area mask ``M`` with a memory
+  (``SimParams.wet_hold``): 1 where the cell holds its own water, fading after the water
+  has gone while the paper is damp, 0 on dry paper (all 0 when ``wet_hold`` is 0; a saved
+  state without it loads with zeros);
 - tools: ``mask`` in {0, 1}; ``block`` in [0, 1] (1 = free) with ``block_time``, the
   simulated time [s] at which the pattern was written (its age is ``sim_time -
   block_time``; storing the write time instead of an age keeps the field static
@@ -102,10 +106,13 @@ class CanvasState:
     pigment_dried: dict[str, float] = field(default_factory=dict)
     layers: list[dict[str, float]] = field(default_factory=list)
     fibre: np.ndarray = field(default_factory=lambda: np.zeros((2, 0, 0), np.float32))
+    wet_area: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), np.float32))
 
     def __post_init__(self) -> None:
         if self.fibre.shape != (2, self.height, self.width):
             self.fibre = make_fibres(self.paper_preset, self.height, self.width, self.seed)
+        if self.wet_area.shape != (self.height, self.width):
+            self.wet_area = np.zeros((self.height, self.width), np.float32)
 
     # ----------------------------------------------------------------- creation
     @classmethod
@@ -219,6 +226,7 @@ class CanvasState:
         arrays.update({n: getattr(self, n)[:used] for n in _STACK_FIELDS})
         arrays["r_composed"] = self.r_composed
         arrays["fibre"] = self.fibre
+        arrays["wet_area"] = self.wet_area
         arrays["tile_ttl"] = self.tile_ttl
         meta = np.array(json.dumps(self.metadata()))
         arrays["meta"] = meta
@@ -284,6 +292,12 @@ class CanvasState:
             if (fib is not None and fib.shape == (2, height, width) and fib.dtype == np.float32
                     and np.isfinite(fib).all()):
                 arrays["fibre"] = np.ascontiguousarray(fib)
+            area = files.get("wet_area")  # optional: older states start with no wet memory
+            if area is not None:
+                if (area.shape != (height, width) or area.dtype != np.float32
+                        or not np.isfinite(area).all()):
+                    raise CanvasInputError("field 'wet_area' mismatched", where)
+                arrays["wet_area"] = np.ascontiguousarray(area)
             st = cls(
                 width=width, height=height, params=params, palette=palette, profile=profile,
                 paper_preset=str(meta["paper_preset"]), seed=int(meta["seed"]),

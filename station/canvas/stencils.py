@@ -20,6 +20,26 @@ def own_wet(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams) -> 
     return ((w > 0) | (wc > F32(prm.moist_threshold))) & (mask == 0)
 
 
+def wet_memory(own: np.ndarray, area: np.ndarray, prm: SimParams) -> np.ndarray:
+    """The wet-area mask ``M`` the flow-outward term blurs: with ``wet_hold > 0``
+    ``max(wet_area, own)`` (float32; the cells wet in this wet phase, Curtis 1997), else
+    ``own`` itself."""
+    if prm.wet_hold > 0:
+        return np.maximum(area, own.astype(F32))
+    return own
+
+
+def wet_area_update(area_m: np.ndarray, w: np.ndarray, wc: np.ndarray, mask: np.ndarray,
+                    prm: SimParams, dt: float) -> np.ndarray:
+    """``wet_area`` after a step (the end of pass 10), from ``area_m`` = :func:`wet_memory`
+    at the start of the step: 1 where the cell is wet by its own water now, else
+    ``max(area_m - dt / wet_hold, 0)`` while the paper is damp (``wc > 0``), else 0."""
+    fade = F32(dt / prm.wet_hold)
+    own = own_wet(w, wc, mask, prm)
+    kept = np.where(wc > _ZERO, np.maximum(area_m - fade, _ZERO), _ZERO)
+    return np.where(own, _ONE, kept).astype(F32)
+
+
 def wet_mask(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams,
              h: np.ndarray, fibre: np.ndarray | None = None) -> np.ndarray:
     """Cells taking part in the fluid and surface layers this step (bool (H, W)).
@@ -197,8 +217,10 @@ def flow_pressure(w: np.ndarray, own: np.ndarray, wet: np.ndarray, h: np.ndarray
                   prm: SimParams) -> np.ndarray:
     """The height the water-height term levels, on wet cells: the free surface over the
     paper, ``w + paper_relief * h``, lowered by ``flow_outward * (1 - M')`` near the edge
-    of the ``own`` wet area (Curtis 1997: flow outward, and water runs downhill over the
-    paper's relief); ``w`` elsewhere, and ``w`` itself when both terms are off."""
+    of the wet area ``own`` (Curtis 1997: flow outward, and water runs downhill over the
+    paper's relief); ``w`` elsewhere, and ``w`` itself when both terms are off. ``own``:
+    the cells wet by their own water (bool), or the wet-area mask of :func:`wet_memory`
+    (float32 in [0, 1]) when ``wet_hold > 0``."""
     taps = gaussian_taps(prm.wet_blur)
     outward = prm.flow_outward > 0 and len(taps) > 0
     if not outward and prm.paper_relief <= 0:

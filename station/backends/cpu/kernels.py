@@ -318,6 +318,19 @@ def _damp_factor(wcv: np.float32, hv: np.float32, cmin: np.float32, cspan: np.fl
     return ZERO if f < ZERO else f
 
 
+@_inline
+def _wet_memory_row(own: np.ndarray, area: np.ndarray, y: int, x0: int, r: int, slo: int,
+                    shi: int) -> None:
+    """The wet-area mask of a span of row y: ``max(wet_area, own)`` (own 1/0, area in
+    [0, 1]) into the row's ``own`` buffer and back into ``area`` (reference
+    ``wet_memory``)."""
+    for i in range(slo, shi + 1):
+        x = np.uint64(x0 + i - 1)
+        m = ONE if own[i + r] != ZERO else area[y, x]
+        area[y, x] = m
+        own[i + r] = m
+
+
 @_parallel
 def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np.ndarray,
          p: np.ndarray, h: np.ndarray, block: np.ndarray, block_time: np.ndarray,
@@ -325,13 +338,15 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
          cst: np.ndarray, outward: bool, spans: np.ndarray, nsp: np.ndarray,
          wet_o: np.ndarray, w0_o: np.ndarray, p0_o: np.ndarray, bc_o: np.ndarray,
          opn_o: np.ndarray,
-         mbx_o: np.ndarray) -> None:
+         mbx_o: np.ndarray, area: np.ndarray, holding: bool) -> None:
     """Wet mask (once per step; own water, or the advancing contact line: a neighbour's
     w above ``advance_height (1.5 - h)``, lowered along the paper's fibres by
     ``1 - fibre_wick * fibre[axis]`` for the neighbours on that axis; cells outside the box
     count as w = 0), copies, beta_c (diffusion controller, times the fibre dispersion),
     open, and with ``outward`` the own wet area blurred along x (``mbx``, the
-    first half of :func:`flow_pressure`'s blur).
+    first half of :func:`flow_pressure`'s blur). With ``holding`` (``wet_hold > 0``) the
+    blurred area is the wet-area mask ``max(wet_area, own)``, written back to ``area``
+    (reference ``wet_memory``).
 
     Two sweeps: the copy of w (and p) into the padded ``w0`` first, so the contact line
     reads its neighbours from ``w0`` (whose zero ring is "outside the box") without a
@@ -420,6 +435,8 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         nb = nb if nb > t else t
                         wet_o[j, i] = 1 if ow else (3 if un & advancing & (nb > thr) else 0)
                         opn_o[j, i] = 1 if un else 0
+                if holding:  # a loop of its own: the column loops above stay as they were
+                    _wet_memory_row(own, area, y, x0, r, slo, shi)
                 if fade > ZERO:
                     for i in range(slo, shi + 1):
                         x = np.uint64(x0 + i - 1)
@@ -1446,6 +1463,30 @@ def capillary_dry(sat: np.ndarray, c: np.ndarray, opn: np.ndarray, v3x: np.ndarr
                             t = t if settle else ZERO
                             p[kk, y, x] = pv - t
                             q[kk, y, x] = qv + t
+
+
+# ------------------------------------------------------------------ wet-area memory
+@_parallel
+def wet_area_end(w: np.ndarray, wc: np.ndarray, opn: np.ndarray, area: np.ndarray,
+                 y0: int, x0: int, bh: int, moist: np.float32, fade: np.float32,
+                 spans: np.ndarray, nsp: np.ndarray) -> None:
+    """The end of pass 10 (reference ``wet_area_update``): ``wet_area`` is 1 where the
+    cell is wet by its own water, else ``max(area - dt / wet_hold, 0)`` while its paper is
+    damp (``wc > 0``), else 0; ``area`` holds the step's wet-area mask from :func:`prep`."""
+    for j in prange(1, bh + 1):
+        y = y0 + j - 1
+        for si in range(nsp[j]):
+            slo, shi = _span(spans, j, si)
+            for i in range(slo, shi + 1):
+                x = np.uint64(x0 + i - 1)
+                wcv = wc[y, x]
+                if ((w[y, x] > ZERO) | (wcv > moist)) & (opn[j, i] != 0):
+                    area[y, x] = ONE
+                elif wcv > ZERO:
+                    a = area[y, x] - fade
+                    area[y, x] = a if a > ZERO else ZERO
+                else:
+                    area[y, x] = ZERO
 
 
 # ------------------------------------------------------------------ tile bookkeeping

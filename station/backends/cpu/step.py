@@ -185,7 +185,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     K.prep(state.w, state.wc, state.mask, state.vx, state.vy, state.p, state.h,
            state.block, state.block_time, state.fibre, taps, y0, x0, bh, bw, ns, cst,
            outward and do_pr, spans, nsp, s2["wet"], s2["w0"], s3["p0"], s2["bc"],
-           s2["opn"], s2["mbx"])
+           s2["opn"], s2["mbx"], state.wet_area, prm.wet_hold > 0)
     wet, bc, w0, p0 = s2["wet"], s2["bc"], s2["w0"], s3["p0"]
     # pass 3 levels w itself unless the flow-outward or the relief term is on
     pr = s2["pr"] if do_pr else w0
@@ -257,6 +257,9 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     if not runs("dry_cells"):
         state.vx[ys, xs] = _win(v3x, bh, bw)
         state.vy[ys, xs] = _win(v3y, bh, bw)
+    elif prm.wet_hold > 0:  # the end of pass 10: the wet-area memory fades
+        K.wet_area_end(state.w, state.wc, s2["opn"], state.wet_area, y0, x0, bh,
+                       F32(prm.moist_threshold), F32(dt / prm.wet_hold), spans, nsp)
 
 
 def step(state: CanvasState, scratch: Scratch, dt: float | None = None) -> int:

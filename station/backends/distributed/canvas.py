@@ -43,7 +43,13 @@ from mpi4py import MPI
 from station.backends.distributed import boxes, decomp, exchange
 from station.backends.distributed.exchange import Rect
 from station.backends.distributed.strip_canvas import StripCanvas
-from station.backends.distributed.strips import Band, empty_shell, local_from_shell, zero_fibre
+from station.backends.distributed.strips import (
+    Band,
+    empty_shell,
+    local_from_shell,
+    zero_fibre,
+    zero_plane,
+)
 from station.canvas import operations, reference, tiles
 from station.canvas.palette import Palette
 from station.canvas.paper import make_fibres, make_paper
@@ -132,6 +138,7 @@ class DistributedCanvas(StripCanvas):
         self._shell = empty_shell(dataclasses.replace(self._local, tile_ttl=full_ttl))
         self._shell.width, self._shell.height = width, height
         self._shell.fibre = zero_fibre(height, width)
+        self._shell.wet_area = zero_plane(height, width)
         self._renderer_kind = prof.renderer
         self._scratch: cpu_step.Scratch | None = None
         self._band_scratch: cpu_step.Scratch | None = None
@@ -504,10 +511,12 @@ class DistributedCanvas(StripCanvas):
         shell = empty_shell(state) if self.is_root and state is not None else None
         if shell is not None:
             shell.fibre = np.zeros((2, 0, 0), F32)  # not pickled whole: set again below
+            shell.wet_area = np.zeros((0, 0), F32)
         shell = self.comm.bcast(shell, root=self.root)
         if shell is None:
             raise CanvasInputError("load_state needs a state on the root rank", "load_state")
         shell.fibre = zero_fibre(shell.height, shell.width)
+        shell.wet_area = zero_plane(shell.height, shell.width)
         ts = int(shell.params.tile_size)
         if shell.height < ts * self.size:
             raise CanvasInputError(f"canvas of {shell.height} rows cannot give {self.size} "

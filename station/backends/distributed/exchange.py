@@ -21,14 +21,15 @@ from station.canvas.state import CanvasState
 Rect = tuple[int, int, int, int]
 
 PLANES = ("vx", "vy", "w", "wc", "h", "mask", "block", "block_time", "evaporated",
-          "removed_w")
+          "removed_w", "wet_area")
 STACKS = ("p", "q", "removed_p")
 ALL_FIELDS = (*PLANES, *STACKS, "r_composed", "fibre")
 """Every per-cell field of :class:`CanvasState` (rebalancing and scattering move these;
 the paper's ``fibre`` texture (2, H, W) is static but belongs to its rows)."""
-DYNAMIC_FIELDS = ("vx", "vy", "w", "wc", "p", "q")
+DYNAMIC_FIELDS = ("vx", "vy", "w", "wc", "p", "q", "wet_area")
 """The fields a step changes and its neighbours read (the halo exchange moves these;
-``evaporated`` also changes but is never read across cells)."""
+``evaporated`` also changes but is never read across cells; ``wet_area`` is read by the
+flow-outward blur)."""
 
 TAG_HALO = 11
 TAG_MOVE = 12

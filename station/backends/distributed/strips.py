@@ -24,6 +24,12 @@ def zero_fibre(height: int, width: int) -> np.ndarray:
     return np.broadcast_to(np.zeros((1, 1, 1), F32), (2, height, width))
 
 
+def zero_plane(height: int, width: int) -> np.ndarray:
+    """A (H, W) view of one zero: the shell's ``wet_area`` (like ``fibre``, so
+    ``CanvasState`` does not allocate a whole plane for the replicated part)."""
+    return np.broadcast_to(np.zeros((1, 1), F32), (height, width))
+
+
 def empty_shell(st: CanvasState) -> CanvasState:
     """``st``'s metadata and tiles with empty per-cell arrays (the replicated part)."""
     kw: dict[str, Any] = {}
@@ -33,6 +39,8 @@ def empty_shell(st: CanvasState) -> CanvasState:
             v = v.copy()
         elif name == "fibre":
             v = zero_fibre(st.height, st.width)
+        elif name == "wet_area":
+            v = zero_plane(st.height, st.width)
         elif isinstance(v, np.ndarray):
             v = np.zeros((st.n_slots, 0, 0) if name in exchange.STACKS else
                          (0, 0, v.shape[-1]) if name == "r_composed" else (0, 0), v.dtype)

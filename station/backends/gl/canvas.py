@@ -215,6 +215,7 @@ class GLCanvas(GLStepPasses):
         f["paper"].src.write(tx.pack_planes(st.h, st.mask, st.block, st.block_time).tobytes())
         f["fibre"].src.write(tx.pack_planes(st.fibre[0], st.fibre[1]).tobytes())
         self.fibre = st.fibre.copy()  # static: the state read back carries this copy
+        f["area"].src.write(np.ascontiguousarray(st.wet_area, np.float32).tobytes())
         for t in f["pig"].textures:
             t.write(tx.pack_stack(st.p, self.npl).tobytes())
         f["dep"].src.write(tx.pack_stack(st.q, self.npl).tobytes())
@@ -265,6 +266,7 @@ class GLCanvas(GLStepPasses):
         rp = tx.unpack_stack(self._read(f["rem"].src), self.n_slots, npl, hh, ww)
         rc = np.moveaxis(tx.unpack_stack(self._read(f["rcomp"].src), self.bands, self.nrl,
                                          hh, ww), 0, -1)
+        (area,) = tx.unpack_planes(self._read(f["area"].src), 1, hh, ww)
         ttl = np.frombuffer(self.b_ttl.read(), np.int32).reshape(self.tiles_y, self.tiles_x)
         added = np.frombuffer(self.b_added.read(), np.float64).reshape(-1, self.nacc).sum(0)
         pig_added = dict(self.pigment_added_base)
@@ -276,6 +278,7 @@ class GLCanvas(GLStepPasses):
             vx=vx, vy=vy, w=w, wc=wc, h=h, mask=mask, block=block, block_time=block_time,
             p=p, q=q, r_composed=np.ascontiguousarray(rc), evaporated=evap, removed_w=rem_w,
             removed_p=rp, tile_ttl=ttl.copy(), slots=list(self.slots), fibre=self.fibre.copy(),
+            wet_area=area.copy(),  # a writable array (one channel: frombuffer view)
             step_count=self.step_count, sim_time=self.sim_time, tiling=self.tiling,
             water_added=self.water_added_base + float(added[0]),
             evaporated_folded=self.evaporated_folded_base + float(

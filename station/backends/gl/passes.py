@@ -98,6 +98,8 @@ class GLStepPasses:
         _set(p["prep"], "u_ease", prm.damp_ease)
         _set(p["prep"], "u_dsat", prm.damp_sat)
         _set(p["prep"], "u_dspan", float(F32(1.0 - prm.damp_sat)))
+        hold = 1 if prm.wet_hold > 0 else 0
+        _set(p["prep"], "u_hold", hold)
         taps = reference.gaussian_taps(prm.wet_blur) if prm.flow_outward > 0 else np.zeros(0, F32)
         if len(taps) > 17:
             raise CanvasInputError("wet_blur too large for the GL backend (at most 4)", "params")
@@ -106,6 +108,7 @@ class GLStepPasses:
         _set(pp, "u_eta", prm.flow_outward)
         _set(pp, "u_relief", prm.paper_relief)
         _set(pp, "u_ntaps", len(taps))
+        _set(pp, "u_hold", hold)
         _set(pp, "u_taps", [float(t) for t in taps] + [0.0] * (17 - len(taps)))
         kv, kw, kp = (float(F32(prm.viscosity * dt)), float(F32(prm.nu_w * dt)),
                       float(F32(prm.nu_p * dt)))
@@ -142,6 +145,8 @@ class GLStepPasses:
         _set(cd, "u_ecap", float(F32(prm.evap_cap() * dt)))
         _set(cd, "u_dry_eps", prm.w_dry_eps)
         _set(cd, "u_susp", prm.suspend_sat)
+        _set(cd, "u_fade", float(F32(dt / prm.wet_hold)) if hold else 0.0)
+        _set(cd, "u_moist", prm.moist_threshold)
         _set(p["tile_update"], "u_ttl", prm.tile_ttl_steps())
 
     def _begin_step(self) -> None:
@@ -176,11 +181,13 @@ class GLStepPasses:
         self._bind(4, self.aux, False, True)
         self._bind(5, self.jv[0], False, True)
         self._bind(6, f["fibre"].src, True, False)
+        self._bind(7, f["area"].src, True, True)
         self._dispatch("prep")
         self._bind(1, f["water"].src, True, False)
         self._bind(2, f["paper"].src, True, False)
         self._bind(3, self.jv[0], True, False)
         self._bind(4, self.pr, False, True)
+        self._bind(5, f["area"].src, True, False)
         self._dispatch("pressure")
         # until the diffusion passes run, jv[0] holds wb (.w) and jv[1] is free
         self._js, self._jfree = self.jv[0], self.jv[1]
@@ -257,6 +264,7 @@ class GLStepPasses:
         self._bind(4, f["pig"].src, True, True)
         self._bind(5, f["dep"].src, True, True)
         self._bind(6, f["vel"].src, True, True)
+        self._bind(7, f["area"].src, True, True)
         self._dispatch("capillary_dry")
         f["water"].swap()
 

@@ -16,6 +16,7 @@ texture     format      pp     channels
 ``rcomp``   RGBA32F[R]  no     r_composed per render band, 4 bands per layer (R = 1 for
                                RGB, 3 for the 12 spectral bands)
 ``fibre``   RG32F       no     the paper's fibre texture: along x, along y (static)
+``area``    R32F        no     wet_area, Curtis's wet-area mask memory (SimParams.wet_hold)
 ==========  ==========  =====  ===========================================
 
 With the default 8 slots the pigments of a layer sit in two RGBA32F layers
@@ -79,6 +80,7 @@ def allocate(ctx: moderngl.Context, width: int, height: int, n_layers: int,
         Field("rem", 4, n_layers, False),
         Field("rcomp", 4, rcomp_layers, False),
         Field("fibre", 2, 0, False),
+        Field("area", 1, 0, False),
     ]
     out: dict[str, Field] = {}
     for f in specs:
