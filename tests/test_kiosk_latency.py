@@ -748,3 +748,48 @@ def test_only_texels_that_change_are_uploaded_and_redrawn(tmp_path: Path) -> Non
     finally:
         s.shutdown()
         ctx.release()
+
+
+def test_a_large_fresh_preview_is_drawn_by_the_tiles_budget_not_in_one_frame(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """While a wholly wet canvas steps slower than real time, stamps stay pending and a
+    fresh preview spanned most of the stroke (main rendered 200 000-530 000 cells of it
+    in one frame at 1920x1080). Past ``PREVIEW_CELLS`` its tiles are marked dirty and
+    drawn, with the pending stamps, within the tiles' budget; the picture it ends at is
+    the one a whole render of the state and the stamps gives."""
+    from station.kiosk import display as D
+
+    try:
+        import moderngl
+
+        ctx = moderngl.create_context(standalone=True, backend="egl")  # type: ignore[arg-type]
+    except Exception as exc:  # no EGL here
+        pytest.skip(f"no EGL context: {exc}")
+    s = _session(tmp_path)
+    try:
+        disp = D.CpuDisplay(ctx, s)
+        while disp.update() or disp.behind():  # the blank canvas, all drawn
+            pass
+        blank = disp.read()
+        s.command("brush", size=8, water=1.0, pigment={"French Ultramarine": 0.6})
+        for i in range(10):  # a stroke no step has taken: all of it pending
+            s.handle("pen", _pen(i, 0.15 + 0.07 * i))
+        monkeypatch.setattr(D, "PREVIEW_CELLS", 400)
+        disp.damage = []
+        assert disp.update_preview() == 0 and disp.behind() and not disp.damage
+        frames = 0
+        while disp.behind():
+            disp.update()
+            frames += 1
+            assert frames < 100
+        shown = disp.read()
+        monkeypatch.setattr(D, "PREVIEW_CELLS", 10**9)
+        ref = D.CpuDisplay(ctx, s)  # every tile afresh, with the pending stamps
+        while ref.update() or ref.behind():
+            pass
+        whole = ref.read()
+        assert np.abs(whole - blank).max() > 0.05  # the stroke is on screen
+        assert np.abs(shown - whole).max() < 1e-4
+    finally:
+        s.shutdown()
+        ctx.release()

@@ -55,6 +55,16 @@ MAX_CELLS_PER_FRAME = 120_000
 #: moves on screen a few milliseconds later — and the pen is never held up by them.
 TILE_BUDGET_S = 0.0015
 
+#: A fresh preview (a step took the previewed stamps, or began while they were shown)
+#: larger than this (cells) is not rendered at once: the tiles its stamps cover are marked
+#: dirty and drawn, with those stamps, within the tiles' budget over the next frames (the
+#: stamps are on screen meanwhile from the frames that previewed them).  While a wholly
+#: wet 1920×1080 canvas steps slower than real time, stamps stay pending for a second
+#: or more (each is due at its painting time), and the fresh preview's box spanned most
+#: of the stroke: 200 000-530 000 cells, 60-560 ms in one frame — the frame-time p99
+#: of the wet sky.  A live stroke at 30 steps/s previews a few thousand cells.
+PREVIEW_CELLS = 16_384
+
 #: Regions smaller than this (cells) are rendered by one thread.
 SERIAL_CELLS = 2048
 
@@ -194,6 +204,9 @@ class CpuDisplay:
         # cells (y0, y1, x0, x1) uploaded since the window last composed (it empties this)
         self.damage: list[tuple[int, int, int, int]] = []
         self._carry: np.ndarray | None = None  # dirty tiles over last frame's budget
+        self._owed = False  # a fresh preview's tiles marked dirty, not drawn yet
+        # the pending stamps' sum and what it was summed from (:meth:`_pending_sources`)
+        self._sources: tuple[tuple[int, int, int, int], Sources | None] | None = None
         self.cells_rendered = 0
         self.render_seconds = 0.0
         session.mark_all_dirty()
@@ -229,11 +242,10 @@ class CpuDisplay:
             self.render_seconds = time.perf_counter() - t0
             return 0
         dirty = self.session.take_dirty()
+        self._owed = False
         carried = self._carry if self._carry is not None and \
             self._carry.shape == dirty.shape else np.zeros_like(dirty)
-        pv = brush_preview(self.session.player.brush) if dirty.any() | carried.any() \
-            else None
-        src = None if pv is None else pv.sources
+        src = self._pending_sources() if dirty.any() | carried.any() else None
         cells = 0
         left = np.zeros_like(dirty)
         # tiles left over from the last frame first, then the new ones, up to the budget
@@ -271,9 +283,16 @@ class CpuDisplay:
         if pv is None:
             return 0
         src = pv.sources
+        self._sources = (self._sources_key(), src)
+        fresh = not self._previewed
         box = pv.new_cells if self._previewed else src.region
         self._previewed = pv.count
         if box is None:  # the new stamps are all masked
+            return 0
+        if fresh and (box[0].stop - box[0].start) * (box[1].stop - box[1].start) \
+                > PREVIEW_CELLS:
+            self._defer(src, int(st.params.tile_size))
+            self.render_seconds += time.perf_counter() - t0
             return 0
         sy, sx = src.region
         ys = slice(max(box[0].start, sy.start, 0), min(box[0].stop, sy.stop, st.height))
@@ -286,6 +305,44 @@ class CpuDisplay:
         self.cells_rendered += cells
         self.render_seconds += time.perf_counter() - t0
         return cells
+
+    def _sources_key(self) -> tuple[int, int, int, int]:
+        """What the pending stamps' sum depends on: the brush, the stamps it made, how many
+        it holds, the steps that took their shares (between steps stamps only come)."""
+        brush = self.session.player.brush
+        return (id(brush), int(getattr(brush, "stamps", 0)), pending_stamps(brush),
+                int(self.session.player.counters.steps))
+
+    def _pending_sources(self) -> Sources | None:
+        """The pending stamps summed (the brush's preview's sources), kept from the last
+        frame's preview while no stamp came and no step ran: summing them costs in
+        proportion to the stamps pending, which grow while the sim lags behind the pen
+        (2 600 stamps, up to 400 ms a sum, on a wet 1920×1080 canvas at load 8)."""
+        key = self._sources_key()
+        if self._sources is not None and self._sources[0] == key:
+            return self._sources[1]
+        pv = brush_preview(self.session.player.brush)
+        src = None if pv is None else pv.sources
+        self._sources = (key, src)
+        return src
+
+    def _defer(self, src: Sources, ts: int) -> None:
+        """Mark dirty the tiles where ``src`` (the pending stamps, summed) puts anything:
+        :meth:`update_tiles` draws them with the stamps, within its budget."""
+        put = src.dw != 0
+        for a in src.dp.values():
+            put |= a != 0
+        ys, xs = np.nonzero(put)
+        ys, xs = ys + src.y0, xs + src.x0
+        dirty = self.session.dirty
+        h, w = dirty.shape
+        inside = (ys >= 0) & (xs >= 0)
+        ty, tx = ys[inside] // ts, xs[inside] // ts
+        keep = (ty < h) & (tx < w)
+        if not keep.any():
+            return
+        dirty[ty[keep], tx[keep]] = True
+        self._owed = True
 
     def _grow_preview(self, ys: slice, xs: slice) -> None:
         pb = self.preview_box
@@ -319,8 +376,9 @@ class CpuDisplay:
             dirty[ys.start // ts:-(-ys.stop // ts), xs.start // ts:-(-xs.stop // ts)] = True
 
     def behind(self) -> bool:
-        """Whether dirty tiles wait for the next frame (over this frame's budget)."""
-        return self._carry is not None
+        """Whether dirty tiles wait for the next frame (over this frame's budget, or a
+        fresh preview's, :data:`PREVIEW_CELLS`)."""
+        return self._carry is not None or self._owed
 
     def _render_cells(self, st: Any, kind: str, ys: slice, xs: slice,
                       pending: Sources | None) -> tuple[slice, slice]:

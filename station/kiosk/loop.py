@@ -185,14 +185,22 @@ def draw_frame(app: KioskApp, now: float, dt: float, times: _FrameTimes) -> bool
     whether the late latch took input."""
     s = app.session
     app.frame_pixels = 0
-    with s.lock:  # not while a step hands its sources over (the kernel may run)
-        if app.screenshots:  # a screenshot shows the canvas between steps
-            s.wait_step()
-        app.display.update_tiles()
-        # a screenshot shows the whole canvas as it is, not a frame still catching up
-        # with its tiles (the per-frame budget keeps the pen fluid, not a screenshot)
-        while app.screenshots and app.display.behind():
+    # not while a step hands its sources over (the kernel may run); the tiles wait for
+    # the next frame while the simulation thread holds the lock (a step's start or end:
+    # on a wholly wet 1920×1080 canvas it sums and adds its stamps under it)
+    if s.lock.acquire(blocking=bool(app.screenshots)):
+        try:
+            if app.screenshots:  # a screenshot shows the canvas between steps
+                s.wait_step()
             app.display.update_tiles()
+            # a screenshot shows the whole canvas as it is, not a frame still catching up
+            # with its tiles (the per-frame budget keeps the pen fluid, not a screenshot)
+            while app.screenshots and app.display.behind():
+                app.display.update_tiles()
+        finally:
+            s.lock.release()
+    else:
+        app.display.cells_rendered = 0
     times.tiles = time.perf_counter()
     drawing.build_ui_if_changed(app, now - app._last_draw if app._last_draw else dt)
     cam = drawing.camera(app)
@@ -209,6 +217,11 @@ def draw_frame(app: KioskApp, now: float, dt: float, times: _FrameTimes) -> bool
     times.drained = time.perf_counter()
     with s.lock:
         app.display.update_preview()
+        # a screenshot shows the whole canvas: the tiles that a large fresh preview left
+        # to the next frames' budget are drawn now (between steps)
+        while app.screenshots and app.display.behind():
+            s.wait_step()
+            app.display.update_tiles()
     times.preview = time.perf_counter()
     drawing.compose_changes(app, cam)
     drawing.fill_back_buffer(app, cam)

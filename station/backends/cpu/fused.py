@@ -14,16 +14,20 @@ per chunk of rows instead of full scratch fields:
   (``capillary_dry``): no ``sat`` field and none of capillary_dry's re-reads, −10 floats.
 
 A chunk's first ring rows belong to its neighbour chunk: they are recomputed here (the
-limiters are pure functions of the sweep's inputs).  The cpu backend's bitwise tests
-against the numpy reference (tests/test_cpu_backend.py) hold them; the prototypes that
-first compared them with the two-sweep kernels were copies of this code and are gone
-(git history: tools/proto_fused_*.py).
+limiters are pure functions of the sweep's inputs).  So these sweeps take as few chunks as
+there are threads (``chunks``, :func:`ring_chunks`): prange hands each thread an equal
+share of the chunks anyway (a static schedule), and at 1920x1080 the 64 chunks of the
+other sweeps cost ~10 % more work here (2 limiter and 3 face-rate rows of pass 6, 3
+iterate rows and a limiter row of passes 4/5, 2 saturation rows of pass 9 per chunk).
+The cpu backend's bitwise tests against the numpy reference (tests/test_cpu_backend.py)
+hold them; the prototypes that first compared them with the two-sweep kernels were
+copies of this code and are gone (git history: tools/proto_fused_*.py).
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import get_num_threads, njit, prange
 
 from station.backends.cpu import kernels as K
 
@@ -33,11 +37,32 @@ _inline = njit(inline="always", fastmath=False, cache=True, error_model="numpy")
 _parallel = njit(parallel=True, fastmath=False, cache=True, error_model="numpy", nogil=True)
 
 
+def ring_chunks() -> int:
+    """The ``chunks`` argument of the ringed sweeps: one chunk per thread."""
+    n: int = get_num_threads()
+    return n
+
+
 @_inline
 def _open(a: np.uint8, b: np.uint8) -> np.float32:  # pragma: no cover - compiled
     """1 on a face whose two cells' flags are set, else 0 (float32, as the reference's
     product of float32 wet masks)."""
     return ONE if (a != 0) & (b != 0) else ZERO
+
+
+@_inline
+def _zero_gaps(o: np.ndarray, r: int, spans: np.ndarray,
+               nsp: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Zero a ring row ``o`` outside row r's spans (the loops that follow write every
+    column inside them): a whole-row fill of each ring row was ~1 ms a 1920x1080 step."""
+    prev = 0
+    for sx in range(nsp[r]):
+        slo, shi = K._span(spans, r, sx)
+        for i in range(prev, slo):
+            o[i] = ZERO
+        prev = shi + 1
+    for i in range(prev, o.shape[0]):
+        o[i] = ZERO
 
 
 @_inline
@@ -83,8 +108,8 @@ def _limit_row(w: np.ndarray, p: np.ndarray, r: int, ns: int, wmin: np.float32,
     """advect_limit's row ``r`` into ``so``/``si`` (zero outside the row's spans), from
     the row's x-face rates ``xr`` and the rates of its south ``ys`` and north ``yn``
     faces."""
-    so[:] = ZERO
-    si[:] = ZERO
+    _zero_gaps(so, r, spans, nsp)
+    _zero_gaps(si, r, spans, nsp)
     rxp, rxn, syp, syn, nyp, nyn = xr[0], xr[1], ys[0], ys[1], yn[0], yn[1]
     for sx in range(nsp[r]):
         slo, shi = K._span(spans, r, sx)
@@ -119,7 +144,8 @@ def _limit_row(w: np.ndarray, p: np.ndarray, r: int, ns: int, wmin: np.float32,
 def advect_fused(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
                  p: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int,
                  cst: np.ndarray, w3_o: np.ndarray, p_state: np.ndarray,
-                 spans: np.ndarray, nsp: np.ndarray) -> None:  # pragma: no cover - compiled
+                 spans: np.ndarray, nsp: np.ndarray,
+                 chunks: int) -> None:  # pragma: no cover - compiled
     """Pass 6 (limiters and fluxes) in one sweep: each chunk computes the limiter rows
     j-1, j, j+1 into a ring and applies row j, exactly as advect_apply does. The face
     rates live in rings too: a row's x faces serve its limiter and its fluxes, a row of
@@ -128,7 +154,7 @@ def advect_fused(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
     q4 = cst[K.C_Q4]
     wmin = cst[K.C_WMIN]
     wmax = cst[K.C_WMAX]
-    nch = min(bh, K.N_CHUNKS)
+    nch = bh if bh < chunks else chunks
     for ch in prange(nch):
         j0, j1 = K._chunk(ch, nch, bh)
         a = np.empty((6, bw + 2), F32)
@@ -260,8 +286,15 @@ def _lim_row(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xn: np.ndarray,
     """height_limit's donor limiters of row r into ring rows (zero outside the spans),
     from the rows r-1, r, r+1 of the final water (``xn``, ``xr``, ``xs``) and pigment
     (``pn``, ``pc``, ``ps``: slot, column) iterates."""
-    sw_r[:] = ZERO
-    sp_r[:, :] = ZERO
+    if do_w:
+        _zero_gaps(sw_r, r, spans, nsp)
+    else:
+        sw_r[:] = ZERO
+    if do_p:
+        for kk in range(ns):
+            _zero_gaps(sp_r[kk], r, spans, nsp)
+    else:
+        sp_r[:, :] = ZERO
     wr, wn, ws = wet[r], wet[r - 1], wet[r + 1]
     for sx in range(nsp[r]):
         slo, shi = K._span(spans, r, sx)
@@ -302,10 +335,19 @@ def _iterate_row(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xw: np.ndarray
     and the box, like the scratch): with ``jac1`` Jacobi iteration 1 from x0 = u
     (``K._jw_rows``/``K._jp_rows``, the operands and order of ``advect_jacobi1``'s
     rows), else a copy of the iterates ``xw``/``xp`` that ``jacobi_blocked`` left."""
-    xo[:] = ZERO
-    po[:, :] = ZERO
     if r < 1 or r > bh:
+        xo[:] = ZERO
+        po[:, :] = ZERO
         return
+    if do_w:
+        _zero_gaps(xo, r, spans, nsp)
+    else:
+        xo[:] = ZERO
+    if do_p:
+        for kk in range(ns):
+            _zero_gaps(po[kk], r, spans, nsp)
+    else:
+        po[:, :] = ZERO
     wn, wr, ws = wet[r - 1], wet[r], wet[r + 1]
     for sx in range(nsp[r]):
         slo, shi = K._span(spans, r, sx)
@@ -332,7 +374,7 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
                         ns: int, cst: np.ndarray, do_vjac: bool, do_height: bool, do_w: bool,
                         do_p: bool, jac1: bool, v3x_o: np.ndarray, v3y_o: np.ndarray,
                         w2_o: np.ndarray, p2_o: np.ndarray, spans: np.ndarray,
-                        nsp: np.ndarray) -> None:  # pragma: no cover - compiled
+                        nsp: np.ndarray, chunks: int) -> None:  # pragma: no cover - compiled
     """height_limit and diffuse_apply in one sweep (their maths unchanged): each chunk
     keeps the donor limiters of rows j-1, j, j+1 in a ring instead of ``sw``/``sp``,
     and the final iterates of rows j-1..j+2 in another; with ``jac1`` (one Jacobi
@@ -340,7 +382,7 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
     iterate fields are neither written nor read)."""
     kw = cst[K.C_KW]
     kp = cst[K.C_KP]
-    nch = min(bh, K.N_CHUNKS)
+    nch = bh if bh < chunks else chunks
     for ch in prange(nch):
         j0, j1 = K._chunk(ch, nch, bh)
         swr = np.zeros((3, bw + 2), F32)  # ring: row r in slot r % 3
@@ -553,12 +595,12 @@ def evap_cap_fused(wet: np.ndarray, w3: np.ndarray, opn: np.ndarray,
                    vy: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int,
                    cst: np.ndarray, do_evap: bool, do_surface: bool, do_absorb: bool,
                    do_capdiff: bool, do_dry: bool, spans: np.ndarray,
-                   nsp: np.ndarray) -> None:  # pragma: no cover - compiled
+                   nsp: np.ndarray, chunks: int) -> None:  # pragma: no cover - compiled
     """evap_surface_absorb and capillary_dry in one sweep (their maths unchanged): pass
     7-9a write the state in place, so each chunk's two boundary ``sat`` rows are computed
     first, side-effect free, from the state as the step found it; the fused loop keeps
     the rows j-1, j, j+1 of ``sat`` in a ring instead of a scratch field."""
-    nch = min(bh, K.N_CHUNKS)
+    nch = bh if bh < chunks else chunks
     edge_sat = np.zeros((nch, 2, bw + 2), F32)
     for ch in prange(nch):  # the boundary rows, from the state as the step found it
         j0, j1 = K._chunk(ch, nch, bh)

@@ -181,6 +181,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     scratch.select(y0, x0, bh, bw, None if stop_after is not None else active,
                    int(prm.tile_size), work_grow(len(taps)), state, ns)
     spans, nsp = scratch.spans, scratch.nsp
+    chunks = F.ring_chunks()
     do_pr = (outward or prm.paper_relief > 0) and runs("water_height_and_boundary")
     K.prep(state.w, state.wc, state.mask, state.vx, state.vy, state.p, state.h,
            state.block, state.block_time, state.fibre, taps, y0, x0, bh, bw, ns, cst,
@@ -225,7 +226,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     # (fused.limit_diffuse_fused: height_limit + diffuse_apply, bitwise the same)
     F.limit_diffuse_fused(wet, bc, s2["v1x"], s2["v1y"], xvx, xvy, w0, xw, p0, xp, pr, bh, bw,
                           ns, cst, do_v, runs("water_height_and_boundary"), do_w, do_p,
-                          jac1, s2["v3x"], s2["v3y"], s2["w2"], s3["p2"], spans, nsp)
+                          jac1, s2["v3x"], s2["v3y"], s2["w2"], s3["p2"], spans, nsp, chunks)
     v3x, v3y = s2["v3x"], s2["v3y"]
     if last <= reference.PASS_ORDER.index("water_height_and_boundary"):
         state.vx[ys, xs] = _win(v3x, bh, bw)
@@ -239,7 +240,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
         return
     if runs("advect_water_and_pigment"):  # pass 6's limiters and fluxes in one sweep
         F.advect_fused(wet, v3x, v3y, s2["w2"], s3["p2"], y0, x0, bh, bw, ns, cst, s2["w3"],
-                       state.p, spans, nsp)
+                       state.p, spans, nsp, chunks)
     else:  # the copy of advect_apply's switched-off pass
         K.advect_apply(wet, v3x, v3y, s2["w2"], s2["w2"], s2["w2"], s3["p2"], y0, x0, bh, bw,
                        ns, cst, False, s2["w3"], state.p, spans, nsp)
@@ -248,7 +249,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
                          state.evaporated, state.w, state.p, state.q, beta, gamma, delta,
                          v3x, v3y, state.vx, state.vy, y0, x0, bh, bw, ns, cst,
                          runs("evaporate"), runs("surface_exchange"), True,
-                         prm.cap_diffusion * dt > 0, runs("dry_cells"), spans, nsp)
+                         prm.cap_diffusion * dt > 0, runs("dry_cells"), spans, nsp, chunks)
     else:  # a pass-by-pass comparison that stops before the capillary passes
         K.evap_surface_absorb(wet, s2["w3"], s2["opn"], state.h, state.wc,
                               state.evaporated, state.w, state.p, state.q, beta, gamma, delta,
