@@ -44,6 +44,28 @@ vec2 vs_at(ivec2 c) {
     return wet_at(c) ? imageLoad(vel_in, c).xy : vec2(0.0);
 }
 
+// the contact line reaches this (unmasked) cell: a neighbour's fluid water stands above
+// its advancing height advance_height (1.5 - h), times (1 - fibre_wick * fibre) along the
+// axis of that neighbour (x: .x, y: .y), eased on damp paper
+bool crept(ivec2 c, vec4 pa, vec4 wa) {
+    float thr = u_advance * (1.5 - pa.x);
+    if (u_ease > 0.0) {
+        // damp paper's suction: times max(1 - damp_ease ((4 s') (1 - s')), 0),
+        // s' = max(s - damp_sat, 0) / (1 - damp_sat), s = min(wc / c, 1)
+        float s = min(wa.y / (u_cmin + pa.x * u_crange), 1.0);
+        float sp = max(s - u_dsat, 0.0) / u_dspan;
+        float f = 1.0 - u_ease * ((4.0 * sp) * (1.0 - sp));
+        thr = thr * max(f, 0.0);
+    }
+    vec2 fib = u_wick > 0.0 ? imageLoad(fibre_in, c).xy : vec2(0.0);
+    for (int f = 0; f < 4; ++f) {
+        ivec2 n = c + OFFS[f];
+        float along = OFFS[f].x != 0 ? fib.x : fib.y;
+        if (inside(n) && imageLoad(water_in, n).x > thr * (1.0 - u_wick * along)) return true;
+    }
+    return false;
+}
+
 void main() {
     bool valid;
     ivec2 c = tile_cell(valid);
@@ -53,25 +75,20 @@ void main() {
     bool wet = (wa.x > 0.0 || wa.y > u_moist) && pa.y == 0.0;
     // reference wet_memory: the wet-area mask keeps every cell wet in this wet phase
     if (u_hold != 0 && wet) imageStore(area_io, c, vec4(1.0, 0.0, 0.0, 0.0));
-    if (!wet && u_advance > 0.0 && pa.y == 0.0) {
-        // the contact line advances into this dry cell when a neighbour's fluid water
-        // stands above its advancing height advance_height (1.5 - h), times
-        // (1 - fibre_wick * fibre) along the axis of that neighbour (x: .x, y: .y)
-        float thr = u_advance * (1.5 - pa.x);
-        if (u_ease > 0.0) {
-            // damp paper's suction: times max(1 - damp_ease ((4 s') (1 - s')), 0),
-            // s' = max(s - damp_sat, 0) / (1 - damp_sat), s = min(wc / c, 1)
-            float s = min(wa.y / (u_cmin + pa.x * u_crange), 1.0);
-            float sp = max(s - u_dsat, 0.0) / u_dspan;
-            float f = 1.0 - u_ease * ((4.0 * sp) * (1.0 - sp));
-            thr = thr * max(f, 0.0);
-        }
-        vec2 fib = u_wick > 0.0 ? imageLoad(fibre_in, c).xy : vec2(0.0);
+    if (!wet && u_advance > 0.0 && pa.y == 0.0 && crept(c, pa, wa)) {
+        // on paper no damper than damp_sat the front needs a neighbour beside it: two of
+        // this cell's 4-neighbours wet or advancing with it (stencils.pinned)
+        float s = min(wa.y / (u_cmin + pa.x * u_crange), 1.0);
+        int n = 0;
         for (int f = 0; f < 4; ++f) {
-            ivec2 n = c + OFFS[f];
-            float along = OFFS[f].x != 0 ? fib.x : fib.y;
-            if (inside(n) && imageLoad(water_in, n).x > thr * (1.0 - u_wick * along)) wet = true;
+            ivec2 nb = c + OFFS[f];
+            if (!inside(nb)) continue;
+            vec4 pn = imageLoad(paper_in, nb);
+            vec4 wn = imageLoad(water_in, nb);
+            bool own = (wn.x > 0.0 || wn.y > u_moist) && pn.y == 0.0;
+            if (own || (pn.y == 0.0 && crept(nb, pn, wn))) n += 1;
         }
+        wet = n >= 2 || s > u_dsat;
     }
     // diffusion controller: beta_c = min(1 - block_paper (1 - h), block_eff)
     float age = u_block_fade > 0.0 ? clamp((u_sim_time - pa.w) / u_block_fade, 0.0, 1.0) : 1.0;

@@ -153,6 +153,22 @@ def test_prep_damp_paper_eases_the_front(ctx) -> None:
     assert (wet & ~plain).sum() >= 5  # damp cells let the front in
 
 
+def test_prep_pins_the_front_on_dry_paper(ctx) -> None:
+    """A crept cell on paper no damper than damp_sat needs two 4-neighbours wet or crept
+    (stencils.pinned): GL's wet mask is the reference's, and the rule takes cells out."""
+    prm = SimParams(damp_sat=0.9, moist_threshold=1.0)
+    st = random_state(2, params=prm)
+    c = gl_canvas(ctx, st)
+    c._pass_prep()
+    wet = ref.wet_mask(st.w, st.wc, st.mask, prm, st.h)
+    jv = read_rgba(c, c.jv[0])
+    assert np.array_equal(jv[..., 3] >= 0, wet)
+    # the same front with every cell's paper counted damp (s = 1 > 0): nothing pinned
+    loose = ref.wet_mask(st.w, np.full_like(st.wc, 1.0), st.mask, prm.replace(damp_sat=0.0),
+                         st.h)
+    assert (loose & ~wet).sum() >= 3  # lone fingers held back
+
+
 def test_damp_paper_keeps_its_pigment_suspended(ctx) -> None:
     """suspend_sat: a cell without fluid water but with saturated paper keeps p."""
     prm = SimParams(suspend_sat=0.5)

@@ -60,7 +60,13 @@ from station.brush.footprint import (
 )
 from station.brush.geometry import BrushShape, Tuft, get_shape
 from station.brush.reservoir import Reservoir
-from station.brush.solver import SolverCounters, SpineSolver, SpineState
+from station.brush.solver import (
+    SolverCounters,
+    SpineSolver,
+    SpineState,
+    bend_behind,
+    has_straight,
+)
 from station.brush.sources import (
     Footprint,
     Sources,
@@ -333,7 +339,7 @@ class DeformableBrush:
             self.strokes += 1
             stroke = _Stroke(x, y, sample.t)
             self._strokes[key] = stroke
-            if len(self.spines) == 1:
+            if len(self.spines) == 1 or has_straight(self.specs):
                 # pressed, felt (haptics) and set (plasticity) at once; stamped when
                 # the pen's first move says which way the tuft bends
                 stroke.down = (sample, p)
@@ -350,10 +356,13 @@ class DeformableBrush:
                     self._solve(stroke, x, y, p, sample)
                 return 0  # still where it touched: the tuft's way is not known yet
             stroke.down = None
-            if moved:
+            if moved and len(self.spines) == 1:
                 stroke.twist = math.degrees(math.atan2(dy, dx))
                 st = self.spines[0]  # buckle afresh, behind the motion
                 st.x, st.pos, st.contact = st.rest.copy(), None, None
+            elif moved:  # a fan: its spines set down bending behind the motion
+                bend_behind(self.spines, self.specs,
+                            handle_frame(down.tilt_x, down.tilt_y, down.rotation or 0.0), dx, dy)
             made = self._touch_down(stroke, down, pd)
         if self._due(stroke, x, y, sample.t):
             self._solve(stroke, x, y, p, sample)

@@ -96,6 +96,7 @@ class BrushShape:
     recovery: float
     seed: int
     spread: float = 0.0
+    layout: str = "random"
 
     @classmethod
     def from_dict(cls, data: Any, where: str | None = None) -> BrushShape:
@@ -129,7 +130,7 @@ class BrushShape:
             capacity=float(data.get("capacity", 50.0)), pickup=float(data.get("pickup", 0.25)),
             plasticity=float(data.get("plasticity", 0.02)),
             recovery=float(data.get("recovery", 0.3)), seed=int(data.get("seed", 0)),
-            spread=float(data.get("spread", 0.0)))
+            spread=float(data.get("spread", 0.0)), layout=str(data.get("layout", "random")))
 
     @classmethod
     def load(cls, path: str | Path) -> BrushShape:
@@ -252,6 +253,30 @@ def _round_lattice(joints: np.ndarray, frames: np.ndarray, radius: float, spread
                 out[a, b, m, 2] = joints[m, 2] + fa * sz + fb * uz
 
 
+def _mirror(tips: np.ndarray, around: np.ndarray, t0: np.ndarray) -> None:
+    """Lay a multi-spine tuft's hairs (in place: tip lengths, across ``around`` in
+    [0, 1], through ``t0`` in [-1, 1]) as a ``"mirrored"`` layout: a quarter of the
+    draws laid evenly across one half of the ferrule (each jittered within its own
+    share; the same draws, ranked), mirrored across the middle and through the
+    thickness; each hair lies in one of the sheet's two faces (outer half of the
+    thickness: a fan is a sheet two or three hairs thick). A fan's 28 hairs drawn
+    independently left its deep-lying hairs on one side: the stroke pulled across its
+    width sat 1.5 cells off the pen's line, and up and down strokes differed (which
+    hairs lie low depends on the way the tuft bends); mirrored hairs in mid-thickness
+    left a line down the stroke that none touched. The hairs left over lie on the
+    middle."""
+    nb = around.shape[0]
+    q = nb // 4
+    around[:q] = 0.5 * (np.argsort(np.argsort(around[:q])) + around[:q]) / max(q, 1)
+    t0[:q] = np.sign(t0[:q]) * (0.5 + 0.5 * np.abs(t0[:q]))
+    for k, (across, through) in enumerate(((True, False), (False, True), (True, True)), 1):
+        part = slice(k * q, (k + 1) * q)
+        tips[part] = tips[:q]
+        around[part] = 1.0 - around[:q] if across else around[:q]
+        t0[part] = -t0[:q] if through else t0[:q]
+    around[4 * q:] = 0.5
+
+
 class Tuft:
     """The bristles of a shape and their FFD weights (built once per shape)."""
 
@@ -274,8 +299,12 @@ class Tuft:
             around = a / (2.0 * math.pi)  # pressed, the tuft fans out: wedges → bands
         else:
             around = rng.random(nb)
-            s = np.broadcast_to(around[:, None], u.shape)
             t0 = 2.0 * rng.random(nb) - 1.0
+            if shape.layout == "mirrored":
+                _mirror(tips, around, t0)
+                u = np.linspace(0.0, 1.0, SAMPLES)[None, :] * tips[:, None]
+                prof = np.interp(u, pu, pw)
+            s = np.broadcast_to(around[:, None], u.shape)
             t = 0.5 + 0.5 * t0[:, None] * prof
             rim = np.abs(t0)
         # How each bristle keeps its ink once the tuft's liquid stops being one body

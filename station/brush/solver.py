@@ -41,6 +41,12 @@ CONTACT_TOL = 1e-7
 SUBSTEPS = 4
 BUCKLE = 0.05
 """Bend (rad per joint) given to a straight spine pressed onto the canvas."""
+SET_DOWN_BEND = 0.25
+"""Bend [rad per joint] behind the pen's first move that a tuft with a straight spine (a
+fan) is set down with (:func:`bend_behind`). Bending only the straight spine by ``BUCKLE``
+left a diagonal stroke 1.9 cells off its line on average (the trailing outer spine held out
+to the side); 0.15 on every spine 0.9; 0.25 0.3-0.4, its rows within 1.4 cells (a
+diagonal's half cells). More narrows the fan's mark (0.3: 22 cells wide pulled down)."""
 FTOL = 1e-12
 """Absolute tolerance on the energy between two iterates."""
 CTOL = 1e-9
@@ -278,6 +284,36 @@ class SpineSolver:
                 ok = False
         self.counters.evaluations += evals[0]
         return np.asarray(x, np.float64) if ok and x is not None else None
+
+
+def has_straight(specs: list[SpineSpec]) -> bool:
+    """Does a tuft of ``specs`` have a straight spine (a fan's middle one)?  Pressed, it
+    buckles the solver's default way (across the handle's X) unless set bending first.
+    The shape's rest, not the plastic set a last stroke left."""
+    return any(max(map(abs, spec.rest), default=0.0) < BUCKLE for spec in specs)
+
+
+def bend_behind(states: list[SpineState], specs: list[SpineSpec], handle: np.ndarray,
+                dx: float, dy: float) -> None:
+    """Set a tuft down bending behind the pen's first move (``dx, dy`` cells; ``handle``
+    the handle's frame): every spine starts ``SET_DOWN_BEND`` back from its shape's rest,
+    and the next solve goes on from there. Pressed straight down, a fan's middle spine
+    buckled the solver's default way (across the fan's width) and the stroke pulled down
+    sat 1.7 cells off the pen's line; set down splayed flat, a diagonal stroke's trailing
+    outer spine stayed out to the side (friction holds it) for a tuft length or two, 2-4
+    cells off. A painter's hairs trail the motion."""
+    hx = dx * handle[0, 0] + dy * handle[1, 0]  # the motion along the handle's X, Y
+    hy = dx * handle[0, 1] + dy * handle[1, 1]
+    big = max(abs(hx), abs(hy))
+    if big <= 0.0:
+        return
+    # theta > 0 bends a segment toward the handle's +Y, phi > 0 toward its -X
+    theta, phi = -SET_DOWN_BEND * hy / big, SET_DOWN_BEND * hx / big
+    for st, spec in zip(states, specs, strict=True):
+        st.x = np.asarray(spec.rest, np.float64)
+        st.x[0::2] += theta
+        st.x[1::2] += phi
+        st.pos, st.contact = None, None
 
 
 @functools.lru_cache(maxsize=256)

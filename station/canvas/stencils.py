@@ -50,6 +50,10 @@ def wet_mask(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams,
     With ``fibre_wick > 0`` and the fibre texture ``fibre`` (2, H, W), that height is
     lowered by ``1 - fibre_wick * fibre[axis]`` for the neighbours on each axis: along a
     fibre the water is not pinned.
+
+    On paper no damper than ``damp_sat`` (``min(wc / c, 1)``) the front advances into a
+    cell only with a neighbour beside it: at least two of its 4-neighbours are wet or
+    advancing with it (:func:`pinned`).
     """
     own = own_wet(w, wc, mask, prm)
     if prm.advance_height > 0:
@@ -66,14 +70,35 @@ def wet_mask(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams,
             ny = np.zeros(w.shape, F32)
             ny[:-1, :] = w[1:, :]
             ny[1:, :] = np.maximum(ny[1:, :], w[:-1, :])
-            return own | (((nx > thx) | (ny > thy)) & (mask == 0))
+            return own | pinned(own, ((nx > thx) | (ny > thy)) & (mask == 0), wc, h, prm)
         nb = np.zeros(w.shape, F32)
         nb[:, :-1] = w[:, 1:]
         nb[:, 1:] = np.maximum(nb[:, 1:], w[:, :-1])
         nb[:-1, :] = np.maximum(nb[:-1, :], w[1:, :])
         nb[1:, :] = np.maximum(nb[1:, :], w[:-1, :])
-        own = own | ((nb > thr) & (mask == 0))
+        own = own | pinned(own, (nb > thr) & (mask == 0), wc, h, prm)
     return own
+
+
+def pinned(own: np.ndarray, crept: np.ndarray, wc: np.ndarray, h: np.ndarray,
+           prm: SimParams) -> np.ndarray:
+    """The cells of ``crept`` (dry cells the contact line reaches) it advances into: on
+    paper damper than ``damp_sat`` all of them (the front runs on in the capillary film: a
+    bloom's fingers), on drier paper those with at least two 4-neighbours wet (``own``) or
+    advancing with them (cells outside count as dry). Surface tension pins a front on dry
+    paper: a one-cell finger's meniscus would bend over a cell. Without this, a lone cell
+    of high paper past a straight wet edge took the water, and the outward flow filled
+    that dead end with pigment to the brim (q 1.0 dried): 2.6 one-cell whiskers per 100
+    edge cells along a dried flat stroke; a tongue two cells wide still creeps on."""
+    a = (own | crept).astype(np.int8)
+    n4 = np.zeros(a.shape, np.int8)
+    n4[:, :-1] += a[:, 1:]
+    n4[:, 1:] += a[:, :-1]
+    n4[:-1, :] += a[1:, :]
+    n4[1:, :] += a[:-1, :]
+    damp = np.minimum(wc / capacity(h, prm), _ONE) > F32(prm.damp_sat)
+    out: np.ndarray = crept & ((n4 >= 2) | damp)
+    return out
 
 
 def capacity(h: np.ndarray, prm: SimParams) -> np.ndarray:

@@ -9,19 +9,22 @@
    Quinacridone Rose and Hansa Yellow dropped in at the horizon; clouds are
    **lifted** with a crumpled tissue while the wash is wet;
 2. **distant mountains** — a violet mix laid **wet-on-dry** on the dried sky
-   (hard, **dark edges**), fading into mist; clean water touched into the
-   half-dry wash makes two **blooms** (backruns) with dark fringes;
+   (hard, **dark edges**), fading into mist;
 3. **hills** — clear water first, then a pale yellow-green laid along the ridge
    and graded out to water at the foot, greens and umber dropped in **wet-in-wet**
    near the crest, warm light touched into the slopes; a nearer slope on a new layer,
    wet-on-dry, its crest a hard edge and its foot lost in water;
-4. **lake** — wet paper, a pale blue graded darker towards the near shore with a light
-   band left; dried, quick **dry-brush** ripples of the deformable tuft;
-5. **foreground** — wet paper, warm ochre in varied strokes, Burnt Umber with French
-   Ultramarine dropped in wet (**granulating** in the paper's valleys), greens at the
-   grass;
-6. **ink** — a profile switch to ``ink`` for a slender tree, grass in quick flicks of
-   diluted ink, and birds in Sumi Ink.
+4. **lake** — clear water over all of it, then a pale blue at the far shore and a
+   deeper blue down to the near bank laid into it: one graded wash, no white steps
+   where a front would stop at dry paper; dried, a distant shore of short strokes
+   with clumps of trees over its top edge, and quick **dry-brush** ripples of the
+   deformable tuft;
+5. **foreground** — a near bank rising to the right (the picture's diagonal), laid
+   over the lake's dried edge: wet paper, warm ochre in varied strokes along it,
+   Burnt Umber with French Ultramarine dropped in wet (**granulating** in the paper's
+   valleys), greens at the grass; dried, grass **flicked** up with the rigger;
+6. **ink** — a profile switch to ``ink`` for a slender tree on the bank's high end
+   (the focal point) and birds in Sumi Ink.
 
 The committed ``station/data/demo/landscape.jsonl`` is exactly
 ``landscape().text()``; regenerate it with ``python -m station.pictures.demo``
@@ -153,66 +156,112 @@ def _hills(s: Script, c: float) -> None:
     s.new_layer()
 
 
+def _bank_top(x: float) -> float:
+    """The near bank's top (y) at ``x``: it rises from the left to the tree on the right
+    (the picture's diagonal), with a gentle swell."""
+    return 0.9 - 0.13 * x + 0.008 * math.sin(7.0 * x + 0.5)
+
+
 def _lake(s: Script, c: float) -> None:
-    """The lake: a pale blue laid wet-on-dry at the far shore (a crisp edge), a deeper blue
-    into damp paper at the near shore, a light band left between; dried, a few quick
-    dry-brush ripples."""
-    _wet(s, c, [0.75, 0.77], size=4.0)  # the near half: the far shore stays a crisp edge
-    s.brush(size=4 * c, water=0.9, pigment={"French Ultramarine": 0.16, "Cerulean Blue": 0.2})
-    s.curve(_wavy(0.0, 1.0, 0.695, 0.004, 3.0, 0.5), 0.8, pressure=swell(0.45, 0.75, 1.5))
+    """The lake: clear water over the whole of it first, so that the blues laid next run
+    together into one graded wash (a light far half, a deeper near half) instead of
+    stopping at dry paper in white steps; its top laid over the hills' dried foot, its
+    bottom under where the bank will go. Dried, a few quick dry-brush ripples."""
+    _wet(s, c, [0.7, 0.73, 0.76, 0.79, 0.82, 0.85], size=4.5)
+    s.brush(size=4 * c, water=0.9, pigment={"French Ultramarine": 0.14, "Cerulean Blue": 0.2})
+    s.curve(_wavy(0.0, 1.0, 0.69, 0.004, 3.0, 0.5), 0.8, pressure=swell(0.45, 0.75, 1.5))
     s.brush(size=5 * c, water=0.9, pigment={"French Ultramarine": 0.45, "Cerulean Blue": 0.2})
-    s.curve(_wavy(1.0, 0.0, 0.76, 0.005, 4.0, 1.3), 0.8, pressure=swell(0.55, 0.9, 2.0))
+    for k, f in enumerate((0.0, 0.5, 1.0)):
+        # rows from 0.755 down to the bank's top (it is laid over their dried edge)
+        pts = [(x, 0.755 + f * (_bank_top(x) - 0.012 - 0.755) + 0.004 * math.sin(4.0 * x + k))
+               for x in (i / 8 for i in range(9))]
+        s.curve(pts[::-1] if k % 2 == 0 else pts, 0.8, pressure=swell(0.55, 0.9, 2.0))
     _blow_dry(s, 10.0)
+    # the far shore: a strip of distant land laid wet-on-dry along the lake's top, over
+    # the hills' foot, in short strokes of uneven weight with clumps of trees rising
+    # from it (cool and light: it is far away)
+    s.brush(size=1.8 * c, water=0.6, pigment={"French Ultramarine": 0.18, "Burnt Umber": 0.2,
+                                               "Phthalo Green": 0.12})
+    x = 0.0
+    k = 0
+    while x < 1.0:
+        w = 0.07 + 0.05 * abs(math.sin(3.7 * k))
+        y = 0.684 + 0.003 * math.sin(2.3 * k)
+        s.line((x, y), (min(x + w, 1.0), y + 0.002 * math.cos(k)), 0.25,
+               pressure=taper(0.3 + 0.3 * abs(math.sin(1.9 * k)), 0.5, 0.5))
+        if k % 3 != 1:  # a clump of trees
+            tx = x + 0.3 * w
+            h = 0.012 + 0.012 * abs(math.sin(5.1 * k))
+            s.curve([(tx, y), (tx + 0.004, y - 0.6 * h), (tx + 0.012, y - h),
+                     (tx + 0.02, y - 0.4 * h), (tx + 0.026, y)], 0.3,
+                    pressure=swell(0.35, 0.6, 1.0))
+        x += w - 0.01
+        k += 1
     s.brush(size=4 * c, water=0.15, pigment={"French Ultramarine": 0.45,
                                               "Cerulean Blue": 0.2}, kind="round3d")
-    for x0, x1, y in ((0.1, 0.32, 0.745), (0.55, 0.9, 0.765), (0.38, 0.52, 0.73)):
+    for x0, x1, y in ((0.1, 0.32, 0.745), (0.55, 0.8, 0.76), (0.38, 0.52, 0.73)):
         s.line((x0, y), (x1, y + 0.003), 0.14, pressure=0.45, tilt=(30.0, 0.0))
     _blow_dry(s, 6.0)
     s.new_layer()
 
 
 def _foreground(s: Script, c: float) -> None:
-    """The near bank: a warm ochre laid in varied strokes, wet-on-dry at the shore and into
-    damp paper below, a granulating umber-ultramarine dropped in wet at the bottom and a
-    green at the grass."""
-    _wet(s, c, [0.88, 0.93, 0.98], size=7.0)  # below the bank's top: a crisp shore
+    """The near bank, rising to the right: a warm ochre laid in varied strokes along it,
+    wet-on-dry over the lake's dried edge (a crisp shore, no white gap) and into damp paper
+    below, a granulating umber-ultramarine dropped in wet at the bottom and a green at the
+    grass; dried, grass flicked up from the bank with the rigger."""
+    _wet(s, c, [0.9, 0.94, 0.98], size=7.0)  # below the bank's top: a crisp shore
     s.brush(size=7 * c, water=0.9, pigment={"Hansa Yellow": 0.2, "Burnt Umber": 0.14,
                                              "Quinacridone Rose": 0.03})
     for k in range(5):
-        y = 0.815 + 0.042 * k
-        x0 = 0.02 + 0.06 * (k % 3)
-        pts = [(x0 + (0.96 - x0) * u / 5, y + 0.012 * math.sin(2.5 * u + k) + 0.01 * u)
-               for u in range(6)]
+        x0 = 0.0 + 0.05 * (k % 3)
+        pts = [(x0 + (1.0 - x0) * u / 5, _bank_top(x0 + (1.0 - x0) * u / 5) + 0.03
+                + 0.045 * k + 0.01 * math.sin(2.5 * u + k)) for u in range(6)]
         s.curve(pts[::-1] if k % 2 else pts, 0.7 + 0.1 * (k % 2),
                 pressure=swell(0.35 + 0.05 * k, 0.8, 1.0 + 0.5 * (k % 2)),
                 tilt=tilt_const(30.0, 5.0))
     s.brush(size=6 * c, water=0.7, pigment={"Burnt Umber": 0.55, "French Ultramarine": 0.3})
-    for x, y, d in ((0.08, 0.95, 0.12), (0.35, 0.97, 0.16), (0.62, 0.94, 0.1),
-                    (0.9, 0.96, 0.09)):
+    for x, y, d in ((0.08, 0.96, 0.12), (0.35, 0.97, 0.16), (0.62, 0.94, 0.1),
+                    (0.9, 0.93, 0.09)):
         s.curve([(x - d, y + 0.01), (x, y - 0.015), (x + d, y + 0.005)], 0.4,
                 pressure=taper(0.7, 0.3, 0.2))
     s.brush(size=4 * c, water=0.7, pigment={"Phthalo Green": 0.2, "Burnt Umber": 0.15,
                                              "Hansa Yellow": 0.1})
-    for x, y in ((0.05, 0.86), (0.24, 0.83), (0.5, 0.87), (0.72, 0.84)):
+    for x in (0.05, 0.24, 0.5, 0.7):
+        y = _bank_top(x) + 0.02
         s.curve([(x, y), (x + 0.05, y - 0.012), (x + 0.1, y + 0.006)], 0.3,
                 pressure=taper(0.6, 0.3, 0.1))
     _blow_dry(s, 12.0)
+    _grass(s, c)
+    _blow_dry(s, 4.0)
+
+
+def _grass(s: Script, c: float) -> None:
+    """Grass flicked up from the bank with the rigger: each blade set down at its root and
+    lifted while moving (a taper to a hair), leaning and curving, in clumps of uneven
+    height; a dark green first, then a few darker blades of umber among them."""
+    clumps = ((0.05, 9, 0.09), (0.17, 5, 0.05), (0.36, 10, 0.1), (0.52, 4, 0.045),
+              (0.7, 6, 0.06), (0.94, 8, 0.08))
+    for colour, share in (({"Phthalo Green": 0.5, "Burnt Umber": 0.5, "Hansa Yellow": 0.15},
+                           1.0), ({"Burnt Umber": 0.8, "French Ultramarine": 0.35}, 0.4)):
+        s.brush(size=1.6 * c, water=0.7, pigment=colour, kind="rigger")
+        for i, (x, n, tall) in enumerate(clumps):
+            for j in range(max(2, int(n * share))):
+                u = (j + 0.5) / n - 0.5
+                x0 = x + 0.05 * u + 0.005 * math.sin(3.0 * i + 5.0 * j)
+                base = _bank_top(x0) + 0.05 + 0.012 * ((i + j) % 2)
+                hgt = tall * (0.55 + 0.45 * abs(math.sin(2.1 * j + i + share)))
+                lean = 0.6 * u * hgt + 0.01 * math.sin(1.7 * j + i)
+                s.curve([(x0, base), (x0 + 0.2 * lean, base - 0.5 * hgt),
+                         (x0 + lean, base - hgt)], 0.1 + 0.02 * (j % 2),
+                        pressure=taper(0.7, 0.7, 0.0, attack=0.03, release=0.8))
 
 
 def _ink(s: Script, c: float) -> None:
-    """Ink: a slender tree, grass in a few quick flicks of diluted ink, three birds."""
+    """Ink: a slender tree standing on the bank's high end (the picture's focal point),
+    three birds."""
     s.profile("ink")
-    _tree(s, c, foot=(0.8, 0.9), height=0.4)
-    for i, x in enumerate((0.07, 0.31, 0.56, 0.93)):
-        base = 0.985 - 0.012 * (i % 2)
-        s.brush(size=(0.6 + 0.15 * (i % 2)) * c, water=0.6,
-                pigment={"Sumi Ink": 0.4 + 0.15 * (i % 3)})
-        for j in range(4 + i % 2):
-            lean = (j - 2) * 0.014 + 0.005 * math.sin(5.0 * i + j)
-            hgt = 0.04 + 0.022 * ((i + 2 * j) % 3)
-            x0 = x + 0.006 * j
-            s.curve([(x0, base), (x0 + lean * 0.3, base - hgt * 0.5), (x0 + lean, base - hgt)],
-                    0.12, pressure=taper(0.7, 0.7, 0.0, attack=0.05, release=0.85))
+    _tree(s, c, foot=(0.8, _bank_top(0.8) + 0.06), height=0.42)
     s.brush(size=0.7 * c, water=0.4, pigment={"Sumi Ink": 0.55})
     for bx, by, w in ((0.3, 0.2, 0.03), (0.37, 0.245, 0.022), (0.25, 0.265, 0.017)):
         s.arc((bx - w / 2, by), (w / 2, w / 3), 200.0, 340.0, 0.2,
@@ -252,17 +301,12 @@ def landscape(width: int = DEMO_WIDTH, height: int = DEMO_HEIGHT) -> Script:
     _blow_dry(s, 12.0)
     s.new_layer()
 
-    # 2. Distant mountains, wet-on-dry, graded into mist; clean water touched into the
-    #    half-dry wash blooms.
-    s.brush(size=6 * c, water=0.7, pigment={"French Ultramarine": 0.5,
-                                             "Quinacridone Rose": 0.25, "Burnt Umber": 0.1})
+    # 2. Distant mountains, wet-on-dry, graded into mist. (Clean water touched into the
+    #    half-dry wash made two blooms that read as rings, not a painter's backruns.)
+    # cool and lighter than the near ground: they are far
+    s.brush(size=6 * c, water=0.7, pigment={"French Ultramarine": 0.4, "Cerulean Blue": 0.08,
+                                             "Quinacridone Rose": 0.17, "Burnt Umber": 0.08})
     _fill(s, 0.38, 0.07, 0.1, 1.3, 0.5, 5, 0.8, 15.0, sharp=0.5, fade=0.9)
-    # the wash loses its shine (no standing water, the paper still damp) before the
-    # water goes in: only then does it run back into the wash as a backrun
-    s.wait(25.0)  # measured: the standing water is gone at 25-28 s, the paper 85-95 % full
-    s.brush(size=4 * c, water=1.0, pigment={})
-    for x, y in ((0.18, 0.42), (0.63, 0.4)):
-        s.dab((x, y), 0.35, pressure=0.8)
     _blow_dry(s, 14.0)
     s.new_layer()
 

@@ -411,8 +411,9 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         ny = ny if ny > t else t
                         line = (nb > thr * (ONE - wick * fibre[0, y, x])) | \
                             (ny > thr * (ONE - wick * fibre[1, y, x]))
-                        wet = ow | (un & line)
-                        wet_o[j, i] = 1 if wet else 0
+                        # 3: reached by the contact line, not wet by its own water
+                        # (_pin decides; every wet_o is 0 or 1 when prep returns)
+                        wet_o[j, i] = 1 if ow else (3 if un & line else 0)
                         opn_o[j, i] = 1 if un else 0
                 else:
                     for i in range(slo, shi + 1):
@@ -432,8 +433,7 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         nb = nb if nb > t else t
                         t = wn[i]
                         nb = nb if nb > t else t
-                        wet = ow | (un & advancing & (nb > thr))
-                        wet_o[j, i] = 1 if wet else 0
+                        wet_o[j, i] = 1 if ow else (3 if un & advancing & (nb > thr) else 0)
                         opn_o[j, i] = 1 if un else 0
                 if holding:  # a loop of its own: the column loops above stay as they were
                     _wet_memory_row(own, area, y, x0, r, slo, shi)
@@ -476,6 +476,51 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                             acc[i] = acc[i] + g * own[i + k]
                     for i in range(slo, shi + 1):
                         mbx_o[j, i] = acc[i]
+    if advancing:
+        _pin(wet_o, wc, h, y0, x0, bh, spans, nsp, cmin, cspan, dsat)
+
+
+@_inline
+def _pin(wet_o: np.ndarray, wc: np.ndarray, h: np.ndarray, y0: int, x0: int, bh: int,
+         spans: np.ndarray, nsp: np.ndarray, cmin: np.float32, cspan: np.float32,
+         dsat: np.float32) -> None:
+    """The contact line pinned on dry paper (stencils.pinned). ``wet_o`` comes in as 1
+    (wet by its own water), 3 (reached by the contact line) or 0: a 3 whose paper is no
+    damper than ``damp_sat`` with under two non-zero 4-neighbours becomes 2 (its
+    neighbours' counts in the same sweep still read it as wet, whichever thread gets there
+    first); then 3 becomes 1 and 2 becomes 0. One byte a cell read twice, the rest only at
+    the front."""
+    for j in prange(1, bh + 1):
+        y = y0 + j - 1
+        for si in range(nsp[j]):
+            slo, shi = _span(spans, j, si)
+            for i in range(slo, shi + 1):
+                if wet_o[j, i] != 3:
+                    continue
+                n = 0
+                if wet_o[j, i - 1] != 0:
+                    n += 1
+                if wet_o[j, i + 1] != 0:
+                    n += 1
+                if wet_o[j - 1, i] != 0:
+                    n += 1
+                if wet_o[j + 1, i] != 0:
+                    n += 1
+                if n >= 2:
+                    continue
+                x = np.uint64(x0 + i - 1)
+                sat = wc[y, x] / (cmin + h[y, x] * cspan)
+                sat = ONE if sat > ONE else sat
+                if sat > dsat:
+                    continue  # damp paper: the front runs on in the capillary film
+                wet_o[j, i] = 2
+    for j in prange(1, bh + 1):
+        for si in range(nsp[j]):
+            slo, shi = _span(spans, j, si)
+            for i in range(slo, shi + 1):
+                v = wet_o[j, i]
+                if v > 1:
+                    wet_o[j, i] = 1 if v == 3 else 0
 
 
 # ------------------------------------------------------------------ flow outward
