@@ -39,10 +39,12 @@ OLD = {
     # front, issue 21 item 4)
     # (wetarea: a cell stays in the wet-area mask 30 s after its water has gone while its
     # paper is damp, so rows laid over half-dry rows draw no line, issue 21 item 8)
-    "watercolor": SimParams().replace(fibre_dispersivity=4.5, flow_outward=0.5, edge_evap=7.0,
+    # (rows: absorption 0.03 -> 0.02 /s and flow outward 0.5 -> 0.4, so a row laid 3.5 s
+    # after the last still merges into it: no line, no arrowhead at the turns, item 8)
+    "watercolor": SimParams().replace(fibre_dispersivity=4.5, flow_outward=0.4, edge_evap=7.0,
                                       moist_threshold=1.0, damp_ease=4.5, damp_sat=0.65,
                                       suspend_sat=0.5, fibre_flow_max=1.0, lift_gain=5.0,
-                                      wet_hold=30.0, jacobi_iters=1),
+                                      wet_hold=30.0, alpha=0.02, jacobi_iters=1),
     "gouache": SimParams().replace(viscosity=2.0, nu_w=0.1, nu_p=0.05, alpha=0.005,
                                    height_gain=20.0, eps_shallow=0.008, jacobi_iters=1),
     # (issue 10's fibre feathering changed the ink in code just before: alpha 0.05, fibre_wick 1)
