@@ -15,6 +15,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -238,6 +239,20 @@ sys.exit(main(sys.argv[2:]))
 """
 
 
+def _stderr_lines(proc: subprocess.Popen[str]) -> list[str]:
+    """The process's stderr, collected line by line by a thread as it comes (so a test
+    can wait for a report while the process runs)."""
+    lines: list[str] = []
+
+    def pump() -> None:
+        assert proc.stderr is not None
+        for line in proc.stderr:
+            lines.append(line)
+
+    threading.Thread(target=pump, daemon=True).start()
+    return lines
+
+
 def test_disk_full(tmp_path: Path) -> None:
     """The disk fills mid-session: one report, painting goes on, the autosave made
     before stays intact, and when space is back the log catches up with everything."""
@@ -248,27 +263,35 @@ def test_disk_full(tmp_path: Path) -> None:
     sim = subprocess.Popen(
         [sys.executable, "-c", textwrap.dedent(FULL_DISK), str(flag), "sim", "--bus", bus,
          *SIM, "--log", str(log), "--png", str(png), "--autosave", "0.2", "--status", "none",
-         "--cmd", "none"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+         "--cmd", "none"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    lines = _stderr_lines(sim)
     try:
         _paint_session(bus, pub, pen, 1, 0.3)
-        assert wait_for(lambda: autosave_path(log).exists(), 10, pub)
+        assert wait_for(lambda: autosave_path(log).exists(), 60, pub)
         flag.touch()  # the disk is full
         idle(pub, 0.5)
         saved = autosave_path(log).read_bytes()  # the last autosave before
         on_disk = log.read_bytes()
         pen.stroke(0.6)
         pen.stroke(0.8)
-        idle(pub, 1.0)
+        # a loaded machine's sim may read the strokes late: wait until it met the full
+        # disk (its one report), with a generous deadline, not a fixed window
+        assert wait_for(lambda: any("No space left" in ln for ln in lines), 60, pub), lines
+        idle(pub, 0.5)
         assert autosave_path(log).read_bytes() == saved  # not damaged
         assert log.read_bytes() == on_disk  # nothing half-written
         flag.unlink()  # space is back
         idle(pub, 0.5)
-        code, err = stop(sim)
-        assert code == 0, err
+        sim.terminate()
+        code = sim.wait(timeout=60)
     finally:
         if sim.poll() is None:
-            stop(sim)
+            sim.kill()
+            sim.wait()
         pub.close()
+    assert wait_for(lambda: any("station sim: stopped" in ln for ln in lines), 30), lines
+    err = "".join(lines)
+    assert code == 0, err
     assert err.count("No space left on device") == 1, err  # reported once
     summary = final_summary(err)
     assert summary["storage_failures"] >= 1

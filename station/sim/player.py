@@ -241,12 +241,14 @@ class SessionPlayer:
             return live.w, live.mask, float(live.params.w_max)
         read = getattr(self.backend, "fluid_heights", None)
         if read is not None:
-            w, mask, w_max = read()
-            return w, mask, float(w_max)
+            got = read()
+            if got is not None:  # a backend that answers but shows nothing: no bead
+                w, mask, w_max = got
+                return w, mask, float(w_max)
         whole = getattr(self.backend, "state", None)
-        if whole is None:
+        st = whole() if whole is not None else None
+        if not isinstance(st, CanvasState):
             return None
-        st = whole()
         return st.w, st.mask, float(st.params.w_max)
 
     # -- records -----------------------------------------------------------------
