@@ -89,3 +89,56 @@ def test_flushing_more_often_hands_out_the_same_amounts() -> None:
     whole.add(_stamp(7.5))
     all_of_it = whole.take()  # a command that needs the canvas as painted
     assert all_of_it is not None and float(all_of_it.dw[0, 0]) == 1.0
+
+
+def test_the_pending_sum_is_kept_running_and_stays_bitwise_the_whole_sum(monkeypatch) -> None:
+    """The preview of the pending stamps (asked every frame by the kiosk) is a running sum:
+    a new stamp adds only its own cells, and only a step that took shares has everything
+    summed again, once.  Between steps it is bitwise what summing every pending stamp at
+    its share left gives (what a step would hand out), through stamps that overlap, grow
+    the box on every side, carry different pigments and are taken in part."""
+    from station.brush import sources
+
+    rng = np.random.default_rng(7)
+    q = StampQueue()
+    calls = {"n": 0}
+    whole = sources._sum
+
+    def counted(*a, **k):  # type: ignore[no-untyped-def]
+        calls["n"] += 1
+        return whole(*a, **k)
+
+    def exact(sums: int) -> None:
+        """The queue's sum against the whole sum; ``sums``: whole sums the queue makes."""
+        want = sources.accumulate(q.stamps, [1.0 - g for g in q.given])
+        monkeypatch.setattr(sources, "_sum", counted)
+        calls["n"] = 0
+        got = q.peek()
+        pv = q.preview()
+        monkeypatch.setattr(sources, "_sum", whole)
+        assert calls["n"] == sums
+        assert (want is None) == (got is None) == (pv is None)
+        if want is None or got is None or pv is None:
+            return
+        assert got.region == want.region and pv.sources is got
+        for a, b in [(got.dw, want.dw), (got.dvx, want.dvx), (got.dvy, want.dvy)]:
+            assert a.tobytes() == b.tobytes()
+        assert list(got.dp) == list(want.dp)
+        for name in want.dp:
+            assert got.dp[name].tobytes() == want.dp[name].tobytes()
+
+    tau = 0.0
+    for step in range(6):
+        for _ in range(25):
+            tau += 0.04
+            y0, x0 = int(rng.integers(0, 300)), int(rng.integers(0, 300))
+            cover = rng.random((int(rng.integers(1, 30)), int(rng.integers(1, 30))))
+            cover[cover < 0.3] = 0.0
+            pig = {["Burnt Umber", "Ultramarine"][int(rng.integers(0, 2))]: float(rng.random())}
+            q.add(Stamp(Footprint(y0, x0, cover), float(rng.random()), pig,
+                        float(rng.normal()), float(rng.normal()), tau))
+            exact(0)  # a new stamp: only its own cells are added
+        q.take(step)
+        exact(1)  # a step took shares: everything left is summed again, once
+    q.take(None)
+    assert q.peek() is None and q.preview() is None

@@ -141,6 +141,94 @@ def stamps_box(stamps: Iterable[Stamp]) -> tuple[slice, slice] | None:
             slice(min(s.cells.x0 for s in used), max(s.cells.x1 for s in used)))
 
 
+def _counts(s: Stamp, k: float) -> bool:
+    """Whether stamp ``s`` at share ``k`` adds anything to a sum (:func:`accumulate`)."""
+    return k > 0.0 and bool(s.cells.mask.size) and bool(s.cells.mask.any())
+
+
+class _Sum:
+    """A float64 sum of stamps over the box ``[y0, y1) x [x0, x1)``, held in arrays of
+    ``capacity`` (a larger box, so a growing box rarely copies).  Each cell adds its
+    stamps' terms in the order they are added, as :func:`accumulate` does, so the sum is
+    bitwise what :func:`accumulate` gives for the same stamps and shares (a cell outside a
+    stamp's footprint is not touched by it, here and there)."""
+
+    def __init__(self, y0: int, x0: int, y1: int, x1: int, margin: int = 0) -> None:
+        self.y0, self.x0, self.y1, self.x1 = y0, x0, y1, x1
+        self._alloc(y0 - margin, x0 - margin, y1 + margin, x1 + margin)
+
+    def _alloc(self, cy0: int, cx0: int, cy1: int, cx1: int) -> None:
+        self.cy0, self.cx0 = cy0, cx0
+        shape = (cy1 - cy0, cx1 - cx0)
+        self.dw = np.zeros(shape, dtype=np.float64)
+        self.dvx = np.zeros(shape, dtype=np.float64)
+        self.dvy = np.zeros(shape, dtype=np.float64)
+        self.dp: dict[str, np.ndarray] = {}
+
+    def _grow(self, fp: Footprint) -> None:
+        """Make room for ``fp``: the arrays are copied into larger zero ones (exact)."""
+        cy1 = self.cy0 + self.dw.shape[0]
+        cx1 = self.cx0 + self.dw.shape[1]
+        if fp.y0 >= self.cy0 and fp.x0 >= self.cx0 and fp.y1 <= cy1 and fp.x1 <= cx1:
+            return
+        # a margin of half the box each side: a stroke that moves on copies O(log) times
+        my = max(16, (max(cy1, fp.y1) - min(self.cy0, fp.y0)) // 2)
+        mx = max(16, (max(cx1, fp.x1) - min(self.cx0, fp.x0)) // 2)
+        ny0 = min(self.cy0, fp.y0 - my) if fp.y0 < self.cy0 else self.cy0
+        nx0 = min(self.cx0, fp.x0 - mx) if fp.x0 < self.cx0 else self.cx0
+        ny1 = max(cy1, fp.y1 + my) if fp.y1 > cy1 else cy1
+        nx1 = max(cx1, fp.x1 + mx) if fp.x1 > cx1 else cx1
+        old = (self.cy0, self.cx0, self.dw, self.dvx, self.dvy, self.dp)
+        self._alloc(ny0, nx0, ny1, nx1)
+        oy, ox, dw, dvx, dvy, dp = old
+        sl = (slice(oy - ny0, oy - ny0 + dw.shape[0]), slice(ox - nx0, ox - nx0 + dw.shape[1]))
+        self.dw[sl] = dw
+        self.dvx[sl] = dvx
+        self.dvy[sl] = dvy
+        for name, a in dp.items():
+            self.dp[name] = np.zeros_like(self.dw)
+            self.dp[name][sl] = a
+
+    def add(self, s: Stamp, k: float) -> None:
+        """Add ``k`` of stamp ``s`` (one that :func:`_counts`)."""
+        fp = s.cells
+        self._grow(fp)
+        self.y0, self.x0 = min(self.y0, fp.y0), min(self.x0, fp.x0)
+        self.y1, self.x1 = max(self.y1, fp.y1), max(self.x1, fp.x1)
+        sl = (slice(fp.y0 - self.cy0, fp.y1 - self.cy0), slice(fp.x0 - self.cx0, fp.x1 - self.cx0))
+        m = fp.cover
+        self.dw[sl] += m * (s.water * k)
+        self.dvx[sl] += m * (s.vx * k)
+        self.dvy[sl] += m * (s.vy * k)
+        for name, amount in s.pigment.items():
+            if amount <= 0.0:
+                continue
+            if name not in self.dp:
+                self.dp[name] = np.zeros_like(self.dw)
+            self.dp[name][sl] += m * (amount * k)
+
+    def sources(self) -> Sources:
+        """The sum over its box, as float32 :class:`Sources`."""
+        sl = (slice(self.y0 - self.cy0, self.y1 - self.cy0),
+              slice(self.x0 - self.cx0, self.x1 - self.cx0))
+        f32 = np.float32
+        return Sources(self.y0, self.x0, self.dw[sl].astype(f32),
+                       {k: v[sl].astype(f32) for k, v in self.dp.items()},
+                       self.dvx[sl].astype(f32), self.dvy[sl].astype(f32))
+
+
+def _sum(stamps: Iterable[Stamp], shares: Sequence[float] | None) -> _Sum | None:
+    pairs = [(s, 1.0 if shares is None else shares[i]) for i, s in enumerate(stamps)]
+    pairs = [(s, k) for s, k in pairs if _counts(s, k)]
+    if not pairs:
+        return None
+    total = _Sum(min(s.cells.y0 for s, _ in pairs), min(s.cells.x0 for s, _ in pairs),
+                 max(s.cells.y1 for s, _ in pairs), max(s.cells.x1 for s, _ in pairs))
+    for s, k in pairs:
+        total.add(s, k)
+    return total
+
+
 def accumulate(stamps: Iterable[Stamp], shares: Sequence[float] | None = None
                ) -> Sources | None:
     """Sum stamps into one bounding-box :class:`Sources` (``None`` if nothing).
@@ -149,35 +237,8 @@ def accumulate(stamps: Iterable[Stamp], shares: Sequence[float] | None = None
     a stroke that comes back over itself re-wets, so overlapping stamps add.
     ``shares``: the part of each stamp to sum (all of each when ``None``).
     """
-    pairs = [(s, 1.0 if shares is None else shares[i]) for i, s in enumerate(stamps)]
-    pairs = [(s, k) for s, k in pairs if k > 0.0 and s.cells.mask.size and s.cells.mask.any()]
-    if not pairs:
-        return None
-    y0 = min(s.cells.y0 for s, _ in pairs)
-    x0 = min(s.cells.x0 for s, _ in pairs)
-    y1 = max(s.cells.y1 for s, _ in pairs)
-    x1 = max(s.cells.x1 for s, _ in pairs)
-    shape = (y1 - y0, x1 - x0)
-    dw = np.zeros(shape, dtype=np.float64)
-    dvx = np.zeros(shape, dtype=np.float64)
-    dvy = np.zeros(shape, dtype=np.float64)
-    dp: dict[str, np.ndarray] = {}
-    for s, k in pairs:
-        fp = s.cells
-        sl = (slice(fp.y0 - y0, fp.y1 - y0), slice(fp.x0 - x0, fp.x1 - x0))
-        m = fp.cover
-        dw[sl] += m * (s.water * k)
-        dvx[sl] += m * (s.vx * k)
-        dvy[sl] += m * (s.vy * k)
-        for name, amount in s.pigment.items():
-            if amount <= 0.0:
-                continue
-            if name not in dp:
-                dp[name] = np.zeros(shape, dtype=np.float64)
-            dp[name][sl] += m * (amount * k)
-    f32 = np.float32
-    return Sources(y0, x0, dw.astype(f32), {k: v.astype(f32) for k, v in dp.items()},
-                   dvx.astype(f32), dvy.astype(f32))
+    total = _sum(stamps, shares)
+    return None if total is None else total.sources()
 
 
 @dataclass(frozen=True)
@@ -218,11 +279,22 @@ def painting_steps(t: float, clock: tuple[float, float] | None) -> float:
 
 
 class StampQueue:
-    """A brush's stamps not yet (wholly) in the canvas, and how much of each is."""
+    """A brush's stamps not yet (wholly) in the canvas, and how much of each is.
+
+    The pending stamps' sum (what :meth:`peek` and :meth:`preview` show, asked every frame
+    by a live view) is kept as a running sum: a new stamp adds its own cells to it, and only
+    a :meth:`take` (a step, which changes the shares left) has it summed again, once, on the
+    next ask.  While the sim lags behind the pen thousands of stamps can be pending, and
+    summing them all again for each new stamp cost up to 60 ms a frame.  Between takes the
+    running sum adds each new stamp last, as :func:`accumulate` does, so it is bitwise the
+    sum of everything left."""
 
     def __init__(self) -> None:
         self.stamps: list[Stamp] = []
         self.given: list[float] = []  # the part of each already handed out
+        self._left: _Sum | None = None  # the running sum of what is left (when valid)
+        self._valid = True  # False after a take: summed again on the next ask
+        self._shown: Sources | None = None  # _left as Sources, until the next change
 
     def __len__(self) -> int:
         return len(self.stamps)
@@ -230,6 +302,15 @@ class StampQueue:
     def add(self, stamp: Stamp) -> None:
         self.stamps.append(stamp)
         self.given.append(0.0)
+        if self._valid and _counts(stamp, 1.0 - 0.0):
+            if self._left is None:
+                fp = stamp.cells
+                self._left = _Sum(fp.y0, fp.x0, fp.y1, fp.x1, margin=16)
+            self._left.add(stamp, 1.0 - 0.0)
+            self._shown = None
+
+    def _changed(self) -> None:
+        self._left, self._valid, self._shown = None, False, None
 
     def take(self, step: int | None = None) -> Sources | None:
         """The stamps' sources due before step ``step`` (see :func:`due_share`) that were
@@ -239,6 +320,7 @@ class StampQueue:
             left = [1.0 - g for g in self.given]
             stamps = self.stamps
             self.stamps, self.given = [], []
+            self._left, self._valid, self._shown = None, True, None
             return accumulate(stamps, left)
         now: list[float] = []
         keep: list[Stamp] = []
@@ -250,15 +332,33 @@ class StampQueue:
                 keep.append(s)
                 kept.append(max(due, g))
         stamps = self.stamps
+        if any(k > 0.0 for k in now):  # else nothing left changed: the sum holds
+            self._changed()
         self.stamps, self.given = keep, kept
         return accumulate(stamps, now)
 
+    def _left_sources(self) -> Sources | None:
+        """Everything left, summed (:func:`accumulate`'s bits), from the running sum."""
+        if not self._valid:
+            self._left = _sum(self.stamps, [1.0 - g for g in self.given])
+            self._valid, self._shown = True, None
+        if self._shown is None and self._left is not None:
+            src = self._left.sources()
+            # shared by every ask until the next change: no caller may write into it
+            for a in (src.dw, src.dvx, src.dvy, *src.dp.values()):
+                a.flags.writeable = False
+            self._shown = src
+        return self._shown
+
     def peek(self) -> Sources | None:
         """Everything left, summed, left pending (a live view's preview)."""
-        return accumulate(self.stamps, [1.0 - g for g in self.given])
+        return self._left_sources()
 
     def box(self, since: int = 0) -> tuple[slice, slice] | None:
         return stamps_box(self.stamps[since:])
 
     def preview(self, since: int = 0) -> StampPreview | None:
-        return preview_of(self.stamps, since, [1.0 - g for g in self.given])
+        src = self._left_sources()
+        if src is None:
+            return None
+        return StampPreview(src, len(self.stamps), stamps_box(self.stamps[since:]))

@@ -507,10 +507,14 @@ def _cd_row(sm: np.ndarray, s0r: np.ndarray, sp: np.ndarray, h: np.ndarray, opn:
             v3x: np.ndarray, v3y: np.ndarray, w: np.ndarray, wc: np.ndarray, evap: np.ndarray,
             p: np.ndarray, q: np.ndarray, vx: np.ndarray, vy: np.ndarray, y0: int, x0: int,
             ns: int, cst: np.ndarray, do_capdiff: bool, do_dry: bool, j: int,
-            spans: np.ndarray, nsp: np.ndarray, wcrow: np.ndarray, crow: np.ndarray) -> None:
+            spans: np.ndarray, nsp: np.ndarray, wcrow: np.ndarray, crow: np.ndarray,
+            area: np.ndarray, fade: np.float32, holding: bool) -> None:
     # pragma: no cover - compiled
     """capillary_dry's row j (unchanged) with ``sat`` rows j-1, j, j+1 from the ring;
-    ``crow``: a row buffer for the capacity of row j."""
+    ``crow``: a row buffer for the capacity of row j.  With ``do_dry and holding`` the
+    end of pass 10 (reference ``wet_area_update``) on the row's final w and wc, while
+    they are in cache: ``area`` is 1 where the open cell is wet by its own water, else
+    ``max(area - fade, 0)`` while its paper is damp, else 0."""
     k = cst[K.C_KC]
     ecap = cst[K.C_ECAP]
     wdry = cst[K.C_WDRY]
@@ -571,6 +575,16 @@ def _cd_row(sm: np.ndarray, s0r: np.ndarray, sp: np.ndarray, h: np.ndarray, opn:
                 vx[y, x] = ZERO if dry else v3x[j, i]
                 vy[y, x] = ZERO if dry else v3y[j, i]
             evap[y, x] = ev
+        if do_dry and holding:  # a loop of its own: the loop above stays as it was
+            moist = cst[K.C_MOIST]
+            for i in range(slo, shi + 1):  # selects, not branches: the loop vectorises
+                x = np.uint64(x0 + i - 1)
+                wcv = wc[y, x]
+                own = ((w[y, x] > ZERO) | (wcv > moist)) & (opn[j, i] != 0)
+                a = area[y, x] - fade
+                a = a if a > ZERO else ZERO
+                a = a if wcv > ZERO else ZERO
+                area[y, x] = ONE if own else a
         if do_dry and n_dry > 0:
             for kk in range(ns):
                 for i in range(slo, shi + 1):
@@ -595,11 +609,14 @@ def evap_cap_fused(wet: np.ndarray, w3: np.ndarray, opn: np.ndarray,
                    vy: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int,
                    cst: np.ndarray, do_evap: bool, do_surface: bool, do_absorb: bool,
                    do_capdiff: bool, do_dry: bool, spans: np.ndarray,
-                   nsp: np.ndarray, chunks: int) -> None:  # pragma: no cover - compiled
+                   nsp: np.ndarray, chunks: int, area: np.ndarray, fade: np.float32,
+                   holding: bool) -> None:  # pragma: no cover - compiled
     """evap_surface_absorb and capillary_dry in one sweep (their maths unchanged): pass
     7-9a write the state in place, so each chunk's two boundary ``sat`` rows are computed
     first, side-effect free, from the state as the step found it; the fused loop keeps
-    the rows j-1, j, j+1 of ``sat`` in a ring instead of a scratch field."""
+    the rows j-1, j, j+1 of ``sat`` in a ring instead of a scratch field.  With
+    ``do_dry and holding`` (``wet_hold > 0``) each row ends with the wet-area memory's
+    fade (``fade = dt / wet_hold``), so it needs no sweep of its own."""
     nch = bh if bh < chunks else chunks
     edge_sat = np.zeros((nch, 2, bw + 2), F32)
     for ch in prange(nch):  # the boundary rows, from the state as the step found it
@@ -633,4 +650,4 @@ def evap_cap_fused(wet: np.ndarray, w3: np.ndarray, opn: np.ndarray,
                 ring[r % 3, :] = edge_sat[ch, 1]
             _cd_row(ring[(j - 1) % 3], ring[j % 3], ring[(j + 1) % 3], h, opn, v3x, v3y,
                     w_state, wc, evap, p, q, vx, vy, y0, x0, ns, cst, do_capdiff, do_dry, j,
-                    spans, nsp, wcrow, crow)
+                    spans, nsp, wcrow, crow, area, fade, holding)

@@ -1465,30 +1465,6 @@ def capillary_dry(sat: np.ndarray, c: np.ndarray, opn: np.ndarray, v3x: np.ndarr
                             q[kk, y, x] = qv + t
 
 
-# ------------------------------------------------------------------ wet-area memory
-@_parallel
-def wet_area_end(w: np.ndarray, wc: np.ndarray, opn: np.ndarray, area: np.ndarray,
-                 y0: int, x0: int, bh: int, moist: np.float32, fade: np.float32,
-                 spans: np.ndarray, nsp: np.ndarray) -> None:
-    """The end of pass 10 (reference ``wet_area_update``): ``wet_area`` is 1 where the
-    cell is wet by its own water, else ``max(area - dt / wet_hold, 0)`` while its paper is
-    damp (``wc > 0``), else 0; ``area`` holds the step's wet-area mask from :func:`prep`."""
-    for j in prange(1, bh + 1):
-        y = y0 + j - 1
-        for si in range(nsp[j]):
-            slo, shi = _span(spans, j, si)
-            for i in range(slo, shi + 1):
-                x = np.uint64(x0 + i - 1)
-                wcv = wc[y, x]
-                if ((w[y, x] > ZERO) | (wcv > moist)) & (opn[j, i] != 0):
-                    area[y, x] = ONE
-                elif wcv > ZERO:
-                    a = area[y, x] - fade
-                    area[y, x] = a if a > ZERO else ZERO
-                else:
-                    area[y, x] = ZERO
-
-
 # ------------------------------------------------------------------ tile bookkeeping
 @_serial
 def update_tiles(ttl: np.ndarray, active: np.ndarray, boxes: np.ndarray, w: np.ndarray,

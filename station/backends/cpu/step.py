@@ -249,7 +249,9 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
                          state.evaporated, state.w, state.p, state.q, beta, gamma, delta,
                          v3x, v3y, state.vx, state.vy, y0, x0, bh, bw, ns, cst,
                          runs("evaporate"), runs("surface_exchange"), True,
-                         prm.cap_diffusion * dt > 0, runs("dry_cells"), spans, nsp, chunks)
+                         prm.cap_diffusion * dt > 0, runs("dry_cells"), spans, nsp, chunks,
+                         state.wet_area, F32(dt / prm.wet_hold) if prm.wet_hold > 0 else F32(0),
+                         prm.wet_hold > 0)  # with dry_cells, the memory's fade (pass 10's end)
     else:  # a pass-by-pass comparison that stops before the capillary passes
         K.evap_surface_absorb(wet, s2["w3"], s2["opn"], state.h, state.wc,
                               state.evaporated, state.w, state.p, state.q, beta, gamma, delta,
@@ -258,9 +260,6 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     if not runs("dry_cells"):
         state.vx[ys, xs] = _win(v3x, bh, bw)
         state.vy[ys, xs] = _win(v3y, bh, bw)
-    elif prm.wet_hold > 0:  # the end of pass 10: the wet-area memory fades
-        K.wet_area_end(state.w, state.wc, s2["opn"], state.wet_area, y0, x0, bh,
-                       F32(prm.moist_threshold), F32(dt / prm.wet_hold), spans, nsp)
 
 
 def step(state: CanvasState, scratch: Scratch, dt: float | None = None) -> int:

@@ -59,9 +59,9 @@ def bytes_per_sweep(slots: int, jacobi_iters: int,
     if wet_memory:
         # prep's own loop per span reads the wet area and writes M = max(area, own)
         sweeps["prep (wet mask, copies, diffusion controller, row blur)"] += f * 2
-        # kernels.wet_area_end: read w, wc, opn, area; write area
-        sweeps["wet_area_end (the end of pass 10: the wet-area memory fades)"] = (
-            f * (3 + 1) + b)
+        # its fade at the end of pass 10 runs in evap_capillary's rows (fused._cd_row), on
+        # the row's w, wc and open flag while they are in cache: read area, write area
+        sweeps["evap_capillary (passes 7, 8, 9a, 9b, 9c, 10)"] += f * 2
     return sweeps
 
 
