@@ -11,6 +11,7 @@ from station.backends.numpy_canvas import NumpyCanvas
 from station.brush.stamp import BrushModel, BrushSettings, RoundBrush
 from station.canvas.profiles import get_profile
 from station.events import PenSample
+from station.pictures.effects_brush import brush_edges
 from station.pictures.scenarios import distance_inside, run_until_dry
 from station.render.km import linear_to_srgb
 from station.sim.player import SessionPlayer
@@ -67,6 +68,21 @@ def test_dried_stroke_has_a_dark_rim_that_follows_the_paper() -> None:
         band += 1
     assert 2 <= band <= 5, rings
     assert _edge_std(painted[:, 30:130]) >= 0.3
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "issue 21 item 3: the merged model dries this stroke with a one-cell line (rings 1.72, "
+    "1.32); no profile setting measured widens it without breaking the rows' turn, the "
+    "colour bloom's CV or the rectangle glaze (session 8 rim notes)"))
+def test_the_effects_sheets_brushed_stroke_dries_with_a_band_not_a_line() -> None:
+    """Item 3 on the sheet's own measure (``brush_edges``: a size-32 stroke, the deposit's
+    rings from its edge over the interior): the dark rim is a band 2-5 cells wide at
+    >= 1.4x, not a one-cell line (a coffee ring's deposit grows inward from the pinned
+    contact line as the film thins, Deegan 1997)."""
+    eff = brush_edges()
+    rings = eff.numbers["rim_ring1"], eff.numbers["rim_width_cells"]
+    assert 2 <= eff.numbers["rim_width_cells"] <= 5, rings
+    assert eff.numbers["rim_ratio"] >= 1.4, rings
 
 
 def _source_columns(speed_s: float, lift_moving: bool) -> np.ndarray:
