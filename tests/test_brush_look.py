@@ -70,10 +70,6 @@ def test_dried_stroke_has_a_dark_rim_that_follows_the_paper() -> None:
     assert _edge_std(painted[:, 30:130]) >= 0.3
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "issue 21 item 3: the merged model dries this stroke with a one-cell line (rings 1.72, "
-    "1.32); no profile setting measured widens it without breaking the rows' turn, the "
-    "colour bloom's CV or the rectangle glaze (session 8 rim notes)"))
 def test_the_effects_sheets_brushed_stroke_dries_with_a_band_not_a_line() -> None:
     """Item 3 on the sheet's own measure (``brush_edges``: a size-32 stroke, the deposit's
     rings from its edge over the interior): the dark rim is a band 2-5 cells wide at

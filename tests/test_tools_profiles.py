@@ -41,7 +41,10 @@ OLD = {
     # paper is damp, so rows laid over half-dry rows draw no line, issue 21 item 8)
     # (rows: absorption 0.03 -> 0.02 /s and flow outward 0.5 -> 0.4, so a row laid 3.5 s
     # after the last still merges into it: no line, no arrowhead at the turns, item 8)
-    "watercolor": SimParams().replace(fibre_dispersivity=4.5, flow_outward=0.4, edge_evap=7.0,
+    # (rim: edge evaporation 7 -> 3 and the wet-area blur 2 -> 3.5 cells, so a dried stroke's
+    # rim is a band, not a one-cell line, on the memory's pinned edge: item 3)
+    "watercolor": SimParams().replace(fibre_dispersivity=4.5, flow_outward=0.4, edge_evap=3.0,
+                                      wet_blur=3.5,
                                       moist_threshold=1.0, damp_ease=4.5, damp_sat=0.65,
                                       suspend_sat=0.5, fibre_flow_max=1.0, lift_gain=5.0,
                                       wet_hold=30.0, alpha=0.02, jacobi_iters=1),

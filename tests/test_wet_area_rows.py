@@ -26,9 +26,11 @@ TURN_MAX = 1.35
 """The same at the turns (the 75th percentile over the row ends' columns of each column's
 darkest interior cell over its median) [1]: where the brush turns back, the overlap
 of the two rows' ends must not draw an arrowhead (1.52 on main's model at 3.5 s)."""
-OLD_MODEL = {"wet_hold": 0.0, "alpha": 0.03, "flow_outward": 0.5}
+OLD_MODEL = {"wet_hold": 0.0, "alpha": 0.03, "flow_outward": 0.5, "edge_evap": 7.0,
+             "wet_blur": 2.0}
 """The watercolor profile's values before issue 21 item 8's rows (the wet-area memory off,
-absorption 0.03 /s, flow outward 0.5): the model that drew the line."""
+absorption 0.03 /s, flow outward 0.5, edge evaporation 7, a 2-cell wet-area blur): the model
+that drew the line."""
 
 
 def _luma(rgb: np.ndarray) -> np.ndarray:
