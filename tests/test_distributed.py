@@ -371,7 +371,7 @@ def test_bench_reports_both_schedules_per_rank(tmp_path: Path) -> None:
     # the overlapped wash simulates the border bands too: 2 x 2 radius rows more
     extra = sum(runs[(2, "overlap")]["cells_per_rank_step"]) - sum(
         runs[(2, "blocking")]["cells_per_rank_step"])
-    radius = reference.stencil_radius(get_profile("watercolor").params)  # 7 (1 Jacobi iteration)
+    radius = reference.stencil_radius(get_profile("watercolor").params)  # 10: 1 + 6 + 3 (the blur)
     assert extra == 2 * 2 * radius * 512
     bad = subprocess.run([str(BIN / "station"), "bench", "distributed", "--schedules", "fast"],
                          capture_output=True, text=True, timeout=60)

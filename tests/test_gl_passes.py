@@ -11,6 +11,8 @@ equal, which the tests also report in their failure messages.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 
@@ -189,19 +191,27 @@ def test_damp_paper_keeps_its_pigment_suspended(ctx) -> None:
     assert held.sum() >= 20  # damp cells kept pigment in suspension
 
 
+def _steps_match_reference(ctx: Any, st: CanvasState, steps: int,
+                           names: tuple[str, ...]) -> CanvasState:
+    """``steps`` whole GL steps from ``st`` (untiled) against the reference's, field by
+    field; returns the reference's state."""
+    c = gl.GLCanvas(W, H, ctx=ctx, tiling=False)
+    c.load_state(st)
+    for _ in range(steps):
+        c.step()
+    mine = st.copy()
+    for _ in range(steps):
+        ref.step(mine)
+    out = c.state()
+    for name in names:
+        close(name, getattr(out, name), getattr(mine, name))
+    return mine
+
+
 def test_full_step_on_damp_paper_matches_reference(ctx) -> None:
     st = random_state(8, params=SimParams(damp_ease=8.0, damp_sat=0.5, suspend_sat=0.6,
                                           moist_threshold=1.0))
-    c = gl.GLCanvas(W, H, ctx=ctx, tiling=False)
-    c.load_state(st)
-    for _ in range(3):
-        c.step()
-    mine = st.copy()
-    for _ in range(3):
-        ref.step(mine)
-    out = c.state()
-    for name in ("vx", "vy", "w", "wc", "p", "q", "evaporated"):
-        close(name, getattr(out, name), getattr(mine, name))
+    _steps_match_reference(ctx, st, 3, ("vx", "vy", "w", "wc", "p", "q", "evaporated"))
 
 
 def test_wet_area_mask_grows_and_flow_outward_blurs_it(ctx) -> None:
@@ -242,16 +252,8 @@ def test_full_steps_with_the_wet_area_memory_match_reference(ctx) -> None:
     st = random_state(8, params=SimParams(wet_hold=0.3, flow_outward=0.5, damp_ease=4.0,
                                           damp_sat=0.5, suspend_sat=0.5,
                                           moist_threshold=1.0))
-    c = gl.GLCanvas(W, H, ctx=ctx, tiling=False)
-    c.load_state(st)
-    for _ in range(4):
-        c.step()
-    mine = st.copy()
-    for _ in range(4):
-        ref.step(mine)
-    out = c.state()
-    for name in ("vx", "vy", "w", "wc", "p", "q", "evaporated", "wet_area"):
-        close(name, getattr(out, name), getattr(mine, name))
+    mine = _steps_match_reference(ctx, st, 4, ("vx", "vy", "w", "wc", "p", "q", "evaporated",
+                                                "wet_area"))
     assert ((mine.wet_area > 0) & (mine.wet_area < 1)).sum() >= 20
 
 

@@ -50,6 +50,16 @@ class _Gate:
         self._backend.step(*a, **kw)
 
 
+def _egl_context() -> Any:
+    """A headless EGL context (moderngl is an optional extra), or skip: no EGL here."""
+    try:
+        import moderngl
+
+        return moderngl.create_context(standalone=True, backend="egl")  # type: ignore[arg-type]
+    except Exception as exc:
+        pytest.skip(f"no EGL context: {exc}")
+
+
 def _session(tmp_path: Path) -> KioskSession:
     cfg = LiveConfig(bus=f"ipc://{tmp_path}/bus", width=W, height=H, backend="cpu",
                      status="none", cmd="none", log_path=str(tmp_path / "s.jsonl"),
@@ -347,12 +357,7 @@ def test_canvas_box_covers_the_projected_cells() -> None:
 
 
 def test_damaged_rectangles_give_the_same_picture_as_a_full_redraw() -> None:
-    try:
-        import moderngl
-
-        ctx = moderngl.create_context(standalone=True, backend="egl")  # type: ignore[arg-type]
-    except Exception as exc:  # no EGL here
-        pytest.skip(f"no EGL context: {exc}")
+    ctx = _egl_context()
     size = (160, 120)
     comp = Compositor(ctx, size)
     cam = make_camera("2d", Viewport(40, 0, 120, 120), 4 / 3)
@@ -448,12 +453,7 @@ def test_the_display_spreads_a_whole_canvas_over_frames_within_its_budget(
     from station.kiosk.display import CpuDisplay
     from station.kiosk.subcell import LEVEL_REACH
 
-    try:
-        import moderngl
-
-        ctx = moderngl.create_context(standalone=True, backend="egl")  # type: ignore[arg-type]
-    except Exception as exc:  # no EGL here
-        pytest.skip(f"no EGL context: {exc}")
+    ctx = _egl_context()
     s = _session(tmp_path)
     try:
         s.command("brush", size=12, water=1.0, pigment={"Hansa Yellow": 0.6})
@@ -623,12 +623,7 @@ def test_no_tile_is_drawn_from_a_state_a_kernel_is_writing(tmp_path: Path) -> No
     pen's preview stays on screen meanwhile; after the step the texture is the canvas."""
     from station.kiosk.display import CpuDisplay
 
-    try:
-        import moderngl
-
-        ctx = moderngl.create_context(standalone=True, backend="egl")  # type: ignore[arg-type]
-    except Exception as exc:  # no EGL here
-        pytest.skip(f"no EGL context: {exc}")
+    ctx = _egl_context()
     s = _session(tmp_path)
     gate = _Tearing(s.player.backend, s.cpu_state)
     s.player.backend = gate
@@ -680,12 +675,7 @@ def test_the_damage_of_every_tile_drawn_waits_for_the_window_to_compose_it(
     tiles, which stayed stale on screen: the mock line shown broken)."""
     from station.kiosk.display import CpuDisplay
 
-    try:
-        import moderngl
-
-        ctx = moderngl.create_context(standalone=True, backend="egl")  # type: ignore[arg-type]
-    except Exception as exc:  # no EGL here
-        pytest.skip(f"no EGL context: {exc}")
+    ctx = _egl_context()
     s = _session(tmp_path)
     try:
         disp = CpuDisplay(ctx, s, max_cells=1500)
@@ -712,12 +702,7 @@ def test_only_texels_that_change_are_uploaded_and_redrawn(tmp_path: Path) -> Non
     texture stays the full render."""
     from station.kiosk.display import CpuDisplay
 
-    try:
-        import moderngl
-
-        ctx = moderngl.create_context(standalone=True, backend="egl")  # type: ignore[arg-type]
-    except Exception as exc:  # no EGL here
-        pytest.skip(f"no EGL context: {exc}")
+    ctx = _egl_context()
     s = _session(tmp_path)
     try:
         s.command("brush", size=8, water=0.8, pigment={"French Ultramarine": 0.6})
@@ -759,12 +744,7 @@ def test_a_large_fresh_preview_is_drawn_by_the_tiles_budget_not_in_one_frame(
     the one a whole render of the state and the stamps gives."""
     from station.kiosk import display as D
 
-    try:
-        import moderngl
-
-        ctx = moderngl.create_context(standalone=True, backend="egl")  # type: ignore[arg-type]
-    except Exception as exc:  # no EGL here
-        pytest.skip(f"no EGL context: {exc}")
+    ctx = _egl_context()
     s = _session(tmp_path)
     try:
         disp = D.CpuDisplay(ctx, s)

@@ -36,6 +36,8 @@ CHANGED: pass 3 levels ``P = (w + paper_relief h) - flow_outward (1 - M')`` inst
   0.5 -> 0.1 (Stokes settling of micron pigment through a film takes tens of seconds).
 CHANGED: tiles.HALO = 2 (was 1): a dry cell next to a wet one can join the wet area,
   absorb, and pass capillary water one cell further within the step.
+CHANGED (API): ``stencil_radius`` adds the flow-outward blur's reach beyond 4 cells
+  (``ceil(2 wet_blur) - BLUR_REACH_IN_EXTRA``; watercolor's 3.5-cell blur: 7 -> 10).
 NOTE (API): ``stencil_radius(params) = jacobi_iters + STENCIL_RADIUS_EXTRA`` bounds how far
   one step reaches (the distributed canvas's halo); a term that reaches farther must raise
   ``STENCIL_RADIUS_EXTRA`` (``tests/test_stencil_radius.py`` measures it).
@@ -269,9 +271,23 @@ reaches farther must raise this constant.
 """
 
 
+BLUR_REACH_IN_EXTRA = 4
+"""The flow-outward blur's reach ``ceil(2 wet_blur)`` [cells] that ``STENCIL_RADIUS_EXTRA``
+already covers (a 2-cell blur: the cross-border sessions of ``tests/test_distributed.py``
+paint the same as one process with it)."""
+
+
 def stencil_radius(prm: SimParams) -> int:
-    """Halo one step needs: ``jacobi_iters + STENCIL_RADIUS_EXTRA`` [cells]."""
-    return int(prm.jacobi_iters) + STENCIL_RADIUS_EXTRA
+    """Halo one step needs: ``jacobi_iters + STENCIL_RADIUS_EXTRA`` [cells], plus what the
+    flow-outward blur reaches beyond :data:`BLUR_REACH_IN_EXTRA`.
+
+    The blur reads the wet-area mask ``ceil(2 wet_blur)`` cells away: a change of wetness
+    that far moves pass 3's pressure and so everything after it. The point probe of
+    ``tests/test_stencil_radius.py`` halves values without drying a cell, so it cannot see
+    that chain; the cross-border sessions of ``tests/test_distributed.py`` do."""
+    blur = len(gaussian_taps(prm.wet_blur)) // 2 if prm.flow_outward > 0 else 0
+    return (int(prm.jacobi_iters) + STENCIL_RADIUS_EXTRA
+            + max(blur - BLUR_REACH_IN_EXTRA, 0))
 
 
 def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
