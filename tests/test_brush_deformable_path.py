@@ -92,14 +92,11 @@ def test_prune_spurs_clears_one_cell_protrusions_only() -> None:
     assert out.dtype == a.dtype
 
 
-@pytest.mark.parametrize("deg", [90, 225])
-def test_a_round_tuft_set_down_moving_draws_no_hook(
-        deg: int, monkeypatch: pytest.MonkeyPatch) -> None:
-    """A round3d stroke that starts downwards or up-left: the middle of its mark, across
-    the pen's line, stays within 1.5 cells of it from the touch-down on (cells are whole:
-    a diagonal's midpoints fall on half-diagonals). Before the tuft buckled behind the
-    pen's first move it buckled along +-x whatever the motion: a 13.5 and 12.7 cell hook."""
-    n = 120
+def _stroke_deposits(monkeypatch: pytest.MonkeyPatch, n: int, kind: str, deg: float,
+                     seconds: float) -> tuple[np.ndarray, tuple[float, float]]:
+    """The pigment a ``kind`` brush hands the canvas (summed sources) over a straight
+    stroke through the middle of an ``n``-cell canvas at ``deg``, and the stroke's start
+    (fractions of the canvas)."""
     got = np.zeros((n, n))
     add = player.add_sources
 
@@ -111,20 +108,24 @@ def test_a_round_tuft_set_down_moving_draws_no_hook(
     monkeypatch.setattr(player, "add_sources", grab)
     a = np.radians(deg)
     start = (0.5 - 0.3 * np.cos(a), 0.5 - 0.3 * np.sin(a))
-    end = (0.5 + 0.3 * np.cos(a), 0.5 + 0.3 * np.sin(a))
     s = Script(n, n, seed=7, rate_hz=120.0)
-    s.brush(size=24, water=0.8, pigment={"French Ultramarine": 1.0}, kind="round3d")
-    s.line(start, end, 0.6, pressure=0.8)
+    s.brush(size=24, water=0.8, pigment={"French Ultramarine": 1.0}, kind=kind)
+    s.line(start, (0.5 + 0.3 * np.cos(a), 0.5 + 0.3 * np.sin(a)), seconds, pressure=0.8)
     player.SessionPlayer(NumpyCanvas(n, n, seed=7), n, n).play(s.records)
-    ys, xs = np.nonzero(got > 0)
-    px, py = xs + 0.5 - start[0] * n, ys + 0.5 - start[1] * n
-    along = np.floor(px * np.cos(a) + py * np.sin(a)).astype(int)
-    across = -px * np.sin(a) + py * np.cos(a)
-    for b in np.unique(along):
-        m = along == b
-        if m.sum() >= 3:
-            mid = 0.5 * (across[m].min() + across[m].max())
-            assert abs(mid) <= 1.5, (b, mid)
+    return got, start
+
+
+@pytest.mark.parametrize("deg", [90, 225])
+def test_a_round_tuft_set_down_moving_draws_no_hook(
+        deg: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A round3d stroke that starts downwards or up-left: the middle of its mark, across
+    the pen's line, stays within 1.5 cells of it from the touch-down on (cells are whole:
+    a diagonal's midpoints fall on half-diagonals). Before the tuft buckled behind the
+    pen's first move it buckled along +-x whatever the motion: a 13.5 and 12.7 cell hook."""
+    got, start = _stroke_deposits(monkeypatch, 120, "round3d", deg, 0.6)
+    # every whole cell along the path, from the touch-down on
+    mids = _midline_offsets(got, start, deg, (-np.inf, np.inf))
+    assert np.abs(mids).max() <= 1.5, mids
 
 
 def _midline_offsets(got: np.ndarray, start: tuple[float, float], deg: float,
@@ -163,22 +164,7 @@ def test_a_many_spine_tuft_follows_the_pen_without_whiskers(
     line pulled down (its straight middle spine buckled sideways, and its few hairs lay
     deep on one side), and its rows 6.4 cells off down-left (the trailing splayed spine
     held out to the side)."""
-    n = 140
-    got = np.zeros((n, n))
-    add = player.add_sources
-
-    def grab(backend: CanvasBackend, src: Sources) -> None:
-        for v in src.dp.values():
-            got[src.region] += v
-        add(backend, src)
-
-    monkeypatch.setattr(player, "add_sources", grab)
-    a = np.radians(deg)
-    start = (0.5 - 0.3 * np.cos(a), 0.5 - 0.3 * np.sin(a))
-    s = Script(n, n, seed=7, rate_hz=120.0)
-    s.brush(size=24, water=0.8, pigment={"French Ultramarine": 1.0}, kind=kind)
-    s.line(start, (0.5 + 0.3 * np.cos(a), 0.5 + 0.3 * np.sin(a)), 0.9, pressure=0.8)
-    player.SessionPlayer(NumpyCanvas(n, n, seed=7), n, n).play(s.records)
+    got, start = _stroke_deposits(monkeypatch, 140, kind, deg, 0.9)
     painted = got > 0.0
     edge, whiskers = _whiskers(painted)
     assert whiskers <= 0.01 * edge, (whiskers, edge)
