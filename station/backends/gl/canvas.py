@@ -62,7 +62,6 @@ F32 = np.float32
 #: Programs compiled per canvas: name -> (file, extra defines).
 _PROGRAMS: dict[str, tuple[str, dict[str, object]]] = {
     "prep": ("prep.comp", {}),
-    "pressure": ("pressure.comp", {}),
     "jacobi": ("jacobi.comp", {}),
     "limit": ("limit.comp", {}),
     "diffuse_apply": ("diffuse_apply.comp", {}),
@@ -164,16 +163,22 @@ class GLCanvas(GLStepPasses):
         self.b_added = ctx.buffer(reserve=8 * self.nacc * self.src_groups[0]
                                   * self.src_groups[1])
         self.b_folded = ctx.buffer(reserve=8 * self.src_groups[0] * self.src_groups[1])
-        defines = {"NPL": self.npl, "TILE": tile, "LX": lx, "LY": ly, "NBANDS": self.bands}
-        self._programs = {name: compile_compute(ctx, fname, {**defines, **extra})
+        self._defines = {"NPL": self.npl, "TILE": tile, "LX": lx, "LY": ly,
+                         "NBANDS": self.bands}
+        self._programs = {name: self._compile(fname, extra)
                           for name, (fname, extra) in _PROGRAMS.items()}
-        for prog in self._programs.values():
-            _set(prog, "u_size", (width, height))
-            _set(prog, "u_tiles_x", self.tiles_x)
-            _set(prog, "u_tiles_y", self.tiles_y)
-            _set(prog, "u_tiles", (self.tiles_x, self.tiles_y))
-            _set(prog, "u_ntiles", n)
+        self._pressure_taps = -1  # pressure.comp is compiled per blur width, at the step
         self._shape = (width, height, n_slots, tile, self.bands)
+
+    def _compile(self, fname: str, extra: Mapping[str, object]) -> moderngl.ComputeShader:
+        """Compile ``shaders/fname`` for this canvas geometry (its uniforms set)."""
+        prog = compile_compute(self.ctx, fname, {**self._defines, **extra})
+        _set(prog, "u_size", (self.width, self.height))
+        _set(prog, "u_tiles_x", self.tiles_x)
+        _set(prog, "u_tiles_y", self.tiles_y)
+        _set(prog, "u_tiles", (self.tiles_x, self.tiles_y))
+        _set(prog, "u_ntiles", self.ntiles)
+        return prog
 
     def _release_resources(self) -> None:
         for name in ("aux", "pr", "srcw", "srcp", "rgb", "b_list", "b_alive", "b_ttl", "b_prev",

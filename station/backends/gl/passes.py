@@ -5,6 +5,7 @@ run ``station/canvas/reference.py``'s passes (the mapping is in ``canvas.py``'s 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -21,6 +22,9 @@ if TYPE_CHECKING:
 F32 = np.float32
 # SSBO binding points (tiles.glsl, tile_*.comp, capillary_dry.comp, sources.comp)
 _B_LIST, _B_ALIVE, _B_TTL, _B_PREV, _B_ARGS, _B_ADDED, _B_MARK, _B_FOLDED = 0, 1, 2, 3, 4, 5, 6, 7
+MAX_TAPS = 17
+"""Most Gaussian taps pressure.comp blurs with (wet_blur <= 4): its shared memory is sized
+for a radius of 8 cells beside a 32 x 8 work group."""
 
 
 class GLStepPasses:
@@ -34,6 +38,7 @@ class GLStepPasses:
     npl: int
     tiling: bool
     _programs: dict[str, moderngl.ComputeShader]
+    _pressure_taps: int
     width: int
     height: int
     palette: Palette
@@ -54,6 +59,9 @@ class GLStepPasses:
     b_alive: moderngl.Buffer
     b_ttl: moderngl.Buffer
     b_folded: moderngl.Buffer
+
+    def _compile(self, fname: str, extra: Mapping[str, object]) -> moderngl.ComputeShader:
+        raise NotImplementedError  # GLCanvas._compile
 
     def _bind(self, unit: int, tex: moderngl.Texture | moderngl.TextureArray, read: bool,
               write: bool) -> None:
@@ -101,15 +109,15 @@ class GLStepPasses:
         hold = 1 if prm.wet_hold > 0 else 0
         _set(p["prep"], "u_hold", hold)
         taps = reference.gaussian_taps(prm.wet_blur) if prm.flow_outward > 0 else np.zeros(0, F32)
-        if len(taps) > 17:
+        if len(taps) > MAX_TAPS:
             raise CanvasInputError("wet_blur too large for the GL backend (at most 4)", "params")
-        pp = p["pressure"]
+        pp = self._pressure_program(len(taps))
         _set(pp, "u_moist", prm.moist_threshold)
         _set(pp, "u_eta", prm.flow_outward)
         _set(pp, "u_relief", prm.paper_relief)
-        _set(pp, "u_ntaps", len(taps))
         _set(pp, "u_hold", hold)
-        _set(pp, "u_taps", [float(t) for t in taps] + [0.0] * (17 - len(taps)))
+        if len(taps):
+            _set(pp, "u_taps", [float(t) for t in taps])
         kv, kw, kp = (float(F32(prm.viscosity * dt)), float(F32(prm.nu_w * dt)),
                       float(F32(prm.nu_p * dt)))
         layers = -(-len(self.slots) // 4)
@@ -148,6 +156,18 @@ class GLStepPasses:
         _set(cd, "u_fade", float(F32(dt / prm.wet_hold)) if hold else 0.0)
         _set(cd, "u_moist", prm.moist_threshold)
         _set(p["tile_update"], "u_ttl", prm.tile_ttl_steps())
+
+    def _pressure_program(self, ntaps: int) -> moderngl.ComputeShader:
+        """pressure.comp for ``ntaps`` Gaussian taps (0: no flow-outward term), compiled
+        when the blur width changes: the taps live in registers, unrolled."""
+        if ntaps != self._pressure_taps:
+            old = self._programs.pop("pressure", None)
+            if old is not None:
+                old.release()
+            self._programs["pressure"] = self._compile("pressure.comp",
+                                                       {"NTAPS": max(1, ntaps)})
+            self._pressure_taps = ntaps
+        return self._programs["pressure"]
 
     def _begin_step(self) -> None:
         """Bind the tile list and build it (tiling) for the passes of one step."""
