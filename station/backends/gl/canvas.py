@@ -52,7 +52,7 @@ from .passes import (
     GLStepPasses,
     _set,
 )
-from .traffic import bytes_per_cell_step
+from .traffic import bytes_per_cell_step, floats_per_program
 
 if TYPE_CHECKING:
     import moderngl
@@ -111,6 +111,7 @@ class GLCanvas(GLStepPasses):
         self.renderer = self.limits.renderer
         self._shape: tuple[int, int, int, int, int] | None = None
         self._programs: dict[str, Any] = {}  # compile_compute's programs
+        self._pass_seconds = None
         self.load_state(blank)
 
     # ------------------------------------------------------------ allocation
@@ -545,6 +546,12 @@ class GLCanvas(GLStepPasses):
         layers = -(-len(self.slots) // 4)
         return bytes_per_cell_step(4 * layers, int(self.params.jacobi_iters),
                                    self.params.wet_hold > 0)
+
+    def bytes_per_cell_by_pass(self) -> dict[str, int]:
+        """:meth:`bytes_per_cell_step` per program (the names of ``take_pass_times``)."""
+        layers = -(-len(self.slots) // 4)
+        return {name: 4 * n for name, n in floats_per_program(
+            4 * layers, int(self.params.jacobi_iters), self.params.wet_hold > 0).items()}
 
 
 __all__ = ["GLCanvas", "GLUnavailable"]

@@ -5,6 +5,7 @@ run ``station/canvas/reference.py``'s passes (the mapping is in ``canvas.py``'s 
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
@@ -39,6 +40,7 @@ class GLStepPasses:
     tiling: bool
     _programs: dict[str, moderngl.ComputeShader]
     _pressure_taps: int
+    _pass_seconds: dict[str, float] | None  # per-pass wall time while profiling, else None
     width: int
     height: int
     palette: Palette
@@ -185,13 +187,32 @@ class GLStepPasses:
             self._cells_cpu += self.width * self.height
         self.b_alive.bind_to_storage_buffer(_B_ALIVE)
 
+    def profile_passes(self, on: bool) -> None:
+        """Time every pass of the step (``take_pass_times``): a ``glFinish`` before and
+        after each dispatch, so the step runs slower and the passes do not overlap."""
+        self._pass_seconds = {} if on else None
+
+    def take_pass_times(self) -> dict[str, float]:
+        """Wall seconds per pass (program name) since the last call, while profiling."""
+        out = dict(self._pass_seconds or {})
+        if self._pass_seconds is not None:
+            self._pass_seconds = {}
+        return out
+
     def _dispatch(self, name: str) -> None:
         prog = self._programs[name]
+        times = self._pass_seconds
+        if times is not None:
+            self.ctx.finish()
+            t0 = time.perf_counter()
         if self.tiling:
             prog.run_indirect(self.b_args)
         else:
             prog.run(self.groups[0], self.groups[1], self.ntiles)
         self._barrier()
+        if times is not None:
+            self.ctx.finish()
+            times[name] = times.get(name, 0.0) + time.perf_counter() - t0
 
     def _pass_prep(self) -> None:
         f = self.f

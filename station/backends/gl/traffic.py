@@ -52,3 +52,12 @@ def floats_per_cell_step(slots: int, jacobi_iters: int,
 def bytes_per_cell_step(slots: int, jacobi_iters: int, wet_memory: bool = False) -> int:
     """Bytes of honest memory traffic per simulated cell and step."""
     return 4 * sum(floats_per_cell_step(slots, jacobi_iters, wet_memory).values())
+
+
+def floats_per_program(slots: int, jacobi_iters: int,
+                       wet_memory: bool = False) -> dict[str, int]:
+    """:func:`floats_per_cell_step` keyed by the program that runs each pass (``prep``,
+    ``pressure``, ``jacobi`` (all its iterations), ...), the names
+    ``GLCanvas.take_pass_times`` reports."""
+    return {name.split()[0]: n
+            for name, n in floats_per_cell_step(slots, jacobi_iters, wet_memory).items()}
