@@ -149,6 +149,7 @@ class GLCanvas(GLStepPasses):
                    for _ in range(2)]
         self.srcw = ctx.texture((width, height), 4, dtype="f4")
         self.pr = ctx.texture((width, height), 1, dtype="f4")  # pass 3's levelled height P
+        self.bx = ctx.texture((width, height), 1, dtype="f4")  # pass 3's mask blurred along x
         self.srcp = ctx.texture_array((width, height, self.npl), 4, dtype="f4")
         self.rgb = ctx.texture((width, height), 4, dtype="f4")
         n = self.ntiles
@@ -168,7 +169,7 @@ class GLCanvas(GLStepPasses):
                          "NBANDS": self.bands}
         self._programs = {name: self._compile(fname, extra)
                           for name, (fname, extra) in _PROGRAMS.items()}
-        self._pressure_taps = -1  # pressure.comp is compiled per blur width, at the step
+        self._pressure_taps = (-1, -1)  # blur_x, pressure: compiled per blur at the step
         self._shape = (width, height, n_slots, tile, self.bands)
 
     def _compile(self, fname: str, extra: Mapping[str, object]) -> moderngl.ComputeShader:
@@ -182,8 +183,8 @@ class GLCanvas(GLStepPasses):
         return prog
 
     def _release_resources(self) -> None:
-        for name in ("aux", "pr", "srcw", "srcp", "rgb", "b_list", "b_alive", "b_ttl", "b_prev",
-                     "b_mark", "b_args", "b_all", "b_added", "b_folded"):
+        for name in ("aux", "pr", "bx", "srcw", "srcp", "rgb", "b_list", "b_alive", "b_ttl",
+                     "b_prev", "b_mark", "b_args", "b_all", "b_added", "b_folded"):
             obj = getattr(self, name, None)
             if obj is not None:
                 obj.release()

@@ -39,7 +39,7 @@ class GLStepPasses:
     npl: int
     tiling: bool
     _programs: dict[str, moderngl.ComputeShader]
-    _pressure_taps: int
+    _pressure_taps: tuple[int, int]  # (taps, hold) blur_x and pressure are compiled for
     _pass_seconds: dict[str, float] | None  # per-pass wall time while profiling, else None
     width: int
     height: int
@@ -53,6 +53,7 @@ class GLStepPasses:
     jv: list[moderngl.Texture]
     jd: list[moderngl.TextureArray]
     pr: moderngl.Texture
+    bx: moderngl.Texture
     rgb: moderngl.Texture
     b_list: moderngl.Buffer
     b_prev: moderngl.Buffer
@@ -113,13 +114,16 @@ class GLStepPasses:
         taps = reference.gaussian_taps(prm.wet_blur) if prm.flow_outward > 0 else np.zeros(0, F32)
         if len(taps) > MAX_TAPS:
             raise CanvasInputError("wet_blur too large for the GL backend (at most 4)", "params")
-        pp = self._pressure_program(len(taps))
-        _set(pp, "u_moist", prm.moist_threshold)
+        self._blur_programs(len(taps), hold)
+        pp = p["pressure"]
         _set(pp, "u_eta", prm.flow_outward)
         _set(pp, "u_relief", prm.paper_relief)
-        _set(pp, "u_hold", hold)
         if len(taps):
-            _set(pp, "u_taps", [float(t) for t in taps])
+            bx = p["blur_x"]
+            _set(bx, "u_moist", prm.moist_threshold)
+            _set(bx, "u_apron", 1 if self.tiling else 0)
+            for prog in (pp, bx):
+                _set(prog, "u_taps", [float(t) for t in taps])
         kv, kw, kp = (float(F32(prm.viscosity * dt)), float(F32(prm.nu_w * dt)),
                       float(F32(prm.nu_p * dt)))
         layers = -(-len(self.slots) // 4)
@@ -159,17 +163,21 @@ class GLStepPasses:
         _set(cd, "u_moist", prm.moist_threshold)
         _set(p["tile_update"], "u_ttl", prm.tile_ttl_steps())
 
-    def _pressure_program(self, ntaps: int) -> moderngl.ComputeShader:
-        """pressure.comp for ``ntaps`` Gaussian taps (0: no flow-outward term), compiled
-        when the blur width changes: the taps live in registers, unrolled."""
-        if ntaps != self._pressure_taps:
-            old = self._programs.pop("pressure", None)
+    def _blur_programs(self, ntaps: int, hold: int) -> None:
+        """blur_x.comp and pressure.comp for ``ntaps`` Gaussian taps (0: no flow-outward
+        term, no blur_x) and ``hold`` (1: blur the wet-area memory), compiled when they
+        change (the tap loops unroll, the mask's source is fixed)."""
+        if (ntaps, hold) == self._pressure_taps:
+            return
+        for name in ("blur_x", "pressure"):
+            old = self._programs.pop(name, None)
             if old is not None:
                 old.release()
-            self._programs["pressure"] = self._compile("pressure.comp",
-                                                       {"NTAPS": max(1, ntaps)})
-            self._pressure_taps = ntaps
-        return self._programs["pressure"]
+        if ntaps:
+            self._programs["blur_x"] = self._compile("blur_x.comp",
+                                                     {"NTAPS": ntaps, "HOLD": hold})
+        self._programs["pressure"] = self._compile("pressure.comp", {"NTAPS": max(1, ntaps)})
+        self._pressure_taps = (ntaps, hold)
 
     def _begin_step(self) -> None:
         """Bind the tile list and build it (tiling) for the passes of one step."""
@@ -226,9 +234,13 @@ class GLStepPasses:
         self._dispatch("prep")
         self._bind(1, f["water"].src, True, False)
         self._bind(2, f["paper"].src, True, False)
+        if "blur_x" in self._programs:
+            self._bind(4, self.bx, False, True)
+            self._bind(5, f["area"].src, True, False)
+            self._dispatch("blur_x")
         self._bind(3, self.jv[0], True, False)
         self._bind(4, self.pr, False, True)
-        self._bind(5, f["area"].src, True, False)
+        self._bind(5, self.bx, True, False)
         self._dispatch("pressure")
         # until the diffusion passes run, jv[0] holds wb (.w) and jv[1] is free
         self._js, self._jfree = self.jv[0], self.jv[1]
