@@ -45,7 +45,7 @@ void blur_row(ivec2 c) {
 
 void main() {
     uint t = tile_of_group();
-    ivec2 origin = ivec2(int(t % uint(u_tiles_x)), int(t / uint(u_tiles_x))) * TILE;
+    ivec2 origin = ivec2(int(t % uint(TILES_X)), int(t / uint(TILES_X))) * TILE;
     ivec2 local = ivec2(gl_WorkGroupID.xy * gl_WorkGroupSize.xy + gl_LocalInvocationID.xy);
     int x = origin.x + local.x;
     if (local.x >= TILE || local.y >= TILE || x >= u_size.x) return;

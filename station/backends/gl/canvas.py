@@ -136,7 +136,7 @@ class GLCanvas(GLStepPasses):
                         self.limits.max_work_group_size[1]))
         self.lx, self.ly = lx, ly
         self.groups = (-(-tile // lx), -(-tile // ly))
-        if self.ntiles > self.limits.max_work_group_count[2]:
+        if self.ntiles > min(self.limits.max_work_group_count[2], 1 << 23):  # tiles.glsl
             raise CanvasInputError(f"too many tiles ({self.ntiles}) for this GPU", "--size")
         self.bands = int(bands)
         self.nrl = -(-self.bands // 4)
@@ -165,8 +165,10 @@ class GLCanvas(GLStepPasses):
         self.b_added = ctx.buffer(reserve=8 * self.nacc * self.src_groups[0]
                                   * self.src_groups[1])
         self.b_folded = ctx.buffer(reserve=8 * self.src_groups[0] * self.src_groups[1])
+        # TILES_X: tile_cell divides by a constant (a division by a uniform is 8 scalar
+        # divisions a vector on llvmpipe, in every pass)
         self._defines = {"NPL": self.npl, "TILE": tile, "LX": lx, "LY": ly,
-                         "NBANDS": self.bands}
+                         "NBANDS": self.bands, "TILES_X": self.tiles_x}
         self._programs = {name: self._compile(fname, extra)
                           for name, (fname, extra) in _PROGRAMS.items()}
         self._pressure_taps = (-1, -1)  # blur_x, pressure: compiled per blur at the step
@@ -176,8 +178,6 @@ class GLCanvas(GLStepPasses):
         """Compile ``shaders/fname`` for this canvas geometry (its uniforms set)."""
         prog = compile_compute(self.ctx, fname, {**self._defines, **extra})
         _set(prog, "u_size", (self.width, self.height))
-        _set(prog, "u_tiles_x", self.tiles_x)
-        _set(prog, "u_tiles_y", self.tiles_y)
         _set(prog, "u_tiles", (self.tiles_x, self.tiles_y))
         _set(prog, "u_ntiles", self.ntiles)
         return prog
