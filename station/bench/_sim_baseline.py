@@ -65,9 +65,11 @@ def extract(rev: str) -> tuple[str, Path]:
                        "--baseline")
     sha = found.stdout.decode().strip()
     cache = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
-    dest = cache / "station" / "bench-baseline" / f"{sha}-shaders"
+    dest = cache / "station" / "bench-baseline" / sha
     if (dest / "station" / "__init__.py").is_file():
-        return sha, dest
+        if (dest / "station" / "shaders").is_dir():
+            return sha, dest
+        shutil.rmtree(dest)  # cached before the shaders went with the copy
     dest.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{sha[:12]}-", dir=dest.parent))
     try:
