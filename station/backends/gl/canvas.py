@@ -29,7 +29,7 @@ state to a :class:`CanvasState`, apply the reference operation and move it back
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -176,7 +176,8 @@ class GLCanvas(GLStepPasses):
 
     def _compile(self, fname: str, extra: Mapping[str, object]) -> moderngl.ComputeShader:
         """Compile ``shaders/fname`` for this canvas geometry (its uniforms set)."""
-        prog = compile_compute(self.ctx, fname, {**self._defines, **extra})
+        prog = cast("moderngl.ComputeShader",
+                    compile_compute(self.ctx, fname, {**self._defines, **extra}))
         _set(prog, "u_size", (self.width, self.height))
         _set(prog, "u_tiles", (self.tiles_x, self.tiles_y))
         _set(prog, "u_ntiles", self.ntiles)
