@@ -7,7 +7,10 @@
 //          t = min(p, 1 - q) and lose their velocity; with suspend_sat > 0 a cell whose
 //          wc > suspend_sat c keeps its pigment suspended (damp paper); then, with
 //          wet_hold > 0, the wet-area memory fades (reference wet_area_update).
-// Also flags the tile alive (any w > 0 or wc > 0) for the dirty-tile update.
+// Also flags the tile alive (any w > 0 or wc > 0) for the dirty-tile update: every cell that
+// holds water stores 1 (a benign race, all writers store the same value).  No barrier and
+// no shared flag: on llvmpipe a barrier turns the whole program into coroutines, which cost
+// more than the pass's own work (this pass took 2x its loads' time with one).
 #include "common.glsl"
 #include "tiles.glsl"
 
@@ -30,13 +33,9 @@ uniform float u_susp;    // suspend_sat [1] (0: off)
 uniform float u_fade;    // float32(dt / wet_hold) (0: wet_hold off)
 uniform float u_moist;   // moist_threshold [height]
 
-shared uint g_alive;
-
 void main() {
     bool valid;
     ivec2 c = tile_cell(valid);
-    if (gl_LocalInvocationIndex == 0u) g_alive = 0u;
-    barrier();
     if (valid) {
         vec4 wa = imageLoad(water_in, c);
         vec4 pa = imageLoad(paper_in, c);
@@ -89,10 +88,6 @@ void main() {
             else if (wc > 0.0) a = max(imageLoad(area_io, c).x - u_fade, 0.0);
             imageStore(area_io, c, vec4(a, 0.0, 0.0, 0.0));
         }
-        if (w > 0.0 || wc > 0.0) g_alive = 1u;  // benign race: every writer stores 1
-    }
-    barrier();
-    if (gl_LocalInvocationIndex == 0u && g_alive != 0u) {
-        tile_alive[tile_of_group()] = 1u;
+        if (w > 0.0 || wc > 0.0) tile_alive[tile_of_group()] = 1u;
     }
 }

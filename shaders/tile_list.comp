@@ -4,8 +4,10 @@
 //     extra step rewrites both textures of every ping-pong pair in a tile that just left
 //     the active set (an inactive cell with inactive neighbours is a fixed point of every
 //     pass), so tiles outside the list hold the same values in both textures;
-//   HALO entry (bit 31): the tile borders an active tile; only its cells within one cell
-//     of an active tile are simulated (tiles.glsl).  A halo cell that receives capillary
+//   HALO entry (bit 31): the tile borders an active tile; only its cells within two cells
+//     of an active tile are simulated (tiles.glsl).  Bits 23-30 say which of its eight
+//     neighbours are active (E, W, S, N, NE, SE, NW, SW), so the passes tell a halo cell
+//     with a few compares instead of reading the TTLs of up to nine tiles per cell.  A halo cell that receives capillary
 //     water makes its tile alive, and tile_update.comp activates it.
 layout(local_size_x = 64) in;
 
@@ -18,6 +20,8 @@ uniform ivec2 u_tiles;  // tiles per row, rows
 uniform ivec2 u_size;
 
 const uint HALO_BIT = 0x80000000u;
+const ivec2 NB[8] = ivec2[8](ivec2(1, 0), ivec2(-1, 0), ivec2(0, 1), ivec2(0, -1),
+                             ivec2(1, -1), ivec2(1, 1), ivec2(-1, -1), ivec2(-1, 1));
 
 bool act(ivec2 n) {
     return all(greaterThanEqual(n, ivec2(0))) && all(lessThan(n, u_tiles))
@@ -53,7 +57,10 @@ void main() {
     tile_prev[t] = is_active ? 1u : 0u;
     if (full || near) {
         uint i = atomicAdd(groups[2], 1u);
-        tile_list[i] = uint(t) | (full ? 0u : HALO_BIT);
+        uint nbits = 0u;
+        for (int k = 0; k < 8; ++k)
+            if (act(tc + NB[k])) nbits |= 1u << (23 + k);
+        tile_list[i] = uint(t) | (full ? 0u : HALO_BIT | nbits);
         ivec2 lo = tc * TILE;
         ivec2 sz = min(lo + TILE, u_size) - lo;
         atomicAdd(cells, full ? uint(sz.x * sz.y) : halo_cells(tc, sz));

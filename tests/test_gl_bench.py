@@ -46,3 +46,37 @@ def test_bad_bench_arguments_are_bad_input() -> None:
         sim.parse_size("2x2")
     assert sim.parse_size("800x600") == (800, 600)
     assert main(["bench", "sim", "--backends", "cuda", "--seconds", "0.01"]) == 2
+
+
+def test_bench_sim_gl_passes_profile_and_bound(capsys) -> None:
+    """``--passes``: where a GL step's time goes, per program, with each program's own
+    bytes (the traffic model's) and the step's distance from its bound (issue 26 item 4)."""
+    gl = pytest.importorskip("station.backends.gl")
+    from station.backends.gl.traffic import floats_per_program
+    try:
+        gl.create_context().release()
+    except gl.GLUnavailable as exc:
+        pytest.skip(f"no OpenGL 4.3 context: {exc}")
+    rc = main(["bench", "sim", "--json", "--sizes", "64x48", "--seconds", "0.05",
+               "--backends", "gl", "--scenarios", "wash", "--passes"])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    (r,) = out["results"]
+    prof = r["passes"]
+    assert prof["steps"] == sim.PROFILE_STEPS and prof["active_cells"] == 64 * 48
+    programs = prof["programs"]
+    # watercolor: the wet-area memory and a 15-tap flow-outward blur (blur_x, pressure)
+    model = floats_per_program(4, 1, wet_memory=True)
+    assert set(programs) == set(model) and "blur_x" in programs
+    assert sum(4 * model[k] for k in model) == r["bytes_per_cell_step"]
+    assert sum(p["share"] for p in programs.values()) == pytest.approx(1.0, abs=1e-3)
+    for name, p in programs.items():
+        assert p["ms"] > 0 and p["bytes_per_cell"] == 4 * model[name]
+        assert p["gb_s"] == pytest.approx(p["bytes_per_cell"] * 64 * 48 / (p["ms"] * 1e6),
+                                          rel=1e-2)
+    # the profiled step is no faster than its passes
+    assert prof["step_ms"] >= 0.99 * sum(p["ms"] for p in programs.values())
+    image = out["bandwidth"]["gl_probes_gb_s"]["image"]
+    assert r["shader_copy_fraction"] == pytest.approx(r["memory_traffic_gb_s"] / image,
+                                                      rel=1e-2)
+    assert r["bound_factor"] == pytest.approx(1.0 / r["shader_copy_fraction"], rel=1e-2)

@@ -217,7 +217,12 @@ def test_renderer_string_and_traffic_count(ctx) -> None:
     count = gl.traffic.floats_per_cell_step
     n = int(g.params.jacobi_iters)  # the profile's
     mem = g.params.wet_hold > 0  # the wet-area memory's texture is traffic too
-    assert mem and sum(count(4, n, True).values()) == sum(count(4, n).values()) + 3
+    # the memory: prep and capillary_dry write it (+1 each); blur_x reads it (1) instead of
+    # w, wc and mask (3)
+    with_mem, without = count(4, n, True), count(4, n)
+    assert mem and sum(with_mem.values()) == sum(without.values())
+    blur = "blur_x (pass 3's wet area blurred along x)"
+    assert (with_mem[blur], without[blur]) == (2, 4)
     assert g.bytes_per_cell_step() == 4 * sum(count(0, n, mem).values())
     stamp(g, 10, 10, 3, {"Black": 0.1})
     assert g.bytes_per_cell_step() == 4 * sum(count(4, n, mem).values())

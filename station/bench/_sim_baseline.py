@@ -55,7 +55,9 @@ def source_root() -> Path:
 
 
 def extract(rev: str) -> tuple[str, Path]:
-    """(full hash, folder) of ``rev``'s ``station/`` package, extracted once and cached."""
+    """(full hash, folder) of ``rev``'s ``station/`` package, extracted once and cached,
+    with ``rev``'s ``shaders/`` as its ``station/shaders`` (the GL backend's programs are
+    package data of ``station.shaders``; without them the copy would compile this tree's)."""
     root = source_root()
     found = _git(root, "rev-parse", "--verify", "--quiet", f"{rev}^{{commit}}")
     if found.returncode != 0:
@@ -65,12 +67,15 @@ def extract(rev: str) -> tuple[str, Path]:
     cache = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
     dest = cache / "station" / "bench-baseline" / sha
     if (dest / "station" / "__init__.py").is_file():
-        return sha, dest
+        if (dest / "station" / "shaders").is_dir():
+            return sha, dest
+        shutil.rmtree(dest)  # cached before the shaders went with the copy
     dest.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{sha[:12]}-", dir=dest.parent))
     try:
         with tempfile.TemporaryFile() as tar:
-            res = _git(root, "archive", "--format=tar", sha, "station", stdout=tar)
+            res = _git(root, "archive", "--format=tar", sha, "station", "shaders",
+                       stdout=tar)
             if res.returncode != 0:
                 raise BadInput(f"git archive {sha[:12]} station failed: "
                                f"{res.stderr.decode().strip()}", "--baseline")
@@ -87,6 +92,8 @@ def extract(rev: str) -> tuple[str, Path]:
                             raise BadInput(f"git archive {sha[:12]}: unsafe member "
                                            f"{m.name!r}", "--baseline")
                     tf.extractall(tmp)
+        if (tmp / "shaders").is_dir():
+            (tmp / "shaders").rename(tmp / "station" / "shaders")
         tmp.rename(dest)  # atomic: a half-extracted copy is never used
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

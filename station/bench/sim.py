@@ -19,7 +19,10 @@ counted).  ``gl`` runs on the GL device: the better of ``glCopyBufferSubData``
 between two :data:`GL_COPY_BYTES` buffers and a compute shader copying one rgba32f
 image into another, four per ``glFinish`` (read + write counted; both in
 ``bandwidth["gl_probes_gb_s"]``, and each GL result's ``shader_copy_fraction`` is
-its traffic over the image copy's, the most any shader moves there);
+its traffic over the image copy's, the most any shader moves there, and ``bound_factor``
+its inverse: how many times slower the step is than if it moved its bytes at that copy's
+speed, issue 26 item 4 asks for <= 2); ``--passes`` adds a GL step's profile
+(:func:`profile_passes`: milliseconds, share, bytes, GB/s and that fraction per program);
 where no context can be made the fraction is ``null`` and
 ``bandwidth["gl_error"]`` says why.  ``bytes_per_cell_step`` lists each
 backend's own count once more at the top level.  For the stroke scenario
@@ -187,6 +190,8 @@ class Result:
     cells_per_step: float
     bytes_per_cell_step: float
     renderer: str
+    passes: dict[str, Any] | None = None
+    """GL with ``--passes``: the step's time per program (see :func:`profile_passes`)."""
 
     def as_dict(self, bandwidth_gb_s: float | None) -> dict[str, Any]:
         """``bandwidth_gb_s``: the copy bandwidth of the device this backend ran on
@@ -209,6 +214,7 @@ class Result:
             "bandwidth_fraction": (None if bandwidth_gb_s is None
                                    else round(traffic / bandwidth_gb_s, 4)),
             "renderer": self.renderer,
+            **({"passes": self.passes} if self.passes is not None else {}),
         }
 
 
@@ -255,9 +261,48 @@ _wash = sim_driver.wash
 _StrokePath = sim_driver.StrokePath
 
 
+PROFILE_STEPS = 3
+"""Steps of a ``--passes`` profile (after the timed run, on the same canvas)."""
+
+
+def profile_passes(canvas: Any, stroke: sim_driver.StrokePath | None,
+                   steps: int = PROFILE_STEPS) -> dict[str, Any]:
+    """Where a GL step's time goes: each program's wall time (a ``glFinish`` around every
+    dispatch, so nothing overlaps) over ``steps`` steps, its share of the passes' time, its
+    own honest bytes per cell (``station/backends/gl/traffic.py``) and the traffic that
+    makes, in GB/s.  The passes' bandwidths against a copy probe show which pass is far
+    from its bound; ``step_ms`` (profiled) is above an unprofiled step by the finishes."""
+    canvas.sync()
+    canvas.take_cells()
+    canvas.profile_passes(True)
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        if stroke:
+            stroke.advance()
+        canvas.step()
+    canvas.sync()
+    elapsed = time.perf_counter() - t0
+    times = canvas.take_pass_times()
+    canvas.profile_passes(False)
+    cells = canvas.take_cells() / steps
+    per_cell = canvas.bytes_per_cell_by_pass()
+    total = sum(times.values())
+    out: dict[str, Any] = {}
+    for name, sec in sorted(times.items(), key=lambda kv: -kv[1]):
+        ms = 1e3 * sec / steps
+        nbytes = per_cell.get(name)
+        out[name] = {"ms": round(ms, 3), "share": round(sec / total, 4),
+                     "bytes_per_cell": nbytes,
+                     "gb_s": (None if nbytes is None or ms <= 0
+                              else round(nbytes * cells / (ms * 1e6), 4))}
+    return {"steps": steps, "step_ms": round(1e3 * elapsed / steps, 3),
+            "active_cells": round(cells, 1), "programs": out}
+
+
 def measure(backend: str, width: int, height: int, scenario: str, seconds: float,
-            min_steps: int = 3, warmup: int = 10) -> Result:
-    """Run one configuration for about ``seconds`` (after ``warmup`` steps)."""
+            min_steps: int = 3, warmup: int = 10, passes: bool = False) -> Result:
+    """Run one configuration for about ``seconds`` (after ``warmup`` steps); ``passes``:
+    then profile a GL step pass by pass (:func:`profile_passes`)."""
     canvas = create_backend(backend, width, height, "watercolor", 1,
                             tiling=(scenario == "stroke"))
     probe = _Probe(canvas)
@@ -290,6 +335,8 @@ def measure(backend: str, width: int, height: int, scenario: str, seconds: float
     cells += probe.take_cells()
     result = Result(backend, f"{width}x{height}", scenario, steps, elapsed, cells / steps,
                     float(probe.bytes_per_cell_step()), str(canvas.renderer))
+    if passes and probe.is_gl:
+        result.passes = profile_passes(canvas, stroke)
     probe.close()
     return result
 
@@ -307,6 +354,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--realtime", action=argparse.BooleanOptionalAction, default=None,
                    help="measure the fully wet 1920x1080 and 3840x2160 canvas on the cpu "
                         "backend (default: when --sizes is not given)")
+    p.add_argument("--passes", action="store_true",
+                   help="gl: after each run, profile a few steps pass by pass (time, share, "
+                        "bytes and GB/s per program)")
     p.add_argument("--quick", action="store_true",
                    help="800x600 only, 1 s per configuration")
     p.add_argument("--baseline", metavar="REV", default=None,
@@ -405,7 +455,7 @@ def run(args: argparse.Namespace) -> int:
             for scenario in scenarios:
                 bar.note(f"{backend} {w}x{h} {scenario}")
                 try:
-                    r = measure(backend, w, h, scenario, seconds)
+                    r = measure(backend, w, h, scenario, seconds, passes=args.passes)
                 except (StationError, ImportError) as exc:
                     results.append({"backend": backend, "size": f"{w}x{h}",
                                     "scenario": scenario, "error": str(exc)})
@@ -418,8 +468,14 @@ def run(args: argparse.Namespace) -> int:
                 if backend == "gl" and gl_probes.get("image"):
                     # the bound a shader can reach on this device (llvmpipe's image copy
                     # runs far below its memcpy): what "its own bound" means for GL passes
-                    results[-1]["shader_copy_fraction"] = round(
-                        results[-1]["memory_traffic_gb_s"] / gl_probes["image"], 4)
+                    frac = results[-1]["memory_traffic_gb_s"] / gl_probes["image"]
+                    results[-1]["shader_copy_fraction"] = round(frac, 4)
+                    # issue 26 item 4: within 2x of that bound means a bound_factor <= 2
+                    results[-1]["bound_factor"] = round(1.0 / frac, 3) if frac > 0 else None
+                    for prog in (r.passes or {}).get("programs", {}).values():
+                        prog["shader_copy_fraction"] = (
+                            None if prog["gb_s"] is None
+                            else round(prog["gb_s"] / gl_probes["image"], 4))
                 bar.write(f"bench sim: {backend} {w}x{h} {scenario}: "
                           f"{results[-1]['steps_per_s']} steps/s")
                 bar.update()

@@ -29,7 +29,7 @@ state to a :class:`CanvasState`, apply the reference operation and move it back
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -52,7 +52,7 @@ from .passes import (
     GLStepPasses,
     _set,
 )
-from .traffic import bytes_per_cell_step
+from .traffic import bytes_per_cell_step, floats_per_program
 
 if TYPE_CHECKING:
     import moderngl
@@ -62,7 +62,6 @@ F32 = np.float32
 #: Programs compiled per canvas: name -> (file, extra defines).
 _PROGRAMS: dict[str, tuple[str, dict[str, object]]] = {
     "prep": ("prep.comp", {}),
-    "pressure": ("pressure.comp", {}),
     "jacobi": ("jacobi.comp", {}),
     "limit": ("limit.comp", {}),
     "diffuse_apply": ("diffuse_apply.comp", {}),
@@ -112,6 +111,7 @@ class GLCanvas(GLStepPasses):
         self.renderer = self.limits.renderer
         self._shape: tuple[int, int, int, int, int] | None = None
         self._programs: dict[str, Any] = {}  # compile_compute's programs
+        self._pass_seconds = None
         self.load_state(blank)
 
     # ------------------------------------------------------------ allocation
@@ -136,7 +136,7 @@ class GLCanvas(GLStepPasses):
                         self.limits.max_work_group_size[1]))
         self.lx, self.ly = lx, ly
         self.groups = (-(-tile // lx), -(-tile // ly))
-        if self.ntiles > self.limits.max_work_group_count[2]:
+        if self.ntiles > min(self.limits.max_work_group_count[2], 1 << 23):  # tiles.glsl
             raise CanvasInputError(f"too many tiles ({self.ntiles}) for this GPU", "--size")
         self.bands = int(bands)
         self.nrl = -(-self.bands // 4)
@@ -149,6 +149,7 @@ class GLCanvas(GLStepPasses):
                    for _ in range(2)]
         self.srcw = ctx.texture((width, height), 4, dtype="f4")
         self.pr = ctx.texture((width, height), 1, dtype="f4")  # pass 3's levelled height P
+        self.bx = ctx.texture((width, height), 1, dtype="f4")  # pass 3's mask blurred along x
         self.srcp = ctx.texture_array((width, height, self.npl), 4, dtype="f4")
         self.rgb = ctx.texture((width, height), 4, dtype="f4")
         n = self.ntiles
@@ -164,20 +165,27 @@ class GLCanvas(GLStepPasses):
         self.b_added = ctx.buffer(reserve=8 * self.nacc * self.src_groups[0]
                                   * self.src_groups[1])
         self.b_folded = ctx.buffer(reserve=8 * self.src_groups[0] * self.src_groups[1])
-        defines = {"NPL": self.npl, "TILE": tile, "LX": lx, "LY": ly, "NBANDS": self.bands}
-        self._programs = {name: compile_compute(ctx, fname, {**defines, **extra})
+        # TILES_X: tile_cell divides by a constant (a division by a uniform is 8 scalar
+        # divisions a vector on llvmpipe, in every pass)
+        self._defines = {"NPL": self.npl, "TILE": tile, "LX": lx, "LY": ly,
+                         "NBANDS": self.bands, "TILES_X": self.tiles_x}
+        self._programs = {name: self._compile(fname, extra)
                           for name, (fname, extra) in _PROGRAMS.items()}
-        for prog in self._programs.values():
-            _set(prog, "u_size", (width, height))
-            _set(prog, "u_tiles_x", self.tiles_x)
-            _set(prog, "u_tiles_y", self.tiles_y)
-            _set(prog, "u_tiles", (self.tiles_x, self.tiles_y))
-            _set(prog, "u_ntiles", n)
+        self._pressure_taps = (-1, -1)  # blur_x, pressure: compiled per blur at the step
         self._shape = (width, height, n_slots, tile, self.bands)
 
+    def _compile(self, fname: str, extra: Mapping[str, object]) -> moderngl.ComputeShader:
+        """Compile ``shaders/fname`` for this canvas geometry (its uniforms set)."""
+        prog = cast("moderngl.ComputeShader",
+                    compile_compute(self.ctx, fname, {**self._defines, **extra}))
+        _set(prog, "u_size", (self.width, self.height))
+        _set(prog, "u_tiles", (self.tiles_x, self.tiles_y))
+        _set(prog, "u_ntiles", self.ntiles)
+        return prog
+
     def _release_resources(self) -> None:
-        for name in ("aux", "pr", "srcw", "srcp", "rgb", "b_list", "b_alive", "b_ttl", "b_prev",
-                     "b_mark", "b_args", "b_all", "b_added", "b_folded"):
+        for name in ("aux", "pr", "bx", "srcw", "srcp", "rgb", "b_list", "b_alive", "b_ttl",
+                     "b_prev", "b_mark", "b_args", "b_all", "b_added", "b_folded"):
             obj = getattr(self, name, None)
             if obj is not None:
                 obj.release()
@@ -540,6 +548,12 @@ class GLCanvas(GLStepPasses):
         layers = -(-len(self.slots) // 4)
         return bytes_per_cell_step(4 * layers, int(self.params.jacobi_iters),
                                    self.params.wet_hold > 0)
+
+    def bytes_per_cell_by_pass(self) -> dict[str, int]:
+        """:meth:`bytes_per_cell_step` per program (the names of ``take_pass_times``)."""
+        layers = -(-len(self.slots) // 4)
+        return {name: 4 * n for name, n in floats_per_program(
+            4 * layers, int(self.params.jacobi_iters), self.params.wet_hold > 0).items()}
 
 
 __all__ = ["GLCanvas", "GLUnavailable"]

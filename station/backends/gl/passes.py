@@ -5,6 +5,8 @@ run ``station/canvas/reference.py``'s passes (the mapping is in ``canvas.py``'s 
 from __future__ import annotations
 
 import math
+import time
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -21,6 +23,9 @@ if TYPE_CHECKING:
 F32 = np.float32
 # SSBO binding points (tiles.glsl, tile_*.comp, capillary_dry.comp, sources.comp)
 _B_LIST, _B_ALIVE, _B_TTL, _B_PREV, _B_ARGS, _B_ADDED, _B_MARK, _B_FOLDED = 0, 1, 2, 3, 4, 5, 6, 7
+MAX_TAPS = 17
+"""Most Gaussian taps pressure.comp blurs with (wet_blur <= 4): its shared memory is sized
+for a radius of 8 cells beside a 32 x 8 work group."""
 
 
 class GLStepPasses:
@@ -34,6 +39,8 @@ class GLStepPasses:
     npl: int
     tiling: bool
     _programs: dict[str, moderngl.ComputeShader]
+    _pressure_taps: tuple[int, int]  # (taps, hold) blur_x and pressure are compiled for
+    _pass_seconds: dict[str, float] | None  # per-pass wall time while profiling, else None
     width: int
     height: int
     palette: Palette
@@ -46,6 +53,7 @@ class GLStepPasses:
     jv: list[moderngl.Texture]
     jd: list[moderngl.TextureArray]
     pr: moderngl.Texture
+    bx: moderngl.Texture
     rgb: moderngl.Texture
     b_list: moderngl.Buffer
     b_prev: moderngl.Buffer
@@ -54,6 +62,9 @@ class GLStepPasses:
     b_alive: moderngl.Buffer
     b_ttl: moderngl.Buffer
     b_folded: moderngl.Buffer
+
+    def _compile(self, fname: str, extra: Mapping[str, object]) -> moderngl.ComputeShader:
+        raise NotImplementedError  # GLCanvas._compile
 
     def _bind(self, unit: int, tex: moderngl.Texture | moderngl.TextureArray, read: bool,
               write: bool) -> None:
@@ -101,15 +112,18 @@ class GLStepPasses:
         hold = 1 if prm.wet_hold > 0 else 0
         _set(p["prep"], "u_hold", hold)
         taps = reference.gaussian_taps(prm.wet_blur) if prm.flow_outward > 0 else np.zeros(0, F32)
-        if len(taps) > 17:
+        if len(taps) > MAX_TAPS:
             raise CanvasInputError("wet_blur too large for the GL backend (at most 4)", "params")
+        self._blur_programs(len(taps), hold)
         pp = p["pressure"]
-        _set(pp, "u_moist", prm.moist_threshold)
         _set(pp, "u_eta", prm.flow_outward)
         _set(pp, "u_relief", prm.paper_relief)
-        _set(pp, "u_ntaps", len(taps))
-        _set(pp, "u_hold", hold)
-        _set(pp, "u_taps", [float(t) for t in taps] + [0.0] * (17 - len(taps)))
+        if len(taps):
+            bx = p["blur_x"]
+            _set(bx, "u_moist", prm.moist_threshold)
+            _set(bx, "u_apron", 1 if self.tiling else 0)
+            for prog in (pp, bx):
+                _set(prog, "u_taps", [float(t) for t in taps])
         kv, kw, kp = (float(F32(prm.viscosity * dt)), float(F32(prm.nu_w * dt)),
                       float(F32(prm.nu_p * dt)))
         layers = -(-len(self.slots) // 4)
@@ -149,6 +163,22 @@ class GLStepPasses:
         _set(cd, "u_moist", prm.moist_threshold)
         _set(p["tile_update"], "u_ttl", prm.tile_ttl_steps())
 
+    def _blur_programs(self, ntaps: int, hold: int) -> None:
+        """blur_x.comp and pressure.comp for ``ntaps`` Gaussian taps (0: no flow-outward
+        term, no blur_x) and ``hold`` (1: blur the wet-area memory), compiled when they
+        change (the tap loops unroll, the mask's source is fixed)."""
+        if (ntaps, hold) == self._pressure_taps:
+            return
+        for name in ("blur_x", "pressure"):
+            old = self._programs.pop(name, None)
+            if old is not None:
+                old.release()
+        if ntaps:
+            self._programs["blur_x"] = self._compile("blur_x.comp",
+                                                     {"NTAPS": ntaps, "HOLD": hold})
+        self._programs["pressure"] = self._compile("pressure.comp", {"NTAPS": max(1, ntaps)})
+        self._pressure_taps = (ntaps, hold)
+
     def _begin_step(self) -> None:
         """Bind the tile list and build it (tiling) for the passes of one step."""
         gx, gy = self.groups
@@ -165,13 +195,32 @@ class GLStepPasses:
             self._cells_cpu += self.width * self.height
         self.b_alive.bind_to_storage_buffer(_B_ALIVE)
 
+    def profile_passes(self, on: bool) -> None:
+        """Time every pass of the step (``take_pass_times``): a ``glFinish`` before and
+        after each dispatch, so the step runs slower and the passes do not overlap."""
+        self._pass_seconds = {} if on else None
+
+    def take_pass_times(self) -> dict[str, float]:
+        """Wall seconds per pass (program name) since the last call, while profiling."""
+        out = dict(self._pass_seconds or {})
+        if self._pass_seconds is not None:
+            self._pass_seconds = {}
+        return out
+
     def _dispatch(self, name: str) -> None:
         prog = self._programs[name]
+        times = self._pass_seconds
+        if times is not None:
+            self.ctx.finish()
+            t0 = time.perf_counter()
         if self.tiling:
             prog.run_indirect(self.b_args)
         else:
             prog.run(self.groups[0], self.groups[1], self.ntiles)
         self._barrier()
+        if times is not None:
+            self.ctx.finish()
+            times[name] = times.get(name, 0.0) + time.perf_counter() - t0
 
     def _pass_prep(self) -> None:
         f = self.f
@@ -185,9 +234,13 @@ class GLStepPasses:
         self._dispatch("prep")
         self._bind(1, f["water"].src, True, False)
         self._bind(2, f["paper"].src, True, False)
+        if "blur_x" in self._programs:
+            self._bind(4, self.bx, False, True)
+            self._bind(5, f["area"].src, True, False)
+            self._dispatch("blur_x")
         self._bind(3, self.jv[0], True, False)
         self._bind(4, self.pr, False, True)
-        self._bind(5, f["area"].src, True, False)
+        self._bind(5, self.bx, True, False)
         self._dispatch("pressure")
         # until the diffusion passes run, jv[0] holds wb (.w) and jv[1] is free
         self._js, self._jfree = self.jv[0], self.jv[1]

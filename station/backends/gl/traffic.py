@@ -21,8 +21,11 @@ def floats_per_cell_step(slots: int, jacobi_iters: int,
         # read v(2), w, wc, h, mask, block, block_time; write aux = (v1(2), w) and the
         # first iterate jv = (v1(2), w, wb)
         "prep (wet, controller, advect_velocity)": 8 + 7,
-        # read w, wc, h, mask, wb (the blur's neighbours come from cache); write P
-        "pressure (pass 3's levelled height)": 5 + 1,
+        # pass 3's blur along x: read w, wc, mask (own wet, the neighbours from cache);
+        # write bx
+        "blur_x (pass 3's wet area blurred along x)": 3 + 1,
+        # read w, h, wb, bx (the blur's neighbours come from cache); write P
+        "pressure (pass 3's levelled height)": 4 + 1,
         # each iteration reads the iterate jv = (xv(2), xw, wb), the right-hand sides
         # (v1(2), w), p(S) and the pigment iterate xp(S) (= p in the first iteration);
         # writes jv(4) and xp(S)
@@ -41,10 +44,11 @@ def floats_per_cell_step(slots: int, jacobi_iters: int,
         "capillary_dry (capillary diffusion/evaporation, dry_cells)": 5 + 3,
     }
     if wet_memory:
-        # prep writes a wet cell's area (1); pressure blurs the area; capillary_dry
-        # writes a wet cell's area again (the fade reads it only on damp paper)
+        # prep writes a wet cell's area (1); blur_x blurs the area instead of w, wc, mask;
+        # capillary_dry writes a wet cell's area again (the fade reads it only on damp
+        # paper)
         passes["prep (wet, controller, advect_velocity)"] += 1
-        passes["pressure (pass 3's levelled height)"] += 1
+        passes["blur_x (pass 3's wet area blurred along x)"] = 1 + 1
         passes["capillary_dry (capillary diffusion/evaporation, dry_cells)"] += 1
     return passes
 
@@ -52,3 +56,12 @@ def floats_per_cell_step(slots: int, jacobi_iters: int,
 def bytes_per_cell_step(slots: int, jacobi_iters: int, wet_memory: bool = False) -> int:
     """Bytes of honest memory traffic per simulated cell and step."""
     return 4 * sum(floats_per_cell_step(slots, jacobi_iters, wet_memory).values())
+
+
+def floats_per_program(slots: int, jacobi_iters: int,
+                       wet_memory: bool = False) -> dict[str, int]:
+    """:func:`floats_per_cell_step` keyed by the program that runs each pass (``prep``,
+    ``pressure``, ``jacobi`` (all its iterations), ...), the names
+    ``GLCanvas.take_pass_times`` reports."""
+    return {name.split()[0]: n
+            for name, n in floats_per_cell_step(slots, jacobi_iters, wet_memory).items()}
