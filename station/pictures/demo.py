@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import math
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 from station.sim.script import Script, swell, taper, tilt_const, tilt_sweep
@@ -123,6 +124,39 @@ def _wet(s: Script, c: float, rows: list[float], x0: float = 0.0, x1: float = 1.
         a, b = (x0, y), (x1, y + 0.004)
         s.line(*((a, b) if k % 2 == 0 else (b, a)), 0.5, pressure=taper(0.9, 0.7, 0.7),
                tilt=tilt_const(15.0, 10.0))
+
+
+def _sky(s: Script, c: float) -> None:
+    s.brush(size=16 * c, water=1.0, pigment={})
+    for i in range(6):
+        y = 0.04 + i * 0.08
+        s.line((0.0, y), (1.0, y + 0.01), 0.55, pressure=taper(0.95, 0.8, 0.8),
+               tilt=tilt_const(20.0, 15.0))
+    s.brush(size=10 * c, water=0.5, pigment={"French Ultramarine": 0.8, "Cerulean Blue": 0.3})
+    s.curve([(0.0, 0.03), (0.3, 0.05), (0.6, 0.02), (1.0, 0.05)], 0.6, pressure=taper(0.95))
+    s.brush(size=10 * c, water=0.6, pigment={"Cerulean Blue": 0.7})
+    for i in range(3):
+        y = 0.1 + i * 0.065
+        s.curve([(0.0, y + 0.02), (0.3, y), (0.6, y + 0.03), (1.0, y)], 0.6,
+                pressure=swell(0.4 - 0.08 * i, 0.9 - 0.15 * i, 1.3 + 0.4 * i),
+                tilt=tilt_sweep((25.0, 10.0), (-10.0, 20.0)))
+    s.brush(size=8 * c, water=0.6, pigment={"Quinacridone Rose": 0.35, "Hansa Yellow": 0.25})
+    for y in (0.33, 0.38):
+        s.curve([(0.0, y), (0.35, y + 0.01), (0.7, y - 0.01), (1.0, y)], 0.6,
+                pressure=taper(0.7))
+    for k, (x, y) in enumerate(((0.2, 0.14), (0.27, 0.17), (0.62, 0.1), (0.7, 0.13),
+                                (0.77, 0.11))):
+        s.cmd("tissue", kind="crepe", scale=8, size=14 * c, absorb=1.0, seed=k, x=x, y=y)
+    _blow_dry(s, 12.0)
+    s.new_layer()
+
+
+def _mountains(s: Script, c: float) -> None:
+    s.brush(size=6 * c, water=0.7, pigment={"French Ultramarine": 0.4, "Cerulean Blue": 0.08,
+                                             "Quinacridone Rose": 0.17, "Burnt Umber": 0.08})
+    _fill(s, 0.38, 0.07, 0.1, 1.3, 0.5, 5, 0.8, 15.0, sharp=0.5, fade=0.9)
+    _blow_dry(s, 14.0)
+    s.new_layer()
 
 
 def _hills(s: Script, c: float) -> None:
@@ -270,50 +304,18 @@ def _ink(s: Script, c: float) -> None:
               pressure=taper(0.6, 0.1, 0.2))
 
 
-def landscape(width: int = DEMO_WIDTH, height: int = DEMO_HEIGHT) -> Script:
-    """The demo session (see the module docstring)."""
+def landscape(width: int = DEMO_WIDTH, height: int = DEMO_HEIGHT,
+              parts: Sequence[str] | None = None) -> Script:
+    """The demo session (see the module docstring); ``parts`` paints only the named
+    stages in order (``sky``, ``mountains``, ``hills``, ``lake``, ``foreground``,
+    ``ink``), for working on one."""
     s = Script(width, height, profile="watercolor", seed=DEMO_SEED, device="demo-0",
                rate_hz=60.0)
     c = width / 100.0  # brush sizes below are in % of the canvas width
-
-    # 1. Sky: clear water, a graded wet-in-wet wash, a warm glow at the horizon, and
-    #    clouds lifted with a tissue while it is wet.
-    s.brush(size=16 * c, water=1.0, pigment={})
-    for i in range(6):
-        y = 0.04 + i * 0.08
-        s.line((0.0, y), (1.0, y + 0.01), 0.55, pressure=taper(0.95, 0.8, 0.8),
-               tilt=tilt_const(20.0, 15.0))
-    s.brush(size=10 * c, water=0.5, pigment={"French Ultramarine": 0.8, "Cerulean Blue": 0.3})
-    s.curve([(0.0, 0.03), (0.3, 0.05), (0.6, 0.02), (1.0, 0.05)], 0.6, pressure=taper(0.95))
-    s.brush(size=10 * c, water=0.6, pigment={"Cerulean Blue": 0.7})
-    for i in range(3):
-        y = 0.1 + i * 0.065
-        s.curve([(0.0, y + 0.02), (0.3, y), (0.6, y + 0.03), (1.0, y)], 0.6,
-                pressure=swell(0.4 - 0.08 * i, 0.9 - 0.15 * i, 1.3 + 0.4 * i),
-                tilt=tilt_sweep((25.0, 10.0), (-10.0, 20.0)))
-    s.brush(size=8 * c, water=0.6, pigment={"Quinacridone Rose": 0.35, "Hansa Yellow": 0.25})
-    for y in (0.33, 0.38):
-        s.curve([(0.0, y), (0.35, y + 0.01), (0.7, y - 0.01), (1.0, y)], 0.6,
-                pressure=taper(0.7))
-    for k, (x, y) in enumerate(((0.2, 0.14), (0.27, 0.17), (0.62, 0.1), (0.7, 0.13),
-                                (0.77, 0.11))):
-        s.cmd("tissue", kind="crepe", scale=8, size=14 * c, absorb=1.0, seed=k, x=x, y=y)
-    _blow_dry(s, 12.0)
-    s.new_layer()
-
-    # 2. Distant mountains, wet-on-dry, graded into mist. (Clean water touched into the
-    #    half-dry wash made two blooms that read as rings, not a painter's backruns.)
-    # cool and lighter than the near ground: they are far
-    s.brush(size=6 * c, water=0.7, pigment={"French Ultramarine": 0.4, "Cerulean Blue": 0.08,
-                                             "Quinacridone Rose": 0.17, "Burnt Umber": 0.08})
-    _fill(s, 0.38, 0.07, 0.1, 1.3, 0.5, 5, 0.8, 15.0, sharp=0.5, fade=0.9)
-    _blow_dry(s, 14.0)
-    s.new_layer()
-
-    _hills(s, c)
-    _lake(s, c)
-    _foreground(s, c)
-    _ink(s, c)
+    stages = {"sky": _sky, "mountains": _mountains, "hills": _hills, "lake": _lake,
+              "foreground": _foreground, "ink": _ink}
+    for name in (parts if parts is not None else stages):
+        stages[name](s, c)
     s.wait(3.0)
     s.dry()
     return s
