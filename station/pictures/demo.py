@@ -35,13 +35,14 @@ from __future__ import annotations
 
 import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from station.sim.script import Script, swell, taper, tilt_const, tilt_sweep
 
 DEMO_WIDTH, DEMO_HEIGHT = 400, 300
 DEMO_SEED = 11
+DAMP_WAIT = 3.0  # s: clear water soaked in until damp (no shine), not dry
 DEMO_FILE = Path(__file__).resolve().parent.parent / "data" / "demo" / "landscape.jsonl"
 
 
@@ -126,36 +127,208 @@ def _wet(s: Script, c: float, rows: list[float], x0: float = 0.0, x1: float = 1.
                tilt=tilt_const(15.0, 10.0))
 
 
+# Clouds left as paper in the sky, each a few lobes: centre (x, y) and half-width,
+# half-height (normalised), a flat-ish base and a bumpy crown; the blue is laid round
+# them into wet paper, so their edges feather.
+_CLOUDS = (((0.11, 0.185, 0.05, 0.03), (0.18, 0.155, 0.065, 0.055), (0.26, 0.165, 0.055, 0.045),
+            (0.32, 0.19, 0.04, 0.022)),
+           ((0.55, 0.115, 0.05, 0.03), (0.625, 0.085, 0.06, 0.05), (0.7, 0.1, 0.06, 0.045),
+            (0.78, 0.125, 0.045, 0.025)),
+           ((0.88, 0.26, 0.04, 0.022), (0.93, 0.245, 0.04, 0.03)),
+           ((0.42, 0.285, 0.08, 0.016), (0.5, 0.278, 0.05, 0.014)))
+
+
+def _around_clouds(y: float, x0: float, x1: float, margin: float
+                   ) -> list[tuple[float, float]]:
+    """The spans of the row ``y`` from ``x0`` to ``x1`` that miss every cloud's lobes
+    (grown by ``margin``, the brush's reach): where a painter's wash goes round them."""
+    spans = [(x0, x1)]
+    for cx, cy, rx, ry in (lobe for cloud in _CLOUDS for lobe in cloud):
+        dy = (y - cy) / (ry + margin)
+        if abs(dy) >= 1.0:
+            continue
+        half = (rx + margin) * math.sqrt(1.0 - dy * dy)
+        cut = []
+        for a, b in spans:
+            if b <= cx - half or a >= cx + half:
+                cut.append((a, b))
+                continue
+            if a < cx - half:
+                cut.append((a, cx - half))
+            if b > cx + half:
+                cut.append((cx + half, b))
+        spans = cut
+    return [(a, b) for a, b in spans if b - a > 0.03]
+
+
 def _sky(s: Script, c: float) -> None:
+    """The sky, wet-in-wet: the paper wetted with clear water, a graded wash of French
+    Ultramarine into Cerulean laid from the top in slanting strokes that go round the
+    clouds (left as paper: their edges feather into the wet), their bumpy crowns cut
+    round with a smaller brush, a pale warm glow dropped in at the horizon, a grey of
+    Ultramarine and Burnt Umber dropped along the clouds' bases while it is wet, the
+    crowns softened by a tissue; dried."""
     s.brush(size=16 * c, water=1.0, pigment={})
     for i in range(6):
-        y = 0.04 + i * 0.08
-        s.line((0.0, y), (1.0, y + 0.01), 0.55, pressure=taper(0.95, 0.8, 0.8),
+        y = 0.03 + i * 0.08
+        a, b = (0.0, y), (1.0, y + 0.015)
+        s.line(*((a, b) if i % 2 == 0 else (b, a)), 0.5, pressure=taper(0.95, 0.8, 0.8),
                tilt=tilt_const(20.0, 15.0))
-    s.brush(size=10 * c, water=0.5, pigment={"French Ultramarine": 0.8, "Cerulean Blue": 0.3})
-    s.curve([(0.0, 0.03), (0.3, 0.05), (0.6, 0.02), (1.0, 0.05)], 0.6, pressure=taper(0.95))
-    s.brush(size=10 * c, water=0.6, pigment={"Cerulean Blue": 0.7})
-    for i in range(3):
-        y = 0.1 + i * 0.065
-        s.curve([(0.0, y + 0.02), (0.3, y), (0.6, y + 0.03), (1.0, y)], 0.6,
-                pressure=swell(0.4 - 0.08 * i, 0.9 - 0.15 * i, 1.3 + 0.4 * i),
-                tilt=tilt_sweep((25.0, 10.0), (-10.0, 20.0)))
-    s.brush(size=8 * c, water=0.6, pigment={"Quinacridone Rose": 0.35, "Hansa Yellow": 0.25})
-    for y in (0.33, 0.38):
-        s.curve([(0.0, y), (0.35, y + 0.01), (0.7, y - 0.01), (1.0, y)], 0.6,
-                pressure=taper(0.7))
-    for k, (x, y) in enumerate(((0.2, 0.14), (0.27, 0.17), (0.62, 0.1), (0.7, 0.13),
-                                (0.77, 0.11))):
-        s.cmd("tissue", kind="crepe", scale=8, size=14 * c, absorb=1.0, seed=k, x=x, y=y)
+    # the graded wash: strong at the top, weaker row by row (the brush is recharged
+    # with paler paint), each row slanting a little and broken by the clouds
+    rows = ((0.02, {"French Ultramarine": 0.75, "Cerulean Blue": 0.25}, 0.95),
+            (0.075, {"French Ultramarine": 0.55, "Cerulean Blue": 0.3}, 0.85),
+            (0.13, {"French Ultramarine": 0.38, "Cerulean Blue": 0.35}, 0.75),
+            (0.185, {"French Ultramarine": 0.24, "Cerulean Blue": 0.35}, 0.65),
+            (0.24, {"French Ultramarine": 0.1, "Cerulean Blue": 0.3}, 0.55),
+            (0.3, {"Cerulean Blue": 0.18}, 0.45))
+    for k, (y, paint, p) in enumerate(rows):
+        s.brush(size=6 * c, water=0.85, pigment=paint)
+        spans = _around_clouds(y, -0.02, 1.02, 0.015)
+        if k % 2:
+            spans = [(b, a) for a, b in reversed(spans)]
+        for j, (a, b) in enumerate(spans):
+            slope = 0.012 * math.sin(2.1 * k + 1.3 * j)
+            s.curve([(a, y - slope), ((a + b) / 2, y + 0.006 * math.sin(3.0 * k + j)),
+                     (b, y + slope)], 0.15 + 0.35 * abs(b - a),
+                    pressure=swell(0.75 * p, p, 0.7 + 0.3 * (j % 2)),
+                    tilt=tilt_sweep((25.0, 10.0), (-10.0, 20.0)))
+    # the crowns cut round, lobe by lobe, with a smaller brush of the row's blue
+    s.brush(size=3 * c, water=0.85, pigment={"French Ultramarine": 0.35, "Cerulean Blue": 0.3})
+    for cloud in _CLOUDS[:3]:
+        for cx, cy, rx, ry in cloud:
+            s.arc((cx, cy), (rx + 0.018, ry + 0.03), 200.0, 340.0, 0.3,
+                  pressure=swell(0.35, 0.6, 1.0))
+    # a pale warm glow at the horizon, dropped into the wet blue: it feathers upwards
+    s.brush(size=6 * c, water=0.85, pigment={"Quinacridone Rose": 0.12, "Hansa Yellow": 0.2})
+    s.curve([(1.0, 0.385), (0.7, 0.37), (0.4, 0.395), (0.0, 0.38)], 0.9,
+            pressure=swell(0.3, 0.6, 1.5))
+    # cloud shadows: a soft grey dropped into the wet along each cloud's base
+    s.brush(size=3 * c, water=0.8, pigment={"French Ultramarine": 0.2, "Burnt Umber": 0.12,
+                                             "Quinacridone Rose": 0.04})
+    for cloud in _CLOUDS:
+        left, right = cloud[0], cloud[-1]
+        base = max(cy + 0.6 * ry for _, cy, _, ry in cloud)
+        s.curve([(left[0] - 0.6 * left[2], base - 0.006), (left[0], base),
+                 (right[0], base + 0.004), (right[0] + 0.5 * right[2], base - 0.01)], 0.5,
+                pressure=swell(0.2, 0.45, 1.0))
+    s.wait(1.5)
+    # the crowns blotted with a crumpled tissue while the wash is still wet
+    for k, cloud in enumerate(_CLOUDS[:3]):
+        for cx, cy, rx, ry in cloud:
+            s.cmd("tissue", kind="crepe", scale=16, size=round(2.2 * ry * 100 * c, 2),
+                  absorb=0.5, seed=k, x=cx, y=round(cy - 0.3 * ry, 4))
+    s.wait(4.0)
     _blow_dry(s, 12.0)
     s.new_layer()
 
 
+def _slopes(s: Script, top: Callable[[float], float], x0: float, x1: float, foot: float,
+            n: int, p: float, seed: float) -> None:
+    """A range's body in strokes pulled down its slopes from the crest ``top(x)`` (as a
+    painter shapes a mountain: not in rows), each a little shorter or longer, lighter
+    towards the foot."""
+    for k in range(n):
+        u = (k + 0.5 + 0.35 * math.sin(seed + 2.7 * k)) / n
+        x = x0 + (x1 - x0) * u
+        y = top(x)
+        lean = 0.025 * math.sin(seed + 1.9 * k)
+        length = (foot - y) * (0.8 + 0.2 * math.sin(seed + 3.3 * k))
+        s.curve([(x, y + 0.008), (x + 0.4 * lean, y + 0.45 * length),
+                 (x + lean, y + length)], 0.25 + 0.2 * length,
+                pressure=taper(p, 0.8 * p, 0.3 * p, attack=0.1, release=0.6),
+                tilt=tilt_const(10.0 * math.sin(seed + k), 15.0))
+
+
+def _wet_under(s: Script, c: float, top: Callable[[float], float], x0: float, x1: float,
+               below: float, foot: float) -> None:
+    """Clear water over a range's body, from ``below`` under its crest ``top(x)`` down to
+    ``foot``, in strokes following the crest: the paint pulled down next runs together
+    and fades into it, while the crest itself stays on dry paper."""
+    s.brush(size=5 * c, water=1.0, pigment={})
+    y, k = below, 0
+    while True:
+        pts = [(x, min(top(x) + y, foot)) for x in (x0 + (x1 - x0) * i / 8 for i in range(9))]
+        s.curve(pts if k % 2 == 0 else pts[::-1], 0.5, pressure=taper(0.85, 0.7, 0.7))
+        if all(py >= foot for _, py in pts):
+            break
+        y += 0.04
+        k += 1
+
+
 def _mountains(s: Script, c: float) -> None:
-    s.brush(size=6 * c, water=0.7, pigment={"French Ultramarine": 0.4, "Cerulean Blue": 0.08,
-                                             "Quinacridone Rose": 0.17, "Burnt Umber": 0.08})
-    _fill(s, 0.38, 0.07, 0.1, 1.3, 0.5, 5, 0.8, 15.0, sharp=0.5, fade=0.9)
-    _blow_dry(s, 14.0)
+    """Distant mountains on the dried sky, in two ranges. The far range, a pale cool
+    violet: the paper under its crest wetted first, its crest laid wet-on-dry on the left
+    (a hard edge, darkened as it dries) and into clear water on the right (a lost edge),
+    its body pulled down the slopes into the wet, its foot lost into water (mist), a
+    warmer violet dropped in. Dried, a nearer, darker peak on the left: the same, its
+    crest hard, its shadow side dropped in wet."""
+
+    def far(x: float) -> float:
+        return _ridge(x, 0.36, 0.06, 0.1, 1.3, 0.45)
+
+    # clear water over the whole range and a little above its crest, left to soak in
+    # until damp: the crest laid next spreads a little (a soft, distant edge), except on
+    # the left summits, wetted after, under the crest only (hard edges there)
+    _wet_under(s, c, far, -0.02, 0.47, -0.025, 0.5)
+
+    def lost(x: float) -> float:  # under the crest, rising above it to the right
+        return far(x) + 0.03 - 0.08 * min(max((x - 0.7) / 0.15, 0.0), 1.0)
+
+    _wet_under(s, c, lost, 0.45, 1.02, 0.0, 0.5)
+    s.wait(DAMP_WAIT)
+    s.brush(size=4 * c, water=0.75, pigment={"French Ultramarine": 0.3,
+                                             "Quinacridone Rose": 0.14, "Burnt Umber": 0.05,
+                                             "Cerulean Blue": 0.06})
+    for a, b in ((-0.02, 0.3), (0.28, 0.6), (0.58, 1.02)):  # the crest, in three strokes
+        s.curve([(x, far(x)) for x in (a + (b - a) * i / 6 for i in range(7))], 0.5,
+                pressure=swell(0.55, 0.85, 1.2), tilt=tilt_const(15.0, 10.0))
+    s.brush(size=7 * c, water=0.85, pigment={"French Ultramarine": 0.22,
+                                             "Quinacridone Rose": 0.1, "Burnt Umber": 0.04,
+                                             "Cerulean Blue": 0.05})
+    _slopes(s, far, -0.02, 1.02, 0.47, 14, 0.8, 0.3)
+    # a warmer violet dropped into the far range while it is wet
+    s.brush(size=3.5 * c, water=0.8, pigment={"Quinacridone Rose": 0.16,
+                                               "French Ultramarine": 0.1})
+    for x in (0.18, 0.47, 0.83):
+        s.curve([(x - 0.03, far(x) + 0.03), (x, far(x) + 0.05), (x + 0.02, far(x) + 0.08)],
+                0.3, pressure=taper(0.5, 0.3, 0.1))
+    _blow_dry(s, 12.0)
+    s.new_layer()
+
+    # the nearer peak on the left, darker: the same order
+    peak = ((-0.02, 0.415), (0.07, 0.385), (0.15, 0.35), (0.2, 0.335), (0.24, 0.35),
+            (0.3, 0.385), (0.37, 0.42), (0.45, 0.455), (0.52, 0.49))
+
+    def near(x: float) -> float:
+        for (xa, ya), (xb, yb) in zip(peak, peak[1:]):
+            if x <= xb:
+                return ya + (yb - ya) * (x - xa) / (xb - xa)
+        return peak[-1][1]
+
+    _wet_under(s, c, near, -0.02, 0.5, -0.02, 0.52)
+    s.wait(DAMP_WAIT)
+    s.brush(size=3.5 * c, water=0.7, pigment={"French Ultramarine": 0.4, "Burnt Umber": 0.12,
+                                               "Quinacridone Rose": 0.12})
+    s.curve(list(peak[:6]), 0.5, pressure=taper(0.8, 0.5, 0.5), tilt=tilt_const(-15.0, 10.0))
+    s.curve(list(peak[4:]), 0.5, pressure=taper(0.7, 0.5, 0.2), tilt=tilt_const(15.0, 10.0))
+    s.brush(size=6 * c, water=0.85, pigment={"French Ultramarine": 0.3, "Burnt Umber": 0.08,
+                                             "Quinacridone Rose": 0.1})
+    _slopes(s, near, -0.02, 0.48, 0.52, 7, 0.75, 1.7)
+    # the shadow side (right of the summit), a darker mix dropped in wet
+    s.brush(size=3 * c, water=0.7, pigment={"French Ultramarine": 0.45, "Burnt Umber": 0.25})
+    for x in (0.22, 0.29, 0.36):
+        s.curve([(x, near(x) + 0.012), (x + 0.02, near(x) + 0.04), (x + 0.03, near(x) + 0.08)],
+                0.3, pressure=taper(0.55, 0.3, 0.1))
+    # a few crags near the summit, dragged with the deformable round nearly dry once
+    # the crest has dried a little: broken hard edges
+    s.wait(DAMP_WAIT)
+    s.brush(size=2.5 * c, water=0.35, pigment={"French Ultramarine": 0.5, "Burnt Umber": 0.3},
+            kind="round3d")
+    for x, dx in ((0.17, -0.03), (0.205, 0.025), (0.25, 0.035)):
+        s.line((x, near(x) + 0.004), (x + dx, near(x) + 0.045), 0.2, pressure=0.45,
+               tilt=(25.0, 0.0))
+    _blow_dry(s, 12.0)
     s.new_layer()
 
 
