@@ -42,7 +42,7 @@ from station.sim.script import Script, swell, taper, tilt_const, tilt_sweep
 
 DEMO_WIDTH, DEMO_HEIGHT = 400, 300
 DEMO_SEED = 11
-DAMP_WAIT = 3.0  # s: clear water soaked in until damp (no shine), not dry
+DAMP_WAIT = 2.5  # s: clear water soaked in until damp (no shine), not dry
 DEMO_FILE = Path(__file__).resolve().parent.parent / "data" / "demo" / "landscape.jsonl"
 
 
@@ -212,14 +212,14 @@ def _sky(s: Script, c: float) -> None:
         s.curve([(left[0] - 0.6 * left[2], base - 0.006), (left[0], base),
                  (right[0], base + 0.004), (right[0] + 0.5 * right[2], base - 0.01)], 0.5,
                 pressure=swell(0.2, 0.45, 1.0))
-    s.wait(1.5)
+    s.wait(1.0)
     # the crowns blotted with a crumpled tissue while the wash is still wet
     for k, cloud in enumerate(_CLOUDS[:3]):
         for cx, cy, rx, ry in cloud:
             s.cmd("tissue", kind="crepe", scale=16, size=round(2.2 * ry * 100 * c, 2),
                   absorb=0.5, seed=k, x=cx, y=round(cy - 0.3 * ry, 4))
-    s.wait(4.0)
-    _blow_dry(s, 12.0)
+    s.wait(1.5)
+    _blow_dry(s, 8.0)
     s.new_layer()
 
 
@@ -241,18 +241,20 @@ def _slopes(s: Script, top: Callable[[float], float], x0: float, x1: float, foot
 
 
 def _wet_under(s: Script, c: float, top: Callable[[float], float], x0: float, x1: float,
-               below: float, foot: float) -> None:
+               below: float, foot: float, size: float = 7.0, step: float = 0.055,
+               duration: float = 0.0) -> None:
     """Clear water over a range's body, from ``below`` under its crest ``top(x)`` down to
     ``foot``, in strokes following the crest: the paint pulled down next runs together
     and fades into it, while the crest itself stays on dry paper."""
-    s.brush(size=5 * c, water=1.0, pigment={})
+    s.brush(size=size * c, water=1.0, pigment={})
     y, k = below, 0
     while True:
         pts = [(x, min(top(x) + y, foot)) for x in (x0 + (x1 - x0) * i / 8 for i in range(9))]
-        s.curve(pts if k % 2 == 0 else pts[::-1], 0.5, pressure=taper(0.85, 0.7, 0.7))
+        s.curve(pts if k % 2 == 0 else pts[::-1], duration or 0.15 + 0.3 * (x1 - x0),
+                pressure=taper(0.85, 0.7, 0.7))
         if all(py >= foot for _, py in pts):
             break
-        y += 0.04
+        y += step
         k += 1
 
 
@@ -270,10 +272,10 @@ def _mountains(s: Script, c: float) -> None:
     # clear water over the whole range and a little above its crest, left to soak in
     # until damp: the crest laid next spreads a little (a soft, distant edge), except on
     # the left summits, wetted after, under the crest only (hard edges there)
-    _wet_under(s, c, far, -0.02, 0.47, -0.025, 0.5)
+    _wet_under(s, c, far, -0.02, 0.47, -0.025, 0.5, 5.0, 0.04, 0.5)
 
     def lost(x: float) -> float:  # under the crest, rising above it to the right
-        return far(x) + 0.03 - 0.08 * min(max((x - 0.7) / 0.15, 0.0), 1.0)
+        return far(x) + 0.065 - 0.11 * min(max((x - 0.7) / 0.15, 0.0), 1.0)
 
     _wet_under(s, c, lost, 0.45, 1.02, 0.0, 0.5)
     s.wait(DAMP_WAIT)
@@ -293,7 +295,7 @@ def _mountains(s: Script, c: float) -> None:
     for x in (0.18, 0.47, 0.83):
         s.curve([(x - 0.03, far(x) + 0.03), (x, far(x) + 0.05), (x + 0.02, far(x) + 0.08)],
                 0.3, pressure=taper(0.5, 0.3, 0.1))
-    _blow_dry(s, 12.0)
+    _blow_dry(s, 8.0)
     s.new_layer()
 
     # the nearer peak on the left, darker: the same order
@@ -306,7 +308,7 @@ def _mountains(s: Script, c: float) -> None:
                 return ya + (yb - ya) * (x - xa) / (xb - xa)
         return peak[-1][1]
 
-    _wet_under(s, c, near, -0.02, 0.5, -0.02, 0.52)
+    _wet_under(s, c, near, -0.02, 0.5, -0.02, 0.52, 5.0, 0.04, 0.5)
     s.wait(DAMP_WAIT)
     s.brush(size=3.5 * c, water=0.7, pigment={"French Ultramarine": 0.4, "Burnt Umber": 0.12,
                                                "Quinacridone Rose": 0.12})
@@ -328,7 +330,7 @@ def _mountains(s: Script, c: float) -> None:
     for x, dx in ((0.17, -0.03), (0.205, 0.025), (0.25, 0.035)):
         s.line((x, near(x) + 0.004), (x + dx, near(x) + 0.045), 0.2, pressure=0.45,
                tilt=(25.0, 0.0))
-    _blow_dry(s, 12.0)
+    _blow_dry(s, 8.0)
     s.new_layer()
 
 
@@ -384,32 +386,65 @@ def _lake(s: Script, c: float) -> None:
                for x in (i / 8 for i in range(9))]
         s.curve(pts[::-1] if k % 2 == 0 else pts, 0.8, pressure=swell(0.55, 0.9, 2.0))
     _blow_dry(s, 10.0)
-    # the far shore: a strip of distant land laid wet-on-dry along the lake's top, over
-    # the hills' foot, in short strokes of uneven weight with clumps of trees rising
-    # from it (cool and light: it is far away)
-    s.brush(size=1.8 * c, water=0.6, pigment={"French Ultramarine": 0.18, "Burnt Umber": 0.2,
-                                               "Phthalo Green": 0.12})
-    x = 0.0
-    k = 0
-    while x < 1.0:
-        w = 0.07 + 0.05 * abs(math.sin(3.7 * k))
-        y = 0.684 + 0.003 * math.sin(2.3 * k)
-        s.line((x, y), (min(x + w, 1.0), y + 0.002 * math.cos(k)), 0.25,
-               pressure=taper(0.3 + 0.3 * abs(math.sin(1.9 * k)), 0.5, 0.5))
-        if k % 3 != 1:  # a clump of trees
-            tx = x + 0.3 * w
-            h = 0.012 + 0.012 * abs(math.sin(5.1 * k))
-            s.curve([(tx, y), (tx + 0.004, y - 0.6 * h), (tx + 0.012, y - h),
-                     (tx + 0.02, y - 0.4 * h), (tx + 0.026, y)], 0.3,
-                    pressure=swell(0.35, 0.6, 1.0))
-        x += w - 0.01
-        k += 1
+    _far_shore(s, c)
     s.brush(size=4 * c, water=0.15, pigment={"French Ultramarine": 0.45,
                                               "Cerulean Blue": 0.2}, kind="round3d")
     for x0, x1, y in ((0.1, 0.32, 0.745), (0.55, 0.8, 0.76), (0.38, 0.52, 0.73)):
         s.line((x0, y), (x1, y + 0.003), 0.14, pressure=0.45, tilt=(30.0, 0.0))
     _blow_dry(s, 6.0)
     s.new_layer()
+
+
+# The far shore's headlands: from x0 to x1 at the water line y (normalised), how thick
+# (x the brush), how dark (the pigment's share) and the tree masses on it (x, width,
+# height).
+_HEADLANDS = ((-0.02, 0.23, 0.686, 1.0, 1.0, ((0.02, 0.05, 0.035), (0.08, 0.06, 0.05),
+                                              (0.15, 0.05, 0.03))),
+              (0.27, 0.38, 0.689, 0.6, 0.5, ((0.33, 0.03, 0.012),)),
+              (0.42, 0.68, 0.685, 0.8, 0.85, ((0.5, 0.04, 0.02), (0.56, 0.05, 0.045),
+                                               (0.62, 0.04, 0.03))),
+              (0.72, 0.78, 0.69, 0.5, 0.6, ((0.75, 0.025, 0.015),)),
+              (0.84, 1.02, 0.687, 0.9, 1.0, ((0.86, 0.04, 0.028), (0.92, 0.06, 0.04),
+                                              (0.98, 0.04, 0.025))))
+
+
+def _far_shore(s: Script, c: float) -> None:
+    """The far shore on the dried lake, broken and varied: first a pale low bank along
+    the whole water line (it covers the lake's dried top edge), then headlands of uneven
+    length, thickness and value, each laid with the deformable round pressed in the
+    middle and lifted towards its tips (tapering spits), tree masses rising from them in
+    bumps of uneven width and height, a darker mix dropped into their feet while wet
+    (it feathers up into them). Cool and light: it is far away."""
+    s.brush(size=1.6 * c, water=0.65, pigment={"French Ultramarine": 0.08, "Burnt Umber": 0.05,
+                                               "Hansa Yellow": 0.05, "Phthalo Green": 0.03})
+    for a, b in ((-0.02, 0.45), (0.4, 1.02)):
+        s.curve(_wavy(a, b, 0.689, 0.0025, 9.0, 3.0 * a), 0.6,
+                pressure=swell(0.3, 0.6, 2.5), tilt=tilt_const(15.0, 5.0))
+    for k, (x0, x1, y, thick, dark, trees) in enumerate(_HEADLANDS):
+        land = {"French Ultramarine": 0.15 * dark, "Burnt Umber": 0.12 * dark,
+                "Phthalo Green": 0.09 * dark, "Hansa Yellow": 0.05}
+        s.brush(size=2.4 * c * thick, water=0.7, kind="round3d", pigment=land)
+        m = (x0 + x1) / 2
+        s.curve([(x0, y + 0.002), (m, y - 0.004 * thick + 0.002 * math.sin(k)),
+                 (x1, y + 0.003)], 0.2 + 0.6 * (x1 - x0),
+                pressure=taper(0.55 + 0.2 * thick, 0.15, 0.1, attack=0.3, release=0.35),
+                tilt=tilt_const(20.0, 5.0))
+        for j, (tx, w, h) in enumerate(trees):
+            # a mass of foliage: the brush about as wide as the trees, pushed up from
+            # the shore and lifted, then a smaller crown beside it
+            s.brush(size=round(0.75 * w * 100 * c, 2), water=0.7, pigment=land)
+            s.curve([(tx, y - 0.003), (tx + 0.002, y - 0.5 * h), (tx - 0.001, y - 0.75 * h)],
+                    0.25, pressure=taper(0.7, 0.5, 0.2, release=0.5))
+            s.brush(size=round(0.45 * w * 100 * c, 2), water=0.7, pigment=land)
+            side = 0.3 * w if j % 2 else -0.3 * w
+            s.curve([(tx + side, y - 0.003), (tx + 1.1 * side, y - 0.5 * h)], 0.2,
+                    pressure=taper(0.6, 0.5, 0.2, release=0.5))
+        if dark > 0.75:  # a darker foot dropped in wet: it feathers up into the trees
+            s.brush(size=1.5 * c, water=0.7, pigment={"French Ultramarine": 0.25,
+                                                       "Burnt Umber": 0.25,
+                                                       "Phthalo Green": 0.1})
+            s.line((x0 + 0.15 * (x1 - x0), y - 0.004), (x1 - 0.2 * (x1 - x0), y - 0.002),
+                   0.3, pressure=swell(0.3, 0.6, 1.5))
 
 
 def _foreground(s: Script, c: float) -> None:
