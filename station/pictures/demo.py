@@ -4,20 +4,22 @@
 (:mod:`station.sim.script`), a session that uses what the canvas model does
 (issue 10 item 9: the demo beside the effects sheet):
 
-1. **wet-in-wet sky** — a clear-water wash, then French Ultramarine and
-   Cerulean Blue (both granulating) graded from the top, and a warm glow of
-   Quinacridone Rose and Hansa Yellow dropped in at the horizon; clouds are
-   **lifted** with a crumpled tissue while the wash is wet;
-2. **distant mountains** — a violet mix laid **wet-on-dry** on the dried sky
-   (hard, **dark edges**), fading into mist;
-3. **hills** — clear water first, then a pale yellow-green laid along the ridge
-   and graded out to water at the foot, greens and umber dropped in **wet-in-wet**
-   near the crest, warm light touched into the slopes; a nearer slope on a new layer,
+1. **wet-in-wet sky** — clear water over the paper, then French Ultramarine and
+   Cerulean Blue (both granulating) graded from the top, laid round clouds left as
+   paper (their edges feather into the wet), a warm glow dropped in at the horizon
+   and a grey along the clouds' bases while it is wet, the crowns blotted with a
+   tissue;
+2. **distant mountains** — two ranges, each body pulled down its slopes into wetted
+   paper; the crests laid into **damp** paper (soft), on dry paper (**hard, dark
+   edges**) and into wet paper (**lost**), the foot run into mist;
+3. **hills** — clear water under the crest, a pale yellow-green along it pulled down
+   the slopes into the water, greens and umber dropped in **wet-in-wet** near the
+   crest, warm light touched into the slopes; a nearer knoll on a new layer,
    wet-on-dry, its crest a hard edge and its foot lost in water;
 4. **lake** — clear water over all of it, then a pale blue at the far shore and a
    deeper blue down to the near bank laid into it: one graded wash, no white steps
-   where a front would stop at dry paper; dried, a distant shore of short strokes
-   with clumps of trees over its top edge, and quick **dry-brush** ripples of the
+   where a front would stop at dry paper; dried, a broken far shore of headlands of
+   uneven length and value with tree masses, and quick **dry-brush** ripples of the
    deformable tuft;
 5. **foreground** — a near bank rising to the right (the picture's diagonal), laid
    over the lake's dried edge: wet paper, warm ochre in varied strokes along it,
@@ -33,6 +35,7 @@ The committed ``station/data/demo/landscape.jsonl`` is exactly
 
 from __future__ import annotations
 
+import itertools
 import math
 import sys
 from collections.abc import Callable, Sequence
@@ -54,24 +57,6 @@ def _ridge(x: float, base: float, amp: float, phase: float, waves: float,
     if sharp:
         v += sharp * (abs(math.sin(2 * math.pi * (3.1 * waves * x + 0.3 * phase))) - 0.5)
     return base - amp * v
-
-
-def _fill(s: Script, base: float, amp: float, phase: float, waves: float, bottom: float,
-          rows: int, duration: float, lean: float, sharp: float = 0.0,
-          fade: float = 0.0) -> None:
-    """A hill: a stroke along its ridge, then back-and-forth strokes below it, pressed
-    more lightly towards the bottom by ``fade`` (a wash graded into mist)."""
-    xs = [i / 12 for i in range(13)]
-    ridge = [(x, _ridge(x, base, amp, phase, waves, sharp)) for x in xs]
-    s.curve(ridge, duration, pressure=taper(0.85, 0.5, 0.5), tilt=tilt_const(lean, 10.0))
-    for r in range(1, rows + 1):
-        f = r / rows
-        pts = [(x, _ridge(x, base, amp, phase, waves, sharp) + f * (bottom - base + amp) * 0.9)
-               for x in xs]
-        if r % 2 == 0:
-            pts.reverse()
-        p = 0.9 * (1.0 - fade * f)
-        s.curve(pts, duration, pressure=taper(p, 0.6 * p, 0.6 * p), tilt=tilt_const(-lean, 8.0))
 
 
 def _tree(s: Script, cells: float, foot: tuple[float, float], height: float) -> None:
@@ -130,12 +115,14 @@ def _wet(s: Script, c: float, rows: list[float], x0: float = 0.0, x1: float = 1.
 # Clouds left as paper in the sky, each a few lobes: centre (x, y) and half-width,
 # half-height (normalised), a flat-ish base and a bumpy crown; the blue is laid round
 # them into wet paper, so their edges feather.
-_CLOUDS = (((0.11, 0.185, 0.05, 0.03), (0.18, 0.155, 0.065, 0.055), (0.26, 0.165, 0.055, 0.045),
-            (0.32, 0.19, 0.04, 0.022)),
-           ((0.55, 0.115, 0.05, 0.03), (0.625, 0.085, 0.06, 0.05), (0.7, 0.1, 0.06, 0.045),
-            (0.78, 0.125, 0.045, 0.025)),
-           ((0.88, 0.26, 0.04, 0.022), (0.93, 0.245, 0.04, 0.03)),
-           ((0.42, 0.285, 0.08, 0.016), (0.5, 0.278, 0.05, 0.014)))
+Lobe = tuple[float, float, float, float]
+_CLOUDS: tuple[tuple[Lobe, ...], ...] = (
+    ((0.11, 0.185, 0.05, 0.03), (0.18, 0.155, 0.065, 0.055), (0.26, 0.165, 0.055, 0.045),
+     (0.32, 0.19, 0.04, 0.022)),
+    ((0.55, 0.115, 0.05, 0.03), (0.625, 0.085, 0.06, 0.05), (0.7, 0.1, 0.06, 0.045),
+     (0.78, 0.125, 0.045, 0.025)),
+    ((0.88, 0.26, 0.04, 0.022), (0.93, 0.245, 0.04, 0.03)),
+    ((0.42, 0.285, 0.08, 0.016), (0.5, 0.278, 0.05, 0.014)))
 
 
 def _around_clouds(y: float, x0: float, x1: float, margin: float
@@ -171,8 +158,9 @@ def _sky(s: Script, c: float) -> None:
     s.brush(size=16 * c, water=1.0, pigment={})
     for i in range(6):
         y = 0.03 + i * 0.08
-        a, b = (0.0, y), (1.0, y + 0.015)
-        s.line(*((a, b) if i % 2 == 0 else (b, a)), 0.5, pressure=taper(0.95, 0.8, 0.8),
+        left, right = (0.0, y), (1.0, y + 0.015)
+        s.line(*((left, right) if i % 2 == 0 else (right, left)), 0.5,
+               pressure=taper(0.95, 0.8, 0.8),
                tilt=tilt_const(20.0, 15.0))
     # the graded wash: strong at the top, weaker row by row (the brush is recharged
     # with paler paint), each row slanting a little and broken by the clouds
@@ -207,15 +195,15 @@ def _sky(s: Script, c: float) -> None:
     s.brush(size=3 * c, water=0.8, pigment={"French Ultramarine": 0.2, "Burnt Umber": 0.12,
                                              "Quinacridone Rose": 0.04})
     for cloud in _CLOUDS:
-        left, right = cloud[0], cloud[-1]
+        (xl, _, rl, _), (xr, _, rr, _) = cloud[0], cloud[-1]
         base = max(cy + 0.6 * ry for _, cy, _, ry in cloud)
-        s.curve([(left[0] - 0.6 * left[2], base - 0.006), (left[0], base),
-                 (right[0], base + 0.004), (right[0] + 0.5 * right[2], base - 0.01)], 0.5,
+        s.curve([(xl - 0.6 * rl, base - 0.006), (xl, base), (xr, base + 0.004),
+                 (xr + 0.5 * rr, base - 0.01)], 0.5,
                 pressure=swell(0.2, 0.45, 1.0))
     s.wait(1.0)
     # the crowns blotted with a crumpled tissue while the wash is still wet
     for k, cloud in enumerate(_CLOUDS[:3]):
-        for cx, cy, rx, ry in cloud:
+        for cx, cy, _rx, ry in cloud:
             s.cmd("tissue", kind="crepe", scale=16, size=round(2.2 * ry * 100 * c, 2),
                   absorb=0.5, seed=k, x=cx, y=round(cy - 0.3 * ry, 4))
     s.wait(1.5)
@@ -295,6 +283,10 @@ def _mountains(s: Script, c: float) -> None:
     for x in (0.18, 0.47, 0.83):
         s.curve([(x - 0.03, far(x) + 0.03), (x, far(x) + 0.05), (x + 0.02, far(x) + 0.08)],
                 0.3, pressure=taper(0.5, 0.3, 0.1))
+    # a clean damp brush run along the foot while it is wet: the strokes' ends melt
+    # together into mist instead of hanging as separate drips
+    s.brush(size=7 * c, water=0.9, pigment={})
+    s.curve(_wavy(1.02, -0.02, 0.465, 0.006, 7.0, 0.4), 0.8, pressure=taper(0.75, 0.6, 0.6))
     _blow_dry(s, 8.0)
     s.new_layer()
 
@@ -303,7 +295,7 @@ def _mountains(s: Script, c: float) -> None:
             (0.3, 0.385), (0.37, 0.42), (0.45, 0.455), (0.52, 0.49))
 
     def near(x: float) -> float:
-        for (xa, ya), (xb, yb) in zip(peak, peak[1:]):
+        for (xa, ya), (xb, yb) in itertools.pairwise(peak):
             if x <= xb:
                 return ya + (yb - ya) * (x - xa) / (xb - xa)
         return peak[-1][1]
@@ -335,33 +327,43 @@ def _mountains(s: Script, c: float) -> None:
 
 
 def _hills(s: Script, c: float) -> None:
-    """Far hills into damp paper: a pale yellow-green laid along the ridge and graded out
-    to water at the foot, greens and umber dropped in wet near the crest, warm light
-    touched into the slopes; then a nearer slope on the left, wet-on-dry, its crest a hard
-    edge and its foot lost in water."""
-    _wet(s, c, [0.61, 0.645, 0.675], size=6.0)  # below the crest: it stays a crisp edge
-    s.brush(size=6 * c, water=0.9, pigment={"Hansa Yellow": 0.3, "Cerulean Blue": 0.22})
-    _fill(s, 0.54, 0.035, 0.55, 0.9, 0.65, 3, 0.7, -20.0, fade=0.6)
+    """Far hills into damp paper: clear water under the crest, a pale yellow-green laid
+    along the crest and pulled down the slopes into it (fading out at the foot), greens
+    and umber dropped in wet near the crest, warm light touched into the slopes; then a
+    nearer knoll on the left, wet-on-dry, its crest a hard edge and its foot lost in
+    water."""
+    def crest(x: float) -> float:
+        return _ridge(x, 0.54, 0.045, 0.55, 1.2, 0.2)
+
+    # clear water under the crest (it stays a crisp edge), then the green laid along the
+    # crest and pulled down the slopes into it, fading out at the foot
+    _wet_under(s, c, crest, -0.02, 1.02, 0.045, 0.68)
+    s.brush(size=4 * c, water=0.85, pigment={"Hansa Yellow": 0.3, "Cerulean Blue": 0.22})
+    s.curve([(x, crest(x)) for x in (-0.02 + 1.04 * i / 12 for i in range(13))], 0.8,
+            pressure=swell(0.55, 0.85, 2.3), tilt=tilt_const(-20.0, 10.0))
+    s.brush(size=6 * c, water=0.9, pigment={"Hansa Yellow": 0.26, "Cerulean Blue": 0.18})
+    _slopes(s, crest, -0.02, 1.02, 0.67, 18, 0.8, 4.1)
     s.brush(size=3.5 * c, water=0.7, pigment={"Phthalo Green": 0.3, "Burnt Umber": 0.2,
                                               "French Ultramarine": 0.08})
     for k, x in enumerate((0.08, 0.27, 0.43, 0.7, 0.88)):
-        y = _ridge(x, 0.54, 0.035, 0.55, 0.9) + 0.02
+        y = crest(x) + 0.02
         s.curve([(x - 0.05, y + 0.004), (x, y - 0.002), (x + 0.04 + 0.01 * (k % 2), y + 0.01)],
                 0.3, pressure=taper(0.55 + 0.1 * (k % 3), 0.2, 0.1))
     s.brush(size=4 * c, water=0.8, pigment={"Hansa Yellow": 0.22, "Quinacridone Rose": 0.03})
     for x, y in ((0.2, 0.615), (0.55, 0.6), (0.8, 0.62)):
         s.curve([(x - 0.06, y), (x, y - 0.006), (x + 0.06, y + 0.004)], 0.35,
                 pressure=swell(0.3, 0.6, 1.0))
-    _blow_dry(s, 12.0)
+    _blow_dry(s, 9.0)
     s.new_layer()
-    s.brush(size=5 * c, water=0.85, pigment={"Phthalo Green": 0.16, "Hansa Yellow": 0.2,
-                                              "Burnt Umber": 0.08})
-    pts = [(x / 10 * 0.48, 0.6 + 0.02 * math.sin(4.0 * x / 10 + 1.0) - 0.02 * x / 10)
-           for x in range(11)]
+    s.brush(size=5 * c, water=0.85, pigment={"Phthalo Green": 0.12, "Hansa Yellow": 0.2,
+                                              "Burnt Umber": 0.06})
+    # a rounded knoll, higher on the left, running out into the lake's far shore
+    pts = [(-0.02 + 0.46 * u, 0.64 - 0.045 * math.sin(math.pi * (0.15 + 0.85 * u)) ** 1.5
+            + 0.004 * math.sin(17.0 * u)) for u in (i / 10 for i in range(11))]
     s.curve(pts, 0.8, pressure=taper(0.75, 0.3, 0.2), tilt=tilt_const(-15.0, 10.0))
     s.brush(size=6 * c, water=1.0, pigment={"Hansa Yellow": 0.05})
     s.curve([(p[0], p[1] + 0.03) for p in pts[::-1]], 0.8, pressure=taper(0.7, 0.4, 0.3))
-    _blow_dry(s, 10.0)
+    _blow_dry(s, 8.0)
     s.new_layer()
 
 
