@@ -283,10 +283,13 @@ def _mountains(s: Script, c: float) -> None:
     for x in (0.18, 0.47, 0.83):
         s.curve([(x - 0.03, far(x) + 0.03), (x, far(x) + 0.05), (x + 0.02, far(x) + 0.08)],
                 0.3, pressure=taper(0.5, 0.3, 0.1))
-    # a clean damp brush run along the foot while it is wet: the strokes' ends melt
-    # together into mist instead of hanging as separate drips
+    # a pale violet and then a clean damp brush run along the foot while it is wet:
+    # the strokes' ends melt together into mist instead of hanging as separate drips
+    s.brush(size=8 * c, water=0.9, pigment={"French Ultramarine": 0.08,
+                                             "Quinacridone Rose": 0.04})
+    s.curve(_wavy(-0.02, 1.02, 0.435, 0.008, 6.0, 1.1), 0.8, pressure=taper(0.7, 0.5, 0.5))
     s.brush(size=7 * c, water=0.9, pigment={})
-    s.curve(_wavy(1.02, -0.02, 0.465, 0.006, 7.0, 0.4), 0.8, pressure=taper(0.75, 0.6, 0.6))
+    s.curve(_wavy(1.02, -0.02, 0.475, 0.006, 7.0, 0.4), 0.8, pressure=taper(0.75, 0.6, 0.6))
     _blow_dry(s, 8.0)
     s.new_layer()
 
@@ -309,6 +312,10 @@ def _mountains(s: Script, c: float) -> None:
     s.brush(size=6 * c, water=0.85, pigment={"French Ultramarine": 0.3, "Burnt Umber": 0.08,
                                              "Quinacridone Rose": 0.1})
     _slopes(s, near, -0.02, 0.48, 0.52, 7, 0.75, 1.7)
+    # its foot run into mist too, with the pale violet
+    s.brush(size=8 * c, water=0.9, pigment={"French Ultramarine": 0.08,
+                                             "Quinacridone Rose": 0.04})
+    s.curve(_wavy(0.5, -0.02, 0.475, 0.006, 5.0, 2.0), 0.5, pressure=taper(0.7, 0.5, 0.5))
     # the shadow side (right of the summit), a darker mix dropped in wet
     s.brush(size=3 * c, water=0.7, pigment={"French Ultramarine": 0.45, "Burnt Umber": 0.25})
     for x in (0.22, 0.29, 0.36):
