@@ -117,10 +117,10 @@ def _wet(s: Script, c: float, rows: list[float], x0: float = 0.0, x1: float = 1.
 # them into wet paper, so their edges feather.
 Lobe = tuple[float, float, float, float]
 _CLOUDS: tuple[tuple[Lobe, ...], ...] = (
-    ((0.11, 0.185, 0.05, 0.03), (0.18, 0.155, 0.065, 0.055), (0.26, 0.165, 0.055, 0.045),
-     (0.32, 0.19, 0.04, 0.022)),
-    ((0.55, 0.115, 0.05, 0.03), (0.625, 0.085, 0.06, 0.05), (0.7, 0.1, 0.06, 0.045),
-     (0.78, 0.125, 0.045, 0.025)),
+    ((0.1, 0.19, 0.06, 0.035), (0.18, 0.15, 0.08, 0.065), (0.27, 0.165, 0.07, 0.05),
+     (0.35, 0.195, 0.05, 0.025)),
+    ((0.54, 0.12, 0.06, 0.035), (0.625, 0.08, 0.075, 0.06), (0.71, 0.1, 0.07, 0.05),
+     (0.8, 0.13, 0.05, 0.028)),
     ((0.88, 0.26, 0.04, 0.022), (0.93, 0.245, 0.04, 0.03)),
     ((0.42, 0.285, 0.08, 0.016), (0.5, 0.278, 0.05, 0.014)))
 
@@ -349,7 +349,7 @@ def _hills(s: Script, c: float) -> None:
     s.curve([(x, crest(x)) for x in (-0.02 + 1.04 * i / 12 for i in range(13))], 0.8,
             pressure=swell(0.55, 0.85, 2.3), tilt=tilt_const(-20.0, 10.0))
     s.brush(size=6 * c, water=0.9, pigment={"Hansa Yellow": 0.26, "Cerulean Blue": 0.18})
-    _slopes(s, crest, -0.02, 1.02, 0.67, 18, 0.8, 4.1)
+    _slopes(s, crest, -0.02, 1.02, 0.69, 18, 0.8, 4.1)
     s.brush(size=3.5 * c, water=0.7, pigment={"Phthalo Green": 0.3, "Burnt Umber": 0.2,
                                               "French Ultramarine": 0.08})
     for k, x in enumerate((0.08, 0.27, 0.43, 0.7, 0.88)):
@@ -430,8 +430,10 @@ def _far_shore(s: Script, c: float) -> None:
         s.curve(_wavy(a, b, 0.689, 0.0025, 9.0, 3.0 * a), 0.6,
                 pressure=swell(0.3, 0.6, 2.5), tilt=tilt_const(15.0, 5.0))
     for k, (x0, x1, y, thick, dark, trees) in enumerate(_HEADLANDS):
-        land = {"French Ultramarine": 0.15 * dark, "Burnt Umber": 0.12 * dark,
-                "Phthalo Green": 0.09 * dark, "Hansa Yellow": 0.05}
+        # alternately cooler (further) and warmer (lit) headlands
+        land = {"French Ultramarine": (0.17 - 0.05 * (k % 2)) * dark,
+                "Burnt Umber": 0.12 * dark, "Phthalo Green": 0.09 * dark,
+                "Hansa Yellow": 0.04 + 0.08 * (k % 2)}
         s.brush(size=2.4 * c * thick, water=0.7, kind="round3d", pigment=land)
         m = (x0 + x1) / 2
         s.curve([(x0, y + 0.002), (m, y - 0.004 * thick + 0.002 * math.sin(k)),
