@@ -180,8 +180,10 @@ def paint(app: KioskApp) -> None:
     for v in (0.86, 0.92):  # two quick pulls: the tuft runs dry along each
         drag(app, [(0.1 + 0.8 * k / 40, v + 0.012 * math.sin(3 * k / 40))
                    for k in range(41)], 0.35)
-    # clean water dropped into the sky and the green as they turn damp: the water
-    # pushes the settling paint out (backruns, blooms with a dark, ragged front)
+    # clean water dropped into the sky and the green once their shine has gone (damp,
+    # 8 s more: dropped any sooner they are still wet and the water only pales a soft
+    # disc): the water pushes the settling paint out to a dark front (backruns, blooms)
+    settle(app, 8.0)
     p.fresh_mix()
     p.set_water(1.0)
     p.set_size(26.0)
