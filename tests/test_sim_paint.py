@@ -380,6 +380,17 @@ def test_demo_paints_a_landscape_and_books_close(tmp_path: Path,
     # near half: R 153, G 181, B 188)
     lake = img[int(0.70 * 90):int(0.76 * 90), 12:72].reshape(-1, 3).mean(axis=0)
     assert lake[2] > lake[0] + 5 and lake[2] > green[2] + 30 and lake.sum() > 500, lake
+    # issue 21 item 9: the sky is not horizontal bands: laid round clouds left as paper,
+    # it varies across as well as down (rows 0.05-0.3, the std of the column means:
+    # 48.5 here, 23.1 for the banded sky before)
+    level = img.astype(np.int64).sum(axis=2)
+    sky_band = level[int(0.05 * 90):int(0.3 * 90)]
+    assert sky_band.mean(axis=0).std() > 32, sky_band.mean(axis=0).std()
+    # ... and the far shore is broken, not an even ribbon: the darkest value of each
+    # column over rows 0.66-0.70 (the ink trunk's columns left out) varies (std 48.1
+    # here: headlands, tree masses and open water; 26.6 for the ribbon before)
+    shore = np.delete(level[int(0.66 * 90):int(0.70 * 90) + 1], np.s_[88:105], axis=1)
+    assert shore.min(axis=0).std() > 36, shore.min(axis=0).std()
     # the ink tree's trunk, slender: its darkest pixel near (0.8, 0.8)
     assert patch(0.8, 0.8, 2, 2).sum(axis=1).min() < 270
     # brown foreground, over a 7x7 patch, not one pixel: since issue 21 the rows' edges

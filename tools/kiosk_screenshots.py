@@ -4,9 +4,11 @@
 
 It starts its own Xvfb (1920×1080; ``--display :N`` uses a running X server
 instead), opens the kiosk in this process at 1920×1080, and paints as a visitor
-without a tablet would, with the mouse: a sky laid as a wash in zig-zag rows, a
-drop of rose into the wet wash, green hills, a dark stroke, a dry-brush drag
-with a dry brush; it waits for the strokes to dry (at most
+without a tablet would, with the mouse and the kiosk's defaults: a sky of French
+Ultramarine and Cerulean (granulating) laid as a wash in zig-zag rows, a drop of
+rose into the wet wash, green hills each laid as one wash (their edges darken as
+they dry), a dark stroke, a dry-brush drag with a dry brush, clean water dropped
+into the damp sky and hills (blooms); it waits for the strokes to dry (at most
 ``--dry-seconds``), then takes the top, table and brush views, saves the
 painting to the gallery (the screen with its QR code, and the gallery's
 picture), waits for its replay and takes the attract screen replaying it.
@@ -117,28 +119,54 @@ def shot(app: KioskApp, out: Path, name: str) -> None:
     sys.stderr.write(f"wrote {path}\n")
 
 
+def dab(app: KioskApp, u: float, v: float, r: float, seconds: float = 0.5) -> None:
+    """A small circling touch at (u, v), ``r`` across: how a visitor drops paint or
+    water into a wash with the mouse."""
+    drag(app, [(u + r * math.cos(1.3 * k), v + 0.75 * r * math.sin(1.3 * k))
+               for k in range(10)], seconds)
+
+
+def hill(app: KioskApp, u0: float, u1: float, top: float, foot: float, amp: float,
+         seconds: float) -> None:
+    """A hill laid as one wash: its crest, then back and forth down to its foot, each
+    row into the last while it is wet (one shape whose edge darkens as it dries, not a
+    line)."""
+    rows = 4  # rows closer than the brush is wide: they run together
+    pts: Points = []
+    for r in range(rows):
+        v = top + (foot - top) * r / (rows - 1)
+        row = wave(u0, u1, v, amp * (1.0 - 0.6 * r / (rows - 1)), n=40)
+        pts += row if r % 2 == 0 else row[::-1]
+    drag(app, pts, seconds)
+
+
 def paint(app: KioskApp) -> None:
-    """The visitor's painting (see the module docstring)."""
+    """The visitor's painting (see the module docstring), with the kiosk's defaults
+    (water, strength, the round brush) except where a visitor would move a slider."""
     p = app.panel
     settle(app, 1.0)
-    # the sky: a big, wet brush of blue laid in zig-zag rows
+    # the sky: a big, wet brush of French Ultramarine and Cerulean (both granulate)
+    # laid in zig-zag rows
     p.set_size(72.0)
     p.set_water(1.0)
+    p.tap_pigment("French Ultramarine")
+    p.toggle_mixing()
     p.tap_pigment("Cerulean Blue")
+    p.toggle_mixing()
     drag(app, zigzag_rows(0.07, 0.33, 6), 8.0)  # unhurried: a slow brush presses
-    # a drop of rose into the wet wash: it blooms there
+    # a drop of rose into the wet wash: it feathers out
     p.set_size(30.0)
     p.tap_pigment("Quinacridone Rose")
-    for u, v in ((0.3, 0.17), (0.62, 0.24), (0.82, 0.13)):
-        drag(app, [(u + 0.004 * k, v + 0.003 * math.sin(k)) for k in range(8)], 0.5)
-    # hills: a green wave and a warm one below it
-    p.set_size(34.0)
+    dab(app, 0.3, 0.2, 0.01)
+    # hills: a green wash and a warm one below it, each laid as one shape
+    p.set_water(0.8)  # the slider back at the kiosk's default
+    p.set_size(40.0)
     p.tap_pigment("Hookers Green")
-    drag(app, wave(0.04, 0.96, 0.56, 0.05), 2.2)
+    hill(app, 0.04, 0.96, 0.5, 0.58, 0.05, 4.5)
     p.toggle_mixing()
     p.tap_pigment("Hansa Yellow")  # green + yellow: a sap green
     p.toggle_mixing()
-    drag(app, wave(0.08, 0.92, 0.7, -0.04), 2.0)
+    hill(app, 0.08, 0.92, 0.67, 0.73, -0.035, 4.0)
     # a dark stroke: a tree, in ink
     p.set_size(9.0)
     p.tap_pigment("Sumi Ink")
@@ -149,9 +177,18 @@ def paint(app: KioskApp) -> None:
     p.set_size(30.0)
     p.set_water(0.0)
     p.tap_pigment("Burnt Umber")
-    for v in (0.84, 0.9):  # two quick pulls: the tuft runs dry along each
+    for v in (0.86, 0.92):  # two quick pulls: the tuft runs dry along each
         drag(app, [(0.1 + 0.8 * k / 40, v + 0.012 * math.sin(3 * k / 40))
                    for k in range(41)], 0.35)
+    # clean water dropped into the sky and the green once their shine has gone (damp,
+    # 8 s more: dropped any sooner they are still wet and the water only pales a soft
+    # disc): the water pushes the settling paint out to a dark front (backruns, blooms)
+    settle(app, 8.0)
+    p.fresh_mix()
+    p.set_water(1.0)
+    p.set_size(26.0)
+    for u, v in ((0.55, 0.17), (0.82, 0.25), (0.3, 0.55)):
+        dab(app, u, v, 0.008, 0.4)
 
 
 #: The take-home page as a phone (390 px wide, the README's phone) and a laptop show it.

@@ -4,20 +4,22 @@
 (:mod:`station.sim.script`), a session that uses what the canvas model does
 (issue 10 item 9: the demo beside the effects sheet):
 
-1. **wet-in-wet sky** — a clear-water wash, then French Ultramarine and
-   Cerulean Blue (both granulating) graded from the top, and a warm glow of
-   Quinacridone Rose and Hansa Yellow dropped in at the horizon; clouds are
-   **lifted** with a crumpled tissue while the wash is wet;
-2. **distant mountains** — a violet mix laid **wet-on-dry** on the dried sky
-   (hard, **dark edges**), fading into mist;
-3. **hills** — clear water first, then a pale yellow-green laid along the ridge
-   and graded out to water at the foot, greens and umber dropped in **wet-in-wet**
-   near the crest, warm light touched into the slopes; a nearer slope on a new layer,
+1. **wet-in-wet sky** — clear water over the paper, then French Ultramarine and
+   Cerulean Blue (both granulating) graded from the top, laid round clouds left as
+   paper (their edges feather into the wet), a warm glow dropped in at the horizon
+   and a grey along the clouds' bases while it is wet, the crowns blotted with a
+   tissue;
+2. **distant mountains** — two ranges, each body pulled down its slopes into wetted
+   paper; the crests laid into **damp** paper (soft), on dry paper (**hard, dark
+   edges**) and into wet paper (**lost**), the foot run into mist;
+3. **hills** — clear water under the crest, a pale yellow-green along it pulled down
+   the slopes into the water, greens and umber dropped in **wet-in-wet** near the
+   crest, warm light touched into the slopes; a nearer knoll on a new layer,
    wet-on-dry, its crest a hard edge and its foot lost in water;
 4. **lake** — clear water over all of it, then a pale blue at the far shore and a
    deeper blue down to the near bank laid into it: one graded wash, no white steps
-   where a front would stop at dry paper; dried, a distant shore of short strokes
-   with clumps of trees over its top edge, and quick **dry-brush** ripples of the
+   where a front would stop at dry paper; dried, a broken far shore of headlands of
+   uneven length and value with tree masses, and quick **dry-brush** ripples of the
    deformable tuft;
 5. **foreground** — a near bank rising to the right (the picture's diagonal), laid
    over the lake's dried edge: wet paper, warm ochre in varied strokes along it,
@@ -33,14 +35,17 @@ The committed ``station/data/demo/landscape.jsonl`` is exactly
 
 from __future__ import annotations
 
+import itertools
 import math
 import sys
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from station.sim.script import Script, swell, taper, tilt_const, tilt_sweep
 
 DEMO_WIDTH, DEMO_HEIGHT = 400, 300
 DEMO_SEED = 11
+DAMP_WAIT = 2.5  # s: clear water soaked in until damp (no shine), not dry
 DEMO_FILE = Path(__file__).resolve().parent.parent / "data" / "demo" / "landscape.jsonl"
 
 
@@ -52,24 +57,6 @@ def _ridge(x: float, base: float, amp: float, phase: float, waves: float,
     if sharp:
         v += sharp * (abs(math.sin(2 * math.pi * (3.1 * waves * x + 0.3 * phase))) - 0.5)
     return base - amp * v
-
-
-def _fill(s: Script, base: float, amp: float, phase: float, waves: float, bottom: float,
-          rows: int, duration: float, lean: float, sharp: float = 0.0,
-          fade: float = 0.0) -> None:
-    """A hill: a stroke along its ridge, then back-and-forth strokes below it, pressed
-    more lightly towards the bottom by ``fade`` (a wash graded into mist)."""
-    xs = [i / 12 for i in range(13)]
-    ridge = [(x, _ridge(x, base, amp, phase, waves, sharp)) for x in xs]
-    s.curve(ridge, duration, pressure=taper(0.85, 0.5, 0.5), tilt=tilt_const(lean, 10.0))
-    for r in range(1, rows + 1):
-        f = r / rows
-        pts = [(x, _ridge(x, base, amp, phase, waves, sharp) + f * (bottom - base + amp) * 0.9)
-               for x in xs]
-        if r % 2 == 0:
-            pts.reverse()
-        p = 0.9 * (1.0 - fade * f)
-        s.curve(pts, duration, pressure=taper(p, 0.6 * p, 0.6 * p), tilt=tilt_const(-lean, 8.0))
 
 
 def _tree(s: Script, cells: float, foot: tuple[float, float], height: float) -> None:
@@ -125,34 +112,265 @@ def _wet(s: Script, c: float, rows: list[float], x0: float = 0.0, x1: float = 1.
                tilt=tilt_const(15.0, 10.0))
 
 
+# Clouds left as paper in the sky, each a few lobes: centre (x, y) and half-width,
+# half-height (normalised), a flat-ish base and a bumpy crown; the blue is laid round
+# them into wet paper, so their edges feather.
+Lobe = tuple[float, float, float, float]
+_CLOUDS: tuple[tuple[Lobe, ...], ...] = (
+    ((0.1, 0.19, 0.06, 0.035), (0.18, 0.15, 0.08, 0.065), (0.27, 0.165, 0.07, 0.05),
+     (0.35, 0.195, 0.05, 0.025)),
+    ((0.54, 0.12, 0.06, 0.035), (0.625, 0.08, 0.075, 0.06), (0.71, 0.1, 0.07, 0.05),
+     (0.8, 0.13, 0.05, 0.028)),
+    ((0.88, 0.26, 0.04, 0.022), (0.93, 0.245, 0.04, 0.03)),
+    ((0.42, 0.285, 0.08, 0.016), (0.5, 0.278, 0.05, 0.014)))
+
+
+def _around_clouds(y: float, x0: float, x1: float, margin: float
+                   ) -> list[tuple[float, float]]:
+    """The spans of the row ``y`` from ``x0`` to ``x1`` that miss every cloud's lobes
+    (grown by ``margin``, the brush's reach): where a painter's wash goes round them."""
+    spans = [(x0, x1)]
+    for cx, cy, rx, ry in (lobe for cloud in _CLOUDS for lobe in cloud):
+        dy = (y - cy) / (ry + margin)
+        if abs(dy) >= 1.0:
+            continue
+        half = (rx + margin) * math.sqrt(1.0 - dy * dy)
+        cut = []
+        for a, b in spans:
+            if b <= cx - half or a >= cx + half:
+                cut.append((a, b))
+                continue
+            if a < cx - half:
+                cut.append((a, cx - half))
+            if b > cx + half:
+                cut.append((cx + half, b))
+        spans = cut
+    return [(a, b) for a, b in spans if b - a > 0.03]
+
+
+def _sky(s: Script, c: float) -> None:
+    """The sky, wet-in-wet: the paper wetted with clear water, a graded wash of French
+    Ultramarine into Cerulean laid from the top in slanting strokes that go round the
+    clouds (left as paper: their edges feather into the wet), their bumpy crowns cut
+    round with a smaller brush, a pale warm glow dropped in at the horizon, a grey of
+    Ultramarine and Burnt Umber dropped along the clouds' bases while it is wet, the
+    crowns softened by a tissue; dried."""
+    s.brush(size=16 * c, water=1.0, pigment={})
+    for i in range(6):
+        y = 0.03 + i * 0.08
+        left, right = (0.0, y), (1.0, y + 0.015)
+        s.line(*((left, right) if i % 2 == 0 else (right, left)), 0.5,
+               pressure=taper(0.95, 0.8, 0.8),
+               tilt=tilt_const(20.0, 15.0))
+    # the graded wash: strong at the top, weaker row by row (the brush is recharged
+    # with paler paint), each row slanting a little and broken by the clouds
+    rows = ((0.02, {"French Ultramarine": 0.75, "Cerulean Blue": 0.25}, 0.95),
+            (0.075, {"French Ultramarine": 0.55, "Cerulean Blue": 0.3}, 0.85),
+            (0.13, {"French Ultramarine": 0.38, "Cerulean Blue": 0.35}, 0.75),
+            (0.185, {"French Ultramarine": 0.24, "Cerulean Blue": 0.35}, 0.65),
+            (0.24, {"French Ultramarine": 0.1, "Cerulean Blue": 0.3}, 0.55),
+            (0.3, {"Cerulean Blue": 0.18}, 0.45))
+    for k, (y, paint, p) in enumerate(rows):
+        s.brush(size=6 * c, water=0.85, pigment=paint)
+        spans = _around_clouds(y, -0.02, 1.02, 0.015)
+        if k % 2:
+            spans = [(b, a) for a, b in reversed(spans)]
+        for j, (a, b) in enumerate(spans):
+            slope = 0.012 * math.sin(2.1 * k + 1.3 * j)
+            s.curve([(a, y - slope), ((a + b) / 2, y + 0.006 * math.sin(3.0 * k + j)),
+                     (b, y + slope)], 0.15 + 0.35 * abs(b - a),
+                    pressure=swell(0.75 * p, p, 0.7 + 0.3 * (j % 2)),
+                    tilt=tilt_sweep((25.0, 10.0), (-10.0, 20.0)))
+    # the crowns cut round, lobe by lobe, with a smaller brush of the row's blue
+    s.brush(size=3 * c, water=0.85, pigment={"French Ultramarine": 0.35, "Cerulean Blue": 0.3})
+    for cloud in _CLOUDS[:3]:
+        for cx, cy, rx, ry in cloud:
+            s.arc((cx, cy), (rx + 0.018, ry + 0.03), 200.0, 340.0, 0.3,
+                  pressure=swell(0.35, 0.6, 1.0))
+    # a pale warm glow at the horizon, dropped into the wet blue: it feathers upwards
+    s.brush(size=6 * c, water=0.85, pigment={"Quinacridone Rose": 0.12, "Hansa Yellow": 0.2})
+    s.curve([(1.0, 0.385), (0.7, 0.37), (0.4, 0.395), (0.0, 0.38)], 0.9,
+            pressure=swell(0.3, 0.6, 1.5))
+    # cloud shadows: a soft grey dropped into the wet along each cloud's base
+    s.brush(size=3 * c, water=0.8, pigment={"French Ultramarine": 0.2, "Burnt Umber": 0.12,
+                                             "Quinacridone Rose": 0.04})
+    for cloud in _CLOUDS:
+        (xl, _, rl, _), (xr, _, rr, _) = cloud[0], cloud[-1]
+        base = max(cy + 0.6 * ry for _, cy, _, ry in cloud)
+        s.curve([(xl - 0.6 * rl, base - 0.006), (xl, base), (xr, base + 0.004),
+                 (xr + 0.5 * rr, base - 0.01)], 0.5,
+                pressure=swell(0.2, 0.45, 1.0))
+    s.wait(1.0)
+    # the crowns blotted with a crumpled tissue while the wash is still wet
+    for k, cloud in enumerate(_CLOUDS[:3]):
+        for cx, cy, _rx, ry in cloud:
+            s.cmd("tissue", kind="crepe", scale=16, size=round(2.2 * ry * 100 * c, 2),
+                  absorb=0.5, seed=k, x=cx, y=round(cy - 0.3 * ry, 4))
+    s.wait(1.5)
+    _blow_dry(s, 8.0)
+    s.new_layer()
+
+
+def _slopes(s: Script, top: Callable[[float], float], x0: float, x1: float, foot: float,
+            n: int, p: float, seed: float) -> None:
+    """A range's body in strokes pulled down its slopes from the crest ``top(x)`` (as a
+    painter shapes a mountain: not in rows), each a little shorter or longer, lighter
+    towards the foot."""
+    for k in range(n):
+        u = (k + 0.5 + 0.35 * math.sin(seed + 2.7 * k)) / n
+        x = x0 + (x1 - x0) * u
+        y = top(x)
+        lean = 0.025 * math.sin(seed + 1.9 * k)
+        length = (foot - y) * (0.8 + 0.2 * math.sin(seed + 3.3 * k))
+        s.curve([(x, y + 0.008), (x + 0.4 * lean, y + 0.45 * length),
+                 (x + lean, y + length)], 0.25 + 0.2 * length,
+                pressure=taper(p, 0.8 * p, 0.3 * p, attack=0.1, release=0.6),
+                tilt=tilt_const(10.0 * math.sin(seed + k), 15.0))
+
+
+def _wet_under(s: Script, c: float, top: Callable[[float], float], x0: float, x1: float,
+               below: float, foot: float, size: float = 7.0, step: float = 0.055,
+               duration: float = 0.0) -> None:
+    """Clear water over a range's body, from ``below`` under its crest ``top(x)`` down to
+    ``foot``, in strokes following the crest: the paint pulled down next runs together
+    and fades into it, while the crest itself stays on dry paper."""
+    s.brush(size=size * c, water=1.0, pigment={})
+    y, k = below, 0
+    while True:
+        pts = [(x, min(top(x) + y, foot)) for x in (x0 + (x1 - x0) * i / 8 for i in range(9))]
+        s.curve(pts if k % 2 == 0 else pts[::-1], duration or 0.15 + 0.3 * (x1 - x0),
+                pressure=taper(0.85, 0.7, 0.7))
+        if all(py >= foot for _, py in pts):
+            break
+        y += step
+        k += 1
+
+
+def _mountains(s: Script, c: float) -> None:
+    """Distant mountains on the dried sky, in two ranges. The far range, a pale cool
+    violet: the paper under its crest wetted first, its crest laid wet-on-dry on the left
+    (a hard edge, darkened as it dries) and into clear water on the right (a lost edge),
+    its body pulled down the slopes into the wet, its foot lost into water (mist), a
+    warmer violet dropped in. Dried, a nearer, darker peak on the left: the same, its
+    crest hard, its shadow side dropped in wet."""
+
+    def far(x: float) -> float:
+        return _ridge(x, 0.36, 0.06, 0.1, 1.3, 0.45)
+
+    # clear water over the whole range and a little above its crest, left to soak in
+    # until damp: the crest laid next spreads a little (a soft, distant edge), except on
+    # the left summits, wetted after, under the crest only (hard edges there)
+    _wet_under(s, c, far, -0.02, 0.47, -0.025, 0.5, 5.0, 0.04, 0.5)
+
+    def lost(x: float) -> float:  # under the crest, rising above it to the right
+        return far(x) + 0.065 - 0.11 * min(max((x - 0.7) / 0.15, 0.0), 1.0)
+
+    _wet_under(s, c, lost, 0.45, 1.02, 0.0, 0.5)
+    s.wait(DAMP_WAIT)
+    s.brush(size=4 * c, water=0.75, pigment={"French Ultramarine": 0.3,
+                                             "Quinacridone Rose": 0.14, "Burnt Umber": 0.05,
+                                             "Cerulean Blue": 0.06})
+    for a, b in ((-0.02, 0.3), (0.28, 0.6), (0.58, 1.02)):  # the crest, in three strokes
+        s.curve([(x, far(x)) for x in (a + (b - a) * i / 6 for i in range(7))], 0.5,
+                pressure=swell(0.55, 0.85, 1.2), tilt=tilt_const(15.0, 10.0))
+    s.brush(size=7 * c, water=0.85, pigment={"French Ultramarine": 0.22,
+                                             "Quinacridone Rose": 0.1, "Burnt Umber": 0.04,
+                                             "Cerulean Blue": 0.05})
+    _slopes(s, far, -0.02, 1.02, 0.47, 14, 0.8, 0.3)
+    # a warmer violet dropped into the far range while it is wet
+    s.brush(size=3.5 * c, water=0.8, pigment={"Quinacridone Rose": 0.16,
+                                               "French Ultramarine": 0.1})
+    for x in (0.18, 0.47, 0.83):
+        s.curve([(x - 0.03, far(x) + 0.03), (x, far(x) + 0.05), (x + 0.02, far(x) + 0.08)],
+                0.3, pressure=taper(0.5, 0.3, 0.1))
+    # a pale violet and then a clean damp brush run along the foot while it is wet:
+    # the strokes' ends melt together into mist instead of hanging as separate drips
+    s.brush(size=8 * c, water=0.9, pigment={"French Ultramarine": 0.08,
+                                             "Quinacridone Rose": 0.04})
+    s.curve(_wavy(-0.02, 1.02, 0.435, 0.008, 6.0, 1.1), 0.8, pressure=taper(0.7, 0.5, 0.5))
+    s.brush(size=7 * c, water=0.9, pigment={})
+    s.curve(_wavy(1.02, -0.02, 0.475, 0.006, 7.0, 0.4), 0.8, pressure=taper(0.75, 0.6, 0.6))
+    _blow_dry(s, 8.0)
+    s.new_layer()
+
+    # the nearer peak on the left, darker: the same order
+    peak = ((-0.02, 0.415), (0.07, 0.385), (0.15, 0.35), (0.2, 0.335), (0.24, 0.35),
+            (0.3, 0.385), (0.37, 0.42), (0.45, 0.455), (0.52, 0.49))
+
+    def near(x: float) -> float:
+        for (xa, ya), (xb, yb) in itertools.pairwise(peak):
+            if x <= xb:
+                return ya + (yb - ya) * (x - xa) / (xb - xa)
+        return peak[-1][1]
+
+    _wet_under(s, c, near, -0.02, 0.5, -0.02, 0.52, 5.0, 0.04, 0.5)
+    s.wait(DAMP_WAIT)
+    s.brush(size=3.5 * c, water=0.7, pigment={"French Ultramarine": 0.4, "Burnt Umber": 0.12,
+                                               "Quinacridone Rose": 0.12})
+    s.curve(list(peak[:6]), 0.5, pressure=taper(0.8, 0.5, 0.5), tilt=tilt_const(-15.0, 10.0))
+    s.curve(list(peak[4:]), 0.5, pressure=taper(0.7, 0.5, 0.2), tilt=tilt_const(15.0, 10.0))
+    s.brush(size=6 * c, water=0.85, pigment={"French Ultramarine": 0.3, "Burnt Umber": 0.08,
+                                             "Quinacridone Rose": 0.1})
+    _slopes(s, near, -0.02, 0.48, 0.52, 7, 0.75, 1.7)
+    # its foot run into mist too, with the pale violet
+    s.brush(size=8 * c, water=0.9, pigment={"French Ultramarine": 0.08,
+                                             "Quinacridone Rose": 0.04})
+    s.curve(_wavy(0.5, -0.02, 0.475, 0.006, 5.0, 2.0), 0.5, pressure=taper(0.7, 0.5, 0.5))
+    # the shadow side (right of the summit), a darker mix dropped in wet
+    s.brush(size=3 * c, water=0.7, pigment={"French Ultramarine": 0.45, "Burnt Umber": 0.25})
+    for x in (0.22, 0.29, 0.36):
+        s.curve([(x, near(x) + 0.012), (x + 0.02, near(x) + 0.04), (x + 0.03, near(x) + 0.08)],
+                0.3, pressure=taper(0.55, 0.3, 0.1))
+    # a few crags near the summit, dragged with the deformable round nearly dry once
+    # the crest has dried a little: broken hard edges
+    s.wait(DAMP_WAIT)
+    s.brush(size=2.5 * c, water=0.35, pigment={"French Ultramarine": 0.5, "Burnt Umber": 0.3},
+            kind="round3d")
+    for x, dx in ((0.17, -0.03), (0.205, 0.025), (0.25, 0.035)):
+        s.line((x, near(x) + 0.004), (x + dx, near(x) + 0.045), 0.2, pressure=0.45,
+               tilt=(25.0, 0.0))
+    _blow_dry(s, 8.0)
+    s.new_layer()
+
+
 def _hills(s: Script, c: float) -> None:
-    """Far hills into damp paper: a pale yellow-green laid along the ridge and graded out
-    to water at the foot, greens and umber dropped in wet near the crest, warm light
-    touched into the slopes; then a nearer slope on the left, wet-on-dry, its crest a hard
-    edge and its foot lost in water."""
-    _wet(s, c, [0.61, 0.645, 0.675], size=6.0)  # below the crest: it stays a crisp edge
-    s.brush(size=6 * c, water=0.9, pigment={"Hansa Yellow": 0.3, "Cerulean Blue": 0.22})
-    _fill(s, 0.54, 0.035, 0.55, 0.9, 0.65, 3, 0.7, -20.0, fade=0.6)
+    """Far hills into damp paper: clear water under the crest, a pale yellow-green laid
+    along the crest and pulled down the slopes into it (fading out at the foot), greens
+    and umber dropped in wet near the crest, warm light touched into the slopes; then a
+    nearer knoll on the left, wet-on-dry, its crest a hard edge and its foot lost in
+    water."""
+    def crest(x: float) -> float:
+        return _ridge(x, 0.54, 0.045, 0.55, 1.2, 0.2)
+
+    # clear water under the crest (it stays a crisp edge), then the green laid along the
+    # crest and pulled down the slopes into it, fading out at the foot
+    _wet_under(s, c, crest, -0.02, 1.02, 0.045, 0.68)
+    s.brush(size=4 * c, water=0.85, pigment={"Hansa Yellow": 0.3, "Cerulean Blue": 0.22})
+    s.curve([(x, crest(x)) for x in (-0.02 + 1.04 * i / 12 for i in range(13))], 0.8,
+            pressure=swell(0.55, 0.85, 2.3), tilt=tilt_const(-20.0, 10.0))
+    s.brush(size=6 * c, water=0.9, pigment={"Hansa Yellow": 0.26, "Cerulean Blue": 0.18})
+    _slopes(s, crest, -0.02, 1.02, 0.69, 18, 0.8, 4.1)
     s.brush(size=3.5 * c, water=0.7, pigment={"Phthalo Green": 0.3, "Burnt Umber": 0.2,
                                               "French Ultramarine": 0.08})
     for k, x in enumerate((0.08, 0.27, 0.43, 0.7, 0.88)):
-        y = _ridge(x, 0.54, 0.035, 0.55, 0.9) + 0.02
+        y = crest(x) + 0.02
         s.curve([(x - 0.05, y + 0.004), (x, y - 0.002), (x + 0.04 + 0.01 * (k % 2), y + 0.01)],
                 0.3, pressure=taper(0.55 + 0.1 * (k % 3), 0.2, 0.1))
     s.brush(size=4 * c, water=0.8, pigment={"Hansa Yellow": 0.22, "Quinacridone Rose": 0.03})
     for x, y in ((0.2, 0.615), (0.55, 0.6), (0.8, 0.62)):
         s.curve([(x - 0.06, y), (x, y - 0.006), (x + 0.06, y + 0.004)], 0.35,
                 pressure=swell(0.3, 0.6, 1.0))
-    _blow_dry(s, 12.0)
+    _blow_dry(s, 9.0)
     s.new_layer()
-    s.brush(size=5 * c, water=0.85, pigment={"Phthalo Green": 0.16, "Hansa Yellow": 0.2,
-                                              "Burnt Umber": 0.08})
-    pts = [(x / 10 * 0.48, 0.6 + 0.02 * math.sin(4.0 * x / 10 + 1.0) - 0.02 * x / 10)
-           for x in range(11)]
+    s.brush(size=5 * c, water=0.85, pigment={"Phthalo Green": 0.12, "Hansa Yellow": 0.2,
+                                              "Burnt Umber": 0.06})
+    # a rounded knoll, higher on the left, running out into the lake's far shore
+    pts = [(-0.02 + 0.46 * u, 0.64 - 0.045 * math.sin(math.pi * (0.15 + 0.85 * u)) ** 1.5
+            + 0.004 * math.sin(17.0 * u)) for u in (i / 10 for i in range(11))]
     s.curve(pts, 0.8, pressure=taper(0.75, 0.3, 0.2), tilt=tilt_const(-15.0, 10.0))
     s.brush(size=6 * c, water=1.0, pigment={"Hansa Yellow": 0.05})
     s.curve([(p[0], p[1] + 0.03) for p in pts[::-1]], 0.8, pressure=taper(0.7, 0.4, 0.3))
-    _blow_dry(s, 10.0)
+    _blow_dry(s, 8.0)
     s.new_layer()
 
 
@@ -177,32 +395,67 @@ def _lake(s: Script, c: float) -> None:
                for x in (i / 8 for i in range(9))]
         s.curve(pts[::-1] if k % 2 == 0 else pts, 0.8, pressure=swell(0.55, 0.9, 2.0))
     _blow_dry(s, 10.0)
-    # the far shore: a strip of distant land laid wet-on-dry along the lake's top, over
-    # the hills' foot, in short strokes of uneven weight with clumps of trees rising
-    # from it (cool and light: it is far away)
-    s.brush(size=1.8 * c, water=0.6, pigment={"French Ultramarine": 0.18, "Burnt Umber": 0.2,
-                                               "Phthalo Green": 0.12})
-    x = 0.0
-    k = 0
-    while x < 1.0:
-        w = 0.07 + 0.05 * abs(math.sin(3.7 * k))
-        y = 0.684 + 0.003 * math.sin(2.3 * k)
-        s.line((x, y), (min(x + w, 1.0), y + 0.002 * math.cos(k)), 0.25,
-               pressure=taper(0.3 + 0.3 * abs(math.sin(1.9 * k)), 0.5, 0.5))
-        if k % 3 != 1:  # a clump of trees
-            tx = x + 0.3 * w
-            h = 0.012 + 0.012 * abs(math.sin(5.1 * k))
-            s.curve([(tx, y), (tx + 0.004, y - 0.6 * h), (tx + 0.012, y - h),
-                     (tx + 0.02, y - 0.4 * h), (tx + 0.026, y)], 0.3,
-                    pressure=swell(0.35, 0.6, 1.0))
-        x += w - 0.01
-        k += 1
+    _far_shore(s, c)
     s.brush(size=4 * c, water=0.15, pigment={"French Ultramarine": 0.45,
                                               "Cerulean Blue": 0.2}, kind="round3d")
     for x0, x1, y in ((0.1, 0.32, 0.745), (0.55, 0.8, 0.76), (0.38, 0.52, 0.73)):
         s.line((x0, y), (x1, y + 0.003), 0.14, pressure=0.45, tilt=(30.0, 0.0))
     _blow_dry(s, 6.0)
     s.new_layer()
+
+
+# The far shore's headlands: from x0 to x1 at the water line y (normalised), how thick
+# (x the brush), how dark (the pigment's share) and the tree masses on it (x, width,
+# height).
+_HEADLANDS = ((-0.02, 0.23, 0.686, 1.0, 1.0, ((0.02, 0.05, 0.035), (0.08, 0.06, 0.05),
+                                              (0.15, 0.05, 0.03))),
+              (0.27, 0.38, 0.689, 0.6, 0.5, ((0.33, 0.03, 0.012),)),
+              (0.42, 0.68, 0.685, 0.8, 0.85, ((0.5, 0.04, 0.02), (0.56, 0.05, 0.045),
+                                               (0.62, 0.04, 0.03))),
+              (0.72, 0.78, 0.69, 0.5, 0.6, ((0.75, 0.025, 0.015),)),
+              (0.84, 1.02, 0.687, 0.9, 1.0, ((0.86, 0.04, 0.028), (0.92, 0.06, 0.04),
+                                              (0.98, 0.04, 0.025))))
+
+
+def _far_shore(s: Script, c: float) -> None:
+    """The far shore on the dried lake, broken and varied: first a pale low bank along
+    the whole water line (it covers the lake's dried top edge), then headlands of uneven
+    length, thickness and value, each laid with the deformable round pressed in the
+    middle and lifted towards its tips (tapering spits), tree masses rising from them in
+    bumps of uneven width and height, a darker mix dropped into their feet while wet
+    (it feathers up into them). Cool and light: it is far away."""
+    s.brush(size=1.6 * c, water=0.65, pigment={"French Ultramarine": 0.08, "Burnt Umber": 0.05,
+                                               "Hansa Yellow": 0.05, "Phthalo Green": 0.03})
+    for a, b in ((-0.02, 0.45), (0.4, 1.02)):
+        s.curve(_wavy(a, b, 0.689, 0.0025, 9.0, 3.0 * a), 0.6,
+                pressure=swell(0.3, 0.6, 2.5), tilt=tilt_const(15.0, 5.0))
+    for k, (x0, x1, y, thick, dark, trees) in enumerate(_HEADLANDS):
+        # alternately cooler (further) and warmer (lit) headlands
+        land = {"French Ultramarine": (0.17 - 0.05 * (k % 2)) * dark,
+                "Burnt Umber": 0.12 * dark, "Phthalo Green": 0.09 * dark,
+                "Hansa Yellow": 0.04 + 0.08 * (k % 2)}
+        s.brush(size=2.4 * c * thick, water=0.7, kind="round3d", pigment=land)
+        m = (x0 + x1) / 2
+        s.curve([(x0, y + 0.002), (m, y - 0.004 * thick + 0.002 * math.sin(k)),
+                 (x1, y + 0.003)], 0.2 + 0.6 * (x1 - x0),
+                pressure=taper(0.55 + 0.2 * thick, 0.15, 0.1, attack=0.3, release=0.35),
+                tilt=tilt_const(20.0, 5.0))
+        for j, (tx, w, h) in enumerate(trees):
+            # a mass of foliage: the brush about as wide as the trees, pushed up from
+            # the shore and lifted, then a smaller crown beside it
+            s.brush(size=round(0.75 * w * 100 * c, 2), water=0.7, pigment=land)
+            s.curve([(tx, y - 0.003), (tx + 0.002, y - 0.5 * h), (tx - 0.001, y - 0.75 * h)],
+                    0.25, pressure=taper(0.7, 0.5, 0.2, release=0.5))
+            s.brush(size=round(0.45 * w * 100 * c, 2), water=0.7, pigment=land)
+            side = 0.3 * w if j % 2 else -0.3 * w
+            s.curve([(tx + side, y - 0.003), (tx + 1.1 * side, y - 0.5 * h)], 0.2,
+                    pressure=taper(0.6, 0.5, 0.2, release=0.5))
+        if dark > 0.75:  # a darker foot dropped in wet: it feathers up into the trees
+            s.brush(size=1.5 * c, water=0.7, pigment={"French Ultramarine": 0.25,
+                                                       "Burnt Umber": 0.25,
+                                                       "Phthalo Green": 0.1})
+            s.line((x0 + 0.15 * (x1 - x0), y - 0.004), (x1 - 0.2 * (x1 - x0), y - 0.002),
+                   0.3, pressure=swell(0.3, 0.6, 1.5))
 
 
 def _foreground(s: Script, c: float) -> None:
@@ -270,50 +523,18 @@ def _ink(s: Script, c: float) -> None:
               pressure=taper(0.6, 0.1, 0.2))
 
 
-def landscape(width: int = DEMO_WIDTH, height: int = DEMO_HEIGHT) -> Script:
-    """The demo session (see the module docstring)."""
+def landscape(width: int = DEMO_WIDTH, height: int = DEMO_HEIGHT,
+              parts: Sequence[str] | None = None) -> Script:
+    """The demo session (see the module docstring); ``parts`` paints only the named
+    stages in order (``sky``, ``mountains``, ``hills``, ``lake``, ``foreground``,
+    ``ink``), for working on one."""
     s = Script(width, height, profile="watercolor", seed=DEMO_SEED, device="demo-0",
                rate_hz=60.0)
     c = width / 100.0  # brush sizes below are in % of the canvas width
-
-    # 1. Sky: clear water, a graded wet-in-wet wash, a warm glow at the horizon, and
-    #    clouds lifted with a tissue while it is wet.
-    s.brush(size=16 * c, water=1.0, pigment={})
-    for i in range(6):
-        y = 0.04 + i * 0.08
-        s.line((0.0, y), (1.0, y + 0.01), 0.55, pressure=taper(0.95, 0.8, 0.8),
-               tilt=tilt_const(20.0, 15.0))
-    s.brush(size=10 * c, water=0.5, pigment={"French Ultramarine": 0.8, "Cerulean Blue": 0.3})
-    s.curve([(0.0, 0.03), (0.3, 0.05), (0.6, 0.02), (1.0, 0.05)], 0.6, pressure=taper(0.95))
-    s.brush(size=10 * c, water=0.6, pigment={"Cerulean Blue": 0.7})
-    for i in range(3):
-        y = 0.1 + i * 0.065
-        s.curve([(0.0, y + 0.02), (0.3, y), (0.6, y + 0.03), (1.0, y)], 0.6,
-                pressure=swell(0.4 - 0.08 * i, 0.9 - 0.15 * i, 1.3 + 0.4 * i),
-                tilt=tilt_sweep((25.0, 10.0), (-10.0, 20.0)))
-    s.brush(size=8 * c, water=0.6, pigment={"Quinacridone Rose": 0.35, "Hansa Yellow": 0.25})
-    for y in (0.33, 0.38):
-        s.curve([(0.0, y), (0.35, y + 0.01), (0.7, y - 0.01), (1.0, y)], 0.6,
-                pressure=taper(0.7))
-    for k, (x, y) in enumerate(((0.2, 0.14), (0.27, 0.17), (0.62, 0.1), (0.7, 0.13),
-                                (0.77, 0.11))):
-        s.cmd("tissue", kind="crepe", scale=8, size=14 * c, absorb=1.0, seed=k, x=x, y=y)
-    _blow_dry(s, 12.0)
-    s.new_layer()
-
-    # 2. Distant mountains, wet-on-dry, graded into mist. (Clean water touched into the
-    #    half-dry wash made two blooms that read as rings, not a painter's backruns.)
-    # cool and lighter than the near ground: they are far
-    s.brush(size=6 * c, water=0.7, pigment={"French Ultramarine": 0.4, "Cerulean Blue": 0.08,
-                                             "Quinacridone Rose": 0.17, "Burnt Umber": 0.08})
-    _fill(s, 0.38, 0.07, 0.1, 1.3, 0.5, 5, 0.8, 15.0, sharp=0.5, fade=0.9)
-    _blow_dry(s, 14.0)
-    s.new_layer()
-
-    _hills(s, c)
-    _lake(s, c)
-    _foreground(s, c)
-    _ink(s, c)
+    stages = {"sky": _sky, "mountains": _mountains, "hills": _hills, "lake": _lake,
+              "foreground": _foreground, "ink": _ink}
+    for name in (parts if parts is not None else stages):
+        stages[name](s, c)
     s.wait(3.0)
     s.dry()
     return s
