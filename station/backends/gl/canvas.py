@@ -289,16 +289,32 @@ class GLCanvas(GLStepPasses):
             layers=[dict(d) for d in self.layers],
         )
 
-    def fluid_heights(self) -> tuple[np.ndarray, np.ndarray, float]:
-        """The fluid water height ``w``, the mask (float32 (H, W)) and ``w_max``, read back
-        from the GPU: two of the state's textures, not all of it (a freshly dipped brush's
-        first touch-down reads them once to let its bead run out into the film,
-        :mod:`station.brush.bead`)."""
+    def paper_water(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The fluid water height ``w``, the mask, the capillary water ``wc`` and the paper
+        height ``h`` (float32 (H, W)), read back from the GPU: two of the state's textures,
+        not all of it (a freshly dipped brush's first touch-down reads them once to let its
+        bead run out into a film or damp paper, :mod:`station.brush.bead`)."""
         self.ctx.memory_barrier()
         hh, ww = self.height, self.width
-        w = tx.unpack_planes(self._read(self.f["water"].src), 4, hh, ww)[0]
-        mask = tx.unpack_planes(self._read(self.f["paper"].src), 4, hh, ww)[1]
-        return w, mask, float(self.params.w_max)
+        water = tx.unpack_planes(self._read(self.f["water"].src), 4, hh, ww)
+        paper = tx.unpack_planes(self._read(self.f["paper"].src), 4, hh, ww)
+        return water[0], paper[1], water[1], paper[0]
+
+    def forget_wet_memory(self, y0: int, y1: int, x0: int, x1: int) -> None:
+        """Drop the faded wet-area memory (``wet_area < 1``) in rows ``y0:y1``, columns
+        ``x0:x1``: a fresh load run out into a damp wash starts a new wet phase
+        (:meth:`station.sim.player.SessionPlayer._fresh_wet_phase`). Reads the one-float
+        mask texture back and rewrites only the window."""
+        self.ctx.memory_barrier()
+        hh, ww = self.height, self.width
+        y0, y1, x0, x1 = max(y0, 0), min(y1, hh), max(x0, 0), min(x1, ww)
+        if y0 >= y1 or x0 >= x1:
+            return
+        tex = self.f["area"].src
+        area = np.frombuffer(self._read(tex), np.float32).reshape(hh, ww)
+        win = np.array(area[y0:y1, x0:x1], np.float32)
+        win[win < np.float32(1.0)] = np.float32(0.0)
+        tex.write(np.ascontiguousarray(win).tobytes(), viewport=(x0, y0, x1 - x0, y1 - y0))
 
     # ------------------------------------------------------------ sources
     def _slot_of(self, name: str) -> int:
