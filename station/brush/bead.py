@@ -22,8 +22,9 @@ a wet brush touched into a drying wash makes a bloom several times the brush's s
 bead then runs out through the damp paper (and any film) connected to the footprint, the
 nearest room first, as into a film.  That liquid is a fresh wet phase (Curtis et al. 1997:
 each glaze has its own wet-area mask): :func:`fresh_phase_box` bounds where the damp
-wash's faded wet-area memory is dropped, so the flow-outward term acts at the fresh
-water's own edge and carries the wash's suspended pigment out to a crusted front.
+wash's faded wet-area memory is dropped (on paper drier than :data:`FRESH_SAT`), so the
+flow-outward term acts at the fresh water's own edge and carries the wash's suspended
+pigment out to a crusted front shaped by how damp the paper is, cell by cell.
 
 The brush does not read the canvas (brushes stay below the canvas): it queues a
 :class:`BeadRequest` at touch-down and the session player hands :func:`bead_sources` the
@@ -45,6 +46,15 @@ from station.brush.sources import Sources
 FILM = 0.05
 """Standing water [height] a cell needs for the bead to run through it (a film, not the
 dampness of the capillary layer)."""
+
+FRESH_SAT = 0.93
+"""Capillary saturation ``wc / c`` below which a damp wash's paper meets a bead run out
+into it as a new wet phase (its faded wet-area memory is dropped, so the fresh water's
+front crusts against it: a bloom); paper fuller than that is still one with the wash's
+own wet phase, and the fresh water runs into it without an edge (wet-in-wet).  Measured
+on the sheet's bloom through the brush, paper seeds 21-24: dropping the memory everywhere
+gave radius CV 0.144-0.163 (a round front), from 0.95 up 0.154-0.192 with fronts 1.27-1.40x
+the wash; 0.93 gave 0.13-0.18."""
 
 TOUCH_FILM = 0.1
 """Mean standing water [height] under the footprint at which the tip is in a film (the

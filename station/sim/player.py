@@ -42,7 +42,7 @@ from station.arttools import tissue as tissue_tool
 from station.arttools import well as well_tool
 from station.backends.numpy_canvas import NumpyCanvas
 from station.backends.protocol import CanvasBackend, edit_state
-from station.brush.bead import bead_sources, fresh_phase_box
+from station.brush.bead import FRESH_SAT, bead_sources, fresh_phase_box
 from station.brush.deformable import DeformableBrush
 from station.brush.reservoir import pickup
 from station.brush.solver import SolverCounters
@@ -264,29 +264,31 @@ class SessionPlayer:
                 src = bead_sources(req, got.w, got.mask, got.w_max, got.saturation,
                                    got.damp_sat)
                 if src is not None:
-                    self._fresh_wet_phase(fresh_phase_box(
-                        req, got.w_max, got.blur_reach, *got.w.shape))
+                    y0, y1, x0, x1 = fresh_phase_box(req, got.w_max, got.blur_reach,
+                                                     *got.w.shape)
+                    self._fresh_wet_phase(
+                        y0, x0, got.saturation[y0:y1, x0:x1] < np.float32(FRESH_SAT))
             if src is not None:
                 add_sources(self.backend, src)
 
-    def _fresh_wet_phase(self, box: tuple[int, int, int, int]) -> None:
-        """Drop the faded wet-area memory (``0 < wet_area < 1``: cells whose water has
-        gone) in ``box`` (y0, y1, x0, x1): Curtis 1997's wet-area mask belongs to a glaze,
-        and a fresh load run out into a damp wash is a new one, so the flow-outward term
-        acts at the fresh water's own edge. Cells wet now keep 1. In place where the
-        backend keeps its arrays in memory; GL rewrites the window of its mask texture;
-        others take a state round trip."""
-        y0, y1, x0, x1 = box
-        if y0 >= y1 or x0 >= x1:
+    def _fresh_wet_phase(self, y0: int, x0: int, drier: np.ndarray) -> None:
+        """Drop the faded wet-area memory (``wet_area < 1``: cells whose water has gone)
+        where ``drier`` (a window at row ``y0``, column ``x0``) is set: Curtis 1997's
+        wet-area mask belongs to a glaze, and a fresh load run out into a damp wash is a new
+        one, so the flow-outward term acts at the fresh water's own edge where it meets
+        paper drier than :data:`~station.brush.bead.FRESH_SAT`. Cells wet now keep 1. In
+        place where the backend keeps its arrays in memory; GL rewrites that window of its
+        mask texture; others take a state round trip."""
+        if not drier.any():
             return
         forget = getattr(self.backend, "forget_wet_memory", None)
         if getattr(self.backend, "live_state", None) is None and forget is not None:
-            forget(y0, y1, x0, x1)
+            forget(y0, x0, drier)
             return
 
         def drop(st: CanvasState) -> None:
-            a = st.wet_area[y0:y1, x0:x1]
-            a[a < np.float32(1.0)] = np.float32(0.0)
+            a = st.wet_area[y0:y0 + drier.shape[0], x0:x0 + drier.shape[1]]
+            a[(a < np.float32(1.0)) & drier] = np.float32(0.0)
 
         edit_state(self.backend, drop)
 

@@ -300,20 +300,20 @@ class GLCanvas(GLStepPasses):
         paper = tx.unpack_planes(self._read(self.f["paper"].src), 4, hh, ww)
         return water[0], paper[1], water[1], paper[0]
 
-    def forget_wet_memory(self, y0: int, y1: int, x0: int, x1: int) -> None:
-        """Drop the faded wet-area memory (``wet_area < 1``) in rows ``y0:y1``, columns
-        ``x0:x1``: a fresh load run out into a damp wash starts a new wet phase
-        (:meth:`station.sim.player.SessionPlayer._fresh_wet_phase`). Reads the one-float
-        mask texture back and rewrites only the window."""
+    def forget_wet_memory(self, y0: int, x0: int, drier: np.ndarray) -> None:
+        """Drop the faded wet-area memory (``wet_area < 1``) where ``drier`` (a bool window
+        at row ``y0``, column ``x0``) is set: a fresh load run out into a damp wash starts a
+        new wet phase (:meth:`station.sim.player.SessionPlayer._fresh_wet_phase`). Reads the
+        one-float mask texture back and rewrites only the window."""
         self.ctx.memory_barrier()
         hh, ww = self.height, self.width
-        y0, y1, x0, x1 = max(y0, 0), min(y1, hh), max(x0, 0), min(x1, ww)
-        if y0 >= y1 or x0 >= x1:
+        y1, x1 = min(y0 + drier.shape[0], hh), min(x0 + drier.shape[1], ww)
+        if y0 < 0 or x0 < 0 or y0 >= y1 or x0 >= x1:
             return
         tex = self.f["area"].src
         area = np.frombuffer(self._read(tex), np.float32).reshape(hh, ww)
         win = np.array(area[y0:y1, x0:x1], np.float32)
-        win[win < np.float32(1.0)] = np.float32(0.0)
+        win[(win < np.float32(1.0)) & drier[:y1 - y0, :x1 - x0]] = np.float32(0.0)
         tex.write(np.ascontiguousarray(win).tobytes(), viewport=(x0, y0, x1 - x0, y1 - y0))
 
     # ------------------------------------------------------------ sources
