@@ -314,7 +314,10 @@ class GLCanvas(GLStepPasses):
         area = np.frombuffer(self._read(tex), np.float32).reshape(hh, ww)
         win = np.array(area[y0:y1, x0:x1], np.float32)
         win[(win < np.float32(1.0)) & drier[:y1 - y0, :x1 - x0]] = np.float32(0.0)
-        tex.write(np.ascontiguousarray(win).tobytes(), viewport=(x0, y0, x1 - x0, y1 - y0))
+        # ``area`` is a plain 2-D texture (no layers); Field.src is typed for arrays too,
+        # whose write takes a 3-D viewport
+        box: tuple[int, int, int, int] = (x0, y0, x1 - x0, y1 - y0)
+        tex.write(np.ascontiguousarray(win).tobytes(), viewport=box)  # type: ignore[arg-type]
 
     # ------------------------------------------------------------ sources
     def _slot_of(self, name: str) -> int:
