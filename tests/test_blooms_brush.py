@@ -49,3 +49,6 @@ def test_clear_water_in_a_damp_wash_pushes_the_pigment_to_a_dark_irregular_front
     seen = fb.bloom_front(darkness_map(c))
     assert seen["front_ratio"] >= 1.3, seen
     assert seen["cv"] >= 0.15 and seen["lobes"] >= 3, seen  # irregular, branching
+    # a loaded brush touched into damp paper lets its bead go, a fresh wet phase (session
+    # 9): 7.85 cells, 1.67 brush radii (main: 5.36, about a brush wide)
+    assert seen["radius"] >= 1.5 * r_brush, seen

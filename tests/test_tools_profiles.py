@@ -45,7 +45,7 @@ OLD = {
     # rim is a band, not a one-cell line, on the memory's pinned edge: item 3)
     "watercolor": SimParams().replace(fibre_dispersivity=4.5, flow_outward=0.4, edge_evap=3.0,
                                       wet_blur=3.5,
-                                      moist_threshold=1.0, damp_ease=4.5, damp_sat=0.65,
+                                      moist_threshold=1.0, damp_ease=2.7, damp_sat=0.65,
                                       suspend_sat=0.5, fibre_flow_max=1.0, lift_gain=5.0,
                                       wet_hold=30.0, alpha=0.02, jacobi_iters=1),
     "gouache": SimParams().replace(viscosity=2.0, nu_w=0.1, nu_p=0.05, alpha=0.005,

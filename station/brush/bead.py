@@ -12,8 +12,19 @@ The bead cannot stand on top of the film under the brush (the fluid layer holds 
 liquid poured into a full dish spreads from where it lands.  So its reach follows from its
 volume and the film's depth, ``R^2 ~ r^2 + V / (pi (w_max - w))``: a shallow film takes it
 far, a deep one keeps it near; it runs only through cells that hold standing water and is
-bounded by the film's own edges.  On dry or damp paper there is no film to join: the tip
-leaves its stamp and nothing more.
+bounded by the film's own edges.  On dry paper there is no film to join: the tip leaves
+its stamp and nothing more.
+
+Damp paper draws the bead out too (issue 21 item 4, backruns): a wash that has lost its
+sheen but whose paper is still damp (saturation ``wc / c`` at least the profile's
+``damp_sat`` under the tip) sucks the loaded tuft's liquid out by capillarity, which is why
+a wet brush touched into a drying wash makes a bloom several times the brush's size.  The
+bead then runs out through the damp paper (and any film) connected to the footprint, the
+nearest room first, as into a film.  That liquid is a fresh wet phase (Curtis et al. 1997:
+each glaze has its own wet-area mask): :func:`fresh_phase_box` bounds where the damp
+wash's faded wet-area memory is dropped (on paper drier than :data:`FRESH_SAT`), so the
+flow-outward term acts at the fresh water's own edge and carries the wash's suspended
+pigment out to a crusted front shaped by how damp the paper is, cell by cell.
 
 The brush does not read the canvas (brushes stay below the canvas): it queues a
 :class:`BeadRequest` at touch-down and the session player hands :func:`bead_sources` the
@@ -35,6 +46,15 @@ from station.brush.sources import Sources
 FILM = 0.05
 """Standing water [height] a cell needs for the bead to run through it (a film, not the
 dampness of the capillary layer)."""
+
+FRESH_SAT = 0.93
+"""Capillary saturation ``wc / c`` below which a damp wash's paper meets a bead run out
+into it as a new wet phase (its faded wet-area memory is dropped, so the fresh water's
+front crusts against it: a bloom); paper fuller than that is still one with the wash's
+own wet phase, and the fresh water runs into it without an edge (wet-in-wet).  Measured
+on the sheet's bloom through the brush, paper seeds 21-24: dropping the memory everywhere
+gave radius CV 0.144-0.163 (a round front), from 0.95 up 0.154-0.192 with fronts 1.27-1.40x
+the wash; 0.93 gave 0.13-0.18."""
 
 TOUCH_FILM = 0.1
 """Mean standing water [height] under the footprint at which the tip is in a film (the
@@ -62,17 +82,38 @@ class BeadRequest:
         return step + 1.0 > self.tau
 
 
-def bead_sources(req: BeadRequest, w: np.ndarray, mask: np.ndarray, w_max: float
+def bead_reach(req: BeadRequest, w_max: float) -> float:
+    """The farthest [cells] a bead can run from its touch-down: into a film at least a
+    tenth as deep as it holds."""
+    r = max(req.radius, 0.5)
+    return math.sqrt(r * r + req.volume / (math.pi * 0.1 * max(w_max, 1e-6))) + 1.0
+
+
+def fresh_phase_box(req: BeadRequest, w_max: float, blur_reach: int, height: int,
+                    width: int) -> tuple[int, int, int, int]:
+    """(y0, y1, x0, x1): the cells whose faded wet-area memory a bead run out into damp
+    paper drops: its reach, plus ``blur_reach`` (how far the flow-outward blur reads the
+    mask), clipped to the canvas."""
+    far = bead_reach(req, w_max) + float(blur_reach)
+    return (max(0, int(req.cy - far)), min(height, int(math.ceil(req.cy + far)) + 1),
+            max(0, int(req.cx - far)), min(width, int(math.ceil(req.cx + far)) + 1))
+
+
+def bead_sources(req: BeadRequest, w: np.ndarray, mask: np.ndarray, w_max: float,
+                 saturation: np.ndarray | None = None, damp_sat: float = 1.0
                  ) -> Sources | None:
     """The water and pigment of ``req`` spread through the standing water ``w`` [height]
     (``mask`` nonzero: masked cells take nothing), nearest cells first, each filled to
-    ``w_max``; ``None`` when the tip is not in a film or there is no room."""
+    ``w_max``; ``None`` when the tip is neither in a film nor on damp paper, or there is
+    no room.  ``saturation``: the capillary layer's ``min(wc / c, 1)`` (None: damp paper
+    draws nothing); paper at ``damp_sat`` or more counts as damp: a tip whose footprint is
+    that damp on average lets the bead go into it, through the damp cells and films
+    connected to the footprint."""
     if req.volume <= 0.0:
         return None
     height, width = w.shape
     r = max(req.radius, 0.5)
-    # the farthest a bead can run: a film at least a tenth as deep as it holds
-    reach = math.sqrt(r * r + req.volume / (math.pi * 0.1 * max(w_max, 1e-6))) + 1.0
+    reach = bead_reach(req, w_max)
     y0, y1 = max(0, int(req.cy - reach)), min(height, int(math.ceil(req.cy + reach)) + 1)
     x0, x1 = max(0, int(req.cx - reach)), min(width, int(math.ceil(req.cx + reach)) + 1)
     if y0 >= y1 or x0 >= x1:
@@ -83,9 +124,16 @@ def bead_sources(req: BeadRequest, w: np.ndarray, mask: np.ndarray, w_max: float
     dx = np.arange(x0, x1, dtype=np.float64)[None, :] + 0.5 - req.cx
     dist = np.sqrt(dy * dy + dx * dx)
     under = (dist <= r) & free
-    if not under.any() or float(ww[under].mean()) - req.stamp_water < TOUCH_FILM:
+    if not under.any():
         return None
     film = (ww > FILM) & free
+    if float(ww[under].mean()) - req.stamp_water < TOUCH_FILM:
+        if saturation is None:
+            return None
+        ss = np.asarray(saturation[y0:y1, x0:x1], np.float64)
+        if float(ss[under].mean()) < damp_sat:
+            return None
+        film = film | ((ss >= damp_sat) & free)
     labels, _ = ndimage.label(film | under)
     joined = np.unique(labels[under])
     joined = joined[joined > 0]

@@ -30,7 +30,7 @@ import logging
 import math
 from collections.abc import Callable, Container, Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -42,17 +42,18 @@ from station.arttools import tissue as tissue_tool
 from station.arttools import well as well_tool
 from station.backends.numpy_canvas import NumpyCanvas
 from station.backends.protocol import CanvasBackend, edit_state
-from station.brush.bead import bead_sources
+from station.brush.bead import FRESH_SAT, bead_sources, fresh_phase_box
 from station.brush.deformable import DeformableBrush
 from station.brush.reservoir import pickup
 from station.brush.solver import SolverCounters
 from station.brush.sources import Sources
 from station.brush.stamp import STAMP_KIND, BrushModel, BrushSettings, RoundBrush
 from station.canvas.paper import make_paper
-from station.canvas.params import Profile
+from station.canvas.params import Profile, SimParams
 from station.canvas.profiles import get_profile, profile_names
 from station.canvas.removal import HairDryer, StateSurface, blow
 from station.canvas.state import DEFAULT_SLOTS, CanvasState
+from station.canvas.stencils import gaussian_taps
 from station.errors import BadInput
 from station.events import Command, PenSample, Tool
 from station.sim.tool_commands import (
@@ -73,6 +74,34 @@ MAX_PAINTING_SECONDS = 86400.0
 for millennia) is refused as bad input instead of running "forever"."""
 MAX_RATE = 1000.0
 """Most simulation steps per second of painting time a replay may ask for."""
+
+
+class PaperWater(NamedTuple):
+    """What a bead needs to know of the canvas (:mod:`station.brush.bead`): the fluid water
+    height ``w`` [height], the mask, ``w_max``, the capillary layer's saturation
+    ``min(wc / c, 1)`` (None where the profile's damp paper draws no fresh water), the
+    saturation from which paper counts as damp, and how far [cells] the flow-outward blur
+    reads the wet-area mask."""
+
+    w: np.ndarray
+    mask: np.ndarray
+    w_max: float
+    saturation: np.ndarray | None
+    damp_sat: float
+    blur_reach: int
+
+
+def _paper_water(w: np.ndarray, mask: np.ndarray, wc: np.ndarray, h: np.ndarray,
+                 prm: SimParams) -> PaperWater:
+    """:class:`PaperWater` from a canvas's arrays and parameters. Damp paper draws a bead
+    only where the profile has both damp paper's suction (``damp_ease``) and a wet-area
+    memory to start a fresh phase in (``wet_hold``)."""
+    sat = None
+    if prm.damp_ease > 0 and prm.wet_hold > 0:
+        cap = np.float32(prm.c_min) + h * np.float32(prm.c_max - prm.c_min)
+        sat = np.minimum(wc / np.maximum(cap, np.float32(1e-6)), np.float32(1.0))
+    reach = len(gaussian_taps(prm.wet_blur)) // 2 if prm.flow_outward > 0 else 0
+    return PaperWater(w, mask, float(prm.w_max), sat, float(prm.damp_sat), reach)
 
 
 @dataclass
@@ -218,38 +247,73 @@ class SessionPlayer:
 
     def release_beads(self, step: int | None = None) -> None:
         """The beads of the round brush's touch-downs run out into the standing water under
-        them (:mod:`station.brush.bead`). Called once a step with the step's index (the
-        beads due before it: their stamps' first shares are in), after the step's stamps,
-        and with ``None`` (all) at a whole flush; never from a live preview's flush, so
-        live and replay agree."""
+        them, or into damp paper (:mod:`station.brush.bead`). Called once a step with the
+        step's index (the beads due before it: their stamps' first shares are in), after the
+        step's stamps, and with ``None`` (all) at a whole flush; never from a live preview's
+        flush, so live and replay agree. A bead run out into damp paper starts a fresh wet
+        phase: the damp wash's faded wet-area memory around it is dropped
+        (:meth:`_fresh_wet_phase`)."""
         if not isinstance(self.brush, RoundBrush):
             return
         for req in self.brush.take_beads(step):
-            heights = self._fluid_heights()
-            if heights is None:  # a backend that shows no state (a test double)
+            got = self._paper_water()
+            if got is None:  # a backend that shows no state (a test double)
                 continue
-            src = bead_sources(req, *heights)
+            src = bead_sources(req, got.w, got.mask, got.w_max)
+            if src is None and got.saturation is not None:
+                src = bead_sources(req, got.w, got.mask, got.w_max, got.saturation,
+                                   got.damp_sat)
+                if src is not None:
+                    y0, y1, x0, x1 = fresh_phase_box(req, got.w_max, got.blur_reach,
+                                                     *got.w.shape)
+                    self._fresh_wet_phase(
+                        y0, x0, got.saturation[y0:y1, x0:x1] < np.float32(FRESH_SAT))
             if src is not None:
                 add_sources(self.backend, src)
 
-    def _fluid_heights(self) -> tuple[np.ndarray, np.ndarray, float] | None:
-        """The canvas's fluid water height, mask and ``w_max``: the arrays themselves where
-        the backend keeps them in memory, else read back (GL: two textures; other backends
-        their whole state), at most once a dip (a bead is the first touch-down's)."""
+    def _fresh_wet_phase(self, y0: int, x0: int, drier: np.ndarray) -> None:
+        """Drop the faded wet-area memory (``wet_area < 1``: cells whose water has gone)
+        where ``drier`` (a window at row ``y0``, column ``x0``) is set: Curtis 1997's
+        wet-area mask belongs to a glaze, and a fresh load run out into a damp wash is a new
+        one, so the flow-outward term acts at the fresh water's own edge where it meets
+        paper drier than :data:`~station.brush.bead.FRESH_SAT`. Cells wet now keep 1. In
+        place where the backend keeps its arrays in memory; GL rewrites that window of its
+        mask texture; others take a state round trip."""
+        if not drier.any():
+            return
+        forget = getattr(self.backend, "forget_wet_memory", None)
+        if getattr(self.backend, "live_state", None) is None and forget is not None:
+            forget(y0, x0, drier)
+            return
+
+        def drop(st: CanvasState) -> None:
+            a = st.wet_area[y0:y0 + drier.shape[0], x0:x0 + drier.shape[1]]
+            a[(a < np.float32(1.0)) & drier] = np.float32(0.0)
+
+        edit_state(self.backend, drop)
+
+    def _paper_water(self) -> PaperWater | None:
+        """The canvas's fluid water height, mask, ``w_max`` and, where the profile's damp
+        paper draws fresh water (``damp_ease > 0`` with a wet-area memory), the capillary
+        layer's saturation: the arrays themselves where the backend keeps them in memory,
+        else read back (GL: two textures; other backends their whole state), at most once a
+        dip (a bead is the first touch-down's)."""
         live = getattr(self.backend, "live_state", None)
-        if isinstance(live, CanvasState):
-            return live.w, live.mask, float(live.params.w_max)
-        read = getattr(self.backend, "fluid_heights", None)
-        if read is not None:
-            got = read()
-            if got is not None:  # a backend that answers but shows nothing: no bead
-                w, mask, w_max = got
-                return w, mask, float(w_max)
-        whole = getattr(self.backend, "state", None)
-        st = whole() if whole is not None else None
-        if not isinstance(st, CanvasState):
-            return None
-        return st.w, st.mask, float(st.params.w_max)
+        st: CanvasState | None = live if isinstance(live, CanvasState) else None
+        if st is None:
+            read = getattr(self.backend, "paper_water", None)
+            if read is not None:
+                got = read()
+                if got is not None:  # a backend that answers but shows nothing: no bead
+                    w, mask, wc, h = got
+                    prm = getattr(self.backend, "params", None)
+                    if isinstance(prm, SimParams):
+                        return _paper_water(w, mask, wc, h, prm)
+            whole = getattr(self.backend, "state", None)
+            st = whole() if whole is not None else None
+            if not isinstance(st, CanvasState):
+                return None
+        return _paper_water(st.w, st.mask, st.wc, st.h, st.params)
 
     # -- records -----------------------------------------------------------------
     def apply(self, record: PenSample | Command, where: str | None = None) -> None:

@@ -297,16 +297,35 @@ class GLCanvas(GLStepPasses):
             layers=[dict(d) for d in self.layers],
         )
 
-    def fluid_heights(self) -> tuple[np.ndarray, np.ndarray, float]:
-        """The fluid water height ``w``, the mask (float32 (H, W)) and ``w_max``, read back
-        from the GPU: two of the state's textures, not all of it (a freshly dipped brush's
-        first touch-down reads them once to let its bead run out into the film,
-        :mod:`station.brush.bead`)."""
+    def paper_water(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The fluid water height ``w``, the mask, the capillary water ``wc`` and the paper
+        height ``h`` (float32 (H, W)), read back from the GPU: two of the state's textures,
+        not all of it (a freshly dipped brush's first touch-down reads them once to let its
+        bead run out into a film or damp paper, :mod:`station.brush.bead`)."""
         self.ctx.memory_barrier()
         hh, ww = self.height, self.width
-        w = tx.unpack_planes(self._read(self.f["water"].src), 4, hh, ww)[0]
-        mask = tx.unpack_planes(self._read(self.f["paper"].src), 4, hh, ww)[1]
-        return w, mask, float(self.params.w_max)
+        water = tx.unpack_planes(self._read(self.f["water"].src), 4, hh, ww)
+        paper = tx.unpack_planes(self._read(self.f["paper"].src), 4, hh, ww)
+        return water[0], paper[1], water[1], paper[0]
+
+    def forget_wet_memory(self, y0: int, x0: int, drier: np.ndarray) -> None:
+        """Drop the faded wet-area memory (``wet_area < 1``) where ``drier`` (a bool window
+        at row ``y0``, column ``x0``) is set: a fresh load run out into a damp wash starts a
+        new wet phase (:meth:`station.sim.player.SessionPlayer._fresh_wet_phase`). Reads the
+        one-float mask texture back and rewrites only the window."""
+        self.ctx.memory_barrier()
+        hh, ww = self.height, self.width
+        y1, x1 = min(y0 + drier.shape[0], hh), min(x0 + drier.shape[1], ww)
+        if y0 < 0 or x0 < 0 or y0 >= y1 or x0 >= x1:
+            return
+        tex = self.f["area"].src
+        area = np.frombuffer(self._read(tex), np.float32).reshape(hh, ww)
+        win = np.array(area[y0:y1, x0:x1], np.float32)
+        win[(win < np.float32(1.0)) & drier[:y1 - y0, :x1 - x0]] = np.float32(0.0)
+        # ``area`` is a plain 2-D texture (no layers); Field.src is typed for arrays too,
+        # whose write takes a 3-D viewport
+        box: tuple[int, int, int, int] = (x0, y0, x1 - x0, y1 - y0)
+        tex.write(np.ascontiguousarray(win).tobytes(), viewport=box)  # type: ignore[arg-type]
 
     # ------------------------------------------------------------ sources
     def _slot_of(self, name: str) -> int:
