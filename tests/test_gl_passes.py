@@ -215,11 +215,13 @@ def test_full_step_on_damp_paper_matches_reference(ctx) -> None:
 
 
 def test_wet_area_mask_grows_and_flow_outward_blurs_it(ctx) -> None:
-    """wet_hold: prep keeps max(wet_area, own) and pass 3's pressure blurs that mask."""
+    """wet_hold: prep keeps max(wet_area, own) and pass 3's pressure blurs that mask (the
+    levelled height is formed in the first Jacobi iteration, so the diffusion runs too)."""
     prm = SimParams(wet_hold=4.0, flow_outward=0.5)
     st = random_state(3, params=prm)
     c = gl_canvas(ctx, st)
     c._pass_prep()
+    c._pass_diffusion()
     own = ref.own_wet(st.w, st.wc, st.mask, prm)
     area_m = ref.wet_memory(own, st.wet_area, prm)
     got = np.frombuffer(c.f["area"].src.read(), np.float32).reshape(H, W)
