@@ -9,12 +9,13 @@
 // (225 at wet_blur 3.5, 55 % of llvmpipe's wash step).
 // Needs paper_in and, with NTAPS > 1, bx_in declared by the includer.
 
-// NTAPS (2R + 1) is injected with the other defines (compiled per blur width); NTAPS 1: no
-// flow-outward term (flow_outward or wet_blur 0), nothing is blurred.
+// NTAPS (2R + 1) and TAPS (the float32 Gaussian taps, offset -R first, as an array
+// constructor of their exact bits) are injected with the other defines (compiled per blur);
+// NTAPS 1: no flow-outward term (flow_outward or wet_blur 0), nothing is blurred.
 #define R ((NTAPS - 1) / 2)
 uniform float u_eta;             // flow_outward [height]
 uniform float u_relief;          // paper_relief [height]
-uniform float u_taps[NTAPS];     // float32 Gaussian taps, offset -R first
+const float taps_y[NTAPS] = TAPS;
 
 float levelled_height(ivec2 c, float w, bool wet) {
     float p = w;
@@ -24,7 +25,7 @@ float levelled_height(ivec2 c, float w, bool wet) {
         float acc = 0.0;
         for (int ky = 0; ky < NTAPS; ++ky) {
             int y = c.y + ky - R;
-            acc += u_taps[ky] * ((y >= 0 && y < u_size.y) ? imageLoad(bx_in, ivec2(c.x, y)).x
+            acc += taps_y[ky] * ((y >= 0 && y < u_size.y) ? imageLoad(bx_in, ivec2(c.x, y)).x
                                                            : 0.0);
         }
         p = p - u_eta * (1.0 - acc);

@@ -39,7 +39,7 @@ class GLStepPasses:
     npl: int
     tiling: bool
     _programs: dict[str, moderngl.ComputeShader]
-    _pressure_taps: tuple[int, int]  # (taps, hold) blur_x and jacobi_first are compiled for
+    _pressure_taps: tuple[tuple[int, ...], int]  # (taps' bits, hold) of the blur programs
     _pass_seconds: dict[str, float] | None  # per-pass wall time while profiling, else None
     width: int
     height: int
@@ -114,7 +114,7 @@ class GLStepPasses:
         taps = reference.gaussian_taps(prm.wet_blur) if prm.flow_outward > 0 else np.zeros(0, F32)
         if len(taps) > MAX_TAPS:
             raise CanvasInputError("wet_blur too large for the GL backend (at most 4)", "params")
-        self._blur_programs(len(taps), hold)
+        self._blur_programs(taps, hold)
         pp = p["jacobi_first"]
         _set(pp, "u_eta", prm.flow_outward)
         _set(pp, "u_relief", prm.paper_relief)
@@ -122,8 +122,6 @@ class GLStepPasses:
             bx = p["blur_x"]
             _set(bx, "u_moist", prm.moist_threshold)
             _set(bx, "u_apron", 1 if self.tiling else 0)
-            for prog in (pp, bx):
-                _set(prog, "u_taps", [float(t) for t in taps])
         kv, kw, kp = (float(F32(prm.viscosity * dt)), float(F32(prm.nu_w * dt)),
                       float(F32(prm.nu_p * dt)))
         layers = -(-len(self.slots) // 4)
@@ -163,23 +161,31 @@ class GLStepPasses:
         _set(cd, "u_moist", prm.moist_threshold)
         _set(p["tile_update"], "u_ttl", prm.tile_ttl_steps())
 
-    def _blur_programs(self, ntaps: int, hold: int) -> None:
+    def _blur_programs(self, taps: np.ndarray, hold: int) -> None:
         """blur_x.comp and the first Jacobi iteration (jacobi.comp with FIRST_ITER, which
-        forms pass 3's levelled height, pressure.glsl) for ``ntaps`` Gaussian taps (0: no
-        flow-outward term, no blur_x) and ``hold`` (1: blur the wet-area memory), compiled
-        when they change (the tap loops unroll, the mask's source is fixed)."""
-        if (ntaps, hold) == self._pressure_taps:
+        forms pass 3's levelled height, pressure.glsl) for the float32 Gaussian ``taps``
+        (none: no flow-outward term, no blur_x) and ``hold`` (1: blur the wet-area
+        memory), compiled when they change.  The taps are constants of the program (their
+        exact bits, ``TAPS``), not a uniform array: llvmpipe then multiplies by
+        immediates instead of loading the array in every lane, about 2 ms CPU a 15-tap
+        loop at 800x600; the loops unroll, the mask's source is fixed."""
+        bits = tuple(int(b) for b in np.asarray(taps, F32).view(np.uint32))
+        if (bits, hold) == self._pressure_taps:
             return
+        ntaps = len(bits)
         for name in ("blur_x", "jacobi_first"):
             old = self._programs.pop(name, None)
             if old is not None:
                 old.release()
+        const = {"NTAPS": max(1, ntaps),
+                 "TAPS": "float[{}]({})".format(
+                     max(1, ntaps), ", ".join(f"uintBitsToFloat(0x{b:08x}u)" for b in bits)
+                     or "0.0")}
         if ntaps:
-            self._programs["blur_x"] = self._compile("blur_x.comp",
-                                                     {"NTAPS": ntaps, "HOLD": hold})
-        self._programs["jacobi_first"] = self._compile(
-            "jacobi.comp", {"FIRST_ITER": 1, "NTAPS": max(1, ntaps)})
-        self._pressure_taps = (ntaps, hold)
+            self._programs["blur_x"] = self._compile("blur_x.comp", {**const, "HOLD": hold})
+        self._programs["jacobi_first"] = self._compile("jacobi.comp",
+                                                       {**const, "FIRST_ITER": 1})
+        self._pressure_taps = (bits, hold)
 
     def _begin_step(self) -> None:
         """Bind the tile list and build it (tiling) for the passes of one step."""
