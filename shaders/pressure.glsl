@@ -24,9 +24,9 @@ float levelled_height(ivec2 c, float w, bool wet) {
     if (wet) {
         float acc = 0.0;
         for (int ky = 0; ky < NTAPS; ++ky) {
-            int y = c.y + ky - R;
-            acc += taps_y[ky] * ((y >= 0 && y < u_size.y) ? imageLoad(bx_in, ivec2(c.x, y)).x
-                                                           : 0.0);
+            // a row outside the canvas is an invalid image load, which GL defines to
+            // return 0: it adds taps[k] * 0, as the reference's zero padding does
+            acc += taps_y[ky] * imageLoad(bx_in, ivec2(c.x, c.y + ky - R)).x;
         }
         p = p - u_eta * (1.0 - acc);
     }
