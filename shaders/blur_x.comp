@@ -31,12 +31,13 @@ const float taps_x[NTAPS] = TAPS;
 // canvas edge is an invalid image load, which GL defines to return 0, and is not used.
 float own_wet(ivec2 c) {
 #if HOLD
-    float m = imageLoad(area_in, c).x;  // M = max(wet_area, own), from prep
+    // M = max(wet_area, own), from prep; past the edge an invalid load's 0
+    return imageLoad(area_in, c).x;
 #else
     vec4 wa = imageLoad(water_in, c);
     float m = ((wa.x > 0.0 || wa.y > u_moist) && imageLoad(paper_in, c).y == 0.0) ? 1.0 : 0.0;
-#endif
     return inside(c) ? m : 0.0;
+#endif
 }
 
 void blur_row(ivec2 c) {
