@@ -1,11 +1,11 @@
 #version 430
-// blur_x.comp: once per step, after prep, before pressure.comp: the first half of pass 3's
-// separable blur (reference stencils.blurred_wet): bx = sum_k taps[k] M(x + k - R, y), the
-// taps in order (offset -R first), M the own wet area ((w > 0 or wc > moist) and unmasked;
+// blur_x.comp: once per step, after prep, before the first Jacobi iteration: the first half
+// of pass 3's separable blur (reference stencils.blurred_wet): bx = sum_k taps[k] M(x + k -
+// R, y), the taps in order (offset -R first), M the own wet area ((w > 0 or wc > moist) and unmasked;
 // 0 outside the canvas; with wet_hold > 0 the wet-area mask wet_area that prep.comp
-// updated).  pressure.comp sums bx down the columns.
+// updated).  pressure.glsl (in jacobi.comp's first iteration) sums bx down the columns.
 // Reads the state textures (valid on every cell), so it does not depend on the tiles; with
-// u_apron each tile also writes the R rows above and below it (the rows pressure.comp reads
+// u_apron each tile also writes the R rows above and below it (the rows pressure.glsl reads
 // around a tile whose neighbour was not dispatched; a neighbour that was writes the same
 // values there).  Without tiling every row is its own tile's, so u_apron is 0.
 // Two plain passes instead of one through shared memory: llvmpipe runs a program with a
@@ -18,28 +18,31 @@ layout(rgba32f, binding = 2) uniform readonly image2D paper_in;
 layout(r32f, binding = 4) uniform writeonly image2D bx_out;
 layout(r32f, binding = 5) uniform readonly image2D area_in;  // wet_area after prep
 
-// NTAPS (2R + 1 >= 3) and HOLD (1: wet_hold > 0, blur the wet-area mask M that prep wrote)
-// are injected with the other defines (compiled per blur width and memory)
+// NTAPS (2R + 1 >= 3), TAPS (the float32 Gaussian taps, offset -R first, an array
+// constructor of their exact bits: immediates, not a uniform array loaded in every lane) and
+// HOLD (1: wet_hold > 0, blur the wet-area mask M that prep wrote) are injected with the
+// other defines (compiled per blur and memory)
 #define R ((NTAPS - 1) / 2)
 uniform float u_moist;           // moist_threshold [height]
 uniform int u_apron;             // 1: also write the R rows beside the tile (tiling on)
-uniform float u_taps[NTAPS];     // float32 Gaussian taps, offset -R first
+const float taps_x[NTAPS] = TAPS;
 
 // Branch-free (llvmpipe runs both sides of a branch its lanes disagree on); a load past the
 // canvas edge is an invalid image load, which GL defines to return 0, and is not used.
 float own_wet(ivec2 c) {
 #if HOLD
-    float m = imageLoad(area_in, c).x;  // M = max(wet_area, own), from prep
+    // M = max(wet_area, own), from prep; past the edge an invalid load's 0
+    return imageLoad(area_in, c).x;
 #else
     vec4 wa = imageLoad(water_in, c);
     float m = ((wa.x > 0.0 || wa.y > u_moist) && imageLoad(paper_in, c).y == 0.0) ? 1.0 : 0.0;
-#endif
     return inside(c) ? m : 0.0;
+#endif
 }
 
 void blur_row(ivec2 c) {
     float row = 0.0;
-    for (int kx = 0; kx < NTAPS; ++kx) row += u_taps[kx] * own_wet(c + ivec2(kx - R, 0));
+    for (int kx = 0; kx < NTAPS; ++kx) row += taps_x[kx] * own_wet(c + ivec2(kx - R, 0));
     imageStore(bx_out, c, vec4(row, 0.0, 0.0, 0.0));
 }
 

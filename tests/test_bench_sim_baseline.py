@@ -55,9 +55,9 @@ def test_the_baseline_child_imports_the_extracted_commit(tmp_path: Path,
         child.close()
     assert r["steps"] == 3 and r["seconds"] > 0 and r["cells_per_step"] > 0
     # the commit's GL programs go with it (package data of station.shaders), not this tree's
-    shader = subprocess.run(["git", "show", "HEAD:shaders/pressure.comp"], check=True,
+    shader = subprocess.run(["git", "show", "HEAD:shaders/jacobi.comp"], check=True,
                             capture_output=True, cwd=sb.source_root()).stdout.decode()
-    assert (folder / "station" / "shaders" / "pressure.comp").read_text() == shader
+    assert (folder / "station" / "shaders" / "jacobi.comp").read_text() == shader
 
 
 @pytest.mark.parametrize("argv, what", [

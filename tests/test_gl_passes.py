@@ -215,11 +215,13 @@ def test_full_step_on_damp_paper_matches_reference(ctx) -> None:
 
 
 def test_wet_area_mask_grows_and_flow_outward_blurs_it(ctx) -> None:
-    """wet_hold: prep keeps max(wet_area, own) and pass 3's pressure blurs that mask."""
+    """wet_hold: prep keeps max(wet_area, own) and pass 3's pressure blurs that mask (the
+    levelled height is formed in the first Jacobi iteration, so the diffusion runs too)."""
     prm = SimParams(wet_hold=4.0, flow_outward=0.5)
     st = random_state(3, params=prm)
     c = gl_canvas(ctx, st)
     c._pass_prep()
+    c._pass_diffusion()
     own = ref.own_wet(st.w, st.wc, st.mask, prm)
     area_m = ref.wet_memory(own, st.wet_area, prm)
     got = np.frombuffer(c.f["area"].src.read(), np.float32).reshape(H, W)
@@ -230,6 +232,29 @@ def test_wet_area_mask_grows_and_flow_outward_blurs_it(ctx) -> None:
     plain = ref.flow_pressure(st.w, own, wet, st.h, prm)
     assert np.abs(pr - plain).max() > 1e-3  # the memory changed the pressure
     assert ((area_m > 0) & ~own).sum() >= 20  # damp cells remembered as wet
+
+
+def test_pressure_blur_follows_a_new_wet_blur_of_the_same_width(ctx) -> None:
+    """The blur's taps are constants of its programs: wet_blur 3.2 then 3.5 (15 taps both)
+    must recompile them, not keep 3.2's taps."""
+    st = random_state(3, params=SimParams(wet_blur=3.2, flow_outward=0.5))
+    c = gl_canvas(ctx, st)
+    c._pass_prep()
+    c._pass_diffusion()
+    first = read_rgba(c, c.pr, 1)[..., 0].copy()
+    st.params = st.params.replace(wet_blur=3.5)
+    assert len(ref.gaussian_taps(3.2)) == len(ref.gaussian_taps(3.5))
+    c.load_state(st)
+    c._set_step_uniforms(st.params.dt)
+    c._begin_step()
+    c._pass_prep()
+    c._pass_diffusion()
+    wet = ref.wet_mask(st.w, st.wc, st.mask, st.params, st.h)
+    own = ref.own_wet(st.w, st.wc, st.mask, st.params)
+    got = read_rgba(c, c.pr, 1)[..., 0]
+    close("pressure after the new wet_blur", got, ref.flow_pressure(st.w, own, wet, st.h,
+                                                                    st.params))
+    assert np.abs(got - first).max() > 1e-5  # the taps changed the pressure
 
 
 def test_wet_area_fades_at_the_end_of_pass_10(ctx) -> None:

@@ -171,7 +171,7 @@ class GLCanvas(GLStepPasses):
                          "NBANDS": self.bands, "TILES_X": self.tiles_x}
         self._programs = {name: self._compile(fname, extra)
                           for name, (fname, extra) in _PROGRAMS.items()}
-        self._pressure_taps = (-1, -1)  # blur_x, pressure: compiled per blur at the step
+        self._pressure_taps = ((), -1)  # blur_x, jacobi_first: compiled per blur at the step
         self._shape = (width, height, n_slots, tile, self.bands)
 
     def _compile(self, fname: str, extra: Mapping[str, object]) -> moderngl.ComputeShader:

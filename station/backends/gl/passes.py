@@ -24,8 +24,8 @@ F32 = np.float32
 # SSBO binding points (tiles.glsl, tile_*.comp, capillary_dry.comp, sources.comp)
 _B_LIST, _B_ALIVE, _B_TTL, _B_PREV, _B_ARGS, _B_ADDED, _B_MARK, _B_FOLDED = 0, 1, 2, 3, 4, 5, 6, 7
 MAX_TAPS = 17
-"""Most Gaussian taps pressure.comp blurs with (wet_blur <= 4): its shared memory is sized
-for a radius of 8 cells beside a 32 x 8 work group."""
+"""Most Gaussian taps the pressure blur (blur_x.comp, pressure.glsl) takes (wet_blur <= 4):
+the tap loops unroll into one program per tap count."""
 
 
 class GLStepPasses:
@@ -39,7 +39,7 @@ class GLStepPasses:
     npl: int
     tiling: bool
     _programs: dict[str, moderngl.ComputeShader]
-    _pressure_taps: tuple[int, int]  # (taps, hold) blur_x and pressure are compiled for
+    _pressure_taps: tuple[tuple[int, ...], int]  # (taps' bits, hold) of the blur programs
     _pass_seconds: dict[str, float] | None  # per-pass wall time while profiling, else None
     width: int
     height: int
@@ -114,22 +114,20 @@ class GLStepPasses:
         taps = reference.gaussian_taps(prm.wet_blur) if prm.flow_outward > 0 else np.zeros(0, F32)
         if len(taps) > MAX_TAPS:
             raise CanvasInputError("wet_blur too large for the GL backend (at most 4)", "params")
-        self._blur_programs(len(taps), hold)
-        pp = p["pressure"]
+        self._blur_programs(taps, hold)
+        pp = p["jacobi_first"]
         _set(pp, "u_eta", prm.flow_outward)
         _set(pp, "u_relief", prm.paper_relief)
         if len(taps):
             bx = p["blur_x"]
             _set(bx, "u_moist", prm.moist_threshold)
             _set(bx, "u_apron", 1 if self.tiling else 0)
-            for prog in (pp, bx):
-                _set(prog, "u_taps", [float(t) for t in taps])
         kv, kw, kp = (float(F32(prm.viscosity * dt)), float(F32(prm.nu_w * dt)),
                       float(F32(prm.nu_p * dt)))
         layers = -(-len(self.slots) // 4)
         for prog in p.values():
             _set(prog, "u_layers", layers)
-        for name in ("jacobi", "limit", "diffuse_apply"):
+        for name in ("jacobi", "jacobi_first", "limit", "diffuse_apply"):
             _set(p[name], "u_kv", kv)
             _set(p[name], "u_kw", kw)
             _set(p[name], "u_kp", kp)
@@ -163,21 +161,31 @@ class GLStepPasses:
         _set(cd, "u_moist", prm.moist_threshold)
         _set(p["tile_update"], "u_ttl", prm.tile_ttl_steps())
 
-    def _blur_programs(self, ntaps: int, hold: int) -> None:
-        """blur_x.comp and pressure.comp for ``ntaps`` Gaussian taps (0: no flow-outward
-        term, no blur_x) and ``hold`` (1: blur the wet-area memory), compiled when they
-        change (the tap loops unroll, the mask's source is fixed)."""
-        if (ntaps, hold) == self._pressure_taps:
+    def _blur_programs(self, taps: np.ndarray, hold: int) -> None:
+        """blur_x.comp and the first Jacobi iteration (jacobi.comp with FIRST_ITER, which
+        forms pass 3's levelled height, pressure.glsl) for the float32 Gaussian ``taps``
+        (none: no flow-outward term, no blur_x) and ``hold`` (1: blur the wet-area
+        memory), compiled when they change.  The taps are constants of the program (their
+        exact bits, ``TAPS``), not a uniform array: llvmpipe then multiplies by
+        immediates instead of loading the array in every lane, about 2 ms CPU a 15-tap
+        loop at 800x600; the loops unroll, the mask's source is fixed."""
+        bits = tuple(int(b) for b in np.asarray(taps, F32).view(np.uint32))
+        if (bits, hold) == self._pressure_taps:
             return
-        for name in ("blur_x", "pressure"):
+        ntaps = len(bits)
+        for name in ("blur_x", "jacobi_first"):
             old = self._programs.pop(name, None)
             if old is not None:
                 old.release()
+        const = {"NTAPS": max(1, ntaps),
+                 "TAPS": "float[{}]({})".format(
+                     max(1, ntaps), ", ".join(f"uintBitsToFloat(0x{b:08x}u)" for b in bits)
+                     or "0.0")}
         if ntaps:
-            self._programs["blur_x"] = self._compile("blur_x.comp",
-                                                     {"NTAPS": ntaps, "HOLD": hold})
-        self._programs["pressure"] = self._compile("pressure.comp", {"NTAPS": max(1, ntaps)})
-        self._pressure_taps = (ntaps, hold)
+            self._programs["blur_x"] = self._compile("blur_x.comp", {**const, "HOLD": hold})
+        self._programs["jacobi_first"] = self._compile("jacobi.comp",
+                                                       {**const, "FIRST_ITER": 1})
+        self._pressure_taps = (bits, hold)
 
     def _begin_step(self) -> None:
         """Bind the tile list and build it (tiling) for the passes of one step."""
@@ -207,7 +215,9 @@ class GLStepPasses:
             self._pass_seconds = {}
         return out
 
-    def _dispatch(self, name: str) -> None:
+    def _dispatch(self, name: str, label: str | None = None) -> None:
+        """Run program ``name`` on the step's cells; its profiled time counts under
+        ``label`` (default ``name``)."""
         prog = self._programs[name]
         times = self._pass_seconds
         if times is not None:
@@ -220,7 +230,8 @@ class GLStepPasses:
         self._barrier()
         if times is not None:
             self.ctx.finish()
-            times[name] = times.get(name, 0.0) + time.perf_counter() - t0
+            key = label or name
+            times[key] = times.get(key, 0.0) + time.perf_counter() - t0
 
     def _pass_prep(self) -> None:
         f = self.f
@@ -238,15 +249,13 @@ class GLStepPasses:
             self._bind(4, self.bx, False, True)
             self._bind(5, f["area"].src, True, False)
             self._dispatch("blur_x")
-        self._bind(3, self.jv[0], True, False)
-        self._bind(4, self.pr, False, True)
-        self._bind(5, self.bx, True, False)
-        self._dispatch("pressure")
+        # pass 3's levelled height P runs in the first Jacobi iteration (_pass_diffusion);
         # until the diffusion passes run, jv[0] holds wb (.w) and jv[1] is free
         self._js, self._jfree = self.jv[0], self.jv[1]
 
     def _pass_diffusion(self) -> None:
-        """Jacobi iterations, limit (velocity final + limiters), diffuse_apply."""
+        """Pass 3's levelled height (in the first Jacobi iteration), the Jacobi
+        iterations, limit (velocity final + limiters), diffuse_apply."""
         f = self.f
         n = int(self.params.jacobi_iters)
         cur = 0
@@ -254,10 +263,18 @@ class GLStepPasses:
             self._bind(1, self.jv[cur], True, False)
             self._bind(2, self.aux, True, False)
             self._bind(4, f["pig"].src, True, False)
-            self._bind(5, f["pig"].src if i == 0 else self.jd[cur], True, False)
             self._bind(6, self.jv[1 - cur], False, True)
             self._bind(7, self.jd[1 - cur], False, True)
-            self._dispatch("jacobi")
+            if i == 0:
+                # the pigment iterate starts at p (unit 4); P from w (aux), wb (jv), h, bx
+                self._bind(0, self.pr, False, True)
+                self._bind(3, f["paper"].src, True, False)
+                if "blur_x" in self._programs:
+                    self._bind(5, self.bx, True, False)
+                self._dispatch("jacobi_first", "jacobi")
+            else:
+                self._bind(5, self.jd[cur], True, False)
+                self._dispatch("jacobi")
             cur = 1 - cur
         # the converged iterate is in jv[cur], jd[cur]
         self._bind(1, self.jv[cur], True, False)

@@ -24,12 +24,13 @@ def floats_per_cell_step(slots: int, jacobi_iters: int,
         # pass 3's blur along x: read w, wc, mask (own wet, the neighbours from cache);
         # write bx
         "blur_x (pass 3's wet area blurred along x)": 3 + 1,
-        # read w, h, wb, bx (the blur's neighbours come from cache); write P
-        "pressure (pass 3's levelled height)": 4 + 1,
         # each iteration reads the iterate jv = (xv(2), xw, wb), the right-hand sides
         # (v1(2), w), p(S) and the pigment iterate xp(S) (= p in the first iteration);
-        # writes jv(4) and xp(S)
-        "jacobi (velocity, water, pigment)": (7 + s + 4 + s) + (n - 1) * (7 + 2 * s + 4 + s),
+        # writes jv(4) and xp(S).  The first iteration also forms pass 3's levelled height
+        # from the w and wb it reads anyway: reads h and bx (the blur's neighbours come
+        # from cache), writes P
+        "jacobi (pass 3's levelled height; velocity, water, pigment)":
+            (7 + s + 4 + s) + (2 + 1) + (n - 1) * (7 + 2 * s + 4 + s),
         # read jv(4), xp(S), w, P, p(S); write v(2), (xw, s_w, wb), s_p(S)
         "limit (height term, boundary, limiters)": (6 + 2 * s) + (5 + s),
         # read (xw, s_w, wb), xp(S), s_p(S), w, p(S); write w, p(S)
