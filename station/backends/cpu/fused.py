@@ -262,30 +262,64 @@ def _vel_row(wet: np.ndarray, v1x: np.ndarray, v1y: np.ndarray, xvx: np.ndarray,
 
 
 @_inline
-def _pface(br: np.ndarray, bnr: np.ndarray, bsr: np.ndarray, wr: np.ndarray, wn: np.ndarray,
-           ws: np.ndarray, i: int) -> tuple[np.float32, np.float32, np.float32, np.float32]:
-    # pragma: no cover - compiled
-    b0 = br[i]
-    t = br[i + 1]
-    be_ = (b0 if b0 < t else t) if (wr[i] != 0) & (wr[i + 1] != 0) else ZERO
-    t = br[i - 1]
-    bw_ = (b0 if b0 < t else t) if (wr[i] != 0) & (wr[i - 1] != 0) else ZERO
-    t = bsr[i]
-    bs_ = (b0 if b0 < t else t) if (wr[i] != 0) & (ws[i] != 0) else ZERO
-    t = bnr[i]
-    bn_ = (b0 if b0 < t else t) if (wr[i] != 0) & (wn[i] != 0) else ZERO
-    return be_, bw_, bs_, bn_
+def _flux_rows(wet: np.ndarray, bc: np.ndarray, xr: np.ndarray, xs: np.ndarray,
+               pc: np.ndarray, ps: np.ndarray, ns: int, kw: np.float32, kp: np.float32,
+               do_w: bool, do_p: bool, r: int, bh: int, bw: int, spans: np.ndarray,
+               nsp: np.ndarray, fx: np.ndarray, fy: np.ndarray, px: np.ndarray,
+               py: np.ndarray) -> None:  # pragma: no cover - compiled
+    """The unlimited face fluxes of passes 4/5 on row r, each face once: the x faces
+    (i, i + 1), i = slo-1..shi of each span of row r (1 <= r <= bh), into ``fx`` (water)
+    and ``px`` (slot, column), and the y faces (r, r + 1) on the columns a span of row r
+    or row r + 1 holds into ``fy``/``py`` (0 <= r <= bh), from the final iterates of rows
+    r (``xr``, ``pc``) and r + 1 (``xs``, ``ps``).  A face's flux is the expression both
+    of its cells computed before (height_limit's E/W/S/N terms, the same operands in the
+    same order: cell i's west face is cell i - 1's east face, row r's north face row
+    r - 1's south face), so the limiter and the fluxes read it from these rows."""
+    wr, ws = wet[r], wet[r + 1]
+    if 1 <= r <= bh:
+        br = bc[r]
+        for sx in range(nsp[r]):
+            slo, shi = K._span(spans, r, sx)
+            if do_w:
+                for i in range(slo - 1, shi + 1):
+                    fx[i] = (kw * _open(wr[i], wr[i + 1])) * (xr[i] - xr[i + 1])
+            if do_p:
+                for kk in range(ns):
+                    for i in range(slo - 1, shi + 1):
+                        b0 = br[i]
+                        t = br[i + 1]
+                        be_ = (b0 if b0 < t else t) if (wr[i] != 0) & (wr[i + 1] != 0) \
+                            else ZERO
+                        px[kk, i] = (kp * be_) * (pc[kk, i] - pc[kk, i + 1])
+    lo = bw + 1
+    hi = 0
+    for rr in (r, r + 1):
+        if 1 <= rr <= bh and nsp[rr] > 0:
+            a, _ = K._span(spans, rr, 0)
+            b = spans[rr, nsp[rr] - 1, 1]
+            lo = a if a < lo else lo
+            hi = b if b > hi else hi
+    if do_w:
+        for i in range(lo, hi + 1):
+            fy[i] = (kw * _open(wr[i], ws[i])) * (xr[i] - xs[i])
+    if do_p:
+        br, bsr = bc[r], bc[r + 1]
+        for kk in range(ns):
+            for i in range(lo, hi + 1):
+                b0 = br[i]
+                t = bsr[i]
+                bs_ = (b0 if b0 < t else t) if (wr[i] != 0) & (ws[i] != 0) else ZERO
+                py[kk, i] = (kp * bs_) * (pc[kk, i] - ps[kk, i])
 
 
 @_inline
-def _lim_row(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xn: np.ndarray,
-             xr: np.ndarray, xs: np.ndarray, p0: np.ndarray, pn: np.ndarray, pc: np.ndarray,
-             ps: np.ndarray, ns: int, kw: np.float32, kp: np.float32,
-             do_w: bool, do_p: bool, r: int, spans: np.ndarray, nsp: np.ndarray,
+def _lim_row(w0: np.ndarray, p0: np.ndarray, ns: int, do_w: bool, do_p: bool, r: int,
+             spans: np.ndarray, nsp: np.ndarray, fx: np.ndarray, fyn: np.ndarray,
+             fys: np.ndarray, px: np.ndarray, pyn: np.ndarray, pys: np.ndarray,
              sw_r: np.ndarray, sp_r: np.ndarray) -> None:  # pragma: no cover - compiled
     """height_limit's donor limiters of row r into ring rows (zero outside the spans),
-    from the rows r-1, r, r+1 of the final water (``xn``, ``xr``, ``xs``) and pigment
-    (``pn``, ``pc``, ``ps``: slot, column) iterates."""
+    from the face fluxes of row r (:func:`_flux_rows`: x faces ``fx``/``px``, south
+    faces ``fys``/``pys``) and row r - 1's south faces (``fyn``/``pyn``)."""
     if do_w:
         _zero_gaps(sw_r, r, spans, nsp)
     else:
@@ -295,29 +329,26 @@ def _lim_row(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xn: np.ndarray,
             _zero_gaps(sp_r[kk], r, spans, nsp)
     else:
         sp_r[:, :] = ZERO
-    wr, wn, ws = wet[r], wet[r - 1], wet[r + 1]
     for sx in range(nsp[r]):
         slo, shi = K._span(spans, r, sx)
         if do_w:
             for i in range(slo, shi + 1):
-                fe = (kw * _open(wr[i], wr[i + 1])) * (xr[i] - xr[i + 1])
-                fw = (kw * _open(wr[i - 1], wr[i])) * (xr[i - 1] - xr[i])
-                fs = (kw * _open(wr[i], ws[i])) * (xr[i] - xs[i])
-                fn = (kw * _open(wn[i], wr[i])) * (xn[i] - xr[i])
+                fe = fx[i]
+                fw = fx[i - 1]
+                fs = fys[i]
+                fn = fyn[i]
                 out = (((fe if fe > ZERO else ZERO) - (fw if fw < ZERO else ZERO))
                        + (fs if fs > ZERO else ZERO)) - (fn if fn < ZERO else ZERO)
                 uv = w0[r, i]
                 uv = uv if uv > ZERO else ZERO
                 sw_r[i] = uv / out if out > uv else ONE
         if do_p:
-            br, bnr, bsr = bc[r], bc[r - 1], bc[r + 1]
             for kk in range(ns):
                 for i in range(slo, shi + 1):
-                    be_, bw_, bs_, bn_ = _pface(br, bnr, bsr, wr, wn, ws, i)
-                    fe = (kp * be_) * (pc[kk, i] - pc[kk, i + 1])
-                    fw = (kp * bw_) * (pc[kk, i - 1] - pc[kk, i])
-                    fs = (kp * bs_) * (pc[kk, i] - ps[kk, i])
-                    fn = (kp * bn_) * (pn[kk, i] - pc[kk, i])
+                    fe = px[kk, i]
+                    fw = px[kk, i - 1]
+                    fs = pys[kk, i]
+                    fn = pyn[kk, i]
                     out = (((fe if fe > ZERO else ZERO) - (fw if fw < ZERO else ZERO))
                            + (fs if fs > ZERO else ZERO)) - (fn if fn < ZERO else ZERO)
                     uv = p0[kk, r, i]
@@ -389,14 +420,23 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
         spr = np.zeros((3, max(ns, 1), bw + 2), F32)
         xwr = np.zeros((4, bw + 2), F32)  # final iterates: row r in slot r % 4
         xpr = np.zeros((4, max(ns, 1), bw + 2), F32)
+        fxr = np.zeros((3, bw + 2), F32)  # face fluxes of row r in slot r % 3: x faces,
+        fyr = np.zeros((3, bw + 2), F32)  # the y faces (r, r + 1)
+        pxr = np.zeros((3, max(ns, 1), bw + 2), F32)
+        pyr = np.zeros((3, max(ns, 1), bw + 2), F32)
         for r in range(j0 - 2, j0 + 2):
             _iterate_row(wet, bc, w0, xw, p0, xp, bh, ns, kw, kp, jac1, do_w, do_p, r, spans,
                          nsp, xwr[r % 4], xpr[r % 4])
+        for r in (j0 - 2, j0 - 1, j0):
+            if 0 <= r <= bh:
+                _flux_rows(wet, bc, xwr[r % 4], xwr[(r + 1) % 4], xpr[r % 4],
+                           xpr[(r + 1) % 4], ns, kw, kp, do_w, do_p, r, bh, bw, spans, nsp,
+                           fxr[r % 3], fyr[r % 3], pxr[r % 3], pyr[r % 3])
         for r in (j0 - 1, j0):
             if 1 <= r <= bh:
-                _lim_row(wet, bc, w0, xwr[(r - 1) % 4], xwr[r % 4], xwr[(r + 1) % 4], p0,
-                         xpr[(r - 1) % 4], xpr[r % 4], xpr[(r + 1) % 4], ns, kw, kp, do_w,
-                         do_p, r, spans, nsp, swr[r % 3], spr[r % 3])
+                _lim_row(w0, p0, ns, do_w, do_p, r, spans, nsp, fxr[r % 3],
+                         fyr[(r - 1) % 3], fyr[r % 3], pxr[r % 3], pyr[(r - 1) % 3],
+                         pyr[r % 3], swr[r % 3], spr[r % 3])
             else:
                 swr[r % 3, :] = ZERO
                 spr[r % 3, :, :] = ZERO
@@ -405,26 +445,28 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
                          spans, nsp, xwr[(j + 2) % 4], xpr[(j + 2) % 4])
             r = j + 1
             if r <= bh:
-                _lim_row(wet, bc, w0, xwr[j % 4], xwr[r % 4], xwr[(r + 1) % 4], p0,
-                         xpr[j % 4], xpr[r % 4], xpr[(r + 1) % 4], ns, kw, kp, do_w, do_p,
-                         r, spans, nsp, swr[r % 3], spr[r % 3])
+                _flux_rows(wet, bc, xwr[r % 4], xwr[(r + 1) % 4], xpr[r % 4],
+                           xpr[(r + 1) % 4], ns, kw, kp, do_w, do_p, r, bh, bw, spans, nsp,
+                           fxr[r % 3], fyr[r % 3], pxr[r % 3], pyr[r % 3])
+                _lim_row(w0, p0, ns, do_w, do_p, r, spans, nsp, fxr[r % 3],
+                         fyr[j % 3], fyr[r % 3], pxr[r % 3], pyr[j % 3], pyr[r % 3],
+                         swr[r % 3], spr[r % 3])
             else:
                 swr[r % 3, :] = ZERO
                 spr[r % 3, :, :] = ZERO
             sm, s0_, sp_ = (j - 1) % 3, j % 3, (j + 1) % 3
-            xn, xc, xs = xwr[(j - 1) % 4], xwr[j % 4], xwr[(j + 1) % 4]
-            pn, pc, ps = xpr[(j - 1) % 4], xpr[j % 4], xpr[(j + 1) % 4]
-            wr, wn, ws = wet[j], wet[j - 1], wet[j + 1]
+            fx, fys, fyn = fxr[s0_], fyr[s0_], fyr[sm]
+            px, pys, pyn = pxr[s0_], pyr[s0_], pyr[sm]
             for sx in range(nsp[j]):
                 slo, shi = K._span(spans, j, sx)
                 _vel_row(wet, v1x, v1y, xvx, xvy, pr, cst, do_vjac, do_height, j, slo, shi,
                          v3x_o, v3y_o)
                 if do_w:
                     for i in range(slo, shi + 1):
-                        fe = (kw * _open(wr[i], wr[i + 1])) * (xc[i] - xc[i + 1])
-                        fw = (kw * _open(wr[i - 1], wr[i])) * (xc[i - 1] - xc[i])
-                        fs = (kw * _open(wr[i], ws[i])) * (xc[i] - xs[i])
-                        fn = (kw * _open(wn[i], wr[i])) * (xn[i] - xc[i])
+                        fe = fx[i]
+                        fw = fx[i - 1]
+                        fs = fys[i]
+                        fn = fyn[i]
                         s0 = swr[s0_, i]
                         fe = (fe if fe > ZERO else ZERO) * s0 \
                             + (fe if fe < ZERO else ZERO) * swr[s0_, i + 1]
@@ -439,14 +481,12 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
                     for i in range(slo, shi + 1):
                         w2_o[j, i] = w0[j, i]
                 if do_p:
-                    br, bnr, bsr = bc[j], bc[j - 1], bc[j + 1]
                     for kk in range(ns):
                         for i in range(slo, shi + 1):
-                            be_, bw_, bs_, bn_ = _pface(br, bnr, bsr, wr, wn, ws, i)
-                            fe = (kp * be_) * (pc[kk, i] - pc[kk, i + 1])
-                            fw = (kp * bw_) * (pc[kk, i - 1] - pc[kk, i])
-                            fs = (kp * bs_) * (pc[kk, i] - ps[kk, i])
-                            fn = (kp * bn_) * (pn[kk, i] - pc[kk, i])
+                            fe = px[kk, i]
+                            fw = px[kk, i - 1]
+                            fs = pys[kk, i]
+                            fn = pyn[kk, i]
                             s0 = spr[s0_, kk, i]
                             fe = (fe if fe > ZERO else ZERO) * s0 \
                                 + (fe if fe < ZERO else ZERO) * spr[s0_, kk, i + 1]
