@@ -11,7 +11,10 @@ per chunk of rows instead of full scratch fields:
   (``diffuse_apply``): no ``sw``/``sp`` fields and none of diffuse_apply's re-reads,
   −(6 + 4·slots) floats per cell-step;
 * :func:`evap_cap_fused`: passes 7-9a (``evap_surface_absorb``) with 9b, 9c and 10
-  (``capillary_dry``): no ``sat`` field and none of capillary_dry's re-reads, −10 floats.
+  (``capillary_dry``): no ``sat`` field and none of capillary_dry's re-reads, −10 floats;
+* :func:`advect_evap_fused` (a full step): the last two in one sweep, pass 6 a few rows
+  ahead of passes 7-10, so the advected pigment and ``w3`` come back from cache and
+  evap's memory traffic overlaps advect's arithmetic (issue 26, session 9: −29 B).
 
 A chunk's first ring rows belong to its neighbour chunk: they are recomputed here (the
 limiters are pure functions of the sweep's inputs).  So these sweeps take as few chunks as
