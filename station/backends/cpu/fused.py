@@ -11,7 +11,10 @@ per chunk of rows instead of full scratch fields:
   (``diffuse_apply``): no ``sw``/``sp`` fields and none of diffuse_apply's re-reads,
   −(6 + 4·slots) floats per cell-step;
 * :func:`evap_cap_fused`: passes 7-9a (``evap_surface_absorb``) with 9b, 9c and 10
-  (``capillary_dry``): no ``sat`` field and none of capillary_dry's re-reads, −10 floats.
+  (``capillary_dry``): no ``sat`` field and none of capillary_dry's re-reads, −10 floats;
+* :func:`advect_evap_fused` (a full step): the last two in one sweep, pass 6 a few rows
+  ahead of passes 7-10, so the advected pigment and ``w3`` come back from cache and
+  evap's memory traffic overlaps advect's arithmetic (issue 26, session 9: −29 B).
 
 A chunk's first ring rows belong to its neighbour chunk: they are recomputed here (the
 limiters are pure functions of the sweep's inputs).  So these sweeps take as few chunks as
@@ -94,10 +97,12 @@ def _y_rates(vy: np.ndarray, wet: np.ndarray, r: int, bh: int, bw: int, spans: n
             b = spans[rr, nsp[rr] - 1, 1]
             lo = a if a < lo else lo
             hi = b if b > hi else hi
+    y0_, y1_ = yo[0], yo[1]
     for i in range(lo, hi + 1):
-        rp, rn = K._face_y(vy, wet, r, i, q4)
-        yo[0, i] = rp
-        yo[1, i] = rn
+        u = np.uint64(i)  # unsigned: see _flux_rows (no wraparound, no gathers)
+        rp, rn = K._face_y(vy, wet, r, u, q4)
+        y0_[u] = rp
+        y1_[u] = rn
 
 
 @_inline
@@ -262,30 +267,69 @@ def _vel_row(wet: np.ndarray, v1x: np.ndarray, v1y: np.ndarray, xvx: np.ndarray,
 
 
 @_inline
-def _pface(br: np.ndarray, bnr: np.ndarray, bsr: np.ndarray, wr: np.ndarray, wn: np.ndarray,
-           ws: np.ndarray, i: int) -> tuple[np.float32, np.float32, np.float32, np.float32]:
-    # pragma: no cover - compiled
-    b0 = br[i]
-    t = br[i + 1]
-    be_ = (b0 if b0 < t else t) if (wr[i] != 0) & (wr[i + 1] != 0) else ZERO
-    t = br[i - 1]
-    bw_ = (b0 if b0 < t else t) if (wr[i] != 0) & (wr[i - 1] != 0) else ZERO
-    t = bsr[i]
-    bs_ = (b0 if b0 < t else t) if (wr[i] != 0) & (ws[i] != 0) else ZERO
-    t = bnr[i]
-    bn_ = (b0 if b0 < t else t) if (wr[i] != 0) & (wn[i] != 0) else ZERO
-    return be_, bw_, bs_, bn_
+def _flux_rows(wet: np.ndarray, bc: np.ndarray, xr: np.ndarray, xs: np.ndarray,
+               pc: np.ndarray, ps: np.ndarray, ns: int, kw: np.float32, kp: np.float32,
+               do_w: bool, do_p: bool, r: int, bh: int, bw: int, spans: np.ndarray,
+               nsp: np.ndarray, fx: np.ndarray, fy: np.ndarray, px: np.ndarray,
+               py: np.ndarray) -> None:  # pragma: no cover - compiled
+    """The unlimited face fluxes of passes 4/5 on row r, each face once: the x faces
+    (i, i + 1), i = slo-1..shi of each span of row r (1 <= r <= bh), into ``fx`` (water)
+    and ``px`` (slot, column), and the y faces (r, r + 1) on the columns a span of row r
+    or row r + 1 holds into ``fy``/``py`` (0 <= r <= bh), from the final iterates of rows
+    r (``xr``, ``pc``) and r + 1 (``xs``, ``ps``).  A face's flux is the expression both
+    of its cells computed before (height_limit's E/W/S/N terms, the same operands in the
+    same order: cell i's west face is cell i - 1's east face, row r's north face row
+    r - 1's south face), so the limiter and the fluxes read it from these rows."""
+    wr, ws = wet[r], wet[r + 1]
+    if 1 <= r <= bh:
+        br = bc[r]
+        for sx in range(nsp[r]):
+            slo, shi = K._span(spans, r, sx)
+            if do_w:
+                for i in range(slo - 1, shi + 1):
+                    fx[i] = (kw * _open(wr[i], wr[i + 1])) * (xr[i] - xr[i + 1])
+            if do_p:
+                for kk in range(ns):
+                    for i in range(slo - 1, shi + 1):
+                        b0 = br[i]
+                        t = br[i + 1]
+                        be_ = (b0 if b0 < t else t) if (wr[i] != 0) & (wr[i + 1] != 0) \
+                            else ZERO
+                        px[kk, i] = (kp * be_) * (pc[kk, i] - pc[kk, i + 1])
+    lo = bw + 1
+    hi = 0
+    for rr in (r, r + 1):
+        if 1 <= rr <= bh and nsp[rr] > 0:
+            a, _ = K._span(spans, rr, 0)
+            b = spans[rr, nsp[rr] - 1, 1]
+            lo = a if a < lo else lo
+            hi = b if b > hi else hi
+    # an unsigned column: numba cannot bound lo, and its negative-index wraparound made
+    # this loop gathers (limit_diffuse 1.9x slower)
+    if do_w:
+        for i in range(lo, hi + 1):
+            u = np.uint64(i)
+            fy[u] = (kw * _open(wr[u], ws[u])) * (xr[u] - xs[u])
+    if do_p:
+        br, bsr = bc[r], bc[r + 1]
+        for kk in range(ns):
+            pck, psk, pyk = pc[kk], ps[kk], py[kk]
+            for i in range(lo, hi + 1):
+                u = np.uint64(i)
+                b0 = br[u]
+                t = bsr[u]
+                bs_ = (b0 if b0 < t else t) if (wr[u] != 0) & (ws[u] != 0) else ZERO
+                pyk[u] = (kp * bs_) * (pck[u] - psk[u])
 
 
 @_inline
-def _lim_row(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xn: np.ndarray,
-             xr: np.ndarray, xs: np.ndarray, p0: np.ndarray, pn: np.ndarray, pc: np.ndarray,
-             ps: np.ndarray, ns: int, kw: np.float32, kp: np.float32,
-             do_w: bool, do_p: bool, r: int, spans: np.ndarray, nsp: np.ndarray,
+def _lim_row(w0: np.ndarray, p0: np.ndarray, ns: int, do_w: bool, do_p: bool, r: int,
+             spans: np.ndarray, nsp: np.ndarray, fx: np.ndarray, fyn: np.ndarray,
+             fys: np.ndarray, px: np.ndarray, pyn: np.ndarray, pys: np.ndarray,
              sw_r: np.ndarray, sp_r: np.ndarray) -> None:  # pragma: no cover - compiled
     """height_limit's donor limiters of row r into ring rows (zero outside the spans),
-    from the rows r-1, r, r+1 of the final water (``xn``, ``xr``, ``xs``) and pigment
-    (``pn``, ``pc``, ``ps``: slot, column) iterates."""
+    from the face fluxes of row r (:func:`_flux_rows`: x faces ``fx``/``px``, south
+    faces ``fys``/``pys``) and row r - 1's south faces (``fyn``/``pyn``)."""
     if do_w:
         _zero_gaps(sw_r, r, spans, nsp)
     else:
@@ -295,29 +339,26 @@ def _lim_row(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xn: np.ndarray,
             _zero_gaps(sp_r[kk], r, spans, nsp)
     else:
         sp_r[:, :] = ZERO
-    wr, wn, ws = wet[r], wet[r - 1], wet[r + 1]
     for sx in range(nsp[r]):
         slo, shi = K._span(spans, r, sx)
         if do_w:
             for i in range(slo, shi + 1):
-                fe = (kw * _open(wr[i], wr[i + 1])) * (xr[i] - xr[i + 1])
-                fw = (kw * _open(wr[i - 1], wr[i])) * (xr[i - 1] - xr[i])
-                fs = (kw * _open(wr[i], ws[i])) * (xr[i] - xs[i])
-                fn = (kw * _open(wn[i], wr[i])) * (xn[i] - xr[i])
+                fe = fx[i]
+                fw = fx[i - 1]
+                fs = fys[i]
+                fn = fyn[i]
                 out = (((fe if fe > ZERO else ZERO) - (fw if fw < ZERO else ZERO))
                        + (fs if fs > ZERO else ZERO)) - (fn if fn < ZERO else ZERO)
                 uv = w0[r, i]
                 uv = uv if uv > ZERO else ZERO
                 sw_r[i] = uv / out if out > uv else ONE
         if do_p:
-            br, bnr, bsr = bc[r], bc[r - 1], bc[r + 1]
             for kk in range(ns):
                 for i in range(slo, shi + 1):
-                    be_, bw_, bs_, bn_ = _pface(br, bnr, bsr, wr, wn, ws, i)
-                    fe = (kp * be_) * (pc[kk, i] - pc[kk, i + 1])
-                    fw = (kp * bw_) * (pc[kk, i - 1] - pc[kk, i])
-                    fs = (kp * bs_) * (pc[kk, i] - ps[kk, i])
-                    fn = (kp * bn_) * (pn[kk, i] - pc[kk, i])
+                    fe = px[kk, i]
+                    fw = px[kk, i - 1]
+                    fs = pys[kk, i]
+                    fn = pyn[kk, i]
                     out = (((fe if fe > ZERO else ZERO) - (fw if fw < ZERO else ZERO))
                            + (fs if fs > ZERO else ZERO)) - (fn if fn < ZERO else ZERO)
                     uv = p0[kk, r, i]
@@ -389,14 +430,23 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
         spr = np.zeros((3, max(ns, 1), bw + 2), F32)
         xwr = np.zeros((4, bw + 2), F32)  # final iterates: row r in slot r % 4
         xpr = np.zeros((4, max(ns, 1), bw + 2), F32)
+        fxr = np.zeros((3, bw + 2), F32)  # face fluxes of row r in slot r % 3: x faces,
+        fyr = np.zeros((3, bw + 2), F32)  # the y faces (r, r + 1)
+        pxr = np.zeros((3, max(ns, 1), bw + 2), F32)
+        pyr = np.zeros((3, max(ns, 1), bw + 2), F32)
         for r in range(j0 - 2, j0 + 2):
             _iterate_row(wet, bc, w0, xw, p0, xp, bh, ns, kw, kp, jac1, do_w, do_p, r, spans,
                          nsp, xwr[r % 4], xpr[r % 4])
+        for r in (j0 - 2, j0 - 1, j0):
+            if 0 <= r <= bh:
+                _flux_rows(wet, bc, xwr[r % 4], xwr[(r + 1) % 4], xpr[r % 4],
+                           xpr[(r + 1) % 4], ns, kw, kp, do_w, do_p, r, bh, bw, spans, nsp,
+                           fxr[r % 3], fyr[r % 3], pxr[r % 3], pyr[r % 3])
         for r in (j0 - 1, j0):
             if 1 <= r <= bh:
-                _lim_row(wet, bc, w0, xwr[(r - 1) % 4], xwr[r % 4], xwr[(r + 1) % 4], p0,
-                         xpr[(r - 1) % 4], xpr[r % 4], xpr[(r + 1) % 4], ns, kw, kp, do_w,
-                         do_p, r, spans, nsp, swr[r % 3], spr[r % 3])
+                _lim_row(w0, p0, ns, do_w, do_p, r, spans, nsp, fxr[r % 3],
+                         fyr[(r - 1) % 3], fyr[r % 3], pxr[r % 3], pyr[(r - 1) % 3],
+                         pyr[r % 3], swr[r % 3], spr[r % 3])
             else:
                 swr[r % 3, :] = ZERO
                 spr[r % 3, :, :] = ZERO
@@ -405,26 +455,28 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
                          spans, nsp, xwr[(j + 2) % 4], xpr[(j + 2) % 4])
             r = j + 1
             if r <= bh:
-                _lim_row(wet, bc, w0, xwr[j % 4], xwr[r % 4], xwr[(r + 1) % 4], p0,
-                         xpr[j % 4], xpr[r % 4], xpr[(r + 1) % 4], ns, kw, kp, do_w, do_p,
-                         r, spans, nsp, swr[r % 3], spr[r % 3])
+                _flux_rows(wet, bc, xwr[r % 4], xwr[(r + 1) % 4], xpr[r % 4],
+                           xpr[(r + 1) % 4], ns, kw, kp, do_w, do_p, r, bh, bw, spans, nsp,
+                           fxr[r % 3], fyr[r % 3], pxr[r % 3], pyr[r % 3])
+                _lim_row(w0, p0, ns, do_w, do_p, r, spans, nsp, fxr[r % 3],
+                         fyr[j % 3], fyr[r % 3], pxr[r % 3], pyr[j % 3], pyr[r % 3],
+                         swr[r % 3], spr[r % 3])
             else:
                 swr[r % 3, :] = ZERO
                 spr[r % 3, :, :] = ZERO
             sm, s0_, sp_ = (j - 1) % 3, j % 3, (j + 1) % 3
-            xn, xc, xs = xwr[(j - 1) % 4], xwr[j % 4], xwr[(j + 1) % 4]
-            pn, pc, ps = xpr[(j - 1) % 4], xpr[j % 4], xpr[(j + 1) % 4]
-            wr, wn, ws = wet[j], wet[j - 1], wet[j + 1]
+            fx, fys, fyn = fxr[s0_], fyr[s0_], fyr[sm]
+            px, pys, pyn = pxr[s0_], pyr[s0_], pyr[sm]
             for sx in range(nsp[j]):
                 slo, shi = K._span(spans, j, sx)
                 _vel_row(wet, v1x, v1y, xvx, xvy, pr, cst, do_vjac, do_height, j, slo, shi,
                          v3x_o, v3y_o)
                 if do_w:
                     for i in range(slo, shi + 1):
-                        fe = (kw * _open(wr[i], wr[i + 1])) * (xc[i] - xc[i + 1])
-                        fw = (kw * _open(wr[i - 1], wr[i])) * (xc[i - 1] - xc[i])
-                        fs = (kw * _open(wr[i], ws[i])) * (xc[i] - xs[i])
-                        fn = (kw * _open(wn[i], wr[i])) * (xn[i] - xc[i])
+                        fe = fx[i]
+                        fw = fx[i - 1]
+                        fs = fys[i]
+                        fn = fyn[i]
                         s0 = swr[s0_, i]
                         fe = (fe if fe > ZERO else ZERO) * s0 \
                             + (fe if fe < ZERO else ZERO) * swr[s0_, i + 1]
@@ -439,14 +491,12 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
                     for i in range(slo, shi + 1):
                         w2_o[j, i] = w0[j, i]
                 if do_p:
-                    br, bnr, bsr = bc[j], bc[j - 1], bc[j + 1]
                     for kk in range(ns):
                         for i in range(slo, shi + 1):
-                            be_, bw_, bs_, bn_ = _pface(br, bnr, bsr, wr, wn, ws, i)
-                            fe = (kp * be_) * (pc[kk, i] - pc[kk, i + 1])
-                            fw = (kp * bw_) * (pc[kk, i - 1] - pc[kk, i])
-                            fs = (kp * bs_) * (pc[kk, i] - ps[kk, i])
-                            fn = (kp * bn_) * (pn[kk, i] - pc[kk, i])
+                            fe = px[kk, i]
+                            fw = px[kk, i - 1]
+                            fs = pys[kk, i]
+                            fn = pyn[kk, i]
                             s0 = spr[s0_, kk, i]
                             fe = (fe if fe > ZERO else ZERO) * s0 \
                                 + (fe if fe < ZERO else ZERO) * spr[s0_, kk, i + 1]
@@ -646,6 +696,176 @@ def evap_cap_fused(wet: np.ndarray, w3: np.ndarray, opn: np.ndarray,
                 K._esa_row(wet, w3, opn, h, wc, evap, w_state, p, q, beta, gamma, delta, y0,
                          x0, ns, cst, do_evap, do_surface, do_absorb, r, spans, nsp, wrow,
                          frow, ring[r % 3])
+            else:
+                ring[r % 3, :] = edge_sat[ch, 1]
+            _cd_row(ring[(j - 1) % 3], ring[j % 3], ring[(j + 1) % 3], h, opn, v3x, v3y,
+                    w_state, wc, evap, p, q, vx, vy, y0, x0, ns, cst, do_capdiff, do_dry, j,
+                    spans, nsp, wcrow, crow, area, fade, holding)
+
+
+@_inline
+def _adv_prime(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
+               p: np.ndarray, js: int, bh: int, bw: int, ns: int, q4: np.float32,
+               wmin: np.float32, wmax: np.float32, spans: np.ndarray, nsp: np.ndarray,
+               so: np.ndarray, si: np.ndarray, xr: np.ndarray,
+               yr: np.ndarray) -> None:  # pragma: no cover - compiled
+    """advect_fused's rings made ready for applying rows js, js + 1, ... in order
+    (:func:`_adv_row`): the face rates of rows js - 2..js and the limiters of rows
+    js - 1, js."""
+    for r in (js - 2, js - 1, js):
+        if 0 <= r <= bh:
+            _y_rates(vy, wet, r, bh, bw, spans, nsp, q4, yr[r % 3])
+        if 1 <= r <= bh:
+            _x_rates(vx, wet, r, spans, nsp, q4, xr[r % 3])
+    for r in (js - 1, js):
+        if 1 <= r <= bh:
+            _limit_row(w, p, r, ns, wmin, wmax, spans, nsp, xr[r % 3], yr[r % 3],
+                       yr[(r - 1) % 3], so[r % 3], si[r % 3])
+        else:
+            so[r % 3, :] = ZERO
+            si[r % 3, :] = ZERO
+
+
+@_inline
+def _adv_row(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
+             p: np.ndarray, j: int, y0: int, x0: int, bh: int, bw: int, ns: int,
+             q4: np.float32, wmin: np.float32, wmax: np.float32, spans: np.ndarray,
+             nsp: np.ndarray, so: np.ndarray, si: np.ndarray, xr: np.ndarray,
+             yr: np.ndarray, a: np.ndarray, w3_o: np.ndarray, p_state: np.ndarray,
+             do_w: bool, do_p: bool) -> None:  # pragma: no cover - compiled
+    """advect_fused's step for row j (the rings hold rows up to j): the rates and the
+    limiters of row j + 1, then row j's fluxes, water into ``w3_o`` (``do_w``) and
+    pigment into the state (``do_p``)."""
+    r = j + 1
+    if r <= bh:
+        _y_rates(vy, wet, r, bh, bw, spans, nsp, q4, yr[r % 3])
+        _x_rates(vx, wet, r, spans, nsp, q4, xr[r % 3])
+        _limit_row(w, p, r, ns, wmin, wmax, spans, nsp, xr[r % 3], yr[r % 3],
+                   yr[j % 3], so[r % 3], si[r % 3])
+    else:
+        so[r % 3, :] = ZERO
+        si[r % 3, :] = ZERO
+    sm, s0, sp = (j - 1) % 3, j % 3, (j + 1) % 3
+    bx, bs, bn = xr[s0], yr[s0], yr[sm]
+    y = y0 + j - 1
+    for sx in range(nsp[j]):
+        slo, shi = K._span(spans, j, sx)
+        for i in range(slo - 1, shi + 1):
+            a[0, i] = (bx[0, i] * so[s0, i]) * si[s0, i + 1]
+            a[1, i] = (bx[1, i] * so[s0, i + 1]) * si[s0, i]
+        for i in range(slo, shi + 1):
+            a[2, i] = (bs[0, i] * so[s0, i]) * si[sp, i]
+            a[3, i] = (bs[1, i] * so[sp, i]) * si[s0, i]
+            a[4, i] = (bn[0, i] * so[sm, i]) * si[s0, i]
+            a[5, i] = (bn[1, i] * so[s0, i]) * si[sm, i]
+        axp, axn, asp, asn, anp, ann = a[0], a[1], a[2], a[3], a[4], a[5]
+        if do_w:
+            for i in range(slo, shi + 1):
+                wv = w[j, i]
+                fe = wv * axp[i] - w[j, i + 1] * axn[i]
+                fw = w[j, i - 1] * axp[i - 1] - wv * axn[i - 1]
+                fs = wv * asp[i] - w[j + 1, i] * asn[i]
+                fn = w[j - 1, i] * anp[i] - wv * ann[i]
+                w3_o[j, i] = (((wv - fe) + fw) - fs) + fn
+        if do_p:
+            for kk in range(ns):
+                for i in range(slo, shi + 1):
+                    pv = p[kk, j, i]
+                    fe = pv * axp[i] - p[kk, j, i + 1] * axn[i]
+                    fw = p[kk, j, i - 1] * axp[i - 1] - pv * axn[i - 1]
+                    fs = pv * asp[i] - p[kk, j + 1, i] * asn[i]
+                    fn = p[kk, j - 1, i] * anp[i] - pv * ann[i]
+                    p_state[kk, y, np.uint64(x0 + i - 1)] = (((pv - fe) + fw) - fs) + fn
+
+
+@_parallel
+def advect_evap_fused(wet: np.ndarray, v3x: np.ndarray, v3y: np.ndarray, w2: np.ndarray,
+                      p2: np.ndarray, w3: np.ndarray, opn: np.ndarray, h: np.ndarray,
+                      wc: np.ndarray, evap: np.ndarray, w_state: np.ndarray,
+                      p: np.ndarray, q: np.ndarray, beta: np.ndarray, gamma: np.ndarray,
+                      delta: np.ndarray, vx: np.ndarray, vy: np.ndarray, y0: int, x0: int,
+                      bh: int, bw: int, ns: int, cst: np.ndarray, do_evap: bool,
+                      do_surface: bool, do_capdiff: bool, do_dry: bool,
+                      spans: np.ndarray, nsp: np.ndarray, chunks: int, area: np.ndarray,
+                      fade: np.float32, holding: bool) -> None:  # pragma: no cover
+    """:func:`advect_fused` and :func:`evap_cap_fused` in one sweep (their maths and
+    order per cell unchanged, so bitwise the same): a chunk applies pass 6 two rows ahead
+    of passes 7-9a and three rows ahead of 9b-10, so the advected pigment and ``w3`` are
+    read back from cache, and evap's memory traffic overlaps advect's arithmetic.
+
+    The boundary ``sat`` rows of a chunk need ``w3`` two rows into its neighbours, and
+    must see the state as the step found it: a first parallel loop computes ``w3`` on the
+    first two and the last two rows of every chunk (water only), a second the boundary
+    ``sat`` rows; the main loop writes ``w3`` on the other rows only (no row is written
+    twice) and the pigment on all of its own."""
+    q4 = cst[K.C_Q4]
+    wmin = cst[K.C_WMIN]
+    wmax = cst[K.C_WMAX]
+    nch = bh if bh < chunks else chunks
+    for ch in prange(nch):  # w3 on each chunk's first two and last two rows
+        j0, j1 = K._chunk(ch, nch, bh)
+        a = np.empty((6, bw + 2), F32)
+        so = np.zeros((3, bw + 2), F32)
+        si = np.zeros((3, bw + 2), F32)
+        xr = np.zeros((3, 2, bw + 2), F32)
+        yr = np.zeros((3, 2, bw + 2), F32)
+        _adv_prime(wet, v3x, v3y, w2, p2, j0, bh, bw, ns, q4, wmin, wmax, spans, nsp, so,
+                   si, xr, yr)
+        e0 = j0 + 2 if j0 + 2 < j1 else j1
+        for j in range(j0, e0):
+            _adv_row(wet, v3x, v3y, w2, p2, j, y0, x0, bh, bw, ns, q4, wmin, wmax, spans,
+                     nsp, so, si, xr, yr, a, w3, p, True, False)
+        s1 = j1 - 2 if j1 - 2 > e0 else e0
+        if s1 < j1:
+            _adv_prime(wet, v3x, v3y, w2, p2, s1, bh, bw, ns, q4, wmin, wmax, spans, nsp,
+                       so, si, xr, yr)
+            for j in range(s1, j1):
+                _adv_row(wet, v3x, v3y, w2, p2, j, y0, x0, bh, bw, ns, q4, wmin, wmax,
+                         spans, nsp, so, si, xr, yr, a, w3, p, True, False)
+    edge_sat = np.zeros((nch, 2, bw + 2), F32)
+    for ch in prange(nch):  # the boundary rows, from the state as the step found it
+        j0, j1 = K._chunk(ch, nch, bh)
+        if j0 - 1 >= 1:
+            _sat_row(w3, h, opn, wc, y0, x0, j0 - 1, cst, do_evap, True, spans, nsp,
+                     edge_sat[ch, 0])
+        if j1 <= bh:
+            _sat_row(w3, h, opn, wc, y0, x0, j1, cst, do_evap, True, spans, nsp,
+                     edge_sat[ch, 1])
+    for ch in prange(nch):
+        j0, j1 = K._chunk(ch, nch, bh)
+        a = np.empty((6, bw + 2), F32)
+        so = np.zeros((3, bw + 2), F32)
+        si = np.zeros((3, bw + 2), F32)
+        xr = np.zeros((3, 2, bw + 2), F32)
+        yr = np.zeros((3, 2, bw + 2), F32)
+        ring = np.zeros((3, bw + 2), F32)
+        wrow = np.empty(bw + 2, F32)
+        frow = np.empty(bw + 2, F32)
+        wcrow = np.empty(bw + 2, F32)
+        crow = np.zeros(bw + 2, F32)
+        _adv_prime(wet, v3x, v3y, w2, p2, j0, bh, bw, ns, q4, wmin, wmax, spans, nsp, so,
+                   si, xr, yr)
+        for j in (j0, j0 + 1):
+            if j < j1:
+                _adv_row(wet, v3x, v3y, w2, p2, j, y0, x0, bh, bw, ns, q4, wmin, wmax,
+                         spans, nsp, so, si, xr, yr, a, w3, p,
+                         (j >= j0 + 2) & (j < j1 - 2), True)
+        ring[(j0 - 1) % 3, :] = edge_sat[ch, 0]
+        ring[j0 % 3, :] = ZERO
+        K._esa_row(wet, w3, opn, h, wc, evap, w_state, p, q, beta, gamma, delta, y0, x0,
+                   ns, cst, do_evap, do_surface, True, j0, spans, nsp, wrow, frow,
+                   ring[j0 % 3])
+        for j in range(j0, j1):
+            r = j + 1
+            if r < j1:
+                if j + 2 < j1:
+                    _adv_row(wet, v3x, v3y, w2, p2, j + 2, y0, x0, bh, bw, ns, q4, wmin,
+                             wmax, spans, nsp, so, si, xr, yr, a, w3, p,
+                             (j + 2 >= j0 + 2) & (j + 2 < j1 - 2), True)
+                ring[r % 3, :] = ZERO
+                K._esa_row(wet, w3, opn, h, wc, evap, w_state, p, q, beta, gamma, delta,
+                           y0, x0, ns, cst, do_evap, do_surface, True, r, spans, nsp, wrow,
+                           frow, ring[r % 3])
             else:
                 ring[r % 3, :] = edge_sat[ch, 1]
             _cd_row(ring[(j - 1) % 3], ring[j % 3], ring[(j + 1) % 3], h, opn, v3x, v3y,

@@ -1145,7 +1145,7 @@ def _face_x(vx: np.ndarray, wet: np.ndarray, j: int, i: int,
 
 
 @_inline
-def _face_y(vy: np.ndarray, wet: np.ndarray, j: int, i: int,
+def _face_y(vy: np.ndarray, wet: np.ndarray, j: int, i: int | np.uint64,
             q4: np.float32) -> tuple[np.float32, np.float32]:
     """(ryp, ryn) of the y face between (j, i) and (j + 1, i)."""
     uf = HALF * (vy[j, i] + vy[j + 1, i]) if (wet[j, i] != 0) & (wet[j + 1, i] != 0) else ZERO
