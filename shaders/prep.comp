@@ -23,6 +23,8 @@ uniform float u_sim_time;     // [s]
 uniform float u_block_fade;   // [s]
 uniform float u_block_paper;  // share of paper height in the blocking value
 uniform float u_advance;      // advance_height [height] (0: contact line pinned)
+uniform float u_adv_base;     // 1 + advance_grain / 2
+uniform float u_adv_grain;    // advance_grain: how much the paper height sets it
 uniform float u_wick;         // fibre_wick: a fibre along the axis lowers the advancing height
 uniform float u_disperse;     // fibre_dispersivity / nu_p [s/cell]: dispersion along fibre channels
 uniform float u_fibre_flow_max;  // [cell/s] water moves through the fibre channels no faster
@@ -45,10 +47,10 @@ vec2 vs_at(ivec2 c) {
 }
 
 // the contact line reaches this (unmasked) cell: a neighbour's fluid water stands above
-// its advancing height advance_height (1.5 - h), times (1 - fibre_wick * fibre) along the
+// its advancing height advance_height (1 + g/2 - g h) (g: advance_grain), times (1 - fibre_wick * fibre) along the
 // axis of that neighbour (x: .x, y: .y), eased on damp paper
 bool crept(ivec2 c, vec4 pa, vec4 wa) {
-    float thr = u_advance * (1.5 - pa.x);
+    float thr = u_advance * (u_adv_base - u_adv_grain * pa.x);
     if (u_ease > 0.0) {
         // damp paper's suction: times max(1 - damp_ease ((4 s') (1 - s')), 0),
         // s' = max(s - damp_sat, 0) / (1 - damp_sat), s = min(wc / c, 1)

@@ -12,6 +12,8 @@ import station.sim.player as player
 from station.backends.numpy_canvas import NumpyCanvas
 from station.canvas import stencils
 from station.canvas.params import SimParams
+from station.canvas.paper import make_paper
+from station.canvas.profiles import get_profile
 from station.pictures.scenarios import run_until_dry
 from station.sim.script import Script
 
@@ -58,3 +60,28 @@ def test_a_dried_flat_stroke_has_no_whiskers() -> None:
     edge, whiskers = int((painted & (nb < 4)).sum()), int((painted & (nb <= 1)).sum())
     assert edge > 300
     assert whiskers <= 0.01 * edge, (whiskers, edge)
+
+
+def test_a_front_crept_into_damp_paper_does_not_trace_the_papers_blobs() -> None:
+    """The demo's crests crept into damp paper in whole-cell battlements (session 9): the
+    advancing height ``advance_height (1.5 - h)`` read the paper height cell by cell, so on
+    cold-press paper (height blobs several cells across) a straight edge crept on over the
+    low blobs and stopped at the high ones. Watercolor's ``advance_grain`` 0 sets the same
+    height on every cell: at one saturation the edge moves as a line (here: not at all)."""
+    prof = get_profile("watercolor")
+    prm = prof.params
+    assert prm.advance_grain == 0.0
+    h = make_paper("cold-press", 9, 200, 11)
+    cap = stencils.capacity(h, prm)
+    # the water 0.45 deep, the paper past the edge 66 % full (just damp): each row-4 cell
+    # joins when 0.45 > 0.7 * (the grain's height term) * the damp factor
+    wc = (0.66 * cap).astype(np.float32)
+    w = np.zeros((9, 200), np.float32)
+    w[5:] = 0.45
+    joined = stencils.wet_mask(w, wc, np.zeros_like(w), prm, h)[4]
+    old = stencils.wet_mask(w, wc, np.zeros_like(w), prm.replace(advance_grain=1.0), h)[4]
+    # the old rule: the row breaks into runs of joined and pinned cells (the battlements)
+    runs_old = int(np.count_nonzero(np.diff(old.astype(np.int8))))
+    assert 0.1 < old.mean() < 0.9 and runs_old >= 20, (old.mean(), runs_old)
+    # now: the whole row either joins or holds
+    assert joined.all() or not joined.any(), joined.mean()

@@ -59,6 +59,11 @@ class SimParams:
             it carries) flows towards the pinned edge while the stroke dries.
         advance_height: a dry cell joins the wet area when a 4-neighbour's fluid water
             exceeds ``advance_height * (1.5 - h)`` [height] (0: pinned at the footprint);
+            with ``advance_grain`` ``g`` the height is ``advance_height * (1 + g (0.5 - h))``;
+        advance_grain: how much the cell's paper height ``h`` sets that advancing height
+            [1]: 1 (the default) ``1.5 - h``, 0 the same height on every cell. Read cell by
+            cell, the paper's height blobs (several cells across) stop a front creeping
+            into damp paper in blocks and notches of whole cells ("battlements").
         fibre_wick: how far a paper fibre running along a face's axis lowers that
             advancing height, ``* (1 - fibre_wick * fibre)`` (``paper.make_fibres``; 1: the
             water runs freely along a whole fibre, the ink bleed of absorbent paper) [1];
@@ -166,6 +171,7 @@ class SimParams:
     edge_evap: float = 1.0
     flow_outward: float = 0.3
     advance_height: float = 0.7
+    advance_grain: float = 1.0
     paper_relief: float = 0.0
     wet_blur: float = 2.0
     wet_hold: float = 0.0
@@ -237,6 +243,8 @@ class SimParams:
             raise CanvasInputError("temperature must lie in [-10, 60] C", "params")
         if not 0 <= self.humidity <= 0.99:
             raise CanvasInputError("humidity must lie in [0, 0.99]", "params")
+        if not 0 <= self.advance_grain <= 1:
+            raise CanvasInputError("advance_grain must lie in [0, 1]", "params")
         if not 0 <= self.fibre_wick <= 1:
             raise CanvasInputError("fibre_wick must be in [0, 1]", "params")
         if self.fibre_dispersivity > 100:

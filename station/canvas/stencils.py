@@ -46,7 +46,8 @@ def wet_mask(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams,
 
     With ``advance_height > 0`` an unmasked dry cell also joins when
     a 4-neighbour's fluid water stands above the cell's advancing height
-    ``advance_height * (1.5 - h)``: the contact line creeps on where the paper lets it.
+    ``advance_height * (1.5 - h)`` (with ``advance_grain`` g: ``* (1 + g/2 - g h)``): the
+    contact line creeps on where the paper lets it.
     With ``fibre_wick > 0`` and the fibre texture ``fibre`` (2, H, W), that height is
     lowered by ``1 - fibre_wick * fibre[axis]`` for the neighbours on each axis: along a
     fibre the water is not pinned.
@@ -57,7 +58,7 @@ def wet_mask(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams,
     """
     own = own_wet(w, wc, mask, prm)
     if prm.advance_height > 0:
-        thr = F32(prm.advance_height) * (F32(1.5) - h)
+        thr = F32(prm.advance_height) * (advance_base(prm) - F32(prm.advance_grain) * h)
         if prm.damp_ease > 0:
             thr = thr * damp_factor(wc, h, prm)
         if prm.fibre_wick > 0 and fibre is not None:
@@ -99,6 +100,13 @@ def pinned(own: np.ndarray, crept: np.ndarray, wc: np.ndarray, h: np.ndarray,
     damp = np.minimum(wc / capacity(h, prm), _ONE) > F32(prm.damp_sat)
     out: np.ndarray = crept & ((n4 >= 2) | damp)
     return out
+
+
+def advance_base(prm: SimParams) -> np.float32:
+    """``1 + advance_grain / 2`` (float32): the advancing height is ``advance_height *
+    (advance_base - advance_grain * h)``, ``1.5 - h`` with the default grain 1 (exactly:
+    ``1 * h`` is ``h``)."""
+    return F32(1.0 + 0.5 * prm.advance_grain)
 
 
 def capacity(h: np.ndarray, prm: SimParams) -> np.ndarray:

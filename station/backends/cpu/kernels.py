@@ -98,7 +98,9 @@ C_EASE = 32       # damp_ease
 C_SUSP = 33       # suspend_sat
 C_DSAT = 34       # damp_sat
 C_DSPAN = 35      # float32(1 - damp_sat)
-N_CONST = 36
+C_ABASE = 36      # float32(1 + advance_grain / 2) (stencils.advance_base)
+C_AGRAIN = 37     # advance_grain
+N_CONST = 38
 
 # the sweeps: rows in parallel; IEEE float32 maths exactly as written (no fastmath, no FMA
 # contraction), numpy's error model (division without ZeroDivision checks: every division
@@ -340,7 +342,7 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
          opn_o: np.ndarray,
          mbx_o: np.ndarray, area: np.ndarray, holding: bool) -> None:
     """Wet mask (once per step; own water, or the advancing contact line: a neighbour's
-    w above ``advance_height (1.5 - h)``, lowered along the paper's fibres by
+    w above ``advance_height (1 + g/2 - g h)`` (g ``advance_grain``), lowered along the paper's fibres by
     ``1 - fibre_wick * fibre[axis]`` for the neighbours on that axis; cells outside the box
     count as w = 0), copies, beta_c (diffusion controller, times the fibre dispersion),
     open, and with ``outward`` the own wet area blurred along x (``mbx``, the
@@ -354,7 +356,8 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
     moist = cst[C_MOIST]
     adv = cst[C_ADV]
     wick = cst[C_WICK]
-    one5 = np.float32(1.5)
+    abase = cst[C_ABASE]
+    agrain = cst[C_AGRAIN]
     t_now = cst[C_TIME]
     fade = cst[C_FADE]
     bpaper = cst[C_BPAPER]
@@ -399,7 +402,7 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         un = mask[y, x] == ZERO
                         ow = ((wv > ZERO) | (wc[y, x] > moist)) & un
                         own[i + r] = ONE if ow else ZERO
-                        thr = adv * (one5 - h[y, x])
+                        thr = adv * (abase - agrain * h[y, x])
                         if easing:
                             thr = thr * _damp_factor(wc[y, x], h[y, x], cmin, cspan, ease,
                                                         dsat, dspan)
@@ -422,7 +425,7 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         un = mask[y, x] == ZERO
                         ow = ((wv > ZERO) | (wc[y, x] > moist)) & un
                         own[i + r] = ONE if ow else ZERO
-                        thr = adv * (one5 - h[y, x])
+                        thr = adv * (abase - agrain * h[y, x])
                         if easing:
                             thr = thr * _damp_factor(wc[y, x], h[y, x], cmin, cspan, ease,
                                                         dsat, dspan)

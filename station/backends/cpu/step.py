@@ -14,7 +14,7 @@ import numpy as np
 
 from station.backends.cpu import fused as F
 from station.backends.cpu import kernels as K
-from station.canvas import reference, tiles
+from station.canvas import reference, stencils, tiles
 from station.canvas.params import CanvasInputError, SimParams
 from station.canvas.state import CanvasState
 
@@ -76,6 +76,8 @@ def constants(prm: SimParams, dt: float, sim_time: float) -> np.ndarray:
     c[K.C_SUSP] = F32(prm.suspend_sat)
     c[K.C_DSAT] = F32(prm.damp_sat)
     c[K.C_DSPAN] = F32(1.0 - prm.damp_sat)
+    c[K.C_ABASE] = stencils.advance_base(prm)
+    c[K.C_AGRAIN] = F32(prm.advance_grain)
     c[K.C_TILTX], c[K.C_TILTY] = reference.tilt_kick(prm, dt)
     return c
 

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from station.canvas import operations, reference
+from station.canvas import operations, reference, stencils
 from station.canvas.params import CanvasInputError, SimParams
 
 if TYPE_CHECKING:
@@ -103,6 +103,8 @@ class GLStepPasses:
         _set(p["prep"], "u_block_fade", prm.block_fade)
         _set(p["prep"], "u_block_paper", prm.block_paper)
         _set(p["prep"], "u_advance", prm.advance_height)
+        _set(p["prep"], "u_adv_base", float(stencils.advance_base(prm)))
+        _set(p["prep"], "u_adv_grain", prm.advance_grain)
         _set(p["prep"], "u_wick", prm.fibre_wick)
         _set(p["prep"], "u_disperse", float(F32(prm.fibre_dispersion_gain())))
         _set(p["prep"], "u_fibre_flow_max", prm.fibre_flow_max)
