@@ -11,8 +11,8 @@ import numpy as np
 import station.sim.player as player
 from station.backends.numpy_canvas import NumpyCanvas
 from station.canvas import stencils
-from station.canvas.params import SimParams
 from station.canvas.paper import make_paper
+from station.canvas.params import SimParams
 from station.canvas.profiles import get_profile
 from station.pictures.scenarios import run_until_dry
 from station.sim.script import Script

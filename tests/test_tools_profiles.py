@@ -45,7 +45,8 @@ OLD = {
     # rim is a band, not a one-cell line, on the memory's pinned edge: item 3)
     # (s9: the advancing height the same on every cell, not 1.5 - h: a front crept into damp
     # paper no longer traces the paper's height blobs in whole-cell battlements, items 3/8)
-    "watercolor": SimParams().replace(advance_grain=0.0, fibre_dispersivity=4.5, flow_outward=0.4, edge_evap=3.0,
+    "watercolor": SimParams().replace(advance_grain=0.0,
+                                      fibre_dispersivity=4.5, flow_outward=0.4, edge_evap=3.0,
                                       wet_blur=3.5,
                                       moist_threshold=1.0, damp_ease=2.7, damp_sat=0.65,
                                       suspend_sat=0.5, fibre_flow_max=1.0, lift_gain=5.0,

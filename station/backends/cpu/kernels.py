@@ -342,10 +342,10 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
          opn_o: np.ndarray,
          mbx_o: np.ndarray, area: np.ndarray, holding: bool) -> None:
     """Wet mask (once per step; own water, or the advancing contact line: a neighbour's
-    w above ``advance_height (1 + g/2 - g h)`` (g ``advance_grain``), lowered along the paper's fibres by
-    ``1 - fibre_wick * fibre[axis]`` for the neighbours on that axis; cells outside the box
-    count as w = 0), copies, beta_c (diffusion controller, times the fibre dispersion),
-    open, and with ``outward`` the own wet area blurred along x (``mbx``, the
+    w above ``advance_height (1 + g/2 - g h)`` (g ``advance_grain``), lowered along the
+    paper's fibres by ``1 - fibre_wick * fibre[axis]`` for the neighbours on that axis;
+    cells outside the box count as w = 0), copies, beta_c (diffusion controller, times the
+    fibre dispersion), open, and with ``outward`` the own wet area blurred along x (``mbx``, the
     first half of :func:`flow_pressure`'s blur). With ``holding`` (``wet_hold > 0``) the
     blurred area is the wet-area mask ``max(wet_area, own)``, written back to ``area``
     (reference ``wet_memory``).
