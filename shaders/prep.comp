@@ -50,7 +50,9 @@ vec2 vs_at(ivec2 c) {
 // its advancing height advance_height (1 + g/2 - g h) (g: advance_grain), times (1 - fibre_wick * fibre) along the
 // axis of that neighbour (x: .x, y: .y), eased on damp paper
 bool crept(ivec2 c, vec4 pa, vec4 wa) {
-    float thr = u_advance * (u_adv_base - u_adv_grain * pa.x);
+    // the paper's share (stencils.advance_term): 1.5 - h, on damp paper 1 + g/2 - g h
+    float sd = min(wa.y / (u_cmin + pa.x * u_crange), 1.0);
+    float thr = u_advance * (sd > u_dsat ? u_adv_base - u_adv_grain * pa.x : 1.5 - pa.x);
     if (u_ease > 0.0) {
         // damp paper's suction: times max(1 - damp_ease ((4 s') (1 - s')), 0),
         // s' = max(s - damp_sat, 0) / (1 - damp_sat), s = min(wc / c, 1)

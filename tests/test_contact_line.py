@@ -67,7 +67,8 @@ def test_a_front_crept_into_damp_paper_does_not_trace_the_papers_blobs() -> None
     advancing height ``advance_height (1.5 - h)`` read the paper height cell by cell, so on
     cold-press paper (height blobs several cells across) a straight edge crept on over the
     low blobs and stopped at the high ones. Watercolor's ``advance_grain`` 0 sets the same
-    height on every cell: at one saturation the edge moves as a line (here: not at all)."""
+    height on every damp cell: at one saturation the edge moves as a line (here: not at
+    all). Dry paper keeps ``1.5 - h``."""
     prof = get_profile("watercolor")
     prm = prof.params
     assert prm.advance_grain == 0.0
@@ -85,3 +86,11 @@ def test_a_front_crept_into_damp_paper_does_not_trace_the_papers_blobs() -> None
     assert 0.1 < old.mean() < 0.9 and runs_old >= 20, (old.mean(), runs_old)
     # now: the whole row either joins or holds
     assert joined.all() or not joined.any(), joined.mean()
+    # on drier paper the meniscus still pins on the paper's relief: a wet-on-dry edge keeps
+    # following the tooth (the rule and its pattern are the old ones)
+    w[5:] = 0.6
+    dry = (0.5 * cap).astype(np.float32)
+    ragged = stencils.wet_mask(w, dry, np.zeros_like(w), prm, h)[4]
+    assert np.array_equal(ragged, stencils.wet_mask(w, dry, np.zeros_like(w),
+                                                    prm.replace(advance_grain=1.0), h)[4])
+    assert int(np.count_nonzero(np.diff(ragged.astype(np.int8)))) >= 10

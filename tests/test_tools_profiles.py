@@ -43,8 +43,9 @@ OLD = {
     # after the last still merges into it: no line, no arrowhead at the turns, item 8)
     # (rim: edge evaporation 7 -> 3 and the wet-area blur 2 -> 3.5 cells, so a dried stroke's
     # rim is a band, not a one-cell line, on the memory's pinned edge: item 3)
-    # (s9: the advancing height the same on every cell, not 1.5 - h: a front crept into damp
-    # paper no longer traces the paper's height blobs in whole-cell battlements, items 3/8)
+    # (s9: on damp paper the advancing height the same on every cell, not 1.5 - h: a front
+    # crept into damp paper no longer traces the paper's height blobs in whole-cell blocks;
+    # blooms' CV 0.161 -> 0.169, items 3/4)
     "watercolor": SimParams().replace(advance_grain=0.0,
                                       fibre_dispersivity=4.5, flow_outward=0.4, edge_evap=3.0,
                                       wet_blur=3.5,

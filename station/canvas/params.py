@@ -59,11 +59,12 @@ class SimParams:
             it carries) flows towards the pinned edge while the stroke dries.
         advance_height: a dry cell joins the wet area when a 4-neighbour's fluid water
             exceeds ``advance_height * (1.5 - h)`` [height] (0: pinned at the footprint);
-            with ``advance_grain`` ``g`` the height is ``advance_height * (1 + g (0.5 - h))``;
-        advance_grain: how much the cell's paper height ``h`` sets that advancing height
-            [1]: 1 (the default) ``1.5 - h``, 0 the same height on every cell. Read cell by
-            cell, the paper's height blobs (several cells across) stop a front creeping
-            into damp paper in blocks and notches of whole cells ("battlements").
+            on paper damper than ``damp_sat`` ``advance_height * (1 + g/2 - g h)``;
+        advance_grain: ``g``, how much the cell's paper height ``h`` sets that advancing
+            height on damp paper [1]: 1 (the default) ``1.5 - h`` as on dry paper, 0 the
+            same height on every damp cell. Read cell by cell, the paper's height blobs
+            (several cells across) stop a front creeping into damp paper in blocks and
+            notches of whole cells ("battlements").
         fibre_wick: how far a paper fibre running along a face's axis lowers that
             advancing height, ``* (1 - fibre_wick * fibre)`` (``paper.make_fibres``; 1: the
             water runs freely along a whole fibre, the ink bleed of absorbent paper) [1];

@@ -46,8 +46,9 @@ def wet_mask(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams,
 
     With ``advance_height > 0`` an unmasked dry cell also joins when
     a 4-neighbour's fluid water stands above the cell's advancing height
-    ``advance_height * (1.5 - h)`` (with ``advance_grain`` g: ``* (1 + g/2 - g h)``): the
-    contact line creeps on where the paper lets it.
+    ``advance_height * (1.5 - h)``: the contact line creeps on where the paper lets it. On
+    paper damper than ``damp_sat`` the height is ``advance_height * (1 + g/2 - g h)``
+    (:func:`advance_term`, ``g`` = ``advance_grain``).
     With ``fibre_wick > 0`` and the fibre texture ``fibre`` (2, H, W), that height is
     lowered by ``1 - fibre_wick * fibre[axis]`` for the neighbours on each axis: along a
     fibre the water is not pinned.
@@ -58,7 +59,7 @@ def wet_mask(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams,
     """
     own = own_wet(w, wc, mask, prm)
     if prm.advance_height > 0:
-        thr = F32(prm.advance_height) * (advance_base(prm) - F32(prm.advance_grain) * h)
+        thr = F32(prm.advance_height) * advance_term(wc, h, prm)
         if prm.damp_ease > 0:
             thr = thr * damp_factor(wc, h, prm)
         if prm.fibre_wick > 0 and fibre is not None:
@@ -103,10 +104,24 @@ def pinned(own: np.ndarray, crept: np.ndarray, wc: np.ndarray, h: np.ndarray,
 
 
 def advance_base(prm: SimParams) -> np.float32:
-    """``1 + advance_grain / 2`` (float32): the advancing height is ``advance_height *
-    (advance_base - advance_grain * h)``, ``1.5 - h`` with the default grain 1 (exactly:
-    ``1 * h`` is ``h``)."""
+    """``1 + advance_grain / 2`` (float32), see :func:`advance_term`."""
     return F32(1.0 + 0.5 * prm.advance_grain)
+
+
+def advance_term(wc: np.ndarray, h: np.ndarray, prm: SimParams) -> np.ndarray:
+    """The paper's share of the advancing height (float32): ``1.5 - h`` on paper no damper
+    than ``damp_sat`` (``min(wc / c, 1)``: the meniscus pins on the fibres' relief, so a
+    wet-on-dry edge follows the tooth), ``advance_base - advance_grain * h`` on damper
+    paper, where the capillary film levels the relief. With the default grain 1 both are
+    ``1.5 - h`` exactly (``1 * h`` is ``h``). Read cell by cell on damp paper, the paper's
+    height blobs (several cells across) made a creeping front stop and run on in blocks
+    and notches of whole cells."""
+    dry = F32(1.5) - h
+    if prm.advance_grain == 1.0:
+        return dry
+    damp = np.minimum(wc / capacity(h, prm), _ONE) > F32(prm.damp_sat)
+    out: np.ndarray = np.where(damp, advance_base(prm) - F32(prm.advance_grain) * h, dry)
+    return out.astype(F32)
 
 
 def capacity(h: np.ndarray, prm: SimParams) -> np.ndarray:

@@ -342,10 +342,11 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
          opn_o: np.ndarray,
          mbx_o: np.ndarray, area: np.ndarray, holding: bool) -> None:
     """Wet mask (once per step; own water, or the advancing contact line: a neighbour's
-    w above ``advance_height (1 + g/2 - g h)`` (g ``advance_grain``), lowered along the
-    paper's fibres by ``1 - fibre_wick * fibre[axis]`` for the neighbours on that axis;
-    cells outside the box count as w = 0), copies, beta_c (diffusion controller, times the
-    fibre dispersion), open, and with ``outward`` the own wet area blurred along x (``mbx``, the
+    w above ``advance_height (1.5 - h)``, on damp paper ``(1 + g/2 - g h)`` (g
+    ``advance_grain``, reference ``stencils.advance_term``), lowered along the paper's
+    fibres by ``1 - fibre_wick * fibre[axis]`` for the neighbours on that axis; cells
+    outside the box count as w = 0), copies, beta_c (diffusion controller, times the fibre
+    dispersion), open, and with ``outward`` the own wet area blurred along x (``mbx``, the
     first half of :func:`flow_pressure`'s blur). With ``holding`` (``wet_hold > 0``) the
     blurred area is the wet-area mask ``max(wet_area, own)``, written back to ``area``
     (reference ``wet_memory``).
@@ -356,6 +357,7 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
     moist = cst[C_MOIST]
     adv = cst[C_ADV]
     wick = cst[C_WICK]
+    one5 = np.float32(1.5)
     abase = cst[C_ABASE]
     agrain = cst[C_AGRAIN]
     t_now = cst[C_TIME]
@@ -402,7 +404,10 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         un = mask[y, x] == ZERO
                         ow = ((wv > ZERO) | (wc[y, x] > moist)) & un
                         own[i + r] = ONE if ow else ZERO
-                        thr = adv * (abase - agrain * h[y, x])
+                        hv = h[y, x]
+                        sv = wc[y, x] / (cmin + hv * cspan)
+                        sv = sv if sv < ONE else ONE
+                        thr = adv * ((abase - agrain * hv) if sv > dsat else (one5 - hv))
                         if easing:
                             thr = thr * _damp_factor(wc[y, x], h[y, x], cmin, cspan, ease,
                                                         dsat, dspan)
@@ -425,7 +430,10 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         un = mask[y, x] == ZERO
                         ow = ((wv > ZERO) | (wc[y, x] > moist)) & un
                         own[i + r] = ONE if ow else ZERO
-                        thr = adv * (abase - agrain * h[y, x])
+                        hv = h[y, x]
+                        sv = wc[y, x] / (cmin + hv * cspan)
+                        sv = sv if sv < ONE else ONE
+                        thr = adv * ((abase - agrain * hv) if sv > dsat else (one5 - hv))
                         if easing:
                             thr = thr * _damp_factor(wc[y, x], h[y, x], cmin, cspan, ease,
                                                         dsat, dspan)
