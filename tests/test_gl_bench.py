@@ -11,12 +11,17 @@ from station.cli import main
 from station.errors import BadInput
 
 
-def test_bench_sim_json_shape(capsys) -> None:
+def _needs_gl() -> None:
+    """Skip without the GL backend or an OpenGL 4.3 context (the bench's GL rows need one)."""
     gl = pytest.importorskip("station.backends.gl")
     try:
         gl.create_context().release()
     except gl.GLUnavailable as exc:
         pytest.skip(f"no OpenGL 4.3 context: {exc}")
+
+
+def test_bench_sim_json_shape(capsys) -> None:
+    _needs_gl()
     rc = main(["bench", "sim", "--json", "--sizes", "64x48", "--seconds", "0.05",
                "--backends", "gl,numpy"])
     assert rc == 0
@@ -51,12 +56,9 @@ def test_bad_bench_arguments_are_bad_input() -> None:
 def test_bench_sim_gl_passes_profile_and_bound(capsys) -> None:
     """``--passes``: where a GL step's time goes, per program, with each program's own
     bytes (the traffic model's) and the step's distance from its bound (issue 26 item 4)."""
-    gl = pytest.importorskip("station.backends.gl")
+    _needs_gl()
     from station.backends.gl.traffic import floats_per_program
-    try:
-        gl.create_context().release()
-    except gl.GLUnavailable as exc:
-        pytest.skip(f"no OpenGL 4.3 context: {exc}")
+
     rc = main(["bench", "sim", "--json", "--sizes", "64x48", "--seconds", "0.05",
                "--backends", "gl", "--scenarios", "wash", "--passes"])
     assert rc == 0

@@ -167,57 +167,11 @@ def advect_fused(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
         si = np.zeros((3, bw + 2), F32)
         xr = np.zeros((3, 2, bw + 2), F32)  # x-face rates of row r
         yr = np.zeros((3, 2, bw + 2), F32)  # rates of the y faces (r, r+1)
-        for r in (j0 - 2, j0 - 1, j0):
-            if 0 <= r <= bh:
-                _y_rates(vy, wet, r, bh, bw, spans, nsp, q4, yr[r % 3])
-            if 1 <= r <= bh:
-                _x_rates(vx, wet, r, spans, nsp, q4, xr[r % 3])
-        for r in (j0 - 1, j0):
-            if 1 <= r <= bh:
-                _limit_row(w, p, r, ns, wmin, wmax, spans, nsp, xr[r % 3], yr[r % 3],
-                           yr[(r - 1) % 3], so[r % 3], si[r % 3])
-            else:
-                so[r % 3, :] = ZERO
-                si[r % 3, :] = ZERO
+        _adv_prime(wet, vx, vy, w, p, j0, bh, bw, ns, q4, wmin, wmax, spans, nsp, so, si,
+                   xr, yr)
         for j in range(j0, j1):
-            r = j + 1
-            if r <= bh:
-                _y_rates(vy, wet, r, bh, bw, spans, nsp, q4, yr[r % 3])
-                _x_rates(vx, wet, r, spans, nsp, q4, xr[r % 3])
-                _limit_row(w, p, r, ns, wmin, wmax, spans, nsp, xr[r % 3], yr[r % 3],
-                           yr[j % 3], so[r % 3], si[r % 3])
-            else:
-                so[r % 3, :] = ZERO
-                si[r % 3, :] = ZERO
-            sm, s0, sp = (j - 1) % 3, j % 3, (j + 1) % 3
-            bx, bs, bn = xr[s0], yr[s0], yr[sm]
-            y = y0 + j - 1
-            for sx in range(nsp[j]):
-                slo, shi = K._span(spans, j, sx)
-                for i in range(slo - 1, shi + 1):
-                    a[0, i] = (bx[0, i] * so[s0, i]) * si[s0, i + 1]
-                    a[1, i] = (bx[1, i] * so[s0, i + 1]) * si[s0, i]
-                for i in range(slo, shi + 1):
-                    a[2, i] = (bs[0, i] * so[s0, i]) * si[sp, i]
-                    a[3, i] = (bs[1, i] * so[sp, i]) * si[s0, i]
-                    a[4, i] = (bn[0, i] * so[sm, i]) * si[s0, i]
-                    a[5, i] = (bn[1, i] * so[s0, i]) * si[sm, i]
-                axp, axn, asp, asn, anp, ann = a[0], a[1], a[2], a[3], a[4], a[5]
-                for i in range(slo, shi + 1):
-                    wv = w[j, i]
-                    fe = wv * axp[i] - w[j, i + 1] * axn[i]
-                    fw = w[j, i - 1] * axp[i - 1] - wv * axn[i - 1]
-                    fs = wv * asp[i] - w[j + 1, i] * asn[i]
-                    fn = w[j - 1, i] * anp[i] - wv * ann[i]
-                    w3_o[j, i] = (((wv - fe) + fw) - fs) + fn
-                for kk in range(ns):
-                    for i in range(slo, shi + 1):
-                        pv = p[kk, j, i]
-                        fe = pv * axp[i] - p[kk, j, i + 1] * axn[i]
-                        fw = p[kk, j, i - 1] * axp[i - 1] - pv * axn[i - 1]
-                        fs = pv * asp[i] - p[kk, j + 1, i] * asn[i]
-                        fn = p[kk, j - 1, i] * anp[i] - pv * ann[i]
-                        p_state[kk, y, np.uint64(x0 + i - 1)] = (((pv - fe) + fw) - fs) + fn
+            _adv_row(wet, vx, vy, w, p, j, y0, x0, bh, bw, ns, q4, wmin, wmax, spans, nsp,
+                     so, si, xr, yr, a, w3_o, p_state, True, True)
 
 
 @_inline
