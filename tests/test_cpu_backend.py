@@ -276,18 +276,14 @@ def test_operations_render_and_factory() -> None:
         traffic.bytes_per_sweep(slots, iters, memory).values())
     # 520 before issue 10, 556 in own sweep, 544 before issue 26 fused passes 2-5, 6 and
     # 7-10, 408 after them; 364 with uint8 flags, c from h, pass 1 on the state's velocity
-    # 380 before passes 6-10 became one sweep (issue 26, session 9: -29 B, the advected
-    # pigment and w3 read back from cache, v3 and the wet mask read once)
-    assert traffic.bytes_per_cell_step(2, 4) == 351
+    assert traffic.bytes_per_cell_step(2, 4) == 380
     # one Jacobi iteration (the profiles since issue 26): no temporally blocked sweep;
     # 340 (348 with the fibres' reads, which that count left out) before the flags, 315
-    # after them; 275 with iteration 1 in limit_diffuse's row ring; 246 with passes 6-10
-    # in one sweep
-    assert traffic.bytes_per_cell_step(2, 1) == 246
+    # after them; 275 with iteration 1 in limit_diffuse's row ring
+    assert traffic.bytes_per_cell_step(2, 1) == 275
     # the wet-area memory: prep reads and writes the area (8), and its fade reads and
-    # writes it again in the last sweep's rows (8; 17 as a sweep of its own); 291 before
-    # passes 6-10 became one sweep
-    assert traffic.bytes_per_cell_step(2, 1, wet_memory=True) == 262
+    # writes it again in evap_capillary's rows (8; 17 as a sweep of its own, 300 in all)
+    assert traffic.bytes_per_cell_step(2, 1, wet_memory=True) == 291
 
 
 def test_bench_sim_measures_the_cpu_backend(capsys) -> None:

@@ -28,8 +28,8 @@ from station.backends.factory import create_backend
 from station.bench._sim_driver import wash
 from station.bench.sim import memory_bandwidth_gb_s
 
-SWEEPS = ("prep", "advect_jacobi1", "jacobi_blocked", "limit_diffuse_fused",
-          "advect_evap_fused")
+SWEEPS = ("prep", "advect_jacobi1", "jacobi_blocked", "limit_diffuse_fused", "advect_fused",
+          "evap_cap_fused")
 """The sweeps of a step in the order of ``traffic.bytes_per_sweep`` (the fused ones
 live in ``station.backends.cpu.fused``)."""
 
@@ -75,8 +75,7 @@ def main() -> None:
         setattr(home[name], name, fn)
     bw = memory_bandwidth_gb_s()
     st = canvas.live_state
-    per_sweep = bytes_per_sweep(max(len(st.slots), 1), int(st.params.jacobi_iters),
-                                st.params.wet_hold > 0)
+    per_sweep = bytes_per_sweep(max(len(st.slots), 1), int(st.params.jacobi_iters))
     cells = w * h * args.steps
     rows = []
     for (label, nbytes), name in zip(per_sweep.items(), SWEEPS, strict=True):

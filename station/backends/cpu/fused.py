@@ -11,10 +11,7 @@ per chunk of rows instead of full scratch fields:
   (``diffuse_apply``): no ``sw``/``sp`` fields and none of diffuse_apply's re-reads,
   −(6 + 4·slots) floats per cell-step;
 * :func:`evap_cap_fused`: passes 7-9a (``evap_surface_absorb``) with 9b, 9c and 10
-  (``capillary_dry``): no ``sat`` field and none of capillary_dry's re-reads, −10 floats;
-* :func:`advect_evap_fused` (a full step): the last two in one sweep, pass 6 a few rows
-  ahead of passes 7-10, so the advected pigment and ``w3`` come back from cache and
-  evap's memory traffic overlaps advect's arithmetic (issue 26, session 9: −29 B).
+  (``capillary_dry``): no ``sat`` field and none of capillary_dry's re-reads, −10 floats.
 
 A chunk's first ring rows belong to its neighbour chunk: they are recomputed here (the
 limiters are pure functions of the sweep's inputs).  So these sweeps take as few chunks as
@@ -167,11 +164,57 @@ def advect_fused(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
         si = np.zeros((3, bw + 2), F32)
         xr = np.zeros((3, 2, bw + 2), F32)  # x-face rates of row r
         yr = np.zeros((3, 2, bw + 2), F32)  # rates of the y faces (r, r+1)
-        _adv_prime(wet, vx, vy, w, p, j0, bh, bw, ns, q4, wmin, wmax, spans, nsp, so, si,
-                   xr, yr)
+        for r in (j0 - 2, j0 - 1, j0):
+            if 0 <= r <= bh:
+                _y_rates(vy, wet, r, bh, bw, spans, nsp, q4, yr[r % 3])
+            if 1 <= r <= bh:
+                _x_rates(vx, wet, r, spans, nsp, q4, xr[r % 3])
+        for r in (j0 - 1, j0):
+            if 1 <= r <= bh:
+                _limit_row(w, p, r, ns, wmin, wmax, spans, nsp, xr[r % 3], yr[r % 3],
+                           yr[(r - 1) % 3], so[r % 3], si[r % 3])
+            else:
+                so[r % 3, :] = ZERO
+                si[r % 3, :] = ZERO
         for j in range(j0, j1):
-            _adv_row(wet, vx, vy, w, p, j, y0, x0, bh, bw, ns, q4, wmin, wmax, spans, nsp,
-                     so, si, xr, yr, a, w3_o, p_state, True, True)
+            r = j + 1
+            if r <= bh:
+                _y_rates(vy, wet, r, bh, bw, spans, nsp, q4, yr[r % 3])
+                _x_rates(vx, wet, r, spans, nsp, q4, xr[r % 3])
+                _limit_row(w, p, r, ns, wmin, wmax, spans, nsp, xr[r % 3], yr[r % 3],
+                           yr[j % 3], so[r % 3], si[r % 3])
+            else:
+                so[r % 3, :] = ZERO
+                si[r % 3, :] = ZERO
+            sm, s0, sp = (j - 1) % 3, j % 3, (j + 1) % 3
+            bx, bs, bn = xr[s0], yr[s0], yr[sm]
+            y = y0 + j - 1
+            for sx in range(nsp[j]):
+                slo, shi = K._span(spans, j, sx)
+                for i in range(slo - 1, shi + 1):
+                    a[0, i] = (bx[0, i] * so[s0, i]) * si[s0, i + 1]
+                    a[1, i] = (bx[1, i] * so[s0, i + 1]) * si[s0, i]
+                for i in range(slo, shi + 1):
+                    a[2, i] = (bs[0, i] * so[s0, i]) * si[sp, i]
+                    a[3, i] = (bs[1, i] * so[sp, i]) * si[s0, i]
+                    a[4, i] = (bn[0, i] * so[sm, i]) * si[s0, i]
+                    a[5, i] = (bn[1, i] * so[s0, i]) * si[sm, i]
+                axp, axn, asp, asn, anp, ann = a[0], a[1], a[2], a[3], a[4], a[5]
+                for i in range(slo, shi + 1):
+                    wv = w[j, i]
+                    fe = wv * axp[i] - w[j, i + 1] * axn[i]
+                    fw = w[j, i - 1] * axp[i - 1] - wv * axn[i - 1]
+                    fs = wv * asp[i] - w[j + 1, i] * asn[i]
+                    fn = w[j - 1, i] * anp[i] - wv * ann[i]
+                    w3_o[j, i] = (((wv - fe) + fw) - fs) + fn
+                for kk in range(ns):
+                    for i in range(slo, shi + 1):
+                        pv = p[kk, j, i]
+                        fe = pv * axp[i] - p[kk, j, i + 1] * axn[i]
+                        fw = p[kk, j, i - 1] * axp[i - 1] - pv * axn[i - 1]
+                        fs = pv * asp[i] - p[kk, j + 1, i] * asn[i]
+                        fn = p[kk, j - 1, i] * anp[i] - pv * ann[i]
+                        p_state[kk, y, np.uint64(x0 + i - 1)] = (((pv - fe) + fw) - fs) + fn
 
 
 @_inline
@@ -650,176 +693,6 @@ def evap_cap_fused(wet: np.ndarray, w3: np.ndarray, opn: np.ndarray,
                 K._esa_row(wet, w3, opn, h, wc, evap, w_state, p, q, beta, gamma, delta, y0,
                          x0, ns, cst, do_evap, do_surface, do_absorb, r, spans, nsp, wrow,
                          frow, ring[r % 3])
-            else:
-                ring[r % 3, :] = edge_sat[ch, 1]
-            _cd_row(ring[(j - 1) % 3], ring[j % 3], ring[(j + 1) % 3], h, opn, v3x, v3y,
-                    w_state, wc, evap, p, q, vx, vy, y0, x0, ns, cst, do_capdiff, do_dry, j,
-                    spans, nsp, wcrow, crow, area, fade, holding)
-
-
-@_inline
-def _adv_prime(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
-               p: np.ndarray, js: int, bh: int, bw: int, ns: int, q4: np.float32,
-               wmin: np.float32, wmax: np.float32, spans: np.ndarray, nsp: np.ndarray,
-               so: np.ndarray, si: np.ndarray, xr: np.ndarray,
-               yr: np.ndarray) -> None:  # pragma: no cover - compiled
-    """advect_fused's rings made ready for applying rows js, js + 1, ... in order
-    (:func:`_adv_row`): the face rates of rows js - 2..js and the limiters of rows
-    js - 1, js."""
-    for r in (js - 2, js - 1, js):
-        if 0 <= r <= bh:
-            _y_rates(vy, wet, r, bh, bw, spans, nsp, q4, yr[r % 3])
-        if 1 <= r <= bh:
-            _x_rates(vx, wet, r, spans, nsp, q4, xr[r % 3])
-    for r in (js - 1, js):
-        if 1 <= r <= bh:
-            _limit_row(w, p, r, ns, wmin, wmax, spans, nsp, xr[r % 3], yr[r % 3],
-                       yr[(r - 1) % 3], so[r % 3], si[r % 3])
-        else:
-            so[r % 3, :] = ZERO
-            si[r % 3, :] = ZERO
-
-
-@_inline
-def _adv_row(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
-             p: np.ndarray, j: int, y0: int, x0: int, bh: int, bw: int, ns: int,
-             q4: np.float32, wmin: np.float32, wmax: np.float32, spans: np.ndarray,
-             nsp: np.ndarray, so: np.ndarray, si: np.ndarray, xr: np.ndarray,
-             yr: np.ndarray, a: np.ndarray, w3_o: np.ndarray, p_state: np.ndarray,
-             do_w: bool, do_p: bool) -> None:  # pragma: no cover - compiled
-    """advect_fused's step for row j (the rings hold rows up to j): the rates and the
-    limiters of row j + 1, then row j's fluxes, water into ``w3_o`` (``do_w``) and
-    pigment into the state (``do_p``)."""
-    r = j + 1
-    if r <= bh:
-        _y_rates(vy, wet, r, bh, bw, spans, nsp, q4, yr[r % 3])
-        _x_rates(vx, wet, r, spans, nsp, q4, xr[r % 3])
-        _limit_row(w, p, r, ns, wmin, wmax, spans, nsp, xr[r % 3], yr[r % 3],
-                   yr[j % 3], so[r % 3], si[r % 3])
-    else:
-        so[r % 3, :] = ZERO
-        si[r % 3, :] = ZERO
-    sm, s0, sp = (j - 1) % 3, j % 3, (j + 1) % 3
-    bx, bs, bn = xr[s0], yr[s0], yr[sm]
-    y = y0 + j - 1
-    for sx in range(nsp[j]):
-        slo, shi = K._span(spans, j, sx)
-        for i in range(slo - 1, shi + 1):
-            a[0, i] = (bx[0, i] * so[s0, i]) * si[s0, i + 1]
-            a[1, i] = (bx[1, i] * so[s0, i + 1]) * si[s0, i]
-        for i in range(slo, shi + 1):
-            a[2, i] = (bs[0, i] * so[s0, i]) * si[sp, i]
-            a[3, i] = (bs[1, i] * so[sp, i]) * si[s0, i]
-            a[4, i] = (bn[0, i] * so[sm, i]) * si[s0, i]
-            a[5, i] = (bn[1, i] * so[s0, i]) * si[sm, i]
-        axp, axn, asp, asn, anp, ann = a[0], a[1], a[2], a[3], a[4], a[5]
-        if do_w:
-            for i in range(slo, shi + 1):
-                wv = w[j, i]
-                fe = wv * axp[i] - w[j, i + 1] * axn[i]
-                fw = w[j, i - 1] * axp[i - 1] - wv * axn[i - 1]
-                fs = wv * asp[i] - w[j + 1, i] * asn[i]
-                fn = w[j - 1, i] * anp[i] - wv * ann[i]
-                w3_o[j, i] = (((wv - fe) + fw) - fs) + fn
-        if do_p:
-            for kk in range(ns):
-                for i in range(slo, shi + 1):
-                    pv = p[kk, j, i]
-                    fe = pv * axp[i] - p[kk, j, i + 1] * axn[i]
-                    fw = p[kk, j, i - 1] * axp[i - 1] - pv * axn[i - 1]
-                    fs = pv * asp[i] - p[kk, j + 1, i] * asn[i]
-                    fn = p[kk, j - 1, i] * anp[i] - pv * ann[i]
-                    p_state[kk, y, np.uint64(x0 + i - 1)] = (((pv - fe) + fw) - fs) + fn
-
-
-@_parallel
-def advect_evap_fused(wet: np.ndarray, v3x: np.ndarray, v3y: np.ndarray, w2: np.ndarray,
-                      p2: np.ndarray, w3: np.ndarray, opn: np.ndarray, h: np.ndarray,
-                      wc: np.ndarray, evap: np.ndarray, w_state: np.ndarray,
-                      p: np.ndarray, q: np.ndarray, beta: np.ndarray, gamma: np.ndarray,
-                      delta: np.ndarray, vx: np.ndarray, vy: np.ndarray, y0: int, x0: int,
-                      bh: int, bw: int, ns: int, cst: np.ndarray, do_evap: bool,
-                      do_surface: bool, do_capdiff: bool, do_dry: bool,
-                      spans: np.ndarray, nsp: np.ndarray, chunks: int, area: np.ndarray,
-                      fade: np.float32, holding: bool) -> None:  # pragma: no cover
-    """:func:`advect_fused` and :func:`evap_cap_fused` in one sweep (their maths and
-    order per cell unchanged, so bitwise the same): a chunk applies pass 6 two rows ahead
-    of passes 7-9a and three rows ahead of 9b-10, so the advected pigment and ``w3`` are
-    read back from cache, and evap's memory traffic overlaps advect's arithmetic.
-
-    The boundary ``sat`` rows of a chunk need ``w3`` two rows into its neighbours, and
-    must see the state as the step found it: a first parallel loop computes ``w3`` on the
-    first two and the last two rows of every chunk (water only), a second the boundary
-    ``sat`` rows; the main loop writes ``w3`` on the other rows only (no row is written
-    twice) and the pigment on all of its own."""
-    q4 = cst[K.C_Q4]
-    wmin = cst[K.C_WMIN]
-    wmax = cst[K.C_WMAX]
-    nch = bh if bh < chunks else chunks
-    for ch in prange(nch):  # w3 on each chunk's first two and last two rows
-        j0, j1 = K._chunk(ch, nch, bh)
-        a = np.empty((6, bw + 2), F32)
-        so = np.zeros((3, bw + 2), F32)
-        si = np.zeros((3, bw + 2), F32)
-        xr = np.zeros((3, 2, bw + 2), F32)
-        yr = np.zeros((3, 2, bw + 2), F32)
-        _adv_prime(wet, v3x, v3y, w2, p2, j0, bh, bw, ns, q4, wmin, wmax, spans, nsp, so,
-                   si, xr, yr)
-        e0 = j0 + 2 if j0 + 2 < j1 else j1
-        for j in range(j0, e0):
-            _adv_row(wet, v3x, v3y, w2, p2, j, y0, x0, bh, bw, ns, q4, wmin, wmax, spans,
-                     nsp, so, si, xr, yr, a, w3, p, True, False)
-        s1 = j1 - 2 if j1 - 2 > e0 else e0
-        if s1 < j1:
-            _adv_prime(wet, v3x, v3y, w2, p2, s1, bh, bw, ns, q4, wmin, wmax, spans, nsp,
-                       so, si, xr, yr)
-            for j in range(s1, j1):
-                _adv_row(wet, v3x, v3y, w2, p2, j, y0, x0, bh, bw, ns, q4, wmin, wmax,
-                         spans, nsp, so, si, xr, yr, a, w3, p, True, False)
-    edge_sat = np.zeros((nch, 2, bw + 2), F32)
-    for ch in prange(nch):  # the boundary rows, from the state as the step found it
-        j0, j1 = K._chunk(ch, nch, bh)
-        if j0 - 1 >= 1:
-            _sat_row(w3, h, opn, wc, y0, x0, j0 - 1, cst, do_evap, True, spans, nsp,
-                     edge_sat[ch, 0])
-        if j1 <= bh:
-            _sat_row(w3, h, opn, wc, y0, x0, j1, cst, do_evap, True, spans, nsp,
-                     edge_sat[ch, 1])
-    for ch in prange(nch):
-        j0, j1 = K._chunk(ch, nch, bh)
-        a = np.empty((6, bw + 2), F32)
-        so = np.zeros((3, bw + 2), F32)
-        si = np.zeros((3, bw + 2), F32)
-        xr = np.zeros((3, 2, bw + 2), F32)
-        yr = np.zeros((3, 2, bw + 2), F32)
-        ring = np.zeros((3, bw + 2), F32)
-        wrow = np.empty(bw + 2, F32)
-        frow = np.empty(bw + 2, F32)
-        wcrow = np.empty(bw + 2, F32)
-        crow = np.zeros(bw + 2, F32)
-        _adv_prime(wet, v3x, v3y, w2, p2, j0, bh, bw, ns, q4, wmin, wmax, spans, nsp, so,
-                   si, xr, yr)
-        for j in (j0, j0 + 1):
-            if j < j1:
-                _adv_row(wet, v3x, v3y, w2, p2, j, y0, x0, bh, bw, ns, q4, wmin, wmax,
-                         spans, nsp, so, si, xr, yr, a, w3, p,
-                         (j >= j0 + 2) & (j < j1 - 2), True)
-        ring[(j0 - 1) % 3, :] = edge_sat[ch, 0]
-        ring[j0 % 3, :] = ZERO
-        K._esa_row(wet, w3, opn, h, wc, evap, w_state, p, q, beta, gamma, delta, y0, x0,
-                   ns, cst, do_evap, do_surface, True, j0, spans, nsp, wrow, frow,
-                   ring[j0 % 3])
-        for j in range(j0, j1):
-            r = j + 1
-            if r < j1:
-                if j + 2 < j1:
-                    _adv_row(wet, v3x, v3y, w2, p2, j + 2, y0, x0, bh, bw, ns, q4, wmin,
-                             wmax, spans, nsp, so, si, xr, yr, a, w3, p,
-                             (j + 2 >= j0 + 2) & (j + 2 < j1 - 2), True)
-                ring[r % 3, :] = ZERO
-                K._esa_row(wet, w3, opn, h, wc, evap, w_state, p, q, beta, gamma, delta,
-                           y0, x0, ns, cst, do_evap, do_surface, True, r, spans, nsp, wrow,
-                           frow, ring[r % 3])
             else:
                 ring[r % 3, :] = edge_sat[ch, 1]
             _cd_row(ring[(j - 1) % 3], ring[j % 3], ring[(j + 1) % 3], h, opn, v3x, v3y,

@@ -240,14 +240,6 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
         state.w[ys, xs] = _win(s2["w2"], bh, bw)
         state.p[:ns, ys, xs] = _win(s3["p2"][:ns], bh, bw)
         return
-    fade = F32(dt / prm.wet_hold) if prm.wet_hold > 0 else F32(0)
-    if runs("dry_cells"):  # passes 6-10 in one sweep (fused.advect_evap_fused)
-        F.advect_evap_fused(wet, v3x, v3y, s2["w2"], s3["p2"], s2["w3"], s2["opn"], state.h,
-                            state.wc, state.evaporated, state.w, state.p, state.q, beta,
-                            gamma, delta, state.vx, state.vy, y0, x0, bh, bw, ns, cst,
-                            True, True, prm.cap_diffusion * dt > 0, True, spans, nsp,
-                            chunks, state.wet_area, fade, prm.wet_hold > 0)
-        return
     if runs("advect_water_and_pigment"):  # pass 6's limiters and fluxes in one sweep
         F.advect_fused(wet, v3x, v3y, s2["w2"], s3["p2"], y0, x0, bh, bw, ns, cst, s2["w3"],
                        state.p, spans, nsp, chunks)

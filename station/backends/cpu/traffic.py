@@ -47,22 +47,21 @@ def bytes_per_sweep(slots: int, jacobi_iters: int,
         # from w0, p0 (not read), and xv is v1 (the same field, read once)
         "limit_diffuse (last velocity iteration, pass 3, passes 4/5 limiters and fluxes)":
             (f * ((8 + 2 * s) + (3 + s)) + b) if n >= 2 else f * ((6 + s) + (3 + s)) + b,
-        # one sweep (fused.advect_evap_fused: pass 6 two rows ahead of passes 7-9a, three
-        # of 9b-10): read wet, opn, v3(2) (once for both halves), w2, p2(S), h, wc,
-        # evaporated, q(S) and w (written by pass 9a, read back by 10, counted as before);
-        # write w3, p(S), w, wc, evaporated, q(S), vx, vy.  The advected pigment and w3
-        # are read back from cache rows later (p written once: pass 6 and passes 8/10
-        # store to the same lines while they are in cache; sat stays in a row ring; a wet
-        # cell deposits nothing: pass 10's pigment loop runs only on rows with dry cells)
-        "advect_evap_capillary (passes 6, 7, 8, 9a, 9b, 9c, 10)":
-            f * ((7 + 2 * s) + (6 + 2 * s)) + b * 2,
+        # one sweep (fused.advect_fused): read wet, v3(2), w2, p2(S); write w3, p(S)
+        "advect (pass 6 limiters and fluxes)": f * ((3 + s) + (1 + s)) + b,
+        # one sweep (fused.evap_cap_fused): read wet, opn, w3, h, wc, evaporated, p(S),
+        # q(S), v3(2); write w, wc, evaporated, p(S), q(S), vx, vy (sat stays in a row
+        # ring; a wet cell deposits nothing: the pigment loop of pass 10 runs only on rows
+        # with dry cells)
+        "evap_capillary (passes 7, 8, 9a, 9b, 9c, 10)":
+            f * ((7 + 2 * s) + (5 + 2 * s)) + b * 2,
     }
     if wet_memory:
         # prep's own loop per span reads the wet area and writes M = max(area, own)
         sweeps["prep (wet mask, copies, diffusion controller, row blur)"] += f * 2
-        # its fade at the end of pass 10 runs in the last sweep's rows (fused._cd_row), on
+        # its fade at the end of pass 10 runs in evap_capillary's rows (fused._cd_row), on
         # the row's w, wc and open flag while they are in cache: read area, write area
-        sweeps["advect_evap_capillary (passes 6, 7, 8, 9a, 9b, 9c, 10)"] += f * 2
+        sweeps["evap_capillary (passes 7, 8, 9a, 9b, 9c, 10)"] += f * 2
     return sweeps
 
 
