@@ -79,13 +79,10 @@ def _x_rates(vx: np.ndarray, wet: np.ndarray, r: int, spans: np.ndarray, nsp: np
 
 
 @_inline
-def _y_rates(vy: np.ndarray, wet: np.ndarray, r: int, bh: int, bw: int, spans: np.ndarray,
-             nsp: np.ndarray, q4: np.float32, yo: np.ndarray) -> None:
-    # pragma: no cover - compiled
-    """The rates of the y faces (r, r+1) into ``yo[0]``/``yo[1]`` on every column that a
-    span of row r or row r+1 holds: ``K._row_rates`` computes them as row r's south faces
-    and again as row r+1's north faces, from the same operands (a pure function of the
-    scratch), so one row of them serves both."""
+def _pair_columns(spans: np.ndarray, nsp: np.ndarray, r: int, bh: int,
+                  bw: int) -> tuple[int, int]:  # pragma: no cover - compiled
+    """The columns ``lo..hi`` that a span of row r or row r+1 holds (the y faces between
+    them); ``lo > hi`` when neither row has a span."""
     lo = bw + 1
     hi = 0
     for rr in (r, r + 1):
@@ -94,6 +91,18 @@ def _y_rates(vy: np.ndarray, wet: np.ndarray, r: int, bh: int, bw: int, spans: n
             b = spans[rr, nsp[rr] - 1, 1]
             lo = a if a < lo else lo
             hi = b if b > hi else hi
+    return lo, hi
+
+
+@_inline
+def _y_rates(vy: np.ndarray, wet: np.ndarray, r: int, bh: int, bw: int, spans: np.ndarray,
+             nsp: np.ndarray, q4: np.float32, yo: np.ndarray) -> None:
+    # pragma: no cover - compiled
+    """The rates of the y faces (r, r+1) into ``yo[0]``/``yo[1]`` on every column that a
+    span of row r or row r+1 holds: ``K._row_rates`` computes them as row r's south faces
+    and again as row r+1's north faces, from the same operands (a pure function of the
+    scratch), so one row of them serves both."""
+    lo, hi = _pair_columns(spans, nsp, r, bh, bw)
     y0_, y1_ = yo[0], yo[1]
     for i in range(lo, hi + 1):
         u = np.uint64(i)  # unsigned: see _flux_rows (no wraparound, no gathers)
@@ -293,14 +302,7 @@ def _flux_rows(wet: np.ndarray, bc: np.ndarray, xr: np.ndarray, xs: np.ndarray,
                         be_ = (b0 if b0 < t else t) if (wr[i] != 0) & (wr[i + 1] != 0) \
                             else ZERO
                         px[kk, i] = (kp * be_) * (pc[kk, i] - pc[kk, i + 1])
-    lo = bw + 1
-    hi = 0
-    for rr in (r, r + 1):
-        if 1 <= rr <= bh and nsp[rr] > 0:
-            a, _ = K._span(spans, rr, 0)
-            b = spans[rr, nsp[rr] - 1, 1]
-            lo = a if a < lo else lo
-            hi = b if b > hi else hi
+    lo, hi = _pair_columns(spans, nsp, r, bh, bw)
     # an unsigned column: numba cannot bound lo, and its negative-index wraparound made
     # this loop gathers (limit_diffuse 1.9x slower)
     if do_w:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -63,8 +63,8 @@ class GLStepPasses:
     b_ttl: moderngl.Buffer
     b_folded: moderngl.Buffer
 
-    def _compile(self, fname: str, extra: Mapping[str, object]) -> moderngl.ComputeShader:
-        raise NotImplementedError  # GLCanvas._compile
+    # the canvas compiles (GLCanvas._compile: its context, its include path)
+    _compile: Callable[[str, Mapping[str, object]], moderngl.ComputeShader]
 
     def _bind(self, unit: int, tex: moderngl.Texture | moderngl.TextureArray, read: bool,
               write: bool) -> None:
