@@ -220,7 +220,11 @@ class LiveCore:
         k = p.counters.steps + (1 if self.records_in_next_step() else 0)
         lo = math.ceil((k / p.rate - p.waited) * 1e6) / 1e6
         hi = math.floor(((k + 1) / p.rate - p.waited - 2e-6) * 1e6) / 1e6
-        t = round(min(max(t, lo, self._last_t), max(hi, lo)), 6)
+        # The previous record lies in this slot or an earlier one, so it bounds t from
+        # below even where ``hi``'s float floor comes out a µs short of it (after a
+        # wait whose end falls just before a step boundary: 0.6 - 0.5 - 2e-6 floors
+        # to 0.099997); a replay puts that µs in the same step (floor with 1e-9 slack).
+        t = max(round(min(max(t, lo, self._last_t), max(hi, lo)), 6), self._last_t)
         self._last_t = t
         return t
 
