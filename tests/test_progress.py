@@ -17,7 +17,8 @@ import pytest
 from station.drivers import synth
 from station.drivers.mock.tablet import MockTablet, find_model
 
-from station.cli import main
+from station.cli import cmd_demo, main
+from station.pictures.demo import DEMO_FILE
 from station.progress import Progress, on_terminal
 from station.sim.script import Script
 
@@ -92,14 +93,29 @@ BAR = {"paint": "painting:", "demo": "painting:", "replay": "replay:",
        "bench sim": "bench sim:", "bench parse": "bench parse:", "bench bus": "bench bus:"}
 
 
+def _short_demo(tmp_path: Path) -> Path:
+    """The bundled demo's first 6 s (its bar, not its 5905 steps twice, is what is tested
+    here; test_sim_paint paints the whole demo)."""
+    lines = DEMO_FILE.read_text(encoding="utf-8").splitlines(keepends=True)
+    keep = [lines[0]] + [ln for ln in lines[1:] if json.loads(ln)["t"] <= 6.0]
+    path = tmp_path / "demo-start.jsonl"
+    path.write_text("".join(keep), encoding="utf-8")
+    return path
+
+
 @pytest.mark.parametrize("name", list(COMMANDS))
 def test_commands_show_a_bar_on_a_terminal_and_stay_quiet_otherwise(
         name: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
         capsys: pytest.CaptureFixture[str]) -> None:
+    short = _short_demo(tmp_path) if name == "demo" else None
+    if short:
+        monkeypatch.setattr(cmd_demo, "DEMO_FILE", short)
     tty = FakeTTY()
     monkeypatch.setattr(sys, "stderr", tty)
     assert main(COMMANDS[name](tmp_path)) == 0
     monkeypatch.undo()
+    if short:
+        monkeypatch.setattr(cmd_demo, "DEMO_FILE", short)
     drawn = tty.getvalue()
     assert f"\r{BAR[name]}" in drawn and "100%" in drawn, drawn[-500:]
     capsys.readouterr()
