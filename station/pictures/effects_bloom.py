@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 from scipy import ndimage
+from scipy.spatial import ConvexHull, QhullError
 
 from station.backends.numpy_canvas import NumpyCanvas
 from station.brush.stamp import BrushModel
@@ -114,7 +115,10 @@ def bloom_front(amount: np.ndarray, centre: tuple[float, float] = (N / 2, N / 2)
     The bloom is the connected pale region (below 0.85 of the wash's median, holes
     filled) around ``centre``; its front the 3-cell ring outside it. Returns the front's
     75th percentile over the wash's median (``front_ratio``), the outline's mean radius
-    [cells], its coefficient of variation and its lobes (:func:`lobes`)."""
+    [cells], its coefficient of variation, its lobes (:func:`lobes`), and of the outline
+    traced on the amount blurred by :data:`GRAIN_SIGMA`: how far it wanders
+    (:func:`front_branching`) and its fingers (lobes at :data:`FINE_RAYS` rays and
+    :data:`FINGER_PROMINENCE`)."""
     n = amount.shape[0]
     wash = float(np.median(amount[8:n - 8, 8:n - 8]))
     pale = ndimage.binary_fill_holes(amount < 0.85 * wash)
@@ -122,13 +126,54 @@ def bloom_front(amount: np.ndarray, centre: tuple[float, float] = (N / 2, N / 2)
     cy, cx = centre
     idx = lab_[int(cy), int(cx)]
     if not idx or wash <= 0:
-        return {"front_ratio": 0.0, "radius": 0.0, "cv": 0.0, "lobes": 0.0}
+        return {"front_ratio": 0.0, "radius": 0.0, "cv": 0.0, "lobes": 0.0, "branching": 0.0,
+                "fingers": 0.0}
     bloom = lab_ == idx
     rim = ndimage.binary_dilation(bloom, iterations=3) & ~bloom
     front = float(np.percentile(amount[rim], 75)) / wash
     radii = _radii(bloom, cy, cx)
+    # the outline's shape without the grain: granulation and the paper's tooth make the
+    # 0.85 level wander cell by cell even around a round ring
+    soft = ndimage.binary_fill_holes(ndimage.gaussian_filter(amount, GRAIN_SIGMA) < 0.85 * wash)
+    lab_s, _ = ndimage.label(soft)
+    shape = lab_s == lab_s[int(cy), int(cx)] if lab_s[int(cy), int(cx)] else bloom
     return {"front_ratio": front, "radius": float(radii.mean()),
-            "cv": float(radii.std() / max(radii.mean(), 1e-9)), "lobes": float(lobes(radii))}
+            "cv": float(radii.std() / max(radii.mean(), 1e-9)), "lobes": float(lobes(radii)),
+            "branching": front_branching(shape),
+            "fingers": float(lobes(_radii(shape, cy, cx, FINE_RAYS), FINGER_PROMINENCE))}
+
+
+GRAIN_SIGMA = 1.0
+"""Gaussian blur [cells] of the amount before :func:`bloom_front` traces the outline whose
+branching and fingers it measures: the round kiosk ring's raw 0.85 level measures 1.40
+(the grain), blurred 1.03; a finger two cells wide survives it."""
+
+
+FINE_RAYS, FINGER_PROMINENCE = 256, 0.08
+"""Rays and prominence (share of the mean radius) of :func:`bloom_front`'s finger count:
+four times the lobes' angular resolution, half their depth."""
+
+
+def front_branching(region: np.ndarray) -> float:
+    """How far a bloom's outline wanders: its length over the perimeter of its convex hull.
+
+    The length is the count of cell edges between the region and the rest, times pi / 4
+    (the mean over directions of a grid staircase's excess over a straight line, so a
+    digitised disc measures about 1); the hull is that of the region's cell corners. A
+    round or gently lobed crown measures about 1.0-1.2; a front that branches into fingers
+    and bays (a cauliflower) walks a much longer line than its hull (1.5 and more)."""
+    r = region.astype(np.int8)
+    edges = int(np.abs(np.diff(r, axis=0)).sum() + np.abs(np.diff(r, axis=1)).sum())
+    edges += int(r[0].sum() + r[-1].sum() + r[:, 0].sum() + r[:, -1].sum())
+    ys, xs = np.nonzero(region)
+    if len(ys) < 3:
+        return 0.0
+    corners = np.concatenate([np.stack([ys + a, xs + b], 1) for a in (0, 1) for b in (0, 1)])
+    try:
+        hull = ConvexHull(corners.astype(float))
+    except QhullError:  # a straight line of cells: no area, nothing to wander
+        return 0.0
+    return float(edges * np.pi / 4 / hull.area)  # 2-D hull: .area is its perimeter
 
 
 def _radii(region: np.ndarray, cy: float, cx: float, n: int = 64) -> np.ndarray:
@@ -143,6 +188,48 @@ def _radii(region: np.ndarray, cy: float, cx: float, n: int = 64) -> np.ndarray:
             r = t
         radii.append(r)
     return np.array(radii)
+
+
+KIOSK_N, KIOSK_DROP = 128, (64.0, 76.0)
+"""Edge of the kiosk drop's canvas [cells] and where the water touches (x, y) [cells]."""
+
+
+def kiosk_drop(seed: int = 0) -> tuple[NumpyCanvas, dict[str, float]]:
+    """Clean water dropped into a damp sky as the kiosk's scripted visitor paints it
+    (``tools/kiosk_screenshots.py``, the kiosk's cells): French Ultramarine and Cerulean
+    at the kiosk's strength 0.8 with the sky's brush (size 72, water 1) in four rows 31
+    cells apart at the visitor's pace (550 cells/s), left until no standing water is left
+    around the drop, then a fresh brush of clean water (size 26, water 1) circling 6 cells
+    across for 0.4 s, dried. Returns the canvas and :func:`bloom_front` of its darkness
+    around the drop (the wash's median taken over the middle of the sky)."""
+    n = KIOSK_N
+    s = Script(n, n, seed=seed, rate_hz=PEN_HZ)
+    s.brush(size=72, water=1.0, pigment={WASH_PIGMENT: 0.4, "Cerulean Blue": 0.4})
+    for k in range(4):
+        y = (30 + 31 * k) / n
+        a, b = ((0.02, y), (0.98, y)) if k % 2 == 0 else ((0.98, y), (0.02, y))
+        s.line(a, b, 0.96 * n / 550.0, pressure=0.5)
+    c = NumpyCanvas(n, n, profile="watercolor", seed=seed)
+    p = SessionPlayer(c, n, n, "watercolor")
+    p.play(s.records)
+    st = c.live_state
+    cx, cy = KIOSK_DROP
+    near = (slice(int(cy) - 30, int(cy) + 30), slice(int(cx) - 30, int(cx) + 30))
+    k = 0
+    while (st.w[near] > 0).any() and k < 20000:
+        c.step()
+        k += 1
+    drop = _later(p, n, n, seed)
+    drop.brush(size=26, water=1.0, pigment={})
+    drop.curve([((cx + 6.4 * np.cos(1.3 * i)) / n, (cy + 3.6 * np.sin(1.3 * i)) / n)
+                for i in range(10)], 0.4, pressure=0.6)
+    p.play(drop.records)
+    run_until_dry(c, 20000)
+    c.dry()
+    d = darkness_map(c)
+    wash = float(np.median(d[near]))
+    scaled = d * (float(np.median(d[8:n - 8, 8:n - 8])) / max(wash, 1e-9))
+    return c, bloom_front(scaled, (cy, cx))
 
 
 def drop_into_wet_wash(wet: bool) -> NumpyCanvas:
@@ -166,7 +253,10 @@ def blooms() -> Effect:
     bloom's front over the wash's darkness, its radius CV and lobes; (b) the same touch
     with Quinacridone Rose: the Ultramarine it pushed out (front and CV measured on the
     wash pigment's amount); (c) a dab of Ultramarine into a fully wet clear wash: its
-    spread over the brush radius and its peak darkness over the same dab on dry paper."""
+    spread over the brush radius and its peak darkness over the same dab on dry paper;
+    (d) numbers only: the kiosk visitor's clean-water drop into its damp sky
+    (:func:`kiosk_drop`). (a) and (d) also report how far the front wanders
+    (:func:`front_branching`) and its fingers."""
     c1 = drop_into_damp_wash({})
     clear = bloom_front(darkness_map(c1))
     c2 = drop_into_damp_wash({SECOND_PIGMENT: 0.8})
@@ -178,10 +268,18 @@ def blooms() -> Effect:
     r_brush = BrushModel().radius(12, 0.7)
     spread_r = float(np.sqrt((dw > 0.25 * dw.max()).sum() / np.pi)) if dw.max() > 0 else 0.0
     peak_share = float(np.percentile(dw, 99.5) / max(np.percentile(dd, 99.5), 1e-6))
+    _, kiosk = kiosk_drop()
     front, cv = clear["front_ratio"], clear["cv"]
     return Effect("blooms (brush)",
                   {"bloom_front_ratio": front, "bloom_radius_cells": clear["radius"],
                    "bloom_radius_cv": cv, "bloom_lobes": clear["lobes"],
+                   "bloom_front_branching": clear["branching"],
+                   "bloom_fingers": clear["fingers"],
+                   "kiosk_bloom_front_ratio": kiosk["front_ratio"],
+                   "kiosk_bloom_radius_cells": kiosk["radius"],
+                   "kiosk_bloom_radius_cv": kiosk["cv"],
+                   "kiosk_bloom_front_branching": kiosk["branching"],
+                   "kiosk_bloom_fingers": kiosk["fingers"],
                    "colour_bloom_front_ratio": colour["front_ratio"],
                    "colour_bloom_radius_cells": colour["radius"],
                    "colour_bloom_radius_cv": colour["cv"],
