@@ -55,7 +55,6 @@ the bus, so drivers, recorders and the blueprint see the same traffic as with
 from __future__ import annotations
 
 import logging
-import os
 import threading
 import time
 from collections import deque
@@ -73,6 +72,7 @@ from station.bus import Subscriber, runtime_dir
 from station.events import Command, PenSample, Tool
 from station.kiosk.locked_backend import KernelUnlocked, SharedState
 from station.kiosk.moisture import DAMP_WATER, Moisture
+from station.kiosk.niced import NicedRunner
 from station.sim.haptic import HapticFeedback
 from station.sim.journal import SessionJournal
 from station.sim.live import SYNC_EVERY_S, Counters, LiveConfig
@@ -135,7 +135,9 @@ class KioskSession:
         self.worker_error: BaseException | None = None
         self.queue_log: list[float] | None = None  # bench: driver read → handled [s]
         self._worker: threading.Thread | None = None
-        self._nice = 0  # the simulation thread's niceness above the window's
+        self._nice = 0  # the kernel thread's niceness above the window's
+        # the step's heavy unlocked work (kernel, checkpoint copies), niced (start_worker)
+        self._runner: NicedRunner | None = None
         self._halt = threading.Event()
         self._window_waits = 0  # the window's thread waits for the step to end
         # undo checkpoints still holding the live canvas arrays (see the module docstring)
@@ -388,11 +390,18 @@ class KioskSession:
     # -- the simulation thread ------------------------------------------------------
     def start_worker(self, nice: int = 0) -> None:
         """Run the due steps in a thread of their own from now on (see module docstring),
-        ``nice`` steps lower in the system's priority than the window's thread.  Not for
-        a GPU canvas: its GL context belongs to the window's thread."""
+        their kernels and checkpoint copies ``nice`` steps lower in the system's priority
+        than the window's thread (:mod:`station.kiosk.niced`: what runs under the lock
+        keeps the window's priority).  Not for a GPU canvas: its GL context belongs to
+        the window's thread."""
         if self._worker is not None or self.cpu_state is None:
             return
         self._nice = nice
+        # the window's thread needs a core of its own to show the pen: the simulation's
+        # parallel loops take the others (numba's count is per launching thread).  On
+        # the 2-core development machine one thread even steps faster than two that
+        # fight the window for the cores (bench latency: 8 against 11 ms a step).
+        self._runner = NicedRunner(nice, max(1, numba.get_num_threads() - 1))
         self._halt.clear()
         self._worker = threading.Thread(target=self._work, name="kiosk-sim", daemon=True)
         self._worker.start()
@@ -409,6 +418,18 @@ class KioskSession:
             return
         self._halt.set()
         worker.join()
+        runner, self._runner = self._runner, None
+        if runner is not None:
+            runner.close()
+
+    def offload(self, job: Callable[[], None]) -> None:
+        """Run ``job`` (a step's unlocked work: the lock released by the caller) in the
+        niced kernel thread when the simulation thread asks, else here."""
+        runner = self._runner
+        if runner is None or threading.current_thread() is not self._worker:
+            job()
+        else:
+            runner.run(job)
 
     def check_worker(self) -> None:
         """Raise what stopped the simulation thread, in the window's thread."""
@@ -417,21 +438,10 @@ class KioskSession:
             raise err
 
     def _work(self) -> None:
-        # the window's thread needs a core of its own to show the pen: the simulation's
-        # parallel loops take the others (numba's count is per launching thread).  On
-        # the 2-core development machine one thread even steps faster than two that
-        # fight the window for the cores (bench latency: 8 against 11 ms a step).
+        # at the window's priority: this thread holds the lock that every pen sample
+        # needs; its heavy unlocked work goes to the niced runner (offload).  Its own
+        # parallel loops (a deformable brush's pick-ups) leave the window a core too.
         numba.set_num_threads(max(1, numba.get_num_threads() - 1))
-        if self._nice > 0:
-            # the pen first: when the machine is busy the steps wait for a core, not the
-            # window, the X server or the driver (a step that falls behind is caught up,
-            # its records slotted as ever); the kernel's OpenMP workers are started by
-            # this thread's first parallel loop, after this, and share its priority
-            try:
-                os.setpriority(os.PRIO_PROCESS, threading.get_native_id(),
-                               os.getpriority(os.PRIO_PROCESS, 0) + self._nice)
-            except OSError as exc:  # not allowed here: the steps keep the window's priority
-                log.warning("the simulation thread keeps its priority: %s", exc)
         try:
             while not self._halt.is_set():
                 with self.lock:
@@ -464,7 +474,7 @@ class KioskSession:
         self.inflight = self._copying = True
         self.lock.release()
         try:
-            self.materialize_checkpoints()
+            self.offload(self.materialize_checkpoints)
         finally:
             self.lock.acquire()
             self.inflight = self._copying = False
