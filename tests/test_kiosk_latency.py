@@ -278,6 +278,62 @@ def test_samples_during_the_checkpoint_copy_paint_in_that_step_and_replay_exactl
     assert float(live.p.sum() + live.q.sum()) > 0.0
 
 
+def test_a_stroke_starting_during_the_copy_is_copied_with_the_lock_released_too(
+        tmp_path: Path) -> None:
+    """The checkpoint of a stroke that starts while the step copies another's is copied
+    before the kernel with the lock released as well (a whole canvas's copy under the
+    lock holds every pen sample), and the session still replays exactly."""
+    s = _session(tmp_path)
+    copying, go = threading.Event(), threading.Event()
+    owned: list[bool] = []
+    real_copy = s.materialize_checkpoints
+
+    def slow_copy() -> None:  # the first copy takes until the test says
+        if s._copying:
+            owned.append(s.lock._is_owned())  # type: ignore[attr-defined]
+        real_copy()
+        if s._copying and not copying.is_set():
+            copying.set()
+            assert go.wait(20)
+
+    def one_step() -> None:
+        with s.lock:
+            s._step_unlocked()
+
+    s.materialize_checkpoints = slow_copy  # type: ignore[method-assign]
+    try:
+        s.command("brush", size=8, water=1.0, pigment={"French Ultramarine": 0.5})
+        s.handle("pen", _pen(0, 0.2))  # stroke 1 starts: a lazy checkpoint
+        s.handle("pen", _pen(1, 0.25))
+        th = threading.Thread(target=one_step)
+        s._worker = th
+        th.start()
+        assert copying.wait(20)
+        s.handle("pen", _pen(2, 0.3, touching=False))
+        s.handle("pen", _pen(3, 0.6))  # stroke 2 starts during the copy
+        assert len(s._lazy) == 1
+        go.set()
+        th.join(20)
+        s._worker = None
+        assert not s._lazy and owned == [False, False]  # both copies unlocked
+        s.handle("pen", _pen(4, 0.65, touching=False))
+        for _ in range(3):
+            s.step()
+        s.command("undo")
+        s.step()
+        assert s.history.undone == 1
+        live = s.canvas.state()
+    finally:
+        go.set()
+        s.shutdown()
+    replay = _replay(tmp_path / "s.jsonl").state()
+    assert replay.step_count == live.step_count
+    for name, v in vars(live).items():
+        if isinstance(v, np.ndarray):
+            assert np.array_equal(getattr(replay, name), v), name
+    assert float(live.p.sum() + live.q.sum()) > 0.0  # stroke 1 is left
+
+
 def test_the_simulation_thread_keeps_time_and_stops(tmp_path: Path) -> None:
     s = _session(tmp_path)
     try:

@@ -44,6 +44,7 @@ from station.errors import BadInput, StationError
 from station.kiosk.app import KioskApp, KioskConfig
 from station.kiosk.idle import IdleConfig
 from station.kiosk.predict import PredictConfig, perceived_lag, prediction_errors
+from station.kiosk.session import LockWaits
 from station.sim.paint import parse_size
 
 GOAL_P99_MS = 16.0
@@ -250,6 +251,7 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
             app.tail_log = []
             samples0, stamps0 = st.counters.samples, st.painted_stamps
             steps0, during0 = st.player.counters.steps, st.samples_during_steps
+            st.lock_waits = LockWaits()
             pauses: list[tuple[int, float]] = []  # (generation, seconds) of each collection
             gc_start = [0.0]
 
@@ -334,6 +336,10 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
                                st.player.counters.steps - steps0, 1), 2),
                            "samples_applied_during_steps":
                                st.samples_during_steps - during0,
+                           "window_lock_waits": {
+                               "n": st.lock_waits.n, "over_1ms": st.lock_waits.waited,
+                               "total_ms": round(1000 * st.lock_waits.total_s, 1),
+                               "max_ms": round(1000 * st.lock_waits.max_s, 2)},
                            "cells_rendered_per_frame": int(cells / n),
                            "pixels_redrawn_per_frame": int(pixels / n),
                            "gc_pauses": {"n": len(pauses), "gen2": sum(
