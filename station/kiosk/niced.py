@@ -71,7 +71,7 @@ class NicedRunner:
 
     def _serve(self) -> None:
         self.native_id = threading.get_native_id()
-        numba.set_num_threads(min(self.threads, numba.config.NUMBA_NUM_THREADS))
+        numba.set_num_threads(min(self.threads, numba.get_num_threads()))
         if self.nice > 0:
             # before this thread's first parallel loop: the OpenMP workers it starts
             # share its priority
