@@ -19,7 +19,7 @@ class StepLock(Protocol):
     lock: threading.Condition
 
     def offload(self, job: Callable[[], None]) -> None:
-        """Run ``job`` (the lock released) where the step's heavy work runs."""
+        """Run ``job`` (the lock released) where the step's kernel runs."""
 
 
 class KernelUnlocked:

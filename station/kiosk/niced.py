@@ -1,19 +1,18 @@
 """The simulation's heavy, unlocked work in a thread of lower priority than the window.
 
-The kiosk's steps run in a thread of their own (:mod:`station.kiosk.session`), and
-for most of a step (the canvas kernel, the undo checkpoints' copy) that thread holds
-no lock.  The rest of a step (taking the brush's stamps and adding them, the log, the
-tiles' marks) runs under the session's lock, which the window takes for every pen
-sample.  The steps used to run ``sim_nice`` steps below the window's priority as a
-whole: on a busy machine the scheduler then took the core from the simulation thread
-while it held the lock, and the window waited for a thread it had itself pushed back
-(priority inversion: 100 ms to 3.7 s waits per pen sample on a wet 1920×1080 canvas at
-load 9-14, the whole tail of ``station bench latency``).  A thread cannot take back a
-priority it gave up (``RLIMIT_NICE`` is 0 for a kiosk's user), so the niced work goes
-to a thread of its own: :class:`NicedRunner` runs what it is handed at the lower
-priority while the simulation thread, at the window's priority, waits for it with the
-lock released; everything under the lock runs at the window's priority.
-"""
+The kiosk's steps run in a thread of their own (:mod:`station.kiosk.session`), and for
+most of a step (the canvas kernel) that thread holds no lock. The rest of a step
+(taking the brush's stamps and adding them, the log, the tiles' marks) runs under the
+session's lock, which the window takes for every pen sample. The steps used to run
+``sim_nice`` steps below the window's priority as a whole: on a busy machine the
+scheduler then took the core from the simulation thread while it held the lock, and
+the window waited for a thread it had itself pushed back (priority inversion: the
+slowest pen samples waited 100 ms to 3.7 s for it on a wet 1920×1080 canvas at load
+9-17). A thread cannot take back a priority it gave up (``RLIMIT_NICE`` is 0 for a
+kiosk's user), so the niced work goes to a thread of its own: :class:`NicedRunner`
+runs what it is handed at the lower priority while the simulation thread, at the
+window's priority, waits for it with the lock released; everything under the lock runs
+at the window's priority. """
 
 from __future__ import annotations
 

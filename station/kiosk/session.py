@@ -162,7 +162,7 @@ class KioskSession:
         self.queue_log: list[float] | None = None  # bench: driver read → handled [s]
         self._worker: threading.Thread | None = None
         self._nice = 0  # the kernel thread's niceness above the window's
-        # the step's heavy unlocked work (kernel, checkpoint copies), niced (start_worker)
+        # the step's kernel, niced (start_worker)
         self._runner: NicedRunner | None = None
         self._halt = threading.Event()
         self._window_waits = 0  # the window's thread waits for the step to end
@@ -425,10 +425,11 @@ class KioskSession:
     # -- the simulation thread ------------------------------------------------------
     def start_worker(self, nice: int = 0) -> None:
         """Run the due steps in a thread of their own from now on (see module docstring),
-        their kernels and checkpoint copies ``nice`` steps lower in the system's priority
-        than the window's thread (:mod:`station.kiosk.niced`: what runs under the lock
-        keeps the window's priority).  Not for a GPU canvas: its GL context belongs to
-        the window's thread."""
+        their kernels ``nice`` steps lower in the system's priority than the window's
+        thread (:mod:`station.kiosk.niced`: what runs under the lock keeps the window's
+        priority, and so do the undo checkpoints' copies, unlocked: the step waits for
+        them, and niced a 1920×1080 canvas's copy took 10-13 s at load 15).  Not for a
+        GPU canvas: its GL context belongs to the window's thread."""
         if self._worker is not None or self.cpu_state is None:
             return
         self._nice = nice
@@ -458,8 +459,8 @@ class KioskSession:
             runner.close()
 
     def offload(self, job: Callable[[], None]) -> None:
-        """Run ``job`` (a step's unlocked work: the lock released by the caller) in the
-        niced kernel thread when the simulation thread asks, else here."""
+        """Run ``job`` (a step's kernel: the lock released by the caller) in the niced
+        kernel thread when the simulation thread asks, else here."""
         runner = self._runner
         if runner is None or threading.current_thread() is not self._worker:
             job()
@@ -474,7 +475,7 @@ class KioskSession:
 
     def _work(self) -> None:
         # at the window's priority: this thread holds the lock that every pen sample
-        # needs; its heavy unlocked work goes to the niced runner (offload).  Its own
+        # needs; the kernel goes to the niced runner (offload).  Its own
         # parallel loops (a deformable brush's pick-ups) leave the window a core too.
         numba.set_num_threads(max(1, numba.get_num_threads() - 1))
         try:
@@ -516,7 +517,7 @@ class KioskSession:
             self.inflight = self._copying = True
             self.lock.release()
             try:
-                self.offload(self.materialize_checkpoints)
+                self.materialize_checkpoints()
             finally:
                 self.lock.acquire()
                 self.inflight = self._copying = False
