@@ -12,7 +12,8 @@ slowest pen samples waited 100 ms to 3.7 s for it on a wet 1920×1080 canvas at 
 kiosk's user), so the niced work goes to a thread of its own: :class:`NicedRunner`
 runs what it is handed at the lower priority while the simulation thread, at the
 window's priority, waits for it with the lock released; everything under the lock runs
-at the window's priority. """
+at the window's priority.
+"""
 
 from __future__ import annotations
 
