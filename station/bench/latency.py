@@ -81,8 +81,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "pigments, a slow swirl), as when a visitor wets a whole sky: the "
                         "sim steps every cell; reported as wet_share at start and end")
     p.add_argument("--sim-nice", type=int, default=KioskConfig.sim_nice, metavar="N",
-                   help="how many nice steps the simulation thread runs below the window "
-                        f"(the kiosk's default, {KioskConfig.sim_nice})")
+                   help="how many nice steps the simulation's kernel thread runs below the "
+                        f"window (the kiosk's default, {KioskConfig.sim_nice})")
     p.add_argument("--compare", action="store_true",
                    help="also measure the peer (steps in the frame loop) in the same run, "
                         "each for --seconds, and report the ratios")
