@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import threading
 import time
 from pathlib import Path
@@ -16,6 +17,7 @@ import pytest
 from station.canvas.palette import default_palette
 from station.events import PenSample, Tool
 from station.kiosk.compose import Compositor, canvas_box, union
+from station.kiosk.niced import NicedRunner
 from station.kiosk.predict import (
     PenPredictor,
     PredictConfig,
@@ -276,6 +278,62 @@ def test_samples_during_the_checkpoint_copy_paint_in_that_step_and_replay_exactl
     assert float(live.p.sum() + live.q.sum()) > 0.0
 
 
+def test_a_stroke_starting_during_the_copy_is_copied_with_the_lock_released_too(
+        tmp_path: Path) -> None:
+    """The checkpoint of a stroke that starts while the step copies another's is copied
+    before the kernel with the lock released as well (a whole canvas's copy under the
+    lock holds every pen sample), and the session still replays exactly."""
+    s = _session(tmp_path)
+    copying, go = threading.Event(), threading.Event()
+    owned: list[bool] = []
+    real_copy = s.materialize_checkpoints
+
+    def slow_copy() -> None:  # the first copy takes until the test says
+        if s._copying:
+            owned.append(s.lock._is_owned())  # type: ignore[attr-defined]
+        real_copy()
+        if s._copying and not copying.is_set():
+            copying.set()
+            assert go.wait(20)
+
+    def one_step() -> None:
+        with s.lock:
+            s._step_unlocked()
+
+    s.materialize_checkpoints = slow_copy  # type: ignore[method-assign]
+    try:
+        s.command("brush", size=8, water=1.0, pigment={"French Ultramarine": 0.5})
+        s.handle("pen", _pen(0, 0.2))  # stroke 1 starts: a lazy checkpoint
+        s.handle("pen", _pen(1, 0.25))
+        th = threading.Thread(target=one_step)
+        s._worker = th
+        th.start()
+        assert copying.wait(20)
+        s.handle("pen", _pen(2, 0.3, touching=False))
+        s.handle("pen", _pen(3, 0.6))  # stroke 2 starts during the copy
+        assert len(s._lazy) == 1
+        go.set()
+        th.join(20)
+        s._worker = None
+        assert not s._lazy and owned == [False, False]  # both copies unlocked
+        s.handle("pen", _pen(4, 0.65, touching=False))
+        for _ in range(3):
+            s.step()
+        s.command("undo")
+        s.step()
+        assert s.history.undone == 1
+        live = s.canvas.state()
+    finally:
+        go.set()
+        s.shutdown()
+    replay = _replay(tmp_path / "s.jsonl").state()
+    assert replay.step_count == live.step_count
+    for name, v in vars(live).items():
+        if isinstance(v, np.ndarray):
+            assert np.array_equal(getattr(replay, name), v), name
+    assert float(live.p.sum() + live.q.sum()) > 0.0  # stroke 1 is left
+
+
 def test_the_simulation_thread_keeps_time_and_stops(tmp_path: Path) -> None:
     s = _session(tmp_path)
     try:
@@ -298,6 +356,85 @@ def test_the_simulation_thread_keeps_time_and_stops(tmp_path: Path) -> None:
         s.shutdown()
     replay = _replay(tmp_path / "s.jsonl")
     assert np.array_equal(replay.render(), s.canvas.render())
+
+
+def _nice_of_this_thread() -> tuple[int, int]:
+    tid = threading.get_native_id()
+    return tid, os.getpriority(os.PRIO_PROCESS, tid)
+
+
+def test_only_the_kernel_runs_niced_what_holds_the_lock_keeps_the_windows_priority(
+        tmp_path: Path) -> None:
+    """The step's kernel runs ``nice`` steps down; the part of the step that holds the
+    lock every pen sample needs (taking and adding the stamps) runs at the window's
+    priority, so a busy machine cannot park the lock's holder behind other processes
+    (priority inversion)."""
+    s = _session(tmp_path)
+    base = os.getpriority(os.PRIO_PROCESS, 0)
+    nice = min(3, 19 - base)
+    if nice <= 0:
+        pytest.skip("already at the lowest priority")
+    kernel: list[tuple[int, int]] = []
+    locked: list[tuple[int, int, bool]] = []
+    real_backend, real_flush = s.player.backend, s.player.flush_sources
+
+    class Recording:
+        def __getattr__(self, name: str) -> Any:
+            return getattr(real_backend, name)
+
+        def step(self, *a: Any, **kw: Any) -> None:
+            kernel.append(_nice_of_this_thread())
+            real_backend.step(*a, **kw)
+
+    def flush(whole: bool = False) -> None:
+        if threading.current_thread() is not threading.main_thread():  # a step's
+            tid, ni = _nice_of_this_thread()
+            locked.append((tid, ni, s.lock._is_owned()))  # type: ignore[attr-defined]
+        real_flush(whole)
+
+    s.player.backend = Recording()
+    s.player.flush_sources = flush  # type: ignore[method-assign]
+    try:
+        s.command("brush", size=8, water=1.0, pigment={"French Ultramarine": 0.5})
+        s.start_worker(nice)
+        for i in range(10):
+            s.handle("pen", _pen(i, 0.2 + 0.02 * i))
+        deadline = time.monotonic() + 120
+        while len(kernel) < 3 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        s.check_worker()
+        runner = getattr(s, "_runner", None)  # (main had none)
+        s.stop_worker()
+    finally:
+        s.stop_worker()
+        s.player.backend = real_backend
+        s.shutdown()
+    assert len(kernel) >= 3 and len(locked) >= 3
+    assert {ni for _, ni in kernel} == {base + nice}
+    assert {(ni, owned) for _, ni, owned in locked} == {(base, True)}
+    assert {tid for tid, _ in kernel}.isdisjoint({tid for tid, _, _ in locked})
+    assert runner is not None and s._runner is None  # stopped with the worker
+    assert not runner._thread.is_alive()
+
+
+def test_the_niced_runner_hands_back_what_its_job_raised() -> None:
+    runner = NicedRunner(1, 1)
+    try:
+        seen: list[int] = []
+        runner.run(lambda: seen.append(threading.get_native_id()))
+        assert seen == [runner.native_id] and seen[0] != threading.get_native_id()
+
+        def boom() -> None:
+            raise ValueError("in the kernel")
+
+        with pytest.raises(ValueError, match="in the kernel"):
+            runner.run(boom)
+        runner.run(lambda: seen.append(2))  # it goes on after a failed job
+        assert seen[-1] == 2
+    finally:
+        runner.close()
+    with pytest.raises(RuntimeError, match="closed"):
+        runner.run(lambda: None)
 
 
 # -- prediction ------------------------------------------------------------------------

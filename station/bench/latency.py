@@ -44,6 +44,7 @@ from station.errors import BadInput, StationError
 from station.kiosk.app import KioskApp, KioskConfig
 from station.kiosk.idle import IdleConfig
 from station.kiosk.predict import PredictConfig, perceived_lag, prediction_errors
+from station.kiosk.session import LockWaits
 from station.sim.paint import parse_size
 
 GOAL_P99_MS = 16.0
@@ -79,6 +80,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="the whole canvas wet under the pen (bench sim's wash: water, two "
                         "pigments, a slow swirl), as when a visitor wets a whole sky: the "
                         "sim steps every cell; reported as wet_share at start and end")
+    p.add_argument("--sim-nice", type=int, default=KioskConfig.sim_nice, metavar="N",
+                   help="how many nice steps the simulation's kernel thread runs below the "
+                        f"window (the kiosk's default, {KioskConfig.sim_nice})")
     p.add_argument("--compare", action="store_true",
                    help="also measure the peer (steps in the frame loop) in the same run, "
                         "each for --seconds, and report the ratios")
@@ -151,12 +155,13 @@ def run(args: argparse.Namespace) -> int:
         result = measure(width, height, args.backend, args.seconds, args.rate, args.model,
                          args.script, sim_thread=not args.inline_sim,
                          predict_ms=args.predict_ms, present=args.present, brush=args.brush,
-                         window=window, wet=args.wet)
+                         window=window, wet=args.wet, sim_nice=args.sim_nice)
         if args.compare:
             peer = measure(width, height, args.backend, args.seconds, args.rate, args.model,
                            args.script, sim_thread=args.inline_sim,
                            predict_ms=args.predict_ms, present=args.present,
-                           brush=args.brush, window=window, wet=args.wet)
+                           brush=args.brush, window=window, wet=args.wet,
+                           sim_nice=args.sim_nice)
             result["peer"] = {k: peer[k] for k in ("sim", "latency", "frames", "load_avg")}
             result["ratios"] = _ratios(result, peer)
     finally:
@@ -188,14 +193,14 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
             model: str, script: str = "arc", sim_thread: bool = True,
             predict_ms: float | None = None, present: str = "auto",
             brush: str = "round", window: tuple[int, int] = (1024, 768),
-            wet: bool = False) -> dict[str, Any]:
+            wet: bool = False, sim_nice: int = KioskConfig.sim_nice) -> dict[str, Any]:
     bus = f"bench-latency-{os.getpid()}-{int(sim_thread)}"
     with tempfile.TemporaryDirectory(prefix="station-latency-") as tmp:
         cfg = KioskConfig(bus=f">ipc:{bus}", width=width, height=height, backend=backend,
                           fullscreen=False, window=window, gallery=Path(tmp) / "gallery",
                           serve=None,
                           status="none", vsync=False, cmd="none", sim_thread=sim_thread,
-                          predict_ms=predict_ms, present=present,
+                          predict_ms=predict_ms, present=present, sim_nice=sim_nice,
                           # the pen's path only: the X pointer entering the window would be
                           # a mouse sample, and the warm-up would take it for the pen's
                           input="pen",
@@ -246,6 +251,7 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
             app.tail_log = []
             samples0, stamps0 = st.counters.samples, st.painted_stamps
             steps0, during0 = st.player.counters.steps, st.samples_during_steps
+            st.lock_waits = LockWaits()
             pauses: list[tuple[int, float]] = []  # (generation, seconds) of each collection
             gc_start = [0.0]
 
@@ -303,7 +309,7 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
                 "display": os.environ.get("DISPLAY"), "gl_renderer":
                     app.ctx.info.get("GL_RENDERER", ""), "window": list(app.size),
                 "cpus": os.cpu_count(), "load_avg": load,
-                "sim": "thread" if st.threaded else "frame loop",
+                "sim": "thread" if st.threaded else "frame loop", "sim_nice": sim_nice,
                 "present": {"mode": app.presenter.mode, "asked": present,
                             "partial_frames": app.presenter.partial_frames,
                             "whole_frames": app.presenter.whole_frames},
@@ -330,6 +336,10 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
                                st.player.counters.steps - steps0, 1), 2),
                            "samples_applied_during_steps":
                                st.samples_during_steps - during0,
+                           "window_lock_waits": {
+                               "n": st.lock_waits.n, "over_1ms": st.lock_waits.waited,
+                               "total_ms": round(1000 * st.lock_waits.total_s, 1),
+                               "max_ms": round(1000 * st.lock_waits.max_s, 2)},
                            "cells_rendered_per_frame": int(cells / n),
                            "pixels_redrawn_per_frame": int(pixels / n),
                            "gc_pauses": {"n": len(pauses), "gen2": sum(

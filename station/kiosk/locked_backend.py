@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import threading
+from collections.abc import Callable
 from typing import Any, Protocol
 
 from station.canvas.state import CanvasState
@@ -17,10 +18,14 @@ class StepLock(Protocol):
     inflight: bool
     lock: threading.Condition
 
+    def offload(self, job: Callable[[], None]) -> None:
+        """Run ``job`` (the lock released) where the step's kernel runs."""
+
 
 class KernelUnlocked:
     """A backend whose ``step`` runs with the session's lock released (the window
-    applies brush samples meanwhile; see :mod:`station.kiosk.session`)."""
+    applies brush samples meanwhile; see :mod:`station.kiosk.session`), in the session's
+    niced kernel thread (:meth:`StepLock.offload`, :mod:`station.kiosk.niced`)."""
 
     def __init__(self, backend: Any, session: StepLock) -> None:
         self._backend = backend
@@ -34,7 +39,7 @@ class KernelUnlocked:
         s.inflight = True
         s.lock.release()
         try:
-            self._backend.step(*args, **kw)
+            s.offload(lambda: self._backend.step(*args, **kw))
         finally:
             s.lock.acquire()
             s.inflight = False

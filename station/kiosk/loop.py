@@ -215,7 +215,7 @@ def draw_frame(app: KioskApp, now: float, dt: float, times: _FrameTimes) -> bool
     s.drain(0, LATCH_BUDGET_S, floor_s=0.0)
     latched = s.sub.stats.received != received
     times.drained = time.perf_counter()
-    with s.lock:
+    with s.window_lock():
         app.display.update_preview()
         # a screenshot shows the whole canvas: the tiles that a large fresh preview left
         # to the next frames' budget are drawn now (between steps)

@@ -55,11 +55,12 @@ the bus, so drivers, recorders and the blueprint see the same traffic as with
 from __future__ import annotations
 
 import logging
-import os
 import threading
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -73,6 +74,7 @@ from station.bus import Subscriber, runtime_dir
 from station.events import Command, PenSample, Tool
 from station.kiosk.locked_backend import KernelUnlocked, SharedState
 from station.kiosk.moisture import DAMP_WATER, Moisture
+from station.kiosk.niced import NicedRunner
 from station.sim.haptic import HapticFeedback
 from station.sim.journal import SessionJournal
 from station.sim.live import SYNC_EVERY_S, Counters, LiveConfig
@@ -85,7 +87,30 @@ log = logging.getLogger(__name__)
 #: Commands that may change every cell: the display re-renders the whole canvas.
 WHOLE_CANVAS_COMMANDS = frozenset({"dry", "new_layer", "clear", "profile", "undo"})
 
+#: Rounds of undo-checkpoint copies with the lock released before a step's kernel (a
+#: stroke that starts during one is copied in the next; after these, under the lock).
+COPY_ROUNDS = 4
+
 DRAIN_BUDGET_S = 0.004  # bus messages handled per frame at least this long, if waiting
+
+@dataclass
+class LockWaits:
+    """How long the window's thread waited for the session's lock (the simulation thread
+    held it): ``n`` times it took it, ``waited`` of them longer than 1 ms, ``total_s``
+    and ``max_s`` seconds (``station bench latency`` reports them)."""
+
+    n: int = 0
+    waited: int = 0
+    total_s: float = 0.0
+    max_s: float = 0.0
+
+    def add(self, seconds: float) -> None:
+        self.n += 1
+        self.total_s += seconds
+        if seconds > 1e-3:
+            self.waited += 1
+        self.max_s = max(self.max_s, seconds)
+
 
 PenMapper = Callable[[PenSample], "PenSample | None"]
 KioskCommands = Callable[[Command], bool]
@@ -132,10 +157,13 @@ class KioskSession:
         # (start, end) perf_counter times of the recent steps, for a bench's window
         self.step_times: deque[tuple[float, float]] = deque(maxlen=4096)
         self.samples_during_steps = 0  # pen samples applied while a kernel ran
+        self.lock_waits = LockWaits()  # the window's waits for the lock (window_lock)
         self.worker_error: BaseException | None = None
         self.queue_log: list[float] | None = None  # bench: driver read → handled [s]
         self._worker: threading.Thread | None = None
-        self._nice = 0  # the simulation thread's niceness above the window's
+        self._nice = 0  # the kernel thread's niceness above the window's
+        # the step's kernel, niced (start_worker)
+        self._runner: NicedRunner | None = None
         self._halt = threading.Event()
         self._window_waits = 0  # the window's thread waits for the step to end
         # undo checkpoints still holding the live canvas arrays (see the module docstring)
@@ -228,7 +256,7 @@ class KioskSession:
             if sample is None:
                 return
             self.last_canvas_pen = sample
-            with self.lock:
+            with self.window_lock():
                 if self._brush_only(sample):
                     if self.inflight:
                         self.samples_during_steps += 1
@@ -260,6 +288,15 @@ class KioskSession:
             self.sim.handle(kind, value, topic, replay)
             if kind == "cmd" and isinstance(value, Command) and value.cmd in WHOLE_CANVAS_COMMANDS:
                 self.mark_all_dirty()
+
+    @contextmanager
+    def window_lock(self) -> Iterator[None]:
+        """The lock, as the window's thread takes it for a pen sample or the preview: how
+        long it waited for the simulation thread is counted (:attr:`lock_waits`)."""
+        t0 = time.perf_counter()
+        with self.lock:
+            self.lock_waits.add(time.perf_counter() - t0)
+            yield
 
     def _brush_only(self, s: PenSample) -> bool:
         """Whether applying ``s`` touches nothing but the brush's own state (no
@@ -388,11 +425,19 @@ class KioskSession:
     # -- the simulation thread ------------------------------------------------------
     def start_worker(self, nice: int = 0) -> None:
         """Run the due steps in a thread of their own from now on (see module docstring),
-        ``nice`` steps lower in the system's priority than the window's thread.  Not for
-        a GPU canvas: its GL context belongs to the window's thread."""
+        their kernels ``nice`` steps lower in the system's priority than the window's
+        thread (:mod:`station.kiosk.niced`: what runs under the lock keeps the window's
+        priority, and so do the undo checkpoints' copies, unlocked: the step waits for
+        them, and niced a 1920×1080 canvas's copy took 10-13 s at load 15).  Not for a
+        GPU canvas: its GL context belongs to the window's thread."""
         if self._worker is not None or self.cpu_state is None:
             return
         self._nice = nice
+        # the window's thread needs a core of its own to show the pen: the simulation's
+        # parallel loops take the others (numba's count is per launching thread).  On
+        # the 2-core development machine one thread even steps faster than two that
+        # fight the window for the cores (bench latency: 8 against 11 ms a step).
+        self._runner = NicedRunner(nice, max(1, numba.get_num_threads() - 1))
         self._halt.clear()
         self._worker = threading.Thread(target=self._work, name="kiosk-sim", daemon=True)
         self._worker.start()
@@ -409,6 +454,18 @@ class KioskSession:
             return
         self._halt.set()
         worker.join()
+        runner, self._runner = self._runner, None
+        if runner is not None:
+            runner.close()
+
+    def offload(self, job: Callable[[], None]) -> None:
+        """Run ``job`` (a step's kernel: the lock released by the caller) in the niced
+        kernel thread when the simulation thread asks, else here."""
+        runner = self._runner
+        if runner is None or threading.current_thread() is not self._worker:
+            job()
+        else:
+            runner.run(job)
 
     def check_worker(self) -> None:
         """Raise what stopped the simulation thread, in the window's thread."""
@@ -417,21 +474,10 @@ class KioskSession:
             raise err
 
     def _work(self) -> None:
-        # the window's thread needs a core of its own to show the pen: the simulation's
-        # parallel loops take the others (numba's count is per launching thread).  On
-        # the 2-core development machine one thread even steps faster than two that
-        # fight the window for the cores (bench latency: 8 against 11 ms a step).
+        # at the window's priority: this thread holds the lock that every pen sample
+        # needs; the kernel goes to the niced runner (offload).  Its own
+        # parallel loops (a deformable brush's pick-ups) leave the window a core too.
         numba.set_num_threads(max(1, numba.get_num_threads() - 1))
-        if self._nice > 0:
-            # the pen first: when the machine is busy the steps wait for a core, not the
-            # window, the X server or the driver (a step that falls behind is caught up,
-            # its records slotted as ever); the kernel's OpenMP workers are started by
-            # this thread's first parallel loop, after this, and share its priority
-            try:
-                os.setpriority(os.PRIO_PROCESS, threading.get_native_id(),
-                               os.getpriority(os.PRIO_PROCESS, 0) + self._nice)
-            except OSError as exc:  # not allowed here: the steps keep the window's priority
-                log.warning("the simulation thread keeps its priority: %s", exc)
         try:
             while not self._halt.is_set():
                 with self.lock:
@@ -457,21 +503,26 @@ class KioskSession:
 
     def _copy_unlocked(self) -> None:
         """:meth:`materialize_checkpoints` with the lock released when the simulation
-        thread holds it (brush samples go on meanwhile; nothing else changes the canvas)."""
+        thread holds it (brush samples go on meanwhile; nothing else changes the canvas).
+        A stroke that started during the copy: its checkpoint (the canvas before this
+        step, as its records are) is copied next, before the kernel writes the canvas,
+        with the lock released again (copied under it, a whole 1920×1080 canvas held every
+        pen sample for 2.6 s at load 17), up to :data:`COPY_ROUNDS` times."""
         if threading.current_thread() is not self._worker:
             self.materialize_checkpoints()
             return
-        self.inflight = self._copying = True
-        self.lock.release()
-        try:
-            self.materialize_checkpoints()
-        finally:
-            self.lock.acquire()
-            self.inflight = self._copying = False
-            self.lock.notify_all()
-        # a stroke that started during the copy: its checkpoint (the canvas before this
-        # step, as its records are) is copied now, before the kernel writes the canvas
-        self.materialize_checkpoints()
+        for _ in range(COPY_ROUNDS):
+            if not self._lazy:
+                return
+            self.inflight = self._copying = True
+            self.lock.release()
+            try:
+                self.materialize_checkpoints()
+            finally:
+                self.lock.acquire()
+                self.inflight = self._copying = False
+                self.lock.notify_all()
+        self.materialize_checkpoints()  # strokes kept starting: the rest under the lock
 
     def _step_unlocked(self) -> None:
         """One step (lock held), its canvas kernel run with the lock released."""
