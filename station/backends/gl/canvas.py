@@ -169,10 +169,20 @@ class GLCanvas(GLStepPasses):
         # divisions a vector on llvmpipe, in every pass)
         self._defines = {"NPL": self.npl, "TILE": tile, "LX": lx, "LY": ly,
                          "NBANDS": self.bands, "TILES_X": self.tiles_x}
+        self._compile_programs(self.tiling)
+        self._shape = (width, height, n_slots, tile, self.bands)
+
+    def _compile_programs(self, tiling: bool) -> None:
+        """Compile every program for the tiling mode: with tiling on the passes read their
+        tile from the list (``TILE_LIST``), with it off the dispatch's z is the tile
+        (tiles.glsl), which spares llvmpipe a gather in every lane of every pass."""
+        for prog in self._programs.values():
+            prog.release()
+        self._defines["TILE_LIST"] = 1 if tiling else 0
         self._programs = {name: self._compile(fname, extra)
                           for name, (fname, extra) in _PROGRAMS.items()}
         self._pressure_taps = ((), -1)  # blur_x, jacobi_first: compiled per blur at the step
-        self._shape = (width, height, n_slots, tile, self.bands)
+        self._tile_list_mode = bool(tiling)
 
     def _compile(self, fname: str, extra: Mapping[str, object]) -> moderngl.ComputeShader:
         """Compile ``shaders/fname`` for this canvas geometry (its uniforms set)."""
@@ -213,8 +223,11 @@ class GLCanvas(GLStepPasses):
         st = state
         shape = (st.width, st.height, st.n_slots, int(st.params.tile_size),
                  st.r_composed.shape[-1])
+        self.tiling = st.tiling  # the programs are compiled for it (_compile_programs)
         if shape != self._shape:
             self._allocate(*shape)
+        elif self._tile_list_mode != self.tiling:
+            self._compile_programs(self.tiling)
         f = self.f
         for t in f["vel"].textures:
             t.write(tx.pack_planes(st.vx, st.vy).tobytes())
