@@ -12,7 +12,7 @@ layout(rgba32f, binding = 4) uniform readonly image2DArray pig_in;
 layout(rgba32f, binding = 5) uniform writeonly image2D water_out;
 layout(rgba32f, binding = 6) uniform writeonly image2DArray pig_out;
 
-uniform float u_q4;
+STEP_CONST(float, u_q4, K_Q4);
 
 
 void main() {

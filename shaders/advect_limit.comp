@@ -12,9 +12,9 @@ layout(rgba32f, binding = 3) uniform readonly image2D water_in;
 layout(rgba32f, binding = 4) uniform readonly image2DArray pig_in;
 layout(rgba32f, binding = 5) uniform writeonly image2D lim_out;
 
-uniform float u_q4;  // float32(0.25 * dt)
-uniform float u_wmin;
-uniform float u_wmax;
+STEP_CONST(float, u_q4, K_Q4);  // float32(0.25 * dt)
+const float u_wmin = K_WMIN;
+const float u_wmax = K_WMAX;
 
 #include "advect.glsl"
 

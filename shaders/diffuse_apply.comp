@@ -13,8 +13,8 @@ layout(rgba32f, binding = 5) uniform readonly image2DArray pig_in;
 layout(rgba32f, binding = 6) uniform writeonly image2D water_out;
 layout(rgba32f, binding = 7) uniform writeonly image2DArray pig_out;
 
-uniform float u_kw;
-uniform float u_kp;
+STEP_CONST(float, u_kw, K_KW);
+STEP_CONST(float, u_kp, K_KP);
 
 // Donor-scaled face flux between c and its neighbour over face f, in the reference's
 // sign convention (positive from the lower-index cell to the higher).

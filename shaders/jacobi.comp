@@ -31,9 +31,9 @@ layout(rgba32f, binding = 5) uniform readonly image2DArray jd_in;
 layout(rgba32f, binding = 6) uniform writeonly image2D jv_out;
 layout(rgba32f, binding = 7) uniform writeonly image2DArray jd_out;
 
-uniform float u_kv;  // viscosity * dt
-uniform float u_kw;  // nu_w * dt
-uniform float u_kp;  // nu_p * dt
+STEP_CONST(float, u_kv, K_KV);  // viscosity * dt
+STEP_CONST(float, u_kw, K_KW);  // nu_w * dt
+STEP_CONST(float, u_kp, K_KP);  // nu_p * dt
 
 void main() {
     bool valid;

@@ -18,12 +18,12 @@ layout(rgba32f, binding = 6) uniform writeonly image2D js_out;
 layout(rgba32f, binding = 7) uniform writeonly image2DArray jd_out;
 layout(r32f, binding = 0) uniform readonly image2D pr_in;  // pass 3's levelled height P
 
-uniform float u_kw;
-uniform float u_kp;
-uniform float u_omega_h;
-uniform float u_omega_i;    // float32(1 - omega_h), as the reference rounds it
-uniform float u_half_gain;  // float32(-0.5 * height_gain)
-uniform float u_vmax;
+STEP_CONST(float, u_kw, K_KW);
+STEP_CONST(float, u_kp, K_KP);
+const float u_omega_h = K_OMEGA_H;
+const float u_omega_i = K_OMEGA_I;    // float32(1 - omega_h), as the reference rounds it
+const float u_half_gain = K_HALF_GAIN;  // float32(-0.5 * height_gain)
+const float u_vmax = K_VMAX;
 uniform vec2 u_tilt;        // float32(ax dt, ay dt) of the canvas tilt
 
 void main() {
