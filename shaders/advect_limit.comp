@@ -50,13 +50,13 @@ void main() {
             float r = abs(uf[f]) * u_q4;
             i_w += imageLoad(water_in, n).x * r;
             for (int l = 0; l < NPL; ++l)
-                if (l < u_layers) i_p[l] += imageLoad(pig_in, ivec3(n, l)) * r;
+                if (layer_used(l)) i_p[l] += imageLoad(pig_in, ivec3(n, l)) * r;
         }
         float hi = max(w, u_wmax);
         s_in = i_w > 0.0 ? max(hi - w, 0.0) / i_w : 1.0;
         float s_in_p = 1.0;
         for (int l = 0; l < NPL; ++l) {
-            if (l >= u_layers) continue;
+            if (!layer_used(l)) continue;
             vec4 room_p = max(vec4(1.0) - imageLoad(pig_in, ivec3(c, l)), vec4(0.0));
             for (int k = 0; k < 4; ++k)
                 if (i_p[l][k] > 0.0) s_in_p = min(s_in_p, room_p[k] / i_p[l][k]);

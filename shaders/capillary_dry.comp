@@ -68,7 +68,7 @@ void main() {
         bool settle = !(u_susp > 0.0 && wc > u_susp * (u_cmin + pa.x * u_crange));
         if (w == 0.0 && settle) {
             for (int l = 0; l < NPL; ++l) {
-                if (l >= u_layers) continue;
+                if (!layer_used(l)) continue;
                 vec4 p = imageLoad(pig_io, ivec3(c, l));
                 vec4 q = imageLoad(dep_io, ivec3(c, l));
                 if (any(greaterThan(p, vec4(0.0)))) {

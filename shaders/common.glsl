@@ -10,6 +10,10 @@
 // llvmpipe a uniform is a load in every vector of lanes, and every pass reads the size
 const ivec2 u_size = ivec2(SIZE_X, SIZE_Y);
 uniform int u_layers;   // pigment layers in use (ceil(used slots / 4))
+// Whether pigment layer l is processed: layer 0 always (a layer without pigment computes
+// zeros), so with one layer (NPL 1) no pass reads the uniform: on llvmpipe each uniform
+// read is a load in every vector of lanes.
+bool layer_used(int l) { return l == 0 || l < u_layers; }
 
 // The step's parameters: those that do not depend on dt are constants (K_*, exact float32
 // bits, passes.param_constants); those that do are constants too for the parameters' own

@@ -50,7 +50,7 @@ void main() {
     imageStore(water_out, c, vec4(w, wa.yzw));
     // pigment: a loop of its own (nested in the face loop it runs far slower)
     for (int l = 0; l < NPL; ++l) {
-        if (l >= u_layers) continue;
+        if (!layer_used(l)) continue;
         vec4 p = imageLoad(pig_in, ivec3(c, l));
         vec4 xp = imageLoad(jx_in, ivec3(c, l));
         vec4 sp = imageLoad(jps_in, ivec3(c, l));

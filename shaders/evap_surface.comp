@@ -53,7 +53,7 @@ void main() {
     if (wet) {
         float f = clamp(w / u_wmax, 0.0, 1.0);
         for (int l = 0; l < NPL; ++l) {
-            if (l >= u_layers) continue;
+            if (!layer_used(l)) continue;
             vec4 p = imageLoad(pig_io, ivec3(c, l));
             vec4 q = imageLoad(dep_io, ivec3(c, l));
             vec4 down = u_rate * p * (1.0 - f) * (1.0 - h * u_gamma[l]) * u_delta[l];

@@ -54,7 +54,7 @@ void main() {
     vec4 outp[NPL];
     for (int l = 0; l < NPL; ++l) {
         outp[l] = vec4(0.0);
-        if (l >= u_layers) continue;
+        if (!layer_used(l)) continue;
         vec4 xp = imageLoad(jd_in, ivec3(c, l));
         for (int f = 0; f < 4; ++f) {
             ivec2 n = clamp(c + OFFS[f], ivec2(0), u_size - 1);
@@ -81,7 +81,7 @@ void main() {
     float sw = outw > wh ? wh / outw : 1.0;
     imageStore(js_out, c, vec4(j.z, 0.0, sw, j.w));
     for (int l = 0; l < NPL; ++l) {
-        if (l >= u_layers) continue;
+        if (!layer_used(l)) continue;
         vec4 u = imageLoad(pig_in, ivec3(c, l));
         vec4 s = vec4(1.0);
         for (int k = 0; k < 4; ++k)
