@@ -24,7 +24,7 @@ const float u_omega_h = K_OMEGA_H;
 const float u_omega_i = K_OMEGA_I;    // float32(1 - omega_h), as the reference rounds it
 const float u_half_gain = K_HALF_GAIN;  // float32(-0.5 * height_gain)
 const float u_vmax = K_VMAX;
-uniform vec2 u_tilt;        // float32(ax dt, ay dt) of the canvas tilt
+STEP_CONST(vec2, u_tilt, vec2(K_TILT_X, K_TILT_Y));  // float32(ax dt, ay dt) of the tilt
 
 void main() {
     bool valid;

@@ -463,7 +463,8 @@ def test_step_constants_follow_dt_and_parameters(ctx) -> None:
     out = c.state()
     for name in ("vx", "vy", "w", "wc", "p", "q", "evaporated"):
         close(name, getattr(out, name), getattr(mine, name))
-    mine.params = mine.params.replace(nu_w=2.5 * mine.params.nu_w, w_max=0.8)
+    mine.params = mine.params.replace(nu_w=2.5 * mine.params.nu_w, w_max=0.8, tilt=8.0,
+                                      tilt_direction=90.0)
     c.load_state(mine)
     assert "uintBitsToFloat" in c._param_consts["K_WMAX"]
     c.step()

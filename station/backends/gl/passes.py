@@ -349,8 +349,8 @@ def param_constants(prm: SimParams, dt: float | None) -> dict[str, str]:
     read 15).  The values that depend on dt are constants for ``dt`` (``DT_CONST``; the
     parameters' own dt, every caller's) and uniforms when ``dt`` is None (a step given
     another dt).  The programs are recompiled when these change (a new profile or
-    parameters); the pigment slots' values, the tilt and the layer count stay uniforms,
-    which change while painting."""
+    parameters); the pigment slots' values and the layer count stay uniforms, which
+    change while painting."""
     vals = {
         "MOIST": prm.moist_threshold, "BLOCK_FADE": prm.block_fade,
         "BLOCK_PAPER": prm.block_paper, "ADVANCE": prm.advance_height,
@@ -373,6 +373,8 @@ def param_constants(prm: SimParams, dt: float | None) -> dict[str, str]:
             "ABSORB": float(F32(prm.alpha * dt)), "KCAP": float(F32(prm.cap_diffusion * dt)),
             "ECAP": float(F32(prm.evap_cap() * dt)),
             "FADE": float(F32(dt / prm.wet_hold)) if prm.wet_hold > 0 else 0.0})
+        tilt = reference.tilt_kick(prm, dt)
+        vals.update({"TILT_X": float(tilt[0]), "TILT_Y": float(tilt[1])})
     out = {f"K_{k}": f"uintBitsToFloat(0x{int(F32(v).view(np.uint32)):08x}u)"
            for k, v in vals.items()}
     out["K_HOLD"] = "1" if prm.wet_hold > 0 else "0"
