@@ -168,9 +168,9 @@ class GLCanvas(GLStepPasses):
         self.b_folded = ctx.buffer(reserve=8 * self.src_groups[0] * self.src_groups[1])
         # TILES_X: tile_cell divides by a constant (a division by a uniform is 8 scalar
         # divisions a vector on llvmpipe, in every pass)
-        self._defines = {"NPL": self.npl, "TILE": tile, "LX": lx, "LY": ly,
-                         "NBANDS": self.bands, "TILES_X": self.tiles_x,
-                         "SIZE_X": self.width, "SIZE_Y": self.height}
+        self._defines: dict[str, object] = {
+            "NPL": self.npl, "TILE": tile, "LX": lx, "LY": ly, "NBANDS": self.bands,
+            "TILES_X": self.tiles_x, "SIZE_X": self.width, "SIZE_Y": self.height}
         self._compile_programs(self.tiling)
         self._shape = (width, height, n_slots, tile, self.bands)
 
