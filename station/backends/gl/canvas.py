@@ -229,6 +229,7 @@ class GLCanvas(GLStepPasses):
         # the programs are compiled for the tiling mode and the parameters' constants
         self.tiling = st.tiling
         consts = param_constants(st.params, float(st.params.dt))
+        self._param_key = None  # _set_step_uniforms checks the parameters again
         if shape != self._shape:
             self._param_consts = consts
             self._allocate(*shape)

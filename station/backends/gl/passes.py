@@ -67,6 +67,7 @@ class GLStepPasses:
     _compile: Callable[[str, Mapping[str, object]], moderngl.ComputeShader]
     _compile_programs: Callable[[bool], None]
     _param_consts: dict[str, str]  # param_constants the programs were compiled with
+    _param_key: tuple[SimParams, float | None] | None  # what _param_consts came from
 
     def _bind(self, unit: int, tex: moderngl.Texture | moderngl.TextureArray, read: bool,
               write: bool) -> None:
@@ -98,10 +99,13 @@ class GLStepPasses:
 
     def _set_step_uniforms(self, dt: float) -> None:
         prm = self.params
-        consts = param_constants(prm, dt if dt == float(prm.dt) else None)
-        if consts != self._param_consts:  # parameters set since load_state, or another dt
-            self._param_consts = consts
-            self._compile_programs(self.tiling)
+        key = (prm, dt if dt == float(prm.dt) else None)
+        if key != self._param_key:  # the same parameters object: no work a step
+            self._param_key = key
+            consts = param_constants(prm, key[1])
+            if consts != self._param_consts:  # parameters set since load_state, another dt
+                self._param_consts = consts
+                self._compile_programs(self.tiling)
         p = self._programs
         _set(p["prep"], "u_dt", dt)
         _set(p["prep"], "u_sim_time", float(F32(self.sim_time)))
