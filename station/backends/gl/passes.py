@@ -99,10 +99,10 @@ class GLStepPasses:
 
     def _set_step_uniforms(self, dt: float) -> None:
         prm = self.params
-        key = (prm, dt if dt == float(prm.dt) else None)
-        if key != self._param_key:  # the same parameters object: no work a step
-            self._param_key = key
-            consts = param_constants(prm, key[1])
+        made_of = (prm, dt if dt == float(prm.dt) else None)
+        if made_of != self._param_key:  # the same parameters object: no work a step
+            self._param_key = made_of
+            consts = param_constants(prm, made_of[1])
             if consts != self._param_consts:  # parameters set since load_state, another dt
                 self._param_consts = consts
                 self._compile_programs(self.tiling)
