@@ -12,7 +12,7 @@ layout(rgba32f, binding = 4) uniform readonly image2DArray pig_in;
 layout(rgba32f, binding = 5) uniform writeonly image2D water_out;
 layout(rgba32f, binding = 6) uniform writeonly image2DArray pig_out;
 
-uniform float u_q4;
+STEP_CONST(float, u_q4, K_Q4);
 
 
 void main() {
@@ -24,7 +24,7 @@ void main() {
     vec4 wa = imageLoad(water_in, c);
     vec4 pc[NPL], p[NPL];
     for (int l = 0; l < NPL; ++l) {
-        pc[l] = l < u_layers ? imageLoad(pig_in, ivec3(c, l)) : vec4(0.0);
+        pc[l] = layer_used(l) ? imageLoad(pig_in, ivec3(c, l)) : vec4(0.0);
         p[l] = pc[l];
     }
     float w = wa.x;
@@ -56,7 +56,7 @@ void main() {
         donor_c[f] = c_donor;
     }
     for (int l = 0; l < NPL; ++l) {
-        if (l >= u_layers) continue;
+        if (!layer_used(l)) continue;
         for (int f = 0; f < 4; ++f) {
             ivec2 n = clamp(c + OFFS[f], ivec2(0), u_size - 1);
             vec4 pd = donor_c[f] ? pc[l] : imageLoad(pig_in, ivec3(n, l));
@@ -65,5 +65,5 @@ void main() {
     }
     imageStore(water_out, c, vec4(w, wa.yzw));
     for (int l = 0; l < NPL; ++l)
-        if (l < u_layers) imageStore(pig_out, ivec3(c, l), p[l]);
+        if (layer_used(l)) imageStore(pig_out, ivec3(c, l), p[l]);
 }

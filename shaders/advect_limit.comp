@@ -12,9 +12,9 @@ layout(rgba32f, binding = 3) uniform readonly image2D water_in;
 layout(rgba32f, binding = 4) uniform readonly image2DArray pig_in;
 layout(rgba32f, binding = 5) uniform writeonly image2D lim_out;
 
-uniform float u_q4;  // float32(0.25 * dt)
-uniform float u_wmin;
-uniform float u_wmax;
+STEP_CONST(float, u_q4, K_Q4);  // float32(0.25 * dt)
+const float u_wmin = K_WMIN;
+const float u_wmax = K_WMAX;
 
 #include "advect.glsl"
 
@@ -50,13 +50,13 @@ void main() {
             float r = abs(uf[f]) * u_q4;
             i_w += imageLoad(water_in, n).x * r;
             for (int l = 0; l < NPL; ++l)
-                if (l < u_layers) i_p[l] += imageLoad(pig_in, ivec3(n, l)) * r;
+                if (layer_used(l)) i_p[l] += imageLoad(pig_in, ivec3(n, l)) * r;
         }
         float hi = max(w, u_wmax);
         s_in = i_w > 0.0 ? max(hi - w, 0.0) / i_w : 1.0;
         float s_in_p = 1.0;
         for (int l = 0; l < NPL; ++l) {
-            if (l >= u_layers) continue;
+            if (!layer_used(l)) continue;
             vec4 room_p = max(vec4(1.0) - imageLoad(pig_in, ivec3(c, l)), vec4(0.0));
             for (int k = 0; k < 4; ++k)
                 if (i_p[l][k] > 0.0) s_in_p = min(s_in_p, room_p[k] / i_p[l][k]);

@@ -23,8 +23,8 @@ layout(r32f, binding = 5) uniform readonly image2D area_in;  // wet_area after p
 // HOLD (1: wet_hold > 0, blur the wet-area mask M that prep wrote) are injected with the
 // other defines (compiled per blur and memory)
 #define R ((NTAPS - 1) / 2)
-uniform float u_moist;           // moist_threshold [height]
-uniform int u_apron;             // 1: also write the R rows beside the tile (tiling on)
+const float u_moist = K_MOIST;           // moist_threshold [height]
+const int u_apron = TILE_LIST;   // 1: also write the R rows beside the tile (tiling on)
 const float taps_x[NTAPS] = TAPS;
 
 // Branch-free (llvmpipe runs both sides of a branch its lanes disagree on); a load past the

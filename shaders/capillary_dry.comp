@@ -24,14 +24,14 @@ layout(r32f, binding = 7) uniform image2D area_io;  // wet_area (Curtis's wet-ar
 
 layout(std430, binding = 1) buffer TileAlive { uint tile_alive[]; };
 
-uniform float u_kcap;    // float32(cap_diffusion * dt)
-uniform float u_ecap;    // float32(eps_cap * dt)
-uniform float u_dry_eps;
-uniform float u_cmin;
-uniform float u_crange;
-uniform float u_susp;    // suspend_sat [1] (0: off)
-uniform float u_fade;    // float32(dt / wet_hold) (0: wet_hold off)
-uniform float u_moist;   // moist_threshold [height]
+STEP_CONST(float, u_kcap, K_KCAP);    // float32(cap_diffusion * dt)
+STEP_CONST(float, u_ecap, K_ECAP);    // float32(eps_cap * dt)
+const float u_dry_eps = K_DRY_EPS;
+const float u_cmin = K_CMIN;
+const float u_crange = K_CRANGE;
+const float u_susp = K_SUSP;    // suspend_sat [1] (0: off)
+STEP_CONST(float, u_fade, K_FADE);    // float32(dt / wet_hold) (0: wet_hold off)
+const float u_moist = K_MOIST;   // moist_threshold [height]
 
 void main() {
     bool valid;
@@ -68,7 +68,7 @@ void main() {
         bool settle = !(u_susp > 0.0 && wc > u_susp * (u_cmin + pa.x * u_crange));
         if (w == 0.0 && settle) {
             for (int l = 0; l < NPL; ++l) {
-                if (l >= u_layers) continue;
+                if (!layer_used(l)) continue;
                 vec4 p = imageLoad(pig_io, ivec3(c, l));
                 vec4 q = imageLoad(dep_io, ivec3(c, l));
                 if (any(greaterThan(p, vec4(0.0)))) {

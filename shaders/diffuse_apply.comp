@@ -13,8 +13,8 @@ layout(rgba32f, binding = 5) uniform readonly image2DArray pig_in;
 layout(rgba32f, binding = 6) uniform writeonly image2D water_out;
 layout(rgba32f, binding = 7) uniform writeonly image2DArray pig_out;
 
-uniform float u_kw;
-uniform float u_kp;
+STEP_CONST(float, u_kw, K_KW);
+STEP_CONST(float, u_kp, K_KP);
 
 // Donor-scaled face flux between c and its neighbour over face f, in the reference's
 // sign convention (positive from the lower-index cell to the higher).
@@ -50,7 +50,7 @@ void main() {
     imageStore(water_out, c, vec4(w, wa.yzw));
     // pigment: a loop of its own (nested in the face loop it runs far slower)
     for (int l = 0; l < NPL; ++l) {
-        if (l >= u_layers) continue;
+        if (!layer_used(l)) continue;
         vec4 p = imageLoad(pig_in, ivec3(c, l));
         vec4 xp = imageLoad(jx_in, ivec3(c, l));
         vec4 sp = imageLoad(jps_in, ivec3(c, l));

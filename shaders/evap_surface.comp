@@ -17,16 +17,16 @@ layout(rgba32f, binding = 4) uniform image2DArray dep_io;
 layout(rgba32f, binding = 5) uniform readonly image2D paper_in;
 layout(rgba32f, binding = 6) uniform readonly image2D wet_in;  // .w = wb
 
-uniform float u_e;          // float32(eps_shallow * dt)
-uniform float u_edge_evap;  // float32(edge_evap)
-uniform float u_wmax;
-uniform float u_rate;       // float32(surface_rate * dt)
+STEP_CONST(float, u_e, K_E);          // float32(eps_shallow * dt)
+const float u_edge_evap = K_EDGE_EVAP;  // float32(edge_evap)
+const float u_wmax = K_WMAX;
+STEP_CONST(float, u_rate, K_RATE);       // float32(surface_rate * dt)
 uniform vec4 u_gamma[NPL];  // granulation per slot
 uniform vec4 u_delta[NPL];  // density per slot (0 for free slots)
 uniform vec4 u_dob[NPL];    // float32(delta / beta) per slot, beta = float32(staining / lift_gain)
-uniform float u_absorb;     // float32(alpha * dt)
-uniform float u_cmin;
-uniform float u_crange;     // float32(c_max - c_min)
+STEP_CONST(float, u_absorb, K_ABSORB);     // float32(alpha * dt)
+const float u_cmin = K_CMIN;
+const float u_crange = K_CRANGE;     // float32(c_max - c_min)
 
 void main() {
     bool valid;
@@ -53,7 +53,7 @@ void main() {
     if (wet) {
         float f = clamp(w / u_wmax, 0.0, 1.0);
         for (int l = 0; l < NPL; ++l) {
-            if (l >= u_layers) continue;
+            if (!layer_used(l)) continue;
             vec4 p = imageLoad(pig_io, ivec3(c, l));
             vec4 q = imageLoad(dep_io, ivec3(c, l));
             vec4 down = u_rate * p * (1.0 - f) * (1.0 - h * u_gamma[l]) * u_delta[l];

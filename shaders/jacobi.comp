@@ -31,9 +31,9 @@ layout(rgba32f, binding = 5) uniform readonly image2DArray jd_in;
 layout(rgba32f, binding = 6) uniform writeonly image2D jv_out;
 layout(rgba32f, binding = 7) uniform writeonly image2DArray jd_out;
 
-uniform float u_kv;  // viscosity * dt
-uniform float u_kw;  // nu_w * dt
-uniform float u_kp;  // nu_p * dt
+STEP_CONST(float, u_kv, K_KV);  // viscosity * dt
+STEP_CONST(float, u_kw, K_KW);  // nu_w * dt
+STEP_CONST(float, u_kp, K_KP);  // nu_p * dt
 
 void main() {
     bool valid;
@@ -66,7 +66,7 @@ void main() {
     vec4 sp[NPL];
     for (int l = 0; l < NPL; ++l) {
         sp[l] = vec4(0.0);
-        if (l >= u_layers) continue;
+        if (!layer_used(l)) continue;
         for (int f = 0; f < 4; ++f) {
             ivec2 n = clamp(c + OFFS[f], ivec2(0), u_size - 1);
             sp[l] += bf[f] * imageLoad(jd_in, ivec3(n, l));
@@ -77,7 +77,7 @@ void main() {
     imageStore(jv_out, c, vec4(xv, xw, j.w));
     float dp = 1.0 + u_kp * bsum;
     for (int l = 0; l < NPL; ++l) {
-        if (l >= u_layers) continue;
+        if (!layer_used(l)) continue;
         vec4 p = imageLoad(pig_in, ivec3(c, l));
         imageStore(jd_out, ivec3(c, l), (p + u_kp * sp[l]) / dp);
     }

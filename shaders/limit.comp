@@ -18,13 +18,13 @@ layout(rgba32f, binding = 6) uniform writeonly image2D js_out;
 layout(rgba32f, binding = 7) uniform writeonly image2DArray jd_out;
 layout(r32f, binding = 0) uniform readonly image2D pr_in;  // pass 3's levelled height P
 
-uniform float u_kw;
-uniform float u_kp;
-uniform float u_omega_h;
-uniform float u_omega_i;    // float32(1 - omega_h), as the reference rounds it
-uniform float u_half_gain;  // float32(-0.5 * height_gain)
-uniform float u_vmax;
-uniform vec2 u_tilt;        // float32(ax dt, ay dt) of the canvas tilt
+STEP_CONST(float, u_kw, K_KW);
+STEP_CONST(float, u_kp, K_KP);
+const float u_omega_h = K_OMEGA_H;
+const float u_omega_i = K_OMEGA_I;    // float32(1 - omega_h), as the reference rounds it
+const float u_half_gain = K_HALF_GAIN;  // float32(-0.5 * height_gain)
+const float u_vmax = K_VMAX;
+STEP_CONST(vec2, u_tilt, vec2(K_TILT_X, K_TILT_Y));  // float32(ax dt, ay dt) of the tilt
 
 void main() {
     bool valid;
@@ -54,7 +54,7 @@ void main() {
     vec4 outp[NPL];
     for (int l = 0; l < NPL; ++l) {
         outp[l] = vec4(0.0);
-        if (l >= u_layers) continue;
+        if (!layer_used(l)) continue;
         vec4 xp = imageLoad(jd_in, ivec3(c, l));
         for (int f = 0; f < 4; ++f) {
             ivec2 n = clamp(c + OFFS[f], ivec2(0), u_size - 1);
@@ -81,7 +81,7 @@ void main() {
     float sw = outw > wh ? wh / outw : 1.0;
     imageStore(js_out, c, vec4(j.z, 0.0, sw, j.w));
     for (int l = 0; l < NPL; ++l) {
-        if (l >= u_layers) continue;
+        if (!layer_used(l)) continue;
         vec4 u = imageLoad(pig_in, ivec3(c, l));
         vec4 s = vec4(1.0);
         for (int k = 0; k < 4; ++k)

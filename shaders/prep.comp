@@ -17,23 +17,23 @@ layout(rgba32f, binding = 5) uniform writeonly image2D jv_out;
 layout(rg32f, binding = 6) uniform readonly image2D fibre_in;   // fibre along x, along y
 layout(r32f, binding = 7) uniform image2D area_io;  // wet_area: Curtis's wet-area mask memory
 
-uniform float u_dt;
-uniform float u_moist;        // moist_threshold [height]
+STEP_CONST(float, u_dt, K_DT);
+const float u_moist = K_MOIST;        // moist_threshold [height]
 uniform float u_sim_time;     // [s]
-uniform float u_block_fade;   // [s]
-uniform float u_block_paper;  // share of paper height in the blocking value
-uniform float u_advance;      // advance_height [height] (0: contact line pinned)
-uniform float u_adv_base;     // 1 + advance_grain / 2
-uniform float u_adv_grain;    // advance_grain: how much the paper height sets it
-uniform float u_wick;         // fibre_wick: a fibre along the axis lowers the advancing height
-uniform float u_disperse;     // fibre_dispersivity / nu_p [s/cell]: dispersion along fibre channels
-uniform float u_fibre_flow_max;  // [cell/s] water moves through the fibre channels no faster
-uniform float u_ease;         // damp_ease: damp paper's suction eases the advancing height
-uniform float u_dsat;         // damp_sat [1]
-uniform float u_dspan;        // float32(1 - damp_sat)
-uniform float u_cmin;         // c_min [height]
-uniform float u_crange;       // float32(c_max - c_min) [height]
-uniform int u_hold;           // wet_hold > 0: the wet-area mask M = max(wet_area, own) grows
+const float u_block_fade = K_BLOCK_FADE;   // [s]
+const float u_block_paper = K_BLOCK_PAPER;  // share of paper height in the blocking value
+const float u_advance = K_ADVANCE;      // advance_height [height] (0: contact line pinned)
+const float u_adv_base = K_ADV_BASE;     // 1 + advance_grain / 2
+const float u_adv_grain = K_ADV_GRAIN;    // advance_grain: how much the paper height sets it
+const float u_wick = K_WICK;         // fibre_wick: a fibre along the axis lowers the advancing height
+const float u_disperse = K_DISPERSE;     // fibre_dispersivity / nu_p [s/cell]: dispersion along fibre channels
+const float u_fibre_flow_max = K_FIBRE_FLOW_MAX;  // [cell/s] water moves through the fibre channels no faster
+const float u_ease = K_EASE;         // damp_ease: damp paper's suction eases the advancing height
+const float u_dsat = K_DSAT;         // damp_sat [1]
+const float u_dspan = K_DSPAN;        // float32(1 - damp_sat)
+const float u_cmin = K_CMIN;         // c_min [height]
+const float u_crange = K_CRANGE;       // float32(c_max - c_min) [height]
+const int u_hold = K_HOLD;           // wet_hold > 0: the wet-area mask M = max(wet_area, own) grows
 
 bool wet_at(ivec2 c) {
     vec4 wa = imageLoad(water_in, c);

@@ -13,8 +13,8 @@
 // constructor of their exact bits) are injected with the other defines (compiled per blur);
 // NTAPS 1: no flow-outward term (flow_outward or wet_blur 0), nothing is blurred.
 #define R ((NTAPS - 1) / 2)
-uniform float u_eta;             // flow_outward [height]
-uniform float u_relief;          // paper_relief [height]
+const float u_eta = K_ETA;             // flow_outward [height]
+const float u_relief = K_RELIEF;          // paper_relief [height]
 const float taps_y[NTAPS] = TAPS;
 
 float levelled_height(ivec2 c, float w, bool wet) {

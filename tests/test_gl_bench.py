@@ -83,3 +83,10 @@ def test_bench_sim_gl_passes_profile_and_bound(capsys) -> None:
     assert r["shader_copy_fraction"] == pytest.approx(r["memory_traffic_gb_s"] / image,
                                                       rel=1e-2)
     assert r["bound_factor"] == pytest.approx(1.0 / r["shader_copy_fraction"], rel=1e-2)
+    # by CPU time on a CPU rasterizer: the copy's GB per CPU-second over the step's
+    cpu_rate = out["bandwidth"]["gl_probes_gb_s"]["image_cpu"]
+    assert r["cpu_seconds"] > 0 and cpu_rate > 0
+    if "llvmpipe" in r["renderer"]:
+        step_rate = (r["steps"] * r["active_cells"] * r["bytes_per_cell_step"]
+                     / r["cpu_seconds"] / 1e9)
+        assert r["bound_factor_cpu"] == pytest.approx(cpu_rate / step_rate, rel=2e-2)

@@ -104,6 +104,32 @@ def test_tiles_on_and_off_give_the_same_painting(ctx) -> None:
     assert np.array_equal(a.tile_ttl, n.state().tile_ttl)
 
 
+def test_switching_tiles_recompiles_for_the_mode_and_keeps_the_painting(ctx) -> None:
+    # the passes read their tile from the list only with tiling on (tiles.glsl
+    # TILE_LIST): a switch recompiles them, and the painting is the one tiling gives
+    w, h = 192, 128  # 6 x 4 tiles; the stroke in the bottom-right ones: the list's
+    ref_c = gl.GLCanvas(w, h, seed=3, ctx=ctx, tiling=True)  # entries are not the tiles
+    sw = gl.GLCanvas(w, h, seed=3, ctx=ctx, tiling=False)
+    for c in (ref_c, sw):
+        for i in range(12):
+            stamp(c, 120 + 3.0 * i, 96 + 3 * math.sin(i / 3), 5, {"French Ultramarine": 0.05})
+            c.step()
+    for k in range(12):
+        if k == 4:
+            sw.set_tiling(True)
+            assert sw._tile_list_mode is True
+        if k == 8:
+            sw.set_tiling(False)
+            assert sw._tile_list_mode is False
+        ref_c.step()
+        sw.step()
+    a, b = sw.state(), ref_c.state()
+    assert b.w.max() > 0.01
+    for name in ("vx", "vy", "w", "wc", "p", "q", "evaporated"):
+        x, y = getattr(a, name), getattr(b, name)
+        assert float(np.abs(x - y).max()) <= 1e-6 * max(1.0, float(np.abs(y).max())), name
+
+
 def test_tile_leaving_the_active_set_keeps_both_buffers_in_step(ctx) -> None:
     """Short TTL: tiles drop out and come back while the painting goes on."""
     from station.canvas.params import SimParams

@@ -445,3 +445,30 @@ def test_render_thin_paint_keeps_precision(ctx) -> None:
     got = c.render()
     want = render_state(st, "km")
     assert float(np.abs(got - want).max()) < 2e-6
+
+
+def test_step_constants_follow_dt_and_parameters(ctx) -> None:
+    # the step's parameters are compile-time constants of the programs (passes.
+    # param_constants); a step given another dt runs the uniform variant, new parameters
+    # recompile, and every step still matches the reference's
+    st = random_state(6)
+    c = gl.GLCanvas(W, H, ctx=ctx, tiling=False)
+    c.load_state(st)
+    mine = st.copy()
+    dt = st.params.dt
+    for d in (dt, 0.5 * dt, dt):
+        c.step(d)
+        ref.step(mine, d)
+        assert c._param_consts["DT_CONST"] == ("1" if d == dt else "0")
+    out = c.state()
+    for name in ("vx", "vy", "w", "wc", "p", "q", "evaporated"):
+        close(name, getattr(out, name), getattr(mine, name))
+    mine.params = mine.params.replace(nu_w=2.5 * mine.params.nu_w, w_max=0.8, tilt=8.0,
+                                      tilt_direction=90.0)
+    c.load_state(mine)
+    assert "uintBitsToFloat" in c._param_consts["K_WMAX"]
+    c.step()
+    ref.step(mine)
+    out = c.state()
+    for name in ("vx", "vy", "w", "wc", "p", "q", "evaporated"):
+        close(name, getattr(out, name), getattr(mine, name))

@@ -21,7 +21,9 @@ image into another, four per ``glFinish`` (read + write counted; both in
 ``bandwidth["gl_probes_gb_s"]``, and each GL result's ``shader_copy_fraction`` is
 its traffic over the image copy's, the most any shader moves there, and ``bound_factor``
 its inverse: how many times slower the step is than if it moved its bytes at that copy's
-speed, issue 26 item 4 asks for <= 2); ``--passes`` adds a GL step's profile
+speed, issue 26 item 4 asks for <= 2; on a CPU rasterizer ``bound_factor_cpu`` is the
+same by CPU time, the step's against the copy's ``image_cpu`` probe, which a machine
+shared with other work disturbs far less than the wall clock); ``--passes`` adds a GL step's profile
 (:func:`profile_passes`: milliseconds, share, bytes, GB/s and that fraction per program);
 where no context can be made the fraction is ``null`` and
 ``bandwidth["gl_error"]`` says why.  ``bytes_per_cell_step`` lists each
@@ -115,7 +117,8 @@ def gl_copy_bandwidth_gb_s(nbytes: int = GL_COPY_BYTES, repeats: int = 5) -> flo
     a GPU's own memory on a real card, system memory through llvmpipe.  The better of
     two probes (:func:`gl_copy_probes`).  :class:`StationError` or ImportError when no
     GL context can be made."""
-    return max(gl_copy_probes(nbytes, repeats).values())
+    probes = gl_copy_probes(nbytes, repeats)
+    return max(probes["buffer"], probes["image"])
 
 
 def gl_copy_probes(nbytes: int = GL_COPY_BYTES, repeats: int = 5) -> dict[str, float]:
@@ -125,7 +128,9 @@ def gl_copy_probes(nbytes: int = GL_COPY_BYTES, repeats: int = 5) -> dict[str, f
       a discrete card may hand it to a DMA copy engine, far below its memory's speed
       (176 GB/s on an H100 whose HBM moves 3 TB/s);
     * ``image``: a compute shader copying one rgba32f image into another, the access
-      the backend's own passes make; on a GPU this is what its cores reach.
+      the backend's own passes make; on a GPU this is what its cores reach;
+    * ``image_cpu``: the same copy in GB per CPU-second of this process (a CPU
+      rasterizer's cost; on a GPU it says nothing about the GPU).
     """
     # in the function: moderngl only when GL is measured
     from station.glkit.context import create_context
@@ -144,7 +149,7 @@ def gl_copy_probes(nbytes: int = GL_COPY_BYTES, repeats: int = 5) -> dict[str, f
         b = ctx.texture((width, height), 4, dtype="f4")
         a.bind_to_image(0, read=True, write=False)
         b.bind_to_image(1, read=False, write=True)
-        best = 0.0
+        best = best_cpu = 0.0
         # the work-group shape matters on llvmpipe (a row of 256 copies ~2x a 16x16 tile
         # there): the bound is the best shape's
         for lx, ly in ((16, 16), (64, 1), (256, 1)):
@@ -154,9 +159,11 @@ def gl_copy_probes(nbytes: int = GL_COPY_BYTES, repeats: int = 5) -> dict[str, f
                 prog.run(width // lx, -(-height // ly), 1)
                 ctx.memory_barrier()  # each copy done before the next reads (as the passes)
 
-            best = max(best, _best_gb_s(ctx, width * height * 16, repeats, copy))
+            wall, cpu = _best_rates(ctx, width * height * 16, repeats, copy)
+            best, best_cpu = max(best, wall), max(best_cpu, cpu)
             prog.release()
         out["image"] = best
+        out["image_cpu"] = best_cpu
         a.release()
         b.release()
     finally:
@@ -165,17 +172,31 @@ def gl_copy_probes(nbytes: int = GL_COPY_BYTES, repeats: int = 5) -> dict[str, f
 
 
 def _best_gb_s(ctx: Any, nbytes: int, repeats: int, copy: Callable[[], None]) -> float:
+    return _best_rates(ctx, nbytes, repeats, copy)[0]
+
+
+def _best_rates(ctx: Any, nbytes: int, repeats: int, copy: Callable[[], None]
+                ) -> tuple[float, float]:
+    """GB/s (read + write) of the best of ``repeats`` batches of copies by the wall
+    clock, and GB per CPU-second of this process (all threads: what a CPU rasterizer
+    spends, which a machine shared with other work disturbs least)."""
     copy()  # allocate, compile and touch before timing
     ctx.finish()
-    best = math.inf
+    best = best_cpu = math.inf
     for _ in range(repeats):
         # a batch per glFinish: on a GPU one copy takes ~0.1 ms, near the round trip
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         for _ in range(GL_COPIES_PER_TIMING):
             copy()
         ctx.finish()
         best = min(best, (time.perf_counter() - t0) / GL_COPIES_PER_TIMING)
-    return 2.0 * nbytes / best / 1e9
+        best_cpu = min(best_cpu, (time.process_time() - c0) / GL_COPIES_PER_TIMING)
+    return 2.0 * nbytes / best / 1e9, 2.0 * nbytes / max(best_cpu, 1e-9) / 1e9
+
+
+def _cpu_rasterizer(renderer: str) -> bool:
+    """Whether the GL renderer runs its shaders on the CPU (its CPU time is its cost)."""
+    return any(k in renderer.lower() for k in ("llvmpipe", "softpipe", "swrast"))
 
 
 @dataclass
@@ -190,6 +211,8 @@ class Result:
     cells_per_step: float
     bytes_per_cell_step: float
     renderer: str
+    cpu_seconds: float = 0.0
+    """This process's CPU time over the timed steps (all threads: llvmpipe's too)."""
     passes: dict[str, Any] | None = None
     """GL with ``--passes``: the step's time per program (see :func:`profile_passes`)."""
 
@@ -214,6 +237,7 @@ class Result:
             "bandwidth_fraction": (None if bandwidth_gb_s is None
                                    else round(traffic / bandwidth_gb_s, 4)),
             "renderer": self.renderer,
+            "cpu_seconds": round(self.cpu_seconds, 4),
             **({"passes": self.passes} if self.passes is not None else {}),
         }
 
@@ -320,6 +344,7 @@ def measure(backend: str, width: int, height: int, scenario: str, seconds: float
     probe.take_cells()
     steps, cells = 0, 0
     t0 = time.perf_counter()
+    c0 = time.process_time()
     while True:
         if stroke:
             stroke.advance()
@@ -332,9 +357,10 @@ def measure(backend: str, width: int, height: int, scenario: str, seconds: float
                 break
     probe.sync()
     elapsed = time.perf_counter() - t0
+    cpu = time.process_time() - c0
     cells += probe.take_cells()
     result = Result(backend, f"{width}x{height}", scenario, steps, elapsed, cells / steps,
-                    float(probe.bytes_per_cell_step()), str(canvas.renderer))
+                    float(probe.bytes_per_cell_step()), str(canvas.renderer), cpu)
     if passes and probe.is_gl:
         result.passes = profile_passes(canvas, stroke)
     probe.close()
@@ -442,7 +468,7 @@ def run(args: argparse.Namespace) -> int:
             bw_out["gl_gb_s"] = None
             bw_out["gl_error"] = " ".join(str(exc).split())[:300]
         else:
-            gl_bw = max(gl_probes.values())
+            gl_bw = max(gl_probes["buffer"], gl_probes["image"])
             device_bw["gl"] = gl_bw
             bw_out["gl_gb_s"] = round(gl_bw, 3)
             bw_out["gl_probes_gb_s"] = {k: round(v, 3) for k, v in gl_probes.items()}
@@ -472,6 +498,15 @@ def run(args: argparse.Namespace) -> int:
                     results[-1]["shader_copy_fraction"] = round(frac, 4)
                     # issue 26 item 4: within 2x of that bound means a bound_factor <= 2
                     results[-1]["bound_factor"] = round(1.0 / frac, 3) if frac > 0 else None
+                    if (gl_probes.get("image_cpu") and r.cpu_seconds > 0
+                            and _cpu_rasterizer(r.renderer)):
+                        # the same by CPU time, the step's against the image copy's: on a
+                        # CPU rasterizer sharing its cores the wall clock swings with how
+                        # many cores it got, its CPU time far less
+                        traffic_cpu = (r.steps * r.cells_per_step * r.bytes_per_cell_step
+                                       / r.cpu_seconds / 1e9)
+                        results[-1]["bound_factor_cpu"] = round(
+                            gl_probes["image_cpu"] / traffic_cpu, 3)
                     for prog in (r.passes or {}).get("programs", {}).values():
                         prog["shader_copy_fraction"] = (
                             None if prog["gb_s"] is None

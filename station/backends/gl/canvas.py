@@ -51,6 +51,7 @@ from .passes import (
     _B_TTL,
     GLStepPasses,
     _set,
+    param_constants,
 )
 from .traffic import bytes_per_cell_step, floats_per_program
 
@@ -167,12 +168,24 @@ class GLCanvas(GLStepPasses):
         self.b_folded = ctx.buffer(reserve=8 * self.src_groups[0] * self.src_groups[1])
         # TILES_X: tile_cell divides by a constant (a division by a uniform is 8 scalar
         # divisions a vector on llvmpipe, in every pass)
-        self._defines = {"NPL": self.npl, "TILE": tile, "LX": lx, "LY": ly,
-                         "NBANDS": self.bands, "TILES_X": self.tiles_x}
+        self._defines: dict[str, object] = {
+            "NPL": self.npl, "TILE": tile, "LX": lx, "LY": ly, "NBANDS": self.bands,
+            "TILES_X": self.tiles_x, "SIZE_X": self.width, "SIZE_Y": self.height}
+        self._compile_programs(self.tiling)
+        self._shape = (width, height, n_slots, tile, self.bands)
+
+    def _compile_programs(self, tiling: bool) -> None:
+        """Compile every program for the tiling mode: with tiling on the passes read their
+        tile from the list (``TILE_LIST``), with it off the dispatch's z is the tile
+        (tiles.glsl), which spares llvmpipe a gather in every lane of every pass."""
+        for prog in self._programs.values():
+            prog.release()
+        self._defines["TILE_LIST"] = 1 if tiling else 0
+        self._defines.update(self._param_consts)
         self._programs = {name: self._compile(fname, extra)
                           for name, (fname, extra) in _PROGRAMS.items()}
         self._pressure_taps = ((), -1)  # blur_x, jacobi_first: compiled per blur at the step
-        self._shape = (width, height, n_slots, tile, self.bands)
+        self._tile_list_mode = bool(tiling)
 
     def _compile(self, fname: str, extra: Mapping[str, object]) -> moderngl.ComputeShader:
         """Compile ``shaders/fname`` for this canvas geometry (its uniforms set)."""
@@ -213,8 +226,16 @@ class GLCanvas(GLStepPasses):
         st = state
         shape = (st.width, st.height, st.n_slots, int(st.params.tile_size),
                  st.r_composed.shape[-1])
+        # the programs are compiled for the tiling mode and the parameters' constants
+        self.tiling = st.tiling
+        consts = param_constants(st.params, float(st.params.dt))
+        self._param_key = None  # _set_step_uniforms checks the parameters again
         if shape != self._shape:
+            self._param_consts = consts
             self._allocate(*shape)
+        elif self._tile_list_mode != self.tiling or consts != self._param_consts:
+            self._param_consts = consts
+            self._compile_programs(self.tiling)
         f = self.f
         for t in f["vel"].textures:
             t.write(tx.pack_planes(st.vx, st.vy).tobytes())

@@ -65,6 +65,9 @@ class GLStepPasses:
 
     # the canvas compiles (GLCanvas._compile: its context, its include path)
     _compile: Callable[[str, Mapping[str, object]], moderngl.ComputeShader]
+    _compile_programs: Callable[[bool], None]
+    _param_consts: dict[str, str]  # param_constants the programs were compiled with
+    _param_key: tuple[SimParams, float | None] | None  # what _param_consts came from
 
     def _bind(self, unit: int, tex: moderngl.Texture | moderngl.TextureArray, read: bool,
               write: bool) -> None:
@@ -96,34 +99,21 @@ class GLStepPasses:
 
     def _set_step_uniforms(self, dt: float) -> None:
         prm = self.params
+        made_of = (prm, dt if dt == float(prm.dt) else None)
+        if made_of != self._param_key:  # the same parameters object: no work a step
+            self._param_key = made_of
+            consts = param_constants(prm, made_of[1])
+            if consts != self._param_consts:  # parameters set since load_state, another dt
+                self._param_consts = consts
+                self._compile_programs(self.tiling)
         p = self._programs
         _set(p["prep"], "u_dt", dt)
-        _set(p["prep"], "u_moist", prm.moist_threshold)
         _set(p["prep"], "u_sim_time", float(F32(self.sim_time)))
-        _set(p["prep"], "u_block_fade", prm.block_fade)
-        _set(p["prep"], "u_block_paper", prm.block_paper)
-        _set(p["prep"], "u_advance", prm.advance_height)
-        _set(p["prep"], "u_adv_base", float(stencils.advance_base(prm)))
-        _set(p["prep"], "u_adv_grain", prm.advance_grain)
-        _set(p["prep"], "u_wick", prm.fibre_wick)
-        _set(p["prep"], "u_disperse", float(F32(prm.fibre_dispersion_gain())))
-        _set(p["prep"], "u_fibre_flow_max", prm.fibre_flow_max)
-        _set(p["prep"], "u_ease", prm.damp_ease)
-        _set(p["prep"], "u_dsat", prm.damp_sat)
-        _set(p["prep"], "u_dspan", float(F32(1.0 - prm.damp_sat)))
         hold = 1 if prm.wet_hold > 0 else 0
-        _set(p["prep"], "u_hold", hold)
         taps = reference.gaussian_taps(prm.wet_blur) if prm.flow_outward > 0 else np.zeros(0, F32)
         if len(taps) > MAX_TAPS:
             raise CanvasInputError("wet_blur too large for the GL backend (at most 4)", "params")
         self._blur_programs(taps, hold)
-        pp = p["jacobi_first"]
-        _set(pp, "u_eta", prm.flow_outward)
-        _set(pp, "u_relief", prm.paper_relief)
-        if len(taps):
-            bx = p["blur_x"]
-            _set(bx, "u_moist", prm.moist_threshold)
-            _set(bx, "u_apron", 1 if self.tiling else 0)
         kv, kw, kp = (float(F32(prm.viscosity * dt)), float(F32(prm.nu_w * dt)),
                       float(F32(prm.nu_p * dt)))
         layers = -(-len(self.slots) // 4)
@@ -133,34 +123,20 @@ class GLStepPasses:
             _set(p[name], "u_kv", kv)
             _set(p[name], "u_kw", kw)
             _set(p[name], "u_kp", kp)
-        _set(p["limit"], "u_omega_h", prm.omega_h)
-        _set(p["limit"], "u_omega_i", float(F32(1.0 - prm.omega_h)))
-        _set(p["limit"], "u_half_gain", float(F32(-0.5 * prm.height_gain)))
-        _set(p["limit"], "u_vmax", prm.v_max)
         _set(p["limit"], "u_tilt", [float(x) for x in reference.tilt_kick(prm, dt)])
         q4 = float(F32(0.25 * dt))
         for name in ("advect_limit", "advect_apply"):
             _set(p[name], "u_q4", q4)
-        _set(p["advect_limit"], "u_wmin", prm.w_min)
-        _set(p["advect_limit"], "u_wmax", prm.w_max)
         es = p["evap_surface"]
         _set(es, "u_e", float(F32(prm.evap_shallow() * dt)))
-        _set(es, "u_edge_evap", prm.edge_evap)
-        _set(es, "u_wmax", prm.w_max)
         _set(es, "u_rate", float(F32(prm.surface_rate * dt)))
         for key, val in self._slot_uniforms().items():
             _set(es, key, val)
         _set(es, "u_absorb", float(F32(prm.alpha * dt)))
-        for name in ("evap_surface", "capillary_dry", "prep"):
-            _set(p[name], "u_cmin", prm.c_min)
-            _set(p[name], "u_crange", float(F32(prm.c_max - prm.c_min)))
         cd = p["capillary_dry"]
         _set(cd, "u_kcap", float(F32(prm.cap_diffusion * dt)))
         _set(cd, "u_ecap", float(F32(prm.evap_cap() * dt)))
-        _set(cd, "u_dry_eps", prm.w_dry_eps)
-        _set(cd, "u_susp", prm.suspend_sat)
         _set(cd, "u_fade", float(F32(dt / prm.wet_hold)) if hold else 0.0)
-        _set(cd, "u_moist", prm.moist_threshold)
         _set(p["tile_update"], "u_ttl", prm.tile_ttl_steps())
 
     def _blur_programs(self, taps: np.ndarray, hold: int) -> None:
@@ -368,6 +344,46 @@ class GLStepPasses:
             raise CanvasInputError("dt too large for v_max (more than one cell per step)",
                                    "step")
         return d
+
+
+def param_constants(prm: SimParams, dt: float | None) -> dict[str, str]:
+    """The step's parameters as compile-time constants of the pass programs (``K_*``
+    defines, the exact float32 bits the uniforms had): on llvmpipe every uniform a pass
+    reads is a load in every vector of lanes (about 0.25 ms CPU each at 800x600; prep
+    read 15).  The values that depend on dt are constants for ``dt`` (``DT_CONST``; the
+    parameters' own dt, every caller's) and uniforms when ``dt`` is None (a step given
+    another dt).  The programs are recompiled when these change (a new profile or
+    parameters); the pigment slots' values and the layer count stay uniforms, which
+    change while painting."""
+    vals = {
+        "MOIST": prm.moist_threshold, "BLOCK_FADE": prm.block_fade,
+        "BLOCK_PAPER": prm.block_paper, "ADVANCE": prm.advance_height,
+        "ADV_BASE": float(stencils.advance_base(prm)), "ADV_GRAIN": prm.advance_grain,
+        "WICK": prm.fibre_wick, "DISPERSE": float(F32(prm.fibre_dispersion_gain())),
+        "FIBRE_FLOW_MAX": prm.fibre_flow_max, "EASE": prm.damp_ease, "DSAT": prm.damp_sat,
+        "DSPAN": float(F32(1.0 - prm.damp_sat)), "CMIN": prm.c_min,
+        "CRANGE": float(F32(prm.c_max - prm.c_min)), "ETA": prm.flow_outward,
+        "RELIEF": prm.paper_relief, "OMEGA_H": prm.omega_h,
+        "OMEGA_I": float(F32(1.0 - prm.omega_h)),
+        "HALF_GAIN": float(F32(-0.5 * prm.height_gain)), "VMAX": prm.v_max,
+        "WMIN": prm.w_min, "WMAX": prm.w_max, "EDGE_EVAP": prm.edge_evap,
+        "DRY_EPS": prm.w_dry_eps, "SUSP": prm.suspend_sat,
+    }
+    if dt is not None:
+        vals.update({
+            "DT": dt, "KV": float(F32(prm.viscosity * dt)), "KW": float(F32(prm.nu_w * dt)),
+            "KP": float(F32(prm.nu_p * dt)), "Q4": float(F32(0.25 * dt)),
+            "E": float(F32(prm.evap_shallow() * dt)), "RATE": float(F32(prm.surface_rate * dt)),
+            "ABSORB": float(F32(prm.alpha * dt)), "KCAP": float(F32(prm.cap_diffusion * dt)),
+            "ECAP": float(F32(prm.evap_cap() * dt)),
+            "FADE": float(F32(dt / prm.wet_hold)) if prm.wet_hold > 0 else 0.0})
+        tilt = reference.tilt_kick(prm, dt)
+        vals.update({"TILT_X": float(tilt[0]), "TILT_Y": float(tilt[1])})
+    out = {f"K_{k}": f"uintBitsToFloat(0x{int(F32(v).view(np.uint32)):08x}u)"
+           for k, v in vals.items()}
+    out["K_HOLD"] = "1" if prm.wet_hold > 0 else "0"
+    out["DT_CONST"] = "0" if dt is None else "1"
+    return out
 
 
 def _set(prog: moderngl.ComputeShader, name: str, value: object) -> None:
