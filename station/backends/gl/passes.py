@@ -105,6 +105,8 @@ class GLStepPasses:
         _set(p["prep"], "u_advance", prm.advance_height)
         _set(p["prep"], "u_adv_base", float(stencils.advance_base(prm)))
         _set(p["prep"], "u_adv_grain", prm.advance_grain)
+        _set(p["prep"], "u_curv", prm.advance_curvature)
+        _set(p["prep"], "u_curv_n", float(F32(1.0 + 2.0 * prm.advance_curvature)))
         _set(p["prep"], "u_wick", prm.fibre_wick)
         _set(p["prep"], "u_disperse", float(F32(prm.fibre_dispersion_gain())))
         _set(p["prep"], "u_fibre_flow_max", prm.fibre_flow_max)
