@@ -25,6 +25,8 @@ const float u_block_paper = K_BLOCK_PAPER;  // share of paper height in the bloc
 const float u_advance = K_ADVANCE;      // advance_height [height] (0: contact line pinned)
 const float u_adv_base = K_ADV_BASE;     // 1 + advance_grain / 2
 const float u_adv_grain = K_ADV_GRAIN;    // advance_grain: how much the paper height sets it
+const float u_curv = K_CURV;         // advance_curvature: the meniscus's curvature on drier paper
+const float u_curv_n = K_CURV_N;       // float32(1 + 2 advance_curvature)
 const float u_wick = K_WICK;         // fibre_wick: a fibre along the axis lowers the advancing height
 const float u_disperse = K_DISPERSE;     // fibre_dispersivity / nu_p [s/cell]: dispersion along fibre channels
 const float u_fibre_flow_max = K_FIBRE_FLOW_MAX;  // [cell/s] water moves through the fibre channels no faster
@@ -46,6 +48,11 @@ vec2 vs_at(ivec2 c) {
     return wet_at(c) ? imageLoad(vel_in, c).xy : vec2(0.0);
 }
 
+// fluid water of a cell, 0 outside the canvas
+float w_at(ivec2 n) {
+    return inside(n) ? imageLoad(water_in, n).x : 0.0;
+}
+
 // the contact line reaches this (unmasked) cell: a neighbour's fluid water stands above
 // its advancing height advance_height (1 + g/2 - g h) (g: advance_grain), times (1 - fibre_wick * fibre) along the
 // axis of that neighbour (x: .x, y: .y), eased on damp paper
@@ -60,6 +67,15 @@ bool crept(ivec2 c, vec4 pa, vec4 wa) {
         float sp = max(s - u_dsat, 0.0) / u_dspan;
         float f = 1.0 - u_ease * ((4.0 * sp) * (1.0 - sp));
         thr = thr * max(f, 0.0);
+    }
+    if (u_curv > 0.0 && !(sd > u_dsat)) {
+        // the meniscus's curvature (stencils.front_curvature): the neighbourhood's water
+        // ((E + W) + S) + N + a (((SE + SW) + NE) + NW), cells outside 0, against (1 + 2a) thr
+        float s4 = ((w_at(c + ivec2(1, 0)) + w_at(c + ivec2(-1, 0))) + w_at(c + ivec2(0, 1)))
+            + w_at(c + ivec2(0, -1));
+        float s8 = ((w_at(c + ivec2(1, 1)) + w_at(c + ivec2(-1, 1))) + w_at(c + ivec2(1, -1)))
+            + w_at(c + ivec2(-1, -1));
+        return (s4 + u_curv * s8) > u_curv_n * thr;
     }
     vec2 fib = u_wick > 0.0 ? imageLoad(fibre_in, c).xy : vec2(0.0);
     for (int f = 0; f < 4; ++f) {

@@ -122,6 +122,8 @@ def test_multi_step_stroke_is_bitwise_equal() -> None:
                                     {"flow_outward": 0.8, "wet_blur": 4.0, "temperature": 35.0,
                                      "humidity": 0.2, "advance_height": 0.3},
                                     {"advance_grain": 0.4}, {"advance_grain": 1.0},
+                                    {"advance_curvature": 0.0},
+                                    {"advance_curvature": 2.5, "fibre_wick": 0.5},
                                     {"paper_relief": 0.6}, {"paper_relief": 0.4,
                                                             "flow_outward": 0.0},
                                     {"damp_ease": 0.0, "suspend_sat": 0.0,

@@ -171,6 +171,25 @@ def test_prep_pins_the_front_on_dry_paper(ctx) -> None:
     assert (loose & ~wet).sum() >= 3  # lone fingers held back
 
 
+def test_prep_front_curvature(ctx) -> None:
+    """advance_curvature (stencils.front_curvature): on drier paper the neighbourhood's
+    water, diagonals included, sets the reach; GL's wet mask is the reference's, with and
+    without fibres, and the term changes which cells the front takes."""
+    for wick in (0.0, 0.6):
+        prm = SimParams(advance_curvature=1.0, damp_sat=0.9, moist_threshold=1.0,
+                        fibre_wick=wick)
+        st = random_state(2, params=prm)
+        st.fibre = make_fibres("rough", H, W, 3)
+        c = gl_canvas(ctx, st)
+        c._pass_prep()
+        wet = ref.wet_mask(st.w, st.wc, st.mask, prm, st.h, st.fibre)
+        jv = read_rgba(c, c.jv[0])
+        assert np.array_equal(jv[..., 3] >= 0, wet), wick
+        plain = ref.wet_mask(st.w, st.wc, st.mask, prm.replace(advance_curvature=0.0), st.h,
+                             st.fibre)
+        assert (wet != plain).sum() >= 3, wick
+
+
 def test_damp_paper_keeps_its_pigment_suspended(ctx) -> None:
     """suspend_sat: a cell without fluid water but with saturated paper keeps p."""
     prm = SimParams(suspend_sat=0.5)

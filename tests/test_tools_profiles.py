@@ -46,7 +46,9 @@ OLD = {
     # (s9: on damp paper the advancing height the same on every cell, not 1.5 - h: a front
     # crept into damp paper no longer traces the paper's height blobs in whole-cell blocks;
     # blooms' CV 0.161 -> 0.169, items 3/4)
-    "watercolor": SimParams().replace(advance_grain=0.0,
+    # (s10: on drier paper the contact line's reach feels the meniscus's curvature: a front
+    # crept into dry paper no longer dries as rectangular battlements, items 3/8)
+    "watercolor": SimParams().replace(advance_grain=0.0, advance_curvature=1.0,
                                       fibre_dispersivity=4.5, flow_outward=0.4, edge_evap=3.0,
                                       wet_blur=3.5,
                                       moist_threshold=1.0, damp_ease=2.7, damp_sat=0.65,

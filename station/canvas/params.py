@@ -65,6 +65,14 @@ class SimParams:
             same height on every damp cell. Read cell by cell, the paper's height blobs
             (several cells across) stop a front creeping into damp paper in blocks and
             notches of whole cells ("battlements").
+        advance_curvature: ``a``, the meniscus's curvature on paper no damper than
+            ``damp_sat`` [1]: a dry cell there is reached when its neighbourhood's water
+            ``sum_4 w + a sum_diagonal w`` exceeds ``(1 + 2a)`` times its advancing height
+            (a straight edge as before; a tip ahead of the front needs more water, a notch
+            behind it less: surface tension). 0 (the default): a 4-neighbour's ``w`` above
+            the advancing height. Without it, the per-cell height threshold let single
+            columns run ahead, and the two-neighbour pinning grew them into rectangular
+            tabs 2-3 cells across (a front crept into dry paper dried as battlements).
         fibre_wick: how far a paper fibre running along a face's axis lowers that
             advancing height, ``* (1 - fibre_wick * fibre)`` (``paper.make_fibres``; 1: the
             water runs freely along a whole fibre, the ink bleed of absorbent paper) [1];
@@ -173,6 +181,7 @@ class SimParams:
     flow_outward: float = 0.3
     advance_height: float = 0.7
     advance_grain: float = 1.0
+    advance_curvature: float = 0.0
     paper_relief: float = 0.0
     wet_blur: float = 2.0
     wet_hold: float = 0.0
@@ -246,6 +255,8 @@ class SimParams:
             raise CanvasInputError("humidity must lie in [0, 0.99]", "params")
         if not 0 <= self.advance_grain <= 1:
             raise CanvasInputError("advance_grain must lie in [0, 1]", "params")
+        if not 0 <= self.advance_curvature <= 4:
+            raise CanvasInputError("advance_curvature must lie in [0, 4]", "params")
         if not 0 <= self.fibre_wick <= 1:
             raise CanvasInputError("fibre_wick must be in [0, 1]", "params")
         if self.fibre_dispersivity > 100:

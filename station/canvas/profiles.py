@@ -36,6 +36,7 @@ BUILTIN = ("watercolor", "gouache", "ink")
 GROUPS: dict[str, tuple[str, ...]] = {
     "paper": ("alpha", "cap_diffusion", "eps_cap", "c_min", "c_max", "moist_threshold",
               "damp_ease", "damp_sat", "suspend_sat", "advance_height", "advance_grain",
+              "advance_curvature",
               "paper_relief",
               "paper_shade", "block_paper", "block_fade",
               "fibre_wick", "fibre_dispersivity",

@@ -100,7 +100,9 @@ C_DSAT = 34       # damp_sat
 C_DSPAN = 35      # float32(1 - damp_sat)
 C_ABASE = 36      # float32(1 + advance_grain / 2) (stencils.advance_base)
 C_AGRAIN = 37     # advance_grain
-N_CONST = 38
+C_CURV = 38       # advance_curvature
+C_CURVN = 39      # float32(1 + 2 advance_curvature)
+N_CONST = 40
 
 # the sweeps: rows in parallel; IEEE float32 maths exactly as written (no fastmath, no FMA
 # contraction), numpy's error model (division without ZeroDivision checks: every division
@@ -321,6 +323,19 @@ def _damp_factor(wcv: np.float32, hv: np.float32, cmin: np.float32, cspan: np.fl
 
 
 @_inline
+def _front_curvature(wr: np.ndarray, wn: np.ndarray, ws: np.ndarray, i: int,
+                     curv: np.float32, curvn: np.float32, thr: np.float32, damp: bool,
+                     line: bool) -> bool:
+    """The contact line's reach with the meniscus's curvature (reference
+    ``stencils.front_curvature``): on paper no damper than damp_sat the neighbourhood's
+    water ``((E + W) + S) + N + a (((SE + SW) + NE) + NW)`` above ``(1 + 2a) thr``, read
+    from the padded rows of w (row j: ``wr``, j - 1: ``wn``, j + 1: ``ws``)."""
+    s4 = ((wr[i + 1] + wr[i - 1]) + ws[i]) + wn[i]
+    sd = ((ws[i + 1] + ws[i - 1]) + wn[i + 1]) + wn[i - 1]
+    return line if damp else (s4 + curv * sd) > curvn * thr
+
+
+@_inline
 def _wet_memory_row(own: np.ndarray, area: np.ndarray, y: int, x0: int, r: int, slo: int,
                     shi: int) -> None:
     """The wet-area mask of a span of row y: ``max(wet_area, own)`` (own 1/0, area in
@@ -344,7 +359,8 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
     """Wet mask (once per step; own water, or the advancing contact line: a neighbour's
     w above ``advance_height (1.5 - h)``, on damp paper ``(1 + g/2 - g h)`` (g
     ``advance_grain``, reference ``stencils.advance_term``), lowered along the paper's
-    fibres by ``1 - fibre_wick * fibre[axis]`` for the neighbours on that axis; cells
+    fibres by ``1 - fibre_wick * fibre[axis]`` for the neighbours on that axis, with
+    ``advance_curvature`` on paper no damper than damp_sat :func:`_front_curvature`'s; cells
     outside the box count as w = 0), copies, beta_c (diffusion controller, times the fibre
     dispersion), open, and with ``outward`` the own wet area blurred along x (``mbx``, the
     first half of :func:`flow_pressure`'s blur). With ``holding`` (``wet_hold > 0``) the
@@ -360,6 +376,9 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
     one5 = np.float32(1.5)
     abase = cst[C_ABASE]
     agrain = cst[C_AGRAIN]
+    curv = cst[C_CURV]
+    curvn = cst[C_CURVN]
+    curving = curv > ZERO
     t_now = cst[C_TIME]
     fade = cst[C_FADE]
     bpaper = cst[C_BPAPER]
@@ -419,6 +438,9 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         ny = ny if ny > t else t
                         line = (nb > thr * (ONE - wick * fibre[0, y, x])) | \
                             (ny > thr * (ONE - wick * fibre[1, y, x]))
+                        if curving:
+                            line = _front_curvature(wr, wn, ws, i, curv, curvn, thr, sv > dsat,
+                                                    line)
                         # 3: reached by the contact line, not wet by its own water
                         # (_pin decides; every wet_o is 0 or 1 when prep returns)
                         wet_o[j, i] = 1 if ow else (3 if un & line else 0)
@@ -444,7 +466,11 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         nb = nb if nb > t else t
                         t = wn[i]
                         nb = nb if nb > t else t
-                        wet_o[j, i] = 1 if ow else (3 if un & advancing & (nb > thr) else 0)
+                        line = nb > thr
+                        if curving:
+                            line = _front_curvature(wr, wn, ws, i, curv, curvn, thr, sv > dsat,
+                                                    line)
+                        wet_o[j, i] = 1 if ow else (3 if un & advancing & line else 0)
                         opn_o[j, i] = 1 if un else 0
                 if holding:  # a loop of its own: the column loops above stay as they were
                     _wet_memory_row(own, area, y, x0, r, slo, shi)

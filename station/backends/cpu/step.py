@@ -78,6 +78,8 @@ def constants(prm: SimParams, dt: float, sim_time: float) -> np.ndarray:
     c[K.C_DSPAN] = F32(1.0 - prm.damp_sat)
     c[K.C_ABASE] = stencils.advance_base(prm)
     c[K.C_AGRAIN] = F32(prm.advance_grain)
+    c[K.C_CURV] = F32(prm.advance_curvature)
+    c[K.C_CURVN] = F32(1.0 + 2.0 * prm.advance_curvature)
     c[K.C_TILTX], c[K.C_TILTY] = reference.tilt_kick(prm, dt)
     return c
 

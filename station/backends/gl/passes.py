@@ -359,6 +359,7 @@ def param_constants(prm: SimParams, dt: float | None) -> dict[str, str]:
         "MOIST": prm.moist_threshold, "BLOCK_FADE": prm.block_fade,
         "BLOCK_PAPER": prm.block_paper, "ADVANCE": prm.advance_height,
         "ADV_BASE": float(stencils.advance_base(prm)), "ADV_GRAIN": prm.advance_grain,
+        "CURV": prm.advance_curvature, "CURV_N": float(F32(1.0 + 2.0 * prm.advance_curvature)),
         "WICK": prm.fibre_wick, "DISPERSE": float(F32(prm.fibre_dispersion_gain())),
         "FIBRE_FLOW_MAX": prm.fibre_flow_max, "EASE": prm.damp_ease, "DSAT": prm.damp_sat,
         "DSPAN": float(F32(1.0 - prm.damp_sat)), "CMIN": prm.c_min,
