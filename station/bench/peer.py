@@ -15,7 +15,10 @@ run in fresh child processes, interleaved (station, peer, peer, station, …: th
 alternates pair by pair so a drift in the machine's load falls on both), on
 ``--threads`` CPU threads each (numba's ``NUMBA_NUM_THREADS``; Taichi's
 ``cpu_max_num_threads``), each scenario on a fresh canvas after a warm-up (numba's
-cache, Taichi's JIT):
+cache, Taichi's JIT), after which both sides freeze what start-up made out of the
+garbage collector's sight (as the kiosk does: a full collection of the station's
+import-time objects takes 20-50 ms, a fifth of a 512x512 stroke's 50 timed steps, and
+where one falls depends only on how many objects each side made before):
 
 * ``wash``: the whole square canvas wet (the station: ``bench sim``'s wash; the peer:
   ``paint_mask`` of ones for water and pigment), then ``--steps`` timed steps;
@@ -48,7 +51,19 @@ STATION_DT = 1.0 / 30.0
 PEER_DT = 1.0 / 60.0
 CHILD_TIMEOUT_S = 900.0
 
-_STATION_CHILD = r"""
+_SETTLE = r"""
+import gc
+
+def settle():
+    # what start-up and the warm-up made lives as long as the process: frozen out of the
+    # collector's sight, as the kiosk does at start-up (KioskApp._take_over_full_collections),
+    # so a full collection of the import's objects (20-50 ms in the station's process)
+    # does not land in either side's timed steps
+    gc.collect()
+    gc.freeze()
+"""
+
+_STATION_CHILD = _SETTLE + r"""
 import json, sys, time
 import numpy as np
 from station.backends.factory import create_backend
@@ -73,6 +88,7 @@ for n in sizes:
         wash(canvas, n, n) if scenario == "wash" else stroke(canvas, n)
         for _ in range(3):
             canvas.step()
+        settle()
         canvas = create_backend("cpu", n, n, "watercolor", 1, tiling=(scenario == "stroke"))
         wash(canvas, n, n) if scenario == "wash" else stroke(canvas, n)
         t0 = time.perf_counter()
@@ -82,7 +98,7 @@ for n in sizes:
 print(json.dumps(out))
 """
 
-_PEER_CHILD = r"""
+_PEER_CHILD = _SETTLE + r"""
 import contextlib, io, json, sys, time
 import numpy as np
 import taichi as ti
@@ -109,6 +125,8 @@ for n in sizes:
         e = we.WatercolorEngine(res=n, arch="cpu")
     for scenario in ("wash", "stroke"):
         for timed in (False, True):  # the first pass compiles (Taichi's JIT)
+            if timed:
+                settle()
             e.clear()
             wet(e, n) if scenario == "wash" else stroke(e, n)
             ti.sync()

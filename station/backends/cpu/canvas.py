@@ -7,6 +7,8 @@ State handling, operations, rendering, stats and tiles are the reference backend
 
 from __future__ import annotations
 
+from typing import Any
+
 import numba
 
 from station.backends.cpu import step as cpu_step
@@ -25,6 +27,12 @@ class CpuCanvas(NumpyCanvas):
     """
 
     renderer = f"cpu (numba {numba.__version__}, {_THREADS} threads)"
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        # the step's scratch is made with the canvas, not in its first step: at 512x512
+        # its ~25 MB of zeroed fields cost that step ~7 ms, the first touch of a stroke
+        self._scratch()
 
     def _scratch(self) -> cpu_step.Scratch:
         st = self._state

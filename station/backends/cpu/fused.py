@@ -15,8 +15,10 @@ per chunk of rows instead of full scratch fields:
 
 A chunk's first ring rows belong to its neighbour chunk: they are recomputed here (the
 limiters are pure functions of the sweep's inputs).  So these sweeps take as few chunks as
-there are threads (``chunks``, :func:`ring_chunks`): prange hands each thread an equal
-share of the chunks anyway (a static schedule), and at 1920x1080 the 64 chunks of the
+there are threads (``bounds``: :func:`ring_chunks` chunks of about equal work, from
+``step.row_bounds``; every parallel sweep of a step takes the same split): prange hands
+each thread an equal share of the chunks anyway (a static schedule), and at 1920x1080
+the 64 chunks of the
 other sweeps cost ~10 % more work here (2 limiter and 3 face-rate rows of pass 6, 3
 iterate rows and a limiter row of passes 4/5, 2 saturation rows of pass 9 per chunk).
 The cpu backend's bitwise tests against the numpy reference (tests/test_cpu_backend.py)
@@ -156,7 +158,7 @@ def advect_fused(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
                  p: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int,
                  cst: np.ndarray, w3_o: np.ndarray, p_state: np.ndarray,
                  spans: np.ndarray, nsp: np.ndarray,
-                 chunks: int) -> None:  # pragma: no cover - compiled
+                 bounds: np.ndarray) -> None:  # pragma: no cover - compiled
     """Pass 6 (limiters and fluxes) in one sweep: each chunk computes the limiter rows
     j-1, j, j+1 into a ring and applies row j, exactly as advect_apply does. The face
     rates live in rings too: a row's x faces serve its limiter and its fluxes, a row of
@@ -165,9 +167,9 @@ def advect_fused(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
     q4 = cst[K.C_Q4]
     wmin = cst[K.C_WMIN]
     wmax = cst[K.C_WMAX]
-    nch = bh if bh < chunks else chunks
+    nch = bounds.shape[0] - 1
     for ch in prange(nch):
-        j0, j1 = K._chunk(ch, nch, bh)
+        j0, j1 = bounds[ch], bounds[ch + 1]
         a = np.empty((6, bw + 2), F32)
         so = np.zeros((3, bw + 2), F32)  # rings: row r lives in slot r % 3
         si = np.zeros((3, bw + 2), F32)
@@ -366,6 +368,17 @@ def _lim_row(w0: np.ndarray, p0: np.ndarray, ns: int, do_w: bool, do_p: bool, r:
 
 
 @_inline
+def _donor(f: np.float32, s_pos: np.float32, s_neg: np.float32
+           ) -> np.float32:  # pragma: no cover - compiled
+    """A face flux limited by its donor's limiter: the reference's
+    ``max(f, 0) s_pos + min(f, 0) s_neg`` as one product, bit for bit: one of the two
+    terms is ``+0 * s`` (the limiters are >= +0), and ``x + 0`` is ``x`` but for a -0
+    product, which the reference's sum turns into +0 and so does the ``+ ZERO`` here (a
+    multiply, a compare and an add a face instead of two of each and two selects)."""
+    return f * (s_pos if f > ZERO else s_neg) + ZERO
+
+
+@_inline
 def _iterate_row(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xw: np.ndarray,
                  p0: np.ndarray, xp: np.ndarray, bh: int, ns: int, kw: np.float32,
                  kp: np.float32, jac1: bool, do_w: bool, do_p: bool, r: int,
@@ -414,7 +427,8 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
                         ns: int, cst: np.ndarray, do_vjac: bool, do_height: bool, do_w: bool,
                         do_p: bool, jac1: bool, v3x_o: np.ndarray, v3y_o: np.ndarray,
                         w2_o: np.ndarray, p2_o: np.ndarray, spans: np.ndarray,
-                        nsp: np.ndarray, chunks: int) -> None:  # pragma: no cover - compiled
+                        nsp: np.ndarray, bounds: np.ndarray
+                        ) -> None:  # pragma: no cover - compiled
     """height_limit and diffuse_apply in one sweep (their maths unchanged): each chunk
     keeps the donor limiters of rows j-1, j, j+1 in a ring instead of ``sw``/``sp``,
     and the final iterates of rows j-1..j+2 in another; with ``jac1`` (one Jacobi
@@ -422,9 +436,9 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
     iterate fields are neither written nor read)."""
     kw = cst[K.C_KW]
     kp = cst[K.C_KP]
-    nch = bh if bh < chunks else chunks
+    nch = bounds.shape[0] - 1
     for ch in prange(nch):
-        j0, j1 = K._chunk(ch, nch, bh)
+        j0, j1 = bounds[ch], bounds[ch + 1]
         swr = np.zeros((3, bw + 2), F32)  # ring: row r in slot r % 3
         spr = np.zeros((3, max(ns, 1), bw + 2), F32)
         xwr = np.zeros((4, bw + 2), F32)  # final iterates: row r in slot r % 4
@@ -477,14 +491,10 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
                         fs = fys[i]
                         fn = fyn[i]
                         s0 = swr[s0_, i]
-                        fe = (fe if fe > ZERO else ZERO) * s0 \
-                            + (fe if fe < ZERO else ZERO) * swr[s0_, i + 1]
-                        fw = (fw if fw > ZERO else ZERO) * swr[s0_, i - 1] \
-                            + (fw if fw < ZERO else ZERO) * s0
-                        fs = (fs if fs > ZERO else ZERO) * s0 \
-                            + (fs if fs < ZERO else ZERO) * swr[sp_, i]
-                        fn = (fn if fn > ZERO else ZERO) * swr[sm, i] \
-                            + (fn if fn < ZERO else ZERO) * s0
+                        fe = _donor(fe, s0, swr[s0_, i + 1])
+                        fw = _donor(fw, swr[s0_, i - 1], s0)
+                        fs = _donor(fs, s0, swr[sp_, i])
+                        fn = _donor(fn, swr[sm, i], s0)
                         w2_o[j, i] = (((w0[j, i] - fe) + fw) - fs) + fn
                 else:
                     for i in range(slo, shi + 1):
@@ -497,14 +507,10 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
                             fs = pys[kk, i]
                             fn = pyn[kk, i]
                             s0 = spr[s0_, kk, i]
-                            fe = (fe if fe > ZERO else ZERO) * s0 \
-                                + (fe if fe < ZERO else ZERO) * spr[s0_, kk, i + 1]
-                            fw = (fw if fw > ZERO else ZERO) * spr[s0_, kk, i - 1] \
-                                + (fw if fw < ZERO else ZERO) * s0
-                            fs = (fs if fs > ZERO else ZERO) * s0 \
-                                + (fs if fs < ZERO else ZERO) * spr[sp_, kk, i]
-                            fn = (fn if fn > ZERO else ZERO) * spr[sm, kk, i] \
-                                + (fn if fn < ZERO else ZERO) * s0
+                            fe = _donor(fe, s0, spr[s0_, kk, i + 1])
+                            fw = _donor(fw, spr[s0_, kk, i - 1], s0)
+                            fs = _donor(fs, s0, spr[sp_, kk, i])
+                            fn = _donor(fn, spr[sm, kk, i], s0)
                             p2_o[kk, j, i] = (((p0[kk, j, i] - fe) + fw) - fs) + fn
                 else:
                     for kk in range(ns):
@@ -658,7 +664,7 @@ def evap_cap_fused(wet: np.ndarray, w3: np.ndarray, opn: np.ndarray,
                    vy: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int,
                    cst: np.ndarray, do_evap: bool, do_surface: bool, do_absorb: bool,
                    do_capdiff: bool, do_dry: bool, spans: np.ndarray,
-                   nsp: np.ndarray, chunks: int, area: np.ndarray, fade: np.float32,
+                   nsp: np.ndarray, bounds: np.ndarray, area: np.ndarray, fade: np.float32,
                    holding: bool) -> None:  # pragma: no cover - compiled
     """evap_surface_absorb and capillary_dry in one sweep (their maths unchanged): pass
     7-9a write the state in place, so each chunk's two boundary ``sat`` rows are computed
@@ -666,10 +672,10 @@ def evap_cap_fused(wet: np.ndarray, w3: np.ndarray, opn: np.ndarray,
     the rows j-1, j, j+1 of ``sat`` in a ring instead of a scratch field.  With
     ``do_dry and holding`` (``wet_hold > 0``) each row ends with the wet-area memory's
     fade (``fade = dt / wet_hold``), so it needs no sweep of its own."""
-    nch = bh if bh < chunks else chunks
+    nch = bounds.shape[0] - 1
     edge_sat = np.zeros((nch, 2, bw + 2), F32)
     for ch in prange(nch):  # the boundary rows, from the state as the step found it
-        j0, j1 = K._chunk(ch, nch, bh)
+        j0, j1 = bounds[ch], bounds[ch + 1]
         if j0 - 1 >= 1:
             _sat_row(w3, h, opn, wc, y0, x0, j0 - 1, cst, do_evap, do_absorb, spans, nsp,
                      edge_sat[ch, 0])
@@ -677,7 +683,7 @@ def evap_cap_fused(wet: np.ndarray, w3: np.ndarray, opn: np.ndarray,
             _sat_row(w3, h, opn, wc, y0, x0, j1, cst, do_evap, do_absorb, spans, nsp,
                      edge_sat[ch, 1])
     for ch in prange(nch):
-        j0, j1 = K._chunk(ch, nch, bh)
+        j0, j1 = bounds[ch], bounds[ch + 1]
         ring = np.zeros((3, bw + 2), F32)
         wrow = np.empty(bw + 2, F32)
         frow = np.empty(bw + 2, F32)

@@ -355,7 +355,7 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
          cst: np.ndarray, outward: bool, spans: np.ndarray, nsp: np.ndarray,
          wet_o: np.ndarray, w0_o: np.ndarray, p0_o: np.ndarray, bc_o: np.ndarray,
          opn_o: np.ndarray,
-         mbx_o: np.ndarray, area: np.ndarray, holding: bool) -> None:
+         mbx_o: np.ndarray, area: np.ndarray, holding: bool, bounds: np.ndarray) -> None:
     """Wet mask (once per step; own water, or the advancing contact line: a neighbour's
     w above ``advance_height (1.5 - h)``, on damp paper ``(1 + g/2 - g h)`` (g
     ``advance_grain``, reference ``stencils.advance_term``), lowered along the paper's
@@ -393,18 +393,19 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
     advancing = adv > ZERO
     nt = taps.shape[0]
     r = (nt - 1) // 2
-    for j in prange(1, bh + 1):
-        y = y0 + j - 1
-        for si in range(nsp[j]):
-            slo, shi = _span(spans, j, si)
-            for i in range(slo, shi + 1):
-                w0_o[j, i] = w[y, np.uint64(x0 + i - 1)]
-            for k in range(ns):
-                for i in range(slo, shi + 1):
-                    p0_o[k, j, i] = p[k, y, np.uint64(x0 + i - 1)]
-    nch = min(bh, N_CHUNKS)
+    nch = bounds.shape[0] - 1
     for ch in prange(nch):
-        j0, j1 = _chunk(ch, nch, bh)
+        for j in range(bounds[ch], bounds[ch + 1]):
+            y = y0 + j - 1
+            for si in range(nsp[j]):
+                slo, shi = _span(spans, j, si)
+                for i in range(slo, shi + 1):
+                    w0_o[j, i] = w[y, np.uint64(x0 + i - 1)]
+                for k in range(ns):
+                    for i in range(slo, shi + 1):
+                        p0_o[k, j, i] = p[k, y, np.uint64(x0 + i - 1)]
+    for ch in prange(nch):
+        j0, j1 = bounds[ch], bounds[ch + 1]
         # own wet area of a row with r zero columns each side (a tap outside the box adds
         # +0 there, which leaves the sum exactly as the reference's skipped term)
         own = np.empty(bw + 2 + 2 * r, F32)
@@ -514,50 +515,53 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                     for i in range(slo, shi + 1):
                         mbx_o[j, i] = acc[i]
     if advancing:
-        _pin(wet_o, wc, h, y0, x0, bh, spans, nsp, cmin, cspan, dsat)
+        _pin(wet_o, wc, h, y0, x0, bounds, spans, nsp, cmin, cspan, dsat)
 
 
 @_inline
-def _pin(wet_o: np.ndarray, wc: np.ndarray, h: np.ndarray, y0: int, x0: int, bh: int,
-         spans: np.ndarray, nsp: np.ndarray, cmin: np.float32, cspan: np.float32,
-         dsat: np.float32) -> None:
+def _pin(wet_o: np.ndarray, wc: np.ndarray, h: np.ndarray, y0: int, x0: int,
+         bounds: np.ndarray, spans: np.ndarray, nsp: np.ndarray, cmin: np.float32,
+         cspan: np.float32, dsat: np.float32) -> None:
     """The contact line pinned on dry paper (stencils.pinned). ``wet_o`` comes in as 1
     (wet by its own water), 3 (reached by the contact line) or 0: a 3 whose paper is no
     damper than ``damp_sat`` with under two non-zero 4-neighbours becomes 2 (its
     neighbours' counts in the same sweep still read it as wet, whichever thread gets there
     first); then 3 becomes 1 and 2 becomes 0. One byte a cell read twice, the rest only at
     the front."""
-    for j in prange(1, bh + 1):
-        y = y0 + j - 1
-        for si in range(nsp[j]):
-            slo, shi = _span(spans, j, si)
-            for i in range(slo, shi + 1):
-                if wet_o[j, i] != 3:
-                    continue
-                n = 0
-                if wet_o[j, i - 1] != 0:
-                    n += 1
-                if wet_o[j, i + 1] != 0:
-                    n += 1
-                if wet_o[j - 1, i] != 0:
-                    n += 1
-                if wet_o[j + 1, i] != 0:
-                    n += 1
-                if n >= 2:
-                    continue
-                x = np.uint64(x0 + i - 1)
-                sat = wc[y, x] / (cmin + h[y, x] * cspan)
-                sat = ONE if sat > ONE else sat
-                if sat > dsat:
-                    continue  # damp paper: the front runs on in the capillary film
-                wet_o[j, i] = 2
-    for j in prange(1, bh + 1):
-        for si in range(nsp[j]):
-            slo, shi = _span(spans, j, si)
-            for i in range(slo, shi + 1):
-                v = wet_o[j, i]
-                if v > 1:
-                    wet_o[j, i] = 1 if v == 3 else 0
+    nch = bounds.shape[0] - 1
+    for ch in prange(nch):
+        for j in range(bounds[ch], bounds[ch + 1]):
+            y = y0 + j - 1
+            for si in range(nsp[j]):
+                slo, shi = _span(spans, j, si)
+                for i in range(slo, shi + 1):
+                    if wet_o[j, i] != 3:
+                        continue
+                    n = 0
+                    if wet_o[j, i - 1] != 0:
+                        n += 1
+                    if wet_o[j, i + 1] != 0:
+                        n += 1
+                    if wet_o[j - 1, i] != 0:
+                        n += 1
+                    if wet_o[j + 1, i] != 0:
+                        n += 1
+                    if n >= 2:
+                        continue
+                    x = np.uint64(x0 + i - 1)
+                    sat = wc[y, x] / (cmin + h[y, x] * cspan)
+                    sat = ONE if sat > ONE else sat
+                    if sat > dsat:
+                        continue  # damp paper: the front runs on in the capillary film
+                    wet_o[j, i] = 2
+    for ch in prange(nch):
+        for j in range(bounds[ch], bounds[ch + 1]):
+            for si in range(nsp[j]):
+                slo, shi = _span(spans, j, si)
+                for i in range(slo, shi + 1):
+                    v = wet_o[j, i]
+                    if v > 1:
+                        wet_o[j, i] = 1 if v == 3 else 0
 
 
 # ------------------------------------------------------------------ flow outward
@@ -734,8 +738,8 @@ def advect_jacobi1(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, bc: np.ndarr
                    taps: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int,
                    cst: np.ndarray, do_w: bool, do_p: bool, do_pr: bool, outward: bool,
                    spans: np.ndarray, nsp: np.ndarray, v1x_o: np.ndarray, v1y_o: np.ndarray,
-                   xw_o: np.ndarray,
-                   xp_o: np.ndarray, pr_o: np.ndarray) -> None:
+                   xw_o: np.ndarray, xp_o: np.ndarray, pr_o: np.ndarray,
+                   bounds: np.ndarray) -> None:
     """Pass 1 (bilinear back-trace of the masked velocity: the state's ``vx``/``vy`` where
     the wet mask is set, 0 elsewhere; box-relative clamps), with
     ``do_pr`` pass 3's levelled height (:func:`_pressure_row`), and the first Jacobi
@@ -747,9 +751,9 @@ def advect_jacobi1(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, bc: np.ndarr
     relief = cst[C_RELIEF]
     dx = 1 if bw > 1 else 0
     dy = 1 if bh > 1 else 0
-    nch = min(bh, N_CHUNKS)
+    nch = bounds.shape[0] - 1
     for ch in prange(nch):
-        j0, j1 = _chunk(ch, nch, bh)
+        j0, j1 = bounds[ch], bounds[ch + 1]
         acc = np.empty(bw + 2, F32)
         for j in range(j0, j1):
             for si in range(nsp[j]):
