@@ -15,6 +15,7 @@ from station.pictures.effects_core import (
     _played,
     darkness_map,
 )
+from station.pictures.measure import feather
 from station.pictures.scenarios import run_until_dry
 from station.sim.player import SessionPlayer
 from station.sim.script import Script
@@ -247,15 +248,40 @@ def drop_into_wet_wash(wet: bool) -> NumpyCanvas:
     return _played(s, seed=23)
 
 
+def drop_front(dark: np.ndarray, share: float = 0.25,
+               centre: tuple[float, float] = (N / 2, N / 2)) -> dict[str, float]:
+    """The front of a drop of colour in a dried wash: ``dark`` its darkness (or pigment)
+    per cell. The drop is the connected region at ``share`` of the darkest cell or more
+    around ``centre`` (holes filled). Returns its ``feather`` (the iso-line's length over
+    its convex hull's perimeter, :func:`station.pictures.measure.feather`; 1 for a round
+    blot) and the outline's mean radius [cells] and radius CV (rays from ``centre``)."""
+    top = float(dark.max())
+    if top <= 0:
+        return {"feather": 0.0, "radius": 0.0, "cv": 0.0}
+    level = share * top
+    lab_, _ = ndimage.label(dark >= level)
+    cy, cx = centre
+    idx = lab_[int(cy), int(cx)]
+    if not idx:
+        return {"feather": 0.0, "radius": 0.0, "cv": 0.0}
+    drop = ndimage.binary_fill_holes(lab_ == idx)
+    # the drop's own iso-line only: other specks at the level and the holes left out
+    near = ndimage.binary_dilation(drop, iterations=2)
+    f = np.where(drop, np.maximum(dark, level), np.where(near, dark, 0.0))
+    radius, cv = _radius_cv(drop, cy, cx)
+    return {"feather": feather(f, level), "radius": radius, "cv": cv}
+
+
 def blooms() -> Effect:
     """Item 4, through the brush: (a) clear water touched (size 12, 0.3 s) into a brushed
     Ultramarine wash once its standing water is gone but the paper is still damp: the
     bloom's front over the wash's darkness, its radius CV and lobes; (b) the same touch
     with Quinacridone Rose: the Ultramarine it pushed out (front and CV measured on the
     wash pigment's amount); (c) a dab of Ultramarine into a fully wet clear wash: its
-    spread over the brush radius and its peak darkness over the same dab on dry paper;
-    (d) numbers only: the kiosk visitor's clean-water drop into its damp sky
-    (:func:`kiosk_drop`). (a) and (d) also report how far the front wanders
+    spread over the brush radius, its peak darkness over the same dab on dry paper, and its
+    front (:func:`drop_front`): feathered (iso-line over hull perimeter) and irregular
+    (radius CV), not a soft round blot; (d) numbers only: the kiosk visitor's clean-water
+    drop into its damp sky (:func:`kiosk_drop`). (a) and (d) also report how far the front wanders
     (:func:`front_branching`) and its fingers."""
     c1 = drop_into_damp_wash({})
     clear = bloom_front(darkness_map(c1))
@@ -268,6 +294,7 @@ def blooms() -> Effect:
     r_brush = BrushModel().radius(12, 0.7)
     spread_r = float(np.sqrt((dw > 0.25 * dw.max()).sum() / np.pi)) if dw.max() > 0 else 0.0
     peak_share = float(np.percentile(dw, 99.5) / max(np.percentile(dd, 99.5), 1e-6))
+    fr = drop_front(dw)
     _, kiosk = kiosk_drop()
     front, cv = clear["front_ratio"], clear["cv"]
     return Effect("blooms (brush)",
@@ -284,12 +311,15 @@ def blooms() -> Effect:
                    "colour_bloom_radius_cells": colour["radius"],
                    "colour_bloom_radius_cv": colour["cv"],
                    "drop_spread_over_brush_radius": spread_r / r_brush,
-                   "drop_peak_over_dry": peak_share},
+                   "drop_peak_over_dry": peak_share, "drop_feather": fr["feather"],
+                   "drop_radius_cv": fr["cv"]},
                   {"bloom front >= 1.3x": front >= 1.3, "irregular (CV >= 0.15)": cv >= 0.15,
                    "branching (>= 3 lobes)": clear["lobes"] >= 3,
                    "colour bloom front >= 1.3x": colour["front_ratio"] >= 1.3,
                    "drop spreads >= 2.5 r": spread_r >= 2.5 * r_brush,
-                   "drop stays visible (>= 0.5x dry)": peak_share >= 0.5},
+                   "drop stays visible (>= 0.5x dry)": peak_share >= 0.5,
+                   "drop's front feathered (>= 1.3)": fr["feather"] >= 1.3,
+                   "drop's front irregular (CV >= 0.15)": fr["cv"] >= 0.15},
                   np.concatenate([c1.render(), c2.render(), wet.render(), dry.render()],
                                  axis=1),
                   (c1, c2, wet, dry))

@@ -193,12 +193,18 @@ def spread(q: np.ndarray, footprint: np.ndarray, level_share: float = 0.2) -> Sp
     area_fp = float((footprint > 0).sum())
     level = level_share * float(q.sum()) / max(area_fp, 1.0)
     inside = float((q >= level).sum())
-    segs = _contour_segments(q, level)
+    return Spread(inside / max(area_fp, 1.0), feather(q, level))
+
+
+def feather(f: np.ndarray, level: float) -> float:
+    """Length of the iso-line ``f == level`` over its convex hull's perimeter [1]: 1 for a
+    convex blot, larger for a feathered, irregular boundary (0 when there is no line)."""
+    segs = _contour_segments(f, level)
     if len(segs) == 0:
-        return Spread(inside / max(area_fp, 1.0), 0.0)
+        return 0.0
     length = float(np.linalg.norm(segs[:, 0] - segs[:, 1], axis=1).sum())
     hull = _hull_perimeter(segs.reshape(-1, 2))
-    return Spread(inside / max(area_fp, 1.0), length / hull if hull > 0 else 0.0)
+    return length / hull if hull > 0 else 0.0
 
 
 def bare_share(painted: np.ndarray, reach: int = 4) -> float:
