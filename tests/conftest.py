@@ -7,6 +7,8 @@ from pathlib import Path
 
 import pytest
 
+from station.pictures import effects_core
+
 
 @pytest.fixture(scope="session")
 def _station_cache_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
@@ -43,3 +45,11 @@ def _no_pty_reason() -> str | None:
 
 NO_PTY = _no_pty_reason()
 needs_pty = pytest.mark.skipif(NO_PTY is not None, reason=NO_PTY or "")
+
+
+@pytest.fixture(autouse=True)
+def _effects_on_cpu() -> None:
+    """The brush tiles paint on the cpu backend: bit for bit the numpy reference
+    (tests/test_cpu_backend.py holds them together) in a fraction of its time, which keeps
+    ``make test`` inside its budget. ``station effects`` itself paints on numpy."""
+    effects_core.use_backend("cpu")

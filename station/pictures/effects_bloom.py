@@ -14,6 +14,7 @@ from station.pictures.effects_core import (
     Effect,
     _played,
     darkness_map,
+    new_canvas,
 )
 from station.pictures.measure import feather
 from station.pictures.scenarios import run_until_dry
@@ -24,7 +25,7 @@ from station.sim.script import Script
 def _wash_then(first: Script, seed: int, until_damp: bool
                ) -> tuple[NumpyCanvas, SessionPlayer]:
     h = first.header
-    c = NumpyCanvas(h.width, h.height, profile=h.profile, seed=seed)
+    c = new_canvas(h.width, h.height, profile=h.profile, seed=seed)
     p = SessionPlayer(c, h.width, h.height, h.profile)
     p.play(first.records)
     st = c.live_state

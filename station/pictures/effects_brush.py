@@ -23,6 +23,7 @@ from station.pictures.effects_core import (
     hue_deg,
     lab_hue_deg,
     luma,
+    new_canvas,
 )
 from station.pictures.measure import edge_band
 from station.render.km import linear_to_srgb
@@ -370,7 +371,7 @@ def _step_spectrum(seed: int, water: float, speed: float, steps: int = 64
     s = Script(STEP_W, STEP_H, seed=seed, rate_hz=PEN_HZ)
     s.brush(size=40, water=water, pigment={"Burnt Umber": 0.6})
     s.line((0.02, 0.5), (0.98, 0.5), 0.96 * STEP_W / speed, pressure=0.7)
-    c = NumpyCanvas(STEP_W, STEP_H, seed=seed)
+    c = new_canvas(STEP_W, STEP_H, seed=seed)
     p = SessionPlayer(c, STEP_W, STEP_H)
     p.play(s.records)
     while p.counters.steps < steps:

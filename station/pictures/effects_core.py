@@ -19,6 +19,28 @@ from station.sim.script import Script
 
 F32 = np.float32
 
+_CANVAS: type[NumpyCanvas] = NumpyCanvas
+"""What the brush tiles paint on: the numpy reference, or the cpu backend, which paints
+the same bits (tests/test_cpu_backend.py) in a fraction of the time."""
+
+
+def use_backend(name: str) -> None:
+    """Paint the brush tiles on ``"numpy"`` (the reference, the default) or ``"cpu"``."""
+    global _CANVAS
+    if name == "cpu":
+        # in the function: numba (about half a second to import) only when asked
+        from station.backends.cpu import CpuCanvas
+        _CANVAS = CpuCanvas
+    elif name == "numpy":
+        _CANVAS = NumpyCanvas
+    else:
+        raise ValueError(f"effects backend {name!r}: numpy or cpu")
+
+
+def new_canvas(width: int, height: int, **kwargs: Any) -> NumpyCanvas:
+    """A canvas of the backend :func:`use_backend` chose (``NumpyCanvas``'s arguments)."""
+    return _CANVAS(width, height, **kwargs)
+
 
 @dataclass
 class Effect:
@@ -125,8 +147,8 @@ def _played(script: Script, paper: str | None = None, seed: int = 7) -> NumpyCan
     then fix the layer (the paper is dry: ``dry`` only deposits what is left)."""
     h = script.header
     paper = h.extra.get("paper", paper)
-    c = (NumpyCanvas(h.width, h.height, profile=h.profile, seed=seed) if paper is None
-         else NumpyCanvas(h.width, h.height, profile=h.profile, seed=seed, paper=paper))
+    c = (new_canvas(h.width, h.height, profile=h.profile, seed=seed) if paper is None
+         else new_canvas(h.width, h.height, profile=h.profile, seed=seed, paper=paper))
     SessionPlayer(c, h.width, h.height, h.profile).play(script.records)
     run_until_dry(c, 6000)
     c.dry()
