@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from station.canvas.palette import default_palette
+from station.canvas.state import CanvasState
 from station.events import PenSample, Tool
 from station.kiosk.compose import Compositor, canvas_box, union
 from station.kiosk.niced import NicedRunner
@@ -218,6 +219,15 @@ def test_a_stroke_starting_during_the_kernel_does_not_wait_and_its_checkpoint_is
         s.shutdown()
 
 
+def _assert_replays(log: Path, live: CanvasState) -> None:
+    """The session's log, painted again, gives the live canvas bit for bit."""
+    replay = _replay(log).state()
+    assert replay.step_count == live.step_count
+    for name, v in vars(live).items():
+        if isinstance(v, np.ndarray):
+            assert np.array_equal(getattr(replay, name), v), name
+
+
 def test_samples_during_the_checkpoint_copy_paint_in_that_step_and_replay_exactly(
         tmp_path: Path) -> None:
     s = _session(tmp_path)
@@ -270,11 +280,7 @@ def test_samples_during_the_checkpoint_copy_paint_in_that_step_and_replay_exactl
     finally:
         go.set()
         s.shutdown()
-    replay = _replay(tmp_path / "s.jsonl").state()
-    assert replay.step_count == live.step_count
-    for name, v in vars(live).items():
-        if isinstance(v, np.ndarray):
-            assert np.array_equal(getattr(replay, name), v), name
+    _assert_replays(tmp_path / "s.jsonl", live)
     assert float(live.p.sum() + live.q.sum()) > 0.0
 
 
@@ -326,11 +332,7 @@ def test_a_stroke_starting_during_the_copy_is_copied_with_the_lock_released_too(
     finally:
         go.set()
         s.shutdown()
-    replay = _replay(tmp_path / "s.jsonl").state()
-    assert replay.step_count == live.step_count
-    for name, v in vars(live).items():
-        if isinstance(v, np.ndarray):
-            assert np.array_equal(getattr(replay, name), v), name
+    _assert_replays(tmp_path / "s.jsonl", live)
     assert float(live.p.sum() + live.q.sum()) > 0.0  # stroke 1 is left
 
 
