@@ -179,3 +179,57 @@ def test_the_gl_copy_probes_measure_both_ways() -> None:
         pytest.skip("no GL context here")
     probes = bench_sim.gl_copy_probes(nbytes=8 << 20, repeats=2)
     assert set(probes) == {"buffer", "image", "image_cpu"} and min(probes.values()) > 0.01
+
+
+_SLOW_CHILD = """
+import json, sys, time
+names = json.loads(sys.argv[1])["candidates"]
+print(json.dumps({"start": names[0]}), flush=True)
+print(json.dumps({"name": names[0], "steps_per_s": 12.5, "error": ""}), flush=True)
+print(json.dumps({"start": names[1]}), flush=True)
+time.sleep(120)  # the cpu backend compiling on a busy machine
+"""
+
+
+def test_a_probe_out_of_time_keeps_what_it_measured_and_measures_the_rest_next_time(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A first probe that runs out of time inside the cpu backend's compile: numpy's
+    figure counts, cpu is pending and the fixed rule keeps cpu for now; the cache says
+    so, and the next use measures cpu only (gl10's finding: before, the whole probe was
+    lost and the next use waited the whole deadline again)."""
+    path = tmp_path / "c.json"
+    monkeypatch.setattr(choice, "_CHILD", _SLOW_CHILD)
+    monkeypatch.setattr(choice, "CHILD_TIMEOUT_S", 6.0)  # the path under test, not a timing
+    c = choice.resolve(["numpy", "cpu", "gl"], "llvmpipe", "m1", None, "cpu", path)
+    assert c.backend == "cpu" and c.steps_per_s == {"numpy": 12.5, "cpu": None, "gl": None}
+    assert set(c.pending) == {"cpu", "gl"} and "still running after 6 s" in c.pending["cpu"]
+    assert "fixed rule" in c.why and "numpy 12.5" in c.why and not c.errors
+    kept = choice.load(path)
+    assert kept is not None and kept.pending == c.pending
+    assert not choice.still_valid(kept, "llvmpipe", "m1", ["numpy", "cpu", "gl"])
+    # the next use measures only what is pending, and the merged figures decide
+    make = _Maker()
+    again = choice.resolve(["numpy", "cpu", "gl"], "llvmpipe", "m1", make, "cpu", path)
+    assert make.made == ["cpu", "gl"] and not again.pending
+    assert again.steps_per_s["numpy"] == 12.5 and again.backend == "cpu"
+    assert "measured: cpu" in again.why
+    third = choice.resolve(["numpy", "cpu", "gl"], "llvmpipe", "m1", _Maker(("numpy", "cpu",
+                                                                            "gl")), "cpu", path)
+    assert third.cached and third.steps_per_s == again.steps_per_s
+
+
+def test_a_child_that_dies_measuring_one_backend_fails_it_and_keeps_the_others() -> None:
+    out = "\n".join(json.dumps(m) for m in (
+        {"start": "numpy"}, {"name": "numpy", "steps_per_s": 4.0, "error": ""},
+        {"start": "gl"}))
+    figures, errors, pending = choice.read_child(["numpy", "gl", "cpu"], out + "\nnoise\n[1]",
+                                                 died="Segmentation fault")
+    assert figures == {"numpy": 4.0, "gl": None} and "Segmentation fault" in errors["gl"]
+    assert list(pending) == ["cpu"]
+    c = choice.decide(figures, errors, "cpu", "GPU", "m1", pending)
+    assert c.backend == "cpu" and "fixed rule" in c.why  # cpu pending: the rule's pick stands
+    c = choice.decide(figures, errors, "gl", "GPU", "m1", pending)
+    assert c.backend == "numpy" and "not measured yet: cpu" in c.why
+    # a figure that is not a positive finite number is not a measurement
+    bad = json.dumps({"name": "numpy", "steps_per_s": float("nan"), "error": ""})
+    assert choice.read_child(["numpy"], bad, died="x")[2] == {"numpy": "not reached: x"}

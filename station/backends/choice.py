@@ -18,6 +18,15 @@ shape is measured over (and rewritten atomically); one that cannot be written is
 logged and the measurement used for this process.  If no backend can be measured
 the old fixed rule decides (:func:`fixed_rule`).  ``station doctor`` shows the
 choice and its figures.
+
+The child reports each backend as it finishes, so a probe that runs out of time (a
+first run on a busy machine compiles the cpu backend inside it: minutes) keeps what it
+measured.  A backend the probe did not reach, or was still measuring when its time ran
+out, is *pending*: this process uses the measured backends, or the fixed rule where
+the rule's pick is pending (a cpu backend still compiling is no evidence against it),
+and the next use measures only the pending backends (numba's cache keeps what the
+killed child compiled, so each attempt gets further).  A backend whose child died while
+measuring it failed for good (a crashing driver is not probed at every start).
 """
 
 from __future__ import annotations
@@ -99,12 +108,16 @@ class Choice:
     measured_at: float = 0.0
     probe: str = ""
     cached: bool = False
+    pending: dict[str, str] = field(default_factory=dict)
+    """Backends not measured yet (the probe ran out of time before or while measuring
+    them), each with why; the next use measures them."""
 
     def as_dict(self) -> dict[str, object]:
         return {"schema": SCHEMA, "backend": self.backend, "why": self.why,
                 "steps_per_s": self.steps_per_s, "errors": self.errors,
                 "renderer": self.renderer, "version": self.version, "machine": self.machine,
-                "measured_at": self.measured_at, "probe": self.probe}
+                "measured_at": self.measured_at, "probe": self.probe,
+                "pending": self.pending}
 
     @classmethod
     def from_dict(cls, data: object) -> Choice:
@@ -123,13 +136,17 @@ class Choice:
             raise ValueError("the chosen backend was not measured")
         renderer = data.get("renderer")
         errors = data.get("errors", {})
+        pending = data.get("pending", {})
+        if not isinstance(pending, dict) or not set(pending) <= set(figures):
+            raise ValueError("pending is not a map of measured names")
         return cls(backend=backend, why=str(data.get("why", "")), steps_per_s=figures,
                    errors={str(k): str(v) for k, v in errors.items()}
                    if isinstance(errors, dict) else {},
                    renderer=None if renderer is None else str(renderer),
                    version=str(data.get("version", "")), machine=str(data.get("machine", "")),
                    measured_at=float(data.get("measured_at", 0.0)),
-                   probe=str(data.get("probe", "")), cached=True)
+                   probe=str(data.get("probe", "")), cached=True,
+                   pending={str(k): str(v) for k, v in pending.items()})
 
 
 def _wet(canvas: Any, width: int, height: int) -> None:
@@ -171,31 +188,56 @@ def probe_backend(name: str, make: Callable[..., Any], size: tuple[int, int] = P
             close()
 
 
-def measure(candidates: list[str], renderer: str | None, machine: str,
-            make: Callable[..., Any], fallback: str) -> Choice:
-    """Probe ``candidates``; the fastest is the choice (``fallback`` if none ran)."""
-    figures: dict[str, float | None] = {}
-    errors: dict[str, str] = {}
-    for name in candidates:
-        try:
-            figures[name] = round(probe_backend(name, make), 3)
-        except (StationError, ImportError, RuntimeError, ValueError, OSError) as exc:
-            figures[name] = None
-            errors[name] = " ".join(str(exc).split())[:300]
-            log.warning("backend probe: %s failed: %s", name, errors[name])
+def measure_one(name: str, make: Callable[..., Any]) -> tuple[float | None, str]:
+    """Backend ``name``'s steps per second, or ``None`` and why it could not run."""
+    try:
+        return round(probe_backend(name, make), 3), ""
+    except (StationError, ImportError, RuntimeError, ValueError, OSError) as exc:
+        why = " ".join(str(exc).split())[:300]
+        log.warning("backend probe: %s failed: %s", name, why)
+        return None, why
+
+
+def decide(figures: dict[str, float | None], errors: dict[str, str], fallback: str,
+           renderer: str | None, machine: str, pending: dict[str, str] | None = None
+           ) -> Choice:
+    """The choice from what was measured: the fastest backend; the fixed rule's
+    ``fallback`` when nothing ran, or when ``fallback`` itself is still ``pending``."""
+    pending = dict(pending or {})
     ran = {k: v for k, v in figures.items() if v is not None}
     w, h = PROBE_SIZE
     probe = f"{w}x{h} wet canvas, {PROBE_SECONDS:g} s per backend"
-    if ran:
+    later = (f"; not measured yet: {', '.join(sorted(pending))} (measured at the next use)"
+             if pending else "")
+    if fallback in pending:
+        best = fallback
+        seen = ", ".join(f"{k} {v:g}" for k, v in sorted(ran.items()))
+        why = (f"{fallback} not measured yet ({pending[fallback]}): the fixed rule picks "
+               f"{fallback}" + (f" (measured: {seen})" if seen else "") + later)
+    elif ran:
         best = max(ran, key=lambda k: ran[k])
         others = ", ".join(f"{k} {v:g}" for k, v in sorted(ran.items()) if k != best)
         why = (f"measured: {best} {ran[best]:g} steps/s on a {w}x{h} wet canvas"
-               + (f" (beside {others})" if others else ""))
+               + (f" (beside {others})" if others else "") + later)
     else:
         best = fallback
-        why = f"no backend could be measured; the fixed rule picks {fallback}"
-    return Choice(best, why, figures, errors, renderer, station.__version__, machine,
-                  time.time(), probe)
+        why = f"no backend could be measured; the fixed rule picks {fallback}" + later
+    figures = {**figures, **{k: None for k in pending}}
+    return Choice(best, why, figures, dict(errors), renderer, station.__version__, machine,
+                  time.time(), probe, pending=pending)
+
+
+def measure(candidates: list[str], renderer: str | None, machine: str,
+            make: Callable[..., Any], fallback: str) -> Choice:
+    """Probe ``candidates`` in this process; the fastest is the choice (``fallback`` if
+    none ran)."""
+    figures: dict[str, float | None] = {}
+    errors: dict[str, str] = {}
+    for name in candidates:
+        figures[name], why = measure_one(name, make)
+        if why:
+            errors[name] = why
+    return decide(figures, errors, fallback, renderer, machine)
 
 
 def load(path: Path | None = None) -> Choice | None:
@@ -237,9 +279,16 @@ def save(choice: Choice, path: Path | None = None) -> bool:
 def still_valid(choice: Choice, renderer: str | None, machine: str,
                 candidates: list[str]) -> bool:
     """Whether a cached choice was measured by this version on this machine and GL."""
+    return (same_setting(choice, renderer, machine, candidates) and not choice.pending
+            and choice.backend in candidates)
+
+
+def same_setting(choice: Choice, renderer: str | None, machine: str,
+                 candidates: list[str]) -> bool:
+    """Whether ``choice`` was measured by this version on this machine and GL, for the
+    same backends (complete or not)."""
     return (choice.version == station.__version__ and choice.machine == machine
-            and choice.renderer == renderer and choice.backend in candidates
-            and set(choice.steps_per_s) == set(candidates))
+            and choice.renderer == renderer and set(choice.steps_per_s) == set(candidates))
 
 
 def resolve(candidates: list[str], renderer: str | None, machine: str,
@@ -250,6 +299,19 @@ def resolve(candidates: list[str], renderer: str | None, machine: str,
     cached = load(path)
     if cached is not None and still_valid(cached, renderer, machine, candidates):
         return cached
+    if cached is not None and cached.pending and same_setting(cached, renderer, machine,
+                                                              candidates):
+        # an earlier probe ran out of time: measure only what it did not reach
+        names = [n for n in candidates if n in cached.pending]
+        log.info("backend choice: measuring %s (not reached last time)", ", ".join(names))
+        fresh = (measure_in_child(names, renderer, machine, fallback) if make is None
+                 else measure(names, renderer, machine, make, fallback))
+        errors = {k: v for k, v in cached.errors.items() if k not in names}
+        choice = decide({**cached.steps_per_s, **fresh.steps_per_s},
+                        {**errors, **fresh.errors}, fallback, renderer, machine,
+                        fresh.pending)
+        save(choice, path)
+        return choice
     if cached is not None:
         log.info("backend choice cache is stale (version, machine or GL renderer "
                  "changed): measuring again")
@@ -263,39 +325,92 @@ def resolve(candidates: list[str], renderer: str | None, machine: str,
 
 CHILD_TIMEOUT_S = 300.0
 """The probe in a child: a first run may compile the cpu backend (minutes on a loaded
-2-core machine); past this the fixed rule decides."""
+2-core machine); past this what was measured decides and the rest is pending."""
 
+# one JSON line as each backend starts and as it ends, flushed: a child killed at its
+# deadline (or dead) still tells what it measured and what it was doing
 _CHILD = """
 import json, sys
 from station.backends import choice
 from station.backends.factory import create_backend
-a = json.loads(sys.argv[1])
-c = choice.measure(a["candidates"], a["renderer"], a["machine"], create_backend, a["fallback"])
-print(json.dumps(c.as_dict()))
+for name in json.loads(sys.argv[1])["candidates"]:
+    print(json.dumps({"start": name}), flush=True)
+    v, why = choice.measure_one(name, create_backend)
+    print(json.dumps({"name": name, "steps_per_s": v, "error": why}), flush=True)
 """
+
+
+def _text(out: str | bytes | None) -> str:
+    if isinstance(out, bytes):
+        return out.decode("utf-8", errors="replace")
+    return out or ""
+
+
+def read_child(candidates: list[str], stdout: str, *, died: str = "",
+               timed_out: str = "") -> tuple[dict[str, float | None], dict[str, str],
+                                             dict[str, str]]:
+    """Figures, errors and pending backends from a probe child's output (JSON lines).
+
+    A backend the child started but did not finish failed when the child ``died`` (it
+    died measuring it), is pending when it ``timed_out``; backends it never reached are
+    pending."""
+    figures: dict[str, float | None] = {}
+    errors: dict[str, str] = {}
+    started = ""
+    for line in stdout.splitlines():
+        try:
+            msg = json.loads(line)
+        except ValueError:
+            continue  # a library's chatter on stdout
+        if not isinstance(msg, dict):
+            continue
+        if msg.get("start") in candidates:
+            started = str(msg["start"])
+        name, v = msg.get("name"), msg.get("steps_per_s")
+        if name in candidates and (v is None or (isinstance(v, (int, float))
+                                                 and math.isfinite(v) and v > 0)):
+            figures[str(name)] = None if v is None else float(v)
+            if msg.get("error"):
+                errors[str(name)] = str(msg["error"])[:300]
+            started = ""
+    pending: dict[str, str] = {}
+    for name in candidates:
+        if name in figures:
+            continue
+        if name == started and died:
+            figures[name] = None
+            errors[name] = f"the probe died measuring it: {died}"[:300]
+        elif name == started:
+            pending[name] = f"still running after {timed_out}" if timed_out else "not reached"
+        else:
+            pending[name] = "not reached: " + (died or timed_out or "the probe stopped")
+    return figures, errors, pending
 
 
 def measure_in_child(candidates: list[str], renderer: str | None, machine: str,
                      fallback: str) -> Choice:
     """:func:`measure` in a child process: the probe's GL contexts never touch the
     caller's (a kiosk's window context stays current) and a broken driver cannot take
-    the caller down.  A child that fails gives the fixed rule's ``fallback``."""
-    arg = json.dumps({"candidates": candidates, "renderer": renderer, "machine": machine,
-                      "fallback": fallback})
-    why = ""
+    the caller down.  What the child measured before it died or ran out of
+    :data:`CHILD_TIMEOUT_S` counts; the rest is pending (:func:`read_child`)."""
+    arg = json.dumps({"candidates": candidates})
+    died = timed_out = ""
     try:
         proc = subprocess.run([sys.executable, "-c", _CHILD, arg], capture_output=True,
                               text=True, timeout=CHILD_TIMEOUT_S, check=False)
-        if proc.returncode == 0:
-            c = Choice.from_dict(json.loads(proc.stdout.strip().splitlines()[-1]))
-            c.cached = False
-            return c
-        why = (proc.stderr.strip().splitlines() or ["no message"])[-1]
-    except subprocess.TimeoutExpired:
-        why = f"the probe took over {CHILD_TIMEOUT_S:g} s"
-    except (ValueError, IndexError) as exc:
-        why = f"the probe printed no choice ({exc})"
-    log.warning("backend probe failed (%s): the fixed rule picks %s", why, fallback)
-    return Choice(fallback, f"the probe failed ({why[:200]}); the fixed rule picks {fallback}",
-                  {name: None for name in candidates}, {"probe": why[:300]}, renderer,
-                  station.__version__, machine, time.time(), "")
+        out = proc.stdout
+        if proc.returncode != 0:
+            died = (proc.stderr.strip().splitlines() or
+                    [f"exit status {proc.returncode}"])[-1][:200]
+    except subprocess.TimeoutExpired as exc:
+        out = _text(exc.stdout)
+        timed_out = f"{CHILD_TIMEOUT_S:g} s"
+    figures, errors, pending = read_child(candidates, out, died=died, timed_out=timed_out)
+    if died or timed_out:
+        log.warning("backend probe %s; measured: %s; pending: %s",
+                    f"failed ({died})" if died else f"ran out of its {timed_out}",
+                    ", ".join(k for k, v in figures.items() if v is not None) or "none",
+                    ", ".join(pending) or "none")
+    if died and not figures:
+        errors["probe"] = died
+    return decide(figures, errors, fallback, renderer, machine, pending)
