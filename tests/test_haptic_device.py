@@ -7,6 +7,7 @@ against the device's declared limits and the configured ``max_force``.
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import os
 import signal
@@ -294,12 +295,15 @@ def test_bus_forces_are_rendered_and_stop_with_the_bus(tmp_path: Path) -> None:
         between = [f for f in pushing if min(abs(f - p) for p in published) > 1e-4]
         assert len(between) >= max(5, 0.3 * len(pushing))
         # the bus went quiet: zero from the first frame after its 50 ms watchdog on (``gap``:
-        # the frame before it, 1 ms when idle; 25 ms more for the mock's thread stamping)
+        # the frame before it, 1 ms when idle; plus the mock's thread stamping: 25 ms, or
+        # twice the longest interval between frames this run saw where the host was
+        # slower than that (a full-suite run at load 12 missed a fixed 25 ms by 0.3 ms)
         after = [(t, f) for t, f in fz if t > stop_at]
         pushed = [i for i, (_, f) in enumerate(after) if f > 0.0]
         first_zero = pushed[-1] + 1 if pushed else 0
         gap = after[first_zero][0] - after[first_zero - 1][0] if first_zero else 0.0
-        assert after[first_zero][0] <= stop_at + 0.050 + gap + 0.025
+        jitter = max(b - a for (a, _), (b, _) in itertools.pairwise(fz))
+        assert after[first_zero][0] <= stop_at + 0.050 + gap + max(0.025, 2 * jitter)
         assert len(after) - first_zero > 20  # and it stays zero
         assert src.session.stats.bus_forces == 20
     finally:

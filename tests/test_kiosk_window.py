@@ -158,8 +158,11 @@ def test_each_pen_control_does_what_it_says(display: str, tmp_path: Path) -> Non
             k.wait(lambda s: f"kind:{kind}" in s["ui"], 10, "brush kinds listed")
             time.sleep(0.6)  # a popup settles its place in its first frames
             s = k.wait(lambda s: f"kind:{kind}" in s["ui"], 10, "brush kinds listed")
-            k.tap(s["ui"][f"kind:{kind}"])  # ... and one is picked
-            return k.wait(lambda s: s["brush"]["kind"] == kind, 10, f"{kind} brush")
+            k.tap(s["ui"][f"kind:{kind}"])  # ... and one is picked, and the list closes
+            # (both: under load a state can show the new brush a frame before the popup
+            # has closed)
+            return k.wait(lambda s: s["brush"]["kind"] == kind and not any(
+                name.startswith("kind:") for name in s["ui"]), 10, f"{kind} brush")
 
         s = pick_kind("flat")  # a deformable brush
         assert "kind:flat" in s["panel"]["pressed"] and "kind:round" not in s["ui"]
