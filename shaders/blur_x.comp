@@ -51,10 +51,14 @@ void main() {
     ivec2 origin = ivec2(int(t % uint(TILES_X)), int(t / uint(TILES_X))) * TILE;
     ivec2 local = ivec2(gl_WorkGroupID.xy * gl_WorkGroupSize.xy + gl_LocalInvocationID.xy);
     int x = origin.x + local.x;
-    if (local.x >= TILE || local.y >= TILE || x >= u_size.x) return;
-    // rows origin.y - R .. origin.y + TILE + R - 1 (with the apron), TILE apart per invocation
+    if (local.x >= TILE || x >= u_size.x) return;
+    // rows origin.y - R .. origin.y + TILE + R - 1 (with the apron), the dispatch's rows
+    // apart per invocation (its groups along y times LY; GLCanvas.blur_groups: on a CPU
+    // rasterizer a fraction of the tile's rows, so each invocation runs the loop several
+    // times and its id and tile mapping once)
+    int step = int(gl_NumWorkGroups.y * gl_WorkGroupSize.y);
     int lo = u_apron != 0 ? origin.y - R : origin.y;
     int hi = min(u_apron != 0 ? origin.y + TILE + R : origin.y + TILE, u_size.y);
-    for (int y = lo + local.y; y < hi; y += TILE)
+    for (int y = lo + local.y; y < hi; y += step)
         if (y >= 0) blur_row(ivec2(x, y));
 }

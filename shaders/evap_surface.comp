@@ -21,9 +21,19 @@ STEP_CONST(float, u_e, K_E);          // float32(eps_shallow * dt)
 const float u_edge_evap = K_EDGE_EVAP;  // float32(edge_evap)
 const float u_wmax = K_WMAX;
 STEP_CONST(float, u_rate, K_RATE);       // float32(surface_rate * dt)
+#if SLOT_CONST
+// the pigment slots' values as constants (K_GAMMA, K_DELTA, K_DOB: their exact float32 bits;
+// GLCanvas.slot_constants, a CPU rasterizer's choice: there each uniform component is a
+// load per vector of lanes, these 12 about 3 ms of an 800x600 pass; the program is
+// recompiled when a slot's pigment changes)
+const vec4 u_gamma[NPL] = K_GAMMA;
+const vec4 u_delta[NPL] = K_DELTA;
+const vec4 u_dob[NPL] = K_DOB;
+#else
 uniform vec4 u_gamma[NPL];  // granulation per slot
 uniform vec4 u_delta[NPL];  // density per slot (0 for free slots)
 uniform vec4 u_dob[NPL];    // float32(delta / beta) per slot, beta = float32(staining / lift_gain)
+#endif
 STEP_CONST(float, u_absorb, K_ABSORB);     // float32(alpha * dt)
 const float u_cmin = K_CMIN;
 const float u_crange = K_CRANGE;     // float32(c_max - c_min)

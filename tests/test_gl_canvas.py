@@ -303,3 +303,49 @@ def test_other_slot_counts_match_numpy(ctx, n_slots: int) -> None:
             c.step()
     assert_states_close(g.state(), n.state())
     assert float(np.abs(g.render() - n.render()).max()) < 2e-5
+
+
+@pytest.mark.parametrize("tiling", [True, False])
+def test_blur_rows_per_invocation_split_the_work_not_the_maths(ctx, tiling: bool) -> None:
+    """blur_x's rows per invocation (4 on a CPU rasterizer, 1 on a GPU; its own indirect
+    dispatch with tiling): the same painting bit for bit, the stroke crossing clipped edge
+    tiles (70 x 45) with the flow-outward blur on, and both match the reference."""
+    assert gl.default_blur_rows("llvmpipe (LLVM 15.0.6, 256 bits)") == 4
+    assert gl.default_blur_rows("NVIDIA H100 PCIe/PCIe/SSE2") == 1
+    states = {}
+    for rows in (1, 2, 4):
+        c = gl.GLCanvas(70, 45, seed=2, ctx=ctx, tiling=tiling, blur_rows=rows)
+        assert c.params.flow_outward > 0 and c.blur_groups[1] == -(-4 // rows)
+        paint(c, 24)
+        states[rows] = c.state()
+        c.close()
+    for rows in (2, 4):
+        for name in FIELDS:
+            assert np.array_equal(getattr(states[rows], name), getattr(states[1], name)), name
+    n = NumpyCanvas(70, 45, seed=2, tiling=tiling)
+    paint(n, 24)
+    assert_states_close(states[4], n.state())
+    with pytest.raises(CanvasInputError):
+        gl.GLCanvas(70, 45, ctx=ctx, blur_rows=3)
+
+
+@pytest.mark.parametrize("constants", [True, False])
+def test_slot_values_as_constants_or_uniforms_match_numpy(ctx, constants: bool) -> None:
+    """evap_surface's pigment-slot values: constants (a CPU rasterizer's default, the program
+    recompiled when a new pigment takes a slot: Hansa Yellow from step 10) or uniforms (a
+    GPU's); both follow the reference, deposits included."""
+    assert gl.is_cpu_rasterizer("llvmpipe (LLVM 15.0.6, 256 bits)")
+    assert not gl.is_cpu_rasterizer("NVIDIA H100 PCIe/PCIe/SSE2")
+    c = gl.GLCanvas(70, 45, seed=4, ctx=ctx, slot_constants=constants)
+    n = NumpyCanvas(70, 45, seed=4)
+    for k in (c, n):
+        paint(k, 24)
+    a = c.state()
+    assert_states_close(a, n.state())
+    assert a.q[a.slots.index("Hansa Yellow")].max() > 1e-4  # the late slot deposited
+    if constants:
+        with pytest.raises(KeyError):  # the constants' program reads no slot uniform
+            c._programs["evap_surface"]["u_gamma"]
+    else:
+        assert c._programs["evap_surface"]["u_gamma"].array_length == c.npl
+    c.close()

@@ -6,8 +6,10 @@ folder) and share code through ``#include`` (see :mod:`.shaderlib`).
 """
 
 from station.backends.gl import traffic
-from station.backends.gl.canvas import GLCanvas
+from station.backends.gl.canvas import GLCanvas, default_blur_rows, is_cpu_rasterizer
 from station.glkit.context import GLUnavailable, create_context
 from station.glkit.shaderlib import ShaderError
 
-__all__ = ["GLCanvas", "GLUnavailable", "ShaderError", "create_context", "traffic"]
+__all__ = ["GLCanvas", "GLUnavailable", "ShaderError", "create_context", "default_blur_rows",
+           "is_cpu_rasterizer",
+           "traffic"]

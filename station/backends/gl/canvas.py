@@ -60,6 +60,30 @@ if TYPE_CHECKING:
 
 F32 = np.float32
 
+#: Rows of its tile's column each blur_x invocation blurs, the settings GLCanvas takes.
+BLUR_ROWS = (1, 2, 4, 8)
+_CPU_RASTERIZERS = ("llvmpipe", "softpipe", "swrast")
+#: Bytes of the indirect-dispatch buffer: the passes' (x, y, tiles) groups, the cell count
+#: (tile_list.comp's Args), then blur_x's (x, y, tiles) groups.
+ARGS_BYTES = 28
+
+
+def default_blur_rows(renderer: str) -> int:
+    """Rows each blur_x invocation blurs on this driver (how the work is split, not what is
+    computed): 4 on a CPU rasterizer, where a pass pays its invocations' id and tile mapping
+    once per vector of lanes and blur_x is a short loop over rows (800x600 wash on llvmpipe:
+    blur_x about 8.5 -> 5.5 ms CPU, docs/gpu.md), 1 on a GPU, which wants many invocations."""
+    return 4 if is_cpu_rasterizer(renderer) else 1
+
+
+def is_cpu_rasterizer(renderer: str) -> bool:
+    """Whether GL_RENDERER ``renderer`` names a CPU rasterizer (Mesa's llvmpipe, softpipe).
+    The per-driver choices it makes (``GLCanvas`` ``blur_rows``, ``slot_constants``) split
+    or declare the work differently; what a pass computes is the same on every driver."""
+    name = renderer.lower()
+    return any(r in name for r in _CPU_RASTERIZERS)
+
+
 #: Programs compiled per canvas: name -> (file, extra defines).
 _PROGRAMS: dict[str, tuple[str, dict[str, object]]] = {
     "prep": ("prep.comp", {}),
@@ -68,7 +92,7 @@ _PROGRAMS: dict[str, tuple[str, dict[str, object]]] = {
     "diffuse_apply": ("diffuse_apply.comp", {}),
     "advect_limit": ("advect_limit.comp", {}),
     "advect_apply": ("advect_apply.comp", {}),
-    "evap_surface": ("evap_surface.comp", {}),
+    "evap_surface": ("evap_surface.comp", {"SLOT_CONST": 0}),
     "capillary_dry": ("capillary_dry.comp", {}),
     "tile_list": ("tile_list.comp", {}),
     "tile_update": ("tile_update.comp", {}),
@@ -95,7 +119,8 @@ class GLCanvas(GLStepPasses):
                  *, tiling: bool = True, n_slots: int = DEFAULT_SLOTS,
                  params: SimParams | None = None, paper: str | None = None,
                  palette: Palette | None = None, ctx: moderngl.Context | None = None,
-                 gl_backend: str | None = None) -> None:
+                 gl_backend: str | None = None, blur_rows: int | None = None,
+                 slot_constants: bool | None = None) -> None:
         check_size(width, height)
         prof = get_profile(profile)
         prm = params if params is not None else prof.params
@@ -110,6 +135,14 @@ class GLCanvas(GLStepPasses):
         self.ctx = create_context(gl_backend) if ctx is None else ctx
         self.limits = query_limits(self.ctx)
         self.renderer = self.limits.renderer
+        if blur_rows is None:
+            blur_rows = default_blur_rows(self.renderer)
+        if blur_rows not in BLUR_ROWS:
+            raise CanvasInputError(f"blur_rows must be one of {BLUR_ROWS}, not {blur_rows!r}",
+                                   "blur_rows")
+        self.blur_rows = int(blur_rows)
+        self.slot_constants = (is_cpu_rasterizer(self.renderer) if slot_constants is None
+                               else bool(slot_constants))
         self._shape: tuple[int, int, int, int, int] | None = None
         self._programs: dict[str, Any] = {}  # compile_compute's programs
         self._pass_seconds = None
@@ -137,6 +170,8 @@ class GLCanvas(GLStepPasses):
                         self.limits.max_work_group_size[1]))
         self.lx, self.ly = lx, ly
         self.groups = (-(-tile // lx), -(-tile // ly))
+        # blur_x: each invocation blurs every blur_rows-th row of its tile (blur_x.comp)
+        self.blur_groups = (self.groups[0], -(-tile // (ly * self.blur_rows)))
         if self.ntiles > min(self.limits.max_work_group_count[2], 1 << 23):  # tiles.glsl
             raise CanvasInputError(f"too many tiles ({self.ntiles}) for this GPU", "--size")
         self.bands = int(bands)
@@ -159,7 +194,8 @@ class GLCanvas(GLStepPasses):
         self.b_ttl = ctx.buffer(reserve=4 * n)
         self.b_prev = ctx.buffer(reserve=4 * n)
         self.b_mark = ctx.buffer(reserve=4 * n)
-        self.b_args = ctx.buffer(reserve=16)
+        # the passes' indirect dispatch (x, y, tiles), the cell count, blur_x's (x, y, tiles)
+        self.b_args = ctx.buffer(reserve=ARGS_BYTES)
         self.b_all = ctx.buffer(np.arange(n, dtype=np.uint32).tobytes())
         self.src_groups = (-(-width // 16), -(-height // 16))
         self.nacc = 1 + 4 * self.npl
@@ -185,6 +221,7 @@ class GLCanvas(GLStepPasses):
         self._programs = {name: self._compile(fname, extra)
                           for name, (fname, extra) in _PROGRAMS.items()}
         self._pressure_taps = ((), -1)  # blur_x, jacobi_first: compiled per blur at the step
+        self._slot_key = None  # evap_surface with the slots' constants: compiled at the step
         self._tile_list_mode = bool(tiling)
 
     def _compile(self, fname: str, extra: Mapping[str, object]) -> moderngl.ComputeShader:
@@ -259,7 +296,7 @@ class GLCanvas(GLStepPasses):
         self.b_prev.write(zeros)
         self.b_added.write(bytes(self.b_added.size))
         self.b_folded.write(bytes(self.b_folded.size))
-        self.b_args.write(bytes(16))
+        self.b_args.write(bytes(ARGS_BYTES))
         # metadata (everything that is not an array)
         self.params = st.params
         self.palette = st.palette

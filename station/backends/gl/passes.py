@@ -23,6 +23,8 @@ if TYPE_CHECKING:
 F32 = np.float32
 # SSBO binding points (tiles.glsl, tile_*.comp, capillary_dry.comp, sources.comp)
 _B_LIST, _B_ALIVE, _B_TTL, _B_PREV, _B_ARGS, _B_ADDED, _B_MARK, _B_FOLDED = 0, 1, 2, 3, 4, 5, 6, 7
+# byte offset of blur_x's indirect dispatch (x, y, tiles) in the args buffer (canvas.ARGS_BYTES)
+_ARGS_BLUR = 16
 MAX_TAPS = 17
 """Most Gaussian taps the pressure blur (blur_x.comp, pressure.glsl) takes (wet_blur <= 4):
 the tap loops unroll into one program per tap count."""
@@ -45,6 +47,7 @@ class GLStepPasses:
     height: int
     palette: Palette
     groups: tuple[int, int]
+    blur_groups: tuple[int, int]
     src_groups: tuple[int, int]
     ntiles: int
     _cells_cpu: int
@@ -68,6 +71,8 @@ class GLStepPasses:
     _compile_programs: Callable[[bool], None]
     _param_consts: dict[str, str]  # param_constants the programs were compiled with
     _param_key: tuple[SimParams, float | None] | None  # what _param_consts came from
+    slot_constants: bool  # evap_surface takes the slots' values as constants (a driver's choice)
+    _slot_key: tuple[int, ...] | None  # their bits in the evap_surface program, None: uniforms
 
     def _bind(self, unit: int, tex: moderngl.Texture | moderngl.TextureArray, read: bool,
               write: bool) -> None:
@@ -106,6 +111,9 @@ class GLStepPasses:
             if consts != self._param_consts:  # parameters set since load_state, another dt
                 self._param_consts = consts
                 self._compile_programs(self.tiling)
+        slot_vals = self._slot_uniforms()
+        if self.slot_constants:  # before any uniform is set: it may recompile evap_surface
+            self._slot_program(slot_vals)
         p = self._programs
         _set(p["prep"], "u_dt", dt)
         _set(p["prep"], "u_sim_time", float(F32(self.sim_time)))
@@ -130,14 +138,37 @@ class GLStepPasses:
         es = p["evap_surface"]
         _set(es, "u_e", float(F32(prm.evap_shallow() * dt)))
         _set(es, "u_rate", float(F32(prm.surface_rate * dt)))
-        for key, val in self._slot_uniforms().items():
-            _set(es, key, val)
+        for key, val in slot_vals.items():
+            _set(es, key, val)  # (the constants' program has none of them)
         _set(es, "u_absorb", float(F32(prm.alpha * dt)))
         cd = p["capillary_dry"]
         _set(cd, "u_kcap", float(F32(prm.cap_diffusion * dt)))
         _set(cd, "u_ecap", float(F32(prm.evap_cap() * dt)))
         _set(cd, "u_fade", float(F32(dt / prm.wet_hold)) if hold else 0.0)
         _set(p["tile_update"], "u_ttl", prm.tile_ttl_steps())
+
+    def _slot_program(self, vals: dict[str, list[tuple[float, ...]]]) -> moderngl.ComputeShader:
+        """evap_surface compiled with the pigment slots' values ``vals`` as constants
+        (``SLOT_CONST``: exact float32 bits), again when a slot's pigment changes: on a CPU
+        rasterizer every uniform component a pass reads is a load per vector of lanes."""
+        arrays = {name: np.asarray(v, F32).reshape(-1) for name, v in vals.items()}
+        key = tuple(int(b) for a in arrays.values() for b in a.view(np.uint32))
+        if key != self._slot_key:
+            def vec4s(a: np.ndarray) -> str:
+                bits = a.view(np.uint32)
+                items = ", ".join(
+                    "vec4({})".format(", ".join(f"uintBitsToFloat(0x{int(b):08x}u)"
+                                                for b in bits[4 * i:4 * i + 4]))
+                    for i in range(len(a) // 4))
+                return f"vec4[{len(a) // 4}]({items})"
+            old = self._programs.pop("evap_surface")
+            old.release()
+            self._programs["evap_surface"] = self._compile(
+                "evap_surface.comp", {"SLOT_CONST": 1, "K_GAMMA": vec4s(arrays["u_gamma"]),
+                                      "K_DELTA": vec4s(arrays["u_delta"]),
+                                      "K_DOB": vec4s(arrays["u_dob"])})
+            self._slot_key = key
+        return self._programs["evap_surface"]
 
     def _blur_programs(self, taps: np.ndarray, hold: int) -> None:
         """blur_x.comp and the first Jacobi iteration (jacobi.comp with FIRST_ITER, which
@@ -171,11 +202,18 @@ class GLStepPasses:
         self.b_ttl.bind_to_storage_buffer(_B_TTL)
         if self.tiling:
             self.b_args.write(np.array([gx, gy, 0], np.uint32).tobytes())  # keeps the count
+            self.b_args.write(np.array(self.blur_groups, np.uint32).tobytes(), offset=_ARGS_BLUR)
             self.b_list.bind_to_storage_buffer(_B_LIST)
             self.b_prev.bind_to_storage_buffer(_B_PREV)
             self.b_args.bind_to_storage_buffer(_B_ARGS)
             self._programs["tile_list"].run(-(-self.ntiles // 64), 1, 1)
-            self._barrier()
+            ctx = self.ctx
+            ctx.memory_barrier(ctx.BUFFER_UPDATE_BARRIER_BIT | ctx.SHADER_STORAGE_BARRIER_BIT
+                               | ctx.COMMAND_BARRIER_BIT | ctx.SHADER_IMAGE_ACCESS_BARRIER_BIT)
+            # blur_x's dispatch: the same tiles (no read-back), its own groups along y
+            self.b_args.bind_to_storage_buffer(_B_ARGS)
+            ctx.copy_buffer(self.b_args, self.b_args, 4, read_offset=8,
+                            write_offset=_ARGS_BLUR + 8)
         else:
             self.b_all.bind_to_storage_buffer(_B_LIST)
             self._cells_cpu += self.width * self.height
@@ -195,16 +233,19 @@ class GLStepPasses:
 
     def _dispatch(self, name: str, label: str | None = None) -> None:
         """Run program ``name`` on the step's cells; its profiled time counts under
-        ``label`` (default ``name``)."""
+        ``label`` (default ``name``).  blur_x runs with its own groups along y
+        (``blur_groups``: each invocation blurs several rows on a CPU rasterizer)."""
         prog = self._programs[name]
         times = self._pass_seconds
         if times is not None:
             self.ctx.finish()
             t0 = time.perf_counter()
+        blur = name == "blur_x"
         if self.tiling:
-            prog.run_indirect(self.b_args)
+            prog.run_indirect(self.b_args, _ARGS_BLUR if blur else 0)
         else:
-            prog.run(self.groups[0], self.groups[1], self.ntiles)
+            gx, gy = self.blur_groups if blur else self.groups
+            prog.run(gx, gy, self.ntiles)
         self._barrier()
         if times is not None:
             self.ctx.finish()
