@@ -96,23 +96,187 @@ def _extended(a: np.ndarray, painted: np.ndarray) -> np.ndarray:
                     ).astype(F32)
 
 
-def render_scaled(state: CanvasState, renderer: str, k: int) -> np.ndarray:
-    """Linear reflectance at ``k`` pixels per cell, float32 (kH, kW, 3) in [0, 1]."""
-    if not isinstance(k, int) or not 1 <= k <= MAX_SCALE:
-        raise CanvasInputError(f"render scale {k!r} must be an integer 1..{MAX_SCALE}",
-                               "--scale")
-    if k == 1:
-        return render_cells(state, renderer)
+#: A hard edge inside the paint: a cell below this share of a neighbour's pigment (a
+#: wet-on-dry edge, a glaze's edge); smoother steps (wet-in-wet) stay bicubic.
+HARD_RATIO = 0.5
+#: ... and the step at least this much pigment (below it nothing shows) [paint units].
+HARD_MIN_AMOUNT = 1e-4
+#: A hard edge in the dried layers: their mean optical density (``-ln`` of the
+#: reflectance over the bare paper's, over the bands) stepping by :data:`HARD_RATIO` and
+#: at least this much.
+HARD_MIN_DENSITY = 0.03
+#: Cells each way of the window whose mid-level splits a hard edge's two sides.
+SIDE_REACH = 4
+
+_NEIGHBOURS = tuple((dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx)
+
+
+def _shifted(a: np.ndarray, dy: int, dx: int, fill: float | bool) -> np.ndarray:
+    """``a[y + dy, x + dx]`` at every (y, x), ``fill`` beyond the canvas."""
+    out = np.full_like(a, fill)
+    hh, ww = a.shape[:2]
+    out[max(-dy, 0):hh - max(dy, 0), max(-dx, 0):ww - max(dx, 0)] = \
+        a[max(dy, 0):hh + min(dy, 0) or None, max(dx, 0):ww + min(dx, 0) or None]
+    return out
+
+
+class HardEdges:
+    """Where a field (per pigment: its amount; for the dried layers: their optical
+    density) steps sharply between neighbouring cells, and which side of the step each
+    cell is on.
+
+    ``up[d]`` (bool (H, W)) marks a cell whose neighbour at ``_NEIGHBOURS[d]`` is across a
+    hard step above it, ``down[d]`` one below it.  ``high`` is the side indicator: a cell
+    on the high side of the steps near it (above the mid-level of the field's range over
+    the ``2 * SIDE_REACH + 1`` square around it).  Its blurred, peak-normalised 1/2 level
+    set (:func:`edge_coverage`) becomes the step's sub-cell contour."""
+
+    def __init__(self, up: list[np.ndarray], down: list[np.ndarray], high: np.ndarray):
+        self.up, self.down, self.high = up, down, high
+        self.any = bool(any(u.any() for u in up))
+
+    def sides(self, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``f``'s high-side and low-side fields: each ``f`` except across a hard step,
+        where a low-side cell takes the mean of its higher neighbours (the high side
+        extended over the step, as :func:`_extended` extends paint over blank paper) and
+        a high-side cell the mean of its lower neighbours."""
+        hi_num = np.zeros_like(f)
+        hi_den = np.zeros_like(f)
+        lo_num = np.zeros_like(f)
+        lo_den = np.zeros_like(f)
+        for d, (dy, dx) in enumerate(_NEIGHBOURS):
+            g = _shifted(f, dy, dx, 0.0)
+            hi_num += np.where(self.up[d], g, F32(0))
+            hi_den += self.up[d]
+            lo_num += np.where(self.down[d], g, F32(0))
+            lo_den += self.down[d]
+        hi = np.where(~self.high & (hi_den > 0), hi_num / np.maximum(hi_den, F32(1)), f)
+        lo = np.where(self.high & (lo_den > 0), lo_num / np.maximum(lo_den, F32(1)), f)
+        return hi.astype(F32), lo.astype(F32)
+
+
+def _side_indicator(s: np.ndarray) -> np.ndarray:
+    size = 2 * SIDE_REACH + 1
+    top = ndimage.maximum_filter(s, size=size, mode="nearest")
+    bottom = ndimage.minimum_filter(s, size=size, mode="nearest")
+    out: np.ndarray = s > F32(0.5) * (top + bottom)
+    return out
+
+
+def pigment_edges(a: np.ndarray, within: np.ndarray) -> HardEdges:
+    """Hard steps of a pigment's amount ``a`` (H, W) between two cells of ``within`` (the
+    painted cells: the edge of the paint on blank paper has its own contour): a cell
+    below :data:`HARD_RATIO` of a neighbour, by at least :data:`HARD_MIN_AMOUNT`."""
+    up, down = [], []
+    for dy, dx in _NEIGHBOURS:
+        g = _shifted(a, dy, dx, 0.0)
+        both = within & _shifted(within, dy, dx, False)
+        up.append(both & (a < F32(HARD_RATIO) * g) & (g - a > F32(HARD_MIN_AMOUNT)))
+        down.append(both & (g < F32(HARD_RATIO) * a) & (a - g > F32(HARD_MIN_AMOUNT)))
+    return HardEdges(up, down, _side_indicator(a))
+
+
+def density_edges(s: np.ndarray, within: np.ndarray) -> HardEdges:
+    """Hard steps of the dried layers' optical density ``s`` (H, W) between two cells of
+    ``within`` (the dried cells): as :func:`pigment_edges`, a cell below
+    :data:`HARD_RATIO` of a neighbour's density, by at least :data:`HARD_MIN_DENSITY`
+    (a dried glaze's edge at least as dense as the wash under it; a dried rim or
+    wet-in-wet blend is smoother)."""
+    up, down = [], []
+    for dy, dx in _NEIGHBOURS:
+        g = _shifted(s, dy, dx, 0.0)
+        both = within & _shifted(within, dy, dx, False)
+        up.append(both & (s < F32(HARD_RATIO) * g) & (g - s > F32(HARD_MIN_DENSITY)))
+        down.append(both & (g < F32(HARD_RATIO) * s) & (s - g > F32(HARD_MIN_DENSITY)))
+    return HardEdges(up, down, _side_indicator(s))
+
+
+#: The step contour's smoothing: the side indicator is averaged along the edge (over a
+#: Gaussian of ``STEP_ALONG`` cells, sampled every ``_STEP_SPACING`` cells each way to
+#: ``_STEP_TAPS``) and across it only by ``STEP_ACROSS`` cells, so a staircase with long
+#: treads straightens while a one-cell line keeps its width.
+STEP_ALONG = 2.4
+STEP_ACROSS = 0.6
+#: The scale (cells) over which the edge's direction is estimated (structure tensor).
+STEP_ORIENT = 1.5
+_STEP_TAPS = 4
+_STEP_SPACING = 0.8
+
+
+def step_level(high: np.ndarray) -> np.ndarray:
+    """The level function (float32 (H, W), about [0, 1]) whose 1/2 level set is the
+    contour of a hard step's high side ``high`` (bool (H, W)): the indicator averaged
+    along the edge's direction (the structure tensor of its blurred self) and barely
+    across, divided by its 3x3 local peak (a one-cell line keeps its 1/2 level)."""
+    ind = high.astype(F32)
+    b = ndimage.gaussian_filter(ind, 1.0, mode="nearest")
+    gy, gx = np.gradient(b)
+    jxx = ndimage.gaussian_filter(gx * gx, STEP_ORIENT, mode="nearest")
+    jxy = ndimage.gaussian_filter(gx * gy, STEP_ORIENT, mode="nearest")
+    jyy = ndimage.gaussian_filter(gy * gy, STEP_ORIENT, mode="nearest")
+    normal = 0.5 * np.arctan2(2 * jxy, jxx - jyy)  # the edge's normal, (x, y) angle
+    ty, tx = np.cos(normal), -np.sin(normal)  # along the edge
+    src = ndimage.gaussian_filter(ind, STEP_ACROSS, mode="nearest")
+    yy, xx = np.mgrid[0:ind.shape[0], 0:ind.shape[1]].astype(F32)
+    acc = np.zeros_like(ind)
+    wsum = 0.0
+    for j in range(-_STEP_TAPS, _STEP_TAPS + 1):
+        d = j * _STEP_SPACING
+        w = float(np.exp(-0.5 * (d / STEP_ALONG) ** 2))
+        acc += F32(w) * ndimage.map_coordinates(src, [yy + d * ty, xx + d * tx], order=1,
+                                                mode="nearest").astype(F32)
+        wsum += w
+    lvl = acc / F32(wsum)
+    peak = ndimage.maximum_filter(lvl, size=3, mode="nearest")
+    out: np.ndarray = np.where(peak > 0, lvl / np.maximum(peak, F32(1e-6)), F32(0)
+                               ).astype(F32)
+    return out
+
+
+def step_coverage(high: np.ndarray, k: int) -> np.ndarray:
+    """Sub-cell coverage (float32 (kH, kW) in [0, 1]) of a hard step's high side: the
+    1/2 level set of :func:`step_level`, bicubic, anti-aliased over one output pixel."""
+    up = _resample_signed(step_level(high), k)
+    gy, gx = np.gradient(up)
+    slope = np.maximum(np.hypot(gx, gy), F32(1e-6))
+    out: np.ndarray = np.clip((up - F32(0.5)) / slope + F32(0.5), 0.0, 1.0).astype(F32)
+    return out
+
+
+def _sharpened(f: np.ndarray, edges: HardEdges, cover: np.ndarray | None, k: int,
+               signed: bool = False) -> np.ndarray:
+    """``f`` resampled to ``k`` pixels per cell, its hard steps drawn as the sub-cell
+    contour ``cover`` (blend of the resampled high and low sides); elsewhere exactly the
+    plain bicubic resampling."""
+    res = _resample_signed if signed else _resample
+    if cover is None:
+        return res(f, k)
+    hi, lo = edges.sides(f)
+    lo_up = res(lo, k)
+    out: np.ndarray = (lo_up + cover * (res(hi, k) - lo_up)).astype(F32)
+    return out
+
+
+def scaled_layers(state: CanvasState, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """What :func:`render_scaled` composes at ``k`` (2..MAX_SCALE) pixels per cell: the
+    surface layer's pigment amounts (float32 (N, kH, kW), ``p + q`` per slot pigment, in
+    the state's units) and the dried layers' reflectance below (float32 (kH, kW, B))."""
     hp = paper_detail(state, k)
     shade = F32(state.params.paper_shade)
     # the dried layers below: blank paper plus their difference from it, inside their own
-    # smooth contour
+    # smooth contour; a hard step inside them (a dried glaze's edge over an earlier wash)
+    # gets its own contour
     paper = state.paper_reflectance()
     diff = state.r_composed - paper[..., None]
     dried = np.abs(diff).max(axis=-1) > F32(1e-4)
     dcover = edge_coverage(dried, k)
     base = _resample(paper, k)
-    r_prev = np.stack([base + dcover * _resample_signed(_extended(diff[..., c], dried), k)
+    density = -np.log(np.maximum(state.r_composed, F32(1e-4))
+                      / np.maximum(paper, F32(1e-4))[..., None]).mean(axis=-1)
+    dedges = density_edges(density.astype(F32), dried)
+    dstep = step_coverage(dedges.high, k) if dedges.any else None
+    r_prev = np.stack([base + dcover * _sharpened(_extended(diff[..., c], dried), dedges,
+                                                  dstep, k, signed=True)
                        for c in range(diff.shape[-1])], axis=-1)
     r_prev = np.clip(r_prev * (F32(1.0) + shade * hp)[..., None], 0.0, 1.0).astype(F32)
     pigments = state.slot_pigments()
@@ -121,8 +285,14 @@ def render_scaled(state: CanvasState, renderer: str, k: int) -> np.ndarray:
     cover = edge_coverage(painted, k)
     amounts = []
     for i, pig in enumerate(pigments):
-        p = _resample(_extended(state.p[i], painted), k) * cover
-        q = _resample(_extended(state.q[i], painted), k) * cover
+        ep = _extended(state.p[i], painted)
+        eq = _extended(state.q[i], painted)
+        # a hard step of this pigment inside the paint (its wet-on-dry edge over another
+        # colour, a glaze's edge): a sub-cell contour of its own, shared by p and q
+        edges = pigment_edges(ep + eq, painted)
+        step = step_coverage(edges.high, k) if edges.any else None
+        p = _sharpened(ep, edges, step, k) * cover
+        q = _sharpened(eq, edges, step, k) * cover
         if pig.gamma > 0:
             g = np.maximum(F32(1.0) - F32(pig.gamma) * hp, F32(0.0))
             gq = q * g
@@ -132,6 +302,18 @@ def render_scaled(state: CanvasState, renderer: str, k: int) -> np.ndarray:
         amounts.append(p + q)
     amount = (np.stack(amounts) if amounts
               else np.zeros((0, state.height * k, state.width * k), F32)).astype(F32)
+    return amount, r_prev
+
+
+def render_scaled(state: CanvasState, renderer: str, k: int) -> np.ndarray:
+    """Linear reflectance at ``k`` pixels per cell, float32 (kH, kW, 3) in [0, 1]."""
+    if not isinstance(k, int) or not 1 <= k <= MAX_SCALE:
+        raise CanvasInputError(f"render scale {k!r} must be an integer 1..{MAX_SCALE}",
+                               "--scale")
+    if k == 1:
+        return render_cells(state, renderer)
+    amount, r_prev = scaled_layers(state, k)
+    pigments = state.slot_pigments()
     if renderer == "gouache":
         return to_linear_rgb(gouache_layer(amount, pigments, r_prev,
                                            state.params.gouache_opaque,
