@@ -105,8 +105,8 @@ HARD_MIN_AMOUNT = 1e-4
 #: reflectance over the bare paper's, over the bands) stepping by :data:`HARD_RATIO` and
 #: at least this much.
 HARD_MIN_DENSITY = 0.03
-#: Cells each way of the window whose mid-level splits a hard edge's two sides.
-SIDE_REACH = 4
+#: Cells each way from a step's high side that its side indicator reaches.
+SIDE_REACH = 2
 
 _NEIGHBOURS = tuple((dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if dy or dx)
 
@@ -121,19 +121,28 @@ def _shifted(a: np.ndarray, dy: int, dx: int, fill: float | bool) -> np.ndarray:
 
 
 class HardEdges:
-    """Where a field (per pigment: its amount; for the dried layers: their optical
+    """Where a field ``s`` (per pigment: its amount; for the dried layers: their optical
     density) steps sharply between neighbouring cells, and which side of the step each
     cell is on.
 
     ``up[d]`` (bool (H, W)) marks a cell whose neighbour at ``_NEIGHBOURS[d]`` is across a
-    hard step above it, ``down[d]`` one below it.  ``high`` is the side indicator: a cell
-    on the high side of the steps near it (above the mid-level of the field's range over
-    the ``2 * SIDE_REACH + 1`` square around it).  Its blurred, peak-normalised 1/2 level
-    set (:func:`edge_coverage`) becomes the step's sub-cell contour."""
+    hard step above it, ``down[d]`` one below it.  ``high`` is the side indicator: the
+    cells within :data:`SIDE_REACH` of a step's high side that hold at least half the
+    field's peak over the square of that reach around them (so the step's low side,
+    which sees the high side's value, is out, and so is everything farther from a step).
+    Its blurred, peak-normalised 1/2 level set (:func:`step_level`) becomes the step's
+    sub-cell contour."""
 
-    def __init__(self, up: list[np.ndarray], down: list[np.ndarray], high: np.ndarray):
-        self.up, self.down, self.high = up, down, high
-        self.any = bool(any(u.any() for u in up))
+    def __init__(self, up: list[np.ndarray], down: list[np.ndarray], s: np.ndarray):
+        self.up, self.down = up, down
+        tops = np.zeros(s.shape, bool)
+        for d in down:
+            tops |= d
+        self.any = bool(tops.any())
+        size = 2 * SIDE_REACH + 1
+        near = ndimage.binary_dilation(tops, np.ones((size, size), bool))
+        peak = ndimage.maximum_filter(s, size=size, mode="nearest")
+        self.high: np.ndarray = near & (s >= F32(0.5) * peak)
 
     def sides(self, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``f``'s high-side and low-side fields: each ``f`` except across a hard step,
@@ -155,14 +164,6 @@ class HardEdges:
         return hi.astype(F32), lo.astype(F32)
 
 
-def _side_indicator(s: np.ndarray) -> np.ndarray:
-    size = 2 * SIDE_REACH + 1
-    top = ndimage.maximum_filter(s, size=size, mode="nearest")
-    bottom = ndimage.minimum_filter(s, size=size, mode="nearest")
-    out: np.ndarray = s > F32(0.5) * (top + bottom)
-    return out
-
-
 def pigment_edges(a: np.ndarray, within: np.ndarray) -> HardEdges:
     """Hard steps of a pigment's amount ``a`` (H, W) between two cells of ``within`` (the
     painted cells: the edge of the paint on blank paper has its own contour): a cell
@@ -173,7 +174,7 @@ def pigment_edges(a: np.ndarray, within: np.ndarray) -> HardEdges:
         both = within & _shifted(within, dy, dx, False)
         up.append(both & (a < F32(HARD_RATIO) * g) & (g - a > F32(HARD_MIN_AMOUNT)))
         down.append(both & (g < F32(HARD_RATIO) * a) & (a - g > F32(HARD_MIN_AMOUNT)))
-    return HardEdges(up, down, _side_indicator(a))
+    return HardEdges(up, down, a)
 
 
 def density_edges(s: np.ndarray, within: np.ndarray) -> HardEdges:
@@ -188,7 +189,7 @@ def density_edges(s: np.ndarray, within: np.ndarray) -> HardEdges:
         both = within & _shifted(within, dy, dx, False)
         up.append(both & (s < F32(HARD_RATIO) * g) & (g - s > F32(HARD_MIN_DENSITY)))
         down.append(both & (g < F32(HARD_RATIO) * s) & (s - g > F32(HARD_MIN_DENSITY)))
-    return HardEdges(up, down, _side_indicator(s))
+    return HardEdges(up, down, s)
 
 
 #: The step contour's smoothing: the side indicator is averaged along the edge (over a
