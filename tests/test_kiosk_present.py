@@ -189,7 +189,7 @@ def test_a_sample_arriving_while_the_tiles_are_drawn_is_shown_in_that_frame(
 def test_tile_rendering_stops_at_its_time_budget(display: str, tmp_path: Path,
                                                  monkeypatch: pytest.MonkeyPatch) -> None:
     from station.kiosk.display import RUN_TILES
-    from station.kiosk.subcell import LEVEL_REACH
+    from station.kiosk.subcell import REACH
 
     app = _app(display, tmp_path, monkeypatch, "auto")
     try:
@@ -201,8 +201,8 @@ def test_tile_rendering_stops_at_its_time_budget(display: str, tmp_path: Path,
         while True:
             cells = disp.update_tiles()
             rounds += 1
-            # a run of tiles, grown by the reach of its contour level (subcell.grow)
-            assert 0 < cells <= (RUN_TILES * ts + 2 * LEVEL_REACH) * (ts + 2 * LEVEL_REACH)
+            # a run of tiles, grown by the reach of its contour levels (subcell.grow)
+            assert 0 < cells <= (RUN_TILES * ts + 2 * REACH) * (ts + 2 * REACH)
             if not disp.behind():
                 break
             assert rounds < 100

@@ -23,6 +23,14 @@ the window's fragment shader:
   paper and paint alike, faded out where a pixel covers a cell or more (the far
   side of the table) so it cannot alias.
 
+Edges inside the paint (one paint over another, a dried glaze's edge) get the same:
+where the cells' optical density steps hard between painted neighbours
+(:func:`step_fields`, the headless renderer's :func:`upscale.density_edges` on the
+cells' colour), the canvas texture holds the step's high side's colour on both sides
+of it, a second texture (``steps``) the low side's colour and the 1/2 contour level of
+the step's high side, and the shader mixes the two colours across that contour.  Away
+from a step both textures hold the same colour (the shader's mix changes nothing).
+
 Blocks and staircases are gone in every view; the brush view's magnification
 shows the paper's grain and the paint's edge, not cells.
 """
@@ -36,6 +44,7 @@ import numpy as np
 from scipy import ndimage
 
 from station.canvas.paper import make_paper
+from station.render import upscale
 
 F32 = np.float32
 
@@ -219,6 +228,179 @@ def fields(rgb: np.ndarray, painted: np.ndarray, inner: tuple[slice, slice]
     return out
 
 
+#: Hard steps inside the paint (one paint over another, a dried glaze's edge; the
+#: headless renderer's :func:`upscale.density_edges` on the cells' rendered colour): a
+#: painted cell whose optical density is below STEP_RATIO of a painted neighbour's, by at
+#: least STEP_MIN_DENSITY; the side indicator reaches STEP_SIDE_REACH cells from a step.
+STEP_RATIO = upscale.HARD_RATIO
+STEP_MIN_DENSITY = upscale.HARD_MIN_DENSITY
+STEP_SIDE_REACH = upscale.SIDE_REACH
+
+#: Cells around a changed cell whose step fields may change (the pair 1, the side
+#: indicator's reach, its contour level's), and the cells of colour and indicator a
+#: region's step fields need around it.
+STEP_REACH = 1 + STEP_SIDE_REACH + LEVEL_REACH
+STEP_HALO = STEP_REACH
+
+#: What a display re-renders around a changed region (the larger of the paint's contour
+#: level's and the steps' reach), and the cells of colour and indicator around that.
+REACH = max(LEVEL_REACH, STEP_REACH)
+HALO = max(INDICATOR_HALO, COLOUR_HALO, STEP_HALO)
+
+
+def density(rgb: np.ndarray, paper: np.ndarray) -> np.ndarray:
+    """Mean optical density of the cells' colour ``rgb`` (h, w, 3) over the bare
+    ``paper`` (h, w): ``-ln`` of their mean reflectance over the paper's (float32)."""
+    mean = rgb.astype(F32).mean(axis=-1)
+    out: np.ndarray = -np.log(np.maximum(mean, F32(1e-4))
+                              / np.maximum(paper.astype(F32), F32(1e-4)))
+    return out.astype(F32)
+
+
+def step_fields_reference(rgb: np.ndarray, paper: np.ndarray, painted: np.ndarray,
+                          ext: np.ndarray, inner: tuple[slice, slice]
+                          ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`step_fields` with numpy and scipy (the definition).  Of the cells' colour
+    ``rgb`` (h, w, 3) over the bare ``paper`` (h, w), the ``painted`` cells, and the
+    colour the canvas texture holds (``ext``, (h, w, 3): :func:`fields`' colour), on
+    ``inner``: the high side's colour (``ext`` but on the low side of a hard step, where
+    it is the mean of the higher neighbours) and the low side's colour with the step's
+    contour level (RGBA: ``ext`` but on the high side of a step, where it is the mean of
+    the lower neighbours; :func:`contour_level` of the side indicator)."""
+    edges = upscale.density_edges(density(rgb, paper), painted)
+    hi = ext.astype(F32, copy=True)
+    lo = ext.astype(F32, copy=True)
+    if edges.any:
+        hi_mask, lo_mask = edges.modified()
+        for c in range(3):
+            h_c, l_c = edges.sides(rgb[..., c].astype(F32))
+            hi[..., c] = np.where(hi_mask, h_c, hi[..., c])
+            lo[..., c] = np.where(lo_mask, l_c, lo[..., c])
+    lvl = contour_level(edges.high)
+    return (hi[inner], np.concatenate([lo[inner], lvl[inner][..., None]], axis=-1
+                                      ).astype(F32))
+
+
+@numba.njit(cache=True, nogil=True)
+def _steps_kernel(rgb: np.ndarray, paper: np.ndarray, painted: np.ndarray, y0: int,
+                  y1: int, x0: int, x1: int, ratio: np.float32, least: np.float32,
+                  reach: int, wts: np.ndarray, hi: np.ndarray,
+                  lo: np.ndarray) -> None:  # pragma: no cover
+    h, w = paper.shape
+    s = np.empty((h, w), np.float32)
+    for y in range(h):
+        for x in range(w):
+            m = (rgb[y, x, 0] + rgb[y, x, 1] + rgb[y, x, 2]) / np.float32(3.0)
+            s[y, x] = -np.log(max(m, np.float32(1e-4)) / max(paper[y, x], np.float32(1e-4)))
+    # the cells on a step's high side (a lower painted neighbour across a hard step)
+    tops = np.zeros((h, w), np.bool_)
+    for y in range(h):
+        for x in range(w):
+            if not painted[y, x]:
+                continue
+            a = s[y, x]
+            for dy in range(-1, 2):
+                for dx in range(-1, 2):
+                    yy, xx = y + dy, x + dx
+                    if (dy == 0 and dx == 0) or yy < 0 or yy >= h or xx < 0 or xx >= w:
+                        continue
+                    g = s[yy, xx]
+                    if painted[yy, xx] and g < ratio * a and a - g > least:
+                        tops[y, x] = True
+    # the side indicator on the inner cells grown by the level's reach (3)
+    gy0, gy1 = max(y0 - 3, 0), min(y1 + 3, h)
+    gx0, gx1 = max(x0 - 3, 0), min(x1 + 3, w)
+    high = np.zeros((h, w), np.float32)
+    for y in range(gy0, gy1):
+        for x in range(gx0, gx1):
+            near = False
+            peak = s[y, x]
+            for yy in range(max(y - reach, 0), min(y + reach + 1, h)):
+                for xx in range(max(x - reach, 0), min(x + reach + 1, w)):
+                    if tops[yy, xx]:
+                        near = True
+                    if s[yy, xx] > peak:
+                        peak = s[yy, xx]
+            if near and s[y, x] >= np.float32(0.5) * peak:
+                high[y, x] = 1.0
+    # its blur (5 taps each way, zero outside) on the inner cells grown by one
+    by0, by1 = max(y0 - 1, 0), min(y1 + 1, h)
+    bx0, bx1 = max(x0 - 1, 0), min(x1 + 1, w)
+    horiz = np.zeros((h, w), np.float32)
+    for y in range(max(by0 - 2, 0), min(by1 + 2, h)):
+        for x in range(bx0, bx1):
+            acc = np.float32(0.0)
+            for k in range(-2, 3):
+                xx = x + k
+                if 0 <= xx < w:
+                    acc += wts[k + 2] * high[y, xx]
+            horiz[y, x] = acc
+    blur = np.zeros((h, w), np.float32)
+    for y in range(by0, by1):
+        for x in range(bx0, bx1):
+            acc = np.float32(0.0)
+            for k in range(-2, 3):
+                yy = y + k
+                if 0 <= yy < h:
+                    acc += wts[k + 2] * horiz[yy, x]
+            blur[y, x] = acc
+    for y in range(y0, y1):
+        for x in range(x0, x1):
+            peak = np.float32(0.0)
+            for yy in range(max(y - 1, 0), min(y + 2, h)):
+                for xx in range(max(x - 1, 0), min(x + 2, w)):
+                    peak = max(peak, blur[yy, xx])
+            lo[y - y0, x - x0, 3] = blur[y, x] / max(peak, np.float32(1e-6)) \
+                if peak > 0 else np.float32(0.0)
+            if not painted[y, x]:
+                continue
+            is_high = high[y, x] > 0.5
+            a = s[y, x]
+            n = 0
+            acc0 = np.float32(0.0)
+            acc1 = np.float32(0.0)
+            acc2 = np.float32(0.0)
+            for dy in range(-1, 2):
+                for dx in range(-1, 2):
+                    yy, xx = y + dy, x + dx
+                    if (dy == 0 and dx == 0) or yy < 0 or yy >= h or xx < 0 or xx >= w:
+                        continue
+                    if not painted[yy, xx]:
+                        continue
+                    g = s[yy, xx]
+                    if is_high:
+                        across = g < ratio * a and a - g > least
+                    else:
+                        across = a < ratio * g and g - a > least
+                    if across:
+                        n += 1
+                        acc0 += rgb[yy, xx, 0]
+                        acc1 += rgb[yy, xx, 1]
+                        acc2 += rgb[yy, xx, 2]
+            if n == 0:
+                continue
+            o = lo[y - y0, x - x0] if is_high else hi[y - y0, x - x0]
+            o[0], o[1], o[2] = acc0 / n, acc1 / n, acc2 / n
+
+
+def step_fields(rgb: np.ndarray, paper: np.ndarray, painted: np.ndarray,
+                ext: np.ndarray, inner: tuple[slice, slice]
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """The high side's colour (h, w, 3) and the low side's colour with the hard steps'
+    contour level (h, w, 4) on ``inner`` (:func:`step_fields_reference`, its definition;
+    compiled).  ``rgb``, ``paper`` and ``painted`` cover ``inner`` grown by
+    :data:`STEP_HALO` where the canvas goes on; ``ext`` (the colour :func:`fields` gave,
+    (h, w, 3)) covers ``inner`` only."""
+    ys, xs = inner
+    hi = np.ascontiguousarray(ext, F32).copy()
+    lo = np.empty((hi.shape[0], hi.shape[1], 4), F32)
+    lo[..., :3] = hi
+    _steps_kernel(np.ascontiguousarray(rgb, F32), np.ascontiguousarray(paper, F32),
+                  np.ascontiguousarray(painted), ys.start, ys.stop, xs.start, xs.stop,
+                  F32(STEP_RATIO), F32(STEP_MIN_DENSITY), STEP_SIDE_REACH, _W, hi, lo)
+    return hi, lo
+
+
 @cache
 def grain_patch(preset: str, seed: int) -> np.ndarray:
     """Sub-cell paper height detail of ``preset`` (float32 (GRAIN_CELLS·GRAIN_K)², zero
@@ -250,6 +432,9 @@ uniform float grain_texels; // the grain patch's side in texels
 uniform float shade;        // paper_shade: how much the paper's relief shades it
 uniform float granulation;  // extra relief shading of paint (deposits in the valleys)
 uniform bool contours;      // the alpha holds a contour level (CPU displays)
+uniform sampler2D steps;    // rgb: the low side's colour of hard steps inside the paint
+                            // (canvas's rgb: the high side's), a: their contour level
+uniform bool step_contours; // steps holds them (else it is not read)
 in vec2 f_uv;
 out vec4 frag;
 
@@ -294,6 +479,14 @@ void main() {
     float hp = texture(grain, c * grain_k / grain_texels).r * fade;
     float bare = texture(paper, f_uv).r;
     vec3 paint = clamp(s.rgb, 0.0, 1.0);
+    if (step_contours) {
+        // an edge inside the paint (one paint over another): the 1/2 contour of its
+        // high side's level between the two sides' colours, anti-aliased over a pixel
+        vec4 t = bicubic(steps, c, cells);
+        float sw = max(fwidth(t.a), 1e-4);
+        float sc = clamp((t.a - 0.5) / sw + 0.5, 0.0, 1.0);
+        paint = clamp(mix(t.rgb, s.rgb, sc), 0.0, 1.0);
+    }
     float cover = 1.0;
     if (contours) {
         float w = max(fwidth(s.a), 1e-4);

@@ -144,6 +144,16 @@ class HardEdges:
         peak = ndimage.maximum_filter(s, size=size, mode="nearest")
         self.high: np.ndarray = near & (s >= F32(0.5) * peak)
 
+    def modified(self) -> tuple[np.ndarray, np.ndarray]:
+        """Where :meth:`sides` changes a field: the low-side cells across a step from a
+        higher neighbour, the high-side cells across one from a lower neighbour."""
+        ups = np.zeros(self.high.shape, bool)
+        downs = np.zeros(self.high.shape, bool)
+        for u, d in zip(self.up, self.down, strict=True):
+            ups |= u
+            downs |= d
+        return ~self.high & ups, self.high & downs
+
     def sides(self, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``f``'s high-side and low-side fields: each ``f`` except across a hard step,
         where a low-side cell takes the mean of its higher neighbours (the high side
