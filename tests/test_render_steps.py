@@ -50,6 +50,7 @@ def _plain(monkeypatch: pytest.MonkeyPatch) -> None:
     """The renderer without step contours (main's before them): no step qualifies."""
     monkeypatch.setattr(upscale, "HARD_RATIO", 0.0)
     monkeypatch.setattr(upscale, "HARD_MIN_DENSITY", np.inf)
+    monkeypatch.setattr(upscale, "HARD_MIN_AMOUNT", np.inf)
 
 
 @pytest.mark.parametrize("k", [2, 3])
@@ -96,8 +97,9 @@ def test_step_contours_keep_the_paint_where_the_simulation_put_it() -> None:
 
 
 def test_smooth_gradients_and_rims_stay_bicubic(monkeypatch: pytest.MonkeyPatch) -> None:
-    """A wet-in-wet blend (30 % less a cell) over a wash and a dried rim (2 cells at 1.4x
-    its interior) have no hard step: drawn exactly as without step contours."""
+    """A wet-in-wet blend (30 % less a cell) over a wash and a dried rim (its darkness
+    rising over 3 cells to 1.4x its interior at the edge) have no hard step: drawn
+    exactly as without step contours."""
     st = NumpyCanvas(40, 24, seed=2).state()
     a = st.slot_of("French Ultramarine")
     b = st.slot_of("Burnt Umber")
@@ -106,10 +108,10 @@ def test_smooth_gradients_and_rims_stay_bicubic(monkeypatch: pytest.MonkeyPatch)
     st.p[b] = (0.3 * 0.7 ** np.abs(xx - 12.3)).astype(np.float32)
     dried = NumpyCanvas(40, 24, seed=2).state()
     c = dried.slot_of("Sepia")
-    inside = (yy >= 4) & (yy < 20) & (xx >= 24) & (xx < 38)
-    rim = inside & ~((yy >= 6) & (yy < 18) & (xx >= 26) & (xx < 36))
-    # a rim inside a wash over an earlier flat wash (its outer edge hard, on paper)
-    dried.q[c] = np.where(rim, 0.14, np.where(inside, 0.1, 0.0)).astype(np.float32)
+    # a rim inside a wash on paper (its outer edge on paper: the paint's own contour)
+    inward = np.minimum(np.minimum(yy - 4, 19 - yy), np.minimum(xx - 24, 37 - xx))
+    dried.q[c] = np.where(inward >= 0, 0.1 + 0.04 * np.clip(1 - inward / 3, 0, 1), 0.0
+                          ).astype(np.float32)
     st.r_composed[...] = render_bands(dried, "km")
     got = render_scaled(st, "km", 3)
     with monkeypatch.context() as m:

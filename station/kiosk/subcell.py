@@ -500,6 +500,79 @@ void main() {
 }
 """
 
+def _bilinear(t: np.ndarray, cx: np.ndarray, cy: np.ndarray) -> np.ndarray:
+    """A LINEAR, clamp-to-edge texture fetch of ``t`` (h, w, ch) at texel coordinates
+    (``cx``, ``cy``; texel centres at i + 0.5)."""
+    h, w = t.shape[:2]
+    px, py = cx - 0.5, cy - 0.5
+    x0, y0 = np.floor(px), np.floor(py)
+    fx, fy = (px - x0)[..., None], (py - y0)[..., None]
+    xa, xb = np.clip(x0, 0, w - 1).astype(int), np.clip(x0 + 1, 0, w - 1).astype(int)
+    ya, yb = np.clip(y0, 0, h - 1).astype(int), np.clip(y0 + 1, 0, h - 1).astype(int)
+    out: np.ndarray = ((t[ya, xa] * (1 - fx) + t[ya, xb] * fx) * (1 - fy)
+                       + (t[yb, xa] * (1 - fx) + t[yb, xb] * fx) * fy)
+    return out
+
+
+def _bicubic(t: np.ndarray, cx: np.ndarray, cy: np.ndarray) -> np.ndarray:
+    """The shader's ``bicubic``: Catmull-Rom from five bilinear fetches."""
+    px, py = cx - 0.5, cy - 0.5
+    ix, iy = np.floor(px), np.floor(py)
+    w = []
+    for f in (px - ix, py - iy):
+        w0 = f * (-0.5 + f * (1.0 - 0.5 * f))
+        w1 = 1.0 + f * f * (-2.5 + 1.5 * f)
+        w2 = f * (0.5 + f * (2.0 - 1.5 * f))
+        w3 = f * f * (-0.5 + 0.5 * f)
+        w.append((w0, w1 + w2, w2 / (w1 + w2), w3))
+    (x0, x12, ox, x3), (y0, y12, oy, y3) = w
+    # texel coordinates of the fetches (the shader's (i - 0.5) / size etc. times size)
+    tx0, tx3, tx12 = ix - 0.5, ix + 2.5, ix + 0.5 + ox
+    ty0, ty3, ty12 = iy - 0.5, iy + 2.5, iy + 0.5 + oy
+    parts = [(tx12, ty0, x12 * y0), (tx0, ty12, x0 * y12), (tx12, ty12, x12 * y12),
+             (tx3, ty12, x3 * y12), (tx12, ty3, x12 * y3)]
+    acc = sum(_bilinear(t, a, b) * wt[..., None] for a, b, wt in parts)
+    norm = sum(wt for _, _, wt in parts)
+    out: np.ndarray = acc / norm[..., None]
+    return out
+
+
+def _fwidth(v: np.ndarray) -> np.ndarray:
+    """GLSL's ``fwidth`` with coarse derivatives: per 2x2 quad of pixels (rows counted
+    from the framebuffer's bottom), the first row's and the first column's difference."""
+    q = v[::-1]  # framebuffer rows
+    dx = np.repeat(np.repeat(q[0::2, 1::2] - q[0::2, 0::2], 2, 0), 2, 1)
+    dy = np.repeat(np.repeat(q[1::2, 0::2] - q[0::2, 0::2], 2, 0), 2, 1)
+    out: np.ndarray = (np.abs(dx) + np.abs(dy))[::-1]
+    return out
+
+
+def draw_reference(canvas: np.ndarray, steps: np.ndarray | None, paper: np.ndarray,
+                   k: int) -> np.ndarray:
+    """The window's canvas shader (:data:`CANVAS_FRAG`, contours on; the paper's grain
+    and granulation, which only shade, left out) in numpy at ``k`` pixels a cell, top
+    row first: sRGB8 (kH, kW, 3) of the ``canvas`` texture (h, w, 4), the ``steps``
+    texture (h, w, 4; None: none) and the bare ``paper`` (h, w).  The definition the
+    shader's contours are held to (its fetches, contours and mixes)."""
+    h, w = paper.shape
+    cy, cx = np.mgrid[0:h * k, 0:w * k].astype(np.float64)
+    cx, cy = (cx + 0.5) / k, (cy + 0.5) / k
+    s = _bicubic(canvas.astype(np.float64), cx, cy)
+    paint = np.clip(s[..., :3], 0.0, 1.0)
+    if steps is not None:
+        t = _bicubic(steps.astype(np.float64), cx, cy)
+        sw = np.maximum(_fwidth(t[..., 3]), 1e-4)
+        sc = np.clip((t[..., 3] - 0.5) / sw + 0.5, 0.0, 1.0)[..., None]
+        paint = np.clip(t[..., :3] * (1 - sc) + s[..., :3] * sc, 0.0, 1.0)
+    cw = np.maximum(_fwidth(s[..., 3]), 1e-4)
+    cover = np.clip((s[..., 3] - 0.5) / cw + 0.5, 0.0, 1.0)[..., None]
+    bare = _bilinear(paper.astype(np.float64)[..., None], cx, cy)
+    x = np.clip(bare * (1 - cover) + paint * cover, 0.0, 1.0)
+    srgb = np.where(x > 0.0031308, 1.055 * x ** (1 / 2.4) - 0.055, 12.92 * x)
+    out: np.ndarray = np.round(srgb * 255).astype(int)
+    return out
+
+
 #: Extra relief shading of fully absorbing paint (granulation below the cell).
 GRANULATION = 0.5
 

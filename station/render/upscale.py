@@ -30,10 +30,17 @@ import numpy as np
 from PIL import Image
 from scipy import ndimage
 
+from station.canvas.palette import Pigment
 from station.canvas.paper import make_paper
 from station.canvas.params import CanvasInputError
 from station.canvas.state import CanvasState
-from station.render.km import gouache_layer, gouache_white_ks, km_layer, to_linear_rgb
+from station.render.km import (
+    gouache_layer,
+    gouache_white_ks,
+    km_coefficients,
+    km_layer,
+    to_linear_rgb,
+)
 from station.render.km import render_state as render_cells
 
 F32 = np.float32
@@ -99,12 +106,16 @@ def _extended(a: np.ndarray, painted: np.ndarray) -> np.ndarray:
 #: A hard edge inside the paint: a cell below this share of a neighbour's pigment (a
 #: wet-on-dry edge, a glaze's edge); smoother steps (wet-in-wet) stay bicubic.
 HARD_RATIO = 0.5
-#: ... and the step at least this much pigment (below it nothing shows) [paint units].
-HARD_MIN_AMOUNT = 1e-4
+#: ... and the step at least this much absorption (pigment amount times its mean KM
+#: absorption; below it nothing shows).
+HARD_MIN_AMOUNT = 1e-3
 #: A hard edge in the dried layers: their mean optical density (``-ln`` of the
-#: reflectance over the bare paper's, over the bands) stepping by :data:`HARD_RATIO` and
-#: at least this much.
+#: reflectance over the bare paper's, over the bands) stepping by at least this much.
 HARD_MIN_DENSITY = 0.03
+#: Or a step by this share of its top in one cell, the cells beyond rising less than
+#: HARD_ISOLATION of it (the front mountain's glaze over the back one's wash).
+HARD_SHARE = 0.25
+HARD_ISOLATION = 0.5
 #: Cells each way from a step's high side that its side indicator reaches.
 SIDE_REACH = 2
 
@@ -127,9 +138,9 @@ class HardEdges:
 
     ``up[d]`` (bool (H, W)) marks a cell whose neighbour at ``_NEIGHBOURS[d]`` is across a
     hard step above it, ``down[d]`` one below it.  ``high`` is the side indicator: the
-    cells within :data:`SIDE_REACH` of a step's high side that hold at least half the
-    field's peak over the square of that reach around them (so the step's low side,
-    which sees the high side's value, is out, and so is everything farther from a step).
+    cells within :data:`SIDE_REACH` of a step's high side at or above the mid-level of
+    the step nearest to them (the lower at a tie; everything farther from a step is
+    out).
     Its blurred, peak-normalised 1/2 level set (:func:`step_level`) becomes the step's
     sub-cell contour."""
 
@@ -139,10 +150,42 @@ class HardEdges:
         for d in down:
             tops |= d
         self.any = bool(tops.any())
-        size = 2 * SIDE_REACH + 1
-        near = ndimage.binary_dilation(tops, np.ones((size, size), bool))
-        peak = ndimage.maximum_filter(s, size=size, mode="nearest")
-        self.high: np.ndarray = near & (s >= F32(0.5) * peak)
+        # the step's mid-level at its high side's cells (between it and the mean of its
+        # lower neighbours), and at every cell the nearest such cell's (the larger at a
+        # tie): a cell is on the high side of the step nearest to it when above that
+        low_num = np.zeros_like(s)
+        low_den = np.zeros_like(s)
+        for d, (dy, dx) in enumerate(_NEIGHBOURS):
+            low_num += np.where(down[d], _shifted(s, dy, dx, 0.0), F32(0))
+            low_den += down[d]
+        mid = np.where(tops, F32(0.5) * (s + low_num / np.maximum(low_den, F32(1))),
+                       -np.inf).astype(F32)
+        level = np.full(s.shape, np.inf, F32)
+        low_mid = np.where(tops, mid, np.inf).astype(F32)
+        for r in range(SIDE_REACH + 1):
+            found = ndimage.minimum_filter(low_mid, size=2 * r + 1, mode="constant",
+                                           cval=np.inf)
+            level = np.where(np.isinf(level), found, level)
+        # (the lower at a tie: a thin band between two steps, say a mountain's wash
+        # between the sky and a nearer mountain, stays whole on the high side of the
+        # lower step; the upper one keeps its bicubic there)
+        self.high: np.ndarray = s >= level
+        # across several levels, a cell's far side is its nearest level: the lower
+        # half of its higher neighbours across steps, the upper half of its lower ones
+        self.up_near = self._nearest(up, s, lower=True)
+        self.down_near = self._nearest(down, s, lower=False)
+
+    @staticmethod
+    def _nearest(pairs: list[np.ndarray], s: np.ndarray, lower: bool) -> list[np.ndarray]:
+        vals = [_shifted(s, dy, dx, 0.0) for dy, dx in _NEIGHBOURS]
+        lo = np.min([np.where(m, v, np.inf) for m, v in zip(pairs, vals, strict=True)],
+                    axis=0)
+        hi = np.max([np.where(m, v, -np.inf) for m, v in zip(pairs, vals, strict=True)],
+                    axis=0)
+        cut = np.where(np.isfinite(lo), 0.5 * (np.where(np.isfinite(lo), lo, 0)
+                                               + np.where(np.isfinite(hi), hi, 0)), 0)
+        return [m & ((v <= cut) if lower else (v >= cut))
+                for m, v in zip(pairs, vals, strict=True)]
 
     def modified(self) -> tuple[np.ndarray, np.ndarray]:
         """Where :meth:`sides` changes a field: the low-side cells across a step from a
@@ -156,49 +199,92 @@ class HardEdges:
 
     def sides(self, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``f``'s high-side and low-side fields: each ``f`` except across a hard step,
-        where a low-side cell takes the mean of its higher neighbours (the high side
-        extended over the step, as :func:`_extended` extends paint over blank paper) and
-        a high-side cell the mean of its lower neighbours."""
+        where a low-side cell takes the mean of its higher neighbours across steps (of
+        the nearer level: the high side extended over the step, as :func:`_extended`
+        extends paint over blank paper) and a high-side cell the mean of its lower
+        ones."""
         hi_num = np.zeros_like(f)
         hi_den = np.zeros_like(f)
         lo_num = np.zeros_like(f)
         lo_den = np.zeros_like(f)
         for d, (dy, dx) in enumerate(_NEIGHBOURS):
             g = _shifted(f, dy, dx, 0.0)
-            hi_num += np.where(self.up[d], g, F32(0))
-            hi_den += self.up[d]
-            lo_num += np.where(self.down[d], g, F32(0))
-            lo_den += self.down[d]
+            hi_num += np.where(self.up_near[d], g, F32(0))
+            hi_den += self.up_near[d]
+            lo_num += np.where(self.down_near[d], g, F32(0))
+            lo_den += self.down_near[d]
         hi = np.where(~self.high & (hi_den > 0), hi_num / np.maximum(hi_den, F32(1)), f)
         lo = np.where(self.high & (lo_den > 0), lo_num / np.maximum(lo_den, F32(1)), f)
         return hi.astype(F32), lo.astype(F32)
 
 
-def pigment_edges(a: np.ndarray, within: np.ndarray) -> HardEdges:
-    """Hard steps of a pigment's amount ``a`` (H, W) between two cells of ``within`` (the
-    painted cells: the edge of the paint on blank paper has its own contour): a cell
-    below :data:`HARD_RATIO` of a neighbour, by at least :data:`HARD_MIN_AMOUNT`."""
-    up, down = [], []
-    for dy, dx in _NEIGHBOURS:
-        g = _shifted(a, dy, dx, 0.0)
-        both = within & _shifted(within, dy, dx, False)
-        up.append(both & (a < F32(HARD_RATIO) * g) & (g - a > F32(HARD_MIN_AMOUNT)))
-        down.append(both & (g < F32(HARD_RATIO) * a) & (a - g > F32(HARD_MIN_AMOUNT)))
-    return HardEdges(up, down, a)
+def _clamped(a: np.ndarray, dy: int, dx: int) -> np.ndarray:
+    """``a[y + dy, x + dx]`` at every (y, x), the nearest cell's beyond the canvas."""
+    hh, ww = a.shape[:2]
+    ys = np.clip(np.arange(hh) + dy, 0, hh - 1)
+    xs = np.clip(np.arange(ww) + dx, 0, ww - 1)
+    out: np.ndarray = a[ys][:, xs]
+    return out
 
 
-def density_edges(s: np.ndarray, within: np.ndarray) -> HardEdges:
-    """Hard steps of the dried layers' optical density ``s`` (H, W) between two cells of
-    ``within`` (the dried cells): as :func:`pigment_edges`, a cell below
-    :data:`HARD_RATIO` of a neighbour's density, by at least :data:`HARD_MIN_DENSITY`
-    (a dried glaze's edge at least as dense as the wash under it; a dried rim or
-    wet-in-wet blend is smoother)."""
+def hard_pairs(s: np.ndarray, within: np.ndarray, least: float
+               ) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Hard steps of ``s`` (H, W) between neighbouring cells of ``within``: per neighbour
+    direction (:data:`_NEIGHBOURS`), the cells whose neighbour is across a step above
+    them, and those whose neighbour is across one below.  A step rises by at least
+    ``least`` and either more than doubles (:data:`HARD_RATIO`: a wash's edge over
+    another paint) or rises by :data:`HARD_SHARE` of its top in one cell while the
+    cells beyond it on either side rise less than :data:`HARD_ISOLATION` of that (a
+    glaze's edge over a wash of the same colour; a wet-in-wet blend or a rim rises over
+    several cells, granulation's noise by less)."""
     up, down = [], []
     for dy, dx in _NEIGHBOURS:
         g = _shifted(s, dy, dx, 0.0)
         both = within & _shifted(within, dy, dx, False)
-        up.append(both & (s < F32(HARD_RATIO) * g) & (g - s > F32(HARD_MIN_DENSITY)))
-        down.append(both & (g < F32(HARD_RATIO) * s) & (s - g > F32(HARD_MIN_DENSITY)))
+        before = _clamped(s, -dy, -dx)  # the cell before this one, along the direction
+        after = _clamped(s, 2 * dy, 2 * dx)  # the one after the neighbour
+        rise = g - s
+        ramp = np.maximum(np.maximum(s - before, after - g), F32(0))
+        up.append(both & (rise > F32(least))
+                  & ((s < F32(HARD_RATIO) * g)
+                     | ((rise > F32(HARD_SHARE) * g) & (rise * F32(HARD_ISOLATION) > ramp))))
+        fall = s - g
+        ramp_d = np.maximum(np.maximum(g - after, before - s), F32(0))
+        down.append(both & (fall > F32(least))
+                    & ((g < F32(HARD_RATIO) * s)
+                       | ((fall > F32(HARD_SHARE) * s)
+                          & (fall * F32(HARD_ISOLATION) > ramp_d))))
+    return up, down
+
+
+def layer_absorption(p: list[np.ndarray], q: list[np.ndarray], pigments: list[Pigment],
+                     bands: int) -> np.ndarray:
+    """The surface layer's absorption per cell (float32 (H, W)): each pigment's amount
+    ``p + q`` times its mean Kubelka-Munk absorption over the bands (a weak yellow's step
+    weighs less than an ink's)."""
+    out = np.zeros(p[0].shape if p else (0, 0), F32)
+    if not pigments:
+        return out
+    kk, _ = km_coefficients(pigments, bands)
+    for i in range(len(pigments)):
+        out += F32(kk[i].mean()) * (p[i] + q[i])
+    return out
+
+
+def pigment_edges(a: np.ndarray, within: np.ndarray) -> HardEdges:
+    """Hard steps (:func:`hard_pairs`) of the surface layer's absorption ``a`` (H, W;
+    :func:`layer_absorption`) between two cells of ``within`` (the painted cells: the
+    edge of the paint on blank paper has its own contour), by at least
+    :data:`HARD_MIN_AMOUNT`."""
+    up, down = hard_pairs(a, within, HARD_MIN_AMOUNT)
+    return HardEdges(up, down, a)
+
+
+def density_edges(s: np.ndarray, within: np.ndarray) -> HardEdges:
+    """Hard steps (:func:`hard_pairs`) of the dried layers' optical density ``s`` (H, W)
+    between two cells of ``within`` (the dried cells), by at least
+    :data:`HARD_MIN_DENSITY`."""
+    up, down = hard_pairs(s, within, HARD_MIN_DENSITY)
     return HardEdges(up, down, s)
 
 
@@ -294,16 +380,18 @@ def scaled_layers(state: CanvasState, k: int) -> tuple[np.ndarray, np.ndarray]:
     n = len(pigments)
     painted = (state.p[:n] + state.q[:n]).sum(axis=0) > F32(1e-6)
     cover = edge_coverage(painted, k)
+    # hard steps inside the paint (a wet-on-dry edge over another colour, a glaze's
+    # edge): one sub-cell contour for all the layer's pigments, where its absorption
+    # steps (a contour per pigment would part a mixed stroke's pigments at its edge)
+    ext_p = [_extended(state.p[i], painted) for i in range(n)]
+    ext_q = [_extended(state.q[i], painted) for i in range(n)]
+    edges = pigment_edges(layer_absorption(ext_p, ext_q, pigments, diff.shape[-1]),
+                          painted)
+    step = step_coverage(edges.high, k) if edges.any else None
     amounts = []
     for i, pig in enumerate(pigments):
-        ep = _extended(state.p[i], painted)
-        eq = _extended(state.q[i], painted)
-        # a hard step of this pigment inside the paint (its wet-on-dry edge over another
-        # colour, a glaze's edge): a sub-cell contour of its own, shared by p and q
-        edges = pigment_edges(ep + eq, painted)
-        step = step_coverage(edges.high, k) if edges.any else None
-        p = _sharpened(ep, edges, step, k) * cover
-        q = _sharpened(eq, edges, step, k) * cover
+        p = _sharpened(ext_p[i], edges, step, k) * cover
+        q = _sharpened(ext_q[i], edges, step, k) * cover
         if pig.gamma > 0:
             g = np.maximum(F32(1.0) - F32(pig.gamma) * hp, F32(0.0))
             gq = q * g
