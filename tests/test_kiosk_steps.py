@@ -73,6 +73,26 @@ def test_the_compiled_step_fields_match_their_definition() -> None:
         want = subcell.step_fields_reference(rgb, paper, painted, plain[..., :3], (ys, xs))
         assert np.abs(got[0] - want[0]).max() < 1e-6
         assert np.abs(got[1] - want[1]).max() < 1e-6
+    # a glaze's step (density +0.5, under twice), a harder one, a thin dark line, the
+    # paper's noise, ragged blank cells
+    rng = np.random.default_rng(3)
+    yy, xx = np.mgrid[0:50, 0:70]
+    c2 = np.float32(0.6) * (1 + 0.04 * rng.random((50, 70, 3))).astype(np.float32)
+    c2[yy > 20 + 0.3 * xx] *= 0.6
+    c2[yy > 30 + 0.2 * xx] *= 0.3
+    c2[5:8, 5:40] *= 0.4
+    p2 = rng.random((50, 70)) > 0.1
+    pap = np.full((50, 70), 0.85, np.float32)
+    e2 = subcell.fields(c2, p2, (slice(0, 50), slice(0, 70)))[..., :3]
+    for ys, xs in [(slice(0, 50), slice(0, 70)), (slice(7, 40), slice(8, 60))]:
+        gy, gx = subcell.grow(ys, xs, subcell.STEP_HALO, 50, 70)
+        inner = (slice(ys.start - gy.start, ys.stop - gy.start),
+                 slice(xs.start - gx.start, xs.stop - gx.start))
+        got = subcell.step_fields(c2[gy, gx], pap[gy, gx], p2[gy, gx], e2[ys, xs], inner)
+        want = subcell.step_fields_reference(c2, pap, p2, e2, (ys, xs))
+        assert np.abs(got[0] - want[0]).max() < 1e-6
+        assert np.abs(got[1] - want[1]).max() < 1e-6
+        assert (np.abs(want[0] - e2[ys, xs]).max(axis=-1) > 0).sum() > 100  # steps found
     # the two sides differ along the step only, and the level splits them
     differ = np.abs(canvas[..., :3] - lo[..., :3]).max(axis=-1) > 1e-3
     assert 1.5 * W < differ.sum() < 4 * W

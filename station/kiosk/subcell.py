@@ -26,7 +26,9 @@ the window's fragment shader:
 Edges inside the paint (one paint over another, a dried glaze's edge) get the same:
 where the cells' optical density steps hard between painted neighbours
 (:func:`step_fields`, the headless renderer's :func:`upscale.density_edges` on the
-cells' colour), the canvas texture holds the step's high side's colour on both sides
+cells' colour; its side indicator's contour is the isotropic blur of the paint's edge,
+not the headless renderer's blur along the edge, whose reach a region's update could
+not afford), the canvas texture holds the step's high side's colour on both sides
 of it, a second texture (``steps``) the low side's colour and the 1/2 contour level of
 the step's high side, and the shader mixes the two colours across that contour.  Away
 from a step both textures hold the same colour (the shader's mix changes nothing).
@@ -235,11 +237,13 @@ def fields(rgb: np.ndarray, painted: np.ndarray, inner: tuple[slice, slice]
 STEP_RATIO = upscale.HARD_RATIO
 STEP_MIN_DENSITY = upscale.HARD_MIN_DENSITY
 STEP_SIDE_REACH = upscale.SIDE_REACH
+_STEP_CONSTS = np.array([STEP_MIN_DENSITY, STEP_RATIO, upscale.HARD_SHARE,
+                         upscale.HARD_ISOLATION], F32)
 
-#: Cells around a changed cell whose step fields may change (the pair 1, the side
-#: indicator's reach, its contour level's), and the cells of colour and indicator a
-#: region's step fields need around it.
-STEP_REACH = 1 + STEP_SIDE_REACH + LEVEL_REACH
+#: Cells around a changed cell whose step fields may change (a pair and the cells
+#: beyond it 2, the side indicator's reach, its contour level's), and the cells of
+#: colour and indicator a region's step fields need around it.
+STEP_REACH = 2 + STEP_SIDE_REACH + LEVEL_REACH
 STEP_HALO = STEP_REACH
 
 #: What a display re-renders around a changed region (the larger of the paint's contour
@@ -281,47 +285,67 @@ def step_fields_reference(rgb: np.ndarray, paper: np.ndarray, painted: np.ndarra
                                       ).astype(F32))
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _across(a: np.float32, g: np.float32, before: np.float32, after: np.float32,
+            least: np.float32, ratio: np.float32, share: np.float32,
+            iso: np.float32) -> bool:  # pragma: no cover
+    """``upscale.hard_pairs``: from ``a`` up to its neighbour ``g`` a hard step
+    (``before`` the cell before ``a``, ``after`` the one after ``g``, along the way)."""
+    rise = g - a
+    ramp = max(max(a - before, after - g), np.float32(0.0))
+    return rise > least and (a < ratio * g or (rise > share * g and rise * iso > ramp))
+
+
 @numba.njit(cache=True, nogil=True)
 def _steps_kernel(rgb: np.ndarray, paper: np.ndarray, painted: np.ndarray, y0: int,
-                  y1: int, x0: int, x1: int, ratio: np.float32, least: np.float32,
-                  reach: int, wts: np.ndarray, hi: np.ndarray,
-                  lo: np.ndarray) -> None:  # pragma: no cover
+                  y1: int, x0: int, x1: int, consts: np.ndarray, reach: int,
+                  wts: np.ndarray, hi: np.ndarray, lo: np.ndarray) -> None:  # pragma: no cover
+    least, ratio, share, iso = consts[0], consts[1], consts[2], consts[3]
     h, w = paper.shape
     s = np.empty((h, w), np.float32)
     for y in range(h):
         for x in range(w):
             m = (rgb[y, x, 0] + rgb[y, x, 1] + rgb[y, x, 2]) / np.float32(3.0)
             s[y, x] = -np.log(max(m, np.float32(1e-4)) / max(paper[y, x], np.float32(1e-4)))
-    # the cells on a step's high side (a lower painted neighbour across a hard step)
-    tops = np.zeros((h, w), np.bool_)
+    # the cells on a step's high side, and the step's mid-level there
+    mid = np.full((h, w), np.inf, np.float32)
     for y in range(h):
         for x in range(w):
             if not painted[y, x]:
                 continue
-            a = s[y, x]
+            n = 0
+            acc = np.float32(0.0)
             for dy in range(-1, 2):
                 for dx in range(-1, 2):
                     yy, xx = y + dy, x + dx
                     if (dy == 0 and dx == 0) or yy < 0 or yy >= h or xx < 0 or xx >= w:
                         continue
-                    g = s[yy, xx]
-                    if painted[yy, xx] and g < ratio * a and a - g > least:
-                        tops[y, x] = True
-    # the side indicator on the inner cells grown by the level's reach (3)
+                    if not painted[yy, xx]:
+                        continue
+                    before = s[min(max(y - dy, 0), h - 1), min(max(x - dx, 0), w - 1)]
+                    after = s[min(max(y + 2 * dy, 0), h - 1), min(max(x + 2 * dx, 0), w - 1)]
+                    # down from (y, x) to (yy, xx): up from the neighbour, seen from it
+                    if _across(s[yy, xx], s[y, x], after, before, least, ratio, share,
+                               iso):
+                        n += 1
+                        acc += s[yy, xx]
+            if n > 0:
+                mid[y, x] = np.float32(0.5) * (s[y, x] + acc / n)
+    # the side indicator on the inner cells grown by the level's reach (3): above the
+    # nearest step's mid-level (the lower at a tie)
     gy0, gy1 = max(y0 - 3, 0), min(y1 + 3, h)
     gx0, gx1 = max(x0 - 3, 0), min(x1 + 3, w)
     high = np.zeros((h, w), np.float32)
     for y in range(gy0, gy1):
         for x in range(gx0, gx1):
-            near = False
-            peak = s[y, x]
-            for yy in range(max(y - reach, 0), min(y + reach + 1, h)):
-                for xx in range(max(x - reach, 0), min(x + reach + 1, w)):
-                    if tops[yy, xx]:
-                        near = True
-                    if s[yy, xx] > peak:
-                        peak = s[yy, xx]
-            if near and s[y, x] >= np.float32(0.5) * peak:
+            level = np.float32(np.inf)
+            for r in range(reach + 1):
+                for yy in range(max(y - r, 0), min(y + r + 1, h)):
+                    for xx in range(max(x - r, 0), min(x + r + 1, w)):
+                        level = min(level, mid[yy, xx])
+                if level < np.inf:
+                    break
+            if s[y, x] >= level:
                 high[y, x] = 1.0
     # its blur (5 taps each way, zero outside) on the inner cells grown by one
     by0, by1 = max(y0 - 1, 0), min(y1 + 1, h)
@@ -344,6 +368,8 @@ def _steps_kernel(rgb: np.ndarray, paper: np.ndarray, painted: np.ndarray, y0: i
                 if 0 <= yy < h:
                     acc += wts[k + 2] * horiz[yy, x]
             blur[y, x] = acc
+    vals = np.empty(8, np.float32)
+    cols = np.empty((8, 3), np.float32)
     for y in range(y0, y1):
         for x in range(x0, x1):
             peak = np.float32(0.0)
@@ -357,9 +383,6 @@ def _steps_kernel(rgb: np.ndarray, paper: np.ndarray, painted: np.ndarray, y0: i
             is_high = high[y, x] > 0.5
             a = s[y, x]
             n = 0
-            acc0 = np.float32(0.0)
-            acc1 = np.float32(0.0)
-            acc2 = np.float32(0.0)
             for dy in range(-1, 2):
                 for dx in range(-1, 2):
                     yy, xx = y + dy, x + dx
@@ -368,19 +391,37 @@ def _steps_kernel(rgb: np.ndarray, paper: np.ndarray, painted: np.ndarray, y0: i
                     if not painted[yy, xx]:
                         continue
                     g = s[yy, xx]
+                    before = s[min(max(y - dy, 0), h - 1), min(max(x - dx, 0), w - 1)]
+                    after = s[min(max(y + 2 * dy, 0), h - 1), min(max(x + 2 * dx, 0), w - 1)]
                     if is_high:
-                        across = g < ratio * a and a - g > least
+                        ok = _across(g, a, after, before, least, ratio, share, iso)
                     else:
-                        across = a < ratio * g and g - a > least
-                    if across:
+                        ok = _across(a, g, before, after, least, ratio, share, iso)
+                    if ok:
+                        vals[n] = g
+                        cols[n, 0], cols[n, 1], cols[n, 2] = \
+                            rgb[yy, xx, 0], rgb[yy, xx, 1], rgb[yy, xx, 2]
                         n += 1
-                        acc0 += rgb[yy, xx, 0]
-                        acc1 += rgb[yy, xx, 1]
-                        acc2 += rgb[yy, xx, 2]
             if n == 0:
                 continue
+            # the nearest level across: the lower half of the higher neighbours, the
+            # upper half of the lower ones
+            vmin, vmax = vals[0], vals[0]
+            for i in range(1, n):
+                vmin, vmax = min(vmin, vals[i]), max(vmax, vals[i])
+            cut = np.float32(0.5) * (vmin + vmax)
+            m = 0
+            acc0 = np.float32(0.0)
+            acc1 = np.float32(0.0)
+            acc2 = np.float32(0.0)
+            for i in range(n):
+                if (vals[i] >= cut) if is_high else (vals[i] <= cut):
+                    m += 1
+                    acc0 += cols[i, 0]
+                    acc1 += cols[i, 1]
+                    acc2 += cols[i, 2]
             o = lo[y - y0, x - x0] if is_high else hi[y - y0, x - x0]
-            o[0], o[1], o[2] = acc0 / n, acc1 / n, acc2 / n
+            o[0], o[1], o[2] = acc0 / m, acc1 / m, acc2 / m
 
 
 def step_fields(rgb: np.ndarray, paper: np.ndarray, painted: np.ndarray,
@@ -397,7 +438,7 @@ def step_fields(rgb: np.ndarray, paper: np.ndarray, painted: np.ndarray,
     lo[..., :3] = hi
     _steps_kernel(np.ascontiguousarray(rgb, F32), np.ascontiguousarray(paper, F32),
                   np.ascontiguousarray(painted), ys.start, ys.stop, xs.start, xs.stop,
-                  F32(STEP_RATIO), F32(STEP_MIN_DENSITY), STEP_SIDE_REACH, _W, hi, lo)
+                  _STEP_CONSTS, STEP_SIDE_REACH, _W, hi, lo)
     return hi, lo
 
 
