@@ -305,7 +305,10 @@ class CpuDisplay:
         xs = slice(max(box[1].start, sx.start, 0), min(box[1].stop, sx.stop, st.width))
         cells = 0
         if ys.stop > ys.start and xs.stop > xs.start:
-            uy, ux = self._render_cells(st, self._renderer_kind(), ys, xs, src)
+            # (no steps' contours in the preview: their reach would more than double the
+            # cells a frame renders before the pen's stamps show; the tiles draw them
+            # once a step has taken the stamps)
+            uy, ux = self._render_cells(st, self._renderer_kind(), ys, xs, src, steps=False)
             self._grow_preview(uy, ux)
             cells = (uy.stop - uy.start) * (ux.stop - ux.start)
         self.cells_rendered += cells
@@ -387,14 +390,16 @@ class CpuDisplay:
         return self._carry is not None or self._owed
 
     def _render_cells(self, st: Any, kind: str, ys: slice, xs: slice,
-                      pending: Sources | None) -> tuple[slice, slice]:
+                      pending: Sources | None, steps: bool = True) -> tuple[slice, slice]:
         """Render the cells ``[ys, xs]`` that changed (with the ``pending`` stamps'
         pigment over them) and upload what that changes in the texture: those cells
         grown by the contour level's reach (:mod:`station.kiosk.subcell`); returns the
         uploaded cells."""
         h, w = st.height, st.width
-        uy, ux = subcell.grow(ys, xs, subcell.REACH, h, w)
-        ry, rx = subcell.grow(uy, ux, subcell.HALO, h, w)
+        reach, halo = (subcell.REACH, subcell.HALO) if steps else \
+            (subcell.LEVEL_REACH, subcell.INDICATOR_HALO)
+        uy, ux = subcell.grow(ys, xs, reach, h, w)
+        ry, rx = subcell.grow(uy, ux, halo, h, w)
         extra = None if pending is None else _pending_in(pending, st, ry, rx)
         amount, pigments = region_amount(st, ry, rx, extra)
         painted = subcell.painted_cells(amount, st.r_composed[ry, rx], self.paper_cells[ry, rx])
@@ -403,7 +408,7 @@ class CpuDisplay:
         # renders (a mirror of what was shown) disagreed with a fresher indicator along a
         # wet edge, and the extension carried a stale, darker colour out as specks and
         # notches
-        ky, kx = subcell.grow(uy, ux, subcell.HALO, h, w)
+        ky, kx = subcell.grow(uy, ux, subcell.HALO if steps else subcell.COLOUR_HALO, h, w)
         kin = (slice(ky.start - ry.start, ky.stop - ry.start),
                slice(kx.start - rx.start, kx.stop - rx.start))
         rgb = np.zeros((ry.stop - ry.start, rx.stop - rx.start, 3), F32)
@@ -415,9 +420,12 @@ class CpuDisplay:
         inner = (slice(uy.start - ry.start, uy.stop - ry.start),
                  slice(ux.start - rx.start, ux.stop - rx.start))
         ext = subcell.fields(rgb, painted, inner)
-        hi, lo = subcell.step_fields(rgb, self.paper_cells[ry, rx], painted, ext[..., :3],
-                                     inner)
-        ext[..., :3] = hi
+        if steps:
+            hi, lo = subcell.step_fields(rgb, self.paper_cells[ry, rx], painted,
+                                         ext[..., :3], inner)
+            ext[..., :3] = hi
+        else:  # the paint's colour on both sides: the shader's mix changes nothing
+            lo = np.concatenate([ext[..., :3], np.zeros_like(ext[..., 3:])], axis=-1)
         self._upload(ext, uy, ux)
         self._upload(lo, uy, ux, steps=True)
         return uy, ux

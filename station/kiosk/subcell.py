@@ -293,7 +293,7 @@ def _across(a: np.float32, g: np.float32, before: np.float32, after: np.float32,
     (``before`` the cell before ``a``, ``after`` the one after ``g``, along the way)."""
     rise = g - a
     ramp = max(max(a - before, after - g), np.float32(0.0))
-    return rise > least and (a < ratio * g or (rise > share * g and rise * iso > ramp))
+    return bool(rise > least and (a < ratio * g or (rise > share * g and rise * iso > ramp)))
 
 
 @numba.njit(cache=True, nogil=True)
@@ -572,8 +572,11 @@ def _bicubic(t: np.ndarray, cx: np.ndarray, cy: np.ndarray) -> np.ndarray:
     ty0, ty3, ty12 = iy - 0.5, iy + 2.5, iy + 0.5 + oy
     parts = [(tx12, ty0, x12 * y0), (tx0, ty12, x0 * y12), (tx12, ty12, x12 * y12),
              (tx3, ty12, x3 * y12), (tx12, ty3, x12 * y3)]
-    acc = sum(_bilinear(t, a, b) * wt[..., None] for a, b, wt in parts)
-    norm = sum(wt for _, _, wt in parts)
+    acc = np.zeros((*cx.shape, t.shape[-1]))
+    norm = np.zeros(cx.shape)
+    for a, b, wt in parts:
+        acc += _bilinear(t, a, b) * wt[..., None]
+        norm += wt
     out: np.ndarray = acc / norm[..., None]
     return out
 

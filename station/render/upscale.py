@@ -147,12 +147,12 @@ class HardEdges:
     def __init__(self, up: list[np.ndarray], down: list[np.ndarray], s: np.ndarray):
         self.up, self.down = up, down
         tops = np.zeros(s.shape, bool)
-        for d in down:
-            tops |= d
+        for m in down:
+            tops |= m
         self.any = bool(tops.any())
         # the step's mid-level at its high side's cells (between it and the mean of its
-        # lower neighbours), and at every cell the nearest such cell's (the larger at a
-        # tie): a cell is on the high side of the step nearest to it when above that
+        # lower neighbours), and at every cell the nearest such cell's: a cell is on the
+        # high side of the step nearest to it when above that
         low_num = np.zeros_like(s)
         low_den = np.zeros_like(s)
         for d, (dy, dx) in enumerate(_NEIGHBOURS):
