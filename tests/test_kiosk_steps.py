@@ -93,6 +93,13 @@ def test_the_compiled_step_fields_match_their_definition() -> None:
         assert np.abs(got[0] - want[0]).max() < 1e-6
         assert np.abs(got[1] - want[1]).max() < 1e-6
         assert (np.abs(want[0] - e2[ys, xs]).max(axis=-1) > 0).sum() > 100  # steps found
+    # no step (a smooth blend): both textures the paint's colour, level 0, as defined
+    smooth = np.float32(0.6) * (1 - 0.02 * xx[..., None] / 70).astype(np.float32) \
+        * np.ones(3, np.float32)
+    got = subcell.step_fields(smooth, pap, p2, e2, (slice(0, 50), slice(0, 70)))
+    want = subcell.step_fields_reference(smooth, pap, p2, e2, (slice(0, 50), slice(0, 70)))
+    assert (got[1][..., 3] == 0).all() and (got[0] == e2).all()
+    assert np.abs(got[1] - want[1]).max() < 1e-6
     # the two sides differ along the step only, and the level splits them
     differ = np.abs(canvas[..., :3] - lo[..., :3]).max(axis=-1) > 1e-3
     assert 1.5 * W < differ.sum() < 4 * W

@@ -307,10 +307,12 @@ def _steps_kernel(rgb: np.ndarray, paper: np.ndarray, painted: np.ndarray, y0: i
         for x in range(w):
             m = (rgb[y, x, 0] + rgb[y, x, 1] + rgb[y, x, 2]) / np.float32(3.0)
             s[y, x] = -np.log(max(m, np.float32(1e-4)) / max(paper[y, x], np.float32(1e-4)))
-    # the cells on a step's high side, and the step's mid-level there
+    # the cells on a step's high side, and the step's mid-level there (where the side
+    # indicator of the inner cells grown by the level's reach can see them)
     mid = np.full((h, w), np.inf, np.float32)
-    for y in range(h):
-        for x in range(w):
+    found = False
+    for y in range(max(y0 - 3 - reach, 0), min(y1 + 3 + reach, h)):
+        for x in range(max(x0 - 3 - reach, 0), min(x1 + 3 + reach, w)):
             if not painted[y, x]:
                 continue
             n = 0
@@ -331,6 +333,12 @@ def _steps_kernel(rgb: np.ndarray, paper: np.ndarray, painted: np.ndarray, y0: i
                         acc += s[yy, xx]
             if n > 0:
                 mid[y, x] = np.float32(0.5) * (s[y, x] + acc / n)
+                found = True
+    if not found:  # no step near: both sides the paint's colour, level 0
+        for y in range(y0, y1):
+            for x in range(x0, x1):
+                lo[y - y0, x - x0, 3] = 0.0
+        return
     # the side indicator on the inner cells grown by the level's reach (3): above the
     # nearest step's mid-level (the lower at a tie)
     gy0, gy1 = max(y0 - 3, 0), min(y1 + 3, h)
