@@ -93,9 +93,17 @@ def test_the_gl_canvas_shows_the_same_subcell_contour_as_the_cpu_canvas() -> Non
         painted = subcell.painted_cells(st.p[:len(pigments)] + st.q[:len(pigments)],
                                         st.r_composed, st.paper_reflectance())
         want = subcell.fields(rgb, painted, (slice(0, H), slice(0, W)))
+        # the hard steps inside the paint (the wet stroke over the dried one)
+        hi, lo = subcell.step_fields(rgb, st.paper_reflectance(), painted, want[..., :3],
+                                     (slice(0, H), slice(0, W)))
+        want[..., :3] = hi
         assert 0.05 < painted.mean() < 0.6  # paint, dried paint and bare paper
         assert np.abs(got[..., 3] - want[..., 3]).max() < 1e-4  # the contour level
         assert np.abs(got[..., :3] - want[..., :3]).max() < 2e-3  # the extended colour
+        steps = display.fields.read_steps()
+        assert (lo[..., 3] > 0.5).sum() > 20  # steps found, on both
+        assert np.abs(steps[..., 3] - lo[..., 3]).max() < 1e-4  # the steps' level
+        assert np.abs(steps[..., :3] - lo[..., :3]).max() < 2e-3  # the low side's colour
         # at the screen's resolution, through the window's shader, the same picture
         cpu_tex = ctx.texture((W, H), 4, np.ascontiguousarray(want).tobytes(), dtype="f4")
         cpu_tex.filter = (ctx.LINEAR, ctx.LINEAR)

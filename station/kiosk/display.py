@@ -552,9 +552,6 @@ class GpuDisplay:
 
     def __init__(self, ctx: moderngl.Context, session: Any) -> None:
         self.ctx = ctx
-        #: no steps' texture: the GL fields passes do not find hard steps inside the
-        #: paint yet (the window draws them as the colour's bicubic)
-        self.steps: moderngl.Texture | None = None
         self.bind(session)
 
     def bind(self, session: Any) -> None:
@@ -579,14 +576,16 @@ class GpuDisplay:
         samples: colour extended by the paint, the contour level)."""
         rgb = self.session.canvas.render_texture()
         self.texture = self.fields.run(self.session.canvas, rgb, self.surface.paper)
+        #: the hard steps' low side and contour level (:class:`GlFields`)
+        self.steps: moderngl.Texture | None = self.fields.steps
 
     def full_texture(self) -> moderngl.Texture:
         """The canvas's own render texture (the GPU renders it whole every frame)."""
         return self.texture
 
     def full_steps(self) -> moderngl.Texture | None:
-        """No steps' texture (:attr:`steps`)."""
-        return None
+        """The steps' texture (rendered whole every frame, as :meth:`full_texture`)."""
+        return self.steps
 
     def behind(self) -> bool:
         """The GPU renders the whole canvas every frame: never behind."""
