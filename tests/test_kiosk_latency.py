@@ -902,8 +902,9 @@ def test_a_large_fresh_preview_is_drawn_by_the_tiles_budget_not_in_one_frame(
             frames += 1
             assert frames < 100
         shown = disp.read()
-        monkeypatch.setattr(D, "PREVIEW_CELLS", 10**9)
-        ref = D.CpuDisplay(ctx, s)  # every tile afresh, with the pending stamps
+        # every tile afresh, with the pending stamps (the tiles' render: a preview draws
+        # no steps' contours, the tiles do)
+        ref = D.CpuDisplay(ctx, s)
         while ref.update() or ref.behind():
             pass
         whole = ref.read()
