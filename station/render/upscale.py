@@ -114,8 +114,8 @@ HARD_MIN_AMOUNT = 1e-3
 HARD_MIN_DENSITY = 0.03
 #: Or a step by this share of its top in one cell, the cells beyond rising less than
 #: HARD_ISOLATION of it (the front mountain's glaze over the back one's wash).
-HARD_SHARE = 0.25
-HARD_ISOLATION = 0.5
+HARD_SHARE = 0.3
+HARD_ISOLATION = 0.35
 #: Cells each way from a step's high side that its side indicator reaches.
 SIDE_REACH = 2
 
