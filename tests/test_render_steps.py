@@ -68,6 +68,21 @@ def test_an_edge_between_two_paints_is_a_smooth_contour(k: int,
     assert stair > 0.4 * k, stair  # the measure sees the staircase where it is drawn
 
 
+def test_a_glaze_of_the_same_colour_has_a_smooth_edge_too(monkeypatch: pytest.MonkeyPatch
+                                                           ) -> None:
+    """A second layer of the wash's own pigment (0.2 -> 0.35: under twice, the step in
+    one cell): the demo's front mountain over the back one."""
+    st, a, b = _band_over_wash()
+    st.q[a] += np.float32(0.75) * st.q[b]
+    st.q[b] = 0.0
+    k = 3
+    wiggle = _edge_wiggle(render_scaled(st, "km", k).mean(axis=2), k)
+    assert wiggle < 0.25 * k, wiggle
+    with monkeypatch.context() as m:
+        _plain(m)
+        assert _edge_wiggle(render_scaled(st, "km", k).mean(axis=2), k) > 0.4 * k
+
+
 def test_a_dried_glaze_edge_is_a_smooth_contour() -> None:
     st = _band_over_wash()[0]
     st.r_composed[...] = render_bands(st, "km")  # the band and the wash dried
@@ -97,9 +112,9 @@ def test_step_contours_keep_the_paint_where_the_simulation_put_it() -> None:
 
 
 def test_smooth_gradients_and_rims_stay_bicubic(monkeypatch: pytest.MonkeyPatch) -> None:
-    """A wet-in-wet blend (30 % less a cell) over a wash and a dried rim (its darkness
-    rising over 3 cells to 1.4x its interior at the edge) have no hard step: drawn
-    exactly as without step contours."""
+    """A wet-in-wet blend (30 % less a cell) over a wash, a dried rim (its darkness
+    rising over 3 cells to 1.4x its interior at the edge) and a dried blob's soft edge
+    have no hard step: drawn exactly as without step contours."""
     st = NumpyCanvas(40, 24, seed=2).state()
     a = st.slot_of("French Ultramarine")
     b = st.slot_of("Burnt Umber")
@@ -113,6 +128,12 @@ def test_smooth_gradients_and_rims_stay_bicubic(monkeypatch: pytest.MonkeyPatch)
     dried.q[c] = np.where(inward >= 0, 0.1 + 0.04 * np.clip(1 - inward / 3, 0, 1), 0.0
                           ).astype(np.float32)
     st.r_composed[...] = render_bands(dried, "km")
+    # and a dried wet-in-wet blob's soft lower edge (the demo's hills: its steepest row
+    # drops 46 % after 16 %, then 24 %), in optical density over the paper
+    soft = np.array([0.75, 0.7, 0.65, 0.6, 0.52, 0.47, 0.424, 0.355, 0.192, 0.146, 0.117,
+                     0.1, 0.09, 0.085] + [0.08] * 10, np.float32)
+    paper = st.paper_reflectance()
+    st.r_composed[:, :20] = (paper[:, :20] * np.exp(-soft)[:, None])[..., None]
     got = render_scaled(st, "km", 3)
     with monkeypatch.context() as m:
         _plain(m)

@@ -134,14 +134,17 @@ void main() {
 
 _ACROSS = """
 uniform vec4 u_consts;  // least, ratio, share, isolation (upscale.hard_pairs)
-float sv(ivec2 q) { return imageLoad(s_in, clamp(q, ivec2(0), u_size - 1)).r; }
-bool across(float a, float g, float before, float after) {
+ivec2 cl(ivec2 q) { return clamp(q, ivec2(0), u_size - 1); }
+float sv(ivec2 q) { return imageLoad(s_in, cl(q)).r; }
+bool painted(ivec2 q) { return imageLoad(ind_in, q).r > 0.5; }
+// from a up to its neighbour g a hard step (before: the cell before a, after: the one
+// after g; known: both painted)
+bool across(float a, float g, float before, float after, bool known) {
     float rise = g - a;
     float ramp = max(max(a - before, after - g), 0.0);
     return rise > u_consts.x && (a < u_consts.y * g
-                                 || (rise > u_consts.z * g && rise * u_consts.w > ramp));
+                                 || (known && rise > u_consts.z * g && rise * u_consts.w > ramp));
 }
-bool painted(ivec2 q) { return imageLoad(ind_in, q).r > 0.5; }
 """
 
 TOPS = _HEAD + """
@@ -162,7 +165,8 @@ void main() {
                 ivec2 d = ivec2(dx, dy);
                 ivec2 q = c + d;
                 if ((dx == 0 && dy == 0) || !inside(q) || !painted(q)) continue;
-                if (across(sv(q), a, sv(c + 2 * d), sv(c - d))) {
+                bool known = painted(cl(c - d)) && painted(cl(c + 2 * d));
+                if (across(sv(q), a, sv(c + 2 * d), sv(c - d), known)) {
                     n += 1.0;
                     acc += sv(q);
                 }
@@ -230,8 +234,9 @@ void main() {
                 ivec2 q = c + d;
                 if ((dx == 0 && dy == 0) || !inside(q) || !painted(q)) continue;
                 float g = sv(q);
-                bool ok = is_high ? across(g, a, sv(c + 2 * d), sv(c - d))
-                                  : across(a, g, sv(c - d), sv(c + 2 * d));
+                bool known = painted(cl(c - d)) && painted(cl(c + 2 * d));
+                bool ok = is_high ? across(g, a, sv(c + 2 * d), sv(c - d), known)
+                                  : across(a, g, sv(c - d), sv(c + 2 * d), known);
                 if (ok) {
                     vals[n] = g;
                     cols[n] = imageLoad(rgb_in, q).rgb;

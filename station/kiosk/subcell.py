@@ -287,13 +287,15 @@ def step_fields_reference(rgb: np.ndarray, paper: np.ndarray, painted: np.ndarra
 
 @numba.njit(cache=True, nogil=True, inline="always")
 def _across(a: np.float32, g: np.float32, before: np.float32, after: np.float32,
-            least: np.float32, ratio: np.float32, share: np.float32,
+            known: bool, least: np.float32, ratio: np.float32, share: np.float32,
             iso: np.float32) -> bool:  # pragma: no cover
     """``upscale.hard_pairs``: from ``a`` up to its neighbour ``g`` a hard step
-    (``before`` the cell before ``a``, ``after`` the one after ``g``, along the way)."""
+    (``before`` the cell before ``a``, ``after`` the one after ``g``, along the way;
+    ``known``: both painted)."""
     rise = g - a
     ramp = max(max(a - before, after - g), np.float32(0.0))
-    return bool(rise > least and (a < ratio * g or (rise > share * g and rise * iso > ramp)))
+    return bool(rise > least and (a < ratio * g or (known and rise > share * g
+                                                   and rise * iso > ramp)))
 
 
 @numba.njit(cache=True, nogil=True)
@@ -324,11 +326,12 @@ def _steps_kernel(rgb: np.ndarray, paper: np.ndarray, painted: np.ndarray, y0: i
                         continue
                     if not painted[yy, xx]:
                         continue
-                    before = s[min(max(y - dy, 0), h - 1), min(max(x - dx, 0), w - 1)]
-                    after = s[min(max(y + 2 * dy, 0), h - 1), min(max(x + 2 * dx, 0), w - 1)]
+                    by, bx = min(max(y - dy, 0), h - 1), min(max(x - dx, 0), w - 1)
+                    ay, ax = min(max(y + 2 * dy, 0), h - 1), min(max(x + 2 * dx, 0), w - 1)
+                    known = painted[by, bx] and painted[ay, ax]
                     # down from (y, x) to (yy, xx): up from the neighbour, seen from it
-                    if _across(s[yy, xx], s[y, x], after, before, least, ratio, share,
-                               iso):
+                    if _across(s[yy, xx], s[y, x], s[ay, ax], s[by, bx], known, least,
+                               ratio, share, iso):
                         n += 1
                         acc += s[yy, xx]
             if n > 0:
@@ -399,12 +402,14 @@ def _steps_kernel(rgb: np.ndarray, paper: np.ndarray, painted: np.ndarray, y0: i
                     if not painted[yy, xx]:
                         continue
                     g = s[yy, xx]
-                    before = s[min(max(y - dy, 0), h - 1), min(max(x - dx, 0), w - 1)]
-                    after = s[min(max(y + 2 * dy, 0), h - 1), min(max(x + 2 * dx, 0), w - 1)]
+                    by, bx = min(max(y - dy, 0), h - 1), min(max(x - dx, 0), w - 1)
+                    ay, ax = min(max(y + 2 * dy, 0), h - 1), min(max(x + 2 * dx, 0), w - 1)
+                    known = painted[by, bx] and painted[ay, ax]
+                    before, after = s[by, bx], s[ay, ax]
                     if is_high:
-                        ok = _across(g, a, after, before, least, ratio, share, iso)
+                        ok = _across(g, a, after, before, known, least, ratio, share, iso)
                     else:
-                        ok = _across(a, g, before, after, least, ratio, share, iso)
+                        ok = _across(a, g, before, after, known, least, ratio, share, iso)
                     if ok:
                         vals[n] = g
                         cols[n, 0], cols[n, 1], cols[n, 2] = \

@@ -243,16 +243,19 @@ def hard_pairs(s: np.ndarray, within: np.ndarray, least: float
         both = within & _shifted(within, dy, dx, False)
         before = _clamped(s, -dy, -dx)  # the cell before this one, along the direction
         after = _clamped(s, 2 * dy, 2 * dx)  # the one after the neighbour
+        # (isolated only where both are inside too: beyond the paint nothing is known)
+        known = both & _clamped(within, -dy, -dx) & _clamped(within, 2 * dy, 2 * dx)
         rise = g - s
         ramp = np.maximum(np.maximum(s - before, after - g), F32(0))
         up.append(both & (rise > F32(least))
                   & ((s < F32(HARD_RATIO) * g)
-                     | ((rise > F32(HARD_SHARE) * g) & (rise * F32(HARD_ISOLATION) > ramp))))
+                     | (known & (rise > F32(HARD_SHARE) * g)
+                        & (rise * F32(HARD_ISOLATION) > ramp))))
         fall = s - g
         ramp_d = np.maximum(np.maximum(g - after, before - s), F32(0))
         down.append(both & (fall > F32(least))
                     & ((g < F32(HARD_RATIO) * s)
-                       | ((fall > F32(HARD_SHARE) * s)
+                       | (known & (fall > F32(HARD_SHARE) * s)
                           & (fall * F32(HARD_ISOLATION) > ramp_d))))
     return up, down
 
