@@ -22,6 +22,18 @@ contour instead of stopping at the cell border. The dried layers below (``r_comp
 get the same treatment through their difference from the blank paper. Interior cells keep
 their amounts; along the edge a cell's paint is redistributed within about a cell, and no
 pigment appears farther than a cell from where the simulation put it.
+
+Edges inside the paint (a wash's edge over another colour, a glaze's edge, a dried layer's
+edge over an earlier one) get a contour of their own (:func:`hard_pairs`): where the
+surface layer's absorption (:func:`layer_absorption`, one scalar for all its pigments) or
+the dried layers' optical density steps hard between two painted neighbours — more than
+doubles, or rises by :data:`HARD_SHARE` of its top in one cell while the cells beyond rise
+little — each field is split into a high side and a low side, each extended one cell
+across the step (:class:`HardEdges`), and the two are blended along the 1/2 level set of
+the high side's indicator averaged along the edge (:func:`step_level`: a staircase with
+long treads straightens, a one-cell line keeps its width). Where nothing steps hard
+(wet-in-wet, rims, granulation) the result is exactly the bicubic resampling. Along a
+step a cell's paint moves to the straight edge, within a cell.
 """
 
 from __future__ import annotations
