@@ -81,7 +81,7 @@ def test_the_compiled_step_fields_match_their_definition() -> None:
     c2[yy > 20 + 0.3 * xx] *= 0.6
     c2[yy > 30 + 0.2 * xx] *= 0.3
     c2[5:8, 5:40] *= 0.4
-    p2 = rng.random((50, 70)) > 0.1
+    p2 = rng.random((50, 70)) > 0.02
     pap = np.full((50, 70), 0.85, np.float32)
     e2 = subcell.fields(c2, p2, (slice(0, 50), slice(0, 70)))[..., :3]
     for ys, xs in [(slice(0, 50), slice(0, 70)), (slice(7, 40), slice(8, 60))]:

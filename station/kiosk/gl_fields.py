@@ -137,6 +137,15 @@ uniform vec4 u_consts;  // least, ratio, share, isolation (upscale.hard_pairs)
 ivec2 cl(ivec2 q) { return clamp(q, ivec2(0), u_size - 1); }
 float sv(ivec2 q) { return imageLoad(s_in, cl(q)).r; }
 bool painted(ivec2 q) { return imageLoad(ind_in, q).r > 0.5; }
+// q and its neighbours on the canvas all painted (the low side of a step)
+bool inside_paint(ivec2 q) {
+    for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+            ivec2 r = q + ivec2(dx, dy);
+            if (inside(r) && !painted(r)) return false;
+        }
+    return true;
+}
 // from a up to its neighbour g a hard step (before: the cell before a, after: the one
 // after g; known: both painted)
 bool across(float a, float g, float before, float after, bool known) {
@@ -166,7 +175,7 @@ void main() {
                 ivec2 q = c + d;
                 if ((dx == 0 && dy == 0) || !inside(q) || !painted(q)) continue;
                 bool known = painted(cl(c - d)) && painted(cl(c + 2 * d));
-                if (across(sv(q), a, sv(c + 2 * d), sv(c - d), known)) {
+                if (inside_paint(q) && across(sv(q), a, sv(c + 2 * d), sv(c - d), known)) {
                     n += 1.0;
                     acc += sv(q);
                 }
@@ -235,8 +244,9 @@ void main() {
                 if ((dx == 0 && dy == 0) || !inside(q) || !painted(q)) continue;
                 float g = sv(q);
                 bool known = painted(cl(c - d)) && painted(cl(c + 2 * d));
-                bool ok = is_high ? across(g, a, sv(c + 2 * d), sv(c - d), known)
-                                  : across(a, g, sv(c - d), sv(c + 2 * d), known);
+                bool ok = is_high
+                    ? inside_paint(q) && across(g, a, sv(c + 2 * d), sv(c - d), known)
+                    : inside_paint(c) && across(a, g, sv(c - d), sv(c + 2 * d), known);
                 if (ok) {
                     vals[n] = g;
                     cols[n] = imageLoad(rgb_in, q).rgb;

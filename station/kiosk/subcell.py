@@ -298,6 +298,18 @@ def _across(a: np.float32, g: np.float32, before: np.float32, after: np.float32,
                                                    and rise * iso > ramp)))
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _inside_paint(painted: np.ndarray, y: int, x: int) -> bool:  # pragma: no cover
+    """(y, x) and its neighbours on the canvas all painted (``upscale.hard_pairs``' low
+    side of a step)."""
+    h, w = painted.shape
+    for yy in range(max(y - 1, 0), min(y + 2, h)):
+        for xx in range(max(x - 1, 0), min(x + 2, w)):
+            if not painted[yy, xx]:
+                return False
+    return True
+
+
 @numba.njit(cache=True, nogil=True)
 def _steps_kernel(rgb: np.ndarray, paper: np.ndarray, painted: np.ndarray, y0: int,
                   y1: int, x0: int, x1: int, consts: np.ndarray, reach: int,
@@ -330,8 +342,9 @@ def _steps_kernel(rgb: np.ndarray, paper: np.ndarray, painted: np.ndarray, y0: i
                     ay, ax = min(max(y + 2 * dy, 0), h - 1), min(max(x + 2 * dx, 0), w - 1)
                     known = painted[by, bx] and painted[ay, ax]
                     # down from (y, x) to (yy, xx): up from the neighbour, seen from it
-                    if _across(s[yy, xx], s[y, x], s[ay, ax], s[by, bx], known, least,
-                               ratio, share, iso):
+                    if _inside_paint(painted, yy, xx) and _across(
+                            s[yy, xx], s[y, x], s[ay, ax], s[by, bx], known, least, ratio,
+                            share, iso):
                         n += 1
                         acc += s[yy, xx]
             if n > 0:
@@ -407,9 +420,11 @@ def _steps_kernel(rgb: np.ndarray, paper: np.ndarray, painted: np.ndarray, y0: i
                     known = painted[by, bx] and painted[ay, ax]
                     before, after = s[by, bx], s[ay, ax]
                     if is_high:
-                        ok = _across(g, a, after, before, known, least, ratio, share, iso)
+                        ok = _inside_paint(painted, yy, xx) and _across(
+                            g, a, after, before, known, least, ratio, share, iso)
                     else:
-                        ok = _across(a, g, before, after, known, least, ratio, share, iso)
+                        ok = _inside_paint(painted, y, x) and _across(
+                            a, g, before, after, known, least, ratio, share, iso)
                     if ok:
                         vals[n] = g
                         cols[n, 0], cols[n, 1], cols[n, 2] = \

@@ -241,15 +241,20 @@ def _clamped(a: np.ndarray, dy: int, dx: int) -> np.ndarray:
 
 def hard_pairs(s: np.ndarray, within: np.ndarray, least: float
                ) -> tuple[list[np.ndarray], list[np.ndarray]]:
-    """Hard steps of ``s`` (H, W) between neighbouring cells of ``within``: per neighbour
-    direction (:data:`_NEIGHBOURS`), the cells whose neighbour is across a step above
-    them, and those whose neighbour is across one below.  A step rises by at least
+    """Hard steps of ``s`` (H, W) between neighbouring cells of ``within``, the lower one
+    with all its neighbours in ``within``: per neighbour direction (:data:`_NEIGHBOURS`),
+    the cells whose neighbour is across a step above them, and those whose neighbour is
+    across one below.  A step rises by at least
     ``least`` and either more than doubles (:data:`HARD_RATIO`: a wash's edge over
     another paint) or rises by :data:`HARD_SHARE` of its top in one cell while the
     cells beyond it on either side rise less than :data:`HARD_ISOLATION` of that (a
     glaze's edge over a wash of the same colour; a wet-in-wet blend or a rim rises over
     several cells, granulation's noise by less)."""
     up, down = [], []
+    # the low side of a step is inside the paint (all its neighbours painted): the pale
+    # cells along the paint's own edge are its coverage of the cell, which the paint's
+    # contour draws, not a step (a contour there left them as a pale band)
+    inner = ndimage.binary_erosion(within, np.ones((3, 3), bool), border_value=1)
     for dy, dx in _NEIGHBOURS:
         g = _shifted(s, dy, dx, 0.0)
         both = within & _shifted(within, dy, dx, False)
@@ -259,13 +264,13 @@ def hard_pairs(s: np.ndarray, within: np.ndarray, least: float
         known = both & _clamped(within, -dy, -dx) & _clamped(within, 2 * dy, 2 * dx)
         rise = g - s
         ramp = np.maximum(np.maximum(s - before, after - g), F32(0))
-        up.append(both & (rise > F32(least))
+        up.append(both & inner & (rise > F32(least))
                   & ((s < F32(HARD_RATIO) * g)
                      | (known & (rise > F32(HARD_SHARE) * g)
                         & (rise * F32(HARD_ISOLATION) > ramp))))
         fall = s - g
         ramp_d = np.maximum(np.maximum(g - after, before - s), F32(0))
-        down.append(both & (fall > F32(least))
+        down.append(both & _shifted(inner, dy, dx, False) & (fall > F32(least))
                     & ((g < F32(HARD_RATIO) * s)
                        | (known & (fall > F32(HARD_SHARE) * s)
                           & (fall * F32(HARD_ISOLATION) > ramp_d))))
