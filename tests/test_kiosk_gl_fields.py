@@ -93,9 +93,16 @@ def test_the_gl_canvas_shows_the_same_subcell_contour_as_the_cpu_canvas() -> Non
         painted = subcell.painted_cells(st.p[:len(pigments)] + st.q[:len(pigments)],
                                         st.r_composed, st.paper_reflectance())
         want = subcell.fields(rgb, painted, (slice(0, H), slice(0, W)))
+        # the hard steps inside the paint (the wet stroke over the dried one)
+        hi, lo = subcell.step_fields(rgb, st.paper_reflectance(), painted, want[..., :3],
+                                     (slice(0, H), slice(0, W)))
+        want[..., :3] = hi
         assert 0.05 < painted.mean() < 0.6  # paint, dried paint and bare paper
         assert np.abs(got[..., 3] - want[..., 3]).max() < 1e-4  # the contour level
         assert np.abs(got[..., :3] - want[..., :3]).max() < 2e-3  # the extended colour
+        steps = display.fields.read_steps()
+        assert np.abs(steps[..., 3] - lo[..., 3]).max() < 1e-4  # the steps' level
+        assert np.abs(steps[..., :3] - lo[..., :3]).max() < 2e-3  # the low side's colour
         # at the screen's resolution, through the window's shader, the same picture
         cpu_tex = ctx.texture((W, H), 4, np.ascontiguousarray(want).tobytes(), dtype="f4")
         cpu_tex.filter = (ctx.LINEAR, ctx.LINEAR)
@@ -123,6 +130,29 @@ def test_the_gl_canvas_shows_the_same_subcell_contour_as_the_cpu_canvas() -> Non
         # the top-left cell's colour is the paper's, the shader's sRGB of the reference
         paper8 = to_srgb8(np.full((1, 1, 3), st.paper_reflectance()[0, 0], np.float32))[0, 0]
         assert np.abs(on_gl[2, 2] - paper8).max() <= 12
+        # a wash's edge over another (Burnt Umber laid in cells below a line over an
+        # Ultramarine wash): the hard steps' passes find what step_fields finds
+        band = cpu.state()
+        yy, xx = np.mgrid[0:H, 0:W]
+        band.q[...] = 0.0
+        band.p[...] = 0.0
+        band.q[band.slot_of("French Ultramarine")] = 0.2
+        band.q[band.slot_of("Burnt Umber")] = np.where(yy + 0.5 > 10 + 0.3 * (xx + 0.5), 0.3,
+                                                       0.0).astype(np.float32)
+        cpu.load_state(band)
+        gl.load_state(band)
+        display.update_preview()
+        b_rgb = np.asarray(cpu.render(), np.float32)
+        b_painted = subcell.painted_cells(band.p[:len(pigments)] + band.q[:len(pigments)],
+                                          band.r_composed, band.paper_reflectance())
+        b_want = subcell.fields(b_rgb, b_painted, (slice(0, H), slice(0, W)))
+        b_hi, b_lo = subcell.step_fields(b_rgb, band.paper_reflectance(), b_painted,
+                                         b_want[..., :3], (slice(0, H), slice(0, W)))
+        assert (b_lo[..., 3] > 0.5).sum() > 100  # steps found
+        got_steps = display.fields.read_steps()
+        assert np.abs(got_steps[..., 3] - b_lo[..., 3]).max() < 1e-4
+        assert np.abs(got_steps[..., :3] - b_lo[..., :3]).max() < 2e-3
+        assert np.abs(display.fields.read()[..., :3] - b_hi).max() < 2e-3
         cpu_tex.release()
         plain_tex.release()
         display.release()

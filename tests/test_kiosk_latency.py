@@ -590,7 +590,7 @@ def test_latency_bench_reports_goals_prediction_and_load(tmp_path: Path) -> None
 def test_the_display_spreads_a_whole_canvas_over_frames_within_its_budget(
         tmp_path: Path) -> None:
     from station.kiosk.display import CpuDisplay
-    from station.kiosk.subcell import LEVEL_REACH
+    from station.kiosk.subcell import REACH
 
     ctx = _egl_context()
     s = _session(tmp_path)
@@ -609,7 +609,7 @@ def test_the_display_spreads_a_whole_canvas_over_frames_within_its_budget(
             cells = disp.update()
             frames += 1
             # a run of tiles (grown by its contour level's reach) may end past the budget
-            assert cells <= budget + (W + 2 * LEVEL_REACH) * (ts + 2 * LEVEL_REACH)
+            assert cells <= budget + (W + 2 * REACH) * (ts + 2 * REACH)
             if not disp.behind():
                 break
             assert frames < 50
@@ -902,8 +902,9 @@ def test_a_large_fresh_preview_is_drawn_by_the_tiles_budget_not_in_one_frame(
             frames += 1
             assert frames < 100
         shown = disp.read()
-        monkeypatch.setattr(D, "PREVIEW_CELLS", 10**9)
-        ref = D.CpuDisplay(ctx, s)  # every tile afresh, with the pending stamps
+        # every tile afresh, with the pending stamps (the tiles' render: a preview draws
+        # no steps' contours, the tiles do)
+        ref = D.CpuDisplay(ctx, s)
         while ref.update() or ref.behind():
             pass
         whole = ref.read()

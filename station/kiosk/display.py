@@ -188,8 +188,14 @@ class CpuDisplay:
             self.texture = self.ctx.texture((w, h), 4, dtype="f4")
             self.texture.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
             self.texture.repeat_x = self.texture.repeat_y = False
-        # what the texture holds (nothing yet: every texel differs from +inf)
+            # rgb: the low side's colour of hard steps inside the paint (the texture's
+            # rgb holds the high side's); a: their contour level (subcell.step_fields)
+            self.steps = self.ctx.texture((w, h), 4, dtype="f4")
+            self.steps.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+            self.steps.repeat_x = self.steps.repeat_y = False
+        # what the textures hold (nothing yet: every texel differs from +inf)
         self._shown = np.full((h, w, 4), np.inf, F32)
+        self._shown_steps = np.full((h, w, 4), np.inf, F32)
         st = session.cpu_state
         self.paper_cells = st.paper_reflectance()
         self.surface = CanvasSurface.make(self.ctx, self.paper_cells, st.paper_preset, st.seed,
@@ -258,7 +264,7 @@ class CpuDisplay:
             # stamps not yet simulated lie here: drawn with them, as the preview draws
             # them (else the state would hide the preview until it is redone)
             pending = src if src is not None and _overlap(
-                src.region, subcell.grow(ys, xs, 2 * subcell.LEVEL_REACH, st.height,
+                src.region, subcell.grow(ys, xs, 2 * subcell.REACH, st.height,
                                          st.width)) else None
             uy, ux = self._render_cells(st, kind, ys, xs, pending)
             if pending is not None:
@@ -299,7 +305,10 @@ class CpuDisplay:
         xs = slice(max(box[1].start, sx.start, 0), min(box[1].stop, sx.stop, st.width))
         cells = 0
         if ys.stop > ys.start and xs.stop > xs.start:
-            uy, ux = self._render_cells(st, self._renderer_kind(), ys, xs, src)
+            # (no steps' contours in the preview: their reach would more than double the
+            # cells a frame renders before the pen's stamps show; the tiles draw them
+            # once a step has taken the stamps)
+            uy, ux = self._render_cells(st, self._renderer_kind(), ys, xs, src, steps=False)
             self._grow_preview(uy, ux)
             cells = (uy.stop - uy.start) * (ux.stop - ux.start)
         self.cells_rendered += cells
@@ -381,22 +390,25 @@ class CpuDisplay:
         return self._carry is not None or self._owed
 
     def _render_cells(self, st: Any, kind: str, ys: slice, xs: slice,
-                      pending: Sources | None) -> tuple[slice, slice]:
+                      pending: Sources | None, steps: bool = True) -> tuple[slice, slice]:
         """Render the cells ``[ys, xs]`` that changed (with the ``pending`` stamps'
         pigment over them) and upload what that changes in the texture: those cells
         grown by the contour level's reach (:mod:`station.kiosk.subcell`); returns the
         uploaded cells."""
         h, w = st.height, st.width
-        uy, ux = subcell.grow(ys, xs, subcell.LEVEL_REACH, h, w)
-        ry, rx = subcell.grow(uy, ux, subcell.INDICATOR_HALO, h, w)
+        reach, halo = (subcell.REACH, subcell.HALO) if steps else \
+            (subcell.LEVEL_REACH, subcell.INDICATOR_HALO)
+        uy, ux = subcell.grow(ys, xs, reach, h, w)
+        ry, rx = subcell.grow(uy, ux, halo, h, w)
         extra = None if pending is None else _pending_in(pending, st, ry, rx)
         amount, pigments = region_amount(st, ry, rx, extra)
         painted = subcell.painted_cells(amount, st.r_composed[ry, rx], self.paper_cells[ry, rx])
-        # the colours the extension reads (the uploaded cells and one more) rendered from
-        # the same state as the indicator: colours kept from earlier renders (a mirror of
-        # what was shown) disagreed with a fresher indicator along a wet edge, and the
-        # extension carried a stale, darker colour out as specks and notches
-        ky, kx = subcell.grow(uy, ux, subcell.COLOUR_HALO, h, w)
+        # the colours the extension and the steps read (the uploaded cells and their
+        # halo) rendered from the same state as the indicator: colours kept from earlier
+        # renders (a mirror of what was shown) disagreed with a fresher indicator along a
+        # wet edge, and the extension carried a stale, darker colour out as specks and
+        # notches
+        ky, kx = subcell.grow(uy, ux, subcell.HALO if steps else subcell.COLOUR_HALO, h, w)
         kin = (slice(ky.start - ry.start, ky.stop - ry.start),
                slice(kx.start - rx.start, kx.stop - rx.start))
         rgb = np.zeros((ry.stop - ry.start, rx.stop - rx.start, 3), F32)
@@ -407,7 +419,15 @@ class CpuDisplay:
             rgb[kin] = self._render(st, kind, ky, kx, k_extra)
         inner = (slice(uy.start - ry.start, uy.stop - ry.start),
                  slice(ux.start - rx.start, ux.stop - rx.start))
-        self._upload(subcell.fields(rgb, painted, inner), uy, ux)
+        ext = subcell.fields(rgb, painted, inner)
+        if steps:
+            hi, lo = subcell.step_fields(rgb, self.paper_cells[ry, rx], painted,
+                                         ext[..., :3], inner)
+            ext[..., :3] = hi
+        else:  # the paint's colour on both sides: the shader's mix changes nothing
+            lo = np.concatenate([ext[..., :3], np.zeros_like(ext[..., 3:])], axis=-1)
+        self._upload(ext, uy, ux)
+        self._upload(lo, uy, ux, steps=True)
         return uy, ux
 
     def _render(self, st: Any, kind: str, ys: slice, xs: slice,
@@ -439,31 +459,34 @@ class CpuDisplay:
         finally:
             numba.set_num_threads(before)
 
-    def _upload(self, rgb: np.ndarray, ys: slice, xs: slice) -> None:
+    def _upload(self, rgb: np.ndarray, ys: slice, xs: slice, steps: bool = False) -> None:
         """Upload the texels of ``rgb`` (the cells ``[ys, xs]``) that differ from what the
         texture holds (:attr:`_shown`, its mirror) by more than a fraction of a level on
-        screen, and mark where the screen changes.  A wet tile is rendered at every step,
+        screen, and mark where the screen changes (``steps``: the steps' texture, against
+        its own mirror).  A wet tile is rendered at every step,
         yet most of it is as it was (its dry cells, the rings grown round a changed
         region): 14 % of the texels rendered while painting change.  The mirror holds
         what the texture holds, so skipped changes cannot add up."""
         h, w = self.session.cfg.height, self.session.cfg.width
         data = np.ascontiguousarray(rgb, dtype=F32)
         box = np.zeros(4, np.int64)
-        if not _changed_box(data, self._shown[ys, xs], F32(SHOWN_COLOUR_TOL),
+        shown = self._shown_steps if steps else self._shown
+        texture = self.steps if steps else self.texture
+        if not _changed_box(data, shown[ys, xs], F32(SHOWN_COLOUR_TOL),
                             F32(SHOWN_LEVEL_TOL), box):
             return
         y0, y1, x0, x1 = (int(v) for v in box)
         cy = slice(ys.start + y0, ys.start + y1)
         cx = slice(xs.start + x0, xs.start + x1)
         part = np.ascontiguousarray(data[y0:y1, x0:x1])
-        self._shown[cy, cx] = part
+        shown[cy, cx] = part
         # the screen changes wherever the shader's bicubic reads these texels: up to
         # two cells around them, however many pixels a cell covers in the view (a damage
         # margin in pixels left stale strips where the table view magnifies the cells)
         dy, dx = subcell.grow(cy, cx, subcell.BICUBIC_REACH, h, w)
         self.damage.append((dy.start, dy.stop, dx.start, dx.stop))
-        self.texture.write(part.tobytes(), viewport=(cx.start, cy.start, cx.stop - cx.start,
-                                                     cy.stop - cy.start))
+        texture.write(part.tobytes(), viewport=(cx.start, cy.start, cx.stop - cx.start,
+                                                cy.stop - cy.start))
 
     def expected(self) -> np.ndarray:
         """What the texture holds once every change is drawn (float32 (H, W, 4)), made
@@ -473,12 +496,29 @@ class CpuDisplay:
         pigments = st.slot_pigments()
         amount = st.p[:len(pigments)] + st.q[:len(pigments)]
         painted = subcell.painted_cells(amount, st.r_composed, self.paper_cells)
-        return subcell.fields(rgb, painted, (slice(0, st.height), slice(0, st.width)))
+        whole = (slice(0, st.height), slice(0, st.width))
+        ext = subcell.fields(rgb, painted, whole)
+        hi, lo = subcell.step_fields(rgb, self.paper_cells, painted, ext[..., :3], whole)
+        ext[..., :3] = hi
+        self._expected_steps = lo
+        return ext
+
+    def expected_steps(self) -> np.ndarray:
+        """What the steps' texture holds once every change is drawn (float32 (H, W, 4)),
+        made from scratch as :meth:`expected`."""
+        self.expected()
+        return self._expected_steps
 
     def read(self) -> np.ndarray:
         """The texture's contents (float32 (H, W, 4): colour, contour level)."""
         w, h = self.texture.size
         return np.frombuffer(self.texture.read(), F32).reshape(h, w, 4)
+
+    def read_steps(self) -> np.ndarray:
+        """The steps' texture's contents (float32 (H, W, 4): the low side's colour, the
+        steps' contour level)."""
+        w, h = self.steps.size
+        return np.frombuffer(self.steps.read(), F32).reshape(h, w, 4)
 
     def full_texture(self) -> moderngl.Texture:
         """A texture of the whole canvas made from scratch (:meth:`expected`; the
@@ -491,8 +531,19 @@ class CpuDisplay:
         tex.repeat_x = tex.repeat_y = False
         return tex
 
+    def full_steps(self) -> moderngl.Texture:
+        """The steps' texture made from scratch (:meth:`expected_steps`)."""
+        st = self.session.cpu_state
+        tex = self.ctx.texture((st.width, st.height), 4,
+                               np.ascontiguousarray(self.expected_steps()).tobytes(),
+                               dtype="f4")
+        tex.filter = (self.ctx.LINEAR, self.ctx.LINEAR)
+        tex.repeat_x = tex.repeat_y = False
+        return tex
+
     def release(self) -> None:
         self.texture.release()
+        self.steps.release()
         self.surface.release()
 
 
@@ -525,10 +576,16 @@ class GpuDisplay:
         samples: colour extended by the paint, the contour level)."""
         rgb = self.session.canvas.render_texture()
         self.texture = self.fields.run(self.session.canvas, rgb, self.surface.paper)
+        #: the hard steps' low side and contour level (:class:`GlFields`)
+        self.steps: moderngl.Texture | None = self.fields.steps
 
     def full_texture(self) -> moderngl.Texture:
         """The canvas's own render texture (the GPU renders it whole every frame)."""
         return self.texture
+
+    def full_steps(self) -> moderngl.Texture | None:
+        """The steps' texture (rendered whole every frame, as :meth:`full_texture`)."""
+        return self.steps
 
     def behind(self) -> bool:
         """The GPU renders the whole canvas every frame: never behind."""

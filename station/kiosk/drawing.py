@@ -96,9 +96,19 @@ def draw_canvas(app: KioskApp, cam: Camera, texture: Any) -> None:
     texture.use(0)
     prog["canvas"].value = 0
     app.display.surface.use(prog, 1)
+    use_steps(prog, app.display.steps, 3)
     prog["cells"].value = (float(app.cfg.width), float(app.cfg.height))
     prog["vp"].write(cam.vp.T.astype("f4").tobytes())
     app.canvas_vao.render(app.ctx.TRIANGLE_STRIP)
+
+
+def use_steps(prog: Any, steps: Any, unit: int) -> None:
+    """Bind the steps' texture (hard edges inside the paint, :mod:`station.kiosk.subcell`)
+    to ``unit``, or tell the shader there is none."""
+    if steps is not None:
+        steps.use(unit)
+        prog["steps"].value = unit
+    prog["step_contours"].value = steps is not None
 
 
 def reference_picture(app: KioskApp) -> np.ndarray:
@@ -111,16 +121,22 @@ def reference_picture(app: KioskApp) -> np.ndarray:
     fbo = ctx.framebuffer([tex])
     full = app.display.full_texture()
     real = app.display.texture
+    full_steps = app.display.full_steps()
+    real_steps = app.display.steps
     try:
         fbo.use()
         app.display.texture = full
+        app.display.steps = full_steps
         draw_scene(app, camera(app))
         app.gui.draw((0, 0, w, h))
         data = fbo.read(viewport=(0, 0, w, h), components=3, alignment=1)
     finally:
         app.display.texture = real
+        app.display.steps = real_steps
         if full is not real:
             full.release()
+        if full_steps is not None and full_steps is not real_steps:
+            full_steps.release()
         fbo.release()
         tex.release()
         ctx.screen.use()
