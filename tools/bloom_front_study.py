@@ -23,7 +23,7 @@ a one-cell needle cannot run ahead of its neighbours); it joins once it has coll
 paper's capacity. The fresh water is a new wet phase everywhere (``FRESH_SAT`` above 1).
 
     .venv/bin/python tools/bloom_front_study.py [--scene kiosk|sheet] [--front main|laplace]
-        [--touch SECONDS] [--eta 4] [--png out.png]
+        [--touch SECONDS] [--eta 4] [--seed N] [--png out.png]
 
 Findings (bloom11, numpy, deterministic): the kiosk drop measures branching 1.29 with the
 rule (main 1.04), 1.33 with a 1.6 s touch (main 1.20), but its front falls to 1.13-1.15x
@@ -137,17 +137,19 @@ def main() -> None:
     ap.add_argument("--touch", type=float, default=0.0,
                     help="the drop's touch [s] (0: the scene's own; on the sheet a circling touch)")
     ap.add_argument("--eta", type=float, default=4.0)
+    ap.add_argument("--seed", type=int, default=-1, help="paper seed (-1: the scene's own)")
     ap.add_argument("--png", default="")
     a = ap.parse_args()
     rule = LaplacianFront(eta=a.eta)
     ctx = laplacian_front(rule) if a.front == "laplace" else contextlib.nullcontext()
     with ctx:
         if a.scene == "kiosk":
-            canvas, numbers = effects_bloom.kiosk_drop(touch=a.touch or 0.4)
+            canvas, numbers = effects_bloom.kiosk_drop(max(a.seed, 0), touch=a.touch or 0.4)
         else:
-            canvas = effects_bloom.drop_into_damp_wash({}, 22, touch=a.touch)
+            seed = 22 if a.seed < 0 else a.seed
+            canvas = effects_bloom.drop_into_damp_wash({}, seed, touch=a.touch)
             numbers = effects_bloom.bloom_front(darkness_map(canvas))
-    print(json.dumps({"scene": a.scene, "front": a.front, "touch": a.touch,
+    print(json.dumps({"scene": a.scene, "front": a.front, "touch": a.touch, "seed": a.seed,
                       **{k: round(float(v), 4) for k, v in numbers.items()}}), flush=True)
     if a.png:
         from PIL import Image  # only when a picture is asked for
