@@ -17,17 +17,20 @@ through the damp paper; its pressure ``phi`` solves the screened Laplace equatio
 with ``phi = 1`` on the fresh water and 0 on drier paper (``jacobi`` Jacobi sweeps per step,
 warm-started from the last step's field). A damp dry cell next to the fresh water collects
 ``K * w_n * g`` per second, ``w_n`` its wettest 4-neighbour's water and ``g`` the
-face's gradient ``(1 - phi)`` over its mean along the front, raised to ``eta`` (the
-dielectric-breakdown exponent) and blurred by a Gaussian of ``blur`` cells (the meniscus:
-a one-cell needle cannot run ahead of its neighbours); it joins once it has collected its
-paper's capacity. The fresh water is a new wet phase everywhere (``FRESH_SAT`` above 1).
+face's gradient ``(1 - phi)`` over its mean along the front (``--norm-sigma``: along the
+front nearby), raised to ``eta`` (the dielectric-breakdown exponent) and blurred by a
+Gaussian of ``blur`` cells (the meniscus: a one-cell needle cannot run ahead of its
+neighbours); it joins once it has collected its paper's capacity. The fresh water is a
+new wet phase everywhere (``FRESH_SAT`` above 1).
 
     .venv/bin/python tools/bloom_front_study.py [--scene kiosk|sheet] [--front main|laplace]
-        [--touch SECONDS] [--eta 4] [--seed N] [--png out.png]
+        [--touch SECONDS] [--eta 4] [--seed N] [--sweeps 60] [--norm-sigma 0]
+        [--png out.png]
 
-Findings (bloom11, numpy, deterministic): the kiosk drop measures branching 1.29 with the
-rule (main 1.04), 1.33 with a 1.6 s touch (main 1.20), but its front falls to 1.13-1.15x
-(main 1.22); the sheet's bloom grows only from 5 to 8 cells and stays round (1.00).
+Findings (bloom11, numpy, deterministic; /work/coord/NOTES-bloom11.md): the kiosk drop
+measures branching 1.29 with the rule (main 1.04), 1.30 with 6 sweeps and a 10-cell local
+normalisation, 1.33-1.35 with a 1.6-3 s touch (main 1.14-1.20), but its front falls to
+1.13-1.15x (main 1.22); the sheet's bloom grows only from 5 to 8 cells and stays round.
 """
 
 from __future__ import annotations
@@ -59,6 +62,7 @@ class LaplacianFront:
     jacobi: int = 60
     eta: float = 4.0
     blur: float = 1.0  # [cells]
+    norm_sigma: float = 0.0  # [cells] 0: the mean gradient along the whole front
     phi: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), np.float32))
     got: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), np.float32))
     region: tuple[slice, slice] = (slice(0), slice(0))
@@ -89,7 +93,13 @@ class LaplacianFront:
         if not front.any():
             got[...] = 0.0
             return (old & ~damp) | own
-        g = (1.0 - ph) / max(float((1.0 - ph)[front].mean()), 1e-6)
+        g = 1.0 - ph
+        if self.norm_sigma > 0:  # over its Gaussian-weighted mean along the front nearby
+            tn = stencils.gaussian_taps(self.norm_sigma)
+            near = stencils.blurred_wet(np.where(front, g, 0.0).astype(np.float32), tn)
+            g = g / np.maximum(near / np.maximum(stencils.blurred_wet(front, tn), 1e-6), 1e-6)
+        else:
+            g = g / max(float(g[front].mean()), 1e-6)
         gg = np.where(front, g ** self.eta, 0.0).astype(np.float32)
         taps = stencils.gaussian_taps(self.blur)
         gg = stencils.blurred_wet(gg, taps) / np.maximum(stencils.blurred_wet(front, taps), 1e-3)
@@ -138,9 +148,13 @@ def main() -> None:
                     help="the drop's touch [s] (0: the scene's own; on the sheet a circling touch)")
     ap.add_argument("--eta", type=float, default=4.0)
     ap.add_argument("--seed", type=int, default=-1, help="paper seed (-1: the scene's own)")
+    ap.add_argument("--sweeps", type=int, default=60, help="Jacobi sweeps per step")
+    ap.add_argument("--norm-sigma", type=float, default=0.0,
+                    help="normalise the gradient by its mean along the front within this "
+                         "Gaussian [cells] (0: along the whole front)")
     ap.add_argument("--png", default="")
     a = ap.parse_args()
-    rule = LaplacianFront(eta=a.eta)
+    rule = LaplacianFront(eta=a.eta, jacobi=a.sweeps, norm_sigma=a.norm_sigma)
     ctx = laplacian_front(rule) if a.front == "laplace" else contextlib.nullcontext()
     with ctx:
         if a.scene == "kiosk":
