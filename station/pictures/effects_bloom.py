@@ -70,13 +70,20 @@ def damp_wash(seed: int = 22) -> tuple[NumpyCanvas, SessionPlayer]:
     return _wash_then(wash, seed, until_damp=True)
 
 
-def drop_into_damp_wash(pigment: dict[str, float], seed: int = 22) -> NumpyCanvas:
+def drop_into_damp_wash(pigment: dict[str, float], seed: int = 22,
+                        touch: float = 0.0) -> NumpyCanvas:
     """:func:`damp_wash`, then the brush (size ``DROP_SIZE``, water 1) touches its middle
-    for ``DROP_S`` with ``pigment`` (empty: clear water); dried and fixed."""
+    for ``DROP_S`` with ``pigment`` (empty: clear water); dried and fixed. ``touch`` > 0
+    [s]: the brush circles 5 cells across there for that long instead (a resting dab lays
+    one stamp however long it rests; a moving touch lays more water)."""
     c, p = damp_wash(seed)
     drop = _later(p, N, N, seed)
     drop.brush(size=DROP_SIZE, water=1.0, pigment=pigment)
-    drop.dab((0.5, 0.5), DROP_S, pressure=0.7)
+    if touch > 0:
+        drop.curve([(0.5 + 2.5 / N * np.cos(1.3 * i), 0.5 + 2.5 / N * np.sin(1.3 * i))
+                    for i in range(10)], touch, pressure=0.7)
+    else:
+        drop.dab((0.5, 0.5), DROP_S, pressure=0.7)
     p.play(drop.records)
     run_until_dry(c, 6000)
     c.dry()
@@ -196,14 +203,15 @@ KIOSK_N, KIOSK_DROP = 128, (64.0, 76.0)
 """Edge of the kiosk drop's canvas [cells] and where the water touches (x, y) [cells]."""
 
 
-def kiosk_drop(seed: int = 0) -> tuple[NumpyCanvas, dict[str, float]]:
+def kiosk_drop(seed: int = 0, touch: float = 0.4) -> tuple[NumpyCanvas, dict[str, float]]:
     """Clean water dropped into a damp sky as the kiosk's scripted visitor paints it
     (``tools/kiosk_screenshots.py``, the kiosk's cells): French Ultramarine and Cerulean
     at the kiosk's strength 0.8 with the sky's brush (size 72, water 1) in four rows 31
     cells apart at the visitor's pace (550 cells/s), left until no standing water is left
     around the drop, then a fresh brush of clean water (size 26, water 1) circling 6 cells
-    across for 0.4 s, dried. Returns the canvas and :func:`bloom_front` of its darkness
-    around the drop (the wash's median taken over the middle of the sky)."""
+    across for ``touch`` (0.4 s, the visitor's), dried. Returns the canvas and
+    :func:`bloom_front` of its darkness around the drop (the wash's median taken over the
+    middle of the sky)."""
     n = KIOSK_N
     s = Script(n, n, seed=seed, rate_hz=PEN_HZ)
     s.brush(size=72, water=1.0, pigment={WASH_PIGMENT: 0.4, "Cerulean Blue": 0.4})
@@ -224,7 +232,7 @@ def kiosk_drop(seed: int = 0) -> tuple[NumpyCanvas, dict[str, float]]:
     drop = _later(p, n, n, seed)
     drop.brush(size=26, water=1.0, pigment={})
     drop.curve([((cx + 6.4 * np.cos(1.3 * i)) / n, (cy + 3.6 * np.sin(1.3 * i)) / n)
-                for i in range(10)], 0.4, pressure=0.6)
+                for i in range(10)], touch, pressure=0.6)
     p.play(drop.records)
     run_until_dry(c, 20000)
     c.dry()
