@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from test_render_steps import _edge_wiggle  # the same 48x32 canvas and slope
 
 from station.backends.numpy_canvas import NumpyCanvas
 from station.kiosk import subcell
@@ -39,23 +40,6 @@ def _fields() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Any]:
     canvas = plain.copy()
     canvas[..., :3] = hi
     return canvas, lo, plain, paper, st
-
-
-def _wiggle(img: np.ndarray) -> float:
-    """Largest deviation (pixels) of the edge's crossing, per pixel column, from its
-    fitted straight line."""
-    lum = img.mean(axis=2)
-    top, bottom = np.median(lum[:6 * K]), np.median(lum[-6 * K:])
-    level = 0.5 * (top + bottom)
-    xs = np.arange(4 * K, (W - 4) * K)
-    ys = []
-    for x in xs:
-        col = lum[:, x]
-        i = int(np.argmax(col < level))
-        ys.append(i - 1 + (level - col[i - 1]) / (col[i] - col[i - 1]))
-    fit = np.polyfit(xs + 0.5, ys, 1)
-    assert abs(fit[0] - SLOPE) < 0.02
-    return float(np.abs(np.asarray(ys) - np.polyval(fit, xs + 0.5)).max())
 
 
 def test_the_compiled_step_fields_match_their_definition() -> None:
@@ -166,7 +150,7 @@ def test_the_window_draws_an_edge_between_two_paints_as_a_smooth_contour() -> No
     assert np.abs(before - subcell.draw_reference(plain, None, paper, K)).max() <= 3
     # the staircase is gone: main's window draws it (1.82 px measured at 4 px a cell),
     # the steps' contour keeps within 0.3 cell of a straight line (1.08 px measured)
-    stair, smooth = _wiggle(before), _wiggle(got)
+    stair, smooth = (_edge_wiggle(img.mean(axis=2), K) for img in (before, got))
     assert stair > 0.4 * K and smooth < 0.3 * K, (stair, smooth)
     # both sides keep their colours away from the edge
     assert np.abs(got[:6 * K] - before[:6 * K]).max() <= 2
