@@ -306,7 +306,8 @@ def resolve(candidates: list[str], renderer: str | None, machine: str,
         log.info("backend choice: measuring %s (not reached last time)", ", ".join(names))
         fresh = (measure_in_child(names, renderer, machine, fallback) if make is None
                  else measure(names, renderer, machine, make, fallback))
-        errors = {k: v for k, v in cached.errors.items() if k not in names}
+        # (the whole probe's death, "probe", is superseded by this measurement too)
+        errors = {k: v for k, v in cached.errors.items() if k not in names and k != "probe"}
         choice = decide({**cached.steps_per_s, **fresh.steps_per_s},
                         {**errors, **fresh.errors}, fallback, renderer, machine,
                         fresh.pending)
