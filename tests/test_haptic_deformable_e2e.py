@@ -293,6 +293,15 @@ def test_publisher_knows_who_wants_haptic_forces(tmp_path: Path) -> None:
         driver = Subscriber(endpoint, topics=("haptic.hand",))
         assert pub.wait_for_subscribers(2, timeout=10.0)
         assert pub.wants("haptic.hand") and not pub.wants("haptic.other")
+        second = Subscriber(endpoint, topics=("haptic.hand",))  # a second driver of the hand
+        assert pub.wait_for_subscribers(3, timeout=10.0)
+        second.close()
+        deadline = time.monotonic() + 10.0
+        while pub._topics.get(b"haptic.hand", 0) > 1:  # its unsubscription arrives
+            assert time.monotonic() < deadline
+            pub.poll_subscriptions()
+            time.sleep(0.02)
+        assert pub.wants("haptic.hand")  # the first driver still wants them
         driver.close()
         deadline = time.monotonic() + 10.0
         while pub.wants("haptic.hand"):  # its unsubscription arrives

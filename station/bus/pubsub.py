@@ -52,7 +52,12 @@ class Publisher:
         self.ctx = context or zmq.Context.instance()
         self.sock = self.ctx.socket(zmq.XPUB)
         self.sock.setsockopt(zmq.SNDHWM, HWM)
-        self.sock.setsockopt(zmq.XPUB_VERBOSE, 1)  # see every subscription: late-joiner replay
+        # Subscriptions are applied by this publisher, not by libzmq: a subscription
+        # libzmq applied by itself could take effect inside a send (libzmq processes
+        # its commands there), so the new subscriber got that live sample before the
+        # replay of the samples before it, and dropped the replay as duplicates (a CI
+        # run at load saw it).  Applied where it is read, the replay always comes first.
+        self.sock.setsockopt(zmq.XPUB_MANUAL, 1)
         self.sock.setsockopt(zmq.LINGER, 1000)
         # watched before it connects: libzmq does not retry a refused handshake
         self._handshakes = HandshakeWatch(self.sock, [self.endpoint])
@@ -75,7 +80,8 @@ class Publisher:
         self.replay_enabled = replay
         self.subscriptions = 0
         self.replayed = 0
-        self._topics: set[bytes] = set()  # the prefixes subscribers hold now
+        # the prefixes subscribers hold now, with how many hold each
+        self._topics: collections.Counter[bytes] = collections.Counter()
         # what subscribers sent that is not a subscription: answers to commands, from a
         # Subscriber made with ``answers=True`` (bounded: a peer cannot grow it)
         self.upstream: collections.deque[bytes] = collections.deque(maxlen=UPSTREAM_KEPT)
@@ -200,11 +206,17 @@ class Publisher:
                     self.upstream.append(msg)
                 continue
             prefix = msg[1:]
-            if msg[0] == 0:  # the last subscriber of this prefix left
-                self._topics.discard(prefix)
+            if msg[0] == 0:  # a subscriber dropped this prefix, or left
+                # (a no-op in libzmq for a subscriber that is gone: its pipe's
+                # subscriptions went with it)
+                self.sock.setsockopt(zmq.UNSUBSCRIBE, prefix)
+                self._topics[prefix] -= 1
+                if self._topics[prefix] <= 0:
+                    del self._topics[prefix]
                 continue
+            self.sock.setsockopt(zmq.SUBSCRIBE, prefix)  # only for the pipe it came from
             self.subscriptions += 1
-            self._topics.add(prefix)
+            self._topics[prefix] += 1
             for topic, frames in self._recent.items():
                 if topic.encode().startswith(prefix):
                     for fr in frames:
@@ -216,7 +228,10 @@ class Publisher:
     def wants(self, topic: str) -> bool:
         """Whether a subscriber asked for ``topic`` by a prefix of it other than ``""``
         (a subscriber of everything does not count): a publisher skips costly messages
-        nobody asked for (the sim's haptic forces)."""
+        nobody asked for (the sim's haptic forces).  Behind a proxy, where several
+        subscribers of one prefix arrive as several subscriptions but leave as one
+        unsubscription (libzmq's XSUB forwards only the last), it can stay true after
+        they all left: it errs towards sending, never stops a stream someone wants."""
         self._serve_subscriptions()
         t = topic.encode()
         return any(p and t.startswith(p) for p in self._topics)
