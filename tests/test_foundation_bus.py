@@ -149,7 +149,7 @@ class _LateEvents:
     pending: a subscription that arrives between that read and the send (libzmq
     processes commands inside a send), the race a loaded CI machine hit."""
 
-    def __init__(self, sock: zmq.Socket) -> None:  # type: ignore[type-arg]
+    def __init__(self, sock: zmq.Socket) -> None:
         self._sock, self._hidden = sock, 1
 
     def get(self, option: int) -> object:
