@@ -415,8 +415,8 @@ class KioskSession:
                 cp = entry.cp
                 if cp is None:
                     continue
-                now = self._checkpoint_now()
-                cp.state, cp.n_slots, cp.nbytes = now.state, now.n_slots, now.nbytes
+                # the canvas only: the player was copied when the stroke started
+                cp.state, cp.n_slots, cp.nbytes = self.history.canvas_checkpoint()
                 cp.player["counters"].steps = p.counters.steps
                 entry.pending = set(ARRAY_FIELDS)  # all shared again
         finally:
