@@ -4,6 +4,7 @@ comes, all-zero arrays cost no memory, and undo stays exact (issue 26, item 3)."
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -17,6 +18,7 @@ from station.canvas.state import ARRAY_FIELDS, STEP_FIELDS, CanvasState
 from station.events import Command, PenSample, Tool
 from station.kiosk.session import KioskSession, frozen_copy, held_bytes
 from station.sessionlog import read_session
+from station.sim import live as live_mod
 from station.sim.live import LiveConfig
 from station.sim.player import SessionPlayer
 from station.sim.undo import UndoHistory
@@ -213,3 +215,65 @@ def test_frozen_copy_is_bit_exact_and_made_in_pieces() -> None:
     assert n[0] == a.nbytes // 4096 - (a.nbytes % 4096 == 0) and not np.shares_memory(c, a)
     b = np.random.default_rng(1).random((7, 9)).astype(np.float32)
     assert np.array_equal(frozen_copy(b, pause, piece=12), b)
+
+
+def test_the_autosave_compresses_and_writes_with_the_lock_released(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A 1920×1080 autosave took seconds under the lock (every pen sample held): now only
+    the log's sync and the session's data are taken under it; the canvas is shared, and
+    the file still holds the canvas as it was, whatever the pen did meanwhile."""
+    cfg = LiveConfig(bus=f"ipc://{tmp_path}/bus", width=W, height=H, backend="cpu",
+                     status="none", cmd="none", log_path=str(tmp_path / "s.jsonl"),
+                     autosave=0.001)
+    s = KioskSession(cfg)
+    entered, go = threading.Event(), threading.Event()
+    real_write = live_mod.atomic_write
+
+    def gated(*a: Any, **kw: Any) -> None:
+        entered.set()
+        assert go.wait(20), "the test never let the write go"
+        real_write(*a, **kw)
+
+    monkeypatch.setattr(live_mod, "atomic_write", gated)
+    try:
+        _feed(s, [_cmd(0.0, "brush", size=10, water=1.0, pigment={"Hansa Yellow": 0.6}),
+                  *_stroke(0.02, 0.1, 0.4)])
+        for _ in range(3):
+            s.step()
+        assert s.sim.autosave_due()
+        live = s.cpu_state
+        at_save = {n: getattr(live, n).copy() for n in ARRAY_FIELDS}
+        steps = s.player.counters.steps
+
+        def save() -> None:
+            with s.lock:
+                s._maybe_autosave()
+
+        th = threading.Thread(target=save)
+        s._worker = th  # the lock is released only in the simulation thread
+        th.start()
+        assert entered.wait(20)
+        assert s.inflight and not s.kernel_running  # tiles render; commands wait
+        done = threading.Event()
+
+        def pen() -> None:
+            s.handle("pen", _pen(0.3, 0.5, 0.6))  # a stroke starts during the write
+            done.set()
+
+        feeder = threading.Thread(target=pen)
+        feeder.start()
+        applied = done.wait(10)
+        go.set()
+        th.join(20)
+        feeder.join(20)
+        s._worker = None
+        assert applied and s.sim.counters.autosaves == 1 and not s.inflight
+        # the stroke belongs to the step about to run: its checkpoint is not a mid-step one
+        assert not s._mid_step and s.player.counters.steps == steps
+        saved = CanvasState.load(s.autosave_path)
+        for n in ARRAY_FIELDS:
+            assert np.array_equal(getattr(saved, n), at_save[n]), n
+    finally:
+        go.set()
+        s._worker = None
+        s.shutdown()

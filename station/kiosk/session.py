@@ -611,12 +611,39 @@ class KioskSession:
                         t1 = time.perf_counter()
                         self.sim_seconds += t1 - t0
                         self.step_times.append((t0, t1))
-                        self.sim.maybe_autosave()
+                        self._maybe_autosave()
                         continue
                 self._halt.wait(min(wait, 0.05))
         except BaseException as exc:  # the window's thread reports it (check_worker)
             log.exception("the simulation thread failed")
             self.worker_error = exc
+
+    def _maybe_autosave(self) -> None:
+        """:meth:`LiveSim.maybe_autosave` in the simulation thread (lock held) with the
+        compression and the write done with the lock released, the canvas shared, not
+        copied: at 1920×1080 a wet canvas's autosave took 8 s, every pen sample held.
+        Nothing writes the canvas meanwhile: brush samples touch only the brush (and
+        belong to the step about to run, as during the checkpoints' copy), commands and
+        tools wait for the flag as for a kernel."""
+        sim = self.sim
+        st = self.cpu_state
+        if threading.current_thread() is not self._worker or st is None:
+            sim.maybe_autosave()
+            return
+        if not sim.autosave_due():
+            return
+        job = sim.begin_autosave(SharedState(self.canvas, st).state())
+        if job is None:
+            return
+        self.inflight = self._copying = True
+        self.lock.release()
+        try:
+            job()
+        finally:
+            self.lock.acquire()
+            self.inflight = self._copying = False
+            self._prune()
+            self.lock.notify_all()
 
     def sim_busy(self, t0: float, t1: float) -> float:
         """Seconds of ``[t0, t1]`` (``perf_counter``) spent in steps."""
