@@ -239,7 +239,8 @@ def test_samples_during_the_checkpoint_copy_paint_in_that_step_and_replay_exactl
     copying, go = threading.Event(), threading.Event()
     real_copy = s.materialize_checkpoints
 
-    def slow_copy(fields: frozenset[str] | None = None) -> None:  # hold the step's copy (lock released) until told
+    # hold the step's copy (lock released) until the test says
+    def slow_copy(fields: frozenset[str] | None = None) -> None:
         if s._copying:
             copying.set()
             assert go.wait(20)
@@ -299,7 +300,8 @@ def test_a_stroke_starting_during_the_copy_is_copied_with_the_lock_released_too(
     owned: list[bool] = []
     real_copy = s.materialize_checkpoints
 
-    def slow_copy(fields: frozenset[str] | None = None) -> None:  # the first copy takes until the test says
+    # the first copy takes until the test says
+    def slow_copy(fields: frozenset[str] | None = None) -> None:
         if s._copying:
             owned.append(s.lock._is_owned())  # type: ignore[attr-defined]
         real_copy(fields)
