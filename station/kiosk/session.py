@@ -37,15 +37,15 @@ arrays by reference (the player is copied at once, as before), and the copy is
 made before anything next changes the canvas: at the start of the next step
 (in the simulation thread, lock released as for the kernel), or before a
 command or a tool's sample.  Nothing changes the canvas in between, so the
-checkpoint holds the same numbers as one copied at once.  A step copies only the arrays
-a step writes (:data:`~station.canvas.state.STEP_FIELDS`): the paper, the dried layers
-(``r_composed``, 94 MiB at 1920×1080), the mask and the tools' fields stay shared until a
-command or a tool's dab comes, and are then copied once for every checkpoint sharing
-them.  An array that is zero in every bit (a slot's ``removed_p``, the ``q`` of a fresh
-wash) is kept as a zero view, no memory.  The step copies in pieces
+checkpoint holds the same numbers as one copied at once.  A step copies only the
+arrays a step writes (:data:`~station.canvas.state.STEP_FIELDS`): the paper, the dried
+layers (``r_composed``, 94 MiB at 1920×1080), the mask and the tools' fields stay shared
+until a command or a tool's dab comes, and are then copied once for every checkpoint
+sharing them.  An array that is zero in every bit (a slot's ``removed_p``, the ``q`` of a
+fresh wash) is kept as a zero view, no memory.  The step copies in pieces
 (:data:`PIECE_BYTES`), each after the window's frame in progress, if any, has ended (for
-at most :data:`PIECE_WAIT_S`): the copy does not take the cores from a frame.  A stroke that starts
-while step *k*'s kernel runs is logged after step *k*, so its checkpoint must be
+at most :data:`PIECE_WAIT_S`): the copy does not take the cores from a frame.  A stroke
+that starts while step *k*'s kernel runs is logged after step *k*, so its checkpoint must be
 the canvas as step *k* leaves it: the arrays are shared anyway, and the small
 fields and the step count are taken when the step is over
 (:meth:`KioskSession.finish_mid_step`).  Samples applied while the step copies
@@ -156,6 +156,7 @@ class Deferred:
     @property
     def cp(self) -> Checkpoint | None:
         return self.ref()
+
 
 @dataclass
 class LockWaits:
