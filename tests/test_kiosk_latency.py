@@ -921,3 +921,89 @@ def test_a_large_fresh_preview_is_drawn_by_the_tiles_budget_not_in_one_frame(
     finally:
         s.shutdown()
         ctx.release()
+
+
+class _AddGate:
+    """The canvas backend, its next ``add_sources`` (when armed) held until the test
+    opens the gate."""
+
+    def __init__(self, backend: Any) -> None:
+        self._backend = backend
+        self.armed = False
+        self.entered = threading.Event()
+        self.open = threading.Event()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._backend, name)
+
+    def add_sources(self, *a: Any, **kw: Any) -> None:
+        if self.armed:
+            self.armed = False
+            self.entered.set()
+            assert self.open.wait(20), "the test never opened the gate"
+        self._backend.add_sources(*a, **kw)
+
+
+def test_the_step_adds_its_stamps_with_the_lock_released_and_replays_exactly(
+        tmp_path: Path) -> None:
+    """Under load a full-HD step's add held every pen sample for up to 150 ms.  Now the
+    window is not held: samples that come during the add wait aside (the step still takes
+    stamps after it) and are applied after it, a stroke's start included; the log replays
+    bit for bit, an undo of that stroke included."""
+    s = _session(tmp_path)
+    real = s.player.backend
+    gate = _AddGate(real)
+    s.player.backend = gate
+    try:
+        s.command("brush", size=8, water=1.0, pigment={"French Ultramarine": 0.5})
+        k = 0
+        for _ in range(4):
+            s.handle("pen", _pen(k, 0.2 + 0.01 * k))
+            k += 1
+        gate.armed = True
+
+        def one_step() -> None:  # as the simulation thread runs a step
+            with s.lock:
+                s._step_unlocked()
+
+        th = threading.Thread(target=one_step)
+        s._worker = th  # the lock is released only in the simulation thread
+        th.start()
+        assert gate.entered.wait(20)
+        assert s.inflight and s.kernel_running  # tiles wait; commands and tools too
+        stamps = s.player.brush.stamps
+        done = threading.Event()
+
+        def samples() -> None:
+            for i in range(3):
+                s.handle("pen", _pen(k + i, 0.24 + 0.01 * i))
+            s.handle("pen", _pen(k + 3, 0.3, touching=False))
+            s.handle("pen", _pen(k + 4, 0.6))  # a stroke starts during the add
+            done.set()
+
+        feeder = threading.Thread(target=samples)
+        feeder.start()
+        applied = done.wait(10)  # the lock held through the add would hold them here
+        assert s.player.brush.stamps == stamps and len(s._stash) == 5  # kept aside
+        gate.open.set()
+        th.join(20)
+        feeder.join(20)
+        s._worker = None
+        assert applied and s.samples_stashed == 5
+        s.pump()  # the window's next pass applies them, in order
+        assert not s._stash and s.player.brush.stamps > stamps
+        k += 5
+        s.handle("pen", _pen(k, 0.65, touching=False))
+        for _ in range(3):
+            s.step()
+        s.command("undo")  # the stroke that started during the add
+        s.step()
+        assert s.history.undone == 1
+        live = s.canvas.state()
+    finally:
+        gate.open.set()
+        s._worker = None
+        s.player.backend = real
+        s.shutdown()
+    _assert_replays(tmp_path / "s.jsonl", live)
+    assert float(live.p.sum() + live.q.sum()) > 0.0

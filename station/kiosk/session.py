@@ -218,6 +218,10 @@ class KioskSession:
         self.lock = threading.Condition()
         self.inflight = False  # the canvas kernel of a step runs now, the lock released
         self._copying = False  # (with inflight) the step copies undo checkpoints first
+        self._adding = False  # (with inflight) the step adds its sources (add_unlocked)
+        # pen samples that came during an add: (sample, mapped, topic, replay)
+        self._stash: deque[tuple[PenSample, PenSample, str, bool]] = deque()
+        self.samples_stashed = 0
         self.sim_seconds = 0.0  # wall time spent in steps (either thread)
         # (start, end) perf_counter times of the recent steps, for a bench's window
         self.step_times: deque[tuple[float, float]] = deque(maxlen=4096)
@@ -325,19 +329,12 @@ class KioskSession:
                 return
             self.last_canvas_pen = sample
             with self.window_lock():
-                if self._brush_only(sample):
-                    if self.inflight:
-                        self.samples_during_steps += 1
-                else:
-                    self._wait_step()
-                    self.materialize_checkpoints()  # a tool's dab changes the canvas
-                before = self.player.brush.stamps
-                self.sim.handle(kind, sample, topic, replay)
-                made = self.player.brush.stamps - before
-            if made > 0:
-                self.painted_stamps += made
-                if value.t_mono > 0.0:
-                    self.awaiting_paint.append(value.t_mono)
+                if self._adding:  # applied after the step's takes (see add_unlocked)
+                    self._stash.append((value, sample, topic, replay))
+                    self.samples_stashed += 1
+                    return
+                self._apply_stash()
+                self._apply_pen(value, sample, topic, replay)
             return
         if kind == "cmd" and isinstance(value, Command) and self.kiosk_command is not None:
             req = parse_request(value.reply, runtime_dir()) if value.reply else None
@@ -357,6 +354,49 @@ class KioskSession:
             self.sim.handle(kind, value, topic, replay)
             if kind == "cmd" and isinstance(value, Command) and value.cmd in WHOLE_CANVAS_COMMANDS:
                 self.mark_all_dirty()
+
+    def _apply_pen(self, value: PenSample, sample: PenSample, topic: str,
+                   replay: bool) -> None:
+        """Apply one mapped pen sample (lock held)."""
+        if self._brush_only(sample):
+            if self.inflight:
+                self.samples_during_steps += 1
+        else:
+            self._wait_step()
+            self.materialize_checkpoints()  # a tool's dab changes the canvas
+        before = self.player.brush.stamps
+        self.sim.handle("pen", sample, topic, replay)
+        made = self.player.brush.stamps - before
+        if made > 0:
+            self.painted_stamps += made
+            if value.t_mono > 0.0:
+                self.awaiting_paint.append(value.t_mono)
+
+    def _apply_stash(self) -> None:
+        """The samples that came while a step added its sources, in order (lock held, no
+        add running): as samples that come during the kernel, or between steps."""
+        while self._stash and not self._adding:
+            self._apply_pen(*self._stash.popleft())
+
+    def add_unlocked(self, job: Callable[[], None]) -> None:
+        """A step's brush sources added (``job``) with the lock released, in the
+        simulation thread: under load a full-HD step's add held every pen sample for up
+        to 150 ms.  Samples that come meanwhile are kept aside, not applied
+        (:meth:`_apply_stash`): the step still takes stamps and beads after this add,
+        and a sample's stamps interpolated back into this step's slot would be taken a
+        step early for the log.  The window draws on meanwhile, its tiles waiting as
+        for a kernel; commands and tools wait."""
+        if threading.current_thread() is not self._worker:
+            job()
+            return
+        self.inflight = self._adding = True
+        self.lock.release()
+        try:
+            job()
+        finally:
+            self.lock.acquire()
+            self.inflight = self._adding = False
+            self.lock.notify_all()
 
     @contextmanager
     def window_lock(self) -> Iterator[None]:
@@ -732,6 +772,11 @@ class KioskSession:
         draws what it has handled and takes the rest in the next frames, instead of
         handling a growing queue before it draws again (each frame longer, the queue
         longer).  At least one message is handled when one is there."""
+        if self._stash and self.lock.acquire(blocking=False):
+            try:
+                self._apply_stash()
+            finally:
+                self.lock.release()
         sub = self.sim.sub
         msg = sub.recv(timeout_ms)
         deadline = time.perf_counter() + max(budget_s, floor_s)
