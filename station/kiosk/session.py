@@ -22,7 +22,10 @@ keeps the window's thread and the steps apart — except during the canvas
 kernel itself (``backend.step()``, most of a step), when the lock is
 released: then the window applies the pen samples that only feed the brush
 (its stamps wait for the next step, as they would anyway), a stroke's
-first sample included, and renders the tiles it needs.  Everything else
+first sample included, and renders the tiles it needs.  The step's brush
+sources are added with the lock released too (:meth:`KioskSession.add_unlocked`;
+samples that come meanwhile wait aside until the add is over), and so is an
+autosave's compression and write (:meth:`KioskSession._maybe_autosave`).  Everything else
 (commands, tools, the eraser) waits for the step to end.  A sample applied
 during step *k* is logged in the time slot of step *k + 1*, where its stamps
 go, so a replay of the log (``station paint``) gives the same pixels.  The
