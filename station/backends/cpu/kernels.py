@@ -508,10 +508,18 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                     slo, shi = _span(spans, j, si)
                     for i in range(slo, shi + 1):
                         acc[i] = ZERO
-                    for k in range(nt):
-                        g = taps[k]
+                    # three taps a pass (same order): see _pressure_row
+                    k = 0
+                    while k + 3 <= nt:
+                        g0, g1, g2 = taps[k], taps[k + 1], taps[k + 2]
                         for i in range(slo, shi + 1):
-                            acc[i] = acc[i] + g * own[i + k]
+                            acc[i] = ((acc[i] + g0 * own[i + k]) + g1 * own[i + k + 1]) \
+                                + g2 * own[i + k + 2]
+                        k += 3
+                    for kk in range(k, nt):
+                        g = taps[kk]
+                        for i in range(slo, shi + 1):
+                            acc[i] = acc[i] + g * own[i + kk]
                     for i in range(slo, shi + 1):
                         mbx_o[j, i] = acc[i]
     if advancing:
@@ -579,12 +587,24 @@ def _pressure_row(mbx: np.ndarray, wet: np.ndarray, w0: np.ndarray, h: np.ndarra
     if outward:
         for i in range(lo, hi + 1):
             acc[i] = ZERO
-        for k in range(nt):
+        # three taps a pass over the row where their rows are all in the box (the same
+        # additions in the same order): one load and store of acc per three taps, not per
+        # tap (the one-tap loop was ~20 % of this sweep at 1920x1080)
+        k = 0
+        while k < nt:
             jj = j + k - r
+            if k + 3 <= nt and jj >= 1 and jj + 2 <= bh:
+                g0, g1, g2 = taps[k], taps[k + 1], taps[k + 2]
+                m0, m1, m2 = mbx[jj], mbx[jj + 1], mbx[jj + 2]
+                for i in range(lo, hi + 1):
+                    acc[i] = ((acc[i] + g0 * m0[i]) + g1 * m1[i]) + g2 * m2[i]
+                k += 3
+                continue
             if jj >= 1 and jj <= bh:
                 g = taps[k]
                 for i in range(lo, hi + 1):
                     acc[i] = acc[i] + g * mbx[jj, i]
+            k += 1
     for i in range(lo, hi + 1):
         wv = w0[j, i]
         pv = wv
@@ -729,7 +749,7 @@ def _backtrace_run(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, y0: int, x0:
             top = top_m if rm_ else (top_0 if r0_ else top_p)
             bot = top_0 if rm_ else (top_p if r0_ else top_2)
             val = gy * top + fy * bot
-            o[j, i] = val if w0_[i_] != 0 else ZERO
+            o[j, i_] = val if w0_[i_] != 0 else ZERO  # unsigned: a signed i made this a scatter
 
 
 @_parallel
