@@ -804,10 +804,14 @@ def advect_jacobi1(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, bc: np.ndarr
                             & (vy[y, xu] * fdt <= ONE) & (-(vy[y, xu] * fdt) <= ONE)
                     if fast:
                         lo, hi = max(slo, 2), min(shi, bw - 2)
-                for i in range(slo, shi + 1):
-                    if i < lo or i > hi:
-                        _backtrace_cell(wet, vx, vy, y0, x0, bh, bw, dx, dy, fdt, j, i,
-                                        v1x_o, v1y_o)
+                # the cells outside the vectorised run, one by one (a test of every
+                # column of the span was a scalar loop: ~5 % of this sweep)
+                for i in range(slo, min(lo, shi + 1)):
+                    _backtrace_cell(wet, vx, vy, y0, x0, bh, bw, dx, dy, fdt, j, i,
+                                    v1x_o, v1y_o)
+                for i in range(max(hi + 1, slo), shi + 1):
+                    _backtrace_cell(wet, vx, vy, y0, x0, bh, bw, dx, dy, fdt, j, i,
+                                    v1x_o, v1y_o)
                 if lo <= hi:
                     _backtrace_run(wet, vx, vy, y0, x0, fdt, j, lo, hi, v1x_o, v1y_o)
                 if do_w:
