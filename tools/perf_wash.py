@@ -115,7 +115,8 @@ def main() -> None:
             if addr:
                 spans.append((addr, size, kern, name))
     pid = os.getpid()
-    Path(f"/tmp/perf-{pid}.map").write_text(
+    perf_map = Path(f"/tmp/perf-{pid}.map")  # read by perf report; this tool resolves itself
+    perf_map.write_text(
         "".join(f"{a:x} {s:x} {k}:{n}\n" for a, s, k, n in spans))
     data = tempfile.mktemp(suffix=".perf")
     stop = threading.Event()
@@ -135,6 +136,7 @@ def main() -> None:
     ips = subprocess.run(["perf", "script", "-i", data, "-F", "ip"], capture_output=True,
                          text=True, check=True).stdout.split()
     os.unlink(data)
+    perf_map.unlink()
     spans.sort()
     starts = [s[0] for s in spans]
     per_kernel: collections.Counter[str] = collections.Counter()
