@@ -11,17 +11,16 @@ from typing import Any
 
 import numpy as np
 import pytest
+from test_kiosk_latency import _replay as _replay_canvas  # the same 96x64 session replay
 
 from station.backends.factory import make_backend
 from station.canvas.palette import default_palette
 from station.canvas.state import ARRAY_FIELDS, STEP_FIELDS, CanvasState
 from station.events import Command, PenSample, Tool
 from station.kiosk.session import KioskSession, frozen_copy, held_bytes
-from station.sessionlog import read_session
 from station.sim import live as live_mod
 from station.sim.live import LiveConfig
 from station.sim.player import SessionPlayer
-from station.sim.undo import UndoHistory
 
 W, H = 96, 64
 STEADY = [n for n in ARRAY_FIELDS if n not in STEP_FIELDS]
@@ -150,12 +149,7 @@ def test_a_step_copies_only_what_it_writes_and_shares_the_paper_and_the_dried_la
 
 
 def _replay(log: Path) -> CanvasState:
-    _header, records = read_session(log)
-    canvas, _ = make_backend("cpu", W, H, "watercolor", 0)
-    player = SessionPlayer(canvas, W, H, "watercolor", rate=30.0, pigments=default_palette())
-    UndoHistory(player)
-    player.play(records)
-    return canvas.state()
+    return _replay_canvas(log).state()
 
 
 def test_undo_across_a_new_layer_and_a_mask_restores_the_dried_layers_exactly(
