@@ -392,13 +392,23 @@ class KioskSession:
         if threading.current_thread() is not self._worker:
             job()
             return
-        self.inflight = self._adding = True
+        with self._lock_released(adding=True):
+            job()
+
+    @contextmanager
+    def _lock_released(self, adding: bool = False) -> Iterator[None]:
+        """The lock released in the simulation thread (held on entry and on exit) while
+        ``inflight`` and ``_adding`` (a step's add) or ``_copying`` (a checkpoint's copy,
+        an autosave's write) say why: the window draws on, commands and tools wait."""
+        self.inflight = True
+        self._adding, self._copying = adding, not adding
         self.lock.release()
         try:
-            job()
+            yield
         finally:
             self.lock.acquire()
-            self.inflight = self._adding = False
+            self.inflight = self._adding = self._copying = False
+            self._prune()
             self.lock.notify_all()
 
     @contextmanager
@@ -679,15 +689,8 @@ class KioskSession:
         job = sim.begin_autosave(SharedState(self.canvas, st).state())
         if job is None:
             return
-        self.inflight = self._copying = True
-        self.lock.release()
-        try:
+        with self._lock_released():
             job()
-        finally:
-            self.lock.acquire()
-            self.inflight = self._copying = False
-            self._prune()
-            self.lock.notify_all()
 
     def sim_busy(self, t0: float, t1: float) -> float:
         """Seconds of ``[t0, t1]`` (``perf_counter``) spent in steps."""
@@ -706,15 +709,8 @@ class KioskSession:
         for _ in range(COPY_ROUNDS):
             if not any(e.pending & STEP_FIELDS for e in self._lazy):
                 return
-            self.inflight = self._copying = True
-            self.lock.release()
-            try:
+            with self._lock_released():
                 self.materialize_checkpoints(STEP_FIELDS)
-            finally:
-                self.lock.acquire()
-                self.inflight = self._copying = False
-                self._prune()
-                self.lock.notify_all()
         self.materialize_checkpoints(STEP_FIELDS)  # strokes kept starting: under the lock
 
     def _step_unlocked(self) -> None:
