@@ -202,6 +202,27 @@ def test_safety_clamps_rate_limits_and_watchdogs() -> None:
     assert f.apply((math.nan, 0.0, 1.0), t + 0.003, t + 0.003) == (0.0, 0.0, 0.0)
 
 
+def test_a_stalled_station_ramps_up_from_zero_not_from_its_last_force() -> None:
+    """The station's loop held up past the watchdog: the device has zeroed itself, so the
+    next force starts from zero whether or not the device's error report was read yet
+    (seen under load: a 0.78 N kick as the first frame after a 150 ms hang)."""
+    limits = ForceLimits.from_device((3.0, 3.0, 3.0), rate_n_per_s=200.0)
+    f = SafetyFilter(limits, max_step_s=0.002)
+    t = 0.0
+    for _ in range(20):
+        t += 0.001
+        f.apply((0.0, 0.0, 1.0), t, t)
+    assert f.last[2] == pytest.approx(1.0)
+    t += 0.051  # one tick 51 ms late, its inputs fresh
+    assert f.apply((0.0, 0.0, 1.0), t, t) == (0.0, 0.0, 0.0)
+    assert f.stats.trips["station stalled"] == 1
+    t += 0.001
+    assert f.apply((0.0, 0.0, 1.0), t, t)[2] == pytest.approx(0.2)  # 200 N/s for 1 ms
+    t += 0.049  # late, but within the watchdog: rate-limited from where it was
+    assert f.apply((0.0, 0.0, 1.0), t, t)[2] == pytest.approx(0.6)
+    assert f.stats.trips["station stalled"] == 1
+
+
 def test_round_brush_spring_friction_and_grain() -> None:
     brush = RoundBrushContact(hair_mm=6.0, stiffness=0.5, grain=0.0)
     assert brush.contact_force(BrushState(0, (0, 0, 6.5))) == (0.0, 0.0, 0.0)

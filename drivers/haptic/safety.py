@@ -6,7 +6,10 @@ Each tick of the haptic loop passes its wanted force through
 1. commands **zero at once** when the inputs the force is made from are
    stale (no update for ``watchdog_s``, 50 ms) or when :meth:`trip` was
    called since the last tick (a protocol error, a device error, a
-   disconnect, the station stopping);
+   disconnect, the station stopping), or when this filter itself was not
+   called for longer than ``watchdog_s`` (the station stalled: the device's
+   own watchdog has zeroed it meanwhile, so the force must ramp up from zero,
+   whether or not the device's error report has been read yet);
 2. **clamps** each axis to the device's declared limit and to the configured
    lower limit, and the magnitude to the configured limit;
 3. **rate-limits** the change of each axis to ``rate_n_per_s`` (a force
@@ -98,8 +101,12 @@ class SafetyFilter:
         if stale and not self._stale and updated is not None:
             self.stats.watchdog_trips += 1
         self._stale = stale
-        dt = 0.0 if self._last_t is None else min(max(now - self._last_t, 0.0), self.max_step_s)
+        gap = 0.0 if self._last_t is None else max(now - self._last_t, 0.0)
+        dt = min(gap, self.max_step_s)
         self._last_t = now
+        if gap > lim.watchdog_s and self.last != ZERO:
+            # Rate-limiting from ``last`` would kick a device that is at zero by now.
+            self.trip("station stalled")
         if stale or self._tripped is not None or not all(map(math.isfinite, wanted)):
             self._tripped = None
             self.stats.zeroed += 1
