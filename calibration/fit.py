@@ -223,7 +223,7 @@ def _lts_start(
         )
     best: tuple[float, list[int]] | None = None
     for sub in subsets:
-        mapping = quiet_fit(points.subset(list(sub)), model, parallax)
+        mapping = quiet_fit(points.subset(list(sub)), model, parallax, quick=True)
         if mapping is None:
             continue
         with np.errstate(all="ignore"):  # a subset's map may send a far point to infinity
