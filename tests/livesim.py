@@ -107,5 +107,9 @@ def pixels(png: Path) -> np.ndarray:
 
 
 def log_records(log: Path) -> list[dict[str, Any]]:
-    lines = [ln for ln in log.read_text().splitlines() if ln.strip()]
+    """The log's records so far; a line the sim is still writing (no newline yet) is left
+    for the next look (seen at load 10: a record cut after 136 characters)."""
+    text = log.read_text()
+    complete = text[: text.rfind("\n") + 1]
+    lines = [ln for ln in complete.splitlines() if ln.strip()]
     return [json.loads(ln) for ln in lines[1:]]

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 import pytest
 from conftest import needs_pty
+from livesim import log_records
 from xvfb_server import xvfb
 
 import station as station_pkg
@@ -62,7 +63,7 @@ def wait_for(pred: Any, timeout: float) -> bool:
 
 
 def records(log: Path) -> list[dict[str, Any]]:
-    return [json.loads(ln) for ln in log.read_text().splitlines()[1:] if ln.strip()]
+    return log_records(log)  # a line still being written is not a record yet
 
 
 def pens(log: Path) -> list[dict[str, Any]]:
