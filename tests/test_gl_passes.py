@@ -332,6 +332,36 @@ def test_full_step_with_fibre_dispersion_matches_reference(ctx) -> None:
     assert not np.array_equal(plain.p, want.p)  # the dispersion changed the step
 
 
+def test_levelling_flow_runs_along_the_fibres(ctx) -> None:
+    """fibre_permeability: pass 3's height term along each axis times 1 - a + 4 a fibre
+    (the fibre texture read through a sampler in limit.comp), then a full step."""
+    prm = SimParams(fibre_permeability=1.0, fibre_dispersivity=9.0, nu_p=0.02)
+    st = random_state(5, prm)
+    st.fibre = make_fibres("cold-press", H, W, 5)
+    c = gl_canvas(ctx, st)
+    c._pass_prep()
+    c._pass_diffusion()
+    out = c.state()
+    wet = ref.wet_mask(st.w, st.wc, st.mask, prm, st.h, st.fibre)
+    vx, vy = ref.advect_velocity(st.vx, st.vy, wet, prm.dt)
+    vx, vy = ref.diffuse_velocity(vx, vy, wet, prm, prm.dt)
+    pr = ref.flow_pressure(st.w, ref.own_wet(st.w, st.wc, st.mask, prm), wet, st.h, prm)
+    vx, vy = ref.water_height_and_boundary(vx, vy, pr, wet, prm, prm.dt, st.fibre)
+    close("velocity x (passes 1-3)", out.vx, vx)
+    close("velocity y (passes 1-3)", out.vy, vy)
+    vx0, _ = ref.water_height_and_boundary(*ref.diffuse_velocity(
+        *ref.advect_velocity(st.vx, st.vy, wet, prm.dt), wet, prm, prm.dt), pr, wet, prm)
+    assert np.abs(vx0 - vx).max() > 1e-2  # the fibres channel the flow
+    c = gl.GLCanvas(W, H, ctx=ctx, tiling=False)
+    c.load_state(st)
+    c.step()
+    got = c.state()
+    want = st.copy()
+    ref.step(want)
+    for name in ("vx", "vy", "w", "wc", "p", "q", "evaporated"):
+        close(name, getattr(got, name), getattr(want, name))
+
+
 @pytest.mark.parametrize("iters", [1, 4])
 def test_velocity_water_pigment_diffusion(ctx, iters: int) -> None:
     # paper relief on for odd counts: pass 3 then levels (w + relief h) - eta (1 - M')

@@ -89,10 +89,14 @@ def tilt_kick(prm: SimParams, dt: float) -> tuple[np.float32, np.float32]:
 
 
 def water_height_and_boundary(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, wet: np.ndarray,
-                              prm: SimParams, dt: float | None = None
+                              prm: SimParams, dt: float | None = None,
+                              fibre: np.ndarray | None = None
                               ) -> tuple[np.ndarray, np.ndarray]:
     """Pass 3: blend in the water-height velocity and the tilt's gravity, then the
-    no-penetration boundary (``dt`` defaults to ``prm.dt``)."""
+    no-penetration boundary (``dt`` defaults to ``prm.dt``). With ``fibre_permeability``
+    and the fibre texture ``fibre`` (2, H, W) the height term along each axis is
+    multiplied by ``base + gain * fibre[axis]`` (``prm.fibre_channel()``): the film's
+    levelling flow runs along the paper's fibres."""
     ox, oy = open_faces(wet)
     w_e = w.copy()
     w_e[:, :-1] = np.where(ox, w[:, 1:], w[:, :-1])
@@ -105,8 +109,14 @@ def water_height_and_boundary(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, wet
     g = F32(-0.5 * prm.height_gain)
     oh = F32(prm.omega_h)
     oi = F32(1.0 - prm.omega_h)
-    nvx = oi * vx + oh * (g * (w_e - w_w))
-    nvy = oi * vy + oh * (g * (w_s - w_n))
+    dx = w_e - w_w
+    dy = w_s - w_n
+    if prm.fibre_permeability > 0 and fibre is not None:
+        base, gain = (F32(v) for v in prm.fibre_channel())
+        dx = dx * (base + gain * fibre[0])
+        dy = dy * (base + gain * fibre[1])
+    nvx = oi * vx + oh * (g * dx)
+    nvy = oi * vy + oh * (g * dy)
     gx, gy = tilt_kick(prm, prm.dt if dt is None else dt)
     if gx != 0:  # flat canvas: no addition at all (x + 0 would turn -0.0 into +0.0)
         nvx = nvx + gx

@@ -40,7 +40,7 @@ GROUPS: dict[str, tuple[str, ...]] = {
               "paper_relief",
               "paper_shade", "block_paper", "block_fade",
               "fibre_wick", "fibre_dispersivity",
-              "fibre_flow_max"),
+              "fibre_flow_max", "fibre_permeability"),
     "fluid": ("viscosity", "nu_w", "nu_p", "eps_shallow", "edge_evap", "flow_outward",
               "wet_blur", "wet_hold", "omega_h", "height_gain", "w_min", "w_max", "v_max",
               "surface_rate",

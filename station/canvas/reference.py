@@ -86,6 +86,16 @@ CHANGED: Curtis 1997's wet-area mask with a memory (issue 21 item 8: rows laid o
   wash whose water has been gone for ``wet_hold`` leaves the area, so water put back into
   it still makes a bloom with a crust. Tools that dry paper out (hair dryer, eraser of
   ``wc``) set ``wet_area = 0`` where ``wc`` becomes 0, as pass 10 would.
+CHANGED: pass 3 along the paper's fibres (issue 21 item 4: a drop of colour into a fully wet
+  wash feathers). New SimParams ``fibre_permeability`` ``a`` (0: off, as before): the
+  height term's difference along each axis is multiplied by ``base + gain * fibre[axis]``
+  with ``(base, gain) = prm.fibre_channel()`` = float32 ``(1 - a, FIBRE_CHANNEL * a)``
+  (``FIBRE_CHANNEL`` 4), i.e. ``vh = -height_gain * ((wE - wW)/2 * kx, (wS - wN)/2 * ky)``
+  computed as ``g * ((wE - wW) * kx)``, ``g = float32(-0.5 height_gain)``. Water driven
+  through wet paper runs along its fibres (Darcy flow through a permeability uneven at the
+  fibre scale) and the paint the brush pushes into a wash goes out in fingers. No built-in
+  profile sets it yet (with ``a = 1``, ``nu_p`` 0.02 and ``fibre_dispersivity`` 9 the
+  wet-wash drop feathers, but rims, damp-wash blooms and hot-press washes regress).
 NOTE (no maths change): the helpers live in ``stencils.py``, the passes in ``passes.py``;
   this module re-exports them and runs the step.
 
@@ -125,7 +135,8 @@ the same float32 value on both sides).
    each sum over the taps in order (offset -R first), cells outside the region 0. For
    each wet cell, neighbour heights (of P) ``wE = P[y,x+1]`` if face E is open else
    ``w[y,x]`` (same for W, N, S);
-   ``vh = -height_gain * ((wE - wW)/2, (wS - wN)/2)``;
+   ``vh = -height_gain * ((wE - wW)/2, (wS - wN)/2)`` (each times the fibre channel with
+   ``fibre_permeability``, see CHANGED);
    ``v <- (1 - omega_h) v + omega_h vh``; then the tilt (``tilt_kick``: float32
    ``(ax dt, ay dt)`` of ``SimParams.tilt_acceleration``) is added to each component
    where it is nonzero (a flat canvas adds nothing); boundary (no flow into non-wet cells or
@@ -330,7 +341,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
             vx, vy = diffuse_velocity(vx, vy, wet, prm, dt)
         elif name == "water_height_and_boundary":
             pr = flow_pressure(w, area_m, wet, h, prm)
-            vx, vy = water_height_and_boundary(vx, vy, pr, wet, prm, dt)
+            vx, vy = water_height_and_boundary(vx, vy, pr, wet, prm, dt, fib)
         elif name == "diffuse_water":
             w = diffuse_water(w, wet, prm, dt)
         elif name == "diffuse_pigment":

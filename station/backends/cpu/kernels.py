@@ -102,7 +102,9 @@ C_ABASE = 36      # float32(1 + advance_grain / 2) (stencils.advance_base)
 C_AGRAIN = 37     # advance_grain
 C_CURV = 38       # advance_curvature
 C_CURVN = 39      # float32(1 + 2 advance_curvature)
-N_CONST = 40
+C_PBASE = 40      # float32(1 - fibre_permeability) (SimParams.fibre_channel)
+C_PGAIN = 41      # float32(FIBRE_CHANNEL * fibre_permeability); 0: pass 3 reads no fibre
+N_CONST = 42
 
 # the sweeps: rows in parallel; IEEE float32 maths exactly as written (no fastmath, no FMA
 # contraction), numpy's error model (division without ZeroDivision checks: every division
