@@ -4,7 +4,8 @@
 //    v <- (1 - omega_h) v + omega_h v_h, v_h = -height_gain ((PE - PW)/2, (PS - PN)/2) with
 //    closed faces reading the cell's own P (pressure.comp: w lowered near the edge), each axis's
 //    term times u_pbase + u_pgain * fibre[axis] when u_pgain != 0 (fibre_permeability: the
-//    film's levelling flow runs along the paper's fibres); no flow through closed faces; tilt
+//    film's levelling flow runs along the paper's fibres; with u_pgate faded in by the
+//    standing water, (1 - g a) + g gain fibre[axis]; off on paper without fibre); no flow through closed faces; tilt
 //    gravity added; clamp v_max.
 //  * implicit_diffusion's donor limiter for water (pass 4) and pigment (pass 5): face fluxes
 //    F = k b (x_i - x_n) from the converged iterate; s = u / out where the outflow exceeds u.
@@ -33,6 +34,9 @@ const float u_vmax = K_VMAX;
 STEP_CONST(vec2, u_tilt, vec2(K_TILT_X, K_TILT_Y));  // float32(ax dt, ay dt) of the tilt
 const float u_pbase = K_PBASE;  // float32(1 - fibre_permeability)
 const float u_pgain = K_PGAIN;  // float32(FIBRE_CHANNEL * fibre_permeability); 0: off
+const float u_pa = K_PA;        // fibre_permeability
+const float u_pgate = K_PGATE;  // 1 / fibre_gate_depth; 0: the channel ungated
+uniform float u_fibred;         // 1: the paper has fibre; 0: nothing channels the flow
 
 void main() {
     bool valid;
@@ -73,7 +77,16 @@ void main() {
     vec2 v = wet ? j.xy : vec2(0.0);
     vec2 nv;
     vec2 d = vec2(wn[0] - wn[1], wn[2] - wn[3]);
-    if (u_pgain != 0.0) d = d * (u_pbase + u_pgain * texelFetch(fibre_tex, c, 0).xy);
+    if (u_pgain != 0.0 && u_fibred != 0.0) {
+        vec2 fb = texelFetch(fibre_tex, c, 0).xy;
+        if (u_pgate != 0.0) {  // faded in by the standing water (reference fibre_gate)
+            float t = min(w * u_pgate, 1.0);
+            float g = (t * t) * (3.0 - 2.0 * t);
+            d = d * ((1.0 - g * u_pa) + (g * u_pgain) * fb);
+        } else {
+            d = d * (u_pbase + u_pgain * fb);
+        }
+    }
     nv.x = u_omega_i * v.x + u_omega_h * (u_half_gain * d.x);
     nv.y = u_omega_i * v.y + u_omega_h * (u_half_gain * d.y);
     // the tilt's gravity (reference.tilt_kick); a flat canvas adds nothing

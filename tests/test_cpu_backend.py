@@ -357,6 +357,33 @@ def test_fibre_channelled_flow_on_cold_press_is_bitwise_equal() -> None:
     assert not np.array_equal(a.live_state.vx, plain.live_state.vx)
 
 
+@pytest.mark.parametrize("fibred", [True, False])
+def test_standing_water_gate_and_diffusion_are_bitwise_equal(fibred: bool) -> None:
+    """Pass 3's fibre channel faded in by the standing water (fibre_gate_depth) and the
+    pigment's own diffusion faded to standing_nu_p in it (standing_depth): every field bit
+    for bit, on cold-press paper and on paper without fibre (there the channel is off), and
+    the two terms change the flow and the pigment."""
+    base = dataclasses.replace(get_profile("watercolor").params, fibre_permeability=1.0,
+                               fibre_dispersivity=9.0)
+    prm = dataclasses.replace(base, fibre_gate_depth=0.4, standing_depth=0.3,
+                              standing_nu_p=0.005)
+    runs = []
+    for cls, p in ((NumpyCanvas, prm), (CpuCanvas, prm), (NumpyCanvas, base)):
+        c = _random_canvas(cls, 8, params=p)
+        if not fibred:
+            c.live_state.fibre[...] = 0
+        runs.append(c)
+    for _ in range(20):
+        for c in runs:
+            c.step()
+    a, b, ungated = (c.live_state for c in runs)
+    for f in FIELDS:
+        assert np.array_equal(getattr(a, f), getattr(b, f)), f
+    assert not np.array_equal(a.p, ungated.p)
+    if fibred:
+        assert not np.array_equal(a.vx, ungated.vx)
+
+
 def test_live_stroke_on_tiles_is_bitwise_equal() -> None:
     """A disc stroke along a wave, painting every step, with the wet trail spreading over
     tiles and its bounding box much larger than the tiles near it (the cpu step computes

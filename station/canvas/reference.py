@@ -96,6 +96,16 @@ CHANGED: pass 3 along the paper's fibres (issue 21 item 4: a drop of colour into
   fibre scale) and the paint the brush pushes into a wash goes out in fingers. No built-in
   profile sets it yet (with ``a = 1``, ``nu_p`` 0.02 and ``fibre_dispersivity`` 9 the
   wet-wash drop feathers, but rims, damp-wash blooms and hot-press washes regress).
+CHANGED: the fibre channel gated (new SimParams ``fibre_gate_depth``, 0: ungated as above):
+  ``kx = (1 - g a) + (g gain) fibre[0]`` (``ky`` alike), ``g = standing_gate(w)`` =
+  smoothstep ``t t (3 - 2 t)``, ``t = min(w / fibre_gate_depth, 1)`` of the cell's water at
+  the step's start (:func:`fibre_gate`); ``g = 0`` everywhere on a paper without any fibre
+  (hot-press: its factor is exactly 1, with or without the gate).
+CHANGED: the pigment's own diffusion in standing water (new SimParams ``standing_depth``,
+  0: off, and ``standing_nu_p``): beta_c's ``1`` (of the fibre dispersion's factor, or
+  beta_c itself) is ``1 - drop * standing_gate(w)`` with ``drop = float32(1 -
+  standing_nu_p / nu_p)`` and ``t = min(w / standing_depth, 1)``: ``nu_p`` on damp paper,
+  ``standing_nu_p`` in standing water, the fibre dispersion unchanged.
 NOTE (no maths change): the helpers live in ``stencils.py``, the passes in ``passes.py``;
   this module re-exports them and runs the step.
 
@@ -216,6 +226,8 @@ them, so the result is the same as with tiling off.
 """
 from __future__ import annotations
 
+import numpy as np
+
 from station.canvas import tiles
 from station.canvas.params import CanvasInputError, SimParams
 from station.canvas.passes import (
@@ -229,6 +241,7 @@ from station.canvas.passes import (
     dry_cells,
     evaporate,
     slot_properties,
+    standing_gate,
     surface_exchange,
     tilt_kick,
     water_height_and_boundary,
@@ -256,7 +269,8 @@ __all__ = ["F32", "PASS_ORDER", "STENCIL_RADIUS_EXTRA", "advect_velocity",
            "advect_water_and_pigment", "apply_fluxes", "blocking", "blurred_wet", "capacity",
            "capillary", "damp_factor", "diffuse_pigment", "diffuse_velocity", "diffuse_water",
            "dry_cells", "evaporate", "flow_pressure", "gaussian_taps", "implicit_diffusion",
-           "neighbour_sum", "open_faces", "own_wet", "slot_properties", "stencil_radius",
+           "neighbour_sum", "open_faces", "own_wet", "slot_properties", "standing_gate",
+           "stencil_radius",
            "step", "step_region", "surface_exchange", "tilt_kick", "water_height_and_boundary",
            "water_speed", "wet_area_update", "wet_mask", "wet_memory"]
 
@@ -301,6 +315,20 @@ def stencil_radius(prm: SimParams) -> int:
             + max(blur - BLUR_REACH_IN_EXTRA, 0))
 
 
+def fibre_gate(state: CanvasState, w: np.ndarray) -> np.ndarray | None:
+    """Pass 3's fibre channel gate per cell (``water_height_and_boundary``'s ``gate``):
+    None without a gate (``fibre_gate_depth`` 0: the channel everywhere), zeros on paper
+    without any fibre (hot-press: nothing channels the flow, its factor stays 1), else
+    :func:`standing_gate` of the cells' water at the start of the step."""
+    prm = state.params
+    if prm.fibre_permeability <= 0:
+        return None
+    if not state.fibre.any():
+        return np.zeros_like(w)
+    inv = prm.fibre_gate()
+    return standing_gate(w, inv) if inv > 0 else None
+
+
 def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
                 stop_after: str | None = None) -> None:
     """Run passes 1-10 on the cells ``sl`` of ``state`` (in place).
@@ -334,6 +362,9 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     if holding:  # the wet-area mask grows where the cell holds its own water
         state.wet_area[ys, xs] = area_m
     wet = wet_mask(w, wc, mask, prm, h, fib)
+    gate = fibre_gate(state, w)
+    inv_still = prm.standing_diffusion()[0]
+    standing = standing_gate(w, inv_still) if inv_still > 0 else None
     for name in PASS_ORDER:
         if name == "advect_velocity":
             vx, vy = advect_velocity(vx, vy, wet, dt)
@@ -341,12 +372,12 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
             vx, vy = diffuse_velocity(vx, vy, wet, prm, dt)
         elif name == "water_height_and_boundary":
             pr = flow_pressure(w, area_m, wet, h, prm)
-            vx, vy = water_height_and_boundary(vx, vy, pr, wet, prm, dt, fib)
+            vx, vy = water_height_and_boundary(vx, vy, pr, wet, prm, dt, fib, gate)
         elif name == "diffuse_water":
             w = diffuse_water(w, wet, prm, dt)
         elif name == "diffuse_pigment":
             beta_c = blocking(h, state.block[ys, xs], state.block_time[ys, xs],
-                              state.sim_time, prm, fib, speed0)
+                              state.sim_time, prm, fib, speed0, standing)
             pp = diffuse_pigment(pp, wet, beta_c, prm, dt)
         elif name == "advect_water_and_pigment":
             w, pp = advect_water_and_pigment(w, pp, vx, vy, wet, prm, dt)

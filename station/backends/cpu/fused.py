@@ -233,14 +233,19 @@ def _vel_row(wet: np.ndarray, v1x: np.ndarray, v1y: np.ndarray, xvx: np.ndarray,
              xvy: np.ndarray, pr: np.ndarray, cst: np.ndarray, do_vjac: bool,
              do_height: bool, j: int, slo: int, shi: int, v3x_o: np.ndarray,
              v3y_o: np.ndarray, fibre: np.ndarray, y0: int,
-             x0: int) -> None:  # pragma: no cover - compiled
+             x0: int, w0: np.ndarray) -> None:  # pragma: no cover - compiled
     """height_limit's velocity part of row j; with ``C_PGAIN`` the height term along each
     axis times ``C_PBASE + C_PGAIN * fibre[axis]`` (passes.water_height_and_boundary:
-    the film's levelling flow runs along the paper's fibres)."""
+    the film's levelling flow runs along the paper's fibres), with ``C_PGATE`` times
+    ``(1 - g C_PA) + (g C_PGAIN) fibre[axis]``, ``g`` the standing-water gate of the
+    cell's ``w0`` (reference ``fibre_gate``; step_region zeroes C_PGAIN on paper without
+    fibre)."""
     kv, g, oh, oi, vm = cst[K.C_KV], cst[K.C_G], cst[K.C_OH], cst[K.C_OI], cst[K.C_VMAX]
     tgx, tgy = cst[K.C_TILTX], cst[K.C_TILTY]
     pbase, pgain = cst[K.C_PBASE], cst[K.C_PGAIN]
+    pa, pgate = cst[K.C_PA], cst[K.C_PGATE]
     channel = pgain != ZERO
+    gated = pgate != ZERO
     y = np.uint64(y0 + j - 1)
     wr, wn, ws = wet[j], wet[j - 1], wet[j + 1]
     if do_vjac:
@@ -264,7 +269,14 @@ def _vel_row(wet: np.ndarray, v1x: np.ndarray, v1y: np.ndarray, xvx: np.ndarray,
         w_n = pr[j - 1, i] if bn else wc_
         dx = w_e - w_w
         dy = w_s - w_n
-        if channel:
+        if channel and gated:
+            x = np.uint64(x0 + i - 1)
+            gv = K._smoothstep_w(w0[j, i], pgate)
+            bg = ONE - gv * pa
+            gg = gv * pgain
+            dx = dx * (bg + gg * fibre[0, y, x])
+            dy = dy * (bg + gg * fibre[1, y, x])
+        elif channel:
             x = np.uint64(x0 + i - 1)
             dx = dx * (pbase + pgain * fibre[0, y, x])
             dy = dy * (pbase + pgain * fibre[1, y, x])
@@ -495,7 +507,7 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
             for sx in range(nsp[j]):
                 slo, shi = K._span(spans, j, sx)
                 _vel_row(wet, v1x, v1y, xvx, xvy, pr, cst, do_vjac, do_height, j, slo, shi,
-                         v3x_o, v3y_o, fibre, y0, x0)
+                         v3x_o, v3y_o, fibre, y0, x0, w0)
                 if do_w:
                     for i in range(slo, shi + 1):
                         fe = fx[i]

@@ -68,6 +68,7 @@ class GLStepPasses:
     _compile_programs: Callable[[bool], None]
     _param_consts: dict[str, str]  # param_constants the programs were compiled with
     _param_key: tuple[SimParams, float | None] | None  # what _param_consts came from
+    _fibred: bool  # the paper has fibre (load_state); without, pass 3's channel is off
 
     def _bind(self, unit: int, tex: moderngl.Texture | moderngl.TextureArray, read: bool,
               write: bool) -> None:
@@ -124,6 +125,8 @@ class GLStepPasses:
             _set(p[name], "u_kw", kw)
             _set(p[name], "u_kp", kp)
         _set(p["limit"], "u_tilt", [float(x) for x in reference.tilt_kick(prm, dt)])
+        # paper without any fibre: pass 3's channel is off (reference.fibre_gate)
+        _set(p["limit"], "u_fibred", 1.0 if self._fibred else 0.0)
         q4 = float(F32(0.25 * dt))
         for name in ("advect_limit", "advect_apply"):
             _set(p[name], "u_q4", q4)
@@ -365,6 +368,8 @@ def param_constants(prm: SimParams, dt: float | None) -> dict[str, str]:
         "FIBRE_FLOW_MAX": prm.fibre_flow_max, "EASE": prm.damp_ease, "DSAT": prm.damp_sat,
         "DSPAN": float(F32(1.0 - prm.damp_sat)), "CMIN": prm.c_min,
         "PBASE": float(prm.fibre_channel()[0]), "PGAIN": float(prm.fibre_channel()[1]),
+        "PA": prm.fibre_permeability, "PGATE": prm.fibre_gate(),
+        "SINV": prm.standing_diffusion()[0], "SDROP": prm.standing_diffusion()[1],
         "CRANGE": float(F32(prm.c_max - prm.c_min)), "ETA": prm.flow_outward,
         "RELIEF": prm.paper_relief, "OMEGA_H": prm.omega_h,
         "OMEGA_I": float(F32(1.0 - prm.omega_h)),
