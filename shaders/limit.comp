@@ -24,6 +24,7 @@ layout(r32f, binding = 0) uniform readonly image2D pr_in;  // pass 3's levelled 
 // the fibre texture (along x, along y) through a sampler: the eight image units are taken
 // (eight is all some GPUs give a compute shader)
 layout(binding = 0) uniform sampler2D fibre_tex;
+layout(binding = 1) uniform sampler2D paper_tex;  // h in .x (the gate's relief term)
 
 STEP_CONST(float, u_kw, K_KW);
 STEP_CONST(float, u_kp, K_KP);
@@ -36,6 +37,8 @@ const float u_pbase = K_PBASE;  // float32(1 - fibre_permeability)
 const float u_pgain = K_PGAIN;  // float32(FIBRE_CHANNEL * fibre_permeability); 0: off
 const float u_pa = K_PA;        // fibre_permeability
 const float u_pgate = K_PGATE;  // 1 / fibre_gate_depth; 0: the channel ungated
+const float u_ppull = K_PPULL;  // 1 / fibre_gate_pull; 0: no front factor
+const float u_relief = K_RELIEF;  // paper_relief
 uniform float u_fibred;         // 1: the paper has fibre; 0: nothing channels the flow
 
 void main() {
@@ -82,6 +85,11 @@ void main() {
         if (u_pgate != 0.0) {  // faded in by the standing water (reference fibre_gate)
             float t = min(w * u_pgate, 1.0);
             float g = (t * t) * (3.0 - 2.0 * t);
+            if (u_ppull != 0.0) {  // off where the flow outward pulls (a front into dry paper)
+                float top = u_relief > 0.0 ? w + u_relief * texelFetch(paper_tex, c, 0).x : w;
+                float u = min(max(top - pc, 0.0) * u_ppull, 1.0);
+                g = g * (1.0 - (u * u) * (3.0 - 2.0 * u));
+            }
             d = d * ((1.0 - g * u_pa) + (g * u_pgain) * fb);
         } else {
             d = d * (u_pbase + u_pgain * fb);

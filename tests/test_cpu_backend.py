@@ -359,14 +359,15 @@ def test_fibre_channelled_flow_on_cold_press_is_bitwise_equal() -> None:
 
 @pytest.mark.parametrize("fibred", [True, False])
 def test_standing_water_gate_and_diffusion_are_bitwise_equal(fibred: bool) -> None:
-    """Pass 3's fibre channel faded in by the standing water (fibre_gate_depth) and the
+    """Pass 3's fibre channel faded in by the standing water (fibre_gate_depth), off where
+    the flow outward pulls (fibre_gate_pull), and the
     pigment's own diffusion faded to standing_nu_p in it (standing_depth): every field bit
     for bit, on cold-press paper and on paper without fibre (there the channel is off), and
     the two terms change the flow and the pigment."""
     base = dataclasses.replace(get_profile("watercolor").params, fibre_permeability=1.0,
                                fibre_dispersivity=9.0)
-    prm = dataclasses.replace(base, fibre_gate_depth=0.4, standing_depth=0.3,
-                              standing_nu_p=0.005)
+    prm = dataclasses.replace(base, fibre_gate_depth=0.4, fibre_gate_pull=0.1,
+                              standing_depth=0.3, standing_nu_p=0.005)
     runs = []
     for cls, p in ((NumpyCanvas, prm), (CpuCanvas, prm), (NumpyCanvas, base)):
         c = _random_canvas(cls, 8, params=p)

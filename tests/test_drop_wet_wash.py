@@ -38,16 +38,19 @@ def test_a_drop_of_colour_into_a_wet_wash_spreads_wide_and_stays_strong() -> Non
 
 
 def test_flow_along_the_fibres_feathers_the_drop(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The mechanism for a feathered front (issue 21 item 4): with the film's levelling
-    flow run along the paper's fibres (``fibre_permeability`` 1), the pigment's own
-    diffusion negligible (``nu_p`` 0.02) and its dispersion along the channels a fibre long
-    (``fibre_dispersivity`` 9), the brushed drop into the wet wash dries with a feathered,
-    irregular front (feather 1.345, radius CV 0.179; the watercolor profile as shipped:
-    1.203, 0.093, a soft round blot) and keeps its spread and strength. Not yet the
-    watercolor default: it weakens the rims, the damp-wash blooms and hot-press washes
-    (NOTES-wetdrop)."""
+    """The mechanism for a feathered front (issue 21 item 4): the film's levelling flow run
+    along the paper's fibres where water stands (``fibre_permeability`` 1, gated by
+    ``fibre_gate_depth`` 0.15), the pigment's own diffusion negligible in standing water
+    (``standing_nu_p`` 0.005 from ``standing_depth`` 0.005 up; ``nu_p`` 0.3 on damp paper)
+    and its dispersion along the channels a fibre long (``fibre_dispersivity`` 9): the
+    brushed drop into the wet wash dries with a feathered, irregular front (feather 1.43,
+    radius CV 0.19; the watercolor profile as shipped: 1.20, 0.09, a soft round blot) and
+    keeps its spread and strength. Not yet the watercolor default (NOTES-wetdrop3: the
+    rims' width, the edge band and the physics wet-in-wet spread)."""
     prof = profiles.PROFILES["watercolor"]
-    prm = prof.params.replace(fibre_permeability=1.0, nu_p=0.02, fibre_dispersivity=9.0)
+    prm = prof.params.replace(fibre_permeability=1.0, fibre_dispersivity=9.0,
+                              fibre_gate_depth=0.15, standing_depth=0.005,
+                              standing_nu_p=0.005)
     monkeypatch.setitem(profiles.PROFILES, "watercolor", dataclasses.replace(prof, params=prm))
     wet = fb.drop_into_wet_wash(True)
     bal = wet.stats()["balance"]

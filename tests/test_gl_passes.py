@@ -364,11 +364,13 @@ def test_levelling_flow_runs_along_the_fibres(ctx) -> None:
 
 @pytest.mark.parametrize("fibred", [True, False])
 def test_standing_water_gates_the_channel_and_the_diffusion(ctx, fibred: bool) -> None:
-    """fibre_gate_depth: pass 3's channel faded in by the standing water (off on paper
-    without fibre: u_fibred); standing_depth: beta_c's own share 1 - drop smoothstep(w /
+    """fibre_gate_depth: pass 3's channel faded in by the standing water, off where the flow
+    outward pulls (fibre_gate_pull, with the relief term) and on paper without fibre
+    (u_fibred); standing_depth: beta_c's own share 1 - drop smoothstep(w /
     depth) (prep.comp); passes 1-3 and beta_c against the reference, then a full step."""
     prm = SimParams(fibre_permeability=1.0, fibre_dispersivity=9.0, fibre_gate_depth=0.4,
-                    standing_depth=0.3, standing_nu_p=0.005)
+                    fibre_gate_pull=0.1, paper_relief=0.2, standing_depth=0.3,
+                    standing_nu_p=0.005)
     st = random_state(6, prm)
     st.fibre = make_fibres("cold-press", H, W, 6) if fibred else np.zeros((2, H, W), np.float32)
     c = gl_canvas(ctx, st)
@@ -383,7 +385,7 @@ def test_standing_water_gates_the_channel_and_the_diffusion(ctx, fibred: bool) -
     vx, vy = ref.advect_velocity(st.vx, st.vy, wet, prm.dt)
     vx, vy = ref.diffuse_velocity(vx, vy, wet, prm, prm.dt)
     pr = ref.flow_pressure(st.w, ref.own_wet(st.w, st.wc, st.mask, prm), wet, st.h, prm)
-    gate = ref.fibre_gate(st, st.w)
+    gate = ref.fibre_gate(st, st.w, st.h, pr)
     assert gate is not None and (bool(((gate > 0) & (gate < 1)).any()) == fibred)
     vx, vy = ref.water_height_and_boundary(vx, vy, pr, wet, prm, prm.dt, st.fibre, gate)
     close("velocity x (passes 1-3)", out.vx, vx)

@@ -111,6 +111,13 @@ class SimParams:
             channel acts where a wash still stands on saturated paper (a drop into a fully
             wet wash) and not on damp paper, where the flow outward carries the water to
             a bloom's or a stroke's edge. 0: no gate (``a`` everywhere).
+        fibre_gate_pull: with ``fibre_gate_depth``, the flow-outward pull [height] at which
+            the channel is off: the gate is also times ``1 - smoothstep(pull /
+            fibre_gate_pull)``, ``pull = (w + paper_relief h) - P`` (pass 3's levelled
+            height ``P`` lies ``flow_outward (1 - M')`` below the water near the edge of the
+            wet area), so a front still spreading into dry paper keeps its flow outward
+            and its rim, and only the inside of a wet wash is channelled (0.1
+            ``flow_outward``: M' above 0.9). 0: no such factor.
         fibre_flow_max: the fastest water moves through the paper's fibre channels
             [cell/s] (capillary/Darcy flow in paper is about a millimetre per second); the
             fibre dispersion uses ``min(|v|, fibre_flow_max)``: a film the brush drives
@@ -225,6 +232,7 @@ class SimParams:
     fibre_dispersivity: float = 0.0
     fibre_permeability: float = 0.0
     fibre_gate_depth: float = 0.0
+    fibre_gate_pull: float = 0.0
     standing_depth: float = 0.0
     standing_nu_p: float = 0.0
     fibre_flow_max: float = 2.0
@@ -301,6 +309,8 @@ class SimParams:
             raise CanvasInputError("fibre_permeability must lie in [0, 1]", "params")
         if not 0 <= self.fibre_gate_depth <= 10:
             raise CanvasInputError("fibre_gate_depth must lie in [0, 10]", "params")
+        if not 0 <= self.fibre_gate_pull <= 10:
+            raise CanvasInputError("fibre_gate_pull must lie in [0, 10]", "params")
         if not 0 <= self.standing_depth <= 10:
             raise CanvasInputError("standing_depth must lie in [0, 10]", "params")
         if not 0 <= self.standing_nu_p <= self.nu_p:
@@ -372,6 +382,12 @@ class SimParams:
         if self.fibre_gate_depth <= 0:
             return 0.0
         return float(np.float32(1.0 / self.fibre_gate_depth))
+
+    def fibre_gate_front(self) -> float:
+        """``1 / fibre_gate_pull`` as a float32 value (0: no front factor)."""
+        if self.fibre_gate_pull <= 0:
+            return 0.0
+        return float(np.float32(1.0 / self.fibre_gate_pull))
 
     def standing_diffusion(self) -> tuple[float, float]:
         """``(1 / standing_depth, 1 - standing_nu_p / nu_p)`` as float32 values, ``(0, 0)``

@@ -315,18 +315,34 @@ def stencil_radius(prm: SimParams) -> int:
             + max(blur - BLUR_REACH_IN_EXTRA, 0))
 
 
-def fibre_gate(state: CanvasState, w: np.ndarray) -> np.ndarray | None:
+_ZERO32 = F32(0.0)
+_ONE32 = F32(1.0)
+
+
+def fibre_gate(state: CanvasState, w: np.ndarray, h: np.ndarray,
+               pr: np.ndarray) -> np.ndarray | None:
     """Pass 3's fibre channel gate per cell (``water_height_and_boundary``'s ``gate``):
     None without a gate (``fibre_gate_depth`` 0: the channel everywhere), zeros on paper
     without any fibre (hot-press: nothing channels the flow, its factor stays 1), else
-    :func:`standing_gate` of the cells' water at the start of the step."""
+    :func:`standing_gate` of the cells' water at the start of the step, with
+    ``fibre_gate_pull`` times ``1 - standing_gate(pull)``, ``pull = max((w + paper_relief
+    h) - pr, 0)`` (``pr`` pass 3's levelled height: the flow-outward pull near the edge of
+    the wet area)."""
     prm = state.params
     if prm.fibre_permeability <= 0:
         return None
     if not state.fibre.any():
         return np.zeros_like(w)
     inv = prm.fibre_gate()
-    return standing_gate(w, inv) if inv > 0 else None
+    if inv <= 0:
+        return None
+    g = standing_gate(w, inv)
+    inv_pull = prm.fibre_gate_front()
+    if inv_pull > 0:
+        top = w + F32(prm.paper_relief) * h if prm.paper_relief > 0 else w
+        pull = np.maximum(top - pr, _ZERO32)
+        g = g * (_ONE32 - standing_gate(pull, inv_pull))
+    return g
 
 
 def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
@@ -362,7 +378,6 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     if holding:  # the wet-area mask grows where the cell holds its own water
         state.wet_area[ys, xs] = area_m
     wet = wet_mask(w, wc, mask, prm, h, fib)
-    gate = fibre_gate(state, w)
     inv_still = prm.standing_diffusion()[0]
     standing = standing_gate(w, inv_still) if inv_still > 0 else None
     for name in PASS_ORDER:
@@ -372,6 +387,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
             vx, vy = diffuse_velocity(vx, vy, wet, prm, dt)
         elif name == "water_height_and_boundary":
             pr = flow_pressure(w, area_m, wet, h, prm)
+            gate = fibre_gate(state, w, h, pr)
             vx, vy = water_height_and_boundary(vx, vy, pr, wet, prm, dt, fib, gate)
         elif name == "diffuse_water":
             w = diffuse_water(w, wet, prm, dt)

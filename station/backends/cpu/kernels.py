@@ -108,7 +108,8 @@ C_PA = 42         # fibre_permeability (the gated channel's 1 - g a)
 C_PGATE = 43      # 1 / fibre_gate_depth (SimParams.fibre_gate); 0: the channel ungated
 C_SINV = 44       # 1 / standing_depth (SimParams.standing_diffusion); 0: off
 C_SDROP = 45      # 1 - standing_nu_p / nu_p
-N_CONST = 46
+C_PPULL = 46      # 1 / fibre_gate_pull (SimParams.fibre_gate_front); 0: no front factor
+N_CONST = 47
 
 # the sweeps: rows in parallel; IEEE float32 maths exactly as written (no fastmath, no FMA
 # contraction), numpy's error model (division without ZeroDivision checks: every division

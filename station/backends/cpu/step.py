@@ -83,6 +83,7 @@ def constants(prm: SimParams, dt: float, sim_time: float) -> np.ndarray:
     c[K.C_PBASE], c[K.C_PGAIN] = (F32(v) for v in prm.fibre_channel())
     c[K.C_PA] = F32(prm.fibre_permeability)
     c[K.C_PGATE] = F32(prm.fibre_gate())
+    c[K.C_PPULL] = F32(prm.fibre_gate_front())
     c[K.C_SINV], c[K.C_SDROP] = (F32(v) for v in prm.standing_diffusion())
     c[K.C_TILTX], c[K.C_TILTY] = reference.tilt_kick(prm, dt)
     return c
@@ -279,7 +280,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     F.limit_diffuse_fused(wet, bc, s2["v1x"], s2["v1y"], xvx, xvy, w0, xw, p0, xp, pr, bh, bw,
                           ns, cst, do_v, runs("water_height_and_boundary"), do_w, do_p,
                           jac1, s2["v3x"], s2["v3y"], s2["w2"], s3["p2"], spans, nsp, bounds,
-                          state.fibre, y0, x0)
+                          state.fibre, y0, x0, state.h)
     v3x, v3y = s2["v3x"], s2["v3y"]
     if last <= reference.PASS_ORDER.index("water_height_and_boundary"):
         state.vx[ys, xs] = _win(v3x, bh, bw)

@@ -267,6 +267,7 @@ class GLStepPasses:
         self._bind(7, self.jd[1 - cur], False, True)
         self._bind(0, self.pr, True, False)
         f["fibre"].src.use(location=0)  # a sampler: the image units are all taken
+        f["paper"].src.use(location=1)  # h for the gate's relief term, a sampler too
         self._dispatch("limit")
         f["vel"].swap()
         self._bind(1, self.jv[1 - cur], True, False)
@@ -368,7 +369,7 @@ def param_constants(prm: SimParams, dt: float | None) -> dict[str, str]:
         "FIBRE_FLOW_MAX": prm.fibre_flow_max, "EASE": prm.damp_ease, "DSAT": prm.damp_sat,
         "DSPAN": float(F32(1.0 - prm.damp_sat)), "CMIN": prm.c_min,
         "PBASE": float(prm.fibre_channel()[0]), "PGAIN": float(prm.fibre_channel()[1]),
-        "PA": prm.fibre_permeability, "PGATE": prm.fibre_gate(),
+        "PA": prm.fibre_permeability, "PGATE": prm.fibre_gate(), "PPULL": prm.fibre_gate_front(),
         "SINV": prm.standing_diffusion()[0], "SDROP": prm.standing_diffusion()[1],
         "CRANGE": float(F32(prm.c_max - prm.c_min)), "ETA": prm.flow_outward,
         "RELIEF": prm.paper_relief, "OMEGA_H": prm.omega_h,
