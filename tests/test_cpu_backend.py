@@ -132,7 +132,10 @@ def test_multi_step_stroke_is_bitwise_equal() -> None:
                                     {"damp_ease": 2.0, "fibre_wick": 0.7},
                                     {"lift_gain": 1.0}, {"lift_gain": 37.0},
                                     {"wet_hold": 0.0}, {"wet_hold": 0.2},
-                                    {"wet_hold": 3.0, "moist_threshold": 0.25}])
+                                    {"wet_hold": 3.0, "moist_threshold": 0.25},
+                                    {"fibre_permeability": 1.0, "nu_p": 0.02,
+                                     "fibre_dispersivity": 9.0},
+                                    {"fibre_permeability": 0.35, "paper_relief": 0.3}])
 def test_parameter_variants_match(change: dict[str, Any]) -> None:
     prm = dataclasses.replace(get_profile("watercolor").params, **change)
     a = _random_canvas(NumpyCanvas, 3, params=prm)
@@ -333,6 +336,53 @@ def test_fibre_dispersion_on_cold_press_is_bitwise_equal() -> None:
     for f in FIELDS:
         assert np.array_equal(getattr(a.live_state, f), getattr(b.live_state, f)), f
     assert not np.array_equal(a.live_state.p, plain.live_state.p)
+
+
+def test_fibre_channelled_flow_on_cold_press_is_bitwise_equal() -> None:
+    """The levelling flow along the paper's fibres (pass 3's height term times
+    1 - a + 4 a fibre[axis], cold-press paper) agrees bit for bit, and it changes the flow."""
+    plain_prm = get_profile("watercolor").params
+    prm = dataclasses.replace(plain_prm, fibre_permeability=1.0, nu_p=0.02,
+                              fibre_dispersivity=9.0)
+    a = _random_canvas(NumpyCanvas, 7, params=prm)
+    b = _random_canvas(CpuCanvas, 7, params=prm)
+    assert a.live_state.fibre.any()
+    plain = _random_canvas(NumpyCanvas, 7, params=dataclasses.replace(prm,
+                                                                      fibre_permeability=0.0))
+    for _ in range(30):
+        for c in (a, b, plain):
+            c.step()
+    for f in FIELDS:
+        assert np.array_equal(getattr(a.live_state, f), getattr(b.live_state, f)), f
+    assert not np.array_equal(a.live_state.vx, plain.live_state.vx)
+
+
+@pytest.mark.parametrize("fibred", [True, False])
+def test_standing_water_gate_and_diffusion_are_bitwise_equal(fibred: bool) -> None:
+    """Pass 3's fibre channel faded in by the standing water (fibre_gate_depth), off where
+    the flow outward pulls (fibre_gate_pull), and the
+    pigment's own diffusion faded to standing_nu_p in it (standing_depth): every field bit
+    for bit, on cold-press paper and on paper without fibre (there the channel is off), and
+    the two terms change the flow and the pigment."""
+    base = dataclasses.replace(get_profile("watercolor").params, fibre_permeability=1.0,
+                               fibre_dispersivity=9.0)
+    prm = dataclasses.replace(base, fibre_gate_depth=0.4, fibre_gate_pull=0.1,
+                              standing_depth=0.3, standing_nu_p=0.005)
+    runs = []
+    for cls, p in ((NumpyCanvas, prm), (CpuCanvas, prm), (NumpyCanvas, base)):
+        c = _random_canvas(cls, 8, params=p)
+        if not fibred:
+            c.live_state.fibre[...] = 0
+        runs.append(c)
+    for _ in range(20):
+        for c in runs:
+            c.step()
+    a, b, ungated = (c.live_state for c in runs)
+    for f in FIELDS:
+        assert np.array_equal(getattr(a, f), getattr(b, f)), f
+    assert not np.array_equal(a.p, ungated.p)
+    if fibred:
+        assert not np.array_equal(a.vx, ungated.vx)
 
 
 def test_live_stroke_on_tiles_is_bitwise_equal() -> None:

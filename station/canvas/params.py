@@ -19,10 +19,18 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from station.canvas.errors import CanvasInputError
 from station.canvas.palette import Pigment
 
-__all__ = ["BrushDefaults", "CanvasInputError", "Profile", "SimParams", "vapour_deficit"]
+__all__ = ["FIBRE_CHANNEL", "BrushDefaults", "CanvasInputError", "Profile", "SimParams",
+           "vapour_deficit"]
+
+FIBRE_CHANNEL = 4.0
+"""A cell full of fibre along an axis conducts the film's levelling flow along it this many
+times the felt's mean (``SimParams.fibre_permeability``): one over the mean fibre share of
+an axis on cold-press paper (0.21-0.22), so a wash's mean flow keeps its pace."""
 
 
 def vapour_deficit(temperature: float, humidity: float) -> float:
@@ -85,10 +93,43 @@ class SimParams:
             the diffusion-controller value is multiplied by
             ``1 + (alpha / nu_p) * max(fibre) * |v|``; the pigment the brush's water pushes
             into a wet wash feathers along the fibres, a calm wash is untouched. 0: off.
+        fibre_permeability: ``a``, how much the paper's fibre felt channels the film's
+            levelling flow [1]: pass 3's water-height velocity along each axis is
+            multiplied by ``(1 - a) + a * FIBRE_CHANNEL * fibre[axis]``
+            (:data:`FIBRE_CHANNEL` = 4, about one over the mean fibre share of an axis on
+            cold-press paper, so the mean conductance stays about 1). Water driven through
+            wet paper runs along the fibres and is held by the felt between them (Darcy
+            flow through a permeability that is uneven at the fibre scale): the paint a
+            brush pushes into a wet wash goes out in fingers along the fibres, a feathered
+            front, not a round blot. 0: off (every built-in profile for now: on with
+            watercolor's ``nu_p`` 0.02 and ``fibre_dispersivity`` 9 it feathers a drop into a
+            wet wash, but it also stops the levelling flow on fibre-less paper and weakens
+            the rims and the damp-wash blooms). On paper without any fibre (hot-press)
+            the factor is 1: there is no felt to channel the flow.
+        fibre_gate_depth: the standing water [height] over which the fibre channel fades
+            in: ``a`` above is ``a * smoothstep(w / fibre_gate_depth)`` per cell, so the
+            channel acts where a wash still stands on saturated paper (a drop into a fully
+            wet wash) and not on damp paper, where the flow outward carries the water to
+            a bloom's or a stroke's edge. 0: no gate (``a`` everywhere).
+        fibre_gate_pull: with ``fibre_gate_depth``, the flow-outward pull [height] at which
+            the channel is off: the gate is also times ``1 - smoothstep(pull /
+            fibre_gate_pull)``, ``pull = (w + paper_relief h) - P`` (pass 3's levelled
+            height ``P`` lies ``flow_outward (1 - M')`` below the water near the edge of the
+            wet area), so a front still spreading into dry paper keeps its flow outward
+            and its rim, and only the inside of a wet wash is channelled (0.1
+            ``flow_outward``: M' above 0.9). 0: no such factor.
         fibre_flow_max: the fastest water moves through the paper's fibre channels
             [cell/s] (capillary/Darcy flow in paper is about a millimetre per second); the
             fibre dispersion uses ``min(|v|, fibre_flow_max)``: a film the brush drives
             faster moves over the paper, not faster through it.
+        standing_depth: the standing water [height] over which the pigment diffusion fades
+            from ``nu_p`` to ``standing_nu_p``: ``nu_p (1 - g) + standing_nu_p g``,
+            ``g = smoothstep(w / standing_depth)`` per cell (on the diffusion controller,
+            so the fibre dispersion is untouched). Micron pigment in standing water hardly
+            diffuses (Brownian, orders below a cell a second); ``nu_p``'s larger value
+            stands for the mixing of a thin, drying film. 0: off (``nu_p`` everywhere).
+        standing_nu_p: the pigment diffusion in standing water [cell^2/s], in
+            ``[0, nu_p]`` (with ``standing_depth``).
         paper_relief: relief of the paper under the water [height per unit of ``h``]: the
             water-height term levels the free surface ``w + paper_relief * h``, so water
             runs off the paper's hills into its valleys (Curtis 1997's flow down the paper
@@ -189,6 +230,11 @@ class SimParams:
     cap_diffusion: float = 1.5
     fibre_wick: float = 0.0
     fibre_dispersivity: float = 0.0
+    fibre_permeability: float = 0.0
+    fibre_gate_depth: float = 0.0
+    fibre_gate_pull: float = 0.0
+    standing_depth: float = 0.0
+    standing_nu_p: float = 0.0
     fibre_flow_max: float = 2.0
     eps_cap: float = 0.004
     temperature: float = 20.0
@@ -259,6 +305,16 @@ class SimParams:
             raise CanvasInputError("advance_curvature must lie in [0, 4]", "params")
         if not 0 <= self.fibre_wick <= 1:
             raise CanvasInputError("fibre_wick must be in [0, 1]", "params")
+        if not 0 <= self.fibre_permeability <= 1:
+            raise CanvasInputError("fibre_permeability must lie in [0, 1]", "params")
+        if not 0 <= self.fibre_gate_depth <= 10:
+            raise CanvasInputError("fibre_gate_depth must lie in [0, 10]", "params")
+        if not 0 <= self.fibre_gate_pull <= 10:
+            raise CanvasInputError("fibre_gate_pull must lie in [0, 10]", "params")
+        if not 0 <= self.standing_depth <= 10:
+            raise CanvasInputError("standing_depth must lie in [0, 10]", "params")
+        if not 0 <= self.standing_nu_p <= self.nu_p:
+            raise CanvasInputError("standing_nu_p must lie in [0, nu_p]", "params")
         if self.fibre_dispersivity > 100:
             raise CanvasInputError("fibre_dispersivity must be <= 100 cells", "params")
         if not 0 <= self.damp_sat <= 0.99:
@@ -312,6 +368,35 @@ class SimParams:
         if self.fibre_dispersivity <= 0 or self.nu_p <= 0:
             return 0.0
         return self.fibre_dispersivity / self.nu_p
+
+    def fibre_channel(self) -> tuple[float, float]:
+        """``(1 - a, FIBRE_CHANNEL * a)`` as float32 values, ``a`` = ``fibre_permeability``:
+        pass 3's water-height velocity along an axis is multiplied by
+        ``base + gain * fibre[axis]`` (both rounded once, as every backend uses them)."""
+        a = self.fibre_permeability
+        return float(np.float32(1.0 - a)), float(np.float32(FIBRE_CHANNEL * a))
+
+    def fibre_gate(self) -> float:
+        """``1 / fibre_gate_depth`` as a float32 value (0: no gate): the channel's gate is
+        ``smoothstep(w * fibre_gate())`` (passes.standing_gate)."""
+        if self.fibre_gate_depth <= 0:
+            return 0.0
+        return float(np.float32(1.0 / self.fibre_gate_depth))
+
+    def fibre_gate_front(self) -> float:
+        """``1 / fibre_gate_pull`` as a float32 value (0: no front factor)."""
+        if self.fibre_gate_pull <= 0:
+            return 0.0
+        return float(np.float32(1.0 / self.fibre_gate_pull))
+
+    def standing_diffusion(self) -> tuple[float, float]:
+        """``(1 / standing_depth, 1 - standing_nu_p / nu_p)`` as float32 values, ``(0, 0)``
+        when off: the diffusion controller is multiplied by ``1 - drop * g``,
+        ``g = smoothstep(w * inv)`` (passes.standing_gate)."""
+        if self.standing_depth <= 0 or self.nu_p <= 0:
+            return 0.0, 0.0
+        return (float(np.float32(1.0 / self.standing_depth)),
+                float(np.float32(1.0 - self.standing_nu_p / self.nu_p)))
 
     def replace(self, **changes: Any) -> SimParams:
         """A copy with ``changes`` applied (validated)."""

@@ -102,7 +102,14 @@ C_ABASE = 36      # float32(1 + advance_grain / 2) (stencils.advance_base)
 C_AGRAIN = 37     # advance_grain
 C_CURV = 38       # advance_curvature
 C_CURVN = 39      # float32(1 + 2 advance_curvature)
-N_CONST = 40
+C_PBASE = 40      # float32(1 - fibre_permeability) (SimParams.fibre_channel)
+C_PGAIN = 41      # float32(FIBRE_CHANNEL * fibre_permeability); 0: pass 3 reads no fibre
+C_PA = 42         # fibre_permeability (the gated channel's 1 - g a)
+C_PGATE = 43      # 1 / fibre_gate_depth (SimParams.fibre_gate); 0: the channel ungated
+C_SINV = 44       # 1 / standing_depth (SimParams.standing_diffusion); 0: off
+C_SDROP = 45      # 1 - standing_nu_p / nu_p
+C_PPULL = 46      # 1 / fibre_gate_pull (SimParams.fibre_gate_front); 0: no front factor
+N_CONST = 47
 
 # the sweeps: rows in parallel; IEEE float32 maths exactly as written (no fastmath, no FMA
 # contraction), numpy's error model (division without ZeroDivision checks: every division
@@ -296,17 +303,34 @@ def clear_stale(pspans: np.ndarray, pnsp: np.ndarray, spans: np.ndarray, nsp: np
 # ------------------------------------------------------------------ prep
 @_inline
 def _fibre_dispersion(fibre: np.ndarray, vx: np.ndarray, vy: np.ndarray, y: int,
-                      x: np.uint64, gd: np.float32, vfib: np.float32) -> np.float32:
-    """``1 + gd * (max(fibre[0], fibre[1]) * min(|v|, fibre_flow_max))``: the factor on
+                      x: np.uint64, gd: np.float32, vfib: np.float32,
+                      own: np.float32) -> np.float32:
+    """``own + gd * (max(fibre[0], fibre[1]) * min(|v|, fibre_flow_max))``: the factor on
     beta_c of a cell whose fibre channels disperse the pigment moving water carries
-    (reference ``blocking``, ``water_speed``; v at the start of the step)."""
+    (reference ``blocking``, ``water_speed``; v at the start of the step); ``own`` 1, or
+    :func:`_standing_own` with ``standing_depth``."""
     f0 = fibre[0, y, x]
     f1 = fibre[1, y, x]
     u = vx[y, x]
     v = vy[y, x]
     s = np.sqrt(u * u + v * v)
     s = s if s < vfib else vfib
-    return ONE + gd * ((f0 if f0 > f1 else f1) * s)
+    return own + gd * ((f0 if f0 > f1 else f1) * s)
+
+
+@_inline
+def _smoothstep_w(w: np.float32, inv: np.float32) -> np.float32:
+    """reference ``passes.standing_gate``: ``t t (3 - 2 t)``, ``t = min(w inv, 1)``."""
+    t = w * inv
+    t = ONE if t > ONE else t
+    return (t * t) * (np.float32(3.0) - np.float32(2.0) * t)
+
+
+@_inline
+def _standing_own(w: np.float32, sinv: np.float32, sdrop: np.float32) -> np.float32:
+    """``1 - drop * standing_gate(w)``: the pigment's own diffusion share in standing
+    water (reference ``blocking``'s ``standing``)."""
+    return ONE - sdrop * _smoothstep_w(w, sinv)
 
 
 @_inline
@@ -386,6 +410,8 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
     cspan = cst[C_CSPAN]
     disp = cst[C_DISP]
     vfib = cst[C_VFIB]
+    sinv = cst[C_SINV]
+    sdrop = cst[C_SDROP]
     ease = cst[C_EASE]
     dsat = cst[C_DSAT]
     dspan = cst[C_DSPAN]
@@ -496,11 +522,20 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         paper = ONE - bpaper * (ONE - hv)
                         bcv = paper if paper < eff else eff
                         bc_o[j, i] = bcv
-                if disp > ZERO:  # a loop of its own: no test inside the column loops
+                if disp > ZERO and sinv > ZERO:  # loops of their own: no tests inside
+                    for i in range(slo, shi + 1):
+                        x = np.uint64(x0 + i - 1)
+                        own_p = _standing_own(wr[i], sinv, sdrop)
+                        bc_o[j, i] = bc_o[j, i] * _fibre_dispersion(fibre, vx, vy, y, x, disp,
+                                                                    vfib, own_p)
+                elif disp > ZERO:
                     for i in range(slo, shi + 1):
                         x = np.uint64(x0 + i - 1)
                         bc_o[j, i] = bc_o[j, i] * _fibre_dispersion(fibre, vx, vy, y, x, disp,
-                                                                    vfib)
+                                                                    vfib, ONE)
+                elif sinv > ZERO:
+                    for i in range(slo, shi + 1):
+                        bc_o[j, i] = bc_o[j, i] * _standing_own(wr[i], sinv, sdrop)
             if outward:
                 # x half of the blur: tap-outer, column-inner; per cell the taps add in
                 # order, offset -R first

@@ -80,6 +80,11 @@ def constants(prm: SimParams, dt: float, sim_time: float) -> np.ndarray:
     c[K.C_AGRAIN] = F32(prm.advance_grain)
     c[K.C_CURV] = F32(prm.advance_curvature)
     c[K.C_CURVN] = F32(1.0 + 2.0 * prm.advance_curvature)
+    c[K.C_PBASE], c[K.C_PGAIN] = (F32(v) for v in prm.fibre_channel())
+    c[K.C_PA] = F32(prm.fibre_permeability)
+    c[K.C_PGATE] = F32(prm.fibre_gate())
+    c[K.C_PPULL] = F32(prm.fibre_gate_front())
+    c[K.C_SINV], c[K.C_SDROP] = (F32(v) for v in prm.standing_diffusion())
     c[K.C_TILTX], c[K.C_TILTY] = reference.tilt_kick(prm, dt)
     return c
 
@@ -214,6 +219,10 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     bh, bw = int(ys.stop) - y0, int(xs.stop) - x0
     ns = max(len(state.slots), 1)
     cst, taps = scratch.constants(prm, dt, state.sim_time)
+    if cst[K.C_PGAIN] != 0 and not state.fibre.any():
+        # paper without any fibre: nothing channels pass 3's flow (reference fibre_gate)
+        cst = cst.copy()
+        cst[K.C_PGAIN] = F32(0.0)
     beta, gamma, delta = (a[:ns].copy() for a in reference.slot_properties(state))
     s2, s3 = scratch.a2, scratch.a3
     n_it = int(prm.jacobi_iters)
@@ -270,7 +279,8 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     # (fused.limit_diffuse_fused: height_limit + diffuse_apply, bitwise the same)
     F.limit_diffuse_fused(wet, bc, s2["v1x"], s2["v1y"], xvx, xvy, w0, xw, p0, xp, pr, bh, bw,
                           ns, cst, do_v, runs("water_height_and_boundary"), do_w, do_p,
-                          jac1, s2["v3x"], s2["v3y"], s2["w2"], s3["p2"], spans, nsp, bounds)
+                          jac1, s2["v3x"], s2["v3y"], s2["w2"], s3["p2"], spans, nsp, bounds,
+                          state.fibre, y0, x0, state.h)
     v3x, v3y = s2["v3x"], s2["v3y"]
     if last <= reference.PASS_ORDER.index("water_height_and_boundary"):
         state.vx[ys, xs] = _win(v3x, bh, bw)

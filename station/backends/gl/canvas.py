@@ -281,6 +281,7 @@ class GLCanvas(GLStepPasses):
         f["paper"].src.write(tx.pack_planes(st.h, st.mask, st.block, st.block_time).tobytes())
         f["fibre"].src.write(tx.pack_planes(st.fibre[0], st.fibre[1]).tobytes())
         self.fibre = st.fibre.copy()  # static: the state read back carries this copy
+        self._fibred = bool(st.fibre.any())
         f["area"].src.write(np.ascontiguousarray(st.wet_area, np.float32).tobytes())
         for t in f["pig"].textures:
             t.write(tx.pack_stack(st.p, self.npl).tobytes())

@@ -73,6 +73,7 @@ class GLStepPasses:
     _param_key: tuple[SimParams, float | None] | None  # what _param_consts came from
     slot_constants: bool  # evap_surface takes the slots' values as constants (a driver's choice)
     _slot_key: tuple[int, ...] | None  # their bits in the evap_surface program, None: uniforms
+    _fibred: bool  # the paper has fibre (load_state); without, pass 3's channel is off
 
     def _bind(self, unit: int, tex: moderngl.Texture | moderngl.TextureArray, read: bool,
               write: bool) -> None:
@@ -132,6 +133,8 @@ class GLStepPasses:
             _set(p[name], "u_kw", kw)
             _set(p[name], "u_kp", kp)
         _set(p["limit"], "u_tilt", [float(x) for x in reference.tilt_kick(prm, dt)])
+        # paper without any fibre: pass 3's channel is off (reference.fibre_gate)
+        _set(p["limit"], "u_fibred", 1.0 if self._fibred else 0.0)
         q4 = float(F32(0.25 * dt))
         for name in ("advect_limit", "advect_apply"):
             _set(p[name], "u_q4", q4)
@@ -304,6 +307,8 @@ class GLStepPasses:
         self._bind(6, self.jv[1 - cur], False, True)
         self._bind(7, self.jd[1 - cur], False, True)
         self._bind(0, self.pr, True, False)
+        f["fibre"].src.use(location=0)  # a sampler: the image units are all taken
+        f["paper"].src.use(location=1)  # h for the gate's relief term, a sampler too
         self._dispatch("limit")
         f["vel"].swap()
         self._bind(1, self.jv[1 - cur], True, False)
@@ -404,6 +409,9 @@ def param_constants(prm: SimParams, dt: float | None) -> dict[str, str]:
         "WICK": prm.fibre_wick, "DISPERSE": float(F32(prm.fibre_dispersion_gain())),
         "FIBRE_FLOW_MAX": prm.fibre_flow_max, "EASE": prm.damp_ease, "DSAT": prm.damp_sat,
         "DSPAN": float(F32(1.0 - prm.damp_sat)), "CMIN": prm.c_min,
+        "PBASE": float(prm.fibre_channel()[0]), "PGAIN": float(prm.fibre_channel()[1]),
+        "PA": prm.fibre_permeability, "PGATE": prm.fibre_gate(), "PPULL": prm.fibre_gate_front(),
+        "SINV": prm.standing_diffusion()[0], "SDROP": prm.standing_diffusion()[1],
         "CRANGE": float(F32(prm.c_max - prm.c_min)), "ETA": prm.flow_outward,
         "RELIEF": prm.paper_relief, "OMEGA_H": prm.omega_h,
         "OMEGA_I": float(F32(1.0 - prm.omega_h)),
