@@ -15,6 +15,10 @@ part of the model, patched into the reference for the run only (no numba, no GLS
     area: the standing-water gate is multiplied by ``1 - smoothstep(pull / SCALE)``,
     ``pull = flow_outward (1 - M')`` (pass 3's flow-outward pull, ``M'`` the blurred
     wet-area mask). The same front factor as ``fibre_gate_pull`` gives the channel.
+``--dry-outside T``: ``--front-nu``'s factor only at fronts over dry paper: times
+    ``min(2 D, 1)``, ``D`` the wet-area blur of the cells whose capillary water is under
+    ``T`` of their capacity (a brush stroke drying on dry paper: D ~ 0.5 at its edge; a
+    bloom's front inside a damp wash: D ~ 0).
 ``--band-evap K``: extra evaporation ``K (1 - M') w e`` over the band where the wet
     area's mask is blurred (Curtis 1997, 4.3.3: evaporation raised near the edge), on
     top of ``edge_evap``'s outermost ring.
@@ -29,10 +33,12 @@ damp bloom's front (``bloom_front``) and the brushed glaze's dE76, each only if 
 Findings (drop12, numpy, deterministic; /work/coord/NOTES-drop12.md): the band's second
 ring follows the low standing diffusion's steepening (ring2/ring1 0.87 on main, 0.67 with
 the levers) and the rim's excess pigment (raised by ``flow_outward``, lowered by the
-channel and the dispersion); ``--front-nu`` gives the shape back (0.87) but the damp
-bloom's front loses the same diffusion (1.43 -> 1.28 at SCALE 0.04); stronger
-``flow_outward`` gives the excess back but costs the brushed glaze's dE76 (5.35 -> 3.0
-at 0.7).
+channel and the dispersion). Stronger ``flow_outward`` alone gives the band back (0.7, wet_blur
+4: rings 2.26, 1.50) but the brushed glaze's dE76 falls 5.35 -> 3.04 (its yellow runs out
+to the rim). ``--front-nu 0.04`` gives the shape back (0.87) and the glaze (6.19), but the
+damp bloom's front falls 1.43 -> 1.28; with ``--dry-outside 0.5`` the bloom keeps 1.43 and,
+at ``flow_outward`` 0.55, wet_blur 4: rim 1.73, 1.50, 1.32 (2 cells), drop feather 1.45 / CV
+0.19, bloom 1.46 / 5 lobes, glaze 5.33.
 """
 
 from __future__ import annotations
@@ -66,16 +72,23 @@ class _Patch:
     ``blocking`` and pass 7's ``evaporate`` read it (every region runs its passes in
     order, so the mask is always the one of the region being stepped)."""
 
-    def __init__(self, front_nu: float, band_evap: float) -> None:
-        self.front_nu, self.band_evap = front_nu, band_evap
+    def __init__(self, front_nu: float, band_evap: float, dry_outside: float = 0.0) -> None:
+        self.front_nu, self.band_evap, self.dry_outside = front_nu, band_evap, dry_outside
         self.mb: np.ndarray | None = None
-        self._fp, self._bl, self._ev = (reference.flow_pressure, reference.blocking,
-                                        reference.evaporate)
+        self.wc: np.ndarray | None = None
+        self._fp, self._bl, self._ev, self._ow = (reference.flow_pressure, reference.blocking,
+                                                  reference.evaporate, reference.own_wet)
 
     def install(self) -> None:
+        reference.own_wet = self.own_wet  # type: ignore[assignment]
         reference.flow_pressure = self.flow_pressure  # type: ignore[assignment]
         reference.blocking = self.blocking  # type: ignore[assignment]
         reference.evaporate = self.evaporate  # type: ignore[assignment]
+
+    def own_wet(self, w: np.ndarray, wc: np.ndarray, mask: np.ndarray,
+                prm: SimParams) -> np.ndarray:
+        self.wc = wc  # the region's capillary water, for the dry-outside factor
+        return self._ow(w, wc, mask, prm)
 
     def flow_pressure(self, w: np.ndarray, own: np.ndarray, wet: np.ndarray, h: np.ndarray,
                       prm: SimParams) -> np.ndarray:
@@ -89,7 +102,15 @@ class _Patch:
                  standing: np.ndarray | None = None) -> np.ndarray:
         if self.front_nu > 0 and standing is not None and self.mb is not None:
             pull = (F32(prm.flow_outward) * (F32(1.0) - self.mb)).astype(F32)
-            standing = standing * (F32(1.0) - passes.standing_gate(pull, 1.0 / self.front_nu))
+            front = passes.standing_gate(pull, 1.0 / self.front_nu)
+            if self.dry_outside > 0 and self.wc is not None:
+                # only at fronts over dry paper: the share of paper nearby (the wet mask's
+                # blur) whose capillary water is under dry_outside of its capacity, x2
+                cap = F32(prm.c_min) + h * F32(prm.c_max - prm.c_min)
+                dry = blurred_wet(self.wc < F32(self.dry_outside) * cap,
+                                  gaussian_taps(prm.wet_blur))
+                front = front * np.minimum(F32(2.0) * dry, F32(1.0))
+            standing = standing * (F32(1.0) - front)
         return self._bl(h, block, block_time, sim_time, prm, fibre, speed, standing)
 
     def evaporate(self, w: np.ndarray, evaporated: np.ndarray, prm: SimParams,
@@ -133,6 +154,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE")
     ap.add_argument("--front-nu", type=float, default=0.0)
     ap.add_argument("--band-evap", type=float, default=0.0)
+    ap.add_argument("--dry-outside", type=float, default=0.0,
+                    help="--front-nu only where the paper nearby is dry (capillary water "
+                         "under this share of its capacity; 0: at every front)")
     ap.add_argument("--measure", default="rim,drop,bloom,glaze")
     a = ap.parse_args(argv)
     change: dict[str, float] = dict(LEVERS) if a.levers else {}
@@ -145,10 +169,10 @@ def main(argv: list[str] | None = None) -> int:
     prof = profiles.get_profile("watercolor")
     profiles.PROFILES["watercolor"] = dataclasses.replace(
         prof, params=prof.params.replace(**change))
-    _Patch(a.front_nu, a.band_evap).install()
+    _Patch(a.front_nu, a.band_evap, a.dry_outside).install()
     res = measure(set(a.measure.split(",")))
     print(json.dumps({"params": change, "front_nu": a.front_nu, "band_evap": a.band_evap,
-                      **res}))
+                      "dry_outside": a.dry_outside, **res}))
     return 0
 
 
