@@ -357,30 +357,39 @@ def test_fibre_channelled_flow_on_cold_press_is_bitwise_equal() -> None:
     assert not np.array_equal(a.live_state.vx, plain.live_state.vx)
 
 
-@pytest.mark.parametrize("fibred", [True, False])
-def test_standing_water_gate_and_diffusion_are_bitwise_equal(fibred: bool) -> None:
+@pytest.mark.parametrize(("fibred", "tiling"), [(True, False), (False, False), (True, True)])
+def test_standing_water_gate_and_diffusion_are_bitwise_equal(fibred: bool,
+                                                             tiling: bool) -> None:
     """Pass 3's fibre channel faded in by the standing water (fibre_gate_depth), off where
     the flow outward pulls (fibre_gate_pull), and the
-    pigment's own diffusion faded to standing_nu_p in it (standing_depth): every field bit
-    for bit, on cold-press paper and on paper without fibre (there the channel is off), and
-    the two terms change the flow and the pigment."""
+    pigment's own diffusion faded to standing_nu_p in it (standing_depth), itself off near
+    the edge of the wet area over dry paper (standing_front_pull, standing_front_dry: the
+    blurred wet-area mask and the blurred dry-paper mask, K.standing_front after prep):
+    every field bit for bit, on cold-press paper and on paper without fibre (there the
+    channel is off), untiled and tiled (the cpu step computes only the cells near live
+    ones), and the terms change the flow and the pigment."""
     base = dataclasses.replace(get_profile("watercolor").params, fibre_permeability=1.0,
                                fibre_dispersivity=9.0)
-    prm = dataclasses.replace(base, fibre_gate_depth=0.4, fibre_gate_pull=0.1,
-                              standing_depth=0.3, standing_nu_p=0.005)
+    gated = dataclasses.replace(base, fibre_gate_depth=0.4, fibre_gate_pull=0.1,
+                                standing_depth=0.3, standing_nu_p=0.005)
+    prm = dataclasses.replace(gated, standing_front_pull=0.04, standing_front_dry=0.5)
     runs = []
-    for cls, p in ((NumpyCanvas, prm), (CpuCanvas, prm), (NumpyCanvas, base)):
-        c = _random_canvas(cls, 8, params=p)
+    for cls, p in ((NumpyCanvas, prm), (CpuCanvas, prm), (NumpyCanvas, base),
+                   (NumpyCanvas, gated)):
+        c = _random_canvas(cls, 8, params=p, tiling=tiling)
         if not fibred:
             c.live_state.fibre[...] = 0
         runs.append(c)
     for _ in range(20):
         for c in runs:
             c.step()
-    a, b, ungated = (c.live_state for c in runs)
+    a, b, ungated, no_front = (c.live_state for c in runs)
     for f in FIELDS:
         assert np.array_equal(getattr(a, f), getattr(b, f)), f
+    if tiling:
+        assert np.array_equal(a.tile_ttl, b.tile_ttl)
     assert not np.array_equal(a.p, ungated.p)
+    assert not np.array_equal(a.p, no_front.p)
     if fibred:
         assert not np.array_equal(a.vx, ungated.vx)
 

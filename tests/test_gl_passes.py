@@ -400,6 +400,40 @@ def test_standing_water_gates_the_channel_and_the_diffusion(ctx, fibred: bool) -
         close(name, getattr(got, name), getattr(want, name))
 
 
+@pytest.mark.parametrize("dry", [0.0, 0.5])
+def test_standing_gate_front_keeps_the_diffusion_at_the_edge(ctx, dry: float) -> None:
+    """standing_front_pull: the standing gate times 1 - smoothstep(eta (1 - M') / pull)
+    (front.comp after blur_x, which M' needs), with standing_front_dry times min(2 (1 -
+    D'), 1), D' the blurred not-dry paper (blur_x's dx): beta_c against the reference's
+    standing_front (and not the plain gate's), then a full step."""
+    prm = SimParams(fibre_permeability=1.0, fibre_dispersivity=9.0, standing_depth=0.3,
+                    standing_nu_p=0.005, standing_front_pull=0.04, standing_front_dry=dry,
+                    wet_blur=2.0, flow_outward=0.3)
+    st = random_state(6, prm)
+    st.fibre = make_fibres("cold-press", H, W, 6)
+    c = gl_canvas(ctx, st)
+    c._pass_prep()
+    wet = ref.wet_mask(st.w, st.wc, st.mask, prm, st.h, st.fibre)
+    plain = ref.standing_gate(st.w, prm.standing_diffusion()[0])
+    area = ref.wet_memory(ref.own_wet(st.w, st.wc, st.mask, prm), st.wet_area, prm)
+    standing = ref.standing_front(plain, area, st.wc, st.h, prm)
+    speed = ref.water_speed(st.vx, st.vy, prm)
+    beta_c = ref.blocking(st.h, st.block, st.block_time, st.sim_time, prm, st.fibre, speed,
+                          standing)
+    beta_plain = ref.blocking(st.h, st.block, st.block_time, st.sim_time, prm, st.fibre,
+                              speed, plain)
+    assert float(np.abs(beta_c - beta_plain)[wet].max()) > 0.1
+    close("beta_c", read_rgba(c, c.jv[0])[..., 3][wet], beta_c[wet])
+    c = gl.GLCanvas(W, H, ctx=ctx, tiling=False)
+    c.load_state(st)
+    c.step()
+    got = c.state()
+    want = st.copy()
+    ref.step(want)
+    for name in ("vx", "vy", "w", "wc", "p", "q", "evaporated"):
+        close(name, getattr(got, name), getattr(want, name))
+
+
 @pytest.mark.parametrize("iters", [1, 4])
 def test_velocity_water_pigment_diffusion(ctx, iters: int) -> None:
     # paper relief on for odd counts: pass 3 then levels (w + relief h) - eta (1 - M')

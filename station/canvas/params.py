@@ -130,6 +130,19 @@ class SimParams:
             stands for the mixing of a thin, drying film. 0: off (``nu_p`` everywhere).
         standing_nu_p: the pigment diffusion in standing water [cell^2/s], in
             ``[0, nu_p]`` (with ``standing_depth``).
+        standing_front_pull: with ``standing_depth``, the flow-outward pull [height] at
+            which the pigment keeps its own diffusion ``nu_p`` in standing water: the
+            standing gate ``g`` is times ``1 - F``, ``F = smoothstep(flow_outward (1 - M')
+            / standing_front_pull)`` (times the dry-paper factor below), ``M'`` the blurred
+            wet-area mask of the flow-outward term: near the edge of a wet area the pile
+            the flow carries out keeps the broad shape of a brush rim (2-5 cells) instead
+            of standing in the outermost cell. 0: off.
+        standing_front_dry: with ``standing_front_pull``, the front factor only where the
+            paper outside is dry: ``F`` is times ``min(2 D, 1)``, ``D = 1 - blur(wc >=
+            standing_front_dry c)`` (the wet mask's blur, ``c`` the capacity; cells
+            outside the simulated area are at rest, so dry): a stroke's edge on dry paper
+            (D about 0.5) keeps it, a bloom's front inside a damp wash (D about 0) keeps
+            the low diffusion. In ``[0, 1]`` [share of capacity]; 0: every front.
         paper_relief: relief of the paper under the water [height per unit of ``h``]: the
             water-height term levels the free surface ``w + paper_relief * h``, so water
             runs off the paper's hills into its valleys (Curtis 1997's flow down the paper
@@ -235,6 +248,8 @@ class SimParams:
     fibre_gate_pull: float = 0.0
     standing_depth: float = 0.0
     standing_nu_p: float = 0.0
+    standing_front_pull: float = 0.0
+    standing_front_dry: float = 0.0
     fibre_flow_max: float = 2.0
     eps_cap: float = 0.004
     temperature: float = 20.0
@@ -315,6 +330,10 @@ class SimParams:
             raise CanvasInputError("standing_depth must lie in [0, 10]", "params")
         if not 0 <= self.standing_nu_p <= self.nu_p:
             raise CanvasInputError("standing_nu_p must lie in [0, nu_p]", "params")
+        if not 0 <= self.standing_front_pull <= 10:
+            raise CanvasInputError("standing_front_pull must lie in [0, 10]", "params")
+        if not 0 <= self.standing_front_dry <= 1:
+            raise CanvasInputError("standing_front_dry must lie in [0, 1]", "params")
         if self.fibre_dispersivity > 100:
             raise CanvasInputError("fibre_dispersivity must be <= 100 cells", "params")
         if not 0 <= self.damp_sat <= 0.99:
@@ -397,6 +416,16 @@ class SimParams:
             return 0.0, 0.0
         return (float(np.float32(1.0 / self.standing_depth)),
                 float(np.float32(1.0 - self.standing_nu_p / self.nu_p)))
+
+    def standing_front(self) -> tuple[float, float]:
+        """``(1 / standing_front_pull, standing_front_dry)`` as float32 values, ``(0, 0)``
+        when the front factor is off: without ``standing_depth``, without a pull
+        (``standing_front_pull``, ``flow_outward`` or ``wet_blur`` 0)."""
+        if (self.standing_front_pull <= 0 or self.standing_diffusion()[0] <= 0
+                or self.flow_outward <= 0 or self.wet_blur <= 0):
+            return 0.0, 0.0
+        return (float(np.float32(1.0 / self.standing_front_pull)),
+                float(np.float32(self.standing_front_dry)))
 
     def replace(self, **changes: Any) -> SimParams:
         """A copy with ``changes`` applied (validated)."""

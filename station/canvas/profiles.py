@@ -47,7 +47,8 @@ GROUPS: dict[str, tuple[str, ...]] = {
               "surface_rate",
               "lift_gain",
               "w_dry_eps", "temperature", "humidity", "airflow", "tilt", "tilt_direction",
-              "gravity", "standing_depth", "standing_nu_p"),
+              "gravity", "standing_depth", "standing_nu_p", "standing_front_pull",
+              "standing_front_dry"),
     "numerics": ("dt", "jacobi_iters", "tile_size", "tile_check"),
     "render": ("gouache_opaque", "gouache_white", "render_bands"),
 }

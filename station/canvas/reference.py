@@ -106,6 +106,11 @@ CHANGED: the pigment's own diffusion in standing water (new SimParams ``standing
   beta_c itself) is ``1 - drop * standing_gate(w)`` with ``drop = float32(1 -
   standing_nu_p / nu_p)`` and ``t = min(w / standing_depth, 1)``: ``nu_p`` on damp paper,
   ``standing_nu_p`` in standing water, the fibre dispersion unchanged.
+CHANGED: the standing gate's front factor (new SimParams ``standing_front_pull``, 0: off,
+  and ``standing_front_dry``): ``standing_gate(w)`` times ``1 - F`` (:func:`standing_front`),
+  ``F = smoothstep(min(flow_outward (1 - M') / standing_front_pull, 1))``, with
+  ``standing_front_dry`` T > 0 times ``min(2 (1 - blurred_wet(wc >= T c)), 1)``: near the
+  edge of a wet area over dry paper the pigment keeps ``nu_p`` (the brush rim's band).
 NOTE (no maths change): the helpers live in ``stencils.py``, the passes in ``passes.py``;
   this module re-exports them and runs the step.
 
@@ -269,8 +274,8 @@ __all__ = ["F32", "PASS_ORDER", "STENCIL_RADIUS_EXTRA", "advect_velocity",
            "advect_water_and_pigment", "apply_fluxes", "blocking", "blurred_wet", "capacity",
            "capillary", "damp_factor", "diffuse_pigment", "diffuse_velocity", "diffuse_water",
            "dry_cells", "evaporate", "flow_pressure", "gaussian_taps", "implicit_diffusion",
-           "neighbour_sum", "open_faces", "own_wet", "slot_properties", "standing_gate",
-           "stencil_radius",
+           "neighbour_sum", "open_faces", "own_wet", "slot_properties", "standing_front",
+           "standing_gate", "stencil_radius",
            "step", "step_region", "surface_exchange", "tilt_kick", "water_height_and_boundary",
            "water_speed", "wet_area_update", "wet_mask", "wet_memory"]
 
@@ -345,6 +350,26 @@ def fibre_gate(state: CanvasState, w: np.ndarray, h: np.ndarray,
     return g
 
 
+def standing_front(standing: np.ndarray, area_m: np.ndarray, wc: np.ndarray,
+                   h: np.ndarray, prm: SimParams) -> np.ndarray:
+    """The standing gate ``standing`` times ``1 - F`` (``standing_front_pull``; unchanged
+    when off): ``F = standing_gate(flow_outward (1 - M'), 1 / standing_front_pull)``,
+    ``M'`` = :func:`blurred_wet` of the wet-area mask ``area_m`` (the flow-outward term's),
+    with ``standing_front_dry`` T times ``min(2 D, 1)``, ``D = 1 - blurred_wet(wc >= T c)``
+    (the paper's share nearby that is dry; cells outside the region count as dry: they
+    are at rest, without capillary water). All at the start of the step."""
+    inv, dry = prm.standing_front()
+    if inv <= 0:
+        return standing
+    taps = gaussian_taps(prm.wet_blur)
+    pull = F32(prm.flow_outward) * (_ONE32 - blurred_wet(area_m, taps))
+    front = standing_gate(pull, inv)
+    if dry > 0:
+        d = _ONE32 - blurred_wet(wc >= F32(dry) * capacity(h, prm), taps)
+        front = front * np.minimum(F32(2.0) * d, _ONE32)
+    return (standing * (_ONE32 - front)).astype(F32)
+
+
 def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
                 stop_after: str | None = None) -> None:
     """Run passes 1-10 on the cells ``sl`` of ``state`` (in place).
@@ -380,6 +405,8 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     wet = wet_mask(w, wc, mask, prm, h, fib)
     inv_still = prm.standing_diffusion()[0]
     standing = standing_gate(w, inv_still) if inv_still > 0 else None
+    if standing is not None:
+        standing = standing_front(standing, area_m, wc, h, prm)
     for name in PASS_ORDER:
         if name == "advect_velocity":
             vx, vy = advect_velocity(vx, vy, wet, dt)

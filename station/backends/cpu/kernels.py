@@ -109,7 +109,9 @@ C_PGATE = 43      # 1 / fibre_gate_depth (SimParams.fibre_gate); 0: the channel 
 C_SINV = 44       # 1 / standing_depth (SimParams.standing_diffusion); 0: off
 C_SDROP = 45      # 1 - standing_nu_p / nu_p
 C_PPULL = 46      # 1 / fibre_gate_pull (SimParams.fibre_gate_front); 0: no front factor
-N_CONST = 47
+C_FINV = 47       # 1 / standing_front_pull (SimParams.standing_front); 0: off
+C_FDRY = 48       # standing_front_dry; 0: the front factor at every front
+N_CONST = 49
 
 # the sweeps: rows in parallel; IEEE float32 maths exactly as written (no fastmath, no FMA
 # contraction), numpy's error model (division without ZeroDivision checks: every division
@@ -551,6 +553,90 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         mbx_o[j, i] = acc[i]
     if advancing:
         _pin(wet_o, wc, h, y0, x0, bounds, spans, nsp, cmin, cspan, dsat)
+
+
+@_parallel
+def standing_front(w0: np.ndarray, wc: np.ndarray, h: np.ndarray, vx: np.ndarray,
+                   vy: np.ndarray, fibre: np.ndarray, mbx: np.ndarray, taps: np.ndarray,
+                   y0: int, x0: int, bh: int, bw: int, cst: np.ndarray, spans: np.ndarray,
+                   nsp: np.ndarray, bounds: np.ndarray, dbx_o: np.ndarray,
+                   bc_o: np.ndarray) -> None:
+    """The standing gate's front factor (reference ``standing_front``), after :func:`prep`
+    ran with ``C_SINV`` and ``C_DISP`` at 0 (``bc_o`` holds beta_c without the standing
+    and dispersion factor): ``bc *= own + gd (...)`` (or ``own``), ``own = 1 - drop g (1 -
+    F)``, ``F = smoothstep(eta (1 - M'))`` from the y half of ``mbx``'s blur, with
+    ``C_FDRY`` times ``min(2 (1 - D'), 1)``, ``D'`` the blur of ``wc >= T c`` (its x half
+    into ``dbx_o`` first; a column outside the box adds +0, a row outside it is skipped,
+    as the reference's zero padding; a column of the box outside the spans reads the
+    state, a row's blur outside its spans is the scratch's 0 like ``mbx``'s). Its own
+    sweep: the blur's y half reads rows the next chunk writes."""
+    cmin = cst[C_CMIN]
+    cspan = cst[C_CSPAN]
+    disp = cst[C_DISP]
+    vfib = cst[C_VFIB]
+    sinv = cst[C_SINV]
+    sdrop = cst[C_SDROP]
+    eta = cst[C_ETA]
+    finv = cst[C_FINV]
+    dry = cst[C_FDRY]
+    drying = dry > ZERO
+    nt = taps.shape[0]
+    r = (nt - 1) // 2
+    nch = bounds.shape[0] - 1
+    if drying:
+        for ch in prange(nch):
+            nd = np.empty(bw + 2 + 2 * r, F32)
+            acc = np.empty(bw + 2, F32)
+            for j in range(bounds[ch], bounds[ch + 1]):
+                y = y0 + j - 1
+                for i in range(bw + 2 + 2 * r):
+                    nd[i] = ZERO
+                for si in range(nsp[j]):
+                    slo, shi = _span(spans, j, si)
+                    lo = slo - r if slo - r > 1 else 1
+                    hi = shi + r if shi + r < bw else bw
+                    for i in range(lo, hi + 1):
+                        x = np.uint64(x0 + i - 1)
+                        nd[i + r] = ONE if wc[y, x] >= dry * (cmin + h[y, x] * cspan) else ZERO
+                for si in range(nsp[j]):
+                    slo, shi = _span(spans, j, si)
+                    for i in range(slo, shi + 1):
+                        acc[i] = ZERO
+                    for k in range(nt):
+                        g = taps[k]
+                        for i in range(slo, shi + 1):
+                            acc[i] = acc[i] + g * nd[i + k]
+                    for i in range(slo, shi + 1):
+                        dbx_o[j, i] = acc[i]
+    for ch in prange(nch):
+        am = np.empty(bw + 2, F32)
+        ad = np.empty(bw + 2, F32)
+        for j in range(bounds[ch], bounds[ch + 1]):
+            y = y0 + j - 1
+            for si in range(nsp[j]):
+                slo, shi = _span(spans, j, si)
+                for i in range(slo, shi + 1):
+                    am[i] = ZERO
+                    ad[i] = ZERO
+                for k in range(nt):
+                    jj = j + k - r
+                    if jj >= 1 and jj <= bh:
+                        g = taps[k]
+                        for i in range(slo, shi + 1):
+                            am[i] = am[i] + g * mbx[jj, i]
+                        if drying:
+                            for i in range(slo, shi + 1):
+                                ad[i] = ad[i] + g * dbx_o[jj, i]
+                for i in range(slo, shi + 1):
+                    fr = _smoothstep_w(eta * (ONE - am[i]), finv)
+                    if drying:
+                        dv = np.float32(2.0) * (ONE - ad[i])
+                        fr = fr * (ONE if dv > ONE else dv)
+                    own_p = ONE - sdrop * (_smoothstep_w(w0[j, i], sinv) * (ONE - fr))
+                    if disp > ZERO:
+                        own_p = _fibre_dispersion(fibre, vx, vy, y, np.uint64(x0 + i - 1),
+                                                  disp, vfib, own_p)
+                    bc_o[j, i] = bc_o[j, i] * own_p
 
 
 @_inline

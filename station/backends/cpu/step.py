@@ -32,7 +32,7 @@ def work_grow(n_taps: int) -> int:
 
 _FIELDS_2D = ("w0", "bc", "v1x", "v1y", "xvax", "xvay",
               "xwa", "xwb", "v3x", "v3y", "w2", "w3",
-              "sat", "mbx", "pr")
+              "sat", "mbx", "pr", "dbx")
 _FLAGS_2D = ("wet", "opn")
 """0/1 flags (the wet mask, the open flag), one byte a cell: every sweep reads the wet
 mask, so its bytes count five times a step (issue 26 item 1)."""
@@ -85,6 +85,7 @@ def constants(prm: SimParams, dt: float, sim_time: float) -> np.ndarray:
     c[K.C_PGATE] = F32(prm.fibre_gate())
     c[K.C_PPULL] = F32(prm.fibre_gate_front())
     c[K.C_SINV], c[K.C_SDROP] = (F32(v) for v in prm.standing_diffusion())
+    c[K.C_FINV], c[K.C_FDRY] = (F32(v) for v in prm.standing_front())
     c[K.C_TILTX], c[K.C_TILTY] = reference.tilt_kick(prm, dt)
     return c
 
@@ -236,10 +237,21 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     spans, nsp = scratch.spans, scratch.nsp
     bounds = row_bounds(spans, nsp, bh, F.ring_chunks())
     do_pr = (outward or prm.paper_relief > 0) and runs("water_height_and_boundary")
+    # the standing gate's front factor needs M' (the y half of the blur): prep leaves the
+    # standing and dispersion factor out of beta_c, K.standing_front applies it after
+    front = cst[K.C_FINV] > 0 and outward and do_pr
+    cprep = cst
+    if front:
+        cprep = cst.copy()
+        cprep[K.C_SINV] = cprep[K.C_DISP] = F32(0.0)
     K.prep(state.w, state.wc, state.mask, state.vx, state.vy, state.p, state.h,
-           state.block, state.block_time, state.fibre, taps, y0, x0, bh, bw, ns, cst,
+           state.block, state.block_time, state.fibre, taps, y0, x0, bh, bw, ns, cprep,
            outward and do_pr, spans, nsp, s2["wet"], s2["w0"], s3["p0"], s2["bc"],
            s2["opn"], s2["mbx"], state.wet_area, prm.wet_hold > 0, bounds)
+    if front:
+        K.standing_front(s2["w0"], state.wc, state.h, state.vx, state.vy, state.fibre,
+                         s2["mbx"], taps, y0, x0, bh, bw, cst, spans, nsp, bounds, s2["dbx"],
+                         s2["bc"])
     wet, bc, w0, p0 = s2["wet"], s2["bc"], s2["w0"], s3["p0"]
     # pass 3 levels w itself unless the flow-outward or the relief term is on
     pr = s2["pr"] if do_pr else w0

@@ -186,6 +186,8 @@ class GLCanvas(GLStepPasses):
         self.srcw = ctx.texture((width, height), 4, dtype="f4")
         self.pr = ctx.texture((width, height), 1, dtype="f4")  # pass 3's levelled height P
         self.bx = ctx.texture((width, height), 1, dtype="f4")  # pass 3's mask blurred along x
+        # the not-dry paper blurred along x (standing_front_dry; written only with it on)
+        self.dx = ctx.texture((width, height), 1, dtype="f4")
         self.srcp = ctx.texture_array((width, height, self.npl), 4, dtype="f4")
         self.rgb = ctx.texture((width, height), 4, dtype="f4")
         n = self.ntiles
@@ -220,7 +222,7 @@ class GLCanvas(GLStepPasses):
         self._defines.update(self._param_consts)
         self._programs = {name: self._compile(fname, extra)
                           for name, (fname, extra) in _PROGRAMS.items()}
-        self._pressure_taps = ((), -1)  # blur_x, jacobi_first: compiled per blur at the step
+        self._pressure_taps = ((), -1, -1)  # blur_x, jacobi_first: compiled per blur at the step
         self._slot_key = None  # evap_surface with the slots' constants: compiled at the step
         self._tile_list_mode = bool(tiling)
 
@@ -234,7 +236,7 @@ class GLCanvas(GLStepPasses):
         return prog
 
     def _release_resources(self) -> None:
-        for name in ("aux", "pr", "bx", "srcw", "srcp", "rgb", "b_list", "b_alive", "b_ttl",
+        for name in ("aux", "pr", "bx", "dx", "srcw", "srcp", "rgb", "b_list", "b_alive", "b_ttl",
                      "b_prev", "b_mark", "b_args", "b_all", "b_added", "b_folded"):
             obj = getattr(self, name, None)
             if obj is not None:
