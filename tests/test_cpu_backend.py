@@ -117,7 +117,8 @@ def test_multi_step_stroke_is_bitwise_equal() -> None:
 
 @pytest.mark.parametrize("change", [{"jacobi_iters": 1}, {"jacobi_iters": 3},
                                     {"nu_w": 0.0, "viscosity": 0.0},
-                                    {"nu_p": 0.0, "cap_diffusion": 0.0, "block_fade": 0.0},
+                                    {"nu_p": 0.0, "standing_nu_p": 0.0, "cap_diffusion": 0.0,
+                                     "block_fade": 0.0},
                                     {"flow_outward": 0.0, "advance_height": 0.0},
                                     {"flow_outward": 0.8, "wet_blur": 4.0, "temperature": 35.0,
                                      "humidity": 0.2, "advance_height": 0.3},
@@ -369,7 +370,9 @@ def test_standing_water_gate_and_diffusion_are_bitwise_equal(fibred: bool,
     channel is off), untiled and tiled (the cpu step computes only the cells near live
     ones), and the terms change the flow and the pigment."""
     base = dataclasses.replace(get_profile("watercolor").params, fibre_permeability=1.0,
-                               fibre_dispersivity=9.0)
+                               fibre_dispersivity=9.0, fibre_gate_depth=0.0,
+                               fibre_gate_pull=0.0, standing_depth=0.0, standing_nu_p=0.0,
+                               standing_front_pull=0.0, standing_front_dry=0.0)
     gated = dataclasses.replace(base, fibre_gate_depth=0.4, fibre_gate_pull=0.1,
                                 standing_depth=0.3, standing_nu_p=0.005)
     prm = dataclasses.replace(gated, standing_front_pull=0.04, standing_front_dry=0.5)

@@ -9,8 +9,6 @@ blurred over its minute of drying: 2.06 brush radii at 0.33x the dry dab's darkn
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pytest
 
@@ -37,21 +35,19 @@ def test_a_drop_of_colour_into_a_wet_wash_spreads_wide_and_stays_strong() -> Non
     assert peak >= 0.5, peak
 
 
-def test_flow_along_the_fibres_feathers_the_drop(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The mechanism for a feathered front (issue 21 item 4): the film's levelling flow run
-    along the paper's fibres where water stands (``fibre_permeability`` 1, gated by
-    ``fibre_gate_depth`` 0.15), the pigment's own diffusion negligible in standing water
-    (``standing_nu_p`` 0.005 from ``standing_depth`` 0.005 up; ``nu_p`` 0.3 on damp paper)
-    and its dispersion along the channels a fibre long (``fibre_dispersivity`` 9): the
-    brushed drop into the wet wash dries with a feathered, irregular front (feather 1.43,
-    radius CV 0.19; the watercolor profile as shipped: 1.20, 0.09, a soft round blot) and
-    keeps its spread and strength. Not yet the watercolor default (NOTES-wetdrop3: the
-    rims' width, the edge band and the physics wet-in-wet spread)."""
-    prof = profiles.PROFILES["watercolor"]
-    prm = prof.params.replace(fibre_permeability=1.0, fibre_dispersivity=9.0,
-                              fibre_gate_depth=0.15, standing_depth=0.005,
-                              standing_nu_p=0.005)
-    monkeypatch.setitem(profiles.PROFILES, "watercolor", dataclasses.replace(prof, params=prm))
+def test_flow_along_the_fibres_feathers_the_drop() -> None:
+    """The mechanism for a feathered front (issue 21 item 4), the watercolor profile as
+    shipped: the film's levelling flow run along the paper's fibres where water stands
+    (``fibre_permeability`` 1, gated by ``fibre_gate_depth`` 0.15, off where the flow
+    outward pulls), the pigment's own diffusion negligible in standing water
+    (``standing_nu_p`` 0.005 from ``standing_depth`` 0.005 up; ``nu_p`` 0.3 on damp paper,
+    and at a front over dry paper: ``standing_front_pull``, ``standing_front_dry``, which
+    keep the brush rim's band) and its dispersion along the channels a fibre long
+    (``fibre_dispersivity`` 9): the brushed drop into the wet wash dries with a feathered,
+    irregular front (feather 1.45, radius CV 0.19; before session 12's profile: 1.20,
+    0.09, a soft round blot) and keeps its spread and strength."""
+    prm = profiles.PROFILES["watercolor"].params
+    assert prm.fibre_gate() > 0 and prm.standing_front()[0] > 0
     wet = fb.drop_into_wet_wash(True)
     bal = wet.stats()["balance"]
     assert bal["water_rel_error"] < 1e-3 and bal["pigment_rel_error"] < 1e-3, bal
