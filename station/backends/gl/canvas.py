@@ -53,7 +53,7 @@ from .passes import (
     _set,
     param_constants,
 )
-from .traffic import bytes_per_cell_step, floats_per_program
+from .traffic import bytes_per_cell_step, floats_per_program, front_mode
 
 if TYPE_CHECKING:
     import moderngl
@@ -627,13 +627,15 @@ class GLCanvas(GLStepPasses):
         (4 slots each), so those slots are counted, not the 8 the textures hold."""
         layers = -(-len(self.slots) // 4)
         return bytes_per_cell_step(4 * layers, int(self.params.jacobi_iters),
-                                   self.params.wet_hold > 0)
+                                   self.params.wet_hold > 0,
+                                   front_mode(*self.params.standing_front()))
 
     def bytes_per_cell_by_pass(self) -> dict[str, int]:
         """:meth:`bytes_per_cell_step` per program (the names of ``take_pass_times``)."""
         layers = -(-len(self.slots) // 4)
         return {name: 4 * n for name, n in floats_per_program(
-            4 * layers, int(self.params.jacobi_iters), self.params.wet_hold > 0).items()}
+            4 * layers, int(self.params.jacobi_iters), self.params.wet_hold > 0,
+            front_mode(*self.params.standing_front())).items()}
 
 
 __all__ = ["GLCanvas", "GLUnavailable"]
