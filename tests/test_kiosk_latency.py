@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from station.canvas.palette import default_palette
-from station.canvas.state import CanvasState
+from station.canvas.state import STEP_FIELDS, CanvasState
 from station.events import PenSample, Tool
 from station.kiosk.compose import Compositor, canvas_box, union
 from station.kiosk.niced import NicedRunner
@@ -170,19 +170,23 @@ def test_a_stroke_starting_during_the_kernel_does_not_wait_and_its_checkpoint_is
         s.command("brush", size=8, water=1.0, pigment={"Hansa Yellow": 0.6})
         s.handle("pen", _pen(0, 0.3))  # a stroke starts: its checkpoint shares the canvas
         assert len(s._lazy) == 1
-        cp = s._lazy[0]
+        cp = s._lazy[0].cp
+        assert cp is not None
         live = s.cpu_state
         assert np.shares_memory(cp.state.w, live.w)
         w_before = live.w.copy()
         th = _step_in_thread(s, gate)  # the step copies it first (lock released meanwhile)
-        assert not s._lazy and not np.shares_memory(cp.state.w, live.w)
+        # a step copies what it writes; the paper and the dried layers stay shared
+        assert not s.pending_bytes(STEP_FIELDS) and not np.shares_memory(cp.state.w, live.w)
+        assert np.shares_memory(cp.state.r_composed, live.r_composed)
         assert np.array_equal(cp.state.w, w_before)
         s.handle("pen", _pen(1, 0.31, touching=False))
         steps = s.player.counters.steps
         # a new stroke while the kernel runs: taken at once, no wait for the kernel
         s.handle("pen", _pen(2, 0.5))
-        assert s.inflight and len(s._lazy) == 1 and len(s._mid_step) == 1
-        mid = s._lazy[0]
+        assert s.inflight and len(s._lazy) == 2 and len(s._mid_step) == 1
+        mid = s._lazy[1].cp
+        assert mid is not None
         assert s.player.brush.pending > 0  # its stamps wait for the next step
         # an eraser sample (a canvas read) waits for the kernel
         started, applied = threading.Event(), threading.Event()
@@ -207,6 +211,7 @@ def test_a_stroke_starting_during_the_kernel_does_not_wait_and_its_checkpoint_is
         assert mid.state.sim_time == live.sim_time
         # the eraser's sample copied it (a tool may change the canvas): the step's numbers
         assert not s._lazy and not np.shares_memory(mid.state.w, live.w)
+        assert not np.shares_memory(mid.state.r_composed, live.r_composed)
         w_after = live.w.copy()
         assert np.array_equal(mid.state.w, w_after)
         with s.lock:
@@ -234,11 +239,12 @@ def test_samples_during_the_checkpoint_copy_paint_in_that_step_and_replay_exactl
     copying, go = threading.Event(), threading.Event()
     real_copy = s.materialize_checkpoints
 
-    def slow_copy() -> None:  # hold the step's copy (lock released) until the test says
+    # hold the step's copy (lock released) until the test says
+    def slow_copy(fields: frozenset[str] | None = None) -> None:
         if s._copying:
             copying.set()
             assert go.wait(20)
-        real_copy()
+        real_copy(fields)
 
     def one_step() -> None:
         with s.lock:
@@ -294,10 +300,11 @@ def test_a_stroke_starting_during_the_copy_is_copied_with_the_lock_released_too(
     owned: list[bool] = []
     real_copy = s.materialize_checkpoints
 
-    def slow_copy() -> None:  # the first copy takes until the test says
+    # the first copy takes until the test says
+    def slow_copy(fields: frozenset[str] | None = None) -> None:
         if s._copying:
             owned.append(s.lock._is_owned())  # type: ignore[attr-defined]
-        real_copy()
+        real_copy(fields)
         if s._copying and not copying.is_set():
             copying.set()
             assert go.wait(20)
@@ -317,11 +324,12 @@ def test_a_stroke_starting_during_the_copy_is_copied_with_the_lock_released_too(
         assert copying.wait(20)
         s.handle("pen", _pen(2, 0.3, touching=False))
         s.handle("pen", _pen(3, 0.6))  # stroke 2 starts during the copy
-        assert len(s._lazy) == 1
+        assert len(s._lazy) == 2 and s._lazy[0].pending.isdisjoint(STEP_FIELDS)
         go.set()
         th.join(20)
         s._worker = None
-        assert not s._lazy and owned == [False, False]  # both copies unlocked
+        # both copies unlocked; the dried layers are still shared
+        assert not s.pending_bytes(STEP_FIELDS) and owned == [False, False]
         s.handle("pen", _pen(4, 0.65, touching=False))
         for _ in range(3):
             s.step()
@@ -913,3 +921,89 @@ def test_a_large_fresh_preview_is_drawn_by_the_tiles_budget_not_in_one_frame(
     finally:
         s.shutdown()
         ctx.release()
+
+
+class _AddGate:
+    """The canvas backend, its next ``add_sources`` (when armed) held until the test
+    opens the gate."""
+
+    def __init__(self, backend: Any) -> None:
+        self._backend = backend
+        self.armed = False
+        self.entered = threading.Event()
+        self.open = threading.Event()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._backend, name)
+
+    def add_sources(self, *a: Any, **kw: Any) -> None:
+        if self.armed:
+            self.armed = False
+            self.entered.set()
+            assert self.open.wait(20), "the test never opened the gate"
+        self._backend.add_sources(*a, **kw)
+
+
+def test_the_step_adds_its_stamps_with_the_lock_released_and_replays_exactly(
+        tmp_path: Path) -> None:
+    """Under load a full-HD step's add held every pen sample for up to 150 ms.  Now the
+    window is not held: samples that come during the add wait aside (the step still takes
+    stamps after it) and are applied after it, a stroke's start included; the log replays
+    bit for bit, an undo of that stroke included."""
+    s = _session(tmp_path)
+    real = s.player.backend
+    gate = _AddGate(real)
+    s.player.backend = gate
+    try:
+        s.command("brush", size=8, water=1.0, pigment={"French Ultramarine": 0.5})
+        k = 0
+        for _ in range(4):
+            s.handle("pen", _pen(k, 0.2 + 0.01 * k))
+            k += 1
+        gate.armed = True
+
+        def one_step() -> None:  # as the simulation thread runs a step
+            with s.lock:
+                s._step_unlocked()
+
+        th = threading.Thread(target=one_step)
+        s._worker = th  # the lock is released only in the simulation thread
+        th.start()
+        assert gate.entered.wait(20)
+        assert s.inflight and s.kernel_running  # tiles wait; commands and tools too
+        stamps = s.player.brush.stamps
+        done = threading.Event()
+
+        def samples() -> None:
+            for i in range(3):
+                s.handle("pen", _pen(k + i, 0.24 + 0.01 * i))
+            s.handle("pen", _pen(k + 3, 0.3, touching=False))
+            s.handle("pen", _pen(k + 4, 0.6))  # a stroke starts during the add
+            done.set()
+
+        feeder = threading.Thread(target=samples)
+        feeder.start()
+        applied = done.wait(10)  # the lock held through the add would hold them here
+        assert s.player.brush.stamps == stamps and len(s._stash) == 5  # kept aside
+        gate.open.set()
+        th.join(20)
+        feeder.join(20)
+        s._worker = None
+        assert applied and s.samples_stashed == 5
+        s.pump()  # the window's next pass applies them, in order
+        assert not s._stash and s.player.brush.stamps > stamps
+        k += 5
+        s.handle("pen", _pen(k, 0.65, touching=False))
+        for _ in range(3):
+            s.step()
+        s.command("undo")  # the stroke that started during the add
+        s.step()
+        assert s.history.undone == 1
+        live = s.canvas.state()
+    finally:
+        gate.open.set()
+        s._worker = None
+        s.player.backend = real
+        s.shutdown()
+    _assert_replays(tmp_path / "s.jsonl", live)
+    assert float(live.p.sum() + live.q.sum()) > 0.0

@@ -251,6 +251,8 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
             app.tail_log = []
             samples0, stamps0 = st.counters.samples, st.painted_stamps
             steps0, during0 = st.player.counters.steps, st.samples_during_steps
+            copied0 = st.checkpoint_bytes_copied
+            saves0 = st.sim.counters.autosaves
             st.lock_waits = LockWaits()
             pauses: list[tuple[int, float]] = []  # (generation, seconds) of each collection
             gc_start = [0.0]
@@ -336,6 +338,13 @@ def measure(width: int, height: int, backend: str, seconds: float, rate: int,
                                st.player.counters.steps - steps0, 1), 2),
                            "samples_applied_during_steps":
                                st.samples_during_steps - during0,
+                           # undo checkpoints' copies (arrays a step writes; the paper and
+                           # the dried layers stay shared): MiB in the measured seconds
+                           "checkpoint_copied_mib": round(
+                               (st.checkpoint_bytes_copied - copied0) / 2**20, 1),
+                           # autosaves in the measured seconds (one every 30 s between
+                           # strokes: a full-HD one compresses for seconds)
+                           "autosaves": st.sim.counters.autosaves - saves0,
                            "window_lock_waits": {
                                "n": st.lock_waits.n, "over_1ms": st.lock_waits.waited,
                                "total_ms": round(1000 * st.lock_waits.total_s, 1),

@@ -56,6 +56,21 @@ _PLANE_FIELDS = ("vx", "vy", "w", "wc", "h", "mask", "block", "block_time",
                  "evaporated", "removed_w")
 _STACK_FIELDS = ("p", "q", "removed_p")
 
+ARRAY_FIELDS = (*_PLANE_FIELDS, *_STACK_FIELDS, "r_composed", "fibre", "wet_area", "tile_ttl")
+"""Every array field of a :class:`CanvasState`."""
+
+STEP_FIELDS = frozenset({"vx", "vy", "w", "wc", "p", "q", "evaporated", "wet_area",
+                         "tile_ttl", "removed_w", "removed_p"})
+"""The arrays a live step may write: its brush sources (``w``, ``p``, ``vx``, ``vy``,
+``tile_ttl``), the round brush's beads (and ``wet_area``), a deformable brush's pick-ups
+(``q``, ``removed_w``, ``removed_p``), the hair dryer (``wc``, ``evaporated``), the kernel
+and the accumulators' fold.  The others (the paper ``h`` and ``fibre``, ``mask``,
+``block``, ``block_time``, the dried layers' ``r_composed``) change only by a command or a
+tool's dab, so
+an undo checkpoint may share them with the live canvas until one comes (the kiosk's
+deferred checkpoints, :mod:`station.kiosk.session`); ``tests/test_kiosk_checkpoints.py``
+holds every step writer to this list."""
+
 
 def check_size(width: int, height: int) -> None:
     """Raise :class:`CanvasInputError` for an impossible canvas size."""

@@ -21,6 +21,9 @@ class StepLock(Protocol):
     def offload(self, job: Callable[[], None]) -> None:
         """Run ``job`` (the lock released) where the step's kernel runs."""
 
+    def add_unlocked(self, job: Callable[[], None]) -> None:
+        """Run ``job`` (a step's brush sources' add) with the lock released."""
+
 
 class KernelUnlocked:
     """A backend whose ``step`` runs with the session's lock released (the window
@@ -44,6 +47,11 @@ class KernelUnlocked:
             s.lock.acquire()
             s.inflight = False
             s.lock.notify_all()
+
+    def add_sources(self, *args: Any, **kw: Any) -> None:
+        """The step's brush sources, added with the lock released where the session
+        allows (:meth:`StepLock.add_unlocked`)."""
+        self._session.add_unlocked(lambda: self._backend.add_sources(*args, **kw))
 
 
 class SharedState:

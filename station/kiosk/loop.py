@@ -111,7 +111,11 @@ def frame(app: KioskApp, dt: float) -> None:
     t1 = time.perf_counter()
     times = _FrameTimes(t1)
     if frame_due(app, now, got_input):
-        got_input = draw_frame(app, now, dt, times) or got_input
+        app.session.frame_begins()  # a step's checkpoint copy waits for it (in pieces)
+        try:
+            got_input = draw_frame(app, now, dt, times) or got_input
+        finally:
+            app.session.frame_ends()
     # ImGui spreads pen events queued together over the next frames: draw one more
     app._need_draw = got_input
     steps_or_housekeeping(app)

@@ -22,7 +22,10 @@ keeps the window's thread and the steps apart — except during the canvas
 kernel itself (``backend.step()``, most of a step), when the lock is
 released: then the window applies the pen samples that only feed the brush
 (its stamps wait for the next step, as they would anyway), a stroke's
-first sample included, and renders the tiles it needs.  Everything else
+first sample included, and renders the tiles it needs.  The step's brush
+sources are added with the lock released too (:meth:`KioskSession.add_unlocked`;
+samples that come meanwhile wait aside until the add is over), and so is an
+autosave's compression and write (:meth:`KioskSession._maybe_autosave`).  Everything else
 (commands, tools, the eraser) waits for the step to end.  A sample applied
 during step *k* is logged in the time slot of step *k + 1*, where its stamps
 go, so a replay of the log (``station paint``) gives the same pixels.  The
@@ -37,8 +40,15 @@ arrays by reference (the player is copied at once, as before), and the copy is
 made before anything next changes the canvas: at the start of the next step
 (in the simulation thread, lock released as for the kernel), or before a
 command or a tool's sample.  Nothing changes the canvas in between, so the
-checkpoint holds the same numbers as one copied at once.  A stroke that starts
-while step *k*'s kernel runs is logged after step *k*, so its checkpoint must be
+checkpoint holds the same numbers as one copied at once.  A step copies only the
+arrays a step writes (:data:`~station.canvas.state.STEP_FIELDS`): the paper, the dried
+layers (``r_composed``, 94 MiB at 1920×1080), the mask and the tools' fields stay shared
+until a command or a tool's dab comes, and are then copied once for every checkpoint
+sharing them.  An array that is zero in every bit (a slot's ``removed_p``, the ``q`` of a
+fresh wash) is kept as a zero view, no memory.  The step copies in pieces
+(:data:`PIECE_BYTES`), each after the window's frame in progress, if any, has ended (for
+at most :data:`PIECE_WAIT_S`): the copy does not take the cores from a frame.  A stroke
+that starts while step *k*'s kernel runs is logged after step *k*, so its checkpoint must be
 the canvas as step *k* leaves it: the arrays are shared anyway, and the small
 fields and the step count are taken when the step is over
 (:meth:`KioskSession.finish_mid_step`).  Samples applied while the step copies
@@ -57,10 +67,11 @@ from __future__ import annotations
 import logging
 import threading
 import time
+import weakref
 from collections import deque
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -71,6 +82,7 @@ from station.answer import parse_request
 from station.brush.deformable import DeformableBrush
 from station.brush.stamp import RoundBrush
 from station.bus import Subscriber, runtime_dir
+from station.canvas.state import ARRAY_FIELDS, STEP_FIELDS
 from station.events import Command, PenSample, Tool
 from station.kiosk.locked_backend import KernelUnlocked, SharedState
 from station.kiosk.moisture import DAMP_WATER, Moisture
@@ -80,7 +92,7 @@ from station.sim.journal import SessionJournal
 from station.sim.live import SYNC_EVERY_S, Counters, LiveConfig
 from station.sim.live_bus import LiveSim
 from station.sim.player import SessionPlayer
-from station.sim.undo import UndoHistory
+from station.sim.undo import Checkpoint, UndoHistory
 
 log = logging.getLogger(__name__)
 
@@ -92,6 +104,62 @@ WHOLE_CANVAS_COMMANDS = frozenset({"dry", "new_layer", "clear", "profile", "undo
 COPY_ROUNDS = 4
 
 DRAIN_BUDGET_S = 0.004  # bus messages handled per frame at least this long, if waiting
+
+#: Commands whose only canvas writes are a step's (a brush swap hands its stamps over):
+#: before them the deferred checkpoints copy only :data:`STEP_FIELDS`.
+STEP_WRITE_COMMANDS = frozenset({"brush", "wait"})
+
+#: A step's checkpoint copy goes in pieces of at most this many bytes (~1 ms each) ...
+PIECE_BYTES = 2 << 20
+#: ... each after the window's frame in progress has ended, waiting for it at most this long.
+PIECE_WAIT_S = 0.004
+_PROBE = 4099  # every this many elements probed first: most arrays are not all zero
+
+Pause = Callable[[], None]
+
+
+def _no_pause() -> None:
+    """Copy straight through (the lock is held: nobody could use a pause)."""
+
+
+def frozen_copy(a: np.ndarray, pause: Pause = _no_pause, piece: int = PIECE_BYTES
+                ) -> np.ndarray:
+    """A checkpoint's copy of ``a``: a read-only zero view (no memory) when every bit of
+    ``a`` is zero (``-0.0`` is not: the copy is bit-exact), else a copy made in pieces of
+    at most ``piece`` bytes with ``pause()`` between them."""
+    if not a.flags.c_contiguous:
+        return a.copy()
+    flat = a.reshape(-1)
+    bits = flat.view(np.dtype(f"u{a.itemsize}")) if a.itemsize in (1, 2, 4, 8) else None
+    if bits is not None and not bits[::_PROBE].any() and not bits.any():
+        return np.broadcast_to(np.zeros((), a.dtype), a.shape)
+    out = np.empty_like(a)
+    dst = out.reshape(-1)
+    step = max(1, piece // max(a.itemsize, 1))
+    for i in range(0, flat.size, step):
+        if i:
+            pause()
+        dst[i:i + step] = flat[i:i + step]
+    return out
+
+
+def held_bytes(a: np.ndarray) -> int:
+    """Memory ``a`` holds of its own: none for a zero view (all strides 0)."""
+    return 0 if a.size and not any(a.strides) else int(a.nbytes)
+
+
+@dataclass
+class Deferred:
+    """An undo checkpoint (held weakly: the history lets old ones go) and the names of
+    the arrays it still shares with the live canvas."""
+
+    ref: weakref.ref[Checkpoint]
+    pending: set[str] = field(default_factory=lambda: set(ARRAY_FIELDS))
+
+    @property
+    def cp(self) -> Checkpoint | None:
+        return self.ref()
+
 
 @dataclass
 class LockWaits:
@@ -153,6 +221,10 @@ class KioskSession:
         self.lock = threading.Condition()
         self.inflight = False  # the canvas kernel of a step runs now, the lock released
         self._copying = False  # (with inflight) the step copies undo checkpoints first
+        self._adding = False  # (with inflight) the step adds its sources (add_unlocked)
+        # pen samples that came during an add: (sample, mapped, topic, replay)
+        self._stash: deque[tuple[PenSample, PenSample, str, bool]] = deque()
+        self.samples_stashed = 0
         self.sim_seconds = 0.0  # wall time spent in steps (either thread)
         # (start, end) perf_counter times of the recent steps, for a bench's window
         self.step_times: deque[tuple[float, float]] = deque(maxlen=4096)
@@ -167,8 +239,11 @@ class KioskSession:
         self._halt = threading.Event()
         self._window_waits = 0  # the window's thread waits for the step to end
         # undo checkpoints still holding the live canvas arrays (see the module docstring)
-        self._lazy: list[Any] = []
-        self._mid_step: list[Any] = []  # ... taken while a step's kernel ran (finish_mid_step)
+        self._lazy: list[Deferred] = []
+        self._mid_step: list[Deferred] = []  # ... taken while a step's kernel ran
+        self.checkpoint_bytes_copied = 0  # into deferred checkpoints, so far
+        self._frame_idle = threading.Event()  # no window frame is being drawn now
+        self._frame_idle.set()
         self._checkpoint_now = self.history._checkpoint
         self.history._checkpoint = self._checkpoint_deferred  # type: ignore[method-assign]
 
@@ -257,19 +332,12 @@ class KioskSession:
                 return
             self.last_canvas_pen = sample
             with self.window_lock():
-                if self._brush_only(sample):
-                    if self.inflight:
-                        self.samples_during_steps += 1
-                else:
-                    self._wait_step()
-                    self.materialize_checkpoints()  # a tool's dab changes the canvas
-                before = self.player.brush.stamps
-                self.sim.handle(kind, sample, topic, replay)
-                made = self.player.brush.stamps - before
-            if made > 0:
-                self.painted_stamps += made
-                if value.t_mono > 0.0:
-                    self.awaiting_paint.append(value.t_mono)
+                if self._adding:  # applied after the step's takes (see add_unlocked)
+                    self._stash.append((value, sample, topic, replay))
+                    self.samples_stashed += 1
+                    return
+                self._apply_stash()
+                self._apply_pen(value, sample, topic, replay)
             return
         if kind == "cmd" and isinstance(value, Command) and self.kiosk_command is not None:
             req = parse_request(value.reply, runtime_dir()) if value.reply else None
@@ -284,10 +352,64 @@ class KioskSession:
         with self.lock:
             if kind == "cmd":  # a command may change the canvas (heartbeats do not)
                 self._wait_step()
-                self.materialize_checkpoints()
+                step_only = isinstance(value, Command) and value.cmd in STEP_WRITE_COMMANDS
+                self.materialize_checkpoints(STEP_FIELDS if step_only else None)
             self.sim.handle(kind, value, topic, replay)
             if kind == "cmd" and isinstance(value, Command) and value.cmd in WHOLE_CANVAS_COMMANDS:
                 self.mark_all_dirty()
+
+    def _apply_pen(self, value: PenSample, sample: PenSample, topic: str,
+                   replay: bool) -> None:
+        """Apply one mapped pen sample (lock held)."""
+        if self._brush_only(sample):
+            if self.inflight:
+                self.samples_during_steps += 1
+        else:
+            self._wait_step()
+            self.materialize_checkpoints()  # a tool's dab changes the canvas
+        before = self.player.brush.stamps
+        self.sim.handle("pen", sample, topic, replay)
+        made = self.player.brush.stamps - before
+        if made > 0:
+            self.painted_stamps += made
+            if value.t_mono > 0.0:
+                self.awaiting_paint.append(value.t_mono)
+
+    def _apply_stash(self) -> None:
+        """The samples that came while a step added its sources, in order (lock held, no
+        add running): as samples that come during the kernel, or between steps."""
+        while self._stash and not self._adding:
+            self._apply_pen(*self._stash.popleft())
+
+    def add_unlocked(self, job: Callable[[], None]) -> None:
+        """A step's brush sources added (``job``) with the lock released, in the
+        simulation thread: under load a full-HD step's add held every pen sample for up
+        to 150 ms.  Samples that come meanwhile are kept aside, not applied
+        (:meth:`_apply_stash`): the step still takes stamps and beads after this add,
+        and a sample's stamps interpolated back into this step's slot would be taken a
+        step early for the log.  The window draws on meanwhile, its tiles waiting as
+        for a kernel; commands and tools wait."""
+        if threading.current_thread() is not self._worker:
+            job()
+            return
+        with self._lock_released(adding=True):
+            job()
+
+    @contextmanager
+    def _lock_released(self, adding: bool = False) -> Iterator[None]:
+        """The lock released in the simulation thread (held on entry and on exit) while
+        ``inflight`` and ``_adding`` (a step's add) or ``_copying`` (a checkpoint's copy,
+        an autosave's write) say why: the window draws on, commands and tools wait."""
+        self.inflight = True
+        self._adding, self._copying = adding, not adding
+        self.lock.release()
+        try:
+            yield
+        finally:
+            self.lock.acquire()
+            self.inflight = self._adding = self._copying = False
+            self._prune()
+            self.lock.notify_all()
 
     @contextmanager
     def window_lock(self) -> Iterator[None]:
@@ -323,9 +445,11 @@ class KioskSession:
             cp = self._checkpoint_now()
         finally:
             p.backend = real
-        self._lazy.append(cp)
+        entry = Deferred(weakref.ref(cp))
+        self._lazy.append(entry)
         if self.inflight and not self._copying:
-            self._mid_step.append(cp)
+            self._mid_step.append(entry)
+        self._prune()
         return cp
 
     def finish_mid_step(self) -> None:
@@ -341,20 +465,71 @@ class KioskSession:
         real = p.backend
         p.backend = SharedState(real, self.cpu_state)
         try:
-            for cp in self._mid_step:
-                now = self._checkpoint_now()
-                cp.state, cp.n_slots, cp.nbytes = now.state, now.n_slots, now.nbytes
+            for entry in self._mid_step:
+                cp = entry.cp
+                if cp is None:
+                    continue
+                # the canvas only: the player was copied when the stroke started
+                cp.state, cp.n_slots, cp.nbytes = self.history.canvas_checkpoint()
                 cp.player["counters"].steps = p.counters.steps
+                entry.pending = set(ARRAY_FIELDS)  # all shared again
         finally:
             p.backend = real
         self._mid_step.clear()
 
-    def materialize_checkpoints(self) -> None:
-        """Copy the canvas into the checkpoints that still share it (before it changes)."""
-        # taken from the list first: the window may add one meanwhile (_copy_unlocked)
-        lazy, self._lazy = self._lazy, []
-        for cp in lazy:
-            cp.state = cp.state.copy()
+    def materialize_checkpoints(self, fields: frozenset[str] | None = None) -> None:
+        """Copy the arrays named by ``fields`` (all: ``None``) into the checkpoints that
+        still share them with the canvas, before something writes them: a step
+        :data:`STEP_FIELDS`, a command or a tool's dab all of them.  Lock held, or in
+        the simulation thread during a step's copy (:meth:`_copy_unlocked`: the list
+        is changed only under the lock)."""
+        pause = self._between_frames if self._copying else _no_pause
+        self._copy_pending(list(self._lazy), fields, pause)
+        if not self._copying:
+            self._prune()
+
+    def _copy_pending(self, entries: list[Deferred], fields: frozenset[str] | None,
+                      pause: Pause) -> None:
+        """The copies themselves: each array once, however many checkpoints share it."""
+        made: dict[tuple[str, int, tuple[int, ...]], np.ndarray] = {}
+        for entry in entries:
+            cp = entry.cp
+            if cp is None:
+                continue
+            names = entry.pending if fields is None else entry.pending & fields
+            for name in sorted(names):
+                a = getattr(cp.state, name)
+                key = (name, int(a.__array_interface__["data"][0]), a.shape)
+                got = made.get(key)
+                if got is None:
+                    got = made[key] = frozen_copy(a, pause)
+                    self.checkpoint_bytes_copied += held_bytes(got)
+                setattr(cp.state, name, got)
+            entry.pending -= names
+
+    def _prune(self) -> None:
+        """Forget the checkpoints copied whole or let go by the history (lock held)."""
+        self._lazy = [e for e in self._lazy if e.pending and e.cp is not None]
+
+    def pending_bytes(self, fields: frozenset[str] | None = None) -> int:
+        """Bytes the deferred checkpoints still share with the canvas (of ``fields``)."""
+        out = 0
+        for e in self._lazy:
+            cp = e.cp
+            if cp is not None:
+                names = e.pending if fields is None else e.pending & fields
+                out += sum(getattr(cp.state, n).nbytes for n in names)
+        return out
+
+    def frame_begins(self) -> None:
+        """The window draws a frame now: a step's copy waits for it (:data:`PIECE_WAIT_S`)."""
+        self._frame_idle.clear()
+
+    def frame_ends(self) -> None:
+        self._frame_idle.set()
+
+    def _between_frames(self) -> None:
+        self._frame_idle.wait(PIECE_WAIT_S)
 
     def _wait_step(self) -> None:
         """Wait (lock held) until no canvas kernel runs.  The thread lets a waiting
@@ -408,7 +583,7 @@ class KioskSession:
         st = self.cpu_state
         if st is not None:
             self._note_active(st)
-        if self._lazy:
+        if any(e.pending & STEP_FIELDS for e in self._lazy):
             self._copy_unlocked()
 
     def after_step(self) -> None:
@@ -490,12 +665,32 @@ class KioskSession:
                         t1 = time.perf_counter()
                         self.sim_seconds += t1 - t0
                         self.step_times.append((t0, t1))
-                        self.sim.maybe_autosave()
+                        self._maybe_autosave()
                         continue
                 self._halt.wait(min(wait, 0.05))
         except BaseException as exc:  # the window's thread reports it (check_worker)
             log.exception("the simulation thread failed")
             self.worker_error = exc
+
+    def _maybe_autosave(self) -> None:
+        """:meth:`LiveSim.maybe_autosave` in the simulation thread (lock held) with the
+        compression and the write done with the lock released, the canvas shared, not
+        copied: at 1920×1080 a wet canvas's autosave took 8 s, every pen sample held.
+        Nothing writes the canvas meanwhile: brush samples touch only the brush (and
+        belong to the step about to run, as during the checkpoints' copy), commands and
+        tools wait for the flag as for a kernel."""
+        sim = self.sim
+        st = self.cpu_state
+        if threading.current_thread() is not self._worker or st is None:
+            sim.maybe_autosave()
+            return
+        if not sim.autosave_due():
+            return
+        job = sim.begin_autosave(SharedState(self.canvas, st).state())
+        if job is None:
+            return
+        with self._lock_released():
+            job()
 
     def sim_busy(self, t0: float, t1: float) -> float:
         """Seconds of ``[t0, t1]`` (``perf_counter``) spent in steps."""
@@ -509,20 +704,14 @@ class KioskSession:
         with the lock released again (copied under it, a whole 1920×1080 canvas held every
         pen sample for 2.6 s at load 17), up to :data:`COPY_ROUNDS` times."""
         if threading.current_thread() is not self._worker:
-            self.materialize_checkpoints()
+            self.materialize_checkpoints(STEP_FIELDS)
             return
         for _ in range(COPY_ROUNDS):
-            if not self._lazy:
+            if not any(e.pending & STEP_FIELDS for e in self._lazy):
                 return
-            self.inflight = self._copying = True
-            self.lock.release()
-            try:
-                self.materialize_checkpoints()
-            finally:
-                self.lock.acquire()
-                self.inflight = self._copying = False
-                self.lock.notify_all()
-        self.materialize_checkpoints()  # strokes kept starting: the rest under the lock
+            with self._lock_released():
+                self.materialize_checkpoints(STEP_FIELDS)
+        self.materialize_checkpoints(STEP_FIELDS)  # strokes kept starting: under the lock
 
     def _step_unlocked(self) -> None:
         """One step (lock held), its canvas kernel run with the lock released."""
@@ -582,6 +771,11 @@ class KioskSession:
         draws what it has handled and takes the rest in the next frames, instead of
         handling a growing queue before it draws again (each frame longer, the queue
         longer).  At least one message is handled when one is there."""
+        if self._stash and self.lock.acquire(blocking=False):
+            try:
+                self._apply_stash()
+            finally:
+                self.lock.release()
         sub = self.sim.sub
         msg = sub.recv(timeout_ms)
         deadline = time.perf_counter() + max(budget_s, floor_s)

@@ -476,27 +476,46 @@ class LiveCore:
     def maybe_autosave(self) -> None:
         """Autosave when due (or asked for by ``save``), between strokes only: then
         no stroke state is pending and the state plus the log is the whole truth."""
+        if self.autosave_due():
+            self.autosave()
+
+    def autosave_due(self) -> bool:
+        """Whether :meth:`maybe_autosave` would save now."""
         due = self._save_requested or (self.cfg.autosave
                                        and time.monotonic() >= self._next_autosave)
-        if due and not self.player.brush.drawing and not self.player.brush.pending:
-            self.autosave()
+        return bool(due) and not self.player.brush.drawing and not self.player.brush.pending
 
     def autosave(self) -> bool:
         """Write the checkpoint now; ``False`` (reported) if storage refuses."""
+        job = self.begin_autosave()
+        return job is not None and job()
+
+    def begin_autosave(self, state: CanvasState | None = None) -> Callable[[], bool] | None:
+        """The part of an autosave that must see the session as it is: the log synced,
+        the session's data and the canvas (``state``: one the host guarantees to
+        hold still, shared rather than copied; else a copy).  Returns the rest, the
+        compression and the write (seconds for a 1920×1080 canvas), which a host may
+        run without its lock; ``None`` if storage refused the log's sync."""
         self._next_autosave = time.monotonic() + (self.cfg.autosave or math.inf)
         self._save_requested = False
         if not self.journal.sync():  # the checkpoint may only count records on disk
-            return False
-        data = self.canvas.state().npz_bytes(extra={"session": self.checkpoint_session()})
-        try:
-            # the painting is private like its log (0600)
-            atomic_write(self.autosave_path, data, mode=0o600)
-        except OSError as exc:
-            self.report.failed(f"autosave {self.autosave_path}", exc)
-            return False
-        self.report.recovered(f"autosave {self.autosave_path}")
-        self.counters.autosaves += 1
-        return True
+            return None
+        st = self.canvas.state() if state is None else state
+        session = self.checkpoint_session()
+
+        def write() -> bool:
+            data = st.npz_bytes(extra={"session": session})
+            try:
+                # the painting is private like its log (0600)
+                atomic_write(self.autosave_path, data, mode=0o600)
+            except OSError as exc:
+                self.report.failed(f"autosave {self.autosave_path}", exc)
+                return False
+            self.report.recovered(f"autosave {self.autosave_path}")
+            self.counters.autosaves += 1
+            return True
+
+        return write
 
     def checkpoint_session(self) -> dict[str, Any]:
         """What an autosave keeps besides the canvas (:func:`live_checkpoint.session`)."""

@@ -186,10 +186,16 @@ class UndoHistory:
 
     def _checkpoint(self) -> Checkpoint:
         p = self.player
-        st, ns = _pack(p.backend.state())
+        st, ns, nbytes = self.canvas_checkpoint()
         memo = {id(getattr(p, k)): getattr(p, k) for k in _SHARED if hasattr(p, k)}
         snap = {k: copy.deepcopy(v, memo) for k, v in vars(p).items() if k not in _SHARED}
-        return Checkpoint(st, ns, snap, _state_bytes(st))
+        return Checkpoint(st, ns, snap, nbytes)
+
+    def canvas_checkpoint(self) -> tuple[CanvasState, int, int]:
+        """A checkpoint's canvas part: the state (pigment stacks cut to the used slots),
+        the slot count and the bytes held."""
+        st, ns = _pack(self.player.backend.state())
+        return st, ns, _state_bytes(st)
 
     def _trim(self) -> None:
         """Drop the oldest checkpoints beyond the limit or the byte budget."""

@@ -619,7 +619,9 @@ def _cd_row(sm: np.ndarray, s0r: np.ndarray, sp: np.ndarray, h: np.ndarray, opn:
         slo, shi = K._span(spans, j, si)
         if do_capdiff:
             for i in range(max(slo - 1, 1 - x0), min(shi + 1, width - x0) + 1):
-                crow[i] = cmin + h0_[np.uint64(x0 + i - 1)] * cspan
+                # unsigned: the start is a max() LLVM cannot bound, and numba's
+                # wraparound made this store a scatter
+                crow[np.uint64(i)] = cmin + h0_[np.uint64(x0 + i - 1)] * cspan
             for i in range(slo, shi + 1):
                 o0 = opn[j, i]
                 xu = np.uint64(x0 + i - 1)
