@@ -6,7 +6,9 @@
 // 1), M' the wet area blurred (bx along x, here along y, as pressure.glsl), D' the
 // not-dry paper (wc >= T c) blurred the same (dx, blur_x.comp).  M' is only known after
 // blur_x, so this pass rewrites prep's wb (jv.w) on wet cells: the first Jacobi iteration
-// reads it at the neighbours, so it cannot be formed there.
+// reads it at the neighbours, so it cannot be formed there.  Having M', it also writes
+// pass 3's levelled height P (pressure.glsl's sum, the same taps in the same order) into
+// pr, and the first Jacobi iteration (PR_DONE) does not blur bx again.
 #include "common.glsl"
 #include "tiles.glsl"
 
@@ -19,6 +21,7 @@ layout(r32f, binding = 5) uniform readonly image2D dx_in;   // the not-dry paper
 #endif
 layout(rg32f, binding = 6) uniform readonly image2D fibre_in;
 layout(rgba32f, binding = 7) uniform image2D jv_io;         // prep's (v1, w, wb)
+layout(r32f, binding = 0) uniform writeonly image2D pr_out;  // pass 3's levelled height
 
 #define R ((NTAPS - 1) / 2)
 uniform float u_sim_time;     // [s]
@@ -29,6 +32,7 @@ const float u_fibre_flow_max = K_FIBRE_FLOW_MAX;
 const float u_sinv = K_SINV;
 const float u_sdrop = K_SDROP;
 const float u_eta = K_ETA;
+const float u_relief = K_RELIEF;     // paper_relief [height]
 const float u_finv = K_FINV;         // 1 / standing_front_pull
 const float taps_y[NTAPS] = TAPS;
 
@@ -42,7 +46,11 @@ void main() {
     ivec2 c = tile_cell(valid);
     if (!valid) return;
     vec4 j = imageLoad(jv_io, c);
-    if (j.w < 0.0) return;  // not wet: prep's -1 stays
+    vec4 wa = imageLoad(water_in, c);
+    if (!is_wet(j.w)) {  // not wet: prep's -1 stays, P is w (pressure.glsl)
+        imageStore(pr_out, c, vec4(wa.x, 0.0, 0.0, 0.0));
+        return;
+    }
     float am = 0.0;
 #if FRONT_DRY
     float ad = 0.0;
@@ -55,12 +63,15 @@ void main() {
         ad += taps_y[ky] * imageLoad(dx_in, n).x;
 #endif
     }
+    vec4 pa = imageLoad(paper_in, c);
+    // pressure.glsl's levelled_height on a wet cell, with this M'
+    float pv = wa.x;
+    if (u_relief > 0.0) pv = wa.x + u_relief * pa.x;
+    imageStore(pr_out, c, vec4(pv - u_eta * (1.0 - am), 0.0, 0.0, 0.0));
     float fr = smooth_t((u_eta * (1.0 - am)) * u_finv);
 #if FRONT_DRY
     fr = fr * min(2.0 * (1.0 - ad), 1.0);
 #endif
-    vec4 pa = imageLoad(paper_in, c);
-    vec4 wa = imageLoad(water_in, c);
     float age = u_block_fade > 0.0 ? clamp((u_sim_time - pa.w) / u_block_fade, 0.0, 1.0) : 1.0;
     float eff = pa.z + (1.0 - pa.z) * age;
     float beta_c = min(1.0 - u_block_paper * (1.0 - pa.x), eff);

@@ -569,19 +569,24 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
 
 @_parallel
 def standing_front(w0: np.ndarray, wc: np.ndarray, h: np.ndarray, vx: np.ndarray,
-                   vy: np.ndarray, fibre: np.ndarray, mbx: np.ndarray, taps: np.ndarray,
-                   y0: int, x0: int, bh: int, bw: int, cst: np.ndarray, spans: np.ndarray,
-                   nsp: np.ndarray, bounds: np.ndarray, dbx_o: np.ndarray,
-                   bc_o: np.ndarray) -> None:
+                   vy: np.ndarray, fibre: np.ndarray, mbx: np.ndarray, wet: np.ndarray,
+                   taps: np.ndarray, y0: int, x0: int, bh: int, bw: int, cst: np.ndarray,
+                   spans: np.ndarray, nsp: np.ndarray, bounds: np.ndarray, dbx_o: np.ndarray,
+                   bc_o: np.ndarray, pr_o: np.ndarray) -> None:
     """The standing gate's front factor (reference ``standing_front``), after :func:`prep`
     ran with ``C_SINV`` and ``C_DISP`` at 0 (``bc_o`` holds beta_c without the standing
     and dispersion factor): ``bc *= own + gd (...)`` (or ``own``), ``own = 1 - drop g (1 -
-    F)``, ``F = smoothstep(eta (1 - M'))`` from the y half of ``mbx``'s blur, with
-    ``C_FDRY`` times ``min(2 (1 - D'), 1)``, ``D'`` the blur of ``wc >= T c`` (its x half
-    into ``dbx_o`` first; a column outside the box adds +0, a row outside it is skipped,
-    as the reference's zero padding; a column of the box outside the spans reads the
-    state, a row's blur outside its spans is the scratch's 0 like ``mbx``'s). Its own
-    sweep: the blur's y half reads rows the next chunk writes."""
+    F)``, ``F = smoothstep(eta (1 - M'))``, with ``C_FDRY`` times ``min(2 (1 - D'), 1)``,
+    ``D'`` the blur of ``wc >= T c`` (its x half into ``dbx_o`` first; a column outside
+    the box adds +0, a row outside it is skipped, as the reference's zero padding; a
+    column of the box outside the spans reads the state, a row's blur outside its spans
+    is the scratch's 0 like ``mbx``'s). Its own sweep: the blur's y half reads rows the
+    next chunk writes. ``M'`` is pass 3's: this sweep writes pass 3's levelled height
+    (:func:`_pressure_row`, ``pr_o``) and keeps its y half of the blur, so
+    :func:`advect_jacobi1` runs without ``do_pr`` (one y blur of ``mbx`` a step, not two).
+    Unsigned columns throughout (numba's negative-index wraparound keeps signed ones
+    scalar), three taps a pass where they are all in range (the same additions in the
+    same order)."""
     cmin = cst[C_CMIN]
     cspan = cst[C_CSPAN]
     disp = cst[C_DISP]
@@ -589,37 +594,52 @@ def standing_front(w0: np.ndarray, wc: np.ndarray, h: np.ndarray, vx: np.ndarray
     sinv = cst[C_SINV]
     sdrop = cst[C_SDROP]
     eta = cst[C_ETA]
+    relief = cst[C_RELIEF]
     finv = cst[C_FINV]
     dry = cst[C_FDRY]
     drying = dry > ZERO
     nt = taps.shape[0]
     r = (nt - 1) // 2
+    ur = np.uint64(r)
     nch = bounds.shape[0] - 1
+    xo = np.uint64(x0 - 1)
     if drying:
         for ch in prange(nch):
             nd = np.empty(bw + 2 + 2 * r, F32)
             acc = np.empty(bw + 2, F32)
             for j in range(bounds[ch], bounds[ch + 1]):
                 y = y0 + j - 1
-                for i in range(bw + 2 + 2 * r):
-                    nd[i] = ZERO
+                wcr, hr = wc[y], h[y]
+                for u in range(np.uint64(bw + 2 + 2 * r)):
+                    nd[u] = ZERO
                 for si in range(nsp[j]):
                     slo, shi = _span(spans, j, si)
                     lo = slo - r if slo - r > 1 else 1
                     hi = shi + r if shi + r < bw else bw
-                    for i in range(lo, hi + 1):
-                        x = np.uint64(x0 + i - 1)
-                        nd[i + r] = ONE if wc[y, x] >= dry * (cmin + h[y, x] * cspan) else ZERO
+                    for u in range(np.uint64(lo), np.uint64(hi + 1)):
+                        nd[u + ur] = ONE if wcr[xo + u] >= dry * (cmin + hr[xo + u] * cspan) \
+                            else ZERO
+                drow = dbx_o[j]
                 for si in range(nsp[j]):
                     slo, shi = _span(spans, j, si)
-                    for i in range(slo, shi + 1):
-                        acc[i] = ZERO
-                    for k in range(nt):
-                        g = taps[k]
-                        for i in range(slo, shi + 1):
-                            acc[i] = acc[i] + g * nd[i + k]
-                    for i in range(slo, shi + 1):
-                        dbx_o[j, i] = acc[i]
+                    ulo, uhi = np.uint64(slo), np.uint64(shi + 1)
+                    for u in range(ulo, uhi):
+                        acc[u] = ZERO
+                    k = 0
+                    while k + 3 <= nt:
+                        g0, g1, g2 = taps[k], taps[k + 1], taps[k + 2]
+                        ka, kb, kc = np.uint64(k), np.uint64(k + 1), np.uint64(k + 2)
+                        for u in range(ulo, uhi):
+                            acc[u] = ((acc[u] + g0 * nd[u + ka]) + g1 * nd[u + kb]) \
+                                + g2 * nd[u + kc]
+                        k += 3
+                    for kk in range(k, nt):
+                        g = taps[kk]
+                        ka = np.uint64(kk)
+                        for u in range(ulo, uhi):
+                            acc[u] = acc[u] + g * nd[u + ka]
+                    for u in range(ulo, uhi):
+                        drow[u] = acc[u]
     for ch in prange(nch):
         am = np.empty(bw + 2, F32)
         ad = np.empty(bw + 2, F32)
@@ -627,28 +647,46 @@ def standing_front(w0: np.ndarray, wc: np.ndarray, h: np.ndarray, vx: np.ndarray
             y = y0 + j - 1
             for si in range(nsp[j]):
                 slo, shi = _span(spans, j, si)
-                for i in range(slo, shi + 1):
-                    am[i] = ZERO
-                    ad[i] = ZERO
-                for k in range(nt):
-                    jj = j + k - r
-                    if jj >= 1 and jj <= bh:
-                        g = taps[k]
-                        for i in range(slo, shi + 1):
-                            am[i] = am[i] + g * mbx[jj, i]
-                        if drying:
-                            for i in range(slo, shi + 1):
-                                ad[i] = ad[i] + g * dbx_o[jj, i]
-                for i in range(slo, shi + 1):
-                    fr = _smoothstep_w(eta * (ONE - am[i]), finv)
+                # pass 3's levelled height; am keeps the y half of M' for the span
+                _pressure_row(mbx, wet, w0, h, taps, j, y, x0, bh, slo, shi, eta, relief,
+                              True, am, pr_o)
+                ulo, uhi = np.uint64(slo), np.uint64(shi + 1)
+                if drying:
+                    for u in range(ulo, uhi):
+                        ad[u] = ZERO
+                    k = 0
+                    while k < nt:
+                        jj = j + k - r
+                        if k + 3 <= nt and jj >= 1 and jj + 2 <= bh:
+                            g0, g1, g2 = taps[k], taps[k + 1], taps[k + 2]
+                            d0, d1, d2 = dbx_o[jj], dbx_o[jj + 1], dbx_o[jj + 2]
+                            for u in range(ulo, uhi):
+                                ad[u] = ((ad[u] + g0 * d0[u]) + g1 * d1[u]) + g2 * d2[u]
+                            k += 3
+                            continue
+                        if jj >= 1 and jj <= bh:
+                            g = taps[k]
+                            dk = dbx_o[jj]
+                            for u in range(ulo, uhi):
+                                ad[u] = ad[u] + g * dk[u]
+                        k += 1
+                w0r, bcr = w0[j], bc_o[j]
+                f0r, f1r, vxr, vyr = fibre[0, y], fibre[1, y], vx[y], vy[y]
+                for u in range(ulo, uhi):
+                    fr = _smoothstep_w(eta * (ONE - am[u]), finv)
                     if drying:
-                        dv = np.float32(2.0) * (ONE - ad[i])
+                        dv = np.float32(2.0) * (ONE - ad[u])
                         fr = fr * (ONE if dv > ONE else dv)
-                    own_p = ONE - sdrop * (_smoothstep_w(w0[j, i], sinv) * (ONE - fr))
+                    own_p = ONE - sdrop * (_smoothstep_w(w0r[u], sinv) * (ONE - fr))
                     if disp > ZERO:
-                        own_p = _fibre_dispersion(fibre, vx, vy, y, np.uint64(x0 + i - 1),
-                                                  disp, vfib, own_p)
-                    bc_o[j, i] = bc_o[j, i] * own_p
+                        f0 = f0r[xo + u]
+                        f1 = f1r[xo + u]
+                        a = vxr[xo + u]
+                        b = vyr[xo + u]
+                        s = np.sqrt(a * a + b * b)
+                        s = s if s < vfib else vfib
+                        own_p = own_p + disp * ((f0 if f0 > f1 else f1) * s)
+                    bcr[u] = bcr[u] * own_p
 
 
 @_inline

@@ -238,7 +238,9 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     bounds = row_bounds(spans, nsp, bh, F.ring_chunks())
     do_pr = (outward or prm.paper_relief > 0) and runs("water_height_and_boundary")
     # the standing gate's front factor needs M' (the y half of the blur): prep leaves the
-    # standing and dispersion factor out of beta_c, K.standing_front applies it after
+    # standing and dispersion factor out of beta_c, K.standing_front applies it after and
+    # writes pass 3's levelled height on the way (its y half of the blur is M'), so
+    # advect_jacobi1 runs without do_pr
     front = cst[K.C_FINV] > 0 and outward and do_pr
     cprep = cst
     if front:
@@ -250,8 +252,8 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
            s2["opn"], s2["mbx"], state.wet_area, prm.wet_hold > 0, bounds)
     if front:
         K.standing_front(s2["w0"], state.wc, state.h, state.vx, state.vy, state.fibre,
-                         s2["mbx"], taps, y0, x0, bh, bw, cst, spans, nsp, bounds, s2["dbx"],
-                         s2["bc"])
+                         s2["mbx"], s2["wet"], taps, y0, x0, bh, bw, cst, spans, nsp, bounds,
+                         s2["dbx"], s2["bc"], s2["pr"])
     wet, bc, w0, p0 = s2["wet"], s2["bc"], s2["w0"], s3["p0"]
     # pass 3 levels w itself unless the flow-outward or the relief term is on
     pr = s2["pr"] if do_pr else w0
@@ -263,7 +265,8 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     # with one iteration, limit_diffuse_fused computes it in its row ring (no xw/xp fields)
     jac1 = n_it == 1
     K.advect_jacobi1(wet, state.vx, state.vy, bc, w0, p0, s2["mbx"], state.h, taps, y0, x0,
-                     bh, bw, ns, cst, jw and not jac1, jp and not jac1, do_pr, outward, spans,
+                     bh, bw, ns, cst, jw and not jac1, jp and not jac1, do_pr and not front,
+                     outward, spans,
                      nsp, s2["v1x"], s2["v1y"], xw, xp, s2["pr"], bounds)
     if not jw:
         xw = w0

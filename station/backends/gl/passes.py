@@ -206,8 +206,10 @@ class GLStepPasses:
                                                                      "FRONT_DRY": dry})
         if ntaps and front >= 0:
             self._programs["front"] = self._compile("front.comp", {**const, "FRONT_DRY": dry})
-        self._programs["jacobi_first"] = self._compile("jacobi.comp",
-                                                       {**const, "FIRST_ITER": 1})
+        # with the front pass, front.comp writes pass 3's levelled height (PR_DONE)
+        self._programs["jacobi_first"] = self._compile(
+            "jacobi.comp", {**const, "FIRST_ITER": 1,
+                            "PR_DONE": 1 if ntaps and front >= 0 else 0})
         self._pressure_taps = (bits, hold, front)
 
     def _begin_step(self) -> None:
@@ -291,6 +293,7 @@ class GLStepPasses:
             self._bind(5, self.dx, True, False)
             self._bind(6, f["fibre"].src, True, False)
             self._bind(7, self.jv[0], True, True)
+            self._bind(0, self.pr, False, True)
             self._dispatch("front")
         # pass 3's levelled height P runs in the first Jacobi iteration (_pass_diffusion);
         # until the diffusion passes run, jv[0] holds wb (.w) and jv[1] is free
