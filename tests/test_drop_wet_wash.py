@@ -40,11 +40,12 @@ def test_flow_along_the_fibres_feathers_the_drop() -> None:
     shipped: the film's levelling flow run along the paper's fibres where water stands
     (``fibre_permeability`` 1, gated by ``fibre_gate_depth`` 0.15, off where the flow
     outward pulls), the pigment's own diffusion negligible in standing water
-    (``standing_nu_p`` 0.005 from ``standing_depth`` 0.005 up; ``nu_p`` 0.3 on damp paper,
-    and at a front over dry paper: ``standing_front_pull``, ``standing_front_dry``, which
-    keep the brush rim's band) and its dispersion along the channels a fibre long
+    (``standing_nu_p`` 0.002 from ``standing_depth`` 0.05 up; ``nu_p`` 0.3 on damp paper
+    and in the thin film a wash dries through, where the pigment settles by the paper's
+    height, and at a front over dry paper: ``standing_front_pull``, ``standing_front_dry``,
+    which keep the brush rim's band) and its dispersion along the channels a fibre long
     (``fibre_dispersivity`` 9): the brushed drop into the wet wash dries with a feathered,
-    irregular front (feather 1.45, radius CV 0.19; before session 12's profile: 1.20,
+    irregular front (feather 1.43, radius CV 0.19; before session 12's profile: 1.20,
     0.09, a soft round blot) and keeps its spread and strength."""
     prm = profiles.PROFILES["watercolor"].params
     assert prm.fibre_gate() > 0 and prm.standing_front()[0] > 0

@@ -64,15 +64,16 @@ def test_wet_in_wet_stroke_feathers_along_the_fibres() -> None:
     # blot in a fully wet rectangle. Its spread (>= 2x the footprint, asserted here until
     # session 12) is not issue 21's measure: with the wet-wash drop's levers on by default
     # (the pigment's own diffusion 0.005 in standing water, so a drop dries feathered
-    # instead of as a soft round blot) the blot spreads 1.85x (2.11x with standing_depth
+    # instead of as a soft round blot) the blot spreads 1.84x (2.11x with standing_depth
     # 0, 2.24x with no fibres either): the very diffusion the drop loses. The issue's
     # spread is the brushed drop's (tests/test_drop_wet_wash.py: >= 2.5 brush radii).
     # Measured at the old rim flow (flow_outward 0.3, edge_evap 1), as before.
     calm = dataclasses.replace(get_profile("watercolor").params, flow_outward=0.3,
                                edge_evap=1.0)
     e = fx.wet_in_wet(calm)
-    # feather 1.60 (main before session 12: 1.12, a soft blur), spread 1.85
-    assert e.numbers["feather"] >= 1.5 and e.numbers["spread_area_ratio"] >= 1.8, e.numbers
+    # feather 1.49 (1.60 with session 12's standing_depth 0.005, which cost a deep wash its
+    # granulation; main before session 12: 1.12, a soft blur), spread 1.84
+    assert e.numbers["feather"] >= 1.4 and e.numbers["spread_area_ratio"] >= 1.8, e.numbers
     # the fibres do it: without their channel and dispersion the same stroke is a soft
     # blur (feather 1.00)
     still = fx.wet_in_wet(dataclasses.replace(calm, fibre_dispersivity=0.0,
