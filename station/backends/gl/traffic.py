@@ -55,8 +55,10 @@ def floats_per_cell_step(slots: int, jacobi_iters: int, wet_memory: bool = False
         passes["capillary_dry (capillary diffusion/evaporation, dry_cells)"] += 1
     if front >= 0:
         # read jv(4), bx, h, block, block_time, w, fibre(2), v(2) (the y blur's neighbours
-        # from cache); write jv(4)
-        passes["front (the standing gate's front factor on wb)"] = 14 + 4
+        # from cache); write jv(4) and pass 3's levelled height P, which the first Jacobi
+        # iteration then neither forms nor reads h and bx for (PR_DONE)
+        passes["front (the standing gate's front factor on wb)"] = 14 + 4 + 1
+        passes["jacobi (pass 3's levelled height; velocity, water, pigment)"] -= 2 + 1
     if front > 0:
         # blur_x also reads wc, h and writes dx; front.comp reads dx
         passes["blur_x (pass 3's wet area blurred along x)"] += 3
