@@ -39,6 +39,19 @@ to the rim). ``--front-nu 0.04`` gives the shape back (0.87) and the glaze (6.19
 damp bloom's front falls 1.43 -> 1.28; with ``--dry-outside 0.5`` the bloom keeps 1.43 and,
 at ``flow_outward`` 0.55, wet_blur 4: rim 1.73, 1.50, 1.32 (2 cells), drop feather 1.45 / CV
 0.19, bloom 1.46 / 5 lobes, glaze 5.33.
+
+Session 13 (drop13, ``--measure gran``: test_canvas_spectral's deep flat wash, valleys vs
+hills dE76, floor 2): recipe D costs it (2.90 -> 1.58) through ``standing_depth`` 0.005,
+which holds the pigment's low diffusion through the thin film a wash dries in, where the
+pigment settles by the paper's height. The profile's levers and front now (``--set`` needs
+none): ``standing_depth`` 0.05 and ``standing_nu_p`` 0.002 (the low diffusion only in deep
+standing water, where the drop spreads) and ``flow_outward`` 0.48: gran 2.18, drop 1.425 /
+0.190, rim 1.64 1.43 1.27 (2 cells), bloom 1.34 / 3 lobes, glaze 5.80 (rows 3.5 s apart:
+turn 1.347, tests/test_wet_area_rows.py). Knobs from there: ``standing_depth`` 0.03 / 0.07 /
+0.1: gran 1.91 / 2.25 / 2.38, drop feather 1.39 / 1.35 / 1.29 (flow 0.55); the low diffusion
+only where the water moves (smoothstep(|v| / v0), v0 0.02-0.5) does not separate them (gran
+1.60-1.85 while the feather falls to 1.13); ``flow_outward`` 0.45 / 0.5 / 0.55: rows' turn
+1.31 / 1.36 / 1.40, rim ring 2 1.40 / 1.45 / 1.49.
 """
 
 from __future__ import annotations
@@ -50,13 +63,16 @@ import sys
 
 import numpy as np
 
+from station.backends.numpy_canvas import NumpyCanvas
 from station.brush.stamp import BrushModel
 from station.canvas import passes, profiles, reference
 from station.canvas.params import SimParams
 from station.canvas.stencils import blurred_wet, gaussian_taps
+from station.pictures import effects as fx
 from station.pictures import effects_bloom, effects_brush
 from station.pictures.effects_core import darkness_map
 from station.pictures.measure import edge_band
+from station.pictures.scenarios import distance_inside, paint, rect, run_until_dry
 
 F32 = np.float32
 LEVERS: dict[str, float] = {"fibre_permeability": 1.0, "fibre_dispersivity": 9.0,
@@ -145,6 +161,18 @@ def measure(what: set[str]) -> dict[str, object]:
         out["bloom"] = {"front": cl["front_ratio"], "cv": cl["cv"], "lobes": cl["lobes"]}
     if "glaze" in what:
         out["glaze_de76"] = effects_brush.brush_glazing().numbers["delta_e76_glaze_vs_mix"]
+    if "gran" in what:  # test_canvas_spectral's deep flat wash: valleys vs hills dE76 (>= 2)
+        c = NumpyCanvas(48, 48, seed=5)
+        fp = rect(48, 48, 6, 42, 6, 42)
+        paint(c, fp, 0.6, {"French Ultramarine": 0.3})
+        run_until_dry(c, 6000)
+        c.dry()
+        img, h = c.render(), c.live_state.h
+        inner = distance_inside(fp) >= 4
+        hv = h[inner]
+        valley, hill = hv < np.quantile(hv, 0.25), hv > np.quantile(hv, 0.75)
+        out["gran_de76"] = float(fx.delta_e76(img[inner][valley].mean(axis=0),
+                                              img[inner][hill].mean(axis=0)))
     return out
 
 
