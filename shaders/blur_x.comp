@@ -17,6 +17,13 @@ layout(rgba32f, binding = 1) uniform readonly image2D water_in;
 layout(rgba32f, binding = 2) uniform readonly image2D paper_in;
 layout(r32f, binding = 4) uniform writeonly image2D bx_out;
 layout(r32f, binding = 5) uniform readonly image2D area_in;  // wet_area after prep
+#if FRONT_DRY
+// standing_front_dry: the not-dry paper (wc >= T c) blurred along x too, for front.comp
+layout(r32f, binding = 6) uniform writeonly image2D dx_out;
+const float u_fdry = K_FDRY;
+const float u_cmin = K_CMIN;
+const float u_crange = K_CRANGE;
+#endif
 
 // NTAPS (2R + 1 >= 3), TAPS (the float32 Gaussian taps, offset -R first, an array
 // constructor of their exact bits: immediates, not a uniform array loaded in every lane) and
@@ -40,10 +47,24 @@ float own_wet(ivec2 c) {
 #endif
 }
 
+#if FRONT_DRY
+// not dry: capillary water at least T of the capacity; 0 outside the canvas (at rest, dry)
+float not_dry(ivec2 c) {
+    float wc = imageLoad(water_in, c).y;
+    float m = wc >= u_fdry * (u_cmin + imageLoad(paper_in, c).x * u_crange) ? 1.0 : 0.0;
+    return inside(c) ? m : 0.0;
+}
+#endif
+
 void blur_row(ivec2 c) {
     float row = 0.0;
     for (int kx = 0; kx < NTAPS; ++kx) row += taps_x[kx] * own_wet(c + ivec2(kx - R, 0));
     imageStore(bx_out, c, vec4(row, 0.0, 0.0, 0.0));
+#if FRONT_DRY
+    float nd = 0.0;
+    for (int kx = 0; kx < NTAPS; ++kx) nd += taps_x[kx] * not_dry(c + ivec2(kx - R, 0));
+    imageStore(dx_out, c, vec4(nd, 0.0, 0.0, 0.0));
+#endif
 }
 
 void main() {

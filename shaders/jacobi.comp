@@ -43,8 +43,11 @@ void main() {
     bool wet = is_wet(j.w);
     vec4 rhs = imageLoad(aux_in, c);
 #ifdef FIRST_ITER
-    // prep wrote w into aux (.z) and wb into the first iterate (.w)
+#if !PR_DONE
+    // prep wrote w into aux (.z) and wb into the first iterate (.w); with PR_DONE
+    // front.comp wrote P already (it blurs bx along y for the standing gate's front)
     imageStore(pr_out, c, vec4(levelled_height(c, rhs.z, wet), 0.0, 0.0, 0.0));
+#endif
 #endif
     vec3 s = vec3(0.0);  // sums of velocity (xy) and water (z) iterates over open faces
     float nopen = 0.0;

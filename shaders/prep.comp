@@ -29,6 +29,8 @@ const float u_curv = K_CURV;         // advance_curvature: the meniscus's curvat
 const float u_curv_n = K_CURV_N;       // float32(1 + 2 advance_curvature)
 const float u_wick = K_WICK;         // fibre_wick: a fibre along the axis lowers the advancing height
 const float u_disperse = K_DISPERSE;     // fibre_dispersivity / nu_p [s/cell]: dispersion along fibre channels
+const float u_sinv = K_SINV;         // 1 / standing_depth (0: off): pigment diffusion in standing water
+const float u_sdrop = K_SDROP;       // float32(1 - standing_nu_p / nu_p)
 const float u_fibre_flow_max = K_FIBRE_FLOW_MAX;  // [cell/s] water moves through the fibre channels no faster
 const float u_ease = K_EASE;         // damp_ease: damp paper's suction eases the advancing height
 const float u_dsat = K_DSAT;         // damp_sat [1]
@@ -114,13 +116,22 @@ void main() {
     float age = u_block_fade > 0.0 ? clamp((u_sim_time - pa.w) / u_block_fade, 0.0, 1.0) : 1.0;
     float eff = pa.z + (1.0 - pa.z) * age;
     float beta_c = min(1.0 - u_block_paper * (1.0 - pa.x), eff);
+    // standing_depth: the pigment's own diffusion standing_nu_p in standing water
+    // (passes.blocking's standing: 1 - drop * smoothstep(min(w / depth, 1)))
+    float own_p = 1.0;
+    if (u_sinv > 0.0) {
+        float t = min(wa.x * u_sinv, 1.0);
+        own_p = 1.0 - u_sdrop * ((t * t) * (3.0 - 2.0 * t));
+    }
     if (u_disperse > 0.0) {
         // times 1 + gd * (max(fibre along x, along y) * min(|v|, fibre_flow_max)), v at the
         // start of the step: moving water disperses its pigment along the fibre channels
         vec2 fd = imageLoad(fibre_in, c).xy;
         vec2 v0 = imageLoad(vel_in, c).xy;
         float s = min(sqrt(v0.x * v0.x + v0.y * v0.y), u_fibre_flow_max);
-        beta_c = beta_c * (1.0 + u_disperse * (max(fd.x, fd.y) * s));
+        beta_c = beta_c * (own_p + u_disperse * (max(fd.x, fd.y) * s));
+    } else if (u_sinv > 0.0) {
+        beta_c = beta_c * own_p;
     }
     vec2 v1 = vec2(0.0);
     if (wet) {

@@ -152,6 +152,26 @@ def test_fibre_dispersivity_is_validated() -> None:
         raise AssertionError(f"fibre_dispersivity={bad} accepted")
 
 
+def test_standing_front_is_validated_and_off_without_its_terms() -> None:
+    for name, bad in (("standing_front_pull", -0.1), ("standing_front_pull", 11.0),
+                      ("standing_front_dry", -0.1), ("standing_front_dry", 1.5),
+                      ("standing_front_pull", float("nan"))):
+        try:
+            PRM.replace(**{name: bad})
+        except CanvasInputError:
+            continue
+        raise AssertionError(f"{name}={bad} accepted")
+    on = PRM.replace(standing_depth=0.3, standing_nu_p=0.005, standing_front_pull=0.04,
+                     standing_front_dry=0.5, flow_outward=0.5, wet_blur=2.0)
+    assert on.standing_front() == (25.0, 0.5)
+    # no standing gate, no pull: off (the reference leaves the gate as it is)
+    assert on.replace(standing_depth=0.0).standing_front() == (0.0, 0.0)
+    assert on.replace(flow_outward=0.0).standing_front() == (0.0, 0.0)
+    g = np.full((3, 3), 0.5, np.float32)
+    off = on.replace(standing_front_pull=0.0)
+    assert ref.standing_front(g, np.zeros((3, 3), np.float32), g, g, off) is g
+
+
 def test_evaporation_is_faster_at_stroke_edges_and_booked() -> None:
     w = np.zeros((5, 5), np.float32)
     w[1:4, 1:4] = 0.5

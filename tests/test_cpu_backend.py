@@ -117,7 +117,8 @@ def test_multi_step_stroke_is_bitwise_equal() -> None:
 
 @pytest.mark.parametrize("change", [{"jacobi_iters": 1}, {"jacobi_iters": 3},
                                     {"nu_w": 0.0, "viscosity": 0.0},
-                                    {"nu_p": 0.0, "cap_diffusion": 0.0, "block_fade": 0.0},
+                                    {"nu_p": 0.0, "standing_nu_p": 0.0, "cap_diffusion": 0.0,
+                                     "block_fade": 0.0},
                                     {"flow_outward": 0.0, "advance_height": 0.0},
                                     {"flow_outward": 0.8, "wet_blur": 4.0, "temperature": 35.0,
                                      "humidity": 0.2, "advance_height": 0.3},
@@ -132,7 +133,10 @@ def test_multi_step_stroke_is_bitwise_equal() -> None:
                                     {"damp_ease": 2.0, "fibre_wick": 0.7},
                                     {"lift_gain": 1.0}, {"lift_gain": 37.0},
                                     {"wet_hold": 0.0}, {"wet_hold": 0.2},
-                                    {"wet_hold": 3.0, "moist_threshold": 0.25}])
+                                    {"wet_hold": 3.0, "moist_threshold": 0.25},
+                                    {"fibre_permeability": 1.0, "nu_p": 0.02,
+                                     "fibre_dispersivity": 9.0},
+                                    {"fibre_permeability": 0.35, "paper_relief": 0.3}])
 def test_parameter_variants_match(change: dict[str, Any]) -> None:
     prm = dataclasses.replace(get_profile("watercolor").params, **change)
     a = _random_canvas(NumpyCanvas, 3, params=prm)
@@ -333,6 +337,64 @@ def test_fibre_dispersion_on_cold_press_is_bitwise_equal() -> None:
     for f in FIELDS:
         assert np.array_equal(getattr(a.live_state, f), getattr(b.live_state, f)), f
     assert not np.array_equal(a.live_state.p, plain.live_state.p)
+
+
+def test_fibre_channelled_flow_on_cold_press_is_bitwise_equal() -> None:
+    """The levelling flow along the paper's fibres (pass 3's height term times
+    1 - a + 4 a fibre[axis], cold-press paper) agrees bit for bit, and it changes the flow."""
+    plain_prm = get_profile("watercolor").params
+    prm = dataclasses.replace(plain_prm, fibre_permeability=1.0, nu_p=0.02,
+                              fibre_dispersivity=9.0)
+    a = _random_canvas(NumpyCanvas, 7, params=prm)
+    b = _random_canvas(CpuCanvas, 7, params=prm)
+    assert a.live_state.fibre.any()
+    plain = _random_canvas(NumpyCanvas, 7, params=dataclasses.replace(prm,
+                                                                      fibre_permeability=0.0))
+    for _ in range(30):
+        for c in (a, b, plain):
+            c.step()
+    for f in FIELDS:
+        assert np.array_equal(getattr(a.live_state, f), getattr(b.live_state, f)), f
+    assert not np.array_equal(a.live_state.vx, plain.live_state.vx)
+
+
+@pytest.mark.parametrize(("fibred", "tiling"), [(True, False), (False, False), (True, True)])
+def test_standing_water_gate_and_diffusion_are_bitwise_equal(fibred: bool,
+                                                             tiling: bool) -> None:
+    """Pass 3's fibre channel faded in by the standing water (fibre_gate_depth), off where
+    the flow outward pulls (fibre_gate_pull), and the
+    pigment's own diffusion faded to standing_nu_p in it (standing_depth), itself off near
+    the edge of the wet area over dry paper (standing_front_pull, standing_front_dry: the
+    blurred wet-area mask and the blurred dry-paper mask, K.standing_front after prep):
+    every field bit for bit, on cold-press paper and on paper without fibre (there the
+    channel is off), untiled and tiled (the cpu step computes only the cells near live
+    ones), and the terms change the flow and the pigment."""
+    base = dataclasses.replace(get_profile("watercolor").params, fibre_permeability=1.0,
+                               fibre_dispersivity=9.0, fibre_gate_depth=0.0,
+                               fibre_gate_pull=0.0, standing_depth=0.0, standing_nu_p=0.0,
+                               standing_front_pull=0.0, standing_front_dry=0.0)
+    gated = dataclasses.replace(base, fibre_gate_depth=0.4, fibre_gate_pull=0.1,
+                                standing_depth=0.3, standing_nu_p=0.005)
+    prm = dataclasses.replace(gated, standing_front_pull=0.04, standing_front_dry=0.5)
+    runs = []
+    for cls, p in ((NumpyCanvas, prm), (CpuCanvas, prm), (NumpyCanvas, base),
+                   (NumpyCanvas, gated)):
+        c = _random_canvas(cls, 8, params=p, tiling=tiling)
+        if not fibred:
+            c.live_state.fibre[...] = 0
+        runs.append(c)
+    for _ in range(20):
+        for c in runs:
+            c.step()
+    a, b, ungated, no_front = (c.live_state for c in runs)
+    for f in FIELDS:
+        assert np.array_equal(getattr(a, f), getattr(b, f)), f
+    if tiling:
+        assert np.array_equal(a.tile_ttl, b.tile_ttl)
+    assert not np.array_equal(a.p, ungated.p)
+    assert not np.array_equal(a.p, no_front.p)
+    if fibred:
+        assert not np.array_equal(a.vx, ungated.vx)
 
 
 def test_live_stroke_on_tiles_is_bitwise_equal() -> None:

@@ -7,6 +7,7 @@ import json
 import pytest
 
 from station.bench import sim
+from station.canvas.profiles import get_profile
 from station.cli import main
 from station.errors import BadInput
 
@@ -57,7 +58,7 @@ def test_bench_sim_gl_passes_profile_and_bound(capsys) -> None:
     """``--passes``: where a GL step's time goes, per program, with each program's own
     bytes (the traffic model's) and the step's distance from its bound (issue 26 item 4)."""
     _needs_gl()
-    from station.backends.gl.traffic import floats_per_program
+    from station.backends.gl.traffic import floats_per_program, front_mode
 
     rc = main(["bench", "sim", "--json", "--sizes", "64x48", "--seconds", "0.05",
                "--backends", "gl", "--scenarios", "wash", "--passes"])
@@ -67,10 +68,13 @@ def test_bench_sim_gl_passes_profile_and_bound(capsys) -> None:
     prof = r["passes"]
     assert prof["steps"] == sim.PROFILE_STEPS and prof["active_cells"] == 64 * 48
     programs = prof["programs"]
-    # watercolor: the wet-area memory and a 15-tap flow-outward blur (blur_x, then
-    # down the columns in the first Jacobi iteration)
-    model = floats_per_program(4, 1, wet_memory=True)
+    # watercolor: the wet-area memory, a 17-tap flow-outward blur (blur_x, then down the
+    # columns in the first Jacobi iteration) and the standing gate's front factor over
+    # dry paper (front.comp, blur_x's second blur)
+    front = front_mode(*get_profile("watercolor").params.standing_front())
+    model = floats_per_program(4, 1, wet_memory=True, front=front)
     assert set(programs) == set(model) and "blur_x" in programs and "pressure" not in model
+    assert front == 1 and "front" in programs
     assert sum(4 * model[k] for k in model) == r["bytes_per_cell_step"]
     assert sum(p["share"] for p in programs.values()) == pytest.approx(1.0, abs=1e-3)
     for name, p in programs.items():

@@ -249,13 +249,18 @@ def test_renderer_string_and_traffic_count(ctx) -> None:
     assert mem and sum(with_mem.values()) == sum(without.values())
     blur = "blur_x (pass 3's wet area blurred along x)"
     assert (with_mem[blur], without[blur]) == (2, 4)
-    assert g.bytes_per_cell_step() == 4 * sum(count(0, n, mem).values())
+    jac = "jacobi (pass 3's levelled height; velocity, water, pigment)"
+    front = gl.traffic.front_mode(*g.params.standing_front())  # the profile's: over dry paper
+    assert front == 1
+    assert g.bytes_per_cell_step() == 4 * sum(count(0, n, mem, front).values())
     stamp(g, 10, 10, 3, {"Black": 0.1})
-    assert g.bytes_per_cell_step() == 4 * sum(count(4, n, mem).values())
+    assert g.bytes_per_cell_step() == 4 * sum(count(4, n, mem, front).values())
     for name in ("Cadmium Red", "Hansa Yellow", "Burnt Umber", "Cerulean Blue"):
         stamp(g, 10, 10, 3, {name: 0.1})
-    assert g.bytes_per_cell_step() == 4 * sum(count(8, n, mem).values())
-    jac = "jacobi (pass 3's levelled height; velocity, water, pigment)"
+    assert g.bytes_per_cell_step() == 4 * sum(count(8, n, mem, front).values())
+    # with the front pass, it forms pass 3's levelled height (it has M'), not the first
+    # Jacobi iteration
+    assert count(4, 1, mem, front)[jac] == count(4, 1, mem)[jac] - 3
     assert count(8, 4)[jac] > count(4, 4)[jac]
     # pass 3's levelled height rides in the first Jacobi iteration: no pass of its own, and
     # of its reads only h and bx are new there (w and wb come with aux and jv); one more

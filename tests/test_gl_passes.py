@@ -332,6 +332,112 @@ def test_full_step_with_fibre_dispersion_matches_reference(ctx) -> None:
     assert not np.array_equal(plain.p, want.p)  # the dispersion changed the step
 
 
+def test_levelling_flow_runs_along_the_fibres(ctx) -> None:
+    """fibre_permeability: pass 3's height term along each axis times 1 - a + 4 a fibre
+    (the fibre texture read through a sampler in limit.comp), then a full step."""
+    prm = SimParams(fibre_permeability=1.0, fibre_dispersivity=9.0, nu_p=0.02)
+    st = random_state(5, prm)
+    st.fibre = make_fibres("cold-press", H, W, 5)
+    c = gl_canvas(ctx, st)
+    c._pass_prep()
+    c._pass_diffusion()
+    out = c.state()
+    wet = ref.wet_mask(st.w, st.wc, st.mask, prm, st.h, st.fibre)
+    vx, vy = ref.advect_velocity(st.vx, st.vy, wet, prm.dt)
+    vx, vy = ref.diffuse_velocity(vx, vy, wet, prm, prm.dt)
+    pr = ref.flow_pressure(st.w, ref.own_wet(st.w, st.wc, st.mask, prm), wet, st.h, prm)
+    vx, vy = ref.water_height_and_boundary(vx, vy, pr, wet, prm, prm.dt, st.fibre)
+    close("velocity x (passes 1-3)", out.vx, vx)
+    close("velocity y (passes 1-3)", out.vy, vy)
+    vx0, _ = ref.water_height_and_boundary(*ref.diffuse_velocity(
+        *ref.advect_velocity(st.vx, st.vy, wet, prm.dt), wet, prm, prm.dt), pr, wet, prm)
+    assert np.abs(vx0 - vx).max() > 1e-2  # the fibres channel the flow
+    c = gl.GLCanvas(W, H, ctx=ctx, tiling=False)
+    c.load_state(st)
+    c.step()
+    got = c.state()
+    want = st.copy()
+    ref.step(want)
+    for name in ("vx", "vy", "w", "wc", "p", "q", "evaporated"):
+        close(name, getattr(got, name), getattr(want, name))
+
+
+@pytest.mark.parametrize("fibred", [True, False])
+def test_standing_water_gates_the_channel_and_the_diffusion(ctx, fibred: bool) -> None:
+    """fibre_gate_depth: pass 3's channel faded in by the standing water, off where the flow
+    outward pulls (fibre_gate_pull, with the relief term) and on paper without fibre
+    (u_fibred); standing_depth: beta_c's own share 1 - drop smoothstep(w /
+    depth) (prep.comp); passes 1-3 and beta_c against the reference, then a full step."""
+    prm = SimParams(fibre_permeability=1.0, fibre_dispersivity=9.0, fibre_gate_depth=0.4,
+                    fibre_gate_pull=0.1, paper_relief=0.2, standing_depth=0.3,
+                    standing_nu_p=0.005)
+    st = random_state(6, prm)
+    st.fibre = make_fibres("cold-press", H, W, 6) if fibred else np.zeros((2, H, W), np.float32)
+    c = gl_canvas(ctx, st)
+    c._pass_prep()
+    wet = ref.wet_mask(st.w, st.wc, st.mask, prm, st.h, st.fibre)
+    standing = ref.standing_gate(st.w, prm.standing_diffusion()[0])
+    beta_c = ref.blocking(st.h, st.block, st.block_time, st.sim_time, prm, st.fibre,
+                          ref.water_speed(st.vx, st.vy, prm), standing)
+    close("beta_c", read_rgba(c, c.jv[0])[..., 3][wet], beta_c[wet])
+    c._pass_diffusion()
+    out = c.state()
+    vx, vy = ref.advect_velocity(st.vx, st.vy, wet, prm.dt)
+    vx, vy = ref.diffuse_velocity(vx, vy, wet, prm, prm.dt)
+    pr = ref.flow_pressure(st.w, ref.own_wet(st.w, st.wc, st.mask, prm), wet, st.h, prm)
+    gate = ref.fibre_gate(st, st.w, st.h, pr)
+    assert gate is not None and (bool(((gate > 0) & (gate < 1)).any()) == fibred)
+    vx, vy = ref.water_height_and_boundary(vx, vy, pr, wet, prm, prm.dt, st.fibre, gate)
+    close("velocity x (passes 1-3)", out.vx, vx)
+    close("velocity y (passes 1-3)", out.vy, vy)
+    c = gl.GLCanvas(W, H, ctx=ctx, tiling=False)
+    c.load_state(st)
+    c.step()
+    got = c.state()
+    want = st.copy()
+    ref.step(want)
+    for name in ("vx", "vy", "w", "wc", "p", "q", "evaporated"):
+        close(name, getattr(got, name), getattr(want, name))
+
+
+@pytest.mark.parametrize("dry", [0.0, 0.5])
+def test_standing_gate_front_keeps_the_diffusion_at_the_edge(ctx, dry: float) -> None:
+    """standing_front_pull: the standing gate times 1 - smoothstep(eta (1 - M') / pull)
+    (front.comp after blur_x, which M' needs), with standing_front_dry times min(2 (1 -
+    D'), 1), D' the blurred not-dry paper (blur_x's dx): beta_c against the reference's
+    standing_front (and not the plain gate's); front.comp also forms pass 3's levelled
+    height (with the paper's relief for dry 0.5), which the first Jacobi iteration then
+    leaves alone; then a full step."""
+    prm = SimParams(fibre_permeability=1.0, fibre_dispersivity=9.0, standing_depth=0.3,
+                    standing_nu_p=0.005, standing_front_pull=0.04, standing_front_dry=dry,
+                    wet_blur=2.0, flow_outward=0.3, paper_relief=0.4 * dry)
+    st = random_state(6, prm)
+    st.fibre = make_fibres("cold-press", H, W, 6)
+    c = gl_canvas(ctx, st)
+    c._pass_prep()
+    wet = ref.wet_mask(st.w, st.wc, st.mask, prm, st.h, st.fibre)
+    plain = ref.standing_gate(st.w, prm.standing_diffusion()[0])
+    area = ref.wet_memory(ref.own_wet(st.w, st.wc, st.mask, prm), st.wet_area, prm)
+    standing = ref.standing_front(plain, area, st.wc, st.h, prm)
+    speed = ref.water_speed(st.vx, st.vy, prm)
+    beta_c = ref.blocking(st.h, st.block, st.block_time, st.sim_time, prm, st.fibre, speed,
+                          standing)
+    beta_plain = ref.blocking(st.h, st.block, st.block_time, st.sim_time, prm, st.fibre,
+                              speed, plain)
+    assert float(np.abs(beta_c - beta_plain)[wet].max()) > 0.1
+    close("beta_c", read_rgba(c, c.jv[0])[..., 3][wet], beta_c[wet])
+    close("levelled height", read_rgba(c, c.pr, 1)[..., 0],
+          ref.flow_pressure(st.w, area, wet, st.h, prm))
+    c = gl.GLCanvas(W, H, ctx=ctx, tiling=False)
+    c.load_state(st)
+    c.step()
+    got = c.state()
+    want = st.copy()
+    ref.step(want)
+    for name in ("vx", "vy", "w", "wc", "p", "q", "evaporated"):
+        close(name, getattr(got, name), getattr(want, name))
+
+
 @pytest.mark.parametrize("iters", [1, 4])
 def test_velocity_water_pigment_diffusion(ctx, iters: int) -> None:
     # paper relief on for odd counts: pass 3 then levels (w + relief h) - eta (1 - M')

@@ -48,9 +48,21 @@ OLD = {
     # blooms' CV 0.161 -> 0.169, items 3/4)
     # (s10: on drier paper the contact line's reach feels the meniscus's curvature: a front
     # crept into dry paper no longer dries as rectangular battlements, items 3/8)
+    # (s12: the wet-wash drop's levers (wetdrop3: the gated fibre channel, its dispersion a
+    # fibre long, the pigment's own diffusion 0.005 in standing water) with drop12's
+    # recipe D (that diffusion kept at nu_p at fronts over dry paper, flow outward 0.55
+    # over a 4-cell blur), so a drop of colour into a wet wash feathers and the brush rim
+    # keeps its 2-cell band, issue 21 items 3/4)
+    # (s13: that diffusion low only in water deeper than 0.05 (0.002 there), so the thin
+    # film a flat wash dries through still lets the pigment settle by the paper's height
+    # (granulation), and flow outward 0.48, so rows laid 3.5 s apart meet without an
+    # arrowhead, issue 21 items 4/7/8)
     "watercolor": SimParams().replace(advance_grain=0.0, advance_curvature=1.0,
-                                      fibre_dispersivity=4.5, flow_outward=0.4, edge_evap=3.0,
-                                      wet_blur=3.5,
+                                      fibre_dispersivity=9.0, flow_outward=0.48,
+                                      edge_evap=3.0, wet_blur=4.0, fibre_permeability=1.0,
+                                      fibre_gate_depth=0.15, fibre_gate_pull=0.04,
+                                      standing_depth=0.05, standing_nu_p=0.002,
+                                      standing_front_pull=0.04, standing_front_dry=0.5,
                                       moist_threshold=1.0, damp_ease=2.7, damp_sat=0.65,
                                       suspend_sat=0.5, fibre_flow_max=1.0, lift_gain=5.0,
                                       wet_hold=30.0, alpha=0.02, jacobi_iters=1),

@@ -94,7 +94,9 @@ def test_rows_3_5_s_apart_meet_without_a_line_or_an_arrowhead() -> None:
     weaker flow outward (0.4) pulls less of row 2's pigment to row 1's receding water.
     1.20 between the rows and 1.33 at the turns (main's model: 1.40 and 1.52). Session 10's
     meniscus curvature on drier paper (advance_curvature) moved the turn to 1.3504: the
-    pale wedge the session notes describe, still far from the old model's arrowhead."""
+    pale wedge the session notes describe, still far from the old model's arrowhead.
+    Session 13 (the wet-wash drop's levers on, flow outward 0.48 over a 4-cell blur for the
+    brush rim): 1.07 and 1.347 (flow outward 0.55: 1.41, the arrowhead back)."""
     d, c = _paint(3.5)
     prof = d[:, W // 4:3 * W // 4].mean(axis=1)
     assert _line(prof) <= LINE_MAX, _line(prof)

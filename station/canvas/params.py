@@ -19,10 +19,18 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from station.canvas.errors import CanvasInputError
 from station.canvas.palette import Pigment
 
-__all__ = ["BrushDefaults", "CanvasInputError", "Profile", "SimParams", "vapour_deficit"]
+__all__ = ["FIBRE_CHANNEL", "BrushDefaults", "CanvasInputError", "Profile", "SimParams",
+           "vapour_deficit"]
+
+FIBRE_CHANNEL = 4.0
+"""A cell full of fibre along an axis conducts the film's levelling flow along it this many
+times the felt's mean (``SimParams.fibre_permeability``): one over the mean fibre share of
+an axis on cold-press paper (0.21-0.22), so a wash's mean flow keeps its pace."""
 
 
 def vapour_deficit(temperature: float, humidity: float) -> float:
@@ -85,10 +93,56 @@ class SimParams:
             the diffusion-controller value is multiplied by
             ``1 + (alpha / nu_p) * max(fibre) * |v|``; the pigment the brush's water pushes
             into a wet wash feathers along the fibres, a calm wash is untouched. 0: off.
+        fibre_permeability: ``a``, how much the paper's fibre felt channels the film's
+            levelling flow [1]: pass 3's water-height velocity along each axis is
+            multiplied by ``(1 - a) + a * FIBRE_CHANNEL * fibre[axis]``
+            (:data:`FIBRE_CHANNEL` = 4, about one over the mean fibre share of an axis on
+            cold-press paper, so the mean conductance stays about 1). Water driven through
+            wet paper runs along the fibres and is held by the felt between them (Darcy
+            flow through a permeability that is uneven at the fibre scale): the paint a
+            brush pushes into a wet wash goes out in fingers along the fibres, a feathered
+            front, not a round blot. 0: off (every built-in profile for now: on with
+            watercolor's ``nu_p`` 0.02 and ``fibre_dispersivity`` 9 it feathers a drop into a
+            wet wash, but it also stops the levelling flow on fibre-less paper and weakens
+            the rims and the damp-wash blooms). On paper without any fibre (hot-press)
+            the factor is 1: there is no felt to channel the flow.
+        fibre_gate_depth: the standing water [height] over which the fibre channel fades
+            in: ``a`` above is ``a * smoothstep(w / fibre_gate_depth)`` per cell, so the
+            channel acts where a wash still stands on saturated paper (a drop into a fully
+            wet wash) and not on damp paper, where the flow outward carries the water to
+            a bloom's or a stroke's edge. 0: no gate (``a`` everywhere).
+        fibre_gate_pull: with ``fibre_gate_depth``, the flow-outward pull [height] at which
+            the channel is off: the gate is also times ``1 - smoothstep(pull /
+            fibre_gate_pull)``, ``pull = (w + paper_relief h) - P`` (pass 3's levelled
+            height ``P`` lies ``flow_outward (1 - M')`` below the water near the edge of the
+            wet area), so a front still spreading into dry paper keeps its flow outward
+            and its rim, and only the inside of a wet wash is channelled (0.1
+            ``flow_outward``: M' above 0.9). 0: no such factor.
         fibre_flow_max: the fastest water moves through the paper's fibre channels
             [cell/s] (capillary/Darcy flow in paper is about a millimetre per second); the
             fibre dispersion uses ``min(|v|, fibre_flow_max)``: a film the brush drives
             faster moves over the paper, not faster through it.
+        standing_depth: the standing water [height] over which the pigment diffusion fades
+            from ``nu_p`` to ``standing_nu_p``: ``nu_p (1 - g) + standing_nu_p g``,
+            ``g = smoothstep(w / standing_depth)`` per cell (on the diffusion controller,
+            so the fibre dispersion is untouched). Micron pigment in standing water hardly
+            diffuses (Brownian, orders below a cell a second); ``nu_p``'s larger value
+            stands for the mixing of a thin, drying film. 0: off (``nu_p`` everywhere).
+        standing_nu_p: the pigment diffusion in standing water [cell^2/s], in
+            ``[0, nu_p]`` (with ``standing_depth``).
+        standing_front_pull: with ``standing_depth``, the flow-outward pull [height] at
+            which the pigment keeps its own diffusion ``nu_p`` in standing water: the
+            standing gate ``g`` is times ``1 - F``, ``F = smoothstep(flow_outward (1 - M')
+            / standing_front_pull)`` (times the dry-paper factor below), ``M'`` the blurred
+            wet-area mask of the flow-outward term: near the edge of a wet area the pile
+            the flow carries out keeps the broad shape of a brush rim (2-5 cells) instead
+            of standing in the outermost cell. 0: off.
+        standing_front_dry: with ``standing_front_pull``, the front factor only where the
+            paper outside is dry: ``F`` is times ``min(2 D, 1)``, ``D = 1 - blur(wc >=
+            standing_front_dry c)`` (the wet mask's blur, ``c`` the capacity; cells
+            outside the simulated area are at rest, so dry): a stroke's edge on dry paper
+            (D about 0.5) keeps it, a bloom's front inside a damp wash (D about 0) keeps
+            the low diffusion. In ``[0, 1]`` [share of capacity]; 0: every front.
         paper_relief: relief of the paper under the water [height per unit of ``h``]: the
             water-height term levels the free surface ``w + paper_relief * h``, so water
             runs off the paper's hills into its valleys (Curtis 1997's flow down the paper
@@ -189,6 +243,13 @@ class SimParams:
     cap_diffusion: float = 1.5
     fibre_wick: float = 0.0
     fibre_dispersivity: float = 0.0
+    fibre_permeability: float = 0.0
+    fibre_gate_depth: float = 0.0
+    fibre_gate_pull: float = 0.0
+    standing_depth: float = 0.0
+    standing_nu_p: float = 0.0
+    standing_front_pull: float = 0.0
+    standing_front_dry: float = 0.0
     fibre_flow_max: float = 2.0
     eps_cap: float = 0.004
     temperature: float = 20.0
@@ -259,6 +320,20 @@ class SimParams:
             raise CanvasInputError("advance_curvature must lie in [0, 4]", "params")
         if not 0 <= self.fibre_wick <= 1:
             raise CanvasInputError("fibre_wick must be in [0, 1]", "params")
+        if not 0 <= self.fibre_permeability <= 1:
+            raise CanvasInputError("fibre_permeability must lie in [0, 1]", "params")
+        if not 0 <= self.fibre_gate_depth <= 10:
+            raise CanvasInputError("fibre_gate_depth must lie in [0, 10]", "params")
+        if not 0 <= self.fibre_gate_pull <= 10:
+            raise CanvasInputError("fibre_gate_pull must lie in [0, 10]", "params")
+        if not 0 <= self.standing_depth <= 10:
+            raise CanvasInputError("standing_depth must lie in [0, 10]", "params")
+        if not 0 <= self.standing_nu_p <= self.nu_p:
+            raise CanvasInputError("standing_nu_p must lie in [0, nu_p]", "params")
+        if not 0 <= self.standing_front_pull <= 10:
+            raise CanvasInputError("standing_front_pull must lie in [0, 10]", "params")
+        if not 0 <= self.standing_front_dry <= 1:
+            raise CanvasInputError("standing_front_dry must lie in [0, 1]", "params")
         if self.fibre_dispersivity > 100:
             raise CanvasInputError("fibre_dispersivity must be <= 100 cells", "params")
         if not 0 <= self.damp_sat <= 0.99:
@@ -312,6 +387,45 @@ class SimParams:
         if self.fibre_dispersivity <= 0 or self.nu_p <= 0:
             return 0.0
         return self.fibre_dispersivity / self.nu_p
+
+    def fibre_channel(self) -> tuple[float, float]:
+        """``(1 - a, FIBRE_CHANNEL * a)`` as float32 values, ``a`` = ``fibre_permeability``:
+        pass 3's water-height velocity along an axis is multiplied by
+        ``base + gain * fibre[axis]`` (both rounded once, as every backend uses them)."""
+        a = self.fibre_permeability
+        return float(np.float32(1.0 - a)), float(np.float32(FIBRE_CHANNEL * a))
+
+    def fibre_gate(self) -> float:
+        """``1 / fibre_gate_depth`` as a float32 value (0: no gate): the channel's gate is
+        ``smoothstep(w * fibre_gate())`` (passes.standing_gate)."""
+        if self.fibre_gate_depth <= 0:
+            return 0.0
+        return float(np.float32(1.0 / self.fibre_gate_depth))
+
+    def fibre_gate_front(self) -> float:
+        """``1 / fibre_gate_pull`` as a float32 value (0: no front factor)."""
+        if self.fibre_gate_pull <= 0:
+            return 0.0
+        return float(np.float32(1.0 / self.fibre_gate_pull))
+
+    def standing_diffusion(self) -> tuple[float, float]:
+        """``(1 / standing_depth, 1 - standing_nu_p / nu_p)`` as float32 values, ``(0, 0)``
+        when off: the diffusion controller is multiplied by ``1 - drop * g``,
+        ``g = smoothstep(w * inv)`` (passes.standing_gate)."""
+        if self.standing_depth <= 0 or self.nu_p <= 0:
+            return 0.0, 0.0
+        return (float(np.float32(1.0 / self.standing_depth)),
+                float(np.float32(1.0 - self.standing_nu_p / self.nu_p)))
+
+    def standing_front(self) -> tuple[float, float]:
+        """``(1 / standing_front_pull, standing_front_dry)`` as float32 values, ``(0, 0)``
+        when the front factor is off: without ``standing_depth``, without a pull
+        (``standing_front_pull``, ``flow_outward`` or ``wet_blur`` 0)."""
+        if (self.standing_front_pull <= 0 or self.standing_diffusion()[0] <= 0
+                or self.flow_outward <= 0 or self.wet_blur <= 0):
+            return 0.0, 0.0
+        return (float(np.float32(1.0 / self.standing_front_pull)),
+                float(np.float32(self.standing_front_dry)))
 
     def replace(self, **changes: Any) -> SimParams:
         """A copy with ``changes`` applied (validated)."""

@@ -89,10 +89,17 @@ def tilt_kick(prm: SimParams, dt: float) -> tuple[np.float32, np.float32]:
 
 
 def water_height_and_boundary(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, wet: np.ndarray,
-                              prm: SimParams, dt: float | None = None
+                              prm: SimParams, dt: float | None = None,
+                              fibre: np.ndarray | None = None,
+                              gate: np.ndarray | None = None
                               ) -> tuple[np.ndarray, np.ndarray]:
     """Pass 3: blend in the water-height velocity and the tilt's gravity, then the
-    no-penetration boundary (``dt`` defaults to ``prm.dt``)."""
+    no-penetration boundary (``dt`` defaults to ``prm.dt``). With ``fibre_permeability``
+    and the fibre texture ``fibre`` (2, H, W) the height term along each axis is
+    multiplied by ``base + gain * fibre[axis]`` (``prm.fibre_channel()``): the film's
+    levelling flow runs along the paper's fibres. With ``gate`` (per cell, in [0, 1]:
+    :func:`standing_gate`) by ``(1 - gate a) + (gate gain) fibre[axis]`` instead: the
+    channel faded in where the gate is open (``a`` = ``fibre_permeability``)."""
     ox, oy = open_faces(wet)
     w_e = w.copy()
     w_e[:, :-1] = np.where(ox, w[:, 1:], w[:, :-1])
@@ -105,8 +112,20 @@ def water_height_and_boundary(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, wet
     g = F32(-0.5 * prm.height_gain)
     oh = F32(prm.omega_h)
     oi = F32(1.0 - prm.omega_h)
-    nvx = oi * vx + oh * (g * (w_e - w_w))
-    nvy = oi * vy + oh * (g * (w_s - w_n))
+    dx = w_e - w_w
+    dy = w_s - w_n
+    if prm.fibre_permeability > 0 and fibre is not None:
+        base, gain = (F32(v) for v in prm.fibre_channel())
+        if gate is not None:
+            bg = _ONE - gate * F32(prm.fibre_permeability)
+            gg = gate * gain
+            dx = dx * (bg + gg * fibre[0])
+            dy = dy * (bg + gg * fibre[1])
+        else:
+            dx = dx * (base + gain * fibre[0])
+            dy = dy * (base + gain * fibre[1])
+    nvx = oi * vx + oh * (g * dx)
+    nvy = oi * vy + oh * (g * dy)
     gx, gy = tilt_kick(prm, prm.dt if dt is None else dt)
     if gx != 0:  # flat canvas: no addition at all (x + 0 would turn -0.0 into +0.0)
         nvx = nvx + gx
@@ -139,13 +158,18 @@ def diffuse_water(w: np.ndarray, wet: np.ndarray, prm: SimParams, dt: float) -> 
 
 def blocking(h: np.ndarray, block: np.ndarray, block_time: np.ndarray, sim_time: float,
              prm: SimParams, fibre: np.ndarray | None = None,
-             speed: np.ndarray | None = None) -> np.ndarray:
+             speed: np.ndarray | None = None,
+             standing: np.ndarray | None = None) -> np.ndarray:
     """Diffusion-controller cell value beta_c (1 free, 0 blocked), in [0, 1] without
     fibre dispersion. With ``fibre_dispersivity > 0``, the fibre texture ``fibre`` (2, H, W)
     and the water's speed ``speed`` (H, W) [cell/s] it is multiplied by
     ``1 + gd * (max(fibre[0], fibre[1]) * speed)``, ``gd = fibre_dispersivity / nu_p``:
     where water moves through fibre channels the pigment it carries disperses along them
-    (``D = alpha |v|``, Bear's hydrodynamic dispersion); still water is untouched."""
+    (``D = alpha |v|``, Bear's hydrodynamic dispersion); still water is untouched.
+    With ``standing`` (per cell: :func:`standing_gate` of ``w``, ``standing_depth``) the
+    ``1`` of that factor (or beta_c itself without dispersion) is ``1 - drop * standing``,
+    ``drop = 1 - standing_nu_p / nu_p``: the pigment's own diffusion is ``standing_nu_p``
+    in standing water, the fibre dispersion unchanged."""
     if prm.block_fade > 0:
         age = np.clip((F32(sim_time) - block_time) / F32(prm.block_fade), _ZERO, _ONE)
     else:
@@ -154,9 +178,19 @@ def blocking(h: np.ndarray, block: np.ndarray, block_time: np.ndarray, sim_time:
     paper = _ONE - F32(prm.block_paper) * (_ONE - h)
     beta = np.minimum(paper, eff).astype(F32)
     gd = F32(prm.fibre_dispersion_gain())
+    own = _ONE if standing is None else _ONE - F32(prm.standing_diffusion()[1]) * standing
     if gd > 0 and fibre is not None and speed is not None:
-        beta = beta * (_ONE + gd * (np.maximum(fibre[0], fibre[1]) * speed))
+        beta = beta * (own + gd * (np.maximum(fibre[0], fibre[1]) * speed))
+    elif standing is not None:
+        beta = beta * own
     return beta.astype(F32)
+
+
+def standing_gate(w: np.ndarray, inv_depth: float) -> np.ndarray:
+    """``smoothstep(min(w * inv_depth, 1))`` (float32, ``t t (3 - 2 t)``; ``w >= 0``): 0 on
+    paper without standing water, 1 where it stands ``1 / inv_depth`` deep or more."""
+    t = np.minimum(w * F32(inv_depth), _ONE)
+    return (t * t) * (F32(3.0) - F32(2.0) * t)
 
 
 def diffuse_pigment(p: np.ndarray, wet: np.ndarray, beta_c: np.ndarray, prm: SimParams,

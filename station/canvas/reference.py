@@ -86,6 +86,31 @@ CHANGED: Curtis 1997's wet-area mask with a memory (issue 21 item 8: rows laid o
   wash whose water has been gone for ``wet_hold`` leaves the area, so water put back into
   it still makes a bloom with a crust. Tools that dry paper out (hair dryer, eraser of
   ``wc``) set ``wet_area = 0`` where ``wc`` becomes 0, as pass 10 would.
+CHANGED: pass 3 along the paper's fibres (issue 21 item 4: a drop of colour into a fully wet
+  wash feathers). New SimParams ``fibre_permeability`` ``a`` (0: off, as before): the
+  height term's difference along each axis is multiplied by ``base + gain * fibre[axis]``
+  with ``(base, gain) = prm.fibre_channel()`` = float32 ``(1 - a, FIBRE_CHANNEL * a)``
+  (``FIBRE_CHANNEL`` 4), i.e. ``vh = -height_gain * ((wE - wW)/2 * kx, (wS - wN)/2 * ky)``
+  computed as ``g * ((wE - wW) * kx)``, ``g = float32(-0.5 height_gain)``. Water driven
+  through wet paper runs along its fibres (Darcy flow through a permeability uneven at the
+  fibre scale) and the paint the brush pushes into a wash goes out in fingers. No built-in
+  profile sets it yet (with ``a = 1``, ``nu_p`` 0.02 and ``fibre_dispersivity`` 9 the
+  wet-wash drop feathers, but rims, damp-wash blooms and hot-press washes regress).
+CHANGED: the fibre channel gated (new SimParams ``fibre_gate_depth``, 0: ungated as above):
+  ``kx = (1 - g a) + (g gain) fibre[0]`` (``ky`` alike), ``g = standing_gate(w)`` =
+  smoothstep ``t t (3 - 2 t)``, ``t = min(w / fibre_gate_depth, 1)`` of the cell's water at
+  the step's start (:func:`fibre_gate`); ``g = 0`` everywhere on a paper without any fibre
+  (hot-press: its factor is exactly 1, with or without the gate).
+CHANGED: the pigment's own diffusion in standing water (new SimParams ``standing_depth``,
+  0: off, and ``standing_nu_p``): beta_c's ``1`` (of the fibre dispersion's factor, or
+  beta_c itself) is ``1 - drop * standing_gate(w)`` with ``drop = float32(1 -
+  standing_nu_p / nu_p)`` and ``t = min(w / standing_depth, 1)``: ``nu_p`` on damp paper,
+  ``standing_nu_p`` in standing water, the fibre dispersion unchanged.
+CHANGED: the standing gate's front factor (new SimParams ``standing_front_pull``, 0: off,
+  and ``standing_front_dry``): ``standing_gate(w)`` times ``1 - F`` (:func:`standing_front`),
+  ``F = smoothstep(min(flow_outward (1 - M') / standing_front_pull, 1))``, with
+  ``standing_front_dry`` T > 0 times ``min(2 (1 - blurred_wet(wc >= T c)), 1)``: near the
+  edge of a wet area over dry paper the pigment keeps ``nu_p`` (the brush rim's band).
 NOTE (no maths change): the helpers live in ``stencils.py``, the passes in ``passes.py``;
   this module re-exports them and runs the step.
 
@@ -125,7 +150,8 @@ the same float32 value on both sides).
    each sum over the taps in order (offset -R first), cells outside the region 0. For
    each wet cell, neighbour heights (of P) ``wE = P[y,x+1]`` if face E is open else
    ``w[y,x]`` (same for W, N, S);
-   ``vh = -height_gain * ((wE - wW)/2, (wS - wN)/2)``;
+   ``vh = -height_gain * ((wE - wW)/2, (wS - wN)/2)`` (each times the fibre channel with
+   ``fibre_permeability``, see CHANGED);
    ``v <- (1 - omega_h) v + omega_h vh``; then the tilt (``tilt_kick``: float32
    ``(ax dt, ay dt)`` of ``SimParams.tilt_acceleration``) is added to each component
    where it is nonzero (a flat canvas adds nothing); boundary (no flow into non-wet cells or
@@ -205,6 +231,8 @@ them, so the result is the same as with tiling off.
 """
 from __future__ import annotations
 
+import numpy as np
+
 from station.canvas import tiles
 from station.canvas.params import CanvasInputError, SimParams
 from station.canvas.passes import (
@@ -218,6 +246,7 @@ from station.canvas.passes import (
     dry_cells,
     evaporate,
     slot_properties,
+    standing_gate,
     surface_exchange,
     tilt_kick,
     water_height_and_boundary,
@@ -245,7 +274,8 @@ __all__ = ["F32", "PASS_ORDER", "STENCIL_RADIUS_EXTRA", "advect_velocity",
            "advect_water_and_pigment", "apply_fluxes", "blocking", "blurred_wet", "capacity",
            "capillary", "damp_factor", "diffuse_pigment", "diffuse_velocity", "diffuse_water",
            "dry_cells", "evaporate", "flow_pressure", "gaussian_taps", "implicit_diffusion",
-           "neighbour_sum", "open_faces", "own_wet", "slot_properties", "stencil_radius",
+           "neighbour_sum", "open_faces", "own_wet", "slot_properties", "standing_front",
+           "standing_gate", "stencil_radius",
            "step", "step_region", "surface_exchange", "tilt_kick", "water_height_and_boundary",
            "water_speed", "wet_area_update", "wet_mask", "wet_memory"]
 
@@ -290,6 +320,56 @@ def stencil_radius(prm: SimParams) -> int:
             + max(blur - BLUR_REACH_IN_EXTRA, 0))
 
 
+_ZERO32 = F32(0.0)
+_ONE32 = F32(1.0)
+
+
+def fibre_gate(state: CanvasState, w: np.ndarray, h: np.ndarray,
+               pr: np.ndarray) -> np.ndarray | None:
+    """Pass 3's fibre channel gate per cell (``water_height_and_boundary``'s ``gate``):
+    None without a gate (``fibre_gate_depth`` 0: the channel everywhere), zeros on paper
+    without any fibre (hot-press: nothing channels the flow, its factor stays 1), else
+    :func:`standing_gate` of the cells' water at the start of the step, with
+    ``fibre_gate_pull`` times ``1 - standing_gate(pull)``, ``pull = max((w + paper_relief
+    h) - pr, 0)`` (``pr`` pass 3's levelled height: the flow-outward pull near the edge of
+    the wet area)."""
+    prm = state.params
+    if prm.fibre_permeability <= 0:
+        return None
+    if not state.fibre.any():
+        return np.zeros_like(w)
+    inv = prm.fibre_gate()
+    if inv <= 0:
+        return None
+    g = standing_gate(w, inv)
+    inv_pull = prm.fibre_gate_front()
+    if inv_pull > 0:
+        top = w + F32(prm.paper_relief) * h if prm.paper_relief > 0 else w
+        pull = np.maximum(top - pr, _ZERO32)
+        g = g * (_ONE32 - standing_gate(pull, inv_pull))
+    return g
+
+
+def standing_front(standing: np.ndarray, area_m: np.ndarray, wc: np.ndarray,
+                   h: np.ndarray, prm: SimParams) -> np.ndarray:
+    """The standing gate ``standing`` times ``1 - F`` (``standing_front_pull``; unchanged
+    when off): ``F = standing_gate(flow_outward (1 - M'), 1 / standing_front_pull)``,
+    ``M'`` = :func:`blurred_wet` of the wet-area mask ``area_m`` (the flow-outward term's),
+    with ``standing_front_dry`` T times ``min(2 D, 1)``, ``D = 1 - blurred_wet(wc >= T c)``
+    (the paper's share nearby that is dry; cells outside the region count as dry: they
+    are at rest, without capillary water). All at the start of the step."""
+    inv, dry = prm.standing_front()
+    if inv <= 0:
+        return standing
+    taps = gaussian_taps(prm.wet_blur)
+    pull = F32(prm.flow_outward) * (_ONE32 - blurred_wet(area_m, taps))
+    front = standing_gate(pull, inv)
+    if dry > 0:
+        d = _ONE32 - blurred_wet(wc >= F32(dry) * capacity(h, prm), taps)
+        front = front * np.minimum(F32(2.0) * d, _ONE32)
+    return (standing * (_ONE32 - front)).astype(F32)
+
+
 def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
                 stop_after: str | None = None) -> None:
     """Run passes 1-10 on the cells ``sl`` of ``state`` (in place).
@@ -323,6 +403,10 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     if holding:  # the wet-area mask grows where the cell holds its own water
         state.wet_area[ys, xs] = area_m
     wet = wet_mask(w, wc, mask, prm, h, fib)
+    inv_still = prm.standing_diffusion()[0]
+    standing = standing_gate(w, inv_still) if inv_still > 0 else None
+    if standing is not None:
+        standing = standing_front(standing, area_m, wc, h, prm)
     for name in PASS_ORDER:
         if name == "advect_velocity":
             vx, vy = advect_velocity(vx, vy, wet, dt)
@@ -330,12 +414,13 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
             vx, vy = diffuse_velocity(vx, vy, wet, prm, dt)
         elif name == "water_height_and_boundary":
             pr = flow_pressure(w, area_m, wet, h, prm)
-            vx, vy = water_height_and_boundary(vx, vy, pr, wet, prm, dt)
+            gate = fibre_gate(state, w, h, pr)
+            vx, vy = water_height_and_boundary(vx, vy, pr, wet, prm, dt, fib, gate)
         elif name == "diffuse_water":
             w = diffuse_water(w, wet, prm, dt)
         elif name == "diffuse_pigment":
             beta_c = blocking(h, state.block[ys, xs], state.block_time[ys, xs],
-                              state.sim_time, prm, fib, speed0)
+                              state.sim_time, prm, fib, speed0, standing)
             pp = diffuse_pigment(pp, wet, beta_c, prm, dt)
         elif name == "advect_water_and_pigment":
             w, pp = advect_water_and_pigment(w, pp, vx, vy, wet, prm, dt)

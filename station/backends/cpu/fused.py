@@ -232,10 +232,23 @@ def advect_fused(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
 def _vel_row(wet: np.ndarray, v1x: np.ndarray, v1y: np.ndarray, xvx: np.ndarray,
              xvy: np.ndarray, pr: np.ndarray, cst: np.ndarray, do_vjac: bool,
              do_height: bool, j: int, slo: int, shi: int, v3x_o: np.ndarray,
-             v3y_o: np.ndarray) -> None:  # pragma: no cover - compiled
-    """height_limit's velocity part of row j (unchanged)."""
+             v3y_o: np.ndarray, fibre: np.ndarray, y0: int,
+             x0: int, w0: np.ndarray, h: np.ndarray) -> None:  # pragma: no cover - compiled
+    """height_limit's velocity part of row j; with ``C_PGAIN`` the height term along each
+    axis times ``C_PBASE + C_PGAIN * fibre[axis]`` (passes.water_height_and_boundary:
+    the film's levelling flow runs along the paper's fibres), with ``C_PGATE`` times
+    ``(1 - g C_PA) + (g C_PGAIN) fibre[axis]``, ``g`` the standing-water gate of the
+    cell's ``w0``, with ``C_PPULL`` times ``1 - smoothstep(pull C_PPULL)``, ``pull = max((w0
+    + relief h) - P, 0)`` (reference ``fibre_gate``; step_region zeroes C_PGAIN on paper
+    without fibre)."""
     kv, g, oh, oi, vm = cst[K.C_KV], cst[K.C_G], cst[K.C_OH], cst[K.C_OI], cst[K.C_VMAX]
     tgx, tgy = cst[K.C_TILTX], cst[K.C_TILTY]
+    pbase, pgain = cst[K.C_PBASE], cst[K.C_PGAIN]
+    pa, pgate, ppull = cst[K.C_PA], cst[K.C_PGATE], cst[K.C_PPULL]
+    relief = cst[K.C_RELIEF]
+    channel = pgain != ZERO
+    gated = pgate != ZERO
+    y = np.uint64(y0 + j - 1)
     wr, wn, ws = wet[j], wet[j - 1], wet[j + 1]
     if do_vjac:
         K._jacobi_v_row(wet, v1x, v1y, xvx, xvy, v3x_o, v3y_o, j, slo, shi, kv)
@@ -256,8 +269,26 @@ def _vel_row(wet: np.ndarray, v1x: np.ndarray, v1y: np.ndarray, xvx: np.ndarray,
         w_w = pr[j, i - 1] if bwf else wc_
         w_s = pr[j + 1, i] if bs else wc_
         w_n = pr[j - 1, i] if bn else wc_
-        nvx = oi * vx0 + oh * (g * (w_e - w_w))
-        nvy = oi * vy0 + oh * (g * (w_s - w_n))
+        dx = w_e - w_w
+        dy = w_s - w_n
+        if channel and gated:
+            x = np.uint64(x0 + i - 1)
+            gv = K._smoothstep_w(w0[j, i], pgate)
+            if ppull != ZERO:
+                top = w0[j, i] + relief * h[y, x] if relief > ZERO else w0[j, i]
+                pull = top - pr[j, i]
+                pull = pull if pull > ZERO else ZERO
+                gv = gv * (ONE - K._smoothstep_w(pull, ppull))
+            bg = ONE - gv * pa
+            gg = gv * pgain
+            dx = dx * (bg + gg * fibre[0, y, x])
+            dy = dy * (bg + gg * fibre[1, y, x])
+        elif channel:
+            x = np.uint64(x0 + i - 1)
+            dx = dx * (pbase + pgain * fibre[0, y, x])
+            dy = dy * (pbase + pgain * fibre[1, y, x])
+        nvx = oi * vx0 + oh * (g * dx)
+        nvy = oi * vy0 + oh * (g * dy)
         nvx = nvx + tgx if tgx != ZERO else nvx
         nvy = nvy + tgy if tgy != ZERO else nvy
         nvx = nvx if be else (nvx if nvx < ZERO else ZERO)
@@ -427,8 +458,8 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
                         ns: int, cst: np.ndarray, do_vjac: bool, do_height: bool, do_w: bool,
                         do_p: bool, jac1: bool, v3x_o: np.ndarray, v3y_o: np.ndarray,
                         w2_o: np.ndarray, p2_o: np.ndarray, spans: np.ndarray,
-                        nsp: np.ndarray, bounds: np.ndarray
-                        ) -> None:  # pragma: no cover - compiled
+                        nsp: np.ndarray, bounds: np.ndarray, fibre: np.ndarray, y0: int,
+                        x0: int, h: np.ndarray) -> None:  # pragma: no cover - compiled
     """height_limit and diffuse_apply in one sweep (their maths unchanged): each chunk
     keeps the donor limiters of rows j-1, j, j+1 in a ring instead of ``sw``/``sp``,
     and the final iterates of rows j-1..j+2 in another; with ``jac1`` (one Jacobi
@@ -483,7 +514,7 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
             for sx in range(nsp[j]):
                 slo, shi = K._span(spans, j, sx)
                 _vel_row(wet, v1x, v1y, xvx, xvy, pr, cst, do_vjac, do_height, j, slo, shi,
-                         v3x_o, v3y_o)
+                         v3x_o, v3y_o, fibre, y0, x0, w0, h)
                 if do_w:
                     for i in range(slo, shi + 1):
                         fe = fx[i]

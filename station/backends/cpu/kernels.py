@@ -102,7 +102,16 @@ C_ABASE = 36      # float32(1 + advance_grain / 2) (stencils.advance_base)
 C_AGRAIN = 37     # advance_grain
 C_CURV = 38       # advance_curvature
 C_CURVN = 39      # float32(1 + 2 advance_curvature)
-N_CONST = 40
+C_PBASE = 40      # float32(1 - fibre_permeability) (SimParams.fibre_channel)
+C_PGAIN = 41      # float32(FIBRE_CHANNEL * fibre_permeability); 0: pass 3 reads no fibre
+C_PA = 42         # fibre_permeability (the gated channel's 1 - g a)
+C_PGATE = 43      # 1 / fibre_gate_depth (SimParams.fibre_gate); 0: the channel ungated
+C_SINV = 44       # 1 / standing_depth (SimParams.standing_diffusion); 0: off
+C_SDROP = 45      # 1 - standing_nu_p / nu_p
+C_PPULL = 46      # 1 / fibre_gate_pull (SimParams.fibre_gate_front); 0: no front factor
+C_FINV = 47       # 1 / standing_front_pull (SimParams.standing_front); 0: off
+C_FDRY = 48       # standing_front_dry; 0: the front factor at every front
+N_CONST = 49
 
 # the sweeps: rows in parallel; IEEE float32 maths exactly as written (no fastmath, no FMA
 # contraction), numpy's error model (division without ZeroDivision checks: every division
@@ -296,17 +305,34 @@ def clear_stale(pspans: np.ndarray, pnsp: np.ndarray, spans: np.ndarray, nsp: np
 # ------------------------------------------------------------------ prep
 @_inline
 def _fibre_dispersion(fibre: np.ndarray, vx: np.ndarray, vy: np.ndarray, y: int,
-                      x: np.uint64, gd: np.float32, vfib: np.float32) -> np.float32:
-    """``1 + gd * (max(fibre[0], fibre[1]) * min(|v|, fibre_flow_max))``: the factor on
+                      x: np.uint64, gd: np.float32, vfib: np.float32,
+                      own: np.float32) -> np.float32:
+    """``own + gd * (max(fibre[0], fibre[1]) * min(|v|, fibre_flow_max))``: the factor on
     beta_c of a cell whose fibre channels disperse the pigment moving water carries
-    (reference ``blocking``, ``water_speed``; v at the start of the step)."""
+    (reference ``blocking``, ``water_speed``; v at the start of the step); ``own`` 1, or
+    :func:`_standing_own` with ``standing_depth``."""
     f0 = fibre[0, y, x]
     f1 = fibre[1, y, x]
     u = vx[y, x]
     v = vy[y, x]
     s = np.sqrt(u * u + v * v)
     s = s if s < vfib else vfib
-    return ONE + gd * ((f0 if f0 > f1 else f1) * s)
+    return own + gd * ((f0 if f0 > f1 else f1) * s)
+
+
+@_inline
+def _smoothstep_w(w: np.float32, inv: np.float32) -> np.float32:
+    """reference ``passes.standing_gate``: ``t t (3 - 2 t)``, ``t = min(w inv, 1)``."""
+    t = w * inv
+    t = ONE if t > ONE else t
+    return (t * t) * (np.float32(3.0) - np.float32(2.0) * t)
+
+
+@_inline
+def _standing_own(w: np.float32, sinv: np.float32, sdrop: np.float32) -> np.float32:
+    """``1 - drop * standing_gate(w)``: the pigment's own diffusion share in standing
+    water (reference ``blocking``'s ``standing``)."""
+    return ONE - sdrop * _smoothstep_w(w, sinv)
 
 
 @_inline
@@ -386,6 +412,8 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
     cspan = cst[C_CSPAN]
     disp = cst[C_DISP]
     vfib = cst[C_VFIB]
+    sinv = cst[C_SINV]
+    sdrop = cst[C_SDROP]
     ease = cst[C_EASE]
     dsat = cst[C_DSAT]
     dspan = cst[C_DSPAN]
@@ -496,11 +524,20 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         paper = ONE - bpaper * (ONE - hv)
                         bcv = paper if paper < eff else eff
                         bc_o[j, i] = bcv
-                if disp > ZERO:  # a loop of its own: no test inside the column loops
+                if disp > ZERO and sinv > ZERO:  # loops of their own: no tests inside
+                    for i in range(slo, shi + 1):
+                        x = np.uint64(x0 + i - 1)
+                        own_p = _standing_own(wr[i], sinv, sdrop)
+                        bc_o[j, i] = bc_o[j, i] * _fibre_dispersion(fibre, vx, vy, y, x, disp,
+                                                                    vfib, own_p)
+                elif disp > ZERO:
                     for i in range(slo, shi + 1):
                         x = np.uint64(x0 + i - 1)
                         bc_o[j, i] = bc_o[j, i] * _fibre_dispersion(fibre, vx, vy, y, x, disp,
-                                                                    vfib)
+                                                                    vfib, ONE)
+                elif sinv > ZERO:
+                    for i in range(slo, shi + 1):
+                        bc_o[j, i] = bc_o[j, i] * _standing_own(wr[i], sinv, sdrop)
             if outward:
                 # x half of the blur: tap-outer, column-inner; per cell the taps add in
                 # order, offset -R first
@@ -528,6 +565,128 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         mrow[u] = acc[u]
     if advancing:
         _pin(wet_o, wc, h, y0, x0, bounds, spans, nsp, cmin, cspan, dsat)
+
+
+@_parallel
+def standing_front(w0: np.ndarray, wc: np.ndarray, h: np.ndarray, vx: np.ndarray,
+                   vy: np.ndarray, fibre: np.ndarray, mbx: np.ndarray, wet: np.ndarray,
+                   taps: np.ndarray, y0: int, x0: int, bh: int, bw: int, cst: np.ndarray,
+                   spans: np.ndarray, nsp: np.ndarray, bounds: np.ndarray, dbx_o: np.ndarray,
+                   bc_o: np.ndarray, pr_o: np.ndarray) -> None:
+    """The standing gate's front factor (reference ``standing_front``), after :func:`prep`
+    ran with ``C_SINV`` and ``C_DISP`` at 0 (``bc_o`` holds beta_c without the standing
+    and dispersion factor): ``bc *= own + gd (...)`` (or ``own``), ``own = 1 - drop g (1 -
+    F)``, ``F = smoothstep(eta (1 - M'))``, with ``C_FDRY`` times ``min(2 (1 - D'), 1)``,
+    ``D'`` the blur of ``wc >= T c`` (its x half into ``dbx_o`` first; a column outside
+    the box adds +0, a row outside it is skipped, as the reference's zero padding; a
+    column of the box outside the spans reads the state, a row's blur outside its spans
+    is the scratch's 0 like ``mbx``'s). Its own sweep: the blur's y half reads rows the
+    next chunk writes. ``M'`` is pass 3's: this sweep writes pass 3's levelled height
+    (:func:`_pressure_row`, ``pr_o``) and keeps its y half of the blur, so
+    :func:`advect_jacobi1` runs without ``do_pr`` (one y blur of ``mbx`` a step, not two).
+    Unsigned columns throughout (numba's negative-index wraparound keeps signed ones
+    scalar), three taps a pass where they are all in range (the same additions in the
+    same order)."""
+    cmin = cst[C_CMIN]
+    cspan = cst[C_CSPAN]
+    disp = cst[C_DISP]
+    vfib = cst[C_VFIB]
+    sinv = cst[C_SINV]
+    sdrop = cst[C_SDROP]
+    eta = cst[C_ETA]
+    relief = cst[C_RELIEF]
+    finv = cst[C_FINV]
+    dry = cst[C_FDRY]
+    drying = dry > ZERO
+    nt = taps.shape[0]
+    r = (nt - 1) // 2
+    ur = np.uint64(r)
+    nch = bounds.shape[0] - 1
+    xo = np.uint64(x0 - 1)
+    if drying:
+        for ch in prange(nch):
+            nd = np.empty(bw + 2 + 2 * r, F32)
+            acc = np.empty(bw + 2, F32)
+            for j in range(bounds[ch], bounds[ch + 1]):
+                y = y0 + j - 1
+                wcr, hr = wc[y], h[y]
+                for u in range(np.uint64(bw + 2 + 2 * r)):
+                    nd[u] = ZERO
+                for si in range(nsp[j]):
+                    slo, shi = _span(spans, j, si)
+                    lo = slo - r if slo - r > 1 else 1
+                    hi = shi + r if shi + r < bw else bw
+                    for u in range(np.uint64(lo), np.uint64(hi + 1)):
+                        nd[u + ur] = ONE if wcr[xo + u] >= dry * (cmin + hr[xo + u] * cspan) \
+                            else ZERO
+                drow = dbx_o[j]
+                for si in range(nsp[j]):
+                    slo, shi = _span(spans, j, si)
+                    ulo, uhi = np.uint64(slo), np.uint64(shi + 1)
+                    for u in range(ulo, uhi):
+                        acc[u] = ZERO
+                    k = 0
+                    while k + 3 <= nt:
+                        g0, g1, g2 = taps[k], taps[k + 1], taps[k + 2]
+                        ka, kb, kc = np.uint64(k), np.uint64(k + 1), np.uint64(k + 2)
+                        for u in range(ulo, uhi):
+                            acc[u] = ((acc[u] + g0 * nd[u + ka]) + g1 * nd[u + kb]) \
+                                + g2 * nd[u + kc]
+                        k += 3
+                    for kk in range(k, nt):
+                        g = taps[kk]
+                        ka = np.uint64(kk)
+                        for u in range(ulo, uhi):
+                            acc[u] = acc[u] + g * nd[u + ka]
+                    for u in range(ulo, uhi):
+                        drow[u] = acc[u]
+    for ch in prange(nch):
+        am = np.empty(bw + 2, F32)
+        ad = np.empty(bw + 2, F32)
+        for j in range(bounds[ch], bounds[ch + 1]):
+            y = y0 + j - 1
+            for si in range(nsp[j]):
+                slo, shi = _span(spans, j, si)
+                # pass 3's levelled height; am keeps the y half of M' for the span
+                _pressure_row(mbx, wet, w0, h, taps, j, y, x0, bh, slo, shi, eta, relief,
+                              True, am, pr_o)
+                ulo, uhi = np.uint64(slo), np.uint64(shi + 1)
+                if drying:
+                    for u in range(ulo, uhi):
+                        ad[u] = ZERO
+                    k = 0
+                    while k < nt:
+                        jj = j + k - r
+                        if k + 3 <= nt and jj >= 1 and jj + 2 <= bh:
+                            g0, g1, g2 = taps[k], taps[k + 1], taps[k + 2]
+                            d0, d1, d2 = dbx_o[jj], dbx_o[jj + 1], dbx_o[jj + 2]
+                            for u in range(ulo, uhi):
+                                ad[u] = ((ad[u] + g0 * d0[u]) + g1 * d1[u]) + g2 * d2[u]
+                            k += 3
+                            continue
+                        if jj >= 1 and jj <= bh:
+                            g = taps[k]
+                            dk = dbx_o[jj]
+                            for u in range(ulo, uhi):
+                                ad[u] = ad[u] + g * dk[u]
+                        k += 1
+                w0r, bcr = w0[j], bc_o[j]
+                f0r, f1r, vxr, vyr = fibre[0, y], fibre[1, y], vx[y], vy[y]
+                for u in range(ulo, uhi):
+                    fr = _smoothstep_w(eta * (ONE - am[u]), finv)
+                    if drying:
+                        dv = np.float32(2.0) * (ONE - ad[u])
+                        fr = fr * (ONE if dv > ONE else dv)
+                    own_p = ONE - sdrop * (_smoothstep_w(w0r[u], sinv) * (ONE - fr))
+                    if disp > ZERO:
+                        f0 = f0r[xo + u]
+                        f1 = f1r[xo + u]
+                        a = vxr[xo + u]
+                        b = vyr[xo + u]
+                        s = np.sqrt(a * a + b * b)
+                        s = s if s < vfib else vfib
+                        own_p = own_p + disp * ((f0 if f0 > f1 else f1) * s)
+                    bcr[u] = bcr[u] * own_p
 
 
 @_inline

@@ -32,7 +32,7 @@ def work_grow(n_taps: int) -> int:
 
 _FIELDS_2D = ("w0", "bc", "v1x", "v1y", "xvax", "xvay",
               "xwa", "xwb", "v3x", "v3y", "w2", "w3",
-              "sat", "mbx", "pr")
+              "sat", "mbx", "pr", "dbx")
 _FLAGS_2D = ("wet", "opn")
 """0/1 flags (the wet mask, the open flag), one byte a cell: every sweep reads the wet
 mask, so its bytes count five times a step (issue 26 item 1)."""
@@ -80,6 +80,12 @@ def constants(prm: SimParams, dt: float, sim_time: float) -> np.ndarray:
     c[K.C_AGRAIN] = F32(prm.advance_grain)
     c[K.C_CURV] = F32(prm.advance_curvature)
     c[K.C_CURVN] = F32(1.0 + 2.0 * prm.advance_curvature)
+    c[K.C_PBASE], c[K.C_PGAIN] = (F32(v) for v in prm.fibre_channel())
+    c[K.C_PA] = F32(prm.fibre_permeability)
+    c[K.C_PGATE] = F32(prm.fibre_gate())
+    c[K.C_PPULL] = F32(prm.fibre_gate_front())
+    c[K.C_SINV], c[K.C_SDROP] = (F32(v) for v in prm.standing_diffusion())
+    c[K.C_FINV], c[K.C_FDRY] = (F32(v) for v in prm.standing_front())
     c[K.C_TILTX], c[K.C_TILTY] = reference.tilt_kick(prm, dt)
     return c
 
@@ -214,6 +220,10 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     bh, bw = int(ys.stop) - y0, int(xs.stop) - x0
     ns = max(len(state.slots), 1)
     cst, taps = scratch.constants(prm, dt, state.sim_time)
+    if cst[K.C_PGAIN] != 0 and not state.fibre.any():
+        # paper without any fibre: nothing channels pass 3's flow (reference fibre_gate)
+        cst = cst.copy()
+        cst[K.C_PGAIN] = F32(0.0)
     beta, gamma, delta = (a[:ns].copy() for a in reference.slot_properties(state))
     s2, s3 = scratch.a2, scratch.a3
     n_it = int(prm.jacobi_iters)
@@ -227,10 +237,23 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     spans, nsp = scratch.spans, scratch.nsp
     bounds = row_bounds(spans, nsp, bh, F.ring_chunks())
     do_pr = (outward or prm.paper_relief > 0) and runs("water_height_and_boundary")
+    # the standing gate's front factor needs M' (the y half of the blur): prep leaves the
+    # standing and dispersion factor out of beta_c, K.standing_front applies it after and
+    # writes pass 3's levelled height on the way (its y half of the blur is M'), so
+    # advect_jacobi1 runs without do_pr
+    front = cst[K.C_FINV] > 0 and outward and do_pr
+    cprep = cst
+    if front:
+        cprep = cst.copy()
+        cprep[K.C_SINV] = cprep[K.C_DISP] = F32(0.0)
     K.prep(state.w, state.wc, state.mask, state.vx, state.vy, state.p, state.h,
-           state.block, state.block_time, state.fibre, taps, y0, x0, bh, bw, ns, cst,
+           state.block, state.block_time, state.fibre, taps, y0, x0, bh, bw, ns, cprep,
            outward and do_pr, spans, nsp, s2["wet"], s2["w0"], s3["p0"], s2["bc"],
            s2["opn"], s2["mbx"], state.wet_area, prm.wet_hold > 0, bounds)
+    if front:
+        K.standing_front(s2["w0"], state.wc, state.h, state.vx, state.vy, state.fibre,
+                         s2["mbx"], s2["wet"], taps, y0, x0, bh, bw, cst, spans, nsp, bounds,
+                         s2["dbx"], s2["bc"], s2["pr"])
     wet, bc, w0, p0 = s2["wet"], s2["bc"], s2["w0"], s3["p0"]
     # pass 3 levels w itself unless the flow-outward or the relief term is on
     pr = s2["pr"] if do_pr else w0
@@ -242,7 +265,8 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     # with one iteration, limit_diffuse_fused computes it in its row ring (no xw/xp fields)
     jac1 = n_it == 1
     K.advect_jacobi1(wet, state.vx, state.vy, bc, w0, p0, s2["mbx"], state.h, taps, y0, x0,
-                     bh, bw, ns, cst, jw and not jac1, jp and not jac1, do_pr, outward, spans,
+                     bh, bw, ns, cst, jw and not jac1, jp and not jac1, do_pr and not front,
+                     outward, spans,
                      nsp, s2["v1x"], s2["v1y"], xw, xp, s2["pr"], bounds)
     if not jw:
         xw = w0
@@ -270,7 +294,8 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     # (fused.limit_diffuse_fused: height_limit + diffuse_apply, bitwise the same)
     F.limit_diffuse_fused(wet, bc, s2["v1x"], s2["v1y"], xvx, xvy, w0, xw, p0, xp, pr, bh, bw,
                           ns, cst, do_v, runs("water_height_and_boundary"), do_w, do_p,
-                          jac1, s2["v3x"], s2["v3y"], s2["w2"], s3["p2"], spans, nsp, bounds)
+                          jac1, s2["v3x"], s2["v3y"], s2["w2"], s3["p2"], spans, nsp, bounds,
+                          state.fibre, y0, x0, state.h)
     v3x, v3y = s2["v3x"], s2["v3y"]
     if last <= reference.PASS_ORDER.index("water_height_and_boundary"):
         state.vx[ys, xs] = _win(v3x, bh, bw)

@@ -53,7 +53,7 @@ from .passes import (
     _set,
     param_constants,
 )
-from .traffic import bytes_per_cell_step, floats_per_program
+from .traffic import bytes_per_cell_step, floats_per_program, front_mode
 
 if TYPE_CHECKING:
     import moderngl
@@ -186,6 +186,8 @@ class GLCanvas(GLStepPasses):
         self.srcw = ctx.texture((width, height), 4, dtype="f4")
         self.pr = ctx.texture((width, height), 1, dtype="f4")  # pass 3's levelled height P
         self.bx = ctx.texture((width, height), 1, dtype="f4")  # pass 3's mask blurred along x
+        # the not-dry paper blurred along x (standing_front_dry; written only with it on)
+        self.dx = ctx.texture((width, height), 1, dtype="f4")
         self.srcp = ctx.texture_array((width, height, self.npl), 4, dtype="f4")
         self.rgb = ctx.texture((width, height), 4, dtype="f4")
         n = self.ntiles
@@ -220,7 +222,7 @@ class GLCanvas(GLStepPasses):
         self._defines.update(self._param_consts)
         self._programs = {name: self._compile(fname, extra)
                           for name, (fname, extra) in _PROGRAMS.items()}
-        self._pressure_taps = ((), -1)  # blur_x, jacobi_first: compiled per blur at the step
+        self._pressure_taps = ((), -1, -1)  # blur_x, jacobi_first: compiled per blur at the step
         self._slot_key = None  # evap_surface with the slots' constants: compiled at the step
         self._tile_list_mode = bool(tiling)
 
@@ -234,7 +236,7 @@ class GLCanvas(GLStepPasses):
         return prog
 
     def _release_resources(self) -> None:
-        for name in ("aux", "pr", "bx", "srcw", "srcp", "rgb", "b_list", "b_alive", "b_ttl",
+        for name in ("aux", "pr", "bx", "dx", "srcw", "srcp", "rgb", "b_list", "b_alive", "b_ttl",
                      "b_prev", "b_mark", "b_args", "b_all", "b_added", "b_folded"):
             obj = getattr(self, name, None)
             if obj is not None:
@@ -281,6 +283,7 @@ class GLCanvas(GLStepPasses):
         f["paper"].src.write(tx.pack_planes(st.h, st.mask, st.block, st.block_time).tobytes())
         f["fibre"].src.write(tx.pack_planes(st.fibre[0], st.fibre[1]).tobytes())
         self.fibre = st.fibre.copy()  # static: the state read back carries this copy
+        self._fibred = bool(st.fibre.any())
         f["area"].src.write(np.ascontiguousarray(st.wet_area, np.float32).tobytes())
         for t in f["pig"].textures:
             t.write(tx.pack_stack(st.p, self.npl).tobytes())
@@ -624,13 +627,15 @@ class GLCanvas(GLStepPasses):
         (4 slots each), so those slots are counted, not the 8 the textures hold."""
         layers = -(-len(self.slots) // 4)
         return bytes_per_cell_step(4 * layers, int(self.params.jacobi_iters),
-                                   self.params.wet_hold > 0)
+                                   self.params.wet_hold > 0,
+                                   front_mode(*self.params.standing_front()))
 
     def bytes_per_cell_by_pass(self) -> dict[str, int]:
         """:meth:`bytes_per_cell_step` per program (the names of ``take_pass_times``)."""
         layers = -(-len(self.slots) // 4)
         return {name: 4 * n for name, n in floats_per_program(
-            4 * layers, int(self.params.jacobi_iters), self.params.wet_hold > 0).items()}
+            4 * layers, int(self.params.jacobi_iters), self.params.wet_hold > 0,
+            front_mode(*self.params.standing_front())).items()}
 
 
 __all__ = ["GLCanvas", "GLUnavailable"]

@@ -41,7 +41,8 @@ class GLStepPasses:
     npl: int
     tiling: bool
     _programs: dict[str, moderngl.ComputeShader]
-    _pressure_taps: tuple[tuple[int, ...], int]  # (taps' bits, hold) of the blur programs
+    # (taps' bits, hold, front: -1 off, 0 every front, 1 over dry paper) of the blur programs
+    _pressure_taps: tuple[tuple[int, ...], int, int]
     _pass_seconds: dict[str, float] | None  # per-pass wall time while profiling, else None
     width: int
     height: int
@@ -57,6 +58,7 @@ class GLStepPasses:
     jd: list[moderngl.TextureArray]
     pr: moderngl.Texture
     bx: moderngl.Texture
+    dx: moderngl.Texture
     rgb: moderngl.Texture
     b_list: moderngl.Buffer
     b_prev: moderngl.Buffer
@@ -73,6 +75,7 @@ class GLStepPasses:
     _param_key: tuple[SimParams, float | None] | None  # what _param_consts came from
     slot_constants: bool  # evap_surface takes the slots' values as constants (a driver's choice)
     _slot_key: tuple[int, ...] | None  # their bits in the evap_surface program, None: uniforms
+    _fibred: bool  # the paper has fibre (load_state); without, pass 3's channel is off
 
     def _bind(self, unit: int, tex: moderngl.Texture | moderngl.TextureArray, read: bool,
               write: bool) -> None:
@@ -121,7 +124,10 @@ class GLStepPasses:
         taps = reference.gaussian_taps(prm.wet_blur) if prm.flow_outward > 0 else np.zeros(0, F32)
         if len(taps) > MAX_TAPS:
             raise CanvasInputError("wet_blur too large for the GL backend (at most 4)", "params")
-        self._blur_programs(taps, hold)
+        finv, fdry = prm.standing_front()
+        self._blur_programs(taps, hold, (1 if fdry > 0 else 0) if finv > 0 and len(taps) else -1)
+        if "front" in p:
+            _set(p["front"], "u_sim_time", float(F32(self.sim_time)))
         kv, kw, kp = (float(F32(prm.viscosity * dt)), float(F32(prm.nu_w * dt)),
                       float(F32(prm.nu_p * dt)))
         layers = -(-len(self.slots) // 4)
@@ -132,6 +138,8 @@ class GLStepPasses:
             _set(p[name], "u_kw", kw)
             _set(p[name], "u_kp", kp)
         _set(p["limit"], "u_tilt", [float(x) for x in reference.tilt_kick(prm, dt)])
+        # paper without any fibre: pass 3's channel is off (reference.fibre_gate)
+        _set(p["limit"], "u_fibred", 1.0 if self._fibred else 0.0)
         q4 = float(F32(0.25 * dt))
         for name in ("advect_limit", "advect_apply"):
             _set(p[name], "u_q4", q4)
@@ -170,19 +178,21 @@ class GLStepPasses:
             self._slot_key = key
         return self._programs["evap_surface"]
 
-    def _blur_programs(self, taps: np.ndarray, hold: int) -> None:
+    def _blur_programs(self, taps: np.ndarray, hold: int, front: int = -1) -> None:
         """blur_x.comp and the first Jacobi iteration (jacobi.comp with FIRST_ITER, which
         forms pass 3's levelled height, pressure.glsl) for the float32 Gaussian ``taps``
         (none: no flow-outward term, no blur_x) and ``hold`` (1: blur the wet-area
         memory), compiled when they change.  The taps are constants of the program (their
         exact bits, ``TAPS``), not a uniform array: llvmpipe then multiplies by
         immediates instead of loading the array in every lane, about 2 ms CPU a 15-tap
-        loop at 800x600; the loops unroll, the mask's source is fixed."""
+        loop at 800x600; the loops unroll, the mask's source is fixed.  ``front`` >= 0: the
+        standing gate's front factor (front.comp; 1: over dry paper, blur_x also blurs the
+        not-dry paper into ``dx``), -1: off."""
         bits = tuple(int(b) for b in np.asarray(taps, F32).view(np.uint32))
-        if (bits, hold) == self._pressure_taps:
+        if (bits, hold, front) == self._pressure_taps:
             return
         ntaps = len(bits)
-        for name in ("blur_x", "jacobi_first"):
+        for name in ("blur_x", "jacobi_first", "front"):
             old = self._programs.pop(name, None)
             if old is not None:
                 old.release()
@@ -190,11 +200,17 @@ class GLStepPasses:
                  "TAPS": "float[{}]({})".format(
                      max(1, ntaps), ", ".join(f"uintBitsToFloat(0x{b:08x}u)" for b in bits)
                      or "0.0")}
+        dry = 1 if front > 0 else 0
         if ntaps:
-            self._programs["blur_x"] = self._compile("blur_x.comp", {**const, "HOLD": hold})
-        self._programs["jacobi_first"] = self._compile("jacobi.comp",
-                                                       {**const, "FIRST_ITER": 1})
-        self._pressure_taps = (bits, hold)
+            self._programs["blur_x"] = self._compile("blur_x.comp", {**const, "HOLD": hold,
+                                                                     "FRONT_DRY": dry})
+        if ntaps and front >= 0:
+            self._programs["front"] = self._compile("front.comp", {**const, "FRONT_DRY": dry})
+        # with the front pass, front.comp writes pass 3's levelled height (PR_DONE)
+        self._programs["jacobi_first"] = self._compile(
+            "jacobi.comp", {**const, "FIRST_ITER": 1,
+                            "PR_DONE": 1 if ntaps and front >= 0 else 0})
+        self._pressure_taps = (bits, hold, front)
 
     def _begin_step(self) -> None:
         """Bind the tile list and build it (tiling) for the passes of one step."""
@@ -267,7 +283,18 @@ class GLStepPasses:
         if "blur_x" in self._programs:
             self._bind(4, self.bx, False, True)
             self._bind(5, f["area"].src, True, False)
+            self._bind(6, self.dx, False, True)
             self._dispatch("blur_x")
+        if "front" in self._programs:  # beta_c's standing share, with M' (after blur_x)
+            self._bind(1, f["vel"].src, True, False)
+            self._bind(2, f["water"].src, True, False)
+            self._bind(3, f["paper"].src, True, False)
+            self._bind(4, self.bx, True, False)
+            self._bind(5, self.dx, True, False)
+            self._bind(6, f["fibre"].src, True, False)
+            self._bind(7, self.jv[0], True, True)
+            self._bind(0, self.pr, False, True)
+            self._dispatch("front")
         # pass 3's levelled height P runs in the first Jacobi iteration (_pass_diffusion);
         # until the diffusion passes run, jv[0] holds wb (.w) and jv[1] is free
         self._js, self._jfree = self.jv[0], self.jv[1]
@@ -304,6 +331,8 @@ class GLStepPasses:
         self._bind(6, self.jv[1 - cur], False, True)
         self._bind(7, self.jd[1 - cur], False, True)
         self._bind(0, self.pr, True, False)
+        f["fibre"].src.use(location=0)  # a sampler: the image units are all taken
+        f["paper"].src.use(location=1)  # h for the gate's relief term, a sampler too
         self._dispatch("limit")
         f["vel"].swap()
         self._bind(1, self.jv[1 - cur], True, False)
@@ -404,6 +433,10 @@ def param_constants(prm: SimParams, dt: float | None) -> dict[str, str]:
         "WICK": prm.fibre_wick, "DISPERSE": float(F32(prm.fibre_dispersion_gain())),
         "FIBRE_FLOW_MAX": prm.fibre_flow_max, "EASE": prm.damp_ease, "DSAT": prm.damp_sat,
         "DSPAN": float(F32(1.0 - prm.damp_sat)), "CMIN": prm.c_min,
+        "PBASE": float(prm.fibre_channel()[0]), "PGAIN": float(prm.fibre_channel()[1]),
+        "PA": prm.fibre_permeability, "PGATE": prm.fibre_gate(), "PPULL": prm.fibre_gate_front(),
+        "SINV": prm.standing_diffusion()[0], "SDROP": prm.standing_diffusion()[1],
+        "FINV": prm.standing_front()[0], "FDRY": prm.standing_front()[1],
         "CRANGE": float(F32(prm.c_max - prm.c_min)), "ETA": prm.flow_outward,
         "RELIEF": prm.paper_relief, "OMEGA_H": prm.omega_h,
         "OMEGA_I": float(F32(1.0 - prm.omega_h)),

@@ -11,10 +11,12 @@ slots, the NumPy reference only the slots in use.
 from __future__ import annotations
 
 
-def floats_per_cell_step(slots: int, jacobi_iters: int,
-                         wet_memory: bool = False) -> dict[str, int]:
+def floats_per_cell_step(slots: int, jacobi_iters: int, wet_memory: bool = False,
+                         front: int = -1) -> dict[str, int]:
     """Per pass: float32 values read + written per cell for one step; ``wet_memory``:
-    the profile keeps a wet-area memory (``SimParams.wet_hold > 0``)."""
+    the profile keeps a wet-area memory (``SimParams.wet_hold > 0``); ``front``: the
+    standing gate's front factor (``SimParams.standing_front``; -1 off, 0 at every
+    front, 1 over dry paper)."""
     s = int(slots)
     n = int(jacobi_iters)
     passes = {
@@ -51,18 +53,35 @@ def floats_per_cell_step(slots: int, jacobi_iters: int,
         passes["prep (wet, controller, advect_velocity)"] += 1
         passes["blur_x (pass 3's wet area blurred along x)"] = 1 + 1
         passes["capillary_dry (capillary diffusion/evaporation, dry_cells)"] += 1
+    if front >= 0:
+        # read jv(4), bx, h, block, block_time, w, fibre(2), v(2) (the y blur's neighbours
+        # from cache); write jv(4) and pass 3's levelled height P, which the first Jacobi
+        # iteration then neither forms nor reads h and bx for (PR_DONE)
+        passes["front (the standing gate's front factor on wb)"] = 14 + 4 + 1
+        passes["jacobi (pass 3's levelled height; velocity, water, pigment)"] -= 2 + 1
+    if front > 0:
+        # blur_x also reads wc, h and writes dx; front.comp reads dx
+        passes["blur_x (pass 3's wet area blurred along x)"] += 3
+        passes["front (the standing gate's front factor on wb)"] += 1
     return passes
 
 
-def bytes_per_cell_step(slots: int, jacobi_iters: int, wet_memory: bool = False) -> int:
+def bytes_per_cell_step(slots: int, jacobi_iters: int, wet_memory: bool = False,
+                        front: int = -1) -> int:
     """Bytes of honest memory traffic per simulated cell and step."""
-    return 4 * sum(floats_per_cell_step(slots, jacobi_iters, wet_memory).values())
+    return 4 * sum(floats_per_cell_step(slots, jacobi_iters, wet_memory, front).values())
 
 
-def floats_per_program(slots: int, jacobi_iters: int,
-                       wet_memory: bool = False) -> dict[str, int]:
+def front_mode(finv: float, fdry: float) -> int:
+    """``front`` of :func:`floats_per_cell_step` from ``SimParams.standing_front()``."""
+    return (1 if fdry > 0 else 0) if finv > 0 else -1
+
+
+def floats_per_program(slots: int, jacobi_iters: int, wet_memory: bool = False,
+                       front: int = -1) -> dict[str, int]:
     """:func:`floats_per_cell_step` keyed by the program that runs each pass (``prep``,
     ``pressure``, ``jacobi`` (all its iterations), ...), the names
     ``GLCanvas.take_pass_times`` reports."""
     return {name.split()[0]: n
-            for name, n in floats_per_cell_step(slots, jacobi_iters, wet_memory).items()}
+            for name, n in floats_per_cell_step(slots, jacobi_iters, wet_memory,
+                                                front).items()}
