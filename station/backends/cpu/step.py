@@ -112,11 +112,11 @@ class Scratch:
         self.a3 = {name: _touched(np.zeros((slots, *shape), F32)) for name in _FIELDS_3D}
         self.f3 = tuple(self.a3.values())
         most = width // 2 + 2  # spans per row: tiles are >= 4 cells, a gap >= 1
-        self.spans = np.zeros((height + 2, most, 2), np.int32)
+        self.spans = _touched(np.zeros((height + 2, most, 2), np.int32))
         self.nsp = np.zeros(height + 2, np.int32)
-        self.pspans = np.zeros((height + 2, most, 2), np.int32)
+        self.pspans = _touched(np.zeros((height + 2, most, 2), np.int32))
         self.pnsp = np.zeros(height + 2, np.int32)
-        self.hsp = np.zeros((height + 2, most, 2), np.int32)
+        self.hsp = _touched(np.zeros((height + 2, most, 2), np.int32))
         self.hn = np.zeros(height + 2, np.int32)
         self._jbuf = np.zeros((0, 0, 0, 0, 0), F32)
         self._cst: tuple[SimParams, float, np.ndarray, np.ndarray] | None = None
