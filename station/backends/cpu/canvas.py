@@ -33,6 +33,12 @@ class CpuCanvas(NumpyCanvas):
         # the step's scratch is made with the canvas, not in its first step: at 512x512
         # its ~25 MB of zeroed fields cost that step ~7 ms, the first touch of a stroke
         self._scratch()
+        # and so are the pages of the state's fields that only a step writes first (the
+        # blank state's other fields are copies, written when made): the first step paid
+        # a page fault per 4 KiB of them (see cpu_step.Scratch)
+        st = self._state  # a blank sheet: these are zeros
+        for a in (st.q, st.wet_area):
+            a.fill(0)
 
     def _scratch(self) -> cpu_step.Scratch:
         st = self._state

@@ -697,14 +697,24 @@ def _pin(wet_o: np.ndarray, wc: np.ndarray, h: np.ndarray, y0: int, x0: int,
     (wet by its own water), 3 (reached by the contact line) or 0: a 3 whose paper is no
     damper than ``damp_sat`` with under two non-zero 4-neighbours becomes 2 (its
     neighbours' counts in the same sweep still read it as wet, whichever thread gets there
-    first); then 3 becomes 1 and 2 becomes 0. One byte a cell read twice, the rest only at
-    the front."""
+    first); then 3 becomes 1 and 2 becomes 0. One byte a cell read once (a vectorised
+    maximum over each span: a span without a 3 is skipped, and so are the rows without
+    one in the second sweep, i.e. the whole of a wash), the rest only at the front."""
     nch = bounds.shape[0] - 1
+    front = np.zeros(bounds[nch] + 1, np.uint8)  # 1: the row holds a 3
     for ch in prange(nch):
         for j in range(bounds[ch], bounds[ch + 1]):
             y = y0 + j - 1
+            row = wet_o[j]
             for si in range(nsp[j]):
                 slo, shi = _span(spans, j, si)
+                top = np.uint8(0)
+                for u in range(np.uint64(slo), np.uint64(shi + 1)):  # unsigned: vectorises
+                    v = row[u]
+                    top = v if v > top else top
+                if top < 3:
+                    continue
+                front[j] = 1
                 for i in range(slo, shi + 1):
                     if wet_o[j, i] != 3:
                         continue
@@ -727,6 +737,8 @@ def _pin(wet_o: np.ndarray, wc: np.ndarray, h: np.ndarray, y0: int, x0: int,
                     wet_o[j, i] = 2
     for ch in prange(nch):
         for j in range(bounds[ch], bounds[ch + 1]):
+            if front[j] == 0:
+                continue
             for si in range(nsp[j]):
                 slo, shi = _span(spans, j, si)
                 for i in range(slo, shi + 1):
