@@ -48,13 +48,18 @@ $(VENV)/.installed: pyproject.toml
 	$(PY) -m pip install -q --only-binary=:all: -e '.[test]'
 	@touch $@
 
+# the cpu step's kernels compile once into numba's cache, in two processes at once (a
+# fresh checkout's first step would compile them one after another on one core)
 demo: setup
+	$(PY) -m station.backends.cpu.warm
 	$(STATION) demo -o painting.png
 
 # two workers: most of the suite's time is real processes and windows waiting for each
 # other, which a second worker overlaps (tests/conftest.py keeps each worker's displays,
-# runtime and config directories apart)
+# runtime and config directories apart); the kernels are compiled first, in two processes
+# each compiling half of them (otherwise both workers compile all of them at once)
 test: testdeps venv
+	$(PY) -m station.backends.cpu.warm
 	$(PY) -m pytest -q -n 2
 
 lint: venv
