@@ -144,6 +144,13 @@ def frozen_copy(a: np.ndarray, pause: Pause = _no_pause, piece: int = PIECE_BYTE
     return out
 
 
+def _shared_with(cp: Any, live: Any) -> set[str]:
+    """The arrays of checkpoint state ``cp`` that are (views of) the live canvas's: those a
+    deferred checkpoint must still copy (the steady arrays of an earlier checkpoint of the
+    same epoch, :meth:`UndoHistory.canvas_checkpoint`, are copies already)."""
+    return {n for n in ARRAY_FIELDS if np.may_share_memory(getattr(cp, n), getattr(live, n))}
+
+
 def held_bytes(a: np.ndarray) -> int:
     """Memory ``a`` holds of its own: none for a zero view (all strides 0)."""
     return 0 if a.size and not any(a.strides) else int(a.nbytes)
@@ -437,7 +444,7 @@ class KioskSession:
             cp = self._checkpoint_now()
         finally:
             p.backend = real
-        entry = Deferred(weakref.ref(cp))
+        entry = Deferred(weakref.ref(cp), _shared_with(cp.state, st))
         self._lazy.append(entry)
         if self.inflight and not self._copying:
             self._mid_step.append(entry)
@@ -464,7 +471,7 @@ class KioskSession:
                 # the canvas only: the player was copied when the stroke started
                 cp.state, cp.n_slots, cp.nbytes = self.history.canvas_checkpoint()
                 cp.player["counters"].steps = p.counters.steps
-                entry.pending = set(ARRAY_FIELDS)  # all shared again
+                entry.pending = _shared_with(cp.state, self.cpu_state)  # shared again
         finally:
             p.backend = real
         self._mid_step.clear()
