@@ -513,7 +513,7 @@ class LiveCore:
         session = self.checkpoint_session()
 
         def write() -> bool:
-            data = st.npz_bytes(extra={"session": session})
+            data = st.npz_bytes(extra={"session": session}, quick=True)
             try:
                 # the painting is private like its log (0600)
                 atomic_write(self.autosave_path, data, mode=0o600)
