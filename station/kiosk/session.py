@@ -749,7 +749,7 @@ class KioskSession:
         devices), in the window's thread after each pass: not when the simulation thread
         holds the lock (the start or end of a step), the next pass does it.  Waiting
         for it made the window's slowest frames on a wholly wet 1920×1080 canvas
-        (140-650 ms at load 6-8: a step sums its stamps and adds them under the lock)."""
+        (140-650 ms at load 6-8, when a step summed and added its stamps under the lock)."""
         if not self.lock.acquire(blocking=False):
             return
         try:
