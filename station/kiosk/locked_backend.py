@@ -1,14 +1,30 @@
-"""The canvas backend as the kiosk's session sees it: the live arrays shared by a
-deferred undo checkpoint until the canvas next changes (:class:`SharedState`).  (A
-step's canvas part runs with the session's lock released:
-:meth:`station.kiosk.session.KioskSession.run_step`.)"""
+"""The canvas backend as the kiosk's session sees it: a step's kernel run in the niced
+kernel thread (:class:`OffloadedKernel`; the step's canvas part runs with the session's
+lock released, :meth:`station.kiosk.session.KioskSession.run_step`), and the live arrays
+shared by a deferred undo checkpoint until the canvas next changes (:class:`SharedState`)."""
 
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from typing import Any
 
 from station.canvas.state import CanvasState
+
+
+class OffloadedKernel:
+    """A backend whose ``step`` (the kernel) runs where ``offload`` runs it: the session's
+    niced kernel thread (:mod:`station.kiosk.niced`)."""
+
+    def __init__(self, backend: Any, offload: Callable[[Callable[[], None]], None]) -> None:
+        self._backend = backend
+        self._offload = offload
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._backend, name)
+
+    def step(self, *args: object, **kw: object) -> None:
+        self._offload(lambda: self._backend.step(*args, **kw))
 
 
 class SharedState:

@@ -23,7 +23,7 @@ what it needs from the brush (:meth:`SessionPlayer.take_step`: the stamps due an
 their shares, the beads, the deformable brush's pick-ups).  The rest of the step
 (:meth:`SessionPlayer.apply_step`: the stamps summed and added, the beads run out,
 the canvas kernel; nearly all of it) runs with the lock released
-(:meth:`KioskSession.run_step`): then the window applies the pen samples that only
+(:meth:`KioskSession.run_step`; the kernel in a niced thread of its own): then the window applies the pen samples that only
 feed the brush (their stamps wait for the next step's take, as they would anyway),
 a stroke's first sample included, and renders the tiles it needs.  An autosave's
 compression and write run with it released too (:meth:`KioskSession._maybe_autosave`).
@@ -85,7 +85,7 @@ from station.brush.stamp import RoundBrush
 from station.bus import Subscriber, runtime_dir
 from station.canvas.state import ARRAY_FIELDS, STEP_FIELDS
 from station.events import Command, PenSample, Tool
-from station.kiosk.locked_backend import SharedState
+from station.kiosk.locked_backend import OffloadedKernel, SharedState
 from station.kiosk.moisture import DAMP_WATER, Moisture
 from station.kiosk.niced import NicedRunner
 from station.sim.haptic import HapticFeedback
@@ -379,8 +379,11 @@ class KioskSession:
         """A step's canvas part (``job``: the stamps summed and added, the beads, the
         dryer, the kernel; :meth:`SessionPlayer.apply_step`), after the step took its
         stamps and beads from the brush under the lock: in a step of the simulation
-        thread (:meth:`_step_unlocked`), run with the lock released, in the niced kernel
-        thread (:meth:`offload`).  Under load
+        thread (:meth:`_step_unlocked`), run with the lock released, its kernel in the
+        niced kernel thread (:meth:`offload`, :class:`OffloadedKernel`; the sum and add
+        keep the window's priority: they hold the interpreter's lock between numpy's
+        calls, and a niced holder descheduled under load would hold the window with
+        it).  Under load
         a full-HD step's sum and add held every pen sample for up to 150 ms.  Brush
         samples go straight on meanwhile, a stroke's first included: they belong to the
         next step (:meth:`_slot_ahead`), whose take takes their stamps, as a replay
@@ -392,7 +395,7 @@ class KioskSession:
             job()
             return
         with self._lock_released(copying=False):
-            self.offload(job)
+            job()
 
     @contextmanager
     def _lock_released(self, copying: bool = True) -> Iterator[None]:
@@ -715,11 +718,15 @@ class KioskSession:
     def _step_unlocked(self) -> None:
         """One step (lock held), its canvas part run with the lock released
         (:meth:`run_step`)."""
+        p = self.player
+        real = p.backend
+        p.backend = OffloadedKernel(real, self.offload)
         self._release_for_step = True
         try:
             self.step()
         finally:
             self._release_for_step = False
+            p.backend = real
         self.finish_mid_step()
 
     def run_due_steps(self, max_steps: int = 2) -> int:
