@@ -23,9 +23,10 @@ what it needs from the brush (:meth:`SessionPlayer.take_step`: the stamps due an
 their shares, the beads, the deformable brush's pick-ups).  The rest of the step
 (:meth:`SessionPlayer.apply_step`: the stamps summed and added, the beads run out,
 the canvas kernel; nearly all of it) runs with the lock released
-(:meth:`KioskSession.run_step`; the kernel in a niced thread of its own): then the window applies the pen samples that only
-feed the brush (their stamps wait for the next step's take, as they would anyway),
-a stroke's first sample included, and renders the tiles it needs.  An autosave's
+(:meth:`KioskSession.run_step`; the kernel in a niced thread of its own): then the
+window applies the pen samples that only feed the brush (their stamps wait for the
+next step's take, as they would anyway), a stroke's first sample included, and
+renders the tiles it needs.  An autosave's
 compression and write run with it released too (:meth:`KioskSession._maybe_autosave`).
 Everything else (commands, tools, the eraser) waits for the step to end.  A sample
 applied during step *k* is logged in the time slot of step *k + 1*, where its stamps
