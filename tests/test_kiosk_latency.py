@@ -29,6 +29,7 @@ from station.kiosk.predict import (
 from station.kiosk.session import KioskSession
 from station.kiosk.views import Viewport, make_camera
 from station.sessionlog import read_session
+from station.sim import journal as journal_mod
 from station.sim.live import LiveConfig
 from station.sim.paint import make_backend
 from station.sim.player import SessionPlayer
@@ -1019,3 +1020,39 @@ def test_the_step_sums_and_adds_its_stamps_with_the_lock_released_and_replays_ex
         s.shutdown()
     _assert_replays(tmp_path / "s.jsonl", live)
     assert float(live.p.sum() + live.q.sum()) > 0.0
+
+
+def test_the_log_is_fsynced_by_the_simulation_thread_without_the_lock(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The log's fsync (every ``SYNC_EVERY_S``) ran in the window's thread, the lock held:
+    a slow disk held the window's frame and the steps.  With the simulation thread running,
+    the window's housekeeping only hands the records to the kernel; the simulation thread
+    fsyncs, the lock free."""
+    s = _session(tmp_path)
+    synced: list[tuple[str, bool]] = []
+    real_fsync = os.fsync
+
+    def fsync(fd: int) -> None:
+        synced.append((threading.current_thread().name,
+                       bool(s.lock._is_owned())))  # type: ignore[attr-defined]
+        real_fsync(fd)
+
+    monkeypatch.setattr(journal_mod.os, "fsync", fsync)
+    try:
+        s.command("brush", size=8, water=1.0, pigment={"French Ultramarine": 0.5})
+        s.start_worker(0)
+        for i in range(6):
+            s.handle("pen", _pen(i, 0.2 + 0.02 * i))
+        s.journal._last_sync = -math.inf  # an fsync is due
+        s.housekeeping()  # the window's pass
+        assert not [t for t, _ in synced if t == threading.current_thread().name]
+        deadline = time.monotonic() + 60
+        while not synced and time.monotonic() < deadline:
+            time.sleep(0.01)
+        s.check_worker()
+        s.stop_worker()
+        assert synced and synced[0] == ("kiosk-sim", False)
+        assert s.journal.size() > 0  # the records reached the file
+    finally:
+        s.stop_worker()
+        s.shutdown()

@@ -669,7 +669,13 @@ class KioskSession:
                         self.sim_seconds += t1 - t0
                         self.step_times.append((t0, t1))
                         self._maybe_autosave()
-                        continue
+                    sync = self.sim.journal.sync_due(SYNC_EVERY_S)
+                    if sync:  # what the window's records handed the kernel so far
+                        self.sim.journal.flush()
+                if sync:  # ... made durable, the lock free (housekeeping does not)
+                    self.sim.journal.fsync_flushed()
+                if wait <= 0.0:
+                    continue
                 self._halt.wait(min(wait, 0.05))
         except BaseException as exc:  # the window's thread reports it (check_worker)
             log.exception("the simulation thread failed")
@@ -753,15 +759,17 @@ class KioskSession:
         return n
 
     def housekeeping(self) -> None:
-        """``station sim``'s housekeeping when the thread runs the steps (log sync, silent
-        devices), in the window's thread after each pass: not when the simulation thread
+        """``station sim``'s housekeeping when the thread runs the steps (the log handed to
+        the kernel, silent devices; the simulation thread fsyncs the log, without the lock:
+        an fsync here held the window's frame), in the window's thread after each pass:
+        not when the simulation thread
         holds the lock (the start or end of a step), the next pass does it.  Waiting
         for it made the window's slowest frames on a wholly wet 1920×1080 canvas
         (140-650 ms at load 6-8, when a step summed and added its stamps under the lock)."""
         if not self.lock.acquire(blocking=False):
             return
         try:
-            self.sim.journal.maybe_sync(SYNC_EVERY_S)
+            self.sim.journal.flush()  # (the simulation thread fsyncs, without the lock)
             self.sim.check_devices()
         finally:
             self.lock.release()
