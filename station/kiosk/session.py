@@ -551,14 +551,15 @@ class KioskSession:
 
     @property
     def kernel_running(self) -> bool:
-        """Whether a step's kernel writes the canvas now (the lock released meanwhile):
-        the state is half old, half new until it ends."""
+        """Whether a step's canvas part (its stamps' add, beads, kernel:
+        :meth:`run_step`) writes the canvas now (the lock released meanwhile): the state
+        is half old, half new until it ends."""
         return self.inflight and not self._copying
 
     def _slot_ahead(self) -> bool:
-        """While step *k*'s kernel runs a record belongs to step *k + 1* (its stamps were
-        not in step *k*); not while the step copies checkpoints (it has not taken the
-        stamps yet)."""
+        """While step *k*'s canvas part runs (:meth:`run_step`: its take is over) a record
+        belongs to step *k + 1* (its stamps were not in step *k*); not while the step
+        copies checkpoints (it has not taken the stamps yet)."""
         return self.inflight and not self._copying
 
     def render_between_steps(self) -> np.ndarray:
