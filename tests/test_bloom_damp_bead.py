@@ -118,3 +118,22 @@ def test_the_damp_bead_and_fresh_phase_on_the_gl_backend_match_numpy() -> None:
         assert (got.wet_area[12:36, 12:36][(got.w[12:36, 12:36] == 0)] < 1e-3).all()
     finally:
         ctx.release()
+
+
+def test_a_touch_down_computes_the_damp_papers_saturation_only_where_its_bead_reaches(
+        ) -> None:
+    """A bead reads the saturation within its reach only (``fresh_phase_box`` holds it):
+    the whole canvas's took 25-110 ms a touch-down at 1920×1080.  The window holds the
+    whole canvas's numbers bit for bit, and nothing is computed outside it."""
+    c, p = _damp_canvas(48)
+    st = c.live_state
+    st.wc[5:9, 30:40] = np.float32(0.37) * st.capacity()[5:9, 30:40]  # a drier patch
+    got = p._paper_water(c)
+    assert got is not None and got.damp
+    cap = np.float32(st.params.c_min) + st.h * np.float32(st.params.c_max - st.params.c_min)
+    whole = np.minimum(st.wc / np.maximum(cap, np.float32(1e-6)), np.float32(1.0))
+    part = got.saturation(3, 20, 25, 44)
+    assert np.array_equal(part[3:20, 25:44], whole[3:20, 25:44])
+    outside = np.ones(part.shape, bool)
+    outside[3:20, 25:44] = False
+    assert not part[outside].any() and whole[outside].min() > 0.5

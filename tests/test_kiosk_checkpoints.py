@@ -4,7 +4,10 @@ comes, all-zero arrays cost no memory, and undo stays exact (issue 26, item 3)."
 
 from __future__ import annotations
 
+import io
+import json
 import threading
+import zipfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -15,12 +18,14 @@ from test_kiosk_latency import _replay as _replay_canvas  # the same 96x64 sessi
 
 from station.backends.factory import make_backend
 from station.canvas.palette import default_palette
-from station.canvas.state import ARRAY_FIELDS, STEP_FIELDS, CanvasState
+from station.canvas.state import ARRAY_FIELDS, STEP_FIELDS, CanvasState, quick_npz
 from station.events import Command, PenSample, Tool
 from station.kiosk.session import KioskSession, frozen_copy, held_bytes
+from station.sessionlog import read_session
 from station.sim import live as live_mod
 from station.sim.live import LiveConfig
 from station.sim.player import SessionPlayer
+from station.sim.undo import UndoHistory
 
 W, H = 96, 64
 STEADY = [n for n in ARRAY_FIELDS if n not in STEP_FIELDS]
@@ -271,3 +276,135 @@ def test_the_autosave_compresses_and_writes_with_the_lock_released(
         go.set()
         s._worker = None
         s.shutdown()
+
+
+def _eraser(t0: float, x0: float, y: float, n: int = 4) -> list[PenSample]:
+    out = [PenSample(t=t0 + 0.01 * i, device="p", tool=Tool.ERASER, x=x0 + 0.02 * i, y=y,
+                     pressure=0.8, touching=True, t_mono=1.0) for i in range(n)]
+    return [*out, PenSample(t=t0 + 0.01 * n, device="p", tool=Tool.ERASER, x=x0, y=y,
+                            pressure=0.0, touching=False, t_mono=1.0)]
+
+
+def test_checkpoints_between_steady_writes_share_one_copy_of_the_steady_arrays() -> None:
+    """A plain player's undo history (``station paint``, an undo's replay) holds one copy
+    of the paper, mask, blocking and dried layers for all the checkpoints with no
+    command or tool dab between them, and a fresh one after such a write: each checkpoint
+    holds exactly the arrays the canvas had when it was taken."""
+    made, _ = make_backend("cpu", W, H, "watercolor", 0)
+    canvas: Any = made
+    player = SessionPlayer(made, W, H, "watercolor", rate=30.0, pigments=default_palette())
+    hist = UndoHistory(player, budget=1 << 40)
+    taken: list[Any] = []
+    real = hist._checkpoint
+
+    def checked() -> Any:
+        cp = real()
+        live = canvas.live_state
+        for n in STEADY:  # what the canvas holds now, shared or not
+            assert np.array_equal(getattr(cp.state, n), getattr(live, n)), n
+        taken.append(cp)
+        return cp
+
+    hist._checkpoint = checked  # type: ignore[method-assign]
+    player.play([
+        _cmd(0.0, "brush", size=10, water=1.0, pigment={"Hansa Yellow": 0.6}),
+        *_stroke(0.02, 0.1, 0.3), *_stroke(0.2, 0.2, 0.6),  # 0, 1: one epoch
+        _cmd(0.4, "mask", x=0.8, y=0.2, size=8),  # 2: a dab (a unit; writes the mask)
+        _cmd(0.42, "brush", size=10),  # (the brush back in hand)
+        *_stroke(0.45, 0.3, 0.4),  # 3
+        _cmd(0.6, "brush", size=8, water=1.0, pigment={"French Ultramarine": 0.5}),
+        *_stroke(0.65, 0.1, 0.5),  # 4: a brush swap writes nothing steady
+        *_eraser(0.85, 0.2, 0.3),  # 5: the eraser's stroke
+        *_stroke(1.0, 0.4, 0.6),  # 6
+        _cmd(1.2, "new_layer"),
+        *_stroke(1.3, 0.2, 0.7),  # 7
+        _cmd(1.5, "undo"), _cmd(1.6, "undo"),  # 7, then 6 (across new_layer)
+        *_stroke(1.7, 0.5, 0.5)])
+    player.advance_to(2.0)
+    assert hist.undone == 2 and len(taken) == 9
+    first = {c.epoch: c for c in reversed(taken)}  # the first checkpoint of each epoch
+
+    def shares(a: Any, b: Any) -> bool:
+        return all(getattr(a.state, n) is getattr(b.state, n) for n in STEADY)
+
+    assert shares(taken[1], taken[0]) and taken[1].epoch == taken[0].epoch
+    assert taken[1].epoch == taken[2].epoch != taken[3].epoch  # before the dab, after it
+    assert shares(taken[4], taken[3])  # across a brush swap
+    assert taken[5].epoch == taken[4].epoch != taken[6].epoch  # the eraser writes
+    assert taken[7].epoch != taken[6].epoch  # new_layer wrote the dried layers
+    for c in taken:  # one copy per epoch
+        assert shares(c, first[c.epoch])
+    assert len(first) < len(taken) - 2
+    kept = [c for c in (hist._units[u].checkpoint for u in hist._done) if c is not None]
+    assert len(kept) == 7 and len({c.epoch for c in kept}) == 3  # 0-2, 3-5, 8
+    own = sum(c.nbytes - c.steady_bytes for c in kept)
+    assert hist.held_bytes() == own + 3 * kept[0].steady_bytes < sum(c.nbytes for c in kept)
+
+
+def _replay_with(log: Path, budget: int) -> tuple[CanvasState, UndoHistory]:
+    _header, records = read_session(log)
+    canvas, _ = make_backend("cpu", W, H, "watercolor", 0)
+    player = SessionPlayer(canvas, W, H, "watercolor", rate=30.0, pigments=default_palette())
+    hist = UndoHistory(player, budget=budget)
+    player.play(records)
+    return canvas.state(), hist
+
+
+def test_the_undo_budget_counts_shared_arrays_once_and_a_replay_lets_the_same_go(
+        tmp_path: Path) -> None:
+    """At 1920×1080 a checkpoint's own arrays are ~68 MiB but the packed state 270 MiB:
+    counted whole, only one or two strokes fitted the 512 MiB budget.  The steady arrays
+    of checkpoints with no command or dab between them are counted once, so a budget of
+    one whole checkpoint and four checkpoints' own arrays keeps five strokes; a replay of
+    the log (a plain player, the same budget) counts the same and undoes the same."""
+    s = _session(tmp_path)
+    try:
+        _feed(s, [_cmd(0.0, "brush", size=10, water=1.0, pigment={"Hansa Yellow": 0.6}),
+                  *_stroke(0.02, 0.1, 0.2)])
+        cp = s.history._units[s.history._done[0]].checkpoint
+        assert cp is not None
+        own = cp.nbytes - cp.steady_bytes
+        assert cp.steady_bytes > 0.3 * cp.nbytes  # (paper, mask, blocking, dried layers)
+        budget = cp.nbytes + 4 * own + own // 2
+        s.history.budget = budget  # (the kiosk's is 512 MiB: the same rule)
+        _feed(s, [r for i in range(5) for r in _stroke(0.2 + 0.15 * i, 0.1 + 0.05 * i,
+                                                       0.3 + 0.1 * i)])
+        assert s.history.undo_depth() == 5 and s.history.dropped["budget"] == 1
+        assert s.history.held_bytes() <= budget < 3 * cp.nbytes
+        for i in range(5):
+            _feed(s, [_cmd(1.2 + 0.05 * i, "undo")])
+        _feed(s, [_cmd(1.5, "wait", seconds=0.1)])
+        assert s.history.undone == 5
+        live = s.canvas.state()
+    finally:
+        s.shutdown()
+    replay, hist = _replay_with(tmp_path / "s.jsonl", budget)
+    assert hist.undone == 5 and hist.dropped == {"limit": 0, "budget": 1, "records": 0}
+    assert replay.step_count == live.step_count
+    for n in ARRAY_FIELDS:
+        assert np.array_equal(getattr(replay, n), getattr(live, n)), n
+    assert float(live.p.sum()) > 0.0  # the first stroke (let go by the budget) is left
+
+
+def test_a_quick_archive_stores_what_hardly_compresses_and_loads_bit_for_bit(
+        tmp_path: Path) -> None:
+    """The autosave's archive (``quick_npz``): a 1920×1080 wet canvas's deflate took 8 s,
+    most of it on float noise that deflates to 0.8-0.9 of its size (velocities, water,
+    pigment): those planes are stored, the rest deflated at level 1."""
+    rng = np.random.default_rng(3)
+    arrays = {"noise": rng.random((H, W), dtype=np.float32),
+              "zero": np.zeros((H, W), np.float32), "steps": np.arange(5000, dtype=np.int64),
+              "meta": np.array(json.dumps({"a": [1, 2]}))}
+    data = quick_npz(arrays)
+    with zipfile.ZipFile(io.BytesIO(data)) as z:
+        kinds = {i.filename: i.compress_type for i in z.infolist()}
+        sizes = {i.filename: i.compress_size for i in z.infolist()}
+    assert kinds["noise.npy"] == zipfile.ZIP_STORED
+    assert kinds["zero.npy"] == kinds["steps.npy"] == zipfile.ZIP_DEFLATED
+    assert sizes["zero.npy"] < 0.05 * arrays["zero"].nbytes
+    path = tmp_path / "a.npz"
+    path.write_bytes(data)
+    with np.load(path, allow_pickle=False) as back:
+        for k, v in arrays.items():
+            assert np.array_equal(back[k], v) and back[k].dtype == v.dtype, k
+        assert json.loads(str(back["meta"])) == {"a": [1, 2]}

@@ -125,9 +125,8 @@ def install(old_nice: bool) -> None:
         real_shown(app, shown, times, n_early)
 
     loop.record_shown = record_shown
-    _timed(session_mod.KernelUnlocked, "step")
-    for owner, name in ((player_mod.SessionPlayer, "flush_sources"),
-                        (player_mod.SessionPlayer, "release_beads"),
+    for owner, name in ((player_mod.SessionPlayer, "take_step"),
+                        (player_mod.SessionPlayer, "apply_step"),
                         (journal_mod.SessionJournal, "flush"),
                         (session_mod.KioskSession, "finish_mid_step"),
                         (session_mod.KioskSession, "materialize_checkpoints"),
@@ -178,7 +177,7 @@ def report(result: dict[str, Any], top: int) -> dict[str, Any]:
                          "wait", "MainThread", a, b, since), 1),
                      "sim_thread_held_lock_ms": round(1000 * _overlap(
                          "hold", "kiosk-sim", a, b, since), 1),
-                     "kernel_ms": round(1000 * _overlap("step", None, a, b, since), 1),
+                     "kernel_ms": round(1000 * _overlap("apply_step", None, a, b, since), 1),
                      "gc_ms": round(1000 * _overlap("gc", None, a, b, since), 1),
                      "sim_thread_did": inside})
     totals: dict[str, dict[str, float]] = {}

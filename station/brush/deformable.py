@@ -73,6 +73,7 @@ from station.brush.sources import (
     Stamp,
     StampPreview,
     StampQueue,
+    Taken,
     painting_steps,
 )
 from station.brush.spine import handle_frame
@@ -578,6 +579,10 @@ class DeformableBrush:
     def take(self, step: int | None = None) -> Sources | None:
         """As :meth:`RoundBrush.take <station.brush.stamp.RoundBrush.take>`."""
         return self._pending.take(step)
+
+    def take_shares(self, step: int | None = None) -> Taken:
+        """As :meth:`RoundBrush.take_shares <station.brush.stamp.RoundBrush.take_shares>`."""
+        return self._pending.take_shares(step)
 
     def take_pickups(self) -> list[PickupRequest]:
         out, self.pickups = self.pickups, []

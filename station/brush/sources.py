@@ -242,6 +242,20 @@ def accumulate(stamps: Iterable[Stamp], shares: Sequence[float] | None = None
 
 
 @dataclass(frozen=True)
+class Taken:
+    """Stamps a step took from a :class:`StampQueue` and the part of each it took, not yet
+    summed: the stamps are immutable and the lists the queue's no more, so the sum
+    (:meth:`sources`) may run while the queue takes new stamps."""
+
+    stamps: list[Stamp]
+    shares: list[float]
+
+    def sources(self) -> Sources | None:
+        """The sum (:func:`accumulate`), ``None`` if nothing is due."""
+        return accumulate(self.stamps, self.shares)
+
+
+@dataclass(frozen=True)
 class StampPreview:
     """What a live view shows of the stamps a brush made since the last step (the
     kiosk draws them over the simulated canvas until a step takes them)."""
@@ -316,12 +330,18 @@ class StampQueue:
         """The stamps' sources due before step ``step`` (see :func:`due_share`) that were
         not handed out yet, summed; ``None``: everything left (a command that needs the
         canvas whole, the session's end)."""
+        return self.take_shares(step).sources()
+
+    def take_shares(self, step: int | None = None) -> Taken:
+        """:meth:`take` without the sum: the stamps and the share of each now due, summed
+        by :meth:`Taken.sources` when the caller likes (the kiosk sums with its lock
+        released; the queue goes on taking stamps meanwhile)."""
         if step is None:
             left = [1.0 - g for g in self.given]
             stamps = self.stamps
             self.stamps, self.given = [], []
             self._left, self._valid, self._shown = None, True, None
-            return accumulate(stamps, left)
+            return Taken(stamps, left)
         now: list[float] = []
         keep: list[Stamp] = []
         kept: list[float] = []
@@ -335,7 +355,7 @@ class StampQueue:
         if any(k > 0.0 for k in now):  # else nothing left changed: the sum holds
             self._changed()
         self.stamps, self.given = keep, kept
-        return accumulate(stamps, now)
+        return Taken(stamps, now)
 
     def _left_sources(self) -> Sources | None:
         """Everything left, summed (:func:`accumulate`'s bits), from the running sum."""

@@ -54,7 +54,7 @@ from station.brush.sources import Footprint as Footprint
 from station.brush.sources import Sources as Sources
 from station.brush.sources import Stamp as Stamp
 from station.brush.sources import StampPreview as StampPreview
-from station.brush.sources import StampQueue, painting_steps
+from station.brush.sources import StampQueue, Taken, painting_steps
 from station.errors import BadInput
 from station.events import PenSample, Tool
 
@@ -566,6 +566,11 @@ class RoundBrush:
         its time, :class:`~station.brush.sources.StampQueue`), summed; ``None``: all that
         is left. ``None`` if there is nothing."""
         return self._pending.take(step)
+
+    def take_shares(self, step: int | None = None) -> Taken:
+        """:meth:`take` not yet summed (:meth:`Taken.sources
+        <station.brush.sources.Taken.sources>` sums them)."""
+        return self._pending.take_shares(step)
 
     def peek(self) -> Sources | None:
         """All the sources still pending, left pending (a live view's preview)."""

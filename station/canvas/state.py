@@ -35,6 +35,7 @@ from __future__ import annotations
 import io
 import json
 import zipfile
+import zlib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -232,10 +233,13 @@ class CanvasState:
         """
         atomic_write(path, self.npz_bytes())
 
-    def npz_bytes(self, extra: Mapping[str, object] | None = None) -> bytes:
+    def npz_bytes(self, extra: Mapping[str, object] | None = None,
+                  quick: bool = False) -> bytes:
         """The .npz archive :meth:`save` writes; ``extra`` adds JSON entries (a live
         session's checkpoint data), which :meth:`load` ignores and
-        :func:`read_extra` returns."""
+        :func:`read_extra` returns.  ``quick`` (a live session's autosave): the arrays
+        that hardly compress are stored, the rest deflated at level 1
+        (:func:`quick_npz`): at 1920×1080 wet ~1 s against 8 s, 80 against 74 MiB."""
         used = len(self.slots)
         arrays = {n: getattr(self, n) for n in _PLANE_FIELDS}
         arrays.update({n: getattr(self, n)[:used] for n in _STACK_FIELDS})
@@ -246,6 +250,8 @@ class CanvasState:
         meta = np.array(json.dumps(self.metadata()))
         arrays["meta"] = meta
         arrays.update({f"extra_{k}": np.array(json.dumps(v)) for k, v in (extra or {}).items()})
+        if quick:
+            return quick_npz(arrays)
         buf = io.BytesIO()
         np.savez_compressed(buf, **arrays)
         return buf.getvalue()
@@ -332,6 +338,34 @@ class CanvasState:
         except (KeyError, TypeError, ValueError, AttributeError) as exc:
             raise CanvasInputError(f"state metadata is malformed ({exc})", where) from None
         return st
+
+
+#: Bytes of an array that :func:`quick_npz` deflates to see whether it compresses.
+PROBE_BYTES = 1 << 18
+#: An array whose probe deflates to more than this share of its size is stored as is:
+#: velocities, water and pigment planes of a wet canvas (float noise) deflate to ~0.8-0.9
+#: at five times the time of the rest together.
+STORE_ABOVE = 0.7
+
+
+def quick_npz(arrays: Mapping[str, np.ndarray]) -> bytes:
+    """An .npz archive (what ``np.load`` reads) of ``arrays``, each stored or deflated at
+    level 1 as a probe of its first :data:`PROBE_BYTES` says (:data:`STORE_ABOVE`)."""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED, compresslevel=1) as z:
+        for name, value in arrays.items():
+            a = np.asanyarray(value)  # (0-d kept: the metadata's JSON string)
+            probe = a.reshape(-1)[:max(1, PROBE_BYTES // max(a.itemsize, 1))].tobytes()
+            stored = len(probe) >= 4096 and (
+                len(zlib.compress(probe, 1)) > STORE_ABOVE * len(probe))
+            info = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_STORED if stored else zipfile.ZIP_DEFLATED
+            # (Python 3.13 names it compress_level: a property over this one)
+            setattr(info, "_compresslevel", 1)  # noqa: B010 (a ZipInfo passed to open
+            # would deflate at zlib's default level 6)
+            with z.open(info, "w", force_zip64=True) as f:
+                np.lib.format.write_array(f, a, allow_pickle=False)
+    return buf.getvalue()
 
 
 def read_extra(path: str | Path, name: str) -> object:

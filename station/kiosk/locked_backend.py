@@ -1,57 +1,30 @@
-"""The canvas backend as the kiosk's session sees it: a step's kernel run with the
-session's lock released (:class:`KernelUnlocked`), and the live arrays shared by a
-deferred undo checkpoint until the canvas next changes (:class:`SharedState`)."""
+"""The canvas backend as the kiosk's session sees it: a step's kernel run in the niced
+kernel thread (:class:`OffloadedKernel`; the step's canvas part runs with the session's
+lock released, :meth:`station.kiosk.session.KioskSession.run_step`), and the live arrays
+shared by a deferred undo checkpoint until the canvas next changes (:class:`SharedState`)."""
 
 from __future__ import annotations
 
 import json
-import threading
 from collections.abc import Callable
-from typing import Any, Protocol
+from typing import Any
 
 from station.canvas.state import CanvasState
 
 
-class StepLock(Protocol):
-    """The session's side of a step: its lock, and whether a kernel runs now."""
+class OffloadedKernel:
+    """A backend whose ``step`` (the kernel) runs where ``offload`` runs it: the session's
+    niced kernel thread (:mod:`station.kiosk.niced`)."""
 
-    inflight: bool
-    lock: threading.Condition
-
-    def offload(self, job: Callable[[], None]) -> None:
-        """Run ``job`` (the lock released) where the step's kernel runs."""
-
-    def add_unlocked(self, job: Callable[[], None]) -> None:
-        """Run ``job`` (a step's brush sources' add) with the lock released."""
-
-
-class KernelUnlocked:
-    """A backend whose ``step`` runs with the session's lock released (the window
-    applies brush samples meanwhile; see :mod:`station.kiosk.session`), in the session's
-    niced kernel thread (:meth:`StepLock.offload`, :mod:`station.kiosk.niced`)."""
-
-    def __init__(self, backend: Any, session: StepLock) -> None:
+    def __init__(self, backend: Any, offload: Callable[[Callable[[], None]], None]) -> None:
         self._backend = backend
-        self._session = session
+        self._offload = offload
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self._backend, name)
 
     def step(self, *args: object, **kw: object) -> None:
-        s = self._session
-        s.inflight = True
-        s.lock.release()
-        try:
-            s.offload(lambda: self._backend.step(*args, **kw))
-        finally:
-            s.lock.acquire()
-            s.inflight = False
-            s.lock.notify_all()
-
-    def add_sources(self, *args: Any, **kw: Any) -> None:
-        """The step's brush sources, added with the lock released where the session
-        allows (:meth:`StepLock.add_unlocked`)."""
-        self._session.add_unlocked(lambda: self._backend.add_sources(*args, **kw))
+        self._offload(lambda: self._backend.step(*args, **kw))
 
 
 class SharedState:

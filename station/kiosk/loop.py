@@ -189,9 +189,8 @@ def draw_frame(app: KioskApp, now: float, dt: float, times: _FrameTimes) -> bool
     whether the late latch took input."""
     s = app.session
     app.frame_pixels = 0
-    # not while a step hands its sources over (the kernel may run); the tiles wait for
-    # the next frame while the simulation thread holds the lock (a step's start or end:
-    # on a wholly wet 1920×1080 canvas it sums and adds its stamps under it)
+    # not while the simulation thread holds the lock (a step's take of its stamps, its
+    # end): the tiles wait for the next frame
     if s.lock.acquire(blocking=bool(app.screenshots)):
         try:
             if app.screenshots:  # a screenshot shows the canvas between steps

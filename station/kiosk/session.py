@@ -18,16 +18,18 @@ The simulation thread.  Steps are due 30 times a second and take several
 milliseconds each on the CPU backends; run in the frame loop, a pen sample
 arriving as a step starts waits for the step and then for a frame.  So the
 steps run in a thread of their own, and a lock (:attr:`KioskSession.lock`)
-keeps the window's thread and the steps apart — except during the canvas
-kernel itself (``backend.step()``, most of a step), when the lock is
-released: then the window applies the pen samples that only feed the brush
-(its stamps wait for the next step, as they would anyway), a stroke's
-first sample included, and renders the tiles it needs.  The step's brush
-sources are added with the lock released too (:meth:`KioskSession.add_unlocked`;
-samples that come meanwhile wait aside until the add is over), and so is an
-autosave's compression and write (:meth:`KioskSession._maybe_autosave`).  Everything else
-(commands, tools, the eraser) waits for the step to end.  A sample applied
-during step *k* is logged in the time slot of step *k + 1*, where its stamps
+keeps the window's thread and the steps apart — but only while a step takes
+what it needs from the brush (:meth:`SessionPlayer.take_step`: the stamps due and
+their shares, the beads, the deformable brush's pick-ups).  The rest of the step
+(:meth:`SessionPlayer.apply_step`: the stamps summed and added, the beads run out,
+the canvas kernel; nearly all of it) runs with the lock released
+(:meth:`KioskSession.run_step`; the kernel in a niced thread of its own): then the
+window applies the pen samples that only feed the brush (their stamps wait for the
+next step's take, as they would anyway), a stroke's first sample included, and
+renders the tiles it needs.  An autosave's
+compression and write run with it released too (:meth:`KioskSession._maybe_autosave`).
+Everything else (commands, tools, the eraser) waits for the step to end.  A sample
+applied during step *k* is logged in the time slot of step *k + 1*, where its stamps
 go, so a replay of the log (``station paint``) gives the same pixels.  The
 display may read a tile while the kernel writes it; the tile is marked dirty
 by the step and rendered again in the next frame.
@@ -84,7 +86,7 @@ from station.brush.stamp import RoundBrush
 from station.bus import Subscriber, runtime_dir
 from station.canvas.state import ARRAY_FIELDS, STEP_FIELDS
 from station.events import Command, PenSample, Tool
-from station.kiosk.locked_backend import KernelUnlocked, SharedState
+from station.kiosk.locked_backend import OffloadedKernel, SharedState
 from station.kiosk.moisture import DAMP_WATER, Moisture
 from station.kiosk.niced import NicedRunner
 from station.sim.haptic import HapticFeedback
@@ -141,6 +143,13 @@ def frozen_copy(a: np.ndarray, pause: Pause = _no_pause, piece: int = PIECE_BYTE
             pause()
         dst[i:i + step] = flat[i:i + step]
     return out
+
+
+def _shared_with(cp: Any, live: Any) -> set[str]:
+    """The arrays of checkpoint state ``cp`` that are (views of) the live canvas's: those a
+    deferred checkpoint must still copy (the steady arrays of an earlier checkpoint of the
+    same epoch, :meth:`UndoHistory.canvas_checkpoint`, are copies already)."""
+    return {n for n in ARRAY_FIELDS if np.may_share_memory(getattr(cp, n), getattr(live, n))}
 
 
 def held_bytes(a: np.ndarray) -> int:
@@ -221,10 +230,7 @@ class KioskSession:
         self.lock = threading.Condition()
         self.inflight = False  # the canvas kernel of a step runs now, the lock released
         self._copying = False  # (with inflight) the step copies undo checkpoints first
-        self._adding = False  # (with inflight) the step adds its sources (add_unlocked)
-        # pen samples that came during an add: (sample, mapped, topic, replay)
-        self._stash: deque[tuple[PenSample, PenSample, str, bool]] = deque()
-        self.samples_stashed = 0
+        self._release_for_step = False  # run_step releases the lock (_step_unlocked)
         self.sim_seconds = 0.0  # wall time spent in steps (either thread)
         # (start, end) perf_counter times of the recent steps, for a bench's window
         self.step_times: deque[tuple[float, float]] = deque(maxlen=4096)
@@ -332,11 +338,6 @@ class KioskSession:
                 return
             self.last_canvas_pen = sample
             with self.window_lock():
-                if self._adding:  # applied after the step's takes (see add_unlocked)
-                    self._stash.append((value, sample, topic, replay))
-                    self.samples_stashed += 1
-                    return
-                self._apply_stash()
                 self._apply_pen(value, sample, topic, replay)
             return
         if kind == "cmd" and isinstance(value, Command) and self.kiosk_command is not None:
@@ -375,39 +376,41 @@ class KioskSession:
             if value.t_mono > 0.0:
                 self.awaiting_paint.append(value.t_mono)
 
-    def _apply_stash(self) -> None:
-        """The samples that came while a step added its sources, in order (lock held, no
-        add running): as samples that come during the kernel, or between steps."""
-        while self._stash and not self._adding:
-            self._apply_pen(*self._stash.popleft())
-
-    def add_unlocked(self, job: Callable[[], None]) -> None:
-        """A step's brush sources added (``job``) with the lock released, in the
-        simulation thread: under load a full-HD step's add held every pen sample for up
-        to 150 ms.  Samples that come meanwhile are kept aside, not applied
-        (:meth:`_apply_stash`): the step still takes stamps and beads after this add,
-        and a sample's stamps interpolated back into this step's slot would be taken a
-        step early for the log.  The window draws on meanwhile, its tiles waiting as
-        for a kernel; commands and tools wait."""
-        if threading.current_thread() is not self._worker:
+    def run_step(self, job: Callable[[], None]) -> None:
+        """A step's canvas part (``job``: the stamps summed and added, the beads, the
+        dryer, the kernel; :meth:`SessionPlayer.apply_step`), after the step took its
+        stamps and beads from the brush under the lock: in a step of the simulation
+        thread (:meth:`_step_unlocked`), run with the lock released, its kernel in the
+        niced kernel thread (:meth:`offload`, :class:`OffloadedKernel`; the sum and add
+        keep the window's priority: they hold the interpreter's lock between numpy's
+        calls, and a niced holder descheduled under load would hold the window with
+        it).  Under load
+        a full-HD step's sum and add held every pen sample for up to 150 ms.  Brush
+        samples go straight on meanwhile, a stroke's first included: they belong to the
+        next step (:meth:`_slot_ahead`), whose take takes their stamps, as a replay
+        applying them after this step does.  The tiles wait for the step's end;
+        commands and tools wait (:meth:`_wait_step`).  Elsewhere (a ``wait`` command's
+        steps, the steps of a kiosk without the thread) ``job`` runs here, the lock
+        held."""
+        if not self._release_for_step:
             job()
             return
-        with self._lock_released(adding=True):
+        with self._lock_released(copying=False):
             job()
 
     @contextmanager
-    def _lock_released(self, adding: bool = False) -> Iterator[None]:
+    def _lock_released(self, copying: bool = True) -> Iterator[None]:
         """The lock released in the simulation thread (held on entry and on exit) while
-        ``inflight`` and ``_adding`` (a step's add) or ``_copying`` (a checkpoint's copy,
-        an autosave's write) say why: the window draws on, commands and tools wait."""
+        ``inflight`` and ``_copying`` (a checkpoint's copy, an autosave's write) or not
+        (a step's canvas part) say why: the window draws on, commands and tools wait."""
         self.inflight = True
-        self._adding, self._copying = adding, not adding
+        self._copying = copying
         self.lock.release()
         try:
             yield
         finally:
             self.lock.acquire()
-            self.inflight = self._adding = self._copying = False
+            self.inflight = self._copying = False
             self._prune()
             self.lock.notify_all()
 
@@ -445,7 +448,7 @@ class KioskSession:
             cp = self._checkpoint_now()
         finally:
             p.backend = real
-        entry = Deferred(weakref.ref(cp))
+        entry = Deferred(weakref.ref(cp), _shared_with(cp.state, st))
         self._lazy.append(entry)
         if self.inflight and not self._copying:
             self._mid_step.append(entry)
@@ -472,7 +475,7 @@ class KioskSession:
                 # the canvas only: the player was copied when the stroke started
                 cp.state, cp.n_slots, cp.nbytes = self.history.canvas_checkpoint()
                 cp.player["counters"].steps = p.counters.steps
-                entry.pending = set(ARRAY_FIELDS)  # all shared again
+                entry.pending = _shared_with(cp.state, self.cpu_state)  # shared again
         finally:
             p.backend = real
         self._mid_step.clear()
@@ -548,14 +551,15 @@ class KioskSession:
 
     @property
     def kernel_running(self) -> bool:
-        """Whether a step's kernel writes the canvas now (the lock released meanwhile):
-        the state is half old, half new until it ends."""
+        """Whether a step's canvas part (its stamps' add, beads, kernel:
+        :meth:`run_step`) writes the canvas now (the lock released meanwhile): the state
+        is half old, half new until it ends."""
         return self.inflight and not self._copying
 
     def _slot_ahead(self) -> bool:
-        """While step *k*'s kernel runs a record belongs to step *k + 1* (its stamps were
-        not in step *k*); not while the step copies checkpoints (it has not taken the
-        stamps yet)."""
+        """While step *k*'s canvas part runs (:meth:`run_step`: its take is over) a record
+        belongs to step *k + 1* (its stamps were not in step *k*); not while the step
+        copies checkpoints (it has not taken the stamps yet)."""
         return self.inflight and not self._copying
 
     def render_between_steps(self) -> np.ndarray:
@@ -666,7 +670,13 @@ class KioskSession:
                         self.sim_seconds += t1 - t0
                         self.step_times.append((t0, t1))
                         self._maybe_autosave()
-                        continue
+                    sync = self.sim.journal.sync_due(SYNC_EVERY_S)
+                    if sync:  # what the window's records handed the kernel so far
+                        self.sim.journal.flush()
+                if sync:  # ... made durable, the lock free (housekeeping does not)
+                    self.sim.journal.fsync_flushed()
+                if wait <= 0.0:
+                    continue
                 self._halt.wait(min(wait, 0.05))
         except BaseException as exc:  # the window's thread reports it (check_worker)
             log.exception("the simulation thread failed")
@@ -714,13 +724,16 @@ class KioskSession:
         self.materialize_checkpoints(STEP_FIELDS)  # strokes kept starting: under the lock
 
     def _step_unlocked(self) -> None:
-        """One step (lock held), its canvas kernel run with the lock released."""
+        """One step (lock held), its canvas part run with the lock released
+        (:meth:`run_step`)."""
         p = self.player
         real = p.backend
-        p.backend = KernelUnlocked(real, self)
+        p.backend = OffloadedKernel(real, self.offload)
+        self._release_for_step = True
         try:
             self.step()
         finally:
+            self._release_for_step = False
             p.backend = real
         self.finish_mid_step()
 
@@ -747,15 +760,17 @@ class KioskSession:
         return n
 
     def housekeeping(self) -> None:
-        """``station sim``'s housekeeping when the thread runs the steps (log sync, silent
-        devices), in the window's thread after each pass: not when the simulation thread
+        """``station sim``'s housekeeping when the thread runs the steps (the log handed to
+        the kernel, silent devices; the simulation thread fsyncs the log, without the lock:
+        an fsync here held the window's frame), in the window's thread after each pass:
+        not when the simulation thread
         holds the lock (the start or end of a step), the next pass does it.  Waiting
         for it made the window's slowest frames on a wholly wet 1920×1080 canvas
-        (140-650 ms at load 6-8: a step sums its stamps and adds them under the lock)."""
+        (140-650 ms at load 6-8, when a step summed and added its stamps under the lock)."""
         if not self.lock.acquire(blocking=False):
             return
         try:
-            self.sim.journal.maybe_sync(SYNC_EVERY_S)
+            self.sim.journal.flush()  # (the simulation thread fsyncs, without the lock)
             self.sim.check_devices()
         finally:
             self.lock.release()
@@ -771,11 +786,6 @@ class KioskSession:
         draws what it has handled and takes the rest in the next frames, instead of
         handling a growing queue before it draws again (each frame longer, the queue
         longer).  At least one message is handled when one is there."""
-        if self._stash and self.lock.acquire(blocking=False):
-            try:
-                self._apply_stash()
-            finally:
-                self.lock.release()
         sub = self.sim.sub
         msg = sub.recv(timeout_ms)
         deadline = time.perf_counter() + max(budget_s, floor_s)

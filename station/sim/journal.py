@@ -227,6 +227,25 @@ class SessionJournal:
         self._last_sync = time.monotonic()
         return ok
 
+    def sync_due(self, every: float = 1.0) -> bool:
+        """Whether the last fsync is ``every`` seconds old."""
+        return time.monotonic() - self._last_sync >= every
+
+    def fsync_flushed(self) -> bool:
+        """fsync what was handed to the kernel, without handing more: a host may run it
+        beside the thread that appends records (the kiosk: its simulation thread, without
+        the lock the window's records need; an fsync took the window's frame with it)."""
+        fd = self._fd
+        self._last_sync = time.monotonic()
+        if fd is None:
+            return False
+        try:
+            os.fsync(fd)
+        except OSError as exc:
+            self.report.failed(f"session log {self.path}", exc)
+            return False
+        return True
+
     def maybe_sync(self, every: float = 1.0) -> None:
         """Flush now, fsync when the last one is ``every`` seconds old."""
         if time.monotonic() - self._last_sync >= every:

@@ -410,14 +410,23 @@ class LiveCore:
         if hooks is not None:
             hooks.before_step()
         self.journal.flush()
-        try:
-            self.player.flush_sources()
-        except BadInput as exc:
-            self.counters.dropped_sources += 1
-            self._warn(f"brush sources dropped: {exc}")
-        self.player.step()
+        p = self.player
+        take = p.take_step()
+
+        def canvas_part() -> None:
+            p.apply_step(take, self._sources_refused)
+
+        if hooks is not None:
+            hooks.run_step(canvas_part)
+        else:
+            canvas_part()
+        p.end_step()
         if hooks is not None:
             hooks.after_step()
+
+    def _sources_refused(self, exc: BadInput) -> None:
+        self.counters.dropped_sources += 1
+        self._warn(f"brush sources dropped: {exc}")
 
     def publish_haptic(self, device: str, force: HapticForce) -> None:
         """Send a reaction frame to ``haptic.<device>`` (no bus here: dropped)."""
@@ -504,7 +513,7 @@ class LiveCore:
         session = self.checkpoint_session()
 
         def write() -> bool:
-            data = st.npz_bytes(extra={"session": session})
+            data = st.npz_bytes(extra={"session": session}, quick=True)
             try:
                 # the painting is private like its log (0600)
                 atomic_write(self.autosave_path, data, mode=0o600)

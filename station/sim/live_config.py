@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
@@ -101,8 +102,14 @@ class Counters:
 
 class StepHooks(Protocol):
     """What a host runs around every step of its :class:`LiveCore` (the kiosk: its undo
-    checkpoints' copies before, the tiles its display must redraw before and after)."""
+    checkpoints' copies before, the tiles its display must redraw before and after), and
+    how it runs the step's canvas part (``job``: the stamps' sum and add, the beads, the
+    kernel; :meth:`SessionPlayer.apply_step <station.sim.player.SessionPlayer.apply_step>`),
+    after the step has taken what it needs from the brush (the kiosk: with its lock
+    released, in its kernel thread)."""
 
     def before_step(self) -> None: ...
+
+    def run_step(self, job: Callable[[], None]) -> None: ...
 
     def after_step(self) -> None: ...

@@ -42,11 +42,11 @@ from station.arttools import tissue as tissue_tool
 from station.arttools import well as well_tool
 from station.backends.numpy_canvas import NumpyCanvas
 from station.backends.protocol import CanvasBackend, edit_state
-from station.brush.bead import FRESH_SAT, bead_sources, fresh_phase_box
+from station.brush.bead import FRESH_SAT, BeadRequest, bead_sources, fresh_phase_box
 from station.brush.deformable import DeformableBrush
 from station.brush.reservoir import pickup
 from station.brush.solver import SolverCounters
-from station.brush.sources import Sources
+from station.brush.sources import Sources, Taken
 from station.brush.stamp import STAMP_KIND, BrushModel, BrushSettings, RoundBrush
 from station.canvas.paper import make_paper
 from station.canvas.params import Profile, SimParams
@@ -78,17 +78,35 @@ MAX_RATE = 1000.0
 
 class PaperWater(NamedTuple):
     """What a bead needs to know of the canvas (:mod:`station.brush.bead`): the fluid water
-    height ``w`` [height], the mask, ``w_max``, the capillary layer's saturation
-    ``min(wc / c, 1)`` (None where the profile's damp paper draws no fresh water), the
-    saturation from which paper counts as damp, and how far [cells] the flow-outward blur
-    reads the wet-area mask."""
+    height ``w`` [height], the mask, ``w_max``, whether the profile's damp paper draws
+    fresh water, the saturation from which paper counts as damp, how far [cells] the
+    flow-outward blur reads the wet-area mask, and the capillary water ``wc``, the paper
+    height ``h`` and the profile's capacities ``c_min``, ``c_max`` the saturation comes
+    from (:meth:`saturation`)."""
 
     w: np.ndarray
     mask: np.ndarray
     w_max: float
-    saturation: np.ndarray | None
+    damp: bool
     damp_sat: float
     blur_reach: int
+    wc: np.ndarray
+    h: np.ndarray
+    c_min: float
+    c_max: float
+
+    def saturation(self, y0: int, y1: int, x0: int, x1: int) -> np.ndarray:
+        """The capillary layer's saturation ``min(wc / c, 1)`` in the cells ``[y0, y1) x
+        [x0, x1)``, in an array of the canvas's shape whose other cells are 0: a
+        bead reads its reach only (:func:`~station.brush.bead.fresh_phase_box` holds it),
+        and the whole 1920×1080 canvas's took 25-110 ms a touch-down.  Cell by cell the
+        same float32 operations as over the whole canvas: the same bits."""
+        out = np.zeros(self.wc.shape, np.float32)  # (calloc: untouched pages cost nothing)
+        h = self.h[y0:y1, x0:x1]
+        cap = np.float32(self.c_min) + h * np.float32(self.c_max - self.c_min)
+        out[y0:y1, x0:x1] = np.minimum(self.wc[y0:y1, x0:x1] / np.maximum(
+            cap, np.float32(1e-6)), np.float32(1.0))
+        return out
 
 
 def _paper_water(w: np.ndarray, mask: np.ndarray, wc: np.ndarray, h: np.ndarray,
@@ -96,12 +114,24 @@ def _paper_water(w: np.ndarray, mask: np.ndarray, wc: np.ndarray, h: np.ndarray,
     """:class:`PaperWater` from a canvas's arrays and parameters. Damp paper draws a bead
     only where the profile has both damp paper's suction (``damp_ease``) and a wet-area
     memory to start a fresh phase in (``wet_hold``)."""
-    sat = None
-    if prm.damp_ease > 0 and prm.wet_hold > 0:
-        cap = np.float32(prm.c_min) + h * np.float32(prm.c_max - prm.c_min)
-        sat = np.minimum(wc / np.maximum(cap, np.float32(1e-6)), np.float32(1.0))
     reach = len(gaussian_taps(prm.wet_blur)) // 2 if prm.flow_outward > 0 else 0
-    return PaperWater(w, mask, float(prm.w_max), sat, float(prm.damp_sat), reach)
+    return PaperWater(w, mask, float(prm.w_max), prm.damp_ease > 0 and prm.wet_hold > 0,
+                      float(prm.damp_sat), reach, wc, h, prm.c_min, prm.c_max)
+
+
+@dataclass(frozen=True)
+class StepTake:
+    """What step ``index`` took (:meth:`SessionPlayer.take_step`) for
+    :meth:`SessionPlayer.apply_step`: the backend to step, the stamps and their shares
+    (not yet summed), the beads due, the hair dryer blowing this step (``None``: none)
+    and the step's ``dt`` [simulation time]."""
+
+    index: int
+    backend: CanvasBackend
+    stamps: Taken
+    beads: list[BeadRequest]
+    dryer: HairDryer | None
+    dt: float
 
 
 @dataclass
@@ -201,16 +231,52 @@ class SessionPlayer:
     def step(self) -> None:
         """One simulation step with the brush sources due before it (each stamp is
         spread over the two steps around its time: :mod:`station.brush.sources`), and the
-        beads of the touch-downs before it (:meth:`release_beads`)."""
-        self.flush_sources()
-        self.release_beads(self.counters.steps)
+        beads of the touch-downs before it (:meth:`release_beads`):
+        :meth:`take_step`, :meth:`apply_step`, :meth:`end_step`."""
+        self.apply_step(self.take_step())
+        self.end_step()
+
+    def take_step(self) -> StepTake:
+        """The first part of a step: what it takes from the brush (the deformable brush's
+        pick-ups, which write the canvas, the stamps' shares due, the beads due) and the
+        hair dryer's turn.  Everything that reads or changes the brush or the player is
+        here; :meth:`apply_step` touches only the canvas and what this returns, so a host
+        may run it while new pen samples feed the brush (the kiosk: its lock released),
+        as long as those samples belong to the next step (their stamps and beads are
+        taken by its :meth:`take_step`, as in a replay that applies them after this
+        step)."""
+        k = self.counters.steps
+        self._pickups()
+        stamps = self.brush.take_shares(k)
+        beads = self.brush.take_beads(k) if isinstance(self.brush, RoundBrush) else []
         dryer = self.dryer
+        if dryer is not None and k >= self.dryer_until:
+            self.dryer = dryer = None
+        return StepTake(k, self.backend, stamps, beads, dryer, self.dt)
+
+    def apply_step(self, take: StepTake,
+                   refused: Callable[[BadInput], None] | None = None) -> None:
+        """The rest of the step :meth:`take_step` began, on the canvas alone: the stamps
+        summed and added, the beads run out, the dryer, the kernel.  ``refused``: what to
+        do with the stamps the canvas refuses (:class:`BadInput`; raised when ``None``),
+        the step goes on."""
+        backend = take.backend
+        src = take.stamps.sources()
+        if src is not None:
+            try:
+                add_sources(backend, src)
+            except BadInput as exc:
+                if refused is None:
+                    raise
+                refused(exc)
+        self._run_beads(take.beads, backend)
+        dryer = take.dryer
         if dryer is not None:
-            if self.counters.steps < self.dryer_until:
-                edit_state(self.backend, lambda st: blow(st, dryer, self.dt))
-            else:
-                self.dryer = None
-        self.backend.step()
+            edit_state(backend, lambda st: blow(st, dryer, take.dt))
+        backend.step()
+
+    def end_step(self) -> None:
+        """A step over: counted (a record applied from now on is after it)."""
         self.counters.steps += 1
 
     def advance_to(self, t: float, on_step: Callable[[SessionPlayer], None] | None = None) -> None:
@@ -230,6 +296,16 @@ class SessionPlayer:
         brush) from the canvas arrays, where the backend keeps them in memory
         (``live_state``); a GPU backend's pick-ups are counted and skipped.
         """
+        self._pickups()
+        src = self.brush.take(None if whole else self.counters.steps)
+        if src is not None:
+            add_sources(self.backend, src)
+        if whole:
+            self.release_beads()
+
+    def _pickups(self) -> None:
+        """A deformable brush's pick-ups queued since the last flush, lifted from the
+        canvas (see :meth:`flush_sources`)."""
         if isinstance(self.brush, DeformableBrush):
             requests = self.brush.take_pickups()
             state = getattr(self.backend, "live_state", None)
@@ -239,11 +315,6 @@ class SessionPlayer:
                 for r in requests:
                     pickup(StateSurface(state), self.brush.reservoir, r.weight, r.y0, r.x0,
                            self.brush.shape.pickup)
-        src = self.brush.take(None if whole else self.counters.steps)
-        if src is not None:
-            add_sources(self.backend, src)
-        if whole:
-            self.release_beads()
 
     def release_beads(self, step: int | None = None) -> None:
         """The beads of the round brush's touch-downs run out into the standing water under
@@ -253,25 +324,29 @@ class SessionPlayer:
         flush, so live and replay agree. A bead run out into damp paper starts a fresh wet
         phase: the damp wash's faded wet-area memory around it is dropped
         (:meth:`_fresh_wet_phase`)."""
-        if not isinstance(self.brush, RoundBrush):
-            return
-        for req in self.brush.take_beads(step):
-            got = self._paper_water()
+        if isinstance(self.brush, RoundBrush):
+            self._run_beads(self.brush.take_beads(step), self.backend)
+
+    def _run_beads(self, beads: list[BeadRequest], backend: CanvasBackend) -> None:
+        """The beads taken (:meth:`release_beads`) run out on ``backend``'s canvas."""
+        for req in beads:
+            got = self._paper_water(backend)
             if got is None:  # a backend that shows no state (a test double)
                 continue
             src = bead_sources(req, got.w, got.mask, got.w_max)
-            if src is None and got.saturation is not None:
-                src = bead_sources(req, got.w, got.mask, got.w_max, got.saturation,
-                                   got.damp_sat)
+            if src is None and got.damp:
+                y0, y1, x0, x1 = fresh_phase_box(req, got.w_max, got.blur_reach,
+                                                 *got.w.shape)
+                sat = got.saturation(y0, y1, x0, x1)  # (bead_sources reads inside)
+                src = bead_sources(req, got.w, got.mask, got.w_max, sat, got.damp_sat)
                 if src is not None:
-                    y0, y1, x0, x1 = fresh_phase_box(req, got.w_max, got.blur_reach,
-                                                     *got.w.shape)
                     self._fresh_wet_phase(
-                        y0, x0, got.saturation[y0:y1, x0:x1] < np.float32(FRESH_SAT))
+                        y0, x0, sat[y0:y1, x0:x1] < np.float32(FRESH_SAT), backend)
             if src is not None:
-                add_sources(self.backend, src)
+                add_sources(backend, src)
 
-    def _fresh_wet_phase(self, y0: int, x0: int, drier: np.ndarray) -> None:
+    def _fresh_wet_phase(self, y0: int, x0: int, drier: np.ndarray,
+                         backend: CanvasBackend) -> None:
         """Drop the faded wet-area memory (``wet_area < 1``: cells whose water has gone)
         where ``drier`` (a window at row ``y0``, column ``x0``) is set: Curtis 1997's
         wet-area mask belongs to a glaze, and a fresh load run out into a damp wash is a new
@@ -281,8 +356,8 @@ class SessionPlayer:
         mask texture; others take a state round trip."""
         if not drier.any():
             return
-        forget = getattr(self.backend, "forget_wet_memory", None)
-        if getattr(self.backend, "live_state", None) is None and forget is not None:
+        forget = getattr(backend, "forget_wet_memory", None)
+        if getattr(backend, "live_state", None) is None and forget is not None:
             forget(y0, x0, drier)
             return
 
@@ -290,26 +365,26 @@ class SessionPlayer:
             a = st.wet_area[y0:y0 + drier.shape[0], x0:x0 + drier.shape[1]]
             a[(a < np.float32(1.0)) & drier] = np.float32(0.0)
 
-        edit_state(self.backend, drop)
+        edit_state(backend, drop)
 
-    def _paper_water(self) -> PaperWater | None:
+    def _paper_water(self, backend: CanvasBackend) -> PaperWater | None:
         """The canvas's fluid water height, mask, ``w_max`` and, where the profile's damp
         paper draws fresh water (``damp_ease > 0`` with a wet-area memory), the capillary
         layer's saturation: the arrays themselves where the backend keeps them in memory,
         else read back (GL: two textures; other backends their whole state), at most once a
         dip (a bead is the first touch-down's)."""
-        live = getattr(self.backend, "live_state", None)
+        live = getattr(backend, "live_state", None)
         st: CanvasState | None = live if isinstance(live, CanvasState) else None
         if st is None:
-            read = getattr(self.backend, "paper_water", None)
+            read = getattr(backend, "paper_water", None)
             if read is not None:
                 got = read()
                 if got is not None:  # a backend that answers but shows nothing: no bead
                     w, mask, wc, h = got
-                    prm = getattr(self.backend, "params", None)
+                    prm = getattr(backend, "params", None)
                     if isinstance(prm, SimParams):
                         return _paper_water(w, mask, wc, h, prm)
-            whole = getattr(self.backend, "state", None)
+            whole = getattr(backend, "state", None)
             st = whole() if whole is not None else None
             if not isinstance(st, CanvasState):
                 return None

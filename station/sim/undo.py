@@ -51,8 +51,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from station.canvas.state import CanvasState
-from station.events import Command, PenSample
+from station.canvas.state import ARRAY_FIELDS, STEP_FIELDS, CanvasState
+from station.events import Command, PenSample, Tool
 
 if TYPE_CHECKING:
     from station.sim.player import SessionPlayer
@@ -66,6 +66,13 @@ DROP_LOG_S = 10.0  # at most one line per this many seconds about units let go
 DAB_COMMANDS = frozenset({"tissue", "eraser", "mask"})
 _SHARED = ("backend", "history", "pigments")  # player attributes a checkpoint does not copy
 _STACKS = ("p", "q", "removed_p")
+#: The arrays only a command or a tool's dab writes (never a step, never a brush sample:
+#: :data:`~station.canvas.state.STEP_FIELDS`): the paper, the mask, the blocking, the dried
+#: layers.  Checkpoints with no such write between them hold one copy of them.
+STEADY_FIELDS = tuple(n for n in ARRAY_FIELDS if n not in STEP_FIELDS)
+#: Commands that write no steady array (a brush swap, a wait: their only canvas writes
+#: are a step's).
+STEADY_KEEPING_COMMANDS = frozenset({"brush", "wait"})
 
 Record = PenSample | Command
 
@@ -78,6 +85,10 @@ class Checkpoint:
     n_slots: int
     player: dict[str, Any]
     nbytes: int
+    #: the steady arrays' version (:attr:`UndoHistory.epoch`): checkpoints of one epoch
+    #: hold the same steady arrays, counted once (:meth:`UndoHistory.held_bytes`)
+    epoch: int = -1
+    steady_bytes: int = 0  # of ``nbytes``, the steady arrays' (:data:`STEADY_FIELDS`)
 
 
 @dataclass
@@ -111,6 +122,11 @@ def _state_bytes(st: CanvasState) -> int:
     return sum(v.nbytes for v in vars(st).values() if isinstance(v, np.ndarray))
 
 
+def steady_bytes(st: CanvasState) -> int:
+    """Bytes of the steady arrays (:data:`STEADY_FIELDS`) of ``st``."""
+    return sum(int(getattr(st, n).nbytes) for n in STEADY_FIELDS)
+
+
 class UndoHistory:
     """Undo/redo for one :class:`SessionPlayer` (see the module docstring)."""
 
@@ -136,6 +152,12 @@ class UndoHistory:
         self._next = 0
         self._uids = 0
         self.replaying = False
+        # the steady arrays' version: a new one after every record that may write them
+        # (a function of the records alone, so a replay of the log counts the bytes held
+        # as the live session did, and lets the same units go)
+        self.epoch = 0
+        self._epochs = 0  # versions handed out (never one twice)
+        self._newest: Checkpoint | None = None  # the last checkpoint taken
         self.undone = 0
         self.redone = 0
         self.replayed_steps = 0
@@ -144,6 +166,27 @@ class UndoHistory:
     # -- recording -----------------------------------------------------------------
     def before(self, rec: Record) -> None:
         """Called by the player just before it applies ``rec``."""
+        try:
+            self._record(rec)
+        finally:
+            if self._writes_steady(rec):  # after the checkpoint taken before rec
+                self.new_epoch()
+
+    def _writes_steady(self, rec: Record) -> bool:
+        """Whether applying ``rec`` may write a steady array: a command other than a brush
+        swap or a wait; a pen sample with a tool in hand, the eraser, or the brush while
+        a diffusion controller writes the blocking."""
+        if isinstance(rec, Command):
+            return rec.cmd not in STEADY_KEEPING_COMMANDS
+        p = self.player
+        return p.tool is not None or rec.tool is Tool.ERASER or p.controller is not None
+
+    def new_epoch(self) -> None:
+        """The steady arrays may change: later checkpoints share none with earlier ones."""
+        self._epochs += 1
+        self.epoch = self._epochs
+
+    def _record(self, rec: Record) -> None:
         if self.replaying or (isinstance(rec, Command) and rec.cmd in ("undo", "redo")):
             return
         uid = self._unit_for(rec)
@@ -189,13 +232,38 @@ class UndoHistory:
         st, ns, nbytes = self.canvas_checkpoint()
         memo = {id(getattr(p, k)): getattr(p, k) for k in _SHARED if hasattr(p, k)}
         snap = {k: copy.deepcopy(v, memo) for k, v in vars(p).items() if k not in _SHARED}
-        return Checkpoint(st, ns, snap, nbytes)
+        cp = Checkpoint(st, ns, snap, nbytes, self.epoch, steady_bytes(st))
+        self._newest = cp
+        return cp
 
     def canvas_checkpoint(self) -> tuple[CanvasState, int, int]:
         """A checkpoint's canvas part: the state (pigment stacks cut to the used slots),
-        the slot count and the bytes held."""
+        the slot count and the bytes it counts.  The steady arrays are the newest
+        checkpoint's when nothing may have written them since (the same epoch): one copy
+        for all the checkpoints of an epoch (a 1920×1080 canvas's dried layers alone are
+        94 MiB)."""
         st, ns = _pack(self.player.backend.state())
+        last = self._newest
+        if last is not None and last.epoch == self.epoch:
+            for name in STEADY_FIELDS:
+                mine, theirs = getattr(st, name), getattr(last.state, name)
+                if mine.shape == theirs.shape and mine.dtype == theirs.dtype:
+                    setattr(st, name, theirs)
         return st, ns, _state_bytes(st)
+
+    def held_bytes(self) -> int:
+        """The bytes the kept checkpoints hold, the steady arrays of an epoch once (a
+        function of the records: a replay counts what the live session counted)."""
+        cps = [self._units[u].checkpoint for u in self._done] + [
+            u.checkpoint for u, _ in self._redo]
+        steady: dict[int, int] = {}
+        total = 0
+        for cp in cps:
+            if cp is None:
+                continue
+            total += cp.nbytes - cp.steady_bytes
+            steady[cp.epoch] = max(steady.get(cp.epoch, 0), cp.steady_bytes)
+        return total + sum(steady.values())
 
     def _trim(self) -> None:
         """Drop the oldest checkpoints beyond the limit or the byte budget."""
@@ -205,7 +273,7 @@ class UndoHistory:
 
         while True:
             kept = held()
-            total = sum(u.checkpoint.nbytes for u in kept if u.checkpoint)
+            total = self.held_bytes()
             if len(kept) <= self.limit and (total <= self.budget or len(kept) <= 1):
                 return
             self._let_go(self._done[0], "limit" if len(kept) > self.limit else "budget")
@@ -329,6 +397,7 @@ class UndoHistory:
         p = self.player
         target = p.counters.steps
         p.backend.load_state(_unpack(cp))
+        self.new_epoch()  # (not the epoch's arrays: later records' writes are replayed)
         memo = {id(getattr(p, k)): getattr(p, k) for k in _SHARED if hasattr(p, k)}
         for k, v in cp.player.items():
             setattr(p, k, copy.deepcopy(v, memo))
@@ -354,11 +423,9 @@ class UndoHistory:
 
     def status(self) -> dict[str, object]:
         """Depth of both stacks, the limits and the bytes held (for a status line)."""
-        held = [self._units[u].checkpoint for u in self._done] + [u.checkpoint for u, _ in
-                                                                   self._redo]
         return {"undo_depth": self.undo_depth(),
                 "redo_depth": len(self._redo), "limit": self.limit, "budget": self.budget,
-                "bytes": sum(c.nbytes for c in held if c is not None),
+                "bytes": self.held_bytes(),
                 "max_records": self.max_records, "records": len(self._recs),
                 "forgotten_records": self.forgotten, "let_go": dict(self.dropped),
                 "undone": self.undone, "redone": self.redone,
