@@ -278,8 +278,10 @@ def test_operations_render_and_factory() -> None:
     iters = int(c.live_state.params.jacobi_iters)
     memory = c.live_state.params.wet_hold > 0
     assert memory  # the watercolor profile keeps a wet-area memory (issue 21 item 8)
+    finv, fdry = c.live_state.params.standing_front()
+    front = (1 if fdry > 0 else 0) if finv > 0 else -1
     assert c.bytes_per_cell_step() == sum(
-        traffic.bytes_per_sweep(slots, iters, memory).values())
+        traffic.bytes_per_sweep(slots, iters, memory, front).values())
     # 520 before issue 10, 556 in own sweep, 544 before issue 26 fused passes 2-5, 6 and
     # 7-10, 408 after them; 364 with uint8 flags, c from h, pass 1 on the state's velocity
     assert traffic.bytes_per_cell_step(2, 4) == 380
@@ -290,6 +292,11 @@ def test_operations_render_and_factory() -> None:
     # the wet-area memory: prep reads and writes the area (8), and its fade reads and
     # writes it again in evap_capillary's rows (8; 17 as a sweep of its own, 300 in all)
     assert traffic.bytes_per_cell_step(2, 1, wet_memory=True) == 291
+    # the standing gate's front factor (session 13's default): its own sweep (41 B, 57 B
+    # with the dry-paper term), prep without the dispersion's reads (-16), advect_jacobi1
+    # without pass 3's levelled height (-16)
+    assert traffic.bytes_per_cell_step(2, 1, wet_memory=True, front=0) == 300
+    assert traffic.bytes_per_cell_step(2, 1, wet_memory=True, front=1) == 316
 
 
 def test_bench_sim_measures_the_cpu_backend(capsys) -> None:

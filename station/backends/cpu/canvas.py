@@ -58,4 +58,6 @@ class CpuCanvas(NumpyCanvas):
         """Honest bytes per simulated cell and step of the fused sweeps (see traffic.py)."""
         slots = max(len(self._state.slots), 1)
         prm = self._state.params
-        return traffic.bytes_per_cell_step(slots, prm.jacobi_iters, prm.wet_hold > 0)
+        finv, fdry = prm.standing_front()
+        front = (1 if fdry > 0 else 0) if finv > 0 else -1  # as gl.traffic.front_mode
+        return traffic.bytes_per_cell_step(slots, prm.jacobi_iters, prm.wet_hold > 0, front)

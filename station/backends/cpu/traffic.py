@@ -18,10 +18,13 @@ FLOAT = 4
 FLAG = 1
 
 
-def bytes_per_sweep(slots: int, jacobi_iters: int,
-                    wet_memory: bool = False) -> dict[str, int]:
+def bytes_per_sweep(slots: int, jacobi_iters: int, wet_memory: bool = False,
+                    front: int = -1) -> dict[str, int]:
     """Per sweep: bytes read + written per cell for one step; ``wet_memory``: the
-    profile keeps a wet-area memory (``SimParams.wet_hold > 0``)."""
+    profile keeps a wet-area memory (``SimParams.wet_hold > 0``); ``front``: the standing
+    gate's front factor (``gl.traffic.front_mode``: -1 off, 0 on, 1 on with its dry-paper
+    term), which moves the dispersion and pass 3's levelled height into a sweep of its
+    own (``kernels.standing_front``)."""
     s = int(slots)
     n = max(int(jacobi_iters), 1)
     f, b = FLOAT, FLAG
@@ -56,6 +59,16 @@ def bytes_per_sweep(slots: int, jacobi_iters: int,
         "evap_capillary (passes 7, 8, 9a, 9b, 9c, 10)":
             f * ((7 + 2 * s) + (5 + 2 * s)) + b * 2,
     }
+    if front >= 0:
+        # prep runs without the dispersion (C_DISP 0): fibre(2), vx, vy not read there
+        sweeps["prep (wet mask, copies, diffusion controller, row blur)"] -= f * 4
+        # advect_jacobi1 without do_pr: mbx, h (and with n = 1 w0) not read, pr not written
+        sweeps["advect_jacobi1 (pass 1, pass 3's levelled height, water/pigment Jacobi 1)"] = \
+            (f * ((4 + s) + (3 + s)) + b) if n >= 2 else f * (2 + 2) + b
+        # read mbx, wet, w0, h, bc, fibre(2), vx, vy; write pr, bc; with the dry-paper
+        # term a loop of its own first (read wc, h, write dbx), then dbx read again
+        sweeps["standing_front (the standing gate's front factor, pass 3's levelled height)"] \
+            = f * (8 + 2) + b + (f * 4 if front > 0 else 0)
     if wet_memory:
         # prep's own loop per span reads the wet area and writes M = max(area, own)
         sweeps["prep (wet mask, copies, diffusion controller, row blur)"] += f * 2
@@ -65,6 +78,7 @@ def bytes_per_sweep(slots: int, jacobi_iters: int,
     return sweeps
 
 
-def bytes_per_cell_step(slots: int, jacobi_iters: int, wet_memory: bool = False) -> int:
+def bytes_per_cell_step(slots: int, jacobi_iters: int, wet_memory: bool = False,
+                        front: int = -1) -> int:
     """Bytes of honest memory traffic per simulated cell and step."""
-    return sum(bytes_per_sweep(slots, jacobi_iters, wet_memory).values())
+    return sum(bytes_per_sweep(slots, jacobi_iters, wet_memory, front).values())
