@@ -652,24 +652,7 @@ def standing_front(w0: np.ndarray, wc: np.ndarray, h: np.ndarray, vx: np.ndarray
                               True, am, pr_o)
                 ulo, uhi = np.uint64(slo), np.uint64(shi + 1)
                 if drying:
-                    for u in range(ulo, uhi):
-                        ad[u] = ZERO
-                    k = 0
-                    while k < nt:
-                        jj = j + k - r
-                        if k + 3 <= nt and jj >= 1 and jj + 2 <= bh:
-                            g0, g1, g2 = taps[k], taps[k + 1], taps[k + 2]
-                            d0, d1, d2 = dbx_o[jj], dbx_o[jj + 1], dbx_o[jj + 2]
-                            for u in range(ulo, uhi):
-                                ad[u] = ((ad[u] + g0 * d0[u]) + g1 * d1[u]) + g2 * d2[u]
-                            k += 3
-                            continue
-                        if jj >= 1 and jj <= bh:
-                            g = taps[k]
-                            dk = dbx_o[jj]
-                            for u in range(ulo, uhi):
-                                ad[u] = ad[u] + g * dk[u]
-                        k += 1
+                    _blur_y_row(dbx_o, taps, j, bh, ulo, uhi, ad)
                 w0r, bcr = w0[j], bc_o[j]
                 f0r, f1r, vxr, vyr = fibre[0, y], fibre[1, y], vx[y], vy[y]
                 for u in range(ulo, uhi):
@@ -749,6 +732,36 @@ def _pin(wet_o: np.ndarray, wc: np.ndarray, h: np.ndarray, y0: int, x0: int,
 
 # ------------------------------------------------------------------ flow outward
 @_inline
+def _blur_y_row(src: np.ndarray, taps: np.ndarray, j: int, bh: int, ulo: np.uint64,
+                uhi: np.uint64, acc: np.ndarray) -> None:
+    """``acc[ulo:uhi]`` = the y half of a blur of ``src`` (an x-blurred scratch field, box
+    rows 1..bh) at row j: taps in order, offset -R first, rows outside the box skipped
+    where the reference adds 0; three taps a pass over the row where their rows are all in
+    the box (the same additions in the same order): one load and store of acc per three
+    taps. Unsigned columns: numba's negative-index wraparound keeps signed ones scalar."""
+    nt = taps.shape[0]
+    r = (nt - 1) // 2
+    for u in range(ulo, uhi):
+        acc[u] = ZERO
+    k = 0
+    while k < nt:
+        jj = j + k - r
+        if k + 3 <= nt and jj >= 1 and jj + 2 <= bh:
+            g0, g1, g2 = taps[k], taps[k + 1], taps[k + 2]
+            m0, m1, m2 = src[jj], src[jj + 1], src[jj + 2]
+            for u in range(ulo, uhi):
+                acc[u] = ((acc[u] + g0 * m0[u]) + g1 * m1[u]) + g2 * m2[u]
+            k += 3
+            continue
+        if jj >= 1 and jj <= bh:
+            g = taps[k]
+            mk = src[jj]
+            for u in range(ulo, uhi):
+                acc[u] = acc[u] + g * mk[u]
+        k += 1
+
+
+@_inline
 def _pressure_row(mbx: np.ndarray, wet: np.ndarray, w0: np.ndarray, h: np.ndarray,
                   taps: np.ndarray, j: int, y: int, x0: int, bh: int, lo: int, hi: int,
                   eta: np.float32, relief: np.float32, outward: bool, acc: np.ndarray,
@@ -756,34 +769,13 @@ def _pressure_row(mbx: np.ndarray, wet: np.ndarray, w0: np.ndarray, h: np.ndarra
     """Pass 3's levelled height ``P = (w + relief h) - eta (1 - M')`` on wet cells of row
     j (``w`` elsewhere; a term whose parameter is 0 is left out), ``M'`` the y half of the
     blur of ``mbx`` (taps in order, offset -R first; rows outside the box are skipped where
-    the reference adds 0)."""
-    nt = taps.shape[0]
-    r = (nt - 1) // 2
+    the reference adds 0: :func:`_blur_y_row`)."""
     # unsigned columns throughout: numba cannot bound ``lo`` here, and its negative-index
     # wraparound made these loops scalar, the zeroing one a 16-lane scatter (~60 % of
     # this sweep at 1920x1080 between them)
     ulo, uhi = np.uint64(lo), np.uint64(hi + 1)
     if outward:
-        for u in range(ulo, uhi):
-            acc[u] = ZERO
-        # three taps a pass over the row where their rows are all in the box (the same
-        # additions in the same order): one load and store of acc per three taps
-        k = 0
-        while k < nt:
-            jj = j + k - r
-            if k + 3 <= nt and jj >= 1 and jj + 2 <= bh:
-                g0, g1, g2 = taps[k], taps[k + 1], taps[k + 2]
-                m0, m1, m2 = mbx[jj], mbx[jj + 1], mbx[jj + 2]
-                for u in range(ulo, uhi):
-                    acc[u] = ((acc[u] + g0 * m0[u]) + g1 * m1[u]) + g2 * m2[u]
-                k += 3
-                continue
-            if jj >= 1 and jj <= bh:
-                g = taps[k]
-                mk = mbx[jj]
-                for u in range(ulo, uhi):
-                    acc[u] = acc[u] + g * mk[u]
-            k += 1
+        _blur_y_row(mbx, taps, j, bh, ulo, uhi, acc)
     wr, w0r, pro = wet[j], w0[j], pr_o[j]
     hrow = h[y]
     xo = np.uint64(x0 - 1)
