@@ -26,6 +26,7 @@ import subprocess
 import sys
 import time
 from types import ModuleType
+from typing import NoReturn
 
 import numpy as np
 from numba.core.registry import CPUDispatcher
@@ -86,8 +87,16 @@ def compile_share(share: int) -> list[str]:
     return sorted(n for n in mine if kernels[n][1].signatures)
 
 
+class _OneLine(argparse.ArgumentParser):
+    """Bad flags: exit 2 with one line (as ``station``'s own parser; not imported from
+    the CLI, which sits above the backends)."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: {message}\n")
+
+
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m station.backends.cpu.warm",
+    ap = _OneLine(prog="python -m station.backends.cpu.warm",
                                  description=__doc__.split("\n\n")[0])
     ap.add_argument("--jobs", type=int, default=min(SHARES, os.cpu_count() or 1),
                     help="processes compiling at once (default: 2, or 1 on one core)")
