@@ -81,8 +81,10 @@ def test_the_effects_sheets_brushed_stroke_dries_with_a_band_not_a_line() -> Non
     assert eff.numbers["rim_ratio"] >= 1.4, rings
 
 
-def _source_columns(speed_s: float, lift_moving: bool) -> np.ndarray:
-    """Columns of a horizontal stroke's brush sources (cells that get water), per x."""
+def _source_columns(speed_s: float, lift_moving: bool, bunched: bool = False) -> np.ndarray:
+    """Columns of a horizontal stroke's brush sources (cells that get water), per x;
+    ``bunched``: the last sample logged 3 us after the one before (a live sim behind its
+    pen logs a run of samples in one step's slot, the next in the next slot)."""
     w, h = 200, 60
     paper = NumpyCanvas(w, h, seed=7).live_state.h
     b = RoundBrush(w, h, BrushSettings(size=20, water=0.8, pigment={PIG: 1.0}),
@@ -90,7 +92,8 @@ def _source_columns(speed_s: float, lift_moving: bool) -> np.ndarray:
     n = 30
     for i in range(n + 1):
         u = i / n
-        b.feed(PenSample(t=speed_s * u, device="d", tool="pen",  # type: ignore[arg-type]
+        t = speed_s * (n - 1) / n + 3e-6 if bunched and i == n else speed_s * u
+        b.feed(PenSample(t=t, device="d", tool="pen",  # type: ignore[arg-type]
                          x=0.1 + 0.5 * u, y=0.5, pressure=0.8, touching=True))
     if not lift_moving:  # the pen stops, then lifts
         b.feed(PenSample(t=speed_s + 0.2, device="d", tool="pen",  # type: ignore[arg-type]
@@ -120,6 +123,10 @@ def test_a_lift_while_moving_tapers_by_speed() -> None:
     assert ends["flick"][0] >= ends["stop"][0] + 6
     assert ends["flick"][1] < 0.4  # a point: 4 cells before its tip (a half disc: 0.8)
     assert ends["stop"][1] > 0.55
+    # a slow stroke whose last two samples were logged 3 us apart (a sim behind its pen)
+    # ends like the slow one, not in the longest taper (main: a 4-radius sweep, 26 cells)
+    cols = _source_columns(1.0, True, bunched=True)
+    assert int(np.nonzero(cols)[0].max()) - 120 <= ends["slow"][0] + 1
 
 
 def test_a_dry_fast_stroke_breaks_into_streaks() -> None:

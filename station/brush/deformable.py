@@ -77,7 +77,7 @@ from station.brush.sources import (
     painting_steps,
 )
 from station.brush.spine import handle_frame
-from station.brush.stamp import NO_PRESSURE_TOOLS, BrushModel, BrushSettings
+from station.brush.stamp import MIN_VELOCITY_DT, NO_PRESSURE_TOOLS, BrushModel, BrushSettings
 from station.brush.tuft_model import PickupRequest
 from station.brush.tuft_model import TuftModel as TuftModel
 from station.errors import BadInput
@@ -373,7 +373,7 @@ class DeformableBrush:
         dx, dy = x - stroke.x, y - stroke.y
         dist = math.hypot(dx, dy)
         dt = sample.t - stroke.t
-        if dt > 1e-6:
+        if dt >= MIN_VELOCITY_DT:  # (stamp.py says why)
             stroke.vx, stroke.vy = dx / dt, dy / dt
         elif dist == 0.0:
             stroke.vx = stroke.vy = 0.0

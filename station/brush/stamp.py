@@ -59,6 +59,12 @@ from station.errors import BadInput
 from station.events import PenSample, Tool
 
 STAMP_KIND = "round"
+# Shortest gap between two samples that gives the pen a velocity [s] (5 kHz, above any
+# tablet's report rate). A live sim logs each sample at the time of the step that applied
+# it, so a sim that fell behind logs a run of samples at one time and the next one a few
+# microseconds later, in the next step's slot: a velocity from that gap was thousands of
+# cells a second, and a lift there swept the longest taper the brush has.
+MIN_VELOCITY_DT = 2e-4
 """The round stamp brush of chapter 5 (the mouse's brush, and every log made before
 the deformable brushes): the kind of the ``brush`` command's default."""
 
@@ -399,7 +405,7 @@ class RoundBrush:
         dx, dy = x - s.x, y - s.y
         dist = math.hypot(dx, dy)
         dt = t - s.t
-        if dt > 1e-6:
+        if dt >= MIN_VELOCITY_DT:
             s.vx, s.vy = dx / dt, dy / dt
         elif dist == 0.0:
             s.vx = s.vy = 0.0
