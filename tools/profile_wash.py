@@ -29,7 +29,7 @@ from station.bench._sim_driver import wash
 from station.bench.sim import memory_bandwidth_gb_s
 
 SWEEPS = ("prep", "advect_jacobi1", "jacobi_blocked", "limit_diffuse_fused", "advect_fused",
-          "evap_cap_fused")
+          "evap_cap_fused", "standing_front")
 """The sweeps of a step in the order of ``traffic.bytes_per_sweep`` (the fused ones
 live in ``station.backends.cpu.fused``)."""
 
@@ -75,10 +75,14 @@ def main() -> None:
         setattr(home[name], name, fn)
     bw = memory_bandwidth_gb_s()
     st = canvas.live_state
-    per_sweep = bytes_per_sweep(max(len(st.slots), 1), int(st.params.jacobi_iters))
+    finv, fdry = st.params.standing_front()
+    front = (1 if fdry > 0 else 0) if finv > 0 else -1  # as gl.traffic.front_mode
+    per_sweep = bytes_per_sweep(max(len(st.slots), 1), int(st.params.jacobi_iters),
+                                st.params.wet_hold > 0, front)
+    names = SWEEPS if front >= 0 else SWEEPS[:-1]  # the front's sweep is counted last
     cells = w * h * args.steps
     rows = []
-    for (label, nbytes), name in zip(per_sweep.items(), SWEEPS, strict=True):
+    for (label, nbytes), name in zip(per_sweep.items(), names, strict=True):
         s = spent[name]
         gbs = nbytes * cells / s / 1e9 if s > 0 else 0.0
         rows.append({"sweep": name, "counted": label, "bytes_per_cell": nbytes,
