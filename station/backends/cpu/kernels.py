@@ -544,25 +544,7 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                 for si in range(nsp[j]):
                     slo, shi = _span(spans, j, si)
                     ulo, uhi = np.uint64(slo), np.uint64(shi + 1)  # unsigned: vectorises
-                    for u in range(ulo, uhi):
-                        acc[u] = ZERO
-                    # three taps a pass (same additions, same order): see _pressure_row
-                    k = 0
-                    while k + 3 <= nt:
-                        g0, g1, g2 = taps[k], taps[k + 1], taps[k + 2]
-                        ka, kb, kc = np.uint64(k), np.uint64(k + 1), np.uint64(k + 2)
-                        for u in range(ulo, uhi):
-                            acc[u] = ((acc[u] + g0 * own[u + ka]) + g1 * own[u + kb]) \
-                                + g2 * own[u + kc]
-                        k += 3
-                    for kk in range(k, nt):
-                        g = taps[kk]
-                        ka = np.uint64(kk)
-                        for u in range(ulo, uhi):
-                            acc[u] = acc[u] + g * own[u + ka]
-                    mrow = mbx_o[j]
-                    for u in range(ulo, uhi):
-                        mrow[u] = acc[u]
+                    _blur_x_row(own, taps, ulo, uhi, acc, mbx_o[j])
     if advancing:
         _pin(wet_o, wc, h, y0, x0, bounds, spans, nsp, cmin, cspan, dsat)
 
@@ -623,23 +605,7 @@ def standing_front(w0: np.ndarray, wc: np.ndarray, h: np.ndarray, vx: np.ndarray
                 for si in range(nsp[j]):
                     slo, shi = _span(spans, j, si)
                     ulo, uhi = np.uint64(slo), np.uint64(shi + 1)
-                    for u in range(ulo, uhi):
-                        acc[u] = ZERO
-                    k = 0
-                    while k + 3 <= nt:
-                        g0, g1, g2 = taps[k], taps[k + 1], taps[k + 2]
-                        ka, kb, kc = np.uint64(k), np.uint64(k + 1), np.uint64(k + 2)
-                        for u in range(ulo, uhi):
-                            acc[u] = ((acc[u] + g0 * nd[u + ka]) + g1 * nd[u + kb]) \
-                                + g2 * nd[u + kc]
-                        k += 3
-                    for kk in range(k, nt):
-                        g = taps[kk]
-                        ka = np.uint64(kk)
-                        for u in range(ulo, uhi):
-                            acc[u] = acc[u] + g * nd[u + ka]
-                    for u in range(ulo, uhi):
-                        drow[u] = acc[u]
+                    _blur_x_row(nd, taps, ulo, uhi, acc, drow)
     for ch in prange(nch):
         am = np.empty(bw + 2, F32)
         ad = np.empty(bw + 2, F32)
@@ -731,6 +697,32 @@ def _pin(wet_o: np.ndarray, wc: np.ndarray, h: np.ndarray, y0: int, x0: int,
 
 
 # ------------------------------------------------------------------ flow outward
+@_inline
+def _blur_x_row(src: np.ndarray, taps: np.ndarray, ulo: np.uint64, uhi: np.uint64,
+                acc: np.ndarray, out: np.ndarray) -> None:
+    """``out[ulo:uhi]`` = the x half of a blur of the padded row ``src`` (``src[u + k]``
+    is column u's tap k, offset -R first): tap-outer, column-inner, three taps a pass
+    (the same additions in the same order), the sum in ``acc``. Unsigned columns:
+    vectorised (numba's negative-index wraparound keeps signed ones scalar)."""
+    nt = taps.shape[0]
+    for u in range(ulo, uhi):
+        acc[u] = ZERO
+    k = 0
+    while k + 3 <= nt:
+        g0, g1, g2 = taps[k], taps[k + 1], taps[k + 2]
+        ka, kb, kc = np.uint64(k), np.uint64(k + 1), np.uint64(k + 2)
+        for u in range(ulo, uhi):
+            acc[u] = ((acc[u] + g0 * src[u + ka]) + g1 * src[u + kb]) + g2 * src[u + kc]
+        k += 3
+    for kk in range(k, nt):
+        g = taps[kk]
+        ka = np.uint64(kk)
+        for u in range(ulo, uhi):
+            acc[u] = acc[u] + g * src[u + ka]
+    for u in range(ulo, uhi):
+        out[u] = acc[u]
+
+
 @_inline
 def _blur_y_row(src: np.ndarray, taps: np.ndarray, j: int, bh: int, ulo: np.uint64,
                 uhi: np.uint64, acc: np.ndarray) -> None:
