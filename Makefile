@@ -57,9 +57,11 @@ demo: setup
 # two workers: most of the suite's time is real processes and windows waiting for each
 # other, which a second worker overlaps (tests/conftest.py keeps each worker's displays,
 # runtime and config directories apart); the kernels are compiled first, in two processes
-# each compiling half of them (otherwise both workers compile all of them at once)
+# each compiling half of them (otherwise both workers compile all of them at once), then
+# the brushes' and the kiosk display's (~30 s from an empty cache, which each worker paid)
 test: testdeps venv
 	$(PY) -m station.backends.cpu.warm
+	$(PY) -m station.kiosk.warm
 	$(PY) -m pytest -q -n 2
 
 lint: venv

@@ -741,3 +741,4 @@ def test_an_empty_gallery_attracts_with_a_demo_stroke(display: str, tmp_path: Pa
         assert blue > 200  # the stroke's colour on the screen
     finally:
         app.close()
+

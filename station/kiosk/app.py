@@ -52,6 +52,7 @@ from station.canvas.profiles import get_profile
 from station.errors import BadInput, StationError
 from station.events import Command, PenSample
 from station.kiosk import drawing, loop, mouse, pen_input, subcell
+from station.kiosk import warm as kiosk_warm
 from station.kiosk.attract import AttractShow
 from station.kiosk.compose import Box, Compositor
 from station.kiosk.config import (
@@ -116,12 +117,22 @@ class KioskApp:
         self._take_the_mouse()
         self.session: KioskSession = self._new_session(painting_in_progress(self.live_dir))
         self.display: CpuDisplay | GpuDisplay = make_display(self.ctx, self.session)
+        self._warm_kernels()
         self.compositor = Compositor(self.ctx, self.size)
         self.presenter = Presenter(glfw, self.window, str(self.ctx.info.get("GL_RENDERER", "")),
                                    self.size, self.cfg.present, self.cfg.vsync)
         self._take_over_full_collections()
 
     # -- start-up, in parts -----------------------------------------------------------
+    def _warm_kernels(self) -> None:
+        """Every compiled kernel a visitor's strokes, brushes and the display run, called
+        once now (:mod:`station.kiosk.warm`): loaded from numba's cache in about a second,
+        or compiled here, before the first frame, not in the first visitor's stroke."""
+        backend = "cpu" if self.session.backend_name == "cpu" else "numpy"
+        took = kiosk_warm.warm(backend, self.cfg.profile,
+                               display=isinstance(self.display, CpuDisplay))
+        log.info("kiosk: kernels ready in %.1f s", took)
+
     def _take_over_full_collections(self) -> None:
         """What start-up made (modules, numba's and ImGui's objects, the window) lives as
         long as the process: frozen out of the collector's sight, so a full collection
