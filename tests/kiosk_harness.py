@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
+import functools
 import os
 import subprocess
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
+import pytest
 from xvfb_server import xvfb as xvfb  # the kiosk tests' Xvfb, from here as before
 
 from station.bus import Publisher, Subscriber
@@ -110,3 +112,45 @@ class Kiosk:
             self.status_sub.close()
             self.pub.close()
         return self.proc.returncode, err
+
+
+def own_process(module_file: str, flag: str, timeout: float = 600
+                ) -> Callable[[Callable[..., None]], Callable[..., None]]:
+    """A decorator for the window tests of ``module_file``: all of them run once in one
+    fresh pytest process (``flag`` set in its environment; there the test itself runs),
+    and each test here reads its own outcome from that process's report.  A fresh
+    process: numba's threading layer, GL contexts and compiled kernels start from
+    nothing, whatever the tests before did."""
+    @functools.cache
+    def child_run() -> str:
+        proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-rA", "-p",
+                               "no:cacheprovider", module_file], env={**os.environ, flag: "1"},
+                              capture_output=True, text=True, timeout=timeout)
+        return proc.stdout + proc.stderr
+
+    def decorate(test: Callable[..., None]) -> Callable[..., None]:
+        @functools.wraps(test)
+        def run(*args: Any, **kw: Any) -> None:
+            if os.environ.get(flag):
+                test(*args, **kw)
+                return
+            node = f"{test.__name__}" + (f"[{kw['mode']}]" if "mode" in kw else "")
+            out = child_run()
+            lines = out.splitlines()
+            if any(ln.startswith("PASSED ") and ln.endswith("::" + node) for ln in lines):
+                return
+            if any(ln.startswith(("FAILED ", "ERROR ")) and "::" + node in ln for ln in lines):
+                pytest.fail(f"{node} failed in its process:\n{out[-4000:]}")
+            pytest.skip(f"{node} did not run in its process: {lines[-1] if lines else ''}")
+        return run
+    return decorate
+
+
+def child_display(flag: str) -> Iterator[str]:
+    """The display of :func:`own_process`'s child (a private Xvfb); ``""`` in the parent,
+    whose test only reads the child's outcome."""
+    if not os.environ.get(flag):
+        yield ""
+        return
+    with xvfb() as d:
+        yield d

@@ -8,12 +8,8 @@ by the X server (BadAccess), and Xlib ends the process on that."""
 
 from __future__ import annotations
 
-import functools
-import os
-import subprocess
-import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -30,7 +26,7 @@ from station.kiosk.compose import (
     ui_damage,
 )
 from station.kiosk.views import Viewport, make_camera
-from tests.kiosk_harness import xvfb
+from tests.kiosk_harness import child_display, own_process
 
 W, H = 160, 120
 WINDOW = (480, 360)
@@ -66,43 +62,14 @@ class _Queue:
 
 
 CHILD = "STATION_TEST_CHILD"
-
-
-@functools.cache
-def _child_run() -> str:
-    """Every window test of this module, run once in one fresh pytest process."""
-    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-rA", "-p",
-                           "no:cacheprovider", __file__], env={**os.environ, CHILD: "1"},
-                          capture_output=True, text=True, timeout=600)
-    return proc.stdout + proc.stderr
-
-
-def in_own_process(test: Callable[..., None]) -> Callable[..., None]:
-    """Run ``test`` in a fresh pytest process (see the module docstring): all of this
-    module's window tests in one, each test here reading its own outcome."""
-    @functools.wraps(test)
-    def run(*args: Any, **kw: Any) -> None:
-        if os.environ.get(CHILD):
-            test(*args, **kw)
-            return
-        node = f"{test.__name__}" + (f"[{kw['mode']}]" if "mode" in kw else "")
-        out = _child_run()
-        lines = out.splitlines()
-        if any(ln.startswith("PASSED ") and ln.endswith("::" + node) for ln in lines):
-            return
-        if any(ln.startswith(("FAILED ", "ERROR ")) and "::" + node in ln for ln in lines):
-            pytest.fail(f"{node} failed in its process:\n{out[-4000:]}")
-        pytest.skip(f"{node} did not run in its process: {lines[-1] if lines else ''}")
-    return run
+in_own_process = own_process(__file__, CHILD)
+"""Run a test in a fresh pytest process (see the module docstring): all of this module's
+window tests in one, each test here reading its own outcome."""
 
 
 @pytest.fixture(scope="module")
 def display() -> Iterator[str]:
-    if not os.environ.get(CHILD):
-        yield ""  # the test runs in a child, which starts its own Xvfb
-        return
-    with xvfb() as d:
-        yield d
+    yield from child_display(CHILD)
 
 
 def _app(display: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, present: str,

@@ -5,54 +5,22 @@ its window tests in one child)."""
 
 from __future__ import annotations
 
-import functools
-import os
-import subprocess
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 import pytest
 
-from tests.kiosk_harness import xvfb
+from tests.kiosk_harness import child_display, own_process
 from tests.test_kiosk_present import _app, _pen
 
 CHILD = "STATION_TEST_WARM_CHILD"
-
-
-@functools.cache
-def _child_run() -> str:
-    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-rA", "-p",
-                           "no:cacheprovider", __file__], env={**os.environ, CHILD: "1"},
-                          capture_output=True, text=True, timeout=900)
-    return proc.stdout + proc.stderr
-
-
-def in_own_process(test: Callable[..., None]) -> Callable[..., None]:
-    @functools.wraps(test)
-    def run(*args: Any, **kw: Any) -> None:
-        if os.environ.get(CHILD):
-            test(*args, **kw)
-            return
-        out = _child_run()
-        lines = out.splitlines()
-        if any(ln.startswith("PASSED ") and ln.endswith("::" + test.__name__) for ln in lines):
-            return
-        if any(ln.startswith(("FAILED ", "ERROR ")) and "::" + test.__name__ in ln
-               for ln in lines):
-            pytest.fail(f"{test.__name__} failed in its process:\n{out[-4000:]}")
-        pytest.skip(f"{test.__name__} did not run in its process: {lines[-1] if lines else ''}")
-    return run
+in_own_process = own_process(__file__, CHILD, timeout=900)
 
 
 @pytest.fixture(scope="module")
 def display() -> Iterator[str]:
-    if not os.environ.get(CHILD):
-        yield ""
-        return
-    with xvfb() as d:
-        yield d
+    yield from child_display(CHILD)
 
 
 def _compiled() -> dict[str, int]:
