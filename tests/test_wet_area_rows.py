@@ -96,8 +96,7 @@ def test_rows_3_5_s_apart_meet_without_a_line_or_an_arrowhead() -> None:
     meniscus curvature on drier paper (advance_curvature) moved the turn to 1.3504: the
     pale wedge the session notes describe, still far from the old model's arrowhead.
     Session 13 (the wet-wash drop's levers on, flow outward 0.48 over a 4-cell blur for the
-    brush rim): 1.07 and 1.347 (flow outward 0.55: 1.41, the arrowhead back).
-    Session 14 (absorption 0.011 /s, eps_shallow 0.012): 1.085 and 1.159."""
+    brush rim): 1.07 and 1.347 (flow outward 0.55: 1.41, the arrowhead back)."""
     d, c = _paint(3.5)
     prof = d[:, W // 4:3 * W // 4].mean(axis=1)
     assert _line(prof) <= LINE_MAX, _line(prof)
@@ -118,7 +117,7 @@ def test_the_model_before_draws_the_line_and_the_arrowhead() -> None:
 def test_a_row_laid_over_a_dried_row_keeps_its_hard_edge() -> None:
     """The other half of item 8: a row brushed after the last one dried (60 s) meets it as
     a painter's would, with the first row's dried rim showing through as a hard edge, not
-    merged away (session 14: 1.71 between the rows; 1.09 for rows 2.5 s apart)."""
+    merged away: 1.73 between the rows (rows 2.5 s apart merge: 1.03)."""
     d, _ = _paint(60.0)
     prof = d[:, W // 4:3 * W // 4].mean(axis=1)
     assert _line(prof) >= 1.4, _line(prof)
