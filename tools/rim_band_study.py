@@ -70,9 +70,10 @@ from station.canvas.params import SimParams
 from station.canvas.stencils import blurred_wet, gaussian_taps
 from station.pictures import effects as fx
 from station.pictures import effects_bloom, effects_brush
-from station.pictures.effects_core import darkness_map
+from station.pictures.effects_core import darkness_map, new_canvas, use_backend
 from station.pictures.measure import edge_band
 from station.pictures.scenarios import distance_inside, paint, rect, run_until_dry
+from station.sim.player import SessionPlayer
 
 F32 = np.float32
 LEVERS: dict[str, float] = {"fibre_permeability": 1.0, "fibre_dispersivity": 9.0,
@@ -173,6 +174,24 @@ def measure(what: set[str]) -> dict[str, object]:
         valley, hill = hv < np.quantile(hv, 0.25), hv > np.quantile(hv, 0.75)
         out["gran_de76"] = float(fx.delta_e76(img[inner][valley].mean(axis=0),
                                               img[inner][hill].mean(axis=0)))
+    if "sky" in what:  # the kiosk visitor's zig-zag sky (tools/sky_rows_study.py)
+        sk = effects_brush.sky_rows_script(0)
+        hd = sk.header
+        c = new_canvas(hd.width, hd.height, profile="watercolor", seed=0)
+        SessionPlayer(c, hd.width, hd.height, "watercolor").play(sk.records)
+        run_until_dry(c, 20000)
+        c.dry()
+        out["sky"] = effects_brush.sky_banding(np.asarray(c.render(), np.float64), c)
+    if "rows" in what:  # tests/test_wet_area_rows.py's rows 3.5 s apart
+        import importlib
+        import pathlib
+
+        sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent / "tests"))
+        rows_test = importlib.import_module("test_wet_area_rows")
+
+        d, _ = rows_test._paint(3.5)
+        prof = d[:, rows_test.W // 4:3 * rows_test.W // 4].mean(axis=1)
+        out["rows"] = {"line": rows_test._line(prof), "turn": rows_test._turn(d)}
     return out
 
 
@@ -186,7 +205,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="--front-nu only where the paper nearby is dry (capillary water "
                          "under this share of its capacity; 0: at every front)")
     ap.add_argument("--measure", default="rim,drop,bloom,glaze")
+    ap.add_argument("--backend", default="numpy",
+                    help="the sheet's tiles on numpy or cpu (cpu: without the patched rules)")
     a = ap.parse_args(argv)
+    use_backend(a.backend)
     change: dict[str, float] = dict(LEVERS) if a.levers else {}
     for item in a.set:
         name, _, value = item.partition("=")

@@ -415,3 +415,57 @@ def step_artefacts(seeds: dict[str, tuple[int, ...]] | None = None) -> Effect:
                    "floor resolves 1 % (< 0.5 %)": max(out["noise_floor_wet"],
                                                        out["noise_floor_dry"]) < 0.005},
                   np.concatenate([c.render() for c in canvases], axis=0), tuple(canvases))
+
+
+SKY_W, SKY_H, SKY_ROWS, SKY_GAP, SKY_TOP = 800, 240, 6, 31.0, 40.0
+"""The kiosk visitor's sky (``tools/kiosk_screenshots.py``) in cells: a strip as wide as the
+kiosk's canvas, six rows ``SKY_GAP`` apart from ``SKY_TOP`` down."""
+SKY_SECONDS = 8.0
+"""The visitor's drag through all six rows [s]: about 550 cells/s along a row, so at a
+column the next row comes 0-2.7 s after the last (the turns alternate sides)."""
+
+
+def sky_rows_script(seed: int = 0) -> Script:
+    """The kiosk visitor's wet sky: brush size 72, water 1, French Ultramarine and Cerulean
+    Blue at the kiosk's strength 0.8, one drag back and forth through ``SKY_ROWS`` rows
+    (each with the visitor's 0.01-high wobble), pressure 0.5 (a fast mouse)."""
+    s = Script(SKY_W, SKY_H, seed=seed, rate_hz=PEN_HZ)
+    s.brush(size=72, water=1.0, pigment={"French Ultramarine": 0.4, "Cerulean Blue": 0.4})
+    pts: list[tuple[float, float]] = []
+    n = 40
+    for r in range(SKY_ROWS):
+        y = SKY_TOP + SKY_GAP * r
+        us = [0.04 + 0.92 * k / (n - 1) for k in range(n)]
+        pts += [(u, (y + 6.0 * np.sin(7 * u)) / SKY_H) for u in (us if r % 2 == 0 else us[::-1])]
+    s.curve(pts, SKY_SECONDS, pressure=0.5)
+    return s
+
+
+def sky_banding(rgb: np.ndarray, c: NumpyCanvas) -> dict[str, float]:
+    """Bands across the rows of a dried sky (:func:`sky_rows_script`): per row of cells the
+    mean darkness over the middle 60 % of the columns (each column's profile shifted by the
+    rows' wobble, so a line that follows the pen stays one row), between the first and the
+    last row's paths. ``row_contrast``: the darkest over the palest row there, after a
+    31-cell running mean is divided out (1.0: an even wash); ``row_period_share``: the
+    profile's Fourier amplitude at the rows' spacing over its mean (the lines' regularity)."""
+    lum = luma(rgb)
+    st = c.live_state
+    bare = (st.q.sum(axis=0) + st.p.sum(axis=0)) <= 1e-5
+    d = 1.0 - lum / float(lum[bare].mean())
+    x0, x1 = int(0.2 * SKY_W), int(0.8 * SKY_W)
+    shifted = np.empty((SKY_H, x1 - x0))
+    for j, x in enumerate(range(x0, x1)):
+        off = 6.0 * np.sin(7 * x / SKY_W)
+        shifted[:, j] = np.interp(np.arange(SKY_H) + off, np.arange(SKY_H), d[:, x])
+    prof = shifted.mean(axis=1)
+    y0, y1 = int(SKY_TOP), int(SKY_TOP + SKY_GAP * (SKY_ROWS - 1)) + 1
+    k = int(SKY_GAP)
+    pad = np.pad(prof, k, mode="edge")
+    run = np.convolve(pad, np.ones(k) / k, mode="same")[k:-k]
+    rel = prof[y0:y1] / np.maximum(run[y0:y1], 1e-6)
+    seg = prof[y0:y1] - prof[y0:y1].mean()
+    t = np.arange(len(seg))
+    amp = 2.0 * abs(np.sum(seg * np.exp(-2j * np.pi * t / SKY_GAP))) / len(seg)
+    return {"row_contrast": float(rel.max() / rel.min()),
+            "row_period_share": float(amp / max(prof[y0:y1].mean(), 1e-9)),
+            "sky_darkness": float(prof[y0:y1].mean())}
