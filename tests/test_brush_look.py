@@ -73,10 +73,11 @@ def test_dried_stroke_has_a_dark_rim_that_follows_the_paper() -> None:
 
 
 def test_the_effects_sheets_brushed_stroke_dries_with_a_band_not_a_line() -> None:
-    """Item 3 on the sheet's own measure (``brush_edges``: a size-32 stroke, the deposit's
-    rings from its edge over the interior): the dark rim is a band 2-5 cells wide at
+    """Item 3 on the sheet's own measure (``brush_edges``: a size-32 stroke, the darkness's
+    rings from the painted edge over the interior): the dark rim is a band 2-5 cells wide at
     >= 1.4x, not a one-cell line (a coffee ring's deposit grows inward from the pinned
-    contact line as the film thins, Deegan 1997)."""
+    contact line as the film thins, Deegan 1997). Main: 1 cell (1.46, 1.33); on the
+    deposited pigment 2 cells (1.64, 1.43), which the saturating render reads as one."""
     eff = brush_edges()
     rings = eff.numbers["rim_ring1"], eff.numbers["rim_width_cells"]
     assert 2 <= eff.numbers["rim_width_cells"] <= 5, rings

@@ -57,8 +57,12 @@ OLD = {
     # film a flat wash dries through still lets the pigment settle by the paper's height
     # (granulation), and flow outward 0.48, so rows laid 3.5 s apart meet without an
     # arrowhead, issue 21 items 4/7/8)
+    # (s14: the advection floor w_min 0.0005, so a drying stroke's film drains to its
+    # pinned edge to the last (the coffee ring's rush hour), which frees the rows' turn for
+    # flow outward 0.57: the brush rim a 2-cell band on the darkness, issue 21 item 3)
     "watercolor": SimParams().replace(advance_grain=0.0, advance_curvature=1.0,
-                                      fibre_dispersivity=9.0, flow_outward=0.48,
+                                      fibre_dispersivity=9.0, flow_outward=0.57,
+                                      w_min=0.0005,
                                       edge_evap=3.0, wet_blur=4.0, fibre_permeability=1.0,
                                       fibre_gate_depth=0.15, fibre_gate_pull=0.04,
                                       standing_depth=0.05, standing_nu_p=0.002,

@@ -96,7 +96,8 @@ def test_rows_3_5_s_apart_meet_without_a_line_or_an_arrowhead() -> None:
     meniscus curvature on drier paper (advance_curvature) moved the turn to 1.3504: the
     pale wedge the session notes describe, still far from the old model's arrowhead.
     Session 13 (the wet-wash drop's levers on, flow outward 0.48 over a 4-cell blur for the
-    brush rim): 1.07 and 1.347 (flow outward 0.55: 1.41, the arrowhead back)."""
+    brush rim): 1.07 and 1.347 (flow outward 0.55: 1.41, the arrowhead back). Session 14
+    (the film drains to the edge to the last, w_min 0.0005; flow outward 0.57): 1.06, 1.336."""
     d, c = _paint(3.5)
     prof = d[:, W // 4:3 * W // 4].mean(axis=1)
     assert _line(prof) <= LINE_MAX, _line(prof)

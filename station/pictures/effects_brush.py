@@ -25,7 +25,7 @@ from station.pictures.effects_core import (
     luma,
     new_canvas,
 )
-from station.pictures.measure import edge_band
+from station.pictures.measure import EdgeBand, edge_band
 from station.render.km import linear_to_srgb
 from station.sim.player import SessionPlayer
 from station.sim.script import Script, taper
@@ -276,19 +276,56 @@ def edge_position_std(dark: np.ndarray, cols: slice, top: bool = True) -> float:
     return float((r - np.polyval(np.polyfit(xs, r, 1), xs)).std())
 
 
-def brush_edges() -> Effect:
-    """Item 3: one wet-on-dry stroke of a size-32 round brush (Ultramarine 0.6, water 0.8),
-    92 cells in 0.7 s, pressure tapering off as the pen lifts while moving; dried on its own.
-    Numbers: the rim (rings from the deposit's edge over the interior), the edge position's
-    std along the stroke (sub-cell), and the end's length over the stroke's half-width (a
-    semicircle: 1)."""
+RIM_STROKE = ("French Ultramarine", 32, 0.8, 0.6)
+"""The sheet's stroke for item 3: pigment, brush size, water, amount."""
+PAINTER_STROKES = (
+    ("French Ultramarine", 12, 0.8, 0.6),
+    ("Burnt Umber", 20, 1.0, 0.8),
+    ("French Ultramarine", 26, 1.0, 0.8),
+    ("Quinacridone Rose", 16, 0.5, 0.3),
+    ("Burnt Umber", 32, 0.6, 0.5),
+    ("Quinacridone Rose", 26, 0.8, 0.6),
+)
+"""Strokes a painter lays (sizes 12-32, amounts 0.3-0.8, water 0.5-1; the kiosk's default
+stroke is the third): the rim must read on every one of them, not on one setting."""
+
+
+def rim_interior(size: int) -> int:
+    """Cells from a stroke's edge where its interior starts for the rim measure: 6, or a
+    fifth of the brush size on small brushes (a size-12 stroke is about 10 cells across,
+    so its interior starts 3 cells in)."""
+    return max(3, min(6, size // 5))
+
+
+def stroke_rim(pigment: str, size: int, water: float, amount: float
+               ) -> tuple[EdgeBand, EdgeBand, NumpyCanvas]:
+    """One wet-on-dry stroke through the round brush (92 cells in 0.7 s, pressure tapering
+    off as the pen lifts while moving) dried on its own: its rim on the darkness (the
+    issue's measure: rings from the painted edge over the interior) and on the deposited
+    pigment ``q`` (the model's own: the Kubelka-Munk render saturates, so a ``q`` ratio of
+    1.6 reads as a darkness ratio of about 1.45)."""
     w, h = 120, 56
     s = Script(w, h, seed=21, rate_hz=PEN_HZ)
-    s.brush(size=32, water=0.8, pigment={"French Ultramarine": 0.6})
+    s.brush(size=size, water=water, pigment={pigment: amount})
     s.line((0.12, 0.5), (0.88, 0.5), 0.7, pressure=taper(0.75, start=0.4, end=0.05))
     c = _played(s)
-    q = c.live_state.q.sum(axis=0)
-    band = edge_band(q, threshold=1.4, interior_from=6)
+    inner = rim_interior(size)
+    dark = edge_band(darkness_map(c), threshold=1.4, interior_from=inner, deposit=0.03)
+    q = edge_band(c.live_state.q.sum(axis=0), threshold=1.4, interior_from=inner)
+    return dark, q, c
+
+
+def _rings(band: EdgeBand, n: int = 2) -> tuple[float, ...]:
+    return tuple(band.ring_ratio[k] if len(band.ring_ratio) > k else 0.0 for k in range(n))
+
+
+def brush_edges() -> Effect:
+    """Item 3: one wet-on-dry stroke of a size-32 round brush (Ultramarine 0.6, water 0.8,
+    :func:`stroke_rim`) dried on its own. Numbers: the rim on the darkness (rings from the
+    painted edge over the interior; the checks), the same on the deposited pigment
+    (``rim_q_*``), the edge position's std along the stroke (sub-cell), and the end's
+    length over the stroke's half-width (a semicircle: 1)."""
+    band, qband, c = stroke_rim(*RIM_STROKE)
     dark = darkness_map(c)
     std = 0.5 * (edge_position_std(dark, slice(35, 85)) +
                  edge_position_std(dark, slice(35, 85), top=False))
@@ -300,16 +337,19 @@ def brush_edges() -> Effect:
     full = int(np.nonzero(widths >= 0.9 * 2 * half)[0].max()) if (widths >= 1.8 * half).any() \
         else tip
     cap = (tip - full) / max(half, 1e-6)
+    r1, r2 = _rings(band)
+    q1, q2 = _rings(qband)
     return Effect("edges (brush)", {"rim_width_cells": band.width, "rim_ratio": band.ratio,
-                                    "rim_ring1": band.ring_ratio[0] if band.ring_ratio else 0.0,
+                                    "rim_ring1": r1, "rim_ring2": r2,
+                                    "rim_q_width_cells": qband.width,
+                                    "rim_q_ratio": qband.ratio,
+                                    "rim_q_ring1": q1, "rim_q_ring2": q2,
                                     "edge_position_std_cells": std,
                                     "end_length_over_half_width": cap},
                   {"rim 2-5 cells": 2 <= band.width <= 5, "rim >= 1.4x": band.ratio >= 1.4,
                    "edge follows the tooth (std >= 0.3)": std >= 0.3,
                    "tapered end (> 1.5 half-widths)": cap > 1.5},
                   c.render(), (c,))
-
-
 
 
 def round_dry_brush() -> Effect:
