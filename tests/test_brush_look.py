@@ -215,3 +215,25 @@ def test_brush_without_paper_paints_geometric_footprints(water: float) -> None:
     assert src is not None
     rows = (src.dw > 0).sum(axis=0)
     assert len(set(rows[10:60].tolist())) == 1  # straight edges along the body
+
+
+def test_a_dry_stroke_on_samples_logged_at_one_time_still_skips() -> None:
+    """A live sim behind its pen logs a run of samples in one step's slot (one time): the
+    pen moves with no speed known yet. The dry tuft skips as at its touch-down from the
+    start; before, it took the speed as 0 and laid a solid band until two samples came
+    apart in time (the kiosk's dry-brush strokes started solid for a third of their
+    length: 6 % bare over the first 50 cells against 48 % for the same stroke timed)."""
+    from station.events import PenSample
+
+    w, h = 200, 40
+    s = Script(w, h, seed=24, rate_hz=120.0)
+    s.brush(size=20, water=0.1, pigment={"Burnt Umber": 1.0})
+    s.line((0.05, 0.5), (0.95, 0.5), 0.35, pressure=0.5)
+    recs = s.records
+    pens = [i for i, r in enumerate(recs) if isinstance(r, PenSample) and r.touching]
+    for i in pens[:12]:
+        recs[i] = recs[i].with_(t=recs[pens[0]].t)
+    painted = _painted_darkness(s, w, h, seed=24) > 0.03
+    first, rest = painted[14:26, 20:70], painted[14:26, 70:170]
+    assert 1.0 - first.mean() >= 0.25, 1.0 - first.mean()
+    assert 1.0 - rest.mean() >= 0.25, 1.0 - rest.mean()

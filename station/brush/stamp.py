@@ -331,6 +331,7 @@ class _Stroke:
     tilt_y: float
     vx: float = 0.0  # cells per session second
     vy: float = 0.0
+    timed: bool = False  # vx, vy come from two samples at least MIN_VELOCITY_DT apart
     to_next: float = 0.0  # path length (cells) until the next stamp
     previous: Footprint | None = None
     streak: np.ndarray | None = None  # hair clumps across the stroke (dry brush)
@@ -426,6 +427,7 @@ class RoundBrush:
         dt = t - s.t
         if dt >= MIN_VELOCITY_DT:
             s.vx, s.vy = dx / dt, dy / dt
+            s.timed = True
         elif dist == 0.0:
             s.vx = s.vy = 0.0
         # else: same timestamp, moved: keep the last known velocity
@@ -484,9 +486,12 @@ class RoundBrush:
         if dry <= 0.0:
             return 0.0
         diam = max(1.0, self.settings.size)
-        if s.previous is None:
-            # touch-down: the pen's speed is not known yet; a dry tuft set down on the
-            # paper meets only its hills (a round, filled blob would start every streak)
+        if s.previous is None or not s.timed:
+            # touch-down, or moving on samples logged at one time (a live sim behind its
+            # pen logs a run of them in one step's slot): the pen's speed is not known
+            # yet; a dry tuft set down on the paper meets only its hills (a round, filled
+            # blob would start every streak; the kiosk's dry strokes started solid for a
+            # third of their length when the sim was busy as the pen went down)
             return math.sqrt(min(1.0, dry))
         fast = math.hypot(s.vx, s.vy) / diam / m.dry_speed if m.dry_speed > 0 else 1.0
         # the first loss of water shows most: a half-loaded tuft already skips
