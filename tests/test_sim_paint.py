@@ -376,7 +376,9 @@ def test_demo_paints_a_landscape_and_books_close(tmp_path: Path,
     # watercolorist's values, not a poster's: the glazed slab read 150, 189, 85)
     green = patch(0.3, 0.6).mean(axis=0)
     assert green[1] > green[0] + 12 and green[1] > green[2] + 35, green
-    assert green.sum() > 480, green
+    # 476 since the paper absorbs the film more slowly (0.011 /s: the kiosk sky's rows;
+    # 480+ before): still far paler than the poster's 424
+    assert green.sum() > 470, green
     # the lake below them: bluer than the hills, light (rows 0.70-0.76 of the left half,
     # below the far shore's strip of land at 0.68; the lake's far half, one wash with its
     # near half: R 153, G 181, B 188)

@@ -59,9 +59,13 @@ OLD = {
     # arrowhead, issue 21 items 4/7/8)
     # (s14: the advection floor w_min 0.0005, so a drying stroke's film drains to its
     # pinned edge to the last (the coffee ring's rush hour), which frees the rows' turn for
-    # flow outward 0.57: the brush rim a 2-cell band on the darkness, issue 21 item 3)
+    # flow outward 0.53: the brush rim a 2-cell band on the darkness, issue 21 item 3; and
+    # the sized paper absorbs the film more slowly (0.02 -> 0.011 /s) while the air dries
+    # it a little faster (eps_shallow 0.01 -> 0.012): a kiosk visitor's zig-zag sky, whose
+    # single-coverage strips between overlapping rows held less water, no longer dries
+    # them first into dark lines, item 8)
     "watercolor": SimParams().replace(advance_grain=0.0, advance_curvature=1.0,
-                                      fibre_dispersivity=9.0, flow_outward=0.57,
+                                      fibre_dispersivity=9.0, flow_outward=0.53,
                                       w_min=0.0005,
                                       edge_evap=3.0, wet_blur=4.0, fibre_permeability=1.0,
                                       fibre_gate_depth=0.15, fibre_gate_pull=0.04,
@@ -69,7 +73,8 @@ OLD = {
                                       standing_front_pull=0.04, standing_front_dry=0.5,
                                       moist_threshold=1.0, damp_ease=2.7, damp_sat=0.65,
                                       suspend_sat=0.5, fibre_flow_max=1.0, lift_gain=5.0,
-                                      wet_hold=30.0, alpha=0.02, jacobi_iters=1),
+                                      wet_hold=30.0, alpha=0.011, eps_shallow=0.012,
+                                      jacobi_iters=1),
     "gouache": SimParams().replace(viscosity=2.0, nu_w=0.1, nu_p=0.05, alpha=0.005,
                                    height_gain=20.0, eps_shallow=0.008, jacobi_iters=1),
     # (issue 10's fibre feathering changed the ink in code just before: alpha 0.05, fibre_wick 1)

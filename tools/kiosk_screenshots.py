@@ -181,9 +181,10 @@ def paint(app: KioskApp) -> None:
         drag(app, [(0.1 + 0.8 * k / 40, v + 0.012 * math.sin(3 * k / 40))
                    for k in range(41)], 0.35)
     # clean water dropped into the sky and the green once their shine has gone (damp,
-    # 8 s more: dropped any sooner they are still wet and the water only pales a soft
-    # disc): the water pushes the settling paint out to a dark front (backruns, blooms)
-    settle(app, 8.0)
+    # 16 s more since session 14's slower absorption, 8 s before: dropped any sooner they
+    # are still wet and the water only pales a soft disc): the water pushes the settling
+    # paint out to a dark front (backruns, blooms)
+    settle(app, 16.0)
     p.fresh_mix()
     p.set_water(1.0)
     p.set_size(26.0)
