@@ -136,7 +136,10 @@ def test_multi_step_stroke_is_bitwise_equal() -> None:
                                     {"wet_hold": 3.0, "moist_threshold": 0.25},
                                     {"fibre_permeability": 1.0, "nu_p": 0.02,
                                      "fibre_dispersivity": 9.0},
-                                    {"fibre_permeability": 0.35, "paper_relief": 0.3}])
+                                    {"fibre_permeability": 0.35, "paper_relief": 0.3},
+                                    {"standing_front_dry": 0.0},
+                                    {"standing_front_dry": 0.0, "jacobi_iters": 2,
+                                     "block_fade": 0.0}])
 def test_parameter_variants_match(change: dict[str, Any]) -> None:
     prm = dataclasses.replace(get_profile("watercolor").params, **change)
     a = _random_canvas(NumpyCanvas, 3, params=prm)
@@ -292,11 +295,49 @@ def test_operations_render_and_factory() -> None:
     # the wet-area memory: prep reads and writes the area (8), and its fade reads and
     # writes it again in evap_capillary's rows (8; 17 as a sweep of its own, 300 in all)
     assert traffic.bytes_per_cell_step(2, 1, wet_memory=True) == 291
-    # the standing gate's front factor (session 13's default): its own sweep (41 B, 57 B
-    # with the dry-paper term), prep without the dispersion's reads (-16), advect_jacobi1
-    # without pass 3's levelled height (-16)
-    assert traffic.bytes_per_cell_step(2, 1, wet_memory=True, front=0) == 300
-    assert traffic.bytes_per_cell_step(2, 1, wet_memory=True, front=1) == 316
+    # the standing gate's front factor (session 13's default): 300 and 316 B as a sweep of
+    # its own (41 B, 57 B with the dry-paper term); session 14 folds it into
+    # advect_jacobi1's rows (the wet mask and velocity read once), prep writes the x half
+    # of the dry-paper blur (its wc and h read once) and no beta_c (written once, with
+    # the factor)
+    assert traffic.bytes_per_cell_step(2, 1, wet_memory=True, front=0) == 283
+    assert traffic.bytes_per_cell_step(2, 1, wet_memory=True, front=1) == 291
+    # several Jacobi iterations keep the front's sweep (advect_jacobi1's pigment
+    # iteration reads beta_c of the next rows); one iteration has none
+    four = traffic.bytes_per_sweep(2, 4, wet_memory=True, front=1)
+    assert [k.split()[0] for k in four][-1] == "standing_front" and len(four) == 7
+    assert len(traffic.bytes_per_sweep(2, 1, wet_memory=True, front=1)) == 6
+    assert sum(four.values()) == 409
+
+
+def test_front_factor_runs_in_advect_jacobi1_rows(monkeypatch: pytest.MonkeyPatch) -> None:
+    """With one Jacobi iteration (the profiles') the standing gate's front factor has no
+    sweep of its own: advect_jacobi1 computes it row by row (issue 26: a pass fewer, the
+    wet mask, velocity, wc and h read once); with three it still runs (its pigment
+    iteration reads beta_c of the next rows) and both agree with the reference."""
+    import station.backends.cpu.kernels as K
+
+    calls: list[int] = []
+    real = K.standing_front
+
+    def counted(*a: Any) -> None:
+        calls.append(1)
+        real(*a)
+
+    monkeypatch.setattr(K, "standing_front", counted)
+    prm = get_profile("watercolor").params
+    assert prm.jacobi_iters == 1 and prm.standing_front()[0] > 0
+    for iters, sweeps in ((1, 0), (3, 3)):
+        p = dataclasses.replace(prm, jacobi_iters=iters)
+        a = _random_canvas(NumpyCanvas, 4, params=p)
+        b = _random_canvas(CpuCanvas, 4, params=p)
+        calls.clear()
+        for _ in range(3):
+            a.step()
+            b.step()
+        assert len(calls) == sweeps
+        for f in FIELDS:
+            assert np.array_equal(getattr(a.live_state, f), getattr(b.live_state, f)), f
 
 
 def test_bench_sim_measures_the_cpu_backend(capsys) -> None:

@@ -381,7 +381,8 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
          cst: np.ndarray, outward: bool, spans: np.ndarray, nsp: np.ndarray,
          wet_o: np.ndarray, w0_o: np.ndarray, p0_o: np.ndarray, bc_o: np.ndarray,
          opn_o: np.ndarray,
-         mbx_o: np.ndarray, area: np.ndarray, holding: bool, bounds: np.ndarray) -> None:
+         mbx_o: np.ndarray, area: np.ndarray, holding: bool, bounds: np.ndarray,
+         do_bc: bool, drying: bool, dbx_o: np.ndarray) -> None:
     """Wet mask (once per step; own water, or the advancing contact line: a neighbour's
     w above ``advance_height (1.5 - h)``, on damp paper ``(1 + g/2 - g h)`` (g
     ``advance_grain``, reference ``stencils.advance_term``), lowered along the paper's
@@ -391,7 +392,12 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
     dispersion), open, and with ``outward`` the own wet area blurred along x (``mbx``, the
     first half of :func:`flow_pressure`'s blur). With ``holding`` (``wet_hold > 0``) the
     blurred area is the wet-area mask ``max(wet_area, own)``, written back to ``area``
-    (reference ``wet_memory``).
+    (reference ``wet_memory``). Without ``do_bc`` (the standing gate's front factor on)
+    beta_c is left to :func:`_front_row`, which writes it once with its factor; with
+    ``drying`` (its dry-paper term) the x half of the blur of the not-dry paper ``wc >= T
+    c`` into ``dbx_o`` (a column outside the box adds +0, a column of the box outside the
+    spans reads the state; the row's blur outside its spans is the scratch's 0 like
+    ``mbx``'s): this sweep reads the row's ``wc`` and ``h`` anyway.
 
     Two sweeps: the copy of w (and p) into the padded ``w0`` first, so the contact line
     reads its neighbours from ``w0`` (whose zero ring is "outside the box") without a
@@ -419,8 +425,11 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
     dspan = cst[C_DSPAN]
     easing = ease > ZERO
     advancing = adv > ZERO
+    dry = cst[C_FDRY]
     nt = taps.shape[0]
     r = (nt - 1) // 2
+    ur = np.uint64(r)
+    xo = np.uint64(x0 - 1)
     nch = bounds.shape[0] - 1
     for ch in prange(nch):
         for j in range(bounds[ch], bounds[ch + 1]):
@@ -437,6 +446,7 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
         # own wet area of a row with r zero columns each side (a tap outside the box adds
         # +0 there, which leaves the sum exactly as the reference's skipped term)
         own = np.empty(bw + 2 + 2 * r, F32)
+        nd = np.empty(bw + 2 + 2 * r, F32)
         acc = np.empty(bw + 2, F32)
         for j in range(j0, j1):
             y = y0 + j - 1
@@ -503,6 +513,8 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         opn_o[j, i] = 1 if un else 0
                 if holding:  # a loop of its own: the column loops above stay as they were
                     _wet_memory_row(own, area, y, x0, r, slo, shi)
+                if not do_bc:
+                    continue
                 if fade > ZERO:
                     for i in range(slo, shi + 1):
                         x = np.uint64(x0 + i - 1)
@@ -545,52 +557,7 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                     slo, shi = _span(spans, j, si)
                     ulo, uhi = np.uint64(slo), np.uint64(shi + 1)  # unsigned: vectorises
                     _blur_x_row(own, taps, ulo, uhi, acc, mbx_o[j])
-    if advancing:
-        _pin(wet_o, wc, h, y0, x0, bounds, spans, nsp, cmin, cspan, dsat)
-
-
-@_parallel
-def standing_front(w0: np.ndarray, wc: np.ndarray, h: np.ndarray, vx: np.ndarray,
-                   vy: np.ndarray, fibre: np.ndarray, mbx: np.ndarray, wet: np.ndarray,
-                   taps: np.ndarray, y0: int, x0: int, bh: int, bw: int, cst: np.ndarray,
-                   spans: np.ndarray, nsp: np.ndarray, bounds: np.ndarray, dbx_o: np.ndarray,
-                   bc_o: np.ndarray, pr_o: np.ndarray) -> None:
-    """The standing gate's front factor (reference ``standing_front``), after :func:`prep`
-    ran with ``C_SINV`` and ``C_DISP`` at 0 (``bc_o`` holds beta_c without the standing
-    and dispersion factor): ``bc *= own + gd (...)`` (or ``own``), ``own = 1 - drop g (1 -
-    F)``, ``F = smoothstep(eta (1 - M'))``, with ``C_FDRY`` times ``min(2 (1 - D'), 1)``,
-    ``D'`` the blur of ``wc >= T c`` (its x half into ``dbx_o`` first; a column outside
-    the box adds +0, a row outside it is skipped, as the reference's zero padding; a
-    column of the box outside the spans reads the state, a row's blur outside its spans
-    is the scratch's 0 like ``mbx``'s). Its own sweep: the blur's y half reads rows the
-    next chunk writes. ``M'`` is pass 3's: this sweep writes pass 3's levelled height
-    (:func:`_pressure_row`, ``pr_o``) and keeps its y half of the blur, so
-    :func:`advect_jacobi1` runs without ``do_pr`` (one y blur of ``mbx`` a step, not two).
-    Unsigned columns throughout (numba's negative-index wraparound keeps signed ones
-    scalar), three taps a pass where they are all in range (the same additions in the
-    same order)."""
-    cmin = cst[C_CMIN]
-    cspan = cst[C_CSPAN]
-    disp = cst[C_DISP]
-    vfib = cst[C_VFIB]
-    sinv = cst[C_SINV]
-    sdrop = cst[C_SDROP]
-    eta = cst[C_ETA]
-    relief = cst[C_RELIEF]
-    finv = cst[C_FINV]
-    dry = cst[C_FDRY]
-    drying = dry > ZERO
-    nt = taps.shape[0]
-    r = (nt - 1) // 2
-    ur = np.uint64(r)
-    nch = bounds.shape[0] - 1
-    xo = np.uint64(x0 - 1)
-    if drying:
-        for ch in prange(nch):
-            nd = np.empty(bw + 2 + 2 * r, F32)
-            acc = np.empty(bw + 2, F32)
-            for j in range(bounds[ch], bounds[ch + 1]):
-                y = y0 + j - 1
+            if drying:
                 wcr, hr = wc[y], h[y]
                 for u in range(np.uint64(bw + 2 + 2 * r)):
                     nd[u] = ZERO
@@ -601,41 +568,105 @@ def standing_front(w0: np.ndarray, wc: np.ndarray, h: np.ndarray, vx: np.ndarray
                     for u in range(np.uint64(lo), np.uint64(hi + 1)):
                         nd[u + ur] = ONE if wcr[xo + u] >= dry * (cmin + hr[xo + u] * cspan) \
                             else ZERO
-                drow = dbx_o[j]
                 for si in range(nsp[j]):
                     slo, shi = _span(spans, j, si)
                     ulo, uhi = np.uint64(slo), np.uint64(shi + 1)
-                    _blur_x_row(nd, taps, ulo, uhi, acc, drow)
+                    _blur_x_row(nd, taps, ulo, uhi, acc, dbx_o[j])
+    if advancing:
+        _pin(wet_o, wc, h, y0, x0, bounds, spans, nsp, cmin, cspan, dsat)
+
+
+@_inline
+def _front_row(mbx: np.ndarray, wet: np.ndarray, w0: np.ndarray, h: np.ndarray,
+               block: np.ndarray, block_time: np.ndarray, vx: np.ndarray, vy: np.ndarray,
+               fibre: np.ndarray, dbx: np.ndarray, taps: np.ndarray, j: int, y: int, x0: int,
+               bh: int, slo: int, shi: int, cst: np.ndarray, am: np.ndarray, ad: np.ndarray,
+               ab: np.ndarray, pr_o: np.ndarray, bc_o: np.ndarray) -> None:
+    """The standing gate's front factor on the span ``slo..shi`` of row j (reference
+    ``standing_front``): pass 3's levelled height (:func:`_pressure_row`, ``pr_o``; its y
+    half of the blur is ``M'``) and beta_c, written once: :func:`prep`'s block and paper
+    expression (it leaves ``bc`` alone with the front factor on) times ``own + gd (...)``
+    (or ``own``), ``own = 1 - drop g (1 - F)``, ``F = smoothstep(eta (1 - M'))``, with
+    ``C_FDRY`` times ``min(2 (1 - D'), 1)``, ``D'`` the y half of the blur of ``wc >= T
+    c`` whose x half prep wrote into ``dbx``. Buffers (``bw + 2``): ``am`` M', ``ad`` D',
+    ``ab`` the block part of beta_c. Unsigned columns throughout (numba's negative-index
+    wraparound keeps signed ones scalar)."""
+    disp = cst[C_DISP]
+    vfib = cst[C_VFIB]
+    sinv = cst[C_SINV]
+    sdrop = cst[C_SDROP]
+    eta = cst[C_ETA]
+    relief = cst[C_RELIEF]
+    finv = cst[C_FINV]
+    drying = cst[C_FDRY] > ZERO
+    t_now = cst[C_TIME]
+    fade = cst[C_FADE]
+    bpaper = cst[C_BPAPER]
+    xo = np.uint64(x0 - 1)
+    _pressure_row(mbx, wet, w0, h, taps, j, y, x0, bh, slo, shi, eta, relief, True, am, pr_o)
+    ulo, uhi = np.uint64(slo), np.uint64(shi + 1)
+    if drying:
+        _blur_y_row(dbx, taps, j, bh, ulo, uhi, ad)
+    hr, br, btr = h[y], block[y], block_time[y]
+    # prep's beta_c before its standing/dispersion factor, loops without tests inside
+    if fade > ZERO:
+        for u in range(ulo, uhi):
+            hv = hr[xo + u]
+            b = br[xo + u]
+            age = (t_now - btr[xo + u]) / fade
+            age = ZERO if age < ZERO else age
+            age = ONE if age > ONE else age
+            eff = b + (ONE - b) * age
+            paper = ONE - bpaper * (ONE - hv)
+            ab[u] = paper if paper < eff else eff
+    else:
+        for u in range(ulo, uhi):
+            hv = hr[xo + u]
+            b = br[xo + u]
+            eff = b + (ONE - b) * ONE
+            paper = ONE - bpaper * (ONE - hv)
+            ab[u] = paper if paper < eff else eff
+    w0r, bcr = w0[j], bc_o[j]
+    f0r, f1r, vxr, vyr = fibre[0, y], fibre[1, y], vx[y], vy[y]
+    for u in range(ulo, uhi):
+        fr = _smoothstep_w(eta * (ONE - am[u]), finv)
+        if drying:
+            dv = np.float32(2.0) * (ONE - ad[u])
+            fr = fr * (ONE if dv > ONE else dv)
+        own_p = ONE - sdrop * (_smoothstep_w(w0r[u], sinv) * (ONE - fr))
+        if disp > ZERO:
+            f0 = f0r[xo + u]
+            f1 = f1r[xo + u]
+            a = vxr[xo + u]
+            b = vyr[xo + u]
+            s = np.sqrt(a * a + b * b)
+            s = s if s < vfib else vfib
+            own_p = own_p + disp * ((f0 if f0 > f1 else f1) * s)
+        bcr[u] = ab[u] * own_p
+
+
+@_parallel
+def standing_front(w0: np.ndarray, h: np.ndarray, block: np.ndarray, block_time: np.ndarray,
+                   vx: np.ndarray, vy: np.ndarray, fibre: np.ndarray, mbx: np.ndarray,
+                   wet: np.ndarray, taps: np.ndarray, y0: int, x0: int, bh: int, bw: int,
+                   cst: np.ndarray, spans: np.ndarray, nsp: np.ndarray, bounds: np.ndarray,
+                   dbx: np.ndarray, bc_o: np.ndarray, pr_o: np.ndarray) -> None:
+    """The standing gate's front factor and pass 3's levelled height (:func:`_front_row`)
+    in a sweep of their own, after :func:`prep` (which wrote the x halves of both blurs,
+    ``mbx`` and ``dbx``, and no ``bc``): with several Jacobi iterations
+    :func:`advect_jacobi1` reads beta_c of the rows next to its own, which the next chunk
+    writes. With one, advect_jacobi1 does this row by row itself (``front``)."""
+    nch = bounds.shape[0] - 1
     for ch in prange(nch):
         am = np.empty(bw + 2, F32)
         ad = np.empty(bw + 2, F32)
+        ab = np.empty(bw + 2, F32)
         for j in range(bounds[ch], bounds[ch + 1]):
             y = y0 + j - 1
             for si in range(nsp[j]):
                 slo, shi = _span(spans, j, si)
-                # pass 3's levelled height; am keeps the y half of M' for the span
-                _pressure_row(mbx, wet, w0, h, taps, j, y, x0, bh, slo, shi, eta, relief,
-                              True, am, pr_o)
-                ulo, uhi = np.uint64(slo), np.uint64(shi + 1)
-                if drying:
-                    _blur_y_row(dbx_o, taps, j, bh, ulo, uhi, ad)
-                w0r, bcr = w0[j], bc_o[j]
-                f0r, f1r, vxr, vyr = fibre[0, y], fibre[1, y], vx[y], vy[y]
-                for u in range(ulo, uhi):
-                    fr = _smoothstep_w(eta * (ONE - am[u]), finv)
-                    if drying:
-                        dv = np.float32(2.0) * (ONE - ad[u])
-                        fr = fr * (ONE if dv > ONE else dv)
-                    own_p = ONE - sdrop * (_smoothstep_w(w0r[u], sinv) * (ONE - fr))
-                    if disp > ZERO:
-                        f0 = f0r[xo + u]
-                        f1 = f1r[xo + u]
-                        a = vxr[xo + u]
-                        b = vyr[xo + u]
-                        s = np.sqrt(a * a + b * b)
-                        s = s if s < vfib else vfib
-                        own_p = own_p + disp * ((f0 if f0 > f1 else f1) * s)
-                    bcr[u] = bcr[u] * own_p
+                _front_row(mbx, wet, w0, h, block, block_time, vx, vy, fibre, dbx, taps, j,
+                           y, x0, bh, slo, shi, cst, am, ad, ab, pr_o, bc_o)
 
 
 @_inline
@@ -925,11 +956,16 @@ def advect_jacobi1(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, bc: np.ndarr
                    cst: np.ndarray, do_w: bool, do_p: bool, do_pr: bool, outward: bool,
                    spans: np.ndarray, nsp: np.ndarray, v1x_o: np.ndarray, v1y_o: np.ndarray,
                    xw_o: np.ndarray, xp_o: np.ndarray, pr_o: np.ndarray,
-                   bounds: np.ndarray) -> None:
+                   bounds: np.ndarray, front: bool, block: np.ndarray,
+                   block_time: np.ndarray, fibre: np.ndarray, dbx: np.ndarray) -> None:
     """Pass 1 (bilinear back-trace of the masked velocity: the state's ``vx``/``vy`` where
     the wet mask is set, 0 elsewhere; box-relative clamps), with
-    ``do_pr`` pass 3's levelled height (:func:`_pressure_row`), and the first Jacobi
-    iteration of the water and pigment solves (from x0 = u)."""
+    ``do_pr`` pass 3's levelled height (:func:`_pressure_row`), with ``front`` instead the
+    standing gate's front factor (:func:`_front_row`: pass 3's levelled height and beta_c
+    into ``bc``; only without ``do_p``'s iteration, which reads beta_c of the next rows),
+    and the first Jacobi iteration of the water and pigment solves (from x0 = u).
+    Folding the front factor in here spares it a sweep of its own and the second read
+    of the row's wet mask and velocity."""
     fdt = cst[C_DT]
     kw = cst[C_KW]
     kp = cst[C_KP]
@@ -941,12 +977,17 @@ def advect_jacobi1(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, bc: np.ndarr
     for ch in prange(nch):
         j0, j1 = bounds[ch], bounds[ch + 1]
         acc = np.empty(bw + 2, F32)
+        ad = np.empty(bw + 2 if front else 0, F32)
+        ab = np.empty(bw + 2 if front else 0, F32)
         for j in range(j0, j1):
             for si in range(nsp[j]):
                 slo, shi = _span(spans, j, si)
                 if do_pr:
                     _pressure_row(mbx, wet, w0, h, taps, j, y0 + j - 1, x0, bh, slo, shi, eta,
                                   relief, outward, acc, pr_o)
+                elif front:
+                    _front_row(mbx, wet, w0, h, block, block_time, vx, vy, fibre, dbx, taps,
+                               j, y0 + j - 1, x0, bh, slo, shi, cst, acc, ad, ab, pr_o, bc)
                 y = y0 + j - 1
                 # the cells 2 or more inside the box go through the vectorised run when
                 # every |v dt| of the row's span is <= 1 (the step's CFL bound)
