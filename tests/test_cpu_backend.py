@@ -526,3 +526,34 @@ def test_drying_trail_on_tiles_is_bitwise_equal() -> None:
     for f in (*FIELDS, "tile_ttl"):
         assert np.array_equal(getattr(a.live_state, f), getattr(b.live_state, f)), f
     assert a.live_state.q.sum() > 0
+
+
+@pytest.mark.parametrize("tiling", [False, True])
+def test_uniform_wash_blur_runs_are_bitwise_equal(tiling: bool) -> None:
+    """A fully wet wash (``station bench sim``'s) blurs rows of one value: prep keeps each
+    row's run of one x-blurred value and the y halves fill it with the taps' sum of that
+    value instead of adding the taps (issue 26 item 3). The rows through a dry hole have
+    no run, the damp top half and the dry bottom half of the paper give the not-dry mask's
+    runs two values: every field bit for bit against the reference."""
+    from station.bench._sim_driver import wash
+
+    w, h = 72, 60
+    runs = []
+    for cls in (NumpyCanvas, CpuCanvas):
+        c = cls(w, h, profile="watercolor", seed=3, tiling=tiling)
+        wash(c, w, h)
+        st = c.live_state
+        st.w[24:30, 30:40] = 0  # a dry hole
+        st.wc[:24] = (0.8 * st.capacity()[:24]).astype(np.float32)  # damp paper on top
+        runs.append(c)
+    a, b = runs
+    for _ in range(6):
+        a.step()
+        b.step()
+    for f in FIELDS:
+        assert np.array_equal(getattr(a.live_state, f), getattr(b.live_state, f)), f
+    sc = b._scratch()
+    full = sc.runs[:, 1:h + 1, 1] >= sc.runs[:, 1:h + 1, 0]
+    assert full[0].sum() > h // 2 and full[1].sum() > h // 2  # most rows have a run
+    assert not full[0].all()  # not those through the hole
+    assert len(set(sc.rvals[1, 1:h + 1][full[1]].tolist())) == 2  # damp and dry paper

@@ -124,6 +124,10 @@ class Scratch:
         self.pnsp = np.zeros(height + 2, np.int32)
         self.hsp = _touched(np.zeros((height + 2, most, 2), np.int32))
         self.hn = np.zeros(height + 2, np.int32)
+        # each row's run of one x-blurred value in mbx ([0]) and dbx ([1]), written by
+        # K.prep (K._blur_x_run) and read by the y halves of the blurs (K._blur_y_run)
+        self.runs = np.zeros((2, height + 2, 2), np.int64)
+        self.rvals = np.zeros((2, height + 2), F32)
         self._jbuf = np.zeros((0, 0, 0, 0, 0), F32)
         self._cst: tuple[SimParams, float, np.ndarray, np.ndarray] | None = None
         self._regions: tuple[tuple[tuple[int, ...], bytes], list[tuple[slice, slice]]] | None = None
@@ -278,11 +282,12 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
            state.block, state.block_time, state.fibre, taps, y0, x0, bh, bw, ns, cprep,
            outward and do_pr, spans, nsp, s2["wet"], s2["w0"], s3["p0"], s2["bc"],
            s2["opn"], s2["mbx"], state.wet_area, prm.wet_hold > 0, bounds, not front, drying,
-           s2["dbx"])
+           s2["dbx"], scratch.runs, scratch.rvals)
     if front and not fold:
         K.standing_front(s2["w0"], state.h, state.block, state.block_time, state.vx,
                          state.vy, state.fibre, s2["mbx"], s2["wet"], taps, y0, x0, bh, bw,
-                         cst, spans, nsp, bounds, s2["dbx"], s2["bc"], s2["pr"])
+                         cst, spans, nsp, bounds, s2["dbx"], s2["bc"], s2["pr"], scratch.runs,
+                         scratch.rvals)
     wet, bc, w0, p0 = s2["wet"], s2["bc"], s2["w0"], s3["p0"]
     # pass 3 levels w itself unless the flow-outward or the relief term is on
     pr = s2["pr"] if do_pr else w0
@@ -296,7 +301,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
                      bh, bw, ns, cst, jw and not jac1, jp and not jac1, do_pr and not front,
                      outward, spans,
                      nsp, s2["v1x"], s2["v1y"], xw, xp, s2["pr"], bounds, fold, state.block,
-                     state.block_time, state.fibre, s2["dbx"])
+                     state.block_time, state.fibre, s2["dbx"], scratch.runs, scratch.rvals)
     if not jw:
         xw = w0
     if not jp:
