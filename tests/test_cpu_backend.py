@@ -557,3 +557,20 @@ def test_uniform_wash_blur_runs_are_bitwise_equal(tiling: bool) -> None:
     assert full[0].sum() > h // 2 and full[1].sum() > h // 2  # most rows have a run
     assert not full[0].all()  # not those through the hole
     assert len(set(sc.rvals[1, 1:h + 1][full[1]].tolist())) == 2  # damp and dry paper
+
+
+def test_any_nonzero_is_numpys_any() -> None:
+    """The step's test for a paper with fibres (K.any_nonzero, early exit) answers as
+    numpy's ``any``: -0 is zero, NaN and the smallest denormal are not, a non-zero in the
+    last value counts."""
+    import station.backends.cpu.kernels as K
+
+    a = np.zeros((2, 7, 1000), np.float32)  # 14000 values: three blocks and a part
+    cases = [(), ((0, 0, 0), np.float32(-0.0)), ((1, 6, 999), np.float32(2.0)),
+             ((1, 3, 5), np.float32(np.nan)), ((0, 4, 2), np.float32(1e-45)),
+             ((0, 0, 1), np.float32(-3.0))]
+    for case in cases:
+        b = a.copy()
+        if case:
+            b[case[0]] = case[1]
+        assert K.any_nonzero(b.reshape(-1).view(np.uint32)) == bool(b.any()), case

@@ -149,6 +149,28 @@ def _span(spans: np.ndarray, j: int, si: int) -> tuple[int, int]:
 
 
 @_serial
+def any_nonzero(bits: np.ndarray) -> bool:
+    """``a.any()`` of a float32 array ``a``, given as its flat uint32 view ``bits``,
+    stopping at the first block of 4096 values with a non-zero one: the step asks it of
+    the paper's fibres (two float32 per cell), which numpy read whole every step (0.6 ms
+    of a 1920x1080 wash step, more with the fibres out of cache), and a paper with
+    fibres has one in its first block. A block's test is an OR of the bits without the
+    sign (-0 is zero, NaN is not, as for numpy) over unsigned indices: it vectorises, so
+    a paper without fibres costs what numpy's any does."""
+    n = np.uint64(bits.shape[0])
+    b0 = np.uint64(0)
+    while b0 < n:
+        b1 = min(b0 + np.uint64(4096), n)
+        hit = np.uint32(0)
+        for i in range(b0, b1):
+            hit |= bits[i]
+        if hit & np.uint32(0x7FFFFFFF):
+            return True
+        b0 = b1
+    return False
+
+
+@_serial
 def full_spans(bh: int, bw: int, spans: np.ndarray, nsp: np.ndarray) -> None:
     """Every cell of the box window: one span ``[1, bw]`` on rows ``1..bh``."""
     for j in range(nsp.shape[0]):

@@ -246,7 +246,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     bh, bw = int(ys.stop) - y0, int(xs.stop) - x0
     ns = max(len(state.slots), 1)
     cst, taps = scratch.constants(prm, dt, state.sim_time)
-    if cst[K.C_PGAIN] != 0 and not state.fibre.any():
+    if cst[K.C_PGAIN] != 0 and not K.any_nonzero(state.fibre.reshape(-1).view(np.uint32)):
         # paper without any fibre: nothing channels pass 3's flow (reference fibre_gate)
         cst = cst.copy()
         cst[K.C_PGAIN] = F32(0.0)
