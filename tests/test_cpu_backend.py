@@ -136,7 +136,10 @@ def test_multi_step_stroke_is_bitwise_equal() -> None:
                                     {"wet_hold": 3.0, "moist_threshold": 0.25},
                                     {"fibre_permeability": 1.0, "nu_p": 0.02,
                                      "fibre_dispersivity": 9.0},
-                                    {"fibre_permeability": 0.35, "paper_relief": 0.3}])
+                                    {"fibre_permeability": 0.35, "paper_relief": 0.3},
+                                    {"standing_front_dry": 0.0},
+                                    {"standing_front_dry": 0.0, "jacobi_iters": 2,
+                                     "block_fade": 0.0}])
 def test_parameter_variants_match(change: dict[str, Any]) -> None:
     prm = dataclasses.replace(get_profile("watercolor").params, **change)
     a = _random_canvas(NumpyCanvas, 3, params=prm)
@@ -292,11 +295,49 @@ def test_operations_render_and_factory() -> None:
     # the wet-area memory: prep reads and writes the area (8), and its fade reads and
     # writes it again in evap_capillary's rows (8; 17 as a sweep of its own, 300 in all)
     assert traffic.bytes_per_cell_step(2, 1, wet_memory=True) == 291
-    # the standing gate's front factor (session 13's default): its own sweep (41 B, 57 B
-    # with the dry-paper term), prep without the dispersion's reads (-16), advect_jacobi1
-    # without pass 3's levelled height (-16)
-    assert traffic.bytes_per_cell_step(2, 1, wet_memory=True, front=0) == 300
-    assert traffic.bytes_per_cell_step(2, 1, wet_memory=True, front=1) == 316
+    # the standing gate's front factor (session 13's default): 300 and 316 B as a sweep of
+    # its own (41 B, 57 B with the dry-paper term); session 14 folds it into
+    # advect_jacobi1's rows (the wet mask and velocity read once), prep writes the x half
+    # of the dry-paper blur (its wc and h read once) and no beta_c (written once, with
+    # the factor)
+    assert traffic.bytes_per_cell_step(2, 1, wet_memory=True, front=0) == 283
+    assert traffic.bytes_per_cell_step(2, 1, wet_memory=True, front=1) == 291
+    # several Jacobi iterations keep the front's sweep (advect_jacobi1's pigment
+    # iteration reads beta_c of the next rows); one iteration has none
+    four = traffic.bytes_per_sweep(2, 4, wet_memory=True, front=1)
+    assert [k.split()[0] for k in four][-1] == "standing_front" and len(four) == 7
+    assert len(traffic.bytes_per_sweep(2, 1, wet_memory=True, front=1)) == 6
+    assert sum(four.values()) == 409
+
+
+def test_front_factor_runs_in_advect_jacobi1_rows(monkeypatch: pytest.MonkeyPatch) -> None:
+    """With one Jacobi iteration (the profiles') the standing gate's front factor has no
+    sweep of its own: advect_jacobi1 computes it row by row (issue 26: a pass fewer, the
+    wet mask, velocity, wc and h read once); with three it still runs (its pigment
+    iteration reads beta_c of the next rows) and both agree with the reference."""
+    import station.backends.cpu.kernels as K
+
+    calls: list[int] = []
+    real = K.standing_front
+
+    def counted(*a: Any) -> None:
+        calls.append(1)
+        real(*a)
+
+    monkeypatch.setattr(K, "standing_front", counted)
+    prm = get_profile("watercolor").params
+    assert prm.jacobi_iters == 1 and prm.standing_front()[0] > 0
+    for iters, sweeps in ((1, 0), (3, 3)):
+        p = dataclasses.replace(prm, jacobi_iters=iters)
+        a = _random_canvas(NumpyCanvas, 4, params=p)
+        b = _random_canvas(CpuCanvas, 4, params=p)
+        calls.clear()
+        for _ in range(3):
+            a.step()
+            b.step()
+        assert len(calls) == sweeps
+        for f in FIELDS:
+            assert np.array_equal(getattr(a.live_state, f), getattr(b.live_state, f)), f
 
 
 def test_bench_sim_measures_the_cpu_backend(capsys) -> None:
@@ -485,3 +526,78 @@ def test_drying_trail_on_tiles_is_bitwise_equal() -> None:
     for f in (*FIELDS, "tile_ttl"):
         assert np.array_equal(getattr(a.live_state, f), getattr(b.live_state, f)), f
     assert a.live_state.q.sum() > 0
+
+
+@pytest.mark.parametrize("tiling", [False, True])
+def test_uniform_wash_blur_runs_are_bitwise_equal(tiling: bool) -> None:
+    """A fully wet wash (``station bench sim``'s) blurs rows of one value: prep keeps each
+    row's run of one x-blurred value and the y halves fill it with the taps' sum of that
+    value instead of adding the taps (issue 26 item 3). The rows through a dry hole have
+    no run, the damp top half and the dry bottom half of the paper give the not-dry mask's
+    runs two values: every field bit for bit against the reference."""
+    from station.bench._sim_driver import wash
+
+    w, h = 72, 60
+    runs = []
+    for cls in (NumpyCanvas, CpuCanvas):
+        c = cls(w, h, profile="watercolor", seed=3, tiling=tiling)
+        wash(c, w, h)
+        st = c.live_state
+        st.w[24:30, 30:40] = 0  # a dry hole
+        st.wc[:24] = (0.8 * st.capacity()[:24]).astype(np.float32)  # damp paper on top
+        runs.append(c)
+    a, b = runs
+    for _ in range(6):
+        a.step()
+        b.step()
+    for f in FIELDS:
+        assert np.array_equal(getattr(a.live_state, f), getattr(b.live_state, f)), f
+    sc = b._scratch()
+    full = sc.runs[:, 1:h + 1, 1] >= sc.runs[:, 1:h + 1, 0]
+    assert full[0].sum() > h // 2 and full[1].sum() > h // 2  # most rows have a run
+    assert not full[0].all()  # not those through the hole
+    assert len(set(sc.rvals[1, 1:h + 1][full[1]].tolist())) == 2  # damp and dry paper
+
+
+def test_any_nonzero_is_numpys_any() -> None:
+    """The step's test for a paper with fibres (K.any_nonzero, early exit) answers as
+    numpy's ``any``: -0 is zero, NaN and the smallest denormal are not, a non-zero in the
+    last value counts."""
+    import station.backends.cpu.kernels as K
+
+    a = np.zeros((2, 7, 1000), np.float32)  # 14000 values: three blocks and a part
+    cases = [(), ((0, 0, 0), np.float32(-0.0)), ((1, 6, 999), np.float32(2.0)),
+             ((1, 3, 5), np.float32(np.nan)), ((0, 4, 2), np.float32(1e-45)),
+             ((0, 0, 1), np.float32(-3.0))]
+    for case in cases:
+        b = a.copy()
+        if case:
+            b[case[0]] = case[1]
+        assert K.any_nonzero(b.reshape(-1).view(np.uint32)) == bool(b.any()), case
+
+
+@pytest.mark.parametrize("nu_p", [None, 0.4])
+def test_binding_limiters_are_bitwise_equal(nu_p: float | None) -> None:
+    """The donor and receiver limiters where they bind (issue 26: their divisions run
+    only on spans where some cell needs one): water under w_min that the flow carries off,
+    water at w_max and pigment near 1 that the flow fills, a pigment checkerboard that
+    strong diffusion empties; every field bit for bit against the reference."""
+    prm = get_profile("watercolor").params
+    if nu_p is not None:
+        prm = dataclasses.replace(prm, nu_p=nu_p)
+    runs = []
+    for cls in (NumpyCanvas, CpuCanvas):
+        c = _random_canvas(cls, 5, params=prm)
+        st = c.live_state
+        st.w[6:12, 8:20] = np.float32(0.5 * prm.w_min)
+        st.w[20:26, 8:20] = np.float32(prm.w_max)
+        st.p[0, 20:26, 22:34] = np.float32(0.995)
+        yy, xx = np.mgrid[0:8, 0:10]
+        st.p[1, 14:22, 24:34] = ((yy + xx) % 2).astype(np.float32)
+        runs.append(c)
+    a, b = runs
+    for _ in range(8):
+        a.step()
+        b.step()
+    for f in FIELDS:
+        assert np.array_equal(getattr(a.live_state, f), getattr(b.live_state, f)), f

@@ -28,10 +28,13 @@ from station.backends.factory import create_backend
 from station.bench._sim_driver import wash
 from station.bench.sim import memory_bandwidth_gb_s
 
-SWEEPS = ("prep", "advect_jacobi1", "jacobi_blocked", "limit_diffuse_fused", "advect_fused",
-          "evap_cap_fused", "standing_front")
-"""The sweeps of a step in the order of ``traffic.bytes_per_sweep`` (the fused ones
-live in ``station.backends.cpu.fused``)."""
+SWEEPS = {"prep": "prep", "advect_jacobi1": "advect_jacobi1",
+          "jacobi_blocked": "jacobi_blocked", "limit_diffuse_fused": "limit_diffuse",
+          "advect_fused": "advect", "evap_cap_fused": "evap_capillary",
+          "standing_front": "standing_front"}
+"""The sweeps of a step (the fused ones live in ``station.backends.cpu.fused``) and the
+first word of their label in ``traffic.bytes_per_sweep`` (the front factor's sweep runs
+only with several Jacobi iterations; with one it is part of advect_jacobi1's rows)."""
 
 
 def main() -> None:
@@ -79,10 +82,11 @@ def main() -> None:
     front = (1 if fdry > 0 else 0) if finv > 0 else -1  # as gl.traffic.front_mode
     per_sweep = bytes_per_sweep(max(len(st.slots), 1), int(st.params.jacobi_iters),
                                 st.params.wet_hold > 0, front)
-    names = SWEEPS if front >= 0 else SWEEPS[:-1]  # the front's sweep is counted last
     cells = w * h * args.steps
     rows = []
-    for (label, nbytes), name in zip(per_sweep.items(), names, strict=True):
+    by_label = {label: name for name, label in SWEEPS.items()}
+    for label, nbytes in per_sweep.items():
+        name = by_label[label.split()[0]]
         s = spent[name]
         gbs = nbytes * cells / s / 1e9 if s > 0 else 0.0
         rows.append({"sweep": name, "counted": label, "bytes_per_cell": nbytes,

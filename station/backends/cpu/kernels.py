@@ -149,6 +149,28 @@ def _span(spans: np.ndarray, j: int, si: int) -> tuple[int, int]:
 
 
 @_serial
+def any_nonzero(bits: np.ndarray) -> bool:
+    """``a.any()`` of a float32 array ``a``, given as its flat uint32 view ``bits``,
+    stopping at the first block of 4096 values with a non-zero one: the step asks it of
+    the paper's fibres (two float32 per cell), which numpy read whole every step (0.6 ms
+    of a 1920x1080 wash step, more with the fibres out of cache), and a paper with
+    fibres has one in its first block. A block's test is an OR of the bits without the
+    sign (-0 is zero, NaN is not, as for numpy) over unsigned indices: it vectorises, so
+    a paper without fibres costs what numpy's any does."""
+    n = np.uint64(bits.shape[0])
+    b0 = np.uint64(0)
+    while b0 < n:
+        b1 = min(b0 + np.uint64(4096), n)
+        hit = np.uint32(0)
+        for i in range(b0, b1):
+            hit |= bits[i]
+        if hit & np.uint32(0x7FFFFFFF):
+            return True
+        b0 = b1
+    return False
+
+
+@_serial
 def full_spans(bh: int, bw: int, spans: np.ndarray, nsp: np.ndarray) -> None:
     """Every cell of the box window: one span ``[1, bw]`` on rows ``1..bh``."""
     for j in range(nsp.shape[0]):
@@ -381,7 +403,9 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
          cst: np.ndarray, outward: bool, spans: np.ndarray, nsp: np.ndarray,
          wet_o: np.ndarray, w0_o: np.ndarray, p0_o: np.ndarray, bc_o: np.ndarray,
          opn_o: np.ndarray,
-         mbx_o: np.ndarray, area: np.ndarray, holding: bool, bounds: np.ndarray) -> None:
+         mbx_o: np.ndarray, area: np.ndarray, holding: bool, bounds: np.ndarray,
+         do_bc: bool, drying: bool, dbx_o: np.ndarray, runs: np.ndarray,
+         rvals: np.ndarray) -> None:
     """Wet mask (once per step; own water, or the advancing contact line: a neighbour's
     w above ``advance_height (1.5 - h)``, on damp paper ``(1 + g/2 - g h)`` (g
     ``advance_grain``, reference ``stencils.advance_term``), lowered along the paper's
@@ -391,7 +415,14 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
     dispersion), open, and with ``outward`` the own wet area blurred along x (``mbx``, the
     first half of :func:`flow_pressure`'s blur). With ``holding`` (``wet_hold > 0``) the
     blurred area is the wet-area mask ``max(wet_area, own)``, written back to ``area``
-    (reference ``wet_memory``).
+    (reference ``wet_memory``). Without ``do_bc`` (the standing gate's front factor on)
+    beta_c is left to :func:`_front_row`, which writes it once with its factor; with
+    ``drying`` (its dry-paper term) the x half of the blur of the not-dry paper ``wc >= T
+    c`` into ``dbx_o`` (a column outside the box adds +0, a column of the box outside the
+    spans reads the state; the row's blur outside its spans is the scratch's 0 like
+    ``mbx``'s): this sweep reads the row's ``wc`` and ``h`` anyway. ``runs``/``rvals``
+    ``[0]`` (``mbx``) and ``[1]`` (``dbx``): each row's run of one blurred value
+    (:func:`_blur_x_run`; empty where there is none), for the y halves.
 
     Two sweeps: the copy of w (and p) into the padded ``w0`` first, so the contact line
     reads its neighbours from ``w0`` (whose zero ring is "outside the box") without a
@@ -419,8 +450,11 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
     dspan = cst[C_DSPAN]
     easing = ease > ZERO
     advancing = adv > ZERO
+    dry = cst[C_FDRY]
     nt = taps.shape[0]
     r = (nt - 1) // 2
+    ur = np.uint64(r)
+    xo = np.uint64(x0 - 1)
     nch = bounds.shape[0] - 1
     for ch in prange(nch):
         for j in range(bounds[ch], bounds[ch + 1]):
@@ -437,12 +471,16 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
         # own wet area of a row with r zero columns each side (a tap outside the box adds
         # +0 there, which leaves the sum exactly as the reference's skipped term)
         own = np.empty(bw + 2 + 2 * r, F32)
+        nd = np.empty(bw + 2 + 2 * r, F32)
         acc = np.empty(bw + 2, F32)
         for j in range(j0, j1):
             y = y0 + j - 1
             wr, wn, ws = w0_o[j], w0_o[j - 1], w0_o[j + 1]
             for i in range(bw + 2 + 2 * r):  # columns outside the spans: not own
                 own[i] = ZERO
+            for q in range(2):  # no run of one value yet (_blur_x_run)
+                runs[q, j, 0] = 1
+                runs[q, j, 1] = 0
             for si in range(nsp[j]):
                 slo, shi = _span(spans, j, si)
                 if advancing and wick > ZERO:
@@ -503,6 +541,8 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                         opn_o[j, i] = 1 if un else 0
                 if holding:  # a loop of its own: the column loops above stay as they were
                     _wet_memory_row(own, area, y, x0, r, slo, shi)
+                if not do_bc:
+                    continue
                 if fade > ZERO:
                     for i in range(slo, shi + 1):
                         x = np.uint64(x0 + i - 1)
@@ -543,54 +583,8 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                 # order, offset -R first
                 for si in range(nsp[j]):
                     slo, shi = _span(spans, j, si)
-                    ulo, uhi = np.uint64(slo), np.uint64(shi + 1)  # unsigned: vectorises
-                    _blur_x_row(own, taps, ulo, uhi, acc, mbx_o[j])
-    if advancing:
-        _pin(wet_o, wc, h, y0, x0, bounds, spans, nsp, cmin, cspan, dsat)
-
-
-@_parallel
-def standing_front(w0: np.ndarray, wc: np.ndarray, h: np.ndarray, vx: np.ndarray,
-                   vy: np.ndarray, fibre: np.ndarray, mbx: np.ndarray, wet: np.ndarray,
-                   taps: np.ndarray, y0: int, x0: int, bh: int, bw: int, cst: np.ndarray,
-                   spans: np.ndarray, nsp: np.ndarray, bounds: np.ndarray, dbx_o: np.ndarray,
-                   bc_o: np.ndarray, pr_o: np.ndarray) -> None:
-    """The standing gate's front factor (reference ``standing_front``), after :func:`prep`
-    ran with ``C_SINV`` and ``C_DISP`` at 0 (``bc_o`` holds beta_c without the standing
-    and dispersion factor): ``bc *= own + gd (...)`` (or ``own``), ``own = 1 - drop g (1 -
-    F)``, ``F = smoothstep(eta (1 - M'))``, with ``C_FDRY`` times ``min(2 (1 - D'), 1)``,
-    ``D'`` the blur of ``wc >= T c`` (its x half into ``dbx_o`` first; a column outside
-    the box adds +0, a row outside it is skipped, as the reference's zero padding; a
-    column of the box outside the spans reads the state, a row's blur outside its spans
-    is the scratch's 0 like ``mbx``'s). Its own sweep: the blur's y half reads rows the
-    next chunk writes. ``M'`` is pass 3's: this sweep writes pass 3's levelled height
-    (:func:`_pressure_row`, ``pr_o``) and keeps its y half of the blur, so
-    :func:`advect_jacobi1` runs without ``do_pr`` (one y blur of ``mbx`` a step, not two).
-    Unsigned columns throughout (numba's negative-index wraparound keeps signed ones
-    scalar), three taps a pass where they are all in range (the same additions in the
-    same order)."""
-    cmin = cst[C_CMIN]
-    cspan = cst[C_CSPAN]
-    disp = cst[C_DISP]
-    vfib = cst[C_VFIB]
-    sinv = cst[C_SINV]
-    sdrop = cst[C_SDROP]
-    eta = cst[C_ETA]
-    relief = cst[C_RELIEF]
-    finv = cst[C_FINV]
-    dry = cst[C_FDRY]
-    drying = dry > ZERO
-    nt = taps.shape[0]
-    r = (nt - 1) // 2
-    ur = np.uint64(r)
-    nch = bounds.shape[0] - 1
-    xo = np.uint64(x0 - 1)
-    if drying:
-        for ch in prange(nch):
-            nd = np.empty(bw + 2 + 2 * r, F32)
-            acc = np.empty(bw + 2, F32)
-            for j in range(bounds[ch], bounds[ch + 1]):
-                y = y0 + j - 1
+                    _blur_x_run(own, taps, slo, shi, acc, mbx_o[j], runs[0], rvals[0], j)
+            if drying:
                 wcr, hr = wc[y], h[y]
                 for u in range(np.uint64(bw + 2 + 2 * r)):
                     nd[u] = ZERO
@@ -601,11 +595,99 @@ def standing_front(w0: np.ndarray, wc: np.ndarray, h: np.ndarray, vx: np.ndarray
                     for u in range(np.uint64(lo), np.uint64(hi + 1)):
                         nd[u + ur] = ONE if wcr[xo + u] >= dry * (cmin + hr[xo + u] * cspan) \
                             else ZERO
-                drow = dbx_o[j]
                 for si in range(nsp[j]):
                     slo, shi = _span(spans, j, si)
-                    ulo, uhi = np.uint64(slo), np.uint64(shi + 1)
-                    _blur_x_row(nd, taps, ulo, uhi, acc, drow)
+                    _blur_x_run(nd, taps, slo, shi, acc, dbx_o[j], runs[1], rvals[1], j)
+    if advancing:
+        _pin(wet_o, wc, h, y0, x0, bounds, spans, nsp, cmin, cspan, dsat)
+
+
+@_inline
+def _front_row(mbx: np.ndarray, wet: np.ndarray, w0: np.ndarray, h: np.ndarray,
+               block: np.ndarray, block_time: np.ndarray, vx: np.ndarray, vy: np.ndarray,
+               fibre: np.ndarray, dbx: np.ndarray, taps: np.ndarray, j: int, y: int, x0: int,
+               bh: int, slo: int, shi: int, cst: np.ndarray, am: np.ndarray, ad: np.ndarray,
+               pr_o: np.ndarray, bc_o: np.ndarray, runs: np.ndarray,
+               rvals: np.ndarray) -> None:
+    """The standing gate's front factor on the span ``slo..shi`` of row j (reference
+    ``standing_front``): pass 3's levelled height (:func:`_pressure_row`, ``pr_o``; its y
+    half of the blur is ``M'``) and beta_c, written once: :func:`prep`'s block and paper
+    expression (it leaves ``bc`` alone with the front factor on) times ``own + gd (...)``
+    (or ``own``), ``own = 1 - drop g (1 - F)``, ``F = smoothstep(eta (1 - M'))``, with
+    ``C_FDRY`` times ``min(2 (1 - D'), 1)``, ``D'`` the y half of the blur of ``wc >= T
+    c`` whose x half prep wrote into ``dbx``. Buffers (``bw + 2``): ``am`` M', ``ad`` D'.
+    After the blurs one loop does the rest (three loops, with beta_c's block part and
+    the levelled height in their own, took 5 % more of advect_jacobi1's CPU time).
+    Unsigned columns throughout (numba's negative-index wraparound keeps signed ones
+    scalar)."""
+    disp = cst[C_DISP]
+    vfib = cst[C_VFIB]
+    sinv = cst[C_SINV]
+    sdrop = cst[C_SDROP]
+    eta = cst[C_ETA]
+    relief = cst[C_RELIEF]
+    finv = cst[C_FINV]
+    drying = cst[C_FDRY] > ZERO
+    t_now = cst[C_TIME]
+    fade = cst[C_FADE]
+    bpaper = cst[C_BPAPER]
+    xo = np.uint64(x0 - 1)
+    ulo, uhi = np.uint64(slo), np.uint64(shi + 1)
+    _blur_y_run(mbx, taps, j, bh, ulo, uhi, am, runs[0], rvals[0])
+    if drying:
+        _blur_y_run(dbx, taps, j, bh, ulo, uhi, ad, runs[1], rvals[1])
+    hr, br, btr = h[y], block[y], block_time[y]
+    wr, w0r, pro, bcr = wet[j], w0[j], pr_o[j], bc_o[j]
+    f0r, f1r, vxr, vyr = fibre[0, y], fibre[1, y], vx[y], vy[y]
+    # one loop: pass 3's levelled height (_pressure_row's expression), prep's beta_c
+    # before its standing/dispersion factor, the factor
+    for u in range(ulo, uhi):
+        wv = w0r[u]
+        hv = hr[xo + u]
+        pv = wv
+        if relief > ZERO:
+            pv = wv + relief * hv
+        pv = pv - eta * (ONE - am[u])
+        pro[u] = pv if wr[u] != ZERO else wv
+        b = br[xo + u]
+        if fade > ZERO:
+            age = (t_now - btr[xo + u]) / fade
+            age = ZERO if age < ZERO else age
+            age = ONE if age > ONE else age
+            eff = b + (ONE - b) * age
+        else:
+            eff = b + (ONE - b) * ONE
+        paper = ONE - bpaper * (ONE - hv)
+        bcv = paper if paper < eff else eff
+        fr = _smoothstep_w(eta * (ONE - am[u]), finv)
+        if drying:
+            dv = np.float32(2.0) * (ONE - ad[u])
+            fr = fr * (ONE if dv > ONE else dv)
+        own_p = ONE - sdrop * (_smoothstep_w(wv, sinv) * (ONE - fr))
+        if disp > ZERO:
+            f0 = f0r[xo + u]
+            f1 = f1r[xo + u]
+            a = vxr[xo + u]
+            bv = vyr[xo + u]
+            s = np.sqrt(a * a + bv * bv)
+            s = s if s < vfib else vfib
+            own_p = own_p + disp * ((f0 if f0 > f1 else f1) * s)
+        bcr[u] = bcv * own_p
+
+
+@_parallel
+def standing_front(w0: np.ndarray, h: np.ndarray, block: np.ndarray, block_time: np.ndarray,
+                   vx: np.ndarray, vy: np.ndarray, fibre: np.ndarray, mbx: np.ndarray,
+                   wet: np.ndarray, taps: np.ndarray, y0: int, x0: int, bh: int, bw: int,
+                   cst: np.ndarray, spans: np.ndarray, nsp: np.ndarray, bounds: np.ndarray,
+                   dbx: np.ndarray, bc_o: np.ndarray, pr_o: np.ndarray, runs: np.ndarray,
+                   rvals: np.ndarray) -> None:
+    """The standing gate's front factor and pass 3's levelled height (:func:`_front_row`)
+    in a sweep of their own, after :func:`prep` (which wrote the x halves of both blurs,
+    ``mbx`` and ``dbx``, and no ``bc``): with several Jacobi iterations
+    :func:`advect_jacobi1` reads beta_c of the rows next to its own, which the next chunk
+    writes. With one, advect_jacobi1 does this row by row itself (``front``)."""
+    nch = bounds.shape[0] - 1
     for ch in prange(nch):
         am = np.empty(bw + 2, F32)
         ad = np.empty(bw + 2, F32)
@@ -613,29 +695,8 @@ def standing_front(w0: np.ndarray, wc: np.ndarray, h: np.ndarray, vx: np.ndarray
             y = y0 + j - 1
             for si in range(nsp[j]):
                 slo, shi = _span(spans, j, si)
-                # pass 3's levelled height; am keeps the y half of M' for the span
-                _pressure_row(mbx, wet, w0, h, taps, j, y, x0, bh, slo, shi, eta, relief,
-                              True, am, pr_o)
-                ulo, uhi = np.uint64(slo), np.uint64(shi + 1)
-                if drying:
-                    _blur_y_row(dbx_o, taps, j, bh, ulo, uhi, ad)
-                w0r, bcr = w0[j], bc_o[j]
-                f0r, f1r, vxr, vyr = fibre[0, y], fibre[1, y], vx[y], vy[y]
-                for u in range(ulo, uhi):
-                    fr = _smoothstep_w(eta * (ONE - am[u]), finv)
-                    if drying:
-                        dv = np.float32(2.0) * (ONE - ad[u])
-                        fr = fr * (ONE if dv > ONE else dv)
-                    own_p = ONE - sdrop * (_smoothstep_w(w0r[u], sinv) * (ONE - fr))
-                    if disp > ZERO:
-                        f0 = f0r[xo + u]
-                        f1 = f1r[xo + u]
-                        a = vxr[xo + u]
-                        b = vyr[xo + u]
-                        s = np.sqrt(a * a + b * b)
-                        s = s if s < vfib else vfib
-                        own_p = own_p + disp * ((f0 if f0 > f1 else f1) * s)
-                    bcr[u] = bcr[u] * own_p
+                _front_row(mbx, wet, w0, h, block, block_time, vx, vy, fibre, dbx, taps, j,
+                           y, x0, bh, slo, shi, cst, am, ad, pr_o, bc_o, runs, rvals)
 
 
 @_inline
@@ -724,6 +785,83 @@ def _blur_x_row(src: np.ndarray, taps: np.ndarray, ulo: np.uint64, uhi: np.uint6
 
 
 @_inline
+def _tap_sum(taps: np.ndarray, v: np.float32) -> np.float32:
+    """The blur of a constant ``v``: ``((0 + g0 v) + g1 v) + ...`` over the taps in order,
+    the additions :func:`_blur_x_row` and :func:`_blur_y_row` make at a cell whose taps
+    all read ``v`` (their groups of three are the same additions in the same order)."""
+    acc = ZERO
+    for k in range(taps.shape[0]):
+        acc = acc + taps[k] * v
+    return acc
+
+
+@_inline
+def _blur_x_run(src: np.ndarray, taps: np.ndarray, slo: int, shi: int, acc: np.ndarray,
+                out: np.ndarray, run: np.ndarray, rval: np.ndarray, j: int) -> None:
+    """:func:`_blur_x_row` on the span ``slo..shi`` of row j, and where the span's own
+    values ``src[slo + R .. shi + R]`` are all one value v, ``_tap_sum(v)`` on the columns
+    ``slo + R .. shi - R`` (their taps read only v) without the taps' arithmetic: the same
+    float32 value. Such a run is kept as row j's in ``run``/``rval`` (the y half of the
+    blur uses it, :func:`_blur_y_run`); a row's first span with one wins. A fully wet
+    wash has one in nearly every row, where the 2 R + 1 taps cost ~3 ms a 1920x1080
+    field."""
+    nt = taps.shape[0]
+    r = (nt - 1) // 2
+    ur = np.uint64(r)
+    a, b = slo + r, shi - r
+    v = src[np.uint64(slo) + ur]
+    if a <= b:
+        same = 0
+        for u in range(np.uint64(slo) + ur, np.uint64(shi + 1) + ur):  # vectorises
+            same += 1 if src[u] == v else 0
+        if same != shi - slo + 1:
+            a, b = shi + 1, shi
+    if a > b:
+        _blur_x_row(src, taps, np.uint64(slo), np.uint64(shi + 1), acc, out)
+        return
+    _blur_x_row(src, taps, np.uint64(slo), np.uint64(a), acc, out)
+    _blur_x_row(src, taps, np.uint64(b + 1), np.uint64(shi + 1), acc, out)
+    s = _tap_sum(taps, v)
+    for u in range(np.uint64(a), np.uint64(b + 1)):
+        out[u] = s
+    if run[j, 0] > run[j, 1]:
+        run[j, 0] = a
+        run[j, 1] = b
+        rval[j] = s
+
+
+@_inline
+def _blur_y_run(src: np.ndarray, taps: np.ndarray, j: int, bh: int, ulo: np.uint64,
+                uhi: np.uint64, acc: np.ndarray, run: np.ndarray,
+                rval: np.ndarray) -> None:
+    """:func:`_blur_y_row`, but on the columns where the 2 R + 1 rows it reads all hold
+    one value (their runs, :func:`_blur_x_run`, overlap there with equal values, all rows
+    in the box) ``_tap_sum`` of it: the same float32 value without the taps'
+    arithmetic."""
+    nt = taps.shape[0]
+    r = (nt - 1) // 2
+    a, b = int(ulo), int(uhi) - 1
+    if j - r >= 1 and j + r <= bh:
+        v = rval[j - r]
+        for jj in range(j - r, j + r + 1):
+            lo_, hi_ = run[jj, 0], run[jj, 1]
+            a = lo_ if lo_ > a else a
+            b = hi_ if hi_ < b else b
+            if rval[jj] != v:
+                b = a - 1
+    else:
+        b = a - 1
+    if a > b:
+        _blur_y_row(src, taps, j, bh, ulo, uhi, acc)
+        return
+    _blur_y_row(src, taps, j, bh, ulo, np.uint64(a), acc)
+    _blur_y_row(src, taps, j, bh, np.uint64(b + 1), uhi, acc)
+    s = _tap_sum(taps, rval[j - r])
+    for u in range(np.uint64(a), np.uint64(b + 1)):
+        acc[u] = s
+
+
+@_inline
 def _blur_y_row(src: np.ndarray, taps: np.ndarray, j: int, bh: int, ulo: np.uint64,
                 uhi: np.uint64, acc: np.ndarray) -> None:
     """``acc[ulo:uhi]`` = the y half of a blur of ``src`` (an x-blurred scratch field, box
@@ -757,7 +895,7 @@ def _blur_y_row(src: np.ndarray, taps: np.ndarray, j: int, bh: int, ulo: np.uint
 def _pressure_row(mbx: np.ndarray, wet: np.ndarray, w0: np.ndarray, h: np.ndarray,
                   taps: np.ndarray, j: int, y: int, x0: int, bh: int, lo: int, hi: int,
                   eta: np.float32, relief: np.float32, outward: bool, acc: np.ndarray,
-                  pr_o: np.ndarray) -> None:
+                  pr_o: np.ndarray, run: np.ndarray, rval: np.ndarray) -> None:
     """Pass 3's levelled height ``P = (w + relief h) - eta (1 - M')`` on wet cells of row
     j (``w`` elsewhere; a term whose parameter is 0 is left out), ``M'`` the y half of the
     blur of ``mbx`` (taps in order, offset -R first; rows outside the box are skipped where
@@ -767,7 +905,7 @@ def _pressure_row(mbx: np.ndarray, wet: np.ndarray, w0: np.ndarray, h: np.ndarra
     # this sweep at 1920x1080 between them)
     ulo, uhi = np.uint64(lo), np.uint64(hi + 1)
     if outward:
-        _blur_y_row(mbx, taps, j, bh, ulo, uhi, acc)
+        _blur_y_run(mbx, taps, j, bh, ulo, uhi, acc, run, rval)
     wr, w0r, pro = wet[j], w0[j], pr_o[j]
     hrow = h[y]
     xo = np.uint64(x0 - 1)
@@ -925,11 +1063,17 @@ def advect_jacobi1(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, bc: np.ndarr
                    cst: np.ndarray, do_w: bool, do_p: bool, do_pr: bool, outward: bool,
                    spans: np.ndarray, nsp: np.ndarray, v1x_o: np.ndarray, v1y_o: np.ndarray,
                    xw_o: np.ndarray, xp_o: np.ndarray, pr_o: np.ndarray,
-                   bounds: np.ndarray) -> None:
+                   bounds: np.ndarray, front: bool, block: np.ndarray,
+                   block_time: np.ndarray, fibre: np.ndarray, dbx: np.ndarray,
+                   runs: np.ndarray, rvals: np.ndarray) -> None:
     """Pass 1 (bilinear back-trace of the masked velocity: the state's ``vx``/``vy`` where
     the wet mask is set, 0 elsewhere; box-relative clamps), with
-    ``do_pr`` pass 3's levelled height (:func:`_pressure_row`), and the first Jacobi
-    iteration of the water and pigment solves (from x0 = u)."""
+    ``do_pr`` pass 3's levelled height (:func:`_pressure_row`), with ``front`` instead the
+    standing gate's front factor (:func:`_front_row`: pass 3's levelled height and beta_c
+    into ``bc``; only without ``do_p``'s iteration, which reads beta_c of the next rows),
+    and the first Jacobi iteration of the water and pigment solves (from x0 = u).
+    Folding the front factor in here spares it a sweep of its own and the second read
+    of the row's wet mask and velocity."""
     fdt = cst[C_DT]
     kw = cst[C_KW]
     kp = cst[C_KP]
@@ -941,12 +1085,17 @@ def advect_jacobi1(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, bc: np.ndarr
     for ch in prange(nch):
         j0, j1 = bounds[ch], bounds[ch + 1]
         acc = np.empty(bw + 2, F32)
+        ad = np.empty(bw + 2 if front else 0, F32)
         for j in range(j0, j1):
             for si in range(nsp[j]):
                 slo, shi = _span(spans, j, si)
                 if do_pr:
                     _pressure_row(mbx, wet, w0, h, taps, j, y0 + j - 1, x0, bh, slo, shi, eta,
-                                  relief, outward, acc, pr_o)
+                                  relief, outward, acc, pr_o, runs[0], rvals[0])
+                elif front:
+                    _front_row(mbx, wet, w0, h, block, block_time, vx, vy, fibre, dbx, taps,
+                               j, y0 + j - 1, x0, bh, slo, shi, cst, acc, ad, pr_o, bc,
+                               runs, rvals)
                 y = y0 + j - 1
                 # the cells 2 or more inside the box go through the vectorised run when
                 # every |v dt| of the row's span is <= 1 (the step's CFL bound)

@@ -124,6 +124,10 @@ class Scratch:
         self.pnsp = np.zeros(height + 2, np.int32)
         self.hsp = _touched(np.zeros((height + 2, most, 2), np.int32))
         self.hn = np.zeros(height + 2, np.int32)
+        # each row's run of one x-blurred value in mbx ([0]) and dbx ([1]), written by
+        # K.prep (K._blur_x_run) and read by the y halves of the blurs (K._blur_y_run)
+        self.runs = np.zeros((2, height + 2, 2), np.int64)
+        self.rvals = np.zeros((2, height + 2), F32)
         self._jbuf = np.zeros((0, 0, 0, 0, 0), F32)
         self._cst: tuple[SimParams, float, np.ndarray, np.ndarray] | None = None
         self._regions: tuple[tuple[tuple[int, ...], bytes], list[tuple[slice, slice]]] | None = None
@@ -242,7 +246,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     bh, bw = int(ys.stop) - y0, int(xs.stop) - x0
     ns = max(len(state.slots), 1)
     cst, taps = scratch.constants(prm, dt, state.sim_time)
-    if cst[K.C_PGAIN] != 0 and not state.fibre.any():
+    if cst[K.C_PGAIN] != 0 and not K.any_nonzero(state.fibre.reshape(-1).view(np.uint32)):
         # paper without any fibre: nothing channels pass 3's flow (reference fibre_gate)
         cst = cst.copy()
         cst[K.C_PGAIN] = F32(0.0)
@@ -260,11 +264,16 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     spans, nsp = scratch.spans, scratch.nsp
     bounds = scratch.bounds(bh, bw, full)
     do_pr = (outward or prm.paper_relief > 0) and runs("water_height_and_boundary")
-    # the standing gate's front factor needs M' (the y half of the blur): prep leaves the
-    # standing and dispersion factor out of beta_c, K.standing_front applies it after and
-    # writes pass 3's levelled height on the way (its y half of the blur is M'), so
-    # advect_jacobi1 runs without do_pr
+    # the standing gate's front factor needs M' (the y half of the blur) before beta_c:
+    # prep writes the x halves of both blurs (the wet area into mbx, with the dry-paper
+    # term the not-dry paper into dbx) and leaves beta_c out; K._front_row writes pass 3's
+    # levelled height and beta_c with the factor (its y half of the blur is M'). With one
+    # Jacobi iteration advect_jacobi1 does that row by row (fold); with more, its
+    # pigment iteration reads beta_c of the next rows, so K.standing_front runs first
     front = cst[K.C_FINV] > 0 and outward and do_pr
+    jac1 = n_it == 1
+    fold = front and jac1
+    drying = front and cst[K.C_FDRY] > 0
     cprep = cst
     if front:
         cprep = cst.copy()
@@ -272,11 +281,13 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     K.prep(state.w, state.wc, state.mask, state.vx, state.vy, state.p, state.h,
            state.block, state.block_time, state.fibre, taps, y0, x0, bh, bw, ns, cprep,
            outward and do_pr, spans, nsp, s2["wet"], s2["w0"], s3["p0"], s2["bc"],
-           s2["opn"], s2["mbx"], state.wet_area, prm.wet_hold > 0, bounds)
-    if front:
-        K.standing_front(s2["w0"], state.wc, state.h, state.vx, state.vy, state.fibre,
-                         s2["mbx"], s2["wet"], taps, y0, x0, bh, bw, cst, spans, nsp, bounds,
-                         s2["dbx"], s2["bc"], s2["pr"])
+           s2["opn"], s2["mbx"], state.wet_area, prm.wet_hold > 0, bounds, not front, drying,
+           s2["dbx"], scratch.runs, scratch.rvals)
+    if front and not fold:
+        K.standing_front(s2["w0"], state.h, state.block, state.block_time, state.vx,
+                         state.vy, state.fibre, s2["mbx"], s2["wet"], taps, y0, x0, bh, bw,
+                         cst, spans, nsp, bounds, s2["dbx"], s2["bc"], s2["pr"], scratch.runs,
+                         scratch.rvals)
     wet, bc, w0, p0 = s2["wet"], s2["bc"], s2["w0"], s3["p0"]
     # pass 3 levels w itself unless the flow-outward or the relief term is on
     pr = s2["pr"] if do_pr else w0
@@ -286,11 +297,11 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     xw, xw_next = (s2["xwa"], s2["xwb"])
     xp, xp_next = (s3["xpa"], s3["xpb"])
     # with one iteration, limit_diffuse_fused computes it in its row ring (no xw/xp fields)
-    jac1 = n_it == 1
     K.advect_jacobi1(wet, state.vx, state.vy, bc, w0, p0, s2["mbx"], state.h, taps, y0, x0,
                      bh, bw, ns, cst, jw and not jac1, jp and not jac1, do_pr and not front,
                      outward, spans,
-                     nsp, s2["v1x"], s2["v1y"], xw, xp, s2["pr"], bounds)
+                     nsp, s2["v1x"], s2["v1y"], xw, xp, s2["pr"], bounds, fold, state.block,
+                     state.block_time, state.fibre, s2["dbx"], scratch.runs, scratch.rvals)
     if not jw:
         xw = w0
     if not jp:

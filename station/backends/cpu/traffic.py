@@ -23,8 +23,9 @@ def bytes_per_sweep(slots: int, jacobi_iters: int, wet_memory: bool = False,
     """Per sweep: bytes read + written per cell for one step; ``wet_memory``: the
     profile keeps a wet-area memory (``SimParams.wet_hold > 0``); ``front``: the standing
     gate's front factor (``gl.traffic.front_mode``: -1 off, 0 on, 1 on with its dry-paper
-    term), which moves the dispersion and pass 3's levelled height into a sweep of its
-    own (``kernels.standing_front``)."""
+    term), which moves beta_c, the dispersion and pass 3's levelled height out of prep
+    (``kernels._front_row``: in advect_jacobi1's rows with one Jacobi iteration, else a
+    sweep of its own, ``kernels.standing_front``)."""
     s = int(slots)
     n = max(int(jacobi_iters), 1)
     f, b = FLOAT, FLAG
@@ -60,15 +61,27 @@ def bytes_per_sweep(slots: int, jacobi_iters: int, wet_memory: bool = False,
             f * ((7 + 2 * s) + (5 + 2 * s)) + b * 2,
     }
     if front >= 0:
-        # prep runs without the dispersion (C_DISP 0): fibre(2), vx, vy not read there
-        sweeps["prep (wet mask, copies, diffusion controller, row blur)"] -= f * 4
-        # advect_jacobi1 without do_pr: mbx, h (and with n = 1 w0) not read, pr not written
-        sweeps["advect_jacobi1 (pass 1, pass 3's levelled height, water/pigment Jacobi 1)"] = \
-            (f * ((4 + s) + (3 + s)) + b) if n >= 2 else f * (2 + 2) + b
-        # read mbx, wet, w0, h, bc, fibre(2), vx, vy; write pr, bc; with the dry-paper
-        # term a loop of its own first (read wc, h, write dbx), then dbx read again
-        sweeps["standing_front (the standing gate's front factor, pass 3's levelled height)"] \
-            = f * (8 + 2) + b + (f * 4 if front > 0 else 0)
+        # prep runs without the dispersion and without beta_c (the front factor's sweep
+        # writes it once): fibre(2), vx, vy, block, block_time not read, bc not written;
+        # with the dry-paper term it writes the x half of that blur, dbx (wc and h it
+        # reads anyway)
+        sweeps["prep (wet mask, copies, diffusion controller, row blur)"] -= \
+            f * 7 - (f if front > 0 else 0)
+        # the front factor (kernels._front_row): read mbx, wet, w0, h, block, block_time,
+        # fibre(2), vx, vy, dbx (with the dry-paper term); write pr, bc
+        fr = f * ((9 + (1 if front > 0 else 0)) + 2) + b
+        aj = "advect_jacobi1 (pass 1, pass 3's levelled height, water/pigment Jacobi 1)"
+        if n >= 2:
+            # a sweep of its own (kernels.standing_front): advect_jacobi1's pigment
+            # iteration reads beta_c of the next rows; advect_jacobi1 without do_pr: mbx,
+            # h not read, pr not written
+            sweeps[aj] = f * ((4 + s) + (3 + s)) + b
+            sweeps["standing_front (the standing gate's front factor, pass 3's levelled "
+                   "height)"] = fr
+        else:
+            # folded into advect_jacobi1's rows: the wet mask and the velocity are read
+            # once for pass 1 and the front factor; pass 1 adds its writes, v1(2)
+            sweeps[aj] = fr + f * 2
     if wet_memory:
         # prep's own loop per span reads the wet area and writes M = max(area, own)
         sweeps["prep (wet mask, copies, diffusion controller, row blur)"] += f * 2
