@@ -42,6 +42,16 @@ def _max_rel_err(a: CanvasState, b: CanvasState) -> dict[str, float]:
     return out
 
 
+def _step_both_bitwise(a: NumpyCanvas, b: NumpyCanvas, steps: int) -> None:
+    """Step the reference ``a`` and the cpu canvas ``b`` ``steps`` times; every field bit
+    for bit."""
+    for _ in range(steps):
+        a.step()
+        b.step()
+    for f in FIELDS:
+        assert np.array_equal(getattr(a.live_state, f), getattr(b.live_state, f)), f
+
+
 def _random_canvas(cls: type[NumpyCanvas], seed: int, h: int = 40, w: int = 52,
                    profile: str = "watercolor", tiling: bool = False,
                    params: SimParams | None = None) -> NumpyCanvas:
@@ -546,13 +556,8 @@ def test_uniform_wash_blur_runs_are_bitwise_equal(tiling: bool) -> None:
         st.w[24:30, 30:40] = 0  # a dry hole
         st.wc[:24] = (0.8 * st.capacity()[:24]).astype(np.float32)  # damp paper on top
         runs.append(c)
-    a, b = runs
-    for _ in range(6):
-        a.step()
-        b.step()
-    for f in FIELDS:
-        assert np.array_equal(getattr(a.live_state, f), getattr(b.live_state, f)), f
-    sc = b._scratch()
+    _step_both_bitwise(*runs, 6)
+    sc = runs[1]._scratch()
     full = sc.runs[:, 1:h + 1, 1] >= sc.runs[:, 1:h + 1, 0]
     assert full[0].sum() > h // 2 and full[1].sum() > h // 2  # most rows have a run
     assert not full[0].all()  # not those through the hole
@@ -595,9 +600,4 @@ def test_binding_limiters_are_bitwise_equal(nu_p: float | None) -> None:
         yy, xx = np.mgrid[0:8, 0:10]
         st.p[1, 14:22, 24:34] = ((yy + xx) % 2).astype(np.float32)
         runs.append(c)
-    a, b = runs
-    for _ in range(8):
-        a.step()
-        b.step()
-    for f in FIELDS:
-        assert np.array_equal(getattr(a.live_state, f), getattr(b.live_state, f)), f
+    _step_both_bitwise(*runs, 8)
