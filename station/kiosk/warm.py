@@ -38,17 +38,17 @@ WIDTH, HEIGHT = 48, 40
 """The warm-up canvas [cells]: room for a stroke of every brush kind, one row each."""
 
 
-def _session(kinds: tuple[str, ...]) -> Script:
+def _session(kinds: tuple[str, ...], pigments: tuple[str, str]) -> Script:
     """One short stroke of each brush kind (the deformable ones' solver, footprints and
     reservoir; the round brush's stamps and bead), a stroke into the wet paint, a wait
-    while it flows and a ``dry``."""
+    while it flows and a ``dry``; ``pigments``: two of the profile's palette."""
     s = Script(WIDTH, HEIGHT, seed=1)
     rows = max(1, len(kinds))
     for i, kind in enumerate(kinds):
         y = (i + 0.5) / rows
-        s.brush(size=6, water=0.8, pigment={"French Ultramarine": 0.6}, kind=kind)
+        s.brush(size=6, water=0.8, pigment={pigments[0]: 0.6}, kind=kind)
         s.line((0.15, y), (0.85, y), 0.2, pressure=0.7)
-    s.brush(size=8, water=1.0, pigment={"Quinacridone Rose": 0.5})
+    s.brush(size=8, water=1.0, pigment={pigments[1]: 0.5})
     s.line((0.5, 0.1), (0.5, 0.9), 0.2, pressure=0.7)
     s.wait(0.2)
     s.dry()
@@ -89,8 +89,11 @@ def warm(backend: str = "cpu", profile: str = "watercolor", display: bool = True
     t0 = time.perf_counter()
     canvas = create_backend(backend, WIDTH, HEIGHT, profile=profile, seed=1)
     player = SessionPlayer(canvas, WIDTH, HEIGHT, profile)
-    player.play(_session(brush_kinds()).records)
-    if display and get_profile(profile).renderer == "km":
+    prof = get_profile(profile)
+    # the profile's own paint (a user's profile need not hold the built-in palette)
+    names = [prof.brush.pigment, *(n for n in prof.pigments if n != prof.brush.pigment)]
+    player.play(_session(brush_kinds(), (names[0], names[min(1, len(names) - 1)])).records)
+    if display and prof.renderer == "km":
         _display(canvas.state())
     return time.perf_counter() - t0
 
