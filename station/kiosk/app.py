@@ -129,8 +129,13 @@ class KioskApp:
         once now (:mod:`station.kiosk.warm`): loaded from numba's cache in about a second,
         or compiled here, before the first frame, not in the first visitor's stroke."""
         backend = "cpu" if self.session.backend_name == "cpu" else "numpy"
-        took = kiosk_warm.warm(backend, self.cfg.profile,
-                               display=isinstance(self.display, CpuDisplay))
+        try:
+            took = kiosk_warm.warm(backend, self.cfg.profile,
+                                   display=isinstance(self.display, CpuDisplay))
+        except StationError as exc:  # a warm-up only: the visitor's first stroke compiles
+            log.warning("kiosk: warming the kernels failed (%s); they compile on first use",
+                        exc)
+            return
         log.info("kiosk: kernels ready in %.1f s", took)
 
     def _take_over_full_collections(self) -> None:
