@@ -32,8 +32,10 @@ def thin_stroke(kind: str, size: float, rate: float, tuft: TuftModel | None = No
     b.reservoir.load(0.5, {"Sumi Ink": 0.5}, b.model.water_scale, b.model.pigment_scale)
     n = int(rate * 0.25)
     for i in range(n + 1):
+        # rotation 0 (a barrel sensor at rest): the flat stays edge-on, a thin line; on
+        # a pen without one it would turn broadside to the pull (test_brush_flat_pull)
         b.feed(PenSample(t=i / rate, device="d", tool="pen", x=0.1 + 0.5 * i / n, y=0.5,  # type: ignore[arg-type]
-                         pressure=0.5, touching=True))
+                         pressure=0.5, touching=True, rotation=0.0))
     src = b.take()
     assert src is not None
     return src.full(W, H).dp["Sumi Ink"], b

@@ -115,10 +115,12 @@ class _Stroke:
     ft: float = 0.0
     bristles: np.ndarray | None = None
     maps: FootprintMaps | None = None
-    # a one-spine tuft's touch-down waits for the pen's first move (sample, pressure):
-    # the tuft then buckles behind the motion (see DeformableBrush._touch_down)
+    # a one-spine tuft's touch-down (and any tuft's on a pen without a barrel sensor)
+    # waits for the pen's first move (sample, pressure): the tuft then buckles behind
+    # the motion (see DeformableBrush._touch_down), a flat's width across it
     down: tuple[PenSample, float] | None = None
     twist: float = 0.0  # degrees added to the pen's barrel rotation for this stroke
+    turn: float = 0.0  # degrees the hand is turned about the vertical (pull_broadside)
     # shifts of a frame's maps the tuft slid over since the last stamp (DeformableBrush._slide)
     slid: list[tuple[FootprintMaps, int, int]] = field(default_factory=list)
     slid_cells: set[tuple[int, int]] = field(default_factory=set)  # the pen cells noted
@@ -131,6 +133,30 @@ def _takes_tags(fn: Callable[..., FootprintMaps]) -> bool:
         return "tags" in inspect.signature(fn).parameters
     except (TypeError, ValueError):  # a builtin without a signature
         return False
+
+
+def pull_broadside(tilt_x: float, tilt_y: float, dx: float, dy: float
+                   ) -> tuple[float, float]:
+    """``(turn, twist)`` [degrees] for a flat or a fan on a pen without a barrel sensor,
+    from the stroke's first move ``(dx, dy)``: a painter sets a flat down with its width
+    across the pull and its handle trailing the tip (leaning the way it moves), as
+    Krita's and Rebelle's flat brushes take the drawing angle. A stylus's lean says
+    how the hand holds the pen, not how it would turn a brush, so the hand is turned
+    about the vertical (``turn``, added to the tilt's azimuth for the whole stroke)
+    until the lean points along the move, and the handle twisted (``twist``) so that
+    its X, the width, lies across it: both edges on the paper. Upright, only the twist.
+    The width then stays as set (a turning stroke thins, as a real flat's does)."""
+    along = math.degrees(math.atan2(dy, dx))
+    turn = along - math.degrees(math.atan2(tilt_y, tilt_x)) if (tilt_x or tilt_y) else 0.0
+    return turn, along + 90.0
+
+
+def turned_tilt(tilt_x: float, tilt_y: float, turn: float) -> tuple[float, float]:
+    """The tilt vector turned ``turn`` degrees about the vertical."""
+    if turn == 0.0:
+        return tilt_x, tilt_y
+    c, s = math.cos(math.radians(turn)), math.sin(math.radians(turn))
+    return c * tilt_x - s * tilt_y, s * tilt_x + c * tilt_y
 
 
 class DeformableBrush:
@@ -340,9 +366,11 @@ class DeformableBrush:
             self.strokes += 1
             stroke = _Stroke(x, y, sample.t)
             self._strokes[key] = stroke
-            if len(self.spines) == 1 or has_straight(self.specs):
+            if (len(self.spines) == 1 or has_straight(self.specs)
+                    or sample.rotation is None):
                 # pressed, felt (haptics) and set (plasticity) at once; stamped when
-                # the pen's first move says which way the tuft bends
+                # the pen's first move says which way the tuft bends (and, on a pen
+                # without a barrel sensor, which way a flat's width lies)
                 stroke.down = (sample, p)
                 self._solve(stroke, x, y, p, sample)
                 return 0
@@ -361,9 +389,13 @@ class DeformableBrush:
                 stroke.twist = math.degrees(math.atan2(dy, dx))
                 st = self.spines[0]  # buckle afresh, behind the motion
                 st.x, st.pos, st.contact = st.rest.copy(), None, None
-            elif moved:  # a fan: its spines set down bending behind the motion
+            elif moved:  # a flat or a fan: its spines set down bending behind the motion
+                if down.rotation is None:
+                    stroke.turn, stroke.twist = pull_broadside(down.tilt_x, down.tilt_y,
+                                                               dx, dy)
                 bend_behind(self.spines, self.specs,
-                            handle_frame(down.tilt_x, down.tilt_y, down.rotation or 0.0), dx, dy)
+                            handle_frame(*turned_tilt(down.tilt_x, down.tilt_y, stroke.turn),
+                                         (down.rotation or 0.0) + stroke.twist), dx, dy)
             made = self._touch_down(stroke, down, pd)
         if self._due(stroke, x, y, sample.t):
             self._solve(stroke, x, y, p, sample)
@@ -453,7 +485,7 @@ class DeformableBrush:
         return math.hypot(x - s.fx, y - s.fy) >= tm.frame_reach * self.tuft_length
 
     def _solve(self, s: _Stroke, x: float, y: float, p: float, sample: PenSample) -> None:
-        s.bristles = self.frame(x, y, p, sample.tilt_x, sample.tilt_y,
+        s.bristles = self.frame(x, y, p, *turned_tilt(sample.tilt_x, sample.tilt_y, s.turn),
                                 (sample.rotation or 0.0) + s.twist)
         s.fx, s.fy, s.ft = x, y, sample.t
         s.maps = None
