@@ -28,7 +28,8 @@ offset fixed by the device's first sample and re-synchronised when the mapped
 time strays more than :data:`RESYNC_S` from the receipt time — and is clamped
 so the log never goes back in time, and moved into the time slot of the step
 it is applied before (a process that falls behind compresses the records into
-the steps it actually ran).  That slot *is* the step index: a replay applies
+the steps it actually ran, keeping a slot's samples' spacing:
+:meth:`LiveCore._compressed`).  That slot *is* the step index: a replay applies
 each record after exactly ``floor((t + waited)·rate)`` steps, as this process
 did.  On exit a ``wait {"seconds": 0}`` marks the session time of the last
 step.  So ``station paint`` of the log, or a recovery from any autosave, gives
@@ -116,6 +117,11 @@ class LiveCore:
         self._flood_logged = -math.inf
         self._last_t = 0.0
         self._offsets: dict[str, float] = {}
+        # when the last step began (session time) and the wall seconds a step's slot
+        # has lately taken: a process behind its rate spreads a slot's samples over it
+        # (:meth:`_compressed`)
+        self._step_began: float | None = None
+        self._slot_wall = 0.0
         # a host's seams (station.kiosk.session): records a step ahead while its kernel
         # runs, and what to do around every step (its display's dirty tiles)
         self.slot_ahead: Callable[[], bool] | None = None
@@ -228,11 +234,29 @@ class LiveCore:
         self._last_t = t
         return t
 
+    def _compressed(self, t: float) -> float:
+        """A sample's session time ``t`` (its device's clock), for a process behind
+        its rate: the samples that arrive while a step runs belong to the next step's
+        slot, but their device times span the step's wall time, longer than the slot.
+        Clamped into it they would all take its end, so every stamp of the step would
+        land at once (the arcs of issue 21 item 8, a dry brush's speed unknown);
+        scaled by the slot's length over the wall time a slot lately takes, they keep
+        their spacing in the slot. A process that keeps up (``t`` inside the slot) is
+        left as it was, so its log does not change."""
+        p = self.player
+        k = p.counters.steps + (1 if self.records_in_next_step() else 0)
+        slot = 1.0 / p.rate
+        if self._step_began is None or t < (k + 1) * slot - p.waited:
+            return t
+        wall = max(slot, self._slot_wall)
+        return k * slot - p.waited + (t - self._step_began) * slot / wall
+
     def _stamp_sample(self, s: PenSample, now: float) -> PenSample:
         off = self._offsets.get(s.device)
         if off is None or abs(s.t + off - now) > RESYNC_S:
             off = self._offsets[s.device] = now - s.t
-        return s.with_(t=self._in_this_step(min(now, s.t + off)), t_mono=0.0)
+        return s.with_(t=self._in_this_step(self._compressed(min(now, s.t + off))),
+                       t_mono=0.0)
 
     # -- input -----------------------------------------------------------------
     def handle(self, kind: str, value: object, topic: str = "", replay: bool = False) -> None:
@@ -406,6 +430,12 @@ class LiveCore:
         Everything applied before it is handed to the kernel first: what is
         painted is in the log.
         """
+        began = self.now()
+        if self._step_began is not None:  # the samples from now on are the next slot's
+            lately = began - self._step_began
+            self._slot_wall = lately if self._slot_wall == 0.0 else (
+                0.5 * (self._slot_wall + lately))
+        self._step_began = began
         hooks = self.step_hooks
         if hooks is not None:
             hooks.before_step()
