@@ -55,6 +55,7 @@ from station.brush.footprint import (
     rasterise,
     segments,
     shifted_union,
+    toothed_rim,
     union_max,
     weight,
 )
@@ -77,7 +78,13 @@ from station.brush.sources import (
     painting_steps,
 )
 from station.brush.spine import handle_frame
-from station.brush.stamp import MIN_VELOCITY_DT, NO_PRESSURE_TOOLS, BrushModel, BrushSettings
+from station.brush.stamp import (
+    MIN_VELOCITY_DT,
+    NO_PRESSURE_TOOLS,
+    BrushModel,
+    BrushSettings,
+    paper_maps,
+)
 from station.brush.tuft_model import PickupRequest
 from station.brush.tuft_model import TuftModel as TuftModel
 from station.errors import BadInput
@@ -179,6 +186,7 @@ class DeformableBrush:
         self.model = model
         self.tuft_model = tuft or TuftModel()
         self.paper = np.ascontiguousarray(paper, np.float32)
+        self._edge = paper_maps(self.paper)[1]  # the tooth over a couple of cells, [-1, 1]
         self.time_scale = time_scale
         self.solver_budget = time_budget_s
         # numba by default: the same bytes on every machine (replays); a live station
@@ -571,6 +579,10 @@ class DeformableBrush:
                  for frame, shifts in groups.values()]
         y0, x0, wt = union_max(parts)
         if fill >= tm.film_fill:
+            # a loaded tuft's liquid meets the paper along the tooth (its bristles alone,
+            # a draining tuft's, touch by the paper's height already), as the round
+            # brush's rim
+            y0, x0, wt = toothed_rim(y0, x0, wt, self._edge, self.model.tooth_edge)
             # a loaded tuft's water is one body: a lone hair tip's drop joins its
             # neighbours' (surface tension) instead of wetting a one-cell whisker; a
             # draining tuft splits into locks and keeps its hair streaks

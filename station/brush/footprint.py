@@ -36,6 +36,7 @@ from dataclasses import dataclass
 
 import numba
 import numpy as np
+from scipy import ndimage
 
 NO_DEPTH = -1.0e6
 CLIP_ABOVE = 0.05
@@ -244,6 +245,46 @@ def union_max(parts: list[tuple[int, int, np.ndarray]]) -> tuple[int, int, np.nd
         win = out[py - ya:py - ya + w.shape[0], px - xa:px - xa + w.shape[1]]
         np.maximum(win, w, out=win)
     return ya, xa, out
+
+
+def toothed_rim(y0: int, x0: int, wt: np.ndarray, edge: np.ndarray, reach: float
+                ) -> tuple[int, int, np.ndarray]:
+    """``wt`` (a weight window at ``(y0, x0)``) with its rim moved cell by cell along the
+    paper's tooth, as the round brush's footprint
+    (:func:`station.brush.stamp.footprint`): a cell's signed distance inside the rim
+    (``d − ½``: a rim cell ½, the cell outside it −½) plus ``reach · edge`` (``edge``
+    the paper's tooth over a couple of cells, in [−1, 1], canvas-sized; ``reach`` times
+    the mark's half-width over 4 cells, at most 1: a thin tip cannot wander farther than
+    it is wide) says whether it is covered (above 0); a cell it brings in takes the
+    weight of the nearest covered cell. A loaded tuft's liquid meets the paper at its
+    contact line, which reaches out onto the tooth's hills and falls short of its
+    valleys: without
+    this the rim of a flat pulled straight was the line its spines' tubes drew, a ruler
+    edge (0.03-0.2 cells of std). The window grows by ``ceil(reach)`` cells (clipped to
+    the canvas)."""
+    if reach <= 0.0 or wt.size == 0:
+        return y0, x0, wt
+    hh, ww = edge.shape
+    m = int(math.ceil(reach))
+    h, w = wt.shape
+    ya, yb = max(y0 - m, 0), min(y0 + h + m, hh)
+    xa, xb = max(x0 - m, 0), min(x0 + w + m, ww)
+    big = np.zeros((yb - ya, xb - xa), np.float32)
+    big[y0 - ya:y0 - ya + h, x0 - xa:x0 - xa + w] = wt
+    on = big > 0.0
+    if not on.any():
+        return y0, x0, wt
+    # distance [cells] from a covered cell to the nearest uncovered one (the window's
+    # ring counts as uncovered), and from an uncovered one to the nearest covered
+    d_in = ndimage.distance_transform_edt(np.pad(on, 1))[1:-1, 1:-1]
+    # a thin tip cannot wander farther than it is wide (the round brush: r / 4)
+    reach *= min(1.0, float(d_in.max()) / 4.0)
+    d_out, idx = ndimage.distance_transform_edt(~on, return_indices=True)
+    inside = np.where(on, d_in - 0.5, 0.5 - d_out) + reach * edge[ya:yb, xa:xb]
+    # whole cells in or out (the weights keep the rasteriser's own anti-aliasing): a rim
+    # moved out where the tooth is as far above its mean as it is moved in where below
+    src = big[idx[0], idx[1]]
+    return ya, xa, np.where(inside > 0.0, src, np.float32(0.0)).astype(np.float32)
 
 
 def prune_spurs(wt: np.ndarray, passes: int = 8) -> np.ndarray:

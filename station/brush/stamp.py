@@ -278,7 +278,7 @@ _MAPS: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
 height field again, and its two maps cost tens of milliseconds at 800x600."""
 
 
-def _paper_maps(paper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def paper_maps(paper: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The paper's grain (height normalised to [-1, 1] over two standard deviations) and
     the edge map (the grain seen over a couple of cells, a 5x5 binomial blur, renormalised):
     the wet edge follows the tooth's bumps, not single fibre tips. float32."""
@@ -369,7 +369,7 @@ class RoundBrush:
         if paper is not None:
             if paper.shape != (height, width):
                 raise BadInput("paper height does not match the canvas")
-            self._grain, self._edge = _paper_maps(paper)
+            self._grain, self._edge = paper_maps(paper)
         self._strokes: dict[str, _Stroke] = {}
         self._pending = StampQueue()
         self._beads: list[BeadRequest] = []  # touch-downs whose bead the canvas decides
