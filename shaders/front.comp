@@ -11,6 +11,7 @@
 // pr, and the first Jacobi iteration (PR_DONE) does not blur bx again.
 #include "common.glsl"
 #include "tiles.glsl"
+#include "pull.glsl"
 
 layout(rg32f, binding = 1) uniform readonly image2D vel_in;
 layout(rgba32f, binding = 2) uniform readonly image2D water_in;
@@ -67,7 +68,7 @@ void main() {
     // pressure.glsl's levelled_height on a wet cell, with this M'
     float pv = wa.x;
     if (u_relief > 0.0) pv = wa.x + u_relief * pa.x;
-    imageStore(pr_out, c, vec4(pv - u_eta * (1.0 - am), 0.0, 0.0, 0.0));
+    imageStore(pr_out, c, vec4(pv - u_eta * outward_pull(1.0 - am), 0.0, 0.0, 0.0));
     float fr = smooth_t((u_eta * (1.0 - am)) * u_finv);
 #if FRONT_DRY
     fr = fr * min(2.0 * (1.0 - ad), 1.0);

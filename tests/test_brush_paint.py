@@ -211,10 +211,11 @@ def test_dirty_brush_carries_blue_into_a_yellow_stroke() -> None:
     s.wait(0.2)
     # the brush's transport alone: the canvas's wet-in-wet dispersion along the paper's
     # fibres (fibre_dispersivity) bleeds the two fresh strokes into each other both ways,
-    # and so does the rim-building flow outward (issue 21 raised it to 0.9): both at their
-    # quiet values here
+    # and so does the rim-building flow outward (issue 21 raised it to 0.9; session 15 cut
+    # its pull to the contact line, where it draws the fresh stripe's blue back out): both
+    # at their quiet values here
     prm = get_profile("watercolor").params.replace(fibre_dispersivity=0.0, flow_outward=0.3,
-                                                  edge_evap=1.0)
+                                                  edge_evap=1.0, rim_sharpness=0.0)
     be = create_backend("numpy", W, H, "watercolor", 4, params=prm)
     player = SessionPlayer(be, W, H, "watercolor")
     player.play(s.records)

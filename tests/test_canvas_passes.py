@@ -172,6 +172,42 @@ def test_standing_front_is_validated_and_off_without_its_terms() -> None:
     assert ref.standing_front(g, np.zeros((3, 3), np.float32), g, g, off) is g
 
 
+def test_outward_pull_is_cut_to_the_contact_line() -> None:
+    """rim_sharpness k: the pull per unit flow_outward is (1 - k) u + k s, s the dry share
+    u = 1 - M' ramped from rim_onset to rim_full; off (k 0) it is u itself, and the
+    parameters are validated."""
+    for change in ({"rim_sharpness": -0.1}, {"rim_sharpness": 1.5},
+                   {"rim_sharpness": 0.5, "rim_onset": 0.4, "rim_full": 0.3},
+                   {"rim_full": 1.5}):
+        try:
+            PRM.replace(**change)
+        except CanvasInputError:
+            continue
+        raise AssertionError(f"{change} accepted")
+    u = np.array([0.0, 0.1, 0.22, 0.29, 0.36, 0.5, 1.0], np.float32)
+    off = PRM.replace(rim_sharpness=0.0)
+    assert off.rim_profile() == (0.0, 0.0, 0.0, 0.0)
+    assert ref.outward_pull(u, off) is u
+    sharp = PRM.replace(rim_sharpness=1.0, rim_onset=0.22, rim_full=0.36)
+    got = ref.outward_pull(u, sharp)
+    assert got.dtype == np.float32
+    # nothing up to the onset, full from rim_full on, a ramp between
+    np.testing.assert_allclose(got, [0.0, 0.0, 0.0, 0.5, 1.0, 1.0, 1.0], atol=1e-6)
+    half = PRM.replace(rim_sharpness=0.5, rim_onset=0.22, rim_full=0.36)
+    np.testing.assert_allclose(ref.outward_pull(u, half), 0.5 * u + 0.5 * got, atol=1e-6)
+    # a narrow stroke's middle (u about 0.2 under a 4-cell blur) is not pulled
+    strip = np.zeros((40, 40), bool)
+    strip[15:25, :] = True
+    w = np.where(strip, np.float32(0.3), np.float32(0.0)).astype(np.float32)
+    prm = PRM.replace(flow_outward=0.3, wet_blur=4.0, paper_relief=0.0)
+    h = np.zeros_like(w)
+    soft = ref.flow_pressure(w, strip, strip, h, prm.replace(rim_sharpness=0.0))[:, 20]
+    cut = ref.flow_pressure(w, strip, strip, h, prm.replace(rim_sharpness=1.0))[:, 20]
+    assert soft[20] < np.float32(0.3) - np.float32(0.05)  # the blur pulls the middle down
+    assert cut[18:22].min() == np.float32(0.3)  # the cut pull leaves the middle level
+    assert cut[15] == cut[24] == np.float32(0.3) - np.float32(0.3)  # full at the edge
+
+
 def test_evaporation_is_faster_at_stroke_edges_and_booked() -> None:
     w = np.zeros((5, 5), np.float32)
     w[1:4, 1:4] = 0.5

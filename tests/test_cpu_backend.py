@@ -148,6 +148,10 @@ def test_multi_step_stroke_is_bitwise_equal() -> None:
                                      "fibre_dispersivity": 9.0},
                                     {"fibre_permeability": 0.35, "paper_relief": 0.3},
                                     {"standing_front_dry": 0.0},
+                                    {"rim_sharpness": 0.0},
+                                    {"rim_sharpness": 0.4, "rim_onset": 0.1, "rim_full": 0.5},
+                                    {"rim_sharpness": 0.6, "standing_front_pull": 0.0},
+                                    {"rim_sharpness": 0.8, "jacobi_iters": 2},
                                     {"standing_front_dry": 0.0, "jacobi_iters": 2,
                                      "block_fade": 0.0}])
 def test_parameter_variants_match(change: dict[str, Any]) -> None:

@@ -276,6 +276,27 @@ def test_pressure_blur_follows_a_new_wet_blur_of_the_same_width(ctx) -> None:
     assert np.abs(got - first).max() > 1e-5  # the taps changed the pressure
 
 
+@pytest.mark.parametrize("front", [0.0, 0.04])
+def test_pressure_pull_cut_to_the_contact_line(ctx, front: float) -> None:
+    """rim_sharpness: pass 3's pull is flow_outward ((1 - k) u + k s), s the dry share u =
+    1 - M' ramped between rim_onset and rim_full (pull.glsl), formed in the first Jacobi
+    iteration (pressure.glsl) or, with the standing gate's front factor, in front.comp."""
+    prm = SimParams(wet_blur=3.0, flow_outward=0.5, rim_sharpness=0.7, rim_onset=0.15,
+                    rim_full=0.4, standing_depth=0.3 if front else 0.0,
+                    standing_nu_p=0.005 if front else 0.0, standing_front_pull=front)
+    st = random_state(4, params=prm)
+    c = gl_canvas(ctx, st)
+    c._pass_prep()
+    c._pass_diffusion()
+    wet = ref.wet_mask(st.w, st.wc, st.mask, prm, st.h)
+    own = ref.own_wet(st.w, st.wc, st.mask, prm)
+    got = read_rgba(c, c.pr, 1)[..., 0]
+    want = ref.flow_pressure(st.w, own, wet, st.h, prm)
+    close("pressure with the sharp pull", got, want)
+    plain = ref.flow_pressure(st.w, own, wet, st.h, prm.replace(rim_sharpness=0.0))
+    assert np.abs(want - plain).max() > 1e-2  # the sharp share changed the pressure
+
+
 def test_wet_area_fades_at_the_end_of_pass_10(ctx) -> None:
     prm = SimParams(wet_hold=0.5)
     st = random_state(7, params=prm)

@@ -63,9 +63,11 @@ OLD = {
     # the sized paper absorbs the film more slowly (0.02 -> 0.011 /s) while the air dries
     # it a little faster (eps_shallow 0.01 -> 0.012): a kiosk visitor's zig-zag sky, whose
     # single-coverage strips between overlapping rows held less water, no longer dries
-    # them first into dark lines, item 8)
+    # them first into dark lines, item 8; s15: the flow outward's pull cut to the contact
+    # line, rim_sharpness 0.5 at flow outward 0.43: a crisper band, narrow strokes too)
     "watercolor": SimParams().replace(advance_grain=0.0, advance_curvature=1.0,
-                                      fibre_dispersivity=9.0, flow_outward=0.53,
+                                      fibre_dispersivity=9.0, flow_outward=0.43,
+                                      rim_sharpness=0.5, rim_onset=0.22, rim_full=0.36,
                                       w_min=0.0005,
                                       edge_evap=3.0, wet_blur=4.0, fibre_permeability=1.0,
                                       fibre_gate_depth=0.15, fibre_gate_pull=0.04,

@@ -9,12 +9,16 @@ edge of the wet-area mask, which a strip drying inside a still-wet wash does not
 
 from __future__ import annotations
 
+import dataclasses
+from unittest import mock
+
 import numpy as np
 
 from station.backends.numpy_canvas import NumpyCanvas
 from station.canvas.profiles import get_profile
 from station.pictures.scenarios import run_until_dry
 from station.render.km import linear_to_srgb
+from station.sim import player
 from station.sim.player import SessionPlayer
 from station.sim.script import Script
 
@@ -27,10 +31,13 @@ TURN_MAX = 1.35
 darkest interior cell over its median) [1]: where the brush turns back, the overlap
 of the two rows' ends must not draw an arrowhead (1.52 on main's model at 3.5 s)."""
 OLD_MODEL = {"wet_hold": 0.0, "alpha": 0.03, "flow_outward": 0.5, "edge_evap": 7.0,
-             "wet_blur": 2.0}
+             "wet_blur": 2.0, "rim_sharpness": 0.0}
 """The watercolor profile's values before issue 21 item 8's rows (the wet-area memory off,
-absorption 0.03 /s, flow outward 0.5, edge evaporation 7, a 2-cell wet-area blur): the model
-that drew the line."""
+absorption 0.03 /s, flow outward 0.5, edge evaporation 7, a 2-cell wet-area blur, its pull
+not cut to the contact line): the model that drew the line."""
+OLD_BRUSH = {"load_min": 0.5}
+"""The round brush's load then: half at zero pressure (0.85 at the rows' 0.7), so the old
+model's rows held less paint."""
 
 
 def _luma(rgb: np.ndarray) -> np.ndarray:
@@ -52,7 +59,13 @@ def _paint(gap: float = 2.5, old: bool = False) -> tuple[np.ndarray, NumpyCanvas
         prm = prm.replace(**OLD_MODEL)
     c = NumpyCanvas(W, H, seed=7, params=prm)
     blank = _luma(c.render())
-    SessionPlayer(c, W, H).play(s.records)
+    made = player.brush_model
+    model = made
+    if old:  # the round brush then laid half its load at zero pressure (OLD_BRUSH)
+        def model(prof):  # type: ignore[no-untyped-def]
+            return dataclasses.replace(made(prof), **OLD_BRUSH)
+    with mock.patch.object(player, "brush_model", model):
+        SessionPlayer(c, W, H).play(s.records)
     run_until_dry(c, 4000)
     return 1.0 - _luma(c.render()) / blank, c
 

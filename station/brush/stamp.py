@@ -23,6 +23,11 @@ Units and mapping (all decisions written down here):
 * Load: ``load(p) = load_min + (1 - load_min) · p``.  A stamp adds
   ``water · load · water_scale`` of water height to each of its cells and
   ``amount_k · load · pigment_scale`` of pigment ``k`` (fraction of cell area).
+  ``load_min`` is 1: a loaded tuft leaves the same film wherever its hairs touch,
+  pressure spreads them (the radius) but does not thin the paint they leave.  With
+  ``load_min`` 0.5 the light touch-down of every stroke (a pen sets down at a third of
+  its pressure) laid a fifth less water and paint than the stroke's body, and the
+  stroke dried with a pale head (issue 21 item 3).
 * Velocity: the pen velocity (cells per session second), converted to cells
   per unit of simulation time with ``time_scale`` (simulation time units per
   session second = steps per second × dt), times ``velocity_gain``, clamped to
@@ -164,7 +169,8 @@ class BrushModel:
     Attributes:
         r_min: radius at zero pressure as a fraction of the full radius.
         radius_gamma: exponent of the pressure → radius curve.
-        load_min: load at zero pressure (fraction of the full load).
+        load_min: load at zero pressure (fraction of the full load); 1: pressure
+            changes the footprint, not the film it leaves (see the module docstring).
         water_scale: water height added per cell by a full-load stamp, cell units.
         pigment_scale: pigment (fraction of cell area) added per cell by a
             full-load stamp of amount 1.
@@ -198,7 +204,7 @@ class BrushModel:
 
     r_min: float = 0.3
     radius_gamma: float = 1.0
-    load_min: float = 0.5
+    load_min: float = 1.0
     water_scale: float = 0.5
     pigment_scale: float = 0.1
     velocity_gain: float = 0.1

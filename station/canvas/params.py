@@ -158,6 +158,16 @@ class SimParams:
             grows while it is wet; the flow outward pins the pigment at its edge).
         wet_blur: standard deviation of the Gaussian that blurs the wet mask [cells]
             (0: no flow-outward term); the kernel is truncated at ``ceil(2 * wet_blur)``.
+        rim_sharpness: the share ``k`` (0 ... 1) of the flow-outward pull that follows the
+            contact line's own reach instead of the blur's: the pull is ``flow_outward
+            ((1 - k) u + k s)``, ``u = 1 - M'`` the dry share of the blurred neighbourhood
+            and ``s = clamp((u - rim_onset) / (rim_full - rim_onset), 0, 1)`` (0: the blur
+            alone, as before). ``u`` falls with the distance from the edge, so ``s`` is
+            full on the outermost cells and 0 a few cells in, on a narrow stroke as on a
+            wide one: the water pools in a band at the pinned edge, not over the whole
+            width the blur spans (:meth:`rim_profile`).
+        rim_onset, rim_full: the dry shares ``u`` at which the sharp pull starts and is
+            full (``rim_onset < rim_full`` when ``rim_sharpness > 0``).
         alpha: capillary absorption rate [height/s].
         cap_diffusion: capillary diffusion rate kappa on the saturation difference [1/s];
             ``cap_diffusion * dt <= 1/8`` keeps ``wc`` inside ``[0, c]`` exactly.
@@ -238,6 +248,9 @@ class SimParams:
     advance_curvature: float = 0.0
     paper_relief: float = 0.0
     wet_blur: float = 2.0
+    rim_sharpness: float = 0.0
+    rim_onset: float = 0.22
+    rim_full: float = 0.36
     wet_hold: float = 0.0
     alpha: float = 0.03
     cap_diffusion: float = 1.5
@@ -310,6 +323,10 @@ class SimParams:
             raise CanvasInputError("render_bands must be 3 (RGB) or 12 (spectral)", "params")
         if self.wet_blur > 4:
             raise CanvasInputError("wet_blur must be <= 4 cells", "params")
+        if not 0 <= self.rim_sharpness <= 1:
+            raise CanvasInputError("rim_sharpness must lie in [0, 1]", "params")
+        if self.rim_full > 1 or (self.rim_sharpness > 0 and not self.rim_onset < self.rim_full):
+            raise CanvasInputError("need rim_onset < rim_full <= 1", "params")
         if not -10 <= self.temperature <= 60:
             raise CanvasInputError("temperature must lie in [-10, 60] C", "params")
         if not 0 <= self.humidity <= 0.99:
@@ -394,6 +411,18 @@ class SimParams:
         ``base + gain * fibre[axis]`` (both rounded once, as every backend uses them)."""
         a = self.fibre_permeability
         return float(np.float32(1.0 - a)), float(np.float32(FIBRE_CHANNEL * a))
+
+    def rim_profile(self) -> tuple[float, float, float, float]:
+        """``(k, 1 - k, rim_onset, 1 / (rim_full - rim_onset))`` as float32 values (all 0
+        when ``rim_sharpness`` is 0): the flow-outward pull is ``flow_outward ((1 - k) u +
+        k min(max((u - rim_onset) inv, 0), 1))``, ``u = 1 - M'``
+        (stencils.outward_pull)."""
+        k = self.rim_sharpness
+        if k <= 0:
+            return 0.0, 0.0, 0.0, 0.0
+        f32 = np.float32
+        return (float(f32(k)), float(f32(1.0 - k)), float(f32(self.rim_onset)),
+                float(f32(1.0 / (self.rim_full - self.rim_onset))))
 
     def fibre_gate(self) -> float:
         """``1 / fibre_gate_depth`` as a float32 value (0: no gate): the channel's gate is

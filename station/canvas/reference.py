@@ -111,6 +111,17 @@ CHANGED: the standing gate's front factor (new SimParams ``standing_front_pull``
   ``F = smoothstep(min(flow_outward (1 - M') / standing_front_pull, 1))``, with
   ``standing_front_dry`` T > 0 times ``min(2 (1 - blurred_wet(wc >= T c)), 1)``: near the
   edge of a wet area over dry paper the pigment keeps ``nu_p`` (the brush rim's band).
+CHANGED: pass 3's pull cut to the contact line (issue 21 item 3: narrow strokes without a
+  rim, the soft gradient, the pale head). New SimParams ``rim_sharpness`` k (0: off, as
+  before), ``rim_onset`` a, ``rim_full`` b: the flow-outward term is ``flow_outward *
+  outward_pull(1 - M')`` with ``outward_pull(u) = u`` when k is 0, else ``(1 - k) u + k s``,
+  ``s = min(max((u - a) inv, 0), 1)``, ``(k, 1 - k, a, inv) = prm.rim_profile()`` (float32,
+  ``inv = 1 / (b - a)``), in that order. ``u`` falls with the distance from the wet area's
+  edge; ``s`` is full on the outermost cells and 0 a few cells in on a stroke of any
+  width, so the film pools in a band at the pinned edge instead of sloping across the whole
+  width the blur spans. Everything reading pass 3's levelled height (the fibre gate's
+  pull) sees the same pull; the standing gate's front factor keeps ``flow_outward (1 -
+  M')``.
 NOTE (no maths change): the helpers live in ``stencils.py``, the passes in ``passes.py``;
   this module re-exports them and runs the step.
 
@@ -142,8 +153,8 @@ the same float32 value on both sides).
    Jacobi not Gauss-Seidel); non-wet cells 0.
 
 3. ``water_height_and_boundary``: the levelled height is the pressure
-   ``P = (w + paper_relief * h) - flow_outward * (1 - M')`` on wet cells (``P = w``
-   elsewhere; the free surface over the paper's relief, lowered near the edge by Curtis
+   ``P = (w + paper_relief * h) - flow_outward * outward_pull(1 - M')`` on wet cells
+   (``P = w`` elsewhere; the free surface over the paper's relief, lowered near the edge by Curtis
    1997's flow outward; a term whose parameter is 0 is left out), ``M'`` = ``blurred_wet``:
    the own wet mask (1/0; with ``wet_hold > 0`` the wet-area mask ``M``, see CHANGED)
    blurred with the float32 Gaussian ``gaussian_taps(wet_blur)`` along x, then along y,
@@ -263,6 +274,7 @@ from station.canvas.stencils import (
     implicit_diffusion,
     neighbour_sum,
     open_faces,
+    outward_pull,
     own_wet,
     water_speed,
     wet_area_update,
@@ -274,8 +286,8 @@ __all__ = ["F32", "PASS_ORDER", "STENCIL_RADIUS_EXTRA", "advect_velocity",
            "advect_water_and_pigment", "apply_fluxes", "blocking", "blurred_wet", "capacity",
            "capillary", "damp_factor", "diffuse_pigment", "diffuse_velocity", "diffuse_water",
            "dry_cells", "evaporate", "flow_pressure", "gaussian_taps", "implicit_diffusion",
-           "neighbour_sum", "open_faces", "own_wet", "slot_properties", "standing_front",
-           "standing_gate", "stencil_radius",
+           "neighbour_sum", "open_faces", "outward_pull", "own_wet", "slot_properties",
+           "standing_front", "standing_gate", "stencil_radius",
            "step", "step_region", "surface_exchange", "tilt_kick", "water_height_and_boundary",
            "water_speed", "wet_area_update", "wet_mask", "wet_memory"]
 

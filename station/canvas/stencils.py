@@ -282,8 +282,29 @@ def flow_pressure(w: np.ndarray, own: np.ndarray, wet: np.ndarray, h: np.ndarray
         pr = w + F32(prm.paper_relief) * h
     if outward:
         mb = blurred_wet(own, taps)
-        pr = pr - F32(prm.flow_outward) * (_ONE - mb)
+        pr = pr - F32(prm.flow_outward) * outward_pull(_ONE - mb, prm)
     return np.where(wet, pr, w).astype(F32)
+
+
+def outward_pull(u: np.ndarray, prm: SimParams) -> np.ndarray:
+    """The flow outward's pull per unit ``flow_outward`` for the dry share ``u = 1 - M'``
+    of each cell's blurred neighbourhood: ``u`` itself, or with ``rim_sharpness`` k
+    ``(1 - k) u + k s``, ``s = min(max((u - rim_onset) inv, 0), 1)``
+    (:meth:`SimParams.rim_profile`), in that order in float32.
+
+    ``u`` falls off with the distance from the wet area's edge over the blur's reach: on a
+    stroke narrower than about four blur widths it never reaches 0, so the pull differs
+    little from the edge to the middle and the whole stroke drains to a soft gradient
+    (the narrow stroke without a rim, the pale blotch a tapered touch-down leaves at its
+    head). ``s`` is the same pull cut to the cells next to the contact line: full on the
+    outermost ring or two, 0 a few cells in, whatever the stroke's width, so the water,
+    and with it the pigment, gathers in a band at the pinned edge, as it does where the
+    evaporating film's flow diverges at the contact line (Deegan et al. 1997)."""
+    k, ci, a, inv = prm.rim_profile()
+    if k <= 0:
+        return u
+    s = np.minimum(np.maximum((u - F32(a)) * F32(inv), _ZERO), _ONE)
+    return (F32(ci) * u + F32(k) * s).astype(F32)
 
 
 # ---------------------------------------------------------------- passes

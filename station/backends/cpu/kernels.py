@@ -111,7 +111,11 @@ C_SDROP = 45      # 1 - standing_nu_p / nu_p
 C_PPULL = 46      # 1 / fibre_gate_pull (SimParams.fibre_gate_front); 0: no front factor
 C_FINV = 47       # 1 / standing_front_pull (SimParams.standing_front); 0: off
 C_FDRY = 48       # standing_front_dry; 0: the front factor at every front
-N_CONST = 49
+C_RIMK = 49       # rim_sharpness k (SimParams.rim_profile); 0: the blur's pull alone
+C_RIMI = 50       # float32(1 - k)
+C_RIMA = 51       # rim_onset
+C_RIMINV = 52     # float32(1 / (rim_full - rim_onset))
+N_CONST = 53
 
 # the sweeps: rows in parallel; IEEE float32 maths exactly as written (no fastmath, no FMA
 # contraction), numpy's error model (division without ZeroDivision checks: every division
@@ -625,6 +629,7 @@ def _front_row(mbx: np.ndarray, wet: np.ndarray, w0: np.ndarray, h: np.ndarray,
     sinv = cst[C_SINV]
     sdrop = cst[C_SDROP]
     eta = cst[C_ETA]
+    rk, ri, ra, rinv = cst[C_RIMK], cst[C_RIMI], cst[C_RIMA], cst[C_RIMINV]
     relief = cst[C_RELIEF]
     finv = cst[C_FINV]
     drying = cst[C_FDRY] > ZERO
@@ -647,7 +652,7 @@ def _front_row(mbx: np.ndarray, wet: np.ndarray, w0: np.ndarray, h: np.ndarray,
         pv = wv
         if relief > ZERO:
             pv = wv + relief * hv
-        pv = pv - eta * (ONE - am[u])
+        pv = pv - eta * _outward_pull(ONE - am[u], rk, ri, ra, rinv)
         pro[u] = pv if wr[u] != ZERO else wv
         b = br[xo + u]
         if fade > ZERO:
@@ -892,12 +897,28 @@ def _blur_y_row(src: np.ndarray, taps: np.ndarray, j: int, bh: int, ulo: np.uint
 
 
 @_inline
+def _outward_pull(u: np.float32, rk: np.float32, ri: np.float32, ra: np.float32,
+                  rinv: np.float32) -> np.float32:
+    """The flow outward's pull per unit ``eta`` at the dry share ``u = 1 - M'``
+    (reference ``stencils.outward_pull``): ``u``, or with ``rk`` (rim_sharpness k > 0)
+    ``ri u + rk min(max((u - ra) rinv, 0), 1)``."""
+    if rk > ZERO:
+        s = (u - ra) * rinv
+        s = s if s >= ZERO else ZERO  # np.maximum's and np.minimum's choices
+        s = s if s <= ONE else ONE
+        return ri * u + rk * s
+    return u
+
+
+@_inline
 def _pressure_row(mbx: np.ndarray, wet: np.ndarray, w0: np.ndarray, h: np.ndarray,
                   taps: np.ndarray, j: int, y: int, x0: int, bh: int, lo: int, hi: int,
                   eta: np.float32, relief: np.float32, outward: bool, acc: np.ndarray,
-                  pr_o: np.ndarray, run: np.ndarray, rval: np.ndarray) -> None:
-    """Pass 3's levelled height ``P = (w + relief h) - eta (1 - M')`` on wet cells of row
-    j (``w`` elsewhere; a term whose parameter is 0 is left out), ``M'`` the y half of the
+                  pr_o: np.ndarray, run: np.ndarray, rval: np.ndarray,
+                  rim: np.ndarray) -> None:
+    """Pass 3's levelled height ``P = (w + relief h) - eta pull(1 - M')`` on wet cells of
+    row j (:func:`_outward_pull`, ``rim`` its constants ``C_RIMK .. C_RIMINV``; ``w``
+    elsewhere; a term whose parameter is 0 is left out), ``M'`` the y half of the
     blur of ``mbx`` (taps in order, offset -R first; rows outside the box are skipped where
     the reference adds 0: :func:`_blur_y_row`)."""
     # unsigned columns throughout: numba cannot bound ``lo`` here, and its negative-index
@@ -915,7 +936,7 @@ def _pressure_row(mbx: np.ndarray, wet: np.ndarray, w0: np.ndarray, h: np.ndarra
         if relief > ZERO:
             pv = wv + relief * hrow[xo + u]
         if outward:
-            pv = pv - eta * (ONE - acc[u])
+            pv = pv - eta * _outward_pull(ONE - acc[u], rim[0], rim[1], rim[2], rim[3])
         pro[u] = pv if wr[u] != ZERO else wv
 
 
@@ -1091,7 +1112,8 @@ def advect_jacobi1(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, bc: np.ndarr
                 slo, shi = _span(spans, j, si)
                 if do_pr:
                     _pressure_row(mbx, wet, w0, h, taps, j, y0 + j - 1, x0, bh, slo, shi, eta,
-                                  relief, outward, acc, pr_o, runs[0], rvals[0])
+                                  relief, outward, acc, pr_o, runs[0], rvals[0],
+                                  cst[C_RIMK:C_RIMINV + 1])
                 elif front:
                     _front_row(mbx, wet, w0, h, block, block_time, vx, vy, fibre, dbx, taps,
                                j, y0 + j - 1, x0, bh, slo, shi, cst, acc, ad, pr_o, bc,

@@ -86,6 +86,7 @@ def constants(prm: SimParams, dt: float, sim_time: float) -> np.ndarray:
     c[K.C_PPULL] = F32(prm.fibre_gate_front())
     c[K.C_SINV], c[K.C_SDROP] = (F32(v) for v in prm.standing_diffusion())
     c[K.C_FINV], c[K.C_FDRY] = (F32(v) for v in prm.standing_front())
+    c[K.C_RIMK], c[K.C_RIMI], c[K.C_RIMA], c[K.C_RIMINV] = (F32(v) for v in prm.rim_profile())
     c[K.C_TILTX], c[K.C_TILTY] = reference.tilt_kick(prm, dt)
     return c
 

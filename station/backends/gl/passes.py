@@ -438,6 +438,8 @@ def param_constants(prm: SimParams, dt: float | None) -> dict[str, str]:
         "SINV": prm.standing_diffusion()[0], "SDROP": prm.standing_diffusion()[1],
         "FINV": prm.standing_front()[0], "FDRY": prm.standing_front()[1],
         "CRANGE": float(F32(prm.c_max - prm.c_min)), "ETA": prm.flow_outward,
+        "RIMK": prm.rim_profile()[0], "RIMI": prm.rim_profile()[1],
+        "RIMA": prm.rim_profile()[2], "RIMINV": prm.rim_profile()[3],
         "RELIEF": prm.paper_relief, "OMEGA_H": prm.omega_h,
         "OMEGA_I": float(F32(1.0 - prm.omega_h)),
         "HALF_GAIN": float(F32(-0.5 * prm.height_gain)), "VMAX": prm.v_max,
