@@ -25,14 +25,28 @@ height left on damp paper, ``s = min(wc / c, 1)``) or a pass:
 - ``gate``: pass 3's fibre channel in thin water instead of standing water (the gate
   ``1 - smoothstep(w / fibre_gate_depth)``: a film deeper than the fibres levels freely).
 - ``absorb``: pass 9's absorption times ``(1 - s)^n`` (damp paper takes a film up slowly).
+- ``exposure``: today's reach, but a damp cell joins only where it is more exposed than
+  beside a straight front: ``1 - M'`` at least ``--x`` (0.6; a straight front's next cell
+  ~0.55), ``M'`` the cells wet by their own water blurred by ``--sigma`` (4, the flow
+  outward's ``wet_blur``). A cheap stand-in for the pressure of the wash's paint that the
+  fresh water displaces (a Laplacian field outside the front: bloom11's
+  ``tools/bloom_front_study.py --front laplace``, 60 Jacobi sweeps a step): the front runs
+  on at its convex parts, bays wait (a dielectric-breakdown rule with a threshold).
 
-Findings (session 15, numpy, deterministic; /work/coord/NOTES-bloom15.md): none branches
-(front_branching 0.92-1.00 on the sheet, 1.04-1.08 on the kiosk, main 0.96 / 1.15). The
-blooms are the touch's footprint: the sheet's touch leaves 7.2 cells wet, its water
-spreads to 11.6 in ~3 s and stalls, the pale bloom ends at 8.6; the kiosk's 17 -> 25 ->
-20.6. At the stall the contact line lets 90 % of the damp cells ahead in, but the film
-there is 0.01-0.03 deep and feeds them more slowly than their paper absorbs
-(``alpha dt`` a step until their capacity is full), so they stay without water.
+Findings (session 15, numpy, deterministic; /work/coord/NOTES-bloom15.md): of the damp-
+factor and pass rules none branches (front_branching 0.92-1.00 on the sheet, 1.04-1.08
+on the kiosk, main 0.96 / 1.15). The blooms are the touch's footprint: the sheet's touch
+leaves 7.2 cells wet, its water spreads to 11.6 in ~3 s and stalls, the pale bloom ends
+at 8.6; the kiosk's 17 -> 25 -> 20.6. At the stall the contact line lets 90 % of the
+damp cells ahead in, but the film there is 0.01-0.03 deep and feeds them more slowly
+than their paper absorbs (``alpha dt`` a step until their capacity is full), so they
+stay without water.
+``exposure`` is the one that branches: x 0.6 with ``--fresh 1.01`` (the touch a new wet
+phase in its window) branching 1.11, CV 0.20, front 1.35, 4 lobes; with ``--set
+flow_outward=1.5`` 1.15 / 0.28 / 1.72 and ``flow_outward=2.5``, x 0.58 1.22 / 0.23 /
+1.69 (lobed blooms with a crust on each lobe's end; the lobes favour the grid's axes, a
+cross on some seeds; x 0.56 does nothing, 0.65 shrinks the bloom). Not ported
+(flow_outward that strong costs the rims and the glaze; see the note).
 ``full`` (lo 0.8-0.9, n 1.5-4) breaks the sheet's crust into arcs (CV 0.19-0.26, front
 1.25-1.40), the kiosk's drop stays round; ``absorb`` n 0.5 lets the water spread to 14
 cells, the bloom to 10.4, round (CV 0.11); n >= 2 keeps the wash itself from drying.
@@ -53,6 +67,7 @@ import station.canvas.passes as passes
 import station.canvas.profiles as profiles
 import station.canvas.reference as reference
 import station.canvas.stencils as stencils
+import station.sim.player as player
 from station.canvas.params import SimParams
 from station.pictures import effects_bloom
 from station.pictures.effects_core import darkness_map
@@ -100,6 +115,21 @@ def _wick_mask(floor: float) -> Any:
         line = stencils.front_curvature(w, wc, h, prm, thr, (nx > thx) | (ny > thy))
         out: np.ndarray = own | stencils.pinned(own, line & (mask == 0), wc, h, prm)
         return out
+
+    return wet_mask
+
+
+def _exposure_mask(x: float, sigma: float) -> Any:
+    base = stencils.wet_mask
+
+    def wet_mask(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams,
+                 h: np.ndarray, fibre: np.ndarray | None = None) -> np.ndarray:
+        out = base(w, wc, mask, prm, h, fibre)
+        own = stencils.own_wet(w, wc, mask, prm)
+        damp = (_sat(wc, h, prm) > F32(prm.damp_sat)) & ~own
+        exposure = F32(1.0) - stencils.blurred_wet(own, stencils.gaussian_taps(sigma))
+        kept: np.ndarray = out & ~(damp & (exposure < F32(x)))
+        return kept
 
     return wet_mask
 
@@ -152,6 +182,10 @@ def patched(a: argparse.Namespace) -> Iterator[None]:
         swap(reference, "fibre_gate", _thin_gate(reference.fibre_gate))
     elif a.rule == "absorb":
         swap(reference, "capillary", _slow_absorb(a.n))
+    elif a.rule == "exposure":
+        swap(reference, "wet_mask", _exposure_mask(a.x, a.sigma))
+    if a.fresh > 0:
+        swap(player, "FRESH_SAT", a.fresh)
     prof = profiles.PROFILES["watercolor"]
     if a.set:
         over = {k: float(v) for k, v in (s.split("=") for s in a.set)}
@@ -199,8 +233,13 @@ def stall() -> list[dict[str, float]]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--scene", choices=("sheet", "kiosk"), default="sheet")
-    ap.add_argument("--rule", choices=("main", "graded", "full", "wick", "gate", "absorb"),
-                    default="main")
+    ap.add_argument("--rule", choices=("main", "graded", "full", "wick", "gate", "absorb",
+                                       "exposure"), default="main")
+    ap.add_argument("--x", type=float, default=0.6, help="exposure: the least exposure")
+    ap.add_argument("--sigma", type=float, default=4.0, help="exposure: blur [cells]")
+    ap.add_argument("--fresh", type=float, default=0.0,
+                    help="the bead's FRESH_SAT (0: as it is; 1.01: a touch into a damp wash "
+                         "drops the faded wet-area memory in its whole window)")
     ap.add_argument("--lo", type=float, default=0.9)
     ap.add_argument("--n", type=float, default=3.0)
     ap.add_argument("--floor", type=float, default=0.1)

@@ -402,7 +402,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     area_m = wet_memory(own_wet(w, wc, mask, prm), state.wet_area[ys, xs], prm)
     if holding:  # the wet-area mask grows where the cell holds its own water
         state.wet_area[ys, xs] = area_m
-    wet = wet_mask(w, wc, mask, prm, h, fib)
+    wet = wet_mask(w, wc, mask, prm, h, fib, area_m)
     inv_still = prm.standing_diffusion()[0]
     standing = standing_gate(w, inv_still) if inv_still > 0 else None
     if standing is not None:
