@@ -14,7 +14,9 @@ contact line reaches and the share of them it lets in: why the bloom stops.
 Rules (``--rule``), each replacing ``stencils.damp_factor`` (the share of the advancing
 height left on damp paper, ``s = min(wc / c, 1)``) or a pass:
 
-- ``main``: today's ``max(1 - damp_ease 4 s' (1 - s'), 0)`` (free over s 0.685-0.965).
+- ``main``: the model as it is: ``max(1 - damp_ease 4 s' (1 - s'), 0)`` (free over s
+  0.685-0.965) and, since this study, the profile's ``damp_exposure`` (``--set
+  damp_exposure=0`` for the model the other rules were measured against).
 - ``graded``: easier the damper, never free: ``floor + (1 - floor) (1 - s')^n`` above
   ``lo`` (Curtis's "damper cells first").
 - ``full``: harder the fuller: ``((s - lo) / (1 - lo))^n`` (no suction in a full

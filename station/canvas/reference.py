@@ -111,6 +111,13 @@ CHANGED: the standing gate's front factor (new SimParams ``standing_front_pull``
   ``F = smoothstep(min(flow_outward (1 - M') / standing_front_pull, 1))``, with
   ``standing_front_dry`` T > 0 times ``min(2 (1 - blurred_wet(wc >= T c)), 1)``: near the
   edge of a wet area over dry paper the pigment keeps ``nu_p`` (the brush rim's band).
+CHANGED: the damp paper's exposure (issue 21 item 4: blooms branch). New SimParams
+  ``damp_exposure`` (0: off; needs ``flow_outward`` and ``wet_blur``): after the pinning,
+  a cell of the wet mask that is not ``own``, on paper damper than ``damp_sat``, is taken
+  out where ``1 - M' < damp_exposure``, ``M'`` = ``blurred_wet(area_m, gaussian_taps(
+  wet_blur))`` of the wet-area mask at the start of the step (the flow-outward term's
+  blur; ``stencils.sheltered``; ``wet_mask(..., area)``). GL: ``shelter.comp`` after
+  ``blur_x`` (wb -1 and v1 0 for such a cell); cpu: ``_pin`` (``_blur_y_at``).
 NOTE (no maths change): the helpers live in ``stencils.py``, the passes in ``passes.py``;
   this module re-exports them and runs the step.
 
