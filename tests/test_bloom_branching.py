@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from station.pictures import effects_bloom as fb
+from station.pictures.effects_core import darkness_map
 
 
 def _polar(n: int, radius) -> np.ndarray:  # type: ignore[no-untyped-def]
@@ -46,3 +47,25 @@ def test_bloom_front_reports_branching_and_fingers() -> None:
     two[10, 3:5] = True
     assert fb.front_branching(two) == 0.0  # under three cells: no outline to speak of
     assert fb.bloom_front(wash)["branching"] == 0.0  # no bloom
+
+
+def test_the_sheets_clear_water_bloom_has_lobed_branching_fronts() -> None:
+    """Clear water touched into the sheet's damp wash (issue 21 item 4): damp_exposure
+    (session 15) lets the fresh water on at its front's bulges and holds it in the bays.
+    Main: branching 0.96, CV 0.168 (a ring with a pale heart); now 1.11, CV 0.199, 5
+    lobes, front 1.32x the wash."""
+    b = fb.bloom_front(darkness_map(fb.drop_into_damp_wash({})))
+    assert b["branching"] >= 1.05, b
+    assert b["cv"] >= 0.18 and b["lobes"] >= 3, b
+    assert b["front_ratio"] >= 1.3, b
+
+
+def test_the_kiosk_visitors_drop_into_the_damp_sky_branches() -> None:
+    """The kiosk visitor's clean-water drop into the damp sky (``effects_bloom.kiosk_drop``,
+    the sheet's kiosk numbers): a backrun whose front branches into lobes and fingers, not
+    a pale disc with a thin ring. Main: branching 1.15, CV 0.140, 1 finger; now 1.50, CV
+    0.240, 5 fingers (its crust 1.22x the sky: weaker than the sheet's, see the note)."""
+    _, b = fb.kiosk_drop()
+    assert b["branching"] >= 1.35, b
+    assert b["cv"] >= 0.2, b
+    assert b["fingers"] >= 4, b

@@ -153,7 +153,11 @@ def test_multi_step_stroke_is_bitwise_equal() -> None:
                                     {"rim_sharpness": 0.6, "standing_front_pull": 0.0},
                                     {"rim_sharpness": 0.8, "jacobi_iters": 2},
                                     {"standing_front_dry": 0.0, "jacobi_iters": 2,
-                                     "block_fade": 0.0}])
+                                     "block_fade": 0.0},
+                                    {"damp_exposure": 0.0}, {"damp_exposure": 0.7,
+                                                             "damp_sat": 0.3},
+                                    {"damp_exposure": 0.5, "jacobi_iters": 3,
+                                     "wet_hold": 0.0}])
 def test_parameter_variants_match(change: dict[str, Any]) -> None:
     prm = dataclasses.replace(get_profile("watercolor").params, **change)
     a = _random_canvas(NumpyCanvas, 3, params=prm)
@@ -605,3 +609,48 @@ def test_binding_limiters_are_bitwise_equal(nu_p: float | None) -> None:
         st.p[1, 14:22, 24:34] = ((yy + xx) % 2).astype(np.float32)
         runs.append(c)
     _step_both_bitwise(*runs, 8)
+
+
+def _bloom_canvas(cls: type[NumpyCanvas], tiling: bool) -> NumpyCanvas:
+    """Fresh water on a damp wash: the paper 90 % full everywhere, no wet-area memory, a
+    ragged blob of water in the middle (the fronts damp_exposure acts on)."""
+    rng = np.random.default_rng(4)
+    h, w = 48, 56
+    c = cls(w, h, profile="watercolor", seed=4, tiling=tiling)
+    st = c.live_state
+    st.wc[...] = (0.9 * st.capacity()).astype(np.float32)
+    yy, xx = np.mgrid[0:h, 0:w]
+    blob = ((yy - 24) ** 2 + (xx - 28) ** 2) < (9 + 3 * rng.uniform(0, 1, (h, w))) ** 2
+    fp = blob.astype(np.float32)
+    c.add_sources(dw=fp * rng.uniform(0.2, 0.6, (h, w)).astype(np.float32),
+                  dp={PIGMENTS[0]: 0.1 * fp})
+    return c
+
+
+@pytest.mark.parametrize("tiling", [False, True])
+def test_damp_exposure_is_bitwise_equal(tiling: bool) -> None:
+    """stencils.sheltered in the cpu prep (_pin, _blur_y_at): 30 steps of water running
+    out into damp paper, bit for bit; and the rule held some damp cells out."""
+    a = _bloom_canvas(NumpyCanvas, tiling)
+    b = _bloom_canvas(CpuCanvas, tiling)
+    st = a.live_state
+    prm = st.params
+    assert prm.damp_exposure > 0
+    area = ref.wet_memory(ref.own_wet(st.w, st.wc, st.mask, prm), st.wet_area, prm)
+    held = ref.wet_mask(st.w, st.wc, st.mask, prm, st.h, st.fibre)
+    held &= ~ref.wet_mask(st.w, st.wc, st.mask, prm, st.h, st.fibre, area)
+    assert held.sum() >= 10, held.sum()
+    _step_both_bitwise(a, b, 30)
+
+
+@pytest.mark.parametrize("stop_after", ["advect_velocity", "water_height_and_boundary"])
+def test_damp_exposure_pass_by_pass(stop_after: str) -> None:
+    a = _bloom_canvas(NumpyCanvas, False)
+    b = _bloom_canvas(CpuCanvas, False)
+    sa, sb = a.live_state, b.live_state
+    box = (slice(0, sa.height), slice(0, sa.width))
+    ref.step_region(sa, box, sa.params.dt, stop_after=stop_after)
+    assert isinstance(b, CpuCanvas)
+    cpu_step.step_region(sb, box, sb.params.dt, b._scratch(), stop_after=stop_after)
+    for f in FIELDS:
+        assert np.array_equal(getattr(sa, f), getattr(sb, f)), (stop_after, f)

@@ -72,7 +72,8 @@ def test_bench_sim_gl_passes_profile_and_bound(capsys) -> None:
     # columns in the first Jacobi iteration) and the standing gate's front factor over
     # dry paper (front.comp, blur_x's second blur)
     front = front_mode(*get_profile("watercolor").params.standing_front())
-    model = floats_per_program(4, 1, wet_memory=True, front=front)
+    # and the damp exposure's pass (shelter.comp) after blur_x
+    model = floats_per_program(4, 1, wet_memory=True, front=front, shelter=True)
     assert set(programs) == set(model) and "blur_x" in programs and "pressure" not in model
     assert front == 1 and "front" in programs
     assert sum(4 * model[k] for k in model) == r["bytes_per_cell_step"]

@@ -252,12 +252,15 @@ def test_renderer_string_and_traffic_count(ctx) -> None:
     jac = "jacobi (pass 3's levelled height; velocity, water, pigment)"
     front = gl.traffic.front_mode(*g.params.standing_front())  # the profile's: over dry paper
     assert front == 1
-    assert g.bytes_per_cell_step() == 4 * sum(count(0, n, mem, front).values())
+    shelter = gl.traffic.shelters(g.params.damp_exposure, g.params.flow_outward,
+                                  g.params.wet_blur)  # the profile's: on
+    assert shelter
+    assert g.bytes_per_cell_step() == 4 * sum(count(0, n, mem, front, shelter).values())
     stamp(g, 10, 10, 3, {"Black": 0.1})
-    assert g.bytes_per_cell_step() == 4 * sum(count(4, n, mem, front).values())
+    assert g.bytes_per_cell_step() == 4 * sum(count(4, n, mem, front, shelter).values())
     for name in ("Cadmium Red", "Hansa Yellow", "Burnt Umber", "Cerulean Blue"):
         stamp(g, 10, 10, 3, {name: 0.1})
-    assert g.bytes_per_cell_step() == 4 * sum(count(8, n, mem, front).values())
+    assert g.bytes_per_cell_step() == 4 * sum(count(8, n, mem, front, shelter).values())
     # with the front pass, it forms pass 3's levelled height (it has M'), not the first
     # Jacobi iteration
     assert count(4, 1, mem, front)[jac] == count(4, 1, mem)[jac] - 3

@@ -155,6 +155,35 @@ def test_prep_damp_paper_eases_the_front(ctx) -> None:
     assert (wet & ~plain).sum() >= 5  # damp cells let the front in
 
 
+def test_damp_exposure_keeps_the_front_out_of_its_bays(ctx) -> None:
+    """damp_exposure: after blur_x (shelter.comp) a damp cell the front reached joins only
+    where the blurred wet-area mask leaves it exposed (stencils.sheltered); its velocity
+    right-hand side is a non-wet cell's."""
+    prm = SimParams(damp_ease=3.0, damp_sat=0.3, moist_threshold=1.0, wet_hold=4.0,
+                    flow_outward=0.5, damp_exposure=0.6)
+    st = random_state(2, params=prm)
+    c = gl_canvas(ctx, st)
+    c._pass_prep()
+    area_m = ref.wet_memory(ref.own_wet(st.w, st.wc, st.mask, prm), st.wet_area, prm)
+    wet = ref.wet_mask(st.w, st.wc, st.mask, prm, st.h, None, area_m)
+    jv = read_rgba(c, c.jv[0])
+    assert np.array_equal(jv[..., 3] >= 0, wet)
+    vx1, vy1 = ref.advect_velocity(st.vx, st.vy, wet, prm.dt)
+    aux = read_rgba(c, c.aux)
+    close("advected vx", aux[..., 0], vx1)
+    close("advected vy", aux[..., 1], vy1)
+    loose = ref.wet_mask(st.w, st.wc, st.mask, prm, st.h)
+    assert (loose & ~wet).sum() >= 5  # damp cells in the front's bays held out
+
+
+def test_full_steps_with_damp_exposure_match_reference(ctx) -> None:
+    st = random_state(8, params=SimParams(wet_hold=0.3, flow_outward=0.5, damp_ease=4.0,
+                                          damp_sat=0.5, suspend_sat=0.5, damp_exposure=0.6,
+                                          moist_threshold=1.0))
+    _steps_match_reference(ctx, st, 4, ("vx", "vy", "w", "wc", "p", "q", "evaporated",
+                                        "wet_area"))
+
+
 def test_prep_pins_the_front_on_dry_paper(ctx) -> None:
     """A crept cell on paper no damper than damp_sat needs two 4-neighbours wet or crept
     (stencils.pinned): GL's wet mask is the reference's, and the rule takes cells out."""

@@ -65,6 +65,8 @@ OLD = {
     # single-coverage strips between overlapping rows held less water, no longer dries
     # them first into dark lines, item 8; s15: the flow outward's pull cut to the contact
     # line, rim_sharpness 0.5 at flow outward 0.43: a crisper band, narrow strokes too)
+    # (s15: damp_exposure 0.6: fresh water in a damp wash runs on at its front's bulges,
+    # not into its bays, so a bloom branches, item 4)
     "watercolor": SimParams().replace(advance_grain=0.0, advance_curvature=1.0,
                                       fibre_dispersivity=9.0, flow_outward=0.43,
                                       rim_sharpness=0.5, rim_onset=0.22, rim_full=0.36,
@@ -74,7 +76,8 @@ OLD = {
                                       standing_depth=0.05, standing_nu_p=0.002,
                                       standing_front_pull=0.04, standing_front_dry=0.5,
                                       moist_threshold=1.0, damp_ease=2.7, damp_sat=0.65,
-                                      suspend_sat=0.5, fibre_flow_max=1.0, lift_gain=5.0,
+                                      damp_exposure=0.6, suspend_sat=0.5,
+                                      fibre_flow_max=1.0, lift_gain=5.0,
                                       wet_hold=30.0, alpha=0.011, eps_shallow=0.012,
                                       jacobi_iters=1),
     "gouache": SimParams().replace(viscosity=2.0, nu_w=0.1, nu_p=0.05, alpha=0.005,

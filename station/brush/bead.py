@@ -47,14 +47,16 @@ FILM = 0.05
 """Standing water [height] a cell needs for the bead to run through it (a film, not the
 dampness of the capillary layer)."""
 
-FRESH_SAT = 0.93
+FRESH_SAT = 1.01
 """Capillary saturation ``wc / c`` below which a damp wash's paper meets a bead run out
 into it as a new wet phase (its faded wet-area memory is dropped, so the fresh water's
-front crusts against it: a bloom); paper fuller than that is still one with the wash's
-own wet phase, and the fresh water runs into it without an edge (wet-in-wet).  Measured
-on the sheet's bloom through the brush, paper seeds 21-24: dropping the memory everywhere
-gave radius CV 0.144-0.163 (a round front), from 0.95 up 0.154-0.192 with fronts 1.27-1.40x
-the wash; 0.93 gave 0.13-0.18."""
+front crusts against it: a bloom); paper fuller than that would stay one with the wash's
+own wet phase.  Above 1: a bead run out into a damp wash is a new wet phase in its whole
+window (session 15).  With the damp paper's exposure rule (``damp_exposure``) a cell that
+kept the wash's memory reads as the inside of a wet area, sheltered, and the fresh water
+never enters it: at 0.93 the sheet's bloom shrank to 4.5 cells.  Before that rule (session
+9), measured on the sheet's bloom, paper seeds 21-24: dropping the memory everywhere gave
+radius CV 0.144-0.163 (a round front), from 0.95 up 0.154-0.192, 0.93 0.13-0.18."""
 
 TOUCH_FILM = 0.1
 """Mean standing water [height] under the footprint at which the tip is in a film (the

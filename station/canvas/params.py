@@ -192,6 +192,17 @@ class SimParams:
             than their delta; fig. 1c).
         damp_sat: saturation ``wc / c`` above which paper counts as damp for
             ``damp_ease`` [1], 0 ... 0.99 (Curtis's delta).
+        damp_exposure: the least exposure of a damp cell the contact line reaches for it
+            to join [1], 0 ... 1 (0: off; needs ``flow_outward`` and ``wet_blur``): a cell
+            on paper damper than ``damp_sat``, not wet by its own water, joins only where
+            ``1 - M'`` >= ``damp_exposure``, ``M'`` the flow-outward term's blurred
+            wet-area mask at the start of the step (a straight front's next cell reads
+            about 0.55 with a 4-cell blur). The damp paper ahead of fresh water is full of
+            the wash's paint, which the water must push on; it gives way where it has
+            paper around it to go to (a convex part of the front) and holds in a bay: a
+            dielectric-breakdown reading of the displaced paint's pressure (Saffman-Taylor),
+            with the blurred mask standing in for its Laplacian field. The front runs on at
+            its bulges and a bloom branches (Curtis et al. 1997 fig. 1c).
         suspend_sat: saturation ``wc / c`` above which a cell without fluid water keeps
             its pigment in suspension instead of depositing it [1], 0 ... 1 (0: off, every
             cell without fluid water deposits). Gum arabic stays soft while the paper is
@@ -273,6 +284,7 @@ class SimParams:
     moist_threshold: float = 0.25
     damp_ease: float = 0.0
     damp_sat: float = 0.0
+    damp_exposure: float = 0.0
     suspend_sat: float = 0.0
     lift_gain: float = 1.0
     v_max: float = 30.0
@@ -357,6 +369,8 @@ class SimParams:
             raise CanvasInputError("damp_sat must lie in [0, 0.99]", "params")
         if self.damp_ease > 1000:
             raise CanvasInputError("damp_ease must lie in [0, 1000]", "params")
+        if not 0 <= self.damp_exposure <= 1:
+            raise CanvasInputError("damp_exposure must lie in [0, 1]", "params")
         if not 0 <= self.suspend_sat <= 1:
             raise CanvasInputError("suspend_sat must lie in [0, 1]", "params")
         if self.wet_hold > 600:

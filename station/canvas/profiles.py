@@ -35,7 +35,8 @@ from station.canvas.params import BrushDefaults, Profile, SimParams
 BUILTIN = ("watercolor", "gouache", "ink")
 GROUPS: dict[str, tuple[str, ...]] = {
     "paper": ("alpha", "cap_diffusion", "eps_cap", "c_min", "c_max", "moist_threshold",
-              "damp_ease", "damp_sat", "suspend_sat", "advance_height", "advance_grain",
+              "damp_ease", "damp_sat", "damp_exposure", "suspend_sat", "advance_height",
+              "advance_grain",
               "advance_curvature",
               "paper_relief",
               "paper_shade", "block_paper", "block_fade",

@@ -122,6 +122,13 @@ CHANGED: pass 3's pull cut to the contact line (issue 21 item 3: narrow strokes 
   width the blur spans. Everything reading pass 3's levelled height (the fibre gate's
   pull) sees the same pull; the standing gate's front factor keeps ``flow_outward (1 -
   M')``.
+CHANGED: the damp paper's exposure (issue 21 item 4: blooms branch). New SimParams
+  ``damp_exposure`` (0: off; needs ``flow_outward`` and ``wet_blur``): after the pinning,
+  a cell of the wet mask that is not ``own``, on paper damper than ``damp_sat``, is taken
+  out where ``1 - M' < damp_exposure``, ``M'`` = ``blurred_wet(area_m, gaussian_taps(
+  wet_blur))`` of the wet-area mask at the start of the step (the flow-outward term's
+  blur; ``stencils.sheltered``; ``wet_mask(..., area)``). GL: ``shelter.comp`` after
+  ``blur_x`` (wb -1 and v1 0 for such a cell); cpu: ``_pin`` (``_blur_y_at``).
 NOTE (no maths change): the helpers live in ``stencils.py``, the passes in ``passes.py``;
   this module re-exports them and runs the step.
 
@@ -414,7 +421,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     area_m = wet_memory(own_wet(w, wc, mask, prm), state.wet_area[ys, xs], prm)
     if holding:  # the wet-area mask grows where the cell holds its own water
         state.wet_area[ys, xs] = area_m
-    wet = wet_mask(w, wc, mask, prm, h, fib)
+    wet = wet_mask(w, wc, mask, prm, h, fib, area_m)
     inv_still = prm.standing_diffusion()[0]
     standing = standing_gate(w, inv_still) if inv_still > 0 else None
     if standing is not None:

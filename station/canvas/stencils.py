@@ -41,7 +41,8 @@ def wet_area_update(area_m: np.ndarray, w: np.ndarray, wc: np.ndarray, mask: np.
 
 
 def wet_mask(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams,
-             h: np.ndarray, fibre: np.ndarray | None = None) -> np.ndarray:
+             h: np.ndarray, fibre: np.ndarray | None = None,
+             area: np.ndarray | None = None) -> np.ndarray:
     """Cells taking part in the fluid and surface layers this step (bool (H, W)).
 
     With ``advance_height > 0`` an unmasked dry cell also joins when
@@ -59,7 +60,37 @@ def wet_mask(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams,
     On paper no damper than ``damp_sat`` (``min(wc / c, 1)``) the front advances into a
     cell only with a neighbour beside it: at least two of its 4-neighbours are wet or
     advancing with it (:func:`pinned`).
+
+    With ``damp_exposure`` and the wet-area mask ``area`` (:func:`wet_memory` at the start
+    of the step) the cells :func:`sheltered` names do not join, after the pinning.
     """
+    out = _wet_mask(w, wc, mask, prm, h, fibre)
+    if area is None or prm.damp_exposure <= 0:
+        return out
+    shut = sheltered(area, own_wet(w, wc, mask, prm), wc, h, prm)
+    return out if shut is None else out & ~shut
+
+
+def sheltered(area: np.ndarray, own: np.ndarray, wc: np.ndarray, h: np.ndarray,
+              prm: SimParams) -> np.ndarray | None:
+    """The damp cells (``min(wc / c, 1) > damp_sat``, not ``own``) whose exposure ``1 -
+    M'`` is below ``damp_exposure``, ``M'`` = :func:`blurred_wet` of the wet-area mask
+    ``area`` with the flow-outward term's taps (bool; None when the rule is off: no
+    ``damp_exposure``, ``flow_outward`` or ``wet_blur``). Fresh water in a damp wash must
+    push the wash's paint on through the damp paper; it gives way where there is paper
+    around to take it, at the front's bulges, and holds in its bays."""
+    taps = gaussian_taps(prm.wet_blur)
+    if prm.damp_exposure <= 0 or prm.flow_outward <= 0 or len(taps) == 0:
+        return None
+    damp = np.minimum(wc / capacity(h, prm), _ONE) > F32(prm.damp_sat)
+    exposure = _ONE - blurred_wet(area, taps)
+    out: np.ndarray = damp & ~own & (exposure < F32(prm.damp_exposure))
+    return out
+
+
+def _wet_mask(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams,
+              h: np.ndarray, fibre: np.ndarray | None) -> np.ndarray:
+    """:func:`wet_mask` without the damp exposure."""
     own = own_wet(w, wc, mask, prm)
     if prm.advance_height > 0:
         thr = F32(prm.advance_height) * advance_term(wc, h, prm)

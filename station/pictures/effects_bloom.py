@@ -17,7 +17,6 @@ from station.pictures.effects_core import (
     new_canvas,
 )
 from station.pictures.measure import feather
-from station.pictures.scenarios import run_until_dry
 from station.sim.player import SessionPlayer
 from station.sim.script import Script
 
@@ -71,11 +70,13 @@ def damp_wash(seed: int = 22) -> tuple[NumpyCanvas, SessionPlayer]:
 
 
 def drop_into_damp_wash(pigment: dict[str, float], seed: int = 22,
-                        touch: float = 0.0) -> NumpyCanvas:
+                        touch: float = 0.0,
+                        report: dict[str, float] | None = None) -> NumpyCanvas:
     """:func:`damp_wash`, then the brush (size ``DROP_SIZE``, water 1) touches its middle
     for ``DROP_S`` with ``pigment`` (empty: clear water); dried and fixed. ``touch`` > 0
     [s]: the brush circles 5 cells across there for that long instead (a resting dab lays
-    one stamp however long it rests; a moving touch lays more water)."""
+    one stamp however long it rests; a moving touch lays more water). ``report`` (a dict)
+    receives :func:`_touch_spread`'s ``touch_radius`` and ``spread_radius`` [cells]."""
     c, p = damp_wash(seed)
     drop = _later(p, N, N, seed)
     drop.brush(size=DROP_SIZE, water=1.0, pigment=pigment)
@@ -85,9 +86,31 @@ def drop_into_damp_wash(pigment: dict[str, float], seed: int = 22,
     else:
         drop.dab((0.5, 0.5), DROP_S, pressure=0.7)
     p.play(drop.records)
-    run_until_dry(c, 6000)
+    spread = _touch_spread(c, (slice(N // 4, 3 * N // 4), slice(N // 4, 3 * N // 4)), 6000)
+    if report is not None:
+        report.update(spread)
     c.dry()
     return c
+
+
+def _touch_spread(c: NumpyCanvas, near: tuple[slice, slice], max_steps: int
+                  ) -> dict[str, float]:
+    """Run ``c`` until no fluid water is left (or ``max_steps``), right after a touch into
+    a damp wash whose window ``near`` held no standing water before it. Returns the radius
+    [cells] of a disc of the area the touch left wet in ``near`` (``touch_radius``) and of
+    the largest area its water reached while it spread (``spread_radius``): a real backrun
+    runs out well beyond the brush (Curtis et al. 1997 fig. 1c), the model's reach a
+    little further than the touch and stall (see docs/canvas-model.md, session 15)."""
+    st = c.live_state
+    first = int((st.w[near] > 0).sum())
+    most = first
+    n = 0
+    while n < max_steps and (st.w > 0).any():
+        c.step()
+        n += 1
+        most = max(most, int((st.w[near] > 0).sum()))
+    return {"touch_radius": float(np.sqrt(first / np.pi)),
+            "spread_radius": float(np.sqrt(most / np.pi))}
 
 
 def lobes(radii: np.ndarray, prominence: float = 0.15) -> int:
@@ -211,7 +234,8 @@ def kiosk_drop(seed: int = 0, touch: float = 0.4) -> tuple[NumpyCanvas, dict[str
     around the drop, then a fresh brush of clean water (size 26, water 1) circling 6 cells
     across for ``touch`` (0.4 s, the visitor's), dried. Returns the canvas and
     :func:`bloom_front` of its darkness around the drop (the wash's median taken over the
-    middle of the sky)."""
+    middle of the sky) with :func:`_touch_spread`'s ``touch_radius`` and ``spread_radius``
+    in the 60-cell window around the drop."""
     n = KIOSK_N
     s = Script(n, n, seed=seed, rate_hz=PEN_HZ)
     s.brush(size=72, water=1.0, pigment={WASH_PIGMENT: 0.4, "Cerulean Blue": 0.4})
@@ -234,12 +258,12 @@ def kiosk_drop(seed: int = 0, touch: float = 0.4) -> tuple[NumpyCanvas, dict[str
     drop.curve([((cx + 6.4 * np.cos(1.3 * i)) / n, (cy + 3.6 * np.sin(1.3 * i)) / n)
                 for i in range(10)], touch, pressure=0.6)
     p.play(drop.records)
-    run_until_dry(c, 20000)
+    spread = _touch_spread(c, near, 20000)
     c.dry()
     d = darkness_map(c)
     wash = float(np.median(d[near]))
     scaled = d * (float(np.median(d[8:n - 8, 8:n - 8])) / max(wash, 1e-9))
-    return c, bloom_front(scaled, (cy, cx))
+    return c, {**bloom_front(scaled, (cy, cx)), **spread}
 
 
 def drop_into_wet_wash(wet: bool) -> NumpyCanvas:
@@ -291,8 +315,12 @@ def blooms() -> Effect:
     front (:func:`drop_front`): feathered (iso-line over hull perimeter) and irregular
     (radius CV), not a soft round blot; (d) numbers only: the kiosk visitor's clean-water
     drop into its damp sky (:func:`kiosk_drop`). (a) and (d) also report how far the front wanders
-    (:func:`front_branching`) and its fingers."""
-    c1 = drop_into_damp_wash({})
+    (:func:`front_branching`) and its fingers, and how far the bloom and the touch's water
+    reach beyond the area the touch left wet (:func:`_touch_spread`: ``*_over_touch``,
+    ``*_spread_over_touch``; numbers only, no check: a real backrun runs out well beyond
+    the brush, the model's stays near it)."""
+    reach: dict[str, float] = {}
+    c1 = drop_into_damp_wash({}, report=reach)
     clear = bloom_front(darkness_map(c1))
     c2 = drop_into_damp_wash({SECOND_PIGMENT: 0.8})
     st2 = c2.live_state
@@ -311,11 +339,19 @@ def blooms() -> Effect:
                    "bloom_radius_cv": cv, "bloom_lobes": clear["lobes"],
                    "bloom_front_branching": clear["branching"],
                    "bloom_fingers": clear["fingers"],
+                   "bloom_touch_radius_cells": reach["touch_radius"],
+                   "bloom_over_touch": clear["radius"] / max(reach["touch_radius"], 1e-9),
+                   "bloom_spread_over_touch": reach["spread_radius"]
+                   / max(reach["touch_radius"], 1e-9),
                    "kiosk_bloom_front_ratio": kiosk["front_ratio"],
                    "kiosk_bloom_radius_cells": kiosk["radius"],
                    "kiosk_bloom_radius_cv": kiosk["cv"],
                    "kiosk_bloom_front_branching": kiosk["branching"],
                    "kiosk_bloom_fingers": kiosk["fingers"],
+                   "kiosk_bloom_touch_radius_cells": kiosk["touch_radius"],
+                   "kiosk_bloom_over_touch": kiosk["radius"] / max(kiosk["touch_radius"], 1e-9),
+                   "kiosk_bloom_spread_over_touch": kiosk["spread_radius"]
+                   / max(kiosk["touch_radius"], 1e-9),
                    "colour_bloom_front_ratio": colour["front_ratio"],
                    "colour_bloom_radius_cells": colour["radius"],
                    "colour_bloom_radius_cv": colour["cv"],

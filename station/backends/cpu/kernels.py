@@ -115,7 +115,8 @@ C_RIMK = 49       # rim_sharpness k (SimParams.rim_profile); 0: the blur's pull 
 C_RIMI = 50       # float32(1 - k)
 C_RIMA = 51       # rim_onset
 C_RIMINV = 52     # float32(1 / (rim_full - rim_onset))
-N_CONST = 53
+C_DEXP = 53       # damp_exposure (0: off, or no flow outward to blur the wet area for)
+N_CONST = 54
 
 # the sweeps: rows in parallel; IEEE float32 maths exactly as written (no fastmath, no FMA
 # contraction), numpy's error model (division without ZeroDivision checks: every division
@@ -603,7 +604,8 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
                     slo, shi = _span(spans, j, si)
                     _blur_x_run(nd, taps, slo, shi, acc, dbx_o[j], runs[1], rvals[1], j)
     if advancing:
-        _pin(wet_o, wc, h, y0, x0, bounds, spans, nsp, cmin, cspan, dsat)
+        _pin(wet_o, wc, h, y0, x0, bounds, spans, nsp, cmin, cspan, dsat,
+             cst[C_DEXP] if outward else ZERO, mbx_o, taps, bh)
 
 
 @_inline
@@ -707,14 +709,19 @@ def standing_front(w0: np.ndarray, h: np.ndarray, block: np.ndarray, block_time:
 @_inline
 def _pin(wet_o: np.ndarray, wc: np.ndarray, h: np.ndarray, y0: int, x0: int,
          bounds: np.ndarray, spans: np.ndarray, nsp: np.ndarray, cmin: np.float32,
-         cspan: np.float32, dsat: np.float32) -> None:
+         cspan: np.float32, dsat: np.float32, dexp: np.float32, mbx: np.ndarray,
+         taps: np.ndarray, bh: int) -> None:
     """The contact line pinned on dry paper (stencils.pinned). ``wet_o`` comes in as 1
     (wet by its own water), 3 (reached by the contact line) or 0: a 3 whose paper is no
     damper than ``damp_sat`` with under two non-zero 4-neighbours becomes 2 (its
     neighbours' counts in the same sweep still read it as wet, whichever thread gets there
-    first); then 3 becomes 1 and 2 becomes 0. One byte a cell read once (a vectorised
-    maximum over each span: a span without a 3 is skipped, and so are the rows without
-    one in the second sweep, i.e. the whole of a wash), the rest only at the front."""
+    first); then 3 becomes 1 and 2 becomes 0, but with ``dexp`` (damp_exposure) a 3 on
+    damp paper whose exposure ``1 - M'`` is below it becomes 0 (stencils.sheltered; M' the
+    y half of the blur of ``mbx``, prep's x half of the wet-area mask, taps in order, rows
+    outside the box skipped where the reference adds 0). One byte a cell read once (a
+    vectorised maximum over each span: a span without a 3 is skipped, and so are the rows
+    without one in the second sweep, i.e. the whole of a wash), the rest only at the
+    front."""
     nch = bounds.shape[0] - 1
     front = np.zeros(bounds[nch] + 1, np.uint8)  # 1: the row holds a 3
     for ch in prange(nch):
@@ -754,15 +761,36 @@ def _pin(wet_o: np.ndarray, wc: np.ndarray, h: np.ndarray, y0: int, x0: int,
         for j in range(bounds[ch], bounds[ch + 1]):
             if front[j] == 0:
                 continue
+            y = y0 + j - 1
             for si in range(nsp[j]):
                 slo, shi = _span(spans, j, si)
                 for i in range(slo, shi + 1):
                     v = wet_o[j, i]
+                    if v == 3 and dexp > ZERO:
+                        x = np.uint64(x0 + i - 1)
+                        sat = wc[y, x] / (cmin + h[y, x] * cspan)
+                        sat = ONE if sat > ONE else sat
+                        if sat > dsat and ONE - _blur_y_at(mbx, taps, j, i, bh) < dexp:
+                            v = 2  # sheltered: the wash's paint holds in a bay
                     if v > 1:
                         wet_o[j, i] = 1 if v == 3 else 0
 
 
 # ------------------------------------------------------------------ flow outward
+@_inline
+def _blur_y_at(src: np.ndarray, taps: np.ndarray, j: int, i: int, bh: int) -> np.float32:
+    """The y half of a blur of ``src`` (box rows 1..bh) at row j, column i: one cell of
+    :func:`_blur_y_row` (taps in order from 0, rows outside the box skipped)."""
+    nt = taps.shape[0]
+    r = (nt - 1) // 2
+    acc = ZERO
+    for k in range(nt):
+        jj = j + k - r
+        if jj >= 1 and jj <= bh:
+            acc = acc + taps[k] * src[jj, i]
+    return acc
+
+
 @_inline
 def _blur_x_row(src: np.ndarray, taps: np.ndarray, ulo: np.uint64, uhi: np.uint64,
                 acc: np.ndarray, out: np.ndarray) -> None:

@@ -75,6 +75,9 @@ def constants(prm: SimParams, dt: float, sim_time: float) -> np.ndarray:
     c[K.C_EASE] = F32(prm.damp_ease)
     c[K.C_SUSP] = F32(prm.suspend_sat)
     c[K.C_DSAT] = F32(prm.damp_sat)
+    # stencils.sheltered: off without the flow outward's blur of the wet area
+    c[K.C_DEXP] = F32(prm.damp_exposure if prm.flow_outward > 0 and prm.wet_blur > 0
+                      else 0.0)
     c[K.C_DSPAN] = F32(1.0 - prm.damp_sat)
     c[K.C_ABASE] = stencils.advance_base(prm)
     c[K.C_AGRAIN] = F32(prm.advance_grain)
@@ -281,7 +284,8 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
         cprep[K.C_SINV] = cprep[K.C_DISP] = F32(0.0)
     K.prep(state.w, state.wc, state.mask, state.vx, state.vy, state.p, state.h,
            state.block, state.block_time, state.fibre, taps, y0, x0, bh, bw, ns, cprep,
-           outward and do_pr, spans, nsp, s2["wet"], s2["w0"], s3["p0"], s2["bc"],
+           outward and (do_pr or cst[K.C_DEXP] > 0), spans, nsp, s2["wet"], s2["w0"],
+           s3["p0"], s2["bc"],
            s2["opn"], s2["mbx"], state.wet_area, prm.wet_hold > 0, bounds, not front, drying,
            s2["dbx"], scratch.runs, scratch.rvals)
     if front and not fold:

@@ -53,7 +53,7 @@ from .passes import (
     _set,
     param_constants,
 )
-from .traffic import bytes_per_cell_step, floats_per_program, front_mode
+from .traffic import bytes_per_cell_step, floats_per_program, front_mode, shelters
 
 if TYPE_CHECKING:
     import moderngl
@@ -222,7 +222,8 @@ class GLCanvas(GLStepPasses):
         self._defines.update(self._param_consts)
         self._programs = {name: self._compile(fname, extra)
                           for name, (fname, extra) in _PROGRAMS.items()}
-        self._pressure_taps = ((), -1, -1)  # blur_x, jacobi_first: compiled per blur at the step
+        # blur_x, jacobi_first (and front, shelter): compiled per blur at the step
+        self._pressure_taps = ((), -1, -1, False)
         self._slot_key = None  # evap_surface with the slots' constants: compiled at the step
         self._tile_list_mode = bool(tiling)
 
@@ -626,16 +627,20 @@ class GLCanvas(GLStepPasses):
         """Honest bytes per cell-step: the passes process the RGBA pigment layers in use
         (4 slots each), so those slots are counted, not the 8 the textures hold."""
         layers = -(-len(self.slots) // 4)
-        return bytes_per_cell_step(4 * layers, int(self.params.jacobi_iters),
-                                   self.params.wet_hold > 0,
-                                   front_mode(*self.params.standing_front()))
+        prm = self.params
+        return bytes_per_cell_step(4 * layers, int(prm.jacobi_iters), prm.wet_hold > 0,
+                                   front_mode(*prm.standing_front()),
+                                   shelters(prm.damp_exposure, prm.flow_outward,
+                                            prm.wet_blur))
 
     def bytes_per_cell_by_pass(self) -> dict[str, int]:
         """:meth:`bytes_per_cell_step` per program (the names of ``take_pass_times``)."""
         layers = -(-len(self.slots) // 4)
+        prm = self.params
         return {name: 4 * n for name, n in floats_per_program(
-            4 * layers, int(self.params.jacobi_iters), self.params.wet_hold > 0,
-            front_mode(*self.params.standing_front())).items()}
+            4 * layers, int(prm.jacobi_iters), prm.wet_hold > 0,
+            front_mode(*prm.standing_front()),
+            shelters(prm.damp_exposure, prm.flow_outward, prm.wet_blur)).items()}
 
 
 __all__ = ["GLCanvas", "GLUnavailable"]

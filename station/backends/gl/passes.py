@@ -42,7 +42,7 @@ class GLStepPasses:
     tiling: bool
     _programs: dict[str, moderngl.ComputeShader]
     # (taps' bits, hold, front: -1 off, 0 every front, 1 over dry paper) of the blur programs
-    _pressure_taps: tuple[tuple[int, ...], int, int]
+    _pressure_taps: tuple[tuple[int, ...], int, int, bool]
     _pass_seconds: dict[str, float] | None  # per-pass wall time while profiling, else None
     width: int
     height: int
@@ -125,7 +125,8 @@ class GLStepPasses:
         if len(taps) > MAX_TAPS:
             raise CanvasInputError("wet_blur too large for the GL backend (at most 4)", "params")
         finv, fdry = prm.standing_front()
-        self._blur_programs(taps, hold, (1 if fdry > 0 else 0) if finv > 0 and len(taps) else -1)
+        self._blur_programs(taps, hold, (1 if fdry > 0 else 0) if finv > 0 and len(taps) else -1,
+                            prm.damp_exposure > 0)
         if "front" in p:
             _set(p["front"], "u_sim_time", float(F32(self.sim_time)))
         kv, kw, kp = (float(F32(prm.viscosity * dt)), float(F32(prm.nu_w * dt)),
@@ -178,7 +179,8 @@ class GLStepPasses:
             self._slot_key = key
         return self._programs["evap_surface"]
 
-    def _blur_programs(self, taps: np.ndarray, hold: int, front: int = -1) -> None:
+    def _blur_programs(self, taps: np.ndarray, hold: int, front: int = -1,
+                       shelter: bool = False) -> None:
         """blur_x.comp and the first Jacobi iteration (jacobi.comp with FIRST_ITER, which
         forms pass 3's levelled height, pressure.glsl) for the float32 Gaussian ``taps``
         (none: no flow-outward term, no blur_x) and ``hold`` (1: blur the wet-area
@@ -187,12 +189,13 @@ class GLStepPasses:
         immediates instead of loading the array in every lane, about 2 ms CPU a 15-tap
         loop at 800x600; the loops unroll, the mask's source is fixed.  ``front`` >= 0: the
         standing gate's front factor (front.comp; 1: over dry paper, blur_x also blurs the
-        not-dry paper into ``dx``), -1: off."""
+        not-dry paper into ``dx``), -1: off.  ``shelter``: damp_exposure's pass
+        (shelter.comp, stencils.sheltered) after blur_x."""
         bits = tuple(int(b) for b in np.asarray(taps, F32).view(np.uint32))
-        if (bits, hold, front) == self._pressure_taps:
+        if (bits, hold, front, shelter) == self._pressure_taps:
             return
         ntaps = len(bits)
-        for name in ("blur_x", "jacobi_first", "front"):
+        for name in ("blur_x", "jacobi_first", "front", "shelter"):
             old = self._programs.pop(name, None)
             if old is not None:
                 old.release()
@@ -206,11 +209,13 @@ class GLStepPasses:
                                                                      "FRONT_DRY": dry})
         if ntaps and front >= 0:
             self._programs["front"] = self._compile("front.comp", {**const, "FRONT_DRY": dry})
+        if ntaps and shelter:
+            self._programs["shelter"] = self._compile("shelter.comp", const)
         # with the front pass, front.comp writes pass 3's levelled height (PR_DONE)
         self._programs["jacobi_first"] = self._compile(
             "jacobi.comp", {**const, "FIRST_ITER": 1,
                             "PR_DONE": 1 if ntaps and front >= 0 else 0})
-        self._pressure_taps = (bits, hold, front)
+        self._pressure_taps = (bits, hold, front, shelter)
 
     def _begin_step(self) -> None:
         """Bind the tile list and build it (tiling) for the passes of one step."""
@@ -285,6 +290,13 @@ class GLStepPasses:
             self._bind(5, f["area"].src, True, False)
             self._bind(6, self.dx, False, True)
             self._dispatch("blur_x")
+        if "shelter" in self._programs:  # damp cells in a bay of the front do not join
+            self._bind(2, f["water"].src, True, False)
+            self._bind(3, f["paper"].src, True, False)
+            self._bind(4, self.bx, True, False)
+            self._bind(5, self.aux, True, True)
+            self._bind(7, self.jv[0], True, True)
+            self._dispatch("shelter")
         if "front" in self._programs:  # beta_c's standing share, with M' (after blur_x)
             self._bind(1, f["vel"].src, True, False)
             self._bind(2, f["water"].src, True, False)
@@ -444,7 +456,7 @@ def param_constants(prm: SimParams, dt: float | None) -> dict[str, str]:
         "OMEGA_I": float(F32(1.0 - prm.omega_h)),
         "HALF_GAIN": float(F32(-0.5 * prm.height_gain)), "VMAX": prm.v_max,
         "WMIN": prm.w_min, "WMAX": prm.w_max, "EDGE_EVAP": prm.edge_evap,
-        "DRY_EPS": prm.w_dry_eps, "SUSP": prm.suspend_sat,
+        "DRY_EPS": prm.w_dry_eps, "SUSP": prm.suspend_sat, "DEXP": prm.damp_exposure,
     }
     if dt is not None:
         vals.update({

@@ -12,11 +12,11 @@ from __future__ import annotations
 
 
 def floats_per_cell_step(slots: int, jacobi_iters: int, wet_memory: bool = False,
-                         front: int = -1) -> dict[str, int]:
+                         front: int = -1, shelter: bool = False) -> dict[str, int]:
     """Per pass: float32 values read + written per cell for one step; ``wet_memory``:
     the profile keeps a wet-area memory (``SimParams.wet_hold > 0``); ``front``: the
     standing gate's front factor (``SimParams.standing_front``; -1 off, 0 at every
-    front, 1 over dry paper)."""
+    front, 1 over dry paper); ``shelter``: the damp exposure's pass (:func:`shelters`)."""
     s = int(slots)
     n = int(jacobi_iters)
     passes = {
@@ -63,13 +63,24 @@ def floats_per_cell_step(slots: int, jacobi_iters: int, wet_memory: bool = False
         # blur_x also reads wc, h and writes dx; front.comp reads dx
         passes["blur_x (pass 3's wet area blurred along x)"] += 3
         passes["front (the standing gate's front factor on wb)"] += 1
+    if shelter:
+        # read wb, w, wc: a cell wet by its own water is done (a damp cell the front
+        # reached also reads h and the blur's column, and may write wb and v1)
+        passes["shelter (damp_exposure on wb)"] = 3
     return passes
 
 
+def shelters(damp_exposure: float, flow_outward: float, wet_blur: float) -> bool:
+    """``shelter`` of :func:`floats_per_cell_step`: shelter.comp runs (stencils.sheltered
+    is on)."""
+    return damp_exposure > 0 and flow_outward > 0 and wet_blur > 0
+
+
 def bytes_per_cell_step(slots: int, jacobi_iters: int, wet_memory: bool = False,
-                        front: int = -1) -> int:
+                        front: int = -1, shelter: bool = False) -> int:
     """Bytes of honest memory traffic per simulated cell and step."""
-    return 4 * sum(floats_per_cell_step(slots, jacobi_iters, wet_memory, front).values())
+    return 4 * sum(floats_per_cell_step(slots, jacobi_iters, wet_memory, front,
+                                        shelter).values())
 
 
 def front_mode(finv: float, fdry: float) -> int:
@@ -78,10 +89,10 @@ def front_mode(finv: float, fdry: float) -> int:
 
 
 def floats_per_program(slots: int, jacobi_iters: int, wet_memory: bool = False,
-                       front: int = -1) -> dict[str, int]:
+                       front: int = -1, shelter: bool = False) -> dict[str, int]:
     """:func:`floats_per_cell_step` keyed by the program that runs each pass (``prep``,
     ``pressure``, ``jacobi`` (all its iterations), ...), the names
     ``GLCanvas.take_pass_times`` reports."""
     return {name.split()[0]: n
             for name, n in floats_per_cell_step(slots, jacobi_iters, wet_memory,
-                                                front).items()}
+                                                front, shelter).items()}
