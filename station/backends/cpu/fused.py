@@ -233,14 +233,14 @@ def _vel_row(wet: np.ndarray, v1x: np.ndarray, v1y: np.ndarray, xvx: np.ndarray,
              xvy: np.ndarray, pr: np.ndarray, cst: np.ndarray, do_vjac: bool,
              do_height: bool, j: int, slo: int, shi: int, v3x_o: np.ndarray,
              v3y_o: np.ndarray, fibre: np.ndarray, y0: int,
-             x0: int, w0: np.ndarray, h: np.ndarray) -> None:  # pragma: no cover - compiled
+             x0: int, w: np.ndarray, h: np.ndarray) -> None:  # pragma: no cover - compiled
     """height_limit's velocity part of row j; with ``C_PGAIN`` the height term along each
     axis times ``C_PBASE + C_PGAIN * fibre[axis]`` (passes.water_height_and_boundary:
     the film's levelling flow runs along the paper's fibres), with ``C_PGATE`` times
     ``(1 - g C_PA) + (g C_PGAIN) fibre[axis]``, ``g`` the standing-water gate of the
-    cell's ``w0``, with ``C_PPULL`` times ``1 - smoothstep(pull C_PPULL)``, ``pull = max((w0
-    + relief h) - P, 0)`` (reference ``fibre_gate``; step_region zeroes C_PGAIN on paper
-    without fibre)."""
+    cell's water ``w`` (the state's, as the step found it), with ``C_PPULL`` times ``1 -
+    smoothstep(pull C_PPULL)``, ``pull = max((w + relief h) - P, 0)`` (reference
+    ``fibre_gate``; step_region zeroes C_PGAIN on paper without fibre)."""
     kv, g, oh, oi, vm = cst[K.C_KV], cst[K.C_G], cst[K.C_OH], cst[K.C_OI], cst[K.C_VMAX]
     tgx, tgy = cst[K.C_TILTX], cst[K.C_TILTY]
     pbase, pgain = cst[K.C_PBASE], cst[K.C_PGAIN]
@@ -273,9 +273,9 @@ def _vel_row(wet: np.ndarray, v1x: np.ndarray, v1y: np.ndarray, xvx: np.ndarray,
         dy = w_s - w_n
         if channel and gated:
             x = np.uint64(x0 + i - 1)
-            gv = K._smoothstep_w(w0[j, i], pgate)
+            gv = K._smoothstep_w(w[y, x], pgate)
             if ppull != ZERO:
-                top = w0[j, i] + relief * h[y, x] if relief > ZERO else w0[j, i]
+                top = w[y, x] + relief * h[y, x] if relief > ZERO else w[y, x]
                 pull = top - pr[j, i]
                 pull = pull if pull > ZERO else ZERO
                 gv = gv * (ONE - K._smoothstep_w(pull, ppull))
@@ -355,13 +355,15 @@ def _flux_rows(wet: np.ndarray, bc: np.ndarray, xr: np.ndarray, xs: np.ndarray,
 
 
 @_inline
-def _lim_row(w0: np.ndarray, p0: np.ndarray, ns: int, do_w: bool, do_p: bool, r: int,
-             spans: np.ndarray, nsp: np.ndarray, fx: np.ndarray, fyn: np.ndarray,
-             fys: np.ndarray, px: np.ndarray, pyn: np.ndarray, pys: np.ndarray,
-             sw_r: np.ndarray, sp_r: np.ndarray) -> None:  # pragma: no cover - compiled
+def _lim_row(w: np.ndarray, p: np.ndarray, y0: int, x0: int, ns: int, do_w: bool,
+             do_p: bool, r: int, spans: np.ndarray, nsp: np.ndarray, fx: np.ndarray,
+             fyn: np.ndarray, fys: np.ndarray, px: np.ndarray, pyn: np.ndarray,
+             pys: np.ndarray, sw_r: np.ndarray,
+             sp_r: np.ndarray) -> None:  # pragma: no cover - compiled
     """height_limit's donor limiters of row r into ring rows (zero outside the spans),
     from the face fluxes of row r (:func:`_flux_rows`: x faces ``fx``/``px``, south
-    faces ``fys``/``pys``) and row r - 1's south faces (``fyn``/``pyn``)."""
+    faces ``fys``/``pys``) and row r - 1's south faces (``fyn``/``pyn``); the donors'
+    water and pigment ``w``/``p`` are the state's (as the step found them)."""
     if do_w:
         _zero_gaps(sw_r, r, spans, nsp)
     else:
@@ -371,6 +373,7 @@ def _lim_row(w0: np.ndarray, p0: np.ndarray, ns: int, do_w: bool, do_p: bool, r:
             _zero_gaps(sp_r[kk], r, spans, nsp)
     else:
         sp_r[:, :] = ZERO
+    y = y0 + r - 1
     for sx in range(nsp[r]):
         slo, shi = K._span(spans, r, sx)
         if do_w:
@@ -381,7 +384,7 @@ def _lim_row(w0: np.ndarray, p0: np.ndarray, ns: int, do_w: bool, do_p: bool, r:
                 fn = fyn[i]
                 out = (((fe if fe > ZERO else ZERO) - (fw if fw < ZERO else ZERO))
                        + (fs if fs > ZERO else ZERO)) - (fn if fn < ZERO else ZERO)
-                uv = w0[r, i]
+                uv = w[y, np.uint64(x0 + i - 1)]
                 uv = uv if uv > ZERO else ZERO
                 sw_r[i] = uv / out if out > uv else ONE
         if do_p:
@@ -393,7 +396,7 @@ def _lim_row(w0: np.ndarray, p0: np.ndarray, ns: int, do_w: bool, do_p: bool, r:
                     fn = pyn[kk, i]
                     out = (((fe if fe > ZERO else ZERO) - (fw if fw < ZERO else ZERO))
                            + (fs if fs > ZERO else ZERO)) - (fn if fn < ZERO else ZERO)
-                    uv = p0[kk, r, i]
+                    uv = p[kk, y, np.uint64(x0 + i - 1)]
                     uv = uv if uv > ZERO else ZERO
                     sp_r[kk, i] = uv / out if out > uv else ONE
 
@@ -410,15 +413,24 @@ def _donor(f: np.float32, s_pos: np.float32, s_neg: np.float32
 
 
 @_inline
-def _iterate_row(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xw: np.ndarray,
-                 p0: np.ndarray, xp: np.ndarray, bh: int, ns: int, kw: np.float32,
-                 kp: np.float32, jac1: bool, do_w: bool, do_p: bool, r: int,
-                 spans: np.ndarray, nsp: np.ndarray, xo: np.ndarray,
-                 po: np.ndarray) -> None:  # pragma: no cover - compiled
+def _iterate_row(wet: np.ndarray, bc: np.ndarray, w: np.ndarray, xw: np.ndarray,
+                 p: np.ndarray, xp: np.ndarray, y0: int, x0: int, bh: int, ns: int,
+                 kw: np.float32, kp: np.float32, jac1: bool, do_w: bool, do_p: bool, r: int,
+                 spans: np.ndarray, nsp: np.ndarray, uw: np.ndarray, up: np.ndarray,
+                 xo: np.ndarray, po: np.ndarray) -> None:  # pragma: no cover - compiled
     """Row r of the final water/pigment iterates into ring rows (zero outside the spans
     and the box, like the scratch): with ``jac1`` Jacobi iteration 1 from x0 = u
     (``K._jw_rows``/``K._jp_rows``, the operands and order of ``advect_jacobi1``'s
-    rows), else a copy of the iterates ``xw``/``xp`` that ``jacobi_blocked`` left."""
+    rows), else a copy of the iterates ``xw``/``xp`` that ``jacobi_blocked`` left.
+    With ``jac1`` u is the state's ``w``/``p`` in rings of padded rows ``uw``/``up``
+    (row r in slot r % 3, :func:`K._state_row`: the values prep's ``w0``/``p0`` copies
+    held): called for r = r0, r0 + 1, ... with rows r0 - 1 and r0 loaded, each call
+    loads row r + 1."""
+    if jac1 and do_w:
+        K._state_row(w, y0, x0, r + 1, bh, spans, nsp, uw[(r + 1) % 3])
+    if jac1 and do_p:
+        for kk in range(ns):
+            K._state_row(p[kk], y0, x0, r + 1, bh, spans, nsp, up[(r + 1) % 3, kk])
     if r < 1 or r > bh:
         xo[:] = ZERO
         po[:, :] = ZERO
@@ -437,15 +449,17 @@ def _iterate_row(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xw: np.ndarray
         slo, shi = K._span(spans, r, sx)
         if do_w:
             if jac1:
-                K._jw_rows(wn, wr, ws, w0[r], w0[r - 1], w0[r], w0[r + 1], xo, slo, shi, kw)
+                un, ur, us = uw[(r - 1) % 3], uw[r % 3], uw[(r + 1) % 3]
+                K._jw_rows(wn, wr, ws, ur, un, ur, us, xo, slo, shi, kw)
             else:
                 for i in range(slo, shi + 1):
                     xo[i] = xw[r, i]
         if do_p:
             for kk in range(ns):
                 if jac1:
-                    K._jp_rows(wn, wr, ws, bc[r - 1], bc[r], bc[r + 1], p0[kk, r],
-                               p0[kk, r - 1], p0[kk, r], p0[kk, r + 1], po[kk], slo, shi, kp)
+                    un, ur, us = up[(r - 1) % 3, kk], up[r % 3, kk], up[(r + 1) % 3, kk]
+                    K._jp_rows(wn, wr, ws, bc[r - 1], bc[r], bc[r + 1], ur, un, ur, us,
+                               po[kk], slo, shi, kp)
                 else:
                     for i in range(slo, shi + 1):
                         po[kk, i] = xp[kk, r, i]
@@ -453,8 +467,8 @@ def _iterate_row(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xw: np.ndarray
 
 @_parallel
 def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: np.ndarray,
-                        xvx: np.ndarray, xvy: np.ndarray, w0: np.ndarray, xw: np.ndarray,
-                        p0: np.ndarray, xp: np.ndarray, pr: np.ndarray, bh: int, bw: int,
+                        xvx: np.ndarray, xvy: np.ndarray, w: np.ndarray, xw: np.ndarray,
+                        p: np.ndarray, xp: np.ndarray, pr: np.ndarray, bh: int, bw: int,
                         ns: int, cst: np.ndarray, do_vjac: bool, do_height: bool, do_w: bool,
                         do_p: bool, jac1: bool, v3x_o: np.ndarray, v3y_o: np.ndarray,
                         w2_o: np.ndarray, p2_o: np.ndarray, spans: np.ndarray,
@@ -464,7 +478,10 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
     keeps the donor limiters of rows j-1, j, j+1 in a ring instead of ``sw``/``sp``,
     and the final iterates of rows j-1..j+2 in another; with ``jac1`` (one Jacobi
     iteration) it computes them here instead of reading ``xw``/``xp`` (issue 26: the
-    iterate fields are neither written nor read)."""
+    iterate fields are neither written nor read). ``w``/``p``: the state's water and
+    pigment as the step found them (u of passes 4/5; nothing writes them before this
+    sweep ends), read in place of prep's padded copies: the cells themselves directly,
+    the Jacobi iteration's neighbours from rings of padded rows (:func:`_iterate_row`)."""
     kw = cst[K.C_KW]
     kp = cst[K.C_KP]
     nch = bounds.shape[0] - 1
@@ -478,9 +495,18 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
         fyr = np.zeros((3, bw + 2), F32)  # the y faces (r, r + 1)
         pxr = np.zeros((3, max(ns, 1), bw + 2), F32)
         pyr = np.zeros((3, max(ns, 1), bw + 2), F32)
+        uwr = np.empty((3, bw + 2), F32)  # u = the state's w, p: row r in slot r % 3
+        upr = np.empty((3, max(ns, 1), bw + 2), F32)
+        if jac1:
+            for r in (j0 - 3, j0 - 2):
+                if do_w:
+                    K._state_row(w, y0, x0, r, bh, spans, nsp, uwr[r % 3])
+                if do_p:
+                    for kk in range(ns):
+                        K._state_row(p[kk], y0, x0, r, bh, spans, nsp, upr[r % 3, kk])
         for r in range(j0 - 2, j0 + 2):
-            _iterate_row(wet, bc, w0, xw, p0, xp, bh, ns, kw, kp, jac1, do_w, do_p, r, spans,
-                         nsp, xwr[r % 4], xpr[r % 4])
+            _iterate_row(wet, bc, w, xw, p, xp, y0, x0, bh, ns, kw, kp, jac1, do_w, do_p, r,
+                         spans, nsp, uwr, upr, xwr[r % 4], xpr[r % 4])
         for r in (j0 - 2, j0 - 1, j0):
             if 0 <= r <= bh:
                 _flux_rows(wet, bc, xwr[r % 4], xwr[(r + 1) % 4], xpr[r % 4],
@@ -488,21 +514,21 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
                            fxr[r % 3], fyr[r % 3], pxr[r % 3], pyr[r % 3])
         for r in (j0 - 1, j0):
             if 1 <= r <= bh:
-                _lim_row(w0, p0, ns, do_w, do_p, r, spans, nsp, fxr[r % 3],
+                _lim_row(w, p, y0, x0, ns, do_w, do_p, r, spans, nsp, fxr[r % 3],
                          fyr[(r - 1) % 3], fyr[r % 3], pxr[r % 3], pyr[(r - 1) % 3],
                          pyr[r % 3], swr[r % 3], spr[r % 3])
             else:
                 swr[r % 3, :] = ZERO
                 spr[r % 3, :, :] = ZERO
         for j in range(j0, j1):
-            _iterate_row(wet, bc, w0, xw, p0, xp, bh, ns, kw, kp, jac1, do_w, do_p, j + 2,
-                         spans, nsp, xwr[(j + 2) % 4], xpr[(j + 2) % 4])
+            _iterate_row(wet, bc, w, xw, p, xp, y0, x0, bh, ns, kw, kp, jac1, do_w, do_p,
+                         j + 2, spans, nsp, uwr, upr, xwr[(j + 2) % 4], xpr[(j + 2) % 4])
             r = j + 1
             if r <= bh:
                 _flux_rows(wet, bc, xwr[r % 4], xwr[(r + 1) % 4], xpr[r % 4],
                            xpr[(r + 1) % 4], ns, kw, kp, do_w, do_p, r, bh, bw, spans, nsp,
                            fxr[r % 3], fyr[r % 3], pxr[r % 3], pyr[r % 3])
-                _lim_row(w0, p0, ns, do_w, do_p, r, spans, nsp, fxr[r % 3],
+                _lim_row(w, p, y0, x0, ns, do_w, do_p, r, spans, nsp, fxr[r % 3],
                          fyr[j % 3], fyr[r % 3], pxr[r % 3], pyr[j % 3], pyr[r % 3],
                          swr[r % 3], spr[r % 3])
             else:
@@ -511,10 +537,11 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
             sm, s0_, sp_ = (j - 1) % 3, j % 3, (j + 1) % 3
             fx, fys, fyn = fxr[s0_], fyr[s0_], fyr[sm]
             px, pys, pyn = pxr[s0_], pyr[s0_], pyr[sm]
+            y = y0 + j - 1
             for sx in range(nsp[j]):
                 slo, shi = K._span(spans, j, sx)
                 _vel_row(wet, v1x, v1y, xvx, xvy, pr, cst, do_vjac, do_height, j, slo, shi,
-                         v3x_o, v3y_o, fibre, y0, x0, w0, h)
+                         v3x_o, v3y_o, fibre, y0, x0, w, h)
                 if do_w:
                     for i in range(slo, shi + 1):
                         fe = fx[i]
@@ -526,10 +553,10 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
                         fw = _donor(fw, swr[s0_, i - 1], s0)
                         fs = _donor(fs, s0, swr[sp_, i])
                         fn = _donor(fn, swr[sm, i], s0)
-                        w2_o[j, i] = (((w0[j, i] - fe) + fw) - fs) + fn
+                        w2_o[j, i] = (((w[y, np.uint64(x0 + i - 1)] - fe) + fw) - fs) + fn
                 else:
                     for i in range(slo, shi + 1):
-                        w2_o[j, i] = w0[j, i]
+                        w2_o[j, i] = w[y, np.uint64(x0 + i - 1)]
                 if do_p:
                     for kk in range(ns):
                         for i in range(slo, shi + 1):
@@ -542,11 +569,12 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
                             fw = _donor(fw, spr[s0_, kk, i - 1], s0)
                             fs = _donor(fs, s0, spr[sp_, kk, i])
                             fn = _donor(fn, spr[sm, kk, i], s0)
-                            p2_o[kk, j, i] = (((p0[kk, j, i] - fe) + fw) - fs) + fn
+                            p2_o[kk, j, i] = (((p[kk, y, np.uint64(x0 + i - 1)] - fe) + fw)
+                                              - fs) + fn
                 else:
                     for kk in range(ns):
                         for i in range(slo, shi + 1):
-                            p2_o[kk, j, i] = p0[kk, j, i]
+                            p2_o[kk, j, i] = p[kk, y, np.uint64(x0 + i - 1)]
 
 
 @_inline

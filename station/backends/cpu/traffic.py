@@ -19,13 +19,15 @@ FLAG = 1
 
 
 def bytes_per_sweep(slots: int, jacobi_iters: int, wet_memory: bool = False,
-                    front: int = -1) -> dict[str, int]:
+                    front: int = -1, levelled: bool = True) -> dict[str, int]:
     """Per sweep: bytes read + written per cell for one step; ``wet_memory``: the
     profile keeps a wet-area memory (``SimParams.wet_hold > 0``); ``front``: the standing
     gate's front factor (``gl.traffic.front_mode``: -1 off, 0 on, 1 on with its dry-paper
     term), which moves beta_c, the dispersion and pass 3's levelled height out of prep
     (``kernels._front_row``: in advect_jacobi1's rows with one Jacobi iteration, else a
-    sweep of its own, ``kernels.standing_front``)."""
+    sweep of its own, ``kernels.standing_front``); ``levelled``: pass 3 levels a height
+    of its own (``flow_outward`` or ``paper_relief``; else it levels the padded copy of w,
+    ``w0``, which prep then writes)."""
     s = int(slots)
     n = max(int(jacobi_iters), 1)
     f, b = FLOAT, FLAG
@@ -82,6 +84,11 @@ def bytes_per_sweep(slots: int, jacobi_iters: int, wet_memory: bool = False,
             # folded into advect_jacobi1's rows: the wet mask and the velocity are read
             # once for pass 1 and the front factor; pass 1 adds its writes, v1(2)
             sweeps[aj] = fr + f * 2
+    if n == 1 and (levelled or front >= 0):
+        # no w0/p0 copies (step.copy): prep's contact line reads the state's w through a
+        # ring of padded rows (w read once, not w0 again, p not at all) and writes neither
+        # copy; the sweeps after it read the state's w and p where they read the copies
+        sweeps["prep (wet mask, copies, diffusion controller, row blur)"] -= f * (2 + 2 * s)
     if wet_memory:
         # prep's own loop per span reads the wet area and writes M = max(area, own)
         sweeps["prep (wet mask, copies, diffusion controller, row blur)"] += f * 2
@@ -92,6 +99,6 @@ def bytes_per_sweep(slots: int, jacobi_iters: int, wet_memory: bool = False,
 
 
 def bytes_per_cell_step(slots: int, jacobi_iters: int, wet_memory: bool = False,
-                        front: int = -1) -> int:
+                        front: int = -1, levelled: bool = True) -> int:
     """Bytes of honest memory traffic per simulated cell and step."""
-    return sum(bytes_per_sweep(slots, jacobi_iters, wet_memory, front).values())
+    return sum(bytes_per_sweep(slots, jacobi_iters, wet_memory, front, levelled).values())
