@@ -92,14 +92,14 @@ def active() -> bool:
 
 class _AfterNumba(importlib.abc.MetaPathFinder):
     """Finds numba's package as the path finder does and runs :func:`configure` right
-    after the package has executed (then leaves ``sys.meta_path``)."""
+    after the package has executed; it leaves ``sys.meta_path`` when numba is imported,
+    not when numba is only looked for (``importlib.util.find_spec("numba")``, as
+    ``backends.factory.numba_available`` does before any import)."""
 
     def find_spec(self, fullname: str, path: Sequence[str] | None,
                   target: ModuleType | None = None) -> importlib.machinery.ModuleSpec | None:
         if fullname != "numba":
             return None
-        if self in sys.meta_path:
-            sys.meta_path.remove(self)
         spec = importlib.machinery.PathFinder.find_spec(fullname, path)
         loader = spec.loader if spec is not None else None
         if loader is None or not hasattr(loader, "exec_module"):
@@ -107,6 +107,8 @@ class _AfterNumba(importlib.abc.MetaPathFinder):
         run = loader.exec_module
 
         def exec_module(module: ModuleType) -> None:
+            if self in sys.meta_path:
+                sys.meta_path.remove(self)
             run(module)
             configure()
 

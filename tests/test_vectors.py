@@ -57,6 +57,9 @@ asm = "".join(f.inspect_asm().values())
     "import station.backends.cpu.kernels",   # the cpu backend
     "import station.render.km_fast",         # another numba user of the station
     "import numba\nimport station",          # numba itself, before any dispatcher
+    # looked for before it is imported (backends.factory.numba_available)
+    "import importlib.util, station\nassert importlib.util.find_spec('numba')\n"
+    "import station.backends.cpu.kernels",
 ])
 def test_any_import_order_gets_the_wide_vectors(first: str) -> None:
     code = f"{first}\nfrom station import vectors\n{ASM}\nprint(vectors.active(), 'zmm' in asm)"
