@@ -60,4 +60,7 @@ class CpuCanvas(NumpyCanvas):
         prm = self._state.params
         finv, fdry = prm.standing_front()
         front = (1 if fdry > 0 else 0) if finv > 0 else -1  # as gl.traffic.front_mode
-        return traffic.bytes_per_cell_step(slots, prm.jacobi_iters, prm.wet_hold > 0, front)
+        # pass 3 levels a height of its own (step_region's do_pr): prep copies nothing
+        levelled = (prm.flow_outward > 0 and prm.wet_blur > 0) or prm.paper_relief > 0
+        return traffic.bytes_per_cell_step(slots, prm.jacobi_iters, prm.wet_hold > 0, front,
+                                           levelled)

@@ -4,12 +4,13 @@ same order, so the results stay bitwise equal to the two-sweep kernels (and to t
 reference); the limiter rows a pass needs from its neighbours live in a three-row ring
 per chunk of rows instead of full scratch fields:
 
-* :func:`advect_fused`: pass 6's limiters (``advect_limit``) and fluxes
-  (``advect_apply``): no ``sout``/``sin`` fields, −10 floats per cell-step;
+* pass 6's limiters (``advect_limit``) and fluxes (``advect_apply``) row by row
+  (:func:`_adv_rows`): no ``sout``/``sin`` fields, −10 floats per cell-step;
 * :func:`limit_diffuse_fused`: the last velocity iteration, pass 3 and the diffusion
   donor limiters (``height_limit``) with the limited fluxes of passes 4/5
   (``diffuse_apply``): no ``sw``/``sp`` fields and none of diffuse_apply's re-reads,
-  −(6 + 4·slots) floats per cell-step;
+  −(6 + 4·slots) floats per cell-step; since session 15 with pass 6 two rows behind
+  (its rows of v3, w2, p2 and the wet mask read from cache: −(13 + 4·slots) bytes);
 * :func:`evap_cap_fused`: passes 7-9a (``evap_surface_absorb``) with 9b, 9c and 10
   (``capillary_dry``): no ``sat`` field and none of capillary_dry's re-reads, −10 floats.
 
@@ -153,79 +154,99 @@ def _limit_row(w: np.ndarray, p: np.ndarray, r: int, ns: int, wmin: np.float32,
             si[i] = s if s < ONE else ONE
 
 
-@_parallel
-def advect_fused(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
-                 p: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int,
-                 cst: np.ndarray, w3_o: np.ndarray, p_state: np.ndarray,
-                 spans: np.ndarray, nsp: np.ndarray,
-                 bounds: np.ndarray) -> None:  # pragma: no cover - compiled
-    """Pass 6 (limiters and fluxes) in one sweep: each chunk computes the limiter rows
-    j-1, j, j+1 into a ring and applies row j, exactly as advect_apply does. The face
-    rates live in rings too: a row's x faces serve its limiter and its fluxes, a row of
-    y faces serves the cells on both sides (each face rate computed once, not four
-    times)."""
+@_inline
+def _adv_start(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
+               p: np.ndarray, bh: int, bw: int, ns: int, q4: np.float32, wmin: np.float32,
+               wmax: np.float32, spans: np.ndarray, nsp: np.ndarray, a0: int,
+               so: np.ndarray, si: np.ndarray, xr: np.ndarray,
+               yr: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Pass 6's rings before its row a0 (:func:`_adv_row`): the face rates of rows
+    a0 - 2 .. a0 and the limiter rows a0 - 1, a0 (rows of v, w, p up to a0 + 1)."""
+    for r in (a0 - 2, a0 - 1, a0):
+        if 0 <= r <= bh:
+            _y_rates(vy, wet, r, bh, bw, spans, nsp, q4, yr[r % 3])
+        if 1 <= r <= bh:
+            _x_rates(vx, wet, r, spans, nsp, q4, xr[r % 3])
+    for r in (a0 - 1, a0):
+        if 1 <= r <= bh:
+            _limit_row(w, p, r, ns, wmin, wmax, spans, nsp, xr[r % 3], yr[r % 3],
+                       yr[(r - 1) % 3], so[r % 3], si[r % 3])
+        else:
+            so[r % 3, :] = ZERO
+            si[r % 3, :] = ZERO
+
+
+@_inline
+def _adv_row(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
+             p: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int, q4: np.float32,
+             wmin: np.float32, wmax: np.float32, w3_o: np.ndarray, p_state: np.ndarray,
+             spans: np.ndarray, nsp: np.ndarray, j: int, a: np.ndarray, so: np.ndarray,
+             si: np.ndarray, xr: np.ndarray,
+             yr: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Pass 6 on row j (after :func:`_adv_start` and the rows before it): the rates and
+    the limiter row j + 1 into the rings (rows of v, w, p up to j + 2), then row j's
+    limited fluxes (``a``: a (6, bw + 2) row buffer)."""
+    r = j + 1
+    if r <= bh:
+        _y_rates(vy, wet, r, bh, bw, spans, nsp, q4, yr[r % 3])
+        _x_rates(vx, wet, r, spans, nsp, q4, xr[r % 3])
+        _limit_row(w, p, r, ns, wmin, wmax, spans, nsp, xr[r % 3], yr[r % 3],
+                   yr[j % 3], so[r % 3], si[r % 3])
+    else:
+        so[r % 3, :] = ZERO
+        si[r % 3, :] = ZERO
+    sm, s0, sp = (j - 1) % 3, j % 3, (j + 1) % 3
+    bx, bs, bn = xr[s0], yr[s0], yr[sm]
+    y = y0 + j - 1
+    for sx in range(nsp[j]):
+        slo, shi = K._span(spans, j, sx)
+        for i in range(slo - 1, shi + 1):
+            a[0, i] = (bx[0, i] * so[s0, i]) * si[s0, i + 1]
+            a[1, i] = (bx[1, i] * so[s0, i + 1]) * si[s0, i]
+        for i in range(slo, shi + 1):
+            a[2, i] = (bs[0, i] * so[s0, i]) * si[sp, i]
+            a[3, i] = (bs[1, i] * so[sp, i]) * si[s0, i]
+            a[4, i] = (bn[0, i] * so[sm, i]) * si[s0, i]
+            a[5, i] = (bn[1, i] * so[s0, i]) * si[sm, i]
+        axp, axn, asp, asn, anp, ann = a[0], a[1], a[2], a[3], a[4], a[5]
+        for i in range(slo, shi + 1):
+            wv = w[j, i]
+            fe = wv * axp[i] - w[j, i + 1] * axn[i]
+            fw = w[j, i - 1] * axp[i - 1] - wv * axn[i - 1]
+            fs = wv * asp[i] - w[j + 1, i] * asn[i]
+            fn = w[j - 1, i] * anp[i] - wv * ann[i]
+            w3_o[j, i] = (((wv - fe) + fw) - fs) + fn
+        for kk in range(ns):
+            for i in range(slo, shi + 1):
+                pv = p[kk, j, i]
+                fe = pv * axp[i] - p[kk, j, i + 1] * axn[i]
+                fw = p[kk, j, i - 1] * axp[i - 1] - pv * axn[i - 1]
+                fs = pv * asp[i] - p[kk, j + 1, i] * asn[i]
+                fn = p[kk, j - 1, i] * anp[i] - pv * ann[i]
+                p_state[kk, y, np.uint64(x0 + i - 1)] = (((pv - fe) + fw) - fs) + fn
+
+
+@_inline
+def _adv_rows(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
+              p: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int, cst: np.ndarray,
+              w3_o: np.ndarray, p_state: np.ndarray, spans: np.ndarray, nsp: np.ndarray,
+              a0: int, a1: int) -> None:  # pragma: no cover - compiled
+    """Pass 6 on rows a0 .. a1 - 1 (none when a1 <= a0), with rings of its own."""
+    if a1 <= a0:
+        return
     q4 = cst[K.C_Q4]
     wmin = cst[K.C_WMIN]
     wmax = cst[K.C_WMAX]
-    nch = bounds.shape[0] - 1
-    for ch in prange(nch):
-        j0, j1 = bounds[ch], bounds[ch + 1]
-        a = np.empty((6, bw + 2), F32)
-        so = np.zeros((3, bw + 2), F32)  # rings: row r lives in slot r % 3
-        si = np.zeros((3, bw + 2), F32)
-        xr = np.zeros((3, 2, bw + 2), F32)  # x-face rates of row r
-        yr = np.zeros((3, 2, bw + 2), F32)  # rates of the y faces (r, r+1)
-        for r in (j0 - 2, j0 - 1, j0):
-            if 0 <= r <= bh:
-                _y_rates(vy, wet, r, bh, bw, spans, nsp, q4, yr[r % 3])
-            if 1 <= r <= bh:
-                _x_rates(vx, wet, r, spans, nsp, q4, xr[r % 3])
-        for r in (j0 - 1, j0):
-            if 1 <= r <= bh:
-                _limit_row(w, p, r, ns, wmin, wmax, spans, nsp, xr[r % 3], yr[r % 3],
-                           yr[(r - 1) % 3], so[r % 3], si[r % 3])
-            else:
-                so[r % 3, :] = ZERO
-                si[r % 3, :] = ZERO
-        for j in range(j0, j1):
-            r = j + 1
-            if r <= bh:
-                _y_rates(vy, wet, r, bh, bw, spans, nsp, q4, yr[r % 3])
-                _x_rates(vx, wet, r, spans, nsp, q4, xr[r % 3])
-                _limit_row(w, p, r, ns, wmin, wmax, spans, nsp, xr[r % 3], yr[r % 3],
-                           yr[j % 3], so[r % 3], si[r % 3])
-            else:
-                so[r % 3, :] = ZERO
-                si[r % 3, :] = ZERO
-            sm, s0, sp = (j - 1) % 3, j % 3, (j + 1) % 3
-            bx, bs, bn = xr[s0], yr[s0], yr[sm]
-            y = y0 + j - 1
-            for sx in range(nsp[j]):
-                slo, shi = K._span(spans, j, sx)
-                for i in range(slo - 1, shi + 1):
-                    a[0, i] = (bx[0, i] * so[s0, i]) * si[s0, i + 1]
-                    a[1, i] = (bx[1, i] * so[s0, i + 1]) * si[s0, i]
-                for i in range(slo, shi + 1):
-                    a[2, i] = (bs[0, i] * so[s0, i]) * si[sp, i]
-                    a[3, i] = (bs[1, i] * so[sp, i]) * si[s0, i]
-                    a[4, i] = (bn[0, i] * so[sm, i]) * si[s0, i]
-                    a[5, i] = (bn[1, i] * so[s0, i]) * si[sm, i]
-                axp, axn, asp, asn, anp, ann = a[0], a[1], a[2], a[3], a[4], a[5]
-                for i in range(slo, shi + 1):
-                    wv = w[j, i]
-                    fe = wv * axp[i] - w[j, i + 1] * axn[i]
-                    fw = w[j, i - 1] * axp[i - 1] - wv * axn[i - 1]
-                    fs = wv * asp[i] - w[j + 1, i] * asn[i]
-                    fn = w[j - 1, i] * anp[i] - wv * ann[i]
-                    w3_o[j, i] = (((wv - fe) + fw) - fs) + fn
-                for kk in range(ns):
-                    for i in range(slo, shi + 1):
-                        pv = p[kk, j, i]
-                        fe = pv * axp[i] - p[kk, j, i + 1] * axn[i]
-                        fw = p[kk, j, i - 1] * axp[i - 1] - pv * axn[i - 1]
-                        fs = pv * asp[i] - p[kk, j + 1, i] * asn[i]
-                        fn = p[kk, j - 1, i] * anp[i] - pv * ann[i]
-                        p_state[kk, y, np.uint64(x0 + i - 1)] = (((pv - fe) + fw) - fs) + fn
+    a = np.empty((6, bw + 2), F32)
+    so = np.zeros((3, bw + 2), F32)  # rings: row r lives in slot r % 3
+    si = np.zeros((3, bw + 2), F32)
+    xr = np.zeros((3, 2, bw + 2), F32)  # x-face rates of row r
+    yr = np.zeros((3, 2, bw + 2), F32)  # rates of the y faces (r, r+1)
+    _adv_start(wet, vx, vy, w, p, bh, bw, ns, q4, wmin, wmax, spans, nsp, a0, so, si, xr,
+               yr)
+    for j in range(a0, a1):
+        _adv_row(wet, vx, vy, w, p, y0, x0, bh, bw, ns, q4, wmin, wmax, w3_o, p_state,
+                 spans, nsp, j, a, so, si, xr, yr)
 
 
 @_inline
@@ -233,14 +254,14 @@ def _vel_row(wet: np.ndarray, v1x: np.ndarray, v1y: np.ndarray, xvx: np.ndarray,
              xvy: np.ndarray, pr: np.ndarray, cst: np.ndarray, do_vjac: bool,
              do_height: bool, j: int, slo: int, shi: int, v3x_o: np.ndarray,
              v3y_o: np.ndarray, fibre: np.ndarray, y0: int,
-             x0: int, w0: np.ndarray, h: np.ndarray) -> None:  # pragma: no cover - compiled
+             x0: int, w: np.ndarray, h: np.ndarray) -> None:  # pragma: no cover - compiled
     """height_limit's velocity part of row j; with ``C_PGAIN`` the height term along each
     axis times ``C_PBASE + C_PGAIN * fibre[axis]`` (passes.water_height_and_boundary:
     the film's levelling flow runs along the paper's fibres), with ``C_PGATE`` times
     ``(1 - g C_PA) + (g C_PGAIN) fibre[axis]``, ``g`` the standing-water gate of the
-    cell's ``w0``, with ``C_PPULL`` times ``1 - smoothstep(pull C_PPULL)``, ``pull = max((w0
-    + relief h) - P, 0)`` (reference ``fibre_gate``; step_region zeroes C_PGAIN on paper
-    without fibre)."""
+    cell's water ``w`` (the state's, as the step found it), with ``C_PPULL`` times ``1 -
+    smoothstep(pull C_PPULL)``, ``pull = max((w + relief h) - P, 0)`` (reference
+    ``fibre_gate``; step_region zeroes C_PGAIN on paper without fibre)."""
     kv, g, oh, oi, vm = cst[K.C_KV], cst[K.C_G], cst[K.C_OH], cst[K.C_OI], cst[K.C_VMAX]
     tgx, tgy = cst[K.C_TILTX], cst[K.C_TILTY]
     pbase, pgain = cst[K.C_PBASE], cst[K.C_PGAIN]
@@ -273,9 +294,9 @@ def _vel_row(wet: np.ndarray, v1x: np.ndarray, v1y: np.ndarray, xvx: np.ndarray,
         dy = w_s - w_n
         if channel and gated:
             x = np.uint64(x0 + i - 1)
-            gv = K._smoothstep_w(w0[j, i], pgate)
+            gv = K._smoothstep_w(w[y, x], pgate)
             if ppull != ZERO:
-                top = w0[j, i] + relief * h[y, x] if relief > ZERO else w0[j, i]
+                top = w[y, x] + relief * h[y, x] if relief > ZERO else w[y, x]
                 pull = top - pr[j, i]
                 pull = pull if pull > ZERO else ZERO
                 gv = gv * (ONE - K._smoothstep_w(pull, ppull))
@@ -355,13 +376,15 @@ def _flux_rows(wet: np.ndarray, bc: np.ndarray, xr: np.ndarray, xs: np.ndarray,
 
 
 @_inline
-def _lim_row(w0: np.ndarray, p0: np.ndarray, ns: int, do_w: bool, do_p: bool, r: int,
-             spans: np.ndarray, nsp: np.ndarray, fx: np.ndarray, fyn: np.ndarray,
-             fys: np.ndarray, px: np.ndarray, pyn: np.ndarray, pys: np.ndarray,
-             sw_r: np.ndarray, sp_r: np.ndarray) -> None:  # pragma: no cover - compiled
+def _lim_row(w: np.ndarray, p: np.ndarray, y0: int, x0: int, ns: int, do_w: bool,
+             do_p: bool, r: int, spans: np.ndarray, nsp: np.ndarray, fx: np.ndarray,
+             fyn: np.ndarray, fys: np.ndarray, px: np.ndarray, pyn: np.ndarray,
+             pys: np.ndarray, sw_r: np.ndarray,
+             sp_r: np.ndarray) -> None:  # pragma: no cover - compiled
     """height_limit's donor limiters of row r into ring rows (zero outside the spans),
     from the face fluxes of row r (:func:`_flux_rows`: x faces ``fx``/``px``, south
-    faces ``fys``/``pys``) and row r - 1's south faces (``fyn``/``pyn``)."""
+    faces ``fys``/``pys``) and row r - 1's south faces (``fyn``/``pyn``); the donors'
+    water and pigment ``w``/``p`` are the state's (as the step found them)."""
     if do_w:
         _zero_gaps(sw_r, r, spans, nsp)
     else:
@@ -371,6 +394,7 @@ def _lim_row(w0: np.ndarray, p0: np.ndarray, ns: int, do_w: bool, do_p: bool, r:
             _zero_gaps(sp_r[kk], r, spans, nsp)
     else:
         sp_r[:, :] = ZERO
+    y = y0 + r - 1
     for sx in range(nsp[r]):
         slo, shi = K._span(spans, r, sx)
         if do_w:
@@ -381,7 +405,7 @@ def _lim_row(w0: np.ndarray, p0: np.ndarray, ns: int, do_w: bool, do_p: bool, r:
                 fn = fyn[i]
                 out = (((fe if fe > ZERO else ZERO) - (fw if fw < ZERO else ZERO))
                        + (fs if fs > ZERO else ZERO)) - (fn if fn < ZERO else ZERO)
-                uv = w0[r, i]
+                uv = w[y, np.uint64(x0 + i - 1)]
                 uv = uv if uv > ZERO else ZERO
                 sw_r[i] = uv / out if out > uv else ONE
         if do_p:
@@ -393,7 +417,7 @@ def _lim_row(w0: np.ndarray, p0: np.ndarray, ns: int, do_w: bool, do_p: bool, r:
                     fn = pyn[kk, i]
                     out = (((fe if fe > ZERO else ZERO) - (fw if fw < ZERO else ZERO))
                            + (fs if fs > ZERO else ZERO)) - (fn if fn < ZERO else ZERO)
-                    uv = p0[kk, r, i]
+                    uv = p[kk, y, np.uint64(x0 + i - 1)]
                     uv = uv if uv > ZERO else ZERO
                     sp_r[kk, i] = uv / out if out > uv else ONE
 
@@ -410,15 +434,24 @@ def _donor(f: np.float32, s_pos: np.float32, s_neg: np.float32
 
 
 @_inline
-def _iterate_row(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xw: np.ndarray,
-                 p0: np.ndarray, xp: np.ndarray, bh: int, ns: int, kw: np.float32,
-                 kp: np.float32, jac1: bool, do_w: bool, do_p: bool, r: int,
-                 spans: np.ndarray, nsp: np.ndarray, xo: np.ndarray,
-                 po: np.ndarray) -> None:  # pragma: no cover - compiled
+def _iterate_row(wet: np.ndarray, bc: np.ndarray, w: np.ndarray, xw: np.ndarray,
+                 p: np.ndarray, xp: np.ndarray, y0: int, x0: int, bh: int, ns: int,
+                 kw: np.float32, kp: np.float32, jac1: bool, do_w: bool, do_p: bool, r: int,
+                 spans: np.ndarray, nsp: np.ndarray, uw: np.ndarray, up: np.ndarray,
+                 xo: np.ndarray, po: np.ndarray) -> None:  # pragma: no cover - compiled
     """Row r of the final water/pigment iterates into ring rows (zero outside the spans
     and the box, like the scratch): with ``jac1`` Jacobi iteration 1 from x0 = u
     (``K._jw_rows``/``K._jp_rows``, the operands and order of ``advect_jacobi1``'s
-    rows), else a copy of the iterates ``xw``/``xp`` that ``jacobi_blocked`` left."""
+    rows), else a copy of the iterates ``xw``/``xp`` that ``jacobi_blocked`` left.
+    With ``jac1`` u is the state's ``w``/``p`` in rings of padded rows ``uw``/``up``
+    (row r in slot r % 3, :func:`K._state_row`: the values prep's ``w0``/``p0`` copies
+    held): called for r = r0, r0 + 1, ... with rows r0 - 1 and r0 loaded, each call
+    loads row r + 1."""
+    if jac1 and do_w:
+        K._state_row(w, y0, x0, r + 1, bh, spans, nsp, uw[(r + 1) % 3])
+    if jac1 and do_p:
+        for kk in range(ns):
+            K._state_row(p[kk], y0, x0, r + 1, bh, spans, nsp, up[(r + 1) % 3, kk])
     if r < 1 or r > bh:
         xo[:] = ZERO
         po[:, :] = ZERO
@@ -437,15 +470,17 @@ def _iterate_row(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xw: np.ndarray
         slo, shi = K._span(spans, r, sx)
         if do_w:
             if jac1:
-                K._jw_rows(wn, wr, ws, w0[r], w0[r - 1], w0[r], w0[r + 1], xo, slo, shi, kw)
+                un, ur, us = uw[(r - 1) % 3], uw[r % 3], uw[(r + 1) % 3]
+                K._jw_rows(wn, wr, ws, ur, un, ur, us, xo, slo, shi, kw)
             else:
                 for i in range(slo, shi + 1):
                     xo[i] = xw[r, i]
         if do_p:
             for kk in range(ns):
                 if jac1:
-                    K._jp_rows(wn, wr, ws, bc[r - 1], bc[r], bc[r + 1], p0[kk, r],
-                               p0[kk, r - 1], p0[kk, r], p0[kk, r + 1], po[kk], slo, shi, kp)
+                    un, ur, us = up[(r - 1) % 3, kk], up[r % 3, kk], up[(r + 1) % 3, kk]
+                    K._jp_rows(wn, wr, ws, bc[r - 1], bc[r], bc[r + 1], ur, un, ur, us,
+                               po[kk], slo, shi, kp)
                 else:
                     for i in range(slo, shi + 1):
                         po[kk, i] = xp[kk, r, i]
@@ -453,23 +488,46 @@ def _iterate_row(wet: np.ndarray, bc: np.ndarray, w0: np.ndarray, xw: np.ndarray
 
 @_parallel
 def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: np.ndarray,
-                        xvx: np.ndarray, xvy: np.ndarray, w0: np.ndarray, xw: np.ndarray,
-                        p0: np.ndarray, xp: np.ndarray, pr: np.ndarray, bh: int, bw: int,
+                        xvx: np.ndarray, xvy: np.ndarray, w: np.ndarray, xw: np.ndarray,
+                        p: np.ndarray, xp: np.ndarray, pr: np.ndarray, bh: int, bw: int,
                         ns: int, cst: np.ndarray, do_vjac: bool, do_height: bool, do_w: bool,
                         do_p: bool, jac1: bool, v3x_o: np.ndarray, v3y_o: np.ndarray,
                         w2_o: np.ndarray, p2_o: np.ndarray, spans: np.ndarray,
                         nsp: np.ndarray, bounds: np.ndarray, fibre: np.ndarray, y0: int,
-                        x0: int, h: np.ndarray) -> None:  # pragma: no cover - compiled
+                        x0: int, h: np.ndarray, adv: bool,
+                        w3_o: np.ndarray) -> None:  # pragma: no cover - compiled
     """height_limit and diffuse_apply in one sweep (their maths unchanged): each chunk
     keeps the donor limiters of rows j-1, j, j+1 in a ring instead of ``sw``/``sp``,
     and the final iterates of rows j-1..j+2 in another; with ``jac1`` (one Jacobi
     iteration) it computes them here instead of reading ``xw``/``xp`` (issue 26: the
-    iterate fields are neither written nor read)."""
+    iterate fields are neither written nor read). ``w``/``p``: the state's water and
+    pigment as the step found them (u of passes 4/5; no sweep before writes them), read
+    in place of prep's padded copies: the cells themselves directly, the Jacobi
+    iteration's neighbours from rings of padded rows (:func:`_iterate_row`).
+
+    With ``adv`` pass 6 (:func:`_adv_row`, into ``w3_o`` and the state's ``p``) follows
+    two rows behind, on the chunk's rows ``j0 + 3 .. j1 - 4``, while the rows of v3, w2
+    and p2 it reads (two either side) are in cache: they are the chunk's
+    own, and the state's pigment rows it writes are none that this sweep still reads (the
+    neighbour chunks read rows up to ``j0 + 2`` and from ``j1 - 3``, this chunk the rows
+    from ``j``). The three rows at each end of a chunk follow in a second parallel loop,
+    once every chunk's rows of v3, w2 and p2 are written (issue 26 item 1: pass 6 reads
+    none of them from memory)."""
     kw = cst[K.C_KW]
     kp = cst[K.C_KP]
+    q4 = cst[K.C_Q4]
+    wmin = cst[K.C_WMIN]
+    wmax = cst[K.C_WMAX]
     nch = bounds.shape[0] - 1
     for ch in prange(nch):
         j0, j1 = bounds[ch], bounds[ch + 1]
+        ai0, ai1 = j0 + 3, j1 - 3  # pass 6's rows in this loop (none if ai1 <= ai0)
+        nb = bw + 2 if adv else 0
+        ab = np.empty((6, nb), F32)
+        aso = np.zeros((3, nb), F32)  # pass 6's rings (see _adv_rows)
+        asi = np.zeros((3, nb), F32)
+        axr = np.zeros((3, 2, nb), F32)
+        ayr = np.zeros((3, 2, nb), F32)
         swr = np.zeros((3, bw + 2), F32)  # ring: row r in slot r % 3
         spr = np.zeros((3, max(ns, 1), bw + 2), F32)
         xwr = np.zeros((4, bw + 2), F32)  # final iterates: row r in slot r % 4
@@ -478,9 +536,18 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
         fyr = np.zeros((3, bw + 2), F32)  # the y faces (r, r + 1)
         pxr = np.zeros((3, max(ns, 1), bw + 2), F32)
         pyr = np.zeros((3, max(ns, 1), bw + 2), F32)
+        uwr = np.empty((3, bw + 2), F32)  # u = the state's w, p: row r in slot r % 3
+        upr = np.empty((3, max(ns, 1), bw + 2), F32)
+        if jac1:
+            for r in (j0 - 3, j0 - 2):
+                if do_w:
+                    K._state_row(w, y0, x0, r, bh, spans, nsp, uwr[r % 3])
+                if do_p:
+                    for kk in range(ns):
+                        K._state_row(p[kk], y0, x0, r, bh, spans, nsp, upr[r % 3, kk])
         for r in range(j0 - 2, j0 + 2):
-            _iterate_row(wet, bc, w0, xw, p0, xp, bh, ns, kw, kp, jac1, do_w, do_p, r, spans,
-                         nsp, xwr[r % 4], xpr[r % 4])
+            _iterate_row(wet, bc, w, xw, p, xp, y0, x0, bh, ns, kw, kp, jac1, do_w, do_p, r,
+                         spans, nsp, uwr, upr, xwr[r % 4], xpr[r % 4])
         for r in (j0 - 2, j0 - 1, j0):
             if 0 <= r <= bh:
                 _flux_rows(wet, bc, xwr[r % 4], xwr[(r + 1) % 4], xpr[r % 4],
@@ -488,21 +555,21 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
                            fxr[r % 3], fyr[r % 3], pxr[r % 3], pyr[r % 3])
         for r in (j0 - 1, j0):
             if 1 <= r <= bh:
-                _lim_row(w0, p0, ns, do_w, do_p, r, spans, nsp, fxr[r % 3],
+                _lim_row(w, p, y0, x0, ns, do_w, do_p, r, spans, nsp, fxr[r % 3],
                          fyr[(r - 1) % 3], fyr[r % 3], pxr[r % 3], pyr[(r - 1) % 3],
                          pyr[r % 3], swr[r % 3], spr[r % 3])
             else:
                 swr[r % 3, :] = ZERO
                 spr[r % 3, :, :] = ZERO
         for j in range(j0, j1):
-            _iterate_row(wet, bc, w0, xw, p0, xp, bh, ns, kw, kp, jac1, do_w, do_p, j + 2,
-                         spans, nsp, xwr[(j + 2) % 4], xpr[(j + 2) % 4])
+            _iterate_row(wet, bc, w, xw, p, xp, y0, x0, bh, ns, kw, kp, jac1, do_w, do_p,
+                         j + 2, spans, nsp, uwr, upr, xwr[(j + 2) % 4], xpr[(j + 2) % 4])
             r = j + 1
             if r <= bh:
                 _flux_rows(wet, bc, xwr[r % 4], xwr[(r + 1) % 4], xpr[r % 4],
                            xpr[(r + 1) % 4], ns, kw, kp, do_w, do_p, r, bh, bw, spans, nsp,
                            fxr[r % 3], fyr[r % 3], pxr[r % 3], pyr[r % 3])
-                _lim_row(w0, p0, ns, do_w, do_p, r, spans, nsp, fxr[r % 3],
+                _lim_row(w, p, y0, x0, ns, do_w, do_p, r, spans, nsp, fxr[r % 3],
                          fyr[j % 3], fyr[r % 3], pxr[r % 3], pyr[j % 3], pyr[r % 3],
                          swr[r % 3], spr[r % 3])
             else:
@@ -511,10 +578,11 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
             sm, s0_, sp_ = (j - 1) % 3, j % 3, (j + 1) % 3
             fx, fys, fyn = fxr[s0_], fyr[s0_], fyr[sm]
             px, pys, pyn = pxr[s0_], pyr[s0_], pyr[sm]
+            y = y0 + j - 1
             for sx in range(nsp[j]):
                 slo, shi = K._span(spans, j, sx)
                 _vel_row(wet, v1x, v1y, xvx, xvy, pr, cst, do_vjac, do_height, j, slo, shi,
-                         v3x_o, v3y_o, fibre, y0, x0, w0, h)
+                         v3x_o, v3y_o, fibre, y0, x0, w, h)
                 if do_w:
                     for i in range(slo, shi + 1):
                         fe = fx[i]
@@ -526,10 +594,10 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
                         fw = _donor(fw, swr[s0_, i - 1], s0)
                         fs = _donor(fs, s0, swr[sp_, i])
                         fn = _donor(fn, swr[sm, i], s0)
-                        w2_o[j, i] = (((w0[j, i] - fe) + fw) - fs) + fn
+                        w2_o[j, i] = (((w[y, np.uint64(x0 + i - 1)] - fe) + fw) - fs) + fn
                 else:
                     for i in range(slo, shi + 1):
-                        w2_o[j, i] = w0[j, i]
+                        w2_o[j, i] = w[y, np.uint64(x0 + i - 1)]
                 if do_p:
                     for kk in range(ns):
                         for i in range(slo, shi + 1):
@@ -542,11 +610,31 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
                             fw = _donor(fw, spr[s0_, kk, i - 1], s0)
                             fs = _donor(fs, s0, spr[sp_, kk, i])
                             fn = _donor(fn, spr[sm, kk, i], s0)
-                            p2_o[kk, j, i] = (((p0[kk, j, i] - fe) + fw) - fs) + fn
+                            p2_o[kk, j, i] = (((p[kk, y, np.uint64(x0 + i - 1)] - fe) + fw)
+                                              - fs) + fn
                 else:
                     for kk in range(ns):
                         for i in range(slo, shi + 1):
-                            p2_o[kk, j, i] = p0[kk, j, i]
+                            p2_o[kk, j, i] = p[kk, y, np.uint64(x0 + i - 1)]
+            a_ = j - 2
+            if adv and ai0 <= a_ < ai1:
+                if a_ == ai0:
+                    _adv_start(wet, v3x_o, v3y_o, w2_o, p2_o, bh, bw, ns, q4, wmin, wmax,
+                               spans, nsp, ai0, aso, asi, axr, ayr)
+                _adv_row(wet, v3x_o, v3y_o, w2_o, p2_o, y0, x0, bh, bw, ns, q4, wmin, wmax,
+                         w3_o, p, spans, nsp, a_, ab, aso, asi, axr, ayr)
+    if adv:
+        for ch in prange(nch):
+            j0, j1 = bounds[ch], bounds[ch + 1]
+            ai0, ai1 = j0 + 3, j1 - 3
+            if ai1 <= ai0:
+                _adv_rows(wet, v3x_o, v3y_o, w2_o, p2_o, y0, x0, bh, bw, ns, cst, w3_o, p,
+                          spans, nsp, j0, j1)
+            else:
+                _adv_rows(wet, v3x_o, v3y_o, w2_o, p2_o, y0, x0, bh, bw, ns, cst, w3_o, p,
+                          spans, nsp, j0, ai0)
+                _adv_rows(wet, v3x_o, v3y_o, w2_o, p2_o, y0, x0, bh, bw, ns, cst, w3_o, p,
+                          spans, nsp, ai1, j1)
 
 
 @_inline

@@ -153,6 +153,32 @@ def _span(spans: np.ndarray, j: int, si: int) -> tuple[int, int]:
     return lo, int(spans[j, si, 1])
 
 
+@_inline
+def _state_row(src: np.ndarray, y0: int, x0: int, r: int, bh: int, spans: np.ndarray,
+               nsp: np.ndarray, o: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Row r of the box as a padded scratch copy of the state field ``src`` holds it: the
+    state's values on the row's spans, 0 elsewhere (the box's ring, the rows outside it,
+    the columns outside the spans). A per-chunk ring of these rows stands in for the
+    ``w0``/``p0`` copies (issue 26: the stencils read the state, the copies are not
+    written): the same values, so the same bits."""
+    if r < 1 or r > bh:
+        for u in range(np.uint64(o.shape[0])):
+            o[u] = ZERO
+        return
+    row = src[y0 + r - 1]
+    xo = np.uint64(x0 - 1)
+    prev = np.uint64(0)
+    for sx in range(nsp[r]):
+        slo, shi = _span(spans, r, sx)
+        for u in range(prev, np.uint64(slo)):  # unsigned: no wraparound, no scatter
+            o[u] = ZERO
+        for u in range(np.uint64(slo), np.uint64(shi + 1)):
+            o[u] = row[xo + u]
+        prev = np.uint64(shi + 1)
+    for u in range(prev, np.uint64(o.shape[0])):
+        o[u] = ZERO
+
+
 @_serial
 def any_nonzero(bits: np.ndarray) -> bool:
     """``a.any()`` of a float32 array ``a``, given as its flat uint32 view ``bits``,
@@ -410,7 +436,7 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
          opn_o: np.ndarray,
          mbx_o: np.ndarray, area: np.ndarray, holding: bool, bounds: np.ndarray,
          do_bc: bool, drying: bool, dbx_o: np.ndarray, runs: np.ndarray,
-         rvals: np.ndarray) -> None:
+         rvals: np.ndarray, copy: bool) -> None:
     """Wet mask (once per step; own water, or the advancing contact line: a neighbour's
     w above ``advance_height (1.5 - h)``, on damp paper ``(1 + g/2 - g h)`` (g
     ``advance_grain``, reference ``stencils.advance_term``), lowered along the paper's
@@ -429,9 +455,12 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
     ``[0]`` (``mbx``) and ``[1]`` (``dbx``): each row's run of one blurred value
     (:func:`_blur_x_run`; empty where there is none), for the y halves.
 
-    Two sweeps: the copy of w (and p) into the padded ``w0`` first, so the contact line
-    reads its neighbours from ``w0`` (whose zero ring is "outside the box") without a
-    bounds test, in branch-free rows that vectorise."""
+    The contact line reads its neighbours from a per-chunk ring of padded rows of the
+    state's w (:func:`_state_row`: zero "outside the box" and outside the spans) without a
+    bounds test, in branch-free rows that vectorise. With ``copy`` a first sweep copies
+    w and p into the padded ``w0``/``p0`` for the sweeps that still read them (several
+    Jacobi iterations, or pass 3 levelling w itself); without it nothing reads them
+    (issue 26 item 1: 24 B a cell-step with two slots)."""
     moist = cst[C_MOIST]
     adv = cst[C_ADV]
     wick = cst[C_WICK]
@@ -461,16 +490,17 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
     ur = np.uint64(r)
     xo = np.uint64(x0 - 1)
     nch = bounds.shape[0] - 1
-    for ch in prange(nch):
-        for j in range(bounds[ch], bounds[ch + 1]):
-            y = y0 + j - 1
-            for si in range(nsp[j]):
-                slo, shi = _span(spans, j, si)
-                for i in range(slo, shi + 1):
-                    w0_o[j, i] = w[y, np.uint64(x0 + i - 1)]
-                for k in range(ns):
+    if copy:
+        for ch in prange(nch):
+            for j in range(bounds[ch], bounds[ch + 1]):
+                y = y0 + j - 1
+                for si in range(nsp[j]):
+                    slo, shi = _span(spans, j, si)
                     for i in range(slo, shi + 1):
-                        p0_o[k, j, i] = p[k, y, np.uint64(x0 + i - 1)]
+                        w0_o[j, i] = w[y, np.uint64(x0 + i - 1)]
+                    for k in range(ns):
+                        for i in range(slo, shi + 1):
+                            p0_o[k, j, i] = p[k, y, np.uint64(x0 + i - 1)]
     for ch in prange(nch):
         j0, j1 = bounds[ch], bounds[ch + 1]
         # own wet area of a row with r zero columns each side (a tap outside the box adds
@@ -478,9 +508,13 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
         own = np.empty(bw + 2 + 2 * r, F32)
         nd = np.empty(bw + 2 + 2 * r, F32)
         acc = np.empty(bw + 2, F32)
+        ring = np.empty((3, bw + 2), F32)  # padded rows of w: row j in slot j % 3
+        _state_row(w, y0, x0, j0 - 1, bh, spans, nsp, ring[(j0 - 1) % 3])
+        _state_row(w, y0, x0, j0, bh, spans, nsp, ring[j0 % 3])
         for j in range(j0, j1):
             y = y0 + j - 1
-            wr, wn, ws = w0_o[j], w0_o[j - 1], w0_o[j + 1]
+            _state_row(w, y0, x0, j + 1, bh, spans, nsp, ring[(j + 1) % 3])
+            wr, wn, ws = ring[j % 3], ring[(j - 1) % 3], ring[(j + 1) % 3]
             for i in range(bw + 2 + 2 * r):  # columns outside the spans: not own
                 own[i] = ZERO
             for q in range(2):  # no run of one value yet (_blur_x_run)
@@ -609,7 +643,7 @@ def prep(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, vx: np.ndarray, vy: np
 
 
 @_inline
-def _front_row(mbx: np.ndarray, wet: np.ndarray, w0: np.ndarray, h: np.ndarray,
+def _front_row(mbx: np.ndarray, wet: np.ndarray, w: np.ndarray, h: np.ndarray,
                block: np.ndarray, block_time: np.ndarray, vx: np.ndarray, vy: np.ndarray,
                fibre: np.ndarray, dbx: np.ndarray, taps: np.ndarray, j: int, y: int, x0: int,
                bh: int, slo: int, shi: int, cst: np.ndarray, am: np.ndarray, ad: np.ndarray,
@@ -644,12 +678,12 @@ def _front_row(mbx: np.ndarray, wet: np.ndarray, w0: np.ndarray, h: np.ndarray,
     if drying:
         _blur_y_run(dbx, taps, j, bh, ulo, uhi, ad, runs[1], rvals[1])
     hr, br, btr = h[y], block[y], block_time[y]
-    wr, w0r, pro, bcr = wet[j], w0[j], pr_o[j], bc_o[j]
+    wr, wsr, pro, bcr = wet[j], w[y], pr_o[j], bc_o[j]
     f0r, f1r, vxr, vyr = fibre[0, y], fibre[1, y], vx[y], vy[y]
     # one loop: pass 3's levelled height (_pressure_row's expression), prep's beta_c
     # before its standing/dispersion factor, the factor
     for u in range(ulo, uhi):
-        wv = w0r[u]
+        wv = wsr[xo + u]
         hv = hr[xo + u]
         pv = wv
         if relief > ZERO:
@@ -683,7 +717,7 @@ def _front_row(mbx: np.ndarray, wet: np.ndarray, w0: np.ndarray, h: np.ndarray,
 
 
 @_parallel
-def standing_front(w0: np.ndarray, h: np.ndarray, block: np.ndarray, block_time: np.ndarray,
+def standing_front(w: np.ndarray, h: np.ndarray, block: np.ndarray, block_time: np.ndarray,
                    vx: np.ndarray, vy: np.ndarray, fibre: np.ndarray, mbx: np.ndarray,
                    wet: np.ndarray, taps: np.ndarray, y0: int, x0: int, bh: int, bw: int,
                    cst: np.ndarray, spans: np.ndarray, nsp: np.ndarray, bounds: np.ndarray,
@@ -702,7 +736,7 @@ def standing_front(w0: np.ndarray, h: np.ndarray, block: np.ndarray, block_time:
             y = y0 + j - 1
             for si in range(nsp[j]):
                 slo, shi = _span(spans, j, si)
-                _front_row(mbx, wet, w0, h, block, block_time, vx, vy, fibre, dbx, taps, j,
+                _front_row(mbx, wet, w, h, block, block_time, vx, vy, fibre, dbx, taps, j,
                            y, x0, bh, slo, shi, cst, am, ad, pr_o, bc_o, runs, rvals)
 
 
@@ -939,7 +973,7 @@ def _outward_pull(u: np.float32, rk: np.float32, ri: np.float32, ra: np.float32,
 
 
 @_inline
-def _pressure_row(mbx: np.ndarray, wet: np.ndarray, w0: np.ndarray, h: np.ndarray,
+def _pressure_row(mbx: np.ndarray, wet: np.ndarray, w: np.ndarray, h: np.ndarray,
                   taps: np.ndarray, j: int, y: int, x0: int, bh: int, lo: int, hi: int,
                   eta: np.float32, relief: np.float32, outward: bool, acc: np.ndarray,
                   pr_o: np.ndarray, run: np.ndarray, rval: np.ndarray,
@@ -955,11 +989,11 @@ def _pressure_row(mbx: np.ndarray, wet: np.ndarray, w0: np.ndarray, h: np.ndarra
     ulo, uhi = np.uint64(lo), np.uint64(hi + 1)
     if outward:
         _blur_y_run(mbx, taps, j, bh, ulo, uhi, acc, run, rval)
-    wr, w0r, pro = wet[j], w0[j], pr_o[j]
+    wr, wsr, pro = wet[j], w[y], pr_o[j]
     hrow = h[y]
     xo = np.uint64(x0 - 1)
     for u in range(ulo, uhi):
-        wv = w0r[u]
+        wv = wsr[xo + u]
         pv = wv
         if relief > ZERO:
             pv = wv + relief * hrow[xo + u]
@@ -1114,7 +1148,7 @@ def advect_jacobi1(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, bc: np.ndarr
                    xw_o: np.ndarray, xp_o: np.ndarray, pr_o: np.ndarray,
                    bounds: np.ndarray, front: bool, block: np.ndarray,
                    block_time: np.ndarray, fibre: np.ndarray, dbx: np.ndarray,
-                   runs: np.ndarray, rvals: np.ndarray) -> None:
+                   runs: np.ndarray, rvals: np.ndarray, w: np.ndarray) -> None:
     """Pass 1 (bilinear back-trace of the masked velocity: the state's ``vx``/``vy`` where
     the wet mask is set, 0 elsewhere; box-relative clamps), with
     ``do_pr`` pass 3's levelled height (:func:`_pressure_row`), with ``front`` instead the
@@ -1122,7 +1156,9 @@ def advect_jacobi1(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, bc: np.ndarr
     into ``bc``; only without ``do_p``'s iteration, which reads beta_c of the next rows),
     and the first Jacobi iteration of the water and pigment solves (from x0 = u).
     Folding the front factor in here spares it a sweep of its own and the second read
-    of the row's wet mask and velocity."""
+    of the row's wet mask and velocity. The levelled height reads the cell's own water
+    from the state's ``w`` (prep copies ``w0`` only for the Jacobi iterations here and in
+    :func:`jacobi_blocked`)."""
     fdt = cst[C_DT]
     kw = cst[C_KW]
     kp = cst[C_KP]
@@ -1139,11 +1175,11 @@ def advect_jacobi1(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, bc: np.ndarr
             for si in range(nsp[j]):
                 slo, shi = _span(spans, j, si)
                 if do_pr:
-                    _pressure_row(mbx, wet, w0, h, taps, j, y0 + j - 1, x0, bh, slo, shi, eta,
+                    _pressure_row(mbx, wet, w, h, taps, j, y0 + j - 1, x0, bh, slo, shi, eta,
                                   relief, outward, acc, pr_o, runs[0], rvals[0],
                                   cst[C_RIMK:C_RIMINV + 1])
                 elif front:
-                    _front_row(mbx, wet, w0, h, block, block_time, vx, vy, fibre, dbx, taps,
+                    _front_row(mbx, wet, w, h, block, block_time, vx, vy, fibre, dbx, taps,
                                j, y0 + j - 1, x0, bh, slo, shi, cst, acc, ad, pr_o, bc,
                                runs, rvals)
                 y = y0 + j - 1

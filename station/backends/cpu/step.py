@@ -278,6 +278,10 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
     jac1 = n_it == 1
     fold = front and jac1
     drying = front and cst[K.C_FDRY] > 0
+    # prep copies w and p into the padded w0/p0 only for the sweeps that read them as
+    # fields: the temporally blocked Jacobi iterations, pass 3 levelling w itself (pr is
+    # w0); otherwise the stencils read the state (issue 26 item 1: 24 B a cell-step)
+    copy = not (jac1 and do_pr)
     cprep = cst
     if front:
         cprep = cst.copy()
@@ -287,9 +291,9 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
            outward and (do_pr or cst[K.C_DEXP] > 0), spans, nsp, s2["wet"], s2["w0"],
            s3["p0"], s2["bc"],
            s2["opn"], s2["mbx"], state.wet_area, prm.wet_hold > 0, bounds, not front, drying,
-           s2["dbx"], scratch.runs, scratch.rvals)
+           s2["dbx"], scratch.runs, scratch.rvals, copy)
     if front and not fold:
-        K.standing_front(s2["w0"], state.h, state.block, state.block_time, state.vx,
+        K.standing_front(state.w, state.h, state.block, state.block_time, state.vx,
                          state.vy, state.fibre, s2["mbx"], s2["wet"], taps, y0, x0, bh, bw,
                          cst, spans, nsp, bounds, s2["dbx"], s2["bc"], s2["pr"], scratch.runs,
                          scratch.rvals)
@@ -306,7 +310,8 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
                      bh, bw, ns, cst, jw and not jac1, jp and not jac1, do_pr and not front,
                      outward, spans,
                      nsp, s2["v1x"], s2["v1y"], xw, xp, s2["pr"], bounds, fold, state.block,
-                     state.block_time, state.fibre, s2["dbx"], scratch.runs, scratch.rvals)
+                     state.block_time, state.fibre, s2["dbx"], scratch.runs, scratch.rvals,
+                     state.w)
     if not jw:
         xw = w0
     if not jp:
@@ -331,10 +336,13 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
             xp, xp_next = xp_next, xp
     # last velocity iteration, pass 3, donor limiters and fluxes of passes 4/5: one sweep
     # (fused.limit_diffuse_fused: height_limit + diffuse_apply, bitwise the same)
-    F.limit_diffuse_fused(wet, bc, s2["v1x"], s2["v1y"], xvx, xvy, w0, xw, p0, xp, pr, bh, bw,
+    # pass 6 runs in that sweep too, two rows behind (fused.limit_diffuse_fused's adv)
+    adv = runs("advect_water_and_pigment")
+    F.limit_diffuse_fused(wet, bc, s2["v1x"], s2["v1y"], xvx, xvy, state.w, xw, state.p, xp,
+                          pr, bh, bw,
                           ns, cst, do_v, runs("water_height_and_boundary"), do_w, do_p,
                           jac1, s2["v3x"], s2["v3y"], s2["w2"], s3["p2"], spans, nsp, bounds,
-                          state.fibre, y0, x0, state.h)
+                          state.fibre, y0, x0, state.h, adv, s2["w3"])
     v3x, v3y = s2["v3x"], s2["v3y"]
     if last <= reference.PASS_ORDER.index("water_height_and_boundary"):
         state.vx[ys, xs] = _win(v3x, bh, bw)
@@ -346,10 +354,7 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
         state.w[ys, xs] = _win(s2["w2"], bh, bw)
         state.p[:ns, ys, xs] = _win(s3["p2"][:ns], bh, bw)
         return
-    if runs("advect_water_and_pigment"):  # pass 6's limiters and fluxes in one sweep
-        F.advect_fused(wet, v3x, v3y, s2["w2"], s3["p2"], y0, x0, bh, bw, ns, cst, s2["w3"],
-                       state.p, spans, nsp, bounds)
-    else:  # the copy of advect_apply's switched-off pass
+    if not adv:  # the copy of advect_apply's switched-off pass
         K.advect_apply(wet, v3x, v3y, s2["w2"], s2["w2"], s2["w2"], s3["p2"], y0, x0, bh, bw,
                        ns, cst, False, s2["w3"], state.p, spans, nsp)
     if runs("capillary"):  # passes 7-10 in one sweep (fused.evap_cap_fused)

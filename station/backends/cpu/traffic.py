@@ -19,13 +19,15 @@ FLAG = 1
 
 
 def bytes_per_sweep(slots: int, jacobi_iters: int, wet_memory: bool = False,
-                    front: int = -1) -> dict[str, int]:
+                    front: int = -1, levelled: bool = True) -> dict[str, int]:
     """Per sweep: bytes read + written per cell for one step; ``wet_memory``: the
     profile keeps a wet-area memory (``SimParams.wet_hold > 0``); ``front``: the standing
     gate's front factor (``gl.traffic.front_mode``: -1 off, 0 on, 1 on with its dry-paper
     term), which moves beta_c, the dispersion and pass 3's levelled height out of prep
     (``kernels._front_row``: in advect_jacobi1's rows with one Jacobi iteration, else a
-    sweep of its own, ``kernels.standing_front``)."""
+    sweep of its own, ``kernels.standing_front``); ``levelled``: pass 3 levels a height
+    of its own (``flow_outward`` or ``paper_relief``; else it levels the padded copy of w,
+    ``w0``, which prep then writes)."""
     s = int(slots)
     n = max(int(jacobi_iters), 1)
     f, b = FLOAT, FLAG
@@ -49,10 +51,13 @@ def bytes_per_sweep(slots: int, jacobi_iters: int, wet_memory: bool = False,
         # p0(S), xp(S); write v3(2), w2, p2(S) (the donor limiters stay in a row ring).
         # With n = 1 the iterates xw, xp are Jacobi iteration 1 computed in a row ring
         # from w0, p0 (not read), and xv is v1 (the same field, read once)
-        "limit_diffuse (last velocity iteration, pass 3, passes 4/5 limiters and fluxes)":
-            (f * ((8 + 2 * s) + (3 + s)) + b) if n >= 2 else f * ((6 + s) + (3 + s)) + b,
-        # one sweep (fused.advect_fused): read wet, v3(2), w2, p2(S); write w3, p(S)
-        "advect (pass 6 limiters and fluxes)": f * ((3 + s) + (1 + s)) + b,
+        # Pass 6 runs in the same sweep two rows behind (fused._adv_row): its reads of
+        # wet, v3(2), w2, p2(S) are rows this sweep has just written (cache); it writes
+        # w3, p(S) (13 + 4 s bytes fewer than its own sweep, 33 with two slots)
+        "limit_diffuse (last velocity iteration, pass 3, passes 4/5 limiters and fluxes, "
+        "pass 6)":
+            ((f * ((8 + 2 * s) + (3 + s)) + b) if n >= 2 else f * ((6 + s) + (3 + s)) + b)
+            + f * (1 + s),
         # one sweep (fused.evap_cap_fused): read wet, opn, w3, h, wc, evaporated, p(S),
         # q(S), v3(2); write w, wc, evaporated, p(S), q(S), vx, vy (sat stays in a row
         # ring; a wet cell deposits nothing: the pigment loop of pass 10 runs only on rows
@@ -82,6 +87,11 @@ def bytes_per_sweep(slots: int, jacobi_iters: int, wet_memory: bool = False,
             # folded into advect_jacobi1's rows: the wet mask and the velocity are read
             # once for pass 1 and the front factor; pass 1 adds its writes, v1(2)
             sweeps[aj] = fr + f * 2
+    if n == 1 and (levelled or front >= 0):
+        # no w0/p0 copies (step.copy): prep's contact line reads the state's w through a
+        # ring of padded rows (w read once, not w0 again, p not at all) and writes neither
+        # copy; the sweeps after it read the state's w and p where they read the copies
+        sweeps["prep (wet mask, copies, diffusion controller, row blur)"] -= f * (2 + 2 * s)
     if wet_memory:
         # prep's own loop per span reads the wet area and writes M = max(area, own)
         sweeps["prep (wet mask, copies, diffusion controller, row blur)"] += f * 2
@@ -92,6 +102,6 @@ def bytes_per_sweep(slots: int, jacobi_iters: int, wet_memory: bool = False,
 
 
 def bytes_per_cell_step(slots: int, jacobi_iters: int, wet_memory: bool = False,
-                        front: int = -1) -> int:
+                        front: int = -1, levelled: bool = True) -> int:
     """Bytes of honest memory traffic per simulated cell and step."""
-    return sum(bytes_per_sweep(slots, jacobi_iters, wet_memory, front).values())
+    return sum(bytes_per_sweep(slots, jacobi_iters, wet_memory, front, levelled).values())
