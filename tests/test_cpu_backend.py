@@ -306,18 +306,16 @@ def test_operations_render_and_factory() -> None:
         traffic.bytes_per_sweep(slots, iters, memory, front).values())
     # 520 before issue 10, 556 in own sweep, 544 before issue 26 fused passes 2-5, 6 and
     # 7-10, 408 after them; 364 with uint8 flags, c from h, pass 1 on the state's velocity
-    # 380 until session 15 folded pass 6 into limit_diffuse (two rows behind: -21 B)
-    assert traffic.bytes_per_cell_step(2, 4) == 359
+    assert traffic.bytes_per_cell_step(2, 4) == 380
     # one Jacobi iteration (the profiles since issue 26): no temporally blocked sweep;
     # 340 (348 with the fibres' reads, which that count left out) before the flags, 315
     # after them; 275 with iteration 1 in limit_diffuse's row ring
-    # 251 in session 15 without the w0/p0 copies (where pass 3 levels a height of its
-    # own), 230 with pass 6 in limit_diffuse's sweep
-    assert traffic.bytes_per_cell_step(2, 1) == 230
-    assert traffic.bytes_per_cell_step(2, 1, levelled=False) == 254
+    # 251 since session 15: no w0/p0 copies where pass 3 levels a height of its own
+    assert traffic.bytes_per_cell_step(2, 1) == 251
+    assert traffic.bytes_per_cell_step(2, 1, levelled=False) == 275
     # the wet-area memory: prep reads and writes the area (8), and its fade reads and
     # writes it again in evap_capillary's rows (8; 17 as a sweep of its own, 300 in all)
-    assert traffic.bytes_per_cell_step(2, 1, wet_memory=True) == 246
+    assert traffic.bytes_per_cell_step(2, 1, wet_memory=True) == 267
     # the standing gate's front factor (session 13's default): 300 and 316 B as a sweep of
     # its own (41 B, 57 B with the dry-paper term); session 14 folds it into
     # advect_jacobi1's rows (the wet mask and velocity read once), prep writes the x half
@@ -325,16 +323,14 @@ def test_operations_render_and_factory() -> None:
     # the factor)
     # session 15: prep's copies of w and p are gone (-24 B: w read once, p not at all,
     # neither copy written; the sweeps after it read the state)
-    assert traffic.bytes_per_cell_step(2, 1, wet_memory=True, front=0) == 238
-    # the profile's: 267 with pass 6 in a sweep of its own
-    assert traffic.bytes_per_cell_step(2, 1, wet_memory=True, front=1) == 246
+    assert traffic.bytes_per_cell_step(2, 1, wet_memory=True, front=0) == 259
+    assert traffic.bytes_per_cell_step(2, 1, wet_memory=True, front=1) == 267
     # several Jacobi iterations keep the front's sweep (advect_jacobi1's pigment
     # iteration reads beta_c of the next rows); one iteration has none
     four = traffic.bytes_per_sweep(2, 4, wet_memory=True, front=1)
-    assert [k.split()[0] for k in four][-1] == "standing_front" and len(four) == 6
-    # pass 6 has no sweep of its own (session 15)
-    assert len(traffic.bytes_per_sweep(2, 1, wet_memory=True, front=1)) == 5
-    assert sum(four.values()) == 388  # the iterations read the copies: still written
+    assert [k.split()[0] for k in four][-1] == "standing_front" and len(four) == 7
+    assert len(traffic.bytes_per_sweep(2, 1, wet_memory=True, front=1)) == 6
+    assert sum(four.values()) == 409  # the iterations read the copies: still written
 
 
 def test_front_factor_runs_in_advect_jacobi1_rows(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -518,40 +514,6 @@ def test_the_stencils_read_the_state_where_no_sweep_needs_the_copies(
         sc = b._scratch()  # type: ignore[attr-defined]
         assert bool(sc.a2["w0"].any()) is copied and bool(sc.a3["p0"].any()) is copied
         assert b.live_state.w.sum() > 0 and b.live_state.p.sum() > 0
-
-
-def test_a_wash_step_is_four_sweeps(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The profile's step launches four parallel sweeps (session 15: pass 6 runs in
-    limit_diffuse_fused's rows, two rows behind; it had a sweep of its own)."""
-    from station.backends.cpu import warm
-
-    called: list[str] = []
-    for name, (mod, fn) in warm.parallel_kernels().items():
-        def counted(*a: Any, _n: str = name, _f: Any = fn) -> None:
-            called.append(_n)
-            _f(*a)
-        monkeypatch.setattr(mod, name, counted)
-    a = _random_canvas(NumpyCanvas, 6)
-    b = _random_canvas(CpuCanvas, 6)
-    _step_both_bitwise(a, b, 2)
-    assert called == ["prep", "advect_jacobi1", "limit_diffuse_fused", "evap_cap_fused"] * 2
-
-
-@pytest.mark.parametrize("chunks", [1, 5, 13])
-def test_pass_6_behind_limit_diffuse_is_bitwise_equal_for_any_chunks(
-        monkeypatch: pytest.MonkeyPatch, chunks: int) -> None:
-    """Pass 6 two rows behind limit_diffuse: each chunk's rows j0 + 3 .. j1 - 4 in the
-    sweep, its three rows at either end after it (all of a chunk's rows when it has
-    fewer than seven: 13 chunks of a 40-row box); one chunk, more chunks than threads,
-    tiles (boxes of a few rows) and not: the reference's bits."""
-    from station.backends.cpu import fused as F
-
-    monkeypatch.setattr(F, "ring_chunks", lambda: chunks)
-    for tiling in (False, True):
-        a = _random_canvas(NumpyCanvas, 9, tiling=tiling)
-        b = _random_canvas(CpuCanvas, 9, tiling=tiling)
-        _step_both_bitwise(a, b, 5)
-        assert b.live_state.w.sum() > 0
 
 
 def test_a_cell_rounded_below_zero_gives_nothing_and_breaks_nothing() -> None:

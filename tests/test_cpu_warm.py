@@ -15,7 +15,8 @@ from station.backends.cpu import warm
 
 def test_the_shares_split_the_steps_parallel_kernels() -> None:
     kernels = warm.parallel_kernels()
-    assert {"prep", "advect_jacobi1", "limit_diffuse_fused", "evap_cap_fused"} <= set(kernels)
+    assert {"prep", "advect_jacobi1", "limit_diffuse_fused", "advect_fused",
+            "evap_cap_fused"} <= set(kernels)
     shares = [{n for n in kernels if warm.share_of(n) == k} for k in range(warm.SHARES)]
     assert all(shares) and set.union(*shares) == set(kernels)
     assert set(warm.FIRST) <= shares[0]

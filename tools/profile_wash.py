@@ -30,7 +30,7 @@ from station.bench.sim import memory_bandwidth_gb_s
 
 SWEEPS = {"prep": "prep", "advect_jacobi1": "advect_jacobi1",
           "jacobi_blocked": "jacobi_blocked", "limit_diffuse_fused": "limit_diffuse",
-          "evap_cap_fused": "evap_capillary",
+          "advect_fused": "advect", "evap_cap_fused": "evap_capillary",
           "standing_front": "standing_front"}
 """The sweeps of a step (the fused ones live in ``station.backends.cpu.fused``) and the
 first word of their label in ``traffic.bytes_per_sweep`` (the front factor's sweep runs

@@ -4,13 +4,12 @@ same order, so the results stay bitwise equal to the two-sweep kernels (and to t
 reference); the limiter rows a pass needs from its neighbours live in a three-row ring
 per chunk of rows instead of full scratch fields:
 
-* pass 6's limiters (``advect_limit``) and fluxes (``advect_apply``) row by row
-  (:func:`_adv_rows`): no ``sout``/``sin`` fields, −10 floats per cell-step;
+* :func:`advect_fused`: pass 6's limiters (``advect_limit``) and fluxes
+  (``advect_apply``): no ``sout``/``sin`` fields, −10 floats per cell-step;
 * :func:`limit_diffuse_fused`: the last velocity iteration, pass 3 and the diffusion
   donor limiters (``height_limit``) with the limited fluxes of passes 4/5
   (``diffuse_apply``): no ``sw``/``sp`` fields and none of diffuse_apply's re-reads,
-  −(6 + 4·slots) floats per cell-step; since session 15 with pass 6 two rows behind
-  (its rows of v3, w2, p2 and the wet mask read from cache: −(13 + 4·slots) bytes);
+  −(6 + 4·slots) floats per cell-step;
 * :func:`evap_cap_fused`: passes 7-9a (``evap_surface_absorb``) with 9b, 9c and 10
   (``capillary_dry``): no ``sat`` field and none of capillary_dry's re-reads, −10 floats.
 
@@ -154,99 +153,79 @@ def _limit_row(w: np.ndarray, p: np.ndarray, r: int, ns: int, wmin: np.float32,
             si[i] = s if s < ONE else ONE
 
 
-@_inline
-def _adv_start(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
-               p: np.ndarray, bh: int, bw: int, ns: int, q4: np.float32, wmin: np.float32,
-               wmax: np.float32, spans: np.ndarray, nsp: np.ndarray, a0: int,
-               so: np.ndarray, si: np.ndarray, xr: np.ndarray,
-               yr: np.ndarray) -> None:  # pragma: no cover - compiled
-    """Pass 6's rings before its row a0 (:func:`_adv_row`): the face rates of rows
-    a0 - 2 .. a0 and the limiter rows a0 - 1, a0 (rows of v, w, p up to a0 + 1)."""
-    for r in (a0 - 2, a0 - 1, a0):
-        if 0 <= r <= bh:
-            _y_rates(vy, wet, r, bh, bw, spans, nsp, q4, yr[r % 3])
-        if 1 <= r <= bh:
-            _x_rates(vx, wet, r, spans, nsp, q4, xr[r % 3])
-    for r in (a0 - 1, a0):
-        if 1 <= r <= bh:
-            _limit_row(w, p, r, ns, wmin, wmax, spans, nsp, xr[r % 3], yr[r % 3],
-                       yr[(r - 1) % 3], so[r % 3], si[r % 3])
-        else:
-            so[r % 3, :] = ZERO
-            si[r % 3, :] = ZERO
-
-
-@_inline
-def _adv_row(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
-             p: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int, q4: np.float32,
-             wmin: np.float32, wmax: np.float32, w3_o: np.ndarray, p_state: np.ndarray,
-             spans: np.ndarray, nsp: np.ndarray, j: int, a: np.ndarray, so: np.ndarray,
-             si: np.ndarray, xr: np.ndarray,
-             yr: np.ndarray) -> None:  # pragma: no cover - compiled
-    """Pass 6 on row j (after :func:`_adv_start` and the rows before it): the rates and
-    the limiter row j + 1 into the rings (rows of v, w, p up to j + 2), then row j's
-    limited fluxes (``a``: a (6, bw + 2) row buffer)."""
-    r = j + 1
-    if r <= bh:
-        _y_rates(vy, wet, r, bh, bw, spans, nsp, q4, yr[r % 3])
-        _x_rates(vx, wet, r, spans, nsp, q4, xr[r % 3])
-        _limit_row(w, p, r, ns, wmin, wmax, spans, nsp, xr[r % 3], yr[r % 3],
-                   yr[j % 3], so[r % 3], si[r % 3])
-    else:
-        so[r % 3, :] = ZERO
-        si[r % 3, :] = ZERO
-    sm, s0, sp = (j - 1) % 3, j % 3, (j + 1) % 3
-    bx, bs, bn = xr[s0], yr[s0], yr[sm]
-    y = y0 + j - 1
-    for sx in range(nsp[j]):
-        slo, shi = K._span(spans, j, sx)
-        for i in range(slo - 1, shi + 1):
-            a[0, i] = (bx[0, i] * so[s0, i]) * si[s0, i + 1]
-            a[1, i] = (bx[1, i] * so[s0, i + 1]) * si[s0, i]
-        for i in range(slo, shi + 1):
-            a[2, i] = (bs[0, i] * so[s0, i]) * si[sp, i]
-            a[3, i] = (bs[1, i] * so[sp, i]) * si[s0, i]
-            a[4, i] = (bn[0, i] * so[sm, i]) * si[s0, i]
-            a[5, i] = (bn[1, i] * so[s0, i]) * si[sm, i]
-        axp, axn, asp, asn, anp, ann = a[0], a[1], a[2], a[3], a[4], a[5]
-        for i in range(slo, shi + 1):
-            wv = w[j, i]
-            fe = wv * axp[i] - w[j, i + 1] * axn[i]
-            fw = w[j, i - 1] * axp[i - 1] - wv * axn[i - 1]
-            fs = wv * asp[i] - w[j + 1, i] * asn[i]
-            fn = w[j - 1, i] * anp[i] - wv * ann[i]
-            w3_o[j, i] = (((wv - fe) + fw) - fs) + fn
-        for kk in range(ns):
-            for i in range(slo, shi + 1):
-                pv = p[kk, j, i]
-                fe = pv * axp[i] - p[kk, j, i + 1] * axn[i]
-                fw = p[kk, j, i - 1] * axp[i - 1] - pv * axn[i - 1]
-                fs = pv * asp[i] - p[kk, j + 1, i] * asn[i]
-                fn = p[kk, j - 1, i] * anp[i] - pv * ann[i]
-                p_state[kk, y, np.uint64(x0 + i - 1)] = (((pv - fe) + fw) - fs) + fn
-
-
-@_inline
-def _adv_rows(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
-              p: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int, cst: np.ndarray,
-              w3_o: np.ndarray, p_state: np.ndarray, spans: np.ndarray, nsp: np.ndarray,
-              a0: int, a1: int) -> None:  # pragma: no cover - compiled
-    """Pass 6 on rows a0 .. a1 - 1 (none when a1 <= a0), with rings of its own."""
-    if a1 <= a0:
-        return
+@_parallel
+def advect_fused(wet: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
+                 p: np.ndarray, y0: int, x0: int, bh: int, bw: int, ns: int,
+                 cst: np.ndarray, w3_o: np.ndarray, p_state: np.ndarray,
+                 spans: np.ndarray, nsp: np.ndarray,
+                 bounds: np.ndarray) -> None:  # pragma: no cover - compiled
+    """Pass 6 (limiters and fluxes) in one sweep: each chunk computes the limiter rows
+    j-1, j, j+1 into a ring and applies row j, exactly as advect_apply does. The face
+    rates live in rings too: a row's x faces serve its limiter and its fluxes, a row of
+    y faces serves the cells on both sides (each face rate computed once, not four
+    times)."""
     q4 = cst[K.C_Q4]
     wmin = cst[K.C_WMIN]
     wmax = cst[K.C_WMAX]
-    a = np.empty((6, bw + 2), F32)
-    so = np.zeros((3, bw + 2), F32)  # rings: row r lives in slot r % 3
-    si = np.zeros((3, bw + 2), F32)
-    xr = np.zeros((3, 2, bw + 2), F32)  # x-face rates of row r
-    yr = np.zeros((3, 2, bw + 2), F32)  # rates of the y faces (r, r+1)
-    _adv_start(wet, vx, vy, w, p, bh, bw, ns, q4, wmin, wmax, spans, nsp, a0, so, si, xr,
-               yr)
-    for j in range(a0, a1):
-        _adv_row(wet, vx, vy, w, p, y0, x0, bh, bw, ns, q4, wmin, wmax, w3_o, p_state,
-                 spans, nsp, j, a, so, si, xr, yr)
+    nch = bounds.shape[0] - 1
+    for ch in prange(nch):
+        j0, j1 = bounds[ch], bounds[ch + 1]
+        a = np.empty((6, bw + 2), F32)
+        so = np.zeros((3, bw + 2), F32)  # rings: row r lives in slot r % 3
+        si = np.zeros((3, bw + 2), F32)
+        xr = np.zeros((3, 2, bw + 2), F32)  # x-face rates of row r
+        yr = np.zeros((3, 2, bw + 2), F32)  # rates of the y faces (r, r+1)
+        for r in (j0 - 2, j0 - 1, j0):
+            if 0 <= r <= bh:
+                _y_rates(vy, wet, r, bh, bw, spans, nsp, q4, yr[r % 3])
+            if 1 <= r <= bh:
+                _x_rates(vx, wet, r, spans, nsp, q4, xr[r % 3])
+        for r in (j0 - 1, j0):
+            if 1 <= r <= bh:
+                _limit_row(w, p, r, ns, wmin, wmax, spans, nsp, xr[r % 3], yr[r % 3],
+                           yr[(r - 1) % 3], so[r % 3], si[r % 3])
+            else:
+                so[r % 3, :] = ZERO
+                si[r % 3, :] = ZERO
+        for j in range(j0, j1):
+            r = j + 1
+            if r <= bh:
+                _y_rates(vy, wet, r, bh, bw, spans, nsp, q4, yr[r % 3])
+                _x_rates(vx, wet, r, spans, nsp, q4, xr[r % 3])
+                _limit_row(w, p, r, ns, wmin, wmax, spans, nsp, xr[r % 3], yr[r % 3],
+                           yr[j % 3], so[r % 3], si[r % 3])
+            else:
+                so[r % 3, :] = ZERO
+                si[r % 3, :] = ZERO
+            sm, s0, sp = (j - 1) % 3, j % 3, (j + 1) % 3
+            bx, bs, bn = xr[s0], yr[s0], yr[sm]
+            y = y0 + j - 1
+            for sx in range(nsp[j]):
+                slo, shi = K._span(spans, j, sx)
+                for i in range(slo - 1, shi + 1):
+                    a[0, i] = (bx[0, i] * so[s0, i]) * si[s0, i + 1]
+                    a[1, i] = (bx[1, i] * so[s0, i + 1]) * si[s0, i]
+                for i in range(slo, shi + 1):
+                    a[2, i] = (bs[0, i] * so[s0, i]) * si[sp, i]
+                    a[3, i] = (bs[1, i] * so[sp, i]) * si[s0, i]
+                    a[4, i] = (bn[0, i] * so[sm, i]) * si[s0, i]
+                    a[5, i] = (bn[1, i] * so[s0, i]) * si[sm, i]
+                axp, axn, asp, asn, anp, ann = a[0], a[1], a[2], a[3], a[4], a[5]
+                for i in range(slo, shi + 1):
+                    wv = w[j, i]
+                    fe = wv * axp[i] - w[j, i + 1] * axn[i]
+                    fw = w[j, i - 1] * axp[i - 1] - wv * axn[i - 1]
+                    fs = wv * asp[i] - w[j + 1, i] * asn[i]
+                    fn = w[j - 1, i] * anp[i] - wv * ann[i]
+                    w3_o[j, i] = (((wv - fe) + fw) - fs) + fn
+                for kk in range(ns):
+                    for i in range(slo, shi + 1):
+                        pv = p[kk, j, i]
+                        fe = pv * axp[i] - p[kk, j, i + 1] * axn[i]
+                        fw = p[kk, j, i - 1] * axp[i - 1] - pv * axn[i - 1]
+                        fs = pv * asp[i] - p[kk, j + 1, i] * asn[i]
+                        fn = p[kk, j - 1, i] * anp[i] - pv * ann[i]
+                        p_state[kk, y, np.uint64(x0 + i - 1)] = (((pv - fe) + fw) - fs) + fn
 
 
 @_inline
@@ -494,40 +473,20 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
                         do_p: bool, jac1: bool, v3x_o: np.ndarray, v3y_o: np.ndarray,
                         w2_o: np.ndarray, p2_o: np.ndarray, spans: np.ndarray,
                         nsp: np.ndarray, bounds: np.ndarray, fibre: np.ndarray, y0: int,
-                        x0: int, h: np.ndarray, adv: bool,
-                        w3_o: np.ndarray) -> None:  # pragma: no cover - compiled
+                        x0: int, h: np.ndarray) -> None:  # pragma: no cover - compiled
     """height_limit and diffuse_apply in one sweep (their maths unchanged): each chunk
     keeps the donor limiters of rows j-1, j, j+1 in a ring instead of ``sw``/``sp``,
     and the final iterates of rows j-1..j+2 in another; with ``jac1`` (one Jacobi
     iteration) it computes them here instead of reading ``xw``/``xp`` (issue 26: the
     iterate fields are neither written nor read). ``w``/``p``: the state's water and
-    pigment as the step found them (u of passes 4/5; no sweep before writes them), read
-    in place of prep's padded copies: the cells themselves directly, the Jacobi
-    iteration's neighbours from rings of padded rows (:func:`_iterate_row`).
-
-    With ``adv`` pass 6 (:func:`_adv_row`, into ``w3_o`` and the state's ``p``) follows
-    two rows behind, on the chunk's rows ``j0 + 3 .. j1 - 4``, while the rows of v3, w2
-    and p2 it reads (two either side) are in cache: they are the chunk's
-    own, and the state's pigment rows it writes are none that this sweep still reads (the
-    neighbour chunks read rows up to ``j0 + 2`` and from ``j1 - 3``, this chunk the rows
-    from ``j``). The three rows at each end of a chunk follow in a second parallel loop,
-    once every chunk's rows of v3, w2 and p2 are written (issue 26 item 1: pass 6 reads
-    none of them from memory)."""
+    pigment as the step found them (u of passes 4/5; nothing writes them before this
+    sweep ends), read in place of prep's padded copies: the cells themselves directly,
+    the Jacobi iteration's neighbours from rings of padded rows (:func:`_iterate_row`)."""
     kw = cst[K.C_KW]
     kp = cst[K.C_KP]
-    q4 = cst[K.C_Q4]
-    wmin = cst[K.C_WMIN]
-    wmax = cst[K.C_WMAX]
     nch = bounds.shape[0] - 1
     for ch in prange(nch):
         j0, j1 = bounds[ch], bounds[ch + 1]
-        ai0, ai1 = j0 + 3, j1 - 3  # pass 6's rows in this loop (none if ai1 <= ai0)
-        nb = bw + 2 if adv else 0
-        ab = np.empty((6, nb), F32)
-        aso = np.zeros((3, nb), F32)  # pass 6's rings (see _adv_rows)
-        asi = np.zeros((3, nb), F32)
-        axr = np.zeros((3, 2, nb), F32)
-        ayr = np.zeros((3, 2, nb), F32)
         swr = np.zeros((3, bw + 2), F32)  # ring: row r in slot r % 3
         spr = np.zeros((3, max(ns, 1), bw + 2), F32)
         xwr = np.zeros((4, bw + 2), F32)  # final iterates: row r in slot r % 4
@@ -616,25 +575,6 @@ def limit_diffuse_fused(wet: np.ndarray, bc: np.ndarray, v1x: np.ndarray, v1y: n
                     for kk in range(ns):
                         for i in range(slo, shi + 1):
                             p2_o[kk, j, i] = p[kk, y, np.uint64(x0 + i - 1)]
-            a_ = j - 2
-            if adv and ai0 <= a_ < ai1:
-                if a_ == ai0:
-                    _adv_start(wet, v3x_o, v3y_o, w2_o, p2_o, bh, bw, ns, q4, wmin, wmax,
-                               spans, nsp, ai0, aso, asi, axr, ayr)
-                _adv_row(wet, v3x_o, v3y_o, w2_o, p2_o, y0, x0, bh, bw, ns, q4, wmin, wmax,
-                         w3_o, p, spans, nsp, a_, ab, aso, asi, axr, ayr)
-    if adv:
-        for ch in prange(nch):
-            j0, j1 = bounds[ch], bounds[ch + 1]
-            ai0, ai1 = j0 + 3, j1 - 3
-            if ai1 <= ai0:
-                _adv_rows(wet, v3x_o, v3y_o, w2_o, p2_o, y0, x0, bh, bw, ns, cst, w3_o, p,
-                          spans, nsp, j0, j1)
-            else:
-                _adv_rows(wet, v3x_o, v3y_o, w2_o, p2_o, y0, x0, bh, bw, ns, cst, w3_o, p,
-                          spans, nsp, j0, ai0)
-                _adv_rows(wet, v3x_o, v3y_o, w2_o, p2_o, y0, x0, bh, bw, ns, cst, w3_o, p,
-                          spans, nsp, ai1, j1)
 
 
 @_inline

@@ -336,13 +336,11 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
             xp, xp_next = xp_next, xp
     # last velocity iteration, pass 3, donor limiters and fluxes of passes 4/5: one sweep
     # (fused.limit_diffuse_fused: height_limit + diffuse_apply, bitwise the same)
-    # pass 6 runs in that sweep too, two rows behind (fused.limit_diffuse_fused's adv)
-    adv = runs("advect_water_and_pigment")
     F.limit_diffuse_fused(wet, bc, s2["v1x"], s2["v1y"], xvx, xvy, state.w, xw, state.p, xp,
                           pr, bh, bw,
                           ns, cst, do_v, runs("water_height_and_boundary"), do_w, do_p,
                           jac1, s2["v3x"], s2["v3y"], s2["w2"], s3["p2"], spans, nsp, bounds,
-                          state.fibre, y0, x0, state.h, adv, s2["w3"])
+                          state.fibre, y0, x0, state.h)
     v3x, v3y = s2["v3x"], s2["v3y"]
     if last <= reference.PASS_ORDER.index("water_height_and_boundary"):
         state.vx[ys, xs] = _win(v3x, bh, bw)
@@ -354,7 +352,10 @@ def step_region(state: CanvasState, sl: tuple[slice, slice], dt: float,
         state.w[ys, xs] = _win(s2["w2"], bh, bw)
         state.p[:ns, ys, xs] = _win(s3["p2"][:ns], bh, bw)
         return
-    if not adv:  # the copy of advect_apply's switched-off pass
+    if runs("advect_water_and_pigment"):  # pass 6's limiters and fluxes in one sweep
+        F.advect_fused(wet, v3x, v3y, s2["w2"], s3["p2"], y0, x0, bh, bw, ns, cst, s2["w3"],
+                       state.p, spans, nsp, bounds)
+    else:  # the copy of advect_apply's switched-off pass
         K.advect_apply(wet, v3x, v3y, s2["w2"], s2["w2"], s2["w2"], s3["p2"], y0, x0, bh, bw,
                        ns, cst, False, s2["w3"], state.p, spans, nsp)
     if runs("capillary"):  # passes 7-10 in one sweep (fused.evap_cap_fused)

@@ -51,13 +51,10 @@ def bytes_per_sweep(slots: int, jacobi_iters: int, wet_memory: bool = False,
         # p0(S), xp(S); write v3(2), w2, p2(S) (the donor limiters stay in a row ring).
         # With n = 1 the iterates xw, xp are Jacobi iteration 1 computed in a row ring
         # from w0, p0 (not read), and xv is v1 (the same field, read once)
-        # Pass 6 runs in the same sweep two rows behind (fused._adv_row): its reads of
-        # wet, v3(2), w2, p2(S) are rows this sweep has just written (cache); it writes
-        # w3, p(S) (13 + 4 s bytes fewer than its own sweep, 33 with two slots)
-        "limit_diffuse (last velocity iteration, pass 3, passes 4/5 limiters and fluxes, "
-        "pass 6)":
-            ((f * ((8 + 2 * s) + (3 + s)) + b) if n >= 2 else f * ((6 + s) + (3 + s)) + b)
-            + f * (1 + s),
+        "limit_diffuse (last velocity iteration, pass 3, passes 4/5 limiters and fluxes)":
+            (f * ((8 + 2 * s) + (3 + s)) + b) if n >= 2 else f * ((6 + s) + (3 + s)) + b,
+        # one sweep (fused.advect_fused): read wet, v3(2), w2, p2(S); write w3, p(S)
+        "advect (pass 6 limiters and fluxes)": f * ((3 + s) + (1 + s)) + b,
         # one sweep (fused.evap_cap_fused): read wet, opn, w3, h, wc, evaporated, p(S),
         # q(S), v3(2); write w, wc, evaporated, p(S), q(S), vx, vy (sat stays in a row
         # ring; a wet cell deposits nothing: the pigment loop of pass 10 runs only on rows
