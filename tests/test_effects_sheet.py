@@ -109,9 +109,12 @@ def test_render_scale_smooths_edges_and_keeps_cell_means(tmp_path: Path) -> None
     one = render_scaled(st, "km", 1)
     three = render_scaled(st, "km", 3)
     assert three.shape == (120, 120, 3)
-    # cell averages stay close to the one-pixel-per-cell picture
+    # cell averages stay close to the one-pixel-per-cell picture, inside the dried rim (its
+    # band, 2-3 cells with a sharp inner side since the flow outward's pull was cut to the
+    # contact line, reaches 9 cells from the centre where the edge wanders in: the
+    # upscale smooths edges on purpose)
     means = three.reshape(40, 3, 40, 3, 3).mean(axis=(1, 3))
-    inner = disc(40, 40, 20, 20, 9) > 0
+    inner = disc(40, 40, 20, 20, 8) > 0
     err = np.abs(means[inner] - one[inner])
     assert err.mean() < 0.01 and err.max() < 0.05, (err.mean(), err.max())
     # detail below the cell: pixels of one cell differ (paper grain, granulation)
