@@ -108,12 +108,7 @@ def _wick_mask(floor: float) -> Any:
         fy = fibre[1] if fibre is not None else np.zeros_like(w)
         thx = np.where(damp, thr * (F32(1.0) - fx), thr)
         thy = np.where(damp, thr * (F32(1.0) - fy), thr)
-        nx = np.zeros(w.shape, F32)
-        nx[:, :-1] = w[:, 1:]
-        nx[:, 1:] = np.maximum(nx[:, 1:], w[:, :-1])
-        ny = np.zeros(w.shape, F32)
-        ny[:-1, :] = w[1:, :]
-        ny[1:, :] = np.maximum(ny[1:, :], w[:-1, :])
+        nx, ny = stencils.axis_neighbours(w)
         line = stencils.front_curvature(w, wc, h, prm, thr, (nx > thx) | (ny > thy))
         out: np.ndarray = own | stencils.pinned(own, line & (mask == 0), wc, h, prm)
         return out

@@ -40,6 +40,18 @@ def wet_area_update(area_m: np.ndarray, w: np.ndarray, wc: np.ndarray, mask: np.
     return np.where(own, _ONE, kept).astype(F32)
 
 
+def axis_neighbours(w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The larger of each cell's two x neighbours' ``w`` and of its two y neighbours'
+    (float32; cells outside count as 0)."""
+    nx = np.zeros(w.shape, F32)
+    nx[:, :-1] = w[:, 1:]
+    nx[:, 1:] = np.maximum(nx[:, 1:], w[:, :-1])
+    ny = np.zeros(w.shape, F32)
+    ny[:-1, :] = w[1:, :]
+    ny[1:, :] = np.maximum(ny[1:, :], w[:-1, :])
+    return nx, ny
+
+
 def wet_mask(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams,
              h: np.ndarray, fibre: np.ndarray | None = None,
              area: np.ndarray | None = None) -> np.ndarray:
@@ -100,12 +112,7 @@ def _wet_mask(w: np.ndarray, wc: np.ndarray, mask: np.ndarray, prm: SimParams,
             # a fibre along the face axis wicks the front on: lower pinning height
             thx = thr * (_ONE - F32(prm.fibre_wick) * fibre[0])
             thy = thr * (_ONE - F32(prm.fibre_wick) * fibre[1])
-            nx = np.zeros(w.shape, F32)
-            nx[:, :-1] = w[:, 1:]
-            nx[:, 1:] = np.maximum(nx[:, 1:], w[:, :-1])
-            ny = np.zeros(w.shape, F32)
-            ny[:-1, :] = w[1:, :]
-            ny[1:, :] = np.maximum(ny[1:, :], w[:-1, :])
+            nx, ny = axis_neighbours(w)
             line = front_curvature(w, wc, h, prm, thr, (nx > thx) | (ny > thy))
             return own | pinned(own, line & (mask == 0), wc, h, prm)
         nb = np.zeros(w.shape, F32)
