@@ -432,7 +432,9 @@ class LiveCore:
         """
         began = self.now()
         if self._step_began is not None:  # the samples from now on are the next slot's
-            lately = began - self._step_began
+            # a gap of more than a second (a host that paused its steps) says nothing of
+            # what a step costs: it would squeeze the next slots' samples to their start
+            lately = min(began - self._step_began, 1.0)
             self._slot_wall = lately if self._slot_wall == 0.0 else (
                 0.5 * (self._slot_wall + lately))
         self._step_began = began
